@@ -1,0 +1,36 @@
+# Two entry points (see README):
+#   make paper   create .venv from environment.lock, install wsmap, run `dvc repro`
+#   make test    create .venv from environment.lock, install wsmap, run the tests (CI runs this)
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: env paper test smoke bench lock clean-env
+
+$(STAMP): environment.lock pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet -r environment.lock
+	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
+	$(BIN)/python -m ipykernel install --sys-prefix --name python3 >/dev/null
+	touch $(STAMP)
+
+env: $(STAMP)
+
+paper: $(STAMP)
+	$(BIN)/dvc repro
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/bench_classical.py
+
+# Regenerate environment.lock from requirements.in (needs pip-tools in the venv).
+lock:
+	$(BIN)/python -m pip install --quiet pip-tools
+	$(BIN)/pip-compile --quiet --strip-extras --allow-unsafe --no-emit-find-links --no-emit-index-url -o environment.lock requirements.in
+
+clean-env:
+	rm -rf $(VENV)
