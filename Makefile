@@ -19,7 +19,7 @@ $(STAMP): environment.lock pyproject.toml
 env: $(STAMP)
 
 paper: $(STAMP)
-	$(BIN)/dvc repro
+	PATH="$(CURDIR)/$(BIN):$$PATH" dvc repro
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

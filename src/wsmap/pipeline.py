@@ -1,0 +1,58 @@
+"""Running the paper's notebooks: ``python -m wsmap.pipeline NOTEBOOK [--params FILE] [--root DIR]``.
+
+Each notebook under ``notebooks/`` is one DVC stage. This runner reads the notebook's section of
+``params.yaml`` (same name as the notebook), passes it to papermill as parameters, and writes the
+executed copy to ``<root>/results/notebooks/`` — never over the source notebook. papermill runs
+with the ``python3`` kernel (a saved kernel name may not exist) from the project root.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+from . import paths
+
+
+def run_notebook(name: str, params_file=None, root=None, timeout: int = 3600, extra: dict | None = None) -> Path:
+    """Execute ``notebooks/<name>.ipynb`` with its params section; returns the executed copy's path."""
+    import papermill as pm
+
+    src = paths.NOTEBOOKS / f"{name}.ipynb"
+    if not src.exists():
+        known = sorted(p.stem for p in paths.NOTEBOOKS.glob("*.ipynb"))
+        raise ValueError(f"unknown notebook {name!r}; known: {', '.join(known)}")
+    params_file = Path(params_file) if params_file else paths.PARAMS
+    section = paths.load_params(path=params_file).get(name, {})
+    out = paths.Outputs(root).make()
+    parameters = {"params": section, "output_root": str(out.root), **(extra or {})}
+    dest = out.executed / f"{name}.ipynb"
+    t0 = time.perf_counter()
+    pm.execute_notebook(
+        str(src), str(dest), parameters=parameters, kernel_name="python3", cwd=str(paths.ROOT),
+        execution_timeout=timeout, progress_bar=False, log_output=False,
+    )
+    print(f"{name}: executed in {time.perf_counter() - t0:.1f} s -> {dest}")
+    return dest
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m wsmap.pipeline", description=__doc__.splitlines()[0])
+    p.add_argument("notebooks", nargs="+", help="notebook names (without .ipynb)")
+    p.add_argument("--params", help="parameters file (default params.yaml)")
+    p.add_argument("--root", help="output root (default: the project root)")
+    p.add_argument("--timeout", type=int, default=3600, help="per-cell execution timeout in seconds")
+    args = p.parse_args(argv)
+    # one process, two cores: keep torch and BLAS from oversubscribing inside the kernel
+    os.environ.setdefault("OMP_NUM_THREADS", "2")
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    for name in args.notebooks:
+        run_notebook(name, args.params, args.root, args.timeout)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

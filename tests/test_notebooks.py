@@ -1,0 +1,40 @@
+"""Papermill smoke runs: every pipeline notebook end to end on params.smoke.yaml, into a temporary root."""
+
+import json
+
+import nbformat
+import pytest
+
+from wsmap import paths
+from wsmap.pipeline import run_notebook
+
+SMOKE = paths.ROOT / "params.smoke.yaml"
+
+
+def _notebooks():
+    return sorted(p.stem for p in paths.NOTEBOOKS.glob("*.ipynb"))
+
+
+def test_every_pipeline_notebook_has_a_smoke_section():
+    smoke = paths.load_params(path=SMOKE)
+    full = paths.load_params()
+    assert set(_notebooks()) == set(smoke) == set(full)
+
+
+@pytest.mark.parametrize("name", _notebooks())
+def test_source_notebooks_are_committed_without_outputs(name):
+    nb = nbformat.read(paths.NOTEBOOKS / f"{name}.ipynb", as_version=4)
+    assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code")
+    assert any("parameters" in c.metadata.get("tags", []) for c in nb.cells)
+
+
+def test_classical_workspace_smoke(tmp_path):
+    dest = run_notebook("classical_workspace", SMOKE, tmp_path, timeout=600)
+    assert dest == tmp_path / "results" / "notebooks" / "classical_workspace.ipynb"
+    metrics = json.loads((tmp_path / "results" / "classical_workspace.json").read_text())
+    assert metrics["nodes"] == 9 ** 3
+    assert metrics["numerical_false_positives"] == 0
+    for fig in ("puma560_workspace_slices", "puma560_workspace_exact", "puma560_exact_vs_numerical", "puma560_conventions"):
+        assert (tmp_path / "figures" / f"{fig}.png").stat().st_size > 5_000
+    # the committed results were not touched by the smoke run
+    assert not (paths.ROOT / "results" / "notebooks" / str(tmp_path.name)).exists()
