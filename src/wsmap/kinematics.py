@@ -347,10 +347,12 @@ def ikine_LM(
     ok_out = np.zeros(count, dtype=bool)
     it_out = np.zeros(count, dtype=np.int64)
     res_out = np.empty(count)
+    from . import _lm  # the batched kernel (structure of arrays, exact shortcuts)
+
     for s in range(0, count, chunk):
         sl = slice(s, min(s + chunk, count))
-        q_out[sl], ok_out[sl], it_out[sl], res_out[sl] = _lm_chunk(
-            dh[sl], Tf[sl], qf[sl].copy(), robot.tool, ilimit, rlimit, tol, lam
+        q_out[sl], ok_out[sl], it_out[sl], res_out[sl] = _lm.lm_chunk(
+            dh[sl], Tf[sl], qf[sl], robot.tool, ilimit, rlimit, tol, lam
         )
         if progress is not None:
             progress(sl.stop - sl.start)
@@ -360,70 +362,6 @@ def ikine_LM(
     if check_limits and robot.qlim is not None:
         ok = ok & robot.within_limits(q_out)
     return IKResult(q_out, ok, it_out.reshape(shape), res_out.reshape(shape))
-
-
-def _lm_chunk(dh, T, q, tool, ilimit, rlimit, tol, lam0):
-    m, n = q.shape
-    d, a, alpha = dh[..., 0], dh[..., 1], dh[..., 2]
-    success = np.zeros(m, dtype=bool)
-    iters = np.zeros(m, dtype=np.int64)
-    lam = np.full(m, float(lam0))
-    rej = np.zeros(m, dtype=np.int64)
-
-    J, Tc = _jacob0(d, a, alpha, q, tool)
-    e = pose_error(Tc, T)
-    enorm = np.linalg.norm(e, axis=-1)
-
-    active = np.arange(m)  # indices still being solved
-    # per-active-target state, compressed as targets leave
-    qa, ea, na, Ja = q, e, enorm, J
-    la, ra, ia = lam, rej, iters
-    da, aa, ala, Ta = d, a, alpha, T
-    eye = np.eye(n)
-
-    while active.size:
-        ia = ia + 1
-        done = na <= tol
-        stop = done | (ia > ilimit)
-        if stop.any():
-            q[active[stop]] = qa[stop]
-            success[active[stop]] = done[stop]
-            iters[active[stop]] = np.minimum(ia[stop], ilimit)
-            enorm[active[stop]] = na[stop]
-            keep = ~stop
-            active = active[keep]
-            qa, ea, na, Ja, la, ra, ia = qa[keep], ea[keep], na[keep], Ja[keep], la[keep], ra[keep], ia[keep]
-            da, aa, ala, Ta = da[keep], aa[keep], ala[keep], Ta[keep]
-            if not active.size:
-                break
-        Jt = np.swapaxes(Ja, -1, -2)
-        H = Jt @ Ja + (la * la)[:, None, None] * eye
-        g = (Jt @ ea[..., None])[..., 0]
-        dq = np.linalg.solve(H, g[..., None])[..., 0]
-        qn = qa + dq
-        Jn, Tn = _jacob0(da, aa, ala, qn, tool)
-        en = pose_error(Tn, Ta)
-        nn = np.linalg.norm(en, axis=-1)
-        better = nn < na
-        # accepted: move, relax damping; rejected: stiffen damping, count
-        qa = np.where(better[:, None], qn, qa)
-        ea = np.where(better[:, None], en, ea)
-        na = np.where(better, nn, na)
-        Ja = np.where(better[:, None, None], Jn, Ja)
-        la = np.where(better, la * 0.5, la * 2.0)
-        ra = np.where(better, 0, ra + 1)
-        failed = ra > rlimit
-        if failed.any():
-            idx = active[failed]
-            q[idx] = qa[failed]
-            success[idx] = False
-            iters[idx] = ia[failed]
-            enorm[idx] = na[failed]
-            keep = ~failed
-            active = active[keep]
-            qa, ea, na, Ja, la, ra, ia = qa[keep], ea[keep], na[keep], Ja[keep], la[keep], ra[keep], ia[keep]
-            da, aa, ala, Ta = da[keep], aa[keep], ala[keep], Ta[keep]
-    return q, success, iters, enorm
 
 
 # --------------------------------------------------------------------------- closed-form IK

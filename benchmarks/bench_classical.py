@@ -1,0 +1,211 @@
+"""Time the classical (binary-map) algorithm on PUMA560 and the paper's 21³ grid.
+
+Methods timed, all on the 9261 nodes of ``cartesian_grid(-1, 1, 0.1)`` at rpy = 0 under the
+paper's pose convention:
+
+1. the exact map (closed-form wrist-centre test), best of ``--repeats``;
+2. the batched numerical map (Levenberg–Marquardt of the paper's Appendix, tol 1e-10, q0 = 0),
+   best of ``--repeats``;
+3. the paper's way: ``ikine_LM`` on one target at a time in a Python loop, for a random sample of
+   ``--nodes-sample`` nodes, extrapolated to 9261;
+4. Robotics Toolbox for Python's C++ ``ik_LM`` on the same sample, if ``roboticstoolbox`` imports
+   (it is optional and not part of the locked environment).
+
+Prints a Markdown table: seconds and nodes/s (for all 9261 nodes, extrapolated where sampled),
+the speed-up over the paper's reported classical time (5227.8 s for 9261 nodes, MATLAB, one node
+at a time), and the agreement of each numerical result with the exact map.
+
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_classical.py --repeats 5 --json out.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+
+import numpy as np
+
+PAPER_SECONDS_9261 = 5227.8  # the paper's classical run time for the 9261-node map
+
+
+def _best_of(fn, repeats):
+    """(best wall time in s, CPU time of that run in s, result of the last call)."""
+    best, best_cpu, out = np.inf, np.inf, None
+    for _ in range(repeats):
+        t, c = time.perf_counter(), time.process_time()
+        out = fn()
+        dt, dc = time.perf_counter() - t, time.process_time() - c
+        if dt < best:
+            best, best_cpu = dt, dc
+    return best, best_cpu, out
+
+
+def _agreement(pred, exact):
+    pred, exact = np.asarray(pred, bool), np.asarray(exact, bool)
+    return {
+        "rate": float(np.mean(pred == exact)),
+        "false_negatives": int(np.sum(exact & ~pred)),
+        "false_positives": int(np.sum(~exact & pred)),
+    }
+
+
+def _load_reference():
+    """The reference chunk solver kept in tests/test_lm_kernel.py (the code wsmap._lm replaced)."""
+    import importlib.util
+
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "test_lm_kernel.py")
+    spec = importlib.util.spec_from_file_location("_lm_reference", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod._reference_lm_chunk
+
+
+def _rtb_puma(puma):
+    """Robotics Toolbox's DHRobot with the paper's PUMA560 table (d1 = 0), or None."""
+    import roboticstoolbox as rtb  # noqa: F401 - optional
+
+    links = [
+        rtb.RevoluteDH(d=float(d), a=float(a), alpha=float(al))
+        for d, a, al in zip(puma.d, puma.a, puma.alpha)
+    ]
+    return rtb.DHRobot(links, name="puma560-paper")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--nodes-sample", type=int, default=200, help="nodes solved one at a time (methods 3, 4)")
+    ap.add_argument("--repeats", type=int, default=5, help="repeats of the whole-map timings (best is kept)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the node sample")
+    ap.add_argument("--threads", type=int, default=None,
+                    help="worker threads of the batched kernel (WSMAP_LM_THREADS; default: the kernel's choice)")
+    ap.add_argument("--torch-threads", type=int, default=1,
+                    help="torch intra-op threads (the kernel's sin/cos calls are below torch's grain size, so 1 is right)")
+    ap.add_argument("--reference", action="store_true",
+                    help="also time the implementation that wsmap._lm replaced (kept in tests/test_lm_kernel.py)")
+    ap.add_argument("--json", metavar="PATH", help="also write the numbers to this JSON file")
+    args = ap.parse_args(argv)
+    if args.nodes_sample < 1 or args.repeats < 1:
+        ap.error("--nodes-sample and --repeats must be positive")
+    if args.threads is not None:
+        os.environ["WSMAP_LM_THREADS"] = str(args.threads)
+
+    import torch  # imported before timing: the kernel uses its sin/cos
+
+    torch.set_num_threads(args.torch_threads)
+
+    from wsmap import robots
+    from wsmap import workspace as ws
+    from wsmap._lm import default_threads
+    from wsmap.kinematics import ikine_LM
+
+    puma = robots.puma560()
+    nodes = ws.cartesian_grid(-1.0, 1.0, 0.1)
+    N = len(nodes)
+    T = ws.target_poses(nodes, np.zeros(3), "paper")
+    rng = np.random.default_rng(args.seed)
+    sample = np.sort(rng.choice(N, size=min(args.nodes_sample, N), replace=False))
+
+    info = {
+        "python": sys.version.split()[0],
+        "numpy": np.__version__,
+        "torch": torch.__version__,
+        "machine": platform.machine(),
+        "cpus": os.cpu_count(),
+        "load_average": os.getloadavg() if hasattr(os, "getloadavg") else None,
+        "kernel_threads": default_threads(),
+        "torch_threads": torch.get_num_threads(),
+        "nodes": N,
+        "sample": int(len(sample)),
+    }
+    rows = []
+
+    # 1. exact
+    t, c, exact = _best_of(lambda: ws.constant_orientation_map(puma, nodes, method="exact"), args.repeats)
+    rows.append({"method": "exact map (closed form, batched)", "nodes": N, "seconds": t, "cpu_seconds": c,
+                 "agreement": _agreement(exact, exact)})
+
+    # 2. batched numerical
+    ik = {"tol": 1e-10}
+    t, c, num = _best_of(
+        lambda: ws.constant_orientation_map(puma, nodes, method="numerical", ik=ik), max(1, args.repeats)
+    )
+    rows.append({"method": "numerical map (batched LM, tol 1e-10)", "nodes": N, "seconds": t, "cpu_seconds": c,
+                 "agreement": _agreement(num, exact)})
+
+    # 2b. the batched implementation before wsmap._lm, for comparison
+    if args.reference:
+        ref_chunk = _load_reference()
+        dh = np.broadcast_to(puma.dh, (N, 6, 3))
+        t, c, ref = _best_of(
+            lambda: ref_chunk(dh, T, np.zeros((N, 6)), None, 500, 100, 1e-10, 0.1)[1], max(1, min(args.repeats, 2))
+        )
+        rows.append({"method": "numerical map, previous batched LM (reference)", "nodes": N, "seconds": t,
+                     "cpu_seconds": c, "agreement": _agreement(ref, exact),
+                     "same_success_as_new": bool(np.array_equal(ref, num))})
+
+    # 3. one node at a time, as the paper did
+    ok = np.zeros(len(sample), dtype=bool)
+    t0, c0 = time.perf_counter(), time.process_time()
+    for k, i in enumerate(sample):
+        ok[k] = ikine_LM(puma, T[i], tol=1e-10).success
+    t, c = time.perf_counter() - t0, time.process_time() - c0
+    rows.append({"method": "ikine_LM one node at a time (paper's way)", "nodes": int(len(sample)),
+                 "seconds": t * N / len(sample), "cpu_seconds": c * N / len(sample), "extrapolated": True,
+                 "agreement": _agreement(ok, exact[sample])})
+
+    # 4. Robotics Toolbox's C++ ik_LM, when installed
+    try:
+        rtb_robot = _rtb_puma(puma)
+    except Exception as exc:  # ImportError, or an API that differs
+        print(f"roboticstoolbox not available ({type(exc).__name__}: {exc}); skipping its ik_LM", file=sys.stderr)
+        rtb_robot = None
+    if rtb_robot is not None:
+        # Robotics Toolbox's C++ solver (Chan's damping by default), one search from q0 = 0 so
+        # that it matches the paper's setting; its own stopping rules differ from the Appendix
+        ok = np.zeros(len(sample), dtype=bool)
+        t0, c0 = time.perf_counter(), time.process_time()
+        try:
+            for k, i in enumerate(sample):
+                sol = rtb_robot.ik_LM(T[i], q0=np.zeros(6), ilimit=500, slimit=1, tol=1e-10, joint_limits=False)
+                ok[k] = bool(sol[1])
+        except Exception as exc:  # an ik_LM signature other than roboticstoolbox 1.x's
+            print(f"roboticstoolbox ik_LM failed ({type(exc).__name__}: {exc}); skipping it", file=sys.stderr)
+            rtb_robot = None
+        t, c = time.perf_counter() - t0, time.process_time() - c0
+    if rtb_robot is not None:
+        rows.append({"method": "roboticstoolbox ik_LM (C++, one node at a time)", "nodes": int(len(sample)),
+                     "seconds": t * N / len(sample), "cpu_seconds": c * N / len(sample), "extrapolated": True,
+                     "agreement": _agreement(ok, exact[sample])})
+
+    for r in rows:
+        r["nodes_per_second"] = N / r["seconds"]
+        r["speedup_vs_paper"] = PAPER_SECONDS_9261 / r["seconds"]
+
+    print(f"PUMA560, 21^3 grid ({N} nodes), rpy = 0, paper convention; python {info['python']}, numpy "
+          f"{info['numpy']}, torch {info['torch']}, {info['cpus']} CPUs, load average {info['load_average']}, "
+          f"kernel threads {info['kernel_threads']}, torch threads {info['torch_threads']}")
+    print()
+    print("| method | nodes timed | seconds for 9261 | CPU seconds | nodes/s | speed-up vs paper (5227.8 s) "
+          "| agreement with exact | false neg. | false pos. |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for r in rows:
+        a = r["agreement"]
+        star = " (extrapolated)" if r.get("extrapolated") else ""
+        print(f"| {r['method']} | {r['nodes']} | {r['seconds']:.4g}{star} | {r['cpu_seconds']:.4g} | "
+              f"{r['nodes_per_second']:,.0f} | {r['speedup_vs_paper']:,.0f}x | {a['rate']:.4f} | "
+              f"{a['false_negatives']} | {a['false_positives']} |")
+    print()
+    print(f"exact map: {rows[0]['seconds'] * 1e3:.2f} ms (best of {args.repeats})")
+
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump({"info": info, "paper_seconds_9261": PAPER_SECONDS_9261, "rows": rows}, f, indent=2)
+    return rows
+
+
+if __name__ == "__main__":
+    main()
