@@ -19,7 +19,7 @@ EXPECTED = {
     "sec61": (84, 1323, 100_000),
     "sec62": (84, 9261, 100_000),
     "table1_r3_step1": (30, 27, 60_000),
-    "table1_r3_step0.5": (36, 125, 60_000),
+    "table1_r3_step05": (36, 125, 60_000),
     "table1_r3_block5": (84, 1323, 60_000),
     "table1_r3_crop3087": (84, 3087, 30_000),
     "table1_r3_full": (84, 9261, 15_000),
@@ -136,7 +136,7 @@ def test_bad_spec_dicts():
 
 # --------------------------------------------------------------------------- features
 def test_features_for_layout():
-    spec = P["table1_r3_step0.5"]
+    spec = P["table1_r3_step05"]
     arms, _ = D.draw_samples(spec, 4)
     X = D.features_for(arms, spec)
     assert X.shape == (4, 36) and X.dtype == np.float64
@@ -290,7 +290,7 @@ def test_interrupted_build_leaves_no_file(tmp_path, monkeypatch):
 # --------------------------------------------------------------------------- refusing bad files
 @pytest.fixture
 def good_file(tmp_path):
-    spec = small("table1_r3_step0.5", 30)
+    spec = small("table1_r3_step05", 30)
     return spec, D.build_dataset(spec, tmp_path / "good.npz", progress=False)
 
 
@@ -413,7 +413,7 @@ def test_prefilter_never_rejects_a_reachable_pose(family):
 
 def test_prefilter_does_not_change_numerical_labels():
     # spherical-wrist arms on the 125-node grid: positives, and far nodes the filter rules out
-    spec = small("table1_r3_step0.5", 4, method="numerical", starts=2)
+    spec = small("table1_r3_step05", 4, method="numerical", starts=2)
     arms, fixed = D.draw_samples(spec)
     with_filter = D.labels_for(arms, spec, fixed)
     without = D.labels_for(arms, spec, fixed, prefilter=False)
@@ -446,7 +446,7 @@ def test_half_turn_success_is_rejected(monkeypatch):
 
 
 def test_audit_small():
-    row = D.audit_labels(P["table1_r3_step0.5"], n_arms=4, seed=1)
+    row = D.audit_labels(P["table1_r3_step05"], n_arms=4, seed=1)
     assert row["pairs"] == 4 * 125 and row["nodes"] == 125
     assert row["false_negatives"] + row["false_positives"] == round((1 - row["agreement"]) * row["pairs"])
     assert row["false_positives"] == 0  # LM can only fail to find a solution, not invent one

@@ -406,7 +406,7 @@ def _paper_specs() -> dict[str, DatasetSpec]:
         DatasetSpec("sec62", **r3, step=0.1, samples=100_000, seed=62),
         # Table 1
         DatasetSpec("table1_r3_step1", **r3, step=1.0, samples=60_000, seed=101),
-        DatasetSpec("table1_r3_step0.5", **r3, step=0.5, samples=60_000, seed=102),
+        DatasetSpec("table1_r3_step05", **r3, step=0.5, samples=60_000, seed=102),
         DatasetSpec("table1_r3_block5", **r3, step=0.1, select=block5, samples=60_000, seed=103),
         DatasetSpec("table1_r3_crop3087", **r3, step=0.1, select=crop, samples=30_000, seed=104),
         DatasetSpec("table1_r3_full", **r3, step=0.1, samples=15_000, seed=105),
@@ -881,6 +881,11 @@ class Dataset:
     def feature_names(self) -> list[str]:
         return feature_names(self.spec)
 
+    @property
+    def n_nodes(self) -> int:
+        """Labelled nodes per sample."""
+        return int(self.header["labels_shape"][1])
+
     def __len__(self):
         return self.features.shape[0]
 
@@ -888,6 +893,40 @@ class Dataset:
 def _spec_diff(a: dict, b: dict) -> list[str]:
     keys = sorted(set(a) | set(b))
     return [f"{k}: file has {a.get(k)!r}, expected {b.get(k)!r}" for k in keys if a.get(k) != b.get(k)]
+
+
+def dataset_paths(name: str, data_dir) -> tuple[Path, Path]:
+    """Where the pipeline keeps dataset ``name``: ``(data_dir/NAME.npz, data_dir/NAME.test.npz)``
+    (training set, independent test set)."""
+    if name not in PAPER_SPECS:
+        raise ValueError(f"unknown dataset {name!r}; known: {', '.join(sorted(PAPER_SPECS))}")
+    data_dir = Path(data_dir)
+    return data_dir / f"{name}.npz", data_dir / f"{name}.test.npz"
+
+
+def build_pair(name: str, data_dir, samples: int | None = None, test_samples: int = 1000,
+               progress: bool = True) -> tuple[Path, Path]:
+    """Build paper dataset ``name`` (scaled to ``samples`` arms; ``None``: the paper's count) and
+    its independent test set of ``test_samples`` arms into ``data_dir`` (:func:`dataset_paths`)."""
+    train_path, test_path = dataset_paths(name, data_dir)
+    spec = PAPER_SPECS[name]
+    if samples is not None:
+        spec = scaled(spec, samples)
+    Path(data_dir).mkdir(parents=True, exist_ok=True)
+    build_dataset(spec, train_path, progress=progress)
+    build_dataset(test_spec(spec, test_samples), test_path, progress=progress)
+    return train_path, test_path
+
+
+def load_pair(name: str, data_dir) -> tuple[Dataset, Dataset]:
+    """The training and test sets of ``name`` built by :func:`build_pair`, checked: the test set
+    must be the training spec's test stream (same family, grid, orientation and labels)."""
+    train_path, test_path = dataset_paths(name, data_dir)
+    train, test = load_dataset(train_path), load_dataset(test_path)
+    diff = _spec_diff(test.spec.to_dict(), test_spec(train.spec, len(test)).to_dict())
+    if diff:
+        raise DatasetError(f"{test_path} is not the test set of {train_path} ({'; '.join(diff)}); rebuild both")
+    return train, test
 
 
 def load_dataset(path, expect_spec: DatasetSpec | None = None) -> Dataset:
@@ -1140,6 +1179,8 @@ def main(argv=None) -> int:
     b.add_argument("--out", required=True, help="output file (.npz)")
     b.add_argument("--samples", type=int, help="scale the sample count (first N arms of the same streams)")
     b.add_argument("--test", action="store_true", help="build the spec's independent 1000-sample test set")
+    b.add_argument("--test-samples", type=int,
+                   help="also build the independent test set of this many arms beside --out (NAME.test.npz)")
     b.add_argument("--quiet", action="store_true")
     a = sub.add_parser("audit", help="exact labels vs the paper's numerical path")
     a.add_argument("names", nargs="*", help="specs (default: every distinct spherical-wrist spec)")
@@ -1161,6 +1202,15 @@ def main(argv=None) -> int:
         t = time.perf_counter()
         path = build_dataset(spec, args.out, progress=not args.quiet)
         print(f"{path}: {spec.samples} x {spec.n_nodes} nodes, {time.perf_counter() - t:.1f} s")
+        if args.test_samples is not None:
+            if args.test:
+                p.error("--test-samples builds a test set beside the training set; do not combine it with --test")
+            t = time.perf_counter()
+            tspec = test_spec(spec, args.test_samples)
+            out = Path(args.out)
+            path = build_dataset(tspec, out.with_name(out.name.removesuffix(".npz") + ".test.npz"),
+                                 progress=not args.quiet)
+            print(f"{path}: {tspec.samples} x {tspec.n_nodes} nodes, {time.perf_counter() - t:.1f} s")
         return 0
     rows = audit_table(args.names or None, n_arms=args.arms, seed=args.seed, progress=True)
     print(json.dumps(rows, indent=1))

@@ -1,0 +1,102 @@
+# %% [markdown]
+# # The classical workspace map of the PUMA560
+#
+# The classical algorithm (the paper's section 1 and Appendix): a grid of positions at a fixed
+# orientation, inverse kinematics at every node, one bit per node. This notebook draws the PUMA560's
+# constant-orientation workspace (the paper's grid, [-1, 1] m at 0.1 m, R = I), compares the exact
+# closed-form map with the paper's numerical Levenberg–Marquardt path, and sets the two pose
+# conventions side by side. Every number comes from `wsmap`; this notebook only orchestrates and plots.
+
+# %% parameters
+params = {}
+output_root = None
+
+# %%
+import json
+
+import numpy as np
+
+from wsmap import paths, robots
+from wsmap import workspace as ws
+from wsmap.io import atomic_path
+from wsmap.render import map_to_mesh, plot_slices, render_mesh, save_figure
+
+out = paths.Outputs(output_root).make()
+cfg = {"lo": -1.0, "hi": 1.0, "step": 0.1, "rpy": [0.0, 0.0, 0.0], "rotated_rpy": [0.312, 5.6719, 5.936], **params}
+axes = ws.grid_axes(cfg["lo"], cfg["hi"], cfg["step"])
+shape = tuple(len(a) for a in axes)
+nodes = ws.cartesian_grid(cfg["lo"], cfg["hi"], cfg["step"])
+puma = robots.puma560()
+print(f"{len(nodes)} nodes, grid shape {shape}")
+
+# %% [markdown]
+# ## Exact map and its 3-D surface
+
+# %%
+exact = ws.constant_orientation_map(puma, nodes, cfg["rpy"], method="exact")
+fig = plot_slices(exact, shape, cfg["lo"], cfg["step"], title=f"PUMA560, R = I: {exact.sum()} of {exact.size} nodes reachable")
+save_figure(fig, out.figures / "puma560_workspace_slices.png")
+mesh = map_to_mesh(exact, shape, cfg["lo"], cfg["step"])
+import matplotlib.pyplot as plt
+
+ax = render_mesh(mesh, title="PUMA560 constant-orientation workspace (exact)", lim=max(abs(cfg["lo"]), abs(cfg["hi"])))
+save_figure(ax.figure, out.figures / "puma560_workspace_exact.png")
+mesh.export(out.results / "puma560_workspace_exact.stl")
+print(f"mesh: {len(mesh.vertices)} vertices, watertight={mesh.is_watertight}, volume={mesh.volume:.3f} m^3")
+
+# %% [markdown]
+# ## Exact against numerical (the paper's classical path: LM, tol 1e-10, q0 = 0, one start)
+
+# %%
+import time
+
+t0 = time.perf_counter()
+numerical = ws.constant_orientation_map(puma, nodes, cfg["rpy"], method="numerical")
+t_num = time.perf_counter() - t0
+t0 = time.perf_counter()
+ws.constant_orientation_map(puma, nodes, cfg["rpy"], method="exact")
+t_exact = time.perf_counter() - t0
+fn = int(np.sum(exact & ~numerical))
+fp = int(np.sum(numerical & ~exact))
+agreement = float(np.mean(exact == numerical))
+fig = plot_slices(exact, shape, cfg["lo"], cfg["step"], compare=numerical,
+                  title=f"exact (first) vs numerical LM (second): agreement {agreement:.4f}, {fn} missed, {fp} extra")
+save_figure(fig, out.figures / "puma560_exact_vs_numerical.png")
+print(f"agreement {agreement:.4%}; numerical misses {fn} reachable nodes, invents {fp}")
+print(f"exact map {t_exact * 1e3:.2f} ms, batched numerical map {t_num:.2f} s")
+
+# %% [markdown]
+# ## The two pose conventions
+#
+# The authors' code builds the target as `Rx Ry Rz · transl(p)`, so the position it tests is R·p;
+# the usual convention is `transl(p) · R`. They agree at R = I and differ at the rotated
+# orientation of Table 3.
+
+# %%
+rot = cfg["rotated_rpy"]
+paper_conv = ws.constant_orientation_map(puma, nodes, rot, convention="paper")
+standard_conv = ws.constant_orientation_map(puma, nodes, rot, convention="standard")
+at_identity_equal = bool(np.array_equal(exact, ws.constant_orientation_map(puma, nodes, cfg["rpy"], convention="standard")))
+differ = float(np.mean(paper_conv != standard_conv))
+fig = plot_slices(paper_conv, shape, cfg["lo"], cfg["step"], compare=standard_conv,
+                  title=f"rpy = {rot}: paper convention (first) vs standard (second), {differ:.1%} of nodes differ")
+save_figure(fig, out.figures / "puma560_conventions.png")
+print(f"identical at R = I: {at_identity_equal}; at rpy={rot}: {differ:.2%} of nodes differ")
+
+# %%
+metrics = {
+    "nodes": int(exact.size),
+    "reachable_exact": int(exact.sum()),
+    "reachable_numerical": int(numerical.sum()),
+    "numerical_false_negatives": fn,
+    "numerical_false_positives": fp,
+    "exact_numerical_agreement": agreement,
+    "conventions_equal_at_identity": at_identity_equal,
+    "conventions_differ_fraction_rotated": differ,
+}
+with atomic_path(out.results / "classical_workspace.json") as tmp:
+    tmp.write_text(json.dumps(metrics, indent=2) + "\n")
+# a smoke run checks what it produced, not just that it ran
+assert exact.sum() > 0 and fp == 0 and at_identity_equal
+assert (out.figures / "puma560_workspace_exact.png").stat().st_size > 10_000
+metrics

@@ -1,0 +1,141 @@
+"""The paper's experiments as functions: fit subspace models on a dataset, score them on a test set.
+
+Notebooks call these so that every number they show comes from tested code:
+
+* :func:`fit` trains ``sessions`` independent models (the paper repeats 10) of one architecture on
+  one dataset, optionally on a slice of its nodes (one output subspace);
+* :func:`fit_blocks` trains one model per output block and stacks them into one
+  :class:`~wsmap.models.SubspaceMLP` whose subspaces assemble the whole map (section 6.2);
+* :func:`evaluate` gives the pooled (micro) and per-sample precision, recall and F-measure of a
+  model on a test set, the paper's numbers.
+
+Shapes: a dataset has ``n`` samples (arms) of ``f`` stored features and ``N`` nodes; a node slice
+picks ``m`` of them. Networks run in float32; labels are bool on disk and float32 targets here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import torch
+
+from . import metrics as M
+from .data import Dataset
+from .models import MLPConfig, SubspaceMLP
+from .training import TrainConfig, TrainResult, split_indices, train_sessions
+
+__all__ = ["model_config", "fit", "fit_blocks", "stack_sessions", "evaluate", "node_slice"]
+
+
+def node_slice(nodes, n_nodes: int) -> slice:
+    """``nodes`` as a slice of a dataset's ``n_nodes`` node columns: ``None`` (all), a slice, or a
+    ``(start, stop)`` pair (0-based, stop exclusive). Raises ``ValueError`` outside the range."""
+    if nodes is None:
+        return slice(0, n_nodes)
+    if not isinstance(nodes, slice):
+        if len(nodes) != 2:
+            raise ValueError(f"nodes must be None, a slice or (start, stop); got {nodes!r}")
+        nodes = slice(int(nodes[0]), int(nodes[1]))
+    start, stop, step = nodes.indices(n_nodes)
+    if step != 1 or not 0 <= start < stop <= n_nodes or (nodes.stop is not None and nodes.stop > n_nodes):
+        raise ValueError(f"node slice {nodes} is not a non-empty contiguous range within the {n_nodes} nodes")
+    return slice(start, stop)
+
+
+def model_config(ds: Dataset, nodes=None, hidden: Sequence[int] = (125, 100, 100, 125), **kwargs) -> MLPConfig:
+    """The :class:`MLPConfig` for ``ds`` (its feature count in, the node slice's size out);
+    ``kwargs`` set the other fields (``input_columns``, ``input_scaling``, ``output_kind``, ...)."""
+    sl = node_slice(nodes, ds.header["labels_shape"][1])
+    return MLPConfig(n_inputs=ds.features.shape[1], n_outputs=sl.stop - sl.start, hidden=list(hidden), **kwargs)
+
+
+def _targets(ds: Dataset, sl: slice) -> np.ndarray:
+    return ds.labels[:, sl].astype(np.float32)
+
+
+def fit(ds: Dataset, train_config: TrainConfig, *, nodes=None, sessions: int = 1,
+        hidden: Sequence[int] = (125, 100, 100, 125), stacked: bool = False, **mlp) -> list[TrainResult]:
+    """Train ``sessions`` independent models on ``ds`` (session ``s``: seed ``train_config.seed + s``
+    for its split and initial weights, as :func:`wsmap.training.train_sessions`).
+
+    Args:
+        ds: training dataset (the 70/15/15 split is drawn inside).
+        train_config: optimiser, loss, epochs, early stopping.
+        nodes: node slice to learn (``None``: all nodes of ``ds``; ``(start, stop)`` 0-based).
+        hidden, mlp: architecture (:func:`model_config`); the first layer is configured
+            (Nguyen–Widrow ranges, input standardisation) on the session's training split.
+        stacked: train the sessions as one stacked model (Rprop only; see ``train_sessions``).
+
+    Returns:
+        One :class:`TrainResult` per session; ``result.model`` is restored to its best epoch.
+    """
+    sl = node_slice(nodes, ds.header["labels_shape"][1])
+    cfg = model_config(ds, sl, hidden, **mlp)
+    X = ds.features
+    Y = _targets(ds, sl)
+
+    def factory(seeds):
+        # MATLAB configures the input ranges on the data handed to train; the training split is
+        # what the network sees (the validation and test parts stay unseen).
+        x_train = X[split_indices(len(X), train_config.fractions, seeds[0]).train]
+        model = SubspaceMLP(cfg.replace(n_subspaces=len(seeds)), seeds=seeds)
+        return model.configure(x_train, seeds=seeds)
+
+    return train_sessions(factory, X, Y, train_config, sessions, stacked=stacked)
+
+
+def stack_sessions(results: Sequence[TrainResult]) -> SubspaceMLP:
+    """The models of several results (one subspace each) stacked into one model, in order."""
+    models = []
+    for r in results:
+        m = r.model
+        models.append(m.subspace(r.session) if r.session is not None else m)
+    return SubspaceMLP.from_models(models)
+
+
+def fit_blocks(ds: Dataset, train_config: TrainConfig, blocks: Sequence, *,
+               hidden: Sequence[int] = (125, 100, 100, 125), **mlp) -> tuple[SubspaceMLP, list[TrainResult]]:
+    """One model per node block (section 6.2: 7 consecutive blocks of 1323 nodes), trained one
+    after another with the same config and seed, stacked into one :class:`SubspaceMLP` whose
+    subspace ``k`` predicts block ``k``; ``model.assemble(x)`` concatenates them in node order.
+
+    ``blocks`` are ``(start, stop)`` pairs or slices of equal size. Returns ``(model, results)``.
+    """
+    n_nodes = ds.header["labels_shape"][1]
+    slices = [node_slice(b, n_nodes) for b in blocks]
+    if len({s.stop - s.start for s in slices}) != 1:
+        raise ValueError("blocks must all have the same number of nodes (one architecture per subspace)")
+    results = [fit(ds, train_config, nodes=s, sessions=1, hidden=hidden, **mlp)[0] for s in slices]
+    return stack_sessions(results), results
+
+
+def evaluate(model: SubspaceMLP, test: Dataset, *, nodes=None, key: int | None = None,
+             assemble: bool = False, threshold: float = 0.5, batch_size: int = 2048) -> dict[str, Any]:
+    """Precision, recall and F-measure of ``model`` on ``test``: pooled over every sample and node
+    (``precision``, ``recall``, ``f``: the paper's) and per sample (``f_mean``, ``f_std``, over
+    samples whose F is defined; ``f_undefined``: samples with no positive in truth or prediction).
+
+    ``nodes`` (the truth's node slice) must match the model's outputs: one subspace (``key``) or
+    all of them concatenated (``assemble=True``). Also returns ``scores`` (float32, ``(n, m)``)
+    and ``truth`` (bool) for histograms and threshold sweeps.
+    """
+    n_nodes = test.header["labels_shape"][1]
+    sl = node_slice(nodes, n_nodes)
+    if model.n_subspaces > 1 and key is None and not assemble:
+        raise ValueError(f"the model has {model.n_subspaces} subspaces: give key=k or assemble=True")
+    key = 0 if (key is None and not assemble) else key
+    scores = model.score(test.features, key=key, assemble=assemble, batch_size=batch_size).numpy()
+    truth = test.labels[:, sl]
+    if scores.shape != truth.shape:
+        raise ValueError(f"model outputs {scores.shape[1]} nodes but the truth slice {sl} has {truth.shape[1]}")
+    pred = scores > threshold
+    micro = M.precision_recall_f(pred, truth, "micro")
+    per = M.precision_recall_f(pred, truth, "samples")
+    return dict(
+        precision=micro.precision, recall=micro.recall, f=micro.f,
+        f_mean=per.f, f_std=per.f_std, f_undefined=per.undefined_f,
+        samples=int(truth.shape[0]), nodes=int(truth.shape[1]), threshold=float(threshold),
+        scores=scores, truth=truth, f_per_sample=per.per_sample["f"],
+    )

@@ -1,0 +1,46 @@
+"""Shared fixtures: the smoke pipeline (params.smoke.yaml) run into one temporary root per session.
+
+``smoke_root`` builds every dataset of the smoke configuration once; ``smoke_notebook(name)``
+executes a pipeline notebook there (once per session, after the notebooks it depends on), so a
+notebook that reads another's models or metrics finds them, as under ``dvc repro``.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from wsmap import data as D
+from wsmap import paths
+from wsmap.pipeline import run_notebook
+
+SMOKE = paths.ROOT / "params.smoke.yaml"
+
+#: Notebooks that read what another notebook wrote (mirrors the deps in dvc.yaml).
+NOTEBOOK_DEPS = {
+    "report": ["classical_workspace", "sec61_subspace", "sec62_puma560", "table1_workspaces",
+               "table2_optimisers", "table3_embeddings", "runtime_comparison", "improved_model"],
+}
+
+
+@pytest.fixture(scope="session")
+def smoke_root(tmp_path_factory):
+    root = tmp_path_factory.mktemp("smoke")
+    out = paths.Outputs(root).make()
+    for name, item in paths.load_params("datasets", SMOKE).items():
+        D.build_pair(name, out.data, item["samples"], item["test_samples"], progress=False)
+    return root
+
+
+@pytest.fixture(scope="session")
+def smoke_notebook(smoke_root):
+    done: dict[str, object] = {}
+
+    def run(name: str):
+        if name not in done:
+            for dep in NOTEBOOK_DEPS.get(name, []):
+                if (paths.NOTEBOOKS / f"{dep}.ipynb").exists():
+                    run(dep)
+            done[name] = run_notebook(name, SMOKE, smoke_root, timeout=600)
+        return paths.Outputs(smoke_root)
+
+    return run

@@ -1,0 +1,76 @@
+"""The experiment glue: fitting on datasets, stacking block models, evaluating on test sets."""
+
+import numpy as np
+import pytest
+import torch
+
+from wsmap import data as D
+from wsmap import experiments as E
+from wsmap import workspace as ws
+from wsmap.training import TrainConfig
+
+
+@pytest.fixture(scope="module")
+def pair(tmp_path_factory):
+    torch.set_num_threads(1)
+    d = tmp_path_factory.mktemp("data")
+    D.build_pair("table1_r3_step05", d, samples=120, test_samples=40, progress=False)
+    return D.load_pair("table1_r3_step05", d)
+
+
+def test_build_pair_and_load_pair_check_the_test_stream(pair, tmp_path):
+    train, test = pair
+    assert (len(train), len(test)) == (120, 40) and train.n_nodes == test.n_nodes == 125
+    assert test.spec.stream == "test" and train.spec.stream == "train"
+    # a test file of another dataset is refused
+    D.build_pair("table1_r3_step1", tmp_path, samples=10, test_samples=5, progress=False)
+    a, b = D.dataset_paths("table1_r3_step05", tmp_path)
+    c, d = D.dataset_paths("table1_r3_step1", tmp_path)
+    a.write_bytes(c.read_bytes())
+    b.write_bytes(D.dataset_paths("table1_r3_step1", tmp_path)[1].read_bytes())
+    D.load_pair("table1_r3_step05", tmp_path)  # consistent pair of step1 under another name: fine
+    b.write_bytes(train.path.read_bytes())  # a training file posing as the test set
+    with pytest.raises(D.DatasetError, match="is not the test set"):
+        D.load_pair("table1_r3_step05", tmp_path)
+    with pytest.raises(ValueError, match="unknown dataset 'nope'"):
+        D.dataset_paths("nope", tmp_path)
+
+
+def test_fit_is_reproducible_and_evaluate_matches_a_direct_computation(pair):
+    train, test = pair
+    cfg = TrainConfig(max_epochs=5, seed=3)
+    r1 = E.fit(train, cfg, nodes=(0, 50), hidden=[8])
+    r2 = E.fit(train, cfg, nodes=(0, 50), hidden=[8])
+    assert r1[0].history.loss == r2[0].history.loss
+    ev = E.evaluate(r1[0].model, test, nodes=(0, 50))
+    pred = r1[0].model.predict(test.features).numpy()
+    truth = test.labels[:, :50]
+    tp = (pred & truth).sum()
+    p, r = tp / pred.sum(), tp / truth.sum()
+    assert ev["f"] == pytest.approx(2 * p * r / (p + r))
+    assert ev["scores"].shape == (40, 50) and ev["nodes"] == 50
+
+
+def test_fit_blocks_assembles_the_blocks_in_node_order(pair):
+    train, test = pair
+    blocks = [(0, 25), (25, 50), (50, 75), (75, 100), (100, 125)]
+    model, results = E.fit_blocks(train, TrainConfig(max_epochs=2), blocks, hidden=[6])
+    assert model.n_subspaces == 5 and len(results) == 5
+    whole = model.score(test.features, assemble=True).numpy()
+    for k, (a, b) in enumerate(blocks):
+        np.testing.assert_array_equal(whole[:, a:b], results[k].model.score(test.features, key=0).numpy())
+    ev = E.evaluate(model, test, assemble=True)
+    assert ev["nodes"] == 125
+    with pytest.raises(ValueError, match="give key=k or assemble=True"):
+        E.evaluate(model, test)
+    with pytest.raises(ValueError, match="same number of nodes"):
+        E.fit_blocks(train, TrainConfig(max_epochs=1), [(0, 25), (25, 75)], hidden=[4])
+
+
+def test_node_slices_are_checked():
+    assert E.node_slice(None, 10) == slice(0, 10)
+    assert E.node_slice((2, 5), 10) == slice(2, 5)
+    assert E.node_slice(ws.block_slice(4), 9261) == slice(5292, 6615)
+    for bad in [(5, 5), (0, 11), (3, 2)]:
+        with pytest.raises(ValueError, match="contiguous range"):
+            E.node_slice(bad, 10)
