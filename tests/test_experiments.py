@@ -74,3 +74,14 @@ def test_node_slices_are_checked():
     for bad in [(5, 5), (0, 11), (3, 2)]:
         with pytest.raises(ValueError, match="contiguous range"):
             E.node_slice(bad, 10)
+
+
+def test_head_is_the_smaller_build(pair, tmp_path):
+    train, _ = pair
+    small = train.head(30)
+    assert len(small) == 30 and small.n_nodes == 125 and small.spec.samples == 30
+    D.build_dataset(D.scaled(train.spec, 30), tmp_path / "s.npz", progress=False)
+    built = D.load_dataset(tmp_path / "s.npz")
+    np.testing.assert_array_equal(small.features, built.features)
+    np.testing.assert_array_equal(small.labels, built.labels)
+    assert train.head(None) is train and train.head(10_000) is train

@@ -40,3 +40,18 @@ def test_classical_workspace_smoke(tmp_path):
         assert (tmp_path / "figures" / f"{fig}.png").stat().st_size > 5_000
     # the committed results were not touched by the smoke run
     assert not (paths.ROOT / "results" / "notebooks" / str(tmp_path.name)).exists()
+
+
+@pytest.mark.parametrize("name", _notebooks())
+def test_notebook_is_built_from_its_percent_source(name):
+    """notebooks/py/NAME.py is the text that is edited and diffed; the .ipynb must be its build."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("nbsource", paths.ROOT / "tools" / "nbsource.py")
+    nbsource = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(nbsource)
+    built = nbsource.build((paths.NOTEBOOKS / "py" / f"{name}.py").read_text())
+    committed = nbformat.read(paths.NOTEBOOKS / f"{name}.ipynb", as_version=4)
+    assert [(c.cell_type, c.source) for c in committed.cells] == [(c.cell_type, c.source) for c in built.cells], (
+        f"notebooks/{name}.ipynb is out of date: run python tools/nbsource.py notebooks/py/{name}.py "
+        f"notebooks/{name}.ipynb")

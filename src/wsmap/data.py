@@ -886,6 +886,17 @@ class Dataset:
         """Labelled nodes per sample."""
         return int(self.header["labels_shape"][1])
 
+    def head(self, n: int | None) -> "Dataset":
+        """The first ``n`` samples (all when ``n`` is ``None`` or at least ``len(self)``): what a
+        reduced training run uses, the same arms a smaller build would have drawn."""
+        if n is None or n >= len(self):
+            return self
+        n = _int("n", n, 1)
+        header = {**self.header, "features_shape": [n, self.features.shape[1]],
+                  "labels_shape": [n, self.n_nodes], "labels_packed_shape": [n, self.labels_packed.shape[1]]}
+        return Dataset(spec=scaled(self.spec, n), features=self.features[:n],
+                       labels_packed=self.labels_packed[:n], header=header, path=self.path)
+
     def __len__(self):
         return self.features.shape[0]
 
