@@ -402,3 +402,23 @@ def test_load_rejects_bad_files(tmp_path, singles):
     torch.save(torch.zeros(3), not_dict)
     with pytest.raises(ValueError, match="no format tag"):
         load(not_dict)
+
+
+def test_map_spec_is_saved_and_not_carried_by_restacking(tmp_path):
+    from wsmap import data as D
+
+    spec = D.PAPER_SPECS["table1_r3_step1"]  # 3³ = 27 nodes, 48 features
+    stack = SubspaceMLP(MLPConfig(n_inputs=spec.n_features, n_outputs=9, hidden=[4], n_subspaces=3), seeds=[0, 1, 2])
+    stack.set_map_spec(spec, assemble=True, threshold=0.4)
+    assert stack.map_spec["nodes"] == [0, 27]
+    loaded, meta = load(save(stack, tmp_path / "m.pt"))
+    assert loaded.map_spec == stack.map_spec == meta["map_spec"]
+    assert D.DatasetSpec.from_dict(loaded.map_spec["dataset"]) == spec
+    # A slice or a restack maps something else: the description is not carried over.
+    assert stack.subspace(1).map_spec is None
+    assert SubspaceMLP.from_models([stack, stack]).map_spec is None
+    # Files without one (older files, bare models) load with None.
+    stack.map_spec = None
+    assert load(save(stack, tmp_path / "bare.pt"))[0].map_spec is None
+    with pytest.raises(ValueError, match=r"covers 27 nodes \[0, 27\) but the model gives 9 \(9 outputs\)"):
+        stack.set_map_spec(spec, subspace=0)  # 9 outputs cannot cover the 27 labelled nodes

@@ -30,6 +30,20 @@ def test_source_notebooks_are_committed_without_outputs(name):
     assert any("parameters" in c.metadata.get("tags", []) for c in nb.cells)
 
 
+def _audited_specs():
+    """The specs wsmap.data.audit_table audits by default: every spherical-wrist (exact-label) spec
+    of PAPER_SPECS, one per distinct grid / node selection / orientation / convention."""
+    from wsmap import data as D
+
+    seen, names = set(), []
+    for s in D.PAPER_SPECS.values():
+        key = (s.family, s.scope, s.lo, s.hi, s.step, s.select, s.fixed, s.convention)
+        if s.method == "exact" and key not in seen:
+            seen.add(key)
+            names.append(s.name)
+    return names
+
+
 def test_classical_workspace_smoke(tmp_path):
     dest = run_notebook("classical_workspace", SMOKE, tmp_path, timeout=600)
     assert dest == tmp_path / "results" / "notebooks" / "classical_workspace.ipynb"
@@ -38,6 +52,16 @@ def test_classical_workspace_smoke(tmp_path):
     assert metrics["numerical_false_positives"] == 0
     for fig in ("puma560_workspace_slices", "puma560_workspace_exact", "puma560_exact_vs_numerical", "puma560_conventions"):
         assert (tmp_path / "figures" / f"{fig}.png").stat().st_size > 5_000
+    # label audit: one row per distinct spherical-wrist spec, audit_arms arms each
+    import pandas as pd
+
+    audit = pd.read_csv(tmp_path / "tables" / "label_audit.csv")
+    expected = _audited_specs()
+    assert list(audit["spec"]) == expected
+    arms = paths.load_params("classical_workspace", SMOKE)["audit_arms"]
+    assert (audit["arms"] == arms).all() and (audit["pairs"] == arms * audit["nodes"]).all()
+    assert "| spec" in (tmp_path / "tables" / "label_audit.md").read_text()
+    assert metrics["label_audit"]["specs"] == len(expected) and metrics["label_audit"]["arms"] == arms
     # the committed results were not touched by the smoke run
     assert not (paths.ROOT / "results" / "notebooks" / str(tmp_path.name)).exists()
 

@@ -345,3 +345,132 @@ def test_stacked_per_session_targets(shared_split):
         train(mlp([2, 3, 1], 0), X, Y3, cfg)
     with pytest.raises(ValueError, match="have S = 3"):
         train(StackedMLP([2, 3, 1], [0, 1]), X, Y3, cfg)
+
+
+# ---------------------------------------------------------------------------------------------
+# minibatches and Adam
+# ---------------------------------------------------------------------------------------------
+
+
+def test_adam_minibatch_trains_and_records_pass_losses():
+    X, Y = regression_data(200)
+    cfg = TrainConfig(optimizer="adam", optimizer_kwargs={"lr": 0.02}, batch_size=16, max_epochs=60, max_fail=1000)
+    res = train(mlp([2, 10, 1], seed=0), X, Y, cfg)
+    h = res.history
+    assert res.stop_reason == "max_epochs" and len(h) == 61
+    assert h.loss[-1] < 0.05 * h.loss[0]
+    assert h.val_loss[res.best_epoch] < 0.05 * h.val_loss[0]
+    assert all(math.isnan(g) for g in h.grad_norm)  # no full-batch gradient in minibatch mode
+    # Epoch 0 is the full training loss of the initial network.
+    model0 = mlp([2, 10, 1], seed=0)
+    with torch.no_grad():
+        tr = res.split.train
+        assert h.loss[0] == pytest.approx(float(nn.functional.mse_loss(model0(torch.as_tensor(X[tr])),
+                                                                        torch.as_tensor(Y[tr]))), rel=1e-6)
+
+
+def test_adam_minibatch_is_reproducible_from_the_seed():
+    X, Y = regression_data(150, noise=0.05)
+
+    def run(seed):
+        cfg = TrainConfig(optimizer="adam", batch_size=10, max_epochs=8, seed=seed)
+        model = mlp([2, 6, 1], 0)  # same initial weights: only the seed (split, shuffle) differs
+        return train(model, X, Y, cfg), model
+
+    (a, ma), (b, mb) = run(3), run(3)
+    assert a.history.loss == b.history.loss and a.history.val_loss == b.history.val_loss
+    assert all(torch.equal(p, q) for p, q in zip(ma.parameters(), mb.parameters()))
+    # Same split, different shuffle: the order of the minibatches matters.
+    sp = split_indices(150, seed=3)
+    cfg = TrainConfig(optimizer="adam", batch_size=10, max_epochs=8)
+    c = train(mlp([2, 6, 1], 0), X, Y, cfg.replace(seed=3), split=sp)
+    d = train(mlp([2, 6, 1], 0), X, Y, cfg.replace(seed=4), split=sp)
+    assert c.history.loss == a.history.loss and d.history.loss[0] == c.history.loss[0]
+    assert d.history.loss[1:] != c.history.loss[1:]
+
+
+def test_one_minibatch_per_epoch_equals_full_batch_adam():
+    X, Y = regression_data(80)
+    cfg = TrainConfig(optimizer="adam", optimizer_kwargs={"lr": 0.01}, max_epochs=15)
+    full, mini = mlp([2, 5, 1], 0), mlp([2, 5, 1], 0)
+    a = train(full, X, Y, cfg)
+    b = train(mini, X, Y, cfg.replace(batch_size=10_000))  # larger than the split: one batch
+    for p, q in zip(full.parameters(), mini.parameters()):
+        torch.testing.assert_close(p, q, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(a.history.val_loss, b.history.val_loss, rtol=1e-5)
+    assert b.history.loss[0] == pytest.approx(a.history.loss[0], rel=1e-6)
+
+
+def test_minibatch_bool_targets_equal_float_targets():
+    X, Y = regression_data(100)
+    cfg = TrainConfig(optimizer="adam", loss="crossentropy", batch_size=32, max_epochs=5)
+    a = train(mlp([2, 4, 1], 0), X, Y > 0, cfg)
+    b = train(mlp([2, 4, 1], 0), X, (Y > 0).astype(np.float32), cfg)
+    assert a.history.loss == b.history.loss and a.history.val_loss == b.history.val_loss
+
+
+def test_cosine_decay_follows_the_schedule():
+    # Full batch, one step per epoch: lr_t = lr·(1 + cos(pi·t/E))/2; replay it by hand.
+    X, Y = regression_data(60)
+    E, lr = 4, 0.05
+    model = mlp([2, 4, 1], 0)
+    train(model, X, Y, TrainConfig(optimizer="adam", optimizer_kwargs={"lr": lr}, lr_decay="cosine",
+                                   max_epochs=E, fractions=(1.0, 0.0, 0.0)))
+    ref = mlp([2, 4, 1], 0)
+    opt = torch.optim.Adam(ref.parameters(), lr=lr)
+    x, y = torch.as_tensor(X), torch.as_tensor(Y)
+    for t in range(E):
+        opt.param_groups[0]["lr"] = lr * 0.5 * (1 + math.cos(math.pi * t / E))
+        opt.zero_grad()
+        nn.functional.mse_loss(ref(x), y).backward()
+        opt.step()
+    # the last step uses the best epoch (the lowest training loss: the last here)
+    for p, q in zip(model.parameters(), ref.parameters()):
+        torch.testing.assert_close(p, q, rtol=1e-5, atol=1e-6)
+    plain = mlp([2, 4, 1], 0)
+    train(plain, X, Y, TrainConfig(optimizer="adam", optimizer_kwargs={"lr": lr}, max_epochs=E,
+                                   fractions=(1.0, 0.0, 0.0)))
+    assert not all(torch.allclose(p, q) for p, q in zip(model.parameters(), plain.parameters()))
+
+
+def test_stacked_minibatch_masks_stopped_sessions():
+    X, Y = regression_data(200, noise=0.3, seed=1)
+    stacked = StackedMLP([2, 8, 1], [10, 11, 12])
+    res = train(stacked, X, Y, TrainConfig(optimizer="adam", batch_size=20, max_epochs=60, max_fail=5, seed=10))
+    assert res.n_sessions == 3 and len(res.sessions()) == 3
+    for v in res.sessions():
+        assert v.best_epoch <= v.stop_epoch and len(v.history) == v.stop_epoch + 1
+    # every session holds its best epoch's parameters
+    for s, sp in enumerate(res.split):
+        with torch.no_grad():
+            out = stacked(torch.as_tensor(X[sp.val]))[s]
+        assert float(nn.functional.mse_loss(out, torch.as_tensor(Y[sp.val]))) == pytest.approx(
+            res.best_val_loss[s], rel=1e-5)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(optimizer="adam", batch_size=0), "batch_size must be a positive integer or None"),
+        (dict(optimizer="adam", batch_size=-4), "batch_size must be a positive integer or None"),
+        (dict(optimizer="adam", batch_size=2.5), "batch_size must be a positive integer or None"),
+        (dict(optimizer="adam", batch_size=True), "batch_size must be a positive integer or None"),
+        (dict(batch_size=32), "optimizer 'rprop' is a full-batch trainer; batch_size needs one of ['adam']"),
+        (dict(optimizer="trainscg", batch_size=32), "is a full-batch trainer"),
+        (dict(optimizer="adam", lr_decay="step"), "lr_decay must be None or one of"),
+        (dict(lr_decay="cosine"), "lr_decay needs one of ['adam']"),
+        (dict(optimizer="adam", lr_decay="cosine-time"), "set time_limit_s"),
+        (dict(optimizer="sgd"), "unknown optimizer 'sgd'; known: adam, cgb, gdx, oss, rprop, scg"),
+    ],
+)
+def test_minibatch_config_errors(kwargs, message):
+    with pytest.raises(ValueError, match=re.escape(message)):
+        TrainConfig(**kwargs)
+
+
+def test_minibatch_config_round_trip():
+    cfg = TrainConfig(optimizer="Adam", optimizer_kwargs={"lr": 1e-3, "betas": (0.9, 0.99)}, batch_size=256,
+                      lr_decay="cosine-time", time_limit_s=60.0, loss="crossentropy")
+    back = TrainConfig.from_dict(json.loads(json.dumps(cfg.to_dict())))
+    assert back.batch_size == 256 and back.lr_decay == "cosine-time" and back.optimizer_kwargs["betas"] == [0.9, 0.99]
+    assert TrainConfig.from_dict({"optimizer": "rprop"}).batch_size is None  # old configs: full batch

@@ -8,6 +8,11 @@ Your own arm, by its DH columns (angles accept ``pi`` expressions)::
 
     wsmap map --d 0 0 0.15 0.43 0 0 --a 0 0.43 0.02 0 0 0 \\
               --alpha pi/2 0 -pi/2 pi/2 -pi/2 0 --method numerical --out mine.npz
+
+A trained network instead of inverse kinematics (a model file saved with a ``map_spec`` that covers
+the whole grid asked for, e.g. the 7 block models of section 6.2 assembled)::
+
+    wsmap map --robot puma560 --method model --model puma_blocks.pt --out puma560_model.npz
 """
 
 from __future__ import annotations
@@ -84,7 +89,10 @@ def compute_map(robot, *, scope="R3", lo=None, hi=None, step=None, rpy=(0.0, 0.0
 
     ``map`` is bool ``(N,)`` in node order; ``grid`` a dict with ``lo``, ``hi``, ``step``, ``shape``
     (nx, ny, nz) and ``scope``. Defaults are the paper's: R3 on [-1, 1] m at 0.1 m, SO3 on
-    [0, 2·pi] at pi/10. ``method="model"`` needs ``model``, a path to a trained model file.
+    [0, 2·pi] at pi/10. ``method="model"`` needs ``model``, a path to a model file saved with a
+    ``map_spec`` (:func:`wsmap.models.predict_maps_from_file`) whose grid, pose convention and fixed
+    orientation (R3) or point (SO3) are the ones asked for and which covers every node of the grid
+    (e.g. the 7 block models assembled); otherwise ``ValueError`` says what differs.
     """
     from . import workspace as ws
 
@@ -104,8 +112,11 @@ def compute_map(robot, *, scope="R3", lo=None, hi=None, step=None, rpy=(0.0, 0.0
             raise ValueError("method 'model' needs a model file (--model PATH)")
         from .models import predict_maps_from_file
 
-        return predict_maps_from_file(model, robot, scope=scope, nodes=nodes, grid=grid, rpy=rpy, point=point,
-                                      convention=convention), grid
+        fixed = rpy if scope == "R3" else point
+        flat = predict_maps_from_file(model, robot, fixed, grid=grid, convention=convention, whole_grid=True)
+        if flat.shape != (len(nodes),):  # a model file disagreeing with its own spec
+            raise ValueError(f"model {model} gave a map of shape {flat.shape}, the grid has {len(nodes)} nodes")
+        return flat, grid
     ik = dict(ik or {})
     bar = None
     if progress and method == "numerical":

@@ -51,8 +51,25 @@ the target renamed over it. :func:`load` refuses a missing, truncated or corrupt
 format tag or version, an invalid config, and a state that does not match the config, with a
 ``ValueError`` naming the path and the problem.
 
-Turning arms into features (predicting maps) is not here; a wrapper builds the features and calls
-:meth:`SubspaceMLP.predict`.
+Predicting maps (the model standing in for the classical algorithm)
+-------------------------------------------------------------------
+A model that knows what it maps carries a *map description*, ``model.map_spec`` (``None`` when
+absent; set it with :meth:`SubspaceMLP.set_map_spec`; saved and loaded with the model), a plain
+dict::
+
+    {"dataset": DatasetSpec.to_dict() of the spec it was trained on (grid, scope, fixed
+                orientation or point, pose convention),
+     "nodes": [start, stop],   # flat node indices of the spec's grid its outputs cover, in order
+     "assemble": bool,         # True: the S subspaces are consecutive node blocks, concatenated
+     "subspace": int | None,   # which subspace predicts when S > 1 and not assembled
+     "threshold": float}       # score threshold (0.5, the paper's)
+
+:meth:`SubspaceMLP.predict_maps` turns arms (:class:`wsmap.kinematics.DHRobot`) into features with
+:func:`wsmap.data.features_for` and returns boolean maps in node order, the same array
+:func:`wsmap.workspace.constant_orientation_map` (R3 specs) or
+:func:`wsmap.workspace.orientation_map` (SO3 specs) returns for the covered nodes
+(:meth:`SubspaceMLP.map_nodes`), up to the model's errors. :func:`predict_maps_from_file` does the
+same from a saved model (``wsmap map --method model --model PATH``).
 """
 
 from __future__ import annotations
@@ -69,7 +86,9 @@ import torch
 from torch import nn
 
 from . import __version__
+from . import data as _data
 from .io import atomic_path
+from .kinematics import DHRobot
 
 __all__ = [
     "ACTIVATIONS",
@@ -86,6 +105,8 @@ __all__ = [
     "check_features",
     "save",
     "load",
+    "make_map_spec",
+    "predict_maps_from_file",
 ]
 
 #: Hidden-layer activations: name -> (function, active input range, output range). The ranges
@@ -396,6 +417,136 @@ def check_features(model: SubspaceMLP | MLPConfig, features) -> None:
         raise ValueError(f"model expects {config.n_inputs} features, got {f}")
 
 
+@dataclass(frozen=True)
+class _MapPlan:
+    """A validated ``map_spec``: the parsed dataset spec and how to run the model."""
+
+    spec: Any  # wsmap.data.DatasetSpec
+    nodes: slice  # flat indices of the spec's grid covered by the outputs
+    assemble: bool
+    key: int | None
+    threshold: float
+    # One feature row of the spec with zero DH columns (fixed specs only): predict_maps fills in
+    # the 18 DH columns instead of calling features_for, whose grid construction dominates the
+    # time of a one-arm map (~0.1 ms of it).
+    template: np.ndarray | None = None
+
+
+def make_map_spec(dataset, *, nodes=None, assemble: bool = False, subspace: int | None = None,
+                  threshold: float = 0.5) -> dict[str, Any]:
+    """A ``map_spec`` dict (module docstring), before checking it against a model.
+
+    Args:
+        dataset: the :class:`wsmap.data.DatasetSpec` the model was trained on, or its ``to_dict()``.
+        nodes: ``(start, stop)`` or a slice of the spec grid's flat node order covered by the
+            model's outputs (0-based, stop exclusive; within the spec's labelled nodes). ``None``:
+            the spec's labelled nodes (:func:`wsmap.data.node_slice`); with ``assemble`` and a
+            node count different from the model's, ``start`` is kept and ``stop`` follows from
+            the model (see :meth:`SubspaceMLP.set_map_spec`).
+        assemble: the S subspaces are consecutive node blocks of ``m`` nodes each, concatenated
+            in node order (section 6.2: 7 blocks of 1323 → the 9261-node map).
+        subspace: for a stacked model used without ``assemble``, the subspace that predicts.
+        threshold: score threshold (``score > threshold`` is reachable; the paper's 0.5).
+    """
+    spec = dataset if isinstance(dataset, _data.DatasetSpec) else _data.DatasetSpec.from_dict(dataset)
+    if isinstance(nodes, slice):
+        nodes = (nodes.start, nodes.stop)
+    return {"dataset": spec.to_dict(), "nodes": None if nodes is None else [nodes[0], nodes[1]],
+            "assemble": bool(assemble), "subspace": subspace, "threshold": threshold}
+
+
+def _map_plan(config: MLPConfig, map_spec) -> tuple[dict[str, Any], _MapPlan]:
+    """Validate ``map_spec`` against a model's config -> (normalised dict, plan)."""
+    if not isinstance(map_spec, dict):
+        raise ValueError(f"map_spec must be a dict; got {type(map_spec).__name__}")
+    known = {"dataset", "nodes", "assemble", "subspace", "threshold"}
+    unknown = sorted(set(map_spec) - known)
+    if unknown:
+        raise ValueError(f"unknown map_spec keys {unknown}; known: {sorted(known)}")
+    if "dataset" not in map_spec:
+        raise ValueError("map_spec needs 'dataset' (the DatasetSpec dict the model was trained on)")
+    try:
+        spec = _data.DatasetSpec.from_dict(dict(map_spec["dataset"]))
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"map_spec dataset is not a valid dataset spec: {e}") from None
+    assemble = map_spec.get("assemble", False)
+    if not isinstance(assemble, (bool, np.bool_)):
+        raise ValueError(f"map_spec assemble must be true or false; got {assemble!r}")
+    assemble = bool(assemble)
+    S, m = config.n_subspaces, config.n_outputs
+    width = S * m if assemble else m
+    key = map_spec.get("subspace")
+    if assemble:
+        if key is not None:
+            raise ValueError("map_spec: an assembled model uses every subspace; give no subspace")
+    elif key is None:
+        if S > 1:
+            raise ValueError(f"map_spec: the model has {S} subspaces: set assemble=True (consecutive node "
+                             "blocks) or pick one with subspace=k")
+        key = 0
+    else:
+        if isinstance(key, bool) or not isinstance(key, (int, np.integer)) or not 0 <= key < S:
+            raise ValueError(f"map_spec subspace must be an integer in 0..{S - 1}; got {key!r}")
+        key = int(key)
+    labelled = _data.node_slice(spec)
+    nodes = map_spec.get("nodes")
+    if nodes is None:
+        start = labelled.start
+        stop = start + width if assemble else labelled.stop
+    else:
+        if isinstance(nodes, slice):
+            nodes = (nodes.start, nodes.stop)
+        if (not isinstance(nodes, (list, tuple)) or len(nodes) != 2
+                or any(isinstance(v, bool) or not isinstance(v, (int, np.integer)) for v in nodes)):
+            raise ValueError(f"map_spec nodes must be [start, stop] (integers) or None; got {nodes!r}")
+        start, stop = int(nodes[0]), int(nodes[1])
+    if not labelled.start <= start < stop <= labelled.stop:
+        raise ValueError(f"map_spec nodes [{start}, {stop}) are not within the nodes [{labelled.start}, "
+                         f"{labelled.stop}) that dataset {spec.name!r} labels")
+    if stop - start != width:
+        what = f"{S} subspaces x {m} outputs" if assemble else f"{m} outputs"
+        raise ValueError(f"map_spec covers {stop - start} nodes [{start}, {stop}) but the model gives {width} "
+                         f"({what})")
+    threshold = map_spec.get("threshold", 0.5)
+    threshold = 0.5 if threshold is None else threshold
+    if isinstance(threshold, bool) or not isinstance(threshold, (int, float, np.floating, np.integer)) \
+            or not math.isfinite(threshold):
+        raise ValueError(f"map_spec threshold must be a finite number; got {threshold!r}")
+    normalised = {"dataset": spec.to_dict(), "nodes": [start, stop], "assemble": assemble,
+                  "subspace": None if assemble else key, "threshold": float(threshold)}
+    template = None
+    if spec.fixed != "random":
+        zero = np.zeros((1, 6))
+        template = _data.features_for(DHRobot(zero, zero, zero), spec)[0]
+        template.setflags(write=False)
+    return normalised, _MapPlan(spec, slice(start, stop), assemble, None if assemble else key, float(threshold),
+                                template)
+
+
+def _check_map_arms(arms, spec) -> DHRobot:
+    """``arms`` as a 1-D batch ``(B,)`` of 6-joint arms with finite DH values, no limits, no tool."""
+    if not isinstance(arms, DHRobot):
+        raise TypeError(f"arms must be a wsmap.kinematics.DHRobot (one arm or a batch); got {type(arms).__name__}")
+    if arms.n != 6:
+        raise ValueError(f"the model maps 6-joint arms (the feature layout of dataset {spec.name!r}); "
+                         f"got arms with {arms.n} joints")
+    # DHRobot refuses non-finite values when built, but its arrays are plain attributes.
+    for label in ("d", "a", "alpha"):
+        values = np.asarray(getattr(arms, label))
+        if not np.all(np.isfinite(values)):
+            bad = np.flatnonzero(~np.isfinite(values.reshape(-1, arms.n)).all(axis=1))
+            raise ValueError(f"DH column {label} contains NaN or infinite values (arms {bad[:5].tolist()})")
+    if arms.qlim is not None:
+        raise ValueError("the model was trained on arms without joint limits and cannot honour qlim; "
+                         "drop the limits or use the classical map (method exact/numerical)")
+    if arms.tool is not None:
+        raise ValueError("arms with a tool transform have no place in the model's feature layout")
+    if arms.d.ndim == 2:
+        return arms
+    n = arms.n
+    return DHRobot(arms.d.reshape(-1, n), arms.a.reshape(-1, n), arms.alpha.reshape(-1, n))
+
+
 class SubspaceMLP(nn.Module):
     """S tanh MLPs with identical architecture, stacked: ``weights[j]`` is ``(S, in_j, out_j)``,
     ``biases[j]`` ``(S, out_j)``; buffers ``input_mean``/``input_std`` ``(S, n_network_inputs)``.
@@ -427,6 +578,8 @@ class SubspaceMLP(nn.Module):
         # Derived from the config, so not part of the saved state; a buffer only to follow .to().
         self.register_buffer("_columns", None if cols is None else torch.tensor(cols, dtype=torch.long),
                              persistent=False)
+        self._map_spec: dict[str, Any] | None = None
+        self._map_plan: _MapPlan | None = None
         if _init:
             self.reset_parameters(input_range=input_range, seeds=seeds)
 
@@ -722,6 +875,106 @@ class SubspaceMLP(nn.Module):
         """
         return self.score(x, key, assemble=assemble, batch_size=batch_size) > threshold
 
+    # ---------------------------------------------------------------- maps of arms
+
+    @property
+    def map_spec(self) -> dict[str, Any] | None:
+        """What the outputs map (module docstring), a plain dict (a copy), or ``None``.
+
+        Assigning a dict validates it against the model (``ValueError`` if it does not fit) and
+        stores its normalised form (``nodes`` filled in, ``threshold`` a float); ``None`` clears it.
+        """
+        return None if self._map_spec is None else {**self._map_spec, "dataset": dict(self._map_spec["dataset"]),
+                                                    "nodes": list(self._map_spec["nodes"])}
+
+    @map_spec.setter
+    def map_spec(self, value) -> None:
+        if value is None:
+            self._map_spec, self._map_plan = None, None
+        else:
+            self._map_spec, self._map_plan = _map_plan(self.config, value)
+
+    def set_map_spec(self, dataset, *, nodes=None, assemble: bool = False, subspace: int | None = None,
+                     threshold: float = 0.5) -> SubspaceMLP:
+        """Say what the model maps (arguments as :func:`make_map_spec`); returns ``self``.
+
+        Examples: a model trained on all nodes of ``spec``: ``set_map_spec(spec)``; one block
+        model trained on columns ``[5292, 6615)`` of the 21³ ``sec62`` labels:
+        ``set_map_spec(sec62, nodes=(5292, 6615))``; the 7 stacked block models:
+        ``set_map_spec(sec62, assemble=True)``.
+        """
+        self.map_spec = make_map_spec(dataset, nodes=nodes, assemble=assemble, subspace=subspace,
+                                      threshold=threshold)
+        return self
+
+    def _require_plan(self) -> _MapPlan:
+        if self._map_plan is None:
+            raise ValueError("the model has no map_spec (what grid and nodes its outputs are): call "
+                             "model.set_map_spec(dataset_spec, ...) before predicting maps")
+        return self._map_plan
+
+    def map_nodes(self) -> np.ndarray:
+        """The nodes the maps cover ``(N, 3)`` in output order: positions in metres (R3 specs) or
+        angles in radians (SO3 specs); ``N = stop - start`` of ``map_spec["nodes"]``."""
+        plan = self._require_plan()
+        return _data.grid_nodes(plan.spec)[plan.nodes]
+
+    def map_features(self, arms, fixed=None) -> np.ndarray:
+        """Features ``(B, n_inputs)`` float64 of ``arms`` (a :class:`~wsmap.kinematics.DHRobot`, one
+        arm or a batch of any shape, flattened to ``B`` arms) for the map's dataset spec, with the
+        checks of :meth:`predict_maps`."""
+        plan = self._require_plan()
+        spec = plan.spec
+        flat = _check_map_arms(arms, spec)
+        if fixed is not None and spec.fixed != "random":
+            f = np.asarray(fixed, dtype=np.float64)
+            if f.shape not in ((3,), (flat.batch_shape[0], 3)):
+                raise ValueError(f"fixed must have shape (3,) or ({flat.batch_shape[0]}, 3), got {f.shape}")
+            if not np.allclose(f, spec.fixed, rtol=0, atol=1e-9):
+                what = "orientation (rad)" if spec.scope == "R3" else "point (m)"
+                raise ValueError(f"the model was trained at the fixed {what} {list(spec.fixed)} only "
+                                 f"(dataset {spec.name!r}); got {np.round(f, 6).tolist()}")
+        if fixed is None and plan.template is not None:
+            # features_for's layout, from the cached row: [d(6), a(6), alpha(6), grid axes, fixed(3)]
+            X = np.empty((flat.batch_shape[0], plan.template.size))
+            X[:] = plan.template
+            X[:, 0:6], X[:, 6:12], X[:, 12:18] = flat.d, flat.a, flat.alpha
+        else:
+            X = _data.features_for(flat, spec, fixed)
+        check_features(self, X)
+        return X
+
+    def predict_maps(self, arms, fixed=None, threshold: float | None = None,
+                     batch_size: int | None = None) -> np.ndarray:
+        """Binary workspace maps of ``arms`` predicted by the network, in node order.
+
+        Args:
+            arms: a :class:`~wsmap.kinematics.DHRobot` with 6 joints: one arm (batch ``()``) or a
+                batch of any shape ``(...)``; finite DH values, no joint limits, no tool.
+            fixed: the orientation (R3 specs; angles in rad) or point (SO3 specs; m), ``(3,)`` or
+                ``(B, 3)``. ``None``: the spec's. Required for a spec with ``fixed="random"``;
+                for a fixed spec it must equal the spec's (the model has seen no other).
+            threshold: score threshold; ``None``: ``map_spec["threshold"]``.
+            batch_size: arms per forward pass (memory); ``None``: all at once.
+
+        Returns:
+            bool ``(..., N)`` with ``N`` the covered nodes (:meth:`map_nodes`): for a model covering
+            its whole R3 grid the array ``wsmap.workspace.constant_orientation_map(arms,
+            grid_nodes, fixed, convention=...)`` would be (``orientation_map`` for SO3), a
+            single arm giving ``(N,)``. Equal to ``predict(features, threshold, key=subspace,
+            assemble=...)`` on :meth:`map_features`.
+
+        Raises:
+            ValueError: no ``map_spec``; arms with other than 6 joints, non-finite DH values,
+                joint limits or a tool; a ``fixed`` the model was not trained at.
+            TypeError: ``arms`` is not a ``DHRobot``.
+        """
+        plan = self._require_plan()
+        X = self.map_features(arms, fixed)
+        t = plan.threshold if threshold is None else float(threshold)
+        out = self.predict(X, t, key=plan.key, assemble=plan.assemble, batch_size=batch_size)
+        return out.cpu().numpy().reshape(tuple(arms.batch_shape) + (out.shape[-1],))
+
     # ---------------------------------------------------------------- stacking
 
     @classmethod
@@ -814,8 +1067,9 @@ def save(model: SubspaceMLP, path, *, dataset_spec: dict | None = None, train_co
 
     The file is ``torch.save`` of ``{"format": FORMAT, "version": FORMAT_VERSION, "wsmap_version",
     "config": config.to_dict(), "state_dict": {name: CPU tensor}, "dataset_spec", "train_config",
-    "extra"}``. ``dataset_spec``/``train_config``/``extra`` may be dicts, dataclasses or objects
-    with ``to_dict()`` (e.g. ``DatasetSpec``, ``TrainConfig``); they are stored as plain values.
+    "extra", "map_spec"}`` (``map_spec``: the model's, ``None`` when it has none).
+    ``dataset_spec``/``train_config``/``extra`` may be dicts, dataclasses or objects with
+    ``to_dict()`` (e.g. ``DatasetSpec``, ``TrainConfig``); they are stored as plain values.
     """
     if not isinstance(model, SubspaceMLP):
         raise TypeError(f"save needs a SubspaceMLP; got {type(model).__name__}")
@@ -828,6 +1082,7 @@ def save(model: SubspaceMLP, path, *, dataset_spec: dict | None = None, train_co
         "dataset_spec": _plain(dataset_spec, "dataset_spec"),
         "train_config": _plain(train_config, "train_config"),
         "extra": _plain(extra, "extra"),
+        "map_spec": _plain(model.map_spec, "map_spec"),
     }
     path = Path(path)
     with atomic_path(path) as tmp:
@@ -839,7 +1094,8 @@ def load(path, *, map_location: str | torch.device = "cpu") -> tuple[SubspaceMLP
     """Read a file written by :func:`save` -> ``(model, meta)``.
 
     ``meta``: ``path`` (str), ``format``, ``version``, ``wsmap_version``, ``dataset_spec``,
-    ``train_config``, ``extra`` (as saved; ``None`` where not given). The model is in eval mode.
+    ``train_config``, ``extra``, ``map_spec`` (as saved; ``None`` where not given). The model is in
+    eval mode and has its ``map_spec`` back (``None`` for files without one).
 
     Raises:
         ValueError: ``"cannot load model <path>: <problem>"`` for a missing file, a file that
@@ -888,6 +1144,11 @@ def load(path, *, map_location: str | torch.device = "cpu") -> tuple[SubspaceMLP
             problems.append(f"{k} has shape {tuple(v.shape)}, config needs {tuple(expected[k].shape)}")
     if problems:
         fail("state does not match config: " + "; ".join(problems))
+    if payload.get("map_spec") is not None:
+        try:
+            model.map_spec = payload["map_spec"]
+        except (TypeError, ValueError) as e:
+            fail(f"invalid map_spec: {e}", e)
     dtypes = {v.dtype for v in state.values()}
     if len(dtypes) == 1:
         model.to(dtype=dtypes.pop())  # keep what was saved (float32 for the networks)
@@ -896,5 +1157,65 @@ def load(path, *, map_location: str | torch.device = "cpu") -> tuple[SubspaceMLP
     model.eval()
     meta = {"path": str(path), "format": payload["format"], "version": version,
             "wsmap_version": payload.get("wsmap_version"), "dataset_spec": payload.get("dataset_spec"),
-            "train_config": payload.get("train_config"), "extra": payload.get("extra")}
+            "train_config": payload.get("train_config"), "extra": payload.get("extra"),
+            "map_spec": model.map_spec}
     return model, meta
+
+
+def _grid_mismatch(spec, grid: dict) -> list[str]:
+    """How a command's grid (``scope``, ``lo``, ``hi``, ``step`` as in :func:`wsmap.cli.compute_map`)
+    differs from the dataset spec's; empty when they agree (1e-9 tolerance)."""
+    problems = []
+    if grid.get("scope", spec.scope) != spec.scope:
+        problems.append(f"scope {grid['scope']} (model: {spec.scope})")
+    for k in ("lo", "hi", "step"):
+        if k in grid and grid[k] is not None:
+            want = np.broadcast_to(np.asarray(getattr(spec, k), dtype=np.float64), 3)
+            got = np.broadcast_to(np.asarray(grid[k], dtype=np.float64), 3)
+            if not np.allclose(got, want, rtol=0, atol=1e-9):
+                problems.append(f"{k} {np.round(got, 6).tolist()} (model: {np.round(want, 6).tolist()})")
+    return problems
+
+
+def predict_maps_from_file(path, arms, fixed=None, *, threshold: float | None = None,
+                           batch_size: int | None = None, grid: dict | None = None,
+                           convention: str | None = None, whole_grid: bool = False,
+                           map_location: str | torch.device = "cpu") -> np.ndarray:
+    """:meth:`SubspaceMLP.predict_maps` of the model saved at ``path`` (:func:`load`).
+
+    Args:
+        path: a model file written by :func:`save` from a model with a ``map_spec``.
+        arms, fixed, threshold, batch_size: as :meth:`SubspaceMLP.predict_maps`.
+        grid: optional dict with ``scope`` (``"R3"``/``"SO3"``), ``lo``, ``hi``, ``step`` (scalars
+            or 3 values; metres or radians) that the caller expects the map on; it must be the
+            model's grid, else ``ValueError`` names every difference.
+        convention: optional pose convention (``"paper"``/``"standard"``) the caller expects; must
+            be the model's.
+        whole_grid: require the model to cover every node of its grid (a flat map of the whole
+            grid, as ``wsmap map`` writes), not a node slice of it.
+
+    Returns:
+        bool ``(..., N)`` maps in node order (see :meth:`SubspaceMLP.predict_maps`).
+
+    Raises:
+        ValueError: unreadable file (from :func:`load`), a model without ``map_spec``, a grid,
+            convention or coverage that does not match, bad arms.
+    """
+    model, meta = load(path, map_location=map_location)
+    if model.map_spec is None:
+        raise ValueError(f"model {path} has no map_spec (what grid and nodes it maps): set one with "
+                         "model.set_map_spec(dataset_spec, ...) before saving it")
+    plan = model._map_plan
+    spec = plan.spec
+    problems = _grid_mismatch(spec, grid) if grid is not None else []
+    if convention is not None and convention != spec.convention:
+        problems.append(f"convention {convention} (model: {spec.convention})")
+    if problems:
+        nx, ny, nz = spec.grid_shape
+        raise ValueError(f"model {path} maps a different grid: {'; '.join(problems)}. The model was trained "
+                         f"on dataset {spec.name!r}, {spec.scope} grid of {nx}x{ny}x{nz} nodes")
+    if whole_grid and (plan.nodes.start, plan.nodes.stop) != (0, spec.grid_nodes):
+        raise ValueError(f"model {path} covers nodes [{plan.nodes.start}, {plan.nodes.stop}) of its grid's "
+                         f"{spec.grid_nodes} only; a whole-grid map needs a model of every node (e.g. the 7 "
+                         "block models assembled)")
+    return model.predict_maps(arms, fixed, threshold=threshold, batch_size=batch_size)

@@ -39,9 +39,35 @@ def run_notebook(name: str, params_file=None, root=None, timeout: int = 3600, ex
     return dest
 
 
+#: The notebooks in dependency order (as dvc.yaml runs them): report reads every other's metrics.
+ORDER = ["classical_workspace", "sec61_subspace", "sec62_puma560", "table1_workspaces", "table2_optimisers",
+         "table3_embeddings", "runtime_comparison", "improved_model", "report"]
+
+
+def run_all(params_file=None, root=None, timeout: int = 3600) -> list[Path]:
+    """Without DVC: build every dataset of the params file's ``datasets`` section that ``root``
+    lacks, then execute every notebook in :data:`ORDER`. For runs outside the committed
+    configuration (the paper's full scale: ``params.full.yaml``) into their own root, so that the
+    committed results stay what ``params.yaml`` produces."""
+    from . import data as D
+
+    params_file = Path(params_file) if params_file else paths.PARAMS
+    out = paths.Outputs(root).make()
+    for name, item in paths.load_params("datasets", params_file).items():
+        if all(p.exists() for p in D.dataset_paths(name, out.data)):
+            continue
+        t0 = time.perf_counter()
+        D.build_pair(name, out.data, item["samples"], item["test_samples"], progress=False)
+        print(f"dataset {name}: built in {time.perf_counter() - t0:.1f} s", flush=True)
+    known = [n for n in ORDER if (paths.NOTEBOOKS / f"{n}.ipynb").exists()]
+    return [run_notebook(n, params_file, out.root, timeout) for n in known]
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m wsmap.pipeline", description=__doc__.splitlines()[0])
-    p.add_argument("notebooks", nargs="+", help="notebook names (without .ipynb)")
+    p.add_argument("notebooks", nargs="*", help="notebook names (without .ipynb)")
+    p.add_argument("--all", action="store_true",
+                   help="build the datasets the root lacks, then run every notebook in order (no DVC)")
     p.add_argument("--params", help="parameters file (default params.yaml)")
     p.add_argument("--root", help="output root (default: the project root)")
     p.add_argument("--timeout", type=int, default=3600, help="per-cell execution timeout in seconds")
@@ -49,6 +75,13 @@ def main(argv=None) -> int:
     # one process, two cores: keep torch and BLAS from oversubscribing inside the kernel
     os.environ.setdefault("OMP_NUM_THREADS", "2")
     os.environ.setdefault("MPLBACKEND", "Agg")
+    if args.all:
+        if args.notebooks:
+            p.error("give notebook names or --all, not both")
+        run_all(args.params, args.root, args.timeout)
+        return 0
+    if not args.notebooks:
+        p.error("name at least one notebook, or --all")
     for name in args.notebooks:
         run_notebook(name, args.params, args.root, args.timeout)
     return 0

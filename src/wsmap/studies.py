@@ -1,0 +1,476 @@
+"""The grids of experiments behind the paper's Tables 1-3, as pandas DataFrames.
+
+Each table is a grid of :func:`wsmap.experiments.fit` runs scored by precision, recall and
+F-measure on independent test sets. The functions here run a grid and return tidy frames
+(one row per training session and test set) that :func:`summarize` condenses into the table
+(mean and standard deviation over sessions), with the paper's published numbers beside:
+
+* :func:`table1` -- one model per workspace (``table1_*`` datasets: R3 grids at delta 1, 0.5, 0.1
+  and SO3 grids at pi/3, pi/8, pi/10), the paper's [125, 100, 100, 125] network, Rprop + MSE;
+* :func:`table2` -- optimiser x loss on the section 6.1 subspace (dataset ``table2``, block 5);
+* :func:`table3` -- three embeddings (``subspace``, ``workspace``, ``no subspace``), every model
+  tested on every test set.
+
+The paper's tables are :data:`PAPER_TABLE1`, :data:`PAPER_TABLE2`, :data:`PAPER_TABLE3`
+(transcribed from the paper's LaTeX source).
+
+Scores
+------
+``precision``, ``recall``, ``f`` are pooled over every test sample and node (micro: the paper's
+F-measure, NOTES "Networks and training"); ``*_sample_mean`` / ``*_sample_std`` are the mean and
+standard deviation of the per-sample values over the samples where they are defined (a sample
+with no reachable node in truth and prediction has no precision, recall or F), which is the
+spread the paper's "+- sigma_f" columns of Tables 1 and 3 most likely show (a single model cannot
+have a spread over sessions). Undefined pooled values are NaN (the paper printed NaN).
+
+Cross entropy
+-------------
+``loss="crossentropy"`` trains the network's linear output as a *logit* (binary cross entropy on
+``sigmoid(z)``, :func:`wsmap.training.make_loss`), and the model is built with
+``output_kind="logit"`` so that it predicts a node where ``sigmoid(z) > 0.5``
+(:func:`mlp_options`). MATLAB's ``crossentropy`` on the paper's linear (``purelin``) output layer
+takes logarithms of raw outputs that may be negative or above 1; it is not reproduced.
+
+Reduced runs
+------------
+``train_samples`` keeps the first ``n`` arms of a training set (:meth:`wsmap.data.Dataset.head`:
+exactly the arms a smaller build would have drawn); the 70/15/15 split is drawn inside them.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from . import data as D
+from . import experiments as E
+from . import metrics as M
+from .data import Dataset
+from .training import TrainConfig, optimizer_name
+
+__all__ = [
+    "PAPER_HIDDEN",
+    "TABLE3_HIDDEN",
+    "TABLE1_DATASETS",
+    "TABLE2_OPTIMIZERS",
+    "TABLE2_LOSSES",
+    "TABLE3_EMBEDDINGS",
+    "OPTIMIZER_LABELS",
+    "LOSS_LABELS",
+    "PAPER_TABLE1",
+    "PAPER_TABLE2",
+    "PAPER_TABLE3",
+    "METRIC_COLUMNS",
+    "mlp_options",
+    "scores",
+    "fit_and_score",
+    "summarize",
+    "table1",
+    "table2",
+    "table2_summary",
+    "table3",
+    "table3_summary",
+    "per_dataset",
+    "plus_minus",
+    "markdown",
+    "write_table",
+    "nan_to_none",
+]
+
+#: The paper's network for section 6.1, Table 1 and Table 2.
+PAPER_HIDDEN = (125, 100, 100, 125)
+#: Table 3: "a three-layer fully connected feedforward network of 80 neurons at each layer".
+TABLE3_HIDDEN = (80, 80, 80)
+
+TABLE1_DATASETS = ("table1_r3_step1", "table1_r3_step05", "table1_r3_block5", "table1_r3_crop3087",
+                   "table1_r3_full", "table1_so3_pi3", "table1_so3_pi8", "table1_so3_pi10")
+#: Table 2's optimisers in the paper's row order, by their :mod:`wsmap.optim` names.
+TABLE2_OPTIMIZERS = ("cgb", "gdx", "oss", "rprop", "scg")
+TABLE2_LOSSES = ("crossentropy", "mse", "mae")
+#: Table 3's embeddings: name -> dataset.
+TABLE3_EMBEDDINGS = {"subspace": "table3_subspace", "workspace": "table3_workspace",
+                     "nosubspace": "table3_nosubspace"}
+
+OPTIMIZER_LABELS = {"cgb": "Conj. Gradient w. P/B Restarts", "gdx": "Variable Learning Rate G.D.",
+                    "oss": "One Step Secant", "rprop": "Resilient Backpropagation",
+                    "scg": "Scaled Conj. Gradient"}
+LOSS_LABELS = {"crossentropy": "Cross entropy", "mse": "MSE", "mae": "MAE"}
+
+_NAN = math.nan
+
+#: Table 1 of the paper: dataset -> workspace, delta, output size, F-measure +- sigma_f, batch size.
+#: The "3086" row is the crop of 3087 nodes (NOTES "Datasets").
+PAPER_TABLE1: dict[str, dict[str, Any]] = {
+    "table1_r3_step1": dict(workspace="R3", delta="1", paper_nodes=27, paper_f=1.000, paper_f_std=0.00, paper_samples=60_000),
+    "table1_r3_step05": dict(workspace="R3", delta="0.5", paper_nodes=125, paper_f=0.9967, paper_f_std=0.03, paper_samples=60_000),
+    "table1_r3_block5": dict(workspace="R3", delta="0.1", paper_nodes=1323, paper_f=0.9221, paper_f_std=0.14, paper_samples=60_000),
+    "table1_r3_crop3087": dict(workspace="R3", delta="0.1", paper_nodes=3086, paper_f=0.8493, paper_f_std=0.19, paper_samples=30_000),
+    "table1_r3_full": dict(workspace="R3", delta="0.1", paper_nodes=9261, paper_f=0.9038, paper_f_std=0.15, paper_samples=15_000),
+    "table1_so3_pi3": dict(workspace="SO3", delta="pi/3", paper_nodes=343, paper_f=0.9981, paper_f_std=0.01, paper_samples=60_000),
+    "table1_so3_pi8": dict(workspace="SO3", delta="pi/8", paper_nodes=4913, paper_f=0.9779, paper_f_std=0.13, paper_samples=15_000),
+    "table1_so3_pi10": dict(workspace="SO3", delta="pi/10", paper_nodes=9261, paper_f=0.9920, paper_f_std=0.03, paper_samples=15_000),
+}
+
+#: Table 2 of the paper: (optimizer, loss) -> (F mean, sigma); 6e4 samples, [125, 100, 100, 125].
+PAPER_TABLE2: dict[tuple[str, str], tuple[float, float]] = {
+    ("cgb", "crossentropy"): (0.3661, 0.2031),
+    ("gdx", "crossentropy"): (0.3547, 0.2323),
+    ("oss", "crossentropy"): (0.3574, 0.2337),
+    ("rprop", "crossentropy"): (0.3573, 0.2337),
+    ("scg", "crossentropy"): (0.3186, 0.1802),
+    ("cgb", "mse"): (0.6686, 0.3068),
+    ("gdx", "mse"): (0.2398, 0.1081),
+    ("oss", "mse"): (0.6228, 0.2624),
+    ("rprop", "mse"): (0.9298, 0.1258),
+    ("scg", "mse"): (0.5938, 0.3131),
+    ("cgb", "mae"): (0.3658, 0.1629),
+    ("gdx", "mae"): (0.2256, 0.1011),
+    ("oss", "mae"): (0.2778, 0.1178),
+    ("rprop", "mae"): (0.6573, 0.2388),
+    ("scg", "mae"): (0.3543, 0.1366),
+}
+
+#: Table 3 of the paper: (model's embedding, test set) -> precision, recall, F (each +- sigma);
+#: NaN where the paper printed NaN (every model on the no-subspace test set).
+PAPER_TABLE3: dict[tuple[str, str], dict[str, float]] = {
+    ("nosubspace", "nosubspace"): dict(precision=_NAN, precision_std=_NAN, recall=_NAN, recall_std=_NAN, f=_NAN, f_std=_NAN),
+    ("nosubspace", "workspace"): dict(precision=0.22, precision_std=0.18, recall=0.35, recall_std=0.13, f=0.24, f_std=0.14),
+    ("nosubspace", "subspace"): dict(precision=0.01, precision_std=0.23, recall=0.00, recall_std=0.00, f=0.01, f_std=0.01),
+    ("workspace", "workspace"): dict(precision=0.01, precision_std=0.23, recall=0.00, recall_std=0.00, f=0.01, f_std=0.01),
+    ("workspace", "subspace"): dict(precision=0.85, precision_std=0.17, recall=0.58, recall_std=0.42, f=0.81, f_std=0.21),
+    ("workspace", "nosubspace"): dict(precision=_NAN, precision_std=_NAN, recall=_NAN, recall_std=_NAN, f=_NAN, f_std=_NAN),
+    ("subspace", "subspace"): dict(precision=0.93, precision_std=0.13, recall=0.76, recall_std=0.37, f=0.91, f_std=0.17),
+    ("subspace", "workspace"): dict(precision=0.81, precision_std=0.17, recall=0.72, recall_std=0.35, f=0.82, f_std=0.18),
+    ("subspace", "nosubspace"): dict(precision=_NAN, precision_std=_NAN, recall=_NAN, recall_std=_NAN, f=_NAN, f_std=_NAN),
+}
+
+#: Per-session score columns of the run frames (:func:`scores`), averaged by :func:`summarize`.
+METRIC_COLUMNS = ("precision", "recall", "f", "precision_sample_mean", "precision_sample_std",
+                  "recall_sample_mean", "recall_sample_std", "f_sample_mean", "f_sample_std")
+
+Log = Callable[[str], Any] | None
+
+
+def mlp_options(loss: str) -> dict[str, Any]:
+    """Architecture options a loss needs: ``output_kind="logit"`` for cross entropy (see the
+    module docstring), nothing for MSE/MAE (linear output, the paper's)."""
+    return {"output_kind": "logit"} if str(loss).strip().lower() == "crossentropy" else {}
+
+
+def scores(model, test: Dataset, threshold: float = 0.5) -> dict[str, Any]:
+    """Pooled and per-sample precision, recall, F of ``model`` on ``test`` (all its nodes),
+    plus the counts: ``tp``, ``fp``, ``fn``, ``positives`` (true), ``predicted`` (positive) and
+    ``positive_rate`` (fraction of reachable nodes in the test set)."""
+    ev = E.evaluate(model, test, threshold=threshold)
+    pred = ev["scores"] > threshold
+    per = M.precision_recall_f(pred, ev["truth"], "samples")
+    c = M.confusion(pred, ev["truth"])
+    return dict(
+        precision=ev["precision"], recall=ev["recall"], f=ev["f"],
+        precision_sample_mean=per.precision, precision_sample_std=per.precision_std,
+        recall_sample_mean=per.recall, recall_sample_std=per.recall_std,
+        f_sample_mean=per.f, f_sample_std=per.f_std, f_undefined=per.undefined_f,
+        tp=int(c.tp), fp=int(c.fp), fn=int(c.fn), positives=int(c.tp + c.fn), predicted=int(c.tp + c.fp),
+        positive_rate=float((c.tp + c.fn) / max(1, pred.size)), test_samples=int(len(test)),
+    )
+
+
+def fit_and_score(train: Dataset, tests: Mapping[str, Dataset], config: TrainConfig, *, sessions: int = 1,
+                  hidden: Sequence[int] = PAPER_HIDDEN, train_samples: int | None = None,
+                  threshold: float = 0.5, **mlp) -> pd.DataFrame:
+    """Train ``sessions`` models on the first ``train_samples`` arms of ``train`` and score each on
+    every test set; cross entropy gets a logit output (:func:`mlp_options`) unless ``mlp`` says.
+
+    Returns one row per (session, test set): ``session``, ``test``, ``train_samples`` (arms used),
+    ``nodes``, ``epochs`` (optimiser steps taken), ``best_epoch``, ``stop_reason``, ``seconds``
+    (training wall time of the session), ``final_loss`` / ``best_val_loss``, and :func:`scores`.
+    """
+    ds = train.head(train_samples)
+    mlp = {**mlp_options(config.loss), **mlp}
+    results = E.fit(ds, config, sessions=sessions, hidden=hidden, **mlp)
+    rows = []
+    for s, r in enumerate(results):
+        model = E.stack_sessions([r]) if r.session is not None else r.model
+        best = r.history.loss[r.best_epoch]
+        base = dict(session=s, seed=r.config.seed, train_samples=len(ds), nodes=int(ds.n_nodes),
+                    epochs=int(r.stop_epoch), best_epoch=int(r.best_epoch), stop_reason=r.stop_reason,
+                    seconds=float(r.history.time[-1]), best_train_loss=float(best),
+                    best_val_loss=float(r.best_val_loss))
+        for name, test in tests.items():
+            rows.append({**base, "test": name, **scores(model, test, threshold)})
+    return pd.DataFrame(rows)
+
+
+def summarize(runs: pd.DataFrame, by: Sequence[str]) -> pd.DataFrame:
+    """Mean over sessions of every score and of epochs/seconds per group of ``by``, plus the
+    standard deviation over sessions of the pooled scores (``*_session_std``; NaN for one
+    session) and the number of sessions. Groups keep their first-seen order."""
+    by = list(by)
+    agg: dict[str, Any] = {c: "mean" for c in (*METRIC_COLUMNS, "epochs", "seconds", "train_samples", "nodes")
+                           if c in runs}
+    g = runs.groupby(by, sort=False, dropna=False)
+    out = g.agg(agg)
+    for c in ("precision", "recall", "f"):
+        out[f"{c}_session_std"] = g[c].std(ddof=1)
+    out["sessions"] = g["session"].nunique()
+    return out.reset_index()
+
+
+def _log(log: Log, msg: str) -> None:
+    if log is not None:
+        log(msg)
+
+
+def per_dataset(value, name: str, default=None):
+    """``value[name]`` when ``value`` is a mapping (falling back to ``value.get("default",
+    default)``), else ``value`` itself: lets a parameter be one number or one per dataset."""
+    if isinstance(value, Mapping):
+        return value.get(name, value.get("default", default))
+    return default if value is None else value
+
+
+# --------------------------------------------------------------------------------------------
+# Table 1
+# --------------------------------------------------------------------------------------------
+
+
+def table1(data_dir, names: Sequence[str] = TABLE1_DATASETS, *, config: TrainConfig | None = None,
+           train_samples=None, max_epochs=None, sessions: int = 1, hidden: Sequence[int] = PAPER_HIDDEN,
+           log: Log = print) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Table 1: one model per workspace dataset in ``data_dir`` (:func:`wsmap.data.load_pair`).
+
+    ``train_samples`` and ``max_epochs`` are one value or a mapping dataset -> value (key
+    ``"default"`` for the rest); ``max_epochs`` overrides ``config.max_epochs``.
+
+    Returns ``(table, runs)``: ``runs`` from :func:`fit_and_score` (column ``dataset``); ``table``
+    one row per dataset: workspace, delta, nodes, train samples, epochs, seconds, pooled precision,
+    recall, F (means over sessions), per-sample F mean and std, the paper's F +- sigma_f and batch
+    size, and ``difference`` = F - paper F.
+    """
+    config = TrainConfig() if config is None else config
+    frames = []
+    for name in names:
+        train, test = D.load_pair(name, data_dir)
+        cfg = config.replace(max_epochs=int(per_dataset(max_epochs, name, config.max_epochs)))
+        n = per_dataset(train_samples, name)
+        t0 = time.perf_counter()
+        runs = fit_and_score(train, {name: test}, cfg, sessions=sessions, hidden=hidden, train_samples=n)
+        runs.insert(0, "dataset", name)
+        frames.append(runs)
+        _log(log, f"{name}: {train.n_nodes} nodes, {int(runs.train_samples.iloc[0])} arms, "
+                  f"{cfg.max_epochs} epochs max, F = {runs.f.mean():.4f} ({time.perf_counter() - t0:.1f} s)")
+    runs = pd.concat(frames, ignore_index=True)
+    summary = summarize(runs, ["dataset"])
+    paper = pd.DataFrame([{"dataset": n, **PAPER_TABLE1[n]} for n in summary.dataset])
+    table = paper[["dataset", "workspace", "delta"]].assign(nodes=summary.nodes.astype(int).to_numpy())
+    table = table.assign(
+        train_samples=summary.train_samples.astype(int).to_numpy(), epochs=summary.epochs.to_numpy(),
+        seconds=summary.seconds.to_numpy(), precision=summary.precision.to_numpy(),
+        recall=summary.recall.to_numpy(), f=summary.f.to_numpy(),
+        f_sample_mean=summary.f_sample_mean.to_numpy(), f_sample_std=summary.f_sample_std.to_numpy(),
+        paper_nodes=paper.paper_nodes.to_numpy(), paper_samples=paper.paper_samples.to_numpy(),
+        paper_f=paper.paper_f.to_numpy(), paper_f_std=paper.paper_f_std.to_numpy(),
+    )
+    if sessions > 1:
+        table.insert(table.columns.get_loc("f") + 1, "f_session_std", summary.f_session_std.to_numpy())
+    table["difference"] = table.f - table.paper_f
+    return table, runs
+
+
+# --------------------------------------------------------------------------------------------
+# Table 2
+# --------------------------------------------------------------------------------------------
+
+
+def table2(train: Dataset, test: Dataset, *, config: TrainConfig | None = None,
+           optimizers: Sequence[str] = TABLE2_OPTIMIZERS, losses: Sequence[str] = TABLE2_LOSSES,
+           sessions: int = 2, hidden: Sequence[int] = PAPER_HIDDEN, train_samples: int | None = None,
+           log: Log = print) -> pd.DataFrame:
+    """Table 2's grid: every optimiser with every loss, ``sessions`` sessions each (seeds
+    ``config.seed + s``, so every cell starts from the same initial weights and split -- except
+    that cross entropy's logit output reads them differently). Returns the run frame (columns
+    ``optimizer``, ``loss`` first); :func:`table2_summary` makes the table."""
+    config = TrainConfig() if config is None else config
+    frames = []
+    for loss in losses:
+        for opt in optimizers:
+            cfg = config.replace(optimizer=optimizer_name(opt), loss=loss)
+            runs = fit_and_score(train, {"table2": test}, cfg, sessions=sessions, hidden=hidden,
+                                 train_samples=train_samples)
+            runs.insert(0, "loss", loss)
+            runs.insert(0, "optimizer", cfg.optimizer)
+            frames.append(runs)
+            _log(log, f"{cfg.optimizer} + {loss}: F = {runs.f.mean():.4f} +- {runs.f.std(ddof=1):.4f} over "
+                      f"{sessions} sessions, {runs.epochs.mean():.0f} epochs, {runs.seconds.sum():.1f} s")
+    return pd.concat(frames, ignore_index=True)
+
+
+def table2_summary(runs: pd.DataFrame) -> pd.DataFrame:
+    """One row per (optimizer, loss) in the paper's order (by loss, then optimiser): F mean and
+    standard deviation over sessions (``f_mean``, ``f_std``), the per-sample F mean and std
+    (averaged over sessions), precision, recall, epochs, seconds per session, the paper's F +-
+    sigma and ``difference`` = f_mean - paper."""
+    s = summarize(runs, ["optimizer", "loss"])
+    rows = []
+    for _, r in s.iterrows():
+        pf, ps = PAPER_TABLE2.get((r.optimizer, r.loss), (_NAN, _NAN))
+        rows.append(dict(
+            optimizer=r.optimizer, method=OPTIMIZER_LABELS.get(r.optimizer, r.optimizer),
+            loss=LOSS_LABELS.get(r.loss, r.loss), sessions=int(r.sessions), train_samples=int(r.train_samples),
+            epochs=r.epochs, seconds=r.seconds, precision=r.precision, recall=r.recall,
+            f_mean=r.f, f_std=r.f_session_std, f_sample_mean=r.f_sample_mean, f_sample_std=r.f_sample_std,
+            paper_f=pf, paper_f_std=ps, difference=r.f - pf, loss_key=r.loss,
+        ))
+    return pd.DataFrame(rows)
+
+
+# --------------------------------------------------------------------------------------------
+# Table 3
+# --------------------------------------------------------------------------------------------
+
+
+def table3(pairs: Mapping[str, tuple[Dataset, Dataset]], *, config: TrainConfig | None = None,
+           sessions: int = 1, hidden: Sequence[int] = TABLE3_HIDDEN, train_samples=None,
+           log: Log = print) -> pd.DataFrame:
+    """Table 3's grid: one model per embedding (``pairs``: embedding -> (train, test)), each
+    tested on every embedding's test set. The datasets must share their feature layout and nodes
+    (the ``table3_*`` specs do: 84 inputs, block 5's 1323 nodes). ``train_samples``: one value or
+    a mapping embedding -> value. Returns the run frame with columns ``embedding`` (the model)
+    and ``test`` (the test set)."""
+    config = TrainConfig() if config is None else config
+    shapes = {name: (tr.features.shape[1], tr.n_nodes, te.features.shape[1], te.n_nodes)
+              for name, (tr, te) in pairs.items()}
+    if len(set(shapes.values())) != 1:
+        raise ValueError(f"Table 3's datasets must share features and nodes; got {shapes}")
+    tests = {name: te for name, (_, te) in pairs.items()}
+    frames = []
+    for name, (train, _) in pairs.items():
+        runs = fit_and_score(train, tests, config, sessions=sessions, hidden=hidden,
+                             train_samples=per_dataset(train_samples, name))
+        runs.insert(0, "embedding", name)
+        frames.append(runs)
+        own = runs[runs.test == name]
+        _log(log, f"{name} model ({int(runs.train_samples.iloc[0])} arms, {runs.epochs.mean():.0f} epochs, "
+                  f"{own.seconds.sum():.1f} s): F on own test set {own.f.mean():.4f}")
+    return pd.concat(frames, ignore_index=True)
+
+
+def table3_summary(runs: pd.DataFrame) -> pd.DataFrame:
+    """One row per (model embedding, test set): pooled precision, recall, F and their per-sample
+    means and stds (averaged over sessions), with the paper's values (``paper_*``) beside."""
+    s = summarize(runs, ["embedding", "test"])
+    rows = []
+    for _, r in s.iterrows():
+        p = PAPER_TABLE3.get((r.embedding, r.test), {})
+        rows.append(dict(
+            embedding=r.embedding, test=r.test, sessions=int(r.sessions), train_samples=int(r.train_samples),
+            epochs=r.epochs, seconds=r.seconds,
+            precision=r.precision, recall=r.recall, f=r.f,
+            precision_sample_mean=r.precision_sample_mean, precision_sample_std=r.precision_sample_std,
+            recall_sample_mean=r.recall_sample_mean, recall_sample_std=r.recall_sample_std,
+            f_sample_mean=r.f_sample_mean, f_sample_std=r.f_sample_std,
+            **{f"paper_{k}": p.get(k, _NAN) for k in ("precision", "precision_std", "recall", "recall_std", "f", "f_std")},
+        ))
+    return pd.DataFrame(rows)
+
+
+# --------------------------------------------------------------------------------------------
+# Output helpers
+# --------------------------------------------------------------------------------------------
+
+
+def plus_minus(mean, std, digits: int = 4) -> str:
+    """``"0.9298 ± 0.1258"``; ``"NaN"`` for an undefined mean, the mean alone for an undefined std."""
+    if mean is None or (isinstance(mean, float) and math.isnan(mean)):
+        return "NaN"
+    if std is None or (isinstance(std, float) and math.isnan(std)):
+        return f"{mean:.{digits}f}"
+    return f"{mean:.{digits}f} ± {std:.{digits}f}"
+
+
+def _fmt(v, digits: int) -> str:
+    if isinstance(v, (bool, np.bool_)):
+        return str(bool(v))
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        return "NaN" if math.isnan(v) else f"{v:.{digits}f}"
+    return "" if v is None else str(v)
+
+
+def markdown(df: pd.DataFrame, digits: int = 4) -> str:
+    """A GitHub-Markdown table of ``df`` (index dropped): floats to ``digits`` decimals, NaN as
+    "NaN", integers as integers. ``DataFrame.to_markdown`` (``tabulate``, in the locked
+    environment) when importable, else a plain writer of the same layout."""
+    try:
+        import tabulate  # noqa: F401
+    except ImportError:
+        return _markdown_plain(df, digits)
+    return _shown(df, digits).to_markdown(index=False, disable_numparse=True) + "\n"
+
+
+#: Count columns: shown as integers when every value is whole (e.g. epochs averaged over sessions
+#: that all ran the same number).
+_COUNT_COLUMNS = frozenset({"epochs", "best_epoch", "sessions", "session", "seed", "train_samples", "nodes",
+                            "paper_nodes", "paper_samples", "test_samples", "tp", "fp", "fn", "positives",
+                            "predicted", "f_undefined"})
+
+
+def _shown(df: pd.DataFrame, digits: int) -> pd.DataFrame:
+    """``df`` with every cell a Markdown-safe string."""
+    shown = df.copy()
+    for c in shown.columns:
+        col = shown[c]
+        whole = (c in _COUNT_COLUMNS and col.dtype.kind == "f"
+                 and bool(np.all(np.isnan(col) | (col == np.round(col)))))
+        shown[c] = [(("NaN" if math.isnan(v) else str(int(v))) if whole else _fmt(v, digits)).replace("|", "\\|")
+                    for v in col]
+    return shown
+
+
+def _markdown_plain(df: pd.DataFrame, digits: int = 4) -> str:
+    shown = _shown(df, digits)
+    cols = [str(c) for c in shown.columns]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
+    for row in shown.itertuples(index=False):
+        lines.append("| " + " | ".join(row) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def write_table(df: pd.DataFrame, directory, name: str, digits: int = 4) -> tuple[Any, Any]:
+    """Write ``df`` as ``directory/name.csv`` (full precision) and ``directory/name.md``
+    (:func:`markdown`), each atomically; returns both paths."""
+    from pathlib import Path
+
+    from .io import atomic_path
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    csv, md = directory / f"{name}.csv", directory / f"{name}.md"
+    with atomic_path(csv) as tmp:
+        df.to_csv(tmp, index=False)
+    with atomic_path(md) as tmp:
+        Path(tmp).write_text(markdown(df, digits))
+    return csv, md
+
+
+def nan_to_none(value):
+    """``value`` with every float NaN (nested in dicts/lists) replaced by ``None``, and numpy
+    scalars by Python numbers: strict JSON has no NaN."""
+    if isinstance(value, Mapping):
+        return {str(k): nan_to_none(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [nan_to_none(v) for v in value]
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, (np.floating, float)):
+        v = float(value)
+        return None if math.isnan(v) or math.isinf(v) else v
+    if isinstance(value, np.bool_):
+        return bool(value)
+    return value
