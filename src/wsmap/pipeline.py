@@ -17,8 +17,11 @@ from pathlib import Path
 from . import paths
 
 
-def run_notebook(name: str, params_file=None, root=None, timeout: int = 3600, extra: dict | None = None) -> Path:
-    """Execute ``notebooks/<name>.ipynb`` with its params section; returns the executed copy's path."""
+def run_notebook(name: str, params_file=None, root=None, timeout: int | None = 3600,
+                 extra: dict | None = None) -> Path:
+    """Execute ``notebooks/<name>.ipynb`` with its params section; returns the executed copy's path.
+
+    ``timeout``: seconds any one cell may run (``None`` or 0: no limit, for the paper's scale)."""
     import papermill as pm
 
     src = paths.NOTEBOOKS / f"{name}.ipynb"
@@ -33,7 +36,7 @@ def run_notebook(name: str, params_file=None, root=None, timeout: int = 3600, ex
     t0 = time.perf_counter()
     pm.execute_notebook(
         str(src), str(dest), parameters=parameters, kernel_name="python3", cwd=str(paths.ROOT),
-        execution_timeout=timeout, progress_bar=False, log_output=False,
+        execution_timeout=timeout or None, progress_bar=False, log_output=False,
     )
     print(f"{name}: executed in {time.perf_counter() - t0:.1f} s -> {dest}")
     return dest
@@ -44,23 +47,41 @@ ORDER = ["classical_workspace", "sec61_subspace", "sec62_puma560", "table1_works
          "table3_embeddings", "runtime_comparison", "improved_model", "report"]
 
 
-def run_all(params_file=None, root=None, timeout: int = 3600) -> list[Path]:
+def run_all(params_file=None, root=None, timeout: int | None = 3600) -> list[Path]:
     """Without DVC: build every dataset of the params file's ``datasets`` section that ``root``
     lacks, then execute every notebook in :data:`ORDER`. For runs outside the committed
     configuration (the paper's full scale: ``params.full.yaml``) into their own root, so that the
-    committed results stay what ``params.yaml`` produces."""
+    committed results stay what ``params.yaml`` produces. The wall time of every dataset and
+    notebook goes to ``<root>/results/pipeline_timings.json`` (rewritten after each step)."""
+    import json
+
+    from .io import atomic_path
+
     from . import data as D
 
     params_file = Path(params_file) if params_file else paths.PARAMS
     out = paths.Outputs(root).make()
+    timings = {"params": str(params_file), "cpus": os.cpu_count(), "seconds": {}}
+
+    def record(step: str, t0: float) -> None:
+        timings["seconds"][step] = round(time.perf_counter() - t0, 2)
+        with atomic_path(out.results / "pipeline_timings.json") as tmp:
+            Path(tmp).write_text(json.dumps(timings, indent=1))
+
     for name, item in paths.load_params("datasets", params_file).items():
         if all(p.exists() for p in D.dataset_paths(name, out.data)):
             continue
         t0 = time.perf_counter()
         D.build_pair(name, out.data, item["samples"], item["test_samples"], progress=False)
-        print(f"dataset {name}: built in {time.perf_counter() - t0:.1f} s", flush=True)
-    known = [n for n in ORDER if (paths.NOTEBOOKS / f"{n}.ipynb").exists()]
-    return [run_notebook(n, params_file, out.root, timeout) for n in known]
+        record(f"datasets@{name}", t0)
+        print(f"dataset {name}: built in {timings['seconds'][f'datasets@{name}']:.1f} s", flush=True)
+    executed = []
+    for n in ORDER:
+        if (paths.NOTEBOOKS / f"{n}.ipynb").exists():
+            t0 = time.perf_counter()
+            executed.append(run_notebook(n, params_file, out.root, timeout))
+            record(n, t0)
+    return executed
 
 
 def main(argv=None) -> int:
@@ -70,7 +91,7 @@ def main(argv=None) -> int:
                    help="build the datasets the root lacks, then run every notebook in order (no DVC)")
     p.add_argument("--params", help="parameters file (default params.yaml)")
     p.add_argument("--root", help="output root (default: the project root)")
-    p.add_argument("--timeout", type=int, default=3600, help="per-cell execution timeout in seconds")
+    p.add_argument("--timeout", type=int, default=3600, help="per-cell execution timeout in seconds (0: none; use 0 for params.full.yaml)")
     args = p.parse_args(argv)
     # one process, two cores: keep torch and BLAS from oversubscribing inside the kernel
     os.environ.setdefault("OMP_NUM_THREADS", "2")
