@@ -32,6 +32,7 @@ from wsmap import data as D
 from wsmap import metrics as M
 from wsmap import robots
 from wsmap.models import MLPConfig, SubspaceMLP
+from wsmap.timing import time_call
 from wsmap.training import TrainConfig, split_indices, train
 
 SEC62 = D.PAPER_SPECS["sec62"]
@@ -62,15 +63,7 @@ def improved_train_config(**changes) -> TrainConfig:
 
 
 def timed(fn, repeats: int, warmup: int = 5) -> np.ndarray:
-    """Seconds per call of ``fn()`` over ``repeats`` calls after ``warmup`` untimed ones."""
-    for _ in range(warmup):
-        fn()
-    out = np.empty(repeats)
-    for i in range(repeats):
-        t = time.perf_counter()
-        fn()
-        out[i] = time.perf_counter() - t
-    return out
+    return np.asarray(time_call(fn, repeats, warmup).values)
 
 
 def stats_ms(seconds: np.ndarray) -> dict:

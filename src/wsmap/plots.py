@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import json
 import math
-import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -348,17 +347,10 @@ def plot_error_histograms(hists: Sequence, labels: Sequence[str], *, ncols: int 
 
 def time_calls(fn: Callable[[], Any], repeats: int = 20, warmup: int = 2) -> np.ndarray:
     """Wall-clock seconds of ``repeats`` calls of ``fn()`` (after ``warmup`` untimed calls),
-    ``(repeats,)`` float64, measured with ``time.perf_counter``."""
-    if repeats < 1 or warmup < 0:
-        raise ValueError("need repeats >= 1 and warmup >= 0")
-    for _ in range(warmup):
-        fn()
-    out = np.empty(repeats)
-    for i in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        out[i] = time.perf_counter() - t0
-    return out
+    ``(repeats,)`` float64: :func:`wsmap.timing.time_call`'s values as an array, for plotting."""
+    from .timing import time_call
+
+    return np.asarray(time_call(fn, repeats, warmup).values)
 
 
 def plot_runtimes(groups: dict[str, dict[str, np.ndarray]], *, unit: str = "ms", title: str | None = None):
