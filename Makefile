@@ -24,8 +24,12 @@ paper: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
+# Speed measurements (minutes; never part of the tests). JSON results land in bench/.
 bench: $(STAMP)
-	$(BIN)/python benchmarks/bench_classical.py
+	mkdir -p bench
+	OMP_NUM_THREADS=1 $(BIN)/python benchmarks/bench_classical.py --json bench/classical.json
+	OMP_NUM_THREADS=1 $(BIN)/python benchmarks/bench_datasets.py --load | tee bench/datasets.txt
+	$(BIN)/python benchmarks/bench_models.py --threads 2 --json bench/models.json
 
 # Regenerate environment.lock from requirements.in (needs pip-tools in the venv).
 lock:

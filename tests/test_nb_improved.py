@@ -26,6 +26,8 @@ def test_metrics_and_figures(out, metrics):
     smoke = paths.load_params("improved_model", paths.ROOT / "params.smoke.yaml")
     assert metrics["train_samples"] == smoke["train_samples"]
     assert 1 <= metrics["epochs"] <= smoke["max_epochs"]
+    # the inputs are the family's free DH parameters, found from the data (constant columns dropped)
+    assert metrics["inputs"] == ["d_3", "d_4", "a_2", "a_3"]
     for key in ("f", "precision", "recall", "puma560_f"):
         assert 0.0 <= metrics[key] <= 1.0, key
     assert metrics["seconds_per_map"] > 0 and metrics["seconds_per_map_min"] <= metrics["seconds_per_map"]

@@ -56,7 +56,8 @@ train = train_all.head(cfg["train_samples"])
 names = train.feature_names
 # The inputs: the feature columns that vary across the family (for sec62 the free DH parameters
 # d_3, d_4, a_2, a_3); the other columns are the same for every arm and carry no information.
-columns = [int(c) for c in np.flatnonzero(train.features.std(axis=0) > 0)]
+# (peak-to-peak, not std: the std of a constant float column can come out as 1e-17, not 0)
+columns = [int(c) for c in np.flatnonzero(np.ptp(train.features, axis=0) > 1e-9)]
 print(f"{len(train)} training arms, {len(test)} test arms, {train.n_nodes} nodes; "
       f"inputs {[names[c] for c in columns]}")
 
@@ -126,6 +127,7 @@ metrics = dict(
     puma560_f=puma_prf.f, puma560_nodes_differ=int((predicted != exact).sum()),
     seconds_per_map=one.mean, seconds_per_map_std=one.std, seconds_per_map_min=one.min, train_seconds=float(history["time"].iloc[-1]), epochs=int(result.stop_epoch),
     stop_reason=result.stop_reason, train_samples=len(train), test_samples=len(test),
+    inputs=[names[c] for c in columns], hidden=list(cfg["hidden"]),
 )
 with atomic_path(out.results / "improved_model.json") as tmp:
     tmp.write_text(json.dumps(metrics, indent=1))
