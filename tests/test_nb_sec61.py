@@ -3,10 +3,13 @@
 import json
 import math
 
+import numpy as np
 import pandas as pd
 import pytest
 
-from wsmap import models, paths
+from wsmap import data as D
+from wsmap import models, paths, robots
+from wsmap import plots as P
 
 FIGURES = ("sec61_gradient", "sec61_loss", "sec61_test_error", "sec61_sections", "sec61_threshold_sweep")
 
@@ -60,3 +63,9 @@ def test_best_model_saved(out, metrics):
     assert meta["dataset_spec"]["name"] == "sec61" and meta["dataset_spec"]["select"] == [5292, 6615]
     assert meta["train_config"]["optimizer"] == "rprop" and meta["train_config"]["loss"] == "mse"
     assert meta["extra"]["session"] == metrics["best_session"]
+    # usable as a predictor: block 5 of the 21^3 grid, in node order
+    assert meta["map_spec"]["nodes"] == [5292, 6615]
+    np.testing.assert_allclose(model.map_nodes(), D.grid_nodes(D.PAPER_SPECS["sec62"])[5292:6615])
+    puma = robots.puma560()
+    x = D.features_for(P.arm_batch(puma), D.DatasetSpec.from_dict(meta["dataset_spec"]))
+    np.testing.assert_array_equal(model.predict_maps(puma), model.predict(x).numpy().reshape(-1))

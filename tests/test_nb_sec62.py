@@ -61,6 +61,9 @@ def test_stacked_model_predicts_the_saved_puma560_map(out, metrics):
     x = D.features_for(P.arm_batch(robots.puma560()), spec)
     pred = model.predict(x, assemble=True).numpy()[0]
     assert pred.shape == (9261,) and int(pred.sum()) == metrics["puma560_reachable_predicted"]
+    # the saved model stands in for the classical map: predict_maps gives the assembled map
+    assert meta["map_spec"]["assemble"] is True
+    np.testing.assert_array_equal(model.predict_maps(robots.puma560()), pred)
 
 
 def test_mesh_files_load(out, metrics):

@@ -161,6 +161,9 @@ P.write_table(sweep_table, out.tables / "sec61_threshold_sweep")
 print(f"best threshold {sweep.best_threshold:.2f}: F {sweep.best_f:.4f} (at {cfg['threshold']}: {ev['f']:.4f})")
 
 # %%
+# the map_spec says what the outputs are (block 5 of the 21^3 grid), so predict_maps and
+# `wsmap map --method model` can use the saved model
+results[best].model.set_map_spec(spec, threshold=cfg["threshold"])
 models.save(results[best].model, out.models / "sec61_subspace.pt", dataset_spec=spec, train_config=train_cfg,
             extra={"session": best, "f": ev["f"], "threshold": cfg["threshold"]})
 metrics = {

@@ -169,6 +169,9 @@ print(f"predicted mesh: {len(mesh_pred.vertices)} vertices, {len(mesh_pred.faces
       f"watertight={mesh_pred.is_watertight}")
 
 # %%
+# the 7 subspaces assembled in node order are the 9261-node map: predict_maps and
+# `wsmap map --method model` use the saved model as a stand-in for the classical map
+model.set_map_spec(spec, assemble=True, threshold=cfg["threshold"])
 models.save(model, out.models / "sec62_puma560.pt", dataset_spec=spec, train_config=train_cfg,
             extra={"blocks": [[b.start, b.stop] for b in blocks], "threshold": cfg["threshold"]})
 metrics = {
