@@ -171,7 +171,8 @@ def main(argv=None):
         try:
             for k, i in enumerate(sample):
                 sol = rtb_robot.ik_LM(T[i], q0=np.zeros(6), ilimit=500, slimit=1, tol=1e-10, joint_limits=False)
-                ok[k] = bool(sol[1])
+                # 1.x returns an IKSolution (attribute .success); older releases a tuple
+                ok[k] = bool(sol.success if hasattr(sol, "success") else sol[1])
         except Exception as exc:  # an ik_LM signature other than roboticstoolbox 1.x's
             print(f"roboticstoolbox ik_LM failed ({type(exc).__name__}: {exc}); skipping it", file=sys.stderr)
             rtb_robot = None
