@@ -20,7 +20,6 @@ params = {}
 output_root = None
 
 # %%
-import json
 
 import numpy as np
 import torch
@@ -30,7 +29,6 @@ from wsmap import experiments as E
 from wsmap import metrics as M
 from wsmap import models, paths, robots, timing
 from wsmap import plots as P
-from wsmap.io import atomic_path
 from wsmap.render import plot_slices, save_figure
 from wsmap.training import TrainConfig
 
@@ -129,6 +127,5 @@ metrics = dict(
     stop_reason=result.stop_reason, train_samples=len(train), test_samples=len(test),
     inputs=[names[c] for c in columns], hidden=list(cfg["hidden"]),
 )
-with atomic_path(out.results / "improved_model.json") as tmp:
-    tmp.write_text(json.dumps(metrics, indent=1))
+P.write_json(metrics, out.results / "improved_model.json")
 metrics
