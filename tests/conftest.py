@@ -9,9 +9,8 @@ from __future__ import annotations
 
 import pytest
 
-from wsmap import data as D
 from wsmap import paths
-from wsmap.pipeline import run_notebook
+from wsmap.pipeline import build_datasets, run_notebook
 
 SMOKE = paths.ROOT / "params.smoke.yaml"
 
@@ -25,9 +24,8 @@ NOTEBOOK_DEPS = {
 @pytest.fixture(scope="session")
 def smoke_root(tmp_path_factory):
     root = tmp_path_factory.mktemp("smoke")
-    out = paths.Outputs(root).make()
-    for name, item in paths.load_params("datasets", SMOKE).items():
-        D.build_pair(name, out.data, item["samples"], item["test_samples"], progress=False)
+    for _ in build_datasets(SMOKE, paths.Outputs(root).make().data):
+        pass
     return root
 
 

@@ -47,6 +47,20 @@ ORDER = ["classical_workspace", "sec61_subspace", "sec62_puma560", "table1_works
          "table3_embeddings", "runtime_comparison", "improved_model", "report"]
 
 
+def build_datasets(params_file, data_dir, *, rebuild: bool = False):
+    """Build every dataset (and its test set) of the params file's ``datasets`` section into
+    ``data_dir``, skipping pairs already there unless ``rebuild``; yields ``(name, seconds)`` for
+    each one built, as it is built (the dvc stages ``datasets@NAME`` do the same one by one)."""
+    from . import data as D
+
+    for name, item in paths.load_params("datasets", params_file).items():
+        if not rebuild and all(p.exists() for p in D.dataset_paths(name, data_dir)):
+            continue
+        t0 = time.perf_counter()
+        D.build_pair(name, data_dir, item["samples"], item["test_samples"], progress=False)
+        yield name, time.perf_counter() - t0
+
+
 def run_all(params_file=None, root=None, timeout: int | None = 3600) -> list[Path]:
     """Without DVC: build every dataset of the params file's ``datasets`` section that ``root``
     lacks, then execute every notebook in :data:`ORDER`. For runs outside the committed
@@ -57,30 +71,24 @@ def run_all(params_file=None, root=None, timeout: int | None = 3600) -> list[Pat
 
     from .io import atomic_path
 
-    from . import data as D
-
     params_file = Path(params_file) if params_file else paths.PARAMS
     out = paths.Outputs(root).make()
     timings = {"params": str(params_file), "cpus": os.cpu_count(), "seconds": {}}
 
-    def record(step: str, t0: float) -> None:
-        timings["seconds"][step] = round(time.perf_counter() - t0, 2)
+    def record(step: str, seconds: float) -> None:
+        timings["seconds"][step] = round(seconds, 2)
         with atomic_path(out.results / "pipeline_timings.json") as tmp:
             Path(tmp).write_text(json.dumps(timings, indent=1))
 
-    for name, item in paths.load_params("datasets", params_file).items():
-        if all(p.exists() for p in D.dataset_paths(name, out.data)):
-            continue
-        t0 = time.perf_counter()
-        D.build_pair(name, out.data, item["samples"], item["test_samples"], progress=False)
-        record(f"datasets@{name}", t0)
-        print(f"dataset {name}: built in {timings['seconds'][f'datasets@{name}']:.1f} s", flush=True)
+    for name, seconds in build_datasets(params_file, out.data):
+        record(f"datasets@{name}", seconds)
+        print(f"dataset {name}: built in {seconds:.1f} s", flush=True)
     executed = []
     for n in ORDER:
         if (paths.NOTEBOOKS / f"{n}.ipynb").exists():
             t0 = time.perf_counter()
             executed.append(run_notebook(n, params_file, out.root, timeout))
-            record(n, t0)
+            record(n, time.perf_counter() - t0)
     return executed
 
 
