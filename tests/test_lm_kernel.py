@@ -6,10 +6,12 @@ Run quickly with ``OMP_NUM_THREADS=1 .venv/bin/python -m pytest tests/test_lm_ke
 import numpy as np
 import pytest
 
-from wsmap import _lm, robots
+from wsmap import robots
+from wsmap.kinematics import lm_kernel as _lm
 from wsmap import kinematics as K
 from wsmap import workspace as ws
-from wsmap.kinematics import _jacob0, pose_error
+from wsmap.kinematics import pose_error
+from wsmap.kinematics.dh import _jacob0
 
 
 # --------------------------------------------------------------------------- the reference

@@ -121,7 +121,12 @@ def test_numerical_map_on_small_grid_with_limits_agrees_with_exact():
         (dict(lo=1, hi=-1, step=0.1), ValueError, "lo must not exceed hi"),
         (dict(lo=np.nan, hi=1, step=0.1), ValueError, "lo contains NaN"),
         (dict(lo=(0, 0), hi=1, step=0.1), ValueError, "lo must be a scalar or a 3-tuple"),
-        (dict(lo=-1, hi=1, step=1e-5), MemoryError, "more than half"),
+        (dict(lo=-1, hi=1, step=1e-3), MemoryError, "more than half"),
+        (dict(lo=-1, hi=1, step=1e-5), ValueError, "about 8e\\+15 nodes"),
+        # 1e-300 used to overflow the int64 node count and give a 0-node grid silently
+        (dict(lo=-1, hi=1, step=1e-300), ValueError, "use a coarser step"),
+        (dict(lo=-1e308, hi=1e308, step=1), ValueError, "use a coarser step"),
+        (dict(lo=-1, hi=1, step=1j), ValueError, "step must be real numbers"),
     ],
 )
 def test_bad_grids(args, exc, message):

@@ -4,10 +4,6 @@ A *scope* is a grid of nodes, either positions at a fixed orientation (the const
 workspace, "R3") or orientations at a fixed point (the orientation workspace, "SO3"). A node is
 ``True`` when inverse kinematics has a solution for the node's target pose.
 
-Node order (the paper's): the first coordinate varies fastest, then the second, then the third;
-the 0-based flat index of node ``(i, j, k)`` is ``i + nx*j + nx*ny*k``. A flat map therefore
-reshapes to a volume of shape ``(nz, ny, nx)`` (see :func:`map_to_volume`).
-
 Pose conventions:
 
 * ``"paper"``: ``T = Rx(r1)·Ry(r2)·Rz(r3) · transl(p)`` (the authors' code): the position tested is
@@ -19,11 +15,12 @@ They agree when ``R = I``.
 
 from __future__ import annotations
 
-import os
+import math
+import sys
 
 import numpy as np
 
-from .kinematics import (
+from ..kinematics import (
     DHRobot,
     ikine_LM,
     ikine_spherical_wrist,
@@ -31,104 +28,16 @@ from .kinematics import (
     rpy2r,
     wrist_centre_reachable,
 )
+from .grids import _check_fits, _triple, cartesian_grid, grid_axes
 
-__all__ = [
-    "METHODS",
-    "CONVENTIONS",
-    "grid_axes",
-    "cartesian_grid",
-    "angle_grid",
-    "target_poses",
-    "constant_orientation_map",
-    "orientation_map",
-    "map_to_volume",
-    "volume_to_map",
-    "BLOCK_NODES",
-    "N_BLOCKS",
-    "block_slice",
-    "CROP_3087",
-    "available_memory",
-]
+__all__ = ["METHODS", "CONVENTIONS", "SCOPES", "target_poses", "constant_orientation_map", "orientation_map",
+           "grid_map"]
 
 METHODS = ("exact", "numerical")
 CONVENTIONS = ("paper", "standard")
-
-#: The paper's output blocks of the 21³ map: 7 consecutive blocks of 1323 nodes (3 z-layers each).
-BLOCK_NODES = 1323
-N_BLOCKS = 7
-#: Table 1's "3086" crop: from 0-based flat index 5292 (z = 0.2) to z = 0.8, 3087 nodes.
-CROP_3087 = slice(5292, 5292 + 3087)
+SCOPES = ("R3", "SO3")
 
 
-def available_memory() -> int:
-    """Bytes of memory available to this process (Linux ``MemAvailable``; physical size elsewhere)."""
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-
-
-def _check_fits(nbytes: int, what: str) -> None:
-    avail = available_memory()
-    if nbytes > avail // 2:
-        raise MemoryError(
-            f"{what} needs {nbytes / 2**30:.2f} GiB, more than half the {avail / 2**30:.2f} GiB of memory "
-            "available; use a coarser step or a smaller range"
-        )
-
-
-# --------------------------------------------------------------------------- grids
-def _triple(name, x):
-    x = np.asarray(x, dtype=np.float64)
-    if x.ndim == 0:
-        x = np.repeat(x, 3)
-    if x.shape != (3,):
-        raise ValueError(f"{name} must be a scalar or a 3-tuple, got shape {x.shape}")
-    if not np.all(np.isfinite(x)):
-        raise ValueError(f"{name} contains NaN or infinite values: {x.tolist()}")
-    return x
-
-
-def grid_axes(lo, hi, step) -> list[np.ndarray]:
-    """The node values along each axis: ``lo + k·step`` for every ``k`` with the value ``<= hi``.
-
-    ``lo``, ``hi`` and ``step`` are scalars or 3-tuples. Counting is exact up to rounding:
-    ``[-1, 1]`` at 0.1 gives 21 values, ``[0, 2·pi]`` at ``pi/10`` gives 21.
-    """
-    lo, hi, step = _triple("lo", lo), _triple("hi", hi), _triple("step", step)
-    if np.any(step <= 0):
-        raise ValueError(f"step must be positive, got {step.tolist()}")
-    if np.any(lo > hi):
-        raise ValueError(f"lo must not exceed hi, got lo={lo.tolist()} hi={hi.tolist()}")
-    span = (hi - lo) / step
-    # the slack absorbs rounding in span (2·pi/(pi/10) is 20 to within an ulp, not exactly)
-    counts = np.floor(span + 1e-9 * np.maximum(1.0, span)).astype(np.int64) + 1
-    total = int(np.prod(counts.astype(np.float64)))
-    _check_fits(total * 3 * 8, f"a grid of {counts.tolist()} = {total} nodes")
-    return [lo[i] + step[i] * np.arange(counts[i]) for i in range(3)]
-
-
-def _nodes(axes) -> np.ndarray:
-    # meshgrid with 'ij' on (z, y, x) and reversing gives x fastest in C order
-    zz, yy, xx = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
-    return np.stack([xx.ravel(), yy.ravel(), zz.ravel()], axis=-1)
-
-
-def cartesian_grid(lo=-1.0, hi=1.0, step=0.1) -> np.ndarray:
-    """Positions ``(N, 3)`` in metres on a regular grid, in the paper's node order (x fastest)."""
-    return _nodes(grid_axes(lo, hi, step))
-
-
-def angle_grid(lo=0.0, hi=2 * np.pi, step=np.pi / 10) -> np.ndarray:
-    """Orientation angles ``(N, 3)`` (r1, r2, r3) in radians, in the paper's node order (r1 fastest)."""
-    return _nodes(grid_axes(lo, hi, step))
-
-
-# --------------------------------------------------------------------------- poses
 def _check_choice(name, value, choices):
     if value not in choices:
         raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
@@ -273,29 +182,65 @@ def orientation_map(
     return _map(arms, point[None, :], angle_nodes, convention, method, ik or {}, chunk_elements, progress)
 
 
-# --------------------------------------------------------------------------- layout helpers
-def map_to_volume(flat, shape) -> np.ndarray:
-    """Flat map ``(..., nx*ny*nz)`` → volume ``(..., nz, ny, nx)``; ``shape`` is ``(nx, ny, nz)``."""
-    flat = np.asarray(flat)
-    nx, ny, nz = (int(s) for s in shape)
-    if flat.shape[-1] != nx * ny * nz:
-        raise ValueError(f"a map of {flat.shape[-1]} nodes does not fill a grid of shape {(nx, ny, nz)}")
-    return flat.reshape(flat.shape[:-1] + (nz, ny, nx))
+def default_grid(scope: str) -> tuple[float, float, float]:
+    """The paper's grid of a scope: R3 ``[-1, 1]`` m at 0.1 m, SO3 ``[0, 2·pi]`` rad at ``pi/10``."""
+    _check_choice("scope", scope, SCOPES)
+    return (-1.0, 1.0, 0.1) if scope == "R3" else (0.0, 2 * math.pi, math.pi / 10)
 
 
-def volume_to_map(volume) -> np.ndarray:
-    """Volume ``(..., nz, ny, nx)`` → flat map ``(..., nx*ny*nz)`` in node order."""
-    volume = np.asarray(volume)
-    if volume.ndim < 3:
-        raise ValueError(f"a volume needs at least 3 dimensions (nz, ny, nx), got shape {volume.shape}")
-    return volume.reshape(volume.shape[:-3] + (-1,))
+def grid_spec(scope="R3", lo=None, hi=None, step=None) -> dict:
+    """A grid description ``{"scope", "lo", "hi", "step", "shape"}`` (3-lists; ``shape`` is nx, ny, nz).
 
-
-def block_slice(block: int) -> slice:
-    """Flat-index slice of the paper's output block ``block`` (0-based, 0..6) of the 21³ map.
-
-    Block 4 (the paper's 1-based block 5, section 6.1) is 0-based indices 5292..6614, z in {0.2, 0.3, 0.4}.
+    Missing bounds take the paper's defaults (:func:`default_grid`). Checked (finite, ``lo <= hi``,
+    ``step > 0``, not too many nodes) without building the nodes.
     """
-    if int(block) != block or not 0 <= block < N_BLOCKS:
-        raise ValueError(f"block must be an integer in 0..{N_BLOCKS - 1}, got {block!r}")
-    return slice(int(block) * BLOCK_NODES, (int(block) + 1) * BLOCK_NODES)
+    dlo, dhi, dstep = default_grid(scope)
+    lo, hi, step = (dlo if lo is None else lo), (dhi if hi is None else hi), (dstep if step is None else step)
+    axes = grid_axes(lo, hi, step)
+    return {"scope": scope, "lo": _triple("lo", lo).tolist(), "hi": _triple("hi", hi).tolist(),
+            "step": _triple("step", step).tolist(), "shape": [len(a) for a in axes]}
+
+
+def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), method="exact",
+             convention="paper", model=None, allow_extrapolation: bool = False, ik=None,
+             progress: bool = False) -> np.ndarray:
+    """One call from an arm to its map on a whole grid (from :func:`grid_spec`): bool ``(N,)`` in node order.
+
+    ``grid["scope"]`` is ``"R3"`` (positions at orientation ``rpy``) or ``"SO3"`` (orientations at
+    ``point``). ``method`` is ``"exact"``, ``"numerical"`` (``ik`` passes the solver's settings) or
+    ``"model"``: ``model`` is then a path to a model file saved with a ``map_spec``
+    (:func:`wsmap.models.predict_maps_from_file`) whose grid, pose convention and fixed orientation
+    (R3) or point (SO3) are the ones asked for and which covers every node of the grid; otherwise
+    ``ValueError`` says what differs, and arms outside the model's training range are refused unless
+    ``allow_extrapolation``.
+    """
+    nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
+    scope = grid["scope"]
+    _check_choice("scope", scope, SCOPES)
+    if method == "model":
+        if model is None:
+            raise ValueError("method 'model' needs a model file (--model PATH)")
+        from ..models import predict_maps_from_file
+
+        fixed = rpy if scope == "R3" else point
+        kwargs = {"allow_extrapolation": True} if allow_extrapolation else {}
+        flat = predict_maps_from_file(model, robot, fixed, grid=grid, convention=convention, whole_grid=True, **kwargs)
+        if flat.shape != (len(nodes),):  # a model file disagreeing with its own spec
+            raise ValueError(f"model {model} gave a map of shape {flat.shape}, the grid has {len(nodes)} nodes")
+        return flat
+    _check_choice("method", method, METHODS)
+    ik = dict(ik or {})
+    bar = None
+    if progress and method == "numerical":
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(nodes), unit="node", desc="numerical IK", file=sys.stderr)
+        ik.setdefault("chunk", 2048)
+        ik["progress"] = bar.update
+    try:
+        if scope == "R3":
+            return constant_orientation_map(robot, nodes, rpy, method=method, convention=convention, ik=ik)
+        return orientation_map(robot, nodes, point, method=method, convention=convention, ik=ik)
+    finally:
+        if bar is not None:
+            bar.close()

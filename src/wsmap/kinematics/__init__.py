@@ -1,0 +1,36 @@
+"""Kinematics: rigid transforms, robot models, forward kinematics and Jacobians, inverse kinematics.
+
+* :mod:`.transforms` — rotations, homogeneous transforms, pose error, input checks;
+* :mod:`.dh` — :class:`DHRobot`, standard-DH revolute arms batched over geometry;
+* :mod:`.ik` — the paper's Levenberg–Marquardt IK, batched over targets (kernel in :mod:`.lm_kernel`);
+* :mod:`.closed_form` — closed-form IK of the spherical-wrist family (all 8 branches).
+"""
+
+from .closed_form import (
+    SPHERICAL_WRIST_ALPHA,
+    ikine_spherical_wrist,
+    is_spherical_wrist,
+    require_spherical_wrist,
+    wrist_centre_reachable,
+)
+from .dh import DHRobot
+from .ik import IKResult, ikine_LM
+from .transforms import check_rigid, pose_error, rotx, roty, rotz, rpy2r, transl
+
+__all__ = [
+    "DHRobot",
+    "IKResult",
+    "SPHERICAL_WRIST_ALPHA",
+    "check_rigid",
+    "ikine_LM",
+    "ikine_spherical_wrist",
+    "is_spherical_wrist",
+    "pose_error",
+    "require_spherical_wrist",
+    "rotx",
+    "roty",
+    "rotz",
+    "rpy2r",
+    "transl",
+    "wrist_centre_reachable",
+]

@@ -1,0 +1,161 @@
+"""Closed-form inverse kinematics of the spherical-wrist family (PUMA-type geometry).
+
+All 8 branches (shoulder × elbow × wrist flip), vectorised over arms and targets; joint limits
+honoured up to multiples of 2·pi.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .dh import DHRobot, _angle_in_range, _link_frames
+from .transforms import check_rigid
+
+__all__ = ["SPHERICAL_WRIST_ALPHA", "is_spherical_wrist", "require_spherical_wrist", "wrist_centre_reachable",
+           "ikine_spherical_wrist"]
+
+
+# The spherical-wrist family of the paper (PUMA-type geometry, Corke's ``ikine6s``):
+#   j:     1     2    3     4     5     6
+#   d:    d1     0   d3    d4     0     0
+#   a:     0    a2   a3     0     0     0
+#   alpha: pi/2  0  -pi/2  pi/2 -pi/2   0
+# d1 (a base height) is allowed so that Corke's Python ``Puma560`` fits too; the paper's arms have d1 = 0.
+SPHERICAL_WRIST_ALPHA = np.array([np.pi / 2, 0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, 0.0])
+_FREE_D = np.array([True, False, True, True, False, False])
+_FREE_A = np.array([False, True, True, False, False, False])
+
+
+def is_spherical_wrist(robot: DHRobot, atol: float = 1e-9) -> np.ndarray:
+    """True for each arm of the batch that belongs to the spherical-wrist family (no tool)."""
+    if robot.n != 6 or robot.tool is not None:
+        return np.zeros(robot.batch_shape, dtype=bool)
+    ok = np.all(np.abs(robot.alpha - SPHERICAL_WRIST_ALPHA) <= atol, axis=-1)
+    ok &= np.all(np.abs(robot.d[..., ~_FREE_D]) <= atol, axis=-1)
+    ok &= np.all(np.abs(robot.a[..., ~_FREE_A]) <= atol, axis=-1)
+    return ok
+
+
+def require_spherical_wrist(robot: DHRobot) -> None:
+    """Raise ``ValueError`` naming the first arm outside the closed-form family."""
+    ok = is_spherical_wrist(robot)
+    if not np.all(ok):
+        if robot.n != 6:
+            why = f"it has {robot.n} joints, the family has 6"
+        elif robot.tool is not None:
+            why = "it carries a tool transform (the closed form solves for the wrist centre)"
+        else:
+            bad = tuple(int(i) for i in np.argwhere(~np.atleast_1d(ok))[0])
+            why = f"arm {bad} has DH parameters outside d=[d1,0,d3,d4,0,0], a=[0,a2,a3,0,0,0], alpha=[pi/2,0,-pi/2,pi/2,-pi/2,0]"
+        raise ValueError(f"method 'exact' needs arms of the spherical-wrist family: {why}; use method 'numerical'")
+
+
+def wrist_centre_reachable(robot: DHRobot, p, atol: float = 1e-12) -> np.ndarray:
+    """Closed-form reachability of wrist-centre positions for unlimited spherical-wrist arms.
+
+    With unlimited joints and a spherical wrist every orientation is reachable wherever the wrist
+    centre is, so a pose is reachable exactly when its position ``p`` satisfies::
+
+        px² + py² >= d3²                                  (shoulder offset)
+        (a2 − L)² <= px² + py² + (pz − d1)² − d3² <= (a2 + L)²,   L² = a3² + d4²   (elbow)
+
+    ``p`` has shape ``(..., 3)`` broadcasting with the robot's batch shape; the result is bool.
+    """
+    p = np.asarray(p, dtype=np.float64)
+    d1, d3, d4 = robot.d[..., 0], robot.d[..., 2], robot.d[..., 3]
+    a2, a3 = robot.a[..., 1], robot.a[..., 2]
+    L2 = a3 * a3 + d4 * d4
+    L = np.sqrt(L2)
+    x, y, z = p[..., 0], p[..., 1], p[..., 2] - d1
+    r2 = x * x + y * y
+    rho2 = r2 + z * z - d3 * d3
+    lo, hi = (a2 - L) ** 2, (a2 + L) ** 2
+    return (r2 >= d3 * d3 - atol) & (rho2 >= lo - atol) & (rho2 <= hi + atol)
+
+
+def ikine_spherical_wrist(robot: DHRobot, T, atol: float = 1e-9):
+    """All 8 closed-form solutions for spherical-wrist arms (shoulder × elbow × wrist flip).
+
+    Parameters
+    ----------
+    robot : DHRobot of the spherical-wrist family (see :func:`is_spherical_wrist`)
+    T : array_like, shape (..., 4, 4), target flange poses broadcasting with the robot batch
+
+    Returns
+    -------
+    q : (..., 8, 6) joint angles in (-pi, pi]; branch ``k`` has shoulder ``k // 4``, elbow
+        ``(k // 2) % 2`` and wrist flip ``k % 2``.
+    valid : (..., 8) bool; the branch solves the pose (and, if the robot has joint limits, respects
+        them up to multiples of 2·pi).
+    """
+    require_spherical_wrist(robot)
+    T = check_rigid("target poses", T)
+    shape = np.broadcast_shapes(T.shape[:-2], robot.batch_shape)
+    T = np.broadcast_to(T, shape + (4, 4))
+    d1, d3, d4 = (np.broadcast_to(robot.d[..., i], shape) for i in (0, 2, 3))
+    a2, a3 = (np.broadcast_to(robot.a[..., i], shape) for i in (1, 2))
+
+    px, py, pz = T[..., 0, 3], T[..., 1, 3], T[..., 2, 3] - d1
+    r2 = px * px + py * py
+    # shoulder: px·s1 − py·c1 = d3  →  q1 = φ + asin(d3/r)  or  φ + pi − asin(d3/r)
+    reach_sh = r2 >= d3 * d3 - atol
+    r = np.sqrt(np.maximum(r2, 1e-300))
+    phi = np.arctan2(py, px)
+    beta = np.arcsin(np.clip(d3 / r, -1.0, 1.0))
+    q1 = np.stack([phi + beta, phi + np.pi - beta], axis=-1)  # (..., 2)
+    c1, s1 = np.cos(q1), np.sin(q1)
+    x1 = c1 * px[..., None] + s1 * py[..., None]  # planar reach in the arm plane, (..., 2)
+    y1 = np.broadcast_to(pz[..., None], x1.shape)
+
+    # elbow: a planar 2-link chain (a2, L) with the forearm pitched by γ = atan2(d4, a3)
+    L = np.hypot(a3, d4)[..., None]
+    gamma = np.arctan2(d4, a3)[..., None]
+    A2 = a2[..., None]
+    rho2 = x1 * x1 + y1 * y1
+    denom = 2.0 * A2 * L
+    degenerate = denom < 1e-12  # a2 = 0 or L = 0: the elbow angle is free, any value works
+    D = np.where(degenerate, 1.0, (rho2 - A2 * A2 - L * L) / np.where(degenerate, 1.0, denom))
+    reach_el = (rho2 >= (A2 - L) ** 2 - atol) & (rho2 <= (A2 + L) ** 2 + atol)
+    psi = np.arccos(np.clip(D, -1.0, 1.0))  # q3 + γ, up to sign
+    psi = np.stack([psi, -psi], axis=-1)  # (..., 2 shoulder, 2 elbow)
+    X1, Y1 = x1[..., None], y1[..., None]
+    q3 = psi - gamma[..., None]
+    q2 = np.arctan2(Y1, X1) - np.arctan2(L[..., None] * np.sin(psi), A2[..., None] + L[..., None] * np.cos(psi))
+    q1e = np.broadcast_to(q1[..., None], q2.shape)
+
+    # wrist: R36 = R03ᵀ R = Rz(q4) · Ry(−q5) · Rz(q6)
+    zeros = np.zeros(q2.shape + (3,))
+    q123 = np.concatenate([np.stack([q1e, q2, q3], axis=-1), zeros], axis=-1)  # (..., 2, 2, 6)
+    dh_b = [np.broadcast_to(x[..., None, None, :], q2.shape + (6,)) for x in (robot.d, robot.a, robot.alpha)]
+    R03 = _link_frames(*dh_b, q123)[..., 3, :3, :3]
+    R = T[..., None, None, :3, :3]
+    M = np.swapaxes(R03, -1, -2) @ R
+    sb = np.hypot(M[..., 0, 2], M[..., 1, 2])
+    b = np.arctan2(sb, M[..., 2, 2])  # in [0, pi]
+    regular = sb > 1e-12
+    q4 = np.where(regular, np.arctan2(M[..., 1, 2], M[..., 0, 2]), 0.0)
+    q6 = np.where(
+        regular,
+        np.arctan2(M[..., 2, 1], -M[..., 2, 0]),
+        # singular wrist: only q4 ± q6 is determined; put it all in q6
+        np.where(M[..., 2, 2] > 0, np.arctan2(M[..., 1, 0], M[..., 0, 0]), np.arctan2(M[..., 1, 0], -M[..., 0, 0])),
+    )
+    q5 = -b
+    wrist = np.stack(
+        [
+            np.stack([q4, q5, q6], axis=-1),
+            np.stack([q4 + np.pi, -q5, q6 + np.pi], axis=-1),  # the flipped wrist
+        ],
+        axis=-2,
+    )  # (..., 2, 2, 2, 3)
+    arm = np.broadcast_to(np.stack([q1e, q2, q3], axis=-1)[..., None, :], wrist.shape)
+    q = np.concatenate([arm, wrist], axis=-1).reshape(shape + (8, 6))
+    q = np.mod(q + np.pi, 2 * np.pi) - np.pi
+    q = np.where(q <= -np.pi, q + 2 * np.pi, q)
+
+    valid = reach_sh[..., None, None, None] & reach_el[..., :, None, None]
+    valid = np.broadcast_to(valid, shape + (2, 2, 2)).reshape(shape + (8,))
+    if robot.qlim is not None:
+        qlim = robot.qlim[..., None, :, :] if robot.qlim.ndim > 2 else robot.qlim
+        valid &= np.all(_angle_in_range(q, qlim[..., 0], qlim[..., 1]), axis=-1)
+    return q, valid

@@ -1,0 +1,39 @@
+"""Workspace maps: grids of nodes, maps of an arm (or a batch of arms) on them, and map files.
+
+* :mod:`.grids` — grids and the layout of flat maps (node order: first coordinate fastest);
+* :mod:`.maps` — constant-orientation ("R3") and orientation ("SO3") maps, one-call grid maps;
+* :mod:`.files` — the ``.npz`` map file.
+"""
+
+from .files import MapFileError, load_map, save_map
+from .grids import (
+    BLOCK_NODES,
+    CROP_3087,
+    MAX_NODES,
+    N_BLOCKS,
+    angle_grid,
+    available_memory,
+    block_slice,
+    cartesian_grid,
+    grid_axes,
+    map_to_volume,
+    volume_to_map,
+)
+from .maps import (
+    CONVENTIONS,
+    METHODS,
+    SCOPES,
+    constant_orientation_map,
+    default_grid,
+    grid_map,
+    grid_spec,
+    orientation_map,
+    target_poses,
+)
+
+__all__ = [
+    "BLOCK_NODES", "CONVENTIONS", "CROP_3087", "MAX_NODES", "METHODS", "MapFileError", "N_BLOCKS", "SCOPES",
+    "angle_grid", "available_memory", "block_slice", "cartesian_grid", "constant_orientation_map", "default_grid",
+    "grid_axes", "grid_map", "grid_spec", "load_map", "map_to_volume", "orientation_map", "save_map",
+    "target_poses", "volume_to_map",
+]

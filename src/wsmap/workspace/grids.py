@@ -1,0 +1,130 @@
+"""Grids of nodes and the layout of flat maps.
+
+Node order (the paper's): the first coordinate varies fastest, then the second, then the third;
+the 0-based flat index of node ``(i, j, k)`` is ``i + nx*j + nx*ny*k``. A flat map therefore
+reshapes to a volume of shape ``(nz, ny, nx)`` (see :func:`map_to_volume`).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..kinematics.transforms import as_real_array
+
+__all__ = ["grid_axes", "cartesian_grid", "angle_grid", "map_to_volume", "volume_to_map", "BLOCK_NODES",
+           "N_BLOCKS", "block_slice", "CROP_3087", "available_memory", "MAX_NODES"]
+
+#: The paper's output blocks of the 21³ map: 7 consecutive blocks of 1323 nodes (3 z-layers each).
+BLOCK_NODES = 1323
+N_BLOCKS = 7
+#: Table 1's "3086" crop: from 0-based flat index 5292 (z = 0.2) to z = 0.8, 3087 nodes.
+CROP_3087 = slice(5292, 5292 + 3087)
+#: Grids above this many nodes are refused before any memory is touched (a 1 mm grid over 2 m³).
+MAX_NODES = 10**10
+
+def available_memory() -> int:
+    """Bytes of memory available to this process (Linux ``MemAvailable``; physical size elsewhere)."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def _check_fits(nbytes: int, what: str) -> None:
+    avail = available_memory()
+    if nbytes > avail // 2:
+        raise MemoryError(
+            f"{what} needs {nbytes / 2**30:.2f} GiB, more than half the {avail / 2**30:.2f} GiB of memory "
+            "available; use a coarser step or a smaller range"
+        )
+
+
+# --------------------------------------------------------------------------- grids
+def _triple(name, x):
+    x = as_real_array(name, x)
+    if x.ndim == 0:
+        x = np.repeat(x, 3)
+    if x.shape != (3,):
+        raise ValueError(f"{name} must be a scalar or a 3-tuple, got shape {x.shape}")
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"{name} contains NaN or infinite values: {x.tolist()}")
+    return x
+
+
+def grid_axes(lo, hi, step) -> list[np.ndarray]:
+    """The node values along each axis: ``lo + k·step`` for every ``k`` with the value ``<= hi``.
+
+    ``lo``, ``hi`` and ``step`` are scalars or 3-tuples. Counting is exact up to rounding:
+    ``[-1, 1]`` at 0.1 gives 21 values, ``[0, 2·pi]`` at ``pi/10`` gives 21.
+    """
+    lo, hi, step = _triple("lo", lo), _triple("hi", hi), _triple("step", step)
+    if np.any(step <= 0):
+        raise ValueError(f"step must be positive, got {step.tolist()}")
+    if np.any(lo > hi):
+        raise ValueError(f"lo must not exceed hi, got lo={lo.tolist()} hi={hi.tolist()}")
+    # refuse before converting: a tiny step (1e-300) overflows int64 and would wrap to 0 nodes
+    with np.errstate(over="ignore", invalid="ignore"):
+        span = (hi - lo) / step
+        total_f = float(np.prod(np.floor(np.minimum(span, 1e300)) + 1.0))
+    if not np.all(np.isfinite(span)) or total_f > MAX_NODES:
+        raise ValueError(
+            f"a grid from {lo.tolist()} to {hi.tolist()} at step {step.tolist()} has about {total_f:.3g} nodes, "
+            f"more than the {MAX_NODES:.0e} this tool handles; use a coarser step or a smaller range"
+        )
+    # the slack absorbs rounding in span (2·pi/(pi/10) is 20 to within an ulp, not exactly)
+    counts = np.floor(span + 1e-9 * np.maximum(1.0, span)).astype(np.int64) + 1
+    total = int(np.prod(counts))
+    _check_fits(total * 3 * 8, f"a grid of {counts.tolist()} = {total} nodes")
+    return [lo[i] + step[i] * np.arange(counts[i]) for i in range(3)]
+
+def _nodes(axes) -> np.ndarray:
+    # meshgrid with 'ij' on (z, y, x) and reversing gives x fastest in C order
+    zz, yy, xx = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    return np.stack([xx.ravel(), yy.ravel(), zz.ravel()], axis=-1)
+
+
+def cartesian_grid(lo=-1.0, hi=1.0, step=0.1) -> np.ndarray:
+    """Positions ``(N, 3)`` in metres on a regular grid, in the paper's node order (x fastest)."""
+    return _nodes(grid_axes(lo, hi, step))
+
+
+def angle_grid(lo=0.0, hi=2 * np.pi, step=np.pi / 10) -> np.ndarray:
+    """Orientation angles ``(N, 3)`` (r1, r2, r3) in radians, in the paper's node order (r1 fastest)."""
+    return _nodes(grid_axes(lo, hi, step))
+
+
+# --------------------------------------------------------------------------- poses
+
+# --------------------------------------------------------------------------- layout helpers
+def map_to_volume(flat, shape) -> np.ndarray:
+    """Flat map ``(..., nx*ny*nz)`` → volume ``(..., nz, ny, nx)``; ``shape`` is ``(nx, ny, nz)``."""
+    flat = np.asarray(flat)
+    nx, ny, nz = (int(s) for s in shape)
+    if flat.shape[-1] != nx * ny * nz:
+        raise ValueError(f"a map of {flat.shape[-1]} nodes does not fill a grid of shape {(nx, ny, nz)}")
+    return flat.reshape(flat.shape[:-1] + (nz, ny, nx))
+
+
+def volume_to_map(volume) -> np.ndarray:
+    """Volume ``(..., nz, ny, nx)`` → flat map ``(..., nx*ny*nz)`` in node order."""
+    volume = np.asarray(volume)
+    if volume.ndim < 3:
+        raise ValueError(f"a volume needs at least 3 dimensions (nz, ny, nx), got shape {volume.shape}")
+    return volume.reshape(volume.shape[:-3] + (-1,))
+
+
+def block_slice(block: int) -> slice:
+    """Flat-index slice of the paper's output block ``block`` (0-based, 0..6) of the 21³ map.
+
+    Block 4 (the paper's 1-based block 5, section 6.1) is 0-based indices 5292..6614, z in {0.2, 0.3, 0.4}.
+    """
+    if int(block) != block or not 0 <= block < N_BLOCKS:
+        raise ValueError(f"block must be an integer in 0..{N_BLOCKS - 1}, got {block!r}")
+    return slice(int(block) * BLOCK_NODES, (int(block) + 1) * BLOCK_NODES)
+
