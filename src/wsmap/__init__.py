@@ -1,7 +1,44 @@
 """wsmap: manipulator workspace maps, classical and learned.
 
-A reproduction and extension of P. Liao, "Deep Neural Network Based Subspace Learning of Robotic
-Manipulator Workspace Mapping". See README.md for the conventions and the paper's numbers.
+The library (what a roboticist imports)::
+
+    import wsmap
+    arm = wsmap.robots.puma560()
+    nodes = wsmap.cartesian_grid(-1, 1, 0.1)
+    reach = wsmap.constant_orientation_map(arm, nodes, method="exact")
+
+* :mod:`wsmap.kinematics` — transforms, robot models (:class:`DHRobot`), forward kinematics, IK;
+* :mod:`wsmap.robots` — named arms and families of arms;
+* :mod:`wsmap.workspace` — grids, maps, map files;
+* :mod:`wsmap.datasets` — experience datasets (spec, features, labels, store);
+* :mod:`wsmap.learn` — networks, initialisation, optimisers, training, the map predictor, model files;
+* :mod:`wsmap.metrics` — precision, recall, F of maps;
+* :mod:`wsmap.viz` — drawing; :mod:`wsmap.io` — atomic writes, tables, JSON; :mod:`wsmap.paths`.
+
+The paper's reproduction lives apart, in :mod:`wsmap.paper` (its dataset specs, published numbers,
+experiments, run-time comparison, report and notebook runner). A reproduction and extension of
+P. Liao, "Deep Neural Network Based Subspace Learning of Robotic Manipulator Workspace Mapping".
 """
 
 __version__ = "0.1.0"
+
+from . import kinematics, robots, workspace  # noqa: E402
+from .kinematics import DHRobot, IKResult, ikine_LM, ikine_spherical_wrist, rpy2r, transl  # noqa: E402
+from .workspace import (  # noqa: E402
+    angle_grid,
+    cartesian_grid,
+    constant_orientation_map,
+    grid_map,
+    grid_spec,
+    load_map,
+    map_to_volume,
+    orientation_map,
+    save_map,
+)
+
+__all__ = [
+    "__version__", "kinematics", "robots", "workspace",
+    "DHRobot", "IKResult", "ikine_LM", "ikine_spherical_wrist", "rpy2r", "transl",
+    "angle_grid", "cartesian_grid", "constant_orientation_map", "grid_map", "grid_spec", "load_map",
+    "map_to_volume", "orientation_map", "save_map",
+]

@@ -1,45 +1,46 @@
-"""Command line: ``wsmap map ...`` (also ``python -m wsmap map ...``).
+"""The one command line: ``wsmap map``, ``wsmap data``, ``wsmap paper`` (also ``python -m wsmap``).
 
-Example: the PUMA560's constant-orientation map on the paper's 21³ grid, with a picture::
+Examples::
 
-    wsmap map --robot puma560 --step 0.1 --out puma560.npz --png puma560_slices.png
-
-Your own arm, by its DH columns (angles accept ``pi`` expressions)::
-
+    wsmap map --robot puma560 --out puma560.npz --png puma560_slices.png
     wsmap map --d 0 0 0.15 0.43 0 0 --a 0 0.43 0.02 0 0 0 \\
               --alpha pi/2 0 -pi/2 pi/2 -pi/2 0 --method numerical --out mine.npz
+    wsmap map --robot puma560 --method model --model models/improved_model.pt --out nn.npz
+    wsmap data build sec61 --samples 10000 --test-samples 1000 --out data/sec61.npz
+    wsmap paper run sec61_subspace            # one notebook (a DVC stage) with params.yaml
+    wsmap paper run --all --params params.full.yaml --root full --timeout 0
 
-A trained network instead of inverse kinematics (a model file saved with a ``map_spec`` that covers
-the whole grid asked for, e.g. the 7 block models of section 6.2 assembled)::
-
-    wsmap map --robot puma560 --method model --model puma_blocks.pt --out puma560_model.npz
+Every input is checked before any work and before any file is written; the outputs of a run are
+written to temporary files and put in place together when the whole run has succeeded. A bad
+input ends with exit code 2 and one line naming the problem, never a traceback.
 """
 
 from __future__ import annotations
 
 import argparse
 import ast
-import json
 import math
 import operator
+import os
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-__all__ = ["main", "compute_map", "save_map", "load_map"]
+__all__ = ["main", "number"]
 
 _OPS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
         ast.USub: operator.neg, ast.UAdd: operator.pos, ast.Pow: operator.pow}
 
 
 def number(text: str) -> float:
-    """A float, or an arithmetic expression in ``pi`` (``pi/2``, ``-3*pi/4``, ``2*pi``)."""
+    """A finite float, or an arithmetic expression in ``pi`` (``pi/2``, ``-3*pi/4``, ``2*pi``)."""
 
     def ev(node):
         if isinstance(node, ast.Expression):
             return ev(node.body)
-        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)):
+        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
             return float(node.value)
         if isinstance(node, ast.Name) and node.id == "pi":
             return math.pi
@@ -48,18 +49,55 @@ def number(text: str) -> float:
         if isinstance(node, ast.UnaryOp) and type(node.op) in _OPS:
             return _OPS[type(node.op)](ev(node.operand))
         raise ValueError
+    if len(text) > 200:
+        raise argparse.ArgumentTypeError(f"not a number or pi expression (too long): {text[:40]!r}...")
     try:
+        # floats only: 9**9**9 overflows (OverflowError) instead of building a huge integer
         value = ev(ast.parse(text.strip(), mode="eval"))
-    except (ValueError, SyntaxError, ZeroDivisionError, TypeError):
-        raise argparse.ArgumentTypeError(f"not a number or pi expression: {text!r}") from None
-    if not math.isfinite(value):
+    except (ValueError, SyntaxError, ZeroDivisionError, TypeError, OverflowError, RecursionError, MemoryError):
+        raise argparse.ArgumentTypeError(f"not a finite number or pi expression: {text!r}") from None
+    if isinstance(value, complex) or not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
     return value
 
 
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be at least 0, got {value}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    value = number(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
+    return value
+
+
+# ------------------------------------------------------------------------------------- wsmap map
 def _robot_from_args(args):
     from . import robots
     from .kinematics import DHRobot
+
+    def limits(n):
+        q = np.asarray(args.qlim_deg, dtype=float)
+        if q.size != 2 * n:
+            raise ValueError(f"--qlim-deg needs 2 values per joint ({2 * n}), got {q.size}")
+        return np.deg2rad(q.reshape(-1, 2))
 
     dh = [args.d, args.a, args.alpha]
     if any(x is not None for x in dh):
@@ -67,101 +105,23 @@ def _robot_from_args(args):
             raise ValueError("give either --robot or the DH columns --d/--a/--alpha, not both")
         if any(x is None for x in dh):
             raise ValueError("the DH columns need all three of --d, --a and --alpha")
-        qlim = None
-        if args.qlim_deg is not None:
-            q = np.asarray(args.qlim_deg, dtype=float)
-            if q.size != 2 * len(args.d):
-                raise ValueError(f"--qlim-deg needs 2 values per joint ({2 * len(args.d)}), got {q.size}")
-            qlim = np.deg2rad(q.reshape(-1, 2))
+        qlim = limits(len(args.d)) if args.qlim_deg is not None else None
         return DHRobot(args.d, args.a, args.alpha, qlim=qlim, name="custom")
     robot = robots.from_name(args.robot or "puma560", joint_limits=args.joint_limits)
     if args.qlim_deg is not None:
-        q = np.asarray(args.qlim_deg, dtype=float)
-        if q.size != 2 * robot.n:
-            raise ValueError(f"--qlim-deg needs 2 values per joint ({2 * robot.n}), got {q.size}")
-        robot = DHRobot(robot.d, robot.a, robot.alpha, qlim=np.deg2rad(q.reshape(-1, 2)), name=robot.name)
+        robot = DHRobot(robot.d, robot.a, robot.alpha, qlim=limits(robot.n), name=robot.name)
     return robot
 
 
-def compute_map(robot, *, scope="R3", lo=None, hi=None, step=None, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5),
-                method="exact", convention="paper", model=None, ik=None, progress=False):
-    """One call from an arm to its map. Returns ``(map, grid)``.
-
-    ``map`` is bool ``(N,)`` in node order; ``grid`` a dict with ``lo``, ``hi``, ``step``, ``shape``
-    (nx, ny, nz) and ``scope``. Defaults are the paper's: R3 on [-1, 1] m at 0.1 m, SO3 on
-    [0, 2·pi] at pi/10. ``method="model"`` needs ``model``, a path to a model file saved with a
-    ``map_spec`` (:func:`wsmap.models.predict_maps_from_file`) whose grid, pose convention and fixed
-    orientation (R3) or point (SO3) are the ones asked for and which covers every node of the grid
-    (e.g. the 7 block models assembled); otherwise ``ValueError`` says what differs.
-    """
-    from . import workspace as ws
-
-    if scope not in ("R3", "SO3"):
-        raise ValueError(f"unknown scope {scope!r}; choose one of R3, SO3")
-    if scope == "R3":
-        lo, hi, step = (-1.0 if lo is None else lo), (1.0 if hi is None else hi), (0.1 if step is None else step)
-    else:
-        lo, hi, step = (0.0 if lo is None else lo), (2 * math.pi if hi is None else hi), (math.pi / 10 if step is None else step)
-    axes = ws.grid_axes(lo, hi, step)
-    shape = tuple(len(a) for a in axes)
-    nodes = ws.cartesian_grid(lo, hi, step)
-    grid = {"scope": scope, "lo": np.broadcast_to(lo, 3).tolist(), "hi": np.broadcast_to(hi, 3).tolist(),
-            "step": np.broadcast_to(step, 3).tolist(), "shape": list(shape)}
-    if method == "model":
-        if model is None:
-            raise ValueError("method 'model' needs a model file (--model PATH)")
-        from .models import predict_maps_from_file
-
-        fixed = rpy if scope == "R3" else point
-        flat = predict_maps_from_file(model, robot, fixed, grid=grid, convention=convention, whole_grid=True)
-        if flat.shape != (len(nodes),):  # a model file disagreeing with its own spec
-            raise ValueError(f"model {model} gave a map of shape {flat.shape}, the grid has {len(nodes)} nodes")
-        return flat, grid
-    ik = dict(ik or {})
-    bar = None
-    if progress and method == "numerical":
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(nodes), unit="node", desc="numerical IK", file=sys.stderr)
-        ik.setdefault("chunk", 2048)
-        ik["progress"] = bar.update
-    try:
-        if scope == "R3":
-            m = ws.constant_orientation_map(robot, nodes, rpy, method=method, convention=convention, ik=ik)
-        else:
-            m = ws.orientation_map(robot, nodes, point, method=method, convention=convention, ik=ik)
-    finally:
-        if bar is not None:
-            bar.close()
-    return m, grid
+def _arg3(values, name):
+    if values is None:
+        return None
+    if len(values) not in (1, 3):
+        raise ValueError(f"{name} takes one value or three, got {len(values)}")
+    return values[0] if len(values) == 1 else tuple(values)
 
 
-def save_map(path, flat_map, grid, settings) -> None:
-    """Write a map as ``.npz`` (``map`` bool, ``nodes`` float64, ``grid`` and ``settings`` as JSON), atomically."""
-    from .io import atomic_path
-    from .workspace import cartesian_grid
-
-    nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
-    with atomic_path(path, suffix=".npz") as tmp:
-        with open(tmp, "wb") as f:
-            np.savez_compressed(f, map=np.asarray(flat_map, dtype=bool), nodes=nodes,
-                                grid=json.dumps(grid), settings=json.dumps(settings))
-
-
-def load_map(path):
-    """Read a map written by :func:`save_map`: ``(map, nodes, grid, settings)``."""
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            return z["map"], z["nodes"], json.loads(str(z["grid"])), json.loads(str(z["settings"]))
-    except FileNotFoundError:
-        raise
-    except Exception as e:
-        raise ValueError(f"{path} is not a readable wsmap map file ({e})") from None
-
-
-def _parser():
-    p = argparse.ArgumentParser(prog="wsmap", description="Manipulator workspace maps, classical and learned.")
-    sub = p.add_subparsers(dest="command", required=True)
+def _map_parser(sub):
     m = sub.add_parser(
         "map",
         help="compute the workspace map of an arm on a grid",
@@ -194,22 +154,215 @@ def _parser():
     g.add_argument("--convention", choices=["paper", "standard"], default="paper",
                    help="paper: T = R·transl(p), tests R·p (the authors' code); standard: T = transl(p)·R")
     g.add_argument("--model", help="trained model file for --method model")
-    g.add_argument("--tol", type=float, default=1e-10, help="numerical IK tolerance on the pose error norm")
-    g.add_argument("--ilimit", type=int, default=500, help="numerical IK iteration limit")
-    g.add_argument("--rlimit", type=int, default=100, help="numerical IK limit on consecutive rejected steps")
+    g.add_argument("--allow-extrapolation", action="store_true",
+                   help="--method model: predict for arms outside the range the model was trained on (with a warning)")
+    g.add_argument("--tol", type=positive_float, default=1e-10, help="numerical IK tolerance on the pose error norm")
+    g.add_argument("--ilimit", type=positive_int, default=500, help="numerical IK iteration limit")
+    g.add_argument("--rlimit", type=positive_int, default=100, help="numerical IK limit on consecutive rejected steps")
     g = m.add_argument_group("output")
     g.add_argument("--out", required=True, help="output .npz file (map, nodes, grid, settings)")
     g.add_argument("--png", help="also draw the map's z-slices to this PNG")
     g.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+    m.set_defaults(run=_run_map)
+
+
+def _run_map(args) -> int:
+    from . import workspace as ws
+    from .io import atomic_paths, check_output_path
+
+    # every check before any work
+    out = check_output_path(args.out, "--out")
+    png = check_output_path(args.png, "--png") if args.png else None
+    if png is not None and os.path.abspath(png) == os.path.abspath(out):
+        raise ValueError("--out and --png name the same file")
+    if args.method == "model":
+        if not args.model:
+            raise ValueError("--method model needs a model file (--model PATH)")
+        if not Path(args.model).is_file():
+            raise ValueError(f"--model {args.model!r}: no such file")
+    elif args.model:
+        raise ValueError(f"--model is only used with --method model (method is {args.method!r})")
+    if args.allow_extrapolation and args.method != "model":
+        raise ValueError("--allow-extrapolation is only used with --method model")
+    robot = _robot_from_args(args)
+    grid = ws.grid_spec(args.scope, _arg3(args.lo, "--lo"), _arg3(args.hi, "--hi"), _arg3(args.step, "--step"))
+    if args.method == "exact":
+        from .kinematics import require_spherical_wrist
+
+        require_spherical_wrist(robot)
+
+    t0 = time.perf_counter()
+    ik = dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit)
+    flat = ws.grid_map(robot, grid, rpy=args.rpy, point=args.point, method=args.method, convention=args.convention,
+                       model=args.model, allow_extrapolation=args.allow_extrapolation, ik=ik, progress=not args.quiet)
+    seconds = time.perf_counter() - t0
+    settings = {
+        "robot": robot.name, "d": robot.d.tolist(), "a": robot.a.tolist(), "alpha": robot.alpha.tolist(),
+        "qlim": None if robot.qlim is None else robot.qlim.tolist(), "method": args.method,
+        "convention": args.convention, "rpy": list(args.rpy), "point": list(args.point), "model": args.model,
+        "ik": ik, "seconds": seconds,
+    }
+    fig = None
+    if png is not None:
+        from .viz import plot_slices
+
+        labels = ("x", "y", "z") if args.scope == "R3" else ("r1", "r2", "r3")
+        fig = plot_slices(flat, grid["shape"], grid["lo"], grid["step"], labels=labels,
+                          title=f"{robot.name or 'arm'}: {int(flat.sum())} of {flat.size} nodes reachable ({args.method})")
+    paths = [out] + ([png] if png is not None else [])
+    try:
+        # both files or neither: a failing PNG leaves an existing --out untouched
+        with atomic_paths(paths) as tmps:
+            ws.save_map(tmps[0], flat, grid, settings)
+            if fig is not None:
+                fig.savefig(tmps[1], dpi=120, bbox_inches="tight")
+    finally:
+        if fig is not None:
+            import matplotlib.pyplot as plt
+
+            plt.close(fig)
+    if not args.quiet:
+        print(f"{int(flat.sum())} of {flat.size} nodes reachable ({flat.mean():.1%}); "
+              f"{args.method} map in {seconds:.3f} s -> {out}" + (f", {png}" if png else ""))
+    return 0
+
+
+# ------------------------------------------------------------------------------------ wsmap data
+def _data_parser(sub):
+    d = sub.add_parser("data", help="build and inspect experience datasets",
+                       description="Experience datasets: features of random arms and their workspace maps.")
+    dsub = d.add_subparsers(dest="data_command", required=True, metavar="{build,list,audit}")
+    b = dsub.add_parser("build", help="build one of the paper's datasets (and its test set)",
+                        description="Build a dataset of the paper's catalogue (`wsmap data list`) and, with "
+                                    "--test-samples, its independent test set beside it (NAME.test.npz).",
+                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    b.add_argument("name", help="a dataset of the paper's catalogue (see `wsmap data list`)")
+    b.add_argument("--out", required=True, help="output file (.npz)")
+    b.add_argument("--samples", type=positive_int, help="number of arms (the first N of the spec's streams; default the paper's)")
+    b.add_argument("--test-samples", type=positive_int,
+                   help="also build the independent test set of this many arms (OUT with .test.npz)")
+    b.add_argument("--test", action="store_true",
+                   help="build only the spec's independent test set (of --samples arms, default 1000) into --out")
+    b.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+    b.set_defaults(run=_run_data_build)
+    ls = dsub.add_parser("list", help="list the paper's datasets")
+    ls.set_defaults(run=_run_data_list)
+    a = dsub.add_parser("audit", help="exact labels against the paper's one-start numerical path")
+    a.add_argument("names", nargs="*", help="datasets (default: every distinct spherical-wrist spec)")
+    a.add_argument("--arms", type=positive_int, default=50)
+    a.add_argument("--seed", type=non_negative_int, default=0)
+    a.set_defaults(run=_run_data_audit)
+
+
+def _paper_spec(name):
+    from .paper.specs import PAPER_SPECS
+
+    if name not in PAPER_SPECS:
+        raise ValueError(f"unknown dataset {name!r}; choose one of {', '.join(sorted(PAPER_SPECS))}")
+    return PAPER_SPECS[name]
+
+
+def _run_data_build(args) -> int:
+    from . import datasets
+
+    if args.test and args.test_samples is not None:
+        raise ValueError("--test builds only a test set into --out; --test-samples builds one beside the "
+                         "training set: give one of them")
+    spec = _paper_spec(args.name)
+    t0 = time.perf_counter()
+    written = datasets.build_dataset_files(spec, args.out, samples=args.samples, test_samples=args.test_samples,
+                                           test_only=args.test, progress=not args.quiet)
+    if not args.quiet:
+        for path in written:
+            print(f"{path} ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+def _run_data_list(args) -> int:
+    from .paper.specs import PAPER_SPECS
+
+    for name, s in PAPER_SPECS.items():
+        print(f"{name:22s} {s.family:16s} {s.scope} nodes={s.n_nodes:5d} features={s.n_features:3d} "
+              f"samples={s.samples} fixed={s.fixed} method={s.method}")
+    return 0
+
+
+def _run_data_audit(args) -> int:
+    import json
+
+    from .datasets import audit_table
+
+    for name in args.names:
+        _paper_spec(name)
+    rows = audit_table(args.names or None, n_arms=args.arms, seed=args.seed, progress=True)
+    print(json.dumps(rows, indent=1))
+    return 0
+
+
+# ----------------------------------------------------------------------------------- wsmap paper
+def _paper_parser(sub):
+    p = sub.add_parser("paper", help="reproduce the paper: run its notebooks (the DVC stages)",
+                       description="Run the paper's notebooks with papermill. `dvc repro` calls "
+                                   "`wsmap paper run NAME` per stage; --all runs everything without DVC.")
+    psub = p.add_subparsers(dest="paper_command", required=True, metavar="{run,list}")
+    r = psub.add_parser("run", help="run notebooks (stages) by name, or all of them",
+                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    r.add_argument("notebooks", nargs="*", help="notebook names (without .ipynb)")
+    r.add_argument("--all", action="store_true",
+                   help="build the datasets the root lacks, then run every notebook in order (no DVC)")
+    r.add_argument("--params", help="parameters file (default params.yaml)")
+    r.add_argument("--root", help="output root (default: the project root)")
+    r.add_argument("--timeout", type=non_negative_int, default=3600,
+                   help="per-cell execution timeout in seconds (0: none; use 0 for params.full.yaml)")
+    r.set_defaults(run=_run_paper)
+    ls = psub.add_parser("list", help="list the notebooks in pipeline order")
+    ls.set_defaults(run=_run_paper_list)
+
+
+def _run_paper(args) -> int:
+    from . import paths
+    from .paper import pipeline
+
+    if args.all and args.notebooks:
+        raise ValueError("give notebook names or --all, not both")
+    if not args.all and not args.notebooks:
+        raise ValueError("name at least one notebook, or --all")
+    params = Path(args.params) if args.params else paths.PARAMS
+    names = pipeline.ORDER if args.all else args.notebooks
+    for name in names:  # every name and section checked before anything runs
+        pipeline.check_notebook(name)
+        paths.notebook_params(name, params)
+    if args.root:
+        from .io import check_output_path
+
+        check_output_path(Path(args.root) / "results" / "x", "--root")
+    # one process, two cores: keep torch and BLAS from oversubscribing inside the kernel
+    os.environ.setdefault("OMP_NUM_THREADS", "2")
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    if args.all:
+        pipeline.run_all(params, args.root, args.timeout)
+    else:
+        for name in args.notebooks:
+            pipeline.run_notebook(name, params, args.root, args.timeout)
+    return 0
+
+
+def _run_paper_list(args) -> int:
+    from .paper import pipeline
+
+    for name in pipeline.ORDER:
+        print(name)
+    return 0
+
+
+# ------------------------------------------------------------------------------------------ main
+def _parser():
+    p = argparse.ArgumentParser(prog="wsmap", description="Manipulator workspace maps, classical and learned.")
+    sub = p.add_subparsers(dest="command", required=True, metavar="{map,data,paper}")
+    _map_parser(sub)
+    _data_parser(sub)
+    _paper_parser(sub)
     return p
-
-
-def _arg3(values):
-    if values is None:
-        return None
-    if len(values) not in (1, 3):
-        raise ValueError(f"grid bounds and steps take one value or three, got {len(values)}")
-    return values[0] if len(values) == 1 else tuple(values)
 
 
 def _protect_negative_expressions(argv):
@@ -223,38 +376,21 @@ def _protect_negative_expressions(argv):
 
 
 def main(argv=None) -> int:
+    """Run the command line; returns the exit code (0 success, 2 bad input or failure, 130 interrupted)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     args = _parser().parse_args(_protect_negative_expressions(argv))
     try:
-        robot = _robot_from_args(args)
-        t0 = time.perf_counter()
-        flat, grid = compute_map(
-            robot, scope=args.scope, lo=_arg3(args.lo), hi=_arg3(args.hi), step=_arg3(args.step), rpy=args.rpy,
-            point=args.point, method=args.method, convention=args.convention, model=args.model,
-            ik=dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit), progress=not args.quiet,
-        )
-        seconds = time.perf_counter() - t0
-        settings = {
-            "robot": robot.name, "d": robot.d.tolist(), "a": robot.a.tolist(), "alpha": robot.alpha.tolist(),
-            "qlim": None if robot.qlim is None else robot.qlim.tolist(), "method": args.method,
-            "convention": args.convention, "rpy": list(args.rpy), "point": list(args.point), "model": args.model,
-            "ik": dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit), "seconds": seconds,
-        }
-        save_map(args.out, flat, grid, settings)
-        if args.png:
-            from .render import plot_slices, save_figure
-
-            labels = ("x", "y", "z") if args.scope == "R3" else ("r1", "r2", "r3")
-            fig = plot_slices(flat, grid["shape"], grid["lo"], grid["step"], labels=labels,
-                              title=f"{robot.name or 'arm'}: {int(flat.sum())} of {flat.size} nodes reachable ({args.method})")
-            save_figure(fig, args.png)
-    except (ValueError, MemoryError, FileNotFoundError) as e:
-        print(f"wsmap: error: {e}", file=sys.stderr)
+        return args.run(args)
+    except KeyboardInterrupt:
+        print("wsmap: interrupted; no output was written", file=sys.stderr)
+        return 130
+    except (ValueError, TypeError, KeyError, MemoryError, OSError) as e:
+        # bad input or an OS refusal: one line, no traceback (outputs are only put in place on success)
+        msg = e.args[0] if isinstance(e, KeyError) and e.args else e
+        if isinstance(e, OSError) and e.filename and str(e.filename) not in str(e):
+            msg = f"{e.filename}: {e.strerror or e}"
+        print(f"wsmap: error: {msg}", file=sys.stderr)
         return 2
-    if not args.quiet:
-        print(f"{int(flat.sum())} of {flat.size} nodes reachable ({flat.mean():.1%}); "
-              f"{args.method} map in {seconds:.3f} s -> {args.out}")
-    return 0
 
 
 if __name__ == "__main__":

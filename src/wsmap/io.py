@@ -1,33 +1,230 @@
-"""Atomic file writing: a reader never sees half a file, and an interrupted write leaves the old one."""
+"""Writing files: atomic writes, output-path checks, the one writer of tables and of JSON.
+
+Every file the project writes goes through :func:`atomic_path` (one file) or :func:`atomic_paths`
+(several outputs of one run): a reader never sees half a file, an interrupted or failed run leaves
+the files that were there before, and the outputs of one run appear together or not at all.
+"""
 
 from __future__ import annotations
 
+import json
+import math
 import os
 import tempfile
-from contextlib import contextmanager
+from collections.abc import Iterable, Mapping, Sequence
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "OutputPathError",
+    "check_output_path",
+    "atomic_path",
+    "atomic_paths",
+    "jsonable",
+    "write_json",
+    "format_cell",
+    "plus_minus",
+    "markdown_table",
+    "write_table",
+]
+
+
+class OutputPathError(ValueError):
+    """An output path that cannot be written: empty, a directory, or in a folder one cannot write."""
+
+
+def check_output_path(path, what: str = "output") -> Path:
+    """``path`` as a ``Path`` after checking, without writing anything, that a file can be put there.
+
+    Refused (:class:`OutputPathError`, naming ``what`` and the path): an empty path, an existing
+    directory, a path whose nearest existing folder is not a folder or is not writable. Missing
+    folders are fine: :func:`atomic_path` creates them when the run has succeeded.
+    """
+    if path is None or str(path).strip() == "":
+        raise OutputPathError(f"{what} path is empty")
+    p = Path(path)
+    if p.is_dir() or str(path).endswith(os.sep) or p.name in ("", ".", ".."):
+        raise OutputPathError(f"{what} path {str(path)!r} is a directory; give a file name")
+    parent = p.parent
+    while not parent.exists():
+        if parent == parent.parent:
+            break
+        parent = parent.parent
+    if not parent.is_dir():
+        raise OutputPathError(f"{what} path {str(path)!r}: {str(parent)!r} is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputPathError(f"{what} path {str(path)!r}: no permission to write in {str(parent)!r}")
+    return p
+
+
+def _mode_for_new_files() -> int:
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
+def _temp_beside(path: Path, suffix: str | None) -> Path:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix or ".tmp", dir=path.parent)
+    except OSError as e:
+        # name the user's path, not the temporary file's
+        raise OSError(e.errno, f"cannot write {str(path)!r}: {e.strerror}") from None
+    os.close(fd)
+    return Path(tmp)
+
+
+@contextmanager
+def atomic_paths(paths: Sequence, suffixes: Sequence[str | None] | None = None):
+    """Yield temporary paths beside each of ``paths``; on success each replaces its target.
+
+    The renames happen only after the ``with`` block finished without an exception, so a failed
+    run leaves every target as it was (and removes the temporary files). Each temporary file keeps
+    its target's suffix (or the one in ``suffixes``) because some writers (``np.savez``,
+    ``matplotlib``) choose the format from it. The results get the mode any new file gets
+    (``0666 & ~umask``; ``mkstemp`` would leave ``0600``).
+    """
+    paths = [Path(p) for p in paths]
+    suffixes = list(suffixes) if suffixes is not None else [None] * len(paths)
+    if len(set(map(os.path.abspath, paths))) != len(paths):
+        raise OutputPathError(f"two outputs of one run share a path: {[str(p) for p in paths]}")
+    tmps: list[Path] = []
+    try:
+        for p, s in zip(paths, suffixes):
+            tmps.append(_temp_beside(p, s))
+        yield list(tmps)
+        mode = _mode_for_new_files()
+        for t, p in zip(tmps, paths):
+            os.chmod(t, mode)
+        for t, p in zip(tmps, paths):
+            try:
+                os.replace(t, p)
+            except OSError as e:
+                raise OSError(e.errno, f"cannot write {str(p)!r}: {e.strerror}") from None
+    finally:
+        for t in tmps:
+            if t.exists():
+                t.unlink()
 
 
 @contextmanager
 def atomic_path(path, suffix: str | None = None):
     """Yield a temporary path beside ``path``; on success it replaces ``path`` in one rename.
 
-    The temporary file keeps ``path``'s suffix (or ``suffix``) because some writers (``np.savez``,
-    ``matplotlib``) choose the format from it. On an exception the temporary file is removed and
-    ``path`` is left as it was.
+    On an exception the temporary file is removed and ``path`` is left as it was.
     """
+    with atomic_paths([path], [suffix]) as (tmp,):
+        yield tmp
+
+
+# ----------------------------------------------------------------------------------------- JSON
+def jsonable(value):
+    """``value`` as plain JSON data: numpy arrays and scalars to Python, NaN and ±inf to ``None``
+    (strict JSON has no NaN), mapping keys to strings."""
+    if isinstance(value, Mapping):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return jsonable(value.tolist())
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        v = float(value)
+        return v if math.isfinite(v) else None
+    return value
+
+
+def write_json(obj, path) -> Path:
+    """Write ``obj`` as indented JSON (through :func:`jsonable`) atomically; returns ``path``."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix or ".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        yield Path(tmp)
-        # mkstemp creates the file 0600; give the result the mode any new file gets (0666 & ~umask)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    text = json.dumps(jsonable(obj), indent=2, allow_nan=False) + "\n"
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+    return path
+
+
+# --------------------------------------------------------------------------------------- tables
+def format_cell(v, digits: int = 4, missing: str = "") -> str:
+    """One Markdown cell: integers as integers, floats to ``digits`` decimals (3 significant digits
+    when very large or small), NaN as "NaN", ``None``/pandas' missing values as ``missing``."""
+    if v is None or type(v).__name__ in ("NAType", "NaTType"):
+        return missing
+    if isinstance(v, (bool, np.bool_)):
+        return str(bool(v))
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        v = float(v)
+        if math.isnan(v):
+            return "NaN"
+        a = abs(v)
+        return f"{v:.3g}" if a != 0 and (a >= 1e5 or a < 1e-3) else f"{v:.{digits}f}"
+    return str(v).replace("|", "\\|")
+
+
+def plus_minus(mean, std, digits: int = 4) -> str:
+    """``"0.9298 ± 0.1258"``; ``"NaN"`` for an undefined mean, the mean alone for an undefined std."""
+    if mean is None or (isinstance(mean, float) and math.isnan(mean)):
+        return "NaN"
+    if std is None or (isinstance(std, float) and math.isnan(std)):
+        return f"{mean:.{digits}f}"
+    return f"{mean:.{digits}f} ± {std:.{digits}f}"
+
+
+def _rows_and_columns(table, columns):
+    if hasattr(table, "to_dict") and hasattr(table, "columns"):  # a pandas DataFrame
+        cols = [str(c) for c in table.columns] if columns is None else list(columns)
+        return [dict(zip(map(str, table.columns), row)) for row in table.itertuples(index=False)], cols
+    rows = list(table)
+    cols = list(columns) if columns is not None else (list(rows[0]) if rows else [])
+    return rows, cols
+
+
+def markdown_table(table, columns: Sequence[str] | None = None, *, digits: int = 4, missing: str = "",
+                   whole: Iterable[str] = ()) -> str:
+    """A GitHub-Markdown table of a DataFrame (index left out) or of a list of dicts.
+
+    Cells through :func:`format_cell`; float columns named in ``whole`` are shown as integers
+    when every value is whole (e.g. epochs averaged over sessions that all ran as many).
+    """
+    rows, cols = _rows_and_columns(table, columns)
+    if not cols:
+        return "(no rows)\n"
+    whole = set(whole)
+    as_int = {c for c in cols if c in whole and all(
+        isinstance(r.get(c), (int, float, np.integer, np.floating)) and
+        (math.isnan(float(r[c])) or float(r[c]) == round(float(r[c]))) for r in rows)}
+
+    def cell(r, c):
+        v = r.get(c)
+        if c in as_int and not (isinstance(v, float) and math.isnan(v)):
+            return str(int(round(float(v))))
+        return format_cell(v, digits, missing)
+
+    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
+    lines += ["| " + " | ".join(cell(r, c) for c in cols) + " |" for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+def write_table(df, stem, *, digits: int = 4, whole: Iterable[str] = ()) -> tuple[Path, Path]:
+    """Write a DataFrame as ``STEM.csv`` (full precision) and ``STEM.md`` (:func:`markdown_table`),
+    both or neither; returns both paths."""
+    stem = Path(stem)
+    csv, md = stem.with_name(stem.name + ".csv"), stem.with_name(stem.name + ".md")
+    text = markdown_table(df, digits=digits, whole=whole)
+    with atomic_paths([csv, md]) as (tcsv, tmd):
+        df.to_csv(tcsv, index=False)
+        tmd.write_text(text)
+    return csv, md
+
+
+def read_json(path) -> Any:
+    """JSON from ``path`` (``FileNotFoundError`` if missing)."""
+    with open(path) as f:
+        return json.load(f)

@@ -22,17 +22,54 @@ PAPER = (ROOT / ".." / "shared" / "paper").resolve()
 
 
 def load_params(section: str | None = None, path: Path | str | None = None) -> dict:
-    """The pipeline's parameters (``params.yaml``), or one section of them."""
+    """The pipeline's parameters (``params.yaml`` unless ``path``), or one section of them.
+
+    A missing file or section is a ``ValueError`` naming it.
+    """
     import yaml
 
     path = Path(path) if path is not None else PARAMS
+    if not path.is_file():
+        raise ValueError(f"no parameters file at {path}")
     with open(path) as f:
         params = yaml.safe_load(f) or {}
+    if not isinstance(params, dict):
+        raise ValueError(f"{path} must hold a mapping of sections, got {type(params).__name__}")
     if section is None:
         return params
     if section not in params:
-        raise KeyError(f"{path} has no section {section!r}; sections: {', '.join(params)}")
+        raise ValueError(f"{path} has no section {section!r}; sections: {', '.join(params)}")
     return params[section]
+
+
+class Params(dict):
+    """One notebook's parameters: a dict whose missing keys are an error naming file and section.
+
+    Notebooks hold no defaults of their own; every value they read comes from the params file.
+    """
+
+    def __init__(self, values: dict, source: str):
+        super().__init__(values)
+        self.source = source
+
+    def __missing__(self, key):
+        raise KeyError(f"{self.source} has no parameter {key!r} (known: {', '.join(sorted(self)) or 'none'})")
+
+    def get(self, key, *default):  # noqa: D401 - a default would hide a missing parameter
+        raise TypeError("Params.get would hide a missing parameter; index with params[key]")
+
+
+def notebook_params(name: str, params_file: Path | str | None = None) -> Params:
+    """The parameters of notebook ``name``: its section of ``params_file`` (default ``params.yaml``).
+
+    The same call serves papermill (which passes the chosen file) and a notebook opened by hand in
+    JupyterLab (``params_file`` left ``None``).
+    """
+    path = Path(params_file) if params_file else PARAMS
+    section = load_params(name, path)
+    if not isinstance(section, dict):
+        raise ValueError(f"{path} section {name!r} must be a mapping, got {type(section).__name__}")
+    return Params(section, f"{path.name} section {name!r}")
 
 
 class Outputs:

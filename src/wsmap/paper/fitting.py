@@ -21,10 +21,10 @@ from typing import Any
 import numpy as np
 import torch
 
-from . import metrics as M
-from .data import Dataset
-from .models import MLPConfig, SubspaceMLP
-from .training import TrainConfig, TrainResult, split_indices, train_sessions
+from .. import metrics as M
+from ..data import Dataset
+from ..models import MLPConfig, SubspaceMLP
+from ..training import TrainConfig, TrainResult, split_indices, train_sessions
 
 __all__ = ["model_config", "fit", "fit_blocks", "stack_sessions", "evaluate", "node_slice"]
 

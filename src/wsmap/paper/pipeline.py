@@ -1,20 +1,29 @@
-"""Running the paper's notebooks: ``python -m wsmap.pipeline NOTEBOOK [--params FILE] [--root DIR]``.
+"""Running the paper's notebooks (``wsmap paper run NOTEBOOK [--params FILE] [--root DIR]``).
 
-Each notebook under ``notebooks/`` is one DVC stage. This runner reads the notebook's section of
-``params.yaml`` (same name as the notebook), passes it to papermill as parameters, and writes the
-executed copy to ``<root>/results/notebooks/`` — never over the source notebook. papermill runs
-with the ``python3`` kernel (a saved kernel name may not exist) from the project root.
+Each notebook under ``notebooks/`` is one DVC stage. This runner checks that the parameters file
+has the notebook's section (same name as the notebook), passes the file's path to papermill (the
+notebook reads its section through :func:`wsmap.paths.notebook_params`, as it does when opened by
+hand), and writes the executed copy to ``<root>/results/notebooks/`` — never over the source
+notebook. papermill runs with the ``python3`` kernel (a saved kernel name may not exist) from the
+project root.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
-import sys
 import time
 from pathlib import Path
 
-from . import paths
+from .. import paths
+
+
+def check_notebook(name: str) -> Path:
+    """The source notebook of ``name``; an unknown name is a ``ValueError`` listing the known ones."""
+    src = paths.NOTEBOOKS / f"{name}.ipynb"
+    if not src.is_file():
+        known = sorted(p.stem for p in paths.NOTEBOOKS.glob("*.ipynb"))
+        raise ValueError(f"unknown notebook {name!r}; known: {', '.join(known)}")
+    return src
 
 
 def run_notebook(name: str, params_file=None, root=None, timeout: int | None = 3600,
@@ -24,14 +33,11 @@ def run_notebook(name: str, params_file=None, root=None, timeout: int | None = 3
     ``timeout``: seconds any one cell may run (``None`` or 0: no limit, for the paper's scale)."""
     import papermill as pm
 
-    src = paths.NOTEBOOKS / f"{name}.ipynb"
-    if not src.exists():
-        known = sorted(p.stem for p in paths.NOTEBOOKS.glob("*.ipynb"))
-        raise ValueError(f"unknown notebook {name!r}; known: {', '.join(known)}")
-    params_file = Path(params_file) if params_file else paths.PARAMS
-    section = paths.load_params(path=params_file).get(name, {})
+    src = check_notebook(name)
+    params_file = (Path(params_file) if params_file else paths.PARAMS).resolve()
+    paths.notebook_params(name, params_file)  # a missing file or section fails here, before any work
     out = paths.Outputs(root).make()
-    parameters = {"params": section, "output_root": str(out.root), **(extra or {})}
+    parameters = {"params_file": str(params_file), "output_root": str(out.root), **(extra or {})}
     dest = out.executed / f"{name}.ipynb"
     t0 = time.perf_counter()
     pm.execute_notebook(
@@ -51,7 +57,7 @@ def build_datasets(params_file, data_dir, *, rebuild: bool = False):
     """Build every dataset (and its test set) of the params file's ``datasets`` section into
     ``data_dir``, skipping pairs already there unless ``rebuild``; yields ``(name, seconds)`` for
     each one built, as it is built (the dvc stages ``datasets@NAME`` do the same one by one)."""
-    from . import data as D
+    from .. import data as D
 
     for name, item in paths.load_params("datasets", params_file).items():
         if not rebuild and all(p.exists() for p in D.dataset_paths(name, data_dir)):
@@ -69,7 +75,7 @@ def run_all(params_file=None, root=None, timeout: int | None = 3600) -> list[Pat
     notebook goes to ``<root>/results/pipeline_timings.json`` (rewritten after each step)."""
     import json
 
-    from .io import atomic_path
+    from ..io import atomic_path
 
     params_file = Path(params_file) if params_file else paths.PARAMS
     out = paths.Outputs(root).make()
@@ -90,31 +96,3 @@ def run_all(params_file=None, root=None, timeout: int | None = 3600) -> list[Pat
             executed.append(run_notebook(n, params_file, out.root, timeout))
             record(n, time.perf_counter() - t0)
     return executed
-
-
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m wsmap.pipeline", description=__doc__.splitlines()[0])
-    p.add_argument("notebooks", nargs="*", help="notebook names (without .ipynb)")
-    p.add_argument("--all", action="store_true",
-                   help="build the datasets the root lacks, then run every notebook in order (no DVC)")
-    p.add_argument("--params", help="parameters file (default params.yaml)")
-    p.add_argument("--root", help="output root (default: the project root)")
-    p.add_argument("--timeout", type=int, default=3600, help="per-cell execution timeout in seconds (0: none; use 0 for params.full.yaml)")
-    args = p.parse_args(argv)
-    # one process, two cores: keep torch and BLAS from oversubscribing inside the kernel
-    os.environ.setdefault("OMP_NUM_THREADS", "2")
-    os.environ.setdefault("MPLBACKEND", "Agg")
-    if args.all:
-        if args.notebooks:
-            p.error("give notebook names or --all, not both")
-        run_all(args.params, args.root, args.timeout)
-        return 0
-    if not args.notebooks:
-        p.error("name at least one notebook, or --all")
-    for name in args.notebooks:
-        run_notebook(name, args.params, args.root, args.timeout)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

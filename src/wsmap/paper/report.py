@@ -18,35 +18,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .io import atomic_path
+from ..io import atomic_path, markdown_table
+from .published import PAPER
 
 __all__ = ["PAPER", "DEPARTURES", "Row", "markdown_table", "lookup", "comparison_rows", "reductions", "write_report"]
-
-#: The paper's published numbers (NOTES.md). Times in seconds; F-measures pooled (micro).
-PAPER: dict[str, float] = {
-    "classical_time_9261": 5227.8,
-    "classical_time_125": 107.3,
-    "classical_time_27": 19.5,
-    "network_time_9261": 0.2238,
-    "network_time_125": 0.0610,
-    "network_time_27": 0.0313,
-    "sec61_f_mean": 0.9665,
-    "sec61_f_std": 0.0045,
-    "sec61_best_threshold_f": 0.9714,
-    "table1_r3_step1": 1.000,
-    "table1_r3_step05": 0.9967,
-    "table1_r3_block5": 0.9221,
-    "table1_r3_crop3087": 0.8493,
-    "table1_r3_full": 0.9038,
-    "table1_so3_pi3": 0.9981,
-    "table1_so3_pi8": 0.9779,
-    "table1_so3_pi10": 0.9920,
-    "table2_rprop_mse_f_mean": 0.9298,
-    "table2_rprop_mse_f_std": 0.1258,
-    "table3_subspace_precision": 0.93,
-    "table3_subspace_recall": 0.76,
-    "table3_subspace_f": 0.91,
-}
 
 #: Where the project departs from the paper, and why (the report lists them all).
 DEPARTURES: list[tuple[str, str]] = [
@@ -97,34 +72,6 @@ class Row:
 
 def _finite(v) -> bool:
     return isinstance(v, (int, float)) and math.isfinite(v)
-
-
-def _fmt(v, digits: int = 4) -> str:
-    if v is None:
-        return "missing"
-    if isinstance(v, int) and not isinstance(v, bool):
-        return str(v)
-    if isinstance(v, float) and math.isnan(v):
-        return "NaN"
-    if isinstance(v, (int, float)):
-        a = abs(v)
-        if a != 0 and (a >= 1e4 or a < 1e-3):
-            return f"{v:.3g}"
-        return f"{v:.{digits}f}"
-    return str(v)
-
-
-def markdown_table(rows: list[dict[str, Any]], columns: list[str] | None = None) -> str:
-    """A GitHub-Markdown table of ``rows`` (dicts), numbers to 4 decimals (3 significant digits
-    when very large or small), ``None`` as "missing"."""
-    if not rows:
-        return "(no rows)\n"
-    columns = columns or list(rows[0])
-    head = "| " + " | ".join(columns) + " |"
-    sep = "|" + "|".join("---" for _ in columns) + "|"
-    body = ["| " + " | ".join(_fmt(r.get(c)) if not isinstance(r.get(c), str) else r[c] for c in columns) + " |"
-            for r in rows]
-    return "\n".join([head, sep, *body]) + "\n"
 
 
 def lookup(metrics: dict[str, Any], key: str):
@@ -255,7 +202,7 @@ def write_report(results_dir, path=None, *, reductions: list[dict] | None = None
                   difference="—" if r.paper is None else r.difference, source=r.source, note=r.note)
              for r in rows if r.section == section]))
     if reductions:
-        lines += ["## Committed scale against the paper's", "", markdown_table(reductions)]
+        lines += ["## Committed scale against the paper's", "", markdown_table(reductions, missing="missing")]
     for title, body in (extra_sections or {}).items():
         lines += [f"## {title}", "", body.rstrip() + "\n"]
     lines += ["## Where the project departs from the paper", ""]

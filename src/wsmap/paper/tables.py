@@ -47,11 +47,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from . import data as D
-from . import experiments as E
-from . import metrics as M
-from .data import Dataset
-from .training import TrainConfig, optimizer_name
+from .. import data as D
+from .. import metrics as M
+from ..data import Dataset
+from ..io import plus_minus
+from ..training import TrainConfig, optimizer_name
+from . import fitting as E
+from .published import PAPER_TABLE1, PAPER_TABLE2, PAPER_TABLE3
 
 __all__ = [
     "PAPER_HIDDEN",
@@ -62,9 +64,6 @@ __all__ = [
     "TABLE3_EMBEDDINGS",
     "OPTIMIZER_LABELS",
     "LOSS_LABELS",
-    "PAPER_TABLE1",
-    "PAPER_TABLE2",
-    "PAPER_TABLE3",
     "METRIC_COLUMNS",
     "mlp_options",
     "scores",
@@ -77,9 +76,6 @@ __all__ = [
     "table3_summary",
     "per_dataset",
     "plus_minus",
-    "markdown",
-    "write_table",
-    "nan_to_none",
 ]
 
 #: The paper's network for section 6.1, Table 1 and Table 2.
@@ -103,51 +99,11 @@ LOSS_LABELS = {"crossentropy": "Cross entropy", "mse": "MSE", "mae": "MAE"}
 
 _NAN = math.nan
 
-#: Table 1 of the paper: dataset -> workspace, delta, output size, F-measure +- sigma_f, batch size.
-#: The "3086" row is the crop of 3087 nodes (NOTES "Datasets").
-PAPER_TABLE1: dict[str, dict[str, Any]] = {
-    "table1_r3_step1": dict(workspace="R3", delta="1", paper_nodes=27, paper_f=1.000, paper_f_std=0.00, paper_samples=60_000),
-    "table1_r3_step05": dict(workspace="R3", delta="0.5", paper_nodes=125, paper_f=0.9967, paper_f_std=0.03, paper_samples=60_000),
-    "table1_r3_block5": dict(workspace="R3", delta="0.1", paper_nodes=1323, paper_f=0.9221, paper_f_std=0.14, paper_samples=60_000),
-    "table1_r3_crop3087": dict(workspace="R3", delta="0.1", paper_nodes=3086, paper_f=0.8493, paper_f_std=0.19, paper_samples=30_000),
-    "table1_r3_full": dict(workspace="R3", delta="0.1", paper_nodes=9261, paper_f=0.9038, paper_f_std=0.15, paper_samples=15_000),
-    "table1_so3_pi3": dict(workspace="SO3", delta="pi/3", paper_nodes=343, paper_f=0.9981, paper_f_std=0.01, paper_samples=60_000),
-    "table1_so3_pi8": dict(workspace="SO3", delta="pi/8", paper_nodes=4913, paper_f=0.9779, paper_f_std=0.13, paper_samples=15_000),
-    "table1_so3_pi10": dict(workspace="SO3", delta="pi/10", paper_nodes=9261, paper_f=0.9920, paper_f_std=0.03, paper_samples=15_000),
-}
-
-#: Table 2 of the paper: (optimizer, loss) -> (F mean, sigma); 6e4 samples, [125, 100, 100, 125].
-PAPER_TABLE2: dict[tuple[str, str], tuple[float, float]] = {
-    ("cgb", "crossentropy"): (0.3661, 0.2031),
-    ("gdx", "crossentropy"): (0.3547, 0.2323),
-    ("oss", "crossentropy"): (0.3574, 0.2337),
-    ("rprop", "crossentropy"): (0.3573, 0.2337),
-    ("scg", "crossentropy"): (0.3186, 0.1802),
-    ("cgb", "mse"): (0.6686, 0.3068),
-    ("gdx", "mse"): (0.2398, 0.1081),
-    ("oss", "mse"): (0.6228, 0.2624),
-    ("rprop", "mse"): (0.9298, 0.1258),
-    ("scg", "mse"): (0.5938, 0.3131),
-    ("cgb", "mae"): (0.3658, 0.1629),
-    ("gdx", "mae"): (0.2256, 0.1011),
-    ("oss", "mae"): (0.2778, 0.1178),
-    ("rprop", "mae"): (0.6573, 0.2388),
-    ("scg", "mae"): (0.3543, 0.1366),
-}
-
-#: Table 3 of the paper: (model's embedding, test set) -> precision, recall, F (each +- sigma);
-#: NaN where the paper printed NaN (every model on the no-subspace test set).
-PAPER_TABLE3: dict[tuple[str, str], dict[str, float]] = {
-    ("nosubspace", "nosubspace"): dict(precision=_NAN, precision_std=_NAN, recall=_NAN, recall_std=_NAN, f=_NAN, f_std=_NAN),
-    ("nosubspace", "workspace"): dict(precision=0.22, precision_std=0.18, recall=0.35, recall_std=0.13, f=0.24, f_std=0.14),
-    ("nosubspace", "subspace"): dict(precision=0.01, precision_std=0.23, recall=0.00, recall_std=0.00, f=0.01, f_std=0.01),
-    ("workspace", "workspace"): dict(precision=0.01, precision_std=0.23, recall=0.00, recall_std=0.00, f=0.01, f_std=0.01),
-    ("workspace", "subspace"): dict(precision=0.85, precision_std=0.17, recall=0.58, recall_std=0.42, f=0.81, f_std=0.21),
-    ("workspace", "nosubspace"): dict(precision=_NAN, precision_std=_NAN, recall=_NAN, recall_std=_NAN, f=_NAN, f_std=_NAN),
-    ("subspace", "subspace"): dict(precision=0.93, precision_std=0.13, recall=0.76, recall_std=0.37, f=0.91, f_std=0.17),
-    ("subspace", "workspace"): dict(precision=0.81, precision_std=0.17, recall=0.72, recall_std=0.35, f=0.82, f_std=0.18),
-    ("subspace", "nosubspace"): dict(precision=_NAN, precision_std=_NAN, recall=_NAN, recall_std=_NAN, f=_NAN, f_std=_NAN),
-}
+#: Count columns: shown as integers when every value is whole (e.g. epochs averaged over sessions
+#: that all ran the same number).
+COUNT_COLUMNS = frozenset({"epochs", "best_epoch", "sessions", "session", "seed", "train_samples", "nodes",
+                           "paper_nodes", "paper_samples", "test_samples", "tp", "fp", "fn", "positives",
+                           "predicted", "f_undefined"})
 
 #: Per-session score columns of the run frames (:func:`scores`), averaged by :func:`summarize`.
 METRIC_COLUMNS = ("precision", "recall", "f", "precision_sample_mean", "precision_sample_std",
@@ -377,100 +333,3 @@ def table3_summary(runs: pd.DataFrame) -> pd.DataFrame:
             **{f"paper_{k}": p.get(k, _NAN) for k in ("precision", "precision_std", "recall", "recall_std", "f", "f_std")},
         ))
     return pd.DataFrame(rows)
-
-
-# --------------------------------------------------------------------------------------------
-# Output helpers
-# --------------------------------------------------------------------------------------------
-
-
-def plus_minus(mean, std, digits: int = 4) -> str:
-    """``"0.9298 ± 0.1258"``; ``"NaN"`` for an undefined mean, the mean alone for an undefined std."""
-    if mean is None or (isinstance(mean, float) and math.isnan(mean)):
-        return "NaN"
-    if std is None or (isinstance(std, float) and math.isnan(std)):
-        return f"{mean:.{digits}f}"
-    return f"{mean:.{digits}f} ± {std:.{digits}f}"
-
-
-def _fmt(v, digits: int) -> str:
-    if isinstance(v, (bool, np.bool_)):
-        return str(bool(v))
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, (float, np.floating)):
-        return "NaN" if math.isnan(v) else f"{v:.{digits}f}"
-    return "" if v is None else str(v)
-
-
-def markdown(df: pd.DataFrame, digits: int = 4) -> str:
-    """A GitHub-Markdown table of ``df`` (index dropped): floats to ``digits`` decimals, NaN as
-    "NaN", integers as integers. ``DataFrame.to_markdown`` (``tabulate``, in the locked
-    environment) when importable, else a plain writer of the same layout."""
-    try:
-        import tabulate  # noqa: F401
-    except ImportError:
-        return _markdown_plain(df, digits)
-    return _shown(df, digits).to_markdown(index=False, disable_numparse=True) + "\n"
-
-
-#: Count columns: shown as integers when every value is whole (e.g. epochs averaged over sessions
-#: that all ran the same number).
-_COUNT_COLUMNS = frozenset({"epochs", "best_epoch", "sessions", "session", "seed", "train_samples", "nodes",
-                            "paper_nodes", "paper_samples", "test_samples", "tp", "fp", "fn", "positives",
-                            "predicted", "f_undefined"})
-
-
-def _shown(df: pd.DataFrame, digits: int) -> pd.DataFrame:
-    """``df`` with every cell a Markdown-safe string."""
-    shown = df.copy()
-    for c in shown.columns:
-        col = shown[c]
-        whole = (c in _COUNT_COLUMNS and col.dtype.kind == "f"
-                 and bool(np.all(np.isnan(col) | (col == np.round(col)))))
-        shown[c] = [(("NaN" if math.isnan(v) else str(int(v))) if whole else _fmt(v, digits)).replace("|", "\\|")
-                    for v in col]
-    return shown
-
-
-def _markdown_plain(df: pd.DataFrame, digits: int = 4) -> str:
-    shown = _shown(df, digits)
-    cols = [str(c) for c in shown.columns]
-    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
-    for row in shown.itertuples(index=False):
-        lines.append("| " + " | ".join(row) + " |")
-    return "\n".join(lines) + "\n"
-
-
-def write_table(df: pd.DataFrame, directory, name: str, digits: int = 4) -> tuple[Any, Any]:
-    """Write ``df`` as ``directory/name.csv`` (full precision) and ``directory/name.md``
-    (:func:`markdown`), each atomically; returns both paths."""
-    from pathlib import Path
-
-    from .io import atomic_path
-
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    csv, md = directory / f"{name}.csv", directory / f"{name}.md"
-    with atomic_path(csv) as tmp:
-        df.to_csv(tmp, index=False)
-    with atomic_path(md) as tmp:
-        Path(tmp).write_text(markdown(df, digits))
-    return csv, md
-
-
-def nan_to_none(value):
-    """``value`` with every float NaN (nested in dicts/lists) replaced by ``None``, and numpy
-    scalars by Python numbers: strict JSON has no NaN."""
-    if isinstance(value, Mapping):
-        return {str(k): nan_to_none(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [nan_to_none(v) for v in value]
-    if isinstance(value, (np.integer,)):
-        return int(value)
-    if isinstance(value, (np.floating, float)):
-        v = float(value)
-        return None if math.isnan(v) or math.isinf(v) else v
-    if isinstance(value, np.bool_):
-        return bool(value)
-    return value

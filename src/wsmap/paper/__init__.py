@@ -1,0 +1,1 @@
+"""The paper's reproduction: its dataset specs, published numbers, experiments and report."""

@@ -1,0 +1,523 @@
+"""Drawing only: workspace maps (z-slices, voxels, surface meshes), training curves, prediction
+errors, threshold sweeps, run-time bars, and writing figures and meshes to files.
+
+Maps are flat boolean arrays in the paper's node order; ``shape = (nx, ny, nz)`` and the grid's
+``lo``/``step`` place them in space (metres for R3 maps, radians for SO3 maps). Everything that
+draws returns a matplotlib ``Figure`` (or ``Axes``); everything that writes a file writes it
+atomically (:mod:`wsmap.io`).
+
+* maps: :func:`plot_slices`, :func:`plot_voxels`, :func:`map_to_mesh`, :func:`render_mesh`,
+  :func:`plot_meshes`, :func:`export_mesh`, :func:`save_figure`;
+* curves over training sessions: :func:`session_curves`, :func:`plot_mean_band` (the paper's
+  "Average gradient (± sigma) of 10 training sessions"), :func:`plot_training_curves`;
+* predictions against the truth: :func:`per_sample_error`, :func:`plot_sample_errors`,
+  :func:`outcomes` / :func:`plot_sections` (TP/FP/FN/TN of a z-layer for a grid of arms),
+  :func:`plot_threshold_sweep`, :func:`plot_error_histograms`;
+* run time: :func:`plot_runtimes`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .io import atomic_path
+from .workspace import map_to_volume
+
+__all__ = [
+    "OUTCOME_COLORS", "OUTCOME_NAMES", "session_curves", "plot_mean_band", "plot_training_curves",
+    "per_sample_error", "plot_sample_errors", "outcomes", "plot_sections", "plot_threshold_sweep",
+    "plot_error_histograms", "plot_runtimes", "plot_meshes", "export_mesh", "plot_slices", "plot_voxels",
+    "map_to_mesh", "save_figure", "render_mesh",
+]
+
+#: :func:`outcomes` codes 0..3 and their colours / names.
+OUTCOME_NAMES = ("true negative", "true positive", "false positive", "false negative")
+OUTCOME_COLORS = ("#f4f4f4", "#1f4e79", "#ff9f1c", "#d62728")
+
+
+def _plt():
+    import matplotlib
+
+    if matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
+        try:
+            import matplotlib.pyplot as plt  # noqa: F401  (a GUI backend may not exist headless)
+        except ImportError:  # pragma: no cover
+            matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+# --------------------------------------------------------------------------------------------
+# Curves over sessions
+# --------------------------------------------------------------------------------------------
+
+
+def session_curves(histories: Sequence, key: str) -> np.ndarray:
+    """``(sessions, epochs)`` float64 matrix of ``history.<key>`` (``loss``, ``grad_norm``,
+    ``val_loss``, ``test_loss``, ``time``) of single-session histories, padded with NaN after a
+    session that stopped early (epochs = the longest history)."""
+    rows = [np.asarray(getattr(h, key), dtype=np.float64).reshape(-1) for h in histories]
+    if not rows:
+        raise ValueError("session_curves needs at least one history")
+    if any(r.ndim != 1 for r in rows):
+        raise ValueError(f"history.{key} must be one value per epoch (single-session histories)")
+    n = max(len(r) for r in rows)
+    out = np.full((len(rows), n), np.nan)
+    for i, r in enumerate(rows):
+        out[i, : len(r)] = r
+    return out
+
+
+def _nan_mean_std(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    curves = np.atleast_2d(np.asarray(curves, dtype=np.float64))
+    count = np.sum(np.isfinite(curves), axis=0)
+    safe = np.where(np.isfinite(curves), curves, 0.0)
+    mean = np.where(count > 0, safe.sum(0) / np.maximum(count, 1), np.nan)
+    dev = np.where(np.isfinite(curves), curves - mean, 0.0)
+    # population std over the sessions present at that epoch (0 with one session)
+    std = np.where(count > 0, np.sqrt((dev**2).sum(0) / np.maximum(count, 1)), np.nan)
+    return mean, std, count
+
+
+def plot_mean_band(curves, *, epochs=None, ax=None, label: str = "mean", color: str = "#1f4e79",
+                   logy: bool = True, ylabel: str = "", title: str | None = None, show_sessions: bool = True):
+    """Mean ± sigma over sessions (rows of ``curves``, NaN = session stopped) per epoch.
+
+    With ``logy``, where ``mean − sigma <= 0`` the band's lower edge is the lowest session's
+    value at that epoch (a log axis cannot show a non-positive edge). Individual sessions are drawn thin
+    when ``show_sessions``. Returns the Figure.
+    """
+    plt = _plt()
+    curves = np.atleast_2d(np.asarray(curves, dtype=np.float64))
+    epochs = np.arange(curves.shape[1]) if epochs is None else np.asarray(epochs)
+    mean, std, _ = _nan_mean_std(curves)
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    else:
+        fig = ax.figure
+    if show_sessions and curves.shape[0] > 1:
+        for row in curves:
+            ax.plot(epochs, row, color=color, lw=0.5, alpha=0.25)
+    lo, hi = mean - std, mean + std
+    if logy:
+        # a log axis cannot show mean - sigma <= 0 (one session's spike makes sigma > mean): the
+        # band's lower edge then stops at the lowest session at that epoch
+        positive = np.where(curves > 0, curves, np.inf)
+        lowest = np.min(positive, axis=0)
+        lowest = np.where(np.isfinite(lowest), lowest, np.nan)
+        lo = np.where(lo > 0, lo, lowest)
+    ax.fill_between(epochs, lo, hi, color=color, alpha=0.25, lw=0, label=f"{label} ± σ")
+    ax.plot(epochs, mean, color=color, lw=1.6, label=f"{label} ({curves.shape[0]} sessions)")
+    if logy:
+        ax.set_yscale("log")
+    ax.set_xlabel("epoch")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title)
+    return fig
+
+
+def plot_training_curves(histories: Sequence, labels: Sequence[str], *, best_epochs=None,
+                         title: str | None = None):
+    """Training (solid) and validation (dashed) loss per epoch of several single-session
+    histories (e.g. the 7 block subspaces), log y; a dot marks each best (restored) epoch."""
+    plt = _plt()
+    if len(histories) != len(labels):
+        raise ValueError("one label per history")
+    fig, ax = plt.subplots(figsize=(7.0, 4.4))
+    cmap = plt.get_cmap("viridis", max(len(histories), 2))
+    for i, (h, lab) in enumerate(zip(histories, labels)):
+        c = cmap(i)
+        ax.plot(h.epoch, h.loss, color=c, lw=1.3, label=f"{lab}")
+        if len(h.val_loss) and np.any(np.isfinite(np.asarray(h.val_loss, dtype=float))):
+            ax.plot(h.epoch, h.val_loss, color=c, lw=1.0, ls="--")
+        if best_epochs is not None:
+            e = int(best_epochs[i])
+            if 0 <= e < len(h.val_loss):
+                ax.plot([e], [h.val_loss[e]], "o", color=c, ms=4)
+    ax.set_yscale("log")
+    ax.set_xlabel("epoch")
+    ax.set_ylabel("MSE (solid: training, dashed: validation)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, ncol=2)
+    if title:
+        ax.set_title(title)
+    return fig
+
+
+# --------------------------------------------------------------------------------------------
+# Predictions against the truth
+# --------------------------------------------------------------------------------------------
+
+
+def _pred_truth(pred, truth) -> tuple[np.ndarray, np.ndarray]:
+    p, t = np.asarray(pred), np.asarray(truth)
+    if p.shape != t.shape:
+        raise ValueError(f"prediction shape {p.shape} does not match truth shape {t.shape}")
+    return p.astype(bool), t.astype(bool)
+
+
+def per_sample_error(scores, truth, threshold: float = 0.5) -> np.ndarray:
+    """Fraction of each sample's nodes predicted wrongly (``score > threshold`` against the
+    truth), ``(samples,)`` float64: the error of each prediction on a test set."""
+    s = np.asarray(scores)
+    t = np.asarray(truth, dtype=bool)
+    if s.shape != t.shape or s.ndim != 2:
+        raise ValueError(f"scores and truth must both be (samples, nodes); got {s.shape} and {t.shape}")
+    pred = s > np.asarray(threshold, dtype=s.dtype if s.dtype.kind == "f" else np.float64)
+    return np.mean(pred != t, axis=1, dtype=np.float64)
+
+
+def plot_sample_errors(errors, *, title: str | None = None):
+    """Per-sample error (:func:`per_sample_error`) of a test set: left, the error of every sample
+    in test-set order with its mean and mean ± sigma; right, their histogram. Returns the Figure."""
+    plt = _plt()
+    e = 100.0 * np.asarray(errors, dtype=np.float64)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.8), gridspec_kw={"width_ratios": [2, 1]})
+    idx = np.arange(1, e.size + 1)
+    m, s = float(e.mean()), float(e.std())
+    a1.plot(idx, e, ".", ms=2.5, color="#1f4e79", alpha=0.7, label="one test arm")
+    a1.axhline(m, color="#d62728", lw=1.4, label=f"mean {m:.2f} %")
+    a1.axhspan(max(m - s, 0), m + s, color="#d62728", alpha=0.12, label=f"± σ ({s:.2f} %)")
+    a1.set_xlabel("test sample")
+    a1.set_ylabel("nodes predicted wrongly (%)")
+    a1.grid(True, alpha=0.3)
+    a1.legend(fontsize=8)
+    a2.hist(e, bins=30, color="#1f4e79")
+    a2.set_xlabel("nodes predicted wrongly (%)")
+    a2.set_ylabel("test samples")
+    a2.grid(True, alpha=0.3)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def outcomes(pred, truth) -> np.ndarray:
+    """Per-element outcome codes (uint8): 0 true negative, 1 true positive, 2 false positive,
+    3 false negative (:data:`OUTCOME_NAMES`)."""
+    p, t = _pred_truth(pred, truth)
+    out = np.zeros(p.shape, dtype=np.uint8)
+    out[p & t] = 1
+    out[p & ~t] = 2
+    out[~p & t] = 3
+    return out
+
+
+def plot_sections(pred, truth, shape, *, layer: int, lo=-1.0, step=0.1, z_value: float | None = None,
+                  titles: Sequence[str] | None = None, ncols: int = 5, title: str | None = None):
+    """One panel per sample: z-layer ``layer`` of its predicted map against the exact one,
+    coloured by outcome (TP/FP/FN/TN, :data:`OUTCOME_COLORS`).
+
+    Args:
+        pred, truth: bool ``(samples, nx*ny*nz)`` maps in node order (e.g. one block subspace,
+            shape ``(21, 21, 3)``).
+        shape: ``(nx, ny, nz)`` of those maps; ``layer``: index into the z-layers.
+        lo, step: the grid's x/y origin and spacing (axis extents); ``z_value``: the layer's z,
+            for the title.
+        titles: one small title per panel.
+    """
+    plt = _plt()
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
+
+    codes = outcomes(pred, truth)
+    if codes.ndim != 2:
+        raise ValueError(f"pred and truth must be (samples, nodes); got {codes.shape}")
+    vol = map_to_volume(codes, shape)  # (samples, nz, ny, nx)
+    if not 0 <= layer < vol.shape[1]:
+        raise ValueError(f"layer {layer} is outside the {vol.shape[1]} z-layers")
+    n = vol.shape[0]
+    ncols = max(1, min(ncols, n))
+    nrows = int(math.ceil(n / ncols))
+    nx, ny = int(shape[0]), int(shape[1])
+    lo = np.broadcast_to(np.asarray(lo, dtype=float), (3,))
+    step = np.broadcast_to(np.asarray(step, dtype=float), (3,))
+    extent = [lo[0], lo[0] + step[0] * (nx - 1), lo[1], lo[1] + step[1] * (ny - 1)]
+    cmap = ListedColormap(list(OUTCOME_COLORS))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(1.75 * ncols, 1.85 * nrows + 0.6), squeeze=False)
+    for i, ax in enumerate(axes.flat):
+        ax.set_xticks([])
+        ax.set_yticks([])
+        if i >= n:
+            ax.axis("off")
+            continue
+        ax.imshow(vol[i, layer], origin="lower", cmap=cmap, vmin=0, vmax=3, extent=extent,
+                  interpolation="nearest")
+        if titles is not None:
+            ax.set_title(titles[i], fontsize=7)
+    fig.legend(handles=[Patch(color=c, label=l) for c, l in zip(OUTCOME_COLORS[1:], OUTCOME_NAMES[1:])],
+               loc="lower center", ncol=3, fontsize=8)
+    if title or z_value is not None:
+        fig.suptitle((title or "") + (f" (z = {z_value:.2f} m)" if z_value is not None else ""), fontsize=10)
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    return fig
+
+
+def plot_threshold_sweep(sweep, *, mark: float | None = 0.5, title: str | None = None):
+    """Precision, recall and F of a :class:`wsmap.metrics.Sweep` against the threshold; the best
+    threshold and ``mark`` (the paper's 0.5) are marked."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.0, 4.0))
+    th = np.asarray(sweep.thresholds)
+    ax.plot(th, sweep.precision, color="#1f77b4", label="precision")
+    ax.plot(th, sweep.recall, color="#2ca02c", label="recall")
+    ax.plot(th, sweep.f, color="#d62728", lw=2, label="F-measure")
+    if math.isfinite(sweep.best_threshold):
+        ax.axvline(sweep.best_threshold, color="k", ls="--", lw=1,
+                   label=f"best: t = {sweep.best_threshold:.2f}, F = {sweep.best_f:.4f}")
+    if mark is not None:
+        i = int(np.argmin(np.abs(th - mark)))
+        ax.plot([th[i]], [sweep.f[i]], "o", color="#d62728", label=f"t = {th[i]:.2f}: F = {sweep.f[i]:.4f}")
+    ax.set_xlabel("threshold (a node is reachable when output > threshold)")
+    ax.set_ylabel("pooled value on the test set")
+    ax.set_ylim(0, 1.02)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="lower center")
+    if title:
+        ax.set_title(title)
+    return fig
+
+
+def plot_error_histograms(hists: Sequence, labels: Sequence[str], *, ncols: int = 4, title: str | None = None):
+    """One panel per :class:`wsmap.metrics.ErrorHistogram` (errors = truth − output), bars split
+    into truly reachable and unreachable nodes, log-scaled counts (most errors are near 0)."""
+    plt = _plt()
+    if len(hists) != len(labels):
+        raise ValueError("one label per histogram")
+    n = len(hists)
+    ncols = max(1, min(ncols, n))
+    nrows = int(math.ceil(n / ncols))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.2 * ncols, 2.6 * nrows + 0.5), squeeze=False,
+                             sharex=True)
+    for i, ax in enumerate(axes.flat):
+        if i >= n:
+            ax.axis("off")
+            continue
+        h = hists[i]
+        w = np.diff(h.edges)
+        ax.bar(h.edges[:-1], h.counts_unreachable, width=w, align="edge", color="#ff9f1c", label="truth 0")
+        ax.bar(h.edges[:-1], h.counts_reachable, width=w, align="edge", bottom=h.counts_unreachable,
+               color="#1f4e79", label="truth 1")
+        ax.set_yscale("log")
+        ax.set_title(f"{labels[i]}: mean {h.mean:+.3f}, σ {h.std:.3f}", fontsize=8)
+        ax.axvline(0, color="k", lw=0.6)
+        ax.grid(True, alpha=0.3)
+        if i % ncols == 0:
+            ax.set_ylabel("node predictions")
+        if i >= n - ncols:
+            ax.set_xlabel("error = truth − output")
+    axes.flat[0].legend(fontsize=7)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+# --------------------------------------------------------------------------------------------
+# Run time
+# --------------------------------------------------------------------------------------------
+
+
+def plot_runtimes(groups: dict[str, dict[str, np.ndarray]], *, unit: str = "ms", title: str | None = None):
+    """Bars of mean ± sigma run time, one panel per group (e.g. ``{"one arm": {"block 1":
+    times, ...}, "1000 arms": {...}}``), one bar per model inside a group."""
+    plt = _plt()
+    scale = {"s": 1.0, "ms": 1e3, "us": 1e6}[unit]
+    fig, axes = plt.subplots(1, len(groups), figsize=(5.2 * len(groups), 3.8), squeeze=False)
+    for ax, (gname, times) in zip(axes.flat, groups.items()):
+        names = list(times)
+        means = [scale * float(np.mean(times[k])) for k in names]
+        stds = [scale * float(np.std(times[k])) for k in names]
+        colors = ["#1f4e79" if not k.startswith("assembled") else "#d62728" for k in names]
+        ax.bar(range(len(names)), means, yerr=stds, color=colors, capsize=3)
+        ax.set_xticks(range(len(names)))
+        ax.set_xticklabels(names, rotation=45, ha="right", fontsize=8)
+        ax.set_ylabel(f"run time ({unit}), mean ± σ")
+        ax.set_title(gname, fontsize=9)
+        ax.grid(True, axis="y", alpha=0.3)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+# --------------------------------------------------------------------------------------------
+# Meshes
+# --------------------------------------------------------------------------------------------
+
+
+def plot_meshes(meshes: Sequence, titles: Sequence[str], *, lim: float = 1.0, colors=None, suptitle=None):
+    """Meshes rendered side by side (:func:`wsmap.viz.render_mesh`, no OpenGL); a ``None`` or
+    empty mesh gets an empty panel that says so."""
+    plt = _plt()
+    
+    colors = colors or ["#1f4e79", "#2e7d32", "#8e44ad", "#d35400"]
+    fig = plt.figure(figsize=(5.0 * len(meshes), 5.0))
+    for i, (mesh, t) in enumerate(zip(meshes, titles)):
+        ax = fig.add_subplot(1, len(meshes), i + 1, projection="3d")
+        if mesh is None or len(mesh.faces) == 0:
+            for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
+                setter(-lim, lim)
+            ax.set_title(f"{t}\n(no reachable node: empty)", fontsize=9)
+            continue
+        render_mesh(mesh, ax=ax, color=colors[i % len(colors)], title=t, lim=lim)
+        ax.title.set_fontsize(9)
+    if suptitle:
+        fig.suptitle(suptitle)
+    fig.tight_layout()
+    return fig
+
+
+def export_mesh(mesh, path) -> Path:
+    """Write a ``trimesh.Trimesh`` atomically; the format comes from the suffix (``.stl``,
+    ``.glb``, ``.ply``, ``.obj``). Returns the path."""
+    path = Path(path)
+    fmt = path.suffix.lstrip(".").lower()
+    if not fmt:
+        raise ValueError(f"{path}: no suffix to choose the mesh format from")
+    with atomic_path(path) as tmp:
+        mesh.export(tmp, file_type=fmt)
+    return path
+
+
+# --------------------------------------------------------------------------------------------
+# Maps
+# --------------------------------------------------------------------------------------------
+
+
+def _axes_of(shape, lo, step):
+    lo = np.broadcast_to(np.asarray(lo, dtype=float), (3,))
+    step = np.broadcast_to(np.asarray(step, dtype=float), (3,))
+    return [lo[i] + step[i] * np.arange(int(shape[i])) for i in range(3)]
+
+
+def plot_slices(flat_map, shape, lo=-1.0, step=0.1, *, compare=None, title=None, ncols=7, labels=("x", "y", "z")):
+    """One panel per z-layer: reachable nodes dark. Returns a matplotlib Figure.
+
+    With ``compare`` (a second map of the same shape, e.g. exact labels against a prediction) the
+    panels colour agreement (reachable in both), only-in-``flat_map`` and only-in-``compare``.
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+
+    vol = map_to_volume(np.asarray(flat_map, dtype=bool), shape)
+    ax_x, ax_y, ax_z = _axes_of(shape, lo, step)
+    nz = vol.shape[0]
+    ncols = min(ncols, nz)
+    nrows = int(np.ceil(nz / ncols))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(1.9 * ncols, 2.0 * nrows + 0.4), squeeze=False)
+    if compare is None:
+        img = vol.astype(int)
+        cmap = ListedColormap(["#f4f4f4", "#1f4e79"])
+        vmax = 1
+    else:
+        other = map_to_volume(np.asarray(compare, dtype=bool), shape)
+        img = vol * 1 + other * 2  # 0 none, 1 map only, 2 compare only, 3 both
+        cmap = ListedColormap(["#f4f4f4", "#d62728", "#ff9f1c", "#1f4e79"])
+        vmax = 3
+    extent = [ax_x[0], ax_x[-1], ax_y[0], ax_y[-1]]
+    for k, ax in enumerate(axes.flat):
+        ax.set_xticks([])
+        ax.set_yticks([])
+        if k >= nz:
+            ax.axis("off")
+            continue
+        ax.imshow(img[k], origin="lower", cmap=cmap, vmin=0, vmax=vmax, extent=extent, interpolation="nearest")
+        ax.set_title(f"{labels[2]} = {ax_z[k]:.2f}", fontsize=8)
+    if compare is not None:
+        from matplotlib.patches import Patch
+
+        fig.legend(
+            handles=[Patch(color=c, label=l) for c, l in zip(cmap.colors[1:], ["first only", "second only", "both"])],
+            loc="lower center",
+            ncol=3,
+            fontsize=8,
+        )
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout(rect=(0, 0.04 if compare is not None else 0, 1, 1))
+    return fig
+
+
+def plot_voxels(flat_map, shape, lo=-1.0, step=0.1, *, ax=None, color="#1f4e79", title=None):
+    """Reachable nodes as a 3-D scatter (one point per node). Returns the Axes."""
+    import matplotlib.pyplot as plt
+
+    vol = map_to_volume(np.asarray(flat_map, dtype=bool), shape)
+    ax_x, ax_y, ax_z = _axes_of(shape, lo, step)
+    k, j, i = np.nonzero(vol)
+    if ax is None:
+        ax = plt.figure(figsize=(5, 5)).add_subplot(projection="3d")
+    ax.scatter(ax_x[i], ax_y[j], ax_z[k], s=4, c=color, alpha=0.5, depthshade=True)
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+    ax.set_zlabel("z")
+    ax.set_box_aspect((1, 1, 1))
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def map_to_mesh(flat_map, shape, lo=-1.0, step=0.1):
+    """Surface of the reachable region as a ``trimesh.Trimesh`` (marching cubes at level 0.5).
+
+    The volume is padded by one empty node on every side so that the surface is closed where the
+    workspace touches the grid's border. Vertices are in the grid's units.
+    """
+    import trimesh
+    from skimage.measure import marching_cubes
+
+    vol = map_to_volume(np.asarray(flat_map, dtype=bool), shape)
+    if not vol.any():
+        raise ValueError("the map has no reachable node: there is no surface to mesh")
+    padded = np.pad(vol.astype(np.float32), 1)
+    # (z, y, x) volume → transpose to (x, y, z) so that vertex columns are x, y, z
+    verts, faces, _, _ = marching_cubes(padded.transpose(2, 1, 0), level=0.5)
+    lo = np.broadcast_to(np.asarray(lo, dtype=float), (3,))
+    step = np.broadcast_to(np.asarray(step, dtype=float), (3,))
+    verts = lo + (verts - 1.0) * step
+    # swapping the x and z axes is a reflection: reverse the winding so normals point outwards
+    return trimesh.Trimesh(vertices=verts, faces=faces[:, ::-1], process=True)
+
+
+def render_mesh(mesh, *, ax=None, color="#1f4e79", title=None, elev=25, azim=-60, lim=1.0):
+    """Draw a triangle mesh with matplotlib (headless, no OpenGL). Returns the Axes."""
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    if ax is None:
+        ax = plt.figure(figsize=(5, 5)).add_subplot(projection="3d")
+    tris = mesh.vertices[mesh.faces]
+    # simple Lambert shading from a fixed light so that the shape reads without OpenGL
+    light = np.array([0.4, -0.5, 0.77])
+    shade = 0.35 + 0.65 * np.clip(mesh.face_normals @ light, 0, 1)
+    base = np.array([int(color[i : i + 2], 16) / 255 for i in (1, 3, 5)])
+    colors = np.clip(base[None, :] * shade[:, None] + 0.15 * (1 - shade[:, None]), 0, 1)
+    ax.add_collection3d(Poly3DCollection(tris, facecolors=colors, edgecolor="none"))
+    for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
+        setter(-lim, lim)
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+    ax.set_zlabel("z")
+    ax.set_box_aspect((1, 1, 1))
+    ax.view_init(elev=elev, azim=azim)
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def save_figure(fig, path, dpi: int = 120) -> None:
+    """Save a matplotlib figure atomically (PNG unless the suffix says otherwise) and close it."""
+    import matplotlib.pyplot as plt
+
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
