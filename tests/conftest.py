@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 from wsmap import paths
-from wsmap.pipeline import build_datasets, run_notebook
+from wsmap.paper.pipeline import build_datasets, run_notebook
 
 SMOKE = paths.ROOT / "params.smoke.yaml"
 

@@ -88,6 +88,13 @@ def positive_float(text: str) -> float:
     return value
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (naming the problem and where help is), exit code 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 # ------------------------------------------------------------------------------------- wsmap map
 def _robot_from_args(args):
     from . import robots
@@ -231,7 +238,7 @@ def _run_map(args) -> int:
 def _data_parser(sub):
     d = sub.add_parser("data", help="build and inspect experience datasets",
                        description="Experience datasets: features of random arms and their workspace maps.")
-    dsub = d.add_subparsers(dest="data_command", required=True, metavar="{build,list,audit}")
+    dsub = d.add_subparsers(dest="data_command", required=True, metavar="{build,list,audit}", parser_class=_Parser)
     b = dsub.add_parser("build", help="build one of the paper's datasets (and its test set)",
                         description="Build a dataset of the paper's catalogue (`wsmap data list`) and, with "
                                     "--test-samples, its independent test set beside it (NAME.test.npz).",
@@ -304,7 +311,7 @@ def _paper_parser(sub):
     p = sub.add_parser("paper", help="reproduce the paper: run its notebooks (the DVC stages)",
                        description="Run the paper's notebooks with papermill. `dvc repro` calls "
                                    "`wsmap paper run NAME` per stage; --all runs everything without DVC.")
-    psub = p.add_subparsers(dest="paper_command", required=True, metavar="{run,list}")
+    psub = p.add_subparsers(dest="paper_command", required=True, metavar="{run,list}", parser_class=_Parser)
     r = psub.add_parser("run", help="run notebooks (stages) by name, or all of them",
                         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     r.add_argument("notebooks", nargs="*", help="notebook names (without .ipynb)")
@@ -357,8 +364,8 @@ def _run_paper_list(args) -> int:
 
 # ------------------------------------------------------------------------------------------ main
 def _parser():
-    p = argparse.ArgumentParser(prog="wsmap", description="Manipulator workspace maps, classical and learned.")
-    sub = p.add_subparsers(dest="command", required=True, metavar="{map,data,paper}")
+    p = _Parser(prog="wsmap", description="Manipulator workspace maps, classical and learned.")
+    sub = p.add_subparsers(dest="command", required=True, metavar="{map,data,paper}", parser_class=_Parser)
     _map_parser(sub)
     _data_parser(sub)
     _paper_parser(sub)

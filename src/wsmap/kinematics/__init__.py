@@ -13,12 +13,13 @@ from .closed_form import (
     require_spherical_wrist,
     wrist_centre_reachable,
 )
-from .dh import DHRobot
+from .dh import DHRobot, arm_batch
 from .ik import IKResult, ikine_LM
 from .transforms import check_rigid, pose_error, rotx, roty, rotz, rpy2r, transl
 
 __all__ = [
     "DHRobot",
+    "arm_batch",
     "IKResult",
     "SPHERICAL_WRIST_ALPHA",
     "check_rigid",

@@ -16,7 +16,7 @@ import numpy as np
 from .ik import IKResult, ikine_LM
 from .transforms import as_real_array, check_finite, check_rigid
 
-__all__ = ["DHRobot"]
+__all__ = ["DHRobot", "arm_batch"]
 
 
 
@@ -188,3 +188,11 @@ def _jacob0(d, a, alpha, q, tool):
     Jv = np.cross(z, pe - o)
     J = np.concatenate([Jv, z], axis=-1)  # (..., n, 6)
     return np.swapaxes(J, -1, -2), T
+
+
+def arm_batch(arm: DHRobot) -> DHRobot:
+    """One arm (batch shape ``()``) as a batch of one, as the dataset functions take; a batch is
+    returned unchanged."""
+    if arm.batch_shape:
+        return arm
+    return DHRobot(arm.d[None], arm.a[None], arm.alpha[None], qlim=arm.qlim, tool=arm.tool, name=arm.name)

@@ -200,7 +200,7 @@ def write_report(results_dir, path=None, *, reductions: list[dict] | None = None
         lines.append(markdown_table(
             [dict(what=r.what, ours=r.ours, paper="—" if r.paper is None else r.paper,
                   difference="—" if r.paper is None else r.difference, source=r.source, note=r.note)
-             for r in rows if r.section == section]))
+             for r in rows if r.section == section], missing="missing"))
     if reductions:
         lines += ["## Committed scale against the paper's", "", markdown_table(reductions, missing="missing")]
     for title, body in (extra_sections or {}).items():

@@ -3,7 +3,7 @@
 import pytest
 
 from wsmap import data as D
-from wsmap.pipeline import build_datasets, run_notebook
+from wsmap.paper.pipeline import build_datasets, run_notebook
 
 
 @pytest.fixture

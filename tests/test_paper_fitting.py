@@ -5,7 +5,7 @@ import pytest
 import torch
 
 from wsmap import data as D
-from wsmap import experiments as E
+from wsmap.paper import fitting as E
 from wsmap import workspace as ws
 from wsmap.training import TrainConfig
 

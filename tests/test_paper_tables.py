@@ -9,10 +9,12 @@ import pytest
 import torch
 
 from wsmap import data as D
-from wsmap import experiments as E
+from wsmap.paper import fitting as E
 from wsmap import metrics as M
-from wsmap import report
-from wsmap import studies as S
+from wsmap.paper import report
+from wsmap.paper import tables as S
+from wsmap.paper import published
+from wsmap import io as IO
 from wsmap.training import TrainConfig
 
 
@@ -133,31 +135,33 @@ def test_table3_every_model_on_every_test_set(data_dir):
 
 def test_paper_tables_agree_with_the_report_and_the_paper():
     for name in S.TABLE1_DATASETS:
-        assert S.PAPER_TABLE1[name]["paper_f"] == report.PAPER[name]
-    assert S.PAPER_TABLE2[("rprop", "mse")] == (report.PAPER["table2_rprop_mse_f_mean"], report.PAPER["table2_rprop_mse_f_std"])
-    own = S.PAPER_TABLE3[("subspace", "subspace")]
-    assert (own["precision"], own["recall"], own["f"]) == (report.PAPER["table3_subspace_precision"],
-                                                          report.PAPER["table3_subspace_recall"],
-                                                          report.PAPER["table3_subspace_f"])
-    assert len(S.PAPER_TABLE2) == 15 and max(S.PAPER_TABLE2.values())[0] == 0.9298
-    assert len(S.PAPER_TABLE3) == 9
+        assert published.PAPER_TABLE1[name]["paper_f"] == published.PAPER[name]
+    assert published.PAPER_TABLE2[("rprop", "mse")] == (published.PAPER["table2_rprop_mse_f_mean"], published.PAPER["table2_rprop_mse_f_std"])
+    own = published.PAPER_TABLE3[("subspace", "subspace")]
+    assert (own["precision"], own["recall"], own["f"]) == (published.PAPER["table3_subspace_precision"],
+                                                          published.PAPER["table3_subspace_recall"],
+                                                          published.PAPER["table3_subspace_f"])
+    assert len(published.PAPER_TABLE2) == 15 and max(published.PAPER_TABLE2.values())[0] == 0.9298
+    assert len(published.PAPER_TABLE3) == 9
     assert set(S.TABLE1_DATASETS) <= set(D.PAPER_SPECS) and set(S.TABLE3_EMBEDDINGS.values()) <= set(D.PAPER_SPECS)
     for name in S.TABLE1_DATASETS:  # our node counts are the paper's (its "3086" is 3087)
-        assert abs(D.PAPER_SPECS[name].n_nodes - S.PAPER_TABLE1[name]["paper_nodes"]) <= 1
+        assert abs(D.PAPER_SPECS[name].n_nodes - published.PAPER_TABLE1[name]["paper_nodes"]) <= 1
 
 
 def test_output_helpers(tmp_path):
     df = pd.DataFrame(dict(name=["a|b", "c"], n=[1, 2], f=[0.123456, np.nan]))
-    for text in (S.markdown(df), S._markdown_plain(df)):
-        lines = text.strip().splitlines()
-        assert len(lines) == 4 and "0.1235" in text and "NaN" in text and "a\\|b" in text
-    csv, md = S.write_table(df, tmp_path / "t", "demo")
+    text = IO.markdown_table(df)
+    lines = text.strip().splitlines()
+    assert len(lines) == 4 and "0.1235" in text and "NaN" in text and "a\\|b" in text
+    csv, md = IO.write_table(df, tmp_path / "demo")
     back = pd.read_csv(csv)
     assert back.f.iloc[0] == pytest.approx(0.123456) and math.isnan(back.f.iloc[1])
-    assert md.read_text() == S.markdown(df)
-    assert S.plus_minus(0.92981, 0.12583) == "0.9298 ± 0.1258"
-    assert S.plus_minus(float("nan"), 0.1) == "NaN" and S.plus_minus(0.5, float("nan")) == "0.5000"
-    clean = S.nan_to_none({"a": np.float32(0.5), "b": [float("nan"), np.int64(3)], "c": {"d": np.bool_(True)}})
+    assert md.read_text() == IO.markdown_table(df)
+    epochs = pd.DataFrame(dict(epochs=[250.0, 300.0], f=[0.5, 0.25]))
+    assert IO.markdown_table(epochs, whole=S.COUNT_COLUMNS).splitlines()[2] == "| 250 | 0.5000 |"
+    assert IO.plus_minus(0.92981, 0.12583) == "0.9298 ± 0.1258"
+    assert IO.plus_minus(float("nan"), 0.1) == "NaN" and IO.plus_minus(0.5, float("nan")) == "0.5000"
+    clean = IO.jsonable({"a": np.float32(0.5), "b": [float("nan"), np.int64(3)], "c": {"d": np.bool_(True)}})
     assert json.loads(json.dumps(clean, allow_nan=False)) == {"a": 0.5, "b": [None, 3], "c": {"d": True}}
     assert S.per_dataset({"x": 3, "default": 7}, "x") == 3 and S.per_dataset({"default": 7}, "y") == 7
     assert S.per_dataset(5, "y") == 5 and S.per_dataset(None, "y", 9) == 9

@@ -5,7 +5,7 @@ import json
 import pytest
 
 from wsmap import paths
-from wsmap import report as R
+from wsmap.paper import report as R
 
 
 def test_lookup_nested_and_missing():
@@ -43,7 +43,7 @@ def test_committed_params_differ_from_full_scale_only_in_scale():
 
 
 def test_markdown_table_formats_numbers_and_missing():
-    text = R.markdown_table([{"what": "F", "ours": 0.91234, "n": 100000, "paper": None}])
+    text = R.markdown_table([{"what": "F", "ours": 0.91234, "n": 100000, "paper": None}], missing="missing")
     assert text.splitlines()[2] == "| F | 0.9123 | 100000 | missing |"
 
 

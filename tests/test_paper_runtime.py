@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from wsmap import timing
+from wsmap.paper import runtime
 
 
 def _fake_clock(ticks):
@@ -47,9 +48,9 @@ def test_timing_single_value_and_scaling():
 
 @pytest.mark.parametrize("step, nodes, features", [(1.0, 27, 30), (0.5, 125, 36), (0.1, 9261, 84)])
 def test_grid_spec_and_paper_network(step, nodes, features):
-    spec = timing.grid_spec(step)
+    spec = runtime.grid_spec(step)
     assert spec.n_nodes == nodes and spec.n_features == features
-    model, how = timing.paper_network(features, nodes)
+    model, how = runtime.paper_network(features, nodes)
     assert model.config.hidden == [125, 100, 100, 125]
     if nodes == 9261:
         assert how == {"assemble": True} and model.n_subspaces == 7 and model.config.n_outputs == 1323
@@ -61,9 +62,9 @@ def test_grid_spec_and_paper_network(step, nodes, features):
 
 def test_runtime_comparison_small_grid():
     torch.set_num_threads(1)
-    df = timing.runtime_comparison((1.0,), repeats=2, warmup=1, classical_repeats=2, classical_warmup=0,
+    df = runtime.runtime_comparison((1.0,), repeats=2, warmup=1, classical_repeats=2, classical_warmup=0,
                                    per_node_sample=3)
-    assert list(df["method"]) == list(timing.METHODS)
+    assert list(df["method"]) == list(runtime.METHODS)
     assert (df["nodes"] == 27).all() and (df["mean_s"] > 0).all() and (df["std_s"] >= 0).all()
     per_node = df.set_index("method").loc["classical_per_node_numerical"]
     assert per_node["timed_nodes"] == 3 and per_node["extrapolated"]
@@ -71,13 +72,13 @@ def test_runtime_comparison_small_grid():
     net = df.set_index("method").loc["network"]
     assert net["paper_s"] == pytest.approx(0.0313) and math.isnan(net["agreement_with_exact"])
     assert df.set_index("method").loc["classical_batched_numerical", "agreement_with_exact"] == 1.0
-    m = timing.metrics_from_table(df)
+    m = runtime.metrics_from_table(df)
     assert set(m["network"]) == {"27"} and m["classical_exact"]["27"] > 0
     assert m["speedup"]["network_vs_classical_per_node_numerical"]["27"] > 0
 
 
 def test_runtime_comparison_whole_small_grid_is_not_extrapolated():
-    df = timing.runtime_comparison((1.0,), methods=["classical_per_node_numerical"], classical_repeats=1,
+    df = runtime.runtime_comparison((1.0,), methods=["classical_per_node_numerical"], classical_repeats=1,
                                    classical_warmup=0, per_node_sample=100)
     row = df.iloc[0]
     assert row["timed_nodes"] == 27 and not row["extrapolated"]
@@ -85,4 +86,4 @@ def test_runtime_comparison_whole_small_grid_is_not_extrapolated():
 
 def test_runtime_comparison_rejects_unknown_method():
     with pytest.raises(ValueError, match="unknown methods"):
-        timing.runtime_comparison((1.0,), methods=["magic"])
+        runtime.runtime_comparison((1.0,), methods=["magic"])
