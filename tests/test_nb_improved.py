@@ -9,7 +9,7 @@ import pytest
 from wsmap import data as D
 from wsmap import metrics as M
 from wsmap import models, paths, robots
-from wsmap import plots as P
+from wsmap.kinematics import arm_batch
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +41,7 @@ def test_saved_model_maps_the_puma560_as_the_notebook_reported(out, metrics):
     assert meta["map_spec"]["dataset"]["name"] == "sec62" and meta["map_spec"]["nodes"] == [0, 9261]
     predicted = model.predict_maps(robots.puma560())
     spec = D.DatasetSpec.from_dict(meta["map_spec"]["dataset"])
-    exact = D.labels_for(P.arm_batch(robots.puma560()), spec)[0]
+    exact = D.labels_for(arm_batch(robots.puma560()), spec)[0]
     assert predicted.shape == (9261,)
     assert int((predicted != exact).sum()) == metrics["puma560_nodes_differ"]
     np.testing.assert_allclose(M.precision_recall_f(predicted, exact).f, metrics["puma560_f"])

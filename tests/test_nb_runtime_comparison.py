@@ -5,7 +5,8 @@ import json
 import pandas as pd
 
 from wsmap import paths
-from wsmap.pipeline import run_notebook
+from wsmap.paper.pipeline import run_notebook
+from wsmap.paper.published import RUNTIME_SECONDS
 
 SMOKE = paths.ROOT / "params.smoke.yaml"
 
@@ -30,8 +31,8 @@ def test_runtime_comparison_smoke(tmp_path):
     assert by.loc[("classical_per_node_numerical", 9261), "extrapolated"]
     assert by.loc[("classical_per_node_numerical", 9261), "timed_nodes"] == 4
     paper = lambda m: df[df["method"] == m].sort_values("nodes")["paper_s"].tolist()  # noqa: E731
-    assert paper("classical_per_node_numerical") == [19.5, 107.3, 5227.8]
-    assert paper("network") == [0.0313, 0.0610, 0.2238]
+    assert paper("classical_per_node_numerical") == [RUNTIME_SECONDS[n][0] for n in (27, 125, 9261)]
+    assert paper("network") == [RUNTIME_SECONDS[n][1] for n in (27, 125, 9261)]
 
     md = (tmp_path / "tables" / "runtime_comparison.md").read_text()
     assert md.count("\n|") >= 15 and "9261" in md
@@ -39,5 +40,7 @@ def test_runtime_comparison_smoke(tmp_path):
     metrics = json.loads((tmp_path / "results" / "runtime_comparison.json").read_text())
     for key in ("classical_per_node_numerical", "classical_batched_numerical", "classical_exact", "network"):
         assert set(metrics[key]) == {"27", "125", "9261"} and all(v > 0 for v in metrics[key].values())
-    assert metrics["paper"]["classical"]["9261"] == 5227.8
+    assert metrics["paper"]["classical"] == {str(n): c for n, (c, _) in RUNTIME_SECONDS.items()}
+    assert metrics["paper"]["network"] == {str(n): w for n, (_, w) in RUNTIME_SECONDS.items()}
+    assert metrics["settings"]["repeats"] == paths.load_params("runtime_comparison", SMOKE)["repeats"]
     assert (tmp_path / "figures" / "runtime_comparison.png").stat().st_size > 5_000

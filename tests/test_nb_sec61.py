@@ -9,7 +9,8 @@ import pytest
 
 from wsmap import data as D
 from wsmap import models, paths, robots
-from wsmap import plots as P
+from wsmap.kinematics import arm_batch
+from wsmap.paper.published import SEC61
 
 FIGURES = ("sec61_gradient", "sec61_loss", "sec61_test_error", "sec61_sections", "sec61_threshold_sweep")
 
@@ -43,6 +44,7 @@ def test_metrics_keys_and_ranges(metrics):
     assert 0.0 <= metrics["best_threshold"] <= 1.0
     assert metrics["best_threshold_f"] >= metrics["best_session_f"] - 1e-12  # the sweep includes 0.5
     assert 0.0 <= metrics["best_session_error_per_sample_mean"] <= 1.0
+    assert metrics["paper"] == SEC61  # the paper's numbers, from wsmap.paper.published
 
 
 def test_figures_and_tables(out):
@@ -67,5 +69,5 @@ def test_best_model_saved(out, metrics):
     assert meta["map_spec"]["nodes"] == [5292, 6615]
     np.testing.assert_allclose(model.map_nodes(), D.grid_nodes(D.PAPER_SPECS["sec62"])[5292:6615])
     puma = robots.puma560()
-    x = D.features_for(P.arm_batch(puma), D.DatasetSpec.from_dict(meta["dataset_spec"]))
+    x = D.features_for(arm_batch(puma), D.DatasetSpec.from_dict(meta["dataset_spec"]))
     np.testing.assert_array_equal(model.predict_maps(puma), model.predict(x).numpy().reshape(-1))

@@ -9,7 +9,7 @@ import trimesh
 
 from wsmap import data as D
 from wsmap import models, paths, robots
-from wsmap import plots as P
+from wsmap.kinematics import arm_batch
 
 FIGURES = ("sec62_training", "sec62_error_histogram", "sec62_subspace_runtime", "puma560_workspace_predicted",
            "sec62_puma560_slices")
@@ -58,7 +58,7 @@ def test_stacked_model_predicts_the_saved_puma560_map(out, metrics):
     spec = D.DatasetSpec.from_dict(meta["dataset_spec"])
     assert spec.name == "sec62" and spec.select is None
     assert meta["train_config"]["max_fail"] == metrics["max_fail"]
-    x = D.features_for(P.arm_batch(robots.puma560()), spec)
+    x = D.features_for(arm_batch(robots.puma560()), spec)
     pred = model.predict(x, assemble=True).numpy()[0]
     assert pred.shape == (9261,) and int(pred.sum()) == metrics["puma560_reachable_predicted"]
     # the saved model stands in for the classical map: predict_maps gives the assembled map

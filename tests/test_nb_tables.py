@@ -8,8 +8,9 @@ import pandas as pd
 import pytest
 
 from wsmap import paths
-from wsmap import report
-from wsmap import studies as S
+from wsmap.paper import report
+from wsmap.paper import tables as S
+from wsmap.paper.published import PAPER_TABLE1, PAPER_TABLE2, PAPER_TABLE3
 
 SMOKE = paths.ROOT / "params.smoke.yaml"
 
@@ -33,7 +34,7 @@ def test_table1_workspaces(smoke_notebook):
     out = smoke_notebook("table1_workspaces")
     smoke = paths.load_params("table1_workspaces", SMOKE)
     table, runs = _tables(out, "table1_workspaces")
-    assert list(table.dataset) == list(S.TABLE1_DATASETS)
+    assert list(table.dataset) == smoke["datasets"] == list(S.TABLE1_DATASETS)
     assert list(table.nodes) == [27, 125, 1323, 3087, 9261, 343, 4913, 9261]
     for c in ("workspace", "delta", "nodes", "train_samples", "epochs", "seconds", "precision", "recall", "f",
               "paper_f", "difference"):
@@ -44,7 +45,7 @@ def test_table1_workspaces(smoke_notebook):
     assert len(runs) == len(S.TABLE1_DATASETS) * smoke["sessions"]
     metrics = json.loads((out.results / "table1_workspaces.json").read_text())
     assert set(metrics["f"]) == set(S.TABLE1_DATASETS) and _unit_or_nan(metrics["f"].values())
-    assert metrics["paper_f"] == {n: S.PAPER_TABLE1[n]["paper_f"] for n in S.TABLE1_DATASETS}
+    assert metrics["paper_f"] == {n: PAPER_TABLE1[n]["paper_f"] for n in S.TABLE1_DATASETS}
     # the report finds its keys (None where F is undefined)
     for name, f in zip(table.dataset, table.f):
         got = report.lookup(metrics, f"f.{name}")
@@ -69,7 +70,7 @@ def test_table2_optimisers(smoke_notebook):
     for o in smoke["optimizers"]:
         for l in smoke["losses"]:
             cell = metrics[f"{o}_{l}"]
-            assert _unit_or_nan([cell["f_mean"]]) and (cell["paper_f"], cell["paper_f_std"]) == S.PAPER_TABLE2[(o, l)]
+            assert _unit_or_nan([cell["f_mean"]]) and (cell["paper_f"], cell["paper_f_std"]) == PAPER_TABLE2[(o, l)]
     rprop = summary[(summary.optimizer == "rprop") & (summary.loss_key == "mse")].iloc[0]
     got = report.lookup(metrics, "rprop_mse.f_mean")
     assert (got is None and math.isnan(rprop.f_mean)) or got == pytest.approx(rprop.f_mean)
@@ -92,7 +93,8 @@ def test_table3_embeddings(smoke_notebook):
     row = summary[(summary.embedding == "subspace") & (summary.test == "subspace")].iloc[0]
     got = report.lookup(metrics, "subspace.subspace.f")
     assert (got is None and math.isnan(row.f)) or got == pytest.approx(row.f)
-    assert (own["paper_precision"], own["paper_recall"], own["paper_f"]) == (0.93, 0.76, 0.91)
+    paper = PAPER_TABLE3[("subspace", "subspace")]
+    assert (own["paper_precision"], own["paper_recall"], own["paper_f"]) == (paper["precision"], paper["recall"], paper["f"])
     # the paper's NaN cells stay NaN (null in JSON)
     assert metrics["workspace"]["nosubspace"]["paper_f"] is None
     assert set(metrics["train_samples"]) == set(emb) and metrics["train_samples"]["subspace"] == smoke["train_samples"]

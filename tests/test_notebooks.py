@@ -6,7 +6,7 @@ import nbformat
 import pytest
 
 from wsmap import paths
-from wsmap.pipeline import run_notebook
+from wsmap.paper.pipeline import run_notebook
 
 SMOKE = paths.ROOT / "params.smoke.yaml"
 

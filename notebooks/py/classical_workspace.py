@@ -8,21 +8,19 @@
 # conventions side by side. Every number comes from `wsmap`; this notebook only orchestrates and plots.
 
 # %% parameters
-params = {}
+params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
 output_root = None
 
 # %%
-import json
-
 import numpy as np
 
 from wsmap import paths, robots
 from wsmap import workspace as ws
-from wsmap.io import atomic_path
-from wsmap.render import map_to_mesh, plot_slices, render_mesh, save_figure
+from wsmap.io import atomic_path, write_json
+from wsmap.viz import map_to_mesh, plot_slices, render_mesh, save_figure
 
 out = paths.Outputs(output_root).make()
-cfg = {"lo": -1.0, "hi": 1.0, "step": 0.1, "rpy": [0.0, 0.0, 0.0], "rotated_rpy": [0.312, 5.6719, 5.936], **params}
+cfg = paths.notebook_params("classical_workspace", params_file)
 axes = ws.grid_axes(cfg["lo"], cfg["hi"], cfg["step"])
 shape = tuple(len(a) for a in axes)
 nodes = ws.cartesian_grid(cfg["lo"], cfg["hi"], cfg["step"])
@@ -101,7 +99,7 @@ import pandas as pd
 from wsmap import data as wsdata
 
 t0 = time.perf_counter()
-audit = pd.DataFrame(wsdata.audit_table(n_arms=int(cfg.get("audit_arms", 20))))
+audit = pd.DataFrame(wsdata.audit_table(n_arms=int(cfg["audit_arms"])))
 t_audit = time.perf_counter() - t0
 with atomic_path(out.tables / "label_audit.csv") as tmp:
     audit.to_csv(tmp, index=False)
@@ -125,9 +123,9 @@ label_audit = {
     "agreement_min": float(audit["agreement"].min()),
     "seconds_exact": float(audit["seconds_exact"].sum()),
     "seconds_numerical": float(audit["seconds_numerical"].sum()),
-    # NaN (a rate of an empty class) becomes null: JSON has no NaN
-    "by_spec": {r.spec: {k: (None if np.isnan(getattr(r, k)) else float(getattr(r, k)))
-                         for k in ("fn_rate", "fp_rate", "agreement")} for r in audit.itertuples()},
+    # write_json turns NaN (a rate of an empty class) into null: JSON has no NaN
+    "by_spec": {r.spec: {k: float(getattr(r, k)) for k in ("fn_rate", "fp_rate", "agreement")}
+                for r in audit.itertuples()},
 }
 
 # %%
@@ -142,8 +140,7 @@ metrics = {
     "conventions_differ_fraction_rotated": differ,
     "label_audit": label_audit,
 }
-with atomic_path(out.results / "classical_workspace.json") as tmp:
-    tmp.write_text(json.dumps(metrics, indent=2) + "\n")
+write_json(metrics, out.results / "classical_workspace.json")
 # a smoke run checks what it produced, not just that it ran
 assert exact.sum() > 0 and fp == 0 and at_identity_equal
 assert (out.figures / "puma560_workspace_exact.png").stat().st_size > 10_000

@@ -2,22 +2,22 @@
 # # Reproduction report
 #
 # Reads the metrics every other stage wrote (`results/*.json`), sets each reproduced number beside
-# the paper's (`wsmap.report.PAPER`, from NOTES.md), lists where the committed run is smaller than
-# the paper's (`params.yaml` against `params.full.yaml`) and writes `results/REPORT.md`. It
-# computes nothing new: every number comes from a stage's metrics file.
+# the paper's (`wsmap.paper.published.PAPER`, from NOTES.md), lists where the committed run is
+# smaller than the paper's (`params.yaml` against `params.full.yaml`) and writes
+# `results/REPORT.md`. It computes nothing new: every number comes from a stage's metrics file.
 
 # %% parameters
-params = {}
+params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
 output_root = None
 
 # %%
 import pandas as pd
 
 from wsmap import paths
-from wsmap import report as R
-from wsmap.render import save_figure
+from wsmap.paper import report as R
+from wsmap.viz import save_figure
 
-cfg = {"committed_params": "params.yaml", "full_params": "params.full.yaml", **params}
+cfg = paths.notebook_params("report", params_file)
 out = paths.Outputs(output_root).make()
 metrics = R.load_metrics(out.results)
 rows = R.comparison_rows(metrics)

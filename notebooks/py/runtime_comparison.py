@@ -4,7 +4,7 @@
 # The paper's figure "Run time (± sigma) of SL model compared to the classical algorithm": the
 # PUMA560's constant-orientation workspace map (R = I, paper convention) on the 27-, 125- and
 # 9261-node grids of [-1, 1]³ m (steps 1, 0.5 and 0.1). Measured here, per grid, mean ± sigma over
-# repeated calls (`wsmap.timing.runtime_comparison`):
+# repeated calls (`wsmap.paper.runtime.runtime_comparison`):
 #
 # * **classical, numerical, one node at a time** -- the paper's way: one `ikine_LM` call per node
 #   (the Appendix's Levenberg–Marquardt: tol 1e-10, at most 500 iterations and 100 rejections,
@@ -20,15 +20,14 @@
 #   same matrix products and tanh run whatever they are), so an untrained network times the same
 #   as a trained one. "features + predict" adds building the feature row from the DH table.
 #
-# The paper's numbers (MATLAB R2017b, Xeon E3-1505M; classical one node at a time) stand beside
-# ours; different language and machine, so only ratios within one column are like for like.
+# The paper's numbers (`wsmap.paper.published.RUNTIME_SECONDS`: MATLAB R2017b, Xeon E3-1505M;
+# classical one node at a time) stand beside ours; different language and machine, so only ratios within one column are like for like.
 
 # %% parameters
-params = {}
+params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
 output_root = None
 
 # %%
-import json
 import os
 import platform
 
@@ -38,16 +37,13 @@ import pandas as pd
 import torch
 
 from wsmap import paths
-from wsmap import timing
-from wsmap.io import atomic_path
-from wsmap.render import save_figure
+from wsmap.io import atomic_path, write_json
+from wsmap.paper import runtime as RT
+from wsmap.paper.published import RUNTIME_SECONDS
+from wsmap.viz import save_figure
 
 out = paths.Outputs(output_root).make()
-cfg = {
-    "steps": [1.0, 0.5, 0.1], "lo": -1.0, "hi": 1.0, "rpy": [0.0, 0.0, 0.0],
-    "repeats": 20, "warmup": 2, "classical_repeats": 3, "classical_warmup": 1,
-    "per_node_sample": 100, "torch_threads": 1, "seed": 0, **params,
-}
+cfg = paths.notebook_params("runtime_comparison", params_file)
 torch.set_num_threads(int(cfg["torch_threads"]))
 machine = {
     "cpus": os.cpu_count(),
@@ -63,7 +59,7 @@ cfg, machine
 # ## Measure
 
 # %%
-df = timing.runtime_comparison(
+df = RT.runtime_comparison(
     cfg["steps"], lo=cfg["lo"], hi=cfg["hi"], rpy=cfg["rpy"],
     repeats=int(cfg["repeats"]), warmup=int(cfg["warmup"]),
     classical_repeats=int(cfg["classical_repeats"]), classical_warmup=int(cfg["classical_warmup"]),
@@ -96,16 +92,16 @@ print(md)
 # %%
 grids = sorted(df["nodes"].unique())
 bars = [  # (label, values per grid, sigma per grid, colour, hatch)
-    ("paper: classical (MATLAB, per node)", [timing.PAPER_SECONDS[n][0] for n in grids], None, "#bbbbbb", "//"),
+    ("paper: classical (MATLAB, per node)", [RUNTIME_SECONDS[n][0] for n in grids], None, "#bbbbbb", "//"),
 ]
 colours = {"classical_per_node_numerical": "#d62728", "classical_batched_numerical": "#ff7f0e",
            "classical_exact": "#2ca02c", "network": "#1f4e79"}
 by = df.set_index(["method", "nodes"])
 for m, c in colours.items():
     if m == "network":
-        bars.append(("paper: SL network", [timing.PAPER_SECONDS[n][1] for n in grids], None, "#9ecae1", "//"))
+        bars.append(("paper: SL network", [RUNTIME_SECONDS[n][1] for n in grids], None, "#9ecae1", "//"))
     extrapolated = [str(n) for n in grids if by.loc[(m, n), "extrapolated"]]
-    lab = timing.METHODS[m] + (f" (extrapolated on {', '.join(extrapolated)})" if extrapolated else "")
+    lab = RT.METHODS[m] + (f" (extrapolated on {', '.join(extrapolated)})" if extrapolated else "")
     bars.append(("ours: " + lab, [by.loc[(m, n), "mean_s"] for n in grids], [by.loc[(m, n), "std_s"] for n in grids],
                  c, None))
 fig, ax = plt.subplots(figsize=(10, 6))
@@ -129,17 +125,16 @@ save_figure(fig, out.figures / "runtime_comparison.png")
 
 # %%
 metrics = {
-    **timing.metrics_from_table(df),
-    "paper": {"classical": {str(n): c for n, (c, _) in timing.PAPER_SECONDS.items()},
-              "network": {str(n): w for n, (_, w) in timing.PAPER_SECONDS.items()}},
+    **RT.metrics_from_table(df),
+    "paper": {"classical": {str(n): c for n, (c, _) in RUNTIME_SECONDS.items()},
+              "network": {str(n): w for n, (_, w) in RUNTIME_SECONDS.items()}},
     "per_node_extrapolated": {str(r.nodes): bool(r.extrapolated) for r in df.itertuples()
                               if r.method == "classical_per_node_numerical"},
     "settings": {k: cfg[k] for k in ("steps", "lo", "hi", "rpy", "repeats", "warmup", "classical_repeats",
                                      "classical_warmup", "per_node_sample", "seed")},
     "machine": machine,
 }
-with atomic_path(out.results / "runtime_comparison.json") as tmp:
-    tmp.write_text(json.dumps(metrics, indent=2) + "\n")
+write_json(metrics, out.results / "runtime_comparison.json")
 # a smoke run checks what it produced, not just that it ran
 assert (df["mean_s"] > 0).all()
 for n in grids:

@@ -26,7 +26,7 @@
 # comes from `wsmap`; this notebook only orchestrates and plots.
 
 # %% parameters
-params = {}
+params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
 output_root = None
 
 # %%
@@ -37,27 +37,19 @@ import pandas as pd
 import torch
 
 from wsmap import data as D
-from wsmap import experiments as E
 from wsmap import metrics as M
 from wsmap import models, paths, robots
-from wsmap import plots as P
+from wsmap import viz as V
 from wsmap import workspace as ws
-from wsmap.render import map_to_mesh, plot_slices, save_figure
+from wsmap.io import write_json, write_table
+from wsmap.kinematics import arm_batch
+from wsmap.paper import fitting as E
+from wsmap.paper import published
+from wsmap.timing import time_call
 from wsmap.training import TrainConfig
 
 out = paths.Outputs(output_root).make()
-cfg = {
-    "dataset": "sec62",
-    "train_samples": 100_000,  # the paper's
-    "max_epochs": 1000,
-    "max_fail": 100,  # the paper's section 6.2
-    "hidden": [125, 100, 100, 125],
-    "seed": 0,
-    "threshold": 0.5,
-    "histogram_bins": 30,
-    "runtime_repeats": 30,
-    **params,
-}
+cfg = paths.notebook_params("sec62_puma560", params_file)
 threads = torch.get_num_threads()
 train_all, test = D.load_pair(cfg["dataset"], out.data)
 train = train_all.head(cfg["train_samples"])
@@ -86,10 +78,10 @@ for k, r in enumerate(results):
 print(f"all blocks: {t_fit:.1f} s")
 assert model.n_subspaces == len(blocks)
 
-fig = P.plot_training_curves([r.history for r in results], [f"{n} (z {z})" for n, z in zip(names, z_ranges)],
+fig = V.plot_training_curves([r.history for r in results], [f"{n} (z {z})" for n, z in zip(names, z_ranges)],
                              best_epochs=[r.best_epoch for r in results],
                              title="Subspace training of equal dimension")
-save_figure(fig, out.figures / "sec62_training.png")
+V.save_figure(fig, out.figures / "sec62_training.png")
 
 # %% [markdown]
 # ## Accuracy per subspace and of the assembled 9261-node map (1000 test arms, threshold 0.5)
@@ -99,23 +91,28 @@ evals = [E.evaluate(model, test, nodes=b, key=k, threshold=cfg["threshold"]) for
 full = E.evaluate(model, test, assemble=True, threshold=cfg["threshold"])
 hist_full = M.error_histogram(full["scores"], full["truth"], bins=cfg["histogram_bins"])
 hists = [M.error_histogram(e["scores"], e["truth"], bins=hist_full.edges) for e in evals]
-fig = P.plot_error_histograms(hists + [hist_full], names + [f"assembled ({full['nodes']} nodes)"],
+fig = V.plot_error_histograms(hists + [hist_full], names + [f"assembled ({full['nodes']} nodes)"],
                               title=f"Histogram of prediction errors ({len(test)} test arms)")
-save_figure(fig, out.figures / "sec62_error_histogram.png")
+V.save_figure(fig, out.figures / "sec62_error_histogram.png")
 
 # %% [markdown]
 # ## Run time of the subspace models
 
 # %%
+def times(fn, repeats):
+    """Wall-clock seconds of ``repeats`` calls of ``fn`` after 2 untimed ones, as an array."""
+    return np.asarray(time_call(fn, repeats, warmup=2).values)
+
+
 x_one = test.features[:1]
 reps = cfg["runtime_repeats"]
-one_arm = {n: P.time_calls(lambda k=k: model.score(x_one, key=k), reps) for k, n in enumerate(names)}
-one_arm["assembled (9261)"] = P.time_calls(lambda: model.score(x_one, assemble=True), reps)
-all_arms = {n: P.time_calls(lambda k=k: model.score(test.features, key=k), max(3, reps // 5)) for k, n in enumerate(names)}
-all_arms["assembled (9261)"] = P.time_calls(lambda: model.score(test.features, assemble=True), max(3, reps // 5))
-fig = P.plot_runtimes({"one arm's map": one_arm, f"maps of the {len(test)} test arms": all_arms},
+one_arm = {n: times(lambda k=k: model.score(x_one, key=k), reps) for k, n in enumerate(names)}
+one_arm["assembled (9261)"] = times(lambda: model.score(x_one, assemble=True), reps)
+all_arms = {n: times(lambda k=k: model.score(test.features, key=k), max(3, reps // 5)) for k, n in enumerate(names)}
+all_arms["assembled (9261)"] = times(lambda: model.score(test.features, assemble=True), max(3, reps // 5))
+fig = V.plot_runtimes({"one arm's map": one_arm, f"maps of the {len(test)} test arms": all_arms},
                       title=f"Run time of subspace models (torch, {threads} thread(s))")
-save_figure(fig, out.figures / "sec62_subspace_runtime.png")
+V.save_figure(fig, out.figures / "sec62_subspace_runtime.png")
 
 # %%
 rows = []
@@ -133,14 +130,14 @@ rows.append({"subspace": "assembled", "z (m)": f"{z_axis[0]:+.1f}..{z_axis[-1]:+
              "train_s": float(sum(seconds)), "one_map_ms": 1e3 * one_arm["assembled (9261)"].mean(),
              "one_map_ms_std": 1e3 * one_arm["assembled (9261)"].std()})
 table = pd.DataFrame(rows).astype({"epochs": "Int64", "best_epoch": "Int64"})
-P.write_table(table, out.tables / "sec62_subspaces")
+write_table(table, out.tables / "sec62_subspaces")
 print(table.to_string(index=False))
 
 # %% [markdown]
 # ## The PUMA560 workspace generated by the 7 subspace models
 
 # %%
-puma = P.arm_batch(robots.puma560())
+puma = arm_batch(robots.puma560())
 x_puma = D.features_for(puma, spec)
 t0 = time.perf_counter()
 predicted = model.predict(x_puma, cfg["threshold"], assemble=True).numpy()[0]
@@ -152,19 +149,19 @@ print(f"PUMA560: {predicted.sum()} nodes predicted reachable, {exact.sum()} exac
 
 import trimesh
 
-mesh_exact = map_to_mesh(exact, shape, spec.lo, spec.step)
-mesh_pred = map_to_mesh(predicted, shape, spec.lo, spec.step) if predicted.any() else trimesh.Trimesh()
+mesh_exact = V.map_to_mesh(exact, shape, spec.lo, spec.step)
+mesh_pred = V.map_to_mesh(predicted, shape, spec.lo, spec.step) if predicted.any() else trimesh.Trimesh()
 lim = float(np.max(np.abs(np.concatenate([np.ravel(spec.lo), np.ravel(spec.hi)]))))
-fig = P.plot_meshes([mesh_exact, mesh_pred],
+fig = V.plot_meshes([mesh_exact, mesh_pred],
                     ["PUMA560, exact (closed form)",
                      f"generated by {model.n_subspaces} subspace models (F {puma_prf.f:.3f})"], lim=lim,
                     suptitle="Workspace of PUMA560 robot generated by 7 subspace models")
-save_figure(fig, out.figures / "puma560_workspace_predicted.png")
-P.export_mesh(mesh_pred, out.results / "puma560_workspace_predicted.glb")
-P.export_mesh(mesh_pred, out.results / "puma560_workspace_predicted.stl")
-fig = plot_slices(predicted, shape, spec.lo, spec.step, compare=exact,
+V.save_figure(fig, out.figures / "puma560_workspace_predicted.png")
+V.export_mesh(mesh_pred, out.results / "puma560_workspace_predicted.glb")
+V.export_mesh(mesh_pred, out.results / "puma560_workspace_predicted.stl")
+fig = V.plot_slices(predicted, shape, spec.lo, spec.step, compare=exact,
                   title=f"PUMA560: predicted (first) vs exact (second), F {puma_prf.f:.4f}")
-save_figure(fig, out.figures / "sec62_puma560_slices.png")
+V.save_figure(fig, out.figures / "sec62_puma560_slices.png")
 print(f"predicted mesh: {len(mesh_pred.vertices)} vertices, {len(mesh_pred.faces)} faces, "
       f"watertight={mesh_pred.is_watertight}")
 
@@ -204,12 +201,12 @@ metrics = {
     "seconds_per_block": seconds,
     "seconds_training_total": t_fit,
     "torch_threads": threads,
+    "paper": dict(published.SEC62),
     "train_samples": len(train),
     "test_samples": len(test),
     "hidden": list(cfg["hidden"]),
-    "paper": {"train_samples": 100_000, "max_fail": 100},
 }
-P.write_json(metrics, out.results / "sec62_puma560.json")
+write_json(metrics, out.results / "sec62_puma560.json")
 # a smoke run checks what it produced, not just that it ran
 assert model.n_subspaces == 7 and full["nodes"] == 9261 and exact.sum() > 0
 assert (out.figures / "puma560_workspace_predicted.png").stat().st_size > 5_000

@@ -11,42 +11,30 @@
 # * orientation ("SO3") maps over [0, 2π]³ at step π/3 (343 nodes), π/8 (4913) and π/10 (9261) at a
 #   fixed point (the paper's convention tests positions R·p, NOTES "Pose convention").
 #
-# One model per row, trained on the first `train_samples` arms of the row's dataset (the paper:
-# 6e4, 3e4 or 1.5e4) for at most `max_epochs` epochs with early stopping after `max_fail`
-# validation failures; F is pooled over every test arm and node (the paper's). The per-sample F
-# mean ± σ is shown too: the paper's "± σ_f" of a single model is most likely that spread.
-# Every number comes from `wsmap.studies.table1`.
+# One model per row, trained on the first `train_samples` arms of the row's dataset (the paper's
+# counts are the table's `paper_samples`, from `wsmap.paper.published.PAPER_TABLE1`) for at most
+# `max_epochs` epochs with early stopping after `max_fail` validation failures; F is pooled over
+# every test arm and node (the paper's). The per-sample F mean ± σ is shown too: the paper's "± σ_f"
+# of a single model is most likely that spread.
+# Every number comes from `wsmap.paper.tables.table1`.
 
 # %% parameters
-params = {}
+params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
 output_root = None
 
 # %%
-import json
-
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Image
 
 from wsmap import paths
-from wsmap import studies as S
-from wsmap.io import atomic_path
-from wsmap.render import save_figure
+from wsmap.io import jsonable, plus_minus, write_json, write_table
+from wsmap.paper import tables as S
 from wsmap.training import TrainConfig
+from wsmap.viz import save_figure
 
 out = paths.Outputs(output_root).make()
-cfg = {
-    "datasets": list(S.TABLE1_DATASETS),
-    "hidden": list(S.PAPER_HIDDEN),
-    "optimizer": "rprop",
-    "loss": "mse",
-    "max_epochs": 1000,
-    "max_fail": 6,
-    "train_samples": None,
-    "sessions": 1,
-    "seed": 0,
-    **params,
-}
+cfg = paths.notebook_params("table1_workspaces", params_file)
 config = TrainConfig(optimizer=cfg["optimizer"], loss=cfg["loss"], max_fail=cfg["max_fail"], seed=cfg["seed"])
 cfg
 
@@ -65,13 +53,13 @@ table, runs = S.table1(out.data, cfg["datasets"], config=config, train_samples=c
 
 # %%
 shown = table.assign(
-    f_sample=[S.plus_minus(m, s) for m, s in zip(table.f_sample_mean, table.f_sample_std)],
-    paper=[S.plus_minus(m, s, 4) for m, s in zip(table.paper_f, table.paper_f_std)],
+    f_sample=[plus_minus(m, s) for m, s in zip(table.f_sample_mean, table.f_sample_std)],
+    paper=[plus_minus(m, s, 4) for m, s in zip(table.paper_f, table.paper_f_std)],
 )[["workspace", "delta", "nodes", "train_samples", "paper_samples", "epochs", "seconds", "precision", "recall",
    "f", "f_sample", "paper", "difference"]]
-S.write_table(table, out.tables, "table1_workspaces")
-S.write_table(runs, out.tables, "table1_workspaces_runs")
-S.write_table(shown, out.tables, "table1_workspaces_display")
+write_table(table, out.tables / "table1_workspaces", whole=S.COUNT_COLUMNS)
+write_table(runs, out.tables / "table1_workspaces_runs", whole=S.COUNT_COLUMNS)
+write_table(shown, out.tables / "table1_workspaces_display", whole=S.COUNT_COLUMNS)
 shown
 
 # %%
@@ -95,7 +83,7 @@ def by_dataset(column):
     return {d: v for d, v in zip(table.dataset, table[column])}
 
 
-metrics = S.nan_to_none({
+metrics = jsonable({
     "f": by_dataset("f"),
     "precision": by_dataset("precision"),
     "recall": by_dataset("recall"),
@@ -110,8 +98,7 @@ metrics = S.nan_to_none({
     "total_training_seconds": float(runs.seconds.sum()),
     "config": cfg,
 })
-with atomic_path(out.results / "table1_workspaces.json") as tmp:
-    tmp.write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+write_json(metrics, out.results / "table1_workspaces.json")
 # a smoke run checks what it produced, not just that it ran
 assert list(table.dataset) == list(cfg["datasets"])
 assert all(np.isnan(f) or 0.0 <= f <= 1.0 for f in table.f)

@@ -5,7 +5,8 @@
 # inputs) on the block-5 subspace (1323 nodes; 6e4 arms) with five of MATLAB's full-batch training
 # functions and three performance measures, and reports the F-measure (± σ) on a 1000-arm test set.
 # Its conclusion: resilient backpropagation on MSE converges best "given the same number of
-# gradient updates" (0.9298 ± 0.1258), so every cell here gets the same epoch budget.
+# gradient updates" (its F ± σ: `wsmap.paper.published.PAPER_TABLE2`), so every cell here gets the
+# same epoch budget.
 #
 # | name | MATLAB | algorithm |
 # |---|---|---|
@@ -25,39 +26,27 @@
 # Each cell is trained `sessions` times (seeds `seed`, `seed + 1`, …: different initial weights
 # and 70/15/15 splits, the same across cells). `f_mean ± f_std`: pooled F, mean and standard
 # deviation over the sessions; `f_sample_mean ± f_sample_std`: the spread of the per-arm F (the
-# paper's σ is as large as the latter). Every number comes from `wsmap.studies`.
+# paper's σ is as large as the latter). Every number comes from `wsmap.paper.tables`.
 
 # %% parameters
-params = {}
+params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
 output_root = None
 
 # %%
-import json
-
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Image
 
 from wsmap import data as D
 from wsmap import paths
-from wsmap import studies as S
-from wsmap.io import atomic_path
-from wsmap.render import save_figure
+from wsmap.io import jsonable, plus_minus, write_json, write_table
+from wsmap.paper import tables as S
+from wsmap.paper.published import PAPER_TABLE2
 from wsmap.training import TrainConfig
+from wsmap.viz import save_figure
 
 out = paths.Outputs(output_root).make()
-cfg = {
-    "dataset": "table2",
-    "optimizers": list(S.TABLE2_OPTIMIZERS),
-    "losses": list(S.TABLE2_LOSSES),
-    "hidden": list(S.PAPER_HIDDEN),
-    "max_epochs": 1000,
-    "max_fail": 6,
-    "train_samples": None,
-    "sessions": 10,
-    "seed": 0,
-    **params,
-}
+cfg = paths.notebook_params("table2_optimisers", params_file)
 train, test = D.load_pair(cfg["dataset"], out.data)
 config = TrainConfig(max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"], seed=cfg["seed"])
 print(f"{cfg['dataset']}: {len(train)} training arms (using {cfg['train_samples'] or len(train)}), "
@@ -71,19 +60,19 @@ cfg
 runs = S.table2(train, test, config=config, optimizers=cfg["optimizers"], losses=cfg["losses"],
                 sessions=cfg["sessions"], hidden=cfg["hidden"], train_samples=cfg["train_samples"])
 summary = S.table2_summary(runs)
-S.write_table(summary, out.tables, "table2_optimisers")
-S.write_table(runs, out.tables, "table2_optimisers_runs")
+write_table(summary, out.tables / "table2_optimisers", whole=S.COUNT_COLUMNS)
+write_table(runs, out.tables / "table2_optimisers_runs", whole=S.COUNT_COLUMNS)
 
 # %% [markdown]
 # ## Table 2, ours beside the paper's (rows in the paper's order)
 
 # %%
 shown = summary.assign(
-    ours=[S.plus_minus(m, s) for m, s in zip(summary.f_mean, summary.f_std)],
-    per_arm=[S.plus_minus(m, s) for m, s in zip(summary.f_sample_mean, summary.f_sample_std)],
-    paper=[S.plus_minus(m, s) for m, s in zip(summary.paper_f, summary.paper_f_std)],
+    ours=[plus_minus(m, s) for m, s in zip(summary.f_mean, summary.f_std)],
+    per_arm=[plus_minus(m, s) for m, s in zip(summary.f_sample_mean, summary.f_sample_std)],
+    paper=[plus_minus(m, s) for m, s in zip(summary.paper_f, summary.paper_f_std)],
 )[["method", "loss", "sessions", "epochs", "seconds", "precision", "recall", "ours", "per_arm", "paper", "difference"]]
-S.write_table(shown, out.tables, "table2_optimisers_display")
+write_table(shown, out.tables / "table2_optimisers_display", whole=S.COUNT_COLUMNS)
 shown
 
 # %% [markdown]
@@ -117,6 +106,7 @@ Image(filename=str(out.figures / "table2_optimisers.png"))
 
 # %%
 best = summary.loc[summary.f_mean.idxmax()] if summary.f_mean.notna().any() else None
+paper_best = max(PAPER_TABLE2, key=lambda cell: PAPER_TABLE2[cell][0])  # (optimizer, loss) of the paper's best F
 cells = {
     f"{r.optimizer}_{r.loss_key}": {
         "f_mean": r.f_mean, "f_std": r.f_std, "f_sample_mean": r.f_sample_mean, "f_sample_std": r.f_sample_std,
@@ -125,17 +115,16 @@ cells = {
     }
     for r in summary.itertuples()
 }
-metrics = S.nan_to_none({
+metrics = jsonable({
     **cells,
     "best_cell": None if best is None else f"{best.optimizer}_{best.loss_key}",
-    "paper_best_cell": "rprop_mse",
+    "paper_best_cell": "_".join(paper_best),
     "sessions": int(cfg["sessions"]),
     "train_samples": int(summary.train_samples.iloc[0]),
     "total_training_seconds": float(runs.seconds.sum()),
     "config": cfg,
 })
-with atomic_path(out.results / "table2_optimisers.json") as tmp:
-    tmp.write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+write_json(metrics, out.results / "table2_optimisers.json")
 # a smoke run checks what it produced, not just that it ran
 assert len(summary) == len(cfg["optimizers"]) * len(cfg["losses"])
 assert len(runs) == len(summary) * cfg["sessions"]

@@ -15,40 +15,28 @@
 # Each model is tested on all three test sets. The paper prints NaN for every model on the
 # no-subspace test set (its labels were presumably unusable); ours are defined wherever the test
 # set has reachable nodes. Pooled precision / recall / F are the project's convention (NOTES:
-# micro); the per-arm means ± σ are shown beside, since the paper's "± σ" (e.g. recall
-# 0.76 ± 0.37) is a spread over arms. Every number comes from `wsmap.studies.table3`.
+# micro); the per-arm means ± σ are shown beside, since the paper's "± σ" (e.g. that of the
+# subspace model's recall on its own test set, `wsmap.paper.published.PAPER_TABLE3`) is a spread
+# over arms. Every number comes from `wsmap.paper.tables.table3`.
 
 # %% parameters
-params = {}
+params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
 output_root = None
 
 # %%
-import json
-
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Image
 
 from wsmap import data as D
 from wsmap import paths
-from wsmap import studies as S
-from wsmap.io import atomic_path
-from wsmap.render import save_figure
+from wsmap.io import jsonable, plus_minus, write_json, write_table
+from wsmap.paper import tables as S
 from wsmap.training import TrainConfig
+from wsmap.viz import save_figure
 
 out = paths.Outputs(output_root).make()
-cfg = {
-    "embeddings": dict(S.TABLE3_EMBEDDINGS),
-    "hidden": list(S.TABLE3_HIDDEN),
-    "optimizer": "rprop",
-    "loss": "mse",
-    "max_epochs": 1000,
-    "max_fail": 6,
-    "train_samples": None,
-    "sessions": 1,
-    "seed": 0,
-    **params,
-}
+cfg = paths.notebook_params("table3_embeddings", params_file)
 pairs = {emb: D.load_pair(name, out.data) for emb, name in cfg["embeddings"].items()}
 for emb, (tr, te) in pairs.items():
     print(f"{emb}: {len(tr)} training arms, {len(te)} test arms, {tr.n_nodes} nodes, "
@@ -64,8 +52,8 @@ cfg
 runs = S.table3(pairs, config=config, sessions=cfg["sessions"], hidden=cfg["hidden"],
                 train_samples=cfg["train_samples"])
 summary = S.table3_summary(runs)
-S.write_table(summary, out.tables, "table3_embeddings")
-S.write_table(runs, out.tables, "table3_embeddings_runs")
+write_table(summary, out.tables / "table3_embeddings", whole=S.COUNT_COLUMNS)
+write_table(runs, out.tables / "table3_embeddings_runs", whole=S.COUNT_COLUMNS)
 
 # %% [markdown]
 # ## Table 3, ours beside the paper's
@@ -75,16 +63,16 @@ S.write_table(runs, out.tables, "table3_embeddings_runs")
 
 # %%
 shown = summary.assign(
-    precision_per_arm=[S.plus_minus(m, s, 2) for m, s in zip(summary.precision_sample_mean, summary.precision_sample_std)],
-    recall_per_arm=[S.plus_minus(m, s, 2) for m, s in zip(summary.recall_sample_mean, summary.recall_sample_std)],
-    f_per_arm=[S.plus_minus(m, s, 2) for m, s in zip(summary.f_sample_mean, summary.f_sample_std)],
-    paper_precision_=[S.plus_minus(m, s, 2) for m, s in zip(summary.paper_precision, summary.paper_precision_std)],
-    paper_recall_=[S.plus_minus(m, s, 2) for m, s in zip(summary.paper_recall, summary.paper_recall_std)],
-    paper_f_=[S.plus_minus(m, s, 2) for m, s in zip(summary.paper_f, summary.paper_f_std)],
+    precision_per_arm=[plus_minus(m, s, 2) for m, s in zip(summary.precision_sample_mean, summary.precision_sample_std)],
+    recall_per_arm=[plus_minus(m, s, 2) for m, s in zip(summary.recall_sample_mean, summary.recall_sample_std)],
+    f_per_arm=[plus_minus(m, s, 2) for m, s in zip(summary.f_sample_mean, summary.f_sample_std)],
+    paper_precision_=[plus_minus(m, s, 2) for m, s in zip(summary.paper_precision, summary.paper_precision_std)],
+    paper_recall_=[plus_minus(m, s, 2) for m, s in zip(summary.paper_recall, summary.paper_recall_std)],
+    paper_f_=[plus_minus(m, s, 2) for m, s in zip(summary.paper_f, summary.paper_f_std)],
 )[["embedding", "test", "precision", "recall", "f", "precision_per_arm", "recall_per_arm", "f_per_arm",
    "paper_precision_", "paper_recall_", "paper_f_"]].rename(
     columns={"paper_precision_": "paper P", "paper_recall_": "paper R", "paper_f_": "paper F"})
-S.write_table(shown, out.tables, "table3_embeddings_display")
+write_table(shown, out.tables / "table3_embeddings_display", whole=S.COUNT_COLUMNS)
 shown
 
 # %% [markdown]
@@ -142,7 +130,7 @@ cells = {emb: {} for emb in order}
 for r in summary.itertuples():
     cells[r.embedding][r.test] = {k: getattr(r, k) for k in keys}
 positive_rate = {t: float(runs[runs.test == t].positive_rate.iloc[0]) for t in order}
-metrics = S.nan_to_none({
+metrics = jsonable({
     **cells,
     "test_positive_rate": positive_rate,
     "train_samples": {e: int(runs[runs.embedding == e].train_samples.iloc[0]) for e in order},
@@ -151,8 +139,7 @@ metrics = S.nan_to_none({
     "total_training_seconds": float(runs[runs.test == runs.embedding].seconds.sum()),
     "config": cfg,
 })
-with atomic_path(out.results / "table3_embeddings.json") as tmp:
-    tmp.write_text(json.dumps(metrics, indent=2, allow_nan=False) + "\n")
+write_json(metrics, out.results / "table3_embeddings.json")
 # a smoke run checks what it produced, not just that it ran
 assert len(summary) == len(order) ** 2 and set(summary.embedding) == set(order) == set(summary.test)
 assert all(np.isnan(v) or 0.0 <= v <= 1.0 for v in summary[["precision", "recall", "f"]].to_numpy().ravel())
