@@ -31,7 +31,7 @@ import torch
 from wsmap import data as D
 from wsmap import metrics as M
 from wsmap import robots
-from wsmap.models import MLPConfig, SubspaceMLP
+from wsmap.learn import MLPConfig, SubspaceMLP
 from wsmap.timing import time_call
 from wsmap.training import TrainConfig, split_indices, train
 
@@ -41,10 +41,15 @@ PAPER_HIDDEN = [125, 100, 100, 125]
 IMPROVED_HIDDEN = [256, 256, 256]
 
 
+def family_features():
+    """Feature rows of 2000 arms of the family: the training range an untrained timing model records."""
+    return D.features_for(robots.sample_spherical_wrist(2000, seed=0), SEC62)
+
+
 def paper_model() -> SubspaceMLP:
     """The section 6.2 model: 7 block subspaces of 1323 nodes, assembled into the 9261-node map."""
     cfg = MLPConfig(n_inputs=SEC62.n_features, n_outputs=1323, hidden=PAPER_HIDDEN, n_subspaces=7)
-    return SubspaceMLP(cfg).set_map_spec(SEC62, assemble=True).eval()
+    return SubspaceMLP(cfg).set_map_spec(SEC62, assemble=True).set_training_range(family_features()).eval()
 
 
 def improved_config() -> MLPConfig:
@@ -53,7 +58,7 @@ def improved_config() -> MLPConfig:
 
 
 def improved_model() -> SubspaceMLP:
-    return SubspaceMLP(improved_config()).set_map_spec(SEC62).eval()
+    return SubspaceMLP(improved_config()).set_map_spec(SEC62).set_training_range(family_features()).eval()
 
 
 def improved_train_config(**changes) -> TrainConfig:

@@ -9,9 +9,11 @@ import pytest
 import torch
 from torch import nn
 
+from wsmap.learn.files import payload_checksum
 from wsmap.metrics import precision_recall_f, threshold_sweep
 from wsmap.models import (
     FORMAT,
+    FORMAT_VERSION,
     MLPConfig,
     SubspaceMLP,
     check_features,
@@ -339,7 +341,8 @@ def test_save_load_round_trip(tmp_path, singles):
     assert meta["dataset_spec"] == {"name": "sec62", "step": 0.1, "shape": [21, 21, 21]}
     assert meta["train_config"] == {"optimizer": "rprop", "lr": 0.07}
     assert meta["extra"] == {"blocks": [0, 1, 2], "note": "x"}
-    assert meta["format"] == FORMAT and meta["version"] == 1
+    assert meta["format"] == FORMAT and meta["version"] == FORMAT_VERSION == 2
+    assert meta["checksum"].startswith("sha256:") and len(meta["checksum"]) == 7 + 64
 
     scaled = SubspaceMLP(small_config(input_scaling="standardize", input_columns=[1, 2, 3]), seeds=[0])
     scaled.set_input_stats(np.arange(3.0), np.ones(3) * 2)
@@ -348,6 +351,12 @@ def test_save_load_round_trip(tmp_path, singles):
     assert torch.equal(back(x), scaled(x)) and meta["dataset_spec"] is None
     with pytest.raises(TypeError, match=r"cannot save extra\['f'\]"):
         save(scaled, tmp_path / "bad.pt", extra={"f": object()})
+
+
+def sealed(payload: dict) -> dict:
+    """``payload`` with its checksum recomputed: a file edited on purpose, to reach the checks
+    behind the checksum."""
+    return {**payload, "checksum": payload_checksum(payload)}
 
 
 def test_load_rejects_bad_files(tmp_path, singles):
@@ -370,22 +379,22 @@ def test_load_rejects_bad_files(tmp_path, singles):
     garbage.write_bytes(np.random.default_rng(0).bytes(4096))
     with pytest.raises(ValueError) as e:
         load(garbage)
-    assert str(e.value) == f"cannot load model {garbage}: not a readable torch file (truncated or corrupt)"
+    assert str(e.value).startswith(f"cannot load model {garbage}: not a wsmap model file (not a torch zip archive")
 
     payload = torch.load(good, weights_only=True)
     wrong_tag = tmp_path / "tag.pt"
-    torch.save({**payload, "format": "something.else"}, wrong_tag)
+    torch.save(sealed({**payload, "format": "something.else"}), wrong_tag)
     with pytest.raises(ValueError) as e:
         load(wrong_tag)
     assert str(e.value) == f"cannot load model {wrong_tag}: format tag 'something.else' is not '{FORMAT}'"
 
     newer = tmp_path / "newer.pt"
-    torch.save({**payload, "version": 99}, newer)
+    torch.save(sealed({**payload, "version": 99}), newer)
     with pytest.raises(ValueError, match="format version 99 is not supported"):
         load(newer)
 
     mismatch = tmp_path / "mismatch.pt"
-    torch.save({**payload, "config": {**payload["config"], "hidden": [7, 4]}}, mismatch)
+    torch.save(sealed({**payload, "config": {**payload["config"], "hidden": [7, 4]}}), mismatch)
     with pytest.raises(ValueError) as e:
         load(mismatch)
     assert str(e.value) == (f"cannot load model {mismatch}: state does not match config: "
@@ -394,7 +403,7 @@ def test_load_rejects_bad_files(tmp_path, singles):
                             "weights.2 has shape (1, 6, 5), config needs (1, 4, 5)")
 
     bad_config = tmp_path / "config.pt"
-    torch.save({**payload, "config": {**payload["config"], "activation": "relu"}}, bad_config)
+    torch.save(sealed({**payload, "config": {**payload["config"], "activation": "relu"}}), bad_config)
     with pytest.raises(ValueError, match=r"cannot load model .*config\.pt: invalid config: MLPConfig.activation"):
         load(bad_config)
 
@@ -411,7 +420,8 @@ def test_map_spec_is_saved_and_not_carried_by_restacking(tmp_path):
     stack = SubspaceMLP(MLPConfig(n_inputs=spec.n_features, n_outputs=9, hidden=[4], n_subspaces=3), seeds=[0, 1, 2])
     stack.set_map_spec(spec, assemble=True, threshold=0.4)
     assert stack.map_spec["nodes"] == [0, 27]
-    loaded, meta = load(save(stack, tmp_path / "m.pt"))
+    with pytest.warns(UserWarning, match="without a training range: predict_maps will refuse"):
+        loaded, meta = load(save(stack, tmp_path / "m.pt"))
     assert loaded.map_spec == stack.map_spec == meta["map_spec"]
     assert D.DatasetSpec.from_dict(loaded.map_spec["dataset"]) == spec
     # A slice or a restack maps something else: the description is not carried over.

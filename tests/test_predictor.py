@@ -8,6 +8,7 @@ from wsmap import cli, robots
 from wsmap import data as D
 from wsmap import workspace as ws
 from wsmap.kinematics import DHRobot
+from wsmap.learn.files import payload_checksum
 from wsmap.models import MLPConfig, SubspaceMLP, load, make_map_spec, predict_maps_from_file, save
 from wsmap.training import TrainConfig, split_indices, train
 
@@ -21,9 +22,16 @@ def F(pred, truth):
     return 2 * np.sum(pred & truth) / (np.sum(pred) + np.sum(truth))
 
 
+def family_features(spec, n=500, seed=0):
+    """Features of ``n`` arms of the spherical-wrist family for ``spec``: the training range of a
+    model of that family (what ``configure`` records from real training data)."""
+    return D.features_for(robots.sample_spherical_wrist(n, seed=seed), spec)
+
+
 def pattern_model(patterns, n_inputs, hidden=(3,)):
     """A logit model whose subspace k outputs ``patterns[k]`` (bool, (m,)) for every input: zero
-    output weights, output bias +4 / -4. Predictions then show the output order exactly."""
+    output weights, output bias +4 / -4. Predictions then show the output order exactly. Give it
+    a training range (``set_training_range``) before predicting maps."""
     patterns = np.atleast_2d(np.asarray(patterns, dtype=bool))
     S, m = patterns.shape
     model = SubspaceMLP(MLPConfig(n_inputs=n_inputs, n_outputs=m, hidden=list(hidden), n_subspaces=S,
@@ -43,7 +51,8 @@ def puma_map():
 @pytest.fixture(scope="module")
 def block_model(puma_map):
     """7 block subspaces of 1323 nodes that reproduce PUMA560's map when assembled."""
-    return pattern_model(puma_map.reshape(7, 1323), SEC62.n_features).set_map_spec(SEC62, assemble=True)
+    model = pattern_model(puma_map.reshape(7, 1323), SEC62.n_features).set_map_spec(SEC62, assemble=True)
+    return model.set_training_range(family_features(SEC62))
 
 
 @pytest.fixture(scope="module")
@@ -119,7 +128,7 @@ def test_assembled_blocks_give_the_classical_map(block_model, puma_map):
 def test_node_slice_and_selected_spec(puma_map):
     block5 = slice(5292, 6615)
     puma = robots.puma560()
-    one = pattern_model(puma_map[block5], SEC62.n_features)
+    one = pattern_model(puma_map[block5], SEC62.n_features).set_training_range(family_features(SEC62))
     # one block model trained on columns 5292..6614 of the whole-grid labels
     one.set_map_spec(SEC62, nodes=(5292, 6615))
     np.testing.assert_array_equal(one.predict_maps(puma), ws.constant_orientation_map(puma, one.map_nodes()))
@@ -136,7 +145,7 @@ def test_so3_spec_matches_orientation_map():
     maps = ws.orientation_map(arms, D.grid_nodes(spec), spec.fixed)
     k = int(np.flatnonzero((maps.sum(1) > 0) & (maps.sum(1) < 343))[0])  # an arm reaching some orientations
     arm, truth = arms[k], maps[k]
-    model = pattern_model(truth, spec.n_features).set_map_spec(spec)
+    model = pattern_model(truth, spec.n_features).set_map_spec(spec).set_training_range(D.features_for(arms, spec))
     np.testing.assert_array_equal(model.predict_maps(arm), truth)
     np.testing.assert_array_equal(model.map_nodes(), ws.angle_grid(0, 2 * np.pi, np.pi / 3))
 
@@ -145,6 +154,7 @@ def test_random_orientation_spec_needs_fixed():
     spec = D.PAPER_SPECS["table3_workspace"]  # one random orientation per sample, block 5
     model = SubspaceMLP(MLPConfig(n_inputs=spec.n_features, n_outputs=1323, hidden=[4])).set_map_spec(spec)
     arms, fixed = D.draw_samples(D.scaled(spec, 5))
+    model.set_training_range(D.features_for(arms, spec, fixed))
     with pytest.raises(ValueError, match="pass fixed"):
         model.predict_maps(arms)
     out = model.predict_maps(arms, fixed)
@@ -208,11 +218,14 @@ def test_load_refuses_an_invalid_map_spec(tmp_path, block_model):
     path = save(block_model, tmp_path / "m.pt")
     payload = torch.load(path, weights_only=True)
     payload["map_spec"]["nodes"] = [0, 1323]
-    torch.save(payload, path)
+    torch.save(payload, path)  # an edit without a new checksum is corruption
+    with pytest.raises(ValueError, match="checksum mismatch"):
+        load(path)
+    torch.save({**payload, "checksum": payload_checksum(payload)}, path)  # a deliberate, re-sealed edit
     with pytest.raises(ValueError, match="invalid map_spec: map_spec covers 1323 nodes"):
         load(path)
     payload["map_spec"] = None
-    torch.save(payload, path)
+    torch.save({**payload, "checksum": payload_checksum(payload)}, path)
     assert load(path)[0].map_spec is None
 
 
@@ -226,7 +239,7 @@ def test_cli_model_map_equals_predict_maps(tmp_path, block_model, puma_map):
     out = tmp_path / "map.npz"
     assert cli.main(["map", "--robot", "puma560", "--method", "model", "--model", str(path), "--quiet",
                      "--out", str(out)]) == 0
-    flat, nodes, grid, settings = cli.load_map(out)
+    flat, nodes, grid, settings = ws.load_map(out)
     np.testing.assert_array_equal(flat, block_model.predict_maps(robots.puma560()))
     np.testing.assert_array_equal(flat, puma_map)  # the pattern model reproduces the classical map
     np.testing.assert_array_equal(nodes, block_model.map_nodes())
@@ -237,7 +250,7 @@ def test_cli_model_map_equals_predict_maps(tmp_path, block_model, puma_map):
     argv = ["map", "--d", *map(str, arm.d), "--a", *map(str, arm.a), "--alpha", *map(str, arm.alpha),
             "--method", "model", "--model", str(path), "--quiet", "--out", str(out2)]
     assert cli.main(argv) == 0
-    np.testing.assert_array_equal(cli.load_map(out2)[0], block_model.predict_maps(arm))
+    np.testing.assert_array_equal(ws.load_map(out2)[0], block_model.predict_maps(arm))
 
 
 @pytest.mark.parametrize(
@@ -261,6 +274,7 @@ def test_cli_model_refuses_what_the_model_cannot_map(tmp_path, capsys, block_mod
 
 def test_cli_model_needs_a_whole_grid_model_with_a_map_spec(tmp_path, capsys, puma_map):
     one = pattern_model(puma_map[5292:6615], SEC62.n_features).set_map_spec(SEC62, nodes=(5292, 6615))
+    one.set_training_range(family_features(SEC62))
     sliced = save(one, tmp_path / "block5.pt")
     one.map_spec = None
     bare = save(one, tmp_path / "bare.pt")

@@ -23,8 +23,8 @@ import torch
 
 from .. import metrics as M
 from ..data import Dataset
-from ..models import MLPConfig, SubspaceMLP
-from ..training import TrainConfig, TrainResult, split_indices, train_sessions
+from ..learn import MLPConfig, SubspaceMLP
+from ..learn.training import TrainConfig, TrainResult, split_indices, train_sessions
 
 __all__ = ["model_config", "fit", "fit_blocks", "stack_sessions", "evaluate", "node_slice"]
 

@@ -51,7 +51,7 @@ from .. import data as D
 from .. import metrics as M
 from ..data import Dataset
 from ..io import plus_minus
-from ..training import TrainConfig, optimizer_name
+from ..learn.training import TrainConfig, optimizer_name
 from . import fitting as E
 from .published import PAPER_TABLE1, PAPER_TABLE2, PAPER_TABLE3
 

@@ -220,11 +220,11 @@ def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), m
     if method == "model":
         if model is None:
             raise ValueError("method 'model' needs a model file (--model PATH)")
-        from ..models import predict_maps_from_file
+        from ..learn.predictor import predict_maps_from_file
 
         fixed = rpy if scope == "R3" else point
-        kwargs = {"allow_extrapolation": True} if allow_extrapolation else {}
-        flat = predict_maps_from_file(model, robot, fixed, grid=grid, convention=convention, whole_grid=True, **kwargs)
+        flat = predict_maps_from_file(model, robot, fixed, grid=grid, convention=convention, whole_grid=True,
+                                      allow_extrapolation=allow_extrapolation)
         if flat.shape != (len(nodes),):  # a model file disagreeing with its own spec
             raise ValueError(f"model {model} gave a map of shape {flat.shape}, the grid has {len(nodes)} nodes")
         return flat

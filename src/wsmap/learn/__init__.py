@@ -1,0 +1,100 @@
+"""Learned workspace maps: the paper's subspace networks, their training, files and predictions.
+
+Where things are (each module's docstring has the details):
+
+=====================  ==========================================================================
+module                 contents
+=====================  ==========================================================================
+``network``            :class:`MLPConfig`, :class:`SubspaceMLP` (S stacked tanh MLPs: forward,
+                       score/predict, ``configure``, ``predict_maps``), :func:`check_features`
+``init``               weight initialisation: Nguyen–Widrow (MATLAB ``initnw``), MATLAB
+                       ``rands``, torch's default
+``optim``              the paper's full-batch trainers (Table 2): Rprop as the paper, SCG, CGB,
+                       OSS, GDX, and :func:`make_optimizer`
+``training``           :func:`train` with MATLAB-style early stopping, :func:`train_sessions`,
+                       :class:`TrainConfig`, losses, splits, Adam minibatches
+``mapspec``            the ``map_spec`` (which grid and nodes the outputs are): validation, arm /
+                       grid / threshold checks, features of arms
+``training_range``     :class:`TrainingRange`: what inputs the model was trained on; the
+                       extrapolation check (:class:`ExtrapolationError`, :class:`ExtrapolationWarning`)
+``predictor``          :func:`predict_maps_from_file` (``wsmap map --method model``),
+                       :func:`predict_maps`
+``files``              :func:`save` / :func:`load`: the model file format, with a SHA-256
+                       checksum (:class:`ModelFileError`)
+=====================  ==========================================================================
+
+Imports go one way: ``init``, ``training_range``, ``mapspec`` and ``optim`` depend on nothing here;
+``network`` on those; ``files`` on ``network``; ``predictor`` on ``files``; ``training`` on ``optim``.
+``wsmap.models``, ``wsmap.training`` and ``wsmap.optim`` re-export the old names from here.
+
+A typical round trip::
+
+    from wsmap import learn
+    model = learn.SubspaceMLP(learn.MLPConfig(n_inputs=84, n_outputs=9261)).configure(X[split.train])
+    learn.train(model, X, Y, learn.TrainConfig(), split=split)
+    model.set_map_spec(dataset_spec)              # what the outputs are
+    learn.save(model, "m.pt", dataset_spec=dataset_spec)
+    maps = learn.predict_maps_from_file("m.pt", arms)   # refuses arms outside the training range
+"""
+
+from .files import FORMAT, FORMAT_VERSION, ModelFileError, UnverifiedModelWarning, load, payload_checksum, save
+from .init import matlab_rands_, nguyen_widrow_, torch_default_
+from .mapspec import make_map_spec
+from .network import (
+    ACTIVATIONS,
+    INITS,
+    INPUT_SCALINGS,
+    OUTPUT_KINDS,
+    MLPConfig,
+    SubspaceMLP,
+    check_features,
+)
+from .optim import (
+    ALIASES,
+    CGB,
+    ELEMENTWISE,
+    GDX,
+    OPTIMIZERS,
+    OSS,
+    SCG,
+    canonical_name,
+    charalambous_search,
+    make_optimizer,
+    paper_rprop,
+)
+from .predictor import predict_maps, predict_maps_from_file
+from .training import (
+    LOSSES,
+    LR_DECAYS,
+    MINIBATCH_OPTIMIZERS,
+    STOP_REASONS,
+    History,
+    Loss,
+    Split,
+    TrainConfig,
+    TrainResult,
+    make_loss,
+    optimizer_name,
+    split_indices,
+    train,
+    train_sessions,
+)
+from .training_range import ExtrapolationError, ExtrapolationWarning, TrainingRange
+
+__all__ = [
+    # network
+    "MLPConfig", "SubspaceMLP", "check_features", "ACTIVATIONS", "INITS", "INPUT_SCALINGS", "OUTPUT_KINDS",
+    # initialisation
+    "nguyen_widrow_", "matlab_rands_", "torch_default_",
+    # optimisers
+    "OPTIMIZERS", "ALIASES", "ELEMENTWISE", "canonical_name", "make_optimizer", "paper_rprop",
+    "SCG", "CGB", "OSS", "GDX", "charalambous_search",
+    # training
+    "TrainConfig", "TrainResult", "History", "Split", "Loss", "LOSSES", "STOP_REASONS", "MINIBATCH_OPTIMIZERS",
+    "LR_DECAYS", "make_loss", "split_indices", "train", "train_sessions", "optimizer_name",
+    # what the model maps, and on which inputs
+    "make_map_spec", "TrainingRange", "ExtrapolationError", "ExtrapolationWarning",
+    # predictions and files
+    "predict_maps", "predict_maps_from_file", "save", "load", "FORMAT", "FORMAT_VERSION", "ModelFileError",
+    "UnverifiedModelWarning", "payload_checksum",
+]

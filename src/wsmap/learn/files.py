@@ -1,0 +1,385 @@
+"""Model files: :func:`save` and :func:`load`, with a SHA-256 checksum over everything stored.
+
+Format (``FORMAT_VERSION = 2``)
+-------------------------------
+One ``torch.save`` file holding a dict of plain containers, numbers, strings and tensors (so
+:func:`load` reads it with ``torch.load(weights_only=True)``; nothing in it can run code)::
+
+    {"format": "wsmap.subspace_mlp", "version": 2, "wsmap_version": "0.1.0",
+     "config": MLPConfig.to_dict(),
+     "state_dict": {name: CPU tensor},          # weights, biases, input_mean, input_std
+     "map_spec": dict | None,                   # what the outputs map (wsmap.learn.mapspec)
+     "training_range": dict | None,             # TrainingRange.to_dict(): per-feature low/high,
+                                                #   names, samples, fixed features and their values
+     "dataset_spec", "train_config", "extra",   # provenance, as given to save()
+     "checksum": "sha256:<64 hex digits>"}
+
+``checksum`` is the SHA-256 of a canonical encoding of every other entry (:func:`payload_checksum`:
+dict keys sorted, each value tagged with its type; floats exactly, via ``float.hex``; a tensor as
+its dtype, shape and raw bytes). :func:`load` recomputes it from what it read and refuses the file
+(:class:`ModelFileError`) when it differs, so a flipped bit anywhere in the stored content -- a
+weight, the config, the map spec, the training range -- is an error, never a silently different
+model. (Bits of the zip container that do not reach the content, such as record padding, can
+change without changing what loads: the model is then identical.) The file is written atomically:
+a temporary file beside the target renamed over it.
+
+Files of format version 1 (written before the checksum existed) are refused by default, with a
+message saying how to re-save them; ``load(path, allow_unverified=True)`` reads one with an
+:class:`UnverifiedModelWarning`.
+
+Errors
+------
+:func:`load` raises :class:`ModelFileError` (a ``ValueError``) ``"cannot load model <path>:
+<problem>"`` for a missing path, a directory, an unreadable file (permissions), an empty,
+truncated or corrupt file, a file that is not a wsmap model, a checksum mismatch, an old or newer
+format, an invalid config, map spec or training range, and a state that does not match the config.
+:func:`save` raises ``TypeError`` for a model or provenance it cannot store, ``ModelFileError``
+for a path that cannot be a file (a directory, below a regular file), and ``OSError`` (naming the
+path) when writing fails.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import io
+import os
+import struct
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from .. import __version__
+from ..io import atomic_path
+from .mapspec import spec_feature_names
+from .network import MLPConfig, SubspaceMLP, training_range_of
+from .training_range import TrainingRange
+
+__all__ = [
+    "FORMAT",
+    "FORMAT_VERSION",
+    "ModelFileError",
+    "UnverifiedModelWarning",
+    "payload_checksum",
+    "save",
+    "load",
+]
+
+FORMAT = "wsmap.subspace_mlp"
+#: 2: a checksum and the training range; 1: neither (read only with ``allow_unverified=True``).
+FORMAT_VERSION = 2
+_CHECKSUM_PREFIX = "sha256:"
+
+
+class ModelFileError(ValueError):
+    """A model file that cannot be used: missing, unreadable, corrupt, not a model, or not this format."""
+
+
+class UnverifiedModelWarning(UserWarning):
+    """A model file without a checksum (format version 1) was loaded with ``allow_unverified=True``."""
+
+
+# --------------------------------------------------------------------------------------------
+# Plain content and its checksum
+# --------------------------------------------------------------------------------------------
+
+
+def _plain(value, where: str):
+    """``value`` as ``weights_only``-loadable content: dicts (str keys), lists, str, int, float,
+    bool, None, tensors. Tuples -> lists, numpy -> Python/lists, paths -> str, dataclasses and
+    objects with ``to_dict()`` -> dicts; anything else raises ``TypeError``."""
+    if isinstance(value, np.generic):  # before the builtins: np.float64 is a float subclass
+        value = value.item()
+    if value is None:
+        return None
+    # Exact builtin types: subclasses (numpy scalars, enums) would need unsafe globals to load.
+    for kind in (bool, int, float, str):
+        if isinstance(value, kind):
+            return kind(value)
+    if isinstance(value, torch.Tensor):
+        return value.detach().cpu().clone()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, dict):
+        out = {}
+        for k, v in value.items():
+            if not isinstance(k, str):
+                raise TypeError(f"cannot save {where}: key {k!r} is not a string")
+            out[k] = _plain(v, f"{where}[{k!r}]")
+        return out
+    if isinstance(value, (list, tuple)):
+        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value)]
+    if hasattr(value, "to_dict") and callable(value.to_dict):
+        return _plain(value.to_dict(), where)
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return _plain(dataclasses.asdict(value), where)
+    raise TypeError(f"cannot save {where}: {type(value).__name__} is not a plain value")
+
+
+def _feed(h, value) -> None:
+    """Feed a canonical, type-tagged encoding of ``value`` to the hash ``h``."""
+    def put(tag: bytes, data: bytes) -> None:
+        h.update(tag + struct.pack("<Q", len(data)) + data)
+
+    if value is None:
+        put(b"N", b"")
+    elif isinstance(value, bool):  # before int: bool is an int subclass
+        put(b"B", b"1" if value else b"0")
+    elif isinstance(value, int):
+        put(b"I", str(value).encode())
+    elif isinstance(value, float):
+        put(b"F", value.hex().encode())
+    elif isinstance(value, str):
+        put(b"S", value.encode("utf-8", "surrogatepass"))
+    elif isinstance(value, torch.Tensor):
+        t = value.detach().cpu().contiguous()
+        put(b"T", f"{t.dtype}|{list(t.shape)}".encode())
+        put(b"D", t.reshape(-1).view(torch.uint8).numpy().tobytes() if t.numel() else b"")
+    elif isinstance(value, dict):
+        keys = list(value)
+        if not all(isinstance(k, str) for k in keys):
+            raise ValueError("a dict key is not a string")
+        put(b"M", str(len(keys)).encode())
+        for k in sorted(keys):
+            _feed(h, k)
+            _feed(h, value[k])
+    elif isinstance(value, (list, tuple)):
+        put(b"L", str(len(value)).encode())
+        for v in value:
+            _feed(h, v)
+    else:
+        raise ValueError(f"unexpected content of type {type(value).__name__}")
+
+
+def payload_checksum(payload: dict) -> str:
+    """``"sha256:<hex>"`` of every entry of a model-file payload except ``"checksum"``.
+
+    The encoding is canonical (sorted dict keys, type tags, lengths, floats via ``float.hex``,
+    tensors as dtype, shape and little-endian bytes), so equal content gives equal checksums.
+    Raises ``ValueError`` for content a model file cannot hold.
+    """
+    if not isinstance(payload, dict):
+        raise ValueError(f"a model payload is a dict; got {type(payload).__name__}")
+    h = hashlib.sha256()
+    _feed(h, {k: v for k, v in payload.items() if k != "checksum"})
+    return _CHECKSUM_PREFIX + h.hexdigest()
+
+
+# --------------------------------------------------------------------------------------------
+# save
+# --------------------------------------------------------------------------------------------
+
+
+def _check_output_path(path) -> Path:
+    if path is None or not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
+    if str(path).strip() == "":
+        raise ModelFileError("cannot save model: the path is empty")
+    p = Path(path)
+    if p.is_dir() or str(path).endswith(os.sep):
+        raise ModelFileError(f"cannot save model to {path}: it is a directory; give a file name")
+    parent = p.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if parent.exists() and not parent.is_dir():
+        raise ModelFileError(f"cannot save model to {path}: {parent} is a file, not a directory")
+    return p
+
+
+def save(model: SubspaceMLP, path, *, dataset_spec: dict | None = None, train_config: dict | None = None,
+         extra: dict | None = None, training_data=None) -> Path:
+    """Write ``model`` and its provenance to ``path`` atomically (module docstring); returns the path.
+
+    Args:
+        model: a :class:`~wsmap.learn.network.SubspaceMLP`.
+        path: the file to write (folders are created).
+        dataset_spec, train_config, extra: provenance: dicts, dataclasses or objects with
+            ``to_dict()`` (e.g. ``DatasetSpec``, ``TrainConfig``), stored as plain values.
+        training_data: what the model was trained on, to record its training range: training
+            features ``(n, n_inputs)``, a dataset (``.features``) or a
+            :class:`~wsmap.learn.training_range.TrainingRange`. ``None``: the model's own
+            :attr:`~wsmap.learn.network.SubspaceMLP.training_range` (set by ``configure``). A
+            model with a ``map_spec`` but no range at all is saved with a ``UserWarning``: its
+            maps will be refused unless ``allow_extrapolation=True``.
+
+    The stored range gets feature names (``d_1``, ..., ``r_3``) from the map spec's dataset or
+    ``dataset_spec`` when one has the model's feature layout.
+    """
+    if not isinstance(model, SubspaceMLP):
+        raise TypeError(f"save needs a SubspaceMLP; got {type(model).__name__}")
+    p = _check_output_path(path)
+    rng = model.training_range if training_data is None else training_range_of(training_data)
+    if rng is not None:
+        if rng.n_features != model.config.n_inputs:
+            raise ValueError(f"training data has {rng.n_features} features, the model expects {model.config.n_inputs}")
+        if rng.names is None:
+            spec = model.map_spec["dataset"] if model.map_spec is not None else dataset_spec
+            names = spec_feature_names(spec, rng.n_features)
+            if names is None and spec is not dataset_spec:
+                names = spec_feature_names(dataset_spec, rng.n_features)
+            if names is not None:
+                rng = rng.with_names(names)
+    elif model.map_spec is not None:
+        warnings.warn(f"saving model to {path} without a training range: predict_maps will refuse its arms unless "
+                      "allow_extrapolation=True; configure the model on its training features or pass "
+                      "save(..., training_data=features)", UserWarning, stacklevel=2)
+    payload = {
+        "format": FORMAT,
+        "version": FORMAT_VERSION,
+        "wsmap_version": __version__,
+        "config": model.config.to_dict(),
+        "state_dict": {k: v.detach().cpu().clone() for k, v in model.state_dict().items()},
+        "dataset_spec": _plain(dataset_spec, "dataset_spec"),
+        "train_config": _plain(train_config, "train_config"),
+        "extra": _plain(extra, "extra"),
+        "map_spec": _plain(model.map_spec, "map_spec"),
+        "training_range": None if rng is None else rng.to_dict(),
+    }
+    payload["checksum"] = payload_checksum(payload)
+    try:
+        with atomic_path(p) as tmp:
+            torch.save(payload, tmp)
+    except OSError as e:
+        if str(path) in str(e):
+            raise
+        raise type(e)(e.errno, f"cannot save model to {path}: {e.strerror or e}") from e
+    except RuntimeError as e:  # torch's stream writer (a full disk, a vanished folder)
+        raise OSError(f"cannot save model to {path}: {e}") from e
+    return p
+
+
+# --------------------------------------------------------------------------------------------
+# load
+# --------------------------------------------------------------------------------------------
+
+
+def _read(path, fail) -> bytes:
+    if path is None or not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
+    p = Path(path)
+    if str(path).strip() == "":
+        fail("the path is empty")
+    if p.is_dir():
+        fail("it is a directory, not a model file")
+    if not p.exists():
+        fail("no such file")
+    try:
+        data = p.read_bytes()
+    except OSError as e:
+        fail(f"cannot read it ({e.strerror or e})", e)
+    if not data:
+        fail("the file is empty (0 bytes)")
+    return data
+
+
+def load(path, *, map_location: str | torch.device = "cpu",
+         allow_unverified: bool = False) -> tuple[SubspaceMLP, dict[str, Any]]:
+    """Read a file written by :func:`save` -> ``(model, meta)``.
+
+    ``meta``: ``path`` (str), ``format``, ``version``, ``wsmap_version``, ``dataset_spec``,
+    ``train_config``, ``extra``, ``map_spec``, ``training_range`` (the stored dict, ``None`` where
+    absent), ``checksum`` (``None`` for version-1 files). The model is in eval mode and has its
+    ``map_spec`` and ``training_range`` back (``None`` where the file has none).
+
+    Args:
+        path: the model file.
+        map_location: device for the parameters (the file is read and verified on the CPU).
+        allow_unverified: read a format-1 file (no checksum) with an
+            :class:`UnverifiedModelWarning` instead of refusing it.
+
+    Raises:
+        ModelFileError: (a ``ValueError``) ``"cannot load model <path>: <problem>"``; see the
+            module docstring.
+        TypeError: ``path`` is not a str or path.
+    """
+    def fail(problem: str, cause: BaseException | None = None):
+        raise ModelFileError(f"cannot load model {path}: {problem}") from cause
+
+    data = _read(path, fail)
+    if not data.startswith(b"PK\x03\x04"):
+        fail("not a wsmap model file (not a torch zip archive; truncated or corrupt, or another kind of file)")
+    try:
+        payload = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
+    except Exception as e:  # truncated zip, flipped bits, a pickle with non-plain content
+        fail("not a readable torch file (truncated or corrupt)", e)
+    if not isinstance(payload, dict) or "format" not in payload:
+        fail("not a wsmap model file (no format tag)")
+    if payload["format"] != FORMAT:
+        fail(f"format tag {payload['format']!r} is not {FORMAT!r}")
+    version = payload.get("version")
+    if isinstance(version, bool) or not isinstance(version, int) or not 1 <= version <= FORMAT_VERSION:
+        fail(f"format version {version!r} is not supported (this wsmap reads 1..{FORMAT_VERSION})")
+    checksum = payload.get("checksum")
+    if version >= 2:
+        if not isinstance(checksum, str) or not checksum.startswith(_CHECKSUM_PREFIX):
+            fail("it has no valid checksum (corrupt)")
+        try:
+            actual = payload_checksum(payload)
+        except ValueError as e:
+            fail(f"corrupt content ({e})", e)
+        if actual != checksum:
+            fail("checksum mismatch: the file is corrupt (its content differs from what was saved)")
+    else:
+        message = ("written by an older wsmap (format version 1) without a checksum, so its integrity cannot be "
+                   "verified")
+        if not allow_unverified:
+            fail(message + ". Re-create it (make paper), or, if you trust it, re-save it in the current format: "
+                 "model, meta = wsmap.models.load(path, allow_unverified=True); wsmap.models.save(model, path, "
+                 "training_data=<training features>, dataset_spec=meta['dataset_spec'], ...)")
+        warnings.warn(f"model {path}: {message}; loaded anyway (allow_unverified=True)", UnverifiedModelWarning,
+                      stacklevel=2)
+    missing = [k for k in ("config", "state_dict") if not isinstance(payload.get(k), dict)]
+    if missing:
+        fail(f"missing {missing}")
+    try:
+        config = MLPConfig.from_dict(payload["config"])
+    except (TypeError, ValueError) as e:
+        fail(f"invalid config: {e}", e)
+    model = SubspaceMLP(config, _init=False)
+    expected = model.state_dict()
+    state = payload["state_dict"]
+    problems = []
+    if sorted(set(expected) - set(state)):
+        problems.append(f"missing {sorted(set(expected) - set(state))}")
+    if sorted(set(state) - set(expected)):
+        problems.append(f"unexpected {sorted(set(state) - set(expected))}")
+    for k in sorted(set(expected) & set(state)):
+        v = state[k]
+        if not isinstance(v, torch.Tensor):
+            problems.append(f"{k} is not a tensor")
+        elif tuple(v.shape) != tuple(expected[k].shape):
+            problems.append(f"{k} has shape {tuple(v.shape)}, config needs {tuple(expected[k].shape)}")
+        elif not v.is_floating_point():
+            problems.append(f"{k} has dtype {v.dtype}, not a floating-point type")
+    if problems:
+        fail("state does not match config: " + "; ".join(problems))
+    if payload.get("map_spec") is not None:
+        try:
+            model.map_spec = payload["map_spec"]
+        except (TypeError, ValueError) as e:
+            fail(f"invalid map_spec: {e}", e)
+    if payload.get("training_range") is not None:
+        try:
+            model.training_range = TrainingRange.from_dict(payload["training_range"])
+        except (TypeError, ValueError) as e:
+            fail(f"invalid training_range: {e}", e)
+    dtypes = {v.dtype for v in state.values()}
+    try:
+        if len(dtypes) == 1:
+            model.to(dtype=dtypes.pop())  # keep what was saved (float32 for the networks)
+        model.load_state_dict(state)
+    except (RuntimeError, TypeError, ValueError) as e:
+        fail(f"cannot use its state ({e})", e)
+    model.to(map_location)
+    model.eval()
+    meta = {"path": str(path), "format": payload["format"], "version": version,
+            "wsmap_version": payload.get("wsmap_version"), "dataset_spec": payload.get("dataset_spec"),
+            "train_config": payload.get("train_config"), "extra": payload.get("extra"),
+            "map_spec": model.map_spec, "training_range": payload.get("training_range"),
+            "checksum": checksum if version >= 2 else None}
+    return model, meta

@@ -1,0 +1,87 @@
+"""The model as a stand-in for the classical map: maps of arms from a saved model file.
+
+:func:`predict_maps_from_file` is what ``wsmap map --method model --model PATH`` runs: it loads the
+model (:func:`wsmap.learn.files.load`, checksum verified), checks that the model maps the grid,
+pose convention and coverage the caller wants, and returns
+:meth:`~wsmap.learn.network.SubspaceMLP.predict_maps` of the arms -- which refuses arms outside the
+model's training range (:mod:`wsmap.learn.training_range`) unless ``allow_extrapolation=True``.
+:func:`predict_maps` is the same for a model in memory.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from .files import load
+from .mapspec import grid_mismatch
+from .network import SubspaceMLP
+
+__all__ = ["predict_maps", "predict_maps_from_file", "check_model_grid"]
+
+
+def predict_maps(model: SubspaceMLP, arms, fixed=None, *, threshold: float | None = None,
+                 batch_size: int | None = None, allow_extrapolation: bool = False) -> np.ndarray:
+    """``model.predict_maps(arms, fixed, ...)``: see :meth:`wsmap.learn.network.SubspaceMLP.predict_maps`."""
+    if not isinstance(model, SubspaceMLP):
+        raise TypeError(f"predict_maps needs a SubspaceMLP; got {type(model).__name__}")
+    return model.predict_maps(arms, fixed, threshold=threshold, batch_size=batch_size,
+                              allow_extrapolation=allow_extrapolation)
+
+
+def check_model_grid(model: SubspaceMLP, *, grid: dict | None = None, convention: str | None = None,
+                     whole_grid: bool = False, what: str = "the model") -> None:
+    """Raise ``ValueError`` unless ``model`` has a ``map_spec`` whose grid is ``grid`` (a dict with
+    ``scope``, ``lo``, ``hi``, ``step``, optionally ``shape``; every difference is named), whose pose
+    convention is ``convention``, and, with ``whole_grid``, which covers every node of its grid."""
+    if model.map_spec is None:
+        raise ValueError(f"{what} has no map_spec (what grid and nodes it maps): set one with "
+                         "model.set_map_spec(dataset_spec, ...) before saving it")
+    plan = model._map_plan
+    spec = plan.spec
+    problems = grid_mismatch(spec, grid) if grid is not None else []
+    if convention is not None and convention != spec.convention:
+        problems.append(f"convention {convention} (model: {spec.convention})")
+    if problems:
+        nx, ny, nz = spec.grid_shape
+        raise ValueError(f"{what} maps a different grid: {'; '.join(problems)}. The model was trained "
+                         f"on dataset {spec.name!r}, {spec.scope} grid of {nx}x{ny}x{nz} nodes")
+    if whole_grid and (plan.nodes.start, plan.nodes.stop) != (0, spec.grid_nodes):
+        raise ValueError(f"{what} covers nodes [{plan.nodes.start}, {plan.nodes.stop}) of its grid's "
+                         f"{spec.grid_nodes} only; a whole-grid map needs a model of every node (e.g. the 7 "
+                         "block models assembled)")
+
+
+def predict_maps_from_file(path, arms, fixed=None, *, threshold: float | None = None,
+                           batch_size: int | None = None, grid: dict | None = None,
+                           convention: str | None = None, whole_grid: bool = False,
+                           allow_extrapolation: bool = False,
+                           map_location: str | torch.device = "cpu") -> np.ndarray:
+    """:meth:`~wsmap.learn.network.SubspaceMLP.predict_maps` of the model saved at ``path``.
+
+    Args:
+        path: a model file written by :func:`wsmap.learn.files.save` from a model with a
+            ``map_spec`` (and a training range).
+        arms, fixed, threshold, batch_size, allow_extrapolation: as ``predict_maps``.
+        grid: optional dict with ``scope`` (``"R3"``/``"SO3"``), ``lo``, ``hi``, ``step`` (scalars
+            or 3 values; metres or radians) and optionally ``shape`` that the caller expects the
+            map on; it must be the model's grid, else ``ValueError`` names every difference.
+        convention: optional pose convention (``"paper"``/``"standard"``) the caller expects; must
+            be the model's.
+        whole_grid: require the model to cover every node of its grid (a flat map of the whole
+            grid, as ``wsmap map`` writes), not a node slice of it.
+
+    Returns:
+        bool ``(..., N)`` maps in node order.
+
+    Raises:
+        ModelFileError: an unreadable, corrupt or old file (from :func:`~wsmap.learn.files.load`).
+        ExtrapolationError: arms outside the model's training range, or a model without one,
+            unless ``allow_extrapolation``.
+        ValueError: a model without ``map_spec``; a grid, convention or coverage that does not
+            match; bad arms, ``fixed``, threshold or batch size.
+    """
+    model, _ = load(path, map_location=map_location)
+    check_model_grid(model, grid=grid, convention=convention, whole_grid=whole_grid, what=f"model {path}")
+    return model.predict_maps(arms, fixed, threshold=threshold, batch_size=batch_size,
+                              allow_extrapolation=allow_extrapolation)
