@@ -9,6 +9,8 @@ import pytest
 import yaml
 
 from wsmap import data as D
+from wsmap.datasets import labels as labels_module
+from wsmap.datasets import store
 from wsmap import workspace as ws
 from wsmap.kinematics import DHRobot, rpy2r
 
@@ -107,20 +109,23 @@ def test_bad_specs(changes, message):
         P["sec61"].replace(**changes)
 
 
-def test_pi_expressions_in_hand_written_yaml():
+def test_hand_written_yaml_takes_plain_numbers():
     text = """
 name: table1_so3_pi10
 scope: SO3
 lo: 0
-hi: 2*pi
-step: pi/10
+hi: 6.283185307179586
+step: 0.3141592653589793
 fixed: [0.5, 0.5, 0.5]
+tol: 1e-10
 samples: 15000
 seed: 108
 """
+    # YAML reads 1e-10 as a string: a plain numeral is accepted
     assert D.DatasetSpec.from_dict(yaml.safe_load(text)) == P["table1_so3_pi10"]
-    with pytest.raises(ValueError, match="step must be a number or a pi expression, got 'tau'"):
-        P["sec61"].replace(step="tau")
+    # expressions are not evaluated (the spec takes plain numbers)
+    with pytest.raises(ValueError, match=re.escape("step must be a number, got the string 'pi/10'")):
+        P["sec61"].replace(step="pi/10")
 
 
 def test_bad_spec_dicts():
@@ -281,7 +286,7 @@ def test_interrupted_build_leaves_no_file(tmp_path, monkeypatch):
             raise KeyboardInterrupt
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(D, "labels_for", failing)
+    monkeypatch.setattr(store, "labels_for", failing)
     with pytest.raises(KeyboardInterrupt):
         D.build_dataset(spec, tmp_path / "x.npz", chunk=5, progress=False)
     assert list(tmp_path.iterdir()) == []
@@ -440,8 +445,8 @@ def test_half_turn_success_is_rejected(monkeypatch):
     T = arms.fkine(q)
     T[1, :3, :3] = T[1, :3, :3] @ rotz(np.pi)  # same position, orientation off by pi
     fake = IKResult(q=q, success=np.ones(4, bool), iterations=np.ones(4, int), residual=np.zeros(4))
-    monkeypatch.setattr(D, "ikine_LM", lambda *a, **k: fake)
-    ok = D._solve(arms, T, np.zeros(6), P["table3_nosubspace"])
+    monkeypatch.setattr(labels_module, "ikine_LM", lambda *a, **k: fake)
+    ok = labels_module._solve(arms, T, np.zeros(6), P["table3_nosubspace"])
     np.testing.assert_array_equal(ok, [True, False, True, True])
 
 
@@ -465,10 +470,12 @@ def test_starts_study_small():
     assert reach == sorted(reach) and sum(r["new"] for r in rows) == reach[-1]
 
 
-def test_main_build(tmp_path, capsys):
+def test_build_by_name(tmp_path):
+    # what `wsmap data build table1_r3_step1 --samples 5 --test-samples 3 --out cli.npz` runs
     out = tmp_path / "cli.npz"
-    assert D.main(["build", "table1_r3_step1", "--out", str(out), "--samples", "5", "--quiet"]) == 0
+    written = D.build_dataset_files("table1_r3_step1", out, samples=5, test_samples=3, catalogue=P, progress=False)
+    assert written == [out, tmp_path / "cli.test.npz"]
     ds = D.load_dataset(out, expect_spec=D.scaled(P["table1_r3_step1"], 5))
     assert ds.labels.shape == (5, 27)
-    assert D.main(["list"]) == 0
-    assert "sec61" in capsys.readouterr().out
+    assert len(D.load_dataset(written[1], expect_spec=D.test_spec(P["table1_r3_step1"], 3))) == 3
+    assert not hasattr(D, "main")  # the command line is `wsmap data`

@@ -262,11 +262,9 @@ def _data_parser(sub):
 
 
 def _paper_spec(name):
-    from .paper.specs import PAPER_SPECS
+    from .paper.specs import paper_spec
 
-    if name not in PAPER_SPECS:
-        raise ValueError(f"unknown dataset {name!r}; choose one of {', '.join(sorted(PAPER_SPECS))}")
-    return PAPER_SPECS[name]
+    return paper_spec(name)
 
 
 def _run_data_build(args) -> int:
@@ -298,10 +296,10 @@ def _run_data_audit(args) -> int:
     import json
 
     from .datasets import audit_table
+    from .paper.specs import audit_specs
 
-    for name in args.names:
-        _paper_spec(name)
-    rows = audit_table(args.names or None, n_arms=args.arms, seed=args.seed, progress=True)
+    specs = [_paper_spec(n) for n in args.names] or audit_specs()
+    rows = audit_table(specs, n_arms=args.arms, seed=args.seed, progress=True)
     print(json.dumps(rows, indent=1))
     return 0
 

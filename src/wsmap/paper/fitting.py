@@ -22,7 +22,7 @@ import numpy as np
 import torch
 
 from .. import metrics as M
-from ..data import Dataset
+from ..datasets import Dataset
 from ..learn import MLPConfig, SubspaceMLP
 from ..learn.training import TrainConfig, TrainResult, split_indices, train_sessions
 

@@ -57,7 +57,7 @@ def build_datasets(params_file, data_dir, *, rebuild: bool = False):
     """Build every dataset (and its test set) of the params file's ``datasets`` section into
     ``data_dir``, skipping pairs already there unless ``rebuild``; yields ``(name, seconds)`` for
     each one built, as it is built (the dvc stages ``datasets@NAME`` do the same one by one)."""
-    from .. import data as D
+    from . import specs as D
 
     for name, item in paths.load_params("datasets", params_file).items():
         if not rebuild and all(p.exists() for p in D.dataset_paths(name, data_dir)):

@@ -65,7 +65,7 @@ _CLASSICAL = ("classical_per_node_numerical", "classical_batched_numerical", "cl
 def grid_spec(step: float, lo: float = -1.0, hi: float = 1.0, rpy=(0.0, 0.0, 0.0)):
     """The R3 :class:`wsmap.data.DatasetSpec` of a grid (all nodes, spherical-wrist layout) whose
     feature layout the network of that grid is fed."""
-    from ..data import DatasetSpec
+    from ..datasets import DatasetSpec
 
     return DatasetSpec(f"runtime_step{step:g}", scope="R3", lo=lo, hi=hi, step=step, fixed=tuple(rpy))
 
@@ -78,7 +78,7 @@ def paper_network(n_features: int, n_nodes: int, seed: int = 0):
     ``n_nodes`` outputs. Returns ``(model, kwargs)``: the keyword arguments of ``model.predict``
     that give one ``(n, n_nodes)`` map per feature row (``assemble=True`` or ``key=0``).
     """
-    from ..models import MLPConfig, SubspaceMLP
+    from ..learn import MLPConfig, SubspaceMLP
 
     if n_nodes > BLOCK_NODES and n_nodes % BLOCK_NODES == 0:
         S, m = n_nodes // BLOCK_NODES, BLOCK_NODES
@@ -141,7 +141,7 @@ def runtime_comparison(
 
     from .. import robots
     from .. import workspace as ws
-    from ..data import features_for
+    from ..datasets import features_for
     from ..kinematics import DHRobot, ikine_LM
 
     methods = list(METHODS) if methods is None else list(methods)

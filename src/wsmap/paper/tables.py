@@ -47,9 +47,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .. import data as D
+from . import specs as D
 from .. import metrics as M
-from ..data import Dataset
+from ..datasets import Dataset
 from ..io import plus_minus
 from ..learn.training import TrainConfig, optimizer_name
 from . import fitting as E

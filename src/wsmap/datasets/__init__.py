@@ -1,0 +1,93 @@
+"""Experience datasets: random arms, the features the paper's networks read, and their workspace maps.
+
+A dataset is ``samples`` random arms, one row each: a feature vector (the arm's DH parameters, the
+grid's axes and the fixed orientation or point) and the labels of the grid's nodes (reachable or
+not). Everything that determines a dataset is a :class:`DatasetSpec`; the same spec always gives
+the same, byte-identical file.
+
+Where things are:
+
+* :mod:`.spec` -- :class:`DatasetSpec` and its checks, the choices (:data:`FAMILIES`,
+  :data:`SCOPES`, ...), :func:`test_spec` (the independent test set), :func:`scaled`;
+* :mod:`.features` -- the feature and label layout: grid nodes, column names and ranges,
+  :func:`features_for` (what a trained model is asked about);
+* :mod:`.sampling` -- the random streams, uniform rotations, :func:`draw_samples`,
+  :func:`start_configurations`;
+* :mod:`.labels` -- :func:`labels_for` (exact closed form, or multi-start LM) and the
+  :func:`possibly_reachable` pre-filter;
+* :mod:`.store` -- the file format, :func:`build_dataset`, :func:`build_dataset_files` (training
+  and test file, all or nothing), :func:`load_dataset` (checked), :class:`Dataset`;
+* :mod:`.audit` -- the IK label audits: :func:`starts_study`, :func:`starts_recall`,
+  :func:`audit_labels`, :func:`audit_table`.
+
+The paper's datasets (one spec per experiment) are :data:`wsmap.paper.specs.PAPER_SPECS`.
+
+Example::
+
+    from wsmap import datasets
+    spec = datasets.DatasetSpec("demo", step=0.5, samples=100, seed=1)
+    datasets.build_dataset_files(spec, "demo.npz", test_samples=50)  # demo.npz, demo.test.npz
+    train, test = datasets.load_dataset_files("demo.npz")
+    train.features.shape, train.labels.shape                          # (100, 36), (100, 125)
+"""
+
+from .audit import audit_labels, audit_table, distinct_specs, starts_recall, starts_study
+from .features import (
+    arms_from_features,
+    feature_names,
+    feature_slices,
+    features_for,
+    fixed_from_features,
+    grid_axes,
+    grid_nodes,
+    node_slice,
+    spec_nodes,
+)
+from .labels import labels_for, possibly_reachable
+from .sampling import draw_samples, rotation_to_rpy, start_configurations, uniform_rotations
+from .spec import (
+    CONVENTIONS,
+    DEFAULT_STARTS,
+    FAMILIES,
+    MAX_GRID_NODES,
+    MAX_LM_ITERATIONS,
+    MAX_SAMPLES,
+    MAX_STARTS,
+    MAX_TOL,
+    METHODS,
+    SCOPES,
+    STREAMS,
+    DatasetSpec,
+    scaled,
+    test_spec,
+)
+from .store import (
+    FORMAT,
+    FORMAT_VERSION,
+    Dataset,
+    DatasetError,
+    build_dataset,
+    build_dataset_files,
+    load_dataset,
+    load_dataset_files,
+    test_path_for,
+)
+
+__all__ = [
+    # spec
+    "FAMILIES", "SCOPES", "STREAMS", "CONVENTIONS", "METHODS", "DEFAULT_STARTS",
+    "MAX_GRID_NODES", "MAX_SAMPLES", "MAX_STARTS", "MAX_LM_ITERATIONS", "MAX_TOL",
+    "DatasetSpec", "test_spec", "scaled",
+    # features
+    "grid_axes", "grid_nodes", "spec_nodes", "node_slice", "feature_names", "feature_slices",
+    "features_for", "arms_from_features", "fixed_from_features",
+    # sampling
+    "draw_samples", "start_configurations", "uniform_rotations", "rotation_to_rpy",
+    # labels
+    "labels_for", "possibly_reachable",
+    # store
+    "FORMAT", "FORMAT_VERSION", "DatasetError", "Dataset", "build_dataset", "build_dataset_files",
+    "load_dataset", "load_dataset_files", "test_path_for",
+    # audit
+    "starts_study", "starts_recall", "audit_labels", "audit_table", "distinct_specs",
+]

@@ -1,0 +1,172 @@
+"""The feature and label layout: what one row of a dataset is.
+
+A dataset is ``samples`` random arms (one row each) with
+
+* **features** ``(samples, F)`` float64 in the paper's layout (Appendix, "experience generation")::
+
+      [d_1..d_6, a_1..a_6, alpha_1..alpha_6,  n_x (nx values), n_y (ny), n_z (nz),  n_i (3)]
+
+  DH columns in metres / radians; ``n_x, n_y, n_z`` the node values along each grid axis (metres
+  for an "R3" scope, the angles r1, r2, r3 in radians for an "SO3" scope) -- always the *whole*
+  axes of the grid, also when only a slice of its nodes is labelled (so every 21³ R3 spec has
+  18 + 63 + 3 = 84 columns); ``n_i`` the fixed orientation ``(r1, r2, r3)`` in radians (R3) or
+  the fixed point in metres (SO3). Columns of a fixed quantity are constant; the model sees them
+  because the paper's input has them.
+* **labels** ``(samples, nodes)`` bool in node order (first coordinate fastest, see
+  :mod:`wsmap.workspace`): ``True`` where inverse kinematics solves the node's target pose
+  (:mod:`wsmap.datasets.labels`).
+
+:func:`features_for` builds the feature rows of any batch of 6-joint arms (what a trained model is
+asked about); :func:`arms_from_features` and :func:`fixed_from_features` read them back.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import workspace as ws
+from ..kinematics import DHRobot
+from .spec import N_DH, N_JOINTS, DatasetSpec, _check_spec
+
+__all__ = [
+    "grid_axes",
+    "grid_nodes",
+    "node_slice",
+    "spec_nodes",
+    "feature_slices",
+    "feature_names",
+    "features_for",
+    "arms_from_features",
+    "fixed_from_features",
+]
+
+
+# --------------------------------------------------------------------------- nodes
+def grid_axes(spec: DatasetSpec) -> list[np.ndarray]:
+    """The node values along each axis of the whole grid (m for R3, rad for SO3)."""
+    _check_spec(spec)
+    return ws.grid_axes(spec.lo, spec.hi, spec.step)
+
+
+def grid_nodes(spec: DatasetSpec) -> np.ndarray:
+    """All nodes of the grid ``(nx·ny·nz, 3)`` in node order: positions (R3) or angles (SO3)."""
+    _check_spec(spec)
+    make = ws.cartesian_grid if spec.scope == "R3" else ws.angle_grid
+    return make(spec.lo, spec.hi, spec.step)
+
+
+def node_slice(spec: DatasetSpec) -> slice:
+    """The labelled nodes as a slice of the flat node order."""
+    _check_spec(spec)
+    if spec.select is None:
+        return slice(0, spec.grid_nodes)
+    return slice(*spec.select)
+
+
+def spec_nodes(spec: DatasetSpec) -> np.ndarray:
+    """The labelled nodes ``(n_nodes, 3)`` in node order (label column ``j`` is row ``j``)."""
+    return grid_nodes(spec)[node_slice(spec)]
+
+
+# --------------------------------------------------------------------------- features
+def feature_slices(spec: DatasetSpec) -> dict[str, slice]:
+    """Column ranges of the feature vector: ``d``, ``a``, ``alpha``, ``nx``, ``ny``, ``nz``, ``fixed``."""
+    _check_spec(spec)
+    nx, ny, nz = spec.grid_shape
+    edges = np.cumsum([0, N_JOINTS, N_JOINTS, N_JOINTS, nx, ny, nz, 3])
+    keys = ("d", "a", "alpha", "nx", "ny", "nz", "fixed")
+    return {k: slice(int(edges[i]), int(edges[i + 1])) for i, k in enumerate(keys)}
+
+
+def feature_names(spec: DatasetSpec) -> list[str]:
+    """Column names: ``d_1..d_6, a_1..a_6, alpha_1..alpha_6, n_x_1.., n_y_1.., n_z_1..`` then
+    ``r_1..r_3`` (R3: the orientation angles) or ``p_1..p_3`` (SO3: the point). 1-based, like the paper."""
+    _check_spec(spec)
+    nx, ny, nz = spec.grid_shape
+    names = [f"{k}_{i}" for k in ("d", "a", "alpha") for i in range(1, N_JOINTS + 1)]
+    for ax, n in (("x", nx), ("y", ny), ("z", nz)):
+        names += [f"n_{ax}_{i}" for i in range(1, n + 1)]
+    names += [f"{'r' if spec.scope == 'R3' else 'p'}_{i}" for i in (1, 2, 3)]
+    return names
+
+
+def _fixed_rows(spec: DatasetSpec, count: int, fixed) -> np.ndarray:
+    """The orientation / point of each of ``count`` arms ``(count, 3)``: ``fixed`` or the spec's."""
+    if fixed is None:
+        if spec.fixed == "random":
+            raise ValueError(
+                f"spec {spec.name!r} draws its {'orientation' if spec.scope == 'R3' else 'point'} per sample "
+                "(fixed='random'); pass fixed=(count, 3) or (3,)"
+            )
+        fixed = spec.fixed
+    try:
+        fixed = np.asarray(fixed, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"fixed must be numbers of shape (3,) or ({count}, 3), got {fixed!r}") from None
+    if fixed.shape not in ((3,), (count, 3)):
+        raise ValueError(f"fixed must have shape (3,) or ({count}, 3), got {fixed.shape}")
+    if not np.all(np.isfinite(fixed)):
+        raise ValueError("fixed contains NaN or infinite values")
+    return np.broadcast_to(fixed, (count, 3))
+
+
+def _check_arms(arms) -> DHRobot:
+    if not isinstance(arms, DHRobot):
+        raise TypeError(f"arms must be a DHRobot, got {type(arms).__name__}")
+    if arms.n != N_JOINTS:
+        raise ValueError(f"the paper's feature layout is for 6-joint arms, got {arms.n} joints")
+    if len(arms.batch_shape) != 1:
+        raise ValueError(f"arms must be a batch of shape (count,), got batch shape {arms.batch_shape}")
+    if arms.tool is not None:
+        raise ValueError("arms with a tool transform have no place in the paper's feature layout")
+    return arms
+
+
+def features_for(arms: DHRobot, spec: DatasetSpec, fixed=None) -> np.ndarray:
+    """The feature matrix ``(count, spec.n_features)`` float64 of a batch of arms for ``spec``.
+
+    ``arms`` is a batch ``(count,)`` of 6-joint arms (any DH values: a model trained on ``spec``
+    predicts their maps). ``fixed`` is the orientation (R3, rad) or point (SO3, m), ``(3,)`` or
+    ``(count, 3)``; by default the spec's (required when the spec's is ``"random"``). A model
+    trained on a fixed-orientation spec has only ever seen that orientation.
+    """
+    _check_spec(spec)
+    arms = _check_arms(arms)
+    count = arms.batch_shape[0]
+    fx = _fixed_rows(spec, count, fixed)
+    sl = feature_slices(spec)
+    X = np.empty((count, spec.n_features), dtype=np.float64)
+    X[:, sl["d"]] = arms.d
+    X[:, sl["a"]] = arms.a
+    X[:, sl["alpha"]] = arms.alpha
+    for key, axis in zip(("nx", "ny", "nz"), grid_axes(spec)):
+        X[:, sl[key]] = axis
+    X[:, sl["fixed"]] = fx
+    return X
+
+
+def _feature_matrix(X) -> np.ndarray:
+    try:
+        X = np.asarray(X, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"features must be a numeric matrix, got {type(X).__name__}") from None
+    if not np.all(np.isfinite(X)):
+        raise ValueError("features contain NaN or infinite values")
+    return X
+
+
+def arms_from_features(X) -> DHRobot:
+    """The arms ``(count,)`` whose DH columns are the first 18 feature columns."""
+    X = _feature_matrix(X)
+    if X.ndim != 2 or X.shape[1] < N_DH:
+        raise ValueError(f"features must have shape (count, >= {N_DH}), got {X.shape}")
+    return DHRobot(X[:, 0:6], X[:, 6:12], X[:, 12:18])
+
+
+def fixed_from_features(X, spec: DatasetSpec) -> np.ndarray:
+    """The orientation / point columns ``(count, 3)`` of a feature matrix."""
+    _check_spec(spec)
+    X = _feature_matrix(X)
+    if X.ndim != 2 or X.shape[1] != spec.n_features:
+        raise ValueError(f"features for spec {spec.name!r} must have shape (count, {spec.n_features}), got {X.shape}")
+    return X[:, feature_slices(spec)["fixed"]]

@@ -1,0 +1,228 @@
+"""Labels: which nodes of the grid each arm reaches.
+
+``method="exact"``: the closed-form test of :mod:`wsmap.workspace` (spherical-wrist family,
+unlimited joints). ``method="numerical"``: the paper's Levenberg–Marquardt (``ikine_LM``) with
+``tol``, ``ilimit``, ``rlimit``, from ``starts`` start configurations; a node is reachable when ANY
+start converges. Start 0 is ``q0 = 0`` (the paper's); starts 1.. are drawn per arm uniformly in
+``[-pi, pi)^6`` and shared by all nodes of that arm (:func:`wsmap.datasets.start_configurations`).
+Later starts are run only on the nodes the earlier ones did not solve (the union does not depend
+on that). See :func:`wsmap.datasets.starts_study` and :func:`wsmap.datasets.starts_recall` for how
+the default number of starts was chosen. Two things keep the numerical labels right and
+affordable without changing any of them: pairs that :func:`possibly_reachable` proves unreachable
+(a sound bound on reach, height and tool tilt) are not handed to LM, and every LM success is
+confirmed by forward kinematics (the LM pose error is also zero at a half turn of the
+orientation, see ``_solve``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import workspace as ws
+from ..kinematics import DHRobot, ikine_LM, require_spherical_wrist, wrist_centre_reachable
+from .features import _check_arms, _fixed_rows, spec_nodes
+from .sampling import start_configurations
+from .spec import METHODS, N_JOINTS, DatasetSpec, _check_spec, _choice
+
+__all__ = ["possibly_reachable", "labels_for"]
+
+#: position and rotation-matrix tolerance of the forward-kinematics check of every LM success
+FK_CHECK_TOL = 1e-6
+
+
+def _pair_poses(spec: DatasetSpec, nodes, fixed, b_idx, n_idx) -> np.ndarray:
+    """Target poses ``(K, 4, 4)`` of the (arm, node) pairs ``(b_idx[k], n_idx[k])``."""
+    if spec.scope == "R3":
+        return ws.target_poses(nodes[n_idx], fixed[b_idx], spec.convention)
+    return ws.target_poses(fixed[b_idx], nodes[n_idx], spec.convention)
+
+
+def possibly_reachable(arms: DHRobot, T, margin: float = 1e-8) -> np.ndarray:
+    """A sound necessary condition for the flange pose ``T`` to be reachable (any 6R arm, no limits).
+
+    ``arms`` and ``T`` ``(..., 4, 4)`` broadcast. ``False`` means provably unreachable: every
+    pose the arm can reach is at least ``margin`` (m) away in position. With standard DH the flange
+    origin is ``o_6 = sum_i (d_i z_{i-1} + a_i x_i)`` with ``x_i ⊥ z_i`` and ``angle(z_i, z_{i-1}) =
+    |alpha_i|``, hence, for the target orientation ``R``:
+
+    * the wrist point ``o_5 = p - R·Rx(-alpha_6)·(a_6, 0, d_6)`` is fixed by the target and
+      ``|o_5| <= sum_{i<=5} sqrt(a_i² + d_i²)``;
+    * ``angle(z_i, z_0) <= Θ_i = min(pi, sum_{j<=i} |alpha_j|)``, so ``z_{i-1}·ẑ ∈ [cos Θ_{i-1}, 1]``
+      and ``|x_i·ẑ| <= sin(min(pi/2, Θ_i))``, which bounds the height of ``o_5``;
+    * the tool axis ``R·ẑ`` is at most ``Θ_6`` from the base ``ẑ``.
+
+    LM reports success only within ``tol`` of the target (the position error is part of the error
+    norm), so with ``margin >= tol`` skipping the pairs this rejects never changes a numerical
+    label; for arms with small twists (Table 3's arbitrary family) it skips most unreachable pairs.
+    """
+    _check_arms_6(arms)
+    try:
+        T = np.asarray(T, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"T must be poses of shape (..., 4, 4), got {type(T).__name__}") from None
+    if T.ndim < 2 or T.shape[-2:] != (4, 4):
+        raise ValueError(f"T must have shape (..., 4, 4), got {T.shape}")
+    margin = float(margin)
+    if not margin >= 0:
+        raise ValueError(f"margin must be a non-negative number, got {margin!r}")
+    d, a, al = arms.d, arms.a, arms.alpha
+    R, p = T[..., :3, :3], T[..., :3, 3]
+    a6, d6, c6, s6 = a[..., 5], d[..., 5], np.cos(al[..., 5]), np.sin(al[..., 5])
+    # Rx(-alpha_6)·(a_6, 0, d_6) = (a_6, d_6·sin(alpha_6), d_6·cos(alpha_6))
+    off = np.stack(np.broadcast_arrays(a6, d6 * s6, d6 * c6), axis=-1)
+    o5 = p - (R @ off[..., None])[..., 0]
+    reach = np.sqrt(a[..., :5] ** 2 + d[..., :5] ** 2).sum(axis=-1)
+    cum = np.minimum(np.pi, np.cumsum(np.abs(al), axis=-1))  # Θ_1..Θ_6
+    prev = np.concatenate([np.zeros_like(cum[..., :1]), cum[..., :-1]], axis=-1)  # Θ_0..Θ_5
+    cz = np.cos(prev[..., :5])
+    sx = np.sin(np.minimum(np.pi / 2, cum[..., :5]))
+    dz = np.stack([d[..., :5] * cz, d[..., :5]], axis=0)
+    zlo = (dz.min(axis=0) - np.abs(a[..., :5]) * sx).sum(axis=-1)
+    zhi = (dz.max(axis=0) + np.abs(a[..., :5]) * sx).sum(axis=-1)
+    tilt = np.arccos(np.clip(R[..., 2, 2], -1.0, 1.0))
+    return (
+        (np.linalg.norm(o5, axis=-1) <= reach + margin)
+        & (o5[..., 2] >= zlo - margin)
+        & (o5[..., 2] <= zhi + margin)
+        & (tilt <= cum[..., 5] + 1e-12)
+    )
+
+
+def _check_arms_6(arms) -> DHRobot:
+    if not isinstance(arms, DHRobot):
+        raise TypeError(f"arms must be a DHRobot, got {type(arms).__name__}")
+    if arms.n != N_JOINTS:
+        raise ValueError(f"possibly_reachable is for 6-joint arms, got {arms.n} joints")
+    return arms
+
+
+def _solve(robot: DHRobot, T, q0, spec: DatasetSpec) -> np.ndarray:
+    """LM success per target ``(K,)``, confirmed by forward kinematics.
+
+    ``pose_error``'s rotation part ``0.5·sum(c_k x t_k)`` is ``sin(theta)·axis``: it vanishes at a
+    half turn as well as at the target, so an LM "success" could in principle be the right
+    position with the orientation off by pi. The check below (position and rotation matrix within
+    :data:`FK_CHECK_TOL` of the target) makes such a success a failure; in our runs it has never
+    triggered.
+    """
+    res = ikine_LM(robot, T, q0=q0, tol=spec.tol, ilimit=spec.ilimit, rlimit=spec.rlimit)
+    ok = res.success
+    if ok.any():
+        idx = np.nonzero(ok)[0]
+        Tc = robot[idx].fkine(res.q[idx])
+        err = np.abs(Tc[:, :3, :] - T[idx][:, :3, :]).reshape(len(idx), -1).max(axis=1)
+        ok = ok.copy()
+        ok[idx] = err <= FK_CHECK_TOL
+    return ok
+
+
+def _numerical_first_start(arms, spec, nodes, fixed, q0, prefilter=True) -> np.ndarray:
+    """Index of the first start that solves each (arm, node) pair ``(B, N)``, -1 where none does.
+
+    int16: start indices up to :data:`wsmap.datasets.spec.MAX_STARTS` fit (int8 would wrap at 128).
+    """
+    B, N = arms.batch_shape[0], len(nodes)
+    first = np.full((B, N), -1, dtype=np.int16)
+    b_idx, n_idx = (x.ravel() for x in np.indices((B, N)))
+    if prefilter:
+        # provably unreachable pairs stay -1 without running LM (labels unchanged, see possibly_reachable)
+        ok = np.empty(b_idx.size, dtype=bool)
+        for s in range(0, b_idx.size, 1 << 16):
+            sl = slice(s, s + (1 << 16))
+            sub = DHRobot(arms.d[b_idx[sl]], arms.a[b_idx[sl]], arms.alpha[b_idx[sl]])
+            ok[sl] = possibly_reachable(sub, _pair_poses(spec, nodes, fixed, b_idx[sl], n_idx[sl]), max(1e-8, spec.tol))
+        b_idx, n_idx = b_idx[ok], n_idx[ok]
+    for k in range(q0.shape[1]):
+        if not b_idx.size:
+            break
+        robot = DHRobot(arms.d[b_idx], arms.a[b_idx], arms.alpha[b_idx])
+        T = _pair_poses(spec, nodes, fixed, b_idx, n_idx)
+        ok = _solve(robot, T, q0[b_idx, k], spec)
+        first[b_idx[ok], n_idx[ok]] = k
+        b_idx, n_idx = b_idx[~ok], n_idx[~ok]
+    return first
+
+
+def _nodes_array(nodes) -> np.ndarray:
+    try:
+        nodes = np.asarray(nodes, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"nodes must be numbers of shape (N, 3), got {type(nodes).__name__}") from None
+    if nodes.ndim != 2 or nodes.shape[1] != 3:
+        raise ValueError(f"nodes must have shape (N, 3), got {nodes.shape}")
+    if not np.all(np.isfinite(nodes)):
+        raise ValueError("nodes contain NaN or infinite values")
+    return nodes
+
+
+def labels_for(
+    arms: DHRobot,
+    spec: DatasetSpec,
+    fixed=None,
+    *,
+    method: str | None = None,
+    q0=None,
+    nodes=None,
+    prefilter: bool = True,
+) -> np.ndarray:
+    """Labels ``(count, n_nodes)`` bool of a batch of arms for ``spec``, in node order.
+
+    Parameters
+    ----------
+    arms : DHRobot, batch ``(count,)``
+    fixed : ``(3,)`` or ``(count, 3)``, optional
+        Orientation (R3, rad) or point (SO3, m); default the spec's (required if ``"random"``).
+    method : ``"exact"`` | ``"numerical"``, optional
+        Overrides the spec's (the label audit runs the numerical path on a spherical-wrist spec).
+    q0 : ``(count, S, 6)`` or ``(S, 6)``, optional
+        Start configurations for the numerical path; default ``start_configurations`` of the spec
+        for the first ``count`` arms (only right for the spec's own arms in order; pass them
+        explicitly otherwise). ``S = 1`` with zeros is the paper's single start.
+    nodes : ``(N, 3)``, optional
+        Nodes to label instead of :func:`spec_nodes` (positions for R3, angles for SO3).
+    prefilter : bool
+        Numerical path: skip the pairs :func:`possibly_reachable` proves unreachable (same labels,
+        faster). ``False`` runs LM on every pair.
+    """
+    _check_spec(spec)
+    arms = _check_arms(arms)
+    count = arms.batch_shape[0]
+    method = spec.method if method is None else _choice("method", method, METHODS)
+    nodes = spec_nodes(spec) if nodes is None else _nodes_array(nodes)
+    fx = _fixed_rows(spec, count, fixed)
+    if method == "numerical":
+        if q0 is None:
+            q0 = start_configurations(spec, count)
+        try:
+            q0 = np.asarray(q0, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"q0 must be numbers of shape (S, 6) or ({count}, S, 6)") from None
+        if q0.ndim == 2:
+            q0 = np.broadcast_to(q0, (count,) + q0.shape)
+        if q0.ndim != 3 or q0.shape[0] != count or q0.shape[2] != N_JOINTS or q0.shape[1] < 1:
+            raise ValueError(f"q0 must have shape (S, 6) or ({count}, S, 6) with S >= 1, got {q0.shape}")
+        if not np.all(np.isfinite(q0)):
+            raise ValueError("q0 contains NaN or infinite values")
+        return _numerical_first_start(arms, spec, nodes, fx, q0, prefilter) >= 0
+    if count == 0:
+        return np.zeros((0, len(nodes)), dtype=bool)
+    # one orientation for all arms (a fixed spec, or rows that happen to agree): the map functions
+    if not np.any(fx != fx[0]):
+        if spec.scope == "R3":
+            return ws.constant_orientation_map(arms, nodes, fx[0], method="exact", convention=spec.convention)
+        return ws.orientation_map(arms, nodes, fx[0], method="exact", convention=spec.convention)
+    # one orientation (point) per arm: the pose of node n for arm b, exact wrist-centre test,
+    # a few arms at a time (the (arms, nodes, 4, 4) poses are 128 bytes per pair)
+    require_spherical_wrist(arms)
+    out = np.empty((count, len(nodes)), dtype=bool)
+    per = max(1, (1 << 18) // max(len(nodes), 1))
+    for s in range(0, count, per):
+        sl = slice(s, min(s + per, count))
+        if spec.scope == "R3":
+            T = ws.target_poses(nodes[None, :, :], fx[sl, None, :], spec.convention)
+        else:
+            T = ws.target_poses(fx[sl, None, :], nodes[None, :, :], spec.convention)
+        sub = arms[sl]
+        node_arms = DHRobot(sub.d[:, None, :], sub.a[:, None, :], sub.alpha[:, None, :])
+        out[sl] = wrist_centre_reachable(node_arms, T[..., :3, 3])
+    return out

@@ -1,0 +1,135 @@
+"""Random draws: the arms, the random orientations / points and the IK start configurations.
+
+Randomness
+----------
+Every random quantity has its own stream, ``numpy.random.SeedSequence(seed, spawn_key=(split,
+quantity))`` with ``split`` 0 for ``stream="train"`` and 1 for ``"test"`` and ``quantity`` 0 for the
+arms, 1 for random orientations / points, 2 for IK start configurations. Hence
+
+* a test set never shares a stream with its training set (and continuous draws never repeat);
+* a dataset is a prefix of every larger dataset of the same spec (``scaled`` reduces the sample
+  count and keeps the first arms), and the labels of an arm never depend on the chunking.
+
+The label audits (:mod:`wsmap.datasets.audit`) draw from splits 7, 8 and 9 of their own seed,
+independent of every training and test stream.
+
+Random orientation ("workspace" embedding of Table 3)
+----------------------------------------------------
+``fixed="random"`` draws, per sample, a rotation uniformly (Haar measure) on SO(3): a unit
+quaternion from four independent standard normals, normalised (Shoemake; the normal distribution
+is isotropic, so the quaternion is uniform on S³ and the rotation uniform on SO(3)). It is then
+written as the paper's angles ``R = Rx(r1)·Ry(r2)·Rz(r3)``::
+
+    r2 = asin(R[0, 2]),   r1 = atan2(-R[1, 2], R[2, 2]),   r3 = atan2(-R[0, 1], R[0, 0])
+
+each wrapped into ``[0, 2·pi)`` (the paper's angle range; its orientation [0.312, 5.6719, 5.936]
+is written that way). The labels use ``rpy2r(r1, r2, r3)`` rebuilt from the stored angles, so a
+sample's labels follow from its features alone. For an SO3 scope ``fixed="random"`` draws the
+point uniformly in the cube ``[-2·beta, 2·beta]³`` (the paper's position range).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import robots
+from ..kinematics import DHRobot
+from .spec import MAX_SAMPLES, MAX_STARTS, N_JOINTS, STREAMS, DatasetSpec, _check_spec, _int
+
+__all__ = ["draw_samples", "start_configurations", "uniform_rotations", "rotation_to_rpy"]
+
+_QUANTITY = {"arms": 0, "fixed": 1, "starts": 2}
+#: splits of the audit streams (the training and test streams use 0 and 1)
+_AUDIT_SPLIT = {"starts_study": 7, "audit_labels": 8, "starts_recall": 9}
+
+
+def _rng(spec: DatasetSpec, quantity: str) -> np.random.Generator:
+    key = (STREAMS.index(spec.stream), _QUANTITY[quantity])
+    return np.random.default_rng(np.random.SeedSequence(spec.seed, spawn_key=key))
+
+
+def _audit_rng(seed: int, audit: str, quantity: str) -> np.random.Generator:
+    """The stream of ``quantity`` for one of the label audits, independent of every dataset stream."""
+    key = (_AUDIT_SPLIT[audit], _QUANTITY[quantity])
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=key))
+
+
+def uniform_rotations(count: int, rng) -> np.ndarray:
+    """``count`` rotation matrices ``(count, 3, 3)`` uniform on SO(3) (normalised Gaussian quaternions).
+
+    ``rng`` is a ``numpy.random.Generator`` or anything ``numpy.random.default_rng`` takes (a seed).
+    """
+    count = _int("count", count, 0, MAX_SAMPLES)
+    rng = np.random.default_rng(rng)
+    q = rng.standard_normal((count, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    w, x, y, z = q.T
+    return np.stack(
+        [
+            1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+            2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+            2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y),
+        ],
+        axis=-1,
+    ).reshape(count, 3, 3)
+
+
+def rotation_to_rpy(R) -> np.ndarray:
+    """Angles ``(..., 3)`` in ``[0, 2·pi)`` with ``R = Rx(r1)·Ry(r2)·Rz(r3)`` (``R`` of shape ``(..., 3, 3)``).
+
+    ``r2 = asin(R[0,2])`` lies in ``[-pi/2, pi/2]`` before wrapping; at ``cos(r2) = 0`` (measure
+    zero) the split between ``r1`` and ``r3`` is arbitrary.
+    """
+    try:
+        R = np.asarray(R, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"R must be rotation matrices of shape (..., 3, 3), got {type(R).__name__}") from None
+    if R.ndim < 2 or R.shape[-2:] != (3, 3):
+        raise ValueError(f"R must have shape (..., 3, 3), got {R.shape}")
+    if not np.all(np.isfinite(R)):
+        raise ValueError("R contains NaN or infinite values")
+    r2 = np.arcsin(np.clip(R[..., 0, 2], -1.0, 1.0))
+    r1 = np.arctan2(-R[..., 1, 2], R[..., 2, 2])
+    r3 = np.arctan2(-R[..., 0, 1], R[..., 0, 0])
+    out = np.mod(np.stack([r1, r2, r3], axis=-1), 2 * np.pi)
+    # mod can round a tiny negative angle up to exactly 2·pi
+    return np.where(out >= 2 * np.pi, 0.0, out)
+
+
+def _draw_arms(spec: DatasetSpec, count: int, rng) -> DHRobot:
+    if spec.family == "spherical_wrist":
+        arms = robots.sample_spherical_wrist(count, seed=rng, beta=spec.beta)
+    elif spec.family == "arbitrary_6dof":
+        arms = robots.sample_arbitrary_6dof(count, seed=rng, beta=spec.beta)
+    else:
+        p = robots.puma560()
+        arms = DHRobot(*(np.tile(x, (count, 1)) for x in (p.d, p.a, p.alpha)), name="puma560")
+    return arms
+
+
+def _draw_fixed(spec: DatasetSpec, count: int, rng) -> np.ndarray:
+    if spec.fixed != "random":
+        return np.broadcast_to(np.asarray(spec.fixed), (count, 3)).copy()
+    if spec.scope == "R3":
+        return rotation_to_rpy(uniform_rotations(count, rng))
+    return rng.uniform(-2 * spec.beta, 2 * spec.beta, size=(count, 3))
+
+
+def draw_samples(spec: DatasetSpec, count: int | None = None) -> tuple[DHRobot, np.ndarray]:
+    """The first ``count`` (default ``spec.samples``) arms ``(count,)`` and their fixed
+    orientation / point ``(count, 3)`` from the spec's streams."""
+    _check_spec(spec)
+    count = spec.samples if count is None else _int("count", count, 1, MAX_SAMPLES)
+    return _draw_arms(spec, count, _rng(spec, "arms")), _draw_fixed(spec, count, _rng(spec, "fixed"))
+
+
+def start_configurations(spec: DatasetSpec, count: int | None = None, starts: int | None = None) -> np.ndarray:
+    """IK start configurations ``(count, starts, 6)`` (rad): ``[:, 0]`` is zero (the paper's q0),
+    ``[:, 1:]`` uniform in ``[-pi, pi)`` per arm from the spec's start stream."""
+    _check_spec(spec)
+    count = spec.samples if count is None else _int("count", count, 0, MAX_SAMPLES)
+    starts = spec.starts if starts is None else _int("starts", starts, 1, MAX_STARTS)
+    q = np.zeros((count, starts, N_JOINTS))
+    if starts > 1:
+        q[:, 1:] = _rng(spec, "starts").uniform(-np.pi, np.pi, size=(count, starts - 1, N_JOINTS))
+    return q

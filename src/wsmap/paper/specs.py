@@ -1,0 +1,123 @@
+"""The paper's datasets: one :class:`~wsmap.datasets.DatasetSpec` per experiment, and their files.
+
+:data:`PAPER_SPECS` holds one spec per experiment of the paper (NOTES "Datasets");
+``wsmap.datasets.test_spec(s)`` gives its independent 1000-sample test set. The pipeline keeps
+dataset ``NAME`` in ``data/NAME.npz`` and its test set in ``data/NAME.test.npz``
+(:func:`dataset_paths`, :func:`build_pair`, :func:`load_pair`; the command line is
+``wsmap data build NAME --samples N --test-samples M --out data/NAME.npz``).
+
+The label audits take their specs from here too: :func:`audit_specs` (every distinct
+spherical-wrist spec) and :data:`STARTS_STUDY_SPEC` (Table 3's arbitrary arms, on which
+:data:`wsmap.datasets.DEFAULT_STARTS` was chosen).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from .. import workspace as ws
+from ..datasets import (
+    DatasetSpec,
+    build_dataset_files,
+    distinct_specs,
+    load_dataset_files,
+)
+
+__all__ = [
+    "TABLE3_RPY",
+    "PAPER_SPECS",
+    "STARTS_STUDY_SPEC",
+    "paper_spec",
+    "audit_specs",
+    "dataset_paths",
+    "build_pair",
+    "load_pair",
+]
+
+#: Table 3's "no subspace" orientation (r1, r2, r3), radians.
+TABLE3_RPY = (0.312, 5.6719, 5.936)
+
+
+def _paper_specs() -> dict[str, DatasetSpec]:
+    block5 = (ws.block_slice(4).start, ws.block_slice(4).stop)  # 0-based [5292, 6615)
+    crop = (ws.CROP_3087.start, ws.CROP_3087.stop)  # 0-based [5292, 8379)
+    r3 = dict(family="spherical_wrist", scope="R3", lo=-1.0, hi=1.0, fixed=(0.0, 0.0, 0.0))
+    so3 = dict(family="spherical_wrist", scope="SO3", lo=0.0, hi=2 * math.pi)
+    specs = [
+        # section 6.1: the block-5 subspace, 1e5 arms
+        DatasetSpec("sec61", **r3, step=0.1, select=block5, samples=100_000, seed=61),
+        # section 6.2: the whole 21³ map (the 7 block models take their columns), 1e5 arms
+        DatasetSpec("sec62", **r3, step=0.1, samples=100_000, seed=62),
+        # Table 1
+        DatasetSpec("table1_r3_step1", **r3, step=1.0, samples=60_000, seed=101),
+        DatasetSpec("table1_r3_step05", **r3, step=0.5, samples=60_000, seed=102),
+        DatasetSpec("table1_r3_block5", **r3, step=0.1, select=block5, samples=60_000, seed=103),
+        DatasetSpec("table1_r3_crop3087", **r3, step=0.1, select=crop, samples=30_000, seed=104),
+        DatasetSpec("table1_r3_full", **r3, step=0.1, samples=15_000, seed=105),
+        DatasetSpec("table1_so3_pi3", **so3, step=math.pi / 3, fixed=(0.5, 0.5, 0.5), samples=60_000, seed=106),
+        DatasetSpec("table1_so3_pi8", **so3, step=math.pi / 8, fixed=(1.0, 0.0, 0.0), samples=15_000, seed=107),
+        DatasetSpec("table1_so3_pi10", **so3, step=math.pi / 10, fixed=(0.5, 0.5, 0.5), samples=15_000, seed=108),
+        # Table 2: the 6.1 setup with 6e4 arms
+        DatasetSpec("table2", **r3, step=0.1, select=block5, samples=60_000, seed=201),
+        # Table 3: three embeddings on the same 84 inputs / 1323 outputs, so that every model can
+        # be tested on every test set (the paper does that)
+        DatasetSpec("table3_subspace", **r3, step=0.1, select=block5, samples=15_000, seed=301),
+        DatasetSpec("table3_workspace", **{**r3, "fixed": "random"}, step=0.1, select=block5, samples=15_000, seed=302),
+        DatasetSpec(
+            "table3_nosubspace",
+            **{**r3, "family": "arbitrary_6dof", "fixed": TABLE3_RPY},
+            step=0.1,
+            select=block5,
+            method="numerical",
+            samples=15_000,
+            seed=303,
+        ),
+    ]
+    return {s.name: s for s in specs}
+
+
+#: One spec per experiment of the paper (NOTES "Datasets"); ``test_spec(s)`` gives its test set.
+PAPER_SPECS: dict[str, DatasetSpec] = _paper_specs()
+#: The spec of the start-count studies (``wsmap.datasets.starts_study`` / ``starts_recall``).
+STARTS_STUDY_SPEC: DatasetSpec = PAPER_SPECS["table3_nosubspace"]
+
+
+def paper_spec(name: str) -> DatasetSpec:
+    """The spec of the paper's dataset ``name``; an unknown name is a ``ValueError`` listing the known."""
+    if not isinstance(name, str) or name not in PAPER_SPECS:
+        raise ValueError(f"unknown dataset {name!r}; choose one of {', '.join(sorted(PAPER_SPECS))}")
+    return PAPER_SPECS[name]
+
+
+def audit_specs() -> list[DatasetSpec]:
+    """The specs the label audit covers: every spherical-wrist (exact-label) spec of
+    :data:`PAPER_SPECS`, one per distinct grid / node selection / orientation / convention."""
+    return distinct_specs(s for s in PAPER_SPECS.values() if s.method == "exact")
+
+
+def dataset_paths(name: str, data_dir) -> tuple[Path, Path]:
+    """Where the pipeline keeps dataset ``name``: ``(data_dir/NAME.npz, data_dir/NAME.test.npz)``
+    (training set, independent test set)."""
+    paper_spec(name)
+    data_dir = Path(data_dir)
+    return data_dir / f"{name}.npz", data_dir / f"{name}.test.npz"
+
+
+def build_pair(name: str, data_dir, samples: int | None = None, test_samples: int = 1000,
+               progress: bool = True) -> tuple[Path, Path]:
+    """Build paper dataset ``name`` (scaled to ``samples`` arms; ``None``: the paper's count) and
+    its independent test set of ``test_samples`` arms into ``data_dir`` (:func:`dataset_paths`),
+    both or neither (:func:`wsmap.datasets.build_dataset_files`: every input checked first)."""
+    train_path, test_path = dataset_paths(name, data_dir)
+    if test_samples is None:
+        raise ValueError("test_samples must be a positive integer (build_pair always builds the test set)")
+    build_dataset_files(PAPER_SPECS[name], train_path, samples=samples, test_samples=test_samples,
+                        test_out=test_path, progress=progress)
+    return train_path, test_path
+
+
+def load_pair(name: str, data_dir):
+    """The training and test sets of ``name`` built by :func:`build_pair`, checked: the test set
+    must be the training spec's test stream (same family, grid, orientation and labels)."""
+    return load_dataset_files(*dataset_paths(name, data_dir))
