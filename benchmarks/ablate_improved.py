@@ -23,7 +23,7 @@ import numpy as np
 import torch
 
 from wsmap import data as D
-from wsmap import experiments as E
+from wsmap.paper import fitting as E
 from wsmap import paths
 from wsmap.training import TrainConfig
 

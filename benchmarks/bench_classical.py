@@ -12,7 +12,7 @@ paper's pose convention:
    (it is optional and not part of the locked environment).
 
 Prints a Markdown table: seconds and nodes/s (for all 9261 nodes, extrapolated where sampled),
-the speed-up over the paper's reported classical time (5227.8 s for 9261 nodes, MATLAB, one node
+the speed-up over the paper's reported classical time (`wsmap.paper.published.RUNTIME_SECONDS`, MATLAB, one node
 at a time), and the agreement of each numerical result with the exact map.
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_classical.py --repeats 5 --json out.json
@@ -29,7 +29,9 @@ import time
 
 import numpy as np
 
-PAPER_SECONDS_9261 = 5227.8  # the paper's classical run time for the 9261-node map
+from wsmap.paper.published import RUNTIME_SECONDS
+
+PAPER_SECONDS_9261 = RUNTIME_SECONDS[9261][0]  # the paper's classical run time for the 9261-node map
 
 
 def _best_of(fn, repeats):
@@ -99,7 +101,7 @@ def main(argv=None):
 
     from wsmap import robots
     from wsmap import workspace as ws
-    from wsmap._lm import default_threads
+    from wsmap.kinematics.lm_kernel import default_threads
     from wsmap.kinematics import ikine_LM
 
     puma = robots.puma560()
@@ -190,7 +192,7 @@ def main(argv=None):
           f"{info['numpy']}, torch {info['torch']}, {info['cpus']} CPUs, load average {info['load_average']}, "
           f"kernel threads {info['kernel_threads']}, torch threads {info['torch_threads']}")
     print()
-    print("| method | nodes timed | seconds for 9261 | CPU seconds | nodes/s | speed-up vs paper (5227.8 s) "
+    print(f"| method | nodes timed | seconds for 9261 | CPU seconds | nodes/s | speed-up vs paper ({PAPER_SECONDS_9261} s) "
           "| agreement with exact | false neg. | false pos. |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
