@@ -59,9 +59,9 @@ BASE = D.scaled(P["table1_r3_step1"], 5)
         (dict(lo=1.0, hi=-1.0), "empty or invalid grid (lo=1.0, hi=-1.0, step=1.0): lo must not exceed hi"),
         (dict(lo=(0.0, 0.0, 1.0), hi=(1.0, 1.0, 0.0)), "lo must not exceed hi on any axis"),
         (dict(step=(0.1, 0.0, 0.1)), "step must be positive"),
-        (dict(step=1e-4), "a grid of about 8e+12 nodes, more than the 16777216 a dataset may have"),
-        (dict(step=1e-300), "gives a grid of about inf nodes"),
-        (dict(lo=-1e300, hi=1e300, step=1e-10), "gives a grid of about inf nodes"),
+        (dict(step=1e-4), "has about 8e+12 nodes, more than the 1.68e+07 a dataset may have"),
+        (dict(step=1e-300), "has about inf nodes"),
+        (dict(lo=-1e300, hi=1e300, step=1e-10), "has about inf nodes"),
         # choices of the wrong type
         (dict(family=["spherical_wrist"]), "unknown family ['spherical_wrist']"),
         (dict(scope="r3"), "unknown scope 'r3'; choose one of R3, SO3"),

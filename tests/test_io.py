@@ -36,3 +36,72 @@ def test_written_file_gets_the_usual_mode(tmp_path):
     finally:
         os.umask(old)
     assert stat.S_IMODE((tmp_path / "m.pt").stat().st_mode) == 0o644
+
+
+def test_outputs_of_one_run_appear_together_or_not_at_all(tmp_path, monkeypatch):
+    from wsmap import io as IO
+
+    a, b = tmp_path / "map.npz", tmp_path / "map.png"
+    a.write_text("old map")
+    real_replace = os.replace
+
+    def failing_replace(src, dst):
+        if str(dst) == str(b):
+            raise OSError(28, "No space left on device")
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(IO.os, "replace", failing_replace)
+    with pytest.raises(OSError, match="cannot write .*map.png.*No space left"):
+        with IO.atomic_paths([a, b]) as (ta, tb):
+            ta.write_text("new map")
+            tb.write_text("new png")
+    # the first rename had happened: it is undone
+    assert a.read_text() == "old map"
+    assert sorted(os.listdir(tmp_path)) == ["map.npz"]
+
+
+def test_a_new_first_output_is_removed_when_the_second_fails(tmp_path, monkeypatch):
+    from wsmap import io as IO
+
+    a, b = tmp_path / "new.npz", tmp_path / "new.png"
+    real_replace = os.replace
+    monkeypatch.setattr(IO.os, "replace", lambda s, d: (_ for _ in ()).throw(OSError(13, "Permission denied"))
+                        if str(d) == str(b) else real_replace(s, d))
+    with pytest.raises(OSError):
+        with IO.atomic_paths([a, b]) as (ta, tb):
+            ta.write_text("x")
+            tb.write_text("y")
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("bad, message", [("", "is empty"), (".", "is a directory"), ("d/", "is a directory")])
+def test_check_output_path(tmp_path, monkeypatch, bad, message):
+    from wsmap.io import OutputPathError, check_output_path
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(OutputPathError, match=message):
+        check_output_path(bad, "--out")
+    assert check_output_path("new/sub/file.npz", "--out").name == "file.npz"
+    assert os.listdir(tmp_path) == []  # checking creates nothing
+
+
+def test_sigterm_leaves_no_temporary_file_and_no_new_output(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "m.npz"
+    # a numerical SO3 map on a fine grid runs for a while; terminate it once its progress bar shows
+    p = subprocess.Popen([sys.executable, "-m", "wsmap", "map", "--scope", "SO3", "--step", "pi/40",
+                          "--method", "numerical", "--out", str(out)],
+                         stderr=subprocess.PIPE, text=True, bufsize=1)
+    seen = ""
+    t0 = time.monotonic()
+    while "numerical IK" not in seen and time.monotonic() - t0 < 120:
+        seen += p.stderr.read(1)
+    p.send_signal(signal.SIGTERM)
+    err = seen + p.communicate(timeout=60)[1]
+    assert p.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    assert os.listdir(tmp_path) == []

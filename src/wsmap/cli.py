@@ -22,7 +22,9 @@ import ast
 import math
 import operator
 import os
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -61,24 +63,23 @@ def number(text: str) -> float:
     return value
 
 
-def positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
+def _int_at_least(minimum: int):
+    """An argparse type: an integer of at least ``minimum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {value}")
+        return value
+
+    return parse
 
 
-def non_negative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be at least 0, got {value}")
-    return value
+positive_int = _int_at_least(1)
+non_negative_int = _int_at_least(0)
 
 
 def positive_float(text: str) -> float:
@@ -384,6 +385,7 @@ def main(argv=None) -> int:
     """Run the command line; returns the exit code (0 success, 2 bad input or failure, 130 interrupted)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     args = _parser().parse_args(_protect_negative_expressions(argv))
+    previous = signal.signal(signal.SIGTERM, _terminate) if threading.current_thread() is threading.main_thread() else None
     try:
         return args.run(args)
     except KeyboardInterrupt:
@@ -396,6 +398,14 @@ def main(argv=None) -> int:
             msg = f"{e.filename}: {e.strerror or e}"
         print(f"wsmap: error: {msg}", file=sys.stderr)
         return 2
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _terminate(signum, frame):
+    # SIGTERM (dvc, a job scheduler, kill) unwinds like Ctrl-C, so temporary files are removed
+    raise KeyboardInterrupt
 
 
 if __name__ == "__main__":

@@ -97,17 +97,54 @@ def atomic_paths(paths: Sequence, suffixes: Sequence[str | None] | None = None):
             tmps.append(_temp_beside(p, s))
         yield list(tmps)
         mode = _mode_for_new_files()
-        for t, p in zip(tmps, paths):
+        for t in tmps:
             os.chmod(t, mode)
+        _replace_all(tmps, paths)
+    finally:
+        for t in tmps:
+            if t.exists():
+                t.unlink()
+
+
+def _replace_all(tmps: list[Path], paths: list[Path]) -> None:
+    """Rename every ``tmps[i]`` over ``paths[i]``; if one rename fails, undo the ones before it.
+
+    Each existing target is first hard-linked (copied where links are not possible) to a backup
+    beside it, so that a failure half way restores the files that were there.
+    """
+    backups: list[Path | None] = []
+    done = 0
+    try:
+        for p in paths:
+            if p.exists() and not p.is_dir():
+                b = _temp_beside(p, ".bak")
+                b.unlink()
+                try:
+                    os.link(p, b)
+                except OSError:
+                    import shutil
+
+                    shutil.copy2(p, b)
+                backups.append(b)
+            else:
+                backups.append(None)
         for t, p in zip(tmps, paths):
             try:
                 os.replace(t, p)
             except OSError as e:
                 raise OSError(e.errno, f"cannot write {str(p)!r}: {e.strerror}") from None
+            done += 1
+    except BaseException:
+        for p, b in list(zip(paths, backups))[:done]:
+            if b is not None:
+                os.replace(b, p)
+            elif p.exists():
+                p.unlink()
+        raise
     finally:
-        for t in tmps:
-            if t.exists():
-                t.unlink()
+        for b in backups:
+            if b is not None and b.exists():
+                b.unlink()
 
 
 @contextmanager

@@ -145,25 +145,9 @@ def _choice(name, value, choices):
 
 
 def _grid_counts(lo, hi, step) -> tuple[int, int, int]:
-    """Nodes per axis of the grid, as :func:`wsmap.workspace.grid_axes` counts them, without
-    allocating anything; a ``ValueError`` naming the field for a non-positive step, an empty axis
-    or a grid above :data:`MAX_GRID_NODES` nodes."""
-    lo, hi, step = (np.broadcast_to(np.asarray(x, dtype=np.float64), (3,)) for x in (lo, hi, step))
-    if np.any(step <= 0):
-        raise ValueError(f"step must be positive, got {step.tolist()}")
-    if np.any(lo > hi):
-        raise ValueError(f"lo must not exceed hi on any axis, got lo={lo.tolist()} hi={hi.tolist()}")
-    with np.errstate(over="ignore", invalid="ignore"):
-        span = (hi - lo) / step
-        # same counting as wsmap.workspace.grid_axes (the slack absorbs rounding in span)
-        counts = np.floor(span + 1e-9 * np.maximum(1.0, span)) + 1.0
-        total = float(np.prod(counts))
-    if not (np.all(np.isfinite(counts)) and total <= MAX_GRID_NODES):
-        raise ValueError(
-            f"step {step.tolist()} over [{lo.tolist()}, {hi.tolist()}] gives a grid of about {total:.3g} nodes, "
-            f"more than the {MAX_GRID_NODES} a dataset may have; use a coarser step or a smaller range"
-        )
-    return tuple(int(c) for c in counts)
+    """Nodes per axis, counted as :func:`wsmap.workspace.grid_axes` counts them, for a dataset grid
+    (at most :data:`MAX_GRID_NODES` nodes)."""
+    return ws.grid_counts(lo, hi, step, max_nodes=MAX_GRID_NODES, what="a dataset may have")
 
 
 # --------------------------------------------------------------------------- the spec

@@ -16,6 +16,7 @@ from .grids import (
     block_slice,
     cartesian_grid,
     grid_axes,
+    grid_counts,
     map_to_volume,
     volume_to_map,
 )
@@ -34,6 +35,6 @@ from .maps import (
 __all__ = [
     "BLOCK_NODES", "CONVENTIONS", "CROP_3087", "MAX_NODES", "METHODS", "MapFileError", "N_BLOCKS", "SCOPES",
     "angle_grid", "available_memory", "block_slice", "cartesian_grid", "constant_orientation_map", "default_grid",
-    "grid_axes", "grid_map", "grid_spec", "load_map", "map_to_volume", "orientation_map", "save_map",
+    "grid_axes", "grid_counts", "grid_map", "grid_spec", "load_map", "map_to_volume", "orientation_map", "save_map",
     "target_poses", "volume_to_map",
 ]

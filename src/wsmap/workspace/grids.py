@@ -13,7 +13,7 @@ import numpy as np
 
 from ..kinematics.transforms import as_real_array
 
-__all__ = ["grid_axes", "cartesian_grid", "angle_grid", "map_to_volume", "volume_to_map", "BLOCK_NODES",
+__all__ = ["grid_counts", "grid_axes", "cartesian_grid", "angle_grid", "map_to_volume", "volume_to_map", "BLOCK_NODES",
            "N_BLOCKS", "block_slice", "CROP_3087", "available_memory", "MAX_NODES"]
 
 #: The paper's output blocks of the 21³ map: 7 consecutive blocks of 1323 nodes (3 z-layers each).
@@ -57,31 +57,43 @@ def _triple(name, x):
     return x
 
 
-def grid_axes(lo, hi, step) -> list[np.ndarray]:
-    """The node values along each axis: ``lo + k·step`` for every ``k`` with the value ``<= hi``.
+def grid_counts(lo, hi, step, max_nodes: int = MAX_NODES, what: str = "this tool handles") -> tuple[int, int, int]:
+    """Nodes along each axis of the grid ``lo + k·step <= hi``, without allocating anything.
 
-    ``lo``, ``hi`` and ``step`` are scalars or 3-tuples. Counting is exact up to rounding:
-    ``[-1, 1]`` at 0.1 gives 21 values, ``[0, 2·pi]`` at ``pi/10`` gives 21.
+    ``lo``, ``hi`` and ``step`` are scalars or 3-tuples. Refused (``ValueError``): non-finite or
+    complex values, ``step <= 0``, ``lo > hi``, and grids of more than ``max_nodes`` nodes — checked
+    in floating point first, because a tiny step (1e-300) overflows int64 and would wrap to 0 nodes.
     """
     lo, hi, step = _triple("lo", lo), _triple("hi", hi), _triple("step", step)
     if np.any(step <= 0):
         raise ValueError(f"step must be positive, got {step.tolist()}")
     if np.any(lo > hi):
-        raise ValueError(f"lo must not exceed hi, got lo={lo.tolist()} hi={hi.tolist()}")
-    # refuse before converting: a tiny step (1e-300) overflows int64 and would wrap to 0 nodes
+        raise ValueError(f"lo must not exceed hi on any axis, got lo={lo.tolist()} hi={hi.tolist()}")
     with np.errstate(over="ignore", invalid="ignore"):
         span = (hi - lo) / step
-        total_f = float(np.prod(np.floor(np.minimum(span, 1e300)) + 1.0))
-    if not np.all(np.isfinite(span)) or total_f > MAX_NODES:
+        # the slack absorbs rounding in span (2·pi/(pi/10) is 20 to within an ulp, not exactly)
+        counts = np.floor(span + 1e-9 * np.maximum(1.0, span)) + 1.0
+        total = float(np.prod(counts))
+    if not (np.all(np.isfinite(counts)) and total <= max_nodes):
         raise ValueError(
-            f"a grid from {lo.tolist()} to {hi.tolist()} at step {step.tolist()} has about {total_f:.3g} nodes, "
-            f"more than the {MAX_NODES:.0e} this tool handles; use a coarser step or a smaller range"
+            f"a grid from {lo.tolist()} to {hi.tolist()} at step {step.tolist()} has about {total:.3g} nodes, "
+            f"more than the {max_nodes:.3g} {what}; use a coarser step or a smaller range"
         )
-    # the slack absorbs rounding in span (2·pi/(pi/10) is 20 to within an ulp, not exactly)
-    counts = np.floor(span + 1e-9 * np.maximum(1.0, span)).astype(np.int64) + 1
+    return tuple(int(c) for c in counts)
+
+
+def grid_axes(lo, hi, step) -> list[np.ndarray]:
+    """The node values along each axis: ``lo + k·step`` for every ``k`` with the value ``<= hi``.
+
+    ``lo``, ``hi`` and ``step`` are scalars or 3-tuples. Counting is exact up to rounding:
+    ``[-1, 1]`` at 0.1 gives 21 values, ``[0, 2·pi]`` at ``pi/10`` gives 21 (:func:`grid_counts`).
+    """
+    counts = grid_counts(lo, hi, step)
+    lo, step = _triple("lo", lo), _triple("step", step)
     total = int(np.prod(counts))
-    _check_fits(total * 3 * 8, f"a grid of {counts.tolist()} = {total} nodes")
+    _check_fits(total * 3 * 8, f"a grid of {list(counts)} = {total} nodes")
     return [lo[i] + step[i] * np.arange(counts[i]) for i in range(3)]
+
 
 def _nodes(axes) -> np.ndarray:
     # meshgrid with 'ij' on (z, y, x) and reversing gives x fastest in C order
