@@ -4,6 +4,8 @@ import os
 import subprocess
 import sys
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -56,7 +58,18 @@ def test_numerical_so3_map(tmp_path):
         (["--robot", "kuka"], "unknown robot 'kuka'"),
         (["--step", "0"], "step must be positive"),
         (["--d", "0", "0", "--a", "0", "0"], "need all three of --d, --a and --alpha"),
-        (["--robot", "puma560", "--d", "0", "--a", "0", "--alpha", "0"], "either --robot or the DH columns"),
+        (["--robot", "puma560", "--d", "0", "--a", "0", "--alpha", "0"], "give one arm: --robot and the DH columns"),
+        (["--robot", "panda", "--urdf", "x.urdf"], "give one arm: --robot and --urdf"),
+        (["--ee", "tool0"], "--ee names the end link of a --urdf arm"),
+        (["--urdf", "/nonexistent.urdf"], "no such file"),
+        (["--mdh"], "--mdh and --offset describe DH columns"),
+        (["--robot", "panda", "--method", "exact"], "no closed form for panda"),
+        (["--robot", "puma560", "--starts", "4"], "--starts is used by the numerical method (method is 'exact')"),
+        (["--robot", "panda", "--paper-lm", "--starts", "4"], "takes no --starts"),
+        (["--d", "0", "0", "--a", "1", "1", "--alpha", "0", "0", "--joint-limits"], "needs the limits: --qlim-deg"),
+        (["--robot", "panda", "--qlim-deg", "10", "-10", "0", "1", "0", "1", "0", "1", "0", "1", "0", "1", "0", "1"],
+         "qlim of joint 1 has its lower limit above its upper limit"),
+        (["--starts", "0"], "must be at least 1"),
         (["--method", "model"], "needs a model file"),
         (["--method", "model", "--model", "/nonexistent/m.pt"], "no such file"),
         (["--model", "m.pt"], "only used with --method model"),
@@ -67,7 +80,7 @@ def test_numerical_so3_map(tmp_path):
         (["--step", "0.1", "0.1"], "--step takes one value or three"),
         (["--lo", "2", "--hi", "1"], "lo must not exceed hi"),
         (["--d", "0", "0", "0.15", "0.43", "0", "0", "--a", "0", "0.43", "0.02", "0", "0", "0",
-          "--alpha", "1", "0", "-1", "1", "-1", "0"], "spherical-wrist family"),
+          "--alpha", "1", "0", "-1", "1", "-1", "0", "--method", "exact"], "spherical-wrist family"),
         (["--d", "0", "--a", "0", "0", "--alpha", "0"], "DH columns disagree"),
         # argparse-level errors: one line too
         (["--alpha", "9**9**9"], "not a finite number or pi expression: '9**9**9'"),
@@ -203,3 +216,82 @@ def test_mesh_of_puma560_is_closed():
     # the reachable volume is a thick shell of radius ~0.86 m: mesh volume between the grid
     # count's bounds (nodes x 0.001 m^3 give 2.6; marching cubes cuts corners)
     assert 1.5 < mesh.volume < 2.7
+
+
+def test_named_real_arm_uses_the_multistart_search_within_its_limits(tmp_path, capsys):
+    from wsmap import robots as R
+
+    out = tmp_path / "panda.npz"
+    assert cli.main(["map", "--robot", "panda", "--step", "0.5", "--out", str(out)]) == 0
+    summary = capsys.readouterr().out
+    assert f"numerical map ({ws.DEFAULT_STARTS} starts, seed 0, joint limits on)" in summary
+    flat, nodes, grid, settings = ws.load_map(out)
+    assert settings["method"] == "numerical" and settings["ik"]["starts"] == ws.DEFAULT_STARTS
+    assert "Franka" in settings["source"] and np.isfinite(settings["qlim"]).all()
+    expected = ws.constant_orientation_map(R.load("panda"), nodes, method="numerical",
+                                           ik=dict(starts=ws.DEFAULT_STARTS, seed=0))
+    np.testing.assert_array_equal(flat, expected)
+    assert 0 < flat.sum() < flat.size
+
+
+def test_auto_method_is_exact_for_the_closed_form_family(tmp_path, capsys):
+    assert cli.main(["map", "--robot", "puma560", "--step", "0.5", "--out", str(tmp_path / "p.npz")]) == 0
+    assert "exact map (closed form, joint limits off)" in capsys.readouterr().out
+
+
+def test_urdf_arm_equals_the_named_arm(tmp_path):
+    import rtbdata  # test-only: the URDFs of real arms
+
+    from wsmap import robots as R
+
+    urdf = Path(rtbdata.__file__).parent / "xacro/kuka_description/kuka_lbr_iiwa/urdf/lbr_iiwa_14_r820.urdf"
+    out = tmp_path / "iiwa.npz"
+    assert cli.main(["map", "--urdf", str(urdf), "--ee", "tool0", "--step", "0.5", "--quiet", "--out", str(out)]) == 0
+    flat, nodes, _, settings = ws.load_map(out)
+    assert settings["urdf"] == str(urdf) and settings["ee"] == "tool0" and settings["n"] == 7
+    named = ws.constant_orientation_map(R.load("iiwa14"), nodes, method="numerical",
+                                        ik=dict(starts=ws.DEFAULT_STARTS, seed=0))
+    # the URDF differs from KUKA's dimensions by 0.4 mm side offsets: at 0.5 m spacing the maps agree
+    assert np.mean(flat == named) >= 0.99
+
+
+def test_modified_dh_columns(tmp_path):
+    from wsmap import robots as R
+
+    d, a = [0.333, 0, 0.316, 0, 0.384, 0, 0], [0, 0, 0, 0.0825, -0.0825, 0, 0.088]
+    alpha = ["0", "-pi/2", "pi/2", "pi/2", "-pi/2", "pi/2", "pi/2"]
+    out = tmp_path / "mdh.npz"
+    argv = ["map", "--mdh", "--d", *map(str, d), "--a", *map(str, a), "--alpha", *alpha, "--starts", "4",
+            "--step", "0.5", "--quiet", "--out", str(out)]
+    assert cli.main(argv) == 0
+    flat, nodes, _, settings = ws.load_map(out)
+    assert settings["qlim"] is None and settings["ik"]["starts"] == 4
+    chain = R.from_dh(d, a, [0, -np.pi / 2, np.pi / 2, np.pi / 2, -np.pi / 2, np.pi / 2, np.pi / 2], modified=True)
+    np.testing.assert_array_equal(flat, ws.constant_orientation_map(chain, nodes, method="numerical",
+                                                                    ik=dict(starts=4, seed=0)))
+
+
+def test_paper_lm_is_the_one_start_paper_solver(tmp_path, capsys):
+    out = tmp_path / "p.npz"
+    assert cli.main(["map", "--method", "numerical", "--paper-lm", "--step", "0.25", "--out", str(out)]) == 0
+    assert "the paper's LM, one start at q = 0" in capsys.readouterr().out
+    flat, nodes, _, _ = ws.load_map(out)
+    np.testing.assert_array_equal(flat, ws.constant_orientation_map(robots.puma560(), nodes, method="numerical",
+                                                                    ik=dict(solver="paper")))
+
+
+def test_a_urdf_that_is_not_xml_is_one_line(tmp_path, capsys):
+    bad = tmp_path / "arm.urdf"
+    bad.write_text("this is not xml")
+    code, err = run(["map", "--urdf", str(bad), "--quiet", "--out", str(tmp_path / "m.npz")], capsys)
+    assert code == 2 and "arm.urdf" in err and len(err.strip().splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["arm.urdf"]
+
+
+def test_robots_lists_every_named_arm_with_its_source(capsys):
+    from wsmap import robots as R
+
+    assert cli.main(["robots"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in out] == list(R.ROBOTS)
+    assert all(";" in line for line in out)

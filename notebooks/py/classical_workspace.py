@@ -49,7 +49,8 @@ print(f"mesh: {len(mesh.vertices)} vertices, watertight={mesh.is_watertight}, vo
 import time
 
 t0 = time.perf_counter()
-numerical = ws.constant_orientation_map(puma, nodes, cfg["rpy"], method="numerical")
+# the paper's one-start LM (ikine_LM from q0 = 0); the default numerical path is the multi-start search
+numerical = ws.constant_orientation_map(puma, nodes, cfg["rpy"], method="numerical", ik={"solver": "paper"})
 t_num = time.perf_counter() - t0
 t0 = time.perf_counter()
 ws.constant_orientation_map(puma, nodes, cfg["rpy"], method="exact")

@@ -23,7 +23,16 @@ P. Liao, "Deep Neural Network Based Subspace Learning of Robotic Manipulator Wor
 __version__ = "0.1.0"
 
 from . import kinematics, robots, workspace  # noqa: E402
-from .kinematics import DHRobot, IKResult, ikine_LM, ikine_spherical_wrist, rpy2r, transl  # noqa: E402
+from .kinematics import (  # noqa: E402
+    DHRobot,
+    IKResult,
+    SerialChain,
+    ikine_LM,
+    ikine_search,
+    ikine_spherical_wrist,
+    rpy2r,
+    transl,
+)
 from .workspace import (  # noqa: E402
     angle_grid,
     cartesian_grid,
@@ -33,12 +42,13 @@ from .workspace import (  # noqa: E402
     load_map,
     map_to_volume,
     orientation_map,
+    reachable,
     save_map,
 )
 
 __all__ = [
     "__version__", "kinematics", "robots", "workspace",
-    "DHRobot", "IKResult", "ikine_LM", "ikine_spherical_wrist", "rpy2r", "transl",
+    "DHRobot", "IKResult", "SerialChain", "ikine_LM", "ikine_search", "ikine_spherical_wrist", "rpy2r", "transl",
     "angle_grid", "cartesian_grid", "constant_orientation_map", "grid_map", "grid_spec", "load_map",
-    "map_to_volume", "orientation_map", "save_map",
+    "map_to_volume", "orientation_map", "reachable", "save_map",
 ]

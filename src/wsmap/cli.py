@@ -1,4 +1,4 @@
-"""The one command line: ``wsmap map``, ``wsmap data``, ``wsmap paper`` (also ``python -m wsmap``).
+"""The one command line: ``wsmap map``, ``wsmap robots``, ``wsmap data``, ``wsmap paper`` (also ``python -m wsmap``).
 
 Examples::
 
@@ -98,6 +98,7 @@ class _Parser(argparse.ArgumentParser):
 
 # ------------------------------------------------------------------------------------- wsmap map
 def _robot_from_args(args):
+    """The arm of ``wsmap map``: a named arm, a URDF file, or DH columns (standard or modified)."""
     from . import robots
     from .kinematics import DHRobot
 
@@ -108,17 +109,46 @@ def _robot_from_args(args):
         return np.deg2rad(q.reshape(-1, 2))
 
     dh = [args.d, args.a, args.alpha]
+    given = [name for name, v in (("--robot", args.robot), ("--urdf", args.urdf),
+                                  ("the DH columns", any(x is not None for x in dh) or None)) if v is not None]
+    if len(given) > 1:
+        raise ValueError(f"give one arm: {' and '.join(given)} were both given")
+    if args.ee is not None and args.urdf is None:
+        raise ValueError("--ee names the end link of a --urdf arm")
+    if (args.mdh or args.offset is not None) and not any(x is not None for x in dh):
+        raise ValueError("--mdh and --offset describe DH columns (--d/--a/--alpha)")
     if any(x is not None for x in dh):
-        if args.robot is not None:
-            raise ValueError("give either --robot or the DH columns --d/--a/--alpha, not both")
         if any(x is None for x in dh):
             raise ValueError("the DH columns need all three of --d, --a and --alpha")
-        qlim = limits(len(args.d)) if args.qlim_deg is not None else None
+        if args.joint_limits and args.qlim_deg is None:
+            raise ValueError("--joint-limits on DH columns needs the limits: --qlim-deg lo_1 hi_1 ...")
+        qlim = limits(len(args.d)) if args.qlim_deg is not None and args.joint_limits is not False else None
+        if args.mdh or args.offset is not None:
+            return robots.from_dh(args.d, args.a, args.alpha, offset=args.offset, qlim=qlim, modified=args.mdh,
+                                  name="custom (modified DH)" if args.mdh else "custom")
         return DHRobot(args.d, args.a, args.alpha, qlim=qlim, name="custom")
-    robot = robots.from_name(args.robot or "puma560", joint_limits=args.joint_limits)
-    if args.qlim_deg is not None:
-        robot = DHRobot(robot.d, robot.a, robot.alpha, qlim=limits(robot.n), name=robot.name)
+    if args.urdf is not None:
+        if not Path(args.urdf).is_file():
+            raise ValueError(f"--urdf {args.urdf!r}: no such file")
+        robot = robots.from_urdf(args.urdf, ee_link=args.ee)
+        if args.joint_limits is False:
+            robot = robot.replace(qlim=None)
+    else:
+        robot = robots.load(args.robot or "puma560", joint_limits=args.joint_limits)
+    if args.qlim_deg is not None and args.joint_limits is not False:
+        q = limits(robot.n)
+        robot = (DHRobot(robot.d, robot.a, robot.alpha, qlim=q, tool=robot.tool, name=robot.name)
+                 if isinstance(robot, DHRobot) else robot.replace(qlim=q))
     return robot
+
+
+def _method_for(robot, method: str) -> str:
+    """``auto``: the closed form where the arm belongs to a closed-form family, else numerical IK."""
+    if method != "auto":
+        return method
+    from .kinematics import DHRobot, is_spherical_wrist
+
+    return "exact" if isinstance(robot, DHRobot) and bool(np.all(is_spherical_wrist(robot))) else "numerical"
 
 
 def _arg3(values, name):
@@ -138,11 +168,16 @@ def _map_parser(sub):
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     g = m.add_argument_group("arm")
-    g.add_argument("--robot", help="a named arm: puma560 (default when no DH columns are given)")
+    g.add_argument("--robot", help="a named arm (`wsmap robots` lists them; default puma560 when no other arm is given)")
+    g.add_argument("--urdf", metavar="FILE", help="the arm as a URDF file (meshes are never read)")
+    g.add_argument("--ee", metavar="LINK", help="--urdf: the end link (default: the chain's only leaf)")
     g.add_argument("--d", type=number, nargs="+", help="DH link offsets d_1..d_n in metres")
     g.add_argument("--a", type=number, nargs="+", help="DH link lengths a_1..a_n in metres")
     g.add_argument("--alpha", type=number, nargs="+", help="DH twists alpha_1..alpha_n in radians (pi expressions allowed)")
-    g.add_argument("--joint-limits", action="store_true", help="use the named arm's joint limits (the paper ignores them)")
+    g.add_argument("--mdh", action="store_true", help="the DH columns are modified DH (Craig), as Franka and Kinova publish them")
+    g.add_argument("--offset", type=number, nargs="+", help="DH joint offsets theta_i in radians (the manufacturer's zero)")
+    g.add_argument("--joint-limits", action=argparse.BooleanOptionalAction, default=None,
+                   help="honour the arm's joint limits (default: on for real arms and URDFs, off for puma560 as in the paper)")
     g.add_argument("--qlim-deg", type=number, nargs="+", metavar="DEG",
                    help="joint limits in degrees: lo_1 hi_1 lo_2 hi_2 ... (overrides --joint-limits)")
     g = m.add_argument_group("scope")
@@ -156,17 +191,26 @@ def _map_parser(sub):
     g.add_argument("--point", type=number, nargs=3, default=[0.5, 0.5, 0.5], metavar=("X", "Y", "Z"),
                    help="SO3 scope: fixed point in metres")
     g = m.add_argument_group("method")
-    g.add_argument("--method", choices=["exact", "numerical", "model"], default="exact",
-                   help="exact: closed form (spherical-wrist arms); numerical: batched Levenberg-Marquardt (any arm); "
+    g.add_argument("--method", choices=["auto", "exact", "numerical", "model"], default="auto",
+                   help="auto: exact where a closed form exists, else numerical; exact: closed form (spherical-wrist "
+                        "arms); numerical: multi-start Levenberg-Marquardt within the joint limits (any arm); "
                         "model: a trained network (--model)")
+    g.add_argument("--starts", type=positive_int,
+                   help="numerical: IK starts per node, start 0 at q = 0 and the rest random inside the limits "
+                        "(default: the measured default, wsmap.workspace.DEFAULT_STARTS)")
+    g.add_argument("--seed", type=non_negative_int, default=0, help="numerical: seed of the random starts")
+    g.add_argument("--paper-lm", action="store_true",
+                   help="numerical: the paper's one-start Levenberg-Marquardt from q = 0 instead of the multi-start "
+                        "search (misses reachable nodes; for comparison with the paper)")
     g.add_argument("--convention", choices=["paper", "standard"], default="paper",
                    help="paper: T = R·transl(p), tests R·p (the authors' code); standard: T = transl(p)·R")
     g.add_argument("--model", help="trained model file for --method model")
     g.add_argument("--allow-extrapolation", action="store_true",
                    help="--method model: predict for arms outside the range the model was trained on (with a warning)")
     g.add_argument("--tol", type=positive_float, default=1e-10, help="numerical IK tolerance on the pose error norm")
-    g.add_argument("--ilimit", type=positive_int, default=500, help="numerical IK iteration limit")
-    g.add_argument("--rlimit", type=positive_int, default=100, help="numerical IK limit on consecutive rejected steps")
+    g.add_argument("--ilimit", type=positive_int, help="numerical IK iteration limit per start (default: the solver's)")
+    g.add_argument("--rlimit", type=positive_int,
+                   help="numerical IK limit on consecutive rejected steps per start (default: the solver's)")
     g = m.add_argument_group("output")
     g.add_argument("--out", required=True, help="output .npz file (map, nodes, grid, settings)")
     g.add_argument("--png", help="also draw the map's z-slices to this PNG")
@@ -194,29 +238,46 @@ def _run_map(args) -> int:
         raise ValueError("--allow-extrapolation is only used with --method model")
     robot = _robot_from_args(args)
     grid = ws.grid_spec(args.scope, _arg3(args.lo, "--lo"), _arg3(args.hi, "--hi"), _arg3(args.step, "--step"))
-    if args.method == "exact":
-        from .kinematics import require_spherical_wrist
+    method = _method_for(robot, args.method)
+    if method == "exact":
+        from .kinematics import DHRobot, require_spherical_wrist
 
+        if not isinstance(robot, DHRobot):
+            raise ValueError(f"method 'exact' has no closed form for {robot.name or 'this arm'}; use --method numerical")
         require_spherical_wrist(robot)
+    for flag, value in (("--starts", args.starts), ("--paper-lm", args.paper_lm or None)):
+        if value is not None and method != "numerical":
+            raise ValueError(f"{flag} is used by the numerical method (method is {method!r})")
+    if args.paper_lm and args.starts not in (None, 1):
+        raise ValueError("--paper-lm is the paper's one-start LM; it takes no --starts")
+    limited = robot.qlim is not None
 
     t0 = time.perf_counter()
-    ik = dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit)
-    flat = ws.grid_map(robot, grid, rpy=args.rpy, point=args.point, method=args.method, convention=args.convention,
+    ik = {k: v for k, v in dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit).items() if v is not None}
+    if method == "numerical":
+        ik.update(dict(solver="paper") if args.paper_lm else dict(starts=args.starts or ws.DEFAULT_STARTS, seed=args.seed))
+    flat = ws.grid_map(robot, grid, rpy=args.rpy, point=args.point, method=method, convention=args.convention,
                        model=args.model, allow_extrapolation=args.allow_extrapolation, ik=ik, progress=not args.quiet)
     seconds = time.perf_counter() - t0
+    how = {"exact": "closed form", "model": f"network {args.model}",
+           "numerical": ("the paper's LM, one start at q = 0" if args.paper_lm else
+                         f"{ik.get('starts')} start{'s' if ik.get('starts') != 1 else ''}, seed {args.seed}")}[method]
+    how += f", joint limits {'on' if limited else 'off'}"
     settings = {
-        "robot": robot.name, "d": robot.d.tolist(), "a": robot.a.tolist(), "alpha": robot.alpha.tolist(),
-        "qlim": None if robot.qlim is None else robot.qlim.tolist(), "method": args.method,
-        "convention": args.convention, "rpy": list(args.rpy), "point": list(args.point), "model": args.model,
-        "ik": ik, "seconds": seconds,
+        "robot": robot.name, "source": getattr(robot, "source", None), "urdf": args.urdf, "ee": args.ee,
+        "n": robot.n, "qlim": None if robot.qlim is None else np.asarray(robot.qlim).tolist(),
+        "method": method, "how": how, "convention": args.convention, "rpy": list(args.rpy),
+        "point": list(args.point), "model": args.model, "ik": ik, "seconds": seconds,
     }
+    if hasattr(robot, "d"):  # a DH arm: its table
+        settings.update(d=robot.d.tolist(), a=robot.a.tolist(), alpha=robot.alpha.tolist())
     fig = None
     if png is not None:
         from .viz import plot_slices
 
         labels = ("x", "y", "z") if args.scope == "R3" else ("r1", "r2", "r3")
         fig = plot_slices(flat, grid["shape"], grid["lo"], grid["step"], labels=labels,
-                          title=f"{robot.name or 'arm'}: {int(flat.sum())} of {flat.size} nodes reachable ({args.method})")
+                          title=f"{robot.name or 'arm'}: {int(flat.sum())} of {flat.size} nodes reachable ({method}: {how})")
     paths = [out] + ([png] if png is not None else [])
     try:
         # both files or neither: a failing PNG leaves an existing --out untouched
@@ -231,7 +292,7 @@ def _run_map(args) -> int:
             plt.close(fig)
     if not args.quiet:
         print(f"{int(flat.sum())} of {flat.size} nodes reachable ({flat.mean():.1%}); "
-              f"{args.method} map in {seconds:.3f} s -> {out}" + (f", {png}" if png else ""))
+              f"{method} map ({how}) in {seconds:.3f} s -> {out}" + (f", {png}" if png else ""))
     return 0
 
 
@@ -305,6 +366,25 @@ def _run_data_audit(args) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------------- wsmap robots
+def _robots_parser(sub):
+    r = sub.add_parser("robots", help="list the named arms", description="The arms `--robot NAME` knows, "
+                       "with their joints, limits and the document their numbers come from.")
+    r.set_defaults(run=_run_robots)
+
+
+def _run_robots(args) -> int:
+    from . import robots
+
+    for name in robots.ROBOTS:
+        arm = robots.load(name)
+        kinds = "".join(getattr(arm, "kinds", ("R",) * arm.n))
+        limits = "no limits" if arm.qlim is None else "joint limits"
+        source = getattr(arm, "source", None) or "MATLAB Robotics Toolbox mdl_puma560 (the paper's arm, d1 = 0)"
+        print(f"{name:8s} {arm.n} joints ({kinds}), {limits}; {source}")
+    return 0
+
+
 # ----------------------------------------------------------------------------------- wsmap paper
 def _paper_parser(sub):
     p = sub.add_parser("paper", help="reproduce the paper: run its notebooks (the DVC stages)",
@@ -364,8 +444,9 @@ def _run_paper_list(args) -> int:
 # ------------------------------------------------------------------------------------------ main
 def _parser():
     p = _Parser(prog="wsmap", description="Manipulator workspace maps, classical and learned.")
-    sub = p.add_subparsers(dest="command", required=True, metavar="{map,data,paper}", parser_class=_Parser)
+    sub = p.add_subparsers(dest="command", required=True, metavar="{map,robots,data,paper}", parser_class=_Parser)
     _map_parser(sub)
+    _robots_parser(sub)
     _data_parser(sub)
     _paper_parser(sub)
     return p

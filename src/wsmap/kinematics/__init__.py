@@ -1,8 +1,11 @@
 """Kinematics: rigid transforms, robot models, forward kinematics and Jacobians, inverse kinematics.
 
 * :mod:`.transforms` — rotations, homogeneous transforms, pose error, input checks;
-* :mod:`.dh` — :class:`DHRobot`, standard-DH revolute arms batched over geometry;
+* :mod:`.dh` — :class:`DHRobot`, standard-DH revolute arms batched over geometry (the paper's);
+* :mod:`.chain` — :class:`SerialChain`, any serial arm of revolute/prismatic joints (DH, modified DH, URDF);
 * :mod:`.ik` — the paper's Levenberg–Marquardt IK, batched over targets (kernel in :mod:`.lm_kernel`);
+* :mod:`.search` — reachability search for any arm: multi-start LM, joint limits inside the search,
+  every success confirmed by forward kinematics;
 * :mod:`.closed_form` — closed-form IK of the spherical-wrist family (all 8 branches).
 """
 
@@ -13,14 +16,23 @@ from .closed_form import (
     require_spherical_wrist,
     wrist_centre_reachable,
 )
+from .chain import PRISMATIC, REVOLUTE, SerialChain, from_dh
 from .dh import DHRobot, arm_batch
 from .ik import IKResult, ikine_LM
+from .search import SearchResult, as_chain, ikine_search
 from .transforms import check_rigid, pose_error, rotx, roty, rotz, rpy2r, transl
 
 __all__ = [
     "DHRobot",
+    "PRISMATIC",
+    "REVOLUTE",
+    "SerialChain",
+    "from_dh",
     "arm_batch",
     "IKResult",
+    "SearchResult",
+    "as_chain",
+    "ikine_search",
     "SPHERICAL_WRIST_ALPHA",
     "check_rigid",
     "ikine_LM",

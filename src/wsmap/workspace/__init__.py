@@ -1,7 +1,8 @@
 """Workspace maps: grids of nodes, maps of an arm (or a batch of arms) on them, and map files.
 
 * :mod:`.grids` — grids and the layout of flat maps (node order: first coordinate fastest);
-* :mod:`.maps` — constant-orientation ("R3") and orientation ("SO3") maps, one-call grid maps;
+* :mod:`.maps` — reachability of poses (:func:`reachable`), constant-orientation ("R3") and
+  orientation ("SO3") maps, one-call grid maps;
 * :mod:`.files` — the ``.npz`` map file.
 """
 
@@ -22,18 +23,22 @@ from .grids import (
 )
 from .maps import (
     CONVENTIONS,
+    DEFAULT_STARTS,
     METHODS,
     SCOPES,
+    SOLVERS,
     constant_orientation_map,
     default_grid,
     grid_map,
     grid_spec,
     orientation_map,
+    reachable,
     target_poses,
 )
 
 __all__ = [
-    "BLOCK_NODES", "CONVENTIONS", "CROP_3087", "MAX_NODES", "METHODS", "MapFileError", "N_BLOCKS", "SCOPES",
+    "BLOCK_NODES", "CONVENTIONS", "CROP_3087", "DEFAULT_STARTS", "MAX_NODES", "METHODS", "MapFileError", "N_BLOCKS",
+    "SCOPES", "SOLVERS", "reachable",
     "angle_grid", "available_memory", "block_slice", "cartesian_grid", "constant_orientation_map", "default_grid",
     "grid_axes", "grid_counts", "grid_map", "grid_spec", "load_map", "map_to_volume", "orientation_map", "save_map",
     "target_poses", "volume_to_map",

@@ -22,18 +22,25 @@ import numpy as np
 
 from ..kinematics import (
     DHRobot,
+    SerialChain,
     ikine_LM,
     ikine_spherical_wrist,
     require_spherical_wrist,
     rpy2r,
     wrist_centre_reachable,
 )
+from ..kinematics.search import DEFAULT_STARTS, ikine_search
 from .grids import _check_fits, _triple, cartesian_grid, grid_axes
 
-__all__ = ["METHODS", "CONVENTIONS", "SCOPES", "target_poses", "constant_orientation_map", "orientation_map",
-           "grid_map"]
+__all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "target_poses", "reachable",
+           "constant_orientation_map", "orientation_map", "grid_map"]
 
 METHODS = ("exact", "numerical")
+#: Numerical solvers (``ik={"solver": ...}``): ``"search"`` (default) is the multi-start search with
+#: joint limits inside it (:func:`wsmap.kinematics.search.ikine_search`); ``"paper"`` is the
+#: paper's one-start LM from q0 = 0 (:func:`wsmap.kinematics.ikine_LM`, DH arms, a converged
+#: solution outside the limits rejected afterwards), which the paper's pipeline uses.
+SOLVERS = ("search", "paper")
 CONVENTIONS = ("paper", "standard")
 SCOPES = ("R3", "SO3")
 
@@ -69,6 +76,30 @@ def target_poses(positions, rpy, convention: str = "paper") -> np.ndarray:
     return T
 
 
+# --------------------------------------------------------------------------- reachability of poses
+def reachable(robot, T, *, starts: int = DEFAULT_STARTS, seed=0, **settings) -> np.ndarray:
+    """Whether the arm reaches each pose: bool with the broadcast batch shape of ``T`` and the arms.
+
+    Parameters
+    ----------
+    robot : SerialChain or DHRobot, one arm or a batch (its batch shape broadcasts with ``T``'s)
+    T : array_like, shape (..., 4, 4)
+        Tool poses in the base (world) frame; a pose that is not a rigid transform is a ``ValueError``.
+    starts, seed :
+        IK start configurations per pose (start 0: ``q0``, default zeros; then random ones inside
+        the limits) and the seed of the random ones.
+    **settings :
+        ``q0``, ``tol``, ``ilimit``, ``rlimit``, ``lam``, ``joint_limits``, ``confirm_tol``, ``chunk``,
+        ``progress`` of :func:`wsmap.kinematics.search.ikine_search`, which also returns the solutions.
+
+    A pose is reachable when some start converges to it inside the joint limits and forward
+    kinematics confirms the solution (within 1e-6 m and rad), so ``True`` comes with a solution;
+    ``False`` means no start found one (recall measured against exact references in
+    ``benchmarks/bench_recall.py``: >= 0.999 with the default starts, no false positive).
+    """
+    return ikine_search(robot, T, starts=starts, seed=seed, **settings).success
+
+
 # --------------------------------------------------------------------------- maps
 def _per_node(robot: DHRobot) -> DHRobot:
     """The same arms with a node axis inserted before the joints: batch ``(..., 1)``."""
@@ -78,10 +109,23 @@ def _per_node(robot: DHRobot) -> DHRobot:
     return DHRobot(robot.d[..., None, :], robot.a[..., None, :], robot.alpha[..., None, :], qlim=qlim, tool=robot.tool)
 
 
+def _numerical_settings(ik: dict) -> tuple[str, dict]:
+    """(solver, the solver's keyword arguments) from a map's ``ik`` dict."""
+    ik = dict(ik)
+    solver = ik.pop("solver", "search")
+    _check_choice("solver", solver, SOLVERS)
+    if solver == "paper":
+        starts = ik.pop("starts", 1)
+        if starts != 1:
+            raise ValueError(f"the paper's solver has one start (q0), got starts={starts!r}; use solver 'search'")
+        ik.pop("seed", None)
+    return solver, ik
+
+
 def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress):
     """Shared driver: positions (N, 3) or (1, 3), rpy (3,) or (N, 3); returns (arms..., N) bool."""
-    if not isinstance(arms, DHRobot):
-        raise TypeError(f"arms must be a DHRobot, got {type(arms).__name__}")
+    if not isinstance(arms, (DHRobot, SerialChain)):
+        raise TypeError(f"arms must be a DHRobot or a SerialChain, got {type(arms).__name__}")
     _check_choice("method", method, METHODS)
     _check_choice("convention", convention, CONVENTIONS)
     T = target_poses(positions, rpy, convention)  # (N, 4, 4)
@@ -89,30 +133,46 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress)
     batch = arms.batch_shape
     B = int(np.prod(batch, dtype=np.int64))
     _check_fits(B * N, f"a map of {B} arms x {N} nodes")
-    flat = arms if batch == () else _flatten(arms)
+    solver, settings = ("", {}) if method == "exact" else _numerical_settings(ik)
     if method == "exact":
+        if not isinstance(arms, DHRobot):
+            raise ValueError("method 'exact' needs a DHRobot of the spherical-wrist family (closed form); "
+                             "use method 'numerical'")
         require_spherical_wrist(arms)
+    if solver == "paper" and not isinstance(arms, DHRobot):
+        raise ValueError("the paper's solver (ikine_LM) is for DHRobot arms; use solver 'search'")
+    flat = arms if batch == () else _flatten(arms)
     out = np.empty((max(B, 1), N), dtype=bool)
     per_chunk = max(1, chunk_elements // max(N, 1))
     for s in range(0, max(B, 1), per_chunk):
         sub = flat if batch == () else flat[s : s + per_chunk]
-        node_arms = _per_node(sub)
         if method == "exact":
+            node_arms = _per_node(sub)
             if sub.qlim is None:
                 # unlimited spherical wrist: every orientation is reachable at a reachable centre
                 res = wrist_centre_reachable(node_arms, T[:, :3, 3])
             else:
                 res = ikine_spherical_wrist(node_arms, T)[1].any(axis=-1)
+        elif solver == "paper":
+            res = ikine_LM(_per_node(sub), T, check_limits=sub.qlim is not None, **settings).success
+        elif batch == ():
+            res = ikine_search(sub, T, **settings).success  # (N,)
         else:
-            res = ikine_LM(node_arms, T, check_limits=sub.qlim is not None, **ik).success
+            res = ikine_search(sub, T[:, None], **settings).success.T  # (N, arms) -> (arms, N)
         out[s : s + per_chunk] = np.broadcast_to(res, (out[s : s + per_chunk].shape[0], N))
         if progress is not None:
             progress(out[s : s + per_chunk].size)
     return out.reshape(batch + (N,))
 
 
-def _flatten(arms: DHRobot) -> DHRobot:
+def _flatten(arms):
     n = arms.n
+    if isinstance(arms, SerialChain):
+        b = arms.batch_shape
+        qlim = None if arms.qlim is None else np.broadcast_to(arms.qlim, b + (n, 2)).reshape(-1, n, 2)
+        fshape = arms.fixed.shape[-3:]
+        return arms.replace(fixed=np.broadcast_to(arms.fixed, b + fshape).reshape((-1,) + fshape),
+                            offset=np.broadcast_to(arms.offset, b + (n,)).reshape(-1, n), qlim=qlim)
     qlim = arms.qlim
     if qlim is not None and qlim.ndim > 2:
         qlim = np.broadcast_to(qlim, arms.batch_shape + (n, 2)).reshape(-1, n, 2)
@@ -129,7 +189,7 @@ def _check_nodes(name, nodes):
 
 
 def constant_orientation_map(
-    arms: DHRobot,
+    arms,
     nodes,
     rpy=(0.0, 0.0, 0.0),
     method: str = "exact",
@@ -143,11 +203,15 @@ def constant_orientation_map(
 
     Parameters
     ----------
-    arms : DHRobot, one arm or a batch (batch shape ``(...)``)
+    arms : DHRobot or SerialChain, one arm or a batch (batch shape ``(...)``)
     nodes : (N, 3) positions in metres, e.g. from :func:`cartesian_grid`
     rpy : (3,) angles (r1, r2, r3) in radians, ``R = Rx(r1)·Ry(r2)·Rz(r3)``
-    method : ``"exact"`` (closed form, spherical-wrist family only) or ``"numerical"``
-        (batched Levenberg–Marquardt from q0 = 0, any arm; ``ik`` passes its settings)
+    method : ``"exact"`` (closed form; DHRobot of the spherical-wrist family only) or
+        ``"numerical"`` (any arm). ``ik`` passes the numerical settings: by default the multi-start
+        search of :func:`reachable` (``starts`` — default :data:`DEFAULT_STARTS` —, ``seed``, ``q0``,
+        ``tol``, ``ilimit``, ``rlimit``, ``joint_limits``, ``chunk``, ...); ``{"solver": "paper"}`` is
+        the paper's one-start LM from q0 = 0 (``ikine_LM``; DH arms; ``q0``, ``tol``, ``ilimit``,
+        ``rlimit``, ``lam``, ``chunk``), as the paper's pipeline runs it
     convention : ``"paper"`` or ``"standard"`` (see the module docstring)
 
     Returns
@@ -160,7 +224,7 @@ def constant_orientation_map(
 
 
 def orientation_map(
-    arms: DHRobot,
+    arms,
     angle_nodes,
     point=(0.5, 0.5, 0.5),
     method: str = "exact",

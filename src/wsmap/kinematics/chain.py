@@ -1,0 +1,328 @@
+"""General serial chains: revolute and prismatic joints between fixed transforms, batched over arms.
+
+A chain of ``n`` joints is::
+
+    T(q) = base · F_0 · M_1(q_1 + offset_1) · F_1 · M_2(q_2 + offset_2) · F_2 ··· M_n(q_n + offset_n) · F_n · tool
+
+where ``F_i`` are fixed homogeneous transforms (``(..., n + 1, 4, 4)``, leading dimensions a batch
+of arms) and ``M_i(x)`` is a rotation by ``x`` (rad) about the unit axis ``axes[i]`` for a revolute
+joint or a translation by ``x`` (m) along it for a prismatic joint, both in the joint's own frame
+(the frame after ``F_{i-1}``). Standard DH, modified DH (Craig) and URDF chains all take this form
+(:func:`from_dh`, :mod:`wsmap.kinematics.urdf`).
+
+``base`` places the chain's first frame in the world (e.g. a robot on a pedestal) and ``tool`` the
+tool frame on the flange; ``fkine`` is base → tool, both default to the identity.
+
+Joint limits ``qlim`` are ``(..., n, 2)`` ``[lo, hi]`` in rad (revolute) or m (prismatic); an
+unlimited (continuous) revolute joint has ``[-inf, inf]``. ``qlim`` is ``None`` when every joint is
+unlimited.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from .transforms import as_real_array, check_finite, check_rigid
+
+__all__ = ["SerialChain", "from_dh", "REVOLUTE", "PRISMATIC"]
+
+REVOLUTE = "R"
+PRISMATIC = "P"
+
+
+def _rotx(t):
+    c, s = np.cos(t), np.sin(t)
+    T = np.zeros(np.shape(t) + (4, 4))
+    T[..., 0, 0] = 1.0
+    T[..., 1, 1], T[..., 1, 2], T[..., 2, 1], T[..., 2, 2] = c, -s, s, c
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def _rotz(t):
+    c, s = np.cos(t), np.sin(t)
+    T = np.zeros(np.shape(t) + (4, 4))
+    T[..., 0, 0], T[..., 0, 1], T[..., 1, 0], T[..., 1, 1] = c, -s, s, c
+    T[..., 2, 2] = 1.0
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def _trans(x, y, z):
+    x, y, z = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float), np.asarray(z, float))
+    T = np.zeros(x.shape + (4, 4))
+    T[..., 0, 0] = T[..., 1, 1] = T[..., 2, 2] = T[..., 3, 3] = 1.0
+    T[..., 0, 3], T[..., 1, 3], T[..., 2, 3] = x, y, z
+    return T
+
+
+def _motion(kind: str, axis: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``(..., 4, 4)``: rotation by ``x`` about ``axis`` (Rodrigues) or translation by ``x`` along it."""
+    T = np.zeros(x.shape + (4, 4))
+    T[..., 3, 3] = 1.0
+    if kind == PRISMATIC:
+        T[..., 0, 0] = T[..., 1, 1] = T[..., 2, 2] = 1.0
+        T[..., :3, 3] = x[..., None] * axis
+        return T
+    if axis[0] == 0.0 and axis[1] == 0.0:  # about ±z, the usual case: cheaper and exact
+        t = x * axis[2]
+        c, s = np.cos(t), np.sin(t)
+        T[..., 0, 0], T[..., 0, 1], T[..., 1, 0], T[..., 1, 1] = c, -s, s, c
+        T[..., 2, 2] = 1.0
+        return T
+    c, s = np.cos(x)[..., None, None], np.sin(x)[..., None, None]
+    K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    T[..., :3, :3] = np.eye(3) + s * K + (1.0 - c) * (K @ K)
+    return T
+
+
+class SerialChain:
+    """A serial arm (or a batch of arms sharing joint types and axes) of revolute and prismatic joints.
+
+    Parameters
+    ----------
+    fixed : array_like, shape (..., n + 1, 4, 4)
+        The fixed transforms ``F_0 .. F_n`` (rigid; metres). Leading dimensions are a batch of arms.
+    axes : array_like, shape (n, 3)
+        Joint axes in each joint's frame (normalised here).
+    kinds : sequence of "R" / "P", length n
+        Revolute or prismatic.
+    offset : array_like, shape (..., n), optional
+        Added to the joint coordinate before the motion (the manufacturer's zero against the model's).
+    qlim : array_like, shape (..., n, 2), optional
+        Joint limits ``[lo, hi]``; ``±inf`` for a continuous joint. ``None``: all unlimited.
+    base, tool : array_like, shape (4, 4), optional
+        World → chain and flange → tool transforms (rigid).
+    name, source : str, optional
+        The arm's name and where its numbers come from (a manufacturer document).
+    links : sequence of str, optional
+        Names of the frames after ``F_0 .. F_n`` (URDF link names), for messages.
+    """
+
+    def __init__(self, fixed, axes, kinds: Sequence[str], offset=None, qlim=None, base=None, tool=None,
+                 name: str | None = None, source: str | None = None, links: Sequence[str] | None = None):
+        fixed = as_real_array("fixed transforms", fixed)
+        kinds = tuple(kinds)
+        n = len(kinds)
+        if any(k not in (REVOLUTE, PRISMATIC) for k in kinds):
+            raise ValueError(f"joint kinds must be 'R' (revolute) or 'P' (prismatic), got {kinds}")
+        if fixed.ndim < 3 or fixed.shape[-3:] != (n + 1, 4, 4):
+            raise ValueError(f"fixed transforms must have shape (..., {n + 1}, 4, 4) for {n} joints, got {fixed.shape}")
+        check_rigid("fixed transforms", fixed)
+        axes = as_real_array("joint axes", axes)
+        if axes.shape != (n, 3):
+            raise ValueError(f"joint axes must have shape ({n}, 3), got {axes.shape}")
+        check_finite("joint axes", axes)
+        norms = np.linalg.norm(axes, axis=-1)
+        if np.any(norms < 1e-12):
+            raise ValueError(f"joint axis {int(np.argmin(norms))} is zero")
+        self.fixed = fixed
+        self.axes = axes / norms[:, None]
+        self.kinds = kinds
+        self.n = n
+        batch = fixed.shape[:-3]
+        if offset is None:
+            offset = np.zeros(n)
+        offset = as_real_array("joint offsets", offset)
+        if offset.shape[-1:] != (n,):
+            raise ValueError(f"joint offsets must have a last dimension of {n}, got {offset.shape}")
+        check_finite("joint offsets", offset)
+        self.offset = offset
+        if qlim is not None:
+            qlim = as_real_array("qlim", qlim)
+            if qlim.shape[-2:] != (n, 2):
+                raise ValueError(f"qlim must have shape (..., {n}, 2), got {qlim.shape}")
+            if np.any(np.isnan(qlim)):
+                raise ValueError("qlim contains NaN")
+            bad = qlim[..., 0] > qlim[..., 1]
+            if np.any(bad):
+                j = int(np.argwhere(bad)[0][-1])
+                raise ValueError(f"qlim of joint {j + 1} has its lower limit above its upper limit")
+            prismatic = np.array([k == PRISMATIC for k in kinds])
+            if np.any(~np.isfinite(qlim[..., prismatic, :])):
+                j = int(np.flatnonzero(prismatic & np.any(~np.isfinite(qlim), axis=tuple(range(qlim.ndim - 2)) + (-1,)))[0])
+                raise ValueError(f"prismatic joint {j + 1} needs finite limits (a slide has a stroke)")
+            if np.all(np.isinf(qlim)):
+                qlim = None
+        elif any(k == PRISMATIC for k in kinds):
+            raise ValueError("a chain with prismatic joints needs joint limits (qlim) for them")
+        self.qlim = qlim
+        self.base = None if base is None else self._one_transform("base", base)
+        self.tool = None if tool is None else self._one_transform("tool", tool)
+        self.name = name
+        self.source = source
+        self.links = tuple(links) if links is not None else None
+        try:
+            np.broadcast_shapes(batch, offset.shape[:-1], () if qlim is None else qlim.shape[:-2])
+        except ValueError:
+            raise ValueError(f"batch shapes do not broadcast: fixed {batch}, offset {offset.shape[:-1]}, "
+                             f"qlim {None if qlim is None else qlim.shape[:-2]}") from None
+
+    @staticmethod
+    def _one_transform(name, T):
+        T = as_real_array(name, T)
+        if T.shape != (4, 4):
+            raise ValueError(f"{name} must be a 4x4 homogeneous transform, got shape {T.shape}")
+        return check_rigid(name, T)
+
+    # ---------------------------------------------------------------- shape
+    @property
+    def batch_shape(self) -> tuple[int, ...]:
+        """Leading (arm) dimensions: ``()`` for one arm."""
+        shapes = [self.fixed.shape[:-3], self.offset.shape[:-1]]
+        if self.qlim is not None:
+            shapes.append(self.qlim.shape[:-2])
+        return np.broadcast_shapes(*shapes)
+
+    def __len__(self):
+        if not self.batch_shape:
+            raise TypeError("a single arm has no length; batch_shape is ()")
+        return self.batch_shape[0]
+
+    def __getitem__(self, idx) -> "SerialChain":
+        """Select arms of a batch (numpy indexing on the batch dimensions)."""
+        if not self.batch_shape:
+            raise TypeError("a single arm cannot be indexed")
+        b = self.batch_shape
+        fixed = np.broadcast_to(self.fixed, b + self.fixed.shape[-3:])[idx]
+        offset = np.broadcast_to(self.offset, b + (self.n,))[idx]
+        qlim = None if self.qlim is None else np.broadcast_to(self.qlim, b + (self.n, 2))[idx]
+        return self.replace(fixed=fixed, offset=offset, qlim=qlim)
+
+    def replace(self, **changes) -> "SerialChain":
+        """A copy with some constructor arguments changed (e.g. ``qlim=None`` for no limits)."""
+        kw = dict(fixed=self.fixed, axes=self.axes, kinds=self.kinds, offset=self.offset, qlim=self.qlim,
+                  base=self.base, tool=self.tool, name=self.name, source=self.source, links=self.links)
+        kw.update(changes)
+        return SerialChain(**kw)
+
+    @property
+    def limits(self) -> np.ndarray:
+        """``(..., n, 2)`` limits with ``±inf`` for unlimited joints (never ``None``)."""
+        if self.qlim is None:
+            return np.broadcast_to(np.array([-np.inf, np.inf]), (self.n, 2))
+        return self.qlim
+
+    def __repr__(self):
+        name = f"{self.name!r}, " if self.name else ""
+        return (f"SerialChain({name}n={self.n}, joints={''.join(self.kinds)}, batch_shape={self.batch_shape}, "
+                f"qlim={'yes' if self.qlim is not None else 'no'})")
+
+    # ---------------------------------------------------------------- kinematics
+    def _check_q(self, q):
+        q = as_real_array("joint coordinates", q)
+        if q.ndim == 0 or q.shape[-1] != self.n:
+            raise ValueError(f"joint coordinates must have a last dimension of {self.n}, got shape {q.shape}")
+        check_finite("joint coordinates", q)
+        return q
+
+    def joint_frames(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """Frames of every joint (before its motion) and the flange, in the world frame.
+
+        Returns ``(frames, T)``: ``frames`` ``(..., n, 4, 4)`` (joint ``i``'s axis is
+        ``frames[..., i, :3, :3] @ axes[i]``), and ``T`` ``(..., 4, 4)`` the tool pose.
+        """
+        q = self._check_q(q)
+        x = q + self.offset
+        shape = np.broadcast_shapes(x.shape[:-1], self.batch_shape)
+        T = np.broadcast_to(self.fixed[..., 0, :, :], shape + (4, 4))
+        if self.base is not None:
+            T = self.base @ T
+        frames = np.empty(shape + (self.n, 4, 4))
+        for i in range(self.n):  # a loop over joints, not over arms or configurations
+            frames[..., i, :, :] = T
+            T = T @ _motion(self.kinds[i], self.axes[i], x[..., i]) @ self.fixed[..., i + 1, :, :]
+        if self.tool is not None:
+            T = T @ self.tool
+        return frames, T
+
+    def fkine(self, q) -> np.ndarray:
+        """Forward kinematics: tool pose in the world (base) frame, ``(..., 4, 4)``; ``q`` is ``(..., n)``."""
+        return self.joint_frames(q)[1]
+
+    def jacob0(self, q) -> np.ndarray:
+        """Geometric Jacobian of the tool point in the world frame, ``(..., 6, n)``: rows ``[v; omega]``."""
+        frames, T = self.joint_frames(q)
+        w = np.einsum("...ij,...j->...i", frames[..., :3, :3], self.axes)  # (..., n, 3) world axes
+        o = frames[..., :3, 3]
+        pe = T[..., None, :3, 3]
+        prismatic = np.array([k == PRISMATIC for k in self.kinds])
+        Jv = np.where(prismatic[:, None], w, np.cross(w, pe - o))
+        Jw = np.where(prismatic[:, None], 0.0, w)
+        return np.swapaxes(np.concatenate([Jv, Jw], axis=-1), -1, -2)
+
+    def within_limits(self, q, atol: float = 1e-9) -> np.ndarray:
+        """True where every joint lies inside its limits (to ``atol``); ``q.shape[:-1]`` broadcast."""
+        q = self._check_q(q)
+        if self.qlim is None:
+            return np.ones(np.broadcast_shapes(q.shape[:-1], self.batch_shape), dtype=bool)
+        return np.all((q >= self.qlim[..., 0] - atol) & (q <= self.qlim[..., 1] + atol), axis=-1)
+
+    def random_q(self, count: int, rng: np.random.Generator) -> np.ndarray:
+        """``(count, ..., n)`` configurations drawn uniformly inside the limits (``[-pi, pi)`` for an
+        unlimited joint)."""
+        lo = np.where(np.isfinite(self.limits[..., 0]), self.limits[..., 0], -np.pi)
+        hi = np.where(np.isfinite(self.limits[..., 1]), self.limits[..., 1], np.pi)
+        u = rng.random((count,) + np.broadcast_shapes(lo.shape, self.batch_shape + (self.n,)))
+        return lo + u * (hi - lo)
+
+
+def from_dh(d, a, alpha, offset=None, qlim=None, modified: bool = False, prismatic=None, base=None, tool=None,
+            flange=None, name: str | None = None, source: str | None = None) -> SerialChain:
+    """A chain from a DH table (columns ``(..., n)``, metres and radians; batch dimensions allowed).
+
+    Standard (distal) DH, as Corke's toolbox and the paper: link ``i`` is
+    ``Rz(θ_i) Tz(d_i) Tx(a_i) Rx(α_i)``. Modified DH (Craig; Franka, Kinova): link ``i`` is
+    ``Rx(α_{i-1}) Tx(a_{i-1}) Rz(θ_i) Tz(d_i)``, so ``a`` and ``alpha`` of row ``i`` act *before* joint ``i``.
+    A revolute joint has ``θ_i = q_i + offset_i``; a prismatic joint (``prismatic[i]`` True) has
+    ``θ_i = offset_i`` fixed and moves along ``z`` from ``d_i`` by ``q_i``. ``flange`` (4, 4) is a
+    fixed transform after the last joint that belongs to the arm (e.g. Franka's ``d = 0.107`` m to the
+    flange); ``tool`` is the user's tool on it.
+    """
+    d, a, alpha = (as_real_array(f"DH column {k}", x) for k, x in (("d", d), ("a", a), ("alpha", alpha)))
+    for k, x in (("d", d), ("a", a), ("alpha", alpha)):
+        if x.ndim == 0:
+            raise ValueError(f"DH column {k} must have at least one dimension (one entry per joint)")
+        check_finite(f"DH column {k}", x)
+    if len({d.shape[-1], a.shape[-1], alpha.shape[-1]}) != 1:
+        raise ValueError(f"DH columns disagree on the number of joints: d {d.shape}, a {a.shape}, alpha {alpha.shape}")
+    try:
+        shape = np.broadcast_shapes(d.shape, a.shape, alpha.shape)
+    except ValueError:
+        raise ValueError(f"DH columns have batch shapes that do not broadcast: d {d.shape}, a {a.shape}, "
+                         f"alpha {alpha.shape}") from None
+    n = shape[-1]
+    d, a, alpha = (np.broadcast_to(x, shape) for x in (d, a, alpha))
+    off = np.zeros(n) if offset is None else as_real_array("offset", offset)
+    if off.shape[-1:] != (n,):
+        raise ValueError(f"offset must have a last dimension of {n}, got {off.shape}")
+    check_finite("offset", off)
+    pris = np.zeros(n, dtype=bool) if prismatic is None else np.asarray(prismatic, dtype=bool)
+    if pris.shape != (n,):
+        raise ValueError(f"prismatic must have one flag per joint ({n}), got shape {pris.shape}")
+    kinds = [PRISMATIC if p else REVOLUTE for p in pris]
+    if pris.any() and qlim is None:
+        raise ValueError(f"prismatic joint {int(np.flatnonzero(pris)[0]) + 1} needs limits: give qlim")
+    batch = np.broadcast_shapes(shape[:-1], off.shape[:-1])
+    off_b = np.broadcast_to(off, batch + (n,))
+    fixed = np.broadcast_to(np.eye(4), batch + (n + 1, 4, 4)).copy()
+    # joint i's own fixed part: revolute Tz(d) ; prismatic Tz(d) Rz(θ) (Rz and Tz commute)
+    own = np.where(pris, 0.0, 1.0)
+    zpart = _trans(0.0, 0.0, np.broadcast_to(d, batch + (n,))) @ _rotz(np.where(pris, off_b, 0.0))
+    xpart = _trans(np.broadcast_to(a, batch + (n,)), 0.0, 0.0) @ _rotx(np.broadcast_to(alpha, batch + (n,)))
+    if not modified:
+        for i in range(n):
+            fixed[..., i + 1, :, :] = zpart[..., i, :, :] @ xpart[..., i, :, :]
+    else:
+        fixed[..., 0, :, :] = xpart[..., 0, :, :]
+        for i in range(n):
+            after = xpart[..., i + 1, :, :] if i + 1 < n else np.eye(4)
+            fixed[..., i + 1, :, :] = zpart[..., i, :, :] @ after
+    if flange is not None:
+        flange = SerialChain._one_transform("flange", flange)
+        fixed[..., n, :, :] = fixed[..., n, :, :] @ flange
+    motion_offset = off_b * own  # prismatic joints carry θ in the fixed part
+    return SerialChain(fixed, np.tile([0.0, 0.0, 1.0], (n, 1)), kinds, offset=motion_offset, qlim=qlim,
+                       base=base, tool=tool, name=name, source=source)

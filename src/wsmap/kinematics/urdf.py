@@ -1,0 +1,318 @@
+"""Serial chains from URDF: the path of joints from a base link to an end link.
+
+:func:`from_urdf` reads a URDF (a file or its XML text) into a :class:`~.chain.SerialChain`:
+
+* the joints on the path from ``base_link`` (default: the root) to ``ee_link`` (default: the one
+  leaf, if the tree does not branch) become the chain; side branches (a gripper's fingers, a
+  ``base`` or ``tool0`` frame beside the path) are ignored;
+* fixed joints are folded into the neighbouring fixed transforms; revolute joints carry their
+  ``<limit>``; continuous joints are unlimited (``±inf``); prismatic joints carry their stroke;
+* a mimic, floating or planar joint on the path is refused (:class:`URDFError`, naming it), as
+  are: text that is not XML, a link that does not exist, no path from base to end, a loop (a link
+  with two parents, or a cycle), a NaN or infinite number in an origin, an axis or a limit,
+  limits with ``lower > upper``, and unexpanded xacro;
+* meshes are never loaded, so a URDF whose meshes are missing reads the same.
+
+The transforms come from yourdfpy's joint objects (origins with ``rpy``:
+``R = Rz(yaw) · Ry(pitch) · Rx(roll)``, the URDF convention). yourdfpy is lax about broken files
+(it recovers from malformed XML, accepts NaN origins and cycles, and fails on an undefined link
+with ``list.remove(x): x not in list``), so the XML is checked here first with ``xml.etree``.
+"""
+
+from __future__ import annotations
+
+import io
+import logging
+import math
+import os
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from .chain import PRISMATIC, REVOLUTE, SerialChain
+
+__all__ = ["URDFError", "from_urdf"]
+
+#: Joint types of the URDF specification.
+JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+_MOVABLE = {"revolute": REVOLUTE, "continuous": REVOLUTE, "prismatic": PRISMATIC}
+
+
+class URDFError(ValueError):
+    """A URDF that cannot be read as a serial chain; the message names what is wrong."""
+
+
+# ---------------------------------------------------------------------------------------- reading
+def _read(source) -> tuple[bytes, str, str | None]:
+    """``(data, label, path)``: the XML bytes, a label for messages, and the file path (or None)."""
+    if isinstance(source, bytes):
+        return source, "URDF text", None
+    if isinstance(source, str) and "<" in source:  # XML text (no file name has a "<")
+        return source.encode("utf-8"), "URDF text", None
+    if not isinstance(source, (str, os.PathLike)):
+        raise TypeError(f"URDF source must be a path or the URDF's XML text, got {type(source).__name__}")
+    path = os.fspath(source)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"no such URDF file: {path!r}")
+    with open(path, "rb") as f:
+        return f.read(), f"URDF file {path!r}", path
+
+
+def _local(tag) -> str:
+    return tag.rsplit("}", 1)[-1] if isinstance(tag, str) else ""
+
+
+def _parse_xml(data: bytes, label: str) -> ET.Element:
+    try:
+        root = ET.fromstring(data)
+    except ET.ParseError as exc:
+        raise URDFError(f"{label} is not XML: {exc}") from None
+    if _local(root.tag) != "robot":
+        raise URDFError(f"{label}: the root element is <{_local(root.tag)}>, not <robot>")
+    for el in root.iter():
+        if isinstance(el.tag, str) and el.tag.startswith("{") and "xacro" in el.tag.split("}")[0]:
+            raise URDFError(f"{label} contains xacro (<xacro:{_local(el.tag)}>): expand it to plain URDF first "
+                            "(e.g. with the xacro tool)")
+    return root
+
+
+def _numbers(label: str, what: str, text: str | None, default: str) -> np.ndarray:
+    text = default if text is None else text
+    try:
+        v = np.array([float(x) for x in text.split()], dtype=np.float64)
+    except ValueError:
+        raise URDFError(f"{label}: {what} is not three numbers: {text!r}") from None
+    if v.shape != (3,):
+        raise URDFError(f"{label}: {what} is not three numbers: {text!r}")
+    if not np.all(np.isfinite(v)):
+        raise URDFError(f"{label}: {what} contains NaN or infinity: {text!r}")
+    return v
+
+
+def _limit_value(label: str, jname: str, limit: ET.Element, key: str) -> float:
+    text = limit.get(key)
+    if text is None:
+        raise URDFError(f"{label}: joint {jname!r} has a <limit> without {key!r}")
+    try:
+        v = float(text)
+    except ValueError:
+        raise URDFError(f"{label}: joint {jname!r} has a non-numeric limit {key}={text!r}") from None
+    if math.isnan(v):
+        raise URDFError(f"{label}: joint {jname!r} has a NaN limit {key}={text!r}")
+    return v
+
+
+class _Tree:
+    """Links and joints of a URDF, checked: unique names, defined links, finite numbers, no loops."""
+
+    def __init__(self, root: ET.Element, label: str):
+        self.label = label
+        self.links: list[str] = []
+        for el in root.findall("link"):
+            name = el.get("name")
+            if not name:
+                raise URDFError(f"{label}: a <link> has no name")
+            if name in self.links:
+                raise URDFError(f"{label}: link {name!r} is defined twice")
+            self.links.append(name)
+        known = set(self.links)
+        self.joints: dict[str, ET.Element] = {}
+        self.parent_joint: dict[str, str] = {}  # child link -> joint
+        self.children: dict[str, list[str]] = {name: [] for name in self.links}  # link -> joints
+        for el in root.findall("joint"):
+            name = el.get("name")
+            if not name:
+                raise URDFError(f"{label}: a <joint> has no name")
+            if name in self.joints:
+                raise URDFError(f"{label}: joint {name!r} is defined twice")
+            jtype = el.get("type")
+            if jtype not in JOINT_TYPES:
+                raise URDFError(f"{label}: joint {name!r} has type {jtype!r}; URDF types are {', '.join(JOINT_TYPES)}")
+            ends = {}
+            for end in ("parent", "child"):
+                e = el.find(end)
+                link = None if e is None else e.get("link")
+                if not link:
+                    raise URDFError(f"{label}: joint {name!r} has no <{end} link=...>")
+                if link not in known:
+                    raise URDFError(f"{label}: joint {name!r} names an unknown {end} link {link!r}")
+                ends[end] = link
+            o = el.find("origin")
+            _numbers(label, f"joint {name!r} <origin xyz>", None if o is None else o.get("xyz"), "0 0 0")
+            _numbers(label, f"joint {name!r} <origin rpy>", None if o is None else o.get("rpy"), "0 0 0")
+            a = el.find("axis")
+            _numbers(label, f"joint {name!r} <axis xyz>", None if a is None else a.get("xyz"), "1 0 0")
+            child = ends["child"]
+            if child in self.parent_joint:
+                raise URDFError(f"{label}: link {child!r} has two parent joints, {self.parent_joint[child]!r} and "
+                                f"{name!r}: a loop (a URDF must be a tree)")
+            if ends["parent"] == child:
+                raise URDFError(f"{label}: joint {name!r} connects link {child!r} to itself: a loop")
+            self.joints[name] = el
+            self.parent_joint[child] = name
+            self.children[ends["parent"]].append(name)
+        # a cycle: following parents from some link never reaches a root
+        for start in self.links:
+            seen, link = [start], start
+            while link in self.parent_joint:
+                link = self._parent(link)
+                if link in seen:
+                    cycle = seen[seen.index(link):] + [link]
+                    raise URDFError(f"{label}: the joints form a loop: {' -> '.join(reversed(cycle))}")
+                seen.append(link)
+
+    def _parent(self, link: str) -> str:
+        return self.joints[self.parent_joint[link]].find("parent").get("link")
+
+    def _child(self, joint: str) -> str:
+        return self.joints[joint].find("child").get("link")
+
+    def check_link(self, link: str, role: str):
+        if link not in self.children:
+            raise URDFError(f"{self.label}: unknown {role} {link!r}; the links are: {', '.join(self.links)}")
+
+    def root(self) -> str:
+        roots = [link for link in self.links if link not in self.parent_joint]
+        if not roots:
+            raise URDFError(f"{self.label} has no links")
+        if len(roots) > 1:
+            raise URDFError(f"{self.label} is not one tree: it has several root links ({', '.join(roots)}); "
+                            "give base_link")
+        return roots[0]
+
+    def leaves_below(self, base: str) -> list[str]:
+        leaves, stack = [], [base]
+        while stack:
+            link = stack.pop()
+            kids = [self._child(j) for j in self.children[link]]
+            if not kids:
+                leaves.append(link)
+            stack.extend(reversed(kids))
+        return leaves
+
+    def path(self, base: str, ee: str) -> list[str]:
+        """Joint names from ``base`` down to ``ee``."""
+        joints, link = [], ee
+        while link != base:
+            if link not in self.parent_joint:
+                raise URDFError(f"{self.label}: no path from base link {base!r} to end link {ee!r} "
+                                f"({ee!r} is not below {base!r})")
+            joints.append(self.parent_joint[link])
+            link = self._parent(link)
+        return joints[::-1]
+
+
+# ---------------------------------------------------------------------------------------- the chain
+def _load_yourdfpy(data: bytes, path: str | None, label: str):
+    import yourdfpy
+
+    # yourdfpy logs (and recovers from) what it finds odd; the XML has been checked already
+    level = logging.getLogger("yourdfpy").level
+    logging.getLogger("yourdfpy").setLevel(logging.CRITICAL)
+    try:
+        return yourdfpy.URDF.load(io.BytesIO(data), build_scene_graph=False, build_collision_scene_graph=False,
+                                  load_meshes=False, load_collision_meshes=False,
+                                  mesh_dir=os.path.dirname(path) if path else "")
+    except Exception as exc:  # e.g. a non-numeric attribute off the chain, which yourdfpy parses too
+        raise URDFError(f"{label}: yourdfpy cannot read it: {type(exc).__name__}: {exc}") from exc
+    finally:
+        logging.getLogger("yourdfpy").setLevel(level)
+
+
+def from_urdf(source, ee_link: str | None = None, base_link: str | None = None,
+              name: str | None = None) -> SerialChain:
+    """The serial chain of a URDF from ``base_link`` to ``ee_link``.
+
+    Parameters
+    ----------
+    source : path or str
+        A URDF file, or the URDF's XML text (a string with a ``<`` in it).
+    ee_link : str, optional
+        The end link (e.g. the tool flange, ``tool0``). Default: the only leaf below ``base_link``;
+        if the tree branches there (a gripper's fingers), a :class:`URDFError` lists the leaves.
+    base_link : str, optional
+        The first link of the chain (default: the URDF's root link).
+    name : str, optional
+        The chain's name (default: the ``<robot name>``).
+
+    Returns
+    -------
+    SerialChain
+        ``fixed`` from the joint origins (fixed joints folded in), ``axes`` from ``<axis>`` (any
+        direction), ``qlim`` from ``<limit>`` (``±inf`` for continuous joints), ``links`` the link
+        names after each fixed transform (the child link of each movable joint, then ``ee_link``),
+        ``source`` the file path or ``"URDF text"``.
+    """
+    data, label, path = _read(source)
+    root = _parse_xml(data, label)
+    tree = _Tree(root, label)
+    if base_link is None:
+        base_link = tree.root()
+    else:
+        tree.check_link(base_link, "base_link")
+    if ee_link is None:
+        leaves = tree.leaves_below(base_link)
+        if len(leaves) != 1:
+            raise URDFError(f"{label}: the tree branches below {base_link!r}, so give ee_link; "
+                            f"the candidate end links are: {', '.join(leaves)}")
+        ee_link = leaves[0]
+    else:
+        tree.check_link(ee_link, "ee_link")
+    path_joints = tree.path(base_link, ee_link)
+
+    kinds, axes, limits, links = [], [], [], []
+    for jname in path_joints:
+        el = tree.joints[jname]
+        jtype = el.get("type")
+        mimic = el.find("mimic")
+        if mimic is not None:
+            raise URDFError(f"{label}: joint {jname!r} on the chain from {base_link!r} to {ee_link!r} is a mimic "
+                            f"joint (it follows {mimic.get('joint')!r}); a serial chain has independent joints")
+        if jtype in ("floating", "planar"):
+            raise URDFError(f"{label}: joint {jname!r} on the chain from {base_link!r} to {ee_link!r} is {jtype}; "
+                            "only revolute, continuous, prismatic and fixed joints are supported")
+        if jtype == "fixed":
+            continue
+        axis = _numbers(label, f"joint {jname!r} <axis xyz>",
+                        None if el.find("axis") is None else el.find("axis").get("xyz"), "1 0 0")
+        if np.linalg.norm(axis) < 1e-12:
+            raise URDFError(f"{label}: joint {jname!r} has a zero <axis>")
+        if jtype == "continuous":
+            lo, hi = -np.inf, np.inf
+        else:
+            limit = el.find("limit")
+            if limit is None:
+                raise URDFError(f"{label}: {jtype} joint {jname!r} has no <limit lower=... upper=...>")
+            lo = _limit_value(label, jname, limit, "lower")
+            hi = _limit_value(label, jname, limit, "upper")
+            if lo > hi:
+                raise URDFError(f"{label}: joint {jname!r} has lower limit {lo} above its upper limit {hi}")
+            if jtype == "prismatic" and not (np.isfinite(lo) and np.isfinite(hi)):
+                raise URDFError(f"{label}: prismatic joint {jname!r} needs finite limits, got [{lo}, {hi}]")
+        kinds.append(_MOVABLE[jtype])
+        axes.append(axis)
+        limits.append((lo, hi))
+        links.append(tree._child(jname))
+    if not kinds:
+        raise URDFError(f"{label}: no movable joint between {base_link!r} and {ee_link!r}")
+    links.append(ee_link)
+
+    # the transforms, from yourdfpy's joints
+    model = _load_yourdfpy(data, path, label)
+    fixed, T = [], np.eye(4)
+    for jname in path_joints:
+        joint = model.joint_map[jname]
+        origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=np.float64)
+        T = T @ origin
+        if joint.type != "fixed":
+            fixed.append(T)
+            T = np.eye(4)
+            axis = np.asarray(joint.axis, dtype=np.float64)
+            i = len(fixed) - 1
+            if not np.allclose(axis, axes[i]):  # pragma: no cover - yourdfpy and the XML disagree
+                raise URDFError(f"{label}: joint {jname!r}: yourdfpy reads axis {axis}, the XML says {axes[i]}")
+    fixed.append(T)
+    qlim = np.array(limits, dtype=np.float64)
+    return SerialChain(np.stack(fixed), np.array(axes), kinds, qlim=qlim,
+                       name=name if name is not None else root.get("name"),
+                       source=path if path is not None else "URDF text", links=links)
