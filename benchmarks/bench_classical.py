@@ -56,7 +56,7 @@ def _agreement(pred, exact):
 
 
 def _load_reference():
-    """The reference chunk solver kept in tests/test_lm_kernel.py (the code wsmap._lm replaced)."""
+    """The reference chunk solver kept in tests/test_lm_kernel.py (the code wsmap.kinematics.lm_kernel replaced)."""
     import importlib.util
 
     path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "test_lm_kernel.py")
@@ -87,7 +87,7 @@ def main(argv=None):
     ap.add_argument("--torch-threads", type=int, default=1,
                     help="torch intra-op threads (the kernel's sin/cos calls are below torch's grain size, so 1 is right)")
     ap.add_argument("--reference", action="store_true",
-                    help="also time the implementation that wsmap._lm replaced (kept in tests/test_lm_kernel.py)")
+                    help="also time the implementation that wsmap.kinematics.lm_kernel replaced (kept in tests/test_lm_kernel.py)")
     ap.add_argument("--json", metavar="PATH", help="also write the numbers to this JSON file")
     args = ap.parse_args(argv)
     if args.nodes_sample < 1 or args.repeats < 1:
@@ -138,7 +138,7 @@ def main(argv=None):
     rows.append({"method": "numerical map (batched LM, tol 1e-10)", "nodes": N, "seconds": t, "cpu_seconds": c,
                  "agreement": _agreement(num, exact)})
 
-    # 2b. the batched implementation before wsmap._lm, for comparison
+    # 2b. the batched implementation before wsmap.kinematics.lm_kernel, for comparison
     if args.reference:
         ref_chunk = _load_reference()
         dh = np.broadcast_to(puma.dh, (N, 6, 3))

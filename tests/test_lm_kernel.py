@@ -1,4 +1,4 @@
-"""The fast Levenberg–Marquardt kernel (wsmap._lm) against the reference implementation it replaced.
+"""The fast Levenberg–Marquardt kernel (wsmap.kinematics.lm_kernel) against the reference implementation it replaced.
 
 Run quickly with ``OMP_NUM_THREADS=1 .venv/bin/python -m pytest tests/test_lm_kernel.py -q``.
 """
@@ -16,7 +16,7 @@ from wsmap.kinematics.dh import _jacob0
 
 # --------------------------------------------------------------------------- the reference
 def _reference_lm_chunk(dh, T, q, tool, ilimit, rlimit, tol, lam0):
-    """The implementation of ``ikine_LM``'s chunk before wsmap._lm (commit 940f8f8), verbatim:
+    """The implementation of ``ikine_LM``'s chunk before wsmap.kinematics.lm_kernel (commit 940f8f8), verbatim:
     array of structures, ``np.linalg.solve`` per target, Jacobian for every trial."""
     m, n = q.shape
     d, a, alpha = dh[..., 0], dh[..., 1], dh[..., 2]

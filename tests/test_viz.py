@@ -1,4 +1,4 @@
-"""wsmap.plots: the figure, table and timing helpers of the section-6 notebooks."""
+"""wsmap.viz, wsmap.io and wsmap.timing: the figure, table and timing helpers of the notebooks."""
 
 import json
 import math

@@ -253,7 +253,7 @@ _GRID_KEYS = ("scope", "lo", "hi", "step", "shape")
 
 def grid_mismatch(spec, grid: dict) -> list[str]:
     """How a caller's grid (``scope``, ``lo``, ``hi``, ``step``, optionally ``shape``, as
-    :func:`wsmap.cli.compute_map` describes one) differs from the dataset spec's; empty when they
+    :func:`wsmap.workspace.grid_spec` describes one) differs from the dataset spec's; empty when they
     agree (1e-9 tolerance). A grid that is not such a dict raises ``ValueError``."""
     if not isinstance(grid, dict):
         raise ValueError(f"grid must be a dict with scope, lo, hi, step; got {type(grid).__name__}")

@@ -1,1 +1,10 @@
-"""The paper's reproduction: its dataset specs, published numbers, experiments and report."""
+"""The paper's reproduction, apart from the library: what regenerates the article's tables and figures.
+
+* :mod:`.specs` — the paper's datasets (:data:`PAPER_SPECS`) and their files;
+* :mod:`.published` — the paper's published numbers, in one place;
+* :mod:`.fitting` — train the paper's subspace models on a dataset and score them;
+* :mod:`.tables` — the experiments behind Tables 1–3;
+* :mod:`.runtime` — the run-time comparison (classical against the network);
+* :mod:`.report` — ``results/REPORT.md``, every reproduced number beside the paper's;
+* :mod:`.pipeline` — the papermill runner of the notebooks (``wsmap paper run``).
+"""

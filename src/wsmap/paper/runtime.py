@@ -236,7 +236,7 @@ def runtime_comparison(
 
 def metrics_from_table(df) -> dict[str, Any]:
     """The run-time table as nested metrics: ``{method: {"27": mean_s, ...}, method + "_std":
-    {...}}`` (the keys :mod:`wsmap.report` reads), plus ``speedup`` of the network over each
+    {...}}`` (the keys :mod:`wsmap.paper.report` reads), plus ``speedup`` of the network over each
     classical method per grid (classical mean / network mean)."""
     out: dict[str, Any] = {}
     for r in df.itertuples(index=False):

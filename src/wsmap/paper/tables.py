@@ -1,6 +1,6 @@
 """The grids of experiments behind the paper's Tables 1-3, as pandas DataFrames.
 
-Each table is a grid of :func:`wsmap.experiments.fit` runs scored by precision, recall and
+Each table is a grid of :func:`wsmap.paper.fitting.fit` runs scored by precision, recall and
 F-measure on independent test sets. The functions here run a grid and return tidy frames
 (one row per training session and test set) that :func:`summarize` condenses into the table
 (mean and standard deviation over sessions), with the paper's published numbers beside:
