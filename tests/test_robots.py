@@ -14,6 +14,7 @@ import re
 import numpy as np
 import pytest
 
+from frames import hom, inv, max_err_up_to_tool
 from wsmap import robots
 from wsmap.kinematics import DHRobot, SerialChain, from_dh, rotx, rotz
 from wsmap.kinematics.urdf import from_urdf
@@ -24,26 +25,6 @@ XACRO = os.path.join(os.path.dirname(rtbdata.__file__), "xacro")
 IIWA_URDF = os.path.join(XACRO, "kuka_description/kuka_lbr_iiwa/urdf/lbr_iiwa_14_r820.urdf")
 
 NAMES = ["puma560", "panda", "iiwa14", "ur5e", "ur10e", "gen3"]
-
-
-def inv(T):
-    out = np.eye(4)
-    out[:3, :3] = T[:3, :3].T
-    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
-    return out
-
-
-def hom(R=np.eye(3), p=(0, 0, 0)):
-    T = np.eye(4)
-    T[:3, :3], T[:3, 3] = R, p
-    return T
-
-
-def max_err_up_to_tool(ours, theirs, qs, B=np.eye(4)):
-    """Largest entry of ``ours(q) - B · theirs(q) · C`` over ``qs``, ``C`` estimated at q = 0."""
-    z = np.zeros(qs.shape[-1])
-    C = inv(B @ theirs(z)) @ ours(z)
-    return max(np.abs(ours(q) - B @ theirs(q) @ C).max() for q in qs), C
 
 
 @pytest.fixture(scope="module")

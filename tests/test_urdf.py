@@ -13,6 +13,7 @@ import re
 import numpy as np
 import pytest
 
+from frames import hom, inv, max_err_up_to_tool
 from wsmap import robots
 from wsmap.kinematics import rotx, roty, rotz
 from wsmap.kinematics.urdf import URDFError, from_urdf
@@ -44,30 +45,6 @@ def robot(*parts, name="r"):
 def two_link(**kw):
     """a -j1-> b -j2-> c, j2 configurable."""
     return robot(link("a"), link("b"), link("c"), joint("j1", "a", "b"), joint("j2", "b", "c", **kw))
-
-
-def inv(T):
-    out = np.eye(4)
-    out[:3, :3] = T[:3, :3].T
-    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
-    return out
-
-
-def hom(R=np.eye(3), p=(0, 0, 0)):
-    T = np.eye(4)
-    T[:3, :3], T[:3, 3] = R, p
-    return T
-
-
-def max_err_up_to_tool(ours, theirs, qs, B=np.eye(4)):
-    """Largest entry of ``ours(q) - B · theirs(q) · C`` with ``C`` fixed at ``q = 0``, and ``C``.
-
-    ``B`` (the relation of the two base frames) is given; ``C`` (tool) is estimated from q = 0, so
-    every other configuration is a check of joint zeros, signs, axes and lengths.
-    """
-    z = np.zeros(qs.shape[-1])
-    C = inv(B @ theirs(z)) @ ours(z)
-    return max(np.abs(ours(q) - B @ theirs(q) @ C).max() for q in qs), C
 
 
 # ------------------------------------------------------------------------------ transforms and limits

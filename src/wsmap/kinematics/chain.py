@@ -24,6 +24,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .arms import ArmBatch
 from .transforms import as_real_array, check_finite, check_rigid
 
 __all__ = ["SerialChain", "from_dh", "REVOLUTE", "PRISMATIC"]
@@ -78,7 +79,7 @@ def _motion(kind: str, axis: np.ndarray, x: np.ndarray) -> np.ndarray:
     return T
 
 
-class SerialChain:
+class SerialChain(ArmBatch):
     """A serial arm (or a batch of arms sharing joint types and axes) of revolute and prismatic joints.
 
     Parameters
@@ -176,15 +177,7 @@ class SerialChain:
             shapes.append(self.qlim.shape[:-2])
         return np.broadcast_shapes(*shapes)
 
-    def __len__(self):
-        if not self.batch_shape:
-            raise TypeError("a single arm has no length; batch_shape is ()")
-        return self.batch_shape[0]
-
-    def __getitem__(self, idx) -> "SerialChain":
-        """Select arms of a batch (numpy indexing on the batch dimensions)."""
-        if not self.batch_shape:
-            raise TypeError("a single arm cannot be indexed")
+    def _select(self, idx) -> "SerialChain":
         b = self.batch_shape
         fixed = np.broadcast_to(self.fixed, b + self.fixed.shape[-3:])[idx]
         offset = np.broadcast_to(self.offset, b + (self.n,))[idx]
@@ -211,13 +204,6 @@ class SerialChain:
                 f"qlim={'yes' if self.qlim is not None else 'no'})")
 
     # ---------------------------------------------------------------- kinematics
-    def _check_q(self, q):
-        q = as_real_array("joint coordinates", q)
-        if q.ndim == 0 or q.shape[-1] != self.n:
-            raise ValueError(f"joint coordinates must have a last dimension of {self.n}, got shape {q.shape}")
-        check_finite("joint coordinates", q)
-        return q
-
     def joint_frames(self, q) -> tuple[np.ndarray, np.ndarray]:
         """Frames of every joint (before its motion) and the flange, in the world frame.
 

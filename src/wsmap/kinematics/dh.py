@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .ik import IKResult, ikine_LM
+from .arms import ArmBatch
 from .transforms import as_real_array, check_finite, check_rigid
 
 __all__ = ["DHRobot", "arm_batch"]
@@ -21,7 +22,7 @@ __all__ = ["DHRobot", "arm_batch"]
 
 
 
-class DHRobot:
+class DHRobot(ArmBatch):
     """A serial arm (or a batch of arms) of revolute joints in standard DH form.
 
     Parameters
@@ -78,15 +79,7 @@ class DHRobot:
         """Leading dimensions of the DH arrays: ``()`` for one arm."""
         return self.d.shape[:-1]
 
-    def __len__(self):
-        if not self.batch_shape:
-            raise TypeError("a single arm has no length; batch_shape is ()")
-        return self.batch_shape[0]
-
-    def __getitem__(self, idx) -> "DHRobot":
-        """Select arms of a batch (numpy indexing on the batch dimensions)."""
-        if not self.batch_shape:
-            raise TypeError("a single arm cannot be indexed")
+    def _select(self, idx) -> "DHRobot":
         qlim = self.qlim
         if qlim is not None and qlim.ndim > 2:
             qlim = qlim[idx]
@@ -102,13 +95,6 @@ class DHRobot:
         return f"DHRobot({name}n={self.n}, batch_shape={self.batch_shape}, qlim={'yes' if self.qlim is not None else 'no'})"
 
     # ---------------------------------------------------------------- kinematics
-    def _check_q(self, q):
-        q = as_real_array("joint coordinates", q)
-        if q.ndim == 0 or q.shape[-1] != self.n:
-            raise ValueError(f"joint coordinates must have a last dimension of {self.n}, got shape {q.shape}")
-        check_finite("joint coordinates", q)
-        return q
-
     def link_frames(self, q) -> np.ndarray:
         """Frames of every link: ``(..., n + 1, 4, 4)``; index 0 is the base, n the flange (no tool)."""
         q = self._check_q(q)
