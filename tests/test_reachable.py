@@ -77,7 +77,8 @@ def test_maps_take_a_serial_chain():
     so3 = ws.orientation_map(chain, angles, (0.3, 0.2, 0.1), method="numerical", convention="standard")
     assert so3.shape == (2, 125)
     np.testing.assert_array_equal(so3, ws.orientation_map(arms, angles, (0.3, 0.2, 0.1), convention="standard"))
-    flat = ws.grid_map(chain[0], ws.grid_spec("R3", step=0.5), method="numerical", ik={"starts": 8, "seed": 3})
+    flat = ws.grid_map(chain[0], ws.grid_spec("R3", step=0.5), method="numerical",
+                       ik={"solver": "independent", "starts": 8, "seed": 3})
     np.testing.assert_array_equal(flat, ikine_search(chain[0], ws.target_poses(nodes, (0, 0, 0)), starts=8,
                                                      seed=3).success)
 
@@ -86,7 +87,8 @@ def test_map_ik_settings_reach_the_solver():
     arm = robots.puma560(joint_limits=True)
     nodes = ws.cartesian_grid(-1, 1, 0.25)
     T = ws.target_poses(nodes, (PI, 0, 0))
-    one = ws.constant_orientation_map(arm, nodes, (PI, 0, 0), method="numerical", ik={"starts": 1})
+    one = ws.constant_orientation_map(arm, nodes, (PI, 0, 0), method="numerical",
+                                      ik={"solver": "independent", "starts": 1})
     np.testing.assert_array_equal(one, ikine_search(arm, T, starts=1).success)
     more = ws.constant_orientation_map(arm, nodes, (PI, 0, 0), method="numerical")
     assert one.sum() < more.sum()
@@ -111,13 +113,13 @@ def test_paper_solver_is_the_papers_one_start_lm():
         ws.constant_orientation_map(puma, nodes, method="numerical", ik={"solver": "paper", "starts": 4})
     with pytest.raises(ValueError, match="the paper's solver \\(ikine_LM\\) is for DHRobot arms"):
         ws.constant_orientation_map(as_chain(puma), nodes, method="numerical", ik={"solver": "paper"})
-    with pytest.raises(ValueError, match="unknown solver 'magic'; choose one of search, paper"):
+    with pytest.raises(ValueError, match="unknown solver 'magic'; choose one of search, independent, paper"):
         ws.constant_orientation_map(puma, nodes, method="numerical", ik={"solver": "magic"})
 
 
 def test_exact_method_needs_the_closed_form_family():
     nodes = ws.cartesian_grid(-1, 1, 0.5)
-    with pytest.raises(ValueError, match="method 'exact' needs a DHRobot of the spherical-wrist family"):
+    with pytest.raises(ValueError, match="method 'exact' has no closed form for puma560"):
         ws.constant_orientation_map(as_chain(robots.puma560()), nodes, method="exact")
     with pytest.raises(TypeError, match="arms must be a DHRobot or a SerialChain"):
         ws.constant_orientation_map("puma560", nodes, method="numerical")

@@ -136,13 +136,14 @@ def test_bad_grids(args, exc, message):
 
 def test_bad_map_arguments(grid21):
     puma = robots.puma560()
-    with pytest.raises(ValueError, match="unknown method 'magic'; choose one of exact, numerical"):
+    with pytest.raises(ValueError, match="unknown method 'magic'; choose one of auto, exact, numerical"):
         ws.constant_orientation_map(puma, grid21, method="magic")
     with pytest.raises(ValueError, match="unknown convention 'zyx'"):
         ws.constant_orientation_map(puma, grid21, convention="zyx")
     with pytest.raises(ValueError, match=r"nodes must have shape \(N, 3\)"):
         ws.constant_orientation_map(puma, grid21[:, :2])
-    with pytest.raises(ValueError, match="spherical-wrist family"):
+    with pytest.raises(ValueError, match="method 'exact' has no closed form .* spherical-wrist DH family and the UR "
+                                         "family"):
         ws.constant_orientation_map(robots.sample_arbitrary_6dof(2, seed=0), grid21, method="exact")
     with pytest.raises(TypeError, match="arms must be a DHRobot"):
         ws.constant_orientation_map(np.zeros((3, 6)), grid21)

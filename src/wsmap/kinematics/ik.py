@@ -44,6 +44,7 @@ def ikine_LM(
     check_limits: bool = False,
     chunk: int = 65536,
     progress=None,
+    backend: str = "compiled",
 ) -> IKResult:
     """Levenberg–Marquardt inverse kinematics (the paper's Appendix), vectorised over targets.
 
@@ -73,7 +74,14 @@ def ikine_LM(
         Targets solved together; bounds memory.
     progress : callable, optional
         Called with the number of targets finished after each chunk (e.g. ``tqdm.update``).
+    backend : ``"compiled"`` (default; :mod:`.lm_compiled`, numba, one compiled loop per target on
+        every thread) or ``"numpy"`` (:mod:`.lm_kernel`, the reference). The same iteration; answers
+        agree up to the rounding of sin/cos.
     """
+    from .search import _check_backend, arm_arrays, as_chain, run_compiled
+    from .lm_compiled import MODE_PAPER
+
+    _check_backend(backend)
     T = check_rigid("target poses", T)
     for label, v in (("ilimit", ilimit), ("rlimit", rlimit)):
         if int(v) != v or v < 0:
@@ -88,14 +96,29 @@ def ikine_LM(
     shape = np.broadcast_shapes(T.shape[:-2], robot.batch_shape, q0.shape[:-1])
     count = int(np.prod(shape, dtype=np.int64))
     Tf = np.broadcast_to(T, shape + (4, 4)).reshape(-1, 4, 4)
-    dh = np.broadcast_to(robot.dh, shape + (n, 3)).reshape(-1, n, 3)
     qf = np.broadcast_to(q0, shape + (n,)).reshape(-1, n)
 
     q_out = np.empty((count, n))
     ok_out = np.zeros(count, dtype=bool)
     it_out = np.zeros(count, dtype=np.int64)
     res_out = np.empty(count)
-    for s in range(0, count, chunk):
+    if backend == "compiled":
+        batch = robot.batch_shape
+        aa = arm_arrays(as_chain(robot).replace(qlim=None))
+        arm_of = np.broadcast_to(np.arange(int(np.prod(batch, dtype=np.int64))).reshape(batch), shape).reshape(-1)
+        ones = np.ones(min(chunk, count), dtype=np.int64)
+        no_keys = np.zeros(min(chunk, count), dtype=np.uint64)
+        for s in range(0, count, chunk):
+            sl = slice(s, min(s + chunk, count))
+            m = sl.stop - sl.start
+            q_out[sl], ok_out[sl], it_out[sl], res_out[sl], _ = run_compiled(
+                MODE_PAPER, aa, arm_of[sl], Tf[sl], no_keys[:m], qf[sl][:, None, :], ones[:m], 0, 0, ilimit, rlimit,
+                tol, lam, 1.0)
+            if progress is not None:
+                progress(m)
+    else:
+        dh = np.broadcast_to(robot.dh, shape + (n, 3)).reshape(-1, n, 3)
+    for s in range(0, count if backend == "numpy" else 0, chunk):
         sl = slice(s, min(s + chunk, count))
         q_out[sl], ok_out[sl], it_out[sl], res_out[sl] = lm_kernel.lm_chunk(
             dh[sl], Tf[sl], qf[sl], robot.tool, ilimit, rlimit, tol, lam

@@ -59,7 +59,7 @@ from .chain import PRISMATIC, SerialChain, from_dh
 from .dh import DHRobot
 from .transforms import check_rigid
 
-__all__ = ["DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DEFAULT_STARTS", "FK_CONFIRM_TOL", "SearchResult", "as_chain",
+__all__ = ["BACKENDS", "MAP_SETTINGS", "map_search", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DEFAULT_STARTS", "FK_CONFIRM_TOL", "SearchResult", "as_chain",
            "ikine_search"]
 
 #: Starts per target of :func:`ikine_search`, the maps' numerical path and ``reachable``. Measured
@@ -619,6 +619,81 @@ def _runs(chain, arm, Rt, pt, qs, T, arm_index, settings, confirm_tol):
     return q_all, ok, its, res_c, q_c
 
 
+# --------------------------------------------------------------------------- the compiled backend
+BACKENDS = ("compiled", "numpy")
+
+
+def _check_backend(backend):
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
+
+
+def arm_arrays(chain: SerialChain) -> dict:
+    """The numbers of a chain (or a batch, flattened to ``B`` arms) as the compiled kernel reads them.
+
+    ``Rf`` (B, n+1, 3, 3) and ``tf`` (B, n+1, 3): the fixed transforms with the base folded into the
+    first and the tool into the last; ``off``, ``lo``, ``hi`` (B, n): offsets and limits (±inf where
+    unlimited); ``clo``, ``chi``, ``clipped`` (B, n): the bounds the LM projects onto (see
+    :class:`_Arm`); ``limited`` (B,): any joint clipped; ``unlimited`` (B, n): revolute without limits;
+    ``blo``, ``bhi`` (B, n): the box random starts are drawn in; shared ``axes`` (n, 3), ``pris``
+    and ``zax`` (n,) bool.
+    """
+    n = chain.n
+    batch = chain.batch_shape
+    B = int(np.prod(batch, dtype=np.int64))
+    F = np.array(np.broadcast_to(chain.fixed, batch + (n + 1, 4, 4)), dtype=np.float64).reshape(B, n + 1, 4, 4)
+    if chain.base is not None:
+        F[:, 0] = chain.base @ F[:, 0]
+    if chain.tool is not None:
+        F[:, n] = F[:, n] @ chain.tool
+    lim = np.broadcast_to(chain.limits, batch + (n, 2)).reshape(B, n, 2)
+    lo, hi = np.ascontiguousarray(lim[..., 0]), np.ascontiguousarray(lim[..., 1])
+    pris = np.array([k == PRISMATIC for k in chain.kinds])
+    with np.errstate(invalid="ignore"):
+        clipped = np.where(~pris, (hi - lo) < _TWO_PI, True) & (np.isfinite(lo) | np.isfinite(hi))
+    blo, bhi = _start_box(lim)
+    Rf = np.ascontiguousarray(F[:, :, :3, :3])
+    # 0: identity, 1: a rotation about x (R[0] = e0, R[:, 0] = e0), 2: any; exact comparisons, so
+    # the kernel's shortcuts drop only products with exact zeros and ones
+    e0 = np.array([1.0, 0.0, 0.0])
+    about_x = np.all(Rf[..., 0, :] == e0, axis=-1) & np.all(Rf[..., :, 0] == e0, axis=-1)
+    rkind = np.where(np.all(Rf == np.eye(3), axis=(-2, -1)), 0, np.where(about_x, 1, 2)).astype(np.int8)
+    return dict(
+        Rf=Rf, tf=np.ascontiguousarray(F[:, :, :3, 3]), rkind=rkind,
+        off=np.ascontiguousarray(np.broadcast_to(chain.offset, batch + (n,)).reshape(B, n), dtype=np.float64),
+        axes=np.ascontiguousarray(chain.axes, dtype=np.float64), pris=pris,
+        zax=np.array([a[0] == 0.0 and a[1] == 0.0 for a in chain.axes]),
+        lo=lo, hi=hi, clo=np.where(clipped, lo, -np.inf), chi=np.where(clipped, hi, np.inf), clipped=clipped,
+        limited=clipped.any(axis=1), unlimited=~pris & np.isinf(lo) & np.isinf(hi),
+        blo=np.ascontiguousarray(blo), bhi=np.ascontiguousarray(bhi),
+    )
+
+
+def run_compiled(mode, aa: dict, arm, T, keys, qexp, nexp, k_first, k_last, ilimit, rlimit, tol, lam, confirm_tol,
+                 gtol=0.0):
+    """Run :func:`wsmap.kinematics.lm_compiled.run_targets` on targets ``T`` (M, 4, 4) of arms
+    ``arm`` (M,) (indices into ``aa``, from :func:`arm_arrays`). Returns ``q`` (M, n), ``ok``,
+    ``iterations``, ``residual``, ``start`` (M,)."""
+    from . import lm_compiled
+
+    M, n = len(T), aa["axes"].shape[0]
+    q = np.full((M, n), np.nan)
+    ok = np.zeros(M, dtype=bool)
+    it = np.zeros(M, dtype=np.int64)
+    res = np.full(M, np.inf)
+    start = np.full(M, -1, dtype=np.int64)
+    if M:
+        Rt = np.ascontiguousarray(T[:, :3, :3], dtype=np.float64)
+        pt = np.ascontiguousarray(T[:, :3, 3], dtype=np.float64)
+        lm_compiled.run_targets(
+            mode, np.ascontiguousarray(arm, dtype=np.int64), Rt, pt, np.ascontiguousarray(keys, dtype=np.uint64),
+            np.ascontiguousarray(qexp, dtype=np.float64), np.ascontiguousarray(nexp, dtype=np.int64),
+            int(k_first), int(k_last), aa["Rf"], aa["tf"], aa["rkind"], aa["off"], aa["axes"], aa["pris"], aa["zax"], aa["lo"],
+            aa["hi"], aa["clo"], aa["chi"], aa["clipped"], aa["limited"], aa["unlimited"], aa["blo"], aa["bhi"],
+            int(ilimit), int(rlimit), float(tol), float(lam), float(gtol), float(confirm_tol), q, ok, it, res, start)
+    return q, ok, it, res, start
+
+
 # --------------------------------------------------------------------------- the solver
 def ikine_search(
     robot,
@@ -635,6 +710,7 @@ def ikine_search(
     confirm_tol: float = FK_CONFIRM_TOL,
     chunk: int = 16384,
     progress=None,
+    backend: str = "compiled",
 ) -> SearchResult:
     """Multi-start Levenberg–Marquardt reachability search with joint limits (see the module notes).
 
@@ -661,7 +737,11 @@ def ikine_search(
         Targets solved together (bounds memory; the result does not depend on it).
     progress : callable, optional
         Called with the number of targets finished after each chunk.
+    backend : ``"compiled"`` (default; :mod:`.lm_compiled`, numba, threads from
+        :func:`wsmap.kinematics.lm_compiled.set_threads`) or ``"numpy"`` (the reference kernel of
+        this module). Both run the same iterations; answers agree up to rounding.
     """
+    _check_backend(backend)
     chain = _limited(as_chain(robot), joint_limits)
     T = check_rigid("target poses", T)
     starts = _check_count("starts", starts, 1)
@@ -690,6 +770,20 @@ def ikine_search(
     res_out = np.full(count, np.inf)
     start_out = np.full(count, -1, dtype=np.int64)
     possible = _reach_filter(chain, np.broadcast_to(T, shape + (4, 4)), confirm_tol).reshape(-1)
+
+    if backend == "compiled":
+        aa = arm_arrays(chain)
+        for s0 in range(0, count, chunk):
+            todo = s0 + np.flatnonzero(possible[s0 : s0 + chunk])
+            keys = _pose_keys(seed, Tf[todo])
+            q, ok, it, res, st = run_compiled(0, aa, arm_of[todo], Tf[todo], keys, Q0[todo][:, None, :],
+                                              np.ones(todo.size, dtype=np.int64), 1, starts, ilimit, rlimit, tol,
+                                              lam, confirm_tol)
+            q_out[todo], ok_out[todo], it_out[todo], res_out[todo], start_out[todo] = q, ok, it, res, st
+            if progress is not None:
+                progress(min(s0 + chunk, count) - s0)
+        return SearchResult(q_out.reshape(shape + (n,)), ok_out.reshape(shape), it_out.reshape(shape),
+                            res_out.reshape(shape), start_out.reshape(shape))
 
     for s0 in range(0, count, chunk):
         todo = s0 + np.flatnonzero(possible[s0 : s0 + chunk])
@@ -742,3 +836,166 @@ def ikine_search(
             progress(min(s0 + chunk, count) - s0)
     return SearchResult(q_out.reshape(shape + (n,)), ok_out.reshape(shape), it_out.reshape(shape),
                         res_out.reshape(shape), start_out.reshape(shape))
+
+
+# --------------------------------------------------------------------------- maps: starts from neighbours
+#: Defaults of :func:`map_search` for the maps, measured with ``benchmarks/bench_fast_maps.py``
+#: (recall against the closed forms and a 64-start reference on the 21³ grid for PUMA560 with and
+#: without limits, UR5e, Panda, iiwa14, Gen3): start 0 only in the first pass (a neighbour's solution
+#: is a better start than a random one), two seeds per wave, four random retries next to solved
+#: nodes; per start 60 iterations and 10 rejections, and the stationary-point test at 1e-4, which
+#: cut the iterations spent on unreachable nodes by about half without a missed node.
+MAP_SETTINGS = dict(starts=0, seeds=2, retry=4, ilimit=60, rlimit=10, gtol=1e-4)
+
+
+def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], seeds: int = MAP_SETTINGS["seeds"],
+               retry: int = MAP_SETTINGS["retry"], seed=0, q0=None, tol: float = 1e-10,
+               ilimit: int = MAP_SETTINGS["ilimit"], rlimit: int = MAP_SETTINGS["rlimit"], lam: float = 0.1,
+               joint_limits: bool = True, confirm_tol: float = FK_CONFIRM_TOL, gtol: float = MAP_SETTINGS["gtol"],
+               progress=None) -> SearchResult:
+    """Reachability of a map's nodes, each start of :func:`ikine_search`'s iteration, with starts taken
+    from neighbouring nodes' solutions (continuation): the solution at a node is an excellent start
+    at the next one, and an unreachable node costs a few failed starts instead of dozens.
+
+    Parameters
+    ----------
+    robot : SerialChain or DHRobot, one arm or a batch of ``B`` arms (flattened)
+    T : (N, 4, 4) the nodes' target poses (base frame), shared by the arms
+    neighbours : (N, K) int, node indices of each node's neighbours, ``-1`` padding (e.g. from
+        :func:`wsmap.workspace.grids.node_neighbours`)
+    starts : random starts per node in the first pass, after start 0 (``q0``, default zeros)
+    seeds : neighbours' solutions tried per node and wave
+    retry : random starts per node for the nodes still unsolved when no wave solves any more and
+        next to a solved node, after which the waves run again from what they found
+    ilimit, rlimit, tol, lam, joint_limits, confirm_tol : per start, as :func:`ikine_search`
+    gtol : the stationary-point test (:mod:`.lm_compiled`): a start fails once the gradient
+        vanishes relative to ``|J|·|e|`` away from a solution; 0 turns it off
+    progress : called once with the number of targets when done
+
+    Per arm, in passes: (1) every node: ``q0`` then ``starts`` random starts (the first ones of
+    :func:`ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
+    neighbour whose solution it has not tried takes up to ``seeds`` of them, in neighbour order, as
+    starts, until a wave solves nothing new; (3) the nodes left take ``retry`` more random starts,
+    and (2) again. Every success is confirmed by forward kinematics inside the limits, so ``True``
+    is never wrong; recall is measured in ``benchmarks/bench_fast_maps.py``. Deterministic; does not
+    depend on the thread count.
+
+    Returns a :class:`SearchResult` of shape ``(B, N)`` (``(N,)`` for one arm); ``start`` is the
+    random start's index ``k`` (0 = ``q0``) that succeeded, ``-2`` where a neighbour's solution did,
+    ``-1`` where none did.
+    """
+    chain = _limited(as_chain(robot), joint_limits)
+    T = check_rigid("target poses", T)
+    if T.ndim != 3:
+        raise ValueError(f"target poses must have shape (N, 4, 4), got {T.shape}")
+    N = T.shape[0]
+    nb = np.asarray(neighbours)
+    if nb.ndim != 2 or nb.shape[0] != N or not np.issubdtype(nb.dtype, np.integer):
+        raise ValueError(f"neighbours must be an integer array of shape ({N}, K), got {nb.dtype} {nb.shape}")
+    if nb.size and (nb.min() < -1 or nb.max() >= N):
+        raise ValueError(f"neighbours must be node indices in [0, {N}) or -1 (none)")
+    starts = _check_count("starts", starts, 0)
+    seeds = _check_count("seeds", seeds, 0)
+    retry = _check_count("retry", retry, 0)
+    ilimit = _check_count("ilimit", ilimit, 0)
+    rlimit = _check_count("rlimit", rlimit, 0)
+    for label, v in (("tol", tol), ("lam", lam), ("confirm_tol", confirm_tol)):
+        if isinstance(v, bool) or not (np.isscalar(v) and np.isreal(v) and v > 0 and np.isfinite(v)):
+            raise ValueError(f"{label} must be positive and finite, got {v!r}")
+    if confirm_tol < tol:
+        raise ValueError(f"confirm_tol ({confirm_tol}) must be at least tol ({tol})")
+    seed = _check_seed(seed)
+    n = chain.n
+    q0 = np.zeros(n) if q0 is None else chain._check_q(q0)
+    if q0.shape != (n,):
+        raise ValueError(f"q0 must have shape ({n},) for a map, got {q0.shape}")
+    batch = chain.batch_shape
+    B = int(np.prod(batch, dtype=np.int64))
+    flat = chain if not batch else chain.replace(
+        fixed=np.broadcast_to(chain.fixed, batch + chain.fixed.shape[-3:]).reshape((B,) + chain.fixed.shape[-3:]),
+        offset=np.broadcast_to(chain.offset, batch + (n,)).reshape(B, n),
+        qlim=None if chain.qlim is None else np.broadcast_to(chain.qlim, batch + (n, 2)).reshape(B, n, 2))
+    M = B * N
+    arm_of = np.repeat(np.arange(B), N)
+    node_of = np.tile(np.arange(N), B)
+    Tb = T[None] if not batch else T[None, :]
+    possible = _reach_filter(flat if batch else chain, Tb if not batch else T[:, None], confirm_tol)
+    possible = (possible.T if batch else possible).reshape(-1)
+    keys_node = _pose_keys(seed, T)
+    aa = arm_arrays(flat)
+    settings = (ilimit, rlimit, tol, lam, confirm_tol, float(gtol))
+
+    q = np.full((M, n), np.nan)
+    ok = np.zeros(M, dtype=bool)
+    its = np.zeros(M, dtype=np.int64)
+    res = np.full(M, np.inf)
+    start = np.full(M, -1, dtype=np.int64)
+
+    def run(idx, qexp, nexp, k_first, k_last, seeded):
+        if not idx.size:
+            return 0
+        qq, okk, it, rr, st = run_compiled(0, aa, arm_of[idx], T[node_of[idx]], keys_node[node_of[idx]], qexp, nexp,
+                                           k_first, k_last, *settings)
+        its[idx] += it
+        better = okk | (~ok[idx] & (rr < res[idx]))
+        q[idx[better]] = qq[better]
+        res[idx[better]] = rr[better]
+        ok[idx] |= okk
+        if seeded:
+            start[idx[okk]] = -2
+        else:
+            # positions in the run's order (explicit q0 first) → random-start index k
+            start[idx[okk]] = np.where(st[okk] < nexp[okk], 0, st[okk] - nexp[okk] + k_first)
+        return int(okk.sum())
+
+    K = nb.shape[1]
+    tried = np.zeros((M, K), dtype=bool)
+
+    def waves():
+        # a wave: every unsolved node next to a node solved since the last wave tries up to
+        # ``seeds`` of those fresh solutions; it ends when a wave solves nothing
+        if not seeds or not K:
+            return
+        fresh = ok.copy()
+        while fresh.any():
+            cand = np.flatnonzero(~ok & possible)
+            if not cand.size:
+                return
+            nbn = nb[node_of[cand]]  # (C, K) node indices
+            nbt = arm_of[cand][:, None] * N + np.where(nbn >= 0, nbn, 0)
+            usable = (nbn >= 0) & fresh[nbt] & ~tried[cand]
+            pick = usable & (np.cumsum(usable, axis=1) <= seeds)
+            count = pick.sum(axis=1)
+            has = count > 0
+            if not has.any():
+                return
+            cand, pick, nbt, count = cand[has], pick[has], nbt[has], count[has]
+            tried[cand] |= pick
+            qexp = np.zeros((cand.size, seeds, n))
+            slot = np.cumsum(pick, axis=1) - 1
+            r, c = np.nonzero(pick)
+            qexp[r, slot[r, c]] = q[nbt[r, c]]
+            before = ok.copy()
+            run(cand, qexp, count, 0, 0, True)
+            fresh = ok & ~before
+
+    first = np.flatnonzero(possible)
+    run(first, np.broadcast_to(q0, (first.size, 1, n)), np.ones(first.size, dtype=np.int64), 1, 1 + starts, False)
+    waves()
+    if retry:
+        # only next to solved nodes: a reachable node that the waves missed borders solved ones (a
+        # pocket behind a joint limit, another branch), while nodes deep in an unreachable region
+        # would spend every retry in vain
+        left = ~ok & possible
+        if K:
+            nbt = arm_of[:, None] * N + np.where(nb[node_of] >= 0, nb[node_of], 0)
+            left &= ((nb[node_of] >= 0) & ok[nbt]).any(axis=1)
+        left = np.flatnonzero(left)
+        run(left, np.zeros((left.size, 1, n)), np.zeros(left.size, dtype=np.int64), 1 + starts, 1 + starts + retry,
+            False)
+        waves()
+    if progress is not None:
+        progress(M)
+    shape = (N,) if not batch else batch + (N,)
+    return SearchResult(q.reshape(shape + (n,)), ok.reshape(shape), its.reshape(shape), res.reshape(shape),
+                        start.reshape(shape))

@@ -19,26 +19,30 @@ from .grids import (
     grid_axes,
     grid_counts,
     map_to_volume,
+    node_neighbours,
     volume_to_map,
 )
 from .maps import (
     CONVENTIONS,
     DEFAULT_STARTS,
+    MAP_SETTINGS,
     METHODS,
     SCOPES,
     SOLVERS,
+    closed_form_family,
     constant_orientation_map,
     default_grid,
     grid_map,
     grid_spec,
     orientation_map,
     reachable,
+    resolve_method,
     target_poses,
 )
 
 __all__ = [
     "BLOCK_NODES", "CONVENTIONS", "CROP_3087", "DEFAULT_STARTS", "MAX_NODES", "METHODS", "MapFileError", "N_BLOCKS",
-    "SCOPES", "SOLVERS", "reachable",
+    "MAP_SETTINGS", "SCOPES", "SOLVERS", "closed_form_family", "node_neighbours", "reachable", "resolve_method",
     "angle_grid", "available_memory", "block_slice", "cartesian_grid", "constant_orientation_map", "default_grid",
     "grid_axes", "grid_counts", "grid_map", "grid_spec", "load_map", "map_to_volume", "orientation_map", "save_map",
     "target_poses", "volume_to_map",

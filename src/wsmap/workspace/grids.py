@@ -14,7 +14,7 @@ import numpy as np
 from ..kinematics.transforms import as_real_array
 
 __all__ = ["grid_counts", "grid_axes", "cartesian_grid", "angle_grid", "map_to_volume", "volume_to_map", "BLOCK_NODES",
-           "N_BLOCKS", "block_slice", "CROP_3087", "available_memory", "MAX_NODES"]
+           "N_BLOCKS", "block_slice", "CROP_3087", "available_memory", "MAX_NODES", "node_neighbours"]
 
 #: The paper's output blocks of the 21³ map: 7 consecutive blocks of 1323 nodes (3 z-layers each).
 BLOCK_NODES = 1323
@@ -140,3 +140,29 @@ def block_slice(block: int) -> slice:
         raise ValueError(f"block must be an integer in 0..{N_BLOCKS - 1}, got {block!r}")
     return slice(int(block) * BLOCK_NODES, (int(block) + 1) * BLOCK_NODES)
 
+
+
+def node_neighbours(nodes, k: int = 18, radius: float = 1.5) -> np.ndarray:
+    """Each node's neighbours: ``(N, k)`` int indices of the ``k`` nearest other nodes within
+    ``radius`` times the typical spacing, nearest first, ``-1`` where fewer.
+
+    The typical spacing is the median distance from a node to its nearest neighbour, so on a cubic
+    grid of step ``h`` the defaults give the 6 face neighbours (at ``h``) then the 12 edge neighbours
+    (at ``h·√2``). Works for any node set (positions in m, or angles in rad); used by the numerical
+    maps to start IK at a node from its neighbours' solutions.
+    """
+    from scipy.spatial import cKDTree
+
+    nodes = np.asarray(nodes, dtype=np.float64)
+    N = len(nodes)
+    if N < 2 or k < 1:
+        return np.full((N, max(k, 0)), -1, dtype=np.int64)
+    tree = cKDTree(nodes)
+    d1, _ = tree.query(nodes, k=2)
+    spacing = float(np.median(d1[:, 1]))
+    kk = min(k + 1, N)
+    d, idx = tree.query(nodes, k=kk, distance_upper_bound=radius * spacing * (1 + 1e-9) if spacing > 0 else np.inf)
+    idx = np.where(np.isinf(d), -1, idx)[:, 1:].astype(np.int64)
+    if idx.shape[1] < k:
+        idx = np.concatenate([idx, np.full((N, k - idx.shape[1]), -1, dtype=np.int64)], axis=1)
+    return idx

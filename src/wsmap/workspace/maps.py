@@ -29,18 +29,23 @@ from ..kinematics import (
     rpy2r,
     wrist_centre_reachable,
 )
-from ..kinematics.search import DEFAULT_STARTS, ikine_search
-from .grids import _check_fits, _triple, cartesian_grid, grid_axes
+from ..kinematics.search import DEFAULT_STARTS, MAP_SETTINGS, ikine_search, map_search
+from .grids import _check_fits, _triple, cartesian_grid, grid_axes, node_neighbours
 
-__all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "target_poses", "reachable",
-           "constant_orientation_map", "orientation_map", "grid_map"]
+__all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP_SETTINGS", "target_poses",
+           "reachable", "closed_form_family", "resolve_method", "constant_orientation_map", "orientation_map",
+           "grid_map"]
 
-METHODS = ("exact", "numerical")
-#: Numerical solvers (``ik={"solver": ...}``): ``"search"`` (default) is the multi-start search with
-#: joint limits inside it (:func:`wsmap.kinematics.search.ikine_search`); ``"paper"`` is the
-#: paper's one-start LM from q0 = 0 (:func:`wsmap.kinematics.ikine_LM`, DH arms, a converged
-#: solution outside the limits rejected afterwards), which the paper's pipeline uses.
-SOLVERS = ("search", "paper")
+#: ``"auto"`` is ``"exact"`` for an arm of a closed-form family, else ``"numerical"``.
+METHODS = ("auto", "exact", "numerical")
+#: Numerical solvers (``ik={"solver": ...}``): ``"search"`` (default) is the search with joint limits
+#: inside it, started at each node from its neighbours' solutions as well
+#: (:func:`wsmap.kinematics.search.map_search`, settings :data:`MAP_SETTINGS`); ``"independent"``
+#: solves every node on its own with :func:`wsmap.kinematics.search.ikine_search` (``starts``
+#: default :data:`DEFAULT_STARTS`); ``"paper"`` is the paper's one-start LM from q0 = 0
+#: (:func:`wsmap.kinematics.ikine_LM`, DH arms, a converged solution outside the limits rejected
+#: afterwards), which the paper's pipeline uses.
+SOLVERS = ("search", "independent", "paper")
 CONVENTIONS = ("paper", "standard")
 SCOPES = ("R3", "SO3")
 
@@ -119,14 +124,60 @@ def _numerical_settings(ik: dict) -> tuple[str, dict]:
         if starts != 1:
             raise ValueError(f"the paper's solver has one start (q0), got starts={starts!r}; use solver 'search'")
         ik.pop("seed", None)
+    elif solver == "search":
+        ik.pop("chunk", None)
+        ik = {**MAP_SETTINGS, **ik}
     return solver, ik
 
 
-def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress):
-    """Shared driver: positions (N, 3) or (1, 3), rpy (3,) or (N, 3); returns (arms..., N) bool."""
+def closed_form_family(robot) -> str | None:
+    """The closed-form family every arm of ``robot`` belongs to: ``"spherical_wrist"`` (the paper's
+    DH family, :func:`wsmap.kinematics.ikine_spherical_wrist`), ``"ur"`` (three parallel axes,
+    :func:`wsmap.kinematics.ikine_ur`), or ``None``."""
+    from ..kinematics import is_spherical_wrist, is_ur_type
+
+    if isinstance(robot, DHRobot) and bool(np.all(is_spherical_wrist(robot))):
+        return "spherical_wrist"
+    if isinstance(robot, (DHRobot, SerialChain)) and bool(np.all(is_ur_type(robot))):
+        return "ur"
+    return None
+
+
+def resolve_method(robot, method: str = "auto") -> str:
+    """``"exact"`` or ``"numerical"``: ``auto`` picks the closed form where the arm belongs to a
+    closed-form family (:func:`closed_form_family`), else numerical IK. ``exact`` for an arm of no
+    closed-form family is a ``ValueError`` that says so."""
+    _check_choice("method", method, METHODS)
+    family = closed_form_family(robot)
+    if method == "auto":
+        return "exact" if family else "numerical"
+    if method == "exact" and family is None:
+        raise ValueError(f"method 'exact' has no closed form for {getattr(robot, 'name', None) or 'this arm'} "
+                         "(closed forms: the spherical-wrist DH family and the UR family); use method 'numerical'")
+    return method
+
+
+def _exact(arms, T):
+    """Closed-form reachability of poses ``T`` (N, 4, 4) for arms (batch ``(B,)`` or one): (..., N)."""
+    from ..kinematics import ikine_ur
+
+    if closed_form_family(arms) == "ur":
+        Tn = T if arms.batch_shape == () else T[None]
+        ar = arms if arms.batch_shape == () else _per_node(arms)
+        return ikine_ur(ar, Tn)[1].any(axis=-1)
+    node_arms = _per_node(arms)
+    if arms.qlim is None:
+        # unlimited spherical wrist: every orientation is reachable at a reachable centre
+        return wrist_centre_reachable(node_arms, T[:, :3, 3])
+    return ikine_spherical_wrist(node_arms, T)[1].any(axis=-1)
+
+
+def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress, space):
+    """Shared driver: positions (N, 3) or (1, 3), rpy (3,) or (N, 3); ``space`` (N, 3) the nodes whose
+    neighbours start the numerical search; returns ((arms..., N) bool, the method used)."""
     if not isinstance(arms, (DHRobot, SerialChain)):
         raise TypeError(f"arms must be a DHRobot or a SerialChain, got {type(arms).__name__}")
-    _check_choice("method", method, METHODS)
+    method = resolve_method(arms, method)
     _check_choice("convention", convention, CONVENTIONS)
     T = target_poses(positions, rpy, convention)  # (N, 4, 4)
     N = T.shape[0]
@@ -134,27 +185,20 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress)
     B = int(np.prod(batch, dtype=np.int64))
     _check_fits(B * N, f"a map of {B} arms x {N} nodes")
     solver, settings = ("", {}) if method == "exact" else _numerical_settings(ik)
-    if method == "exact":
-        if not isinstance(arms, DHRobot):
-            raise ValueError("method 'exact' needs a DHRobot of the spherical-wrist family (closed form); "
-                             "use method 'numerical'")
-        require_spherical_wrist(arms)
     if solver == "paper" and not isinstance(arms, DHRobot):
         raise ValueError("the paper's solver (ikine_LM) is for DHRobot arms; use solver 'search'")
+    nb = node_neighbours(space) if solver == "search" else None
     flat = arms if batch == () else _flatten(arms)
     out = np.empty((max(B, 1), N), dtype=bool)
     per_chunk = max(1, chunk_elements // max(N, 1))
     for s in range(0, max(B, 1), per_chunk):
         sub = flat if batch == () else flat[s : s + per_chunk]
         if method == "exact":
-            node_arms = _per_node(sub)
-            if sub.qlim is None:
-                # unlimited spherical wrist: every orientation is reachable at a reachable centre
-                res = wrist_centre_reachable(node_arms, T[:, :3, 3])
-            else:
-                res = ikine_spherical_wrist(node_arms, T)[1].any(axis=-1)
+            res = _exact(sub, T)
         elif solver == "paper":
             res = ikine_LM(_per_node(sub), T, check_limits=sub.qlim is not None, **settings).success
+        elif solver == "search":
+            res = map_search(sub, T, nb, **settings).success  # (N,) or (arms, N)
         elif batch == ():
             res = ikine_search(sub, T, **settings).success  # (N,)
         else:
@@ -162,7 +206,7 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress)
         out[s : s + per_chunk] = np.broadcast_to(res, (out[s : s + per_chunk].shape[0], N))
         if progress is not None:
             progress(out[s : s + per_chunk].size)
-    return out.reshape(batch + (N,))
+    return out.reshape(batch + (N,)), method
 
 
 def _flatten(arms):
@@ -192,13 +236,14 @@ def constant_orientation_map(
     arms,
     nodes,
     rpy=(0.0, 0.0, 0.0),
-    method: str = "exact",
+    method: str = "auto",
     convention: str = "paper",
     *,
     ik: dict | None = None,
     chunk_elements: int = 1 << 21,
     progress=None,
-) -> np.ndarray:
+    return_method: bool = False,
+):
     """Constant-orientation workspace ("R3"): which positions are reachable at orientation ``rpy``.
 
     Parameters
@@ -206,34 +251,41 @@ def constant_orientation_map(
     arms : DHRobot or SerialChain, one arm or a batch (batch shape ``(...)``)
     nodes : (N, 3) positions in metres, e.g. from :func:`cartesian_grid`
     rpy : (3,) angles (r1, r2, r3) in radians, ``R = Rx(r1)·Ry(r2)·Rz(r3)``
-    method : ``"exact"`` (closed form; DHRobot of the spherical-wrist family only) or
-        ``"numerical"`` (any arm). ``ik`` passes the numerical settings: by default the multi-start
-        search of :func:`reachable` (``starts`` — default :data:`DEFAULT_STARTS` —, ``seed``, ``q0``,
-        ``tol``, ``ilimit``, ``rlimit``, ``joint_limits``, ``chunk``, ...); ``{"solver": "paper"}`` is
-        the paper's one-start LM from q0 = 0 (``ikine_LM``; DH arms; ``q0``, ``tol``, ``ilimit``,
-        ``rlimit``, ``lam``, ``chunk``), as the paper's pipeline runs it
+    method : ``"auto"`` (default: the closed form where the arms belong to a closed-form family,
+        :func:`closed_form_family`, else numerical), ``"exact"`` (closed form only) or
+        ``"numerical"`` (any arm). ``ik`` passes the numerical settings: by default the search
+        started from neighbouring nodes' solutions (:func:`wsmap.kinematics.search.map_search`;
+        ``starts``, ``retry``, ``seeds``, ``seed``, ``q0``, ``tol``, ``ilimit``, ``rlimit``, ``gtol``,
+        ``joint_limits``; defaults :data:`MAP_SETTINGS`); ``{"solver": "independent"}`` solves each
+        node alone with :func:`reachable`'s search (``starts`` default :data:`DEFAULT_STARTS`);
+        ``{"solver": "paper"}`` is the paper's one-start LM from q0 = 0 (``ikine_LM``; DH arms;
+        ``q0``, ``tol``, ``ilimit``, ``rlimit``, ``lam``, ``chunk``), as the paper's pipeline runs it
     convention : ``"paper"`` or ``"standard"`` (see the module docstring)
+    return_method : also return the method used (``"exact"`` or ``"numerical"``)
 
     Returns
     -------
-    bool array ``(..., N)`` in node order. Joint limits are honoured when the arms carry them.
+    bool array ``(..., N)`` in node order (and the method, with ``return_method``). Joint limits are
+    honoured when the arms carry them.
     """
     nodes = _check_nodes("nodes", nodes)
     rpy = _triple("rpy", rpy)
-    return _map(arms, nodes, rpy, convention, method, ik or {}, chunk_elements, progress)
+    out, used = _map(arms, nodes, rpy, convention, method, ik or {}, chunk_elements, progress, nodes)
+    return (out, used) if return_method else out
 
 
 def orientation_map(
     arms,
     angle_nodes,
     point=(0.5, 0.5, 0.5),
-    method: str = "exact",
+    method: str = "auto",
     convention: str = "paper",
     *,
     ik: dict | None = None,
     chunk_elements: int = 1 << 21,
     progress=None,
-) -> np.ndarray:
+    return_method: bool = False,
+):
     """Orientation workspace ("SO3"): which orientations are reachable at the point ``point`` (m).
 
     ``angle_nodes`` (N, 3) are angles (r1, r2, r3) in radians, e.g. from :func:`angle_grid`.
@@ -243,7 +295,9 @@ def orientation_map(
     """
     angle_nodes = _check_nodes("angle nodes", angle_nodes)
     point = _triple("point", point)
-    return _map(arms, point[None, :], angle_nodes, convention, method, ik or {}, chunk_elements, progress)
+    out, used = _map(arms, point[None, :], angle_nodes, convention, method, ik or {}, chunk_elements, progress,
+                     angle_nodes)
+    return (out, used) if return_method else out
 
 
 def default_grid(scope: str) -> tuple[float, float, float]:
@@ -265,13 +319,14 @@ def grid_spec(scope="R3", lo=None, hi=None, step=None) -> dict:
             "step": _triple("step", step).tolist(), "shape": [len(a) for a in axes]}
 
 
-def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), method="exact",
+def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), method="auto",
              convention="paper", model=None, allow_extrapolation: bool = False, ik=None,
-             progress: bool = False) -> np.ndarray:
+             progress: bool = False, return_method: bool = False):
     """One call from an arm to its map on a whole grid (from :func:`grid_spec`): bool ``(N,)`` in node order.
 
     ``grid["scope"]`` is ``"R3"`` (positions at orientation ``rpy``) or ``"SO3"`` (orientations at
-    ``point``). ``method`` is ``"exact"``, ``"numerical"`` (``ik`` passes the solver's settings) or
+    ``point``). ``method`` is ``"auto"`` (see :func:`resolve_method`), ``"exact"``, ``"numerical"``
+    (``ik`` passes the solver's settings) or
     ``"model"``: ``model`` is then a path to a model file saved with a ``map_spec``
     (:func:`wsmap.models.predict_maps_from_file`) whose grid, pose convention and fixed orientation
     (R3) or point (SO3) are the ones asked for and which covers every node of the grid; otherwise
@@ -291,11 +346,12 @@ def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), m
                                       allow_extrapolation=allow_extrapolation)
         if flat.shape != (len(nodes),):  # a model file disagreeing with its own spec
             raise ValueError(f"model {model} gave a map of shape {flat.shape}, the grid has {len(nodes)} nodes")
-        return flat
-    _check_choice("method", method, METHODS)
+        return (flat, "model") if return_method else flat
+    method = resolve_method(robot, method)
     ik = dict(ik or {})
     bar = None
-    if progress and method == "numerical":
+    if progress and method == "numerical" and ik.get("solver", "search") != "search":
+        # the per-node solvers report per chunk; the neighbour search runs the whole grid at once
         from tqdm.auto import tqdm
 
         bar = tqdm(total=len(nodes), unit="node", desc="numerical IK", file=sys.stderr)
@@ -303,8 +359,10 @@ def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), m
         ik["progress"] = bar.update
     try:
         if scope == "R3":
-            return constant_orientation_map(robot, nodes, rpy, method=method, convention=convention, ik=ik)
-        return orientation_map(robot, nodes, point, method=method, convention=convention, ik=ik)
+            return constant_orientation_map(robot, nodes, rpy, method=method, convention=convention, ik=ik,
+                                            return_method=return_method)
+        return orientation_map(robot, nodes, point, method=method, convention=convention, ik=ik,
+                               return_method=return_method)
     finally:
         if bar is not None:
             bar.close()

@@ -1,0 +1,589 @@
+"""Compiled (numba) Levenberg–Marquardt kernel: the paper's LM and the multi-start reachability search.
+
+One compiled loop per target, the targets spread over threads. It runs the same iterations as the
+numpy kernels it replaces as the default (:mod:`.search` for :func:`~wsmap.kinematics.ikine_search`,
+:mod:`.lm_kernel` for :func:`~wsmap.kinematics.ikine_LM`), which stay as the references that the
+tests compare it with: the same arithmetic in the same order per target, so answers agree up to
+the rounding of ``sin``/``cos`` (libm here, SIMD or SLEEF there), which can, rarely, send an
+iteration down another path near a branch point.
+
+Why a compiled loop: a numpy kernel pays a Python-level dispatch for every small operation on a row
+of targets, and the rows thin out as targets finish; per target, a compiled loop does an iteration
+of a 6-joint arm (forward kinematics, pose error, Jacobian, 6 x 6 normal equations) in well under
+a microsecond, with no active-set bookkeeping and early exits that cost nothing.
+
+Layout: every arm of a batch is described by arrays with a leading arm axis ``B`` (fixed rotations
+``Rf`` (B, n+1, 3, 3) and translations ``tf`` (B, n+1, 3) with the base folded into the first and
+the tool into the last, joint offsets and limits (B, n)); each target ``i`` names its arm ``arm[i]``.
+Shared by the batch: joint axes (n, 3) in the joint frames, which joints are prismatic, which axes
+are ``z``.
+
+Threads: :func:`set_threads` (default: ``WSMAP_THREADS`` or every core numba sees). Targets go to
+threads in chunks of :data:`TARGETS_PER_TASK` handed out dynamically, so the slow unreachable ones do
+not pile up on one thread. Results never depend on the thread count (each target is independent).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+__all__ = ["MODE_SEARCH", "MODE_PAPER", "TARGETS_PER_TASK", "set_threads", "threads", "run_targets"]
+
+MODE_SEARCH = 0  # rotation-vector error, limits inside the iteration, FK confirmation, multi-start
+MODE_PAPER = 1  # Corke's tr2delta error, no limits in the iteration, one start (the paper's)
+
+#: Targets per task handed to a thread (small: unreachable targets cost 100x reachable ones).
+TARGETS_PER_TASK = 8
+
+_TWO_PI = 2.0 * np.pi
+_EPS = float(np.finfo(np.float64).eps)
+_TINY = 5e-324  # np.spacing(0.0)
+
+# termination codes of one LM run
+_SUCCESS, _REJECTIONS, _ILIMIT, _STAGNATED, _AT_START, _STATIONARY = 1, 2, 3, 4, 5, 6
+
+
+def set_threads(count: int | None = None) -> int:
+    """Threads the kernel uses from now on: ``count``, else ``WSMAP_THREADS``, else every core numba
+    sees (``NUMBA_NUM_THREADS``). Returns the number set."""
+    if count is None:
+        env = os.environ.get("WSMAP_THREADS")
+        count = int(env) if env else numba.config.NUMBA_NUM_THREADS
+    count = max(1, min(int(count), numba.config.NUMBA_NUM_THREADS))
+    numba.set_num_threads(count)
+    return count
+
+
+def threads() -> int:
+    """Threads the kernel currently uses."""
+    return numba.get_num_threads()
+
+
+# --------------------------------------------------------------------------- kinematics of one target
+@njit(cache=True, error_model="numpy")
+def _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33):
+    """Tool rotation ``R`` (3, 3), position ``p`` (3,), world joint axes ``w`` (n, 3) and joint
+    origins ``o`` (n, 3) of arm ``b`` at ``q`` (n,); sums in the numpy kernel's order.
+    ``rkind`` (B, n+1): each fixed rotation is 0 the identity, 1 an ``Rx(α)``, 2 any."""
+    n = q.shape[0]
+    for r in range(3):
+        for c in range(3):
+            R[r, c] = Rf[b, 0, r, c]
+        p[r] = tf[b, 0, r]
+    for i in range(n):
+        x = q[i] + off[b, i]
+        a0, a1, a2 = axes[i, 0], axes[i, 1], axes[i, 2]
+        for r in range(3):
+            o[i, r] = p[r]
+            if zax[i]:
+                w[i, r] = R[r, 2] * a2
+            else:
+                w[i, r] = R[r, 0] * a0 + R[r, 1] * a1 + R[r, 2] * a2
+        if pris[i]:
+            for r in range(3):
+                p[r] = p[r] + w[i, r] * x
+        elif zax[i]:
+            ci = math.cos(x)
+            si = math.sin(x) * a2
+            for r in range(3):
+                r0 = R[r, 0] * ci + R[r, 1] * si
+                r1 = R[r, 1] * ci - R[r, 0] * si
+                R[r, 0] = r0
+                R[r, 1] = r1
+        else:
+            # Rodrigues: Rot = I + s K + (1 - c) K², K the cross-product matrix of the axis
+            c = math.cos(x)
+            s = math.sin(x)
+            K = ((0.0, -a2, a1), (a2, 0.0, -a0), (-a1, a0, 0.0))
+            for r in range(3):
+                for m in range(3):
+                    k2 = K[r][0] * K[0][m] + K[r][1] * K[1][m] + K[r][2] * K[2][m]
+                    T33[r, m] = (1.0 if r == m else 0.0) + K[r][m] * s + k2 * (1.0 - c)
+            for r in range(3):
+                v0 = R[r, 0] * T33[0, 0] + R[r, 1] * T33[1, 0] + R[r, 2] * T33[2, 0]
+                v1 = R[r, 0] * T33[0, 1] + R[r, 1] * T33[1, 1] + R[r, 2] * T33[2, 1]
+                v2 = R[r, 0] * T33[0, 2] + R[r, 1] * T33[1, 2] + R[r, 2] * T33[2, 2]
+                R[r, 0] = v0
+                R[r, 1] = v1
+                R[r, 2] = v2
+        t0, t1, t2 = tf[b, i + 1, 0], tf[b, i + 1, 1], tf[b, i + 1, 2]
+        for r in range(3):
+            p[r] = p[r] + (R[r, 0] * t0 + R[r, 1] * t1 + R[r, 2] * t2)
+        kind = rkind[b, i + 1]
+        if kind == 1:
+            # Rx(α) (every DH link): the products with its zeros and ones dropped, same values
+            c1, s1, c2, s2 = Rf[b, i + 1, 1, 1], Rf[b, i + 1, 2, 1], Rf[b, i + 1, 1, 2], Rf[b, i + 1, 2, 2]
+            for r in range(3):
+                v1 = R[r, 1] * c1 + R[r, 2] * s1
+                v2 = R[r, 1] * c2 + R[r, 2] * s2
+                R[r, 1] = v1
+                R[r, 2] = v2
+        elif kind == 2:
+            for r in range(3):
+                v0 = R[r, 0] * Rf[b, i + 1, 0, 0] + R[r, 1] * Rf[b, i + 1, 1, 0] + R[r, 2] * Rf[b, i + 1, 2, 0]
+                v1 = R[r, 0] * Rf[b, i + 1, 0, 1] + R[r, 1] * Rf[b, i + 1, 1, 1] + R[r, 2] * Rf[b, i + 1, 2, 1]
+                v2 = R[r, 0] * Rf[b, i + 1, 0, 2] + R[r, 1] * Rf[b, i + 1, 1, 2] + R[r, 2] * Rf[b, i + 1, 2, 2]
+                R[r, 0] = v0
+                R[r, 1] = v1
+                R[r, 2] = v2
+
+
+@njit(cache=True, error_model="numpy")
+def _pose_error(R, p, Rt, pt, e, rotvec):
+    """``e`` (6,) ← ``[pt − p; v]`` and returns |e|. ``v`` is ``½ Σ_k R_k × Rt_k = sin θ·a``
+    (Corke's ``tr2delta``, the paper's) or, with ``rotvec``, the rotation vector ``θ·a`` of
+    ``Rt·Rᵀ`` (see :func:`wsmap.kinematics.search._pose_error` for why)."""
+    for r in range(3):
+        e[r] = pt[r] - p[r]
+    for r in range(3):
+        a = (r + 1) % 3
+        bb = (r + 2) % 3
+        acc = R[a, 0] * Rt[bb, 0] - R[bb, 0] * Rt[a, 0]
+        acc = acc + (R[a, 1] * Rt[bb, 1] - R[bb, 1] * Rt[a, 1])
+        acc = acc + (R[a, 2] * Rt[bb, 2] - R[bb, 2] * Rt[a, 2])
+        e[3 + r] = 0.5 * acc
+    if rotvec:
+        tr = R[0, 0] * Rt[0, 0]
+        for a in range(3):
+            for bb in range(3):
+                if a or bb:
+                    tr = tr + R[a, bb] * Rt[a, bb]
+        sn = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
+        cs = 0.5 * (tr - 1.0)
+        theta = math.atan2(sn, cs)
+        if sn > 1e-9:
+            scale = theta / sn
+            for r in range(3):
+                e[3 + r] *= scale
+        elif cs < 0.0:
+            # a half turn: a·aᵀ = (Rt·Rᵀ + I) / 2; the axis from its largest diagonal entry's column
+            jmax = 0
+            best = -np.inf
+            for j in range(3):
+                d = 0.5 * (Rt[j, 0] * R[j, 0] + Rt[j, 1] * R[j, 1] + Rt[j, 2] * R[j, 2] + 1.0)
+                if d > best:
+                    best = d
+                    jmax = j
+            den = math.sqrt(max(best, 1e-300))
+            for i in range(3):
+                s_ij = 0.5 * (Rt[i, 0] * R[jmax, 0] + Rt[i, 1] * R[jmax, 1] + Rt[i, 2] * R[jmax, 2]
+                              + (1.0 if i == jmax else 0.0))
+                e[3 + i] = s_ij / den * theta
+    sq = e[0] * e[0]
+    for r in range(1, 6):
+        sq = sq + e[r] * e[r]
+    return math.sqrt(sq)
+
+
+@njit(cache=True, error_model="numpy")
+def _normal_equations(p, w, o, pris, e, J, A, g):
+    """Geometric Jacobian ``J`` (6, n), then ``A = JᵀJ`` (n, n) and ``g = Jᵀe`` (n,)."""
+    n = w.shape[0]
+    for j in range(n):
+        if pris[j]:
+            for r in range(3):
+                J[r, j] = w[j, r]
+                J[3 + r, j] = 0.0
+        else:
+            d0, d1, d2 = p[0] - o[j, 0], p[1] - o[j, 1], p[2] - o[j, 2]
+            J[0, j] = w[j, 1] * d2 - w[j, 2] * d1
+            J[1, j] = w[j, 2] * d0 - w[j, 0] * d2
+            J[2, j] = w[j, 0] * d1 - w[j, 1] * d0
+            for r in range(3):
+                J[3 + r, j] = w[j, r]
+    for j in range(n):
+        for m in range(j, n):  # symmetric: the upper triangle, mirrored
+            s = J[0, j] * J[0, m]
+            for r in range(1, 6):
+                s = s + J[r, j] * J[r, m]
+            A[j, m] = s
+            A[m, j] = s
+        s = J[0, j] * e[0]
+        for r in range(1, 6):
+            s = s + J[r, j] * e[r]
+        g[j] = s
+
+
+@njit(cache=True, error_model="numpy")
+def _solve(A, g, l2, held, any_held, H, x):
+    """``x`` ← ``(A + λ² I)⁻¹ g`` by Gaussian elimination without pivoting (symmetric positive
+    definite); held joints get the identity's row and column and a zero step."""
+    n = g.shape[0]
+    for i in range(n):
+        for k in range(n):
+            H[i, k] = A[i, k]
+        H[i, n] = g[i]
+        H[i, i] = H[i, i] + l2
+    if any_held:
+        for i in range(n):
+            for k in range(n):
+                if held[i] or held[k]:
+                    H[i, k] = 0.0
+            if held[i]:
+                H[i, i] = 1.0
+                H[i, n] = 0.0
+    for j in range(n):
+        piv = H[j, j]
+        for k in range(j + 1, n + 1):
+            H[j, k] = H[j, k] / piv
+        for i in range(j + 1, n):
+            hij = H[i, j]
+            for k in range(j + 1, n + 1):
+                H[i, k] = H[i, k] - hij * H[j, k]
+    for i in range(n):
+        x[i] = H[i, n]
+    for j in range(n - 1, 0, -1):
+        xj = x[j]
+        for i in range(j):
+            x[i] = x[i] - H[i, j] * xj
+
+
+@njit(cache=True, error_model="numpy")
+def _project1(qj, lo, hi, revolute):
+    """One joint projected onto ``[lo, hi]``: a revolute joint outside moved by a multiple of 2·pi
+    to the equivalent closest to the range, then clipped; a prismatic joint clipped."""
+    if qj >= lo and qj <= hi:
+        return qj
+    if not revolute:
+        return min(max(qj, lo), hi)
+    if math.isfinite(lo):
+        s = lo + np.mod(qj - lo, _TWO_PI)
+    else:
+        s = hi - np.mod(hi - qj, _TWO_PI)
+    if s > hi:
+        s = hi if s - hi <= lo + _TWO_PI - s else lo
+    return s
+
+
+@njit(cache=True, error_model="numpy")
+def _spacing(x):
+    """``np.spacing(|x|)``: the gap to the next float above ``|x|``."""
+    ax = abs(x)
+    if ax == 0.0:
+        return _TINY
+    m, ex = math.frexp(ax)
+    return max(math.ldexp(1.0, ex - 53), _TINY)
+
+
+@njit(cache=True, error_model="numpy")
+def _stationary(A, g, na, gtol):
+    """``|g| <= gtol·sqrt(tr A)·|e|``: the gradient ``g = Jᵀe`` vanishes relative to ``|J|_F·|e|``."""
+    n = g.shape[0]
+    g2 = 0.0
+    tr = 0.0
+    for j in range(n):
+        g2 += g[j] * g[j]
+        tr += A[j, j]
+    return math.sqrt(g2) <= gtol * math.sqrt(tr) * na
+
+
+# --------------------------------------------------------------------------- one LM run
+@njit(cache=True, error_model="numpy")
+def _lm(q, b, Rt, pt, limited, rotvec, ilimit, rlimit, tol, lam0, gtol, kin, sc):
+    """LM from ``q`` (n,), updated in place, towards ``(Rt, pt)``; inside the LM bounds if ``limited``.
+
+    ``gtol`` > 0: fail at a stationary point, an accepted step after which
+    ``|Jᵀe| <= gtol·|J|_F·|e|`` with ``|e| > tol`` (a local minimum of the error that is not a
+    solution; 0 turns the test off, as the paper's iteration has it).
+    ``kin``: the arm arrays ``(Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped)``; ``sc``: scratch
+    (tuples: a call with over 30 arguments compiles to a bytecode numba does not take).
+
+    ``out`` (3,) float ← iterations, consecutive rejections at the end, final |e|. Returns
+    ``(code, touched)``: the termination code and whether the limits changed a trial step.
+    """
+    Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped = kin
+    R, p, w, o, Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out = sc
+    n = q.shape[0]
+    touched = False
+    if limited:
+        for j in range(n):
+            v = _project1(q[j], clo[b, j], chi[b, j], not pris[j])
+            if v != q[j]:
+                touched = True
+            q[j] = v
+    _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33)
+    na = _pose_error(R, p, Rt, pt, e, rotvec)
+    _normal_equations(p, w, o, pris, e, J, A, g)
+    lam = lam0
+    rej = 0
+    it = 0
+    code = 0
+    if na <= tol:
+        code = _AT_START
+    elif ilimit == 0:
+        code = _ILIMIT
+    while code == 0:
+        any_held = False
+        if limited:
+            for j in range(n):
+                hj = clipped[b, j] and ((q[j] <= clo[b, j] and g[j] < 0.0) or (q[j] >= chi[b, j] and g[j] > 0.0))
+                held[j] = hj
+                any_held = any_held or hj
+            if any_held:
+                touched = True
+        _solve(A, g, lam * lam, held, any_held, H, dq)
+        for j in range(n):
+            qt[j] = q[j] + dq[j]
+        if limited:
+            for j in range(n):
+                v = _project1(qt[j], clo[b, j], chi[b, j], not pris[j])
+                if v != qt[j]:
+                    touched = True
+                qt[j] = v
+        _fk(qt, b, Rf, tf, rkind, off, axes, pris, zax, Rn, pn, wn, on, T33)
+        nn = _pose_error(Rn, pn, Rt, pt, en, rotvec)
+        better = nn < na
+        it += 1
+        if better:
+            for j in range(n):
+                q[j] = qt[j]
+            for r in range(6):
+                e[r] = en[r]
+            na = nn
+            _normal_equations(pn, wn, on, pris, e, J, A, g)
+            lam = lam * 0.5
+            rej = 0
+        else:
+            lam = lam * 2.0
+            rej += 1
+        if better and na <= tol:
+            code = _SUCCESS
+        elif better and gtol > 0.0 and _stationary(A, g, na, gtol):
+            code = _STATIONARY
+        elif rej > rlimit:
+            code = _REJECTIONS
+        elif it >= ilimit:
+            code = _ILIMIT
+        elif rej > 0:
+            # exact stagnation (lm_kernel._Kernel.stagnated): no later trial can move q by a bit
+            mu = lam * lam
+            g2 = g[0] * g[0]
+            trace = A[0, 0]
+            for j in range(1, n):
+                g2 = g2 + g[j] * g[j]
+                trace = trace + A[j, j]
+            slack = (trace / mu + 64.0 * n * _EPS) * math.sqrt(g2)
+            stuck = True
+            for j in range(n):
+                if not ((abs(g[j]) + slack) / mu <= 0.125 * _spacing(q[j])):
+                    stuck = False
+                    break
+            if stuck:
+                code = _STAGNATED
+    out[0] = it
+    out[1] = rej
+    out[2] = na
+    return code, touched
+
+
+# --------------------------------------------------------------------------- confirmation
+@njit(cache=True, error_model="numpy")
+def _confirm(q, b, Rt, pt, atol, Rf, tf, off, axes, pris, lo, hi, M4, N4, P4):
+    """Forward kinematics by 4 x 4 homogeneous products (another code path than :func:`_fk`) puts
+    the tool within ``atol`` of the target (m; rotation angle, rad), and ``q`` is inside the limits."""
+    n = q.shape[0]
+    for j in range(n):
+        if q[j] < lo[b, j] - 1e-9 or q[j] > hi[b, j] + 1e-9:
+            return False
+    for r in range(4):
+        for c in range(4):
+            M4[r, c] = 0.0
+    for r in range(3):
+        for c in range(3):
+            M4[r, c] = Rf[b, 0, r, c]
+        M4[r, 3] = tf[b, 0, r]
+    M4[3, 3] = 1.0
+    for i in range(n):
+        # the joint's motion as a 4 x 4
+        x = q[i] + off[b, i]
+        for r in range(4):
+            for c in range(4):
+                N4[r, c] = 1.0 if r == c else 0.0
+        if pris[i]:
+            for r in range(3):
+                N4[r, 3] = axes[i, r] * x
+        else:
+            c0 = math.cos(x)
+            s0 = math.sin(x)
+            u = (axes[i, 0], axes[i, 1], axes[i, 2])
+            for r in range(3):
+                for c in range(3):
+                    N4[r, c] = c0 * (1.0 if r == c else 0.0) + (1.0 - c0) * u[r] * u[c]
+            N4[0, 1] -= s0 * u[2]
+            N4[1, 0] += s0 * u[2]
+            N4[0, 2] += s0 * u[1]
+            N4[2, 0] -= s0 * u[1]
+            N4[1, 2] -= s0 * u[0]
+            N4[2, 1] += s0 * u[0]
+        for r in range(4):
+            for c in range(4):
+                P4[r, c] = M4[r, 0] * N4[0, c] + M4[r, 1] * N4[1, c] + M4[r, 2] * N4[2, c] + M4[r, 3] * N4[3, c]
+        # then the fixed transform after the joint
+        for r in range(3):
+            for c in range(3):
+                N4[r, c] = Rf[b, i + 1, r, c]
+            N4[r, 3] = tf[b, i + 1, r]
+        for c in range(4):
+            N4[3, c] = 1.0 if c == 3 else 0.0
+        for r in range(4):
+            for c in range(4):
+                M4[r, c] = P4[r, 0] * N4[0, c] + P4[r, 1] * N4[1, c] + P4[r, 2] * N4[2, c] + P4[r, 3] * N4[3, c]
+    dp = math.sqrt((M4[0, 3] - pt[0]) ** 2 + (M4[1, 3] - pt[1]) ** 2 + (M4[2, 3] - pt[2]) ** 2)
+    v0 = v1 = v2 = 0.0
+    cs = 0.0
+    for k in range(3):
+        v0 += M4[1, k] * Rt[2, k] - M4[2, k] * Rt[1, k]
+        v1 += M4[2, k] * Rt[0, k] - M4[0, k] * Rt[2, k]
+        v2 += M4[0, k] * Rt[1, k] - M4[1, k] * Rt[0, k]
+        for r in range(3):
+            cs += M4[r, k] * Rt[r, k]
+    ang = math.atan2(0.5 * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2), 0.5 * (cs - 1.0))
+    return dp <= atol and ang <= atol
+
+
+# --------------------------------------------------------------------------- random starts
+@njit(cache=True, error_model="numpy")
+def _mix(z):
+    """splitmix64's finaliser (uint64, wrapping), as :func:`wsmap.kinematics.search._mix`."""
+    z = z + np.uint64(0x9E3779B97F4A7C15)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+@njit(cache=True, error_model="numpy")
+def _random_start(key, k, b, blo, bhi, q):
+    """Start ``k`` of the target with hash ``key``: uniform in the start box (as ``search._uniform``)."""
+    n = q.shape[0]
+    for j in range(n):
+        ctr = _mix(np.uint64(k) * np.uint64(1 << 16) + np.uint64(j + 1))
+        bits = _mix(key + ctr)
+        u = np.float64(bits >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+        q[j] = blo[b, j] + u * (bhi[b, j] - blo[b, j])
+
+
+# --------------------------------------------------------------------------- the batch
+@njit(cache=True, parallel=True, error_model="numpy")
+def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
+                Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
+                ilimit, rlimit, tol, lam0, gtol, confirm_tol, q_out, ok_out, it_out, res_out, start_out):
+    """Solve every target ``i`` (M of them) for arm ``arm[i]``; results written into the ``*_out`` arrays.
+
+    ``MODE_SEARCH``: the explicit starts ``qexp[i, :nexp[i]]`` (S, n) in order, then the random starts
+    ``k_first .. k_last - 1`` (hashed from ``keys[i]``), until one succeeds; per start a constrained
+    run and, where it failed and the limits changed it, a free run whose solution counts if it is
+    inside the limits; a success is confirmed by forward kinematics. ``start_out``: the position of
+    the succeeding start in that order (explicit first), -1 where none did. Where none did, ``q_out``
+    is the constrained end point of the start with the smallest residual.
+
+    ``MODE_PAPER``: one run from ``qexp[i, 0]`` with the paper's error, no limits, no confirmation;
+    ``it_out`` counts iterations as :mod:`.lm_kernel` does.
+    """
+    M = Rt.shape[0]
+    n = axes.shape[0]
+    ntask = (M + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK
+    for task in prange(ntask):
+        R = np.empty((3, 3))
+        p = np.empty(3)
+        w = np.empty((n, 3))
+        o = np.empty((n, 3))
+        Rn = np.empty((3, 3))
+        pn = np.empty(3)
+        wn = np.empty((n, 3))
+        on = np.empty((n, 3))
+        T33 = np.empty((3, 3))
+        e = np.empty(6)
+        en = np.empty(6)
+        J = np.empty((6, n))
+        A = np.empty((n, n))
+        g = np.empty(n)
+        H = np.empty((n, n + 1))
+        dq = np.empty(n)
+        qt = np.empty(n)
+        held = np.zeros(n, dtype=np.bool_)
+        out = np.empty(3)
+        sc = (R, p, w, o, Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out)
+        kin = (Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped)
+        q = np.empty(n)
+        qs = np.empty(n)
+        M4 = np.empty((4, 4))
+        N4 = np.empty((4, 4))
+        P4 = np.empty((4, 4))
+        for i in range(task * TARGETS_PER_TASK, min(M, (task + 1) * TARGETS_PER_TASK)):
+            b = arm[i]
+            if mode == MODE_PAPER:
+                for j in range(n):
+                    q[j] = qexp[i, 0, j]
+                code, _ = _lm(q, b, Rt[i], pt[i], False, False, ilimit, rlimit, tol, lam0, 0.0, kin, sc)
+                it = int(out[0])
+                if code == _AT_START:
+                    its = min(1, ilimit)  # lm_kernel: 1, or 0 when ilimit = 0
+                elif code == _SUCCESS:
+                    its = min(it + 1, ilimit)
+                elif code == _REJECTIONS:
+                    its = it
+                elif code == _STAGNATED:
+                    its = min(it + 1 + (rlimit - int(out[1])), ilimit)
+                else:
+                    its = ilimit
+                for j in range(n):
+                    q_out[i, j] = q[j]
+                ok_out[i] = code == _SUCCESS or code == _AT_START
+                it_out[i] = its
+                res_out[i] = out[2]
+                start_out[i] = 0 if ok_out[i] else -1
+                continue
+            limited = limited_arm[b]
+            total = 0
+            best = np.inf
+            found = False
+            ntry = nexp[i] + max(0, k_last - k_first)
+            for s in range(ntry):
+                if s < nexp[i]:
+                    for j in range(n):
+                        qs[j] = qexp[i, s, j]
+                else:
+                    _random_start(keys[i], k_first + s - nexp[i], b, blo, bhi, qs)
+                passes = 2 if limited else 1
+                res_c = np.inf
+                for pss in range(passes):
+                    for j in range(n):
+                        q[j] = qs[j]
+                    code, touched = _lm(q, b, Rt[i], pt[i], limited and pss == 0, True, ilimit, rlimit, tol, lam0,
+                                        gtol, kin, sc)
+                    total += int(out[0])
+                    # into the limits by multiples of 2·pi; unlimited revolute joints into [-pi, pi)
+                    for j in range(n):
+                        v = _project1(q[j], lo[b, j], hi[b, j], not pris[j])
+                        if unlimited[b, j]:
+                            v = np.mod(v + np.pi, _TWO_PI) - np.pi
+                        q[j] = v
+                    conv = code == _SUCCESS or code == _AT_START
+                    if pss == 0:
+                        res_c = out[2]
+                        if res_c < best:
+                            best = res_c
+                            for j in range(n):
+                                q_out[i, j] = q[j]
+                    if conv and _confirm(q, b, Rt[i], pt[i], confirm_tol, Rf, tf, off, axes, pris, lo, hi,
+                                         M4, N4, P4):
+                        found = True
+                        for j in range(n):
+                            q_out[i, j] = q[j]
+                        res_out[i] = out[2]
+                        start_out[i] = s
+                        break
+                    if not touched:
+                        break  # the free run would repeat the constrained one
+                if found:
+                    break
+            ok_out[i] = found
+            it_out[i] = total
+            if not found:
+                res_out[i] = best
+                start_out[i] = -1

@@ -1,0 +1,133 @@
+"""The compiled LM kernel against the numpy reference kernels, and the neighbour-started map search."""
+
+import numpy as np
+import pytest
+
+from wsmap import robots
+from wsmap import workspace as ws
+from wsmap.kinematics import ikine_LM, ikine_search, ikine_spherical_wrist, lm_compiled, map_search
+from wsmap.kinematics.search import as_chain
+from wsmap.workspace.maps import _per_node
+
+PI = np.pi
+
+
+@pytest.fixture(autouse=True)
+def _restore_threads():
+    before = lm_compiled.threads()
+    yield
+    lm_compiled.set_threads(before)
+
+
+@pytest.mark.parametrize("name, lim, rpy", [("puma560", True, (0, 0, 0)), ("ur5e", None, (PI, 0, 0)),
+                                            ("panda", None, (PI, 0, 0)), ("gen3", None, (0.3, -0.2, 0.5))])
+def test_compiled_search_equals_the_numpy_kernel(name, lim, rpy):
+    arm = robots.load(name, joint_limits=lim)
+    T = ws.target_poses(ws.cartesian_grid(-1, 1, 0.25), rpy, "standard")
+    c = ikine_search(arm, T, starts=6, seed=2)
+    r = ikine_search(arm, T, starts=6, seed=2, backend="numpy")
+    assert c.success.sum() > 20
+    np.testing.assert_array_equal(c.success, r.success)
+    np.testing.assert_array_equal(c.start, r.start)
+    both = c.success & r.success
+    np.testing.assert_allclose(c.q[both], r.q[both], atol=1e-8)
+    # iteration counts agree where the runs took the same path (all but rounding-chaotic failures)
+    assert (c.iterations == r.iterations).mean() > 0.5
+    # every success confirmed by the chain's own forward kinematics
+    Tq = as_chain(arm).fkine(c.q[c.success])
+    np.testing.assert_allclose(Tq, T[c.success], atol=1e-6)
+
+
+def test_compiled_paper_lm_equals_the_numpy_kernel():
+    arms = robots.sample_spherical_wrist(4, seed=5)
+    T = ws.target_poses(ws.cartesian_grid(-1, 1, 0.2), (0.3, 0.2, 0.1), "paper")
+    c = ikine_LM(_per_node(arms), T)
+    r = ikine_LM(_per_node(arms), T, backend="numpy")
+    assert c.success.sum() > 100
+    np.testing.assert_array_equal(c.success, r.success)
+    np.testing.assert_array_equal(c.iterations[c.success], r.iterations[r.success])
+    np.testing.assert_allclose(c.q[c.success], r.q[r.success], atol=1e-9)
+    # edge cases of the counting: a start already on the target, and ilimit = 0
+    q = np.array([0.1, -0.4, 0.3, 0.2, 0.5, -0.1])
+    Tq = arms[0].fkine(q)
+    for il in (0, 5):
+        a, b = ikine_LM(arms[0], Tq, q0=q, ilimit=il), ikine_LM(arms[0], Tq, q0=q, ilimit=il, backend="numpy")
+        assert (a.success, a.iterations) == (b.success, b.iterations)
+
+
+def test_results_do_not_depend_on_threads_or_chunks():
+    arm = robots.load("panda")
+    T = ws.target_poses(ws.cartesian_grid(-1, 1, 0.25), (PI, 0, 0), "standard")
+    lm_compiled.set_threads(1)
+    one = ikine_search(arm, T, starts=4)
+    lm_compiled.set_threads(2)
+    two = ikine_search(arm, T, starts=4, chunk=37)
+    np.testing.assert_array_equal(one.success, two.success)
+    np.testing.assert_array_equal(one.q, two.q)
+    np.testing.assert_array_equal(one.iterations, two.iterations)
+
+
+def test_unknown_backend_is_refused():
+    with pytest.raises(ValueError, match="unknown backend 'fortran'; choose one of compiled, numpy"):
+        ikine_search(robots.load("ur5e"), np.eye(4), backend="fortran")
+    with pytest.raises(ValueError, match="unknown backend 'fortran'"):
+        ikine_LM(robots.puma560(), np.eye(4), backend="fortran")
+
+
+def test_node_neighbours_on_a_grid():
+    nodes = ws.cartesian_grid(0, 0.4, 0.1)  # 5³
+    nb = ws.node_neighbours(nodes)
+    assert nb.shape == (125, 18)
+    centre = 62  # (2, 2, 2)
+    d = np.linalg.norm(nodes[nb[centre]] - nodes[centre], axis=1)
+    np.testing.assert_allclose(d[:6], 0.1)
+    np.testing.assert_allclose(d[6:], 0.1 * np.sqrt(2))
+    corner = nb[0]
+    assert (corner >= 0).sum() == 3 + 3  # 3 face and 3 edge neighbours
+    assert np.all(corner[6:] == -1)
+
+
+@pytest.mark.parametrize("limits", [False, True])
+def test_map_search_recall_against_the_closed_form(limits):
+    arm = robots.puma560(joint_limits=limits)
+    nodes = ws.cartesian_grid(-1, 1, 0.2)
+    T = ws.target_poses(nodes, (PI, 0, 0), "standard")
+    exact = ikine_spherical_wrist(arm, T)[1].any(axis=-1)
+    res = map_search(arm, T, ws.node_neighbours(nodes))
+    assert not np.any(res.success & ~exact)  # never a false positive
+    assert res.success.sum() == exact.sum()
+    Tq = as_chain(arm).fkine(res.q[res.success])
+    np.testing.assert_allclose(Tq, T[res.success], atol=1e-6)
+    # seeds from neighbours did part of the work
+    assert np.any(res.start == -2)
+    # and it is the map's default numerical path
+    np.testing.assert_array_equal(
+        res.success, ws.constant_orientation_map(arm, nodes, (PI, 0, 0), method="numerical", convention="standard"))
+
+
+def test_map_search_batches_and_determinism():
+    arms = robots.sample_spherical_wrist(3, seed=4)
+    nodes = ws.cartesian_grid(-1, 1, 0.25)
+    T = ws.target_poses(nodes, (0.2, 0.1, 0.0), "standard")
+    nb = ws.node_neighbours(nodes)
+    batch = map_search(arms, T, nb)
+    assert batch.success.shape == (3, len(nodes))
+    for i in range(3):
+        one = map_search(arms[i], T, nb)
+        np.testing.assert_array_equal(batch.success[i], one.success)
+        np.testing.assert_array_equal(batch.q[i], one.q)
+    exact = ikine_spherical_wrist(_per_node(arms), T)[1].any(axis=-1)
+    assert not np.any(batch.success & ~exact)
+
+
+def test_map_search_bad_input():
+    arm = robots.load("ur5e")
+    T = ws.target_poses(ws.cartesian_grid(-1, 1, 0.5), (0, 0, 0), "standard")
+    with pytest.raises(ValueError, match=r"neighbours must be an integer array of shape \(125, K\)"):
+        map_search(arm, T, np.zeros((5, 3), dtype=int))
+    with pytest.raises(ValueError, match=r"neighbours must be node indices in \[0, 125\) or -1"):
+        map_search(arm, T, np.full((125, 2), 999))
+    with pytest.raises(ValueError, match="retry must be an integer >= 0"):
+        map_search(arm, T, ws.node_neighbours(T[:, :3, 3]), retry=-1)
+    with pytest.raises(ValueError, match=r"target poses must have shape \(N, 4, 4\)"):
+        map_search(arm, T[None], ws.node_neighbours(T[:, :3, 3]))
