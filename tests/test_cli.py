@@ -69,7 +69,8 @@ def test_numerical_so3_map(tmp_path):
         (["--d", "0", "0", "--a", "1", "1", "--alpha", "0", "0", "--joint-limits"], "needs the limits: --qlim-deg"),
         (["--robot", "panda", "--qlim-deg", "10", "-10", "0", "1", "0", "1", "0", "1", "0", "1", "0", "1", "0", "1"],
          "qlim of joint 1 has its lower limit above its upper limit"),
-        (["--starts", "0"], "must be at least 1"),
+        (["--starts", "-1"], "must be at least 0"),
+        (["--robot", "ur5e", "--method", "exact", "--starts", "2"], "--starts is used by the numerical method"),
         (["--method", "model"], "needs a model file"),
         (["--method", "model", "--model", "/nonexistent/m.pt"], "no such file"),
         (["--model", "m.pt"], "only used with --method model"),
@@ -80,7 +81,7 @@ def test_numerical_so3_map(tmp_path):
         (["--step", "0.1", "0.1"], "--step takes one value or three"),
         (["--lo", "2", "--hi", "1"], "lo must not exceed hi"),
         (["--d", "0", "0", "0.15", "0.43", "0", "0", "--a", "0", "0.43", "0.02", "0", "0", "0",
-          "--alpha", "1", "0", "-1", "1", "-1", "0", "--method", "exact"], "spherical-wrist family"),
+          "--alpha", "1", "0", "-1", "1", "-1", "0", "--method", "exact"], "has no closed form for custom"),
         (["--d", "0", "--a", "0", "0", "--alpha", "0"], "DH columns disagree"),
         # argparse-level errors: one line too
         (["--alpha", "9**9**9"], "not a finite number or pi expression: '9**9**9'"),
@@ -218,25 +219,33 @@ def test_mesh_of_puma560_is_closed():
     assert 1.5 < mesh.volume < 2.7
 
 
-def test_named_real_arm_uses_the_multistart_search_within_its_limits(tmp_path, capsys):
+def test_named_real_arm_uses_the_numerical_search_within_its_limits(tmp_path, capsys):
     from wsmap import robots as R
 
     out = tmp_path / "panda.npz"
     assert cli.main(["map", "--robot", "panda", "--step", "0.5", "--out", str(out)]) == 0
     summary = capsys.readouterr().out
-    assert f"numerical map ({ws.DEFAULT_STARTS} starts, seed 0, joint limits on)" in summary
+    s = ws.MAP_SETTINGS
+    assert (f"numerical map (start at q = 0, {s['starts']} random, neighbours' solutions, {s['retry']} retries, "
+            "seed 0, joint limits on)") in summary
     flat, nodes, grid, settings = ws.load_map(out)
-    assert settings["method"] == "numerical" and settings["ik"]["starts"] == ws.DEFAULT_STARTS
+    assert settings["method"] == "numerical" and settings["ik"]["retry"] == s["retry"]
     assert "Franka" in settings["source"] and np.isfinite(settings["qlim"]).all()
-    expected = ws.constant_orientation_map(R.load("panda"), nodes, method="numerical",
-                                           ik=dict(starts=ws.DEFAULT_STARTS, seed=0))
+    expected = ws.constant_orientation_map(R.load("panda"), nodes, method="numerical")
     np.testing.assert_array_equal(flat, expected)
     assert 0 < flat.sum() < flat.size
 
 
-def test_auto_method_is_exact_for_the_closed_form_family(tmp_path, capsys):
+def test_auto_method_is_exact_for_the_closed_form_families(tmp_path, capsys):
     assert cli.main(["map", "--robot", "puma560", "--step", "0.5", "--out", str(tmp_path / "p.npz")]) == 0
-    assert "exact map (closed form, joint limits off)" in capsys.readouterr().out
+    assert "exact map (closed form (spherical-wrist family), joint limits off)" in capsys.readouterr().out
+    assert cli.main(["map", "--robot", "ur5e", "--step", "0.5", "--out", str(tmp_path / "u.npz")]) == 0
+    assert "exact map (closed form (ur family), joint limits on)" in capsys.readouterr().out
+    flat, nodes, grid, settings = ws.load_map(tmp_path / "u.npz")
+    assert settings["method"] == "exact"
+    from wsmap import robots as R
+
+    np.testing.assert_array_equal(flat, ws.constant_orientation_map(R.load("ur5e"), nodes, method="numerical"))
 
 
 def test_urdf_arm_equals_the_named_arm(tmp_path):
