@@ -93,7 +93,7 @@ def test_sigterm_leaves_no_temporary_file_and_no_new_output(tmp_path):
 
     out = tmp_path / "m.npz"
     # a numerical SO3 map on a fine grid runs for a while; terminate it once its progress bar shows
-    p = subprocess.Popen([sys.executable, "-m", "wsmap", "map", "--scope", "SO3", "--step", "pi/40",
+    p = subprocess.Popen([sys.executable, "-m", "wsmap", "map", "--scope", "SO3", "--step", "pi/80",
                           "--method", "numerical", "--out", str(out)],
                          stderr=subprocess.PIPE, text=True, bufsize=1)
     seen = ""

@@ -86,10 +86,19 @@ def check_rigid(name, T, atol: float = 1e-6) -> np.ndarray:
     if T.ndim < 2 or T.shape[-2:] != (4, 4):
         raise ValueError(f"{name} must have shape (..., 4, 4), got {T.shape}")
     check_finite(name, T)
-    R = T[..., :3, :3]
-    ortho = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-2, -1)) <= atol
-    proper = np.abs(np.linalg.det(R) - 1.0) <= atol
-    bottom = np.abs(T[..., 3, :] - np.array([0.0, 0.0, 0.0, 1.0])).max(axis=-1) <= atol
+    # RᵀR and det R written out over the columns: for many small matrices several times faster
+    # than a batched matmul and LU determinants
+    c = [[T[..., r, k] for r in range(3)] for k in range(3)]  # c[k][r] = R[r, k]
+    ortho = np.ones(T.shape[:-2], dtype=bool)
+    for k in range(3):
+        for m in range(k, 3):
+            dot = c[k][0] * c[m][0] + c[k][1] * c[m][1] + c[k][2] * c[m][2]
+            ortho &= np.abs(dot - (1.0 if k == m else 0.0)) <= atol
+    det = (c[0][0] * (c[1][1] * c[2][2] - c[1][2] * c[2][1]) - c[0][1] * (c[1][0] * c[2][2] - c[1][2] * c[2][0])
+           + c[0][2] * (c[1][0] * c[2][1] - c[1][1] * c[2][0]))
+    proper = np.abs(det - 1.0) <= atol
+    bottom = ((np.abs(T[..., 3, 0]) <= atol) & (np.abs(T[..., 3, 1]) <= atol) & (np.abs(T[..., 3, 2]) <= atol)
+              & (np.abs(T[..., 3, 3] - 1.0) <= atol))
     ok = ortho & proper & bottom
     if not np.all(ok):
         bad = np.argwhere(~np.atleast_1d(ok))[0]

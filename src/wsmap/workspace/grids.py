@@ -144,19 +144,24 @@ def block_slice(block: int) -> slice:
 
 def node_neighbours(nodes, k: int = 18, radius: float = 1.5) -> np.ndarray:
     """Each node's neighbours: ``(N, k)`` int indices of the ``k`` nearest other nodes within
-    ``radius`` times the typical spacing, nearest first, ``-1`` where fewer.
+    ``radius`` times the typical spacing, nearest first, ``-1`` where fewer (on a whole grid with the
+    defaults: one column per offset, 6 face then 12 edge neighbours, ``-1`` off the grid).
 
     The typical spacing is the median distance from a node to its nearest neighbour, so on a cubic
     grid of step ``h`` the defaults give the 6 face neighbours (at ``h``) then the 12 edge neighbours
     (at ``h·√2``). Works for any node set (positions in m, or angles in rad); used by the numerical
     maps to start IK at a node from its neighbours' solutions.
     """
-    from scipy.spatial import cKDTree
-
     nodes = np.asarray(nodes, dtype=np.float64)
     N = len(nodes)
     if N < 2 or k < 1:
         return np.full((N, max(k, 0)), -1, dtype=np.int64)
+    if k == 18 and radius == 1.5:
+        # a whole grid (the common case): index arithmetic, no tree
+        shape = _grid_shape(nodes)
+        if shape is not None:
+            return _grid_neighbours(shape)
+    from scipy.spatial import cKDTree
     tree = cKDTree(nodes)
     d1, _ = tree.query(nodes, k=2)
     spacing = float(np.median(d1[:, 1]))
@@ -166,3 +171,37 @@ def node_neighbours(nodes, k: int = 18, radius: float = 1.5) -> np.ndarray:
     if idx.shape[1] < k:
         idx = np.concatenate([idx, np.full((N, k - idx.shape[1]), -1, dtype=np.int64)], axis=1)
     return idx
+
+
+def _grid_shape(nodes):
+    """``(nx, ny, nz)`` if ``nodes`` (N, 3) is a whole grid in node order (first coordinate
+    fastest, one step along each axis), else None."""
+    N = len(nodes)
+    if nodes.ndim != 2 or nodes.shape[1] != 3:
+        return None
+    xs = [np.unique(nodes[:, c]) for c in range(3)]
+    nx, ny, nz = (len(x) for x in xs)
+    if nx * ny * nz != N or min(nx, ny, nz) < 2:
+        return None
+    if not all(np.allclose(np.diff(x), x[1] - x[0], rtol=1e-9, atol=0) for x in xs):
+        return None
+    idx = np.arange(N)
+    ok = (nodes[:, 0] == xs[0][idx % nx]) & (nodes[:, 1] == xs[1][(idx // nx) % ny]) & (nodes[:, 2] == xs[2][idx // (nx * ny)])
+    return (nx, ny, nz) if ok.all() else None
+
+
+def _grid_neighbours(shape):
+    """The 6 face then the 12 edge neighbours of every node of a whole grid, each column one offset
+    (-1 where it falls off the grid)."""
+    nx, ny, nz = shape
+    N = nx * ny * nz
+    idx = np.arange(N)
+    i, j, k = idx % nx, (idx // nx) % ny, idx // (nx * ny)
+    offsets = sorted(((dx, dy, dz) for dz in (-1, 0, 1) for dy in (-1, 0, 1) for dx in (-1, 0, 1)
+                      if abs(dx) + abs(dy) + abs(dz) in (1, 2)),
+                     key=lambda o: (abs(o[0]) + abs(o[1]) + abs(o[2]), o[0] + nx * o[1] + nx * ny * o[2]))
+    nb = np.empty((N, len(offsets)), dtype=np.int64)
+    for c, (dx, dy, dz) in enumerate(offsets):
+        inside = ((i + dx >= 0) & (i + dx < nx) & (j + dy >= 0) & (j + dy < ny) & (k + dz >= 0) & (k + dz < nz))
+        nb[:, c] = np.where(inside, idx + (dx + nx * dy + nx * ny * dz), -1)
+    return nb

@@ -350,12 +350,13 @@ def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), m
     method = resolve_method(robot, method)
     ik = dict(ik or {})
     bar = None
-    if progress and method == "numerical" and ik.get("solver", "search") != "search":
-        # the per-node solvers report per chunk; the neighbour search runs the whole grid at once
+    if progress and method == "numerical":
+        # the per-node solvers report per chunk; the neighbour search once, at the end
         from tqdm.auto import tqdm
 
         bar = tqdm(total=len(nodes), unit="node", desc="numerical IK", file=sys.stderr)
-        ik.setdefault("chunk", 2048)
+        if ik.get("solver", "search") != "search":
+            ik.setdefault("chunk", 2048)
         ik["progress"] = bar.update
     try:
         if scope == "R3":
