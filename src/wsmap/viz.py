@@ -6,7 +6,7 @@ Maps are flat boolean arrays in the paper's node order; ``shape = (nx, ny, nz)``
 draws returns a matplotlib ``Figure`` (or ``Axes``); everything that writes a file writes it
 atomically (:mod:`wsmap.io`).
 
-* maps: :func:`plot_slices`, :func:`plot_voxels`, :func:`map_to_mesh`, :func:`render_mesh`,
+* maps: :func:`plot_slices`, :func:`plot_value_slices` (float maps), :func:`plot_voxels`, :func:`map_to_mesh`, :func:`render_mesh`,
   :func:`plot_meshes`, :func:`export_mesh`, :func:`save_figure`;
 * curves over training sessions: :func:`session_curves`, :func:`plot_mean_band` (the paper's
   "Average gradient (± sigma) of 10 training sessions"), :func:`plot_training_curves`;
@@ -31,7 +31,7 @@ __all__ = [
     "OUTCOME_COLORS", "OUTCOME_NAMES", "session_curves", "plot_mean_band", "plot_training_curves",
     "per_sample_error", "plot_sample_errors", "outcomes", "plot_sections", "plot_threshold_sweep",
     "plot_error_histograms", "plot_runtimes", "plot_meshes", "export_mesh", "plot_slices", "plot_voxels",
-    "map_to_mesh", "save_figure", "render_mesh",
+    "map_to_mesh", "save_figure", "render_mesh", "plot_value_slices",
 ]
 
 #: :func:`outcomes` codes 0..3 and their colours / names.
@@ -444,6 +444,60 @@ def plot_slices(flat_map, shape, lo=-1.0, step=0.1, *, compare=None, title=None,
     if title:
         fig.suptitle(title)
     fig.tight_layout(rect=(0, 0.04 if compare is not None else 0, 1, 1))
+    return fig
+
+
+def plot_value_slices(values, shape, lo, step, *, label, vmin=None, vmax=None, title=None, ncols=7,
+                      labels=("x", "y", "z"), cmap="viridis"):
+    """One panel per z-layer of a FLOAT map (e.g. a reachability index in [0, 1], a manipulability
+    map >= 0), coloured by value, with one colour bar shared by every panel. Returns the Figure.
+
+    Args:
+        values: the map, ``(nx*ny*nz,)`` finite numbers in node order (first coordinate fastest).
+        shape: ``(nx, ny, nz)``; ``lo``, ``step``: the grid's origin and spacing (scalars or
+            3-tuples; metres for R3 maps, radians for SO3), for the panels' extents and titles.
+        label: the colour bar's label: what the value is, with its units (``"manipulability (m³)"``).
+        vmin, vmax: the colour range (default: the map's minimum and maximum), the same in every panel.
+        labels: the axes' names (``("r1", "r2", "r3")`` for SO3 maps); ``cmap``: a matplotlib colormap.
+
+    ``ValueError`` for a map that does not fit ``shape``, has NaN or infinite values, or ``vmax < vmin``.
+    """
+    plt = _plt()
+    v = np.asarray(values)
+    if v.dtype.kind not in "biuf":
+        raise ValueError(f"values must be real numbers, got dtype {v.dtype}")
+    v = v.astype(np.float64)
+    if v.ndim != 1:
+        raise ValueError(f"values must be a flat map (N,) in node order, got shape {v.shape}")
+    bad = ~np.isfinite(v)
+    if bad.any():
+        raise ValueError(f"values contain {int(bad.sum())} NaN or infinite values (first at node {int(np.argmax(bad))})")
+    vol = map_to_volume(v, shape)
+    lo_c = float(v.min()) if vmin is None else float(vmin)
+    hi_c = float(v.max()) if vmax is None else float(vmax)
+    if not (math.isfinite(lo_c) and math.isfinite(hi_c)) or hi_c < lo_c:
+        raise ValueError(f"the colour range must be finite with vmin <= vmax, got vmin={lo_c}, vmax={hi_c}")
+    ax_x, ax_y, ax_z = _axes_of(shape, lo, step)
+    nz = vol.shape[0]
+    ncols = max(1, min(int(ncols), nz))
+    nrows = int(np.ceil(nz / ncols))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(1.9 * ncols + 0.9, 2.0 * nrows + 0.4), squeeze=False)
+    extent = [ax_x[0], ax_x[-1], ax_y[0], ax_y[-1]]
+    image = None
+    for k, ax in enumerate(axes.flat):
+        ax.set_xticks([])
+        ax.set_yticks([])
+        if k >= nz:
+            ax.axis("off")
+            continue
+        image = ax.imshow(vol[k], origin="lower", cmap=cmap, vmin=lo_c, vmax=hi_c, extent=extent,
+                          interpolation="nearest")
+        ax.set_title(f"{labels[2]} = {ax_z[k]:.2f}", fontsize=8)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout(rect=(0, 0, 0.9, 1))
+    cax = fig.add_axes((0.92, 0.12, 0.018, 0.76))
+    fig.colorbar(image, cax=cax).set_label(label)
     return fig
 
 
