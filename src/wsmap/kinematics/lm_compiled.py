@@ -37,10 +37,11 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["MODE_SEARCH", "MODE_PAPER", "TARGETS_PER_TASK", "set_threads", "threads", "run_targets"]
+__all__ = ["MODE_SEARCH", "MODE_PAPER", "MODE_POSITION", "TARGETS_PER_TASK", "set_threads", "threads", "run_targets"]
 
 MODE_SEARCH = 0  # rotation-vector error, limits inside the iteration, FK confirmation, multi-start
 MODE_PAPER = 1  # Corke's tr2delta error, no limits in the iteration, one start (the paper's)
+MODE_POSITION = 2  # as MODE_SEARCH on the tool position alone (any orientation)
 
 #: Targets per task handed to a thread (small: unreachable targets cost 100x reachable ones).
 TARGETS_PER_TASK = 8
@@ -139,12 +140,18 @@ def _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _pose_error(R, p, Rt, pt, e, rotvec):
+def _pose_error(R, p, Rt, pt, e, rotvec, rows):
     """``e`` (6,) ← ``[pt − p; v]`` and returns |e|. ``v`` is ``½ Σ_k R_k × Rt_k = sin θ·a``
     (Corke's ``tr2delta``, the paper's) or, with ``rotvec``, the rotation vector ``θ·a`` of
-    ``Rt·Rᵀ`` (see :func:`wsmap.kinematics.search._pose_error` for why)."""
+    ``Rt·Rᵀ`` (see :func:`wsmap.kinematics.search._pose_error` for why); ``rows`` = 3: position
+    only (``v`` = 0)."""
     for r in range(3):
         e[r] = pt[r] - p[r]
+    if rows == 3:
+        e[3] = 0.0
+        e[4] = 0.0
+        e[5] = 0.0
+        return math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
     for r in range(3):
         a = (r + 1) % 3
         bb = (r + 2) % 3
@@ -186,8 +193,9 @@ def _pose_error(R, p, Rt, pt, e, rotvec):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _normal_equations(p, w, o, pris, e, J, A, g):
-    """Geometric Jacobian ``J`` (6, n), then ``A = JᵀJ`` (n, n) and ``g = Jᵀe`` (n,)."""
+def _normal_equations(p, w, o, pris, e, J, A, g, rows):
+    """Geometric Jacobian ``J`` (6, n), then ``A = JᵀJ`` (n, n) and ``g = Jᵀe`` (n,) over its
+    first ``rows`` rows (6, or 3: position only)."""
     n = w.shape[0]
     for j in range(n):
         if pris[j]:
@@ -204,12 +212,12 @@ def _normal_equations(p, w, o, pris, e, J, A, g):
     for j in range(n):
         for m in range(j, n):  # symmetric: the upper triangle, mirrored
             s = J[0, j] * J[0, m]
-            for r in range(1, 6):
+            for r in range(1, rows):
                 s = s + J[r, j] * J[r, m]
             A[j, m] = s
             A[m, j] = s
         s = J[0, j] * e[0]
-        for r in range(1, 6):
+        for r in range(1, rows):
             s = s + J[r, j] * e[r]
         g[j] = s
 
@@ -289,7 +297,7 @@ def _stationary(A, g, na, gtol):
 
 # --------------------------------------------------------------------------- one LM run
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _lm(q, b, Rt, pt, limited, rotvec, ilimit, rlimit, tol, lam0, gtol, kin, sc):
+def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, kin, sc):
     """LM from ``q`` (n,), updated in place, towards ``(Rt, pt)``; inside the LM bounds if ``limited``.
 
     ``gtol`` > 0: fail at a stationary point, an accepted step after which
@@ -312,8 +320,8 @@ def _lm(q, b, Rt, pt, limited, rotvec, ilimit, rlimit, tol, lam0, gtol, kin, sc)
                 touched = True
             q[j] = v
     _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33)
-    na = _pose_error(R, p, Rt, pt, e, rotvec)
-    _normal_equations(p, w, o, pris, e, J, A, g)
+    na = _pose_error(R, p, Rt, pt, e, rotvec, rows)
+    _normal_equations(p, w, o, pris, e, J, A, g, rows)
     lam = lam0
     rej = 0
     it = 0
@@ -341,7 +349,7 @@ def _lm(q, b, Rt, pt, limited, rotvec, ilimit, rlimit, tol, lam0, gtol, kin, sc)
                     touched = True
                 qt[j] = v
         _fk(qt, b, Rf, tf, rkind, off, axes, pris, zax, Rn, pn, wn, on, T33)
-        nn = _pose_error(Rn, pn, Rt, pt, en, rotvec)
+        nn = _pose_error(Rn, pn, Rt, pt, en, rotvec, rows)
         better = nn < na
         it += 1
         if better:
@@ -350,7 +358,7 @@ def _lm(q, b, Rt, pt, limited, rotvec, ilimit, rlimit, tol, lam0, gtol, kin, sc)
             for r in range(6):
                 e[r] = en[r]
             na = nn
-            _normal_equations(pn, wn, on, pris, e, J, A, g)
+            _normal_equations(pn, wn, on, pris, e, J, A, g, rows)
             lam = lam * 0.5
             rej = 0
         else:
@@ -388,9 +396,10 @@ def _lm(q, b, Rt, pt, limited, rotvec, ilimit, rlimit, tol, lam0, gtol, kin, sc)
 
 # --------------------------------------------------------------------------- confirmation
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _confirm(q, b, Rt, pt, atol, Rf, tf, off, axes, pris, lo, hi, M4, N4, P4):
+def _confirm(q, b, Rt, pt, atol, rows, Rf, tf, off, axes, pris, lo, hi, M4, N4, P4):
     """Forward kinematics by 4 x 4 homogeneous products (another code path than :func:`_fk`) puts
-    the tool within ``atol`` of the target (m; rotation angle, rad), and ``q`` is inside the limits."""
+    the tool within ``atol`` of the target (m; rotation angle, rad, unless ``rows`` = 3: position
+    only), and ``q`` is inside the limits."""
     n = q.shape[0]
     for j in range(n):
         if q[j] < lo[b, j] - 1e-9 or q[j] > hi[b, j] + 1e-9:
@@ -439,6 +448,8 @@ def _confirm(q, b, Rt, pt, atol, Rf, tf, off, axes, pris, lo, hi, M4, N4, P4):
             for c in range(4):
                 M4[r, c] = P4[r, 0] * N4[0, c] + P4[r, 1] * N4[1, c] + P4[r, 2] * N4[2, c] + P4[r, 3] * N4[3, c]
     dp = math.sqrt((M4[0, 3] - pt[0]) ** 2 + (M4[1, 3] - pt[1]) ** 2 + (M4[2, 3] - pt[2]) ** 2)
+    if rows == 3:
+        return dp <= atol
     v0 = v1 = v2 = 0.0
     cs = 0.0
     for k in range(3):
@@ -486,6 +497,8 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
     the succeeding start in that order (explicit first), -1 where none did. Where none did, ``q_out``
     is the constrained end point of the start with the smallest residual.
 
+    ``MODE_POSITION``: as ``MODE_SEARCH`` with the position error alone (the tool's orientation free).
+
     ``MODE_PAPER``: one run from ``qexp[i, 0]`` with the paper's error, no limits, no confirmation;
     ``it_out`` counts iterations as :mod:`.lm_kernel` does.
     """
@@ -524,7 +537,7 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
             if mode == MODE_PAPER:
                 for j in range(n):
                     q[j] = qexp[i, 0, j]
-                code, _ = _lm(q, b, Rt[i], pt[i], False, False, ilimit, rlimit, tol, lam0, 0.0, kin, sc)
+                code, _ = _lm(q, b, Rt[i], pt[i], False, False, 6, ilimit, rlimit, tol, lam0, 0.0, kin, sc)
                 it = int(out[0])
                 if code == _AT_START:
                     its = min(1, ilimit)  # lm_kernel: 1, or 0 when ilimit = 0
@@ -544,6 +557,7 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                 start_out[i] = 0 if ok_out[i] else -1
                 continue
             limited = limited_arm[b]
+            rows = 3 if mode == MODE_POSITION else 6
             total = 0
             best = np.inf
             found = False
@@ -559,8 +573,8 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                 for pss in range(passes):
                     for j in range(n):
                         q[j] = qs[j]
-                    code, touched = _lm(q, b, Rt[i], pt[i], limited and pss == 0, True, ilimit, rlimit, tol, lam0,
-                                        gtol, kin, sc)
+                    code, touched = _lm(q, b, Rt[i], pt[i], limited and pss == 0, True, rows, ilimit, rlimit, tol,
+                                        lam0, gtol, kin, sc)
                     total += int(out[0])
                     # into the limits by multiples of 2·pi; unlimited revolute joints into [-pi, pi)
                     for j in range(n):
@@ -575,7 +589,7 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                             best = res_c
                             for j in range(n):
                                 q_out[i, j] = q[j]
-                    if conv and _confirm(q, b, Rt[i], pt[i], confirm_tol, Rf, tf, off, axes, pris, lo, hi,
+                    if conv and _confirm(q, b, Rt[i], pt[i], confirm_tol, rows, Rf, tf, off, axes, pris, lo, hi,
                                          M4, N4, P4):
                         found = True
                         for j in range(n):

@@ -576,6 +576,24 @@ def _reach_filter(chain: SerialChain, T, margin):
     return dist <= reach * (1.0 + 1e-12) + slack + 1e-12
 
 
+def _position_filter(chain: SerialChain, p, margin):
+    """A sound test (B, N) or (N,) bool: False where no configuration puts the tool origin within
+    ``margin`` of the positions ``p`` (N, 3): farther from the base than the lengths of every fixed
+    transform, the tool and the prismatic strokes together."""
+    F = chain.fixed
+    lengths = np.linalg.norm(F[..., :3, 3], axis=-1).sum(axis=-1)  # (...,)
+    pris = np.array([k == PRISMATIC for k in chain.kinds])
+    if pris.any():
+        ends = chain.limits[..., pris, :] + np.asarray(chain.offset)[..., pris, None]
+        lengths = lengths + np.abs(ends).max(axis=-1).sum(axis=-1)
+    if chain.tool is not None:
+        lengths = lengths + np.linalg.norm(chain.tool[:3, 3])
+    origin = np.zeros(3) if chain.base is None else chain.base[:3, 3]
+    dist = np.linalg.norm(np.asarray(p) - origin, axis=-1)  # (N,)
+    reach = np.asarray(lengths)[..., None] * (1.0 + 1e-12) + margin + 1e-12
+    return dist <= reach  # (N,) or (B, N)
+
+
 def _runs(chain, arm, Rt, pt, qs, T, arm_index, settings, confirm_tol):
     """One start per column of ``qs`` (n, P): the constrained run, then (limited arms, where it
     failed and the limits changed it) the free run; successes confirmed by forward kinematics.
@@ -852,7 +870,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
                retry: int = MAP_SETTINGS["retry"], seed=0, q0=None, tol: float = 1e-10,
                ilimit: int = MAP_SETTINGS["ilimit"], rlimit: int = MAP_SETTINGS["rlimit"], lam: float = 0.1,
                joint_limits: bool = True, confirm_tol: float = FK_CONFIRM_TOL, gtol: float = MAP_SETTINGS["gtol"],
-               progress=None) -> SearchResult:
+               q_init=None, position_only: bool = False, progress=None) -> SearchResult:
     """Reachability of a map's nodes, each start of :func:`ikine_search`'s iteration, with starts taken
     from neighbouring nodes' solutions (continuation): the solution at a node is an excellent start
     at the next one, and an unreachable node costs a few failed starts instead of dozens.
@@ -870,6 +888,11 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     ilimit, rlimit, tol, lam, joint_limits, confirm_tol : per start, as :func:`ikine_search`
     gtol : the stationary-point test (:mod:`.lm_compiled`): a start fails once the gradient
         vanishes relative to ``|J|·|e|`` away from a solution; 0 turns it off
+    q_init : optional ``(N, n)`` (or ``(B, N, n)``) starts tried first at each node, NaN rows where
+        none (e.g. each node's solution at a neighbouring orientation, or a sampled configuration
+        whose tool lies near the node)
+    position_only : reach the position of ``T`` at any orientation (the error and the
+        confirmation on the position alone)
     progress : called once with the number of targets when done
 
     Per arm, in passes: (1) every node: ``q0`` then ``starts`` random starts (the first ones of
@@ -919,8 +942,18 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     arm_of = np.repeat(np.arange(B), N)
     node_of = np.tile(np.arange(N), B)
     Tb = T[None] if not batch else T[None, :]
-    possible = _reach_filter(flat if batch else chain, Tb if not batch else T[:, None], confirm_tol)
-    possible = (possible.T if batch else possible).reshape(-1)
+    if position_only:
+        # (N,) for one arm, (B, N) for a batch: target b·N + i
+        possible = _position_filter(flat if batch else chain, T[:, :3, 3], confirm_tol).reshape(-1)
+    else:
+        possible = _reach_filter(flat if batch else chain, Tb if not batch else T[:, None], confirm_tol)
+        possible = (possible.T if batch else possible).reshape(-1)
+    mode = 2 if position_only else 0
+    if q_init is not None:
+        q_init = np.asarray(q_init, dtype=np.float64)
+        if q_init.shape not in ((N, n), (B, N, n)):
+            raise ValueError(f"q_init must have shape ({N}, {n}) or ({B}, {N}, {n}), got {q_init.shape}")
+        q_init = np.broadcast_to(q_init, (B, N, n)).reshape(M, n)
     keys_node = _pose_keys(seed, T)
     aa = arm_arrays(flat)
     settings = (ilimit, rlimit, tol, lam, confirm_tol, float(gtol))
@@ -934,7 +967,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     def run(idx, qexp, nexp, k_first, k_last, seeded):
         if not idx.size:
             return 0
-        qq, okk, it, rr, st = run_compiled(0, aa, arm_of[idx], T[node_of[idx]], keys_node[node_of[idx]], qexp, nexp,
+        qq, okk, it, rr, st = run_compiled(mode, aa, arm_of[idx], T[node_of[idx]], keys_node[node_of[idx]], qexp, nexp,
                                            k_first, k_last, *settings)
         its[idx] += it
         better = okk | (~ok[idx] & (rr < res[idx]))
@@ -980,7 +1013,15 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
             fresh = ok & ~before
 
     first = np.flatnonzero(possible)
-    run(first, np.broadcast_to(q0, (first.size, 1, n)), np.ones(first.size, dtype=np.int64), 1, 1 + starts, False)
+    if q_init is None:
+        run(first, np.broadcast_to(q0, (first.size, 1, n)), np.ones(first.size, dtype=np.int64), 1, 1 + starts, False)
+    else:
+        # the given start first where there is one, then q0 (start 0 counts for both)
+        qexp = np.empty((first.size, 2, n))
+        given = np.all(np.isfinite(q_init[first]), axis=1)
+        qexp[:, 0] = np.where(given[:, None], q_init[first], q0)
+        qexp[:, 1] = q0
+        run(first, qexp, np.where(given, 2, 1).astype(np.int64), 1, 1 + starts, False)
     waves()
     if retry:
         # only next to solved nodes: a reachable node that the waves missed borders solved ones (a

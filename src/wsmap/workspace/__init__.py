@@ -3,6 +3,10 @@
 * :mod:`.grids` — grids and the layout of flat maps (node order: first coordinate fastest);
 * :mod:`.maps` — reachability of poses (:func:`reachable`), constant-orientation ("R3") and
   orientation ("SO3") maps, one-call grid maps;
+* :mod:`.orientations` — orientation sets (super-Fibonacci over SO(3), approach directions x rolls);
+* :mod:`.reach` — maps over orientations: reach at any orientation, reachability index, dexterous
+  workspace, manipulability;
+* :mod:`.placement` — base placement (inverse reachability);
 * :mod:`.files` — the ``.npz`` map file.
 """
 
@@ -40,7 +44,14 @@ from .maps import (
     target_poses,
 )
 
+from .orientations import approach_orientations, check_rotations, continuation_order, orientation_samples
+from .placement import Placement, base_placement, floor_poses
+from .reach import dexterous_map, manipulability_map, position_map, reachability_index, yoshikawa
+
 __all__ = [
+    "approach_orientations", "check_rotations", "continuation_order", "orientation_samples", "Placement",
+    "base_placement", "floor_poses", "dexterous_map", "manipulability_map", "position_map", "reachability_index",
+    "yoshikawa",
     "BLOCK_NODES", "CONVENTIONS", "CROP_3087", "DEFAULT_STARTS", "MAX_NODES", "METHODS", "MapFileError", "N_BLOCKS",
     "MAP_SETTINGS", "SCOPES", "SOLVERS", "closed_form_family", "node_neighbours", "reachable", "resolve_method",
     "angle_grid", "available_memory", "block_slice", "cartesian_grid", "constant_orientation_map", "default_grid",

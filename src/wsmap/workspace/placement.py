@@ -1,0 +1,152 @@
+"""Base placement (inverse reachability): where on the floor to put an arm so that it reaches a set
+of target poses.
+
+Candidate bases stand on the plane ``z = z0`` of the world frame: ``B(x, y, yaw) = transl(x, y, z0)·
+Rz(yaw)``. A target pose ``T_m`` (world frame) is reached from ``B`` when the arm reaches
+``B⁻¹·T_m`` in its own base frame. The candidates form a grid over ``(x, y, yaw)``, on which the
+reachability of one target varies smoothly, so each target is solved over the whole grid by the
+neighbour-started search (:func:`wsmap.kinematics.map_search`), or by the closed form for the
+closed-form families; every "reached" comes with a confirmed joint solution.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..kinematics import DHRobot, SerialChain, check_rigid, map_search
+from ..kinematics.search import MAP_SETTINGS, as_chain
+from .grids import _triple, node_neighbours
+from .maps import _exact, resolve_method
+
+__all__ = ["Placement", "base_placement", "floor_poses"]
+
+
+@dataclass
+class Placement:
+    """Candidate bases ranked best first (every field in that order).
+
+    poses : (C, 4, 4) base poses in the world frame (``transl(x, y, z0)·Rz(yaw)``)
+    x, y, yaw : (C,) metres, metres, radians
+    score : (C,) fraction of the targets reached from the base
+    reached : (C, M) bool, which targets each base reaches
+    q : (M, n) joint solutions of the best base for the targets it reaches (NaN elsewhere), each
+        confirmed by forward kinematics (numerical) or from the closed form
+    method : "exact" or "numerical"
+    """
+
+    poses: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    score: np.ndarray
+    reached: np.ndarray
+    q: np.ndarray
+    method: str
+
+    def best(self) -> dict:
+        """The best base as a dict: ``x``, ``y``, ``yaw`` (rad), ``score``, ``pose`` (4x4 list)."""
+        return {"x": float(self.x[0]), "y": float(self.y[0]), "yaw": float(self.yaw[0]),
+                "score": float(self.score[0]), "pose": self.poses[0].tolist()}
+
+
+def _range(name, r):
+    r = np.asarray(r, dtype=np.float64)
+    if r.shape != (2,) or not np.all(np.isfinite(r)):
+        raise ValueError(f"{name} must be a finite (lo, hi) pair, got {r.tolist() if r.size < 10 else r.shape}")
+    if r[0] > r[1]:
+        raise ValueError(f"{name}: lo ({r[0]}) is above hi ({r[1]})")
+    return r
+
+
+def floor_poses(x, y, yaw, z0: float = 0.0) -> np.ndarray:
+    """Base poses ``transl(x, y, z0)·Rz(yaw)`` (broadcast) as ``(..., 4, 4)``."""
+    x, y, yaw = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float), np.asarray(yaw, float))
+    B = np.zeros(x.shape + (4, 4))
+    c, s = np.cos(yaw), np.sin(yaw)
+    B[..., 0, 0], B[..., 0, 1], B[..., 1, 0], B[..., 1, 1] = c, -s, s, c
+    B[..., 2, 2] = B[..., 3, 3] = 1.0
+    B[..., 0, 3], B[..., 1, 3], B[..., 2, 3] = x, y, z0
+    return B
+
+
+def base_placement(robot, targets, x=(-1.0, 1.0), y=(-1.0, 1.0), *, step: float = 0.1, yaws: int = 8,
+                   z0: float = 0.0, method: str = "auto", ik: dict | None = None, seed: int = 0) -> Placement:
+    """Rank candidate base poses on the floor by the fraction of ``targets`` they reach.
+
+    Parameters
+    ----------
+    robot : DHRobot or SerialChain (one arm)
+    targets : (M, 4, 4) target tool poses in the world frame (rigid transforms, metres)
+    x, y : (lo, hi) ranges of the base position (m), sampled at ``step`` (both ends included)
+    yaws : number of base headings, ``2π j / yaws``
+    z0 : height of the floor plane the base stands on (m)
+    method, ik, seed : as :func:`wsmap.workspace.constant_orientation_map` (``ik`` for the numerical search)
+
+    Returns a :class:`Placement`, best first (ties: nearer the middle of the region first, then the
+    grid order). Bad input (a range with lo > hi, ``step`` <= 0, ``yaws`` < 1, targets that are not
+    rigid transforms) is a ``ValueError`` before any work.
+    """
+    if not isinstance(robot, (DHRobot, SerialChain)):
+        raise TypeError(f"robot must be a DHRobot or a SerialChain, got {type(robot).__name__}")
+    if robot.batch_shape != ():
+        raise ValueError(f"base placement takes one arm, got a batch of shape {robot.batch_shape}")
+    T = check_rigid("targets", targets)
+    if T.ndim == 2:
+        T = T[None]
+    if T.ndim != 3 or len(T) == 0:
+        raise ValueError(f"targets must have shape (M, 4, 4) with M >= 1, got {T.shape}")
+    xr, yr = _range("x", x), _range("y", y)
+    if isinstance(step, bool) or not (np.isscalar(step) and np.isfinite(step) and step > 0):
+        raise ValueError(f"step must be positive and finite, got {step!r}")
+    if isinstance(yaws, bool) or not isinstance(yaws, (int, np.integer)) or yaws < 1:
+        raise ValueError(f"yaws must be a positive integer (the number of base headings), got {yaws!r}")
+    z0 = float(_triple("z0", z0)[0])
+    method = resolve_method(robot, method)
+
+    xs = np.arange(xr[0], xr[1] + step * 0.5, step)
+    ys = np.arange(yr[0], yr[1] + step * 0.5, step)
+    yaw = 2 * np.pi * np.arange(yaws) / yaws
+    # candidate grid: x fastest, then y, then yaw (the node order of the maps)
+    Y, X = np.meshgrid(ys, xs, indexing="ij")
+    cx = np.tile(X.reshape(-1), yaws)
+    cy = np.tile(Y.reshape(-1), yaws)
+    cyaw = np.repeat(yaw, X.size)
+    B = floor_poses(cx, cy, cyaw, z0)
+    Binv = np.linalg.inv(B)
+    C, M = len(B), len(T)
+    reached = np.zeros((C, M), dtype=bool)
+    qsol = np.full((C, M, robot.n), np.nan)
+    # neighbours over (x, y, yaw): the yaw axis scaled so one heading step is one position step
+    coords = np.stack([cx, cy, cyaw / (2 * np.pi / yaws) * step], axis=1)
+    nb = node_neighbours(coords) if C > 1 else np.full((C, 0), -1, dtype=np.int64)
+    chain = as_chain(robot)
+    settings = {**MAP_SETTINGS, **(ik or {})}
+    for key in ("solver", "chunk", "progress"):
+        settings.pop(key, None)
+    for m in range(M):
+        Tm = Binv @ T[m]  # (C, 4, 4): the target in each candidate's base frame
+        if method == "exact":
+            reached[:, m] = _exact(robot, Tm)
+        else:
+            res = map_search(chain, Tm, nb, seed=seed, **settings)
+            reached[:, m] = res.success
+            qsol[:, m] = res.q
+    score = reached.mean(axis=1)
+    centre = np.hypot(cx - xr.mean(), cy - yr.mean())
+    order = np.lexsort((np.arange(C), centre, -score))
+    best = order[0]
+    if method == "exact":
+        # the solutions of the best base from the closed form, for its reached targets
+        from ..kinematics import ikine_spherical_wrist, ikine_ur
+        from .maps import closed_form_family
+
+        solve = ikine_spherical_wrist if closed_form_family(robot) == "spherical_wrist" else ikine_ur
+        q8, valid = solve(robot, Binv[best] @ T)
+        pick = valid.argmax(axis=1)
+        q_best = np.where(valid.any(axis=1)[:, None], q8[np.arange(M), pick], np.nan)
+    else:
+        q_best = qsol[best]
+    return Placement(poses=B[order], x=cx[order], y=cy[order], yaw=cyaw[order], score=score[order],
+                     reached=reached[order], q=q_best, method=method)

@@ -1,0 +1,185 @@
+"""Maps over orientations: reach at any orientation, the reachability index, the dexterous workspace,
+and manipulability.
+
+For an arm and nodes ``p`` (N, 3) in its base frame (metres), and target poses ``T = transl(p)·R``
+(the standard convention; ``R`` the tool orientation in the base frame):
+
+* :func:`position_map` — ``p`` is reachable at *some* orientation (the tool origin can be put there);
+* :func:`reachability_index` — the fraction of a set of orientations (:mod:`.orientations`) reachable
+  at ``p`` (Zacharias' capability maps, Reuleaux's reachability index);
+* :func:`dexterous_map` — every orientation of the set is reachable at ``p``;
+* :func:`manipulability_map` — Yoshikawa's manipulability ``√det(J Jᵀ)`` (``J`` the 6 x n base-frame
+  geometric Jacobian: metres per radian in the position rows, 1 in the rotation rows) at the best
+  IK solution found at ``p`` for one orientation, 0 where unreachable.
+
+Arms of a closed-form family (:func:`wsmap.workspace.closed_form_family`) are mapped exactly (every
+branch); other arms by the numerical search started from neighbouring nodes' solutions and, across
+orientations, from the same node's solution at the nearest orientation already solved
+(:func:`wsmap.kinematics.map_search`): ``True`` always comes with a joint solution inside the limits
+that forward kinematics confirms; recall is measured in ``benchmarks/bench_reach_maps.py``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..kinematics import DHRobot, SerialChain, ikine_spherical_wrist, ikine_ur, map_search
+from ..kinematics.search import MAP_SETTINGS, as_chain
+from .grids import _check_fits, node_neighbours
+from .maps import _check_choice, _check_nodes, _exact, closed_form_family, resolve_method, target_poses
+from .orientations import check_rotations, continuation_order
+
+__all__ = ["position_map", "reachability_index", "dexterous_map", "manipulability_map", "yoshikawa"]
+
+
+def _check_arm(robot):
+    if not isinstance(robot, (DHRobot, SerialChain)):
+        raise TypeError(f"robot must be a DHRobot or a SerialChain, got {type(robot).__name__}")
+    if robot.batch_shape != ():
+        raise ValueError(f"these maps take one arm, got a batch of shape {robot.batch_shape}")
+    return robot
+
+
+def _search_settings(ik):
+    settings = {**MAP_SETTINGS, **(ik or {})}
+    for key in ("solver", "chunk", "progress"):
+        settings.pop(key, None)
+    return settings
+
+
+def _subset_neighbours(nb, keep):
+    """Neighbours ``nb`` (N, K) of the nodes where ``keep`` (N,), re-indexed into that subset."""
+    new = np.full(len(keep) + 1, -1, dtype=np.int64)
+    idx = np.flatnonzero(keep)
+    new[idx] = np.arange(idx.size)
+    sub = nb[idx]
+    return np.where(sub >= 0, new[sub], -1)
+
+
+def position_map(robot, nodes, *, samples: int = 20000, seed: int = 0, ik: dict | None = None,
+                 return_q: bool = False):
+    """Reach at any orientation: bool ``(N,)``, the tool origin can be put at node ``p`` (m, base frame).
+
+    Forward-kinematics sampling finds starts (``samples`` configurations drawn inside the limits;
+    each node starts from the sampled configuration whose tool lies nearest to it), then the search
+    on the position alone settles every node (:func:`wsmap.kinematics.map_search` with
+    ``position_only``; ``ik`` overrides its settings). Every ``True`` has a confirmed solution;
+    ``return_q`` also returns them ``(N, n)`` (NaN where unreachable).
+    """
+    robot = _check_arm(robot)
+    nodes = _check_nodes("nodes", nodes)
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
+        raise ValueError(f"samples must be a non-negative integer, got {samples!r}")
+    chain = as_chain(robot)
+    N, n = len(nodes), chain.n
+    q_init = np.full((N, n), np.nan)
+    if samples and N:
+        from scipy.spatial import cKDTree
+
+        q = chain.random_q(int(samples), np.random.default_rng(seed))
+        tip = chain.fkine(q)[:, :3, 3]
+        d, node = cKDTree(nodes).query(tip)
+        # per node, the sample nearest to it
+        order = np.lexsort((d, node))
+        first = np.ones(order.size, dtype=bool)
+        first[1:] = node[order][1:] != node[order][:-1]
+        q_init[node[order][first]] = q[order][first]
+    T = target_poses(nodes, (0.0, 0.0, 0.0), "standard")
+    res = map_search(chain, T, node_neighbours(nodes), q_init=q_init, position_only=True, seed=seed,
+                     **_search_settings(ik))
+    return (res.success, np.where(res.success[:, None], res.q, np.nan)) if return_q else res.success
+
+
+def reachability_index(robot, nodes, orientations, *, method: str = "auto", return_bits: bool = False,
+                       ik: dict | None = None, seed: int = 0):
+    """The reachability index: float ``(N,)`` in [0, 1], the fraction of ``orientations`` (K, 3, 3)
+    reachable at each node (``T = transl(p)·R_k``); ``return_bits`` also returns the bool ``(N, K)``.
+
+    ``method``: ``"auto"`` (exact for a closed-form family, else numerical), ``"exact"``,
+    ``"numerical"``. Numerically: nodes where the tool cannot reach at any orientation
+    (:func:`position_map`) are 0 without more work; the orientations are solved one after another in
+    an order where each is near one solved before (:func:`continuation_order`), every node starting
+    from its own solution there, then from its neighbours' (``ik`` overrides the search settings).
+    """
+    robot = _check_arm(robot)
+    nodes = _check_nodes("nodes", nodes)
+    R = check_rotations("orientations", orientations)
+    N, K = len(nodes), len(R)
+    _check_fits(N * K * 8, f"an index of {N} nodes x {K} orientations")
+    method = resolve_method(robot, method)
+    bits = np.zeros((N, K), dtype=bool)
+    if method == "exact":
+        block = max(1, (1 << 20) // max(N, 1))
+        for k0 in range(0, K, block):
+            Rk = R[k0 : k0 + block]
+            T = np.zeros((len(Rk), N, 4, 4))
+            T[..., :3, :3] = Rk[:, None]
+            T[..., :3, 3] = nodes[None]
+            T[..., 3, 3] = 1.0
+            bits[:, k0 : k0 + block] = _exact(robot, T.reshape(-1, 4, 4)).reshape(len(Rk), N).T
+    else:
+        chain = as_chain(robot)
+        settings = _search_settings(ik)
+        reach = position_map(chain, nodes, ik=ik, seed=seed)
+        idx = np.flatnonzero(reach)
+        if idx.size:
+            nb = _subset_neighbours(node_neighbours(nodes), reach)
+            sol = np.full((K, idx.size, chain.n), np.nan)
+            order, parent = continuation_order(R)
+            for k, par in zip(order, parent):
+                T = np.zeros((idx.size, 4, 4))
+                T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = R[k], nodes[idx], 1.0
+                res = map_search(chain, T, nb, q_init=None if par < 0 else sol[par], seed=seed, **settings)
+                bits[idx, k] = res.success
+                sol[k][res.success] = res.q[res.success]
+    index = bits.mean(axis=1)
+    return (index, bits) if return_bits else index
+
+
+def dexterous_map(robot, nodes, orientations, **kw) -> np.ndarray:
+    """The dexterous workspace for a set of orientations: bool ``(N,)``, every one of ``orientations``
+    is reachable at the node (:func:`reachability_index` ``== 1``; same keywords)."""
+    _, bits = reachability_index(robot, nodes, orientations, return_bits=True, **kw)
+    return bits.all(axis=1)
+
+
+def yoshikawa(J) -> np.ndarray:
+    """Yoshikawa's manipulability ``√det(J Jᵀ)`` of Jacobians ``(..., 6, n)`` (0 where singular)."""
+    J = np.asarray(J, dtype=np.float64)
+    d = np.linalg.det(J @ np.swapaxes(J, -1, -2))
+    return np.sqrt(np.maximum(d, 0.0))
+
+
+def manipulability_map(robot, nodes, rpy=(0.0, 0.0, 0.0), *, convention: str = "standard", method: str = "auto",
+                       ik: dict | None = None, seed: int = 0) -> np.ndarray:
+    """Manipulability map: float ``(N,)``, the largest Yoshikawa manipulability ``√det(J Jᵀ)`` over
+    the IK solutions found for the pose at each node (orientation ``rpy``, ``R = Rx·Ry·Rz``; pose
+    convention as :func:`wsmap.workspace.target_poses`), 0 where unreachable.
+
+    Exact for the closed-form families: the largest over every valid branch (all 8). Numerical: the
+    solution the map search finds at each node (one per node; a redundant arm has others along its
+    self-motion, so the value is a lower bound of the node's best).
+    """
+    robot = _check_arm(robot)
+    nodes = _check_nodes("nodes", nodes)
+    _check_choice("convention", convention, ("paper", "standard"))
+    method = resolve_method(robot, method)
+    T = target_poses(nodes, rpy, convention)
+    out = np.zeros(len(nodes))
+    if method == "exact":
+        family = closed_form_family(robot)
+        if family == "spherical_wrist":
+            q, valid = ikine_spherical_wrist(robot, T)
+        else:
+            q, valid = ikine_ur(robot, T)
+        rows = np.flatnonzero(valid.any(axis=1))
+        if rows.size:
+            w = yoshikawa(robot.jacob0(q[rows]))  # (R, 8)
+            out[rows] = np.where(valid[rows], w, 0.0).max(axis=1)
+        return out
+    chain = as_chain(robot)
+    res = map_search(chain, T, node_neighbours(nodes), seed=seed, **_search_settings(ik))
+    if res.success.any():
+        out[res.success] = yoshikawa(chain.jacob0(res.q[res.success]))
+    return out
+
