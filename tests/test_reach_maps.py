@@ -1,0 +1,201 @@
+"""Maps over orientations, manipulability and base placement: cases with known answers."""
+
+import numpy as np
+import pytest
+
+from wsmap import robots
+from wsmap import workspace as ws
+from wsmap.kinematics import from_dh, rotx
+
+PI = np.pi
+
+
+def rz(phis):
+    phis = np.asarray(phis, dtype=float)
+    R = np.zeros(phis.shape + (3, 3))
+    R[..., 0, 0], R[..., 0, 1], R[..., 1, 0], R[..., 1, 1], R[..., 2, 2] = (np.cos(phis), -np.sin(phis),
+                                                                          np.sin(phis), np.cos(phis), 1.0)
+    return R
+
+
+# ------------------------------------------------------------------ orientation sets
+def test_orientation_samples_are_rotations_spread_over_so3():
+    R = ws.orientation_samples(500)
+    assert R.shape == (500, 3, 3)
+    np.testing.assert_allclose(np.swapaxes(R, 1, 2) @ R, np.broadcast_to(np.eye(3), R.shape), atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(R), 1.0, atol=1e-12)
+    # uniform over SO(3): E[R] = 0; and no two samples nearly equal
+    assert np.abs(R.mean(axis=0)).max() < 0.02
+    from wsmap.workspace.orientations import rotation_angle
+
+    d = rotation_angle(R[:, None], R[None]) + np.eye(500) * 10
+    assert d.min() > 0.1
+    # deterministic, and a seed turns the whole set
+    np.testing.assert_array_equal(R, ws.orientation_samples(500))
+    other = ws.orientation_samples(500, seed=1)
+    assert not np.allclose(other, R)
+    G = other[0] @ ws.orientation_samples(500, seed=None)[0].T
+    np.testing.assert_allclose(other, G @ ws.orientation_samples(500, seed=None), atol=1e-12)
+
+
+def test_approach_orientations_point_the_tool_z_axis():
+    R = ws.approach_orientations(20, rolls=4)
+    assert R.shape == (80, 3, 3)
+    z = R[:, :, 2].reshape(20, 4, 3)
+    np.testing.assert_allclose(z, z[:, :1].repeat(4, axis=1), atol=1e-12)  # the roll keeps the approach
+    np.testing.assert_allclose(np.linalg.norm(z, axis=-1), 1.0)
+    assert np.abs(z[:, 0].mean(axis=0)).max() < 0.05  # spread over the sphere
+    ws.check_rotations("R", R)
+
+
+@pytest.mark.parametrize("bad, message", [
+    (np.zeros((0, 3, 3)), "orientations is empty"),
+    (np.eye(3)[None] * 2, r"orientations\[0\] is not a rotation: RᵀR ≠ I"),
+    (np.diag([1.0, 1.0, -1.0])[None], r"orientations\[0\] is not a rotation: det R = -1"),
+    (np.zeros((2, 3)), r"orientations must have shape \(K, 3, 3\)"),
+    (np.full((1, 3, 3), np.nan), "NaN"),
+])
+def test_bad_orientation_sets_are_refused(bad, message):
+    with pytest.raises(ValueError, match=message):
+        ws.reachability_index(robots.puma560(), np.zeros((1, 3)), bad)
+
+
+@pytest.mark.parametrize("k", [0, -3, 2.5, True])
+def test_bad_counts_are_refused(k):
+    with pytest.raises(ValueError, match="must be a positive integer"):
+        ws.orientation_samples(k)
+    with pytest.raises(ValueError, match="must be a positive integer"):
+        ws.approach_orientations(k)
+
+
+# ------------------------------------------------------------------ known answers
+@pytest.mark.parametrize("method", ["exact", "numerical"])
+def test_puma_without_limits_index_is_the_wrist_centre_map(method):
+    """PUMA560 without limits: its wrist reaches every orientation wherever the wrist centre is
+    reachable (the flange sits on the centre), so the index is 0 or 1 and equals the R = I map."""
+    puma = robots.puma560()
+    nodes = ws.cartesian_grid(-1, 1, 0.2)
+    idx = ws.reachability_index(puma, nodes, ws.orientation_samples(12), method=method)
+    assert set(np.unique(idx)) <= {0.0, 1.0}
+    ri = ws.constant_orientation_map(puma, nodes, method="exact", convention="standard")
+    np.testing.assert_array_equal(idx == 1.0, ri)
+    np.testing.assert_array_equal(ws.dexterous_map(puma, nodes, ws.orientation_samples(12), method=method), ri)
+    np.testing.assert_array_equal(ws.position_map(puma, nodes), ri)
+
+
+def planar3r():
+    return from_dh([0.0, 0.0, 0.0], [0.5, 0.4, 0.2], [0.0, 0.0, 0.0], name="planar3r")
+
+
+def test_planar_3r_index_and_reach_match_the_annulus():
+    """Planar 3R (0.5, 0.4, 0.2 m): at heading phi the wrist point p - 0.2·(cos phi, sin phi) must lie
+    in the annulus 0.1 <= r <= 0.9; the tool reaches 0 <= |p| <= 1.1 at some heading."""
+    arm = planar3r()
+    nodes = ws.cartesian_grid((-1.2, -1.2, 0.0), (1.2, 1.2, 0.0), 0.1)
+    phis = np.linspace(0, 2 * PI, 12, endpoint=False)
+    idx, bits = ws.reachability_index(arm, nodes, rz(phis), return_bits=True)
+    w = nodes[:, None, :2] - 0.2 * np.stack([np.cos(phis), np.sin(phis)], -1)[None]
+    r = np.linalg.norm(w, axis=-1)
+    exact = (r >= 0.1 - 1e-9) & (r <= 0.9 + 1e-9)
+    # never a false positive; every miss lies exactly on the boundary, reachable only at a
+    # singular configuration where LM converges too slowly for tol 1e-10
+    assert not np.any(bits & ~exact)
+    miss = exact & ~bits
+    assert np.all(np.isclose(r[miss], 0.1) | np.isclose(r[miss], 0.9))
+    away = (np.abs(r - 0.1) > 1e-6) & (np.abs(r - 0.9) > 1e-6)
+    np.testing.assert_array_equal(bits[away], exact[away])
+    np.testing.assert_allclose(idx, bits.mean(axis=1))
+    pm = ws.position_map(arm, nodes)
+    rr = np.linalg.norm(nodes[:, :2], axis=1)
+    inside = rr <= 1.1 - 1e-6
+    np.testing.assert_array_equal(pm[inside | (rr > 1.1 + 1e-6)], inside[inside | (rr > 1.1 + 1e-6)])
+    # nodes off the arm's plane are never reached
+    off = ws.cartesian_grid((-0.5, -0.5, 0.1), (0.5, 0.5, 0.1), 0.25)
+    assert not ws.position_map(arm, off).any()
+
+
+def test_ur5e_index_numerical_agrees_with_the_closed_form():
+    ur5e = robots.load("ur5e")
+    nodes = ws.cartesian_grid(-1, 1, 0.2)
+    R = ws.orientation_samples(8)
+    exact, be = ws.reachability_index(ur5e, nodes, R, return_bits=True)
+    num, bn = ws.reachability_index(ur5e, nodes, R, method="numerical", return_bits=True)
+    assert not np.any(bn & ~be)
+    assert (bn & be).sum() / be.sum() >= 0.99
+    # the position map contains every orientation's map
+    pm = ws.position_map(ur5e, nodes)
+    assert not np.any(be.any(axis=1) & ~pm)
+
+
+def test_manipulability_exact_numerical_and_an_independent_library():
+    import roboticstoolbox as rtb
+
+    puma = robots.puma560()
+    nodes = ws.cartesian_grid(-1, 1, 0.2)
+    exact = ws.manipulability_map(puma, nodes, (PI, 0, 0))
+    num = ws.manipulability_map(puma, nodes, (PI, 0, 0), method="numerical")
+    reach = ws.constant_orientation_map(puma, nodes, (PI, 0, 0), convention="standard")
+    np.testing.assert_array_equal(exact > 0, reach)
+    np.testing.assert_array_equal(num > 0, reach)
+    assert np.all(num <= exact + 1e-9)  # one solution's value never beats the best branch
+    assert np.all(exact[~reach] == 0)
+    # Yoshikawa's measure against Robotics Toolbox's, at random configurations
+    rob = rtb.DHRobot([rtb.RevoluteDH(d=d, a=a, alpha=al) for d, a, al in zip(puma.d, puma.a, puma.alpha)])
+    q = np.random.default_rng(0).uniform(-PI, PI, (20, 6))
+    ours = ws.yoshikawa(puma.jacob0(q))
+    theirs = np.array([rob.manipulability(qi, method="yoshikawa") for qi in q])
+    np.testing.assert_allclose(ours, theirs, rtol=1e-9, atol=1e-12)
+
+
+def test_yoshikawa_of_known_jacobians():
+    J = np.zeros((6, 6))
+    J[np.arange(6), np.arange(6)] = [1, 2, 3, 1, 1, 0.5]
+    assert ws.yoshikawa(J) == pytest.approx(3.0)
+    J[5, 5] = 0.0
+    assert ws.yoshikawa(J) == 0.0
+
+
+# ------------------------------------------------------------------ base placement
+@pytest.mark.parametrize("name", ["ur5e", "panda"])
+def test_targets_from_a_known_base_are_placed_back_there(name):
+    arm = robots.load(name)
+    rng = np.random.default_rng(3)
+    T0 = arm.fkine(arm.random_q(200, rng))
+    far = np.argsort(-np.linalg.norm(T0[:, :3, 3], axis=1))[:20]  # near the reach limit: a sharp answer
+    B0 = ws.floor_poses(0.3, -0.2, PI / 4)
+    T = B0 @ T0[far]
+    pl = ws.base_placement(arm, T, x=(-0.5, 0.5), y=(-0.5, 0.5), step=0.1, yaws=8)
+    assert pl.score[0] == 1.0
+    top = pl.score == 1.0
+    # every base that reaches all the targets stands where they came from (the base joint's range
+    # may absorb the heading)
+    np.testing.assert_allclose(pl.x[top], 0.3, atol=1e-9)
+    np.testing.assert_allclose(pl.y[top], -0.2, atol=1e-9)
+    assert np.any(np.isclose(pl.yaw[top], PI / 4))
+    # the best base's solutions reach the targets in its frame
+    Tb = np.linalg.inv(pl.poses[0]) @ T
+    np.testing.assert_allclose(arm.fkine(pl.q), Tb, atol=1e-6)
+    assert np.all(np.diff(pl.score) <= 0)
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(x=(1.0, -1.0)), r"x: lo \(1.0\) is above hi \(-1.0\)"),
+    (dict(y=(0.0, np.nan)), "y must be a finite"),
+    (dict(yaws=0), "yaws must be a positive integer"),
+    (dict(step=0.0), "step must be positive"),
+])
+def test_bad_placement_regions_are_refused(kw, message):
+    with pytest.raises(ValueError, match=message):
+        ws.base_placement(robots.load("ur5e"), np.eye(4), **kw)
+
+
+def test_placement_targets_must_be_rigid():
+    T = np.eye(4)
+    T[0, 0] = 2.0
+    with pytest.raises(ValueError, match="targets is not a rigid transform"):
+        ws.base_placement(robots.load("ur5e"), T)
+    with pytest.raises(ValueError, match=r"targets must have shape \(M, 4, 4\) with M >= 1"):
+        ws.base_placement(robots.load("ur5e"), np.zeros((0, 4, 4)))
+    T = rotx(0.3)
+    with pytest.raises(ValueError, match=r"targets must have shape"):
+        ws.base_placement(robots.load("ur5e"), T[:3])
