@@ -729,6 +729,7 @@ def ikine_search(
     chunk: int = 16384,
     progress=None,
     backend: str = "compiled",
+    position_only: bool = False,
 ) -> SearchResult:
     """Multi-start Levenberg–Marquardt reachability search with joint limits (see the module notes).
 
@@ -758,8 +759,11 @@ def ikine_search(
     backend : ``"compiled"`` (default; :mod:`.lm_compiled`, numba, threads from
         :func:`wsmap.kinematics.lm_compiled.set_threads`) or ``"numpy"`` (the reference kernel of
         this module). Both run the same iterations; answers agree up to rounding.
+    position_only : reach the position of each ``T`` at any orientation (compiled backend only)
     """
     _check_backend(backend)
+    if position_only and backend != "compiled":
+        raise ValueError("position_only needs the compiled backend")
     chain = _limited(as_chain(robot), joint_limits)
     T = check_rigid("target poses", T)
     starts = _check_count("starts", starts, 1)
@@ -787,14 +791,21 @@ def ikine_search(
     it_out = np.zeros(count, dtype=np.int64)
     res_out = np.full(count, np.inf)
     start_out = np.full(count, -1, dtype=np.int64)
-    possible = _reach_filter(chain, np.broadcast_to(T, shape + (4, 4)), confirm_tol).reshape(-1)
+    if position_only:
+        pb = _position_filter(chain, np.broadcast_to(T, shape + (4, 4))[..., :3, 3].reshape(-1, 3), confirm_tol)
+        possible = np.broadcast_to(pb, (count,)) if pb.ndim == 1 else None
+        if possible is None:  # a batch of arms: the filter per target's arm
+            possible = pb.reshape(B, count)[arm_of, np.arange(count)]
+    else:
+        possible = _reach_filter(chain, np.broadcast_to(T, shape + (4, 4)), confirm_tol).reshape(-1)
 
     if backend == "compiled":
         aa = arm_arrays(chain)
         for s0 in range(0, count, chunk):
             todo = s0 + np.flatnonzero(possible[s0 : s0 + chunk])
             keys = _pose_keys(seed, Tf[todo])
-            q, ok, it, res, st = run_compiled(0, aa, arm_of[todo], Tf[todo], keys, Q0[todo][:, None, :],
+            q, ok, it, res, st = run_compiled(2 if position_only else 0, aa, arm_of[todo], Tf[todo], keys,
+                                              Q0[todo][:, None, :],
                                               np.ones(todo.size, dtype=np.int64), 1, starts, ilimit, rlimit, tol,
                                               lam, confirm_tol)
             q_out[todo], ok_out[todo], it_out[todo], res_out[todo], start_out[todo] = q, ok, it, res, st

@@ -1,4 +1,11 @@
-"""Map files: one ``.npz`` per map with the map, its nodes, the grid and the settings that made it."""
+"""Map files: one ``.npz`` per map with the map, its nodes, the grid, the orientation set (maps over
+orientations) and the settings that made it (the arm, its source and limits, the method, the kind).
+
+Arrays: ``map`` (N,) in node order — bool for the binary kinds (the paper's constant-orientation and
+orientation maps, reach, dexterous), float64 for the reachability index (in [0, 1]) and the
+manipulability map; ``nodes`` (N, 3) (m, or rad for an SO3 grid); ``orientations`` (K, 3, 3) when the
+map was made over a set of orientations; ``grid`` and ``settings`` as JSON strings.
+"""
 
 from __future__ import annotations
 
@@ -18,21 +25,31 @@ class MapFileError(ValueError):
     """A file that is not a readable wsmap map."""
 
 
-def save_map(path, flat_map, grid: dict, settings: dict) -> Path:
-    """Write a map as ``.npz`` atomically: ``map`` (bool, node order), ``nodes`` (float64 ``(N, 3)``),
-    ``grid`` and ``settings`` (JSON strings). Returns ``path``."""
+def save_map(path, flat_map, grid: dict, settings: dict, orientations=None) -> Path:
+    """Write a map as ``.npz`` atomically (see the module notes); a bool map stays bool, any other is
+    stored as float64 (finite values only). ``orientations`` (K, 3, 3): the set a map over
+    orientations was made with. Returns ``path``."""
     nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
-    flat_map = np.asarray(flat_map, dtype=bool)
+    flat_map = np.asarray(flat_map)
+    if flat_map.dtype != bool:
+        flat_map = flat_map.astype(np.float64)
+        if not np.all(np.isfinite(flat_map)):
+            raise ValueError("a map must hold finite values")
     if flat_map.shape != (len(nodes),):
         raise ValueError(f"a map of shape {flat_map.shape} does not fit a grid of {len(nodes)} nodes")
+    extra = {}
+    if orientations is not None:
+        extra["orientations"] = np.asarray(orientations, dtype=np.float64).reshape(-1, 3, 3)
     with atomic_path(path, suffix=".npz") as tmp:
         with open(tmp, "wb") as f:
-            np.savez_compressed(f, map=flat_map, nodes=nodes, grid=json.dumps(grid), settings=json.dumps(settings))
+            np.savez_compressed(f, map=flat_map, nodes=nodes, grid=json.dumps(grid), settings=json.dumps(settings),
+                                **extra)
     return Path(path)
 
 
 def load_map(path):
-    """Read a map written by :func:`save_map`: ``(map, nodes, grid, settings)``.
+    """Read a map written by :func:`save_map`: ``(map, nodes, grid, settings)``; a map over
+    orientations has its set in ``settings["orientations"]`` ((K, 3, 3) array).
 
     A missing file is ``FileNotFoundError``; anything else unreadable is :class:`MapFileError`.
     """
@@ -45,8 +62,10 @@ def load_map(path):
         with np.load(path, allow_pickle=False) as z:
             flat, nodes = z["map"], z["nodes"]
             grid, settings = json.loads(str(z["grid"])), json.loads(str(z["settings"]))
+            if "orientations" in z.files:
+                settings["orientations"] = z["orientations"]
     except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as e:
         raise MapFileError(f"{path} is not a readable wsmap map file ({type(e).__name__}: {e})") from None
-    if flat.dtype != bool or nodes.shape != (flat.shape[0], 3):
+    if flat.dtype not in (np.dtype(bool), np.dtype(np.float64)) or flat.ndim != 1 or nodes.shape != (flat.shape[0], 3):
         raise MapFileError(f"{path} is not a wsmap map file: map {flat.shape} {flat.dtype}, nodes {nodes.shape}")
     return flat, nodes, grid, settings
