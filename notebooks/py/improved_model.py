@@ -30,12 +30,14 @@ from wsmap import metrics as M
 from wsmap import models, paths, robots, timing
 from wsmap.io import write_json
 from wsmap.kinematics import arm_batch
+from wsmap.learn.device import resolve_device
 from wsmap.paper import fitting as E
 from wsmap.paper.published import PAPER_TABLE1, RUNTIME_SECONDS, SEC61
 from wsmap.training import TrainConfig
 from wsmap.viz import plot_slices, save_figure
 
 cfg = paths.notebook_params("improved_model", params_file)
+device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
 torch.set_num_threads(cfg["threads"])
 out = paths.Outputs(output_root).make()
 train_all, test = D.load_pair(cfg["dataset"], out.data)
@@ -58,7 +60,7 @@ v = float(cfg["validation_fraction"])
 train_config = TrainConfig(
     optimizer="adam", optimizer_kwargs={"lr": cfg["lr"]}, lr_decay=cfg["lr_decay"], batch_size=cfg["batch_size"],
     loss="crossentropy", max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"], fractions=(1.0 - v, v, 0.0),
-    seed=cfg["seed"],
+    seed=cfg["seed"], device=device,
 )
 (result,) = E.fit(train, train_config, hidden=cfg["hidden"], input_columns=columns,
                   input_scaling="standardize", output_kind="logit", init="torch")
@@ -106,7 +108,7 @@ save_figure(fig, out.figures / "puma560_workspace_improved.png")
 # %%
 one = timing.time_call(lambda: model.predict_maps(puma), repeats=cfg["timing_repeats"], warmup=3)
 print(f"one 9261-node map from DH parameters: {one.mean * 1e3:.3f} ± {one.std * 1e3:.3f} ms "
-      f"(min {one.min * 1e3:.3f} ms, {one.n} calls, {torch.get_num_threads()} torch threads); "
+      f"(min {one.min * 1e3:.3f} ms, {one.n} calls, {device}, {torch.get_num_threads()} torch threads); "
       f"paper {RUNTIME_SECONDS[9261][1] * 1e3:.1f} ms")
 
 # %%
@@ -116,7 +118,7 @@ metrics = dict(
     puma560_f=puma_prf.f, puma560_nodes_differ=int((predicted != exact).sum()),
     seconds_per_map=one.mean, seconds_per_map_std=one.std, seconds_per_map_min=one.min, train_seconds=float(history["time"].iloc[-1]), epochs=int(result.stop_epoch),
     stop_reason=result.stop_reason, train_samples=len(train), test_samples=len(test),
-    inputs=[names[c] for c in columns], hidden=list(cfg["hidden"]),
+    inputs=[names[c] for c in columns], hidden=list(cfg["hidden"]), device=str(device),
 )
 write_json(metrics, out.results / "improved_model.json")
 metrics

@@ -38,17 +38,20 @@ import torch
 
 from wsmap import paths
 from wsmap.io import atomic_path, write_json
+from wsmap.learn.device import device_facts, resolve_device
 from wsmap.paper import runtime as RT
 from wsmap.paper.published import RUNTIME_SECONDS
 from wsmap.viz import save_figure
 
 out = paths.Outputs(output_root).make()
 cfg = paths.notebook_params("runtime_comparison", params_file)
+device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
 torch.set_num_threads(int(cfg["torch_threads"]))
 machine = {
     "cpus": os.cpu_count(),
     "load_average_before": list(os.getloadavg()),
     "torch_threads": torch.get_num_threads(),
+    "network_device": device_facts(device),
     "python": platform.python_version(),
     "torch": torch.__version__,
     "numpy": np.__version__,
@@ -63,7 +66,7 @@ df = RT.runtime_comparison(
     cfg["steps"], lo=cfg["lo"], hi=cfg["hi"], rpy=cfg["rpy"],
     repeats=int(cfg["repeats"]), warmup=int(cfg["warmup"]),
     classical_repeats=int(cfg["classical_repeats"]), classical_warmup=int(cfg["classical_warmup"]),
-    per_node_sample=int(cfg["per_node_sample"]), seed=int(cfg["seed"]), progress=print,
+    per_node_sample=int(cfg["per_node_sample"]), seed=int(cfg["seed"]), progress=print, device=device,
 )
 machine["load_average_after"] = list(os.getloadavg())
 df[["nodes", "label", "mean_s", "std_s", "repeats", "timed_nodes", "extrapolated", "agreement_with_exact",
@@ -131,7 +134,7 @@ metrics = {
     "per_node_extrapolated": {str(r.nodes): bool(r.extrapolated) for r in df.itertuples()
                               if r.method == "classical_per_node_numerical"},
     "settings": {k: cfg[k] for k in ("steps", "lo", "hi", "rpy", "repeats", "warmup", "classical_repeats",
-                                     "classical_warmup", "per_node_sample", "seed")},
+                                     "classical_warmup", "per_node_sample", "seed", "device")},
     "machine": machine,
 }
 write_json(metrics, out.results / "runtime_comparison.json")

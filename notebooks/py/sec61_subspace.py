@@ -45,18 +45,20 @@ from wsmap import models, paths
 from wsmap import viz as V
 from wsmap import workspace as ws
 from wsmap.io import write_json, write_table
+from wsmap.learn.device import resolve_device
 from wsmap.paper import fitting as E
 from wsmap.paper.published import SEC61
 from wsmap.training import TrainConfig
 
 out = paths.Outputs(output_root).make()
 cfg = paths.notebook_params("sec61_subspace", params_file)
+device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
 threads = torch.get_num_threads()
 train_all, test = D.load_pair(cfg["dataset"], out.data)
 train = train_all.head(cfg["train_samples"])
 spec = train.spec
 print(f"training on {len(train)} of {len(train_all)} arms, testing on {len(test)}; "
-      f"{train.n_nodes} nodes {spec.select}; torch threads {threads}")
+      f"{train.n_nodes} nodes {spec.select}; torch threads {threads}; device {device}")
 assert spec.select == (ws.block_slice(4).start, ws.block_slice(4).stop)
 
 # %% [markdown]
@@ -64,7 +66,7 @@ assert spec.select == (ws.block_slice(4).start, ws.block_slice(4).stop)
 
 # %%
 train_cfg = TrainConfig(optimizer="rprop", loss="mse", max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"],
-                        seed=cfg["seed"])
+                        seed=cfg["seed"], device=device)
 t0 = time.perf_counter()
 results = E.fit(train, train_cfg, sessions=cfg["sessions"], hidden=cfg["hidden"])
 t_fit = time.perf_counter() - t0
@@ -184,6 +186,7 @@ metrics = {
     "seconds_per_session_mean": float(np.mean(seconds)),
     "seconds_training_total": t_fit,
     "torch_threads": threads,
+    "device": str(device),
     "train_samples": len(train),
     "test_samples": len(test),
     "nodes": train.n_nodes,

@@ -43,6 +43,7 @@ from wsmap import viz as V
 from wsmap import workspace as ws
 from wsmap.io import write_json, write_table
 from wsmap.kinematics import arm_batch
+from wsmap.learn.device import resolve_device
 from wsmap.paper import fitting as E
 from wsmap.paper import published
 from wsmap.timing import time_call
@@ -50,6 +51,7 @@ from wsmap.training import TrainConfig
 
 out = paths.Outputs(output_root).make()
 cfg = paths.notebook_params("sec62_puma560", params_file)
+device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
 threads = torch.get_num_threads()
 train_all, test = D.load_pair(cfg["dataset"], out.data)
 train = train_all.head(cfg["train_samples"])
@@ -60,14 +62,14 @@ z_axis = D.grid_axes(spec)[2]
 names = [f"block {k + 1}" for k in range(len(blocks))]
 z_ranges = [f"{z_axis[3 * k]:+.1f}..{z_axis[3 * k + 2]:+.1f}" for k in range(len(blocks))]
 print(f"training on {len(train)} of {len(train_all)} arms, testing on {len(test)}; grid {shape}, "
-      f"{len(blocks)} blocks of {ws.BLOCK_NODES} nodes; torch threads {threads}")
+      f"{len(blocks)} blocks of {ws.BLOCK_NODES} nodes; torch threads {threads}; device {device}")
 
 # %% [markdown]
 # ## Training the 7 subspaces (one after another, same seed and split)
 
 # %%
 train_cfg = TrainConfig(optimizer="rprop", loss="mse", max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"],
-                        seed=cfg["seed"])
+                        seed=cfg["seed"], device=device)
 t0 = time.perf_counter()
 model, results = E.fit_blocks(train, train_cfg, blocks, hidden=cfg["hidden"])
 t_fit = time.perf_counter() - t0
@@ -100,8 +102,9 @@ V.save_figure(fig, out.figures / "sec62_error_histogram.png")
 
 # %%
 def times(fn, repeats):
-    """Wall-clock seconds of ``repeats`` calls of ``fn`` after 2 untimed ones, as an array."""
-    return np.asarray(time_call(fn, repeats, warmup=2).values)
+    """Wall-clock seconds of ``repeats`` calls of ``fn`` after 2 untimed ones, as an array. ``fn``
+    returns a tensor, copied to the host inside the timing (on a GPU: the work is finished)."""
+    return np.asarray(time_call(lambda: fn().cpu(), repeats, warmup=2).values)
 
 
 x_one = test.features[:1]
@@ -111,7 +114,7 @@ one_arm["assembled (9261)"] = times(lambda: model.score(x_one, assemble=True), r
 all_arms = {n: times(lambda k=k: model.score(test.features, key=k), max(3, reps // 5)) for k, n in enumerate(names)}
 all_arms["assembled (9261)"] = times(lambda: model.score(test.features, assemble=True), max(3, reps // 5))
 fig = V.plot_runtimes({"one arm's map": one_arm, f"maps of the {len(test)} test arms": all_arms},
-                      title=f"Run time of subspace models (torch, {threads} thread(s))")
+                      title=f"Run time of subspace models (torch, {device}, {threads} thread(s))")
 V.save_figure(fig, out.figures / "sec62_subspace_runtime.png")
 
 # %%
@@ -140,7 +143,7 @@ print(table.to_string(index=False))
 puma = arm_batch(robots.puma560())
 x_puma = D.features_for(puma, spec)
 t0 = time.perf_counter()
-predicted = model.predict(x_puma, cfg["threshold"], assemble=True).numpy()[0]
+predicted = model.predict(x_puma, cfg["threshold"], assemble=True).cpu().numpy()[0]
 t_puma = time.perf_counter() - t0
 exact = D.labels_for(puma, spec)[0]
 puma_prf = M.precision_recall_f(predicted, exact)
@@ -201,6 +204,7 @@ metrics = {
     "seconds_per_block": seconds,
     "seconds_training_total": t_fit,
     "torch_threads": threads,
+    "device": str(device),
     "paper": dict(published.SEC62),
     "train_samples": len(train),
     "test_samples": len(test),

@@ -29,13 +29,16 @@ from IPython.display import Image
 
 from wsmap import paths
 from wsmap.io import jsonable, plus_minus, write_json, write_table
+from wsmap.learn.device import resolve_device
 from wsmap.paper import tables as S
 from wsmap.training import TrainConfig
 from wsmap.viz import save_figure
 
 out = paths.Outputs(output_root).make()
 cfg = paths.notebook_params("table1_workspaces", params_file)
-config = TrainConfig(optimizer=cfg["optimizer"], loss=cfg["loss"], max_fail=cfg["max_fail"], seed=cfg["seed"])
+device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
+config = TrainConfig(optimizer=cfg["optimizer"], loss=cfg["loss"], max_fail=cfg["max_fail"], seed=cfg["seed"],
+                     device=device)
 cfg
 
 # %% [markdown]
@@ -96,6 +99,7 @@ metrics = jsonable({
     "epochs": by_dataset("epochs"),
     "seconds": by_dataset("seconds"),
     "total_training_seconds": float(runs.seconds.sum()),
+    "device": str(device),
     "config": cfg,
 })
 write_json(metrics, out.results / "table1_workspaces.json")

@@ -40,6 +40,7 @@ from IPython.display import Image
 from wsmap import data as D
 from wsmap import paths
 from wsmap.io import jsonable, plus_minus, write_json, write_table
+from wsmap.learn.device import resolve_device
 from wsmap.paper import tables as S
 from wsmap.paper.published import PAPER_TABLE2
 from wsmap.training import TrainConfig
@@ -47,8 +48,9 @@ from wsmap.viz import save_figure
 
 out = paths.Outputs(output_root).make()
 cfg = paths.notebook_params("table2_optimisers", params_file)
+device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
 train, test = D.load_pair(cfg["dataset"], out.data)
-config = TrainConfig(max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"], seed=cfg["seed"])
+config = TrainConfig(max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"], seed=cfg["seed"], device=device)
 print(f"{cfg['dataset']}: {len(train)} training arms (using {cfg['train_samples'] or len(train)}), "
       f"{len(test)} test arms, {train.n_nodes} nodes")
 cfg
@@ -122,6 +124,7 @@ metrics = jsonable({
     "sessions": int(cfg["sessions"]),
     "train_samples": int(summary.train_samples.iloc[0]),
     "total_training_seconds": float(runs.seconds.sum()),
+    "device": str(device),
     "config": cfg,
 })
 write_json(metrics, out.results / "table2_optimisers.json")

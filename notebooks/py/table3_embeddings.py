@@ -31,18 +31,20 @@ from IPython.display import Image
 from wsmap import data as D
 from wsmap import paths
 from wsmap.io import jsonable, plus_minus, write_json, write_table
+from wsmap.learn.device import resolve_device
 from wsmap.paper import tables as S
 from wsmap.training import TrainConfig
 from wsmap.viz import save_figure
 
 out = paths.Outputs(output_root).make()
 cfg = paths.notebook_params("table3_embeddings", params_file)
+device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
 pairs = {emb: D.load_pair(name, out.data) for emb, name in cfg["embeddings"].items()}
 for emb, (tr, te) in pairs.items():
     print(f"{emb}: {len(tr)} training arms, {len(te)} test arms, {tr.n_nodes} nodes, "
           f"{tr.labels.mean():.1%} of training labels reachable")
 config = TrainConfig(optimizer=cfg["optimizer"], loss=cfg["loss"], max_epochs=cfg["max_epochs"],
-                     max_fail=cfg["max_fail"], seed=cfg["seed"])
+                     max_fail=cfg["max_fail"], seed=cfg["seed"], device=device)
 cfg
 
 # %% [markdown]
@@ -137,6 +139,7 @@ metrics = jsonable({
     "epochs": {e: float(runs[runs.embedding == e].epochs.mean()) for e in order},
     "seconds": {e: float(runs[(runs.embedding == e) & (runs.test == e)].seconds.mean()) for e in order},
     "total_training_seconds": float(runs[runs.test == runs.embedding].seconds.sum()),
+    "device": str(device),
     "config": cfg,
 })
 write_json(metrics, out.results / "table3_embeddings.json")

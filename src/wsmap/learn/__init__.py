@@ -21,10 +21,13 @@ module                 contents
                        :func:`predict_maps`
 ``files``              :func:`save` / :func:`load`: the model file format, with a SHA-256
                        checksum (:class:`ModelFileError`)
+``device``             :func:`resolve_device`: the ``device`` setting (``auto``, ``cpu``,
+                       ``cuda``) as a ``torch.device``, with a clear error without a GPU
 =====================  ==========================================================================
 
-Imports go one way: ``init``, ``training_range``, ``mapspec`` and ``optim`` depend on nothing here;
-``network`` on those; ``files`` on ``network``; ``predictor`` on ``files``; ``training`` on ``optim``.
+Imports go one way: ``device``, ``init``, ``training_range``, ``mapspec`` and ``optim`` depend on nothing here;
+``network`` on those; ``files`` on ``network``; ``predictor`` on ``files``; ``training`` on ``optim``
+(and ``predictor`` and ``training`` on ``device``).
 ``wsmap.models``, ``wsmap.training`` and ``wsmap.optim`` re-export the old names from here.
 
 A typical round trip::
@@ -37,6 +40,7 @@ A typical round trip::
     maps = learn.predict_maps_from_file("m.pt", arms)   # refuses arms outside the training range
 """
 
+from .device import DEVICES, DeviceUnavailableError, check_device_name, resolve_device
 from .files import FORMAT, FORMAT_VERSION, ModelFileError, UnverifiedModelWarning, load, payload_checksum, save
 from .init import matlab_rands_, nguyen_widrow_, torch_default_
 from .mapspec import make_map_spec
@@ -97,4 +101,6 @@ __all__ = [
     # predictions and files
     "predict_maps", "predict_maps_from_file", "save", "load", "FORMAT", "FORMAT_VERSION", "ModelFileError",
     "UnverifiedModelWarning", "payload_checksum",
+    # where networks run
+    "resolve_device", "check_device_name", "DEVICES", "DeviceUnavailableError",
 ]

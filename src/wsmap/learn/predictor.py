@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from .device import resolve_device
 from .files import load
 from .mapspec import grid_mismatch
 from .network import SubspaceMLP
@@ -21,10 +22,19 @@ __all__ = ["predict_maps", "predict_maps_from_file", "check_model_grid"]
 
 
 def predict_maps(model: SubspaceMLP, arms, fixed=None, *, threshold: float | None = None,
-                 batch_size: int | None = None, allow_extrapolation: bool = False) -> np.ndarray:
-    """``model.predict_maps(arms, fixed, ...)``: see :meth:`wsmap.learn.network.SubspaceMLP.predict_maps`."""
+                 batch_size: int | None = None, allow_extrapolation: bool = False,
+                 device: str | torch.device | None = None) -> np.ndarray:
+    """``model.predict_maps(arms, fixed, ...)``: see :meth:`wsmap.learn.network.SubspaceMLP.predict_maps`.
+
+    ``device``: ``None`` (default): where the model is; else ``"auto"``, ``"cpu"``, ``"cuda"``
+    (:func:`wsmap.learn.device.resolve_device`; ``"cuda"`` without a GPU is a ``ValueError``
+    before any work): the model is moved there (in place) and predicts there. The maps come back
+    as numpy arrays either way.
+    """
     if not isinstance(model, SubspaceMLP):
         raise TypeError(f"predict_maps needs a SubspaceMLP; got {type(model).__name__}")
+    if device is not None:
+        model.to(resolve_device(device))
     return model.predict_maps(arms, fixed, threshold=threshold, batch_size=batch_size,
                               allow_extrapolation=allow_extrapolation)
 
@@ -56,7 +66,8 @@ def predict_maps_from_file(path, arms, fixed=None, *, threshold: float | None = 
                            batch_size: int | None = None, grid: dict | None = None,
                            convention: str | None = None, whole_grid: bool = False,
                            allow_extrapolation: bool = False,
-                           map_location: str | torch.device = "cpu") -> np.ndarray:
+                           map_location: str | torch.device = "cpu",
+                           device: str | torch.device | None = None) -> np.ndarray:
     """:meth:`~wsmap.learn.network.SubspaceMLP.predict_maps` of the model saved at ``path``.
 
     Args:
@@ -70,6 +81,11 @@ def predict_maps_from_file(path, arms, fixed=None, *, threshold: float | None = 
             be the model's.
         whole_grid: require the model to cover every node of its grid (a flat map of the whole
             grid, as ``wsmap map`` writes), not a node slice of it.
+        map_location: the torch device the model is loaded onto (default the CPU; files always
+            hold CPU tensors and are read and verified on the CPU).
+        device: the ``device`` setting instead (``"auto"``, ``"cpu"``, ``"cuda"``;
+            :func:`wsmap.learn.device.resolve_device`, checked before the file is read); when
+            given it overrides ``map_location``.
 
     Returns:
         bool ``(..., N)`` maps in node order.
@@ -81,6 +97,8 @@ def predict_maps_from_file(path, arms, fixed=None, *, threshold: float | None = 
         ValueError: a model without ``map_spec``; a grid, convention or coverage that does not
             match; bad arms, ``fixed``, threshold or batch size.
     """
+    if device is not None:
+        map_location = resolve_device(device)
     model, _ = load(path, map_location=map_location)
     check_model_grid(model, grid=grid, convention=convention, whole_grid=whole_grid, what=f"model {path}")
     return model.predict_maps(arms, fixed, threshold=threshold, batch_size=batch_size,

@@ -43,6 +43,15 @@ matrix is 185 MB as bool, 741 MB as float32). ``lr_decay="cosine"`` anneals Adam
 from its initial value to 0 over ``max_epochs`` (per step), ``"cosine-time"`` over
 ``time_limit_s`` (then a run depends on the machine's speed and is not bit-reproducible).
 
+Devices
+-------
+``TrainConfig(device=...)`` (``"auto"``, ``"cpu"``, ``"cuda"``; :mod:`wsmap.learn.device`) moves
+the model to that device when :func:`train` starts, and the training data follow the model's
+parameters, so a whole run (a stacked run of several sessions included) happens there; ``"cuda"``
+without a GPU fails before any work. The model is built and initialised on the CPU (CPU random
+generators), so CPU and GPU runs start from the same weights and splits and agree to float32
+rounding. The returned model stays on the device; histories and losses are plain floats either way.
+
 The improved model's recipe (20 000 spherical-wrist arms; inputs the 4 free DH parameters
 standardised; [256, 256, 256] tanh → 9261 logits; cross-entropy; Adam lr 1e-3; batch 256)::
 
@@ -69,6 +78,7 @@ import torch.nn.functional as F
 from torch import nn
 from torch.nn.utils import parameters_to_vector
 
+from .device import check_device_name, resolve_device
 from .optim import ALIASES, ELEMENTWISE, OPTIMIZERS, canonical_name, make_optimizer
 
 __all__ = [
@@ -271,6 +281,11 @@ class TrainConfig:
         lr_decay: ``None`` (constant learning rate), ``"cosine"`` (``lr·(1 + cos(pi·t))/2`` with
             ``t`` the fraction of ``max_epochs`` done, updated every step) or ``"cosine-time"``
             (``t`` the fraction of ``time_limit_s`` elapsed). Only with ``adam``.
+        device: where :func:`train` runs: ``"auto"`` (the GPU when ``torch.cuda.is_available()``,
+            else the CPU), ``"cpu"``, ``"cuda"`` / ``"cuda:N"`` (an error without a GPU), or
+            ``None`` (default): wherever the model's parameters already are (the networks are
+            built on the CPU). :func:`train` moves the model there first (:mod:`wsmap.learn.device`);
+            the name is checked here, the GPU's presence when :func:`train` starts.
     """
 
     optimizer: str = "rprop"
@@ -286,9 +301,12 @@ class TrainConfig:
     track_test: bool = False
     batch_size: int | None = None
     lr_decay: str | None = None
+    device: str | None = None
 
     def __post_init__(self):
         key = optimizer_name(self.optimizer)  # fail early on a bad name
+        if self.device is not None:
+            self.device = check_device_name(self.device, "TrainConfig.device")
         make_loss(self.loss)
         self.fractions = tuple(float(f) for f in self.fractions)
         if self.max_epochs < 0 or self.max_fail < 1:
@@ -576,6 +594,9 @@ def train(model: nn.Module, X, Y, config: TrainConfig | None = None,
             bad splits, a model without trainable parameters.
     """
     config = TrainConfig() if config is None else config
+    if config.device is not None:
+        # before any work: a missing GPU is an error naming the setting, not a fall-back
+        model.to(resolve_device(config.device, "TrainConfig.device"))
     params = [p for p in model.parameters() if p.requires_grad]
     if not params:
         raise ValueError("model has no trainable parameters")
@@ -827,7 +848,8 @@ def train_sessions(model_factory: Callable[[list[int]], nn.Module], X, Y, config
             the paper's [84 → 125, 100, 100, 125 → 1323] network on 7000 samples took 3.3–4.0 s
             per epoch against 2.4–2.8 s for 10 sequential epochs (the per-session matrix products
             already keep the cores busy; the stacked run only adds memory traffic). Stacking pays
-            where one session leaves the device idle (a GPU).
+            where one session leaves the device idle (a GPU: ``config.device``, the stacked model
+            runs there as a whole).
 
     Returns:
         One :class:`TrainResult` per session. In a stacked run they share the stacked ``model``

@@ -6,5 +6,6 @@
 * :mod:`.tables` — the experiments behind Tables 1–3;
 * :mod:`.runtime` — the run-time comparison (classical against the network);
 * :mod:`.report` — ``results/REPORT.md``, every reproduced number beside the paper's;
-* :mod:`.pipeline` — the papermill runner of the notebooks (``wsmap paper run``).
+* :mod:`.pipeline` — the papermill runner of the notebooks (``wsmap paper run``);
+* :mod:`.full` — the paper's scale, part by part and resumable (``wsmap paper full``).
 """

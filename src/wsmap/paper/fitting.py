@@ -9,6 +9,10 @@ Notebooks call these so that every number they show comes from tested code:
 * :func:`evaluate` gives the pooled (micro) and per-sample precision, recall and F-measure of a
   model on a test set, the paper's numbers.
 
+Devices: ``train_config.device`` (:class:`~wsmap.learn.training.TrainConfig`) says where the
+sessions train; the returned models stay there, and :func:`evaluate` scores them where they are
+(the scores come back as numpy arrays).
+
 Shapes: a dataset has ``n`` samples (arms) of ``f`` stored features and ``N`` nodes; a node slice
 picks ``m`` of them. Networks run in float32; labels are bool on disk and float32 targets here.
 """
@@ -126,7 +130,7 @@ def evaluate(model: SubspaceMLP, test: Dataset, *, nodes=None, key: int | None =
     if model.n_subspaces > 1 and key is None and not assemble:
         raise ValueError(f"the model has {model.n_subspaces} subspaces: give key=k or assemble=True")
     key = 0 if (key is None and not assemble) else key
-    scores = model.score(test.features, key=key, assemble=assemble, batch_size=batch_size).numpy()
+    scores = model.score(test.features, key=key, assemble=assemble, batch_size=batch_size).cpu().numpy()
     truth = test.labels[:, sl]
     if scores.shape != truth.shape:
         raise ValueError(f"model outputs {scores.shape[1]} nodes but the truth slice {sl} has {truth.shape[1]}")

@@ -70,15 +70,20 @@ def grid_spec(step: float, lo: float = -1.0, hi: float = 1.0, rpy=(0.0, 0.0, 0.0
     return DatasetSpec(f"runtime_step{step:g}", scope="R3", lo=lo, hi=hi, step=step, fixed=tuple(rpy))
 
 
-def paper_network(n_features: int, n_nodes: int, seed: int = 0):
+def paper_network(n_features: int, n_nodes: int, seed: int = 0, device=None):
     """A freshly initialised paper network for a grid: hidden [125, 100, 100, 125] tanh.
 
     Grids of more than :data:`BLOCK_NODES` nodes that split into whole blocks (9261 = 7 x 1323)
     get one subspace per block, to be assembled (section 6.2); smaller grids one network with
     ``n_nodes`` outputs. Returns ``(model, kwargs)``: the keyword arguments of ``model.predict``
     that give one ``(n, n_nodes)`` map per feature row (``assemble=True`` or ``key=0``).
+    ``device``: ``None`` (the CPU, where it is built) or a ``device`` setting / ``torch.device``
+    (:func:`wsmap.learn.device.resolve_device`) the model is moved to.
     """
+    import torch
+
     from ..learn import MLPConfig, SubspaceMLP
+    from ..learn.device import resolve_device
 
     if n_nodes > BLOCK_NODES and n_nodes % BLOCK_NODES == 0:
         S, m = n_nodes // BLOCK_NODES, BLOCK_NODES
@@ -86,6 +91,8 @@ def paper_network(n_features: int, n_nodes: int, seed: int = 0):
         S, m = 1, n_nodes
     cfg = MLPConfig(n_inputs=n_features, n_outputs=m, hidden=[125, 100, 100, 125], n_subspaces=S)
     model = SubspaceMLP(cfg, seeds=[seed + s for s in range(S)])
+    if device is not None:
+        model.to(device if isinstance(device, torch.device) else resolve_device(device))
     model.eval()
     return model, ({"assemble": True} if S > 1 else {"key": 0})
 
@@ -110,6 +117,7 @@ def runtime_comparison(
     seed: int = 0,
     methods: Sequence[str] | None = None,
     progress: Callable[[str], None] | None = None,
+    device="cpu",
 ):
     """Run time of the classical map and of the network on each grid; a ``pandas.DataFrame``.
 
@@ -127,11 +135,16 @@ def runtime_comparison(
         seed: node samples and network initialisation.
         methods: subset of :data:`METHODS` (default all).
         progress: called with a line of text before each measurement.
+        device: where the network runs: ``"cpu"`` (default), ``"cuda"`` or ``"auto"``
+            (:func:`wsmap.learn.device.resolve_device`; ``"cuda"`` without a GPU is a ``ValueError``
+            before any measurement). A timed network call includes copying its map back to the
+            host (``.cpu()``), so a GPU's asynchronous work is finished inside the timing. The
+            classical methods always run on the CPU.
 
     Returns:
         One row per (grid, method): ``nodes``, ``step``, ``method``, ``label``, ``mean_s``,
         ``std_s``, ``min_s``, ``repeats``, ``timed_nodes`` (nodes solved per timed call),
-        ``extrapolated``, ``agreement_with_exact`` (fraction of the timed nodes whose label equals
+        ``extrapolated``, ``device`` (where the method ran), ``agreement_with_exact`` (fraction of the timed nodes whose label equals
         the exact map's; NaN for the network), ``paper_s`` (the paper's classical time for the
         classical rows, its network time for the network rows), ``speedup_vs_paper``
         (``paper_s / mean_s``).
@@ -143,11 +156,13 @@ def runtime_comparison(
     from .. import workspace as ws
     from ..datasets import features_for
     from ..kinematics import DHRobot, ikine_LM
+    from ..learn.device import resolve_device
 
     methods = list(METHODS) if methods is None else list(methods)
     unknown = [m for m in methods if m not in METHODS]
     if unknown:
         raise ValueError(f"unknown methods {unknown}; choose from {list(METHODS)}")
+    net_device = resolve_device(device, "runtime_comparison device")
     if isinstance(per_node_sample, bool) or int(per_node_sample) != per_node_sample or per_node_sample < 1:
         raise ValueError(f"per_node_sample must be a positive integer, got {per_node_sample!r}")
     ik = {"tol": 1e-10, "ilimit": 500, "rlimit": 100, **(ik or {})}
@@ -168,6 +183,7 @@ def runtime_comparison(
                 nodes=N, step=float(step), method=method, label=METHODS[method],
                 mean_s=timing.mean, std_s=timing.std, min_s=timing.min, repeats=timing.n,
                 timed_nodes=int(timed_nodes), extrapolated=bool(extrapolated),
+                device=str(net_device) if method.startswith("network") else "cpu",
                 agreement_with_exact=agreement, paper_s=paper,
                 speedup_vs_paper=paper / timing.mean if timing.mean > 0 else math.nan,
             ))
@@ -213,18 +229,19 @@ def runtime_comparison(
             spec = grid_spec(step, lo, hi, rpy)
             arm = DHRobot(robot.d[None], robot.a[None], robot.alpha[None])
             X = features_for(arm, spec)
-            model, how = paper_network(spec.n_features, N, seed=seed)
+            model, how = paper_network(spec.n_features, N, seed=seed, device=net_device)
             shape = model.predict(X, **how).shape
             if tuple(shape) != (1, N):
                 raise AssertionError(f"network output {tuple(shape)} for a {N}-node grid")
             with torch.inference_mode():
+                # .cpu(): the map on the host (a no-op on the CPU; on a GPU it waits for the kernels)
                 if "network" in methods:
-                    say(f"{N} nodes: network predict x {repeats} repeats")
-                    t = time_call(lambda: model.predict(X, **how), repeats, warmup)
+                    say(f"{N} nodes: network predict on {net_device} x {repeats} repeats")
+                    t = time_call(lambda: model.predict(X, **how).cpu(), repeats, warmup)
                     add("network", t, N)
                 if "network_end_to_end" in methods:
-                    say(f"{N} nodes: features + network predict x {repeats} repeats")
-                    t = time_call(lambda: model.predict(features_for(arm, spec), **how), repeats, warmup)
+                    say(f"{N} nodes: features + network predict on {net_device} x {repeats} repeats")
+                    t = time_call(lambda: model.predict(features_for(arm, spec), **how).cpu(), repeats, warmup)
                     add("network_end_to_end", t, N)
     df = pd.DataFrame(rows)
     order = {m: i for i, m in enumerate(METHODS)}

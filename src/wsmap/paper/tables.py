@@ -68,8 +68,10 @@ __all__ = [
     "mlp_options",
     "scores",
     "fit_and_score",
+    "score_results",
     "summarize",
     "table1",
+    "table1_summary",
     "table2",
     "table2_summary",
     "table3",
@@ -149,17 +151,26 @@ def fit_and_score(train: Dataset, tests: Mapping[str, Dataset], config: TrainCon
     ds = train.head(train_samples)
     mlp = {**mlp_options(config.loss), **mlp}
     results = E.fit(ds, config, sessions=sessions, hidden=hidden, **mlp)
+    return pd.DataFrame(score_results(results, ds, tests, threshold))
+
+
+def score_results(results: Sequence, train: Dataset, tests: Mapping[str, Dataset], threshold: float = 0.5,
+                  *, first_session: int = 0) -> list[dict[str, Any]]:
+    """The rows of :func:`fit_and_score` for training results already in hand (``results`` from
+    :func:`wsmap.paper.fitting.fit` on ``train``, the arms actually used): one row per (session,
+    test set); ``session`` counts from ``first_session`` (a run that trains session ``k`` alone,
+    with seed ``seed + k``, passes ``first_session=k``)."""
     rows = []
-    for s, r in enumerate(results):
+    for s, r in enumerate(results, start=first_session):
         model = E.stack_sessions([r]) if r.session is not None else r.model
         best = r.history.loss[r.best_epoch]
-        base = dict(session=s, seed=r.config.seed, train_samples=len(ds), nodes=int(ds.n_nodes),
+        base = dict(session=s, seed=r.config.seed, train_samples=len(train), nodes=int(train.n_nodes),
                     epochs=int(r.stop_epoch), best_epoch=int(r.best_epoch), stop_reason=r.stop_reason,
                     seconds=float(r.history.time[-1]), best_train_loss=float(best),
                     best_val_loss=float(r.best_val_loss))
         for name, test in tests.items():
             rows.append({**base, "test": name, **scores(model, test, threshold)})
-    return pd.DataFrame(rows)
+    return rows
 
 
 def summarize(runs: pd.DataFrame, by: Sequence[str]) -> pd.DataFrame:
@@ -221,7 +232,14 @@ def table1(data_dir, names: Sequence[str] = TABLE1_DATASETS, *, config: TrainCon
         _log(log, f"{name}: {train.n_nodes} nodes, {int(runs.train_samples.iloc[0])} arms, "
                   f"{cfg.max_epochs} epochs max, F = {runs.f.mean():.4f} ({time.perf_counter() - t0:.1f} s)")
     runs = pd.concat(frames, ignore_index=True)
+    return table1_summary(runs), runs
+
+
+def table1_summary(runs: pd.DataFrame) -> pd.DataFrame:
+    """Table 1 from the run frame of :func:`table1` (column ``dataset`` plus :func:`fit_and_score`'s):
+    one row per dataset, in first-seen order (see :func:`table1` for the columns)."""
     summary = summarize(runs, ["dataset"])
+    sessions = int(summary.sessions.max()) if len(summary) else 0
     paper = pd.DataFrame([{"dataset": n, **PAPER_TABLE1[n]} for n in summary.dataset])
     table = paper[["dataset", "workspace", "delta"]].assign(nodes=summary.nodes.astype(int).to_numpy())
     table = table.assign(
@@ -235,7 +253,7 @@ def table1(data_dir, names: Sequence[str] = TABLE1_DATASETS, *, config: TrainCon
     if sessions > 1:
         table.insert(table.columns.get_loc("f") + 1, "f_session_std", summary.f_session_std.to_numpy())
     table["difference"] = table.f - table.paper_f
-    return table, runs
+    return table
 
 
 # --------------------------------------------------------------------------------------------

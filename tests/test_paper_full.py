@@ -1,0 +1,259 @@
+"""``wsmap paper full``: paper-scale parts, resumable (run here with params.smoke.yaml: seconds).
+
+Resumability: a part whose result holds the same settings hash is skipped; other settings rerun it;
+a run that crashes half way leaves no part file and no temporary file, and the next run reuses the
+steps that had finished. Also the listing, and bad input (exit 2, one line, nothing written).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+import yaml
+
+from wsmap import cli, paths
+from wsmap.paper import full
+
+SMOKE = paths.ROOT / "params.smoke.yaml"
+FULL = paths.ROOT / "params.full.yaml"
+QUICK = ["table1_r3_step1", "table2_rprop_mse"]  # the fastest parts (about a second together)
+
+
+@pytest.fixture(scope="module")
+def data_dir(tmp_path_factory):
+    """One dataset folder for the module: parts build what they need into it on demand."""
+    return tmp_path_factory.mktemp("full_data")
+
+
+def _run(argv, capsys):
+    code = cli.main(argv)
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def _files(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file()) if folder.exists() else []
+
+
+def _args(out, data, params=SMOKE):
+    return ["--params", str(params), "--out", str(out), "--data", str(data)]
+
+
+def _changed_params(tmp_path, section, **values) -> Path:
+    params = yaml.safe_load(SMOKE.read_text())
+    params[section].update(values)
+    path = tmp_path / "params.changed.yaml"
+    path.write_text(yaml.safe_dump(params))
+    return path
+
+
+def test_the_plan_of_the_paper_scale():
+    parts = full.plan(FULL)
+    names = [p.name for p in parts]
+    assert names == ["sec61_subspace", "sec62_puma560", "table1_r3_step1", "table1_r3_step05", "table1_r3_block5",
+                     "table1_r3_crop3087", "table1_r3_full", "table1_so3_pi3", "table1_so3_pi8", "table1_so3_pi10",
+                     "table2_rprop_mse", "table3_subspace", "table3_workspace", "table3_nosubspace"]
+    by = {p.name: p for p in parts}
+    sec61 = by["sec61_subspace"].settings
+    assert sec61["section"]["train_samples"] == 100_000 and sec61["train_config"]["max_epochs"] == 1000
+    assert len(by["sec61_subspace"].steps) == sec61["section"]["sessions"] >= 3
+    assert by["sec62_puma560"].steps == [f"block_{k}" for k in range(1, 8)]
+    assert by["table1_r3_crop3087"].settings["section"]["train_samples"] == 30_000
+    assert by["table1_r3_full"].settings["train_config"]["max_epochs"] == 1000
+    assert by["table2_rprop_mse"].settings["train_config"]["optimizer"] == "rprop"
+    assert set(by["table3_workspace"].datasets) == {"table3_subspace", "table3_workspace", "table3_nosubspace"}
+    assert all(p.device == "auto" and "params.full.yaml" in p.device_what for p in parts)
+    assert all("device" not in p.settings["train_config"] for p in parts)  # the device is not hashed
+    # the hash is of the settings: another device, the same hash
+    assert [p.hash for p in full.plan(FULL, device="cpu")] == [p.hash for p in parts]
+    assert full.select(parts, ["table1"]) == [p for p in parts if p.kind == "table1"]
+    assert [p.name for p in full.select(parts, ["table3_*", "sec61_subspace"])] == [
+        "sec61_subspace", "table3_subspace", "table3_workspace", "table3_nosubspace"]
+
+
+def test_a_part_runs_end_to_end_and_is_skipped_when_done(tmp_path, data_dir, capsys):
+    out = tmp_path / "out"
+    code, stdout, err = _run(["paper", "full", *QUICK, *_args(out, data_dir)], capsys)
+    assert code == 0, err
+    result = json.loads((out / "table1_r3_step1.json").read_text())
+    part = full.select(full.plan(SMOKE), ["table1_r3_step1"])[0]
+    assert result["settings_hash"] == part.hash and result["settings"] == json.loads(json.dumps(part.settings))
+    assert result["metrics"]["dataset"] == "table1_r3_step1" and 0 <= result["metrics"]["f"] <= 1
+    assert result["metrics"]["paper_f"] == 1.0 and len(result["metrics"]["runs"]) == 1
+    assert result["steps"][0]["step"] == "session_0" and result["steps"][0]["timings"]["train_s"] > 0
+    assert result["wall_seconds"] > 0 and result["device"]["used"] == "cpu"
+    assert result["machine"]["cpus"] >= 1 and "torch" in result["machine"]
+    history = json.loads((out / "table1_r3_step1.history.json").read_text())
+    assert len(history["steps"]["session_0"]["loss"]) == 6  # epochs 0..5 of the smoke run
+    table2 = json.loads((out / "table2_rprop_mse.json").read_text())
+    assert [r["session"] for r in table2["metrics"]["runs"]] == [0, 1] and table2["metrics"]["sessions"] == 2
+    mtimes = {p: p.stat().st_mtime_ns for p in out.rglob("*.json")}
+
+    code, stdout, err = _run(["paper", "full", *QUICK, *_args(out, data_dir)], capsys)
+    assert code == 0, err
+    assert "table1_r3_step1: done" in stdout and "skipped" in stdout and "running" not in stdout
+    assert {p: p.stat().st_mtime_ns for p in out.rglob("*.json")} == mtimes
+
+
+def test_changed_settings_rerun_the_part(tmp_path, data_dir, capsys):
+    out = tmp_path / "out"
+    assert _run(["paper", "full", "table1_r3_step1", *_args(out, data_dir)], capsys)[0] == 0
+    first = json.loads((out / "table1_r3_step1.json").read_text())
+    changed = _changed_params(tmp_path, "table1_workspaces", max_epochs=3)
+    assert full.part_state(full.select(full.plan(changed), ["table1_r3_step1"])[0], out)["state"] == "stale"
+    code, stdout, _ = _run(["paper", "full", "table1_r3_step1", *_args(out, data_dir, changed)], capsys)
+    assert code == 0 and "session_0: running" in stdout
+    second = json.loads((out / "table1_r3_step1.json").read_text())
+    assert second["settings_hash"] != first["settings_hash"]
+    assert second["settings"]["train_config"]["max_epochs"] == 3 and second["metrics"]["runs"][0]["epochs"] == 3
+    # a dataset of another size is another setting too, and the dataset is rebuilt at that size
+    bigger = _changed_params(tmp_path, "datasets", table1_r3_step1={"samples": 310, "test_samples": 100})
+    part = full.select(full.plan(bigger), ["table1_r3_step1"])[0]
+    assert part.hash != first["settings_hash"]
+    result = full.run_part(part, out, data_dir, log=lambda s: None)
+    assert result["timings"]["datasets"]["table1_r3_step1"]["build_s"] >= 0
+    assert result["settings"]["datasets"]["table1_r3_step1"]["samples"] == 310
+
+
+def test_a_crashed_run_leaves_no_partial_file_and_resumes(tmp_path, data_dir, monkeypatch, capsys):
+    out = tmp_path / "out"
+    part = full.select(full.plan(SMOKE), ["table2_rprop_mse"])[0]
+    real = full._STEP["table2"]
+
+    def crash_on_second(part, step, data, out):
+        if step == "session_1":
+            raise KeyboardInterrupt  # Ctrl-C, or SIGTERM (the CLI turns it into this)
+        return real(part, step, data, out)
+
+    monkeypatch.setitem(full._STEP, "table2", crash_on_second)
+    code, _, err = _run(["paper", "full", "table2_rprop_mse", *_args(out, data_dir)], capsys)
+    assert code == 130 and "interrupted" in err
+    files = _files(out)
+    assert "table2_rprop_mse.json" not in files and "table2_rprop_mse.history.json" not in files
+    assert not [f for f in files if Path(f).name.startswith(".")]  # no temporary file left
+    assert files == ["models/table2_rprop_mse/session_0.pt", "steps/table2_rprop_mse/session_0.json"]
+    assert full.part_state(part, out)["state"] == "partial"
+    lines = full.list_lines(SMOKE, out, data_dir, names=["table2_rprop_mse"])
+    assert "partial" in lines[1] and "1/2" in lines[1]
+
+    monkeypatch.setitem(full._STEP, "table2", real)
+    code, stdout, err = _run(["paper", "full", "table2_rprop_mse", *_args(out, data_dir)], capsys)
+    assert code == 0, err
+    assert "session_0: done earlier" in stdout and "session_1: running" in stdout
+    resumed = json.loads((out / "table2_rprop_mse.json").read_text())
+    # the same numbers as a run in one go
+    fresh = full.run_part(part, tmp_path / "fresh", data_dir, log=lambda s: None)
+    assert [r["f"] for r in resumed["metrics"]["runs"]] == [r["f"] for r in fresh["metrics"]["runs"]]
+
+
+def test_a_crash_while_writing_the_result_leaves_nothing_half_written(tmp_path, data_dir, monkeypatch):
+    out = tmp_path / "out"
+    part = full.select(full.plan(SMOKE), ["table1_r3_step1"])[0]
+    real = Path.write_text
+
+    def failing(self, text, *a, **k):
+        if self.name.startswith(".table1_r3_step1.json"):  # the part file's temporary file
+            real(self, text[:10])
+            raise OSError(28, "No space left on device")
+        return real(self, text, *a, **k)
+
+    monkeypatch.setattr(Path, "write_text", failing)
+    with pytest.raises(OSError):
+        full.run_part(part, out, data_dir, log=lambda s: None)
+    monkeypatch.undo()
+    files = _files(out)
+    assert "table1_r3_step1.json" not in files and "table1_r3_step1.history.json" not in files
+    assert not [f for f in files if Path(f).name.startswith(".")]
+    assert full.part_state(part, out)["state"] == "partial"
+
+
+def test_the_listing(tmp_path, data_dir, capsys):
+    out = tmp_path / "out"
+    code, stdout, err = _run(["paper", "full", "--list", *_args(out, data_dir)], capsys)
+    assert code == 0, err
+    lines = stdout.splitlines()
+    assert lines[0].split()[:4] == ["part", "state", "steps", "time"]
+    assert len(lines) == 1 + 14 + 1 and all("pending" in line for line in lines[1:15])
+    assert "0 of 14 parts done" in lines[-1]
+    assert not out.exists()  # listing writes nothing
+    assert _run(["paper", "full", "table1_r3_step1", *_args(out, data_dir)], capsys)[0] == 0
+    stdout = _run(["paper", "full", "--list", *_args(out, data_dir)], capsys)[1]
+    row = next(line for line in stdout.splitlines() if line.startswith("table1_r3_step1 "))
+    assert "done" in row and "measured" in row and "1/1" in row
+    assert "1 of 14 parts done" in stdout
+    # the paper scale without estimates: a floating-point count on the CPU, every part pending
+    lines = full.list_lines(FULL, out / "nothing", data_dir, device="cpu")
+    assert all(("flops" in line) and ("≈" in line or "≤" in line) for line in lines[1:-1])
+    sec61 = next(line for line in lines if line.startswith("sec61_subspace"))
+    assert "h" in sec61.split("flops")[0]  # hours at the paper's scale
+
+
+def test_estimates_are_timed_and_listed(tmp_path, data_dir, capsys):
+    out = tmp_path / "out"
+    code, stdout, err = _run(["paper", "full", "--estimate", "table1_r3_step1", *_args(out, data_dir)], capsys)
+    assert code == 0, err
+    est = json.loads((out / "estimates.json").read_text())
+    assert est["table1_r3_step1"]["seconds_per_epoch"] > 0 and est["table1_r3_step1"]["device"] == "cpu"
+    lines = full.list_lines(SMOKE, out, data_dir, names=["table1_r3_step1"])
+    assert "timed" in lines[1]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["no_such_part"], "unknown part 'no_such_part'"),
+    (["table1", "tabel2"], "unknown part 'tabel2'"),
+    (["--device", "gpu"], "unknown --device 'gpu'"),
+    (["--list", "--estimate"], "not both"),
+])
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, argv, message, capsys):
+    out, data = tmp_path / "out", tmp_path / "data"
+    code, stdout, err = _run(["paper", "full", *argv, *_args(out, data)], capsys)
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+    assert not out.exists() and not data.exists()
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has a GPU")
+def test_cuda_without_a_gpu_fails_before_any_work(tmp_path, capsys):
+    out, data = tmp_path / "out", tmp_path / "data"
+    params = _changed_params(tmp_path, "table2_optimisers", device="cuda")
+    code, _, err = _run(["paper", "full", "table1_r3_step1", "table2", *_args(out, data, params)], capsys)
+    assert code == 2 and "section 'table2_optimisers' device" in err and "CUDA" in err
+    assert not out.exists() and not data.exists()
+    code, _, err = _run(["paper", "full", "table1_r3_step1", "--device", "cuda", *_args(out, data)], capsys)
+    assert code == 2 and "--device 'cuda'" in err and not data.exists()
+
+
+def test_sections_6_1_and_6_2_end_to_end(tmp_path, data_dir):
+    """§6.1's sessions equal one fit of all sessions; §6.2's 7 blocks assemble the whole map."""
+    from wsmap.paper import fitting as E
+    from wsmap.paper import specs as D
+    from wsmap.training import TrainConfig
+
+    out = tmp_path / "out"
+    sec61, sec62 = full.run(["sec61", "sec62"], SMOKE, out, data_dir, log=lambda s: None)
+    cfg = paths.notebook_params("sec61_subspace", SMOKE)
+    train, test = D.load_pair("sec61", data_dir)
+    results = E.fit(train.head(cfg["train_samples"]), TrainConfig(max_epochs=cfg["max_epochs"],
+                    max_fail=cfg["max_fail"], seed=cfg["seed"]), sessions=cfg["sessions"], hidden=cfg["hidden"])
+    np.testing.assert_array_equal(sec61["metrics"]["f_sessions"], [E.evaluate(r.model, test)["f"] for r in results])
+    assert sec61["metrics"]["paper"]["f_mean"] == 0.9665
+    m = sec62["metrics"]
+    assert len(m["f_blocks"]) == 7 and 0 <= m["f_full"] <= 1 and m["puma560_reachable_exact"] > 0
+    assert [s["metrics"]["block"] for s in sec62["steps"]] == list(range(1, 8))
+    from wsmap.learn.files import load
+
+    model, _ = load(out / m["model_file"])
+    assert model.n_subspaces == 7 and model.map_spec["assemble"]
+
+
+def test_module_entry_point_lists(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "wsmap.paper.full", "--list", "--params", str(SMOKE),
+                        "--out", str(tmp_path / "out"), "--data", str(tmp_path / "data")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.splitlines()[1].startswith("sec61_subspace")
