@@ -1,20 +1,28 @@
-"""Time the UR closed form (:func:`wsmap.kinematics.closed_form_ur.ikine_ur`) against EAIK on UR5e maps.
+"""Time the UR closed form (:mod:`wsmap.kinematics.closed_form_ur`) against EAIK on UR5e maps.
 
 Two maps of the 9261 nodes of ``cartesian_grid(-1, 1, 0.1)`` (m), each at one orientation:
 ``R = I`` and tool-down ``R = Rx(pi)``; pose ``T = transl(p) · R`` in the UR5e base frame (flange,
 no tool). Per map and method, the best wall time of one whole map over ``--rounds`` cycles of
-``--repeats`` runs in a row (after an untimed warm-up run):
+``--repeats`` runs in a row (after an untimed warm-up run; numba's compile, or the load of its
+cache, happens before any of it):
 
-1. ``ur_reachable(robot, T)``: all 8 branches of every pose in numpy, from the robot (its structure
-   check included), single thread (run with ``OMP_NUM_THREADS=1``);
-2. EAIK's ``IK_batched`` with 1 worker thread (``IK`` in a Python loop if ``IK_batched`` is
+1. ``ur_reachable(robot, T)``, the compiled backend (default), from the robot (its structure check
+   included), on 1 thread and on ``--threads`` threads (``lm_compiled.set_threads``; default 2);
+2. ``ur_reachable(robot, T, backend="numpy")``: the numpy reference (all 8 branches of every
+   pose), single thread (run with ``OMP_NUM_THREADS=1``);
+3. ``ikine_ur(robot, T)``, compiled, 1 thread: all 8 branches with their joint angles (more than a
+   map needs: about 20 ``atan2`` per pose);
+4. EAIK's ``IK_batched`` with 1 worker thread (``IK`` in a Python loop if ``IK_batched`` is
    missing), the C++ solve only: building its reachable labels is not timed;
-3. the same with ``--eaik-threads`` workers (its default is 4), when that is not 1.
+5. the same with ``--eaik-threads`` workers (its default is 4), when that is not 1.
 
 EAIK's label of a node: one of its solutions puts the flange within 1e-6 of ``T`` (forward
 kinematics of :meth:`SerialChain.fkine`, every matrix entry). The script asserts that the labels
-of every method are identical node for node, prints a Markdown table (method, seconds per map,
-poses/s, ratio to ``ikine_ur``) and with ``--json PATH`` writes the numbers.
+of every method are identical node for node, prints a Markdown table per map (method, seconds per
+map, poses/s, speed-up over EAIK on 1 thread) and the cost of the structure check
+(``ur_parameters``, ``is_ur_type``) beside the compiled map from precomputed ``URParameters``; with
+``--json PATH`` it writes the numbers. Goal: the compiled map on 1 thread at least 10x faster than
+EAIK on 1 thread (aim: 30x).
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_ur_closed_form.py --repeats 5 --json out.json
 """
@@ -32,22 +40,36 @@ import time
 import numpy as np
 
 
-def _best_of(fns, repeats, rounds):
-    """Best wall time in s of each function, and the result of its last call.
+def _best_of(methods, repeats, rounds):
+    """Best wall time in s of each method, and the result of its last call.
 
-    Each function runs ``repeats`` times in a row (after one untimed warm-up call), so each is
-    timed with its own data in cache; ``rounds`` cycles over all the functions guard against a
-    change of machine load between them (the best over all rounds is kept).
+    ``methods``: ``(prepare, fn)`` pairs; ``prepare()`` (e.g. setting the thread count) runs before
+    the method's turn and is not timed. Each function runs ``repeats`` times in a row (after one
+    untimed warm-up call), so each is timed with its own data in cache; ``rounds`` cycles over all
+    the functions guard against a change of machine load between them (the best is kept).
     """
-    best, out = [np.inf] * len(fns), [None] * len(fns)
+    best, out = [np.inf] * len(methods), [None] * len(methods)
     for _ in range(rounds):
-        for i, fn in enumerate(fns):
+        for i, (prepare, fn) in enumerate(methods):
+            prepare()
             out[i] = fn()
             for _ in range(repeats):
                 t = time.perf_counter()
                 out[i] = fn()
                 best[i] = min(best[i], time.perf_counter() - t)
     return best, out
+
+
+def _best_time(fn, number, repeats):
+    """Best mean time in s of ``number`` calls in a row, over ``repeats`` tries (after a warm-up)."""
+    fn()
+    best = np.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        for _ in range(number):
+            fn()
+        best = min(best, (time.perf_counter() - t) / number)
+    return best
 
 
 def _eaik_labels(chain, T, sols):
@@ -67,18 +89,21 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=5, help="timed runs in a row per map and method (best is kept)")
     ap.add_argument("--rounds", type=int, default=2, help="cycles over the methods, each with --repeats runs")
+    ap.add_argument("--threads", type=int, default=2, help="threads of the compiled kernel's second run (default 2)")
     ap.add_argument("--eaik-threads", type=int, default=4, help="worker threads of EAIK's second run (its default: 4)")
     ap.add_argument("--json", metavar="PATH", help="also write the numbers to this JSON file")
     args = ap.parse_args(argv)
-    if args.repeats < 1 or args.rounds < 1 or args.eaik_threads < 1:
-        ap.error("--repeats, --rounds and --eaik-threads must be positive")
+    if args.repeats < 1 or args.rounds < 1 or args.eaik_threads < 1 or args.threads < 1:
+        ap.error("--repeats, --rounds, --threads and --eaik-threads must be positive")
 
     from eaik.IK_DH import DhRobot
 
     from wsmap import robots
-    from wsmap.kinematics import rotx
-    from wsmap.kinematics.closed_form_ur import ur_reachable
+    from wsmap.kinematics import lm_compiled, rotx
+    from wsmap.kinematics.closed_form_ur import ikine_ur, is_ur_type, ur_parameters, ur_reachable
     from wsmap.workspace import cartesian_grid
+
+    import numba
 
     chain = robots.load("ur5e")
     d, a, alpha, _ = np.array(robots.UR5E.rows).T
@@ -86,58 +111,118 @@ def main(argv=None):
     batched = hasattr(eaik, "IK_batched")
     nodes = cartesian_grid(-1.0, 1.0, 0.1)
     N = len(nodes)
+    threads_before = lm_compiled.threads()
+    many = lm_compiled.set_threads(args.threads)  # clamped to the cores numba sees
+    t0 = time.perf_counter()
+    ur_reachable(chain, np.eye(4))
+    ikine_ur(chain, np.eye(4))
+    first_call = time.perf_counter() - t0  # numba: compile, or load from its cache
     info = {
         "python": sys.version.split()[0],
         "numpy": np.__version__,
+        "numba": numba.__version__,
         "eaik": importlib.metadata.version("eaik"),
         "machine": platform.machine(),
         "cpus": os.cpu_count(),
+        "numba_threads": numba.config.NUMBA_NUM_THREADS,
         "omp_num_threads": os.environ.get("OMP_NUM_THREADS"),
         "load_average": os.getloadavg() if hasattr(os, "getloadavg") else None,
         "nodes": N,
         "repeats": args.repeats,
         "rounds": args.rounds,
+        "compiled_threads": many,
+        "first_call_seconds": first_call,
         "eaik_call": "IK_batched" if batched else "IK in a Python loop",
     }
 
     def eaik_solve(T, threads):
         return eaik.IK_batched(T, threads) if batched else [eaik.IK(t) for t in T]
 
+    def threads(n):
+        return lambda: lm_compiled.set_threads(n)
+
+    def nothing():
+        return None
+
+    plural = lambda n: f"{n} thread{'s' if n > 1 else ''}"  # noqa: E731
     maps = {}
     for label, R in (("R = I", np.eye(3)), ("tool-down R = Rx(pi)", rotx(np.pi))):
         T = np.zeros((N, 4, 4))
         T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = R, nodes, 1.0
-        thread_counts = [1] + ([args.eaik_threads] if batched and args.eaik_threads != 1 else [])
-        fns = [lambda: ur_reachable(chain, T)] + [lambda k=k: eaik_solve(T, k) for k in thread_counts]
-        times, results = _best_of(fns, args.repeats, args.rounds)
-        ours = results[0]
-        rows = [{"method": "wsmap ikine_ur, all 8 branches (ur_reachable; numpy, 1 thread)", "seconds": times[0]}]
-        for threads, t, sols in zip(thread_counts, times[1:], results[1:]):
-            theirs, not_ls = _eaik_labels(chain, T, sols)
-            mism = np.flatnonzero(theirs != ours)
-            assert mism.size == 0, f"{label}: labels differ from EAIK's at nodes {mism[:10]}"
-            rows.append({"method": f"EAIK {info['eaik_call']} ({threads} thread{'s' if threads > 1 else ''})",
-                         "seconds": t, "labels_from_is_LS_agree": bool(np.array_equal(not_ls, theirs))})
+        methods = [("wsmap ur_reachable, compiled (1 thread)", threads(1), lambda: ur_reachable(chain, T))]
+        if many > 1:
+            methods.append((f"wsmap ur_reachable, compiled ({plural(many)})", threads(many),
+                            lambda: ur_reachable(chain, T)))
+        methods += [
+            ("wsmap ur_reachable, numpy reference (1 thread)", nothing,
+             lambda: ur_reachable(chain, T, backend="numpy")),
+            ("wsmap ikine_ur, compiled, all 8 branches with angles (1 thread)", threads(1),
+             lambda: ikine_ur(chain, T)[1].any(axis=-1)),
+        ]
+        ours = len(methods)
+        eaik_threads = [1] + ([args.eaik_threads] if batched and args.eaik_threads != 1 else [])
+        methods += [(f"EAIK {info['eaik_call']} ({plural(k)})", nothing, lambda k=k: eaik_solve(T, k))
+                    for k in eaik_threads]
+        times, results = _best_of([(p, f) for _, p, f in methods], args.repeats, args.rounds)
+        labels = results[0]
+        rows = []
+        for i, ((name, _, _), t, res) in enumerate(zip(methods, times, results)):
+            row = {"method": name, "seconds": t}
+            if i < ours:
+                mism = np.flatnonzero(res != labels)
+            else:
+                theirs, not_ls = _eaik_labels(chain, T, res)
+                mism = np.flatnonzero(theirs != labels)
+                row["labels_from_is_LS_agree"] = bool(np.array_equal(not_ls, theirs))
+            assert mism.size == 0, f"{label}: labels of {name} differ at nodes {mism[:10]}"
+            rows.append(row)
+        eaik1 = times[ours]
         for r in rows:
             r["poses_per_second"] = N / r["seconds"]
-            r["ratio_to_ikine_ur"] = r["seconds"] / rows[0]["seconds"]
-        maps[label] = {"reachable": int(ours.sum()), "labels_identical": True, "rows": rows}
+            r["speedup_over_eaik_1_thread"] = eaik1 / r["seconds"]
+        maps[label] = {"reachable": int(labels.sum()), "labels_identical": True, "rows": rows}
+
+    # the structure check, and the compiled map without it (from precomputed URParameters)
+    lm_compiled.set_threads(1)
+    prm = ur_parameters(chain)
+    T = np.zeros((N, 4, 4))
+    T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = np.eye(3), nodes, 1.0
+    number = 2000
+    structure = {
+        "ur_parameters_seconds": _best_time(lambda: ur_parameters(chain), number, 5),
+        "is_ur_type_seconds": _best_time(lambda: is_ur_type(chain), number, 5),
+        "ur_reachable_one_pose_seconds": _best_time(lambda: ur_reachable(chain, T[:1]), number, 5),
+        "ur_reachable_from_parameters_seconds": _best_time(lambda: ur_reachable(prm, T), 20, 5),
+        "ur_reachable_from_robot_seconds": _best_time(lambda: ur_reachable(chain, T), 20, 5),
+    }
+    lm_compiled.set_threads(threads_before)
 
     print(f"UR5e, {N} nodes of cartesian_grid(-1, 1, 0.1), best of {args.repeats} in a row x {args.rounds} "
-          f"rounds; python {info['python']}, numpy {info['numpy']}, eaik {info['eaik']}, {info['cpus']} CPUs, "
-          f"OMP_NUM_THREADS={info['omp_num_threads']}, load average {info['load_average']}")
+          f"rounds; python {info['python']}, numpy {info['numpy']}, numba {info['numba']}, eaik {info['eaik']}, "
+          f"{info['cpus']} CPUs, OMP_NUM_THREADS={info['omp_num_threads']}, load average {info['load_average']}; "
+          f"first compiled call {first_call:.2f} s (compile or cache load)")
     for label, m in maps.items():
         print()
-        print(f"{label}: {m['reachable']} reachable nodes, labels identical to EAIK's node for node")
+        print(f"{label}: {m['reachable']} reachable nodes, labels identical node for node (all methods)")
         print()
-        print("| method | seconds per map | poses/s | time ÷ ikine_ur |")
+        print("| method | seconds per map | poses/s | speed-up over EAIK (1 thread) |")
         print("|---|---:|---:|---:|")
         for r in m["rows"]:
             print(f"| {r['method']} | {r['seconds']:.5f} | {r['poses_per_second']:,.0f} "
-                  f"| {r['ratio_to_ikine_ur']:.1f} |")
+                  f"| {r['speedup_over_eaik_1_thread']:.1f}x |")
+    print()
+    s = structure
+    print(f"structure check: ur_parameters {s['ur_parameters_seconds'] * 1e6:.1f} us, is_ur_type "
+          f"{s['is_ur_type_seconds'] * 1e6:.1f} us; ur_reachable of one pose (all fixed costs) "
+          f"{s['ur_reachable_one_pose_seconds'] * 1e6:.1f} us; the R = I map from the robot "
+          f"{s['ur_reachable_from_robot_seconds'] * 1e3:.3f} ms, from URParameters "
+          f"{s['ur_reachable_from_parameters_seconds'] * 1e3:.3f} ms (1 thread)")
+    worst = min(m["rows"][0]["speedup_over_eaik_1_thread"] for m in maps.values())
+    print(f"goal: compiled (1 thread) >= 10x EAIK (1 thread): {'met' if worst >= 10 else 'NOT met'} "
+          f"(worst map {worst:.1f}x; aim 30x: {'met' if worst >= 30 else 'not met'})")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"info": info, "maps": maps}, f, indent=2)
+            json.dump({"info": info, "maps": maps, "structure_check": structure}, f, indent=2)
     return maps
 
 

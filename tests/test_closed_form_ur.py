@@ -1,11 +1,13 @@
 """Closed-form IK of the UR family (wsmap.kinematics.closed_form_ur): round trips through forward
-kinematics, agreement with EAIK on the 21³ grid, joint limits, refusals, broadcasting, mounts."""
+kinematics, agreement with EAIK on the 21³ grid, joint limits, refusals, broadcasting, mounts; the
+compiled backend against the numpy reference (same valid branches, same angles, any thread count)."""
 
 import numpy as np
 import pytest
 
 from wsmap import robots
-from wsmap.kinematics import DHRobot, SerialChain, from_dh, rotx, rpy2r
+from wsmap.kinematics import DHRobot, SerialChain, from_dh, lm_compiled, rotx, rpy2r
+from wsmap.kinematics import closed_form_ur
 from wsmap.kinematics.closed_form_ur import (
     UR_ALPHA,
     ikine_ur,
@@ -62,9 +64,9 @@ def _angle_gap(Q, q):
     return np.abs(d).max(axis=-1)
 
 
-def _check_round_trip(chain, q, fk_tol=1e-9, q_tol=1e-7):
+def _check_round_trip(chain, q, fk_tol=1e-9, q_tol=1e-7, backend="compiled"):
     T = chain.fkine(q)
-    Q, valid = ikine_ur(chain, T)
+    Q, valid = ikine_ur(chain, T, backend=backend)
     assert Q.shape == T.shape[:-2] + (8, 6) and valid.shape == T.shape[:-2] + (8,)
     assert np.all(np.abs(Q) <= np.pi + 1e-12)
     err = _fk_error(chain, Q, T)
@@ -107,7 +109,8 @@ def test_round_trip_random_variants_batched():
     _check_round_trip(arms, q)
 
 
-def test_round_trip_generalised_ur_type():
+@pytest.mark.parametrize("backend", ["compiled", "numpy"])
+def test_round_trip_generalised_ur_type(backend):
     # mirrored twists at joints 1, 4, 5, axes -z, joint offsets, d2 + d3, a1, F_6 with a6 and a twist
     rng = np.random.default_rng(3)
     for trial in range(12):
@@ -125,10 +128,11 @@ def test_round_trip_generalised_ur_type():
         p = ur_parameters(chain)
         np.testing.assert_allclose(p.d4, d[1] + d[2] + d4, atol=1e-15)
         q = chain.random_q(100, rng)
-        _check_round_trip(chain, q)
+        _check_round_trip(chain, q, backend=backend)
 
 
-def test_mounted_base_flange_and_tool():
+@pytest.mark.parametrize("backend", ["compiled", "numpy"])
+def test_mounted_base_flange_and_tool(backend):
     rng = np.random.default_rng(4)
     ur = _ur("ur5e")
     for _ in range(5):
@@ -136,10 +140,10 @@ def test_mounted_base_flange_and_tool():
         fixed[0] = _random_rigid(rng) @ fixed[0]  # a mount before joint 1
         fixed[6] = fixed[6] @ _random_rigid(rng)  # a flange adapter after joint 6
         chain = ur.replace(fixed=fixed, base=_random_rigid(rng), tool=_random_rigid(rng))
-        _check_round_trip(chain, chain.random_q(100, rng))
+        _check_round_trip(chain, chain.random_q(100, rng), backend=backend)
     # a tool that is a pure offset along the flange axis (folded into d6 by the solver)
     tool = hom(p=(0, 0, 0.2))
-    _check_round_trip(ur.replace(tool=tool), ur.random_q(100, rng))
+    _check_round_trip(ur.replace(tool=tool), ur.random_q(100, rng), backend=backend)
 
 
 def test_dhrobot_input_matches_the_chain():
@@ -157,14 +161,15 @@ def test_dhrobot_input_matches_the_chain():
 
 
 # ------------------------------------------------------------------------------------------ singular poses
+@pytest.mark.parametrize("backend", ["compiled", "numpy"])
 @pytest.mark.parametrize("q5", [0.0, np.pi, 1e-13, -1e-9, np.pi - 1e-10])
-def test_singular_wrist_is_solved(q5):
+def test_singular_wrist_is_solved(q5, backend):
     chain = _ur("ur5e")
     rng = np.random.default_rng(6)
     q = chain.random_q(300, rng)
     q[:, 4] = q5
     T = chain.fkine(q)
-    Q, valid = ikine_ur(chain, T)
+    Q, valid = ikine_ur(chain, T, backend=backend)
     assert valid.any(axis=-1).all()
     assert _fk_error(chain, Q, T)[valid].max() < 1e-9
 
@@ -356,10 +361,24 @@ def test_batch_refusal_names_the_arm():
 def test_non_rigid_targets_are_refused(T, message):
     good = np.broadcast_to(np.eye(4), (5, 4, 4)).copy()
     good[3] = T
+    for backend in ("compiled", "numpy"):
+        with pytest.raises(ValueError, match=message):
+            ikine_ur(_ur("ur5e"), good, backend=backend)
+        with pytest.raises(ValueError, match=message):
+            ur_reachable(_ur("ur5e"), good, backend=backend)
+        with pytest.raises(ValueError, match="shape"):
+            ikine_ur(_ur("ur5e"), np.eye(3), backend=backend)
+    # a non-rigid target that only one arm of a batch sees (the compiled kernel reads targets by index)
+    arms = from_dh(*_table(*np.array([UR_DH["ur5e"], UR_DH["ur3e"]]).T))
     with pytest.raises(ValueError, match=message):
-        ikine_ur(_ur("ur5e"), good)
-    with pytest.raises(ValueError, match="shape"):
-        ikine_ur(_ur("ur5e"), np.eye(3))
+        ur_reachable(arms, good[:, None])
+
+
+def test_unknown_backend_is_refused():
+    with pytest.raises(ValueError, match="backend must be one of"):
+        ikine_ur(_ur("ur5e"), np.eye(4), backend="cuda")
+    with pytest.raises(ValueError, match="backend must be one of"):
+        ur_reachable(_ur("ur5e"), np.eye(4), backend="fortran")
 
 
 # ------------------------------------------------------------------------------------------ broadcasting
@@ -446,3 +465,188 @@ def test_branch_order_and_reach_tolerance():
     assert not ur_reachable(chain, T1)
     Q2, V2 = ikine_ur(chain, T1, atol=1e-5)
     assert V2.any() and _fk_error(chain, Q2, T1)[V2].max() < 1.5e-6
+
+
+# ------------------------------------------------------------------------------------------ backends
+def _random_arms(rng, B, generalised=True, limited=True):
+    """A batch of B UR-type arms: lengths of the published arms times U(0.7, 1.3) with random signs;
+    ``generalised``: mirrored twists, offsets, d2 + d3, a1, a twisted F_6 with a6, -z axes, a base
+    and a tool; ``limited``: per-arm limits of every kind (narrow, a full turn, half-open, none)."""
+    lengths = np.array([UR_DH[k] for k in sorted(UR_DH)])[rng.integers(0, 4, B)]
+    lengths = lengths * rng.uniform(0.7, 1.3, (B, 6)) * rng.choice([-1.0, 1.0], (B, 6))
+    d, a, alpha = (np.array(x) for x in _table(*lengths.T))
+    offset = None
+    if generalised:
+        alpha[:, [0, 3, 4]] *= rng.choice([-1.0, 1.0], (B, 3))
+        alpha[:, 5] = rng.uniform(-np.pi, np.pi, B)
+        d[:, 1:3] = rng.uniform(-0.1, 0.1, (B, 2))
+        a[:, 0], a[:, 5] = rng.uniform(-0.1, 0.1, B), rng.uniform(-0.1, 0.1, B)
+        offset = rng.uniform(-np.pi, np.pi, (B, 6))
+    qlim = None
+    if limited:
+        width = rng.uniform(0.5, 5.0, (B, 6))
+        lo = rng.uniform(-TWO_PI, TWO_PI - width)
+        qlim = np.stack([lo, lo + width], axis=-1)
+        kind = rng.integers(0, 4, (B, 6))
+        qlim[kind == 1] = [-np.pi, np.pi]  # a full turn: no check
+        qlim[kind == 2, 0] = -np.inf  # half-open
+        qlim[kind == 3] = [-TWO_PI, TWO_PI]
+    arms = from_dh(d, a, alpha, offset=offset, qlim=qlim)
+    if generalised:
+        arms = arms.replace(axes=arms.axes * rng.choice([-1.0, 1.0], (6, 1)), base=_random_rigid(rng),
+                            tool=_random_rigid(rng))
+    return arms
+
+
+def _poses(rng, arms, n):
+    """(n, B, 4, 4) poses for a batch of arms: FK of random q (some with a singular wrist, q5 in
+    {0, pi, 1e-13}, some with the elbow stretched, q3 = 0, some nudged by ±atol·(1 ± 1e-3) along
+    a random direction, on the reach tolerance), and random poses in a 2.4 m cube."""
+    free = arms.replace(qlim=None)
+    q = free.random_q(n, rng)  # (n, B, 6)
+    k = n // 8
+    q[:k, :, 4] = rng.choice([0.0, np.pi, 1e-13, -1e-13], (k, q.shape[1]))
+    q[k:2 * k, :, 2] = 0.0
+    T = free.fkine(q)
+    step = rng.normal(size=(k, q.shape[1], 3))
+    step *= 1e-9 * rng.choice([1 - 1e-3, 1 + 1e-3], (k, q.shape[1], 1)) / np.linalg.norm(step, axis=-1, keepdims=True)
+    T[2 * k:3 * k, :, :3, 3] += step
+    m = n // 3
+    T[-m:] = _random_rigid(rng, (m, q.shape[1]))
+    T[-m:, :, :3, 3] *= 2.4
+    return T
+
+
+def _assert_backends_agree(robot, T, atol=1e-9):
+    Qc, Vc = ikine_ur(robot, T, atol)
+    Qn, Vn = ikine_ur(robot, T, atol, backend="numpy")
+    assert Qc.shape == Qn.shape and Vc.shape == Vn.shape
+    np.testing.assert_array_equal(Vc, Vn)
+    gap = np.abs(np.mod(Qc - Qn + np.pi, TWO_PI) - np.pi)
+    assert gap.max() <= 1e-12, f"q differs by {gap.max():.3g} rad"
+    twin = np.abs(Qc - Qn) > 1e-12  # only an angle at ±pi may come out as its twin at ∓pi
+    assert np.all(np.abs(np.abs(Qc[twin]) - np.pi) <= 1e-12) and np.all(np.abs(Qc) <= np.pi + 1e-12)
+    reach = Vn.any(axis=-1)
+    np.testing.assert_array_equal(ur_reachable(robot, T, atol), reach)
+    np.testing.assert_array_equal(ur_reachable(robot, T, atol, backend="numpy"), reach)
+    return Vn
+
+
+@pytest.mark.parametrize("generalised, limited", [(False, False), (False, True), (True, False), (True, True)])
+def test_backends_agree_on_random_arms_poses_and_limits(generalised, limited):
+    rng = np.random.default_rng(20 + 2 * generalised + limited)
+    arms = _random_arms(rng, 24, generalised, limited)
+    T = _poses(rng, arms, 160)  # (160, 24, 4, 4): 3840 targets, two tasks' worth and more
+    V = _assert_backends_agree(arms, T)
+    reach = V.any(axis=-1)
+    assert 0.2 < reach.mean() < 0.8 and 0 < V.sum() < V.size  # neither trivial nor empty
+    # one arm at a time, and the targets shared by all arms (broadcast inside the kernel)
+    for b in (0, 7):
+        _assert_backends_agree(arms[b], T[:, b])
+    _assert_backends_agree(arms, T[:, :1])
+    # a looser reach tolerance moves the boundary cases
+    _assert_backends_agree(arms, T[:48], atol=1e-5)
+
+
+def test_backends_agree_with_limits_on_the_boundary():
+    # limits that put one joint of a valid branch 1e-9 rad inside or outside (by multiples of 2·pi),
+    # or exactly on the upper limit (inside: the check allows 1e-12 above it). Not exactly on the
+    # lower limit: there an angle an ulp below (the two arctan2 differ by that) is out by the check's
+    # own definition (dh._angle_in_range has no slack below), so the backends may differ there
+    rng = np.random.default_rng(30)
+    ur = _ur("ur5e", qlim=None)
+    T = ur.fkine(ur.random_q(64, rng))
+    Q, V = ikine_ur(ur, T, backend="numpy")
+    B = 32
+    qlim = np.tile(QLIM_360, (B, 1, 1))
+    for b in range(B):
+        n = rng.integers(0, len(T))
+        k = rng.choice(np.flatnonzero(V[n]))
+        j = rng.integers(0, 6)
+        x = Q[n, k, j] + TWO_PI * rng.integers(-1, 2)
+        width = rng.uniform(0.1, 3.0)
+        eps = rng.choice([-1e-9, 1e-9])
+        mode = b % 3
+        if mode == 0:
+            qlim[b, j] = [x + eps, x + eps + width]
+        elif mode == 1:
+            qlim[b, j] = [x - eps - width, x - eps]
+        else:
+            qlim[b, j] = [x - width, x]
+    arms = from_dh(*_table(*np.tile(UR_DH["ur5e"], (B, 1)).T), qlim=qlim)
+    V = _assert_backends_agree(arms, T[:, None])
+    assert 0 < V.sum() < V.size
+
+
+def test_backends_agree_on_the_ur5e_grid_and_at_the_shoulder_axis():
+    chain = robots.load("ur5e")
+    p = cartesian_grid(-1, 1, 0.1)
+    for R in (np.eye(3), rotx(np.pi), rpy2r([0.3, -1.2, 2.0])):
+        T = np.broadcast_to(hom(R), (len(p), 4, 4)).copy()
+        T[:, :3, 3] = p
+        _assert_backends_agree(chain, T)
+    # wrist point on the joint-1 axis, with and without d4 (free θ1) and a1
+    for d4, a1 in ((0.0, 0.0), (0.1333, 0.0), (0.0, 0.05)):
+        d, a, alpha = (np.array(x) for x in _table(*UR_DH["ur5e"]))
+        d[3], a[0] = d4, a1
+        arm = from_dh(d, a, alpha)
+        T = np.broadcast_to(hom(rotx(np.pi), (0.0, 0.0, 0.3)), (3, 4, 4)).copy()
+        T[:, 2, 3] = (0.3, 0.5, 0.1625)
+        T[:, :3, 3] -= (UR_DH["ur5e"][5] * T[:, :3, 2])  # flange such that the wrist point is on the axis
+        _assert_backends_agree(arm, T)
+
+
+def test_backends_agree_on_empty_and_single_targets():
+    ur = _ur("ur10e")
+    for T in (np.zeros((0, 4, 4)), np.eye(4), ur.fkine(np.array([0.1, -1.0, 1.2, 0.3, 0.0, 2.0]))):
+        Qc, Vc = ikine_ur(ur, T)
+        Qn, Vn = ikine_ur(ur, T, backend="numpy")
+        assert Qc.shape == Qn.shape == T.shape[:-2] + (8, 6)
+        np.testing.assert_array_equal(Vc, Vn)
+        assert ur_reachable(ur, T).shape == T.shape[:-2]
+
+
+def test_compiled_results_do_not_depend_on_the_thread_count():
+    rng = np.random.default_rng(40)
+    arms = _random_arms(rng, 8, generalised=True, limited=True)
+    T = _poses(rng, arms, 400)  # 3200 targets: several tasks per thread
+    before = lm_compiled.threads()
+    try:
+        out = {}
+        for n in sorted({1, 2, lm_compiled.set_threads(None)}):
+            lm_compiled.set_threads(n)
+            out[n] = ikine_ur(arms, T) + (ur_reachable(arms, T),)
+        ref = out[1]
+        for n, res in out.items():
+            for x, y in zip(res, ref):
+                np.testing.assert_array_equal(x, y, err_msg=f"{n} threads")
+    finally:
+        lm_compiled.set_threads(before)
+
+
+def test_the_fast_structure_check_decides_as_the_worded_one():
+    # small changes around atol of what the test reads (twists, a4, a5, sideways offsets, tilts of
+    # the link frames), in a batch: _structure (is_ur_type) and _explain (the message) agree per arm
+    rng = np.random.default_rng(50)
+    B = 600
+    d, a, alpha = (np.array(x) for x in _table(*np.tile(UR_DH["ur5e"], (B, 1)).T))
+    step = lambda: rng.choice([-2e-9, -5e-10, 0.0, 0.0, 0.0, 5e-10, 2e-9, 0.3], B)  # noqa: E731
+    j = rng.integers(0, 5, B)
+    rows = np.arange(B)
+    alpha[rows, j] += step()
+    a[rows, rng.choice([3, 4], B)] += step()
+    arms = from_dh(d, a, alpha)
+    fixed = arms.fixed.copy()
+    k = rng.integers(1, 6, B)
+    fixed[rows, k, 1, 3] += step()  # a sideways offset: not Tz·Tx·Rx
+    tilt = np.where(rng.random(B) < 0.5, step(), 0.0)
+    Ry = np.broadcast_to(np.eye(4), (B, 4, 4)).copy()
+    Ry[:, 0, 0] = Ry[:, 2, 2] = np.cos(tilt)
+    Ry[:, 0, 2], Ry[:, 2, 0] = np.sin(tilt), -np.sin(tilt)
+    k = rng.integers(1, 6, B)
+    fixed[rows, k] = fixed[rows, k] @ Ry
+    arms = arms.replace(fixed=fixed)
+    ok = is_ur_type(arms)
+    _, ok_words, _ = closed_form_ur._explain(arms, 1e-9)
+    np.testing.assert_array_equal(ok, ok_words)
+    assert 0.05 < ok.mean() < 0.95
