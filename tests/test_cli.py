@@ -226,7 +226,7 @@ def test_named_real_arm_uses_the_numerical_search_within_its_limits(tmp_path, ca
     assert cli.main(["map", "--robot", "panda", "--step", "0.5", "--out", str(out)]) == 0
     summary = capsys.readouterr().out
     s = ws.MAP_SETTINGS
-    assert (f"numerical map (start at q = 0, {s['starts']} random, neighbours' solutions, {s['retry']} retries, "
+    assert (f"numerical constant map (start at q = 0, {s['starts']} random, neighbours' solutions, {s['retry']} retries, "
             "seed 0, joint limits on)") in summary
     flat, nodes, grid, settings = ws.load_map(out)
     assert settings["method"] == "numerical" and settings["ik"]["retry"] == s["retry"]
@@ -238,9 +238,9 @@ def test_named_real_arm_uses_the_numerical_search_within_its_limits(tmp_path, ca
 
 def test_auto_method_is_exact_for_the_closed_form_families(tmp_path, capsys):
     assert cli.main(["map", "--robot", "puma560", "--step", "0.5", "--out", str(tmp_path / "p.npz")]) == 0
-    assert "exact map (closed form (spherical-wrist family), joint limits off)" in capsys.readouterr().out
+    assert "exact constant map (closed form (spherical-wrist family), joint limits off)" in capsys.readouterr().out
     assert cli.main(["map", "--robot", "ur5e", "--step", "0.5", "--out", str(tmp_path / "u.npz")]) == 0
-    assert "exact map (closed form (ur family), joint limits on)" in capsys.readouterr().out
+    assert "exact constant map (closed form (ur family), joint limits on)" in capsys.readouterr().out
     flat, nodes, grid, settings = ws.load_map(tmp_path / "u.npz")
     assert settings["method"] == "exact"
     from wsmap import robots as R

@@ -1,8 +1,11 @@
-"""The one command line: ``wsmap map``, ``wsmap robots``, ``wsmap data``, ``wsmap paper`` (also ``python -m wsmap``).
+"""The one command line: ``wsmap map``, ``wsmap place``, ``wsmap robots``, ``wsmap data``, ``wsmap paper``
+(also ``python -m wsmap``).
 
 Examples::
 
     wsmap map --robot puma560 --out puma560.npz --png puma560_slices.png
+    wsmap map --robot panda --kind index --orientations 50 --step 0.05 --out panda_index.npz --html panda.html
+    wsmap place --robot ur5e --targets poses.csv --x -1 1 --y -1 1 --out ranking.csv
     wsmap map --d 0 0 0.15 0.43 0 0 --a 0 0.43 0.02 0 0 0 \\
               --alpha pi/2 0 -pi/2 pi/2 -pi/2 0 --method numerical --out mine.npz
     wsmap map --robot puma560 --method model --model models/improved_model.pt --out nn.npz
@@ -144,11 +147,11 @@ def _robot_from_args(args):
 
 def _method_for(robot, method: str) -> str:
     """``auto``: the closed form where the arm belongs to a closed-form family, else numerical IK."""
-    if method != "auto":
+    if method == "model":
         return method
-    from .kinematics import DHRobot, is_spherical_wrist
+    from .workspace import resolve_method
 
-    return "exact" if isinstance(robot, DHRobot) and bool(np.all(is_spherical_wrist(robot))) else "numerical"
+    return resolve_method(robot, method)
 
 
 def _arg3(values, name):
@@ -159,14 +162,8 @@ def _arg3(values, name):
     return values[0] if len(values) == 1 else tuple(values)
 
 
-def _map_parser(sub):
-    m = sub.add_parser(
-        "map",
-        help="compute the workspace map of an arm on a grid",
-        description="Compute a binary workspace map (one bit per grid node) and write it as .npz.",
-        epilog="Node order: x fastest, then y, then z (flat index i + nx*j + nx*ny*k).",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
-    )
+def _arm_arguments(m):
+    """The arm options shared by ``wsmap map`` and ``wsmap place``."""
     g = m.add_argument_group("arm")
     g.add_argument("--robot", help="a named arm (`wsmap robots` lists them; default puma560 when no other arm is given)")
     g.add_argument("--urdf", metavar="FILE", help="the arm as a URDF file (meshes are never read)")
@@ -180,9 +177,29 @@ def _map_parser(sub):
                    help="honour the arm's joint limits (default: on for real arms and URDFs, off for puma560 as in the paper)")
     g.add_argument("--qlim-deg", type=number, nargs="+", metavar="DEG",
                    help="joint limits in degrees: lo_1 hi_1 lo_2 hi_2 ... (overrides --joint-limits)")
-    g = m.add_argument_group("scope")
-    g.add_argument("--scope", choices=["R3", "SO3"], default="R3",
-                   help="R3: positions at a fixed orientation; SO3: orientations at a fixed point")
+
+
+def _map_parser(sub):
+    m = sub.add_parser(
+        "map",
+        help="compute the workspace map of an arm on a grid",
+        description="Compute a binary workspace map (one bit per grid node) and write it as .npz.",
+        epilog="Node order: x fastest, then y, then z (flat index i + nx*j + nx*ny*k).",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    _arm_arguments(m)
+    g = m.add_argument_group("kind and scope")
+    g.add_argument("--kind", choices=list(_KINDS), default=None,
+                   help="constant: positions at a fixed orientation (--rpy; the paper's R3); orientation: "
+                        "orientations at a fixed point (--point; the paper's SO3); index: the fraction of "
+                        "--orientations reachable at each position; reach: reachable at some orientation; "
+                        "dexterous: reachable at every one of --orientations; manipulability: the largest "
+                        "Yoshikawa manipulability of the IK solutions at --rpy (default: constant, or as --scope)")
+    g.add_argument("--orientations", type=positive_int, default=None, metavar="K",
+                   help="index/dexterous: K orientations spread over SO(3) (super-Fibonacci; default 50)")
+    g.add_argument("--scope", choices=["R3", "SO3"], default=None,
+                   help="R3: positions at a fixed orientation; SO3: orientations at a fixed point "
+                        "(the same as --kind constant / orientation; default R3)")
     g.add_argument("--lo", type=number, nargs="+", help="grid start, one value or three (default -1 m for R3, 0 rad for SO3)")
     g.add_argument("--hi", type=number, nargs="+", help="grid end, inclusive (default 1 m for R3, 2*pi for SO3)")
     g.add_argument("--step", type=number, nargs="+", help="grid step (default 0.1 m for R3, pi/10 for SO3)")
@@ -192,12 +209,16 @@ def _map_parser(sub):
                    help="SO3 scope: fixed point in metres")
     g = m.add_argument_group("method")
     g.add_argument("--method", choices=["auto", "exact", "numerical", "model"], default="auto",
-                   help="auto: exact where a closed form exists, else numerical; exact: closed form (spherical-wrist "
-                        "arms); numerical: multi-start Levenberg-Marquardt within the joint limits (any arm); "
+                   help="auto: exact where a closed form exists, else numerical; exact: closed form (the "
+                        "spherical-wrist DH family and the UR family); numerical: Levenberg-Marquardt within the "
+                        "joint limits, started at q = 0 and from neighbouring nodes' solutions (any arm); "
                         "model: a trained network (--model)")
-    g.add_argument("--starts", type=positive_int,
-                   help="numerical: IK starts per node, start 0 at q = 0 and the rest random inside the limits "
-                        "(default: the measured default, wsmap.workspace.DEFAULT_STARTS)")
+    g.add_argument("--starts", type=non_negative_int,
+                   help="numerical: random IK starts per node before the neighbours' solutions are tried "
+                        "(default: the measured default, wsmap.workspace.MAP_SETTINGS)")
+    g.add_argument("--retry", type=non_negative_int,
+                   help="numerical: random IK starts for unsolved nodes next to solved ones, once the "
+                        "neighbours' solutions are spent (default: wsmap.workspace.MAP_SETTINGS)")
     g.add_argument("--seed", type=non_negative_int, default=0, help="numerical: seed of the random starts")
     g.add_argument("--paper-lm", action="store_true",
                    help="numerical: the paper's one-start Levenberg-Marquardt from q = 0 instead of the multi-start "
@@ -213,9 +234,18 @@ def _map_parser(sub):
                    help="numerical IK limit on consecutive rejected steps per start (default: the solver's)")
     g = m.add_argument_group("output")
     g.add_argument("--out", required=True, help="output .npz file (map, nodes, grid, settings)")
-    g.add_argument("--png", help="also draw the map's z-slices to this PNG")
+    g.add_argument("--png", help="also draw the map's z-slices to this PNG (a colour bar for index/manipulability)")
+    g.add_argument("--html", help="also write an interactive 3-D view (standalone HTML, plotly.js inline)")
+    g.add_argument("--ply", help="also write the reachable nodes as a coloured point cloud (.ply)")
+    g.add_argument("--glb", help="also write iso-surfaces of the map as a glTF scene (.glb)")
     g.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     m.set_defaults(run=_run_map)
+
+
+#: ``--kind``: what each node holds. constant/orientation are the paper's binary maps (R3/SO3).
+_KINDS = {"constant": "R3", "orientation": "SO3", "index": "R3", "reach": "R3", "dexterous": "R3",
+          "manipulability": "R3"}
+_FLOAT_KINDS = ("index", "manipulability")
 
 
 def _run_map(args) -> int:
@@ -224,10 +254,20 @@ def _run_map(args) -> int:
 
     # every check before any work
     out = check_output_path(args.out, "--out")
-    png = check_output_path(args.png, "--png") if args.png else None
-    if png is not None and os.path.abspath(png) == os.path.abspath(out):
-        raise ValueError("--out and --png name the same file")
+    extra = {flag: check_output_path(v, flag) for flag, v in (("--png", args.png), ("--html", args.html),
+                                                              ("--ply", args.ply), ("--glb", args.glb)) if v}
+    names = [os.path.abspath(out)] + [os.path.abspath(v) for v in extra.values()]
+    if len(set(names)) != len(names):
+        raise ValueError("two of --out, --png, --html, --ply and --glb name the same file")
+    kind = args.kind or ("orientation" if args.scope == "SO3" else "constant")
+    if args.scope is not None and _KINDS[kind] != args.scope:
+        raise ValueError(f"--scope {args.scope} does not go with --kind {kind} (a {_KINDS[kind]} map)")
+    scope = _KINDS[kind]
+    if args.orientations is not None and kind not in ("index", "dexterous"):
+        raise ValueError(f"--orientations is used by --kind index and dexterous (kind is {kind!r})")
     if args.method == "model":
+        if kind not in ("constant", "orientation"):
+            raise ValueError(f"--method model predicts the paper's maps (--kind constant or orientation), not {kind!r}")
         if not args.model:
             raise ValueError("--method model needs a model file (--model PATH)")
         if not Path(args.model).is_file():
@@ -236,63 +276,209 @@ def _run_map(args) -> int:
         raise ValueError(f"--model is only used with --method model (method is {args.method!r})")
     if args.allow_extrapolation and args.method != "model":
         raise ValueError("--allow-extrapolation is only used with --method model")
+    if args.paper_lm and kind not in ("constant", "orientation"):
+        raise ValueError(f"--paper-lm is the paper's solver of its own maps (--kind constant or orientation), not {kind!r}")
     robot = _robot_from_args(args)
-    grid = ws.grid_spec(args.scope, _arg3(args.lo, "--lo"), _arg3(args.hi, "--hi"), _arg3(args.step, "--step"))
+    grid = ws.grid_spec(scope, _arg3(args.lo, "--lo"), _arg3(args.hi, "--hi"), _arg3(args.step, "--step"))
+    if kind != "constant" and kind != "orientation" and robot.batch_shape != ():
+        raise ValueError(f"--kind {kind} maps one arm")
     method = _method_for(robot, args.method)
-    if method == "exact":
-        from .kinematics import DHRobot, require_spherical_wrist
-
-        if not isinstance(robot, DHRobot):
-            raise ValueError(f"method 'exact' has no closed form for {robot.name or 'this arm'}; use --method numerical")
-        require_spherical_wrist(robot)
-    for flag, value in (("--starts", args.starts), ("--paper-lm", args.paper_lm or None)):
+    if kind == "reach" and method == "exact":
+        method = "numerical"  # reach at any orientation: the position search (no closed form of its own)
+    for flag, value in (("--starts", args.starts), ("--retry", args.retry), ("--paper-lm", args.paper_lm or None)):
         if value is not None and method != "numerical":
             raise ValueError(f"{flag} is used by the numerical method (method is {method!r})")
-    if args.paper_lm and args.starts not in (None, 1):
-        raise ValueError("--paper-lm is the paper's one-start LM; it takes no --starts")
+    if args.paper_lm and (args.starts is not None or args.retry is not None):
+        raise ValueError("--paper-lm is the paper's one-start LM; it takes no --starts or --retry")
     limited = robot.qlim is not None
+    K = args.orientations or 50
+    R = ws.orientation_samples(K, seed=args.seed) if kind in ("index", "dexterous") else None
 
     t0 = time.perf_counter()
     ik = {k: v for k, v in dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit).items() if v is not None}
     if method == "numerical":
-        ik.update(dict(solver="paper") if args.paper_lm else dict(starts=args.starts or ws.DEFAULT_STARTS, seed=args.seed))
-    flat = ws.grid_map(robot, grid, rpy=args.rpy, point=args.point, method=method, convention=args.convention,
-                       model=args.model, allow_extrapolation=args.allow_extrapolation, ik=ik, progress=not args.quiet)
+        if args.paper_lm:
+            ik.update(solver="paper")
+        else:
+            ik.update({**ws.MAP_SETTINGS, **{k: v for k, v in dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit,
+                                                                   starts=args.starts, retry=args.retry).items()
+                                             if v is not None}}, seed=args.seed)
+    search = {k: v for k, v in ik.items() if k not in ("seed", "solver")}
+    if kind in ("constant", "orientation"):
+        flat = ws.grid_map(robot, grid, rpy=args.rpy, point=args.point, method=method, convention=args.convention,
+                           model=args.model, allow_extrapolation=args.allow_extrapolation, ik=ik,
+                           progress=not args.quiet)
+    else:
+        nodes = ws.cartesian_grid(grid["lo"], grid["hi"], grid["step"])
+        if kind == "index":
+            flat = ws.reachability_index(robot, nodes, R, method=method, ik=search, seed=args.seed)
+        elif kind == "dexterous":
+            flat = ws.dexterous_map(robot, nodes, R, method=method, ik=search, seed=args.seed)
+        elif kind == "reach":
+            flat = ws.position_map(robot, nodes, ik=search, seed=args.seed)
+        else:
+            flat = ws.manipulability_map(robot, nodes, args.rpy, convention=args.convention, method=method,
+                                         ik=search, seed=args.seed)
     seconds = time.perf_counter() - t0
     how = {"exact": "closed form", "model": f"network {args.model}",
            "numerical": ("the paper's LM, one start at q = 0" if args.paper_lm else
-                         f"{ik.get('starts')} start{'s' if ik.get('starts') != 1 else ''}, seed {args.seed}")}[method]
+                         f"start at q = 0, {ik.get('starts')} random, neighbours' solutions, {ik.get('retry')} "
+                         f"retries, seed {args.seed}")}[method]
+    if method == "exact":
+        how += f" ({ws.closed_form_family(robot).replace('_', '-')} family)"
     how += f", joint limits {'on' if limited else 'off'}"
+    if R is not None:
+        how += f", {K} orientations (super-Fibonacci, seed {args.seed})"
     settings = {
-        "robot": robot.name, "source": getattr(robot, "source", None), "urdf": args.urdf, "ee": args.ee,
-        "n": robot.n, "qlim": None if robot.qlim is None else np.asarray(robot.qlim).tolist(),
-        "method": method, "how": how, "convention": args.convention, "rpy": list(args.rpy),
-        "point": list(args.point), "model": args.model, "ik": ik, "seconds": seconds,
+        "kind": kind, "robot": robot.name, "source": getattr(robot, "source", None), "urdf": args.urdf,
+        "ee": args.ee, "n": robot.n, "qlim": None if robot.qlim is None else np.asarray(robot.qlim).tolist(),
+        "method": method, "how": how, "convention": "standard" if R is not None or kind == "reach" else args.convention,
+        "rpy": list(args.rpy), "point": list(args.point), "model": args.model, "ik": ik, "seconds": seconds,
     }
     if hasattr(robot, "d"):  # a DH arm: its table
         settings.update(d=robot.d.tolist(), a=robot.a.tolist(), alpha=robot.alpha.tolist())
+    label = {"index": "reachability index", "manipulability": "manipulability √det(J Jᵀ)"}.get(kind, "reachable")
+    if kind in _FLOAT_KINDS:
+        summary = f"{int((flat > 0).sum())} of {flat.size} nodes reachable, mean {label} {flat.mean():.3f}"
+    else:
+        summary = f"{int(flat.sum())} of {flat.size} nodes {'reachable' if kind != 'dexterous' else 'dexterous'}"
     fig = None
-    if png is not None:
-        from .viz import plot_slices
+    if "--png" in extra:
+        from .viz import plot_slices, plot_value_slices
 
-        labels = ("x", "y", "z") if args.scope == "R3" else ("r1", "r2", "r3")
-        fig = plot_slices(flat, grid["shape"], grid["lo"], grid["step"], labels=labels,
-                          title=f"{robot.name or 'arm'}: {int(flat.sum())} of {flat.size} nodes reachable ({method}: {how})")
-    paths = [out] + ([png] if png is not None else [])
+        labels = ("x", "y", "z") if scope == "R3" else ("r1", "r2", "r3")
+        title = f"{robot.name or 'arm'} ({kind}): {summary} ({method}: {how})"
+        if kind in _FLOAT_KINDS:
+            fig = plot_value_slices(flat, grid["shape"], grid["lo"], grid["step"], label=label, title=title,
+                                    labels=labels, vmin=0.0, vmax=1.0 if kind == "index" else None)
+        else:
+            fig = plot_slices(flat, grid["shape"], grid["lo"], grid["step"], labels=labels, title=title)
+    values = np.asarray(flat, dtype=np.float64)
+    paths = [out] + list(extra.values())
     try:
-        # both files or neither: a failing PNG leaves an existing --out untouched
+        # all files or none: a failing one leaves every existing output untouched
         with atomic_paths(paths) as tmps:
-            ws.save_map(tmps[0], flat, grid, settings)
-            if fig is not None:
-                fig.savefig(tmps[1], dpi=120, bbox_inches="tight")
+            ws.save_map(tmps[0], flat, grid, settings, orientations=R)
+            for flag, tmp in zip(extra, tmps[1:]):
+                if flag == "--png":
+                    fig.savefig(tmp, dpi=120, bbox_inches="tight")
+                elif flag == "--html":
+                    from .views import save_html
+
+                    save_html(tmp, values, grid, label=label, title=f"{robot.name or 'arm'}: {kind} map")
+                elif flag == "--ply":
+                    from .views import save_ply
+
+                    save_ply(tmp, values, grid, label=label)
+                else:
+                    from .views import save_glb
+
+                    levels = (0.5,) if kind not in _FLOAT_KINDS else (
+                        (0.25, 0.5, 0.75) if kind == "index" else tuple(np.quantile(values[values > 0], [0.25, 0.5, 0.75])))
+                    save_glb(tmp, values, grid, levels=levels)
     finally:
         if fig is not None:
             import matplotlib.pyplot as plt
 
             plt.close(fig)
     if not args.quiet:
-        print(f"{int(flat.sum())} of {flat.size} nodes reachable ({flat.mean():.1%}); "
-              f"{method} map ({how}) in {seconds:.3f} s -> {out}" + (f", {png}" if png else ""))
+        print(f"{summary}; {method} {kind} map ({how}) in {seconds:.3f} s -> {', '.join(map(str, paths))}")
+    return 0
+
+
+# ------------------------------------------------------------------------------------ wsmap place
+def _place_parser(sub):
+    m = sub.add_parser(
+        "place",
+        help="where to put an arm's base so that it reaches a set of target poses",
+        description="Rank candidate base poses on the floor (x, y, heading) by the fraction of the target "
+                    "poses they reach; every reached target has a joint solution that forward kinematics confirms.",
+        epilog="Targets file (CSV, world frame, one pose per row, a header line allowed): 6 columns x y z r1 r2 r3 "
+               "(metres; radians, R = Rx(r1) Ry(r2) Rz(r3), T = transl(x, y, z) R) or 16 columns (the 4x4 "
+               "matrix, row by row).",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    _arm_arguments(m)
+    g = m.add_argument_group("placement")
+    g.add_argument("--targets", required=True, metavar="CSV", help="the target poses (see below)")
+    g.add_argument("--x", type=number, nargs=2, default=[-1.0, 1.0], metavar=("LO", "HI"), help="base x range (m)")
+    g.add_argument("--y", type=number, nargs=2, default=[-1.0, 1.0], metavar=("LO", "HI"), help="base y range (m)")
+    g.add_argument("--z0", type=number, default=0.0, help="height of the floor the base stands on (m)")
+    g.add_argument("--step", type=positive_float, default=0.1, help="base position step (m)")
+    g.add_argument("--yaws", type=positive_int, default=8, help="base headings, 2 pi j / YAWS")
+    g.add_argument("--method", choices=["auto", "exact", "numerical"], default="auto",
+                   help="auto: the closed form where the arm has one, else the numerical search")
+    g.add_argument("--top", type=positive_int, default=5, help="candidates to print")
+    g.add_argument("--out", help="write the ranking (every candidate) to this CSV file")
+    g.add_argument("--quiet", action="store_true", help="no table")
+    m.set_defaults(run=_run_place)
+
+
+def _read_targets(path):
+    """Target poses (M, 4, 4) from a CSV file of 6 or 16 columns (see ``wsmap place --help``)."""
+    from .workspace import target_poses
+
+    p = Path(path)
+    if not p.is_file():
+        raise ValueError(f"--targets {path!r}: no such file")
+    rows = []
+    with open(p) as f:
+        for k, line in enumerate(f, 1):
+            text = line.strip()
+            if not text or text.startswith("#"):
+                continue
+            cells = [c for c in text.replace(";", ",").replace("\t", ",").split(",") if c.strip() != ""]
+            try:
+                rows.append([float(c) for c in cells])
+            except ValueError:
+                if rows:
+                    raise ValueError(f"--targets {path}: line {k} is not numbers: {text[:60]!r}") from None
+                continue  # a header line
+    if not rows:
+        raise ValueError(f"--targets {path}: no poses in the file")
+    widths = {len(r) for r in rows}
+    if len(widths) != 1 or widths.pop() not in (6, 16):
+        raise ValueError(f"--targets {path}: every row needs 6 values (x y z r1 r2 r3) or 16 (a 4x4 matrix); "
+                         f"found rows of {sorted({len(r) for r in rows})} values")
+    a = np.array(rows, dtype=np.float64)
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"--targets {path}: NaN or infinite values")
+    if a.shape[1] == 6:
+        return np.stack([target_poses(r[:3], r[3:], "standard") for r in a])
+    return a.reshape(-1, 4, 4)
+
+
+def _run_place(args) -> int:
+    from . import workspace as ws
+    from .io import atomic_path, check_output_path
+
+    out = check_output_path(args.out, "--out") if args.out else None
+    for name in ("x", "y"):
+        lo, hi = getattr(args, name)
+        if lo > hi:
+            raise ValueError(f"--{name}: lo ({lo}) is above hi ({hi})")
+    T = _read_targets(args.targets)
+    robot = _robot_from_args(args)
+    t0 = time.perf_counter()
+    pl = ws.base_placement(robot, T, x=args.x, y=args.y, step=args.step, yaws=args.yaws, z0=args.z0,
+                           method=args.method)
+    seconds = time.perf_counter() - t0
+    if out is not None:
+        with atomic_path(out, suffix=".csv") as tmp:
+            with open(tmp, "w") as f:
+                f.write("rank,x_m,y_m,yaw_rad,score," + ",".join(f"target_{m}" for m in range(len(T))) + "\n")
+                for r in range(len(pl.score)):
+                    f.write(f"{r + 1},{pl.x[r]:.6f},{pl.y[r]:.6f},{pl.yaw[r]:.6f},{pl.score[r]:.6f},"
+                            + ",".join(str(int(b)) for b in pl.reached[r]) + "\n")
+    if not args.quiet:
+        print(f"{robot.name or 'arm'}: {len(pl.score)} candidate bases x {len(T)} targets ({pl.method}) in "
+              f"{seconds:.2f} s")
+        print("rank  x (m)    y (m)    yaw (deg)  reached")
+        for r in range(min(args.top, len(pl.score))):
+            print(f"{r + 1:>4}  {pl.x[r]:+.3f}   {pl.y[r]:+.3f}   {np.degrees(pl.yaw[r]):8.1f}   "
+                  f"{int(pl.reached[r].sum())}/{len(T)} ({pl.score[r]:.0%})")
+        if out is not None:
+            print(f"ranking -> {out}")
     return 0
 
 
@@ -487,8 +673,10 @@ def _run_paper_list(args) -> int:
 # ------------------------------------------------------------------------------------------ main
 def _parser():
     p = _Parser(prog="wsmap", description="Manipulator workspace maps, classical and learned.")
-    sub = p.add_subparsers(dest="command", required=True, metavar="{map,robots,data,paper}", parser_class=_Parser)
+    sub = p.add_subparsers(dest="command", required=True, metavar="{map,place,robots,data,paper}",
+                           parser_class=_Parser)
     _map_parser(sub)
+    _place_parser(sub)
     _robots_parser(sub)
     _data_parser(sub)
     _paper_parser(sub)

@@ -159,12 +159,12 @@ def resolve_method(robot, method: str = "auto") -> str:
 
 def _exact(arms, T):
     """Closed-form reachability of poses ``T`` (N, 4, 4) for arms (batch ``(B,)`` or one): (..., N)."""
-    from ..kinematics import ikine_ur
+    from ..kinematics import ur_reachable
 
     if closed_form_family(arms) == "ur":
         Tn = T if arms.batch_shape == () else T[None]
         ar = arms if arms.batch_shape == () else _per_node(arms)
-        return ikine_ur(ar, Tn)[1].any(axis=-1)
+        return ur_reachable(ar, Tn)
     node_arms = _per_node(arms)
     if arms.qlim is None:
         # unlimited spherical wrist: every orientation is reachable at a reachable centre
