@@ -1,7 +1,7 @@
 """The paper's scale, part by part and resumable: ``wsmap paper full [PART ...] [--list] [--estimate]``.
 
 ``wsmap paper run --all --params params.full.yaml`` runs the notebooks at the paper's scale in one
-go (about 90 hours on 2 cores). This runner cuts that work into **parts** that each end in one
+go (README "Scale": about 90 hours on 2 cores, all of Table 2 included). This runner cuts that work into **parts** that each end in one
 result file, so that a run can stop (a crash, Ctrl-C, a reboot) and go on where it stopped:
 
 =====================  ==========================================================================
@@ -30,7 +30,8 @@ Files (``--out``, default ``results/full/``)
 ``<part>.json``
     ``settings`` (everything the result depends on: the section's values, the full
     :class:`~wsmap.learn.training.TrainConfig`, each dataset's spec and sizes), ``settings_hash``
-    (SHA-256 of their canonical JSON), ``metrics``, ``steps`` (each step's metrics and timings),
+    (SHA-256 of their canonical JSON), ``metrics`` (with every session's scores, ``runs``),
+    ``steps`` (each step's timings and a one-line summary; a §6.2 block's scores too),
     ``timings`` (datasets, steps, finalisation), ``wall_seconds`` (all steps, also those of
     earlier, interrupted runs, plus this run's data and finalisation), ``device``, ``machine``.
 ``<part>.history.json``
@@ -79,7 +80,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -737,17 +738,20 @@ def flop_estimate(part: Part, gflops: float = CPU_GFLOPS) -> float:
     return per_epoch * int(part.settings["section"]["max_epochs"]) * len(part.steps)
 
 
-def data_estimate(part: Part, data_dir=None) -> float:
+def data_estimate(part: Part, data_dir=None, counted: set | None = None) -> float:
     """Seconds to build the part's datasets missing from ``data_dir`` (file existence only):
     :data:`EXACT_SECONDS_PER_LABEL` per label for closed-form labels,
-    :data:`NUMERICAL_SECONDS_PER_ARM` per arm for numerical ones."""
+    :data:`NUMERICAL_SECONDS_PER_ARM` per arm for numerical ones. ``counted``: names already
+    counted for an earlier part (a dataset is built once for all parts); this part's are added."""
     from .specs import dataset_paths, paper_spec
 
     data_dir = Path(data_dir) if data_dir is not None else default_data()
+    counted = set() if counted is None else counted
     total = 0.0
     for name, sizes in part.datasets.items():
-        if all(p.exists() for p in dataset_paths(name, data_dir)):
+        if name in counted or all(p.exists() for p in dataset_paths(name, data_dir)):
             continue
+        counted.add(name)
         spec = paper_spec(name)
         arms = sizes["samples"] + sizes["test_samples"]
         total += (arms * NUMERICAL_SECONDS_PER_ARM if spec.method == "numerical"
@@ -816,8 +820,8 @@ def estimate(names: Sequence[str] = (), params_file=None, out=None, *, device: s
             continue
         e = estimate_part(p, epochs)
         known[p.name] = e
-        log(f"{p.name}: {e['seconds_per_epoch']:.3f} s per epoch on {e['device']} -> "
-            f"≈ {_fmt_seconds(e['estimate_s'])} for {p.settings['section']['max_epochs']} epochs x {len(p.steps)} step(s)")
+        log(f"{p.name}: {e['seconds_per_epoch']:.3f} s per epoch on {e['device']} -> ≈ {_fmt_seconds(e['estimate_s'])} "
+            f"for {p.settings['section']['max_epochs']} epochs x {len(p.steps)} step(s)")
         write_json(known, _estimates_file(out))
     return known
 
@@ -847,7 +851,7 @@ def list_lines(params_file=None, out=None, data_dir=None, *, device: str | None 
     out = Path(out) if out is not None else default_out()
     estimates = _read_json(_estimates_file(out)) or {}
     rows = [("part", "state", "steps", "time", "how", "device")]
-    pending_total, unknown = 0.0, []
+    pending_total, unknown, counted = 0.0, [], set()
     for p in parts:
         st = part_state(p, out)
         try:
@@ -866,16 +870,17 @@ def list_lines(params_file=None, out=None, data_dir=None, *, device: str | None 
             seconds, how = flop_estimate(p) * left, "flops"
         else:
             seconds, how = None, "run --estimate"
-        data_s = data_estimate(p, data_dir)
+        data_s = data_estimate(p, data_dir, counted)  # each missing dataset with the first part needing it
         if seconds is not None:
             seconds += data_s
             pending_total += seconds
             if data_s > 0:
-                how += " + data"
+                how += f" + data {_fmt_seconds(data_s)}"
         else:
             unknown.append(p.name)
-        rows.append((p.name, st["state"], steps, ("≤ " if p.kind == "sec62" and seconds else "≈ ") + _fmt_seconds(seconds)
-                     if seconds is not None else "?", how, dev))
+        bound = "≤ " if p.kind == "sec62" else "≈ "  # §6.2 stops at max_fail 100: its epochs are a bound
+        rows.append((p.name, st["state"], steps, bound + _fmt_seconds(seconds) if seconds is not None else "?",
+                     how, dev))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows]
     done = sum(1 for r in rows[1:] if r[1] == "done")

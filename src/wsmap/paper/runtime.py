@@ -144,10 +144,10 @@ def runtime_comparison(
     Returns:
         One row per (grid, method): ``nodes``, ``step``, ``method``, ``label``, ``mean_s``,
         ``std_s``, ``min_s``, ``repeats``, ``timed_nodes`` (nodes solved per timed call),
-        ``extrapolated``, ``device`` (where the method ran), ``agreement_with_exact`` (fraction of the timed nodes whose label equals
-        the exact map's; NaN for the network), ``paper_s`` (the paper's classical time for the
-        classical rows, its network time for the network rows), ``speedup_vs_paper``
-        (``paper_s / mean_s``).
+        ``extrapolated``, ``device`` (where the method ran), ``agreement_with_exact`` (fraction
+        of the timed nodes whose label equals the exact map's; NaN for the network), ``paper_s``
+        (the paper's classical time for the classical rows, its network time for the network
+        rows), ``speedup_vs_paper`` (``paper_s / mean_s``).
     """
     import pandas as pd
     import torch
