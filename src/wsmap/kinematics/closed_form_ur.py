@@ -696,8 +696,12 @@ def _ikine_compiled(prm, T, atol, full):
         q, valid, reach = np.empty((M, 8, 6)), np.empty((M, 8), dtype=bool), np.empty(0, dtype=bool)
     else:
         q, valid, reach = _NO_Q, _NO_VALID, np.empty(M, dtype=bool)
-    _run(Tf, tix, arm, par, int(bits[mapped].sum()), int(bits[limited].sum()), base_mode, Binv, flange_mode, Finv,
-         float(atol), M, full, q, valid, reach, bad)
+    from .lm_compiled import threads_for
+
+    # about 33 ns a pose on the reachability path: one thread below some 10^5 poses
+    with threads_for(M, 4096 if full else 65536):
+        _run(Tf, tix, arm, par, int(bits[mapped].sum()), int(bits[limited].sum()), base_mode, Binv, flange_mode, Finv,
+             float(atol), M, full, q, valid, reach, bad)
     if bad.any():
         check_rigid("target poses", T)  # decides, and words the error
     if full:

@@ -32,12 +32,14 @@ from __future__ import annotations
 
 import math
 import os
+from contextlib import contextmanager
 
 import numba
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["MODE_SEARCH", "MODE_PAPER", "MODE_POSITION", "TARGETS_PER_TASK", "set_threads", "threads", "run_targets"]
+__all__ = ["MODE_SEARCH", "MODE_PAPER", "MODE_POSITION", "TARGETS_PER_TASK", "set_threads", "threads", "threads_for",
+           "run_targets"]
 
 MODE_SEARCH = 0  # rotation-vector error, limits inside the iteration, FK confirmation, multi-start
 MODE_PAPER = 1  # Corke's tr2delta error, no limits in the iteration, one start (the paper's)
@@ -68,6 +70,23 @@ def set_threads(count: int | None = None) -> int:
 def threads() -> int:
     """Threads the kernel currently uses."""
     return numba.get_num_threads()
+
+
+@contextmanager
+def threads_for(items: int, per_thread: int):
+    """Within the block, at most one thread per ``per_thread`` work items (at least one, at most
+    :func:`threads`). A parallel region costs a wake-up of every thread, and when another process
+    holds a core, a scheduler tick (milliseconds) waiting for it: small calls (a wave of a few
+    dozen targets, a 9261-pose closed-form map) run faster on one thread."""
+    n = numba.get_num_threads()
+    want = max(1, min(n, int(items) // max(1, int(per_thread))))
+    if want != n:
+        numba.set_num_threads(want)
+    try:
+        yield want
+    finally:
+        if want != n:
+            numba.set_num_threads(n)
 
 
 # --------------------------------------------------------------------------- kinematics of one target

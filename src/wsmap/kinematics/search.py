@@ -703,13 +703,14 @@ def run_compiled(mode, aa: dict, arm, T, keys, qexp, nexp, k_first, k_last, ilim
     if M:
         Rt = np.ascontiguousarray(T[:, :3, :3], dtype=np.float64)
         pt = np.ascontiguousarray(T[:, :3, 3], dtype=np.float64)
-        lm_compiled.run_targets(
-            mode, np.ascontiguousarray(arm, dtype=np.int64), Rt, pt, np.ascontiguousarray(keys, dtype=np.uint64),
-            np.ascontiguousarray(qexp, dtype=np.float64), np.ascontiguousarray(nexp, dtype=np.int64),
-            int(k_first), int(k_last), aa["Rf"], aa["tf"], aa["rkind"], aa["off"], aa["axes"], aa["pris"], aa["zax"], aa["lo"],
-            aa["hi"], aa["clo"], aa["chi"], aa["clipped"], aa["limited"], aa["unlimited"], aa["blo"], aa["bhi"],
-            int(ilimit), int(rlimit), float(tol), float(lam), float(gtol), float(confirm_tol), bool(free_pass), q, ok, it,
-            res, start)
+        with lm_compiled.threads_for(M, 64):
+            lm_compiled.run_targets(
+                mode, np.ascontiguousarray(arm, dtype=np.int64), Rt, pt, np.ascontiguousarray(keys, dtype=np.uint64),
+                np.ascontiguousarray(qexp, dtype=np.float64), np.ascontiguousarray(nexp, dtype=np.int64),
+                int(k_first), int(k_last), aa["Rf"], aa["tf"], aa["rkind"], aa["off"], aa["axes"], aa["pris"], aa["zax"],
+                aa["lo"], aa["hi"], aa["clo"], aa["chi"], aa["clipped"], aa["limited"], aa["unlimited"], aa["blo"],
+                aa["bhi"], int(ilimit), int(rlimit), float(tol), float(lam), float(gtol), float(confirm_tol),
+                bool(free_pass), q, ok, it, res, start)
     return q, ok, it, res, start
 
 
