@@ -82,9 +82,13 @@ def threads_for(items: int, per_thread: int):
     want = max(1, min(n, int(items) // max(1, int(per_thread))))
     if want != n:
         numba.set_num_threads(want)
+    # tasks handed out a few at a time, not in one static block per thread: targets differ in cost
+    before = numba.get_parallel_chunksize()
+    numba.set_parallel_chunksize(4)
     try:
         yield want
     finally:
+        numba.set_parallel_chunksize(before)
         if want != n:
             numba.set_num_threads(n)
 
