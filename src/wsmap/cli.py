@@ -10,6 +10,8 @@ Examples::
               --alpha pi/2 0 -pi/2 pi/2 -pi/2 0 --method numerical --out mine.npz
     wsmap map --robot puma560 --method model --model models/improved_model.pt --out nn.npz
     wsmap data build sec61 --samples 10000 --test-samples 1000 --out data/sec61.npz
+    wsmap data build panda7_tooldown --samples 2000 --test-samples 200 --out data/panda7.npz --workers 2
+    wsmap data build panda7_tooldown --samples 100000 --out data/panda7.npz --scheduler tcp://head:8786
     wsmap paper run sec61_subspace            # one notebook (a DVC stage) with params.yaml
     wsmap paper run --all --params params.full.yaml --root full --timeout 0
 
@@ -487,20 +489,32 @@ def _data_parser(sub):
     d = sub.add_parser("data", help="build and inspect experience datasets",
                        description="Experience datasets: features of random arms and their workspace maps.")
     dsub = d.add_subparsers(dest="data_command", required=True, metavar="{build,list,audit}", parser_class=_Parser)
-    b = dsub.add_parser("build", help="build one of the paper's datasets (and its test set)",
-                        description="Build a dataset of the paper's catalogue (`wsmap data list`) and, with "
-                                    "--test-samples, its independent test set beside it (NAME.test.npz).",
+    b = dsub.add_parser("build", help="build one of the catalogue's datasets (and its test set)",
+                        description="Build a dataset of the catalogue (`wsmap data list`: the paper's and the "
+                                    "extensions such as panda7_tooldown) and, with --test-samples, its independent "
+                                    "test set beside it (NAME.test.npz). The labels are computed in this process, "
+                                    "or on Dask: --workers K starts a local cluster of K single-threaded "
+                                    "processes, --scheduler ADDRESS uses a running cluster (`dask scheduler` and "
+                                    "`dask worker ADDRESS` on its machines). The files are byte-identical either "
+                                    "way.",
                         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    b.add_argument("name", help="a dataset of the paper's catalogue (see `wsmap data list`)")
+    b.add_argument("name", help="a dataset of the catalogue (see `wsmap data list`)")
     b.add_argument("--out", required=True, help="output file (.npz)")
     b.add_argument("--samples", type=positive_int, help="number of arms (the first N of the spec's streams; default the paper's)")
     b.add_argument("--test-samples", type=positive_int,
                    help="also build the independent test set of this many arms (OUT with .test.npz)")
     b.add_argument("--test", action="store_true",
                    help="build only the spec's independent test set (of --samples arms, default 1000) into --out")
+    b.add_argument("--workers", type=positive_int,
+                   help="compute the labels on a Dask LocalCluster of this many worker processes (one thread "
+                        "each); default: in this process")
+    b.add_argument("--scheduler", metavar="ADDRESS",
+                   help="compute the labels on the Dask cluster of this scheduler (e.g. tcp://head:8786)")
+    b.add_argument("--connect-timeout", type=positive_float, default=5.0,
+                   help="seconds to wait for --scheduler to answer")
     b.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     b.set_defaults(run=_run_data_build)
-    ls = dsub.add_parser("list", help="list the paper's datasets")
+    ls = dsub.add_parser("list", help="list the catalogue's datasets (the paper's and the extensions)")
     ls.set_defaults(run=_run_data_list)
     a = dsub.add_parser("audit", help="exact labels against the paper's one-start numerical path")
     a.add_argument("names", nargs="*", help="datasets (default: every distinct spherical-wrist spec)")
@@ -521,10 +535,16 @@ def _run_data_build(args) -> int:
     if args.test and args.test_samples is not None:
         raise ValueError("--test builds only a test set into --out; --test-samples builds one beside the "
                          "training set: give one of them")
-    spec = _paper_spec(args.name)
+    if args.workers is not None and args.scheduler is not None:
+        raise ValueError("--workers sizes the local Dask cluster; a --scheduler's cluster has its own workers: "
+                         "give one of them")
+    from .paper.specs import dataset_spec
+
+    spec = dataset_spec(args.name)
     t0 = time.perf_counter()
     written = datasets.build_dataset_files(spec, args.out, samples=args.samples, test_samples=args.test_samples,
-                                           test_only=args.test, progress=not args.quiet)
+                                           test_only=args.test, progress=not args.quiet, workers=args.workers,
+                                           scheduler=args.scheduler, connect_timeout=args.connect_timeout)
     if not args.quiet:
         for path in written:
             print(f"{path} ({time.perf_counter() - t0:.1f} s)")
@@ -532,9 +552,9 @@ def _run_data_build(args) -> int:
 
 
 def _run_data_list(args) -> int:
-    from .paper.specs import PAPER_SPECS
+    from .paper.specs import DATASET_SPECS
 
-    for name, s in PAPER_SPECS.items():
+    for name, s in DATASET_SPECS.items():
         print(f"{name:22s} {s.family:16s} {s.scope} nodes={s.n_nodes:5d} features={s.n_features:3d} "
               f"samples={s.samples} fixed={s.fixed} method={s.method}")
     return 0

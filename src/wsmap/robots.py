@@ -6,7 +6,10 @@
 * :func:`from_dh` (standard or modified DH) and :func:`from_urdf` — any other serial arm;
 * :func:`puma560`, :func:`spherical_wrist` and the samplers of the paper's arm families (batches of
   :class:`~wsmap.kinematics.DHRobot`, batch shape ``(count,)``, drawn with a seed or a
-  ``numpy.random.Generator``).
+  ``numpy.random.Generator``);
+* :func:`family_arm` and :func:`sample_family` — families of real arms with scaled lengths
+  (:data:`ARM_FAMILIES`: ``panda7``, the Panda with its six non-zero DH lengths each scaled by
+  ``U(0.7, 1.3)``), batches of :class:`~wsmap.kinematics.SerialChain`.
 
 Every named arm has its base at the manufacturer's base (mounting flange) frame and its end at the
 tool flange (no gripper), its joint zero and signs as the manufacturer's controller, and its joint
@@ -15,6 +18,7 @@ limits in radians (``±inf`` for a continuous joint; ``qlim`` is ``None`` when n
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +41,14 @@ __all__ = [
     "from_dh",
     "from_urdf",
     "URDFError",
+    "ArmFamily",
+    "ARM_FAMILIES",
+    "PANDA7",
+    "FamilyRangeWarning",
+    "arm_family",
+    "family_arm",
+    "sample_family",
+    "family_scales",
 ]
 
 #: PUMA560 joint limits in degrees (Corke's ``mdl_puma560``); the paper ignores them.
@@ -113,12 +125,20 @@ class ArmTable:
         Tz[2, 3], Tx[0, 3] = d, a
         return Rz @ Tz @ Tx @ Rx if self.convention == "standard" else Rx @ Tx @ Rz @ Tz
 
-    def chain(self, joint_limits: bool = True) -> SerialChain:
-        """The arm as a :class:`SerialChain` (base frame → tool flange)."""
-        d, a, alpha, offset = np.array(self.rows, dtype=np.float64).T
+    def chain(self, joint_limits: bool = True, *, d=None, a=None, name: str | None = None) -> SerialChain:
+        """The arm as a :class:`SerialChain` (base frame → tool flange).
+
+        ``d`` and ``a`` (``(..., n)``, metres) replace the table's columns of those names (a batch
+        of arms with the table's twists, offsets, mount, flange and limits: an arm family, see
+        :func:`family_arm`); ``name`` replaces the table's name.
+        """
+        d0, a0, alpha, offset = np.array(self.rows, dtype=np.float64).T
+        d = d0 if d is None else d
+        a = a0 if a is None else a
         flange = None if self.flange is None else self.row_transform(self.flange)
         arm = from_dh(d, a, alpha, offset=offset, qlim=self.qlim if joint_limits else None,
-                      modified=self.convention == "modified", flange=flange, name=self.name, source=self.source)
+                      modified=self.convention == "modified", flange=flange, name=name or self.name,
+                      source=self.source)
         if self.mount is not None:
             fixed = arm.fixed.copy()
             fixed[..., 0, :, :] = self.row_transform(self.mount) @ fixed[..., 0, :, :]
@@ -293,3 +313,195 @@ def sample_arbitrary_6dof(count: int, seed=None, beta: float = 0.5) -> DHRobot:
         raise ValueError(f"beta must be positive and finite, got {beta!r}")
     u = _rng(seed).uniform(0.0, beta, size=(count, 3, 6))
     return DHRobot(u[:, 0], u[:, 1], u[:, 2], name="arbitrary_6dof")
+
+
+# ------------------------------------------------------------------------------------- arm families
+class FamilyRangeWarning(UserWarning):
+    """An arm of a family was built, with ``allow_extrapolation=True``, from scale factors outside
+    the family's range: no dataset of the family has such an arm."""
+
+
+@dataclass(frozen=True)
+class ArmFamily:
+    """A family of arms: a named arm's published table with some of its lengths scaled.
+
+    ``params`` name the scaled lengths after the table's rows as the manufacturer numbers them:
+    ``"d3"`` is the ``d`` of the joint-3 row, ``"a4"`` the ``a`` of the joint-4 row (in the modified
+    convention that is Craig's ``a_3``, acting before joint 4). Arm ``b`` of a batch has length
+    ``k`` equal to ``scales[b, k] * nominal[k]``, every scale in ``[low, high]``; every other number
+    of the table (twists, offsets, flange row, mount, joint limits) is the named arm's.
+    """
+
+    name: str
+    title: str
+    table: ArmTable
+    params: tuple[str, ...]
+    low: float
+    high: float
+
+    @property
+    def n_params(self) -> int:
+        return len(self.params)
+
+    def _columns(self) -> list[tuple[int, int]]:
+        """``(column, row)`` of each parameter: column 0 is ``d``, 1 is ``a``; rows 0-based."""
+        return [("da".index(p[0]), int(p[1:]) - 1) for p in self.params]
+
+    @property
+    def nominal(self) -> np.ndarray:
+        """The named arm's value of each parameter ``(n_params,)`` (metres)."""
+        rows = np.array(self.table.rows, dtype=np.float64)
+        return np.array([rows[r, c] for c, r in self._columns()])
+
+    def check_scales(self, scales, allow_extrapolation: bool = False, stacklevel: int = 2) -> np.ndarray:
+        """``scales`` as a float64 array ``(..., n_params)``, checked (see :func:`family_arm`);
+        ``stacklevel`` of the :class:`FamilyRangeWarning` as :func:`warnings.warn` counts it here."""
+        if not isinstance(allow_extrapolation, (bool, np.bool_)):
+            raise ValueError(f"allow_extrapolation must be True or False, got {allow_extrapolation!r}")
+        names = ", ".join(self.params)
+        try:
+            s = np.array(scales, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"scales of family {self.name!r} must be numbers of shape (..., {self.n_params}) "
+                             f"({names}), got {type(scales).__name__}") from None
+        if s.ndim == 0 or s.shape[-1] != self.n_params:
+            raise ValueError(f"scales of family {self.name!r} must have shape (..., {self.n_params}): one factor "
+                             f"per parameter ({names}) in that order, got shape {s.shape}")
+        bad = ~np.isfinite(s) | (s <= 0)
+        if bad.any():
+            idx = tuple(int(i) for i in np.argwhere(bad)[0])
+            raise ValueError(f"scale of {self.params[idx[-1]]} is {float(s[idx])!r}: scales must be positive "
+                             "and finite")
+        out = (s < self.low) | (s > self.high)
+        if out.any():
+            idx = tuple(int(i) for i in np.argwhere(out)[0])
+            where = "" if len(idx) == 1 else f" (arm {idx[0] if len(idx) == 2 else idx[:-1]})"
+            what = (f"scale of {self.params[idx[-1]]}{where} is {float(s[idx])!r}, outside the range "
+                    f"[{self.low}, {self.high}] of family {self.name!r}")
+            if not allow_extrapolation:
+                raise ValueError(f"{what}; pass allow_extrapolation=True to build the arm anyway")
+            more = int(out.sum()) - 1
+            warnings.warn(f"{what}{f' (and {more} more scale(s) out of range)' if more else ''}; built anyway "
+                          "(allow_extrapolation=True): the family's datasets and models have no such arm",
+                          FamilyRangeWarning, stacklevel=stacklevel)
+        return s
+
+    def arms(self, scales, *, allow_extrapolation: bool = False, joint_limits: bool = True,
+             stacklevel: int = 2) -> SerialChain:
+        """The arms of ``scales`` ``(..., n_params)``: a :class:`SerialChain` of batch shape ``(...)``
+        (see :func:`family_arm`)."""
+        s = self.check_scales(scales, allow_extrapolation, stacklevel + 1)
+        rows = np.array(self.table.rows, dtype=np.float64)
+        cols = np.broadcast_to(rows[:, :2].T, s.shape[:-1] + (2, self.table.n)).copy()  # (..., 2, n): d, a
+        for k, (c, r) in enumerate(self._columns()):
+            cols[..., c, r] = s[..., k] * rows[r, c]
+        return self.table.chain(joint_limits, d=cols[..., 0, :], a=cols[..., 1, :], name=self.name)
+
+    def sample(self, count: int, seed=None) -> tuple[SerialChain, np.ndarray]:
+        """``count`` arms with independent scales ``U(low, high)``: ``(arms, scales)``, batch ``(count,)``.
+
+        The draw is one ``(count, n_params)`` uniform array, so the first ``k`` arms of a seed are
+        the arms of ``count = k``.
+        """
+        scales = self.draw_scales(count, seed)
+        return self.arms(scales), scales
+
+    def draw_scales(self, count: int, seed=None) -> np.ndarray:
+        """The scales ``(count, n_params)`` of :meth:`sample` alone (no arms built)."""
+        count = _check_count(count)
+        return _rng(seed).uniform(self.low, self.high, size=(count, self.n_params))
+
+    def scales_of(self, arms: SerialChain, atol: float = 1e-12) -> np.ndarray:
+        """The scales ``(..., n_params)`` of arms built by :meth:`arms` (read from their fixed
+        transforms); an arm that is not of the family (other lengths, twists, joints, limits) is a
+        ``ValueError``."""
+        if not isinstance(arms, SerialChain):
+            raise TypeError(f"arms of family {self.name!r} must be a SerialChain, got {type(arms).__name__}")
+        if arms.n != self.table.n:
+            raise ValueError(f"arms of family {self.name!r} have {self.table.n} joints, got {arms.n}")
+        # from_dh puts d_i and a_{i+1} (modified) or a_i (standard) in the translation of F_{i+1}
+        # (modified: F_0 holds a_1) as exact sums with zeros: (a, 0, d) read back without rounding
+        F = arms.fixed
+        modified = self.table.convention == "modified"
+        scales = []
+        nominal = self.nominal
+        for k, (c, r) in enumerate(self._columns()):
+            if c == 0:
+                v = F[..., r + 1, 2, 3]
+            else:
+                v = F[..., r, 0, 3] if modified else F[..., r + 1, 0, 3]
+            scales.append(v / nominal[k])
+        s = np.stack(scales, axis=-1)
+        rebuilt = None
+        if np.all(np.isfinite(s)) and np.all(s > 0):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", FamilyRangeWarning)
+                rebuilt = self.arms(s, allow_extrapolation=True)
+        same = (rebuilt is not None and rebuilt.kinds == arms.kinds
+                and np.allclose(rebuilt.fixed, F, rtol=0, atol=atol) and np.allclose(rebuilt.axes, arms.axes)
+                and np.allclose(rebuilt.offset, arms.offset) and (arms.qlim is None) == (rebuilt.qlim is None)
+                and (arms.qlim is None or np.allclose(rebuilt.qlim, arms.qlim)))
+        if not same:
+            raise ValueError(f"these arms are not of family {self.name!r} (only {', '.join(self.params)} may differ "
+                             f"from the {self.table.title}'s table)")
+        return s
+
+
+#: The Franka Emika Panda with the six non-zero lengths of its modified-DH table (d1 = 0.333,
+#: d3 = 0.316, d5 = 0.384, a4 = 0.0825, a5 = -0.0825, a7 = 0.088 m) each scaled by an independent
+#: factor in [0.7, 1.3]; flange row (d = 0.107 m) and joint limits as the Panda's.
+PANDA7 = ArmFamily(name="panda7", title="Franka Emika Panda, six lengths scaled by U(0.7, 1.3)", table=PANDA,
+                   params=("d1", "d3", "d5", "a4", "a5", "a7"), low=0.7, high=1.3)
+
+#: The arm families by name (:func:`family_arm`, :func:`sample_family`).
+ARM_FAMILIES: dict[str, ArmFamily] = {f.name: f for f in (PANDA7,)}
+
+
+def arm_family(name: str) -> ArmFamily:
+    """The :class:`ArmFamily` ``name``; an unknown name is a ``ValueError`` listing the known ones."""
+    if not isinstance(name, str) or name not in ARM_FAMILIES:
+        raise ValueError(f"unknown arm family {name!r}; known families: {', '.join(ARM_FAMILIES)}")
+    return ARM_FAMILIES[name]
+
+
+def family_arm(name: str, scales, *, allow_extrapolation: bool = False) -> SerialChain:
+    """A batch of arms of the family ``name`` from their scale factors.
+
+    Parameters
+    ----------
+    name : str
+        ``"panda7"`` (:data:`ARM_FAMILIES`): the Franka Panda's modified-DH chain (base: the
+        mounting flange, ``panda_link0``; end: the tool flange) whose lengths d1, d3, d5, a4, a5, a7
+        (0.333, 0.316, 0.384, 0.0825, -0.0825, 0.088 m) are multiplied by ``scales``.
+    scales : array_like, shape (..., 6)
+        Dimensionless factors, in the order d1, d3, d5, a4, a5, a7, each in ``[0.7, 1.3]``.
+    allow_extrapolation : bool
+        Build arms with factors outside ``[0.7, 1.3]`` (still positive and finite), with a
+        :class:`FamilyRangeWarning`, instead of refusing them.
+
+    Returns
+    -------
+    SerialChain of batch shape ``scales.shape[:-1]`` (``()`` for one arm), with the Panda's joint
+    limits (rad) and flange; ``fkine`` gives flange poses in the base frame (metres).
+
+    An unknown family, a shape other than ``(..., 6)``, a factor that is not a positive finite
+    number, and a factor out of range (without ``allow_extrapolation``) are each a ``ValueError``
+    naming the family, the parameter and the value.
+    """
+    return arm_family(name).arms(scales, allow_extrapolation=allow_extrapolation, stacklevel=3)
+
+
+def sample_family(name: str, count: int, seed=None) -> tuple[SerialChain, np.ndarray]:
+    """``count`` random arms of the family ``name``: ``(arms, scales)``.
+
+    ``scales`` ``(count, 6)`` are independent ``U(0.7, 1.3)`` draws (one ``(count, 6)`` uniform
+    array from ``seed``: an int, ``None``, or a ``numpy.random.Generator``), in the order of
+    :func:`family_arm`; ``arms`` is ``family_arm(name, scales)``, batch shape ``(count,)``.
+    """
+    return arm_family(name).sample(count, seed)
+
+
+def family_scales(name: str, arms: SerialChain) -> np.ndarray:
+    """The scales ``(..., 6)`` of arms of the family ``name`` (built by :func:`family_arm`), read back
+    from their fixed transforms; arms of another kind are a ``ValueError``."""
+    return arm_family(name).scales_of(arms)

@@ -16,7 +16,8 @@ Where things are:
 * :mod:`.labels` -- :func:`labels_for` (exact closed form, or multi-start LM) and the
   :func:`possibly_reachable` pre-filter;
 * :mod:`.store` -- the file format, :func:`build_dataset`, :func:`build_dataset_files` (training
-  and test file, all or nothing), :func:`load_dataset` (checked), :class:`Dataset`;
+  and test file, all or nothing; in this process or on Dask: ``workers=``, ``scheduler=``),
+  :func:`load_dataset` (checked), :class:`Dataset`;
 * :mod:`.audit` -- the IK label audits: :func:`starts_study`, :func:`starts_recall`,
   :func:`audit_labels`, :func:`audit_table`.
 
@@ -35,6 +36,7 @@ from .audit import audit_labels, audit_table, distinct_specs, starts_recall, sta
 from .features import (
     arms_from_features,
     feature_names,
+    scales_for,
     feature_slices,
     features_for,
     fixed_from_features,
@@ -44,8 +46,10 @@ from .features import (
     spec_nodes,
 )
 from .labels import labels_for, possibly_reachable
-from .sampling import draw_samples, rotation_to_rpy, start_configurations, uniform_rotations
+from .sampling import draw_samples, draw_scales, rotation_to_rpy, start_configurations, uniform_rotations
 from .spec import (
+    CHAIN_FAMILIES,
+    CHAIN_FAMILY_GRID,
     CONVENTIONS,
     DEFAULT_STARTS,
     FAMILIES,
@@ -62,10 +66,13 @@ from .spec import (
     test_spec,
 )
 from .store import (
+    CONNECT_TIMEOUT,
     FORMAT,
+    WORKER_TIMEOUT,
     FORMAT_VERSION,
     Dataset,
     DatasetError,
+    SchedulerError,
     build_dataset,
     build_dataset_files,
     load_dataset,
@@ -75,18 +82,19 @@ from .store import (
 
 __all__ = [
     # spec
-    "FAMILIES", "SCOPES", "STREAMS", "CONVENTIONS", "METHODS", "DEFAULT_STARTS",
+    "FAMILIES", "CHAIN_FAMILIES", "CHAIN_FAMILY_GRID", "SCOPES", "STREAMS", "CONVENTIONS", "METHODS", "DEFAULT_STARTS",
     "MAX_GRID_NODES", "MAX_SAMPLES", "MAX_STARTS", "MAX_LM_ITERATIONS", "MAX_TOL",
     "DatasetSpec", "test_spec", "scaled",
     # features
     "grid_axes", "grid_nodes", "spec_nodes", "node_slice", "feature_names", "feature_slices",
-    "features_for", "arms_from_features", "fixed_from_features",
+    "features_for", "scales_for", "arms_from_features", "fixed_from_features",
     # sampling
-    "draw_samples", "start_configurations", "uniform_rotations", "rotation_to_rpy",
+    "draw_samples", "draw_scales", "start_configurations", "uniform_rotations", "rotation_to_rpy",
     # labels
     "labels_for", "possibly_reachable",
     # store
-    "FORMAT", "FORMAT_VERSION", "DatasetError", "Dataset", "build_dataset", "build_dataset_files",
+    "FORMAT", "FORMAT_VERSION", "DatasetError", "SchedulerError", "CONNECT_TIMEOUT", "WORKER_TIMEOUT", "Dataset",
+    "build_dataset", "build_dataset_files",
     "load_dataset", "load_dataset_files", "test_path_for",
     # audit
     "starts_study", "starts_recall", "audit_labels", "audit_table", "distinct_specs",

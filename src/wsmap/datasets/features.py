@@ -12,20 +12,29 @@ A dataset is ``samples`` random arms (one row each) with
   18 + 63 + 3 = 84 columns); ``n_i`` the fixed orientation ``(r1, r2, r3)`` in radians (R3) or
   the fixed point in metres (SO3). Columns of a fixed quantity are constant; the model sees them
   because the paper's input has them.
+  A chain family (:data:`wsmap.datasets.spec.CHAIN_FAMILIES`, e.g. ``panda7``) has its scale
+  factors in place of the 18 DH columns::
+
+      [scale_d1, scale_d3, scale_d5, scale_a4, scale_a5, scale_a7,  n_x, n_y, n_z,  n_i (3)]
+
+  (dimensionless, the order of :func:`wsmap.robots.family_arm`; 6 + 75 + 3 = 84 columns on the
+  25³ grid).
 * **labels** ``(samples, nodes)`` bool in node order (first coordinate fastest, see
   :mod:`wsmap.workspace`): ``True`` where inverse kinematics solves the node's target pose
   (:mod:`wsmap.datasets.labels`).
 
-:func:`features_for` builds the feature rows of any batch of 6-joint arms (what a trained model is
-asked about); :func:`arms_from_features` and :func:`fixed_from_features` read them back.
+:func:`features_for` builds the feature rows of any batch of 6-joint arms (or of a chain family's
+arms or scales: what a trained model is asked about); :func:`arms_from_features` and
+:func:`fixed_from_features` read them back.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .. import robots
 from .. import workspace as ws
-from ..kinematics import DHRobot
+from ..kinematics import DHRobot, SerialChain
 from .spec import N_DH, N_JOINTS, DatasetSpec, _check_spec
 
 __all__ = [
@@ -36,6 +45,7 @@ __all__ = [
     "feature_slices",
     "feature_names",
     "features_for",
+    "scales_for",
     "arms_from_features",
     "fixed_from_features",
 ]
@@ -70,20 +80,29 @@ def spec_nodes(spec: DatasetSpec) -> np.ndarray:
 
 # --------------------------------------------------------------------------- features
 def feature_slices(spec: DatasetSpec) -> dict[str, slice]:
-    """Column ranges of the feature vector: ``d``, ``a``, ``alpha``, ``nx``, ``ny``, ``nz``, ``fixed``."""
+    """Column ranges of the feature vector: ``d``, ``a``, ``alpha`` (a chain family: ``scales``),
+    ``nx``, ``ny``, ``nz``, ``fixed``."""
     _check_spec(spec)
     nx, ny, nz = spec.grid_shape
-    edges = np.cumsum([0, N_JOINTS, N_JOINTS, N_JOINTS, nx, ny, nz, 3])
-    keys = ("d", "a", "alpha", "nx", "ny", "nz", "fixed")
+    if spec.is_chain_family:
+        edges = np.cumsum([0, spec.n_arm_features, nx, ny, nz, 3])
+        keys = ("scales", "nx", "ny", "nz", "fixed")
+    else:
+        edges = np.cumsum([0, N_JOINTS, N_JOINTS, N_JOINTS, nx, ny, nz, 3])
+        keys = ("d", "a", "alpha", "nx", "ny", "nz", "fixed")
     return {k: slice(int(edges[i]), int(edges[i + 1])) for i, k in enumerate(keys)}
 
 
 def feature_names(spec: DatasetSpec) -> list[str]:
     """Column names: ``d_1..d_6, a_1..a_6, alpha_1..alpha_6, n_x_1.., n_y_1.., n_z_1..`` then
-    ``r_1..r_3`` (R3: the orientation angles) or ``p_1..p_3`` (SO3: the point). 1-based, like the paper."""
+    ``r_1..r_3`` (R3: the orientation angles) or ``p_1..p_3`` (SO3: the point). 1-based, like the paper.
+    A chain family starts with ``scale_<param>`` (``scale_d1 .. scale_a7`` for ``panda7``)."""
     _check_spec(spec)
     nx, ny, nz = spec.grid_shape
-    names = [f"{k}_{i}" for k in ("d", "a", "alpha") for i in range(1, N_JOINTS + 1)]
+    if spec.is_chain_family:
+        names = [f"scale_{p}" for p in robots.arm_family(spec.family).params]
+    else:
+        names = [f"{k}_{i}" for k in ("d", "a", "alpha") for i in range(1, N_JOINTS + 1)]
     for ax, n in (("x", nx), ("y", ny), ("z", nz)):
         names += [f"n_{ax}_{i}" for i in range(1, n + 1)]
     names += [f"{'r' if spec.scope == 'R3' else 'p'}_{i}" for i in (1, 2, 3)]
@@ -122,23 +141,50 @@ def _check_arms(arms) -> DHRobot:
     return arms
 
 
-def features_for(arms: DHRobot, spec: DatasetSpec, fixed=None) -> np.ndarray:
+def scales_for(arms, spec: DatasetSpec) -> np.ndarray:
+    """The scale factors ``(count, n)`` of a chain family's arms: ``arms`` is the scales themselves
+    (``(count, n)``, checked as :func:`wsmap.robots.family_arm` checks them) or a
+    :class:`~wsmap.kinematics.SerialChain` batch ``(count,)`` of the family (scales read back with
+    :func:`wsmap.robots.family_scales`)."""
+    family = robots.arm_family(spec.family)
+    if isinstance(arms, SerialChain):
+        if len(arms.batch_shape) != 1:
+            raise ValueError(f"arms must be a batch of shape (count,), got batch shape {arms.batch_shape}")
+        return family.scales_of(arms)
+    if isinstance(arms, DHRobot):
+        raise TypeError(f"spec {spec.name!r} is of family {spec.family!r}: give its arms (a SerialChain from "
+                        "wsmap.robots.family_arm) or their scale factors, not a DHRobot")
+    s = family.check_scales(arms)
+    if s.ndim != 2:
+        raise ValueError(f"scales must have shape (count, {family.n_params}), got {s.shape}")
+    return s
+
+
+def features_for(arms, spec: DatasetSpec, fixed=None) -> np.ndarray:
     """The feature matrix ``(count, spec.n_features)`` float64 of a batch of arms for ``spec``.
 
     ``arms`` is a batch ``(count,)`` of 6-joint arms (any DH values: a model trained on ``spec``
-    predicts their maps). ``fixed`` is the orientation (R3, rad) or point (SO3, m), ``(3,)`` or
-    ``(count, 3)``; by default the spec's (required when the spec's is ``"random"``). A model
-    trained on a fixed-orientation spec has only ever seen that orientation.
+    predicts their maps); for a chain family (``panda7``) the family's arms or their scale factors
+    ``(count, 6)`` (:func:`scales_for`). ``fixed`` is the orientation (R3, rad) or point (SO3,
+    m), ``(3,)`` or ``(count, 3)``; by default the spec's (required when the spec's is
+    ``"random"``). A model trained on a fixed-orientation spec has only ever seen that orientation.
     """
     _check_spec(spec)
-    arms = _check_arms(arms)
-    count = arms.batch_shape[0]
+    if spec.is_chain_family:
+        scales = scales_for(arms, spec)
+        count = scales.shape[0]
+    else:
+        arms = _check_arms(arms)
+        count = arms.batch_shape[0]
     fx = _fixed_rows(spec, count, fixed)
     sl = feature_slices(spec)
     X = np.empty((count, spec.n_features), dtype=np.float64)
-    X[:, sl["d"]] = arms.d
-    X[:, sl["a"]] = arms.a
-    X[:, sl["alpha"]] = arms.alpha
+    if spec.is_chain_family:
+        X[:, sl["scales"]] = scales
+    else:
+        X[:, sl["d"]] = arms.d
+        X[:, sl["a"]] = arms.a
+        X[:, sl["alpha"]] = arms.alpha
     for key, axis in zip(("nx", "ny", "nz"), grid_axes(spec)):
         X[:, sl[key]] = axis
     X[:, sl["fixed"]] = fx
@@ -155,9 +201,15 @@ def _feature_matrix(X) -> np.ndarray:
     return X
 
 
-def arms_from_features(X) -> DHRobot:
-    """The arms ``(count,)`` whose DH columns are the first 18 feature columns."""
+def arms_from_features(X, spec: DatasetSpec | None = None) -> DHRobot | SerialChain:
+    """The arms ``(count,)`` whose DH columns are the first 18 feature columns; for a ``spec`` of a
+    chain family, the family's arms (:func:`wsmap.robots.family_arm`) of the scale columns."""
     X = _feature_matrix(X)
+    if spec is not None and _check_spec(spec).is_chain_family:
+        k = spec.n_arm_features
+        if X.ndim != 2 or X.shape[1] < k:
+            raise ValueError(f"features must have shape (count, >= {k}), got {X.shape}")
+        return robots.family_arm(spec.family, X[:, :k])
     if X.ndim != 2 or X.shape[1] < N_DH:
         raise ValueError(f"features must have shape (count, >= {N_DH}), got {X.shape}")
     return DHRobot(X[:, 0:6], X[:, 6:12], X[:, 12:18])

@@ -12,15 +12,25 @@ affordable without changing any of them: pairs that :func:`possibly_reachable` p
 (a sound bound on reach, height and tool tilt) are not handed to LM, and every LM success is
 confirmed by forward kinematics (the LM pose error is also zero at a half turn of the
 orientation, see ``_solve``).
+
+A chain family (``panda7``, :data:`wsmap.datasets.spec.CHAIN_FAMILIES`) is labelled by the maps'
+numerical path: :func:`wsmap.workspace.constant_orientation_map` (R3) or
+:func:`wsmap.workspace.orientation_map` (SO3) with ``method="numerical"`` and the spec's
+convention, i.e. :func:`wsmap.kinematics.search.map_search` with its defaults
+(:data:`~wsmap.kinematics.search.MAP_SETTINGS`, seed 0): the search with the joint limits inside
+it, each node started from its neighbours' solutions, every success confirmed by forward
+kinematics inside the limits (so ``True`` is never wrong). An arm's labels do not depend on the
+other arms of its batch, nor on the thread count.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .. import robots
 from .. import workspace as ws
-from ..kinematics import DHRobot, ikine_LM, require_spherical_wrist, wrist_centre_reachable
-from .features import _check_arms, _fixed_rows, spec_nodes
+from ..kinematics import DHRobot, SerialChain, ikine_LM, require_spherical_wrist, wrist_centre_reachable
+from .features import _check_arms, _fixed_rows, scales_for, spec_nodes
 from .sampling import start_configurations
 from .spec import METHODS, N_JOINTS, DatasetSpec, _check_spec, _choice
 
@@ -155,6 +165,25 @@ def _nodes_array(nodes) -> np.ndarray:
     return nodes
 
 
+def _chain_family_labels(arms, spec: DatasetSpec, fx, nodes) -> np.ndarray:
+    """Labels ``(count, N)`` of a chain family's arms (a checked SerialChain batch): the numerical
+    map, one call per distinct orientation (point); arms sharing one are mapped as one batch (the
+    same labels as one by one)."""
+    count = arms.batch_shape[0]
+    out = np.empty((count, len(nodes)), dtype=bool)
+    if count == 0:
+        return out
+    rows, inverse = np.unique(fx, axis=0, return_inverse=True)
+    for k, row in enumerate(rows):
+        idx = np.flatnonzero(inverse.reshape(-1) == k)
+        sub = arms if idx.size == count else arms[idx]
+        if spec.scope == "R3":
+            out[idx] = ws.constant_orientation_map(sub, nodes, row, method="numerical", convention=spec.convention)
+        else:
+            out[idx] = ws.orientation_map(sub, nodes, row, method="numerical", convention=spec.convention)
+    return out
+
+
 def labels_for(
     arms: DHRobot,
     spec: DatasetSpec,
@@ -170,6 +199,10 @@ def labels_for(
     Parameters
     ----------
     arms : DHRobot, batch ``(count,)``
+        For a chain family (``panda7``): the family's arms (a SerialChain batch ``(count,)``,
+        :func:`wsmap.robots.family_arm`) or their scale factors ``(count, 6)``; labelled by the
+        numerical map search (see the module notes; ``method`` ``"numerical"`` only, no ``q0``,
+        no ``prefilter``).
     fixed : ``(3,)`` or ``(count, 3)``, optional
         Orientation (R3, rad) or point (SO3, m); default the spec's (required if ``"random"``).
     method : ``"exact"`` | ``"numerical"``, optional
@@ -185,10 +218,21 @@ def labels_for(
         faster). ``False`` runs LM on every pair.
     """
     _check_spec(spec)
-    arms = _check_arms(arms)
-    count = arms.batch_shape[0]
     method = spec.method if method is None else _choice("method", method, METHODS)
     nodes = spec_nodes(spec) if nodes is None else _nodes_array(nodes)
+    if spec.is_chain_family:
+        if method != "numerical":
+            raise ValueError(f"family {spec.family!r} has no closed form: method must be 'numerical', got {method!r}")
+        if q0 is not None:
+            raise ValueError(f"q0 sets the paper's LM starts; family {spec.family!r} is labelled by the map search, "
+                             "which starts from neighbouring nodes' solutions")
+        if isinstance(arms, SerialChain):
+            scales_for(arms, spec)  # checks that they are a batch (count,) of the family's arms
+        else:
+            arms = robots.family_arm(spec.family, scales_for(arms, spec))
+        return _chain_family_labels(arms, spec, _fixed_rows(spec, arms.batch_shape[0], fixed), nodes)
+    arms = _check_arms(arms)
+    count = arms.batch_shape[0]
     fx = _fixed_rows(spec, count, fixed)
     if method == "numerical":
         if q0 is None:

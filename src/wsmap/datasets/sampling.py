@@ -13,6 +13,10 @@ arms, 1 for random orientations / points, 2 for IK start configurations. Hence
 The label audits (:mod:`wsmap.datasets.audit`) draw from splits 7, 8 and 9 of their own seed,
 independent of every training and test stream.
 
+A chain family (``panda7``) draws its scale factors from the arms stream as
+:func:`wsmap.robots.sample_family` does (one ``(count, 6)`` uniform array, :func:`draw_scales`);
+it has no random orientation and no LM start configurations (its labels are the map search).
+
 Random orientation ("workspace" embedding of Table 3)
 ----------------------------------------------------
 ``fixed="random"`` draws, per sample, a rotation uniformly (Haar measure) on SO(3): a unit
@@ -36,7 +40,7 @@ from .. import robots
 from ..kinematics import DHRobot
 from .spec import MAX_SAMPLES, MAX_STARTS, N_JOINTS, STREAMS, DatasetSpec, _check_spec, _int
 
-__all__ = ["draw_samples", "start_configurations", "uniform_rotations", "rotation_to_rpy"]
+__all__ = ["draw_samples", "draw_scales", "start_configurations", "uniform_rotations", "rotation_to_rpy"]
 
 _QUANTITY = {"arms": 0, "fixed": 1, "starts": 2}
 #: splits of the audit streams (the training and test streams use 0 and 1)
@@ -96,7 +100,9 @@ def rotation_to_rpy(R) -> np.ndarray:
     return np.where(out >= 2 * np.pi, 0.0, out)
 
 
-def _draw_arms(spec: DatasetSpec, count: int, rng) -> DHRobot:
+def _draw_arms(spec: DatasetSpec, count: int, rng):
+    if spec.is_chain_family:
+        return robots.sample_family(spec.family, count, seed=rng)[0]
     if spec.family == "spherical_wrist":
         arms = robots.sample_spherical_wrist(count, seed=rng, beta=spec.beta)
     elif spec.family == "arbitrary_6dof":
@@ -115,12 +121,25 @@ def _draw_fixed(spec: DatasetSpec, count: int, rng) -> np.ndarray:
     return rng.uniform(-2 * spec.beta, 2 * spec.beta, size=(count, 3))
 
 
-def draw_samples(spec: DatasetSpec, count: int | None = None) -> tuple[DHRobot, np.ndarray]:
+def draw_samples(spec: DatasetSpec, count: int | None = None):
     """The first ``count`` (default ``spec.samples``) arms ``(count,)`` and their fixed
-    orientation / point ``(count, 3)`` from the spec's streams."""
+    orientation / point ``(count, 3)`` from the spec's streams. The arms are a
+    :class:`~wsmap.kinematics.DHRobot` batch, or for a chain family a
+    :class:`~wsmap.kinematics.SerialChain` batch (:func:`wsmap.robots.family_arm` of
+    :func:`draw_scales`)."""
     _check_spec(spec)
     count = spec.samples if count is None else _int("count", count, 1, MAX_SAMPLES)
     return _draw_arms(spec, count, _rng(spec, "arms")), _draw_fixed(spec, count, _rng(spec, "fixed"))
+
+
+def draw_scales(spec: DatasetSpec, count: int | None = None) -> np.ndarray:
+    """The scale factors ``(count, n)`` of the first ``count`` (default ``spec.samples``) arms of a
+    chain family's spec (the arms of :func:`draw_samples`); ``ValueError`` for the DH families."""
+    _check_spec(spec)
+    if not spec.is_chain_family:
+        raise ValueError(f"spec {spec.name!r} is of the DH family {spec.family!r}: its arms have no scale factors")
+    count = spec.samples if count is None else _int("count", count, 1, MAX_SAMPLES)
+    return robots.arm_family(spec.family).draw_scales(count, _rng(spec, "arms"))
 
 
 def start_configurations(spec: DatasetSpec, count: int | None = None, starts: int | None = None) -> np.ndarray:

@@ -25,10 +25,13 @@ from functools import cached_property
 
 import numpy as np
 
+from .. import robots
 from .. import workspace as ws
 
 __all__ = [
     "FAMILIES",
+    "CHAIN_FAMILIES",
+    "CHAIN_FAMILY_GRID",
     "SCOPES",
     "STREAMS",
     "CONVENTIONS",
@@ -46,7 +49,16 @@ __all__ = [
     "scaled",
 ]
 
-FAMILIES = ("spherical_wrist", "arbitrary_6dof", "puma560")
+#: Families of a dataset's arms: the paper's three (DH arms, :class:`~wsmap.kinematics.DHRobot`)
+#: and the real-arm families of :data:`wsmap.robots.ARM_FAMILIES` (:data:`CHAIN_FAMILIES`).
+FAMILIES = ("spherical_wrist", "arbitrary_6dof", "puma560", *robots.ARM_FAMILIES)
+#: Families whose arms are :class:`~wsmap.kinematics.SerialChain` batches built from scale
+#: factors (:func:`wsmap.robots.family_arm`): their features are the scales, their labels the
+#: numerical map search (:mod:`wsmap.datasets.labels`).
+CHAIN_FAMILIES = tuple(robots.ARM_FAMILIES)
+#: The default R3 grid bounds of a chain family (metres), ``lo = -hi``: ``[-1.2, 1.2]³`` holds the
+#: Panda's reach (0.855 m) and nearly all of the scaled arms' tool-down workspace.
+CHAIN_FAMILY_GRID = 1.2
 SCOPES = ("R3", "SO3")
 STREAMS = ("train", "test")
 CONVENTIONS = ws.CONVENTIONS
@@ -160,10 +172,17 @@ class DatasetSpec:
     ----------
     name : str
         Identifier (file names, progress bars).
-    family : ``"spherical_wrist"`` | ``"arbitrary_6dof"`` | ``"puma560"``
+    family : ``"spherical_wrist"`` | ``"arbitrary_6dof"`` | ``"puma560"`` | ``"panda7"``
         The arms: the paper's spherical-wrist family (d3, d4, a2, a3 ~ U(0, beta)), Table 3's
-        arbitrary 6-DOF arms (every d_i, a_i, alpha_i ~ U(0, beta)), or the PUMA560 (d1 = 0) in
-        every sample (useful with a random orientation).
+        arbitrary 6-DOF arms (every d_i, a_i, alpha_i ~ U(0, beta)), the PUMA560 (d1 = 0) in
+        every sample (useful with a random orientation), or a real-arm family of
+        :data:`CHAIN_FAMILIES` (``panda7``: the Franka Panda with its six non-zero DH lengths each
+        scaled by U(0.7, 1.3), :func:`wsmap.robots.sample_family`). A chain family's features are
+        its scale factors and its labels the numerical map search with its own settings
+        (:data:`wsmap.kinematics.search.MAP_SETTINGS`), so it needs ``method="numerical"``, a
+        fixed orientation (or point), and ``tol``, ``ilimit``, ``rlimit``, ``starts`` and ``beta``
+        left at their defaults (they set the paper's LM path and DH draws); its default R3 grid is
+        ``[-1.2, 1.2]`` m (:data:`CHAIN_FAMILY_GRID`).
     scope : ``"R3"`` (positions at a fixed orientation) | ``"SO3"`` (orientations at a fixed point)
     lo, hi, step : float or 3-tuple
         The grid (:func:`wsmap.workspace.grid_axes`): metres for R3, radians for SO3. ``None``
@@ -227,10 +246,14 @@ class DatasetSpec:
         if beta <= 0:
             raise ValueError(f"beta must be positive, got {self.beta!r}")
         set_("beta", beta)
+        chain = self.family in CHAIN_FAMILIES
+        if chain:
+            self._check_chain_family()
+        half = CHAIN_FAMILY_GRID if chain else 2.0 * beta
         if self.lo is None:
-            set_("lo", -2.0 * beta if self.scope == "R3" else 0.0)
+            set_("lo", -half if self.scope == "R3" else 0.0)
         if self.hi is None:
-            set_("hi", 2.0 * beta if self.scope == "R3" else 2.0 * math.pi)
+            set_("hi", half if self.scope == "R3" else 2.0 * math.pi)
         for k in ("lo", "hi", "step"):
             set_(k, _real_or_triple(k, getattr(self, k)))
         try:
@@ -278,6 +301,35 @@ class DatasetSpec:
             )
         set_("tol", tol)
 
+    def _check_chain_family(self) -> None:
+        """The settings a chain family (:data:`CHAIN_FAMILIES`) cannot honour are refused, not ignored."""
+        fam = self.family
+        if self.method != "numerical":
+            raise ValueError(f"family {fam!r} has no closed form: its labels are the numerical map search, "
+                             "use method 'numerical'")
+        if isinstance(self.fixed, str):
+            raise ValueError(f"family {fam!r} needs a fixed orientation (R3) or point (SO3), not {self.fixed!r}")
+        defaults = {f.name: f.default for f in dataclasses.fields(DatasetSpec)}
+        changed = []
+        for k in ("tol", "ilimit", "rlimit", "starts", "beta"):
+            try:
+                same = float(getattr(self, k)) == float(defaults[k])
+            except (TypeError, ValueError):
+                same = False
+            if not same:
+                changed.append(f"{k}={getattr(self, k)!r}")
+        if changed:
+            raise ValueError(
+                f"family {fam!r} is labelled by the map search (wsmap.kinematics.search.MAP_SETTINGS) and "
+                f"drawn by its scale factors; {', '.join(changed)} would change nothing: tol, ilimit, rlimit, "
+                "starts and beta set the paper's LM path and DH draws, leave them at their defaults"
+            )
+
+    @property
+    def is_chain_family(self) -> bool:
+        """Whether the arms are a real-arm family (:data:`CHAIN_FAMILIES`): scale-factor features."""
+        return self.family in CHAIN_FAMILIES
+
     # ---------------------------------------------------------------- derived sizes
     @cached_property
     def grid_shape(self) -> tuple[int, int, int]:
@@ -297,8 +349,15 @@ class DatasetSpec:
         return self.select[1] - self.select[0]
 
     @property
+    def n_arm_features(self) -> int:
+        """Feature columns that describe the arm: 18 DH values, or a chain family's scale factors."""
+        if self.is_chain_family:
+            return robots.arm_family(self.family).n_params
+        return N_DH
+
+    @property
     def n_features(self) -> int:
-        return N_DH + sum(self.grid_shape) + 3
+        return self.n_arm_features + sum(self.grid_shape) + 3
 
     # ---------------------------------------------------------------- plain data
     def to_dict(self) -> dict:

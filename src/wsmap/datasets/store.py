@@ -27,6 +27,26 @@ calls: a training file and/or its independent test file, every input checked bef
 before any file is touched, both files written to temporary files and renamed into place only when
 both succeeded (an existing file at either path stays as it was if anything fails). OS errors name
 the user's path, never a temporary file.
+
+Where the labels are computed
+-----------------------------
+The arms are drawn, and the features computed, in the calling process; the labels are computed
+chunk by chunk (``chunk`` arms each). By default every chunk runs in the calling process (the
+*single-process build*). With ``workers=K`` the chunks are tasks on a Dask
+:class:`distributed.LocalCluster` of ``K`` worker processes with one thread each, started for the
+build and closed after it; with ``scheduler="tcp://host:port"`` (or a :class:`distributed.Client`)
+they are tasks on that cluster (its workers need this wsmap installed). Each task gets the spec
+and its chunk's inputs (a chain family's scale factors, a DH chunk's arms, orientations and LM
+starts: small arrays), sets the compiled kernels to one thread
+(:func:`wsmap.kinematics.lm_compiled.set_threads`) and returns the chunk's packed labels; at most
+two tasks per worker thread are in flight, and the results are written in chunk order as they
+come. A task computes exactly what the single-process build computes for its chunk (an arm's labels
+depend neither on the other arms of its chunk nor on the thread count), so the file is
+byte-identical to the single-process build's, on workers with the same wsmap, numpy and numba and
+the same kind of CPU (the compiled kernels may contract to fused multiply-adds where the CPU has
+them, which can move a borderline node). A scheduler that does not answer within
+``connect_timeout`` seconds (:data:`CONNECT_TIMEOUT`) is a :class:`SchedulerError` before any file
+is touched; so is a scheduler without a worker after :data:`WORKER_TIMEOUT` seconds.
 """
 
 from __future__ import annotations
@@ -34,10 +54,13 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import logging
 import math
 import os
 import zipfile
+from collections import deque
 from collections.abc import Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -48,13 +71,16 @@ from .. import __version__
 from ..io import OutputPathError, atomic_paths, check_output_path
 from .features import feature_names, features_for
 from .labels import labels_for
-from .sampling import draw_samples, start_configurations
+from .sampling import _draw_fixed, _rng, draw_samples, draw_scales, start_configurations
 from .spec import DatasetSpec, _check_spec, _int, scaled, test_spec
 
 __all__ = [
     "FORMAT",
     "FORMAT_VERSION",
     "DatasetError",
+    "SchedulerError",
+    "CONNECT_TIMEOUT",
+    "WORKER_TIMEOUT",
     "Dataset",
     "build_dataset",
     "build_dataset_files",
@@ -74,8 +100,18 @@ _MAX_NPY_HEADER = 1 << 16
 _READ_CHUNK = 1 << 24
 
 
+#: Seconds to wait for a Dask scheduler (``scheduler=``, ``--scheduler``) to answer.
+CONNECT_TIMEOUT = 5.0
+#: Seconds to wait for a scheduler without workers to get its first one.
+WORKER_TIMEOUT = 60.0
+
+
 class DatasetError(ValueError):
     """A dataset file that cannot be used: truncated, corrupt, not a dataset, or for another spec."""
+
+
+class SchedulerError(ConnectionError):
+    """The Dask scheduler of a build did not answer (or has no workers); nothing was written."""
 
 
 class _Corrupt(Exception):
@@ -105,72 +141,220 @@ def _default_chunk(spec: DatasetSpec) -> int:
     return max(1, (1 << 21) // n)
 
 
-def _write_dataset(spec: DatasetSpec, tmp: Path, chunk: int, progress: bool) -> None:
-    """Generate ``spec``'s dataset into the (temporary) file ``tmp``."""
-    arms, fixed = draw_samples(spec)
-    X = features_for(arms, spec, fixed)
-    q0 = start_configurations(spec) if spec.method == "numerical" else None
+def _draw_inputs(spec: DatasetSpec):
+    """``(X, arms, fixed, q0)``: the features and what the labels of every arm need -- ``arms`` the
+    DH arms, or a chain family's scale factors (the chains are built per chunk, where they are
+    labelled); ``q0`` the LM starts of the numerical DH path, else ``None``."""
+    if spec.is_chain_family:
+        arms = draw_scales(spec)
+        fixed = _draw_fixed(spec, spec.samples, _rng(spec, "fixed"))
+        q0 = None
+    else:
+        arms, fixed = draw_samples(spec)
+        q0 = start_configurations(spec) if spec.method == "numerical" else None
+    return features_for(arms, spec, fixed), arms, fixed, q0
+
+
+def _label_chunk(spec: DatasetSpec, arms, fixed, q0, version: str | None = None) -> np.ndarray:
+    """The packed labels ``(rows, ceil(N / 8))`` uint8 of one chunk of arms (what a Dask task runs).
+
+    ``version`` is the builder's wsmap version: a task sets the compiled kernels to one thread and
+    refuses to run on a worker with another wsmap (its labels could differ)."""
+    if version is not None:
+        if version != __version__:
+            raise RuntimeError(f"a Dask worker runs wsmap {__version__}, the build wsmap {version}: install the "
+                               "same wsmap on every worker (labels could differ)")
+        from ..kinematics import lm_compiled
+
+        lm_compiled.set_threads(1)
+    return np.packbits(labels_for(arms, spec, fixed, q0=q0), axis=1)
+
+
+def _dask_chunks(client, spec: DatasetSpec, inputs, chunks):
+    """The packed labels of each chunk in order, computed as tasks on ``client``'s cluster (at most
+    two per worker thread in flight); a generator, whose ``close`` cancels what is still pending."""
+    window = max(2, 2 * sum(client.nthreads().values()))
+    pending: deque = deque()
+    nxt = 0
+    try:
+        while nxt < len(chunks) or pending:
+            while nxt < len(chunks) and len(pending) < window:
+                pending.append(client.submit(_label_chunk, spec, *inputs(chunks[nxt]), __version__, pure=False))
+                nxt += 1
+            yield pending.popleft().result()
+    finally:
+        if pending:
+            client.cancel(list(pending))
+
+
+def _write_dataset(spec: DatasetSpec, tmp: Path, chunk: int, progress: bool, client=None) -> None:
+    """Generate ``spec``'s dataset into the (temporary) file ``tmp``; labels on ``client``'s Dask
+    cluster when given, else in this process."""
+    X, arms, fixed, q0 = _draw_inputs(spec)
     S, N = spec.samples, spec.n_nodes
     width = (N + 7) // 8
     digest = hashlib.sha256(X.tobytes())
+    chunks = [slice(s, min(s + chunk, S)) for s in range(0, S, chunk)]
+
+    def inputs(sl):
+        return arms[sl], fixed[sl], None if q0 is None else q0[sl]
+
+    if client is None:
+        results = (_label_chunk(spec, *inputs(sl)) for sl in chunks)
+    else:
+        results = _dask_chunks(client, spec, inputs, chunks)
 
     from tqdm.auto import tqdm
 
-    with tqdm(total=S, unit="arm", desc=spec.name, disable=not progress, leave=False) as bar:
-        with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as zf:
-            with _zip_entry(zf, "features") as fid:
-                np.lib.format.write_array(fid, X)
-            with _zip_entry(zf, "labels_packed") as fid:
-                fid.write(_npy_header((S, width), np.uint8))
-                for s in range(0, S, chunk):
-                    sl = slice(s, min(s + chunk, S))
-                    L = labels_for(arms[sl], spec, fixed[sl], q0=None if q0 is None else q0[sl])
-                    packed = np.packbits(L, axis=1)
-                    digest.update(packed.tobytes())
-                    fid.write(packed.tobytes())
-                    bar.update(sl.stop - sl.start)
-            header = {
-                "format": FORMAT,
-                "format_version": FORMAT_VERSION,
-                "wsmap_version": __version__,
-                "spec": spec.to_dict(),
-                "features_shape": list(X.shape),
-                "labels_shape": [S, N],
-                "labels_packed_shape": [S, width],
-                "feature_names": feature_names(spec),
-                "sha256": digest.hexdigest(),
-            }
-            raw = json.dumps(header, sort_keys=True, separators=(",", ":")).encode("utf-8")
-            with _zip_entry(zf, "header") as fid:
-                np.lib.format.write_array(fid, np.frombuffer(raw, dtype=np.uint8))
+    try:
+        with tqdm(total=S, unit="arm", desc=spec.name, disable=not progress, leave=False) as bar:
+            with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+                with _zip_entry(zf, "features") as fid:
+                    np.lib.format.write_array(fid, X)
+                with _zip_entry(zf, "labels_packed") as fid:
+                    fid.write(_npy_header((S, width), np.uint8))
+                    for sl, packed in zip(chunks, results):
+                        if packed.shape != (sl.stop - sl.start, width) or packed.dtype != np.uint8:
+                            raise RuntimeError(f"labels of arms {sl.start}..{sl.stop - 1} came back with shape "
+                                               f"{packed.shape} {packed.dtype}, expected {(sl.stop - sl.start, width)}")
+                        packed = np.ascontiguousarray(packed)
+                        digest.update(packed.tobytes())
+                        fid.write(packed.tobytes())
+                        bar.update(sl.stop - sl.start)
+                header = {
+                    "format": FORMAT,
+                    "format_version": FORMAT_VERSION,
+                    "wsmap_version": __version__,
+                    "spec": spec.to_dict(),
+                    "features_shape": list(X.shape),
+                    "labels_shape": [S, N],
+                    "labels_packed_shape": [S, width],
+                    "feature_names": feature_names(spec),
+                    "sha256": digest.hexdigest(),
+                }
+                raw = json.dumps(header, sort_keys=True, separators=(",", ":")).encode("utf-8")
+                with _zip_entry(zf, "header") as fid:
+                    np.lib.format.write_array(fid, np.frombuffer(raw, dtype=np.uint8))
+    finally:
+        if client is not None:
+            results.close()  # cancels the tasks still pending (an error, an interrupt)
 
 
-def _write_all(jobs, chunk, progress) -> None:
-    """Write ``jobs`` (``(spec, path)`` pairs) all or nothing; OS errors name the user's path."""
-    with atomic_paths([path for _, path in jobs]) as tmps:
-        for (spec, path), tmp in zip(jobs, tmps):
+def _is_client(x) -> bool:
+    try:
+        from distributed import Client
+    except ImportError:  # pragma: no cover - a dependency of wsmap's environment
+        return False
+    return isinstance(x, Client)
+
+
+def _check_cluster(workers, scheduler, connect_timeout):
+    """Checked ``(workers, scheduler, connect_timeout)`` of a build (see the module notes)."""
+    if workers is not None:
+        workers = _int("workers", workers, 1, 4096)
+    if scheduler is not None:
+        if isinstance(scheduler, str):
+            scheduler = scheduler.strip()
+            if not scheduler:
+                raise ValueError("scheduler must be a Dask scheduler address such as 'tcp://host:8786', got ''")
+        elif not _is_client(scheduler):
+            raise ValueError(f"scheduler must be a Dask scheduler address ('tcp://host:8786') or a "
+                             f"distributed.Client, got {type(scheduler).__name__}")
+        if workers is not None:
+            raise ValueError("workers sizes the local Dask cluster a build starts; a scheduler's cluster has its own "
+                             "workers: give one or the other")
+    try:
+        connect_timeout = float(connect_timeout)
+    except (TypeError, ValueError):
+        raise ValueError(f"connect_timeout must be a positive number of seconds, got {connect_timeout!r}") from None
+    if not (connect_timeout > 0 and math.isfinite(connect_timeout)):
+        raise ValueError(f"connect_timeout must be a positive number of seconds, got {connect_timeout!r}")
+    return workers, scheduler, connect_timeout
+
+
+@contextmanager
+def _dask_client(workers, scheduler, connect_timeout):
+    """``None`` (single process), or a :class:`distributed.Client` of a LocalCluster of ``workers``
+    single-threaded processes (closed on exit), of the scheduler at the address ``scheduler``, or
+    ``scheduler`` itself when it is a Client (left open)."""
+    if workers is None and scheduler is None:
+        yield None
+        return
+    if scheduler is not None and not isinstance(scheduler, str):
+        yield scheduler
+        return
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError as e:  # pragma: no cover - a dependency of wsmap's environment
+        raise ImportError(f"building on Dask needs dask[distributed] ({e})") from None
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout=connect_timeout, set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as e:
+            raise SchedulerError(
+                f"no Dask scheduler answered at {scheduler!r} within {connect_timeout:g} s ({e}); start one with "
+                f"`dask scheduler` and workers with `dask worker {scheduler}`, or check the address; nothing was "
+                "written"
+            ) from None
+        with client:
             try:
-                _write_dataset(spec, tmp, _default_chunk(spec) if chunk is None else chunk, progress)
+                client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
+            except (OSError, TimeoutError) as e:
+                raise SchedulerError(
+                    f"the Dask scheduler at {scheduler!r} has no workers (none joined within {WORKER_TIMEOUT:g} s: "
+                    f"{e}); start some with `dask worker {scheduler}`; nothing was written"
+                ) from None
+            yield client
+        return
+    # one thread per worker process, and one numba thread in it (tasks also call set_threads(1))
+    env = {"NUMBA_NUM_THREADS": "1", "WSMAP_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=logging.ERROR, env=env) as cluster, \
+            Client(cluster, set_as_default=False) as client:
+        yield client
+
+
+def _write_all(jobs, chunk, progress, workers=None, scheduler=None, connect_timeout=CONNECT_TIMEOUT) -> None:
+    """Write ``jobs`` (``(spec, path)`` pairs) all or nothing; OS errors name the user's path. The
+    Dask cluster (if any) is reached before any file is touched."""
+    with _dask_client(workers, scheduler, connect_timeout) as client, atomic_paths([path for _, path in jobs]) as tmps:
+        for (spec, path), tmp in zip(jobs, tmps):
+            size = chunk
+            if size is None:
+                size = _default_chunk(spec)
+                if client is not None:
+                    # at least ~4 tasks per worker thread, so that the last ones do not leave most idle
+                    threads = max(1, sum(client.nthreads().values()))
+                    size = max(1, min(size, -(-spec.samples // (4 * threads))))
+            try:
+                _write_dataset(spec, tmp, size, progress, client)
             except OSError as e:
                 # e.g. no space left: the error would name the temporary file, or nothing
                 message = f"cannot write {str(path)!r}: {e.strerror or e}"
                 raise (OSError(e.errno, message) if e.errno is not None else OSError(message)) from None
 
 
-def build_dataset(spec: DatasetSpec, path, chunk: int | None = None, progress: bool = True) -> Path:
+def build_dataset(spec: DatasetSpec, path, chunk: int | None = None, progress: bool = True, *,
+                  workers: int | None = None, scheduler=None, connect_timeout: float = CONNECT_TIMEOUT) -> Path:
     """Generate ``spec``'s dataset into ``path`` (see the module docstring for the format).
 
     Arms are labelled ``chunk`` at a time (default: about 2 million node evaluations per chunk
-    for exact labels), each chunk's labels bit-packed and streamed into the compressed file, so
-    memory stays bounded by the features (``samples x n_features`` float64) plus one chunk.
-    The same spec always gives a byte-identical file, whatever ``chunk``. The path is checked
-    before any work (:func:`wsmap.io.check_output_path`: not empty, not a directory, in a folder
-    that can be written or created); the file appears only when complete. Returns the path.
+    for exact labels, 65,536 for numerical ones), each chunk's labels bit-packed and streamed into
+    the compressed file, so memory stays bounded by the features (``samples x n_features``
+    float64) plus a few chunks. The same spec always gives a byte-identical file, whatever
+    ``chunk``, ``workers`` or ``scheduler``. ``workers`` (a LocalCluster of that many processes) or
+    ``scheduler`` (an address ``"tcp://host:port"``, or a :class:`distributed.Client`) compute the
+    labels on Dask (module notes, "Where the labels are computed"); neither: in this process.
+    The path is checked before any work (:func:`wsmap.io.check_output_path`: not empty, not a
+    directory, in a folder that can be written or created) and the scheduler reached before any
+    file is touched (:class:`SchedulerError` after ``connect_timeout`` seconds); the file appears
+    only when complete. Returns the path.
     """
     _check_spec(spec)
     path = check_output_path(path, "dataset")
     chunk = None if chunk is None else _int("chunk", chunk, 1)
-    _write_all([(spec, path)], chunk, progress)
+    workers, scheduler, connect_timeout = _check_cluster(workers, scheduler, connect_timeout)
+    _write_all([(spec, path)], chunk, progress, workers, scheduler, connect_timeout)
     return path
 
 
@@ -203,6 +387,9 @@ def build_dataset_files(
     catalogue: Mapping[str, DatasetSpec] | None = None,
     chunk: int | None = None,
     progress: bool = True,
+    workers: int | None = None,
+    scheduler=None,
+    connect_timeout: float = CONNECT_TIMEOUT,
 ) -> list[Path]:
     """Build a training file and/or its independent test file, all or nothing.
 
@@ -224,13 +411,17 @@ def build_dataset_files(
         Build only the test set, into ``out``; ``test_samples`` and ``test_out`` are then refused.
     catalogue : mapping of name to DatasetSpec, optional
         Where a ``spec`` given by name is looked up.
-    chunk, progress :
-        As for :func:`build_dataset`.
+    chunk, progress, workers, scheduler, connect_timeout :
+        As for :func:`build_dataset`: by default the labels are computed in this process;
+        ``workers=K`` on a Dask LocalCluster of ``K`` single-threaded processes,
+        ``scheduler="tcp://host:port"`` on that Dask cluster (one connection for both files).
+        The files are byte-identical either way.
 
     Every input is checked before any work and before any file is touched: a bad count (0,
     negative, not an integer), an unknown name, an output path that is empty, a directory, or in a
-    folder that cannot be written or created, and two outputs at the same path are each a
-    ``ValueError`` (:class:`wsmap.io.OutputPathError` for the paths) naming the argument. Both files
+    folder that cannot be written or created, two outputs at the same path, and both ``workers``
+    and ``scheduler`` are each a ``ValueError`` (:class:`wsmap.io.OutputPathError` for the paths)
+    naming the argument; a scheduler that does not answer is a :class:`SchedulerError`. Both files
     are then written to temporary files beside their targets and renamed into place only when both
     are complete; if anything fails (or the run is interrupted), no temporary file is left behind
     and an existing file at either path is untouched. Returns the written paths, training file
@@ -252,6 +443,7 @@ def build_dataset_files(
         test_samples = _int("test_samples", test_samples, 1)
     if chunk is not None:
         chunk = _int("chunk", chunk, 1)
+    workers, scheduler, connect_timeout = _check_cluster(workers, scheduler, connect_timeout)
     if test_only:
         if test_samples is not None or test_out is not None:
             raise ValueError(
@@ -268,8 +460,8 @@ def build_dataset_files(
             if _same_file(out, test_out):
                 raise OutputPathError(f"the dataset and its test set would both be written to {str(out)!r}")
             jobs.append((test_spec(train, 1000 if test_samples is None else test_samples), test_out))
-    # ---- the work, all or nothing
-    _write_all(jobs, chunk, progress)
+    # ---- the work, all or nothing (the Dask scheduler, if any, reached first)
+    _write_all(jobs, chunk, progress, workers, scheduler, connect_timeout)
     return [path for _, path in jobs]
 
 

@@ -6,6 +6,10 @@ dataset ``NAME`` in ``data/NAME.npz`` and its test set in ``data/NAME.test.npz``
 (:func:`dataset_paths`, :func:`build_pair`, :func:`load_pair`; the command line is
 ``wsmap data build NAME --samples N --test-samples M --out data/NAME.npz``).
 
+:data:`EXTENSION_SPECS` are datasets beyond the paper (real-arm families, e.g. ``panda7_tooldown``);
+:data:`DATASET_SPECS` is both catalogues, what ``wsmap data build`` and ``wsmap data list`` know
+(:func:`dataset_spec`).
+
 The label audits take their specs from here too: :func:`audit_specs` (every distinct
 spherical-wrist spec) and :data:`STARTS_STUDY_SPEC` (Table 3's arbitrary arms, on which
 :data:`wsmap.datasets.DEFAULT_STARTS` was chosen).
@@ -27,8 +31,12 @@ from ..datasets import (
 __all__ = [
     "TABLE3_RPY",
     "PAPER_SPECS",
+    "EXTENSION_SPECS",
+    "DATASET_SPECS",
+    "PANDA7_TOOLDOWN",
     "STARTS_STUDY_SPEC",
     "paper_spec",
+    "dataset_spec",
     "audit_specs",
     "dataset_paths",
     "build_pair",
@@ -79,6 +87,45 @@ def _paper_specs() -> dict[str, DatasetSpec]:
 
 #: One spec per experiment of the paper (NOTES "Datasets"); ``test_spec(s)`` gives its test set.
 PAPER_SPECS: dict[str, DatasetSpec] = _paper_specs()
+#: ``panda7_tooldown``: the Franka Panda family ``panda7`` (:func:`wsmap.robots.sample_family`: the
+#: six non-zero DH lengths d1, d3, d5, a4, a5, a7 each scaled by U(0.7, 1.3), flange and joint
+#: limits the Panda's), its constant-orientation map at tool-down, ``R = Rx(pi)``, in the standard
+#: convention (``T = transl(p)·R``, flange poses in the base frame), on the grid ``[-1.2, 1.2]³`` m
+#: at 0.1 m (25³ = 15,625 nodes, first coordinate fastest). Features: the 6 scales, the grid axes,
+#: the orientation (6 + 75 + 3 = 84); labels: the numerical map search
+#: (``constant_orientation_map(arms, nodes, (pi, 0, 0), method="numerical", convention="standard")``,
+#: :data:`wsmap.kinematics.search.MAP_SETTINGS`), whose ``True`` is confirmed by forward kinematics
+#: inside the joint limits. About 12 % of the nodes are reachable (1268-2749 for the first arms,
+#: 1883 for the Panda); the largest arms reach a little past the grid's top face (z = 1.2 m: 61
+#: nodes of that face for all scales 1.3), nothing reaches its other faces.
+#:
+#: Recall against a denser reference (``benchmarks/bench_panda7_labels.py``: ``ikine_search`` with
+#: 64 independent starts per node on the nodes the map calls unreachable that the sound reach filter
+#: does not exclude): 0 misses in 5 x 1000 sampled such nodes (arms 0-3 of the training stream and
+#: the Panda; per-arm 95 % lower bounds 0.987-0.992), and on every such node of two arms (10,952
+#: nodes) 1 miss: recall 1268/1269 = 0.9992 for arm 0, 1883/1883 = 1.0 for the Panda, 0.9997 pooled.
+#: The reference confirmed 500/500 sampled map-reachable nodes. ~0.8 s per arm on one thread
+#: (``benchmarks/bench_panda7_build.py``: 1.24 arms/s in one process, 2.0 on a 2-worker LocalCluster
+#: of a 2-core machine shared with another job).
+PANDA7_TOOLDOWN = DatasetSpec(
+    "panda7_tooldown",
+    family="panda7",
+    scope="R3",
+    lo=-1.2,
+    hi=1.2,
+    step=0.1,
+    fixed=(math.pi, 0.0, 0.0),
+    convention="standard",
+    method="numerical",
+    samples=20_000,
+    seed=1401,
+)
+
+#: Datasets beyond the paper's experiments (not part of its pipeline); ``test_spec(s)`` as ever.
+EXTENSION_SPECS: dict[str, DatasetSpec] = {s.name: s for s in (PANDA7_TOOLDOWN,)}
+#: Every dataset ``wsmap data build`` knows: the paper's and the extensions.
+DATASET_SPECS: dict[str, DatasetSpec] = {**PAPER_SPECS, **EXTENSION_SPECS}
+
 #: The spec of the start-count studies (``wsmap.datasets.starts_study`` / ``starts_recall``).
 STARTS_STUDY_SPEC: DatasetSpec = PAPER_SPECS["table3_nosubspace"]
 
@@ -88,6 +135,14 @@ def paper_spec(name: str) -> DatasetSpec:
     if not isinstance(name, str) or name not in PAPER_SPECS:
         raise ValueError(f"unknown dataset {name!r}; choose one of {', '.join(sorted(PAPER_SPECS))}")
     return PAPER_SPECS[name]
+
+
+def dataset_spec(name: str) -> DatasetSpec:
+    """The spec of dataset ``name`` in :data:`DATASET_SPECS` (the paper's or an extension); an
+    unknown name is a ``ValueError`` listing the known."""
+    if not isinstance(name, str) or name not in DATASET_SPECS:
+        raise ValueError(f"unknown dataset {name!r}; choose one of {', '.join(sorted(DATASET_SPECS))}")
+    return DATASET_SPECS[name]
 
 
 def audit_specs() -> list[DatasetSpec]:
