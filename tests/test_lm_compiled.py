@@ -136,3 +136,28 @@ def test_map_search_bad_input():
         map_search(arm, T, ws.node_neighbours(T[:, :3, 3]), retry=-1)
     with pytest.raises(ValueError, match=r"target poses must have shape \(N, 4, 4\)"):
         map_search(arm, T[None], ws.node_neighbours(T[:, :3, 3]))
+
+
+def test_holes_in_a_reachable_region_get_more_retries():
+    """The iiwa14 from its URDF, tool down: three nodes near its axis at z = 0.8 m that four random
+    retries missed and 64 independent starts find; the map's hole retries find them."""
+    import os
+
+    import rtbdata
+
+    from wsmap.kinematics import ikine_search
+
+    urdf = os.path.join(os.path.dirname(rtbdata.__file__),
+                        "xacro/kuka_description/kuka_lbr_iiwa/urdf/lbr_iiwa_14_r820.urdf")
+    arm = robots.from_urdf(urdf, ee_link="tool0")
+    nodes = ws.cartesian_grid(-1, 1, 0.1)
+    m = ws.constant_orientation_map(arm, nodes, (PI, 0, 0), convention="standard")
+    layer = np.isclose(nodes[:, 2], 0.8)
+    ref = ikine_search(arm, ws.target_poses(nodes[layer], (PI, 0, 0), "standard"), starts=64).success
+    np.testing.assert_array_equal(m[layer], ref)
+    for p in ([-0.1, -0.1, 0.8], [0.1, -0.1, 0.8], [0.1, 0.1, 0.8]):
+        assert m[np.all(np.isclose(nodes, p), axis=1)].item()
+    # with the holes' retries off, the first of them is missed: the test can fail
+    off = ws.constant_orientation_map(arm, nodes, (PI, 0, 0), convention="standard", method="numerical",
+                                      ik={"hole_retry": 0})
+    assert off.sum() < m.sum()

@@ -306,6 +306,14 @@ def _run_map(args) -> int:
                                                                    starts=args.starts, retry=args.retry).items()
                                              if v is not None}}, seed=args.seed)
     search = {k: v for k, v in ik.items() if k not in ("seed", "solver")}
+    if kind in ("index", "dexterous") and method == "numerical":
+        # the index's own defaults (fewer retries), with what the command line set on top
+        from .workspace.reach import INDEX_SETTINGS
+
+        search = {**INDEX_SETTINGS, **{k: v for k, v in dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit,
+                                                             starts=args.starts, retry=args.retry).items()
+                                       if v is not None}}
+        ik.update(retry=search["retry"])
     if kind in ("constant", "orientation"):
         flat = ws.grid_map(robot, grid, rpy=args.rpy, point=args.point, method=method, convention=args.convention,
                            model=args.model, allow_extrapolation=args.allow_extrapolation, ik=ik,
