@@ -545,9 +545,11 @@ def _reach_filter(chain: SerialChain, T, margin):
     """A sound test (…,) bool: False where no configuration puts the tool within ``margin`` of ``T``.
 
     If the last joint is revolute, the origin of its frame (the "wrist point") is fixed by the tool
-    pose: ``T · G⁻¹`` with ``G = F_n · tool``; it is at most ``Σ_{i<n} |t(F_i)|`` (plus the strokes
-    of prismatic joints) from the base origin. Otherwise the tool origin itself is bounded by the
-    lengths of all the fixed transforms and the tool. A pose within ``margin`` in position and
+    pose: ``T · G⁻¹`` with ``G = F_n · tool``; it is at most ``Σ_{i<n} |t(F_i)| - used`` (plus the
+    strokes of prismatic joints) from the first joint's axis point (:func:`_first_axis_point`),
+    which no joint moves.
+    Otherwise the tool origin itself is bounded by the lengths of the later fixed transforms and the
+    tool. A pose within ``margin`` in position and
     rotation angle of a reachable one moves the wrist point by at most ``margin·(1 + |t(G)|)``.
     """
     n = chain.n
@@ -571,15 +573,37 @@ def _reach_filter(chain: SerialChain, T, margin):
         point = T[..., :3, 3]
         reach = lengths.sum(axis=-1) + stroke + (0.0 if chain.tool is None else np.linalg.norm(chain.tool[:3, 3]))
         slack = margin
-    origin = np.zeros(3) if chain.base is None else chain.base[:3, 3]
-    dist = np.linalg.norm(point - origin, axis=-1)
-    return dist <= reach * (1.0 + 1e-12) + slack + 1e-12
+    centre, along = _first_axis_point(chain)
+    dist = np.linalg.norm(point - centre, axis=-1)
+    return dist <= (reach - along) * (1.0 + 1e-12) + slack + 1e-12
+
+
+def _first_axis_point(chain: SerialChain) -> tuple[np.ndarray, np.ndarray]:
+    """A point no joint moves, and how much of the lengths it uses: ``(centre (…, 3), used (…,))``.
+
+    The first joint turns (or slides) about the z axis of ``base · F_0``; the part of ``t(F_1)``
+    along that axis is not turned by it (a shoulder height such as the Panda's d1 = 0.333 m), so
+    ``centre = base · F_0 · (t(F_1)·z) z`` is fixed, and everything after it is within
+    ``|t(F_0)| + |t(F_1)| - used`` of the lengths where ``used = |t(F_0)| + |t(F_1)| - |t(F_1)⊥|``
+    (``t(F_1)⊥`` the part across the axis): the reach bounds subtract ``used`` from the sum of
+    all the lengths. A slide along the same axis keeps this sound: its stroke is added anyway."""
+    F = chain.fixed
+    t0 = F[..., 0, :3, 3]
+    t1 = F[..., 1, :3, 3]
+    z1 = F[..., 0, :3, 2]  # the first joint's axis, in the frame before F_0's rotation
+    centre = t0 + t1[..., 2:3] * z1
+    perp = np.linalg.norm(t1[..., :2], axis=-1)
+    used = np.linalg.norm(t0, axis=-1) + np.linalg.norm(t1, axis=-1) - perp
+    if chain.base is not None:
+        centre = centre @ chain.base[:3, :3].T + chain.base[:3, 3]
+    return centre, used
 
 
 def _position_filter(chain: SerialChain, p, margin):
     """A sound test (B, N) or (N,) bool: False where no configuration puts the tool origin within
-    ``margin`` of the positions ``p`` (N, 3): farther from the base than the lengths of every fixed
-    transform, the tool and the prismatic strokes together."""
+    ``margin`` of the positions ``p`` (N, 3): farther from a point of the first joint's axis
+    (:func:`_first_axis_point`) than the lengths of the fixed transforms after it, the tool and the
+    prismatic strokes together."""
     F = chain.fixed
     lengths = np.linalg.norm(F[..., :3, 3], axis=-1).sum(axis=-1)  # (...,)
     pris = np.array([k == PRISMATIC for k in chain.kinds])
@@ -588,9 +612,9 @@ def _position_filter(chain: SerialChain, p, margin):
         lengths = lengths + np.abs(ends).max(axis=-1).sum(axis=-1)
     if chain.tool is not None:
         lengths = lengths + np.linalg.norm(chain.tool[:3, 3])
-    origin = np.zeros(3) if chain.base is None else chain.base[:3, 3]
-    dist = np.linalg.norm(np.asarray(p) - origin, axis=-1)  # (N,)
-    reach = np.asarray(lengths)[..., None] * (1.0 + 1e-12) + margin + 1e-12
+    centre, used = _first_axis_point(chain)
+    dist = np.linalg.norm(np.asarray(p) - centre[..., None, :], axis=-1)  # (..., N)
+    reach = np.asarray(lengths - used)[..., None] * (1.0 + 1e-12) + margin + 1e-12
     return dist <= reach  # (N,) or (B, N)
 
 

@@ -56,6 +56,8 @@ __all__ = [
     "check_batch_size",
     "grid_mismatch",
     "map_features",
+    "map_batch_shape",
+    "family_scales",
     "spec_feature_names",
 ]
 
@@ -184,11 +186,44 @@ def map_plan(config, map_spec) -> tuple[dict[str, Any], MapPlan]:
                   "subspace": None if assemble else key, "threshold": float(threshold)}
     template = None
     if spec.fixed != "random":
-        zero = np.zeros((1, 6))
-        template = _data.features_for(DHRobot(zero, zero, zero), spec)[0]
+        if spec.is_chain_family:
+            # the nominal arm (scales 1): map_features overwrites the scale columns
+            template = _data.features_for(np.ones((1, spec.n_arm_features)), spec)[0]
+        else:
+            zero = np.zeros((1, 6))
+            template = _data.features_for(DHRobot(zero, zero, zero), spec)[0]
         template.setflags(write=False)
     return normalised, MapPlan(spec, slice(start, stop), assemble, None if assemble else key, float(threshold),
                                 template)
+
+
+def family_scales(arms, spec) -> tuple[np.ndarray, tuple[int, ...]]:
+    """The scale factors ``(B, k)`` and batch shape of the arms of a chain-family spec (``panda7``):
+    ``arms`` is a :class:`~wsmap.kinematics.SerialChain` built by :func:`wsmap.robots.family_arm`
+    (one arm or a batch of any shape) or the scales themselves ``(..., k)``. Arms of another kind
+    (a ``DHRobot``, a chain whose fixed transforms are not the family's) are refused with the
+    family's ``ValueError`` / ``TypeError``; scales outside the family's range as
+    :func:`wsmap.robots.family_arm` refuses them."""
+    from .. import robots
+    from ..kinematics import SerialChain
+
+    family = robots.arm_family(spec.family)
+    if isinstance(arms, DHRobot):
+        raise TypeError(f"the model maps arms of the family {spec.family!r} (dataset {spec.name!r}): give a "
+                        "SerialChain from wsmap.robots.family_arm or the scale factors, not a DHRobot")
+    if isinstance(arms, SerialChain):
+        scales = family.scales_of(arms)
+    else:
+        scales = family.check_scales(arms)
+    batch = tuple(scales.shape[:-1])
+    return scales.reshape(-1, family.n_params), batch
+
+
+def map_batch_shape(arms, spec) -> tuple[int, ...]:
+    """The batch shape of ``arms`` as :meth:`~wsmap.learn.network.SubspaceMLP.predict_maps` returns it."""
+    if spec.is_chain_family:
+        return family_scales(arms, spec)[1]
+    return tuple(arms.batch_shape)
 
 
 def check_map_arms(arms, spec) -> DHRobot:
@@ -224,8 +259,12 @@ def map_features(plan: MapPlan, arms, fixed=None) -> np.ndarray:
     equal the spec's (1e-9). Raises ``ValueError`` / ``TypeError`` as :func:`check_map_arms`.
     """
     spec = plan.spec
-    flat = check_map_arms(arms, spec)
-    n = flat.batch_shape[0]
+    if spec.is_chain_family:
+        flat, _ = family_scales(arms, spec)
+        n = flat.shape[0]
+    else:
+        flat = check_map_arms(arms, spec)
+        n = flat.batch_shape[0]
     if fixed is not None:
         try:
             f = np.asarray(fixed, dtype=np.float64)
@@ -243,7 +282,10 @@ def map_features(plan: MapPlan, arms, fixed=None) -> np.ndarray:
         # features_for's layout, from the cached row: [d(6), a(6), alpha(6), grid axes, fixed(3)]
         X = np.empty((n, plan.template.size))
         X[:] = plan.template
-        X[:, 0:6], X[:, 6:12], X[:, 12:18] = flat.d, flat.a, flat.alpha
+        if spec.is_chain_family:
+            X[:, :flat.shape[1]] = flat
+        else:
+            X[:, 0:6], X[:, 6:12], X[:, 12:18] = flat.d, flat.a, flat.alpha
         return X
     return _data.features_for(flat, spec, fixed)
 

@@ -67,6 +67,7 @@ from .mapspec import (
     check_batch_size,
     check_threshold,
     make_map_spec,
+    map_batch_shape,
     map_features,
     map_plan,
 )
@@ -691,7 +692,7 @@ class SubspaceMLP(nn.Module):
         X = self.map_features(arms, fixed)
         self.check_training_range(X, allow_extrapolation=allow_extrapolation)
         out = self.predict(X, t, key=plan.key, assemble=plan.assemble, batch_size=batch_size)
-        return out.cpu().numpy().reshape(tuple(arms.batch_shape) + (out.shape[-1],))
+        return out.cpu().numpy().reshape(map_batch_shape(arms, self._require_plan().spec) + (out.shape[-1],))
 
     # ---------------------------------------------------------------- stacking
 

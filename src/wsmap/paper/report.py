@@ -8,6 +8,13 @@ reductions of the committed parameters against the paper's scale.
 
 A number that a stage has not produced (its JSON missing, or the key absent) is reported as
 missing, never filled in.
+
+Beside the committed run, the report has the paper's own scale as measured here: ``wsmap paper
+full`` (:mod:`.full`) writes one ``results/full/<part>.json`` per part (a Table 1 row, §6.1, §6.2,
+Table 2's Rprop + MSE cell, one Table 3 embedding). :data:`PAPER_SCALE` maps each report row to
+its paper-scale counterpart (part and key in the part's ``metrics``), as :data:`COMPARISONS` maps
+it to a stage's metrics; :func:`load_full` reads the parts that exist. A part not run yet is
+reported as "not run yet", a row without a counterpart (run time, beyond the paper) as "—".
 """
 
 from __future__ import annotations
@@ -19,9 +26,11 @@ from pathlib import Path
 from typing import Any
 
 from ..io import atomic_path, markdown_table
+from .full import _fmt_seconds
 from .published import PAPER
 
-__all__ = ["PAPER", "DEPARTURES", "Row", "markdown_table", "lookup", "comparison_rows", "reductions", "write_report"]
+__all__ = ["PAPER", "DEPARTURES", "PAPER_SCALE", "FULL_PARTS", "NOT_RUN", "Row", "markdown_table", "lookup",
+           "load_metrics", "load_full", "wall_time", "comparison_rows", "reductions", "write_report"]
 
 #: Where the project departs from the paper, and why (the report lists them all).
 DEPARTURES: list[tuple[str, str]] = [
@@ -52,9 +61,15 @@ DEPARTURES: list[tuple[str, str]] = [
 ]
 
 
+#: What a paper-scale cell says when its part has no ``results/full/<part>.json`` yet.
+NOT_RUN = "not run yet"
+
+
 @dataclass
 class Row:
-    """One line of the report: what, ours, the paper's, where ours comes from."""
+    """One line of the report: what, ours (the committed run), the paper's, where ours comes from;
+    and the paper-scale counterpart (``wsmap paper full``): its part and key (``full_part`` None:
+    there is none), whether the part has run, its number and the part's wall time."""
 
     section: str
     what: str
@@ -62,12 +77,44 @@ class Row:
     paper: float | None
     source: str
     note: str = ""
+    full_part: str | None = None
+    full_key: str = ""
+    full_run: bool = False
+    full: float | None = None
+    full_wall_seconds: float | None = None
 
     @property
     def difference(self) -> float | None:
         if self.ours is None or self.paper is None or not _finite(self.ours) or not _finite(self.paper):
             return None
         return self.ours - self.paper
+
+    @property
+    def full_source(self) -> str:
+        return "—" if self.full_part is None else f"results/full/{self.full_part}.json: {self.full_key}"
+
+    @property
+    def full_cell(self) -> float | str | None:
+        """The "paper scale (measured)" cell: "—" (no counterpart), :data:`NOT_RUN`, the number, or
+        ``None`` (the part ran but its metrics lack the key: reported as missing)."""
+        if self.full_part is None:
+            return "—"
+        return self.full if self.full_run else NOT_RUN
+
+    @property
+    def wall_time_cell(self) -> str | None:
+        """The "wall time at paper scale" cell: "—", :data:`NOT_RUN`, or :func:`wall_time` of the
+        part's ``wall_seconds`` (``None`` where the part file lacks it)."""
+        if self.full_part is None:
+            return "—"
+        if not self.full_run:
+            return NOT_RUN
+        return None if self.full_wall_seconds is None else wall_time(self.full_wall_seconds)
+
+
+def wall_time(seconds) -> str:
+    """A wall time as ``wsmap paper full --list`` prints it: ``"45 s"``, ``"4 min"``, ``"3.2 h"``."""
+    return _fmt_seconds(seconds)
 
 
 def _finite(v) -> bool:
@@ -100,6 +147,10 @@ def load_metrics(results_dir) -> dict[str, dict]:
     return out
 
 
+_TABLE1 = ("table1_r3_step1", "table1_r3_step05", "table1_r3_block5", "table1_r3_crop3087", "table1_r3_full",
+           "table1_so3_pi3", "table1_so3_pi8", "table1_so3_pi10")
+_TABLE3 = ("subspace", "workspace", "nosubspace")
+
 #: (section, what, metrics file, key in it, PAPER key or None, note)
 COMPARISONS: list[tuple[str, str, str, str, str | None, str]] = [
     ("Run time", "classical, 9261 nodes, per-node numerical (s)", "runtime_comparison",
@@ -121,9 +172,7 @@ COMPARISONS: list[tuple[str, str, str, str, str | None, str]] = [
     ("Section 6.2", "F-measure, full 9261 map from 7 block models", "sec62_puma560", "f_full", "table1_r3_full",
      "the paper reports Table 1's single 9261-output model"),
     ("Section 6.2", "F-measure, PUMA560 predicted vs exact", "sec62_puma560", "puma560_f", None, "not in the paper"),
-    *[("Table 1", f"F-measure, {name}", "table1_workspaces", f"f.{name}", name, "")
-      for name in ("table1_r3_step1", "table1_r3_step05", "table1_r3_block5", "table1_r3_crop3087",
-                   "table1_r3_full", "table1_so3_pi3", "table1_so3_pi8", "table1_so3_pi10")],
+    *[("Table 1", f"F-measure, {name}", "table1_workspaces", f"f.{name}", name, "") for name in _TABLE1],
     ("Table 2", "Rprop + MSE, F mean", "table2_optimisers", "rprop_mse.f_mean", "table2_rprop_mse_f_mean", ""),
     ("Table 2", "Rprop + MSE, F sigma", "table2_optimisers", "rprop_mse.f_std", "table2_rprop_mse_f_std",
      "ours: sigma of the pooled F over sessions; the paper does not say over what its sigma is taken"),
@@ -136,12 +185,55 @@ COMPARISONS: list[tuple[str, str, str, str, str | None, str]] = [
     ("Table 3", "subspace model, own test set, recall", "table3_embeddings", "subspace.subspace.recall",
      "table3_subspace_recall", ""),
     ("Table 3", "subspace model, own test set, F", "table3_embeddings", "subspace.subspace.f", "table3_subspace_f", ""),
+    ("Table 3", "workspace model, own test set, F", "table3_embeddings", "workspace.workspace.f",
+     "table3_workspace_f", ""),
+    ("Table 3", "no-subspace model, own test set, F", "table3_embeddings", "nosubspace.nosubspace.f",
+     "table3_nosubspace_f", "the paper prints NaN: almost no reachable node in this test set"),
     ("Beyond the paper", "improved model, full 9261 map, F", "improved_model", "f", "table1_r3_full",
      "paper: its full-map model"),
     ("Beyond the paper", "improved model, PUMA560 predicted vs exact, F", "improved_model", "puma560_f", None, ""),
     ("Beyond the paper", "improved model, one 9261-node map (s)", "improved_model", "seconds_per_map",
      "network_time_9261", ""),
 ]
+
+
+#: Each report row's paper-scale counterpart: (metrics file, key) as in :data:`COMPARISONS` ->
+#: (``wsmap paper full`` part, key in its ``results/full/<part>.json`` ``metrics``). Rows not listed
+#: have none: run time, §6.1's threshold sweep, beyond the paper.
+PAPER_SCALE: dict[tuple[str, str], tuple[str, str]] = {
+    ("sec61_subspace", "f_mean"): ("sec61_subspace", "f_mean"),
+    ("sec61_subspace", "f_std"): ("sec61_subspace", "f_std"),
+    ("sec62_puma560", "f_full"): ("sec62_puma560", "f_full"),
+    ("sec62_puma560", "puma560_f"): ("sec62_puma560", "puma560_f"),
+    **{("table1_workspaces", f"f.{name}"): (name, "f") for name in _TABLE1},
+    **{("table2_optimisers", f"rprop_mse.{k}"): ("table2_rprop_mse", k)
+       for k in ("f_mean", "f_std", "f_sample_mean", "f_sample_std")},
+    **{("table3_embeddings", f"subspace.subspace.{k}"): ("table3_subspace", f"tests.subspace.{k}")
+       for k in ("precision", "recall", "f")},
+    **{("table3_embeddings", f"{emb}.{emb}.f"): (f"table3_{emb}", f"tests.{emb}.f") for emb in _TABLE3[1:]},
+}
+
+#: Every ``wsmap paper full`` part the report reads, in the runner's order (a test checks that
+#: these are all of :func:`wsmap.paper.full.plan`'s parts).
+FULL_PARTS: list[str] = list(dict.fromkeys(part for part, _ in PAPER_SCALE.values()))
+
+
+def load_full(full_dir) -> dict[str, dict]:
+    """The paper-scale results that exist, ``full_dir/<part>.json`` for each of :data:`FULL_PARTS`,
+    by part (``results/full/``; a missing directory: none); unreadable files raise ``ValueError``."""
+    out = {}
+    for part in FULL_PARTS:
+        p = Path(full_dir) / f"{part}.json"
+        if not p.is_file():
+            continue
+        try:
+            data = json.loads(p.read_text())
+        except json.JSONDecodeError as e:
+            raise ValueError(f"paper-scale result {p} is not valid JSON ({e})") from None
+        if not isinstance(data, dict):
+            raise ValueError(f"paper-scale result {p} is not a JSON object")
+        out[part] = data
+    return out
 
 
 def _leaves(d: Any, prefix: str = "") -> dict[str, Any]:
@@ -167,40 +259,88 @@ def reductions(committed: dict[str, Any], full: dict[str, Any]) -> list[dict[str
     return rows
 
 
-def comparison_rows(metrics: dict[str, dict]) -> list[Row]:
-    """One :class:`Row` per entry of :data:`COMPARISONS`, ours read from ``metrics``."""
+def comparison_rows(metrics: dict[str, dict], full: dict[str, dict] | None = None) -> list[Row]:
+    """One :class:`Row` per entry of :data:`COMPARISONS`, ours read from ``metrics``, the paper-scale
+    number and wall time from ``full`` (:func:`load_full`; ``None``: no part has run)."""
+    full = full or {}
     rows = []
     for section, what, stem, key, paper_key, note in COMPARISONS:
         ours = lookup(metrics.get(stem, {}), key)
         paper = PAPER.get(paper_key) if paper_key else None
-        rows.append(Row(section, what, ours, paper, f"results/{stem}.json: {key}", note))
+        part, full_key = PAPER_SCALE.get((stem, key), (None, ""))
+        result = full.get(part) if part else None
+        rows.append(Row(section, what, ours, paper, f"results/{stem}.json: {key}", note, full_part=part,
+                        full_key=full_key, full_run=result is not None,
+                        full=None if result is None else lookup(result.get("metrics", {}), full_key),
+                        full_wall_seconds=None if result is None else lookup(result, "wall_seconds")))
+    return rows
+
+
+def _parts_table(full: dict[str, dict]) -> list[dict[str, Any]]:
+    """One row per part of :data:`FULL_PARTS`: measured or not, wall time, when, where."""
+    rows = []
+    for part in FULL_PARTS:
+        data = full.get(part)
+        if data is None:
+            rows.append({"part": part, "state": NOT_RUN, "wall time": "—", "finished": "—", "device": "—",
+                         "machine": "—"})
+            continue
+        device, machine = data.get("device"), data.get("machine") or {}
+        seconds = lookup(data, "wall_seconds")
+        where = ", ".join(str(x) for x in (machine.get("host"), machine.get("cpus") and f"{machine['cpus']} CPUs",
+                                           machine.get("torch") and f"torch {machine['torch']}") if x)
+        rows.append({"part": part, "state": "measured", "wall time": None if seconds is None else wall_time(seconds),
+                     "finished": data.get("finished"),
+                     "device": device.get("used") if isinstance(device, dict) else device,
+                     "machine": where or None})
     return rows
 
 
 def write_report(results_dir, path=None, *, reductions: list[dict] | None = None,
-                 extra_sections: dict[str, str] | None = None) -> Path:
+                 extra_sections: dict[str, str] | None = None, full_dir=None) -> Path:
     """Write the report (default ``results_dir/REPORT.md``) atomically; returns its path.
 
     ``reductions``: rows ``{parameter, committed, paper}`` listing where the committed run is
-    smaller than the paper's; ``extra_sections``: title → Markdown appended (e.g. the label audit).
+    smaller than the paper's; ``extra_sections``: title → Markdown appended (e.g. the label audit);
+    ``full_dir``: the paper-scale results of ``wsmap paper full`` (default ``results_dir/full``).
     """
     results_dir = Path(results_dir)
     path = Path(path) if path else results_dir / "REPORT.md"
-    rows = comparison_rows(load_metrics(results_dir))
+    full = load_full(Path(full_dir) if full_dir else results_dir / "full")
+    rows = comparison_rows(load_metrics(results_dir), full)
+    pending = [p for p in FULL_PARTS if p not in full]
+    still = (f"{len(FULL_PARTS) - len(pending)} of {len(FULL_PARTS)} parts measured; still missing: "
+             f"{', '.join(f'`{p}`' for p in pending)} (\"{NOT_RUN}\"; `wsmap paper full --list` estimates each)."
+             if pending else f"All {len(FULL_PARTS)} parts measured.")
     lines = [
         "# Reproduction report",
         "",
-        "Generated by the `report` stage from the metrics the pipeline wrote (`results/*.json`); every "
-        "number below is measured by this run, next to the paper's (NOTES.md). Difference = ours − paper. "
-        "\"missing\" means the stage did not produce the number; \"—\": the paper gives none.",
+        "Generated by the `report` stage. **committed run**: the metrics the pipeline wrote "
+        "(`results/*.json`, `params.yaml`), measured by this run, next to the paper's (NOTES.md). "
+        "Difference = committed run − paper. \"missing\" means the stage did not produce the number; "
+        "\"—\": the paper gives none.",
+        "",
+        "**paper scale (measured)**: the same number at the paper's own scale (`params.full.yaml`), from "
+        "`wsmap paper full` (`results/full/<part>.json`), measured on this machine part by part; **wall time "
+        "at paper scale**: that part's wall time (every step, resumed runs included). " + still + " \"—\" "
+        "in these columns: the row has no paper-scale counterpart. Each part's machine and date: "
+        "\"Paper scale, part by part\" below.",
         "",
     ]
     for section in dict.fromkeys(r.section for r in rows):
         lines += [f"## {section}", ""]
         lines.append(markdown_table(
-            [dict(what=r.what, ours=r.ours, paper="—" if r.paper is None else r.paper,
-                  difference="—" if r.paper is None else r.difference, source=r.source, note=r.note)
+            [{"what": r.what, "committed run": r.ours, "paper scale (measured)": r.full_cell,
+              "paper": "—" if r.paper is None else r.paper,
+              "difference": "—" if r.paper is None or not _finite(r.paper) else r.difference,
+              "wall time at paper scale": r.wall_time_cell, "source": r.source, "paper-scale source": r.full_source,
+              "note": r.note}
              for r in rows if r.section == section], missing="missing"))
+    lines += ["## Paper scale, part by part", "",
+              "`wsmap paper full` parts (`results/full/<part>.json`) at `params.full.yaml`'s settings. The report "
+              "shows each part's file as it is; `wsmap paper full --list` also checks that its settings still "
+              "match `params.full.yaml`.", "",
+              markdown_table(_parts_table(full), missing="missing")]
     if reductions:
         lines += ["## Committed scale against the paper's", "", markdown_table(reductions, missing="missing")]
     for title, body in (extra_sections or {}).items():

@@ -153,8 +153,9 @@ def audit_specs() -> list[DatasetSpec]:
 
 def dataset_paths(name: str, data_dir) -> tuple[Path, Path]:
     """Where the pipeline keeps dataset ``name``: ``(data_dir/NAME.npz, data_dir/NAME.test.npz)``
-    (training set, independent test set)."""
-    paper_spec(name)
+    (training set, independent test set). ``name`` is any dataset of the catalogue
+    (:data:`DATASET_SPECS`: the paper's and the extensions such as ``panda7_tooldown``)."""
+    dataset_spec(name)
     data_dir = Path(data_dir)
     return data_dir / f"{name}.npz", data_dir / f"{name}.test.npz"
 
@@ -167,7 +168,7 @@ def build_pair(name: str, data_dir, samples: int | None = None, test_samples: in
     train_path, test_path = dataset_paths(name, data_dir)
     if test_samples is None:
         raise ValueError("test_samples must be a positive integer (build_pair always builds the test set)")
-    build_dataset_files(PAPER_SPECS[name], train_path, samples=samples, test_samples=test_samples,
+    build_dataset_files(DATASET_SPECS[name], train_path, samples=samples, test_samples=test_samples,
                         test_out=test_path, progress=progress)
     return train_path, test_path
 
