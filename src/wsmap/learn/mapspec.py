@@ -183,7 +183,9 @@ def map_plan(config, map_spec) -> tuple[dict[str, Any], MapPlan]:
     normalised = {"dataset": spec.to_dict(), "nodes": [start, stop], "assemble": assemble,
                   "subspace": None if assemble else key, "threshold": float(threshold)}
     template = None
-    if spec.fixed != "random":
+    # the template is the DH fast path of map_features; a chain family (panda7) has scale columns
+    # instead, and features_for refuses a DHRobot for it, so it gets none
+    if spec.fixed != "random" and not spec.is_chain_family:
         zero = np.zeros((1, 6))
         template = _data.features_for(DHRobot(zero, zero, zero), spec)[0]
         template.setflags(write=False)
