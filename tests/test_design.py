@@ -212,3 +212,27 @@ def test_a_tiny_trained_model_gives_a_verified_design():
     assert [row["method"] for row in rows] == ["gradient", "cmaes", "random"]
     assert res["gradient"].verified and res["cmaes"].target_length == pytest.approx(res["gradient"].total_length * 1.02)
     assert "| gradient | spherical_wrist |" in D.format_design_table(rows)
+
+
+def test_panda7_surrogate_puts_the_scales_in_the_model_features():
+    """A panda7 model (chain family: the features start with the 6 scales), tool-down."""
+    from wsmap.datasets.features import features_for
+
+    spec = DatasetSpec("tiny_p7", family="panda7", scope="R3", lo=-1.2, hi=1.2, step=0.6, fixed=(np.pi, 0.0, 0.0),
+                       convention="standard", method="numerical", samples=10, seed=0)
+    torch.manual_seed(0)
+    model = SubspaceMLP(MLPConfig(n_inputs=spec.n_features, n_outputs=spec.grid_nodes, hidden=[4], init="torch",
+                                  output_kind="logit"))
+    model.set_map_spec(spec)
+    tasks = D.box_tasks((0.5, 0.0, 0.2), 0.4)
+    s = D.MapSurrogate(model, "panda7", tasks)  # the family's default orientation: tool-down, standard
+    scales = np.array([[0.8, 0.9, 1.0, 1.1, 1.2, 1.3], [1.0] * 6])
+    np.testing.assert_array_equal(s.features(torch.as_tensor(scales)).numpy(), features_for(scales, spec))
+    with torch.no_grad():
+        full = model.forward(torch.as_tensor(features_for(scales, spec)), key=0).double()
+        on_nodes = D.MapSurrogate(model, "panda7", np.array([[0.0, 0.0, 0.0], [0.6, -0.6, 1.2]]))
+        np.testing.assert_allclose(on_nodes(torch.as_tensor(scales)).numpy(), full[:, [62, 3 + 5 * 1 + 25 * 4]].numpy(),
+                                   atol=1e-5)
+    assert s.bounds[0].tolist() == [0.7] * 6 and s.bounds[1].tolist() == [1.3] * 6  # no training range recorded
+    with pytest.raises(ValueError, match="orientation"):
+        D.MapSurrogate(model, "panda7", tasks, rpy=(0.0, 0.0, 0.0))

@@ -388,6 +388,7 @@ class DesignResult:
             coverage, for the gradient-free searches).
         margins: the margin asked of each start at its last round (gradient only).
         rounds: verification rounds (gradient) or generations / batches (gradient-free).
+        classical_time: seconds of ``wall_time`` spent in the classical map.
     """
 
     method: str
@@ -406,12 +407,14 @@ class DesignResult:
     path: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     margins: np.ndarray | None = None
     rounds: int = 0
+    classical_time: float = 0.0
 
     def row(self) -> dict:
         """One row of :func:`compare_designs`'s table (plain Python values)."""
         return {"method": self.method, "family": self.family,
                 "time_to_verified_s": self.time_to_verified, "time_to_target_s": self.time_to_target,
-                "wall_s": self.wall_time, "classical_calls": self.classical_calls,
+                "wall_s": self.wall_time, "classical_s": self.classical_time,
+                "classical_calls": self.classical_calls,
                 "surrogate_evals": self.surrogate_evals, "total_length_m": self.total_length,
                 "covered": f"{int(self.covered.sum())}/{self.covered.size}", "verified": self.verified,
                 "params": [round(float(v), 4) for v in self.params]}
@@ -559,7 +562,7 @@ def design_by_gradient(family, tasks, model, *, rpy=None, convention=None, verif
     wall = time.perf_counter() - t0
     return DesignResult("gradient", fam.name, fam.params, p, float(fam.total_length(p)), bool(verified), cov,
                         check.calls, evals, wall, wall if verified else None,
-                        path=np.array(paths)[:, i, :], margins=margins, rounds=rnd)
+                        path=np.array(paths)[:, i, :], margins=margins, rounds=rnd, classical_time=check.seconds)
 
 
 def _is_subspace_mlp(obj) -> bool:
@@ -623,7 +626,8 @@ class _Search:
             _, length, p, cov = self.fallback
         return DesignResult(self.method, self.fam.name, self.fam.params, p, float(length), self.best is not None, cov,
                             self.check.calls, 0, wall, self.t_verified, self.t_target, self.target,
-                            path=np.array(self.path, dtype=np.float64).reshape(-1, 2), rounds=self.rounds)
+                            path=np.array(self.path, dtype=np.float64).reshape(-1, 2), rounds=self.rounds,
+                            classical_time=self.check.seconds)
 
 
 def _search_setup(family, tasks, verify, rpy, convention, bounds, max_calls, max_seconds):
@@ -745,6 +749,6 @@ def format_design_table(rows: Sequence[dict]) -> str:
     """The rows of :func:`compare_designs` as a Markdown table (times in s, lengths in m)."""
     from .io import markdown_table
 
-    cols = ["method", "family", "time_to_verified_s", "time_to_target_s", "classical_calls", "surrogate_evals",
-            "total_length_m", "covered"]
+    cols = ["method", "family", "time_to_verified_s", "time_to_target_s", "wall_s", "classical_s", "classical_calls",
+            "surrogate_evals", "total_length_m", "covered"]
     return markdown_table(list(rows), cols, digits=3, missing="-")
