@@ -236,3 +236,16 @@ def test_panda7_surrogate_puts_the_scales_in_the_model_features():
     assert s.bounds[0].tolist() == [0.7] * 6 and s.bounds[1].tolist() == [1.3] * 6  # no training range recorded
     with pytest.raises(ValueError, match="orientation"):
         D.MapSurrogate(model, "panda7", tasks, rpy=(0.0, 0.0, 0.0))
+
+
+def test_spherical_wrist_map_at_the_tasks_does_not_depend_on_the_orientation():
+    """Why the paper's identity-orientation models serve tool-down tasks: unlimited joints and the
+    tool point at the wrist centre (d6 = 0)."""
+    from wsmap import robots
+
+    arms = robots.sample_spherical_wrist(300, seed=3)
+    tasks = D.box_tasks((0.4, 0.0, 0.2), 0.4)
+    at_identity = D.ws.constant_orientation_map(arms, tasks, (0, 0, 0), method="exact", convention="standard")
+    tool_down = D.ws.constant_orientation_map(arms, tasks, (np.pi, 0, 0), method="exact", convention="standard")
+    assert 0.1 < at_identity.mean() < 0.9
+    np.testing.assert_array_equal(at_identity, tool_down)

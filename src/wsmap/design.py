@@ -38,7 +38,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -466,10 +466,11 @@ def design_by_gradient(family, tasks, model, *, rpy=None, convention=None, verif
     geometrically to 1 % over a round of ``steps`` steps. (Defaults tuned on the paper's
     spherical-wrist model: a small ``rho`` keeps the penalty soft where the logits are steep;
     several starts because the feasible set is not convex -- e.g. a3 and d4 add up in the length
-    but in quadrature in the reach, so the shortest designs lie on corners of the box.) At the end of a round the final design
-    of every start is checked with the classical map; if some are verified the shortest is
-    returned; otherwise each start's margin rises by ``margin_step`` and its descent continues
-    (multipliers kept), for at most ``max_rounds`` rounds.
+    but in quadrature in the reach, so the shortest designs lie on corners of the box.) At the
+    end of a round the final design of every start is checked with the classical map; if some
+    are verified the shortest is returned; otherwise each start's margin rises by
+    ``margin_step`` and its descent continues (multipliers kept), for at most ``max_rounds``
+    rounds.
 
     Args:
         family: a name of :data:`DESIGN_FAMILIES` or a :class:`DesignFamily`.
