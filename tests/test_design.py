@@ -249,3 +249,17 @@ def test_spherical_wrist_map_at_the_tasks_does_not_depend_on_the_orientation():
     tool_down = D.ws.constant_orientation_map(arms, tasks, (np.pi, 0, 0), method="exact", convention="standard")
     assert 0.1 < at_identity.mean() < 0.9
     np.testing.assert_array_equal(at_identity, tool_down)
+
+
+def test_an_assembled_block_model_is_read_block_by_block():
+    """Section 6.2's layout: S subspaces, each a consecutive block of nodes (here 5 x 25 = 125)."""
+    torch.manual_seed(1)
+    model = SubspaceMLP(MLPConfig(n_inputs=SMALL.n_features, n_outputs=25, hidden=[6], init="torch", n_subspaces=5))
+    model.set_map_spec(SMALL, assemble=True)
+    nodes = D.ws.cartesian_grid(-1, 1, 0.5)
+    pick = [0, 24, 25, 63, 99, 124]
+    s = D.MapSurrogate(model, "spherical_wrist", nodes[pick])
+    params = torch.tensor([[0.3, 0.2, 0.1, 0.25]], dtype=torch.float64)
+    with torch.no_grad():
+        want = model.assemble(s.features(params)).double()[:, pick] - 0.5
+        np.testing.assert_allclose(s(params).numpy(), want.numpy(), atol=1e-5)
