@@ -263,3 +263,15 @@ def test_an_assembled_block_model_is_read_block_by_block():
     with torch.no_grad():
         want = model.assemble(s.features(params)).double()[:, pick] - 0.5
         np.testing.assert_allclose(s(params).numpy(), want.numpy(), atol=1e-5)
+
+
+def test_a_failed_verification_raises_the_margin_and_goes_on():
+    """The classical side is stricter than the surrogate by 1 cm of reach: the margin has to rise
+    (steps of 4 mm) past 1 cm before a design verifies, and then the design is ~1 cm longer in reach."""
+    def stricter(params):
+        return (params @ W)[:, None] >= np.linalg.norm(TASKS, axis=1)[None] + 0.01
+
+    r = D.design_by_gradient("panda7", TASKS, _analytic_surrogate, verify=stricter, margin=0.0, margin_step=0.004,
+                             starts=2, steps=300, seed=0)
+    assert r.verified and r.rounds >= 4 and np.all(r.margins >= 0.012 - 1e-12)
+    assert R_NEED + 0.01 <= r.params @ W <= R_NEED + 0.02
