@@ -12,6 +12,8 @@ The library (what a roboticist imports)::
 * :mod:`wsmap.workspace` — grids, maps, map files;
 * :mod:`wsmap.datasets` — experience datasets (spec, features, labels, store);
 * :mod:`wsmap.learn` — networks, initialisation, optimisers, training, the map predictor, model files;
+* :mod:`wsmap.design` — the shortest arm of a family whose map covers task positions: gradient
+  descent through a map model against CMA-ES and random search on the classical map;
 * :mod:`wsmap.metrics` — precision, recall, F of maps;
 * :mod:`wsmap.viz` — drawing; :mod:`wsmap.io` — atomic writes, tables, JSON; :mod:`wsmap.paths`.
 
