@@ -36,7 +36,7 @@ from wsmap.timing import time_call
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--train", type=int, default=4000, help="training arms (a 5 %% validation split is taken from them)")
+    ap.add_argument("--train", type=int, default=4000, help="training arms (5 %% of them validate)")
     ap.add_argument("--test", type=int, default=500, help="held-out arms")
     ap.add_argument("--minutes", type=float, default=2.5, help="training time limit")
     ap.add_argument("--hidden", default="256,256,256", help="hidden layer widths, comma-separated")

@@ -34,6 +34,13 @@ def test_the_grid_is_the_paper_sec61_grid_and_pose():
     np.testing.assert_array_equal(g["nodes"], NODES)
     assert g["nodes"].shape == (9261, 3) and g["rpy"] == (0.0, 0.0, 0.0)
     assert g["convention"] == "paper" and g["spec"] == "sec61"
+    from wsmap.datasets import grid_nodes
+    from wsmap.paper.specs import paper_spec
+
+    spec = paper_spec("sec61")
+    assert (spec.lo, spec.hi, spec.step, tuple(spec.fixed), spec.convention) == (
+        g["lo"], g["hi"], g["step"], g["rpy"], g["convention"])
+    np.testing.assert_array_equal(grid_nodes(spec), g["nodes"])
 
 
 @pytest.mark.parametrize("rpy, convention", [((0.0, 0.0, 0.0), "paper"), ((0.3, 1.0, -2.0), "standard"),

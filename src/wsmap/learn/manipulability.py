@@ -82,18 +82,20 @@ FAMILY_RANGE = (0.0, 0.5)
 MANIPULABILITY_TARGETS = ("linear", "sqrt")
 #: The ``extra["kind"]`` tag of a saved manipulability model.
 MANIPULABILITY_KIND = "wsmap.manipulability"
-#: The dataset spec whose grid, orientation and pose convention the maps use.
+#: The dataset spec whose grid, orientation and pose convention the maps use ...
 GRID_SPEC = "sec61"
+#: ... and those settings, as ``wsmap.paper.specs.paper_spec("sec61")`` has them (a test checks;
+#: learn does not import the paper's package): ``[lo, hi]³`` m at ``step``, ``rpy`` rad.
+_GRID = {"lo": -1.0, "hi": 1.0, "step": 0.1, "rpy": (0.0, 0.0, 0.0), "convention": "paper"}
 
 
 def manipulability_grid() -> dict[str, Any]:
     """The grid and pose of the maps: ``nodes`` ``(9261, 3)`` (m, base frame, node order), ``rpy``
-    (rad), ``convention``, and ``spec`` (the name of the paper's spec they come from)."""
-    from ..datasets import grid_nodes  # the datasets import the paper's specs, which import learn
-    from ..paper.specs import paper_spec
+    (rad), ``convention``, ``lo``, ``hi``, ``step`` (m) and ``spec`` (the paper's spec they are
+    taken from)."""
+    from ..workspace import cartesian_grid
 
-    spec = paper_spec(GRID_SPEC)
-    return {"nodes": grid_nodes(spec), "rpy": tuple(spec.fixed), "convention": spec.convention, "spec": spec.name}
+    return {"nodes": cartesian_grid(_GRID["lo"], _GRID["hi"], _GRID["step"]), **_GRID, "spec": GRID_SPEC}
 
 
 # --------------------------------------------------------------------------------------------
