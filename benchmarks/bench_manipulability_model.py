@@ -17,6 +17,10 @@ paper's convention; :func:`wsmap.learn.manipulability_targets`), trains
 
     PYTHONPATH=src OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_manipulability_model.py \\
         --train 4000 --test 500 --minutes 2.5 --json bench_manipulability_model.json
+
+Measured so (a 2-core machine shared with other jobs; the epochs done in the time limit depend on
+the load): 63 epochs, held-out R² 0.9948 pooled, MAE 0.00064 m³, R² 0.9925 on reachable nodes;
+0.13 ms per predicted map in bulk against 1.8 ms exact (``notes/issue14_manipulability.md``).
 """
 
 from __future__ import annotations
