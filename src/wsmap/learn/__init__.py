@@ -23,11 +23,16 @@ module                 contents
                        checksum (:class:`ModelFileError`)
 ``device``             :func:`resolve_device`: the ``device`` setting (``auto``, ``cpu``,
                        ``cuda``) as a ``torch.device``, with a clear error without a GPU
+``manipulability``     the spherical-wrist family's manipulability map (m³) learned from
+                       ``(d3, d4, a2, a3)``: :func:`manipulability_dataset`,
+                       :func:`train_manipulability_model`, :func:`predict_manipulability`,
+                       :func:`regression_metrics`, files
 =====================  ==========================================================================
 
 Imports go one way: ``device``, ``init``, ``training_range``, ``mapspec`` and ``optim`` depend on nothing here;
 ``network`` on those; ``files`` on ``network``; ``predictor`` on ``files``; ``training`` on ``optim``
-(and ``predictor`` and ``training`` on ``device``).
+(and ``predictor`` and ``training`` on ``device``); ``manipulability`` on ``network``, ``training`` and
+``files``.
 ``wsmap.models``, ``wsmap.training`` and ``wsmap.optim`` re-export the old names from here.
 
 A typical round trip::
@@ -83,6 +88,23 @@ from .training import (
     train,
     train_sessions,
 )
+from .manipulability import (
+    FAMILY_RANGE,
+    MANIPULABILITY_KIND,
+    MANIPULABILITY_TARGETS,
+    PARAM_NAMES,
+    ManipulabilityModel,
+    ManipulabilityTrainConfig,
+    load_manipulability_model,
+    manipulability_dataset,
+    manipulability_grid,
+    manipulability_params,
+    manipulability_targets,
+    predict_manipulability,
+    regression_metrics,
+    save_manipulability_model,
+    train_manipulability_model,
+)
 from .training_range import ExtrapolationError, ExtrapolationWarning, TrainingRange
 
 __all__ = [
@@ -103,4 +125,9 @@ __all__ = [
     "UnverifiedModelWarning", "payload_checksum",
     # where networks run
     "resolve_device", "check_device_name", "DEVICES", "DeviceUnavailableError",
+    # the manipulability map of the spherical-wrist family
+    "ManipulabilityModel", "ManipulabilityTrainConfig", "manipulability_dataset", "manipulability_targets",
+    "manipulability_params", "manipulability_grid", "train_manipulability_model", "predict_manipulability",
+    "regression_metrics", "save_manipulability_model", "load_manipulability_model", "PARAM_NAMES", "FAMILY_RANGE",
+    "MANIPULABILITY_TARGETS", "MANIPULABILITY_KIND",
 ]

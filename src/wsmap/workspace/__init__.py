@@ -46,12 +46,19 @@ from .maps import (
 
 from .orientations import approach_orientations, check_rotations, continuation_order, orientation_samples
 from .placement import Placement, base_placement, floor_poses
-from .reach import dexterous_map, manipulability_map, position_map, reachability_index, yoshikawa
+from .reach import (
+    dexterous_map,
+    manipulability_map,
+    manipulability_maps,
+    position_map,
+    reachability_index,
+    yoshikawa,
+)
 
 __all__ = [
     "approach_orientations", "check_rotations", "continuation_order", "orientation_samples", "Placement",
-    "base_placement", "floor_poses", "dexterous_map", "manipulability_map", "position_map", "reachability_index",
-    "yoshikawa",
+    "base_placement", "floor_poses", "dexterous_map", "manipulability_map", "manipulability_maps", "position_map",
+    "reachability_index", "yoshikawa",
     "BLOCK_NODES", "CONVENTIONS", "CROP_3087", "DEFAULT_STARTS", "MAX_NODES", "METHODS", "MapFileError", "N_BLOCKS",
     "MAP_SETTINGS", "SCOPES", "SOLVERS", "closed_form_family", "node_neighbours", "reachable", "resolve_method",
     "angle_grid", "available_memory", "block_slice", "cartesian_grid", "constant_orientation_map", "default_grid",

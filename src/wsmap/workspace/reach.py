@@ -10,7 +10,9 @@ For an arm and nodes ``p`` (N, 3) in its base frame (metres), and target poses `
 * :func:`dexterous_map` — every orientation of the set is reachable at ``p``;
 * :func:`manipulability_map` — Yoshikawa's manipulability ``√det(J Jᵀ)`` (``J`` the 6 x n base-frame
   geometric Jacobian: metres per radian in the position rows, 1 in the rotation rows) at the best
-  IK solution found at ``p`` for one orientation, 0 where unreachable.
+  IK solution found at ``p`` for one orientation, 0 where unreachable;
+* :func:`manipulability_maps` — the same map, exactly, for a batch of unlimited spherical-wrist
+  arms at once (a factorised closed form of the same quantity, no Jacobians).
 
 Arms of a closed-form family (:func:`wsmap.workspace.closed_form_family`) are mapped exactly (every
 branch); other arms by the numerical search started from neighbouring nodes' solutions and, across
@@ -23,13 +25,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kinematics import DHRobot, SerialChain, ikine_spherical_wrist, ikine_ur, map_search
+from ..kinematics import DHRobot, SerialChain, ikine_spherical_wrist, ikine_ur, map_search, require_spherical_wrist
 from ..kinematics.search import MAP_SETTINGS, as_chain
 from .grids import _check_fits, node_neighbours
 from .maps import _check_choice, _check_nodes, _exact, closed_form_family, resolve_method, target_poses
 from .orientations import check_rotations, continuation_order
 
-__all__ = ["INDEX_SETTINGS", "position_map", "reachability_index", "dexterous_map", "manipulability_map", "yoshikawa"]
+__all__ = ["INDEX_SETTINGS", "position_map", "reachability_index", "dexterous_map", "manipulability_map",
+           "manipulability_maps", "yoshikawa"]
 
 
 def _check_arm(robot):
@@ -164,6 +167,12 @@ def manipulability_map(robot, nodes, rpy=(0.0, 0.0, 0.0), *, convention: str = "
     Exact for the closed-form families: the largest over every valid branch (all 8). Numerical: the
     solution the map search finds at each node (one per node; a redundant arm has others along its
     self-motion, so the value is a lower bound of the node's best).
+
+    Units: for a 6-joint arm ``J`` is square and ``√det(J Jᵀ) = |det J|``; every term of ``det J``
+    takes one entry from each row, three position rows (m/rad) and three rotation rows (rad/rad),
+    so the value is in m³ (per rad³ of joint motion) with lengths in metres. (For n ≠ 6 joints the
+    rows' units do not factor out so simply.) A batch of spherical-wrist arms:
+    :func:`manipulability_maps`.
     """
     robot = _check_arm(robot)
     nodes = _check_nodes("nodes", nodes)
@@ -188,3 +197,88 @@ def manipulability_map(robot, nodes, rpy=(0.0, 0.0, 0.0), *, convention: str = "
         out[res.success] = yoshikawa(chain.jacob0(res.q[res.success]))
     return out
 
+
+
+#: Arms x nodes per block of :func:`manipulability_maps`: about 20 float64 temporaries of this size stay
+#: in cache (2.3 ms per 9261-node map on one thread against 3.7 ms with blocks of 2**20).
+_MANIP_BLOCK = 1 << 16
+
+
+def _manipulability_block(d, a, T, atol):
+    """The exact map of arms ``d``, ``a`` (b, 6) at poses ``T`` (N, 4, 4): (b, N)."""
+    p, approach = T[:, :3, 3], T[:, :3, 2]
+    d1, d3, d4 = d[:, 0:1], d[:, 2:3], d[:, 3:4]
+    a2, a3 = a[:, 1:2], a[:, 2:3]
+    px, py, pz = p[:, 0], p[:, 1], p[:, 2] - d1
+    r2 = px * px + py * py
+    # The reach tests and tolerances are ikine_spherical_wrist's, so the support is the same map.
+    reach_sh = r2 >= d3 * d3 - atol
+    x1 = np.sqrt(np.maximum(r2 - d3 * d3, 0.0))  # |planar reach in the arm plane|, equal on both shoulders
+    L = np.hypot(a3, d4)
+    gamma = np.arctan2(d4, a3)
+    rho2 = x1 * x1 + pz * pz
+    denom = 2.0 * a2 * L
+    degenerate = denom < 1e-12
+    c_psi = np.clip(np.where(degenerate, 1.0, (rho2 - a2 * a2 - L * L) / np.where(degenerate, 1.0, denom)), -1.0, 1.0)
+    s_psi = np.sqrt(1.0 - c_psi * c_psi)
+    reach_el = (rho2 >= (a2 - L) ** 2 - atol) & (rho2 <= (a2 + L) ** 2 + atol)
+    # The wrist joints' axes meet at the flange (d6 = 0), so J is block triangular and
+    # |det J| = |det J_arm| · |det J_wrist|: the wrist centre's 3x3 Jacobian in q1..q3,
+    # a2 · L·|sin ψ| · |x1| (elbow and shoulder singularities), the same on all four arm branches,
+    # times |sin q5| (wrist), which differs between them; the wrist flip keeps |sin q5|.
+    arm_det = a2 * L * s_psi * x1
+    r = np.sqrt(np.maximum(r2, 1e-300))
+    phi = np.arctan2(py, px)
+    beta = np.arcsin(np.clip(d3 / r, -1.0, 1.0))
+    best = np.zeros(arm_det.shape)
+    for q1, xs in ((phi + beta, x1), (phi + np.pi - beta, -x1)):
+        c1, s1 = np.cos(q1), np.sin(q1)
+        for sign in (1.0, -1.0):
+            ps = sign * s_psi
+            q23 = np.arctan2(pz, xs) - np.arctan2(L * ps, a2 + L * c_psi) + np.arctan2(ps, c_psi) - gamma
+            s23 = np.sin(q23)
+            # joint 4's axis z3 = (-c1·s23, -s1·s23, c23); cos q5 is its cosine with the approach
+            c5 = -c1 * s23 * approach[:, 0] - s1 * s23 * approach[:, 1] + np.cos(q23) * approach[:, 2]
+            best = np.maximum(best, np.sqrt(np.maximum(1.0 - c5 * c5, 0.0)))
+    return np.where(reach_sh & reach_el, arm_det * best, 0.0)
+
+
+def manipulability_maps(arms, nodes, rpy=(0.0, 0.0, 0.0), *, convention: str = "standard",
+                        atol: float = 1e-9) -> np.ndarray:
+    """Exact manipulability maps of a batch of spherical-wrist arms: float64 ``arms.batch_shape + (N,)``.
+
+    The value :func:`manipulability_map` gives each arm with ``method="exact"`` (the largest
+    Yoshikawa ``√det(J Jᵀ)`` over the 8 closed-form branches, 0 where unreachable; m³ for these
+    6-DOF arms with lengths in m, see :func:`manipulability_map`), equal to it within ~1e-15, as
+    array operations over arms x nodes (in cache-sized blocks of a few arms, no loop over nodes),
+    about 50 times faster per arm (2-4 ms against 0.1-0.16 s for 9261 nodes on one thread): for the
+    family ``|det J|`` factorises in closed form (comments in the code), so no IK branches or
+    Jacobians are built.
+
+    Args:
+        arms: a :class:`~wsmap.kinematics.DHRobot` of the spherical-wrist family, one arm or a
+            batch of any shape, without joint limits (the paper ignores them) or a tool.
+        nodes: ``(N, 3)`` flange positions in the base frame, metres.
+        rpy: the fixed orientation ``R = Rx·Ry·Rz`` (rad); ``convention`` as
+            :func:`wsmap.workspace.target_poses` (the two agree at ``rpy = (0, 0, 0)``).
+        atol: the reach tolerance of :func:`wsmap.kinematics.ikine_spherical_wrist`.
+
+    Raises:
+        TypeError: ``arms`` is not a ``DHRobot``.
+        ValueError: arms outside the family, arms with joint limits, bad nodes or convention.
+    """
+    if not isinstance(arms, DHRobot):
+        raise TypeError(f"arms must be a DHRobot of the spherical-wrist family, got {type(arms).__name__}")
+    require_spherical_wrist(arms)
+    if arms.qlim is not None:
+        raise ValueError("manipulability_maps is for arms without joint limits; use manipulability_map per arm")
+    nodes = _check_nodes("nodes", nodes)
+    _check_choice("convention", convention, ("paper", "standard"))
+    T = target_poses(nodes, rpy, convention)
+    batch, N = arms.batch_shape, len(nodes)
+    d, a = arms.d.reshape(-1, 6), arms.a.reshape(-1, 6)
+    out = np.zeros((d.shape[0], N))
+    step = max(1, _MANIP_BLOCK // max(N, 1))
+    for s in range(0, d.shape[0], step):
+        out[s : s + step] = _manipulability_block(d[s : s + step], a[s : s + step], T, atol)
+    return out.reshape(batch + (N,))
