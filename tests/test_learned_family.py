@@ -123,17 +123,22 @@ def test_panda7_maps_come_in_node_order_for_the_family(panda7_model, tmp_path):
     # one arm, a batch of any shape, or the scales themselves
     assert model.predict_maps(robots.family_arm("panda7", scales[0])).shape == (15625,)
     np.testing.assert_array_equal(model.predict_maps(scales.reshape(2, 2, 6)), maps.reshape(2, 2, -1))
-    # the file round trip gives the same maps (wsmap.models.load(path).predict_maps)
+    # the file round trip gives the same maps (model, meta = wsmap.models.load(path))
     path = models.save(model, tmp_path / "panda7_map.pt", dataset_spec=train.spec)
-    np.testing.assert_array_equal(models.load(path).predict_maps(arms), maps)
+    loaded, meta = models.load(path)
+    np.testing.assert_array_equal(loaded.predict_maps(arms), maps)
+    assert meta["map_spec"]["dataset"]["family"] == "panda7"
 
 
 def test_panda7_model_refuses_other_arms(panda7_model):
     model, train = panda7_model
     with pytest.raises(TypeError, match="the model maps arms of the family 'panda7'"):
         model.predict_maps(robots.puma560())
+    for other in ("iiwa14", "ur5e"):  # chains of other arms: the family reads no scales from them
+        with pytest.raises(ValueError):
+            model.predict_maps(robots.load(other))
     with pytest.raises(ValueError):
-        model.predict_maps(robots.named_arm("ur5e") if hasattr(robots, "named_arm") else np.ones((1, 5)))
+        model.predict_maps(np.ones((1, 5)))  # five scales for a family of six
     # inside the family's range but outside what 24 arms covered: refused unless asked
     lo = train.features[:, :6].min(axis=0)
     outside = np.where(lo > 0.71, 0.705, 1.0)[None, :] * np.ones((1, 6))

@@ -349,3 +349,40 @@ def test_empty_and_single_targets():
     assert out.success.shape == (0,) and out.q.shape == (0, 6)
     one = ikine_search(puma, puma.fkine(np.full(6, 0.3)))
     assert one.success.shape == () and bool(one.success) and one.q.shape == (6,)
+
+
+def test_reach_filters_are_sound_about_the_first_axis_point():
+    """The reach pre-filters bound the tool (the wrist point) from a point of the first joint's axis
+    (the shoulder): never a reachable pose refused, on named arms and general chains (any axis, a
+    slide, a base and a tool), and on the Panda far fewer candidates than a bound from the base."""
+    from wsmap import robots
+    from wsmap import workspace as ws
+    from wsmap.kinematics.search import _first_axis_point, _position_filter
+
+    rng = np.random.default_rng(11)
+    chains = [robots.load(n) for n in ("panda", "iiwa14", "gen3", "ur5e")] + [as_chain(robots.puma560())]
+    chains += [_random_chain(rng) for _ in range(4)]
+    for chain in chains:
+        lim = np.clip(chain.qlim, -PI, PI) if chain.qlim is not None else np.tile([-PI, PI], (chain.n, 1))
+        q = lim[:, 0] + rng.random((3000, chain.n)) * (lim[:, 1] - lim[:, 0])  # continuous joints: one turn
+        T = chain.fkine(q)
+        assert _reach_filter(chain, T, 0.0).all()
+        assert _position_filter(chain, T[:, :3, 3], 0.0).all()
+    # a batch of arms: each arm's own point
+    batch = _random_chain(rng, (3,))
+    centre, used = _first_axis_point(batch)
+    assert centre.shape == (3, 3) and used.shape == (3,)
+    for b in range(3):
+        one = batch[b]
+        q = one.qlim[:, 0] + rng.random((500, one.n)) * (one.qlim[:, 1] - one.qlim[:, 0])
+        assert _position_filter(batch, one.fkine(q)[:, :3, 3], 0.0)[b].all()
+    # the Panda: the shoulder (0, 0, 0.333) is the centre, not the base
+    panda = robots.load("panda")
+    centre, used = _first_axis_point(panda)
+    np.testing.assert_allclose(centre, [0, 0, 0.333], atol=1e-12)
+    nodes = ws.cartesian_grid(-1.2, 1.2, 0.1)
+    T = ws.target_poses(nodes, (PI, 0, 0), "standard")
+    candidates = _reach_filter(panda, T, FK_CONFIRM_TOL)
+    reach = ws.constant_orientation_map(panda, nodes, (PI, 0, 0), method="numerical", convention="standard")
+    assert not (reach & ~candidates).any()
+    assert candidates.sum() < 0.4 * len(nodes) and candidates.sum() < 1.6 * reach.sum()

@@ -581,18 +581,19 @@ def _reach_filter(chain: SerialChain, T, margin):
 def _first_axis_point(chain: SerialChain) -> tuple[np.ndarray, np.ndarray]:
     """A point no joint moves, and how much of the lengths it uses: ``(centre (…, 3), used (…,))``.
 
-    The first joint turns (or slides) about the z axis of ``base · F_0``; the part of ``t(F_1)``
-    along that axis is not turned by it (a shoulder height such as the Panda's d1 = 0.333 m), so
-    ``centre = base · F_0 · (t(F_1)·z) z`` is fixed, and everything after it is within
-    ``|t(F_0)| + |t(F_1)| - used`` of the lengths where ``used = |t(F_0)| + |t(F_1)| - |t(F_1)⊥|``
-    (``t(F_1)⊥`` the part across the axis): the reach bounds subtract ``used`` from the sum of
+    The first joint turns (or slides) about its axis ``a`` through the origin of ``base · F_0``;
+    the part of ``t(F_1)`` along ``a`` is not turned by it (a shoulder height such as the Panda's
+    d1 = 0.333 m), so ``centre = base · F_0 · ((t(F_1)·a) a)`` is fixed, and everything after it
+    is within ``|t(F_1)⊥|`` (the part across the axis) plus the later lengths:
+    ``used = |t(F_0)| + |t(F_1)| - |t(F_1)⊥|`` is what the reach bounds subtract from the sum of
     all the lengths. A slide along the same axis keeps this sound: its stroke is added anyway."""
     F = chain.fixed
     t0 = F[..., 0, :3, 3]
     t1 = F[..., 1, :3, 3]
-    z1 = F[..., 0, :3, 2]  # the first joint's axis, in the frame before F_0's rotation
-    centre = t0 + t1[..., 2:3] * z1
-    perp = np.linalg.norm(t1[..., :2], axis=-1)
+    a = chain.axes[0]  # unit, in the frame of F_0
+    along = t1 @ a  # (...,)
+    centre = t0 + np.einsum("...ij,j->...i", F[..., 0, :3, :3], a) * along[..., None]
+    perp = np.linalg.norm(t1 - along[..., None] * a, axis=-1)
     used = np.linalg.norm(t0, axis=-1) + np.linalg.norm(t1, axis=-1) - perp
     if chain.base is not None:
         centre = centre @ chain.base[:3, :3].T + chain.base[:3, 3]
