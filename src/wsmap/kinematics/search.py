@@ -111,6 +111,22 @@ def as_chain(robot) -> SerialChain:
     raise TypeError(f"robot must be a SerialChain or a DHRobot, got {type(robot).__name__}")
 
 
+def flatten_arms(arms):
+    """A batch of arms (:class:`SerialChain` or :class:`DHRobot`, batch shape ``(...)``) as a flat
+    batch ``(B,)`` of the same arms, in C order."""
+    n = arms.n
+    if isinstance(arms, SerialChain):
+        b = arms.batch_shape
+        qlim = None if arms.qlim is None else np.broadcast_to(arms.qlim, b + (n, 2)).reshape(-1, n, 2)
+        fshape = arms.fixed.shape[-3:]
+        return arms.replace(fixed=np.broadcast_to(arms.fixed, b + fshape).reshape((-1,) + fshape),
+                            offset=np.broadcast_to(arms.offset, b + (n,)).reshape(-1, n), qlim=qlim)
+    qlim = arms.qlim
+    if qlim is not None and qlim.ndim > 2:
+        qlim = np.broadcast_to(qlim, arms.batch_shape + (n, 2)).reshape(-1, n, 2)
+    return DHRobot(arms.d.reshape(-1, n), arms.a.reshape(-1, n), arms.alpha.reshape(-1, n), qlim=qlim, tool=arms.tool)
+
+
 def _check_count(name, v, minimum):
     try:
         ok = not isinstance(v, bool) and np.isscalar(v) and np.isreal(v) and np.isfinite(v) and int(v) == v
@@ -164,6 +180,20 @@ def _check_seed(seed):
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
         raise ValueError(f"seed must be a non-negative integer (or None for a random one), got {seed!r}")
     return int(seed)
+
+
+def _check_settings(chain: SerialChain, tol, lam, confirm_tol, seed, q0):
+    """The checks :func:`ikine_search` and :func:`map_search` share: ``tol``, ``lam`` and
+    ``confirm_tol`` positive and finite with ``confirm_tol >= tol``; returns ``(seed, q0)`` checked
+    (``q0`` default zeros, shape ``(..., n)``)."""
+    for label, v in (("tol", tol), ("lam", lam), ("confirm_tol", confirm_tol)):
+        if isinstance(v, bool) or not (np.isscalar(v) and np.isreal(v) and v > 0 and np.isfinite(v)):
+            raise ValueError(f"{label} must be positive and finite, got {v!r}")
+    if confirm_tol < tol:
+        raise ValueError(f"confirm_tol ({confirm_tol}) must be at least tol ({tol})")
+    seed = _check_seed(seed)
+    q0 = np.zeros(chain.n) if q0 is None else chain._check_q(q0)
+    return seed, q0
 
 
 def _limited(chain: SerialChain, joint_limits: bool) -> SerialChain:
@@ -772,14 +802,8 @@ def ikine_search(
     ilimit = _check_count("ilimit", ilimit, 0)
     rlimit = _check_count("rlimit", rlimit, 0)
     chunk = _check_count("chunk", chunk, 1)
-    for label, v in (("tol", tol), ("lam", lam), ("confirm_tol", confirm_tol)):
-        if isinstance(v, bool) or not (np.isscalar(v) and np.isreal(v) and v > 0 and np.isfinite(v)):
-            raise ValueError(f"{label} must be positive and finite, got {v!r}")
-    if confirm_tol < tol:
-        raise ValueError(f"confirm_tol ({confirm_tol}) must be at least tol ({tol})")
-    seed = _check_seed(seed)
+    seed, q0 = _check_settings(chain, tol, lam, confirm_tol, seed, q0)
     n = chain.n
-    q0 = np.zeros(n) if q0 is None else chain._check_q(q0)
     batch = chain.batch_shape
     shape = np.broadcast_shapes(T.shape[:-2], batch, q0.shape[:-1])
     count = int(np.prod(shape, dtype=np.int64))
@@ -944,22 +968,13 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     hole_retry = _check_count("hole_retry", hole_retry, 0)
     ilimit = _check_count("ilimit", ilimit, 0)
     rlimit = _check_count("rlimit", rlimit, 0)
-    for label, v in (("tol", tol), ("lam", lam), ("confirm_tol", confirm_tol)):
-        if isinstance(v, bool) or not (np.isscalar(v) and np.isreal(v) and v > 0 and np.isfinite(v)):
-            raise ValueError(f"{label} must be positive and finite, got {v!r}")
-    if confirm_tol < tol:
-        raise ValueError(f"confirm_tol ({confirm_tol}) must be at least tol ({tol})")
-    seed = _check_seed(seed)
+    seed, q0 = _check_settings(chain, tol, lam, confirm_tol, seed, q0)
     n = chain.n
-    q0 = np.zeros(n) if q0 is None else chain._check_q(q0)
     if q0.shape != (n,):
         raise ValueError(f"q0 must have shape ({n},) for a map, got {q0.shape}")
     batch = chain.batch_shape
     B = int(np.prod(batch, dtype=np.int64))
-    flat = chain if not batch else chain.replace(
-        fixed=np.broadcast_to(chain.fixed, batch + chain.fixed.shape[-3:]).reshape((B,) + chain.fixed.shape[-3:]),
-        offset=np.broadcast_to(chain.offset, batch + (n,)).reshape(B, n),
-        qlim=None if chain.qlim is None else np.broadcast_to(chain.qlim, batch + (n, 2)).reshape(B, n, 2))
+    flat = chain if not batch else flatten_arms(chain)
     M = B * N
     arm_of = np.repeat(np.arange(B), N)
     node_of = np.tile(np.arange(N), B)
