@@ -39,8 +39,10 @@ where it does. It is the numerical path of :mod:`wsmap.workspace` (maps and
   ``confirm_tol`` of the target (metres in position, radians in rotation angle). A start whose
   check fails does not count, and the next start runs.
 * **Sound pre-filter.** A target whose wrist point is farther from the base than the sum of the
-  arm's link lengths (plus ``confirm_tol`` margins) cannot be confirmed by any ``q``; it is marked
-  unreachable without running LM. It changes no result, only the time.
+  arm's link lengths (plus ``confirm_tol`` margins), or outside the set that the joints before it
+  can sweep it through (a ball cut by a slab carried back from the wrist point joint by joint,
+  then turned about joint 0: :func:`_wrist_orbit`, exact for the PUMA560), cannot be confirmed by
+  any ``q``; it is marked unreachable without running LM. It changes no result, only the time.
 * **Exact stagnation shortcut** (as in :mod:`.lm_kernel`): once λ is so large that no later step
   can move ``q`` by one bit, every later trial is rejected, so the start fails at once.
 
@@ -571,7 +573,7 @@ def _confirm(chain: SerialChain, q, T, atol):
     return (dp <= atol) & (ang <= atol) & chain.within_limits(q)
 
 
-def _reach_filter(chain: SerialChain, T, margin):
+def _reach_filter(chain: SerialChain, T, margin, wrist_orbit: bool = True):
     """A sound test (…,) bool: False where no configuration puts the tool within ``margin`` of ``T``.
 
     If the last joint is revolute, the origin of its frame (the "wrist point") is fixed by the tool
@@ -579,6 +581,10 @@ def _reach_filter(chain: SerialChain, T, margin):
     of prismatic joints) from the base origin. Otherwise the tool origin itself is bounded by the
     lengths of all the fixed transforms and the tool. A pose within ``margin`` in position and
     rotation angle of a reachable one moves the wrist point by at most ``margin·(1 + |t(G)|)``.
+
+    ``wrist_orbit`` (arms of revolute joints): also the wrist point's orbit about joint 0 must meet
+    the set the joints ``1 .. n-2`` sweep it through (:func:`_wrist_orbit`, :func:`_orbit_test`);
+    for the PUMA560 at a fixed orientation this leaves exactly the reachable poses.
     """
     n = chain.n
     F = chain.fixed
@@ -603,7 +609,97 @@ def _reach_filter(chain: SerialChain, T, margin):
         slack = margin
     origin = np.zeros(3) if chain.base is None else chain.base[:3, 3]
     dist = np.linalg.norm(point - origin, axis=-1)
-    return dist <= reach * (1.0 + 1e-12) + slack + 1e-12
+    ok = dist <= reach * (1.0 + 1e-12) + slack + 1e-12
+    if chain.kinds[-1] != PRISMATIC and wrist_orbit and n >= 2:
+        orbit = _wrist_orbit(chain)
+        if orbit is not None:
+            a0, c, r, u, w = orbit
+            # the wrist point in the frame after F_0 (base folded in)
+            F0 = F[..., 0, :, :] if chain.base is None else chain.base @ F[..., 0, :, :]
+            local = np.einsum("...ji,...j->...i", F0[..., :3, :3], point - F0[..., :3, 3])
+            tiny = 1e-9 * (1.0 + lengths.sum(axis=-1))  # rounding of the bound's arithmetic
+            ok &= _orbit_test(a0, c, r, u, w, local, slack + tiny)
+    return ok
+
+
+def _wrist_orbit(chain: SerialChain):
+    """A bound, per arm, of where the wrist point (the origin of the frame after ``F_{n-1}``) can be,
+    in the frame after ``F_0`` (base folded in) before joint 0 turns it: joint 0 turns it about
+    ``a0`` (3,) within ``{x : |x - c| <= r, |(x - c)·u| <= w}`` (a ball cut by a slab).
+
+    Built from the wrist point back (joints ``n-2 .. 1``, their limits ignored, so a superset): a
+    fixed transform moves the set rigidly; a revolute joint turning a ball ∩ slab ``(c, r, u, w)``
+    about its axis ``a`` (through the origin) sweeps a set inside the ball about ``(c·a) a`` of radius
+    ``ρ + r`` (``ρ`` the distance of ``c`` from the axis) cut by the slab normal to ``a`` of half-width
+    ``e = min(r, min(w, r)·|u·a| + r·sqrt(1 - (u·a)²))`` (the set's extent along ``a``, unchanged by
+    the turn). Returns ``(a0, c, r, u, w)`` with batch shapes ``(..., 3)`` and ``(...)``, or None
+    for an arm with a prismatic joint.
+    """
+    if any(k == PRISMATIC for k in chain.kinds):
+        return None
+    n = chain.n
+    F = np.array(chain.fixed, dtype=np.float64)
+    batch = F.shape[:-3]
+    c = np.zeros(batch + (3,))
+    u = np.zeros(batch + (3,))
+    u[..., 2] = 1.0
+    r = np.zeros(batch)
+    w = np.zeros(batch)
+    for k in range(n - 1, 0, -1):
+        # through F_k into the frame after joint k-1, then joint k-1's turn (for k >= 2)
+        R, t = F[..., k, :3, :3], F[..., k, :3, 3]
+        c = t + np.einsum("...ij,...j->...i", R, c)
+        u = np.einsum("...ij,...j->...i", R, u)
+        if k == 1:
+            break
+        a = chain.axes[k - 1]
+        h = c @ a
+        rho = np.linalg.norm(c - h[..., None] * a, axis=-1)
+        ua = np.clip(np.abs(u @ a), 0.0, 1.0)
+        e = np.minimum(r, np.minimum(w, r) * ua + r * np.sqrt(1.0 - ua * ua))
+        c = h[..., None] * a
+        u = np.broadcast_to(a, c.shape).copy()
+        r, w = rho + r, e
+    return chain.axes[0], c, r, u, w
+
+
+def _orbit_test(a, c, r, u, w, p, slack):
+    """Whether some turn of the points ``p`` (..., 3) about the axis ``a`` (through the origin) puts
+    them within ``slack`` of the set ``{x : |x - c| <= r, |(x - c)·u| <= w}`` (a necessary condition,
+    exact up to rounding): the turned point runs on a circle; its distance to ``c`` is least at the
+    circle's point nearest ``c`` if that point is inside the slab, else at an end of the arcs of
+    the circle inside the slab (where ``(x - c)·u = ±w``)."""
+    r = r + slack
+    w = w + slack
+    hp = p @ a
+    pp = p - hp[..., None] * a
+    rp = np.linalg.norm(pp, axis=-1)
+    hc = c @ a
+    cp = c - hc[..., None] * a
+    rc = np.linalg.norm(cp, axis=-1)
+    # an orthonormal basis (e1, e2) of the plane normal to a, e1 towards c where c is off the axis
+    ref = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e0 = np.cross(a, ref)
+    e0 /= np.linalg.norm(e0)
+    e1 = np.where(rc[..., None] > 0.0, cp / np.where(rc > 0.0, rc, 1.0)[..., None], e0)
+    e2 = np.cross(a, e1)
+    u1, u2 = np.sum(u * e1, axis=-1), np.sum(u * e2, axis=-1)
+    # x(phi) = hp·a + rp·(cos phi·e1 + sin phi·e2); |x - c|² = D - 2·rp·rc·cos phi
+    D = (hp - hc) ** 2 + rp * rp + rc * rc
+    # g(phi) = (x - c)·u = G0 + rp·(u1 cos phi + u2 sin phi) = G0 + Gm cos(phi - psi)
+    G0 = hp * (u @ a) - np.sum(c * u, axis=-1)
+    Gm = rp * np.hypot(u1, u2)
+    psi = np.arctan2(u2, u1)
+    best = np.where(np.abs(G0 + rp * u1) <= w, 1.0, -np.inf)  # phi = 0, the nearest point, in the slab
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for bound in (w, -w):
+            cosv = (bound - G0) / Gm
+            ok = (Gm > 0.0) & (np.abs(cosv) <= 1.0)
+            th = np.arccos(np.clip(cosv, -1.0, 1.0))
+            for sgn in (1.0, -1.0):
+                best = np.where(ok, np.maximum(best, np.cos(sgn * th + psi)), best)
+    d2 = np.where(np.isfinite(best), D - 2.0 * rp * rc * np.where(np.isfinite(best), best, 0.0), np.inf)
+    return d2 <= r * r
 
 
 def _position_filter(chain: SerialChain, p, margin):
