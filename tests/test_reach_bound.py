@@ -126,3 +126,16 @@ def test_same_map_with_less_work(name, monkeypatch):
         assert new.iterations.sum() < 0.4 * old.iterations.sum()
         exact = ikine_spherical_wrist(arm, T)[1].any(axis=-1) if name == "puma560" else ur_reachable(arm, T)
         assert np.array_equal(new.success, exact)
+
+
+def test_one_arm_and_a_batch_agree():
+    """The one-arm path (the second test only where the first passed) and the batch path agree."""
+    nodes = ws.cartesian_grid(-1, 1, 0.1)
+    T = ws.target_poses(nodes, (PI, 0, 0), "standard")
+    for name in ("puma560", "ur5e", "panda"):
+        chain = as_chain(robots.load(name))
+        one = _reach_filter(chain, T, FK_CONFIRM_TOL)
+        batch = chain.replace(fixed=chain.fixed[None], offset=chain.offset[None])
+        assert batch.batch_shape == (1,)
+        assert np.array_equal(one, _reach_filter(batch, T[:, None], FK_CONFIRM_TOL)[:, 0])
+        assert np.array_equal(one[:5], [_reach_filter(chain, t, FK_CONFIRM_TOL) for t in T[:5]])

@@ -616,9 +616,16 @@ def _reach_filter(chain: SerialChain, T, margin, wrist_orbit: bool = True):
             a0, c, r, u, w = orbit
             # the wrist point in the frame after F_0 (base folded in)
             F0 = F[..., 0, :, :] if chain.base is None else chain.base @ F[..., 0, :, :]
-            local = np.einsum("...ji,...j->...i", F0[..., :3, :3], point - F0[..., :3, 3])
             tiny = 1e-9 * (1.0 + lengths.sum(axis=-1))  # rounding of the bound's arithmetic
-            ok &= _orbit_test(a0, c, r, u, w, local, slack + tiny)
+            if chain.batch_shape == () and ok.shape == point.shape[:-1]:
+                # one arm: only the points the first test kept
+                ok = np.array(ok, dtype=bool)
+                idx = np.flatnonzero(ok)
+                local = (point.reshape(-1, 3)[idx] - F0[:3, 3]) @ F0[:3, :3]
+                ok.reshape(-1)[idx] = _orbit_test(a0, c, r, u, w, local, slack + tiny)
+            else:
+                local = np.einsum("...ji,...j->...i", F0[..., :3, :3], point - F0[..., :3, 3])
+                ok &= _orbit_test(a0, c, r, u, w, local, slack + tiny)
     return ok
 
 
