@@ -139,3 +139,17 @@ def test_one_arm_and_a_batch_agree():
         assert batch.batch_shape == (1,)
         assert np.array_equal(one, _reach_filter(batch, T[:, None], FK_CONFIRM_TOL)[:, 0])
         assert np.array_equal(one[:5], [_reach_filter(chain, t, FK_CONFIRM_TOL) for t in T[:5]])
+
+
+def test_memos_follow_the_arms_numbers():
+    """The search memoises per-arm numbers by content: equal arms share them, another arm does not."""
+    from wsmap.kinematics import ikine_search
+
+    arm = robots.puma560()
+    assert S._as_chain_memo(arm) is S._as_chain_memo(robots.puma560())
+    T = arm.fkine(np.full(6, 0.3))
+    assert ikine_search(arm, T).success
+    short = robots.spherical_wrist(a2=0.2159, a3=0.0203, d3=0.15005, d4=0.2159)
+    assert S._as_chain_memo(short) is not S._as_chain_memo(arm)
+    assert not ikine_search(short, T).success  # out of its reach
+    assert ikine_search(arm, T).success

@@ -61,6 +61,40 @@ from .chain import PRISMATIC, SerialChain, from_dh
 from .dh import DHRobot
 from .transforms import check_rigid
 
+def _content_key(*parts):
+    """A hashable key of arrays (by shape, dtype and bytes) and plain values, for the memos below."""
+    return tuple((p.shape, p.dtype.str, p.tobytes()) if isinstance(p, np.ndarray) else p for p in parts)
+
+
+class _Memo:
+    """A small least-recently-used memo of pure functions of an arm's numbers, keyed by content (so
+    an array changed in place is a new key); internal: callers must not change what it returns."""
+
+    def __init__(self, size: int = 16):
+        self.size = size
+        self.items: dict = {}
+
+    def get(self, key, make):
+        if key in self.items:
+            value = self.items.pop(key)
+        else:
+            value = make()
+            if len(self.items) >= self.size:
+                self.items.pop(next(iter(self.items)))
+        self.items[key] = value
+        return value
+
+
+_CHAINS = _Memo()
+_ORBITS = _Memo()
+_ARM_ARRAYS = _Memo()
+
+
+def _chain_key(chain: SerialChain):
+    return _content_key(chain.fixed, chain.axes, chain.kinds, np.asarray(chain.offset), chain.qlim, chain.base,
+                        chain.tool)
+
+
 __all__ = ["BACKENDS", "MAP_SETTINGS", "map_search", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DEFAULT_STARTS", "FK_CONFIRM_TOL", "SearchResult", "as_chain",
            "ikine_search"]
 
@@ -127,6 +161,17 @@ def flatten_arms(arms):
     if qlim is not None and qlim.ndim > 2:
         qlim = np.broadcast_to(qlim, arms.batch_shape + (n, 2)).reshape(-1, n, 2)
     return DHRobot(arms.d.reshape(-1, n), arms.a.reshape(-1, n), arms.alpha.reshape(-1, n), qlim=qlim, tool=arms.tool)
+
+
+def _as_chain_memo(robot) -> SerialChain:
+    """:func:`as_chain`, memoised by content for a :class:`DHRobot` (its conversion is the larger part
+    of a small call's fixed cost); the result is shared, not to be changed."""
+    if isinstance(robot, DHRobot):
+        key = _content_key("dh", np.asarray(robot.d), np.asarray(robot.a), np.asarray(robot.alpha),
+                           None if robot.qlim is None else np.asarray(robot.qlim),
+                           None if robot.tool is None else np.asarray(robot.tool), robot.name)
+        return _CHAINS.get(key, lambda: as_chain(robot))
+    return as_chain(robot)
 
 
 def _check_count(name, v, minimum):
@@ -611,7 +656,7 @@ def _reach_filter(chain: SerialChain, T, margin, wrist_orbit: bool = True):
     dist = np.linalg.norm(point - origin, axis=-1)
     ok = dist <= reach * (1.0 + 1e-12) + slack + 1e-12
     if chain.kinds[-1] != PRISMATIC and wrist_orbit and n >= 2:
-        orbit = _wrist_orbit(chain)
+        orbit = _ORBITS.get(_content_key(chain.fixed, chain.axes, chain.kinds), lambda: _wrist_orbit(chain))
         if orbit is not None:
             a0, c, r, u, w = orbit
             # the wrist point in the frame after F_0 (base folded in)
@@ -899,7 +944,7 @@ def ikine_search(
     _check_backend(backend)
     if position_only and backend != "compiled":
         raise ValueError("position_only needs the compiled backend")
-    chain = _limited(as_chain(robot), joint_limits)
+    chain = _limited(_as_chain_memo(robot), joint_limits)
     T = check_rigid("target poses", T)
     starts = _check_count("starts", starts, 1)
     ilimit = _check_count("ilimit", ilimit, 0)
@@ -929,7 +974,7 @@ def ikine_search(
         possible = _reach_filter(chain, np.broadcast_to(T, shape + (4, 4)), confirm_tol).reshape(-1)
 
     if backend == "compiled":
-        aa = arm_arrays(chain)
+        aa = _ARM_ARRAYS.get(_chain_key(chain), lambda: arm_arrays(chain))
         for s0 in range(0, count, chunk):
             todo = s0 + np.flatnonzero(possible[s0 : s0 + chunk])
             keys = _pose_keys(seed, Tf[todo])
@@ -1055,7 +1100,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     random start's index ``k`` (0 = ``q0``) that succeeded, ``-2`` where a neighbour's solution did,
     ``-1`` where none did.
     """
-    chain = _limited(as_chain(robot), joint_limits)
+    chain = _limited(_as_chain_memo(robot), joint_limits)
     T = check_rigid("target poses", T)
     if T.ndim != 3:
         raise ValueError(f"target poses must have shape (N, 4, 4), got {T.shape}")
@@ -1095,7 +1140,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
             raise ValueError(f"q_init must have shape ({N}, {n}) or ({B}, {N}, {n}), got {q_init.shape}")
         q_init = np.broadcast_to(q_init, (B, N, n)).reshape(M, n)
     keys_node = _pose_keys(seed, T)
-    aa = arm_arrays(flat)
+    aa = _ARM_ARRAYS.get(_chain_key(flat), lambda: arm_arrays(flat))
     settings = (ilimit, rlimit, tol, lam, confirm_tol, float(gtol))
 
     q = np.full((M, n), np.nan)
