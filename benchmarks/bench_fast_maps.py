@@ -29,7 +29,6 @@ Goals (issue "fast maps", 2-core machine) are printed beside the measurements.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import sys
@@ -359,10 +358,9 @@ def main(argv=None):
     if args.scaling and "4" in args.sections:
         section_scaling(args, out)
     if args.json:
-        tmp = args.json + ".tmp"
-        with open(tmp, "w") as f:
-            json.dump(out, f, indent=2)
-        os.replace(tmp, args.json)
+        from wsmap.io import write_json
+
+        write_json(out, args.json)
     return out
 
 

@@ -17,7 +17,6 @@ Every file is compared byte for byte with the single-process one. Prints arms pe
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import tempfile
@@ -68,10 +67,10 @@ def main() -> None:
             rows.append(row)
             print(row, flush=True)
     if args.json:
+        from wsmap.io import write_json
+
         os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
-        with open(args.json, "w") as f:
-            json.dump(dict(rows=rows, cpus=os.cpu_count(), load=os.getloadavg(), machine=platform.platform()), f,
-                      indent=1)
+        write_json(dict(rows=rows, cpus=os.cpu_count(), load=os.getloadavg(), machine=platform.platform()), args.json)
 
 
 if __name__ == "__main__":

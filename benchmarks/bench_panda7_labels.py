@@ -38,7 +38,6 @@ Measured (2-core machine shared with another job, OMP_NUM_THREADS=1, one numba t
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import time
 
@@ -114,10 +113,11 @@ def main() -> None:
     if args.json:
         import os
 
+        from wsmap.io import write_json
+
         os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
-        with open(args.json, "w") as f:
-            json.dump(dict(args=vars(args), rows=rows, pooled_recall=pooled, pooled_recall_95_lower=pooled_lo,
-                           machine=platform.platform(), processor=platform.processor()), f, indent=1)
+        write_json(dict(args=vars(args), rows=rows, pooled_recall=pooled, pooled_recall_95_lower=pooled_lo,
+                        machine=platform.platform(), processor=platform.processor()), args.json)
 
 
 if __name__ == "__main__":

@@ -21,7 +21,6 @@ of a UR5e, and the row a user would write today with Robotics Toolbox.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -141,10 +140,9 @@ def main(argv=None):
               f"{pi_['nodes']:,} x 50 | {r['extrapolated_seconds_whole_index']:,.0f} | | agrees with the index on "
               f"{r['agreement_with_index_bits']:.0%} of its poses |")
     if args.json:
-        tmp = args.json + ".tmp"
-        with open(tmp, "w") as f:
-            json.dump(out, f, indent=2)
-        os.replace(tmp, args.json)
+        from wsmap.io import write_json
+
+        write_json(out, args.json)
     return out
 
 

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.metadata
-import json
 import os
 import platform
 import sys
@@ -221,8 +220,9 @@ def main(argv=None):
     print(f"goal: compiled (1 thread) >= 10x EAIK (1 thread): {'met' if worst >= 10 else 'NOT met'} "
           f"(worst map {worst:.1f}x; aim 30x: {'met' if worst >= 30 else 'not met'})")
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump({"info": info, "maps": maps, "structure_check": structure}, f, indent=2)
+        from wsmap.io import write_json
+
+        write_json({"info": info, "maps": maps, "structure_check": structure}, args.json)
     return maps
 
 

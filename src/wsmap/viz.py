@@ -235,20 +235,13 @@ def plot_sections(pred, truth, shape, *, layer: int, lo=-1.0, step=0.1, z_value:
     if not 0 <= layer < vol.shape[1]:
         raise ValueError(f"layer {layer} is outside the {vol.shape[1]} z-layers")
     n = vol.shape[0]
-    ncols = max(1, min(ncols, n))
-    nrows = int(math.ceil(n / ncols))
     nx, ny = int(shape[0]), int(shape[1])
     lo = np.broadcast_to(np.asarray(lo, dtype=float), (3,))
     step = np.broadcast_to(np.asarray(step, dtype=float), (3,))
     extent = [lo[0], lo[0] + step[0] * (nx - 1), lo[1], lo[1] + step[1] * (ny - 1)]
     cmap = ListedColormap(list(OUTCOME_COLORS))
-    fig, axes = plt.subplots(nrows, ncols, figsize=(1.75 * ncols, 1.85 * nrows + 0.6), squeeze=False)
-    for i, ax in enumerate(axes.flat):
-        ax.set_xticks([])
-        ax.set_yticks([])
-        if i >= n:
-            ax.axis("off")
-            continue
+    fig, axes = _panel_grid(plt, n, ncols, (1.75, 1.85), (0.0, 0.6))
+    for i, ax in enumerate(axes):
         ax.imshow(vol[i, layer], origin="lower", cmap=cmap, vmin=0, vmax=3, extent=extent,
                   interpolation="nearest")
         if titles is not None:
@@ -393,6 +386,23 @@ def export_mesh(mesh, path) -> Path:
 # --------------------------------------------------------------------------------------------
 
 
+def _panel_grid(plt, count: int, ncols: int, panel: tuple[float, float], extra: tuple[float, float]):
+    """A figure of ``count`` panels in rows of at most ``ncols``, each ``panel`` (w, h) inches plus
+    ``extra`` (w, h) for the figure: ``(fig, axes)`` with the ``count`` panels' axes in order, every
+    panel without ticks and the spare cells of the last row switched off."""
+    ncols = max(1, min(int(ncols), count))
+    nrows = int(math.ceil(count / ncols))
+    fig, grid = plt.subplots(nrows, ncols, figsize=(panel[0] * ncols + extra[0], panel[1] * nrows + extra[1]),
+                             squeeze=False)
+    axes = list(grid.flat)
+    for k, ax in enumerate(axes):
+        ax.set_xticks([])
+        ax.set_yticks([])
+        if k >= count:
+            ax.axis("off")
+    return fig, axes[:count]
+
+
 def _axes_of(shape, lo, step):
     lo = np.broadcast_to(np.asarray(lo, dtype=float), (3,))
     step = np.broadcast_to(np.asarray(step, dtype=float), (3,))
@@ -411,9 +421,7 @@ def plot_slices(flat_map, shape, lo=-1.0, step=0.1, *, compare=None, title=None,
     vol = map_to_volume(np.asarray(flat_map, dtype=bool), shape)
     ax_x, ax_y, ax_z = _axes_of(shape, lo, step)
     nz = vol.shape[0]
-    ncols = min(ncols, nz)
-    nrows = int(np.ceil(nz / ncols))
-    fig, axes = plt.subplots(nrows, ncols, figsize=(1.9 * ncols, 2.0 * nrows + 0.4), squeeze=False)
+    fig, axes = _panel_grid(plt, nz, ncols, (1.9, 2.0), (0.0, 0.4))
     if compare is None:
         img = vol.astype(int)
         cmap = ListedColormap(["#f4f4f4", "#1f4e79"])
@@ -424,12 +432,7 @@ def plot_slices(flat_map, shape, lo=-1.0, step=0.1, *, compare=None, title=None,
         cmap = ListedColormap(["#f4f4f4", "#d62728", "#ff9f1c", "#1f4e79"])
         vmax = 3
     extent = [ax_x[0], ax_x[-1], ax_y[0], ax_y[-1]]
-    for k, ax in enumerate(axes.flat):
-        ax.set_xticks([])
-        ax.set_yticks([])
-        if k >= nz:
-            ax.axis("off")
-            continue
+    for k, ax in enumerate(axes):
         ax.imshow(img[k], origin="lower", cmap=cmap, vmin=0, vmax=vmax, extent=extent, interpolation="nearest")
         ax.set_title(f"{labels[2]} = {ax_z[k]:.2f}", fontsize=8)
     if compare is not None:
@@ -479,17 +482,10 @@ def plot_value_slices(values, shape, lo, step, *, label, vmin=None, vmax=None, t
         raise ValueError(f"the colour range must be finite with vmin <= vmax, got vmin={lo_c}, vmax={hi_c}")
     ax_x, ax_y, ax_z = _axes_of(shape, lo, step)
     nz = vol.shape[0]
-    ncols = max(1, min(int(ncols), nz))
-    nrows = int(np.ceil(nz / ncols))
-    fig, axes = plt.subplots(nrows, ncols, figsize=(1.9 * ncols + 0.9, 2.0 * nrows + 0.4), squeeze=False)
+    fig, axes = _panel_grid(plt, nz, ncols, (1.9, 2.0), (0.9, 0.4))
     extent = [ax_x[0], ax_x[-1], ax_y[0], ax_y[-1]]
     image = None
-    for k, ax in enumerate(axes.flat):
-        ax.set_xticks([])
-        ax.set_yticks([])
-        if k >= nz:
-            ax.axis("off")
-            continue
+    for k, ax in enumerate(axes):
         image = ax.imshow(vol[k], origin="lower", cmap=cmap, vmin=lo_c, vmax=hi_c, extent=extent,
                           interpolation="nearest")
         ax.set_title(f"{labels[2]} = {ax_z[k]:.2f}", fontsize=8)

@@ -306,15 +306,22 @@ def _spacing(x):
     return max(math.ldexp(1.0, ex - 53), _TINY)
 
 
+@njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
+def _g2_trace(A, g):
+    """``(gᵀg, tr A)``, summed over the joints in order (the stagnation bound and the stationary test)."""
+    n = g.shape[0]
+    g2 = g[0] * g[0]
+    tr = A[0, 0]
+    for j in range(1, n):
+        g2 = g2 + g[j] * g[j]
+        tr = tr + A[j, j]
+    return g2, tr
+
+
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def _stationary(A, g, na, gtol):
     """``|g| <= gtol·sqrt(tr A)·|e|``: the gradient ``g = Jᵀe`` vanishes relative to ``|J|_F·|e|``."""
-    n = g.shape[0]
-    g2 = 0.0
-    tr = 0.0
-    for j in range(n):
-        g2 += g[j] * g[j]
-        tr += A[j, j]
+    g2, tr = _g2_trace(A, g)
     return math.sqrt(g2) <= gtol * math.sqrt(tr) * na
 
 
@@ -398,11 +405,7 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
         elif rej > 0:
             # exact stagnation (lm_kernel._Kernel.stagnated): no later trial can move q by a bit
             mu = lam * lam
-            g2 = g[0] * g[0]
-            trace = A[0, 0]
-            for j in range(1, n):
-                g2 = g2 + g[j] * g[j]
-                trace = trace + A[j, j]
+            g2, trace = _g2_trace(A, g)
             slack = (trace / mu + 64.0 * n * _EPS) * math.sqrt(g2)
             stuck = True
             for j in range(n):

@@ -39,8 +39,10 @@ where it does. It is the numerical path of :mod:`wsmap.workspace` (maps and
   ``confirm_tol`` of the target (metres in position, radians in rotation angle). A start whose
   check fails does not count, and the next start runs.
 * **Sound pre-filter.** A target whose wrist point is farther from the base than the sum of the
-  arm's link lengths (plus ``confirm_tol`` margins) cannot be confirmed by any ``q``; it is marked
-  unreachable without running LM. It changes no result, only the time.
+  arm's link lengths (plus ``confirm_tol`` margins), or outside the set that the joints before it
+  can sweep it through (a ball cut by a slab carried back from the wrist point joint by joint,
+  then turned about joint 0: :func:`_wrist_orbit`, exact for the PUMA560), cannot be confirmed by
+  any ``q``; it is marked unreachable without running LM. It changes no result, only the time.
 * **Exact stagnation shortcut** (as in :mod:`.lm_kernel`): once λ is so large that no later step
   can move ``q`` by one bit, every later trial is rejected, so the start fails at once.
 
@@ -58,6 +60,40 @@ import numpy as np
 from .chain import PRISMATIC, SerialChain, from_dh
 from .dh import DHRobot
 from .transforms import check_rigid
+
+def _content_key(*parts):
+    """A hashable key of arrays (by shape, dtype and bytes) and plain values, for the memos below."""
+    return tuple((p.shape, p.dtype.str, p.tobytes()) if isinstance(p, np.ndarray) else p for p in parts)
+
+
+class _Memo:
+    """A small least-recently-used memo of pure functions of an arm's numbers, keyed by content (so
+    an array changed in place is a new key); internal: callers must not change what it returns."""
+
+    def __init__(self, size: int = 16):
+        self.size = size
+        self.items: dict = {}
+
+    def get(self, key, make):
+        if key in self.items:
+            value = self.items.pop(key)
+        else:
+            value = make()
+            if len(self.items) >= self.size:
+                self.items.pop(next(iter(self.items)))
+        self.items[key] = value
+        return value
+
+
+_CHAINS = _Memo()
+_ORBITS = _Memo()
+_ARM_ARRAYS = _Memo()
+
+
+def _chain_key(chain: SerialChain):
+    return _content_key(chain.fixed, chain.axes, chain.kinds, np.asarray(chain.offset), chain.qlim, chain.base,
+                        chain.tool)
+
 
 __all__ = ["BACKENDS", "MAP_SETTINGS", "map_search", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DEFAULT_STARTS", "FK_CONFIRM_TOL", "SearchResult", "as_chain",
            "ikine_search"]
@@ -109,6 +145,33 @@ def as_chain(robot) -> SerialChain:
     if isinstance(robot, DHRobot):
         return from_dh(robot.d, robot.a, robot.alpha, qlim=robot.qlim, tool=robot.tool, name=robot.name)
     raise TypeError(f"robot must be a SerialChain or a DHRobot, got {type(robot).__name__}")
+
+
+def flatten_arms(arms):
+    """A batch of arms (:class:`SerialChain` or :class:`DHRobot`, batch shape ``(...)``) as a flat
+    batch ``(B,)`` of the same arms, in C order."""
+    n = arms.n
+    if isinstance(arms, SerialChain):
+        b = arms.batch_shape
+        qlim = None if arms.qlim is None else np.broadcast_to(arms.qlim, b + (n, 2)).reshape(-1, n, 2)
+        fshape = arms.fixed.shape[-3:]
+        return arms.replace(fixed=np.broadcast_to(arms.fixed, b + fshape).reshape((-1,) + fshape),
+                            offset=np.broadcast_to(arms.offset, b + (n,)).reshape(-1, n), qlim=qlim)
+    qlim = arms.qlim
+    if qlim is not None and qlim.ndim > 2:
+        qlim = np.broadcast_to(qlim, arms.batch_shape + (n, 2)).reshape(-1, n, 2)
+    return DHRobot(arms.d.reshape(-1, n), arms.a.reshape(-1, n), arms.alpha.reshape(-1, n), qlim=qlim, tool=arms.tool)
+
+
+def _as_chain_memo(robot) -> SerialChain:
+    """:func:`as_chain`, memoised by content for a :class:`DHRobot` (its conversion is the larger part
+    of a small call's fixed cost); the result is shared, not to be changed."""
+    if isinstance(robot, DHRobot):
+        key = _content_key("dh", np.asarray(robot.d), np.asarray(robot.a), np.asarray(robot.alpha),
+                           None if robot.qlim is None else np.asarray(robot.qlim),
+                           None if robot.tool is None else np.asarray(robot.tool), robot.name)
+        return _CHAINS.get(key, lambda: as_chain(robot))
+    return as_chain(robot)
 
 
 def _check_count(name, v, minimum):
@@ -164,6 +227,20 @@ def _check_seed(seed):
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
         raise ValueError(f"seed must be a non-negative integer (or None for a random one), got {seed!r}")
     return int(seed)
+
+
+def _check_settings(chain: SerialChain, tol, lam, confirm_tol, seed, q0):
+    """The checks :func:`ikine_search` and :func:`map_search` share: ``tol``, ``lam`` and
+    ``confirm_tol`` positive and finite with ``confirm_tol >= tol``; returns ``(seed, q0)`` checked
+    (``q0`` default zeros, shape ``(..., n)``)."""
+    for label, v in (("tol", tol), ("lam", lam), ("confirm_tol", confirm_tol)):
+        if isinstance(v, bool) or not (np.isscalar(v) and np.isreal(v) and v > 0 and np.isfinite(v)):
+            raise ValueError(f"{label} must be positive and finite, got {v!r}")
+    if confirm_tol < tol:
+        raise ValueError(f"confirm_tol ({confirm_tol}) must be at least tol ({tol})")
+    seed = _check_seed(seed)
+    q0 = np.zeros(chain.n) if q0 is None else chain._check_q(q0)
+    return seed, q0
 
 
 def _limited(chain: SerialChain, joint_limits: bool) -> SerialChain:
@@ -541,7 +618,7 @@ def _confirm(chain: SerialChain, q, T, atol):
     return (dp <= atol) & (ang <= atol) & chain.within_limits(q)
 
 
-def _reach_filter(chain: SerialChain, T, margin):
+def _reach_filter(chain: SerialChain, T, margin, wrist_orbit: bool = True):
     """A sound test (…,) bool: False where no configuration puts the tool within ``margin`` of ``T``.
 
     If the last joint is revolute, the origin of its frame (the "wrist point") is fixed by the tool
@@ -551,6 +628,10 @@ def _reach_filter(chain: SerialChain, T, margin):
     Otherwise the tool origin itself is bounded by the lengths of the later fixed transforms and the
     tool. A pose within ``margin`` in position and
     rotation angle of a reachable one moves the wrist point by at most ``margin·(1 + |t(G)|)``.
+
+    ``wrist_orbit`` (arms of revolute joints): also the wrist point's orbit about joint 0 must meet
+    the set the joints ``1 .. n-2`` sweep it through (:func:`_wrist_orbit`, :func:`_orbit_test`);
+    for the PUMA560 at a fixed orientation this leaves exactly the reachable poses.
     """
     n = chain.n
     F = chain.fixed
@@ -573,9 +654,106 @@ def _reach_filter(chain: SerialChain, T, margin):
         point = T[..., :3, 3]
         reach = lengths.sum(axis=-1) + stroke + (0.0 if chain.tool is None else np.linalg.norm(chain.tool[:3, 3]))
         slack = margin
-    centre, along = _first_axis_point(chain)
+    centre, used = _first_axis_point(chain)
     dist = np.linalg.norm(point - centre, axis=-1)
-    return dist <= (reach - along) * (1.0 + 1e-12) + slack + 1e-12
+    ok = dist <= (reach - used) * (1.0 + 1e-12) + slack + 1e-12
+    if chain.kinds[-1] != PRISMATIC and wrist_orbit and n >= 2:
+        orbit = _ORBITS.get(_content_key(chain.fixed, chain.axes, chain.kinds), lambda: _wrist_orbit(chain))
+        if orbit is not None:
+            a0, c, r, u, w = orbit
+            # the wrist point in the frame after F_0 (base folded in)
+            F0 = F[..., 0, :, :] if chain.base is None else chain.base @ F[..., 0, :, :]
+            tiny = 1e-9 * (1.0 + lengths.sum(axis=-1))  # rounding of the bound's arithmetic
+            if chain.batch_shape == () and ok.shape == point.shape[:-1]:
+                # one arm: only the points the first test kept
+                ok = np.array(ok, dtype=bool)
+                idx = np.flatnonzero(ok)
+                local = (point.reshape(-1, 3)[idx] - F0[:3, 3]) @ F0[:3, :3]
+                ok.reshape(-1)[idx] = _orbit_test(a0, c, r, u, w, local, slack + tiny)
+            else:
+                local = np.einsum("...ji,...j->...i", F0[..., :3, :3], point - F0[..., :3, 3])
+                ok &= _orbit_test(a0, c, r, u, w, local, slack + tiny)
+    return ok
+
+
+def _wrist_orbit(chain: SerialChain):
+    """A bound, per arm, of where the wrist point (the origin of the frame after ``F_{n-1}``) can be,
+    in the frame after ``F_0`` (base folded in) before joint 0 turns it: joint 0 turns it about
+    ``a0`` (3,) within ``{x : |x - c| <= r, |(x - c)·u| <= w}`` (a ball cut by a slab).
+
+    Built from the wrist point back (joints ``n-2 .. 1``, their limits ignored, so a superset): a
+    fixed transform moves the set rigidly; a revolute joint turning a ball ∩ slab ``(c, r, u, w)``
+    about its axis ``a`` (through the origin) sweeps a set inside the ball about ``(c·a) a`` of radius
+    ``ρ + r`` (``ρ`` the distance of ``c`` from the axis) cut by the slab normal to ``a`` of half-width
+    ``e = min(r, min(w, r)·|u·a| + r·sqrt(1 - (u·a)²))`` (the set's extent along ``a``, unchanged by
+    the turn). Returns ``(a0, c, r, u, w)`` with batch shapes ``(..., 3)`` and ``(...)``, or None
+    for an arm with a prismatic joint.
+    """
+    if any(k == PRISMATIC for k in chain.kinds):
+        return None
+    n = chain.n
+    F = np.array(chain.fixed, dtype=np.float64)
+    batch = F.shape[:-3]
+    c = np.zeros(batch + (3,))
+    u = np.zeros(batch + (3,))
+    u[..., 2] = 1.0
+    r = np.zeros(batch)
+    w = np.zeros(batch)
+    for k in range(n - 1, 0, -1):
+        # through F_k into the frame after joint k-1, then joint k-1's turn (for k >= 2)
+        R, t = F[..., k, :3, :3], F[..., k, :3, 3]
+        c = t + np.einsum("...ij,...j->...i", R, c)
+        u = np.einsum("...ij,...j->...i", R, u)
+        if k == 1:
+            break
+        a = chain.axes[k - 1]
+        h = c @ a
+        rho = np.linalg.norm(c - h[..., None] * a, axis=-1)
+        ua = np.clip(np.abs(u @ a), 0.0, 1.0)
+        e = np.minimum(r, np.minimum(w, r) * ua + r * np.sqrt(1.0 - ua * ua))
+        c = h[..., None] * a
+        u = np.broadcast_to(a, c.shape).copy()
+        r, w = rho + r, e
+    return chain.axes[0], c, r, u, w
+
+
+def _orbit_test(a, c, r, u, w, p, slack):
+    """Whether some turn of the points ``p`` (..., 3) about the axis ``a`` (through the origin) puts
+    them within ``slack`` of the set ``{x : |x - c| <= r, |(x - c)·u| <= w}`` (a necessary condition,
+    exact up to rounding): the turned point runs on a circle; its distance to ``c`` is least at the
+    circle's point nearest ``c`` if that point is inside the slab, else at an end of the arcs of
+    the circle inside the slab (where ``(x - c)·u = ±w``)."""
+    r = r + slack
+    w = w + slack
+    hp = p @ a
+    pp = p - hp[..., None] * a
+    rp = np.linalg.norm(pp, axis=-1)
+    hc = c @ a
+    cp = c - hc[..., None] * a
+    rc = np.linalg.norm(cp, axis=-1)
+    # an orthonormal basis (e1, e2) of the plane normal to a, e1 towards c where c is off the axis
+    ref = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e0 = np.cross(a, ref)
+    e0 /= np.linalg.norm(e0)
+    e1 = np.where(rc[..., None] > 0.0, cp / np.where(rc > 0.0, rc, 1.0)[..., None], e0)
+    e2 = np.cross(a, e1)
+    u1, u2 = np.sum(u * e1, axis=-1), np.sum(u * e2, axis=-1)
+    # x(phi) = hp·a + rp·(cos phi·e1 + sin phi·e2); |x - c|² = D - 2·rp·rc·cos phi
+    D = (hp - hc) ** 2 + rp * rp + rc * rc
+    # g(phi) = (x - c)·u = G0 + rp·(u1 cos phi + u2 sin phi) = G0 + Gm cos(phi - psi)
+    G0 = hp * (u @ a) - np.sum(c * u, axis=-1)
+    Gm = rp * np.hypot(u1, u2)
+    psi = np.arctan2(u2, u1)
+    best = np.where(np.abs(G0 + rp * u1) <= w, 1.0, -np.inf)  # phi = 0, the nearest point, in the slab
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for bound in (w, -w):
+            cosv = (bound - G0) / Gm
+            ok = (Gm > 0.0) & (np.abs(cosv) <= 1.0)
+            th = np.arccos(np.clip(cosv, -1.0, 1.0))
+            for sgn in (1.0, -1.0):
+                best = np.where(ok, np.maximum(best, np.cos(sgn * th + psi)), best)
+    d2 = np.where(np.isfinite(best), D - 2.0 * rp * rc * np.where(np.isfinite(best), best, 0.0), np.inf)
+    return d2 <= r * r
 
 
 def _first_axis_point(chain: SerialChain) -> tuple[np.ndarray, np.ndarray]:
@@ -791,20 +969,14 @@ def ikine_search(
     _check_backend(backend)
     if position_only and backend != "compiled":
         raise ValueError("position_only needs the compiled backend")
-    chain = _limited(as_chain(robot), joint_limits)
+    chain = _limited(_as_chain_memo(robot), joint_limits)
     T = check_rigid("target poses", T)
     starts = _check_count("starts", starts, 1)
     ilimit = _check_count("ilimit", ilimit, 0)
     rlimit = _check_count("rlimit", rlimit, 0)
     chunk = _check_count("chunk", chunk, 1)
-    for label, v in (("tol", tol), ("lam", lam), ("confirm_tol", confirm_tol)):
-        if isinstance(v, bool) or not (np.isscalar(v) and np.isreal(v) and v > 0 and np.isfinite(v)):
-            raise ValueError(f"{label} must be positive and finite, got {v!r}")
-    if confirm_tol < tol:
-        raise ValueError(f"confirm_tol ({confirm_tol}) must be at least tol ({tol})")
-    seed = _check_seed(seed)
+    seed, q0 = _check_settings(chain, tol, lam, confirm_tol, seed, q0)
     n = chain.n
-    q0 = np.zeros(n) if q0 is None else chain._check_q(q0)
     batch = chain.batch_shape
     shape = np.broadcast_shapes(T.shape[:-2], batch, q0.shape[:-1])
     count = int(np.prod(shape, dtype=np.int64))
@@ -827,7 +999,7 @@ def ikine_search(
         possible = _reach_filter(chain, np.broadcast_to(T, shape + (4, 4)), confirm_tol).reshape(-1)
 
     if backend == "compiled":
-        aa = arm_arrays(chain)
+        aa = _ARM_ARRAYS.get(_chain_key(chain), lambda: arm_arrays(chain))
         for s0 in range(0, count, chunk):
             todo = s0 + np.flatnonzero(possible[s0 : s0 + chunk])
             keys = _pose_keys(seed, Tf[todo])
@@ -953,7 +1125,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     random start's index ``k`` (0 = ``q0``) that succeeded, ``-2`` where a neighbour's solution did,
     ``-1`` where none did.
     """
-    chain = _limited(as_chain(robot), joint_limits)
+    chain = _limited(_as_chain_memo(robot), joint_limits)
     T = check_rigid("target poses", T)
     if T.ndim != 3:
         raise ValueError(f"target poses must have shape (N, 4, 4), got {T.shape}")
@@ -969,22 +1141,13 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     hole_retry = _check_count("hole_retry", hole_retry, 0)
     ilimit = _check_count("ilimit", ilimit, 0)
     rlimit = _check_count("rlimit", rlimit, 0)
-    for label, v in (("tol", tol), ("lam", lam), ("confirm_tol", confirm_tol)):
-        if isinstance(v, bool) or not (np.isscalar(v) and np.isreal(v) and v > 0 and np.isfinite(v)):
-            raise ValueError(f"{label} must be positive and finite, got {v!r}")
-    if confirm_tol < tol:
-        raise ValueError(f"confirm_tol ({confirm_tol}) must be at least tol ({tol})")
-    seed = _check_seed(seed)
+    seed, q0 = _check_settings(chain, tol, lam, confirm_tol, seed, q0)
     n = chain.n
-    q0 = np.zeros(n) if q0 is None else chain._check_q(q0)
     if q0.shape != (n,):
         raise ValueError(f"q0 must have shape ({n},) for a map, got {q0.shape}")
     batch = chain.batch_shape
     B = int(np.prod(batch, dtype=np.int64))
-    flat = chain if not batch else chain.replace(
-        fixed=np.broadcast_to(chain.fixed, batch + chain.fixed.shape[-3:]).reshape((B,) + chain.fixed.shape[-3:]),
-        offset=np.broadcast_to(chain.offset, batch + (n,)).reshape(B, n),
-        qlim=None if chain.qlim is None else np.broadcast_to(chain.qlim, batch + (n, 2)).reshape(B, n, 2))
+    flat = chain if not batch else flatten_arms(chain)
     M = B * N
     arm_of = np.repeat(np.arange(B), N)
     node_of = np.tile(np.arange(N), B)
@@ -1002,7 +1165,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
             raise ValueError(f"q_init must have shape ({N}, {n}) or ({B}, {N}, {n}), got {q_init.shape}")
         q_init = np.broadcast_to(q_init, (B, N, n)).reshape(M, n)
     keys_node = _pose_keys(seed, T)
-    aa = arm_arrays(flat)
+    aa = _ARM_ARRAYS.get(_chain_key(flat), lambda: arm_arrays(flat))
     settings = (ilimit, rlimit, tol, lam, confirm_tol, float(gtol))
 
     q = np.full((M, n), np.nan)

@@ -7,6 +7,7 @@ reshapes to a volume of shape ``(nz, ny, nx)`` (see :func:`map_to_volume`).
 
 from __future__ import annotations
 
+import functools
 import os
 
 import numpy as np
@@ -192,7 +193,12 @@ def _grid_shape(nodes):
 
 def _grid_neighbours(shape):
     """The 6 face then the 12 edge neighbours of every node of a whole grid, each column one offset
-    (-1 where it falls off the grid)."""
+    (-1 where it falls off the grid); a fresh copy of a cached table (it depends only on the shape)."""
+    return _grid_neighbours_cached(tuple(int(v) for v in shape)).copy()
+
+
+@functools.lru_cache(maxsize=8)
+def _grid_neighbours_cached(shape):
     nx, ny, nz = shape
     N = nx * ny * nz
     idx = np.arange(N)

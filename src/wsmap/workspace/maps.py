@@ -29,7 +29,7 @@ from ..kinematics import (
     rpy2r,
     wrist_centre_reachable,
 )
-from ..kinematics.search import DEFAULT_STARTS, MAP_SETTINGS, ikine_search, map_search
+from ..kinematics.search import DEFAULT_STARTS, MAP_SETTINGS, flatten_arms, ikine_search, map_search
 from .grids import _check_fits, _triple, cartesian_grid, grid_axes, node_neighbours
 
 __all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP_SETTINGS", "target_poses",
@@ -125,9 +125,17 @@ def _numerical_settings(ik: dict) -> tuple[str, dict]:
             raise ValueError(f"the paper's solver has one start (q0), got starts={starts!r}; use solver 'search'")
         ik.pop("seed", None)
     elif solver == "search":
-        ik.pop("chunk", None)
-        ik = {**MAP_SETTINGS, **ik}
+        ik = _search_settings(ik, drop=("chunk",))
     return solver, ik
+
+
+def _search_settings(ik, base=MAP_SETTINGS, drop=("solver", "chunk", "progress")) -> dict:
+    """:func:`map_search`'s keyword arguments: ``base`` updated with ``ik``, without the keys in
+    ``drop`` (the other solvers' settings, or ones the caller passes itself)."""
+    settings = {**base, **(ik or {})}
+    for key in drop:
+        settings.pop(key, None)
+    return settings
 
 
 def closed_form_family(robot) -> str | None:
@@ -188,7 +196,7 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
     if solver == "paper" and not isinstance(arms, DHRobot):
         raise ValueError("the paper's solver (ikine_LM) is for DHRobot arms; use solver 'search'")
     nb = node_neighbours(space) if solver == "search" else None
-    flat = arms if batch == () else _flatten(arms)
+    flat = arms if batch == () else flatten_arms(arms)
     out = np.empty((max(B, 1), N), dtype=bool)
     per_chunk = max(1, chunk_elements // max(N, 1))
     for s in range(0, max(B, 1), per_chunk):
@@ -207,20 +215,6 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
         if progress is not None:
             progress(out[s : s + per_chunk].size)
     return out.reshape(batch + (N,)), method
-
-
-def _flatten(arms):
-    n = arms.n
-    if isinstance(arms, SerialChain):
-        b = arms.batch_shape
-        qlim = None if arms.qlim is None else np.broadcast_to(arms.qlim, b + (n, 2)).reshape(-1, n, 2)
-        fshape = arms.fixed.shape[-3:]
-        return arms.replace(fixed=np.broadcast_to(arms.fixed, b + fshape).reshape((-1,) + fshape),
-                            offset=np.broadcast_to(arms.offset, b + (n,)).reshape(-1, n), qlim=qlim)
-    qlim = arms.qlim
-    if qlim is not None and qlim.ndim > 2:
-        qlim = np.broadcast_to(qlim, arms.batch_shape + (n, 2)).reshape(-1, n, 2)
-    return DHRobot(arms.d.reshape(-1, n), arms.a.reshape(-1, n), arms.alpha.reshape(-1, n), qlim=qlim, tool=arms.tool)
 
 
 def _check_nodes(name, nodes):

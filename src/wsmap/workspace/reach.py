@@ -28,7 +28,8 @@ import numpy as np
 from ..kinematics import DHRobot, SerialChain, ikine_spherical_wrist, ikine_ur, map_search, require_spherical_wrist
 from ..kinematics.search import MAP_SETTINGS, as_chain
 from .grids import _check_fits, node_neighbours
-from .maps import _check_choice, _check_nodes, _exact, closed_form_family, resolve_method, target_poses
+from .maps import (_check_choice, _check_nodes, _exact, _search_settings, closed_form_family, resolve_method,
+                   target_poses)
 from .orientations import check_rotations, continuation_order
 
 __all__ = ["INDEX_SETTINGS", "position_map", "reachability_index", "dexterous_map", "manipulability_map",
@@ -46,13 +47,6 @@ def _check_arm(robot):
 #: The index's search: the maps' settings with 2 retries instead of 4 (Panda, 10 cm, 50 orientations:
 #: recall 0.9991 against 64 independent starts per pose on a sample, 25 % less time than 4 retries).
 INDEX_SETTINGS = {**MAP_SETTINGS, "retry": 2}
-
-
-def _search_settings(ik, base=MAP_SETTINGS):
-    settings = {**base, **(ik or {})}
-    for key in ("solver", "chunk", "progress"):
-        settings.pop(key, None)
-    return settings
 
 
 def _subset_neighbours(nb, keep):
