@@ -18,6 +18,7 @@ SMOKE = paths.ROOT / "params.smoke.yaml"
 NOTEBOOK_DEPS = {
     "report": ["classical_workspace", "sec61_subspace", "sec62_puma560", "table1_workspaces",
                "table2_optimisers", "table3_embeddings", "runtime_comparison", "improved_model"],
+    "learned_maps": ["improved_model"],
 }
 
 

@@ -50,7 +50,7 @@ def run_notebook(name: str, params_file=None, root=None, timeout: int | None = 3
 
 #: The notebooks in dependency order (as dvc.yaml runs them): report reads every other's metrics.
 ORDER = ["classical_workspace", "sec61_subspace", "sec62_puma560", "table1_workspaces", "table2_optimisers",
-         "table3_embeddings", "runtime_comparison", "improved_model", "real_arms", "report"]
+         "table3_embeddings", "runtime_comparison", "improved_model", "real_arms", "learned_maps", "report"]
 
 
 def build_datasets(params_file, data_dir, *, rebuild: bool = False):
