@@ -1,0 +1,50 @@
+"""Is the 0.5 threshold why a paper-scale row falls short of the paper? Scores the models that
+``wsmap paper full`` saved (``results/full/models/<part>/session_0.pt``) on their test sets
+(``data/full/<part>.test.npz``) at 0.5 and at the best threshold of the test set itself (an upper
+bound on what any threshold can give), and prints the false negatives' scores.
+
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/paper_scale_thresholds.py table1_r3_step1 table1_r3_step05 table1_so3_pi3
+"""
+
+from __future__ import annotations
+
+import argparse
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("parts", nargs="+", help="wsmap paper full parts (Table 1 rows)")
+    p.add_argument("--json", help="write the rows here")
+    args = p.parse_args()
+
+    import numpy as np
+    import torch
+
+    from wsmap import datasets as D
+    from wsmap import metrics as M
+    from wsmap import models, paths
+    from wsmap.io import write_json
+
+    torch.set_num_threads(1)
+    rows = []
+    print("| part | F at 0.5 | best threshold | F there | false negatives (their highest scores) | false positives |")
+    print("|---|---:|---:|---:|---|---:|")
+    for part in args.parts:
+        model, _ = models.load(paths.ROOT / "results" / "full" / "models" / part / "session_0.pt")
+        test = D.load_dataset(paths.ROOT / "data" / "full" / f"{part}.test.npz")
+        s = model.score(test.features, key=0).cpu().numpy()
+        t = test.labels
+        f05 = M.precision_recall_f(s > 0.5, t).f
+        thr, fbest = M.best_threshold(s, t)
+        fn = np.sort(s[t & (s <= 0.5)])
+        fp = int(((s > 0.5) & ~t).sum())
+        rows.append(dict(part=part, f_at_05=f05, best_threshold=thr, f_best=fbest, false_negatives=int(fn.size),
+                         highest_fn_scores=fn[-4:].tolist(), false_positives=fp))
+        print(f"| {part} | {f05:.4f} | {thr:.3f} | {fbest:.4f} | {fn.size} ({', '.join(f'{v:.3f}' for v in fn[-4:])}) | {fp} |")
+    if args.json:
+        write_json(rows, args.json)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
