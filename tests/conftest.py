@@ -17,7 +17,7 @@ SMOKE = paths.ROOT / "params.smoke.yaml"
 #: Notebooks that read what another notebook wrote (mirrors the deps in dvc.yaml).
 NOTEBOOK_DEPS = {
     "report": ["classical_workspace", "sec61_subspace", "sec62_puma560", "table1_workspaces",
-               "table2_optimisers", "table3_embeddings", "runtime_comparison", "improved_model"],
+               "table2_optimisers", "table3_embeddings", "runtime_comparison", "improved_model", "learned_maps"],
     "learned_maps": ["improved_model"],
 }
 

@@ -194,6 +194,12 @@ COMPARISONS: list[tuple[str, str, str, str, str | None, str]] = [
     ("Beyond the paper", "improved model, PUMA560 predicted vs exact, F", "improved_model", "puma560_f", None, ""),
     ("Beyond the paper", "improved model, one 9261-node map (s)", "improved_model", "seconds_per_map",
      "network_time_9261", ""),
+    ("Beyond the paper", "panda7 map model (7-DOF, joint limits), F on held-out arms", "learned_maps", "panda7.f",
+     None, "the committed run's reduced model; the headline model is in the README"),
+    ("Beyond the paper", "panda7 map model, one map against the numerical map (speed-up)", "learned_maps",
+     "panda7.speed.speedup", None, "one thread each"),
+    ("Beyond the paper", "spherical-wrist manipulability model, R² on held-out arms", "learned_maps",
+     "manipulability.r2", None, "the paper's future work"),
 ]
 
 
