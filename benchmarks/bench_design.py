@@ -25,6 +25,10 @@ one thread (torch and the compiled IK)::
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_design.py --json bench/design.json
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_design.py --model models/panda7_map.pt
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_design.py --model models/panda7_map.pt --tasks region
+
+With ``--tasks region`` the tasks are every point of the box on a ``--task-step`` grid (125 at the
+defaults): a region to cover, where each classical call solves IK at every one of them.
 """
 
 from __future__ import annotations
@@ -58,6 +62,10 @@ def main(argv=None):
     ap.add_argument("--panda7-centre", type=float, nargs=3, default=(0.5, 0.0, 0.2),
                     help="box centre, m (its bottom face on the table plane z = 0 of the base)")
     ap.add_argument("--size", type=float, default=0.4, help="box edge, m")
+    ap.add_argument("--tasks", choices=("box", "region"), default="box",
+                    help="box: the 8 corners and 12 edge midpoints; region: every point of the box on a grid of "
+                         "--task-step (a region to cover: many tasks, so every classical call costs more)")
+    ap.add_argument("--task-step", type=float, default=0.1, help="grid step of --tasks region, m")
     ap.add_argument("--length-tol", type=float, default=0.02, help="relative length goal of the searches")
     ap.add_argument("--max-calls", type=int, default=3000, help="classical calls (arms) per search")
     ap.add_argument("--max-seconds", type=float, default=120.0, help="seconds per search")
@@ -76,10 +84,19 @@ def main(argv=None):
     out = {"info": {"python": sys.version.split()[0], "torch": torch.__version__, "cpus": os.cpu_count(),
                     "load_average_at_start": os.getloadavg(), "command": " ".join(sys.argv),
                     "threads": 1, "length_tol": args.length_tol, "max_calls": args.max_calls,
-                    "max_seconds": args.max_seconds, "seed": args.seed, "box_size_m": args.size}}
+                    "max_seconds": args.max_seconds, "seed": args.seed, "box_size_m": args.size,
+                    "tasks": args.tasks, "task_step_m": args.task_step}}
+
+    def make_tasks(centre):
+        if args.tasks == "box":
+            return design.box_tasks(centre, args.size)
+        k = int(round(args.size / args.task_step))
+        axis = np.linspace(-args.size / 2, args.size / 2, k + 1)
+        grid = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 3)
+        return np.asarray(centre, dtype=float) + grid
 
     def study(name, family, centre, model_path, methods):
-        tasks = design.box_tasks(centre, args.size)
+        tasks = make_tasks(centre)
         model = None
         if model_path is not None:
             model, _ = learn.load(model_path)
