@@ -43,3 +43,20 @@ def smoke_notebook(smoke_root):
         return paths.Outputs(smoke_root)
 
     return run
+
+
+@pytest.fixture(scope="module")
+def one_thread():
+    """The compiled IK kernels and torch on one thread for a module (``pytestmark =
+    pytest.mark.usefixtures("one_thread")``), restored after: a second thread is pure overhead on
+    the small calls of the tests, and results must not depend on it."""
+    import torch
+
+    from wsmap.kinematics import lm_compiled
+
+    kernels, nets = lm_compiled.threads(), torch.get_num_threads()
+    lm_compiled.set_threads(1)
+    torch.set_num_threads(1)
+    yield
+    lm_compiled.set_threads(kernels)
+    torch.set_num_threads(nets)

@@ -12,18 +12,13 @@ from wsmap import datasets as D
 from wsmap import robots
 from wsmap import workspace as ws
 from wsmap.cli import main
-from wsmap.kinematics import SerialChain, lm_compiled
+from wsmap.kinematics import SerialChain
 from wsmap.paper.specs import DATASET_SPECS, EXTENSION_SPECS, PAPER_SPECS, PANDA7_TOOLDOWN, dataset_spec
 
 NOMINAL = np.array([0.333, 0.316, 0.384, 0.0825, -0.0825, 0.088])  # d1, d3, d5, a4, a5, a7 (m)
 
 
-@pytest.fixture(autouse=True, scope="module")
-def one_thread():
-    previous = lm_compiled.threads()
-    lm_compiled.set_threads(1)
-    yield
-    lm_compiled.set_threads(previous)
+pytestmark = pytest.mark.usefixtures("one_thread")  # tests/conftest.py
 
 
 def _fk_at_zero_by_hand(s):

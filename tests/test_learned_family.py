@@ -5,7 +5,6 @@ import re
 
 import numpy as np
 import pytest
-import torch
 
 from wsmap import data as D
 from wsmap import datasets as DS
@@ -15,12 +14,7 @@ from wsmap.learn.training_range import ExtrapolationError
 from wsmap.paper.specs import PANDA7_TOOLDOWN, PAPER_SPECS
 
 
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
+pytestmark = pytest.mark.usefixtures("one_thread")  # tests/conftest.py
 
 
 # ------------------------------------------------------------------ the recipe learns (exact labels)

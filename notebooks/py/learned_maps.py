@@ -129,7 +129,7 @@ print(f"{len(p_train)} training arms, {int(np.max(mresult.stop_epoch))} epochs: 
       f"MAE {mm['mae']:.5f} m³; on reachable nodes R² {mm['r2_reachable']:.4f}")
 g = LM.manipulability_grid()
 puma = robots.puma560()
-shape = (round((g["hi"] - g["lo"]) / g["step"]) + 1,) * 3
+shape = ws.grid_spec("R3", g["lo"], g["hi"], g["step"])["shape"]
 exact_puma = LM.manipulability_targets(puma)
 for what, values in (("predicted", LM.predict_manipulability(mmodel, puma)), ("exact", exact_puma)):
     fig = plot_value_slices(values, shape, g["lo"], g["step"], label="manipulability (m³)", vmin=0.0,
