@@ -68,8 +68,7 @@ def main() -> int:
         print(f"{t} thread(s): model {s['model_s'] * 1e3:.3f} ms/map (min {s['model_min_s'] * 1e3:.3f}), numerical "
               f"map {s['classical_s']:.3f} s/map: {s['speedup']:.0f}x", flush=True)
     curve = LF.learning_curve(train_all, test, args.curve, recipe) if args.curve else []
-    curve.append(dict(train_arms=len(train), f=ev["f"], precision=ev["precision"], recall=ev["recall"],
-                      f_mean=ev["f_mean"], seconds=train_s, epochs=int(result.stop_epoch)))
+    curve.append(LF.curve_row(len(train), ev, train_s, result.stop_epoch))
     curve.sort(key=lambda r: r["train_arms"])
 
     s1 = speed[1]

@@ -19,6 +19,18 @@ def _restore_threads():
     lm_compiled.set_threads(before)
 
 
+def test_sincos_within_two_ulp_of_libm():
+    rng = np.random.default_rng(0)
+    x = np.concatenate([rng.uniform(-4, 4, 4000), rng.uniform(-1e5, 1e5, 2000), rng.uniform(-1e7, 1e7, 200),
+                        np.arange(-8, 9) * PI / 4, [0.0, -0.0, 1e-300, 5e-324, 1e5, -1e5, 1e300]])
+    got = np.array([lm_compiled._sincos(v) for v in x])
+    for k, ref in enumerate((np.sin(x), np.cos(x))):
+        # within 2 ulp of the result, or of 1 where the result is near zero (sin(pi): 1.2e-16)
+        gap = np.maximum(np.spacing(np.abs(ref)), np.spacing(1.0) * (np.abs(x) < 1e5))
+        assert (np.abs(got[:, k] - ref) <= 2 * gap).all()
+    assert np.isnan([lm_compiled._sincos(v) for v in (np.nan, np.inf, -np.inf)]).all()
+
+
 @pytest.mark.parametrize("name, lim, rpy", [("puma560", True, (0, 0, 0)), ("ur5e", None, (PI, 0, 0)),
                                             ("panda", None, (PI, 0, 0)), ("gen3", None, (0.3, -0.2, 0.5))])
 def test_compiled_search_equals_the_numpy_kernel(name, lim, rpy):

@@ -22,7 +22,6 @@ params_file = None  # papermill passes the chosen params file; None: params.yaml
 output_root = None
 
 # %%
-import numpy as np
 import torch
 
 from wsmap import data as D
@@ -31,6 +30,7 @@ from wsmap import models, paths, robots, timing
 from wsmap.io import write_json
 from wsmap.kinematics import arm_batch
 from wsmap.learn.device import resolve_device
+from wsmap.learn.family import varying_columns
 from wsmap.paper import fitting as E
 from wsmap.paper.published import PAPER_TABLE1, RUNTIME_SECONDS, SEC61
 from wsmap.training import TrainConfig
@@ -45,8 +45,7 @@ train = train_all.head(cfg["train_samples"])
 names = train.feature_names
 # The inputs: the feature columns that vary across the family (for sec62 the free DH parameters
 # d_3, d_4, a_2, a_3); the other columns are the same for every arm and carry no information.
-# (peak-to-peak, not std: the std of a constant float column can come out as 1e-17, not 0)
-columns = [int(c) for c in np.flatnonzero(np.ptp(train.features, axis=0) > 1e-9)]
+columns = varying_columns(train.features)
 print(f"{len(train)} training arms, {len(test)} test arms, {train.n_nodes} nodes; "
       f"inputs {[names[c] for c in columns]}")
 

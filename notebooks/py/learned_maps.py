@@ -63,8 +63,7 @@ model_path = models.save(model, out.models / "panda7_map.pt", dataset_spec=spec,
 
 # %%
 curve = LF.learning_curve(train, test, [n for n in p7["curve"] if n < len(train)], recipe)
-curve.append(dict(train_arms=len(train), f=ev["f"], precision=ev["precision"], recall=ev["recall"],
-                  f_mean=ev["f_mean"], seconds=float(history["time"].iloc[-1]), epochs=int(result.stop_epoch)))
+curve.append(LF.curve_row(len(train), ev, history["time"].iloc[-1], result.stop_epoch))
 curve = pd.DataFrame(curve).sort_values("train_arms")
 write_table(curve, out.tables / "learned_maps_panda7_curve")
 

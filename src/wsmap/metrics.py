@@ -41,6 +41,7 @@ __all__ = [
     "threshold_sweep",
     "best_threshold",
     "error_histogram",
+    "score_maps",
 ]
 
 
@@ -223,6 +224,22 @@ def precision_recall_f(pred, truth, average: str = "micro", *, zero_division="na
 # --------------------------------------------------------------------------------------------
 # Threshold sweep
 # --------------------------------------------------------------------------------------------
+
+
+def score_maps(pred, truth) -> dict[str, Any]:
+    """Precision, recall and F of predicted maps against labels, both bool ``(n, N)``: pooled over
+    every arm and node (``precision``, ``recall``, ``f``: the paper's F-measure) and per arm
+    (``f_mean``, ``f_std`` over arms whose F is defined; ``f_undefined`` the others;
+    ``f_per_sample``), with the confusion counts (``tp``, ``fp``, ``fn``) and the share of nodes
+    that differ (``node_error``)."""
+    micro = precision_recall_f(pred, truth, "micro")
+    per = precision_recall_f(pred, truth, "samples")
+    c = confusion(pred, truth)
+    pred = np.asarray(pred)
+    return dict(precision=micro.precision, recall=micro.recall, f=micro.f, f_mean=per.f, f_std=per.f_std,
+                f_undefined=per.undefined_f, f_per_sample=per.per_sample["f"], tp=int(c.tp), fp=int(c.fp),
+                fn=int(c.fn), node_error=float((c.fp + c.fn) / pred.size), samples=int(pred.shape[0]),
+                nodes=int(pred.shape[1]))
 
 
 def _scores(scores, name="scores") -> np.ndarray:

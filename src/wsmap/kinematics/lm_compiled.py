@@ -4,8 +4,8 @@ One compiled loop per target, the targets spread over threads. It runs the same 
 numpy kernels it replaces as the default (:mod:`.search` for :func:`~wsmap.kinematics.ikine_search`,
 :mod:`.lm_kernel` for :func:`~wsmap.kinematics.ikine_LM`), which stay as the references that the
 tests compare it with: the same arithmetic per target, so answers agree up to rounding (of
-``sin``/``cos``, libm here and SIMD or SLEEF there, and of the sums, see below), which can, rarely,
-send an iteration down another path near a branch point.
+``sin``/``cos``, :func:`_sincos` here and SIMD or SLEEF there, and of the sums, see below), which
+can, rarely, send an iteration down another path near a branch point.
 
 Why a compiled loop: a numpy kernel pays a Python-level dispatch for every small operation on a row
 of targets, and the rows thin out as targets finish; per target, a compiled loop does an iteration
@@ -17,6 +17,15 @@ Layout: every arm of a batch is described by arrays with a leading arm axis ``B`
 the tool into the last, joint offsets and limits (B, n)); each target ``i`` names its arm ``arm[i]``.
 Shared by the batch: joint axes (n, 3) in the joint frames, which joints are prismatic, which axes
 are ``z``.
+
+Speed (``benchmarks/bench_fast_maps.py``, kernel rate): the forward kinematics takes its sines and
+cosines from :func:`_sincos` (no libm call: a third of the forward kinematics' time went to libm),
+and the joint count is a compile-time constant for six-joint arms (``run_targets`` passes the
+literal 6 to :func:`_task`, numba compiles that build apart and LLVM unrolls the loops over joints:
+the 6 x 6 solve a third faster); other arms take the generic build. The per-iteration functions
+are inlined into :func:`_lm` by numba (``inline="always"``), not called with their dozen array
+arguments: a fifth faster again, for twice the compile time (about a minute, once: the builds are
+cached on disk).
 
 Floating point: compiled with ``fastmath={"contract", "reassoc"}`` (fused multiply-adds, and sums
 the compiler may reorder and vectorise; no assumption about NaN or infinity, which the limits use):
@@ -39,7 +48,7 @@ import numpy as np
 from numba import njit, prange
 
 __all__ = ["MODE_SEARCH", "MODE_PAPER", "MODE_POSITION", "TARGETS_PER_TASK", "set_threads", "threads", "threads_for",
-           "run_targets"]
+           "run_targets", "pose_keys", "orbit_test"]
 
 MODE_SEARCH = 0  # rotation-vector error, limits inside the iteration, FK confirmation, multi-start
 MODE_PAPER = 1  # Corke's tr2delta error, no limits in the iteration, one start (the paper's)
@@ -93,13 +102,45 @@ def threads_for(items: int, per_thread: int):
             numba.set_num_threads(n)
 
 
+
+_PIO2_1, _PIO2_2, _PIO2_3 = 1.57079632673412561417e+00, 6.07710050630396597660e-11, 2.02226624871116645580e-21
+_INV_PIO2 = 6.36619772367581382433e-01
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _sincos(x):
+    """``(sin x, cos x)`` within 2 ulp of libm (``tests/test_lm_compiled.py``), inlined where it is
+    called: ``x`` reduced by the nearest multiple of pi/2 in three parts (Cody–Waite; the products
+    exact for ``|x| < 2**20``), then the minimax polynomials of fdlibm's ``k_sin.c`` and ``k_cos.c``
+    on [-pi/4, pi/4] and the quadrant's swap and signs; libm itself beyond ``|x| = 1e5`` and for
+    NaN and infinity. Only ``contract``: reassociation would undo the reduction's ordered sums."""
+    if not abs(x) < 1e5:
+        return math.sin(x), math.cos(x)
+    k = (x * _INV_PIO2 + 6755399441055744.0) - 6755399441055744.0  # round to nearest, no libm call
+    r = ((x - k * _PIO2_1) - k * _PIO2_2) - k * _PIO2_3
+    z = r * r
+    s = r + r * z * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03 + z * (
+        -1.98412698298579493134e-04 + z * (2.75573137070700676789e-06 + z * (
+            -2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))))
+    c = 1.0 - 0.5 * z + z * z * (4.16666666666666019037e-02 + z * (-1.38888888888741095749e-03 + z * (
+        2.48015872894767294178e-05 + z * (-2.75573143513906633035e-07 + z * (
+            2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))))
+    q = np.int64(k)
+    sv = c if q & 1 else s
+    cv = s if q & 1 else c
+    if q & 2:
+        sv = -sv
+    if (q + 1) & 2:
+        cv = -cv
+    return sv, cv
+
+
 # --------------------------------------------------------------------------- kinematics of one target
-@njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33):
+@njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
+def _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33, n):
     """Tool rotation ``R`` (3, 3), position ``p`` (3,), world joint axes ``w`` (n, 3) and joint
     origins ``o`` (n, 3) of arm ``b`` at ``q`` (n,); sums in the numpy kernel's order.
     ``rkind`` (B, n+1): each fixed rotation is 0 the identity, 1 an ``Rx(α)``, 2 any."""
-    n = q.shape[0]
     for r in range(3):
         for c in range(3):
             R[r, c] = Rf[b, 0, r, c]
@@ -117,8 +158,8 @@ def _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33):
             for r in range(3):
                 p[r] = p[r] + w[i, r] * x
         elif zax[i]:
-            ci = math.cos(x)
-            si = math.sin(x) * a2
+            si, ci = _sincos(x)
+            si = si * a2
             for r in range(3):
                 r0 = R[r, 0] * ci + R[r, 1] * si
                 r1 = R[r, 1] * ci - R[r, 0] * si
@@ -126,8 +167,7 @@ def _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33):
                 R[r, 1] = r1
         else:
             # Rodrigues: Rot = I + s K + (1 - c) K², K the cross-product matrix of the axis
-            c = math.cos(x)
-            s = math.sin(x)
+            s, c = _sincos(x)
             K = ((0.0, -a2, a1), (a2, 0.0, -a0), (-a1, a0, 0.0))
             for r in range(3):
                 for m in range(3):
@@ -162,7 +202,7 @@ def _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33):
                 R[r, 2] = v2
 
 
-@njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
+@njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
 def _pose_error(R, p, Rt, pt, e, rotvec, rows):
     """``e`` (6,) ← ``[pt − p; v]`` and returns |e|. ``v`` is ``½ Σ_k R_k × Rt_k = sin θ·a``
     (Corke's ``tr2delta``, the paper's) or, with ``rotvec``, the rotation vector ``θ·a`` of
@@ -215,11 +255,10 @@ def _pose_error(R, p, Rt, pt, e, rotvec, rows):
     return math.sqrt(sq)
 
 
-@njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _normal_equations(p, w, o, pris, e, J, A, g, rows):
+@njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
+def _normal_equations(p, w, o, pris, e, J, A, g, rows, n):
     """Geometric Jacobian ``J`` (6, n), then ``A = JᵀJ`` (n, n) and ``g = Jᵀe`` (n,) over its
     first ``rows`` rows (6, or 3: position only)."""
-    n = w.shape[0]
     for j in range(n):
         if pris[j]:
             for r in range(3):
@@ -245,11 +284,10 @@ def _normal_equations(p, w, o, pris, e, J, A, g, rows):
         g[j] = s
 
 
-@njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _solve(A, g, l2, held, any_held, H, x):
+@njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
+def _solve(A, g, l2, held, any_held, H, x, n):
     """``x`` ← ``(A + λ² I)⁻¹ g`` by Gaussian elimination without pivoting (symmetric positive
     definite); held joints get the identity's row and column and a zero step."""
-    n = g.shape[0]
     for i in range(n):
         for k in range(n):
             H[i, k] = A[i, k]
@@ -307,9 +345,8 @@ def _spacing(x):
 
 
 @njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
-def _g2_trace(A, g):
+def _g2_trace(A, g, n):
     """``(gᵀg, tr A)``, summed over the joints in order (the stagnation bound and the stationary test)."""
-    n = g.shape[0]
     g2 = g[0] * g[0]
     tr = A[0, 0]
     for j in range(1, n):
@@ -319,15 +356,15 @@ def _g2_trace(A, g):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _stationary(A, g, na, gtol):
+def _stationary(A, g, na, gtol, n):
     """``|g| <= gtol·sqrt(tr A)·|e|``: the gradient ``g = Jᵀe`` vanishes relative to ``|J|_F·|e|``."""
-    g2, tr = _g2_trace(A, g)
+    g2, tr = _g2_trace(A, g, n)
     return math.sqrt(g2) <= gtol * math.sqrt(tr) * na
 
 
 # --------------------------------------------------------------------------- one LM run
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, kin, sc):
+def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, kin, sc, n):
     """LM from ``q`` (n,), updated in place, towards ``(Rt, pt)``; inside the LM bounds if ``limited``.
 
     ``gtol`` > 0: fail at a stationary point, an accepted step after which
@@ -341,7 +378,6 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
     """
     Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped = kin
     R, p, w, o, Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out = sc
-    n = q.shape[0]
     touched = False
     if limited:
         for j in range(n):
@@ -349,9 +385,9 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
             if v != q[j]:
                 touched = True
             q[j] = v
-    _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33)
+    _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33, n)
     na = _pose_error(R, p, Rt, pt, e, rotvec, rows)
-    _normal_equations(p, w, o, pris, e, J, A, g, rows)
+    _normal_equations(p, w, o, pris, e, J, A, g, rows, n)
     lam = lam0
     rej = 0
     it = 0
@@ -369,7 +405,7 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
                 any_held = any_held or hj
             if any_held:
                 touched = True
-        _solve(A, g, lam * lam, held, any_held, H, dq)
+        _solve(A, g, lam * lam, held, any_held, H, dq, n)
         for j in range(n):
             qt[j] = q[j] + dq[j]
         if limited:
@@ -378,7 +414,7 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
                 if v != qt[j]:
                     touched = True
                 qt[j] = v
-        _fk(qt, b, Rf, tf, rkind, off, axes, pris, zax, Rn, pn, wn, on, T33)
+        _fk(qt, b, Rf, tf, rkind, off, axes, pris, zax, Rn, pn, wn, on, T33, n)
         nn = _pose_error(Rn, pn, Rt, pt, en, rotvec, rows)
         better = nn < na
         it += 1
@@ -388,7 +424,7 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
             for r in range(6):
                 e[r] = en[r]
             na = nn
-            _normal_equations(pn, wn, on, pris, e, J, A, g, rows)
+            _normal_equations(pn, wn, on, pris, e, J, A, g, rows, n)
             lam = lam * 0.5
             rej = 0
         else:
@@ -396,7 +432,7 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
             rej += 1
         if better and na <= tol:
             code = _SUCCESS
-        elif better and gtol > 0.0 and _stationary(A, g, na, gtol):
+        elif better and gtol > 0.0 and _stationary(A, g, na, gtol, n):
             code = _STATIONARY
         elif rej > rlimit:
             code = _REJECTIONS
@@ -405,7 +441,7 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
         elif rej > 0:
             # exact stagnation (lm_kernel._Kernel.stagnated): no later trial can move q by a bit
             mu = lam * lam
-            g2, trace = _g2_trace(A, g)
+            g2, trace = _g2_trace(A, g, n)
             slack = (trace / mu + 64.0 * n * _EPS) * math.sqrt(g2)
             stuck = True
             for j in range(n):
@@ -422,11 +458,10 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
 
 # --------------------------------------------------------------------------- confirmation
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _confirm(q, b, Rt, pt, atol, rows, Rf, tf, off, axes, pris, lo, hi, M4, N4, P4):
+def _confirm(q, b, Rt, pt, atol, rows, Rf, tf, off, axes, pris, lo, hi, M4, N4, P4, n):
     """Forward kinematics by 4 x 4 homogeneous products (another code path than :func:`_fk`) puts
     the tool within ``atol`` of the target (m; rotation angle, rad, unless ``rows`` = 3: position
     only), and ``q`` is inside the limits."""
-    n = q.shape[0]
     for j in range(n):
         if q[j] < lo[b, j] - 1e-9 or q[j] > hi[b, j] + 1e-9:
             return False
@@ -510,6 +545,116 @@ def _random_start(key, k, b, blo, bhi, q):
 
 
 # --------------------------------------------------------------------------- the batch
+@njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
+def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n):
+    """The targets of task ``task`` (see :func:`run_targets`); ``n`` the joint count, a compile-time
+    constant where :func:`run_targets` passes a literal (the loops over joints then unroll)."""
+    Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi = arrs
+    ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass = settings
+    q_out, ok_out, it_out, res_out, start_out = outs
+    M = Rt.shape[0]
+    R = np.empty((3, 3))
+    p = np.empty(3)
+    w = np.empty((n, 3))
+    o = np.empty((n, 3))
+    Rn = np.empty((3, 3))
+    pn = np.empty(3)
+    wn = np.empty((n, 3))
+    on = np.empty((n, 3))
+    T33 = np.empty((3, 3))
+    e = np.empty(6)
+    en = np.empty(6)
+    J = np.empty((6, n))
+    A = np.empty((n, n))
+    g = np.empty(n)
+    H = np.empty((n, n + 1))
+    dq = np.empty(n)
+    qt = np.empty(n)
+    held = np.zeros(n, dtype=np.bool_)
+    out = np.empty(3)
+    sc = (R, p, w, o, Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out)
+    kin = (Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped)
+    q = np.empty(n)
+    qs = np.empty(n)
+    M4 = np.empty((4, 4))
+    N4 = np.empty((4, 4))
+    P4 = np.empty((4, 4))
+    for i in range(task * TARGETS_PER_TASK, min(M, (task + 1) * TARGETS_PER_TASK)):
+        b = arm[i]
+        if mode == MODE_PAPER:
+            for j in range(n):
+                q[j] = qexp[i, 0, j]
+            code, _ = _lm(q, b, Rt[i], pt[i], False, False, 6, ilimit, rlimit, tol, lam0, 0.0, kin, sc, n)
+            it = int(out[0])
+            if code == _AT_START:
+                its = min(1, ilimit)  # lm_kernel: 1, or 0 when ilimit = 0
+            elif code == _SUCCESS:
+                its = min(it + 1, ilimit)
+            elif code == _REJECTIONS:
+                its = it
+            elif code == _STAGNATED:
+                its = min(it + 1 + (rlimit - int(out[1])), ilimit)
+            else:
+                its = ilimit
+            for j in range(n):
+                q_out[i, j] = q[j]
+            ok_out[i] = code == _SUCCESS or code == _AT_START
+            it_out[i] = its
+            res_out[i] = out[2]
+            start_out[i] = 0 if ok_out[i] else -1
+            continue
+        limited = limited_arm[b]
+        rows = 3 if mode == MODE_POSITION else 6
+        total = 0
+        best = np.inf
+        found = False
+        ntry = nexp[i] + max(0, k_last - k_first)
+        for s in range(ntry):
+            if s < nexp[i]:
+                for j in range(n):
+                    qs[j] = qexp[i, s, j]
+            else:
+                _random_start(keys[i], k_first + s - nexp[i], b, blo, bhi, qs)
+            passes = 2 if limited and free_pass else 1
+            res_c = np.inf
+            for pss in range(passes):
+                for j in range(n):
+                    q[j] = qs[j]
+                code, touched = _lm(q, b, Rt[i], pt[i], limited and pss == 0, True, rows, ilimit, rlimit, tol,
+                                    lam0, gtol, kin, sc, n)
+                total += int(out[0])
+                # into the limits by multiples of 2·pi; unlimited revolute joints into [-pi, pi)
+                for j in range(n):
+                    v = _project1(q[j], lo[b, j], hi[b, j], not pris[j])
+                    if unlimited[b, j]:
+                        v = np.mod(v + np.pi, _TWO_PI) - np.pi
+                    q[j] = v
+                conv = code == _SUCCESS or code == _AT_START
+                if pss == 0:
+                    res_c = out[2]
+                    if res_c < best:
+                        best = res_c
+                        for j in range(n):
+                            q_out[i, j] = q[j]
+                if conv and _confirm(q, b, Rt[i], pt[i], confirm_tol, rows, Rf, tf, off, axes, pris, lo, hi,
+                                     M4, N4, P4, n):
+                    found = True
+                    for j in range(n):
+                        q_out[i, j] = q[j]
+                    res_out[i] = out[2]
+                    start_out[i] = s
+                    break
+                if not touched:
+                    break  # the free run would repeat the constrained one
+            if found:
+                break
+        ok_out[i] = found
+        it_out[i] = total
+        if not found:
+            res_out[i] = best
+            start_out[i] = -1
+
+
 @njit(cache=True, parallel=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                 Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
@@ -531,104 +676,73 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
     M = Rt.shape[0]
     n = axes.shape[0]
     ntask = (M + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK
+    arrs = (Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi)
+    settings = (ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass)
+    outs = (q_out, ok_out, it_out, res_out, start_out)
     for task in prange(ntask):
-        R = np.empty((3, 3))
-        p = np.empty(3)
-        w = np.empty((n, 3))
-        o = np.empty((n, 3))
-        Rn = np.empty((3, 3))
-        pn = np.empty(3)
-        wn = np.empty((n, 3))
-        on = np.empty((n, 3))
-        T33 = np.empty((3, 3))
-        e = np.empty(6)
-        en = np.empty(6)
-        J = np.empty((6, n))
-        A = np.empty((n, n))
-        g = np.empty(n)
-        H = np.empty((n, n + 1))
-        dq = np.empty(n)
-        qt = np.empty(n)
-        held = np.zeros(n, dtype=np.bool_)
-        out = np.empty(3)
-        sc = (R, p, w, o, Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out)
-        kin = (Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped)
-        q = np.empty(n)
-        qs = np.empty(n)
-        M4 = np.empty((4, 4))
-        N4 = np.empty((4, 4))
-        P4 = np.empty((4, 4))
-        for i in range(task * TARGETS_PER_TASK, min(M, (task + 1) * TARGETS_PER_TASK)):
-            b = arm[i]
-            if mode == MODE_PAPER:
-                for j in range(n):
-                    q[j] = qexp[i, 0, j]
-                code, _ = _lm(q, b, Rt[i], pt[i], False, False, 6, ilimit, rlimit, tol, lam0, 0.0, kin, sc)
-                it = int(out[0])
-                if code == _AT_START:
-                    its = min(1, ilimit)  # lm_kernel: 1, or 0 when ilimit = 0
-                elif code == _SUCCESS:
-                    its = min(it + 1, ilimit)
-                elif code == _REJECTIONS:
-                    its = it
-                elif code == _STAGNATED:
-                    its = min(it + 1 + (rlimit - int(out[1])), ilimit)
-                else:
-                    its = ilimit
-                for j in range(n):
-                    q_out[i, j] = q[j]
-                ok_out[i] = code == _SUCCESS or code == _AT_START
-                it_out[i] = its
-                res_out[i] = out[2]
-                start_out[i] = 0 if ok_out[i] else -1
-                continue
-            limited = limited_arm[b]
-            rows = 3 if mode == MODE_POSITION else 6
-            total = 0
-            best = np.inf
-            found = False
-            ntry = nexp[i] + max(0, k_last - k_first)
-            for s in range(ntry):
-                if s < nexp[i]:
-                    for j in range(n):
-                        qs[j] = qexp[i, s, j]
-                else:
-                    _random_start(keys[i], k_first + s - nexp[i], b, blo, bhi, qs)
-                passes = 2 if limited and free_pass else 1
-                res_c = np.inf
-                for pss in range(passes):
-                    for j in range(n):
-                        q[j] = qs[j]
-                    code, touched = _lm(q, b, Rt[i], pt[i], limited and pss == 0, True, rows, ilimit, rlimit, tol,
-                                        lam0, gtol, kin, sc)
-                    total += int(out[0])
-                    # into the limits by multiples of 2·pi; unlimited revolute joints into [-pi, pi)
-                    for j in range(n):
-                        v = _project1(q[j], lo[b, j], hi[b, j], not pris[j])
-                        if unlimited[b, j]:
-                            v = np.mod(v + np.pi, _TWO_PI) - np.pi
-                        q[j] = v
-                    conv = code == _SUCCESS or code == _AT_START
-                    if pss == 0:
-                        res_c = out[2]
-                        if res_c < best:
-                            best = res_c
-                            for j in range(n):
-                                q_out[i, j] = q[j]
-                    if conv and _confirm(q, b, Rt[i], pt[i], confirm_tol, rows, Rf, tf, off, axes, pris, lo, hi,
-                                         M4, N4, P4):
-                        found = True
-                        for j in range(n):
-                            q_out[i, j] = q[j]
-                        res_out[i] = out[2]
-                        start_out[i] = s
-                        break
-                    if not touched:
-                        break  # the free run would repeat the constrained one
-                if found:
-                    break
-            ok_out[i] = found
-            it_out[i] = total
-            if not found:
-                res_out[i] = best
-                start_out[i] = -1
+        # six joints (most industrial arms): a build with the joint count a constant
+        if n == 6:
+            _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, 6)
+        else:
+            _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n)
+
+
+# --------------------------------------------------------------------------- helpers of search.py
+@njit(cache=True, error_model="numpy")
+def pose_keys(h0, words):
+    """Per target ``i``: ``h0`` mixed in turn with each of ``words[i]`` (K, W) uint64 by :func:`_mix`
+    (the loop of :func:`wsmap.kinematics.search._pose_keys`, one pass instead of a numpy pass per
+    word). Returns (K,) uint64."""
+    K, W = words.shape
+    out = np.empty(K, dtype=np.uint64)
+    for i in range(K):
+        h = h0
+        for c in range(W):
+            h = _mix(h ^ words[i, c])
+        out[i] = h
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def orbit_test(a, e0, c, r, u, w, p):
+    """The loop of :func:`wsmap.kinematics.search._orbit_test` (its notes give the geometry), one
+    point per row: ``a``, ``e0`` (3,) the axis and a unit vector normal to it; ``c``, ``u``, ``p``
+    (K, 3); ``r``, ``w`` (K,), the slack already added. Returns (K,) bool."""
+    K = p.shape[0]
+    out = np.empty(K, dtype=np.bool_)
+    for k in range(K):
+        hp = p[k, 0] * a[0] + p[k, 1] * a[1] + p[k, 2] * a[2]
+        hc = c[k, 0] * a[0] + c[k, 1] * a[1] + c[k, 2] * a[2]
+        rp2 = 0.0
+        rc2 = 0.0
+        for j in range(3):
+            pj = p[k, j] - hp * a[j]
+            cj = c[k, j] - hc * a[j]
+            rp2 += pj * pj
+            rc2 += cj * cj
+        rp = math.sqrt(rp2)
+        rc = math.sqrt(rc2)
+        # (e1, e2): an orthonormal basis of the plane normal to a, e1 towards c where c is off the axis
+        e1 = (e0[0], e0[1], e0[2])
+        if rc > 0.0:
+            e1 = ((c[k, 0] - hc * a[0]) / rc, (c[k, 1] - hc * a[1]) / rc, (c[k, 2] - hc * a[2]) / rc)
+        e2 = (a[1] * e1[2] - a[2] * e1[1], a[2] * e1[0] - a[0] * e1[2], a[0] * e1[1] - a[1] * e1[0])
+        u1 = u[k, 0] * e1[0] + u[k, 1] * e1[1] + u[k, 2] * e1[2]
+        u2 = u[k, 0] * e2[0] + u[k, 1] * e2[1] + u[k, 2] * e2[2]
+        ua = u[k, 0] * a[0] + u[k, 1] * a[1] + u[k, 2] * a[2]
+        cu = c[k, 0] * u[k, 0] + c[k, 1] * u[k, 1] + c[k, 2] * u[k, 2]
+        # x(phi) = hp·a + rp·(cos phi·e1 + sin phi·e2); |x - c|² = D - 2·rp·rc·cos phi
+        D = (hp - hc) ** 2 + rp * rp + rc * rc
+        # g(phi) = (x - c)·u = G0 + rp·(u1 cos phi + u2 sin phi) = G0 + Gm cos(phi - psi)
+        G0 = hp * ua - cu
+        Gm = rp * math.hypot(u1, u2)
+        psi = math.atan2(u2, u1)
+        best = 1.0 if abs(G0 + rp * u1) <= w[k] else -np.inf  # phi = 0, the nearest point, in the slab
+        if Gm > 0.0:  # else the arcs' ends where g = ±w
+            for bound in (w[k], -w[k]):
+                cosv = (bound - G0) / Gm
+                if abs(cosv) <= 1.0:
+                    th = math.acos(cosv)
+                    best = max(best, math.cos(th + psi), math.cos(-th + psi))
+        out[k] = math.isfinite(best) and D - 2.0 * rp * rc * best <= r[k] * r[k]
+    return out

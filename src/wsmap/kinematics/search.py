@@ -207,10 +207,9 @@ def _pose_keys(seed: int, T) -> np.ndarray:
     so a pose gets the same random starts wherever it sits in a batch."""
     # + 0.0 turns -0.0 into 0.0, so that equal poses have equal keys
     words = np.ascontiguousarray(T[:, :3, :] + 0.0, dtype=np.float64).reshape(len(T), 12).view(np.uint64)
-    h = np.full(len(T), _mix(np.array([seed], dtype=np.uint64))[0])
-    for c in range(12):
-        h = _mix(h ^ words[:, c])
-    return h
+    from . import lm_compiled
+
+    return lm_compiled.pose_keys(_mix(np.array([seed], dtype=np.uint64))[0], words)
 
 
 def _uniform(keys, k, n: int) -> np.ndarray:
@@ -618,6 +617,19 @@ def _confirm(chain: SerialChain, q, T, atol):
     return (dp <= atol) & (ang <= atol) & chain.within_limits(q)
 
 
+def _lengths_strokes(chain: SerialChain):
+    """``(lengths (..., n+1), stroke (...,))``: the length of each fixed transform's translation,
+    and the most the prismatic joints can add together (a slide moves by ``q + offset`` along its
+    unit axis, ``q`` within its limits)."""
+    lengths = np.linalg.norm(chain.fixed[..., :3, 3], axis=-1)
+    pris = np.array([k == PRISMATIC for k in chain.kinds])
+    stroke = np.zeros(chain.batch_shape)
+    if pris.any():
+        ends = chain.limits[..., pris, :] + np.asarray(chain.offset)[..., pris, None]
+        stroke = np.abs(ends).max(axis=-1).sum(axis=-1)
+    return lengths, stroke
+
+
 def _reach_filter(chain: SerialChain, T, margin, wrist_orbit: bool = True):
     """A sound test (…,) bool: False where no configuration puts the tool within ``margin`` of ``T``.
 
@@ -635,19 +647,13 @@ def _reach_filter(chain: SerialChain, T, margin, wrist_orbit: bool = True):
     """
     n = chain.n
     F = chain.fixed
-    lengths = np.linalg.norm(F[..., :3, 3], axis=-1)  # (..., n + 1)
-    pris = np.array([k == PRISMATIC for k in chain.kinds])
-    stroke = np.zeros(chain.batch_shape)
-    if pris.any():
-        # a slide moves by q + offset along its unit axis
-        ends = chain.limits[..., pris, :] + np.asarray(chain.offset)[..., pris, None]
-        stroke = np.abs(ends).max(axis=-1).sum(axis=-1)
+    lengths, stroke = _lengths_strokes(chain)
     if chain.kinds[-1] != PRISMATIC:
         G = F[..., n, :, :]
         if chain.tool is not None:
             G = G @ chain.tool
         Ginv_t = -np.einsum("...ji,...j->...i", G[..., :3, :3], G[..., :3, 3])  # translation of G⁻¹
-        point = T[..., :3, 3] + np.einsum("...ij,...j->...i", T[..., :3, :3], Ginv_t)
+        point = T[..., :3, 3] + _rotate(T[..., :3, :3], Ginv_t)
         reach = lengths[..., :n].sum(axis=-1) + stroke
         slack = margin * (1.0 + np.linalg.norm(G[..., :3, 3], axis=-1))
     else:
@@ -671,9 +677,16 @@ def _reach_filter(chain: SerialChain, T, margin, wrist_orbit: bool = True):
                 local = (point.reshape(-1, 3)[idx] - F0[:3, 3]) @ F0[:3, :3]
                 ok.reshape(-1)[idx] = _orbit_test(a0, c, r, u, w, local, slack + tiny)
             else:
-                local = np.einsum("...ji,...j->...i", F0[..., :3, :3], point - F0[..., :3, 3])
+                local = _rotate(np.swapaxes(F0[..., :3, :3], -1, -2), point - F0[..., :3, 3])
                 ok &= _orbit_test(a0, c, r, u, w, local, slack + tiny)
     return ok
+
+
+def _rotate(R, v):
+    """``R @ v`` for rotations ``R`` (..., 3, 3) and vectors ``v`` (..., 3), broadcast: three
+    multiply-adds over whole arrays (a broadcast einsum over a batch of arms times nodes is several
+    times slower)."""
+    return R[..., 0] * v[..., None, 0] + R[..., 1] * v[..., None, 1] + R[..., 2] * v[..., None, 2]
 
 
 def _wrist_orbit(chain: SerialChain):
@@ -723,37 +736,19 @@ def _orbit_test(a, c, r, u, w, p, slack):
     exact up to rounding): the turned point runs on a circle; its distance to ``c`` is least at the
     circle's point nearest ``c`` if that point is inside the slab, else at an end of the arcs of
     the circle inside the slab (where ``(x - c)·u = ±w``)."""
-    r = r + slack
-    w = w + slack
-    hp = p @ a
-    pp = p - hp[..., None] * a
-    rp = np.linalg.norm(pp, axis=-1)
-    hc = c @ a
-    cp = c - hc[..., None] * a
-    rc = np.linalg.norm(cp, axis=-1)
-    # an orthonormal basis (e1, e2) of the plane normal to a, e1 towards c where c is off the axis
+    from . import lm_compiled
+
+    r, w = np.asarray(r + slack, dtype=np.float64), np.asarray(w + slack, dtype=np.float64)
+    shape = np.broadcast_shapes(p.shape[:-1], np.shape(c)[:-1], np.shape(u)[:-1], r.shape, w.shape)
+
+    def rows(x, k=()):
+        return np.ascontiguousarray(np.broadcast_to(x, shape + k), dtype=np.float64).reshape((-1,) + k)
+
+    a = np.ascontiguousarray(a, dtype=np.float64)
     ref = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     e0 = np.cross(a, ref)
     e0 /= np.linalg.norm(e0)
-    e1 = np.where(rc[..., None] > 0.0, cp / np.where(rc > 0.0, rc, 1.0)[..., None], e0)
-    e2 = np.cross(a, e1)
-    u1, u2 = np.sum(u * e1, axis=-1), np.sum(u * e2, axis=-1)
-    # x(phi) = hp·a + rp·(cos phi·e1 + sin phi·e2); |x - c|² = D - 2·rp·rc·cos phi
-    D = (hp - hc) ** 2 + rp * rp + rc * rc
-    # g(phi) = (x - c)·u = G0 + rp·(u1 cos phi + u2 sin phi) = G0 + Gm cos(phi - psi)
-    G0 = hp * (u @ a) - np.sum(c * u, axis=-1)
-    Gm = rp * np.hypot(u1, u2)
-    psi = np.arctan2(u2, u1)
-    best = np.where(np.abs(G0 + rp * u1) <= w, 1.0, -np.inf)  # phi = 0, the nearest point, in the slab
-    with np.errstate(invalid="ignore", divide="ignore"):
-        for bound in (w, -w):
-            cosv = (bound - G0) / Gm
-            ok = (Gm > 0.0) & (np.abs(cosv) <= 1.0)
-            th = np.arccos(np.clip(cosv, -1.0, 1.0))
-            for sgn in (1.0, -1.0):
-                best = np.where(ok, np.maximum(best, np.cos(sgn * th + psi)), best)
-    d2 = np.where(np.isfinite(best), D - 2.0 * rp * rc * np.where(np.isfinite(best), best, 0.0), np.inf)
-    return d2 <= r * r
+    return lm_compiled.orbit_test(a, e0, rows(c, (3,)), rows(r), rows(u, (3,)), rows(w), rows(p, (3,))).reshape(shape)
 
 
 def _first_axis_point(chain: SerialChain) -> tuple[np.ndarray, np.ndarray]:
@@ -783,12 +778,8 @@ def _position_filter(chain: SerialChain, p, margin):
     ``margin`` of the positions ``p`` (N, 3): farther from a point of the first joint's axis
     (:func:`_first_axis_point`) than the lengths of the fixed transforms after it, the tool and the
     prismatic strokes together."""
-    F = chain.fixed
-    lengths = np.linalg.norm(F[..., :3, 3], axis=-1).sum(axis=-1)  # (...,)
-    pris = np.array([k == PRISMATIC for k in chain.kinds])
-    if pris.any():
-        ends = chain.limits[..., pris, :] + np.asarray(chain.offset)[..., pris, None]
-        lengths = lengths + np.abs(ends).max(axis=-1).sum(axis=-1)
+    lengths, stroke = _lengths_strokes(chain)
+    lengths = lengths.sum(axis=-1) + stroke  # (...,)
     if chain.tool is not None:
         lengths = lengths + np.linalg.norm(chain.tool[:3, 3])
     centre, used = _first_axis_point(chain)
@@ -1241,10 +1232,15 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
         left = ~ok & possible
         hole = np.zeros(M, dtype=bool)
         if K:
-            nbt = arm_of[:, None] * N + np.where(nb[node_of] >= 0, nb[node_of], 0)
-            solved_nb = ((nb[node_of] >= 0) & ok[nbt]).sum(axis=1)
-            left &= solved_nb > 0
-            hole = left & (2 * solved_nb >= (nb[node_of] >= 0).sum(axis=1))
+            # solved neighbours per target, one neighbour slot at a time: (B, N) arrays, never (B·N, K)
+            valid = nb >= 0
+            slot = np.where(valid, nb, 0)
+            ok_bn = ok.reshape(B, N)
+            solved_nb = np.zeros((B, N), dtype=np.int32)
+            for k in range(K):
+                solved_nb += ok_bn[:, slot[:, k]] & valid[:, k]
+            left &= (solved_nb > 0).reshape(-1)
+            hole = left & (2 * solved_nb >= valid.sum(axis=1)).reshape(-1)
         for group, count in ((left & ~hole, retry), (hole, max(retry, hole_retry))):
             idx = np.flatnonzero(group)
             run(idx, np.zeros((idx.size, 1, n)), np.zeros(idx.size, dtype=np.int64), 1 + starts, 1 + starts + count,

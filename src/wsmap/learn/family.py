@@ -37,12 +37,12 @@ from typing import Any
 import numpy as np
 import torch
 
-from .. import metrics as M
+from ..metrics import score_maps
 from .network import MLPConfig, SubspaceMLP
 from .training import TrainConfig, TrainResult, split_indices, train_sessions
 
 __all__ = ["MapRecipe", "varying_columns", "fit_map_model", "map_scores", "score_maps", "evaluate_map_model",
-           "learning_curve", "speed_against_classical"]
+           "curve_row", "learning_curve", "speed_against_classical"]
 
 
 @dataclass(frozen=True)
@@ -166,22 +166,6 @@ def map_scores(model: SubspaceMLP, features, batch_size: int = 1024) -> np.ndarr
         return model.score(features, key=0, batch_size=batch_size).cpu().numpy()
 
 
-def score_maps(pred, truth) -> dict[str, Any]:
-    """Precision, recall and F of predicted maps against labels, both bool ``(n, N)``: pooled over
-    every arm and node (``precision``, ``recall``, ``f``: the paper's F-measure) and per arm
-    (``f_mean``, ``f_std`` over arms whose F is defined; ``f_undefined`` the others;
-    ``f_per_sample``), with the confusion counts (``tp``, ``fp``, ``fn``) and the share of nodes
-    that differ (``node_error``)."""
-    micro = M.precision_recall_f(pred, truth, "micro")
-    per = M.precision_recall_f(pred, truth, "samples")
-    c = M.confusion(pred, truth)
-    pred = np.asarray(pred)
-    return dict(precision=micro.precision, recall=micro.recall, f=micro.f, f_mean=per.f, f_std=per.f_std,
-                f_undefined=per.undefined_f, f_per_sample=per.per_sample["f"], tp=int(c.tp), fp=int(c.fp),
-                fn=int(c.fn), node_error=float((c.fp + c.fn) / pred.size), samples=int(pred.shape[0]),
-                nodes=int(pred.shape[1]))
-
-
 def evaluate_map_model(model: SubspaceMLP, test, threshold: float | None = None) -> dict[str, Any]:
     """:func:`score_maps` of ``model`` on the held-out dataset ``test`` (same spec as the model's),
     at ``threshold`` (``None``: the model's ``map_spec`` threshold, 0.5)."""
@@ -203,6 +187,14 @@ def evaluate_map_model(model: SubspaceMLP, test, threshold: float | None = None)
     return score_maps(scores > t, truth)
 
 
+def curve_row(train_arms: int, ev: dict, seconds: float, epochs: int) -> dict[str, Any]:
+    """One row of a learning curve: a model trained on ``train_arms`` arms in ``seconds``
+    (``epochs`` run), scored ``ev`` (:func:`evaluate_map_model`). For the full-size model a
+    caller already trained, beside :func:`learning_curve`'s rows."""
+    return dict(train_arms=int(train_arms), f=ev["f"], precision=ev["precision"], recall=ev["recall"],
+                f_mean=ev["f_mean"], seconds=float(seconds), epochs=int(epochs))
+
+
 def learning_curve(train, test, sizes: Sequence[int], recipe: MapRecipe | None = None) -> list[dict[str, Any]]:
     """F on ``test`` of models trained (same recipe) on the first ``n`` arms of ``train`` for each
     ``n`` in ``sizes``: ``[{train_arms, f, precision, recall, f_mean, seconds, epochs}]`` in the
@@ -218,9 +210,7 @@ def learning_curve(train, test, sizes: Sequence[int], recipe: MapRecipe | None =
         t0 = time.perf_counter()
         model, result = fit_map_model(train.head(n), recipe)
         seconds = time.perf_counter() - t0
-        ev = evaluate_map_model(model, test)
-        rows.append(dict(train_arms=n, f=ev["f"], precision=ev["precision"], recall=ev["recall"],
-                         f_mean=ev["f_mean"], seconds=seconds, epochs=int(result.stop_epoch)))
+        rows.append(curve_row(n, evaluate_map_model(model, test), seconds, result.stop_epoch))
     return rows
 
 
@@ -239,7 +229,7 @@ def speed_against_classical(model: SubspaceMLP, test, *, arms: int = 3, repeats:
     (``classical_s / model_s``), ``threads``, ``arms``, ``nodes``.
     """
     from .. import timing
-    from ..datasets import labels_for
+    from ..datasets import arms_from_features, labels_for
     from ..kinematics import lm_compiled
 
     _check_dataset(test, "test")
@@ -247,24 +237,22 @@ def speed_against_classical(model: SubspaceMLP, test, *, arms: int = 3, repeats:
         raise ValueError(f"arms must be an integer in [1, {len(test)}]; got {arms!r}")
     spec = test.spec
     k = spec.n_arm_features if spec.is_chain_family else None
-    one = test.features[:1, :k] if k else None
-    if k:
-        predict = lambda: model.predict_maps(one)  # noqa: E731 -- the scales of one arm
-    else:
-        from ..datasets import arms_from_features
 
-        arm = arms_from_features(test.features[:1])
-        predict = lambda: model.predict_maps(arm)  # noqa: E731
+    def arms_of(rows):
+        # what both the model and labels_for take: a chain family's scales, else the DH arms
+        return rows[:, :k] if k else arms_from_features(rows)
+
+    one = arms_of(test.features[:1])
+    predict = lambda: model.predict_maps(one)  # noqa: E731
     old_torch, old_numba = torch.get_num_threads(), lm_compiled.threads()
     torch.set_num_threads(threads)
     lm_compiled.set_threads(threads)
     try:
         fast = timing.time_call(predict, repeats=repeats, warmup=3)
-        labels_for(test.features[:1, :k] if k else arms_from_features(test.features[:1]), spec)  # compile, caches
+        labels_for(one, spec)  # compile, caches
         t0 = time.perf_counter()
         for i in range(arms):
-            rows = test.features[i:i + 1]
-            got = labels_for(rows[:, :k] if k else arms_from_features(rows), spec)
+            got = labels_for(arms_of(test.features[i:i + 1]), spec)
             if not np.array_equal(got[0], test.labels[i]):
                 raise RuntimeError(f"the classical map of held-out arm {i} differs from its stored labels: the "
                                    "dataset was built by another version")

@@ -117,9 +117,10 @@ def fit_blocks(ds: Dataset, train_config: TrainConfig, blocks: Sequence, *,
 
 def evaluate(model: SubspaceMLP, test: Dataset, *, nodes=None, key: int | None = None,
              assemble: bool = False, threshold: float = 0.5, batch_size: int = 2048) -> dict[str, Any]:
-    """Precision, recall and F-measure of ``model`` on ``test``: pooled over every sample and node
-    (``precision``, ``recall``, ``f``: the paper's) and per sample (``f_mean``, ``f_std``, over
-    samples whose F is defined; ``f_undefined``: samples with no positive in truth or prediction).
+    """Precision, recall and F-measure of ``model`` on ``test`` (:func:`wsmap.metrics.score_maps`):
+    pooled over every sample and node (``precision``, ``recall``, ``f``: the paper's), per sample
+    (``f_mean``, ``f_std``, over samples whose F is defined; ``f_undefined``: samples with no
+    positive in truth or prediction), and the confusion counts.
 
     ``nodes`` (the truth's node slice) must match the model's outputs: one subspace (``key``) or
     all of them concatenated (``assemble=True``). Also returns ``scores`` (float32, ``(n, m)``)
@@ -134,12 +135,4 @@ def evaluate(model: SubspaceMLP, test: Dataset, *, nodes=None, key: int | None =
     truth = test.labels[:, sl]
     if scores.shape != truth.shape:
         raise ValueError(f"model outputs {scores.shape[1]} nodes but the truth slice {sl} has {truth.shape[1]}")
-    pred = scores > threshold
-    micro = M.precision_recall_f(pred, truth, "micro")
-    per = M.precision_recall_f(pred, truth, "samples")
-    return dict(
-        precision=micro.precision, recall=micro.recall, f=micro.f,
-        f_mean=per.f, f_std=per.f_std, f_undefined=per.undefined_f,
-        samples=int(truth.shape[0]), nodes=int(truth.shape[1]), threshold=float(threshold),
-        scores=scores, truth=truth, f_per_sample=per.per_sample["f"],
-    )
+    return dict(M.score_maps(scores > threshold, truth), threshold=float(threshold), scores=scores, truth=truth)
