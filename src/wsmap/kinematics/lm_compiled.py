@@ -24,8 +24,9 @@ and the joint count is a compile-time constant for six-joint arms (``run_targets
 literal 6 to :func:`_task`, numba compiles that build apart and LLVM unrolls the loops over joints:
 the 6 x 6 solve a third faster); other arms take the generic build. The per-iteration functions
 are inlined into :func:`_lm` by numba (``inline="always"``), not called with their dozen array
-arguments: a fifth faster again, for twice the compile time (about a minute, once: the builds are
-cached on disk).
+arguments: a fifth faster again. :func:`_lm` evaluates the start and every trial step at one
+call site, so each is inlined once; compiling both builds takes about 50 s (16 s before these
+changes), once: they are cached on disk.
 
 Floating point: compiled with ``fastmath={"contract", "reassoc"}`` (fused multiply-adds, and sums
 the compiler may reorder and vectorise; no assumption about NaN or infinity, which the limits use):
@@ -377,7 +378,7 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
     ``(code, touched)``: the termination code and whether the limits changed a trial step.
     """
     Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped = kin
-    R, p, w, o, Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out = sc
+    Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out = sc
     touched = False
     if limited:
         for j in range(n):
@@ -385,39 +386,38 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
             if v != q[j]:
                 touched = True
             q[j] = v
-    _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33, n)
-    na = _pose_error(R, p, Rt, pt, e, rotvec, rows)
-    _normal_equations(p, w, o, pris, e, J, A, g, rows, n)
+    for j in range(n):
+        qt[j] = q[j]
     lam = lam0
     rej = 0
     it = 0
     code = 0
-    if na <= tol:
-        code = _AT_START
-    elif ilimit == 0:
-        code = _ILIMIT
-    while code == 0:
-        any_held = False
-        if limited:
-            for j in range(n):
-                hj = clipped[b, j] and ((q[j] <= clo[b, j] and g[j] < 0.0) or (q[j] >= chi[b, j] and g[j] > 0.0))
-                held[j] = hj
-                any_held = any_held or hj
-            if any_held:
-                touched = True
-        _solve(A, g, lam * lam, held, any_held, H, dq, n)
-        for j in range(n):
-            qt[j] = q[j] + dq[j]
-        if limited:
-            for j in range(n):
-                v = _project1(qt[j], clo[b, j], chi[b, j], not pris[j])
-                if v != qt[j]:
+    na = np.inf
+    start = True
+    # one evaluation site for the start and every trial step: the inlined forward kinematics,
+    # error and normal equations are compiled once, not twice
+    while True:
+        if not start:
+            any_held = False
+            if limited:
+                for j in range(n):
+                    hj = clipped[b, j] and ((q[j] <= clo[b, j] and g[j] < 0.0) or (q[j] >= chi[b, j] and g[j] > 0.0))
+                    held[j] = hj
+                    any_held = any_held or hj
+                if any_held:
                     touched = True
-                qt[j] = v
+            _solve(A, g, lam * lam, held, any_held, H, dq, n)
+            for j in range(n):
+                qt[j] = q[j] + dq[j]
+            if limited:
+                for j in range(n):
+                    v = _project1(qt[j], clo[b, j], chi[b, j], not pris[j])
+                    if v != qt[j]:
+                        touched = True
+                    qt[j] = v
         _fk(qt, b, Rf, tf, rkind, off, axes, pris, zax, Rn, pn, wn, on, T33, n)
         nn = _pose_error(Rn, pn, Rt, pt, en, rotvec, rows)
-        better = nn < na
-        it += 1
+        better = start or nn < na
         if better:
             for j in range(n):
                 q[j] = qt[j]
@@ -425,6 +425,17 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
                 e[r] = en[r]
             na = nn
             _normal_equations(pn, wn, on, pris, e, J, A, g, rows, n)
+        if start:
+            start = False
+            if na <= tol:
+                code = _AT_START
+                break
+            if ilimit == 0:
+                code = _ILIMIT
+                break
+            continue
+        it += 1
+        if better:
             lam = lam * 0.5
             rej = 0
         else:
@@ -450,6 +461,8 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
                     break
             if stuck:
                 code = _STAGNATED
+        if code:
+            break
     out[0] = it
     out[1] = rej
     out[2] = na
@@ -553,10 +566,6 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
     ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass = settings
     q_out, ok_out, it_out, res_out, start_out = outs
     M = Rt.shape[0]
-    R = np.empty((3, 3))
-    p = np.empty(3)
-    w = np.empty((n, 3))
-    o = np.empty((n, 3))
     Rn = np.empty((3, 3))
     pn = np.empty(3)
     wn = np.empty((n, 3))
@@ -572,7 +581,7 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
     qt = np.empty(n)
     held = np.zeros(n, dtype=np.bool_)
     out = np.empty(3)
-    sc = (R, p, w, o, Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out)
+    sc = (Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out)
     kin = (Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped)
     q = np.empty(n)
     qs = np.empty(n)
