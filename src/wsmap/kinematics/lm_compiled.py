@@ -566,6 +566,11 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
     ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass = settings
     q_out, ok_out, it_out, res_out, start_out = outs
     M = Rt.shape[0]
+    # both modes call _lm with run-time flags, not literals: numba compiles one _lm per build
+    # instead of one per literal combination (the inlined loop is most of the compile time)
+    paper = mode == MODE_PAPER
+    rows = 3 if mode == MODE_POSITION else 6
+    gtol_run = 0.0 if paper else gtol
     Rn = np.empty((3, 3))
     pn = np.empty(3)
     wn = np.empty((n, 3))
@@ -593,7 +598,8 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
         if mode == MODE_PAPER:
             for j in range(n):
                 q[j] = qexp[i, 0, j]
-            code, _ = _lm(q, b, Rt[i], pt[i], False, False, 6, ilimit, rlimit, tol, lam0, 0.0, kin, sc, n)
+            code, _ = _lm(q, b, Rt[i], pt[i], not paper, not paper, rows, ilimit, rlimit, tol, lam0, gtol_run, kin, sc,
+                          n)
             it = int(out[0])
             if code == _AT_START:
                 its = min(1, ilimit)  # lm_kernel: 1, or 0 when ilimit = 0
@@ -613,7 +619,6 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
             start_out[i] = 0 if ok_out[i] else -1
             continue
         limited = limited_arm[b]
-        rows = 3 if mode == MODE_POSITION else 6
         total = 0
         best = np.inf
         found = False
@@ -629,8 +634,8 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
             for pss in range(passes):
                 for j in range(n):
                     q[j] = qs[j]
-                code, touched = _lm(q, b, Rt[i], pt[i], limited and pss == 0, True, rows, ilimit, rlimit, tol,
-                                    lam0, gtol, kin, sc, n)
+                code, touched = _lm(q, b, Rt[i], pt[i], limited and pss == 0, not paper, rows, ilimit, rlimit, tol,
+                                    lam0, gtol_run, kin, sc, n)
                 total += int(out[0])
                 # into the limits by multiples of 2·pi; unlimited revolute joints into [-pi, pi)
                 for j in range(n):
