@@ -380,12 +380,6 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
     Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped = kin
     Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out = sc
     touched = False
-    if limited:
-        for j in range(n):
-            v = _project1(q[j], clo[b, j], chi[b, j], not pris[j])
-            if v != q[j]:
-                touched = True
-            q[j] = v
     for j in range(n):
         qt[j] = q[j]
     lam = lam0
@@ -409,12 +403,12 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
             _solve(A, g, lam * lam, held, any_held, H, dq, n)
             for j in range(n):
                 qt[j] = q[j] + dq[j]
-            if limited:
-                for j in range(n):
-                    v = _project1(qt[j], clo[b, j], chi[b, j], not pris[j])
-                    if v != qt[j]:
-                        touched = True
-                    qt[j] = v
+        if limited:  # the start and every trial step into the LM bounds
+            for j in range(n):
+                v = _project1(qt[j], clo[b, j], chi[b, j], not pris[j])
+                if v != qt[j]:
+                    touched = True
+                qt[j] = v
         _fk(qt, b, Rf, tf, rkind, off, axes, pris, zax, Rn, pn, wn, on, T33, n)
         nn = _pose_error(Rn, pn, Rt, pt, en, rotvec, rows)
         better = start or nn < na
