@@ -57,6 +57,7 @@ from .network import (
     MLPConfig,
     SubspaceMLP,
     check_features,
+    unit_saturation,
 )
 from .optim import (
     ALIASES,
@@ -109,7 +110,7 @@ from .training_range import ExtrapolationError, ExtrapolationWarning, TrainingRa
 
 __all__ = [
     # network
-    "MLPConfig", "SubspaceMLP", "check_features", "ACTIVATIONS", "INITS", "INPUT_SCALINGS", "OUTPUT_KINDS",
+    "MLPConfig", "SubspaceMLP", "check_features", "unit_saturation", "ACTIVATIONS", "INITS", "INPUT_SCALINGS", "OUTPUT_KINDS",
     # initialisation
     "nguyen_widrow_", "matlab_rands_", "torch_default_",
     # optimisers
