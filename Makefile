@@ -1,6 +1,7 @@
 # Two entry points (see README):
 #   make paper   create .venv from environment.lock, install wsmap, run `dvc repro`
-#   make test    create .venv from environment.lock, install wsmap, run the tests (CI runs this)
+#   make test    create .venv from environment.lock, install wsmap, run the tests on two workers
+#                (CI runs this; tests/conftest.py says how the work is split)
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV := .venv
@@ -22,7 +23,7 @@ paper: $(STAMP)
 	PATH="$(CURDIR)/$(BIN):$$PATH" dvc repro
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
 # Speed measurements (minutes; never part of the tests). JSON results land in bench/.
 bench: $(STAMP)

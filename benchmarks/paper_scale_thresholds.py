@@ -1,9 +1,12 @@
 """Is the 0.5 threshold why a paper-scale row falls short of the paper? Scores the models that
 ``wsmap paper full`` saved (``results/full/models/<part>/session_0.pt``) on their test sets
 (``data/full/<part>.test.npz``) at 0.5 and at the best threshold of the test set itself (an upper
-bound on what any threshold can give), and prints the false negatives' scores.
+bound on what any threshold can give), and prints the false negatives' scores. With ``--units``
+also how many tanh units of each hidden layer are constant on the test arms
+(:func:`wsmap.learn.unit_saturation`: saturated at one sign on at least 95 % of them).
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/paper_scale_thresholds.py table1_r3_step1 table1_r3_step05 table1_so3_pi3
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/paper_scale_thresholds.py --units table1_so3_pi10 table1_so3_pi8
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ import argparse
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("parts", nargs="+", help="wsmap paper full parts (Table 1 rows)")
+    p.add_argument("--units", action="store_true", help="also the constant (saturated) tanh units per hidden layer")
     p.add_argument("--json", help="write the rows here")
     args = p.parse_args()
 
@@ -24,6 +28,7 @@ def main() -> int:
     from wsmap import metrics as M
     from wsmap import models, paths
     from wsmap.io import write_json
+    from wsmap.learn import unit_saturation
 
     torch.set_num_threads(1)
     rows = []
@@ -41,6 +46,14 @@ def main() -> int:
         rows.append(dict(part=part, f_at_05=f05, best_threshold=thr, f_best=fbest, false_negatives=int(fn.size),
                          highest_fn_scores=fn[-4:].tolist(), false_positives=fp))
         print(f"| {part} | {f05:.4f} | {thr:.3f} | {fbest:.4f} | {fn.size} ({', '.join(f'{v:.3f}' for v in fn[-4:])}) | {fp} |")
+        if args.units:
+            rows[-1]["units"] = unit_saturation(model, test.features)
+    if args.units:
+        print("\n| part | " + " | ".join(f"layer {r['layer']}: constant / units (saturated pairs)" for r in rows[0]["units"]) + " |")
+        print("|---|" + "---:|" * len(rows[0]["units"]))
+        for row in rows:
+            print(f"| {row['part']} | " + " | ".join(f"{r['units'] - r['active_units']} / {r['units']} ({r['saturated']:.2f})"
+                                                    for r in row["units"]) + " |")
     if args.json:
         write_json(rows, args.json)
     return 0

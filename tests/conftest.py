@@ -3,14 +3,46 @@
 ``smoke_root`` builds every dataset of the smoke configuration once; ``smoke_notebook(name)``
 executes a pipeline notebook there (once per session, after the notebooks it depends on), so a
 notebook that reads another's models or metrics finds them, as under ``dvc repro``.
+
+``make test`` runs the tests on two pytest-xdist workers (``-n 2 --dist loadgroup``). Every test
+that uses the smoke pipeline is put in one group, so one worker builds it once and runs the
+notebooks in their dependency order while the other takes the rest; each worker runs torch, numba
+and the notebooks' kernels on one thread, because two processes of two threads each on the two
+cores run slower than one.
 """
 
 from __future__ import annotations
+
+import os
 
 import pytest
 
 from wsmap import paths
 from wsmap.paper.pipeline import build_datasets, run_notebook
+
+SMOKE_FIXTURES = {"smoke_root", "smoke_notebook"}
+
+
+def pytest_configure(config):
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        # inherited by the notebooks' kernels (papermill starts them with this environment);
+        # WSMAP_THREADS is what lm_compiled.set_threads() falls back to
+        os.environ["OMP_NUM_THREADS"] = "1"
+        os.environ["WSMAP_THREADS"] = "1"
+        import torch
+
+        torch.set_num_threads(1)
+        from wsmap.kinematics import lm_compiled
+
+        lm_compiled.set_threads(1)
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist reads the groups off the marks
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if SMOKE_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.xdist_group("smoke"))
+
 
 SMOKE = paths.ROOT / "params.smoke.yaml"
 

@@ -432,3 +432,40 @@ def test_map_spec_is_saved_and_not_carried_by_restacking(tmp_path):
     assert load(save(stack, tmp_path / "bare.pt"))[0].map_spec is None
     with pytest.raises(ValueError, match=r"covers 27 nodes \[0, 27\) but the model gives 9 \(9 outputs\)"):
         stack.set_map_spec(spec, subspace=0)  # 9 outputs cannot cover the 27 labelled nodes
+
+
+def test_hidden_outputs_feed_the_output_layer_and_match_forward():
+    from wsmap.learn.network import SubspaceMLP as Net
+
+    model = Net(small_config(n_subspaces=2), seeds=[3, 4])
+    x = features(n=11)
+    for key in (0, 1):
+        hidden = model.hidden_outputs(x, key)
+        assert [tuple(h.shape) for h in hidden] == [(11, 7), (11, 6)]
+        assert all(float(h.abs().max()) <= 1.0 for h in hidden)
+        out = hidden[-1] @ model.weights[-1][key] + model.biases[-1][key]
+        torch.testing.assert_close(out, model(x, key=key).detach())
+    with pytest.raises(ValueError, match="unknown subspace key 2"):
+        model.hidden_outputs(x, 2)
+
+
+def test_unit_saturation_tells_constant_units_from_switching_ones():
+    from wsmap.learn import unit_saturation
+
+    model = SubspaceMLP(small_config(hidden=[3, 2]), seeds=[0])
+    x = np.zeros((101, F_IN))
+    x[:, 0] = np.linspace(-1, 1, 101)  # one varying input, both signs, 0 once
+    with torch.no_grad():
+        W, b = model.weights[0], model.biases[0]
+        W.zero_()
+        b.zero_()
+        W[0, 0, 0] = 1000.0  # unit 0: saturated on 100 of 101 samples (not at 0), at both signs: switching
+        b[0, 1] = 50.0  # unit 1: saturated at +1 on every sample: constant
+        W[0, 0, 2] = 0.1  # unit 2: |h| <= tanh(0.1): never saturated
+    rows = unit_saturation(model, x)
+    assert [r["layer"] for r in rows] == [1, 2] and rows[0]["units"] == 3
+    assert rows[0]["saturated"] == pytest.approx((100 + 101 + 0) / 303)
+    assert rows[0]["constant"] == pytest.approx(1 / 3)
+    assert rows[0]["active_units"] == 2
+    with pytest.raises(ValueError, match="level must lie in"):
+        unit_saturation(model, x, level=1.5)

@@ -380,12 +380,6 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
     Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped = kin
     Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out = sc
     touched = False
-    if limited:
-        for j in range(n):
-            v = _project1(q[j], clo[b, j], chi[b, j], not pris[j])
-            if v != q[j]:
-                touched = True
-            q[j] = v
     for j in range(n):
         qt[j] = q[j]
     lam = lam0
@@ -409,12 +403,12 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
             _solve(A, g, lam * lam, held, any_held, H, dq, n)
             for j in range(n):
                 qt[j] = q[j] + dq[j]
-            if limited:
-                for j in range(n):
-                    v = _project1(qt[j], clo[b, j], chi[b, j], not pris[j])
-                    if v != qt[j]:
-                        touched = True
-                    qt[j] = v
+        if limited:  # the start and every trial step into the LM bounds
+            for j in range(n):
+                v = _project1(qt[j], clo[b, j], chi[b, j], not pris[j])
+                if v != qt[j]:
+                    touched = True
+                qt[j] = v
         _fk(qt, b, Rf, tf, rkind, off, axes, pris, zax, Rn, pn, wn, on, T33, n)
         nn = _pose_error(Rn, pn, Rt, pt, en, rotvec, rows)
         better = start or nn < na
@@ -566,6 +560,11 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
     ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass = settings
     q_out, ok_out, it_out, res_out, start_out = outs
     M = Rt.shape[0]
+    # both modes call _lm with run-time flags, not literals: numba compiles one _lm per build
+    # instead of one per literal combination (the inlined loop is most of the compile time)
+    paper = mode == MODE_PAPER
+    rows = 3 if mode == MODE_POSITION else 6
+    gtol_run = 0.0 if paper else gtol
     Rn = np.empty((3, 3))
     pn = np.empty(3)
     wn = np.empty((n, 3))
@@ -593,7 +592,8 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
         if mode == MODE_PAPER:
             for j in range(n):
                 q[j] = qexp[i, 0, j]
-            code, _ = _lm(q, b, Rt[i], pt[i], False, False, 6, ilimit, rlimit, tol, lam0, 0.0, kin, sc, n)
+            code, _ = _lm(q, b, Rt[i], pt[i], not paper, not paper, rows, ilimit, rlimit, tol, lam0, gtol_run, kin, sc,
+                          n)
             it = int(out[0])
             if code == _AT_START:
                 its = min(1, ilimit)  # lm_kernel: 1, or 0 when ilimit = 0
@@ -613,7 +613,6 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
             start_out[i] = 0 if ok_out[i] else -1
             continue
         limited = limited_arm[b]
-        rows = 3 if mode == MODE_POSITION else 6
         total = 0
         best = np.inf
         found = False
@@ -629,8 +628,8 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
             for pss in range(passes):
                 for j in range(n):
                     q[j] = qs[j]
-                code, touched = _lm(q, b, Rt[i], pt[i], limited and pss == 0, True, rows, ilimit, rlimit, tol,
-                                    lam0, gtol, kin, sc, n)
+                code, touched = _lm(q, b, Rt[i], pt[i], limited and pss == 0, not paper, rows, ilimit, rlimit, tol,
+                                    lam0, gtol_run, kin, sc, n)
                 total += int(out[0])
                 # into the limits by multiples of 2·pi; unlimited revolute joints into [-pi, pi)
                 for j in range(n):

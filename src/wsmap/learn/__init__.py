@@ -57,6 +57,7 @@ from .network import (
     MLPConfig,
     SubspaceMLP,
     check_features,
+    unit_saturation,
 )
 from .optim import (
     ALIASES,
@@ -86,6 +87,7 @@ from .training import (
     optimizer_name,
     split_indices,
     train,
+    train_mlp_sessions,
     train_sessions,
 )
 from .manipulability import (
@@ -109,7 +111,7 @@ from .training_range import ExtrapolationError, ExtrapolationWarning, TrainingRa
 
 __all__ = [
     # network
-    "MLPConfig", "SubspaceMLP", "check_features", "ACTIVATIONS", "INITS", "INPUT_SCALINGS", "OUTPUT_KINDS",
+    "MLPConfig", "SubspaceMLP", "check_features", "unit_saturation", "ACTIVATIONS", "INITS", "INPUT_SCALINGS", "OUTPUT_KINDS",
     # initialisation
     "nguyen_widrow_", "matlab_rands_", "torch_default_",
     # optimisers
@@ -117,7 +119,7 @@ __all__ = [
     "SCG", "CGB", "OSS", "GDX", "charalambous_search",
     # training
     "TrainConfig", "TrainResult", "History", "Split", "Loss", "LOSSES", "STOP_REASONS", "MINIBATCH_OPTIMIZERS",
-    "LR_DECAYS", "make_loss", "split_indices", "train", "train_sessions", "optimizer_name",
+    "LR_DECAYS", "make_loss", "split_indices", "train", "train_sessions", "train_mlp_sessions", "optimizer_name",
     # what the model maps, and on which inputs
     "make_map_spec", "TrainingRange", "ExtrapolationError", "ExtrapolationWarning",
     # predictions and files

@@ -39,7 +39,7 @@ import torch
 
 from ..metrics import score_maps
 from .network import MLPConfig, SubspaceMLP
-from .training import TrainConfig, TrainResult, split_indices, train_sessions
+from .training import TrainConfig, TrainResult, train_mlp_sessions
 
 __all__ = ["MapRecipe", "varying_columns", "fit_map_model", "map_scores", "score_maps", "evaluate_map_model",
            "curve_row", "learning_curve", "speed_against_classical"]
@@ -149,12 +149,7 @@ def fit_map_model(train, recipe: MapRecipe | None = None) -> tuple[SubspaceMLP, 
     Y = train.labels.astype(np.float32)
     cfg = MLPConfig(n_inputs=X.shape[1], n_outputs=Y.shape[1], hidden=list(recipe.hidden), input_columns=columns,
                     input_scaling="standardize", output_kind="logit", init="torch")
-
-    def factory(seeds):
-        x_train = X[split_indices(len(X), cfg_train.fractions, seeds[0]).train]
-        return SubspaceMLP(cfg, seeds=seeds).configure(x_train, seeds=seeds)
-
-    (result,) = train_sessions(factory, X, Y, cfg_train, 1)
+    (result,) = train_mlp_sessions(cfg, X, Y, cfg_train, 1)
     model = result.model
     model.set_map_spec(train.spec)
     return model, result

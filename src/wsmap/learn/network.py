@@ -82,6 +82,7 @@ __all__ = [
     "SubspaceMLP",
     "check_features",
     "training_range_of",
+    "unit_saturation",
 ]
 
 #: Hidden-layer activations: name -> (function, active input range, output range). The ranges
@@ -438,8 +439,9 @@ class SubspaceMLP(nn.Module):
                 h = act(h)
         return h
 
-    def _run_one(self, x: torch.Tensor, k: int) -> torch.Tensor:
-        """x ``(n, f_net)`` through subspace ``k`` -> ``(n, m)``."""
+    def _run_one(self, x: torch.Tensor, k: int, hidden: list | None = None) -> torch.Tensor:
+        """x ``(n, f_net)`` through subspace ``k`` -> ``(n, m)``; each hidden layer's outputs
+        ``(n, h_j)`` are appended to ``hidden`` when given."""
         h = self._scale(x, k)
         act = ACTIVATIONS[self.config.activation][0]
         last = self.n_layers - 1
@@ -447,7 +449,20 @@ class SubspaceMLP(nn.Module):
             h = torch.addmm(b[k], h, W[k])
             if j < last:
                 h = act(h)
+                if hidden is not None:
+                    hidden.append(h)
         return h
+
+    def hidden_outputs(self, x, key: int = 0) -> list[torch.Tensor]:
+        """The outputs of every hidden layer of subspace ``key`` for features ``x`` (stored
+        layout, ``(n, f)``): a list of ``(n, h_j)`` tensors, no gradient."""
+        x = self._as_tensor(x)
+        if x.ndim != 2:
+            raise ValueError(f"hidden_outputs needs (n, f) features; got shape {tuple(x.shape)}")
+        hidden: list[torch.Tensor] = []
+        with torch.no_grad():
+            self._run_one(x, self._check_key(key), hidden)
+        return hidden
 
     def forward(self, x, key=None) -> torch.Tensor:
         """Raw outputs.
@@ -751,6 +766,29 @@ class SubspaceMLP(nn.Module):
             out.input_std.copy_(self.input_std[k:k + 1])
         out._training_range = self._training_range
         return out
+
+
+def unit_saturation(model: SubspaceMLP, x, key: int = 0, *, level: float = 0.99,
+                    share: float = 0.95) -> list[dict[str, Any]]:
+    """How saturated the tanh units of subspace ``key`` are on features ``x`` ``(n, f)``.
+
+    A unit's output is *saturated* on a sample when ``|h| > level``; a unit is *constant* when it
+    sits saturated at one sign (``h > level``, or ``h < -level``) on at least ``share`` of the
+    samples: it then passes almost nothing about the input to the next layer, and its gradient
+    (``1 - h²`` < ``1 - level²``) almost vanishes there. Returns one dict per hidden layer
+    (1-based ``layer``): ``units``, ``saturated`` (the share of unit–sample pairs saturated),
+    ``constant`` (the share of units constant) and ``active_units`` (the units not constant).
+    """
+    if model.config.activation != "tanh":
+        raise ValueError(f"unit_saturation reads tanh units; the model's activation is {model.config.activation!r}")
+    if not (0.0 < level < 1.0 and 0.0 < share <= 1.0):
+        raise ValueError(f"level must lie in (0, 1) and share in (0, 1]; got level={level!r}, share={share!r}")
+    rows = []
+    for j, h in enumerate(model.hidden_outputs(x, key), start=1):
+        constant = ((h > level).float().mean(0) >= share) | ((h < -level).float().mean(0) >= share)
+        rows.append({"layer": j, "units": int(h.shape[1]), "saturated": float((h.abs() > level).float().mean()),
+                     "constant": float(constant.float().mean()), "active_units": int((~constant).sum())})
+    return rows
 
 
 def training_range_of(data) -> TrainingRange:

@@ -92,6 +92,7 @@ __all__ = [
     "TrainResult",
     "train",
     "train_sessions",
+    "train_mlp_sessions",
     "STOP_REASONS",
     "MINIBATCH_OPTIMIZERS",
     "LR_DECAYS",
@@ -877,3 +878,27 @@ def train_sessions(model_factory: Callable[[list[int]], nn.Module], X, Y, config
             res = res.sessions()[0]
         results.append(res)
     return results
+
+
+def train_mlp_sessions(mlp, X, Y, config: TrainConfig | None = None, sessions: int = 1, *,
+                       stacked: bool = False) -> list[TrainResult]:
+    """:func:`train_sessions` of :class:`~wsmap.learn.network.SubspaceMLP` models with
+    architecture ``mlp`` (an :class:`~wsmap.learn.network.MLPConfig`; ``n_subspaces`` is ignored),
+    each session's network configured on that session's training split
+    (:meth:`SubspaceMLP.configure`: Nguyen–Widrow ranges and input standardisation), as MATLAB
+    configures a network on the data handed to ``train``; the validation and test parts stay
+    unseen. A stacked run (``stacked=True``) stacks the sessions' networks as configured one by
+    one, so it starts where the sequential run does. ``X`` ``(n, f)``, ``Y`` ``(n, m)`` float32
+    targets."""
+    from .network import SubspaceMLP
+
+    config = TrainConfig() if config is None else config
+    X = np.asarray(X)
+    one = mlp.replace(n_subspaces=1)
+
+    def factory(seeds):
+        models = [SubspaceMLP(one, seeds=[sd]).configure(X[split_indices(len(X), config.fractions, sd).train],
+                                                         seeds=[sd]) for sd in seeds]
+        return models[0] if len(models) == 1 else SubspaceMLP.from_models(models)
+
+    return train_sessions(factory, X, Y, config, sessions, stacked=stacked)

@@ -28,7 +28,7 @@ import torch
 from .. import metrics as M
 from ..datasets import Dataset
 from ..learn import MLPConfig, SubspaceMLP
-from ..learn.training import TrainConfig, TrainResult, split_indices, train_sessions
+from ..learn.training import TrainConfig, TrainResult, train_mlp_sessions
 
 __all__ = ["model_config", "fit", "fit_blocks", "stack_sessions", "evaluate", "node_slice"]
 
@@ -62,7 +62,7 @@ def _targets(ds: Dataset, sl: slice) -> np.ndarray:
 def fit(ds: Dataset, train_config: TrainConfig, *, nodes=None, sessions: int = 1,
         hidden: Sequence[int] = (125, 100, 100, 125), stacked: bool = False, **mlp) -> list[TrainResult]:
     """Train ``sessions`` independent models on ``ds`` (session ``s``: seed ``train_config.seed + s``
-    for its split and initial weights, as :func:`wsmap.training.train_sessions`).
+    for its split and initial weights, as :func:`wsmap.learn.training.train_mlp_sessions`).
 
     Args:
         ds: training dataset (the 70/15/15 split is drawn inside).
@@ -76,18 +76,8 @@ def fit(ds: Dataset, train_config: TrainConfig, *, nodes=None, sessions: int = 1
         One :class:`TrainResult` per session; ``result.model`` is restored to its best epoch.
     """
     sl = node_slice(nodes, ds.header["labels_shape"][1])
-    cfg = model_config(ds, sl, hidden, **mlp)
-    X = ds.features
-    Y = _targets(ds, sl)
-
-    def factory(seeds):
-        # MATLAB configures the input ranges on the data handed to train; the training split is
-        # what the network sees (the validation and test parts stay unseen).
-        x_train = X[split_indices(len(X), train_config.fractions, seeds[0]).train]
-        model = SubspaceMLP(cfg.replace(n_subspaces=len(seeds)), seeds=seeds)
-        return model.configure(x_train, seeds=seeds)
-
-    return train_sessions(factory, X, Y, train_config, sessions, stacked=stacked)
+    return train_mlp_sessions(model_config(ds, sl, hidden, **mlp), ds.features, _targets(ds, sl), train_config,
+                              sessions, stacked=stacked)
 
 
 def stack_sessions(results: Sequence[TrainResult]) -> SubspaceMLP:
