@@ -7,7 +7,7 @@ import pytest
 import torch
 from torch import nn
 
-from wsmap.training import (
+from wsmap.learn.training import (
     History,
     Split,
     TrainConfig,
@@ -15,6 +15,7 @@ from wsmap.training import (
     split_indices,
     train,
     train_sessions,
+    validation_stop,
 )
 
 torch.set_num_threads(1)  # tiny models: threads only add overhead (and other agents share the CPU)
@@ -191,6 +192,47 @@ def test_early_stopping_restores_the_best_epoch():
     with torch.no_grad():
         xv, yv = torch.as_tensor(X[sp.val]), torch.as_tensor(Yc[sp.val])
         assert float(nn.functional.mse_loss(model(xv), yv)) == pytest.approx(res.best_val_loss, rel=1e-6)
+
+
+def test_validation_stop_replay_agrees_with_training_at_that_max_fail():
+    # A run with a large max_fail replayed at max_fail 6 must stop where a max_fail-6 run stops:
+    # the epochs up to the stop do not depend on max_fail.
+    X, Y = regression_data(300)
+    sp = split_indices(300, seed=0)
+    Yc = Y.copy()
+    Yc[sp.val] *= 0.5
+    long = train(mlp([2, 10, 1], seed=1), X, Yc, TrainConfig(max_epochs=400, max_fail=1000), split=sp)
+    short = train(mlp([2, 10, 1], seed=1), X, Yc, TrainConfig(max_epochs=400, max_fail=6), split=sp)
+    assert long.stop_reason == "max_epochs" and short.stop_reason == "max_fail"
+    r = validation_stop(long.history.val_loss, 6)
+    assert r == {"stop_epoch": short.stop_epoch, "stopped": True, "best_epoch": short.best_epoch,
+                 "best_val_loss": short.best_val_loss}
+    # At the run's own max_fail the replay does not fire and keeps the run's best epoch.
+    r = validation_stop(long.history.val_loss, 1000)
+    assert r["stopped"] is False and r["stop_epoch"] == 400
+    assert (r["best_epoch"], r["best_val_loss"]) == (long.best_epoch, long.best_val_loss)
+
+
+def test_validation_stop_known_sequence():
+    # equal values are neither improvement nor failure (MATLAB); three failures in a row stop
+    v = [5, 4, 4, 5, 6, 3, 4, 4, 4, 1]
+    assert validation_stop(v, 3) == {"stop_epoch": 8, "stopped": True, "best_epoch": 5, "best_val_loss": 3.0}
+    assert validation_stop(v, 4) == {"stop_epoch": 9, "stopped": False, "best_epoch": 9, "best_val_loss": 1.0}
+    # a stopped session's NaN tail ends the replay
+    assert validation_stop([2.0, 1.0, float("nan"), 0.5], 6) == {"stop_epoch": 1, "stopped": False, "best_epoch": 1,
+                                                               "best_val_loss": 1.0}
+
+
+@pytest.mark.parametrize("args, message", [
+    (([1.0, 2.0], 0), "max_fail must be an integer >= 1, got 0"),
+    (([1.0, 2.0], 2.5), "max_fail must be an integer >= 1, got 2.5"),
+    (([], 6), "val_loss must be a non-empty 1-D sequence, got shape (0,)"),
+    (([[1.0, 2.0]], 6), "val_loss must be a non-empty 1-D sequence, got shape (1, 2)"),
+    (([float("nan"), 1.0], 6), "val_loss[0] is not finite: the history has no validation loss"),
+])
+def test_validation_stop_bad_input(args, message):
+    with pytest.raises(ValueError, match=re.escape(message)):
+        validation_stop(*args)
 
 
 def test_validation_failing_from_the_start_restores_the_initial_weights():

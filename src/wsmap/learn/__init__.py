@@ -89,6 +89,7 @@ from .training import (
     train,
     train_mlp_sessions,
     train_sessions,
+    validation_stop,
 )
 from .manipulability import (
     FAMILY_RANGE,
@@ -120,6 +121,7 @@ __all__ = [
     # training
     "TrainConfig", "TrainResult", "History", "Split", "Loss", "LOSSES", "STOP_REASONS", "MINIBATCH_OPTIMIZERS",
     "LR_DECAYS", "make_loss", "split_indices", "train", "train_sessions", "train_mlp_sessions", "optimizer_name",
+    "validation_stop",
     # what the model maps, and on which inputs
     "make_map_spec", "TrainingRange", "ExtrapolationError", "ExtrapolationWarning",
     # predictions and files

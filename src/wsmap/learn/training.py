@@ -97,6 +97,7 @@ __all__ = [
     "MINIBATCH_OPTIMIZERS",
     "LR_DECAYS",
     "optimizer_name",
+    "validation_stop",
 ]
 
 # --------------------------------------------------------------------------------------------
@@ -255,6 +256,66 @@ def _build_optimizer(name: str, params, kwargs: dict) -> torch.optim.Optimizer:
 
 #: Why a run (or a session) stopped, in the order :func:`train` tests them each epoch.
 STOP_REASONS = ("nonfinite", "goal", "max_epochs", "time_limit", "min_grad", "max_fail", "min_step")
+
+
+def _validation_update(crit: np.ndarray, best_crit: np.ndarray, fails: np.ndarray, active: np.ndarray,
+                       first: bool, has_val: bool) -> np.ndarray:
+    """One epoch of MATLAB's validation check, in place, for ``S`` sessions at once.
+
+    ``crit`` ``(S,)``: this epoch's validation loss (the training loss without a validation
+    split); ``best_crit``, ``fails``: the sessions' best so far and consecutive failures, updated
+    for the ``active`` sessions. A strictly lower value is an improvement (failures back to 0), a
+    strictly higher one a failure, an equal one neither; ``first`` (epoch 0) always improves.
+    Returns the ``(S,)`` mask of the sessions that improved. Shared by :func:`train` and
+    :func:`validation_stop`, so that a replayed history stops where training would have.
+    """
+    improved = active & ((crit < best_crit) | first)
+    worse = active & has_val & (crit > best_crit) & ~improved
+    fails[improved] = 0
+    fails[worse] += 1
+    best_crit[improved] = crit[improved]
+    return improved
+
+
+def validation_stop(val_loss, max_fail: int) -> dict[str, Any]:
+    """Where MATLAB's validation stopping rule with ``max_fail`` would have ended a recorded run.
+
+    Replays :func:`train`'s rule (:func:`_validation_update`) over a history's per-epoch
+    validation losses, e.g. a run trained with a larger ``max_fail``: since every epoch up to the
+    stop is the same whatever ``max_fail`` is, the replay is what a run with this ``max_fail``
+    would have recorded, without training it again.
+
+    Args:
+        val_loss: ``(E + 1,)`` validation loss at epochs 0..E (``History.val_loss`` of one
+            session; NaN entries after a session stopped end the replay there).
+        max_fail: consecutive failures that stop (MATLAB's default 6); ``>= 1``.
+
+    Returns:
+        ``stop_epoch`` (the epoch the rule stops at; the last recorded epoch when it never
+        fires), ``stopped`` (whether the rule fired), ``best_epoch`` and ``best_val_loss`` (the
+        epoch whose parameters the run keeps and its validation loss).
+
+    Raises:
+        ValueError: ``max_fail < 1``, an empty or non-1-D ``val_loss``, or NaN at epoch 0.
+    """
+    v = np.asarray(val_loss, dtype=float)
+    if isinstance(max_fail, bool) or int(max_fail) != max_fail or max_fail < 1:
+        raise ValueError(f"max_fail must be an integer >= 1, got {max_fail!r}")
+    if v.ndim != 1 or v.size == 0:
+        raise ValueError(f"val_loss must be a non-empty 1-D sequence, got shape {v.shape}")
+    if not np.isfinite(v[0]):
+        raise ValueError("val_loss[0] is not finite: the history has no validation loss")
+    best, fails, active = np.full(1, np.inf), np.zeros(1, dtype=int), np.ones(1, dtype=bool)
+    best_epoch, last = 0, 0
+    for epoch, x in enumerate(v):
+        if not np.isfinite(x):
+            break
+        last = epoch
+        if _validation_update(np.array([x]), best, fails, active, epoch == 0, True)[0]:
+            best_epoch = epoch
+        if fails[0] >= max_fail:
+            return {"stop_epoch": epoch, "stopped": True, "best_epoch": best_epoch, "best_val_loss": float(best[0])}
+    return {"stop_epoch": last, "stopped": False, "best_epoch": best_epoch, "best_val_loss": float(best[0])}
 
 
 @dataclass
@@ -761,11 +822,7 @@ def train(model: nn.Module, X, Y, config: TrainConfig | None = None,
         history.time.append(elapsed)
 
         crit = val_s if has_val else loss_s
-        improved = active & ((crit < best_crit) | (epoch == 0))
-        worse = active & has_val & (crit > best_crit) & ~improved
-        fails[improved] = 0
-        fails[worse] += 1
-        best_crit[improved] = crit[improved]
+        improved = _validation_update(crit, best_crit, fails, active, epoch == 0, has_val)
         best_val[improved] = val_s[improved]
         best_epoch[improved] = epoch
         if improved.any():
