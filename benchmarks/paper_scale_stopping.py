@@ -16,15 +16,7 @@ full ... --params results/full_extra/params.full.table1_max_fail6.yaml --out DIR
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
-
-
-def _read(path: Path) -> dict | None:
-    try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError):
-        return None
 
 
 def main() -> int:
@@ -47,17 +39,20 @@ def main() -> int:
     if missing:
         p.error(f"no history in {args.full} for: {', '.join(missing)}")
 
-    from wsmap.io import write_json
+    from wsmap.io import read_json, write_json
     from wsmap.learn import validation_stop
+
+    def result(folder: Path, name: str) -> dict:
+        path = folder / f"{name}.json"
+        return read_json(path) if path.is_file() else {}
 
     rows = []
     head = " | ".join(f"max_fail {m}: stop, val MSE kept (× best)" for m in args.max_fail)
     print(f"| part | step | run's max_fail | epochs | best epoch | val MSE kept | {head} |")
     print("|---|---|---:|---:|---:|---:|" + "---|" * len(args.max_fail))
     for name in names:
-        hist = json.loads((args.full / f"{name}.history.json").read_text())
-        result = _read(args.full / f"{name}.json") or {}
-        own = (result.get("settings", {}).get("section", {}) or {}).get("max_fail")
+        hist = read_json(args.full / f"{name}.history.json")
+        own = result(args.full, name).get("settings", {}).get("section", {}).get("max_fail")
         for step, h in hist["steps"].items():
             v = h["val_loss"]
             mine = validation_stop(v, own if own else 10**9)
@@ -78,19 +73,20 @@ def main() -> int:
         print(f"\n| part | F, max_fail {rows[0]['max_fail'] if rows else '?'} | F, max_fail {m} | stopped at "
               "(replay) | val MSE kept |")
         print("|---|---:|---:|---|---:|")
+        first = {}  # a Table 1 part's one session
+        for r in rows:
+            first.setdefault(r["part"], r)
         for name in names:
-            a, b = _read(args.full / f"{name}.json"), _read(args.retrained / f"{name}.json")
-            if not a or not b or "runs" not in b.get("metrics", {}):
+            a, b = result(args.full, name), result(args.retrained, name)
+            if not a or "runs" not in b.get("metrics", {}):
                 print(f"| {name} | — | not retrained | | |")
                 continue
-            run = b["metrics"]["runs"][0]
-            replay = next(r["replay"][m] for r in rows if r["part"] == name)
+            run, row = b["metrics"]["runs"][0], first[name]
+            replay = row["replay"][m]
             agree = "=" if (run["epochs"], run["best_epoch"]) == (replay["stop_epoch"], replay["best_epoch"]) else "≠"
-            for r in rows:
-                if r["part"] == name:
-                    r["retrained"] = {"f": b["metrics"]["f"], "f_full": a["metrics"]["f"], "epochs": run["epochs"],
-                                      "best_epoch": run["best_epoch"], "best_val_loss": run["best_val_loss"],
-                                      "agrees_with_replay": agree == "="}
+            row["retrained"] = {"f": b["metrics"]["f"], "f_full": a["metrics"]["f"], "epochs": run["epochs"],
+                                "best_epoch": run["best_epoch"], "best_val_loss": run["best_val_loss"],
+                                "agrees_with_replay": agree == "="}
             print(f"| {name} | {a['metrics']['f']:.4f} | {b['metrics']['f']:.4f} | {run['epochs']} {agree} "
                   f"({replay['stop_epoch']}) | {run['best_val_loss']:.4g} |")
     if args.json:

@@ -226,6 +226,8 @@ def test_validation_stop_known_sequence():
 @pytest.mark.parametrize("args, message", [
     (([1.0, 2.0], 0), "max_fail must be an integer >= 1, got 0"),
     (([1.0, 2.0], 2.5), "max_fail must be an integer >= 1, got 2.5"),
+    (([1.0, 2.0], "6"), "max_fail must be an integer >= 1, got '6'"),
+    (([1.0, 2.0], None), "max_fail must be an integer >= 1, got None"),
     (([], 6), "val_loss must be a non-empty 1-D sequence, got shape (0,)"),
     (([[1.0, 2.0]], 6), "val_loss must be a non-empty 1-D sequence, got shape (1, 2)"),
     (([float("nan"), 1.0], 6), "val_loss[0] is not finite: the history has no validation loss"),

@@ -67,6 +67,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -298,15 +299,15 @@ def validation_stop(val_loss, max_fail: int) -> dict[str, Any]:
     Raises:
         ValueError: ``max_fail < 1``, an empty or non-1-D ``val_loss``, or NaN at epoch 0.
     """
-    v = np.asarray(val_loss, dtype=float)
-    if isinstance(max_fail, bool) or int(max_fail) != max_fail or max_fail < 1:
+    if isinstance(max_fail, bool) or not isinstance(max_fail, numbers.Integral) or max_fail < 1:
         raise ValueError(f"max_fail must be an integer >= 1, got {max_fail!r}")
+    v = np.asarray(val_loss, dtype=float)
     if v.ndim != 1 or v.size == 0:
         raise ValueError(f"val_loss must be a non-empty 1-D sequence, got shape {v.shape}")
     if not np.isfinite(v[0]):
         raise ValueError("val_loss[0] is not finite: the history has no validation loss")
     best, fails, active = np.full(1, np.inf), np.zeros(1, dtype=int), np.ones(1, dtype=bool)
-    best_epoch, last = 0, 0
+    best_epoch, last, stopped = 0, 0, False
     for epoch, x in enumerate(v):
         if not np.isfinite(x):
             break
@@ -314,8 +315,9 @@ def validation_stop(val_loss, max_fail: int) -> dict[str, Any]:
         if _validation_update(np.array([x]), best, fails, active, epoch == 0, True)[0]:
             best_epoch = epoch
         if fails[0] >= max_fail:
-            return {"stop_epoch": epoch, "stopped": True, "best_epoch": best_epoch, "best_val_loss": float(best[0])}
-    return {"stop_epoch": last, "stopped": False, "best_epoch": best_epoch, "best_val_loss": float(best[0])}
+            stopped = True
+            break
+    return {"stop_epoch": last, "stopped": stopped, "best_epoch": best_epoch, "best_val_loss": float(best[0])}
 
 
 @dataclass
