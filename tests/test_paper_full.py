@@ -152,6 +152,32 @@ def test_a_crashed_run_leaves_no_partial_file_and_resumes(tmp_path, data_dir, mo
     assert [r["f"] for r in resumed["metrics"]["runs"]] == [r["f"] for r in fresh["metrics"]["runs"]]
 
 
+def test_a_fresh_checkout_resumes_from_the_committed_step_files(tmp_path, data_dir, capsys):
+    """Step files are committed, models are not: a session's steps survive a fresh checkout, and
+    a §6.2 block runs again only where its model (which the stacked §6.2 model needs) is gone."""
+    import shutil
+
+    out = tmp_path / "out"
+    assert _run(["paper", "full", "table2_rprop_mse", "sec62", *_args(out, data_dir)], capsys)[0] == 0
+    first = {n: json.loads((out / f"{n}.json").read_text()) for n in ("table2_rprop_mse", "sec62_puma560")}
+    # what a fresh clone holds: the part and step files, no model
+    for name in first:
+        (out / f"{name}.json").unlink()
+    shutil.rmtree(out / "models" / "table2_rprop_mse")
+    (out / "models" / "sec62_puma560" / "block_3.pt").unlink()
+    sec62 = full.select(full.plan(SMOKE), ["sec62"])[0]
+    assert full.part_state(sec62, out)["steps_done"] == 6
+
+    code, stdout, err = _run(["paper", "full", "table2_rprop_mse", "sec62", *_args(out, data_dir)], capsys)
+    assert code == 0, err
+    assert "session_0: done earlier" in stdout and "session_1: done earlier" in stdout
+    assert "block_3: running" in stdout and stdout.count("running") == 1
+    again = {n: json.loads((out / f"{n}.json").read_text()) for n in first}
+    assert again["table2_rprop_mse"]["metrics"]["runs"] == first["table2_rprop_mse"]["metrics"]["runs"]
+    # the rerun block is seeded as before: the same scores, so the same stacked map
+    assert again["sec62_puma560"]["metrics"]["f_blocks"] == first["sec62_puma560"]["metrics"]["f_blocks"]
+
+
 def test_a_crash_while_writing_the_result_leaves_nothing_half_written(tmp_path, data_dir, monkeypatch):
     out = tmp_path / "out"
     part = full.select(full.plan(SMOKE), ["table1_r3_step1"])[0]

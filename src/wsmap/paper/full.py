@@ -37,8 +37,11 @@ Files (``--out``, default ``results/full/``)
 ``<part>.history.json``
     every step's per-epoch training record (loss, validation loss, gradient norm, time).
 ``steps/<part>/<step>.json``, ``models/<part>/<step>.pt``
-    a finished step (one session or block) and its model: what lets an interrupted part resume
-    with its next step. ``models/sec62_puma560.pt`` is the stacked 7-block model.
+    a finished step (one session or block, with its scores and training record) and its model:
+    what lets an interrupted part resume with its next step. The step files are small and
+    committed, so a part resumes on a fresh checkout too (a long part outlives a work session);
+    the models are not (git-ignored): a §6.2 block, whose model the part's stacked model needs,
+    runs again without it. ``models/sec62_puma560.pt`` is the stacked 7-block model.
 ``estimates.json``
     ``--estimate``: measured seconds per epoch of each part.
 
@@ -315,9 +318,17 @@ def _read_json(path: Path) -> dict | None:
     return data if isinstance(data, dict) else None
 
 
+# parts whose finalisation loads the steps' models (§6.2 stacks its 7 block models into one file)
+_FINALIZE_LOADS_MODELS = {"sec62"}
+
+
 def _done_step(out: Path, part: Part, step: str) -> dict | None:
+    """A finished step's record, or None. The step files are committed and the models are not, so
+    on a fresh checkout a step whose model the part's finalisation needs counts as not done."""
     data = _read_json(_step_file(out, part, step))
     if data is None or data.get("settings_hash") != part.hash or data.get("step") != step:
+        return None
+    if part.kind in _FINALIZE_LOADS_MODELS and not _model_file(out, part, step).is_file():
         return None
     return data
 
