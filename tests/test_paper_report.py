@@ -196,6 +196,8 @@ def test_the_row_mapping_covers_every_paper_scale_number():
     assert by_source["results/table2_optimisers.json: rprop_mse.f_mean"] == ("table2_rprop_mse", "f_mean")
     for emb in ("subspace", "workspace", "nosubspace"):
         assert by_source[f"results/table3_embeddings.json: {emb}.{emb}.f"] == (f"table3_{emb}", f"tests.{emb}.f")
+    assert by_source["results/table3_embeddings.json: subspace.subspace.f_sample_mean"] == (
+        "table3_subspace", "tests.subspace.f_sample_mean")
     # every mapped report row exists, and every key is one the runner's summaries produce
     assert {f"results/{stem}.json: {key}" for stem, key in R.PAPER_SCALE} <= set(by_source)
     table1 = S.table1_summary(_fake_runs(dataset=["table1_r3_step1"] * 2)).iloc[0].to_dict()

@@ -92,6 +92,7 @@ def _flat() -> dict[str, Any]:
     flat["table3_subspace_precision"] = sub["precision"]
     flat["table3_subspace_recall"] = sub["recall"]
     flat["table3_subspace_f"] = sub["f"]
+    flat["table3_subspace_f_std"] = sub["f_std"]
     # the other two models on their own test sets (the no-subspace one: NaN, as printed)
     for emb in ("workspace", "nosubspace"):
         flat[f"table3_{emb}_f"] = PAPER_TABLE3[(emb, emb)]["f"]
