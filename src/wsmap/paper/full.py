@@ -115,9 +115,10 @@ RUNNER_VERSION = 1
 #: run below it, a loaded machine far below.
 CPU_GFLOPS = 80.0
 #: Seconds per label of an exact (closed-form) dataset build and per arm of a numerical one
-#: (README "Scale": 1e5 arms x 9261 nodes in 12 s; the no-subspace arms at 0.15 s each).
+#: (README "Scale": 1e5 arms x 9261 nodes in 12 s; the no-subspace arms: 812 s for 16 000 arms
+#: on two threads in ``wsmap paper full table3_subspace``, 2026-12-02, the machine otherwise idle).
 EXACT_SECONDS_PER_LABEL = 1.3e-8
-NUMERICAL_SECONDS_PER_ARM = 0.15
+NUMERICAL_SECONDS_PER_ARM = 0.051
 
 Log = Callable[[str], Any]
 
