@@ -124,6 +124,33 @@ def test_a_tiny_model_trains_and_predicts(tiny):
     assert model.network.training_range.names == learn.PARAM_NAMES
 
 
+def test_the_default_config_does_not_depend_on_the_machine_speed(monkeypatch):
+    """The default is an epoch budget: a machine 1000 times slower (a clock that jumps 1000 s at
+    every reading) trains the same model, epoch for epoch, as a fast one."""
+    import dataclasses
+
+    from wsmap.learn import training
+
+    default = learn.ManipulabilityTrainConfig()
+    assert default.time_limit_s is None and default.lr_decay == "cosine" and default.max_epochs == 60
+    X, Y = learn.manipulability_dataset(24, seed=5)
+    config = dataclasses.replace(default, hidden=(8,), max_epochs=5, batch_size=8, val_fraction=0.25)
+
+    def run():
+        torch.manual_seed(123)  # anything the config's seed does not reach would show up here
+        model, result = learn.train_manipulability_model(X, Y, config)
+        return [p.detach().clone() for p in model.network.parameters()], result
+
+    fast, fast_result = run()
+    clock = iter(range(0, 10**9, 1000))
+    monkeypatch.setattr(training.time, "perf_counter", lambda: float(next(clock)))
+    slow, slow_result = run()
+    assert slow_result.history.time[-1] >= 1000  # the slow clock did run
+    assert slow_result.stop_epoch == fast_result.stop_epoch == [5]
+    for a, b in zip(fast, slow):
+        torch.testing.assert_close(a, b, rtol=0, atol=0)
+
+
 def test_the_sqrt_target_round_trips():
     net = learn.SubspaceMLP(learn.MLPConfig(n_inputs=4, n_outputs=9261, hidden=[4]))
     model = learn.ManipulabilityModel(net, "sqrt", 0.2)

@@ -36,9 +36,10 @@ Inputs outside the family are refused the way the map models refuse them
 ``allow_extrapolation=True``; arms that are not of the family (other twists, ``d1 ≠ 0``, joint
 limits, a tool) and arrays of the wrong shape raise ``ValueError``.
 
-Measured (``benchmarks/bench_manipulability_model.py``, one thread): 4000 training arms, the
-default config (150 s, 63 epochs), 500 held-out arms: R² 0.9948 pooled over arms x nodes, MAE
-0.00064 m³; on the reachable nodes R² 0.9925, MAE 0.0026 m³; largest error 0.080 m³. A map costs
+Measured (``benchmarks/bench_manipulability_model.py --epochs 60``, one thread): 4000 training
+arms, the default config (60 epochs), 500 held-out arms: R² 0.9947 pooled over arms x nodes, MAE
+0.00064 m³; on the reachable nodes R² 0.9925, MAE 0.0026 m³; largest error 0.080 m³ (the earlier
+time-limited default, 150 s or 63 epochs: R² 0.9948). A map costs
 0.13 ms per arm predicted in bulk (0.3 ms for one arm) against 1.8-2.6 ms exact
 (:func:`wsmap.workspace.manipulability_maps`). ``notes/issue14_manipulability.md`` has the runs.
 """
@@ -252,6 +253,10 @@ class ManipulabilityTrainConfig:
         time_limit_s: stop after this many seconds (``None``: none).
         lr_decay: ``None``, ``"cosine"`` (over ``max_epochs``, reproducible) or ``"cosine-time"``
             (over ``time_limit_s``; depends on the machine's speed).
+
+    The default is an epoch budget (60 epochs, cosine decay over them, no time limit), so the same
+    arms and seed give the same model on any machine; a time limit (``time_limit_s`` with
+    ``"cosine-time"``) trades that for a bounded wall time.
         val_fraction: arms held out of the training parameters for early stopping.
         seed: the split and the initial weights.
     """
@@ -260,10 +265,10 @@ class ManipulabilityTrainConfig:
     target: str = "linear"
     lr: float = 1e-3
     batch_size: int = 64
-    max_epochs: int = 400
+    max_epochs: int = 60
     max_fail: int = 30
-    time_limit_s: float | None = 150.0
-    lr_decay: str | None = "cosine-time"
+    time_limit_s: float | None = None
+    lr_decay: str | None = "cosine"
     val_fraction: float = 0.05
     seed: int = 0
 
@@ -304,7 +309,7 @@ def train_manipulability_model(params, targets, config: ManipulabilityTrainConfi
     ``(B, 9261)`` (m³, :func:`manipulability_dataset`) -> ``(model, train_result)``.
 
     With the default [256, 256, 256] network one thread runs 18-25 epochs of 4000 arms a minute
-    (measured on a shared 2-core machine), so the default 150 s limit gives 46-63 epochs; the
+    (measured on a shared 2-core machine), so the default 60 epochs take 2.5-3.5 minutes; the
     model returned is the best validation epoch's, in eval mode.
 
     Raises:
