@@ -40,6 +40,16 @@ from wsmap.io import write_json
 from wsmap.timing import time_call
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number of epochs; got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1; got {value}")
+    return value
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--train", type=int, default=4000, help="training arms (5 %% of them validate)")
@@ -47,7 +57,7 @@ def main(argv=None) -> int:
     budget = ap.add_mutually_exclusive_group()
     budget.add_argument("--minutes", type=float, default=2.5,
                         help="training time limit, cosine decay over it (default 2.5)")
-    budget.add_argument("--epochs", type=int, help="an epoch budget instead, cosine decay over it, no time "
+    budget.add_argument("--epochs", type=_positive_int, help="an epoch budget instead, cosine decay over it, no time "
                         "limit: the library's default config (60 epochs) when the other options are left alone")
     ap.add_argument("--hidden", default="256,256,256", help="hidden layer widths, comma-separated")
     ap.add_argument("--target", choices=learn.MANIPULABILITY_TARGETS, default="linear")
