@@ -344,8 +344,8 @@ def part_state(part: Part, out) -> dict[str, Any]:
     if data is not None and data.get("settings_hash") == part.hash:
         return {"state": "done", "steps_done": len(part.steps), "seconds": data.get("wall_seconds"),
                 "device": (data.get("device") or {}).get("used")}
-    steps = [s for s in part.steps if _done_step(out, part, s) is not None]
-    seconds = sum(float(_done_step(out, part, s).get("seconds", 0.0)) for s in steps)
+    steps = [d for s in part.steps if (d := _done_step(out, part, s)) is not None]
+    seconds = sum(float(d.get("seconds", 0.0)) for d in steps)
     state = "partial" if steps else ("stale" if data is not None else "pending")
     return {"state": state, "steps_done": len(steps), "seconds": seconds if steps else None, "device": None}
 
