@@ -178,6 +178,46 @@ def test_a_fresh_checkout_resumes_from_the_committed_step_files(tmp_path, data_d
     assert again["sec62_puma560"]["metrics"]["f_blocks"] == first["sec62_puma560"]["metrics"]["f_blocks"]
 
 
+def test_section_6_1_sweeps_its_best_session_and_a_new_sweep_trains_nothing(tmp_path, data_dir, capsys):
+    """§6.1's threshold sweep (the paper's "best threshold 0.5, F 0.9714") is its best session's
+    model on the test set. Another ``sweep_points`` summarises the same sessions again without
+    training; a fresh checkout (step files, no models) trains them again, seeded as before."""
+    from wsmap import metrics as M
+    from wsmap.learn.files import load
+    from wsmap.paper import fitting as E
+    from wsmap.paper import specs as D
+
+    out = tmp_path / "out"
+    code, _, err = _run(["paper", "full", "sec61", *_args(out, data_dir)], capsys)
+    assert code == 0, err
+    first = json.loads((out / "sec61_subspace.json").read_text())
+    m = first["metrics"]
+    best = m["best_session"]
+    assert best == int(np.argmin([r["best_val_loss"] for r in m["runs"]]))
+    model, _ = load(out / "models" / "sec61_subspace" / f"session_{best}.pt")
+    ev = E.evaluate(model, D.load_pair("sec61", data_dir)[1])
+    sweep = M.threshold_sweep(ev["scores"], ev["truth"], np.linspace(0.0, 1.0, 101))
+    assert (m["best_threshold"], m["best_threshold_f"]) == (sweep.best_threshold, sweep.best_f)
+    assert first["analysis"] == {"sweep_points": 101} and len(m["sweep"]["f"]) == 101
+    assert m["sweep"]["thresholds"][50] == 0.5 and m["sweep"]["f"][50] == pytest.approx(m["best_session_f"])
+
+    eleven = _changed_params(tmp_path, "sec61_subspace", sweep_points=11)
+    code, stdout, err = _run(["paper", "full", "sec61", *_args(out, data_dir, eleven)], capsys)
+    assert code == 0, err
+    assert "running" not in stdout and stdout.count("done earlier") == 2
+    again = json.loads((out / "sec61_subspace.json").read_text())
+    assert again["settings_hash"] == first["settings_hash"] and again["analysis"] == {"sweep_points": 11}
+    assert again["metrics"]["sweep"]["thresholds"] == np.linspace(0.0, 1.0, 11).tolist()
+    assert again["metrics"]["runs"] == m["runs"]
+
+    (out / "sec61_subspace.json").unlink()
+    (out / "models" / "sec61_subspace" / "session_1.pt").unlink()
+    code, stdout, err = _run(["paper", "full", "sec61", *_args(out, data_dir)], capsys)
+    assert code == 0, err
+    assert "session_0: done earlier" in stdout and "session_1: running" in stdout
+    assert json.loads((out / "sec61_subspace.json").read_text())["metrics"]["f_sessions"] == m["f_sessions"]
+
+
 def test_a_crash_while_writing_the_result_leaves_nothing_half_written(tmp_path, data_dir, monkeypatch):
     out = tmp_path / "out"
     part = full.select(full.plan(SMOKE), ["table1_r3_step1"])[0]

@@ -83,7 +83,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -146,6 +146,9 @@ class Part:
 
     ``settings`` is hashed (:func:`settings_hash`); ``device`` is the requested setting (``auto``,
     ``cpu``, ``cuda``) and ``device_what`` names where it came from, for error messages.
+    ``analysis``: settings of the summary drawn from the finished steps (§6.1's threshold sweep),
+    not of the training: not hashed, so a change summarises the same steps again (no retraining);
+    recorded in the result, and a result with other ones is not done.
     """
 
     name: str
@@ -157,6 +160,7 @@ class Part:
     device: str
     device_what: str
     title: str = ""
+    analysis: dict[str, Any] = field(default_factory=dict)
 
     @property
     def hash(self) -> str:
@@ -218,14 +222,14 @@ def plan(params_file=None, *, device: str | None = None) -> list[Part]:
         d.pop("device")
         return d
 
-    def make(name, kind, cfg, steps, datasets, values, tc, title):
+    def make(name, kind, cfg, steps, datasets, values, tc, title, analysis=None):
         data = _dataset_settings(datasets, sizes)
         settings = {"runner_version": RUNNER_VERSION, "part": name, "kind": kind, "section": values,
                     "train_config": tc, "datasets": data}
         d, what = dev(cfg)
         return Part(name=name, kind=kind, section=cfg.source, settings=settings, steps=steps,
                     datasets={k: {"samples": v["samples"], "test_samples": v["test_samples"]} for k, v in data.items()},
-                    device=d, device_what=what, title=title)
+                    device=d, device_what=what, title=title, analysis=dict(analysis or {}))
 
     parts: list[Part] = []
     c = section("sec61_subspace")
@@ -233,7 +237,8 @@ def plan(params_file=None, *, device: str | None = None) -> list[Part]:
                                 "threshold")}
     parts.append(make("sec61_subspace", "sec61", c, [f"session_{k}" for k in range(int(c["sessions"]))],
                       [c["dataset"]], values, train_config("rprop", "mse", c["max_epochs"], c["max_fail"], c["seed"]),
-                      "§6.1: block-5 subspace, Rprop + MSE sessions"))
+                      "§6.1: block-5 subspace, Rprop + MSE sessions",
+                      analysis={"sweep_points": int(c["sweep_points"])}))
     c = section("sec62_puma560")
     values = {k: c[k] for k in ("dataset", "train_samples", "max_epochs", "max_fail", "hidden", "seed", "threshold")}
     parts.append(make("sec62_puma560", "sec62", c, [f"block_{k + 1}" for k in range(N_BLOCKS)], [c["dataset"]],
@@ -319,8 +324,9 @@ def _read_json(path: Path) -> dict | None:
     return data if isinstance(data, dict) else None
 
 
-# parts whose finalisation loads the steps' models (§6.2 stacks its 7 block models into one file)
-_FINALIZE_LOADS_MODELS = {"sec62"}
+# parts whose finalisation loads the steps' models (§6.2 stacks its 7 block models into one file;
+# §6.1 sweeps the threshold of its best session, known only once every session is done)
+_FINALIZE_LOADS_MODELS = {"sec61", "sec62"}
 
 
 def _done_step(out: Path, part: Part, step: str) -> dict | None:
@@ -334,6 +340,11 @@ def _done_step(out: Path, part: Part, step: str) -> dict | None:
     return data
 
 
+def _is_done(result: dict | None, part: Part) -> bool:
+    return (result is not None and result.get("settings_hash") == part.hash
+            and result.get("analysis", {}) == part.analysis)
+
+
 def part_state(part: Part, out) -> dict[str, Any]:
     """``state``: ``done`` (a result with this part's settings hash), ``partial`` (some steps
     done), ``stale`` (a result from other settings; no step of the current ones yet) or
@@ -341,7 +352,7 @@ def part_state(part: Part, out) -> dict[str, Any]:
     finished steps' sum)."""
     out = Path(out)
     data = _read_json(_part_file(out, part))
-    if data is not None and data.get("settings_hash") == part.hash:
+    if _is_done(data, part):
         return {"state": "done", "steps_done": len(part.steps), "seconds": data.get("wall_seconds"),
                 "device": (data.get("device") or {}).get("used")}
     steps = [d for s in part.steps if (d := _done_step(out, part, s)) is not None]
@@ -543,6 +554,7 @@ def _finalize(part: Part, steps: dict[str, dict], data: _Data, out: Path) -> tup
             "stop_reasons": runs.stop_reason.tolist(), "seconds_per_session": runs.seconds.tolist(),
             "seconds_per_session_mean": float(np.mean(runs.seconds)), "train_samples": int(runs.train_samples.iloc[0]),
             "threshold": float(sec["threshold"]), "paper": dict(published.SEC61),
+            **_sec61_sweep(part, f"session_{int(runs.session.iloc[best])}", data, out),
         }
     elif part.kind == "table1":
         runs.insert(0, "dataset", sec["dataset"])
@@ -564,6 +576,24 @@ def _finalize(part: Part, steps: dict[str, dict], data: _Data, out: Path) -> tup
         raise ValueError(f"unknown part kind {part.kind!r}")
     metrics["runs"] = runs.to_dict("records")
     return metrics, []
+
+
+def _sec61_sweep(part: Part, step: str, data: _Data, out: Path) -> dict:
+    """The threshold sweep of §6.1's best session (lowest validation loss), as the paper's: its
+    model scored on the test set at ``sweep_points`` thresholds evenly from 0 to 1."""
+    import numpy as np
+
+    from .. import metrics as M
+    from ..learn.device import resolve_device
+    from ..learn.files import load
+    from . import fitting as E
+
+    sec = part.settings["section"]
+    model, _ = load(_model_file(out, part, step), map_location=resolve_device(part.device, part.device_what))
+    ev = E.evaluate(model, data.pairs[sec["dataset"]][1], threshold=float(sec["threshold"]))
+    sweep = M.threshold_sweep(ev["scores"], ev["truth"], np.linspace(0.0, 1.0, int(part.analysis["sweep_points"])))
+    return {"best_threshold": sweep.best_threshold, "best_threshold_f": sweep.best_f,
+            "sweep": sweep.to_dict()}
 
 
 def _finalize_sec62(part: Part, steps: dict[str, dict], data: _Data, out: Path) -> tuple[dict, list[Path]]:
@@ -628,7 +658,7 @@ def run_part(part: Part, out=None, data_dir=None, *, log: Log = print) -> dict:
     out = Path(out) if out is not None else default_out()
     data_dir = Path(data_dir) if data_dir is not None else default_data()
     existing = _read_json(_part_file(out, part))
-    if existing is not None and existing.get("settings_hash") == part.hash:
+    if _is_done(existing, part):
         log(f"{part.name}: done ({_fmt_seconds(existing.get('wall_seconds'))}), skipped")
         return existing
     device = resolve_device(part.device, part.device_what)  # before any work
@@ -661,7 +691,7 @@ def run_part(part: Part, out=None, data_dir=None, *, log: Log = print) -> dict:
     steps_s = sum(float(s["seconds"]) for s in step_results.values())
     result = {
         "part": part.name, "title": part.title, "kind": part.kind, "settings_hash": part.hash,
-        "settings": part.settings, "params_section": part.section,
+        "settings": part.settings, "analysis": part.analysis, "params_section": part.section,
         "metrics": metrics,
         # per step: its timings (the per-session scores are metrics["runs"]; a block's are here)
         "steps": [{"step": name, "seconds": s["seconds"], "finished": s["finished"], "device": s["device"],

@@ -218,10 +218,11 @@ COMPARISONS: list[tuple[str, str, str, str, str | None, str]] = [
 
 #: Each report row's paper-scale counterpart: (metrics file, key) as in :data:`COMPARISONS` ->
 #: (``wsmap paper full`` part, key in its ``results/full/<part>.json`` ``metrics``). Rows not listed
-#: have none: run time, §6.1's threshold sweep, beyond the paper.
+#: have none: run time, beyond the paper.
 PAPER_SCALE: dict[tuple[str, str], tuple[str, str]] = {
     ("sec61_subspace", "f_mean"): ("sec61_subspace", "f_mean"),
     ("sec61_subspace", "f_std"): ("sec61_subspace", "f_std"),
+    ("sec61_subspace", "best_threshold_f"): ("sec61_subspace", "best_threshold_f"),
     ("sec62_puma560", "f_full"): ("sec62_puma560", "f_full"),
     ("sec62_puma560", "puma560_f"): ("sec62_puma560", "puma560_f"),
     **{("table1_workspaces", f"f.{name}"): (name, "f") for name in _TABLE1},
