@@ -30,7 +30,9 @@ Files (``--out``, default ``results/full/``)
 ``<part>.json``
     ``settings`` (everything the result depends on: the section's values, the full
     :class:`~wsmap.learn.training.TrainConfig`, each dataset's spec and sizes), ``settings_hash``
-    (SHA-256 of their canonical JSON), ``metrics`` (with every session's scores, ``runs``),
+    (SHA-256 of their canonical JSON), ``analysis`` (not hashed: how the finished steps are
+    summarised, §6.1's ``sweep_points``; another value summarises them again without training),
+    ``metrics`` (with every session's scores, ``runs``; §6.1 also its best session's threshold sweep),
     ``steps`` (each step's timings and a one-line summary; a §6.2 block's scores too),
     ``timings`` (datasets, steps, finalisation), ``wall_seconds`` (all steps, also those of
     earlier, interrupted runs, plus this run's data and finalisation), ``device``, ``machine``.
@@ -40,8 +42,9 @@ Files (``--out``, default ``results/full/``)
     a finished step (one session or block, with its scores and training record) and its model:
     what lets an interrupted part resume with its next step. The step files are small and
     committed, so a part resumes on a fresh checkout too (a long part outlives a work session);
-    the models are not (git-ignored): a §6.2 block, whose model the part's stacked model needs,
-    runs again without it. ``models/sec62_puma560.pt`` is the stacked 7-block model.
+    the models are not (git-ignored): a §6.2 block (its model goes into the stacked model) or a
+    §6.1 session (the best one's model is swept) runs again without its model.
+    ``models/sec62_puma560.pt`` is the stacked 7-block model.
 ``estimates.json``
     ``--estimate``: measured seconds per epoch of each part.
 
