@@ -26,3 +26,23 @@ def test_build_datasets_builds_missing_pairs_once(tmp_path, params_file):
 def test_run_notebook_names_an_unknown_notebook(tmp_path):
     with pytest.raises(ValueError, match="unknown notebook 'nope'; known: .*sec61_subspace"):
         run_notebook("nope", root=tmp_path)
+
+
+def test_a_failing_notebook_is_one_line_and_keeps_the_last_good_copy(tmp_path, capsys):
+    """A root without the datasets: the notebook's own error in one line (no traceback), the
+    executed copy with the traceback beside it, and the previous executed copy left in place."""
+    from wsmap import cli, paths
+
+    root = tmp_path / "root"
+    executed = root / "results" / "notebooks"
+    executed.mkdir(parents=True)
+    (executed / "sec61_subspace.ipynb").write_text("the last good copy")
+    code = cli.main(["paper", "run", "sec61_subspace", "--params", str(paths.ROOT / "params.smoke.yaml"),
+                     "--root", str(root)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith("wsmap: error: notebook sec61_subspace failed in cell ")
+    assert f"FileNotFoundError: dataset file {root / 'data' / 'sec61.npz'} does not exist" in err
+    assert (executed / "sec61_subspace.ipynb").read_text() == "the last good copy"
+    assert "FileNotFoundError" in (executed / "sec61_subspace.failed.ipynb").read_text()
+    assert sorted(p.name for p in executed.iterdir()) == ["sec61_subspace.failed.ipynb", "sec61_subspace.ipynb"]

@@ -35,6 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .paper.pipeline import NotebookError
+
 __all__ = ["main", "number"]
 
 _OPS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
@@ -731,6 +733,9 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("wsmap: interrupted; no output was written", file=sys.stderr)
         return 130
+    except NotebookError as e:  # a notebook's own error, its traceback kept in the executed copy
+        print(f"wsmap: error: {e}", file=sys.stderr)
+        return 2
     except (ValueError, TypeError, KeyError, MemoryError, OSError) as e:
         # bad input or an OS refusal: one line, no traceback (outputs are only put in place on success)
         msg = e.args[0] if isinstance(e, KeyError) and e.args else e

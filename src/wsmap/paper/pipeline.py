@@ -17,6 +17,11 @@ from pathlib import Path
 from .. import paths
 
 
+class NotebookError(RuntimeError):
+    """A notebook raised while it ran: names the notebook, the cell's error, and the executed copy
+    (``<name>.failed.ipynb``) that holds its traceback."""
+
+
 def check_notebook(name: str) -> Path:
     """The source notebook of ``name``; an unknown name is a ``ValueError`` listing the known ones."""
     src = paths.NOTEBOOKS / f"{name}.ipynb"
@@ -30,8 +35,13 @@ def run_notebook(name: str, params_file=None, root=None, timeout: int | None = 3
                  extra: dict | None = None) -> Path:
     """Execute ``notebooks/<name>.ipynb`` with its params section; returns the executed copy's path.
 
-    ``timeout``: seconds any one cell may run (``None`` or 0: no limit, for the paper's scale)."""
+    ``timeout``: seconds any one cell may run (``None`` or 0: no limit, for the paper's scale).
+
+    Raises :class:`NotebookError` when a cell raises: the partly executed copy goes to
+    ``<name>.failed.ipynb`` beside it and the previous executed copy, if any, stays in place.
+    """
     import papermill as pm
+    from papermill.exceptions import PapermillExecutionError
 
     src = check_notebook(name)
     params_file = (Path(params_file) if params_file else paths.PARAMS).resolve()
@@ -39,11 +49,30 @@ def run_notebook(name: str, params_file=None, root=None, timeout: int | None = 3
     out = paths.Outputs(root).make()
     parameters = {"params_file": str(params_file), "output_root": str(out.root), **(extra or {})}
     dest = out.executed / f"{name}.ipynb"
+    failed = out.executed / f"{name}.failed.ipynb"
+    # papermill writes to its output path as cells run (and records that path in the notebook), so
+    # the last good copy waits aside until this run has succeeded
+    kept = out.executed / f".{name}.ipynb.kept"
+    if dest.exists():
+        os.replace(dest, kept)
     t0 = time.perf_counter()
-    pm.execute_notebook(
-        str(src), str(dest), parameters=parameters, kernel_name="python3", cwd=str(paths.ROOT),
-        execution_timeout=timeout or None, progress_bar=False, log_output=False,
-    )
+    try:
+        pm.execute_notebook(
+            str(src), str(dest), parameters=parameters, kernel_name="python3", cwd=str(paths.ROOT),
+            execution_timeout=timeout or None, progress_bar=False, log_output=False,
+        )
+    except BaseException as e:
+        if dest.exists():
+            os.replace(dest, failed)
+        if kept.exists():
+            os.replace(kept, dest)
+        if isinstance(e, PapermillExecutionError):
+            error = (str(e.evalue).strip().splitlines() or [""])[0]
+            raise NotebookError(f"notebook {name} failed in cell {e.exec_count}: {e.ename}: {error} "
+                                f"(its traceback: {failed})") from None
+        raise
+    kept.unlink(missing_ok=True)
+    failed.unlink(missing_ok=True)
     print(f"{name}: executed in {time.perf_counter() - t0:.1f} s -> {dest}")
     return dest
 
