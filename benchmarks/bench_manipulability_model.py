@@ -36,18 +36,9 @@ import torch
 
 from wsmap import learn, robots
 from wsmap import workspace as ws
+from wsmap.cli import positive_int
 from wsmap.io import write_json
 from wsmap.timing import time_call
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number of epochs; got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1; got {value}")
-    return value
 
 
 def main(argv=None) -> int:
@@ -57,7 +48,7 @@ def main(argv=None) -> int:
     budget = ap.add_mutually_exclusive_group()
     budget.add_argument("--minutes", type=float, default=2.5,
                         help="training time limit, cosine decay over it (default 2.5)")
-    budget.add_argument("--epochs", type=_positive_int, help="an epoch budget instead, cosine decay over it, no time "
+    budget.add_argument("--epochs", type=positive_int, help="an epoch budget instead, cosine decay over it, no time "
                         "limit: the library's default config (60 epochs) when the other options are left alone")
     ap.add_argument("--hidden", default="256,256,256", help="hidden layer widths, comma-separated")
     ap.add_argument("--target", choices=learn.MANIPULABILITY_TARGETS, default="linear")

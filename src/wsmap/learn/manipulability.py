@@ -253,12 +253,12 @@ class ManipulabilityTrainConfig:
         time_limit_s: stop after this many seconds (``None``: none).
         lr_decay: ``None``, ``"cosine"`` (over ``max_epochs``, reproducible) or ``"cosine-time"``
             (over ``time_limit_s``; depends on the machine's speed).
+        val_fraction: arms held out of the training parameters for early stopping.
+        seed: the split and the initial weights.
 
     The default is an epoch budget (60 epochs, cosine decay over them, no time limit), so the same
     arms and seed give the same model on any machine; a time limit (``time_limit_s`` with
     ``"cosine-time"``) trades that for a bounded wall time.
-        val_fraction: arms held out of the training parameters for early stopping.
-        seed: the split and the initial weights.
     """
 
     hidden: tuple[int, ...] = (256, 256, 256)
