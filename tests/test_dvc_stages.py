@@ -1,22 +1,21 @@
-"""DVC stages cannot go stale: each depends on all the package code its command runs, and on the lock.
+"""DVC stages depend on exactly the package code they run, and on the lock.
 
-For every stage the test finds what it runs (a notebook through ``wsmap paper run``, or ``wsmap data
-build``), computes the import closure of the package modules it loads in a fresh interpreter (the
-notebook's code cells' imports, then every ``wsmap`` module those import, lazily imported ones too,
-found by scanning their source), and checks that each module's file lies under a dependency the
-stage declares.
+``tools/stage_deps.py`` computes each stage's code dependencies: the static import closure (imports
+inside functions included) of the module its ``python -m`` command runs and of the imports of its
+notebook. These tests hold dvc.yaml to it, check that the closure finder misses nothing Python
+loads, and that the classical stages do not depend on the learning code (a change inside
+``wsmap/learn`` leaves them up to date).
 """
 
 from __future__ import annotations
 
 import ast
+import importlib.util
 import json
-import re
 import subprocess
 import sys
 from pathlib import Path
 
-import nbformat
 import pytest
 import yaml
 
@@ -26,63 +25,20 @@ ROOT = paths.ROOT
 PKG = ROOT / "src" / "wsmap"
 STAGES = yaml.safe_load((ROOT / "dvc.yaml").read_text())["stages"]
 
-
-def _module_file(name: str) -> Path | None:
-    rel = Path(*name.split("."))
-    for cand in (ROOT / "src" / rel.with_suffix(".py"), ROOT / "src" / rel / "__init__.py"):
-        if cand.exists():
-            return cand
-    return None
-
-
-def _wsmap_imports(source: str, module: str | None) -> set[str]:
-    """Every ``wsmap`` module named by an import anywhere in ``source`` (function bodies included)."""
-    found = set()
-    for node in ast.walk(ast.parse(source)):
-        if isinstance(node, ast.Import):
-            found |= {a.name for a in node.names if a.name.split(".")[0] == "wsmap"}
-        elif isinstance(node, ast.ImportFrom):
-            if node.level and module:
-                pkg = module.split(".")
-                is_pkg = _module_file(module) is not None and _module_file(module).name == "__init__.py"
-                base = pkg if is_pkg else pkg[:-1]
-                base = base[: len(base) - (node.level - 1)]
-                target = ".".join(base + ([node.module] if node.module else []))
-            else:
-                target = node.module or ""
-            if target.split(".")[0] != "wsmap":
-                continue
-            found.add(target)
-            found |= {f"{target}.{a.name}" for a in node.names if _module_file(f"{target}.{a.name}")}
-    # parents are imported too
-    return {".".join(m.split(".")[:i]) for m in found for i in range(1, len(m.split(".")) + 1)}
+_spec = importlib.util.spec_from_file_location("stage_deps", ROOT / "tools" / "stage_deps.py")
+stage_deps = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(stage_deps)
+_module_file = stage_deps.module_file
+_wsmap_imports = stage_deps.wsmap_imports
+import_closure = stage_deps.import_closure
 
 
-def import_closure(roots: set[str]) -> set[Path]:
-    seen: set[str] = set()
-    todo = list(roots)
-    while todo:
-        m = todo.pop()
-        if m in seen or _module_file(m) is None:
-            continue
-        seen.add(m)
-        todo += _wsmap_imports(_module_file(m).read_text(), m) - seen
-    return {_module_file(m) for m in seen}
+def _body(name):
+    return STAGES[name].get("do", STAGES[name])
 
 
-def _stage_roots(stage: dict) -> set[str]:
-    cmd = stage["cmd"]
-    m = re.search(r"wsmap paper run (\w+)", cmd)
-    roots = {"wsmap.__main__", "wsmap.cli"}
-    if m:
-        nb = nbformat.read(ROOT / "notebooks" / f"{m.group(1)}.ipynb", as_version=4)
-        code = "\n".join(c.source for c in nb.cells if c.cell_type == "code" and not c.source.lstrip().startswith("%"))
-        roots |= _wsmap_imports(code, None) | {"wsmap.paper.pipeline"}
-    elif "wsmap data build" in cmd:
-        roots |= {"wsmap.datasets"}
-    else:
-        raise AssertionError(f"unknown stage command {cmd!r}")
-    return roots
+def _deps(name) -> list[str]:
+    return [d if isinstance(d, str) else next(iter(d)) for d in _body(name)["deps"]]
 
 
 def _covered(path: Path, deps: list[str]) -> bool:
@@ -91,30 +47,52 @@ def _covered(path: Path, deps: list[str]) -> bool:
 
 @pytest.mark.parametrize("name", sorted(STAGES))
 def test_stage_depends_on_its_code_and_the_lock(name):
-    stage = STAGES[name]
-    body = stage.get("do", stage)
-    deps = [d if isinstance(d, str) else next(iter(d)) for d in body["deps"]]
+    deps = _deps(name)
     assert "environment.lock" in deps, f"stage {name} does not depend on environment.lock"
-    closure = import_closure(_stage_roots(body))
+    closure = import_closure(stage_deps.stage_roots(_body(name)["cmd"]))
     assert len(closure) > 3
     missing = sorted(str(p.relative_to(ROOT)) for p in closure if not _covered(p, deps))
     assert not missing, f"stage {name} runs code it does not depend on: {missing}"
 
 
+def test_dvc_yaml_holds_the_generated_deps():
+    """Nothing more than the closure either: a stage reruns only when code it runs changed
+    (regenerate with ``python tools/stage_deps.py``)."""
+    stale = stage_deps.stale((ROOT / "dvc.yaml").read_text())
+    assert not stale, f"dvc.yaml deps differ from the stages' import closures (run tools/stage_deps.py): {stale}"
+
+
+def test_the_rewrite_keeps_everything_but_the_code_deps():
+    text = (ROOT / "dvc.yaml").read_text()
+    new = yaml.safe_load(stage_deps.rewrite(text))["stages"]
+    for name, stage in yaml.safe_load(text)["stages"].items():
+        old_body, new_body = stage.get("do", stage), new[name].get("do", new[name])
+        assert {k: v for k, v in old_body.items() if k != "deps"} == {k: v for k, v in new_body.items() if k != "deps"}
+        keep = [d for d in old_body["deps"] if not (isinstance(d, str) and d.startswith("src/"))]
+        assert [d for d in new_body["deps"] if not (isinstance(d, str) and d.startswith("src/"))] == keep
+
+
+def test_a_change_inside_learn_leaves_the_classical_stages_up_to_date():
+    for name in ("classical_workspace", "real_arms", "datasets"):
+        deps = _deps(name)
+        learn = sorted(p.relative_to(ROOT).as_posix() for p in (PKG / "learn").rglob("*.py") if _covered(p, deps))
+        assert not learn, f"stage {name} depends on the learning code: {learn}"
+
+
 def test_the_closure_finder_sees_lazy_imports():
-    # the CLI imports wsmap.viz only inside a function: a stage running the CLI must cover it
+    # the CLI imports wsmap.viz only inside a function: a closure from the CLI must cover it
     closure = import_closure({"wsmap.cli"})
     assert PKG / "viz.py" in closure and PKG / "workspace" / "maps.py" in closure
 
 
 def test_the_closure_matches_what_python_loads():
-    """What a fresh interpreter loads for the CLI is inside the static closure (no import missed)."""
-    code = ("import sys, json, wsmap.cli, wsmap.paper.pipeline; "
+    """What a fresh interpreter loads for the stage runners and the CLI is inside the static closure."""
+    code = ("import sys, json, wsmap.cli, wsmap.paper.notebook, wsmap.paper.dataset; "
             "print(json.dumps(sorted(m.__file__ for n, m in sys.modules.items() "
             "if n.split('.')[0] == 'wsmap' and getattr(m, '__file__', None))))")
     loaded = {Path(p) for p in json.loads(subprocess.run([sys.executable, "-c", code], capture_output=True,
                                                          text=True, check=True).stdout)}
-    static = import_closure({"wsmap.cli", "wsmap.paper.pipeline", "wsmap.__main__"})
+    static = import_closure({"wsmap.cli", "wsmap.paper.notebook", "wsmap.paper.dataset", "wsmap.__main__"})
     assert {p.resolve() for p in loaded} <= {p.resolve() for p in static}
 
 
