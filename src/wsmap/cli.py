@@ -189,7 +189,8 @@ def _map_parser(sub):
     m = sub.add_parser(
         "map",
         help="compute the workspace map of an arm on a grid",
-        description="Compute a binary workspace map (one bit per grid node) and write it as .npz.",
+        description="Compute a workspace map of an arm (one value per grid node: a bit or a number, as --kind "
+                    "says) and write it as .npz.",
         epilog="Node order: x fastest, then y, then z (flat index i + nx*j + nx*ny*k).",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
@@ -203,7 +204,7 @@ def _map_parser(sub):
                         "SO(3) (super-Fibonacci; default 50)")
     g.add_argument("--scope", choices=["R3", "SO3"], default=None,
                    help="R3: positions at a fixed orientation; SO3: orientations at a fixed point "
-                        "(the same as --kind constant / orientation; default R3)")
+                        f"(the same as --kind {default_kind('R3').name} / {default_kind('SO3').name}; default R3)")
     g.add_argument("--lo", type=number, nargs="+", help="grid start, one value or three (default -1 m for R3, 0 rad for SO3)")
     g.add_argument("--hi", type=number, nargs="+", help="grid end, inclusive (default 1 m for R3, 2*pi for SO3)")
     g.add_argument("--step", type=number, nargs="+", help="grid step (default 0.1 m for R3, pi/10 for SO3)")

@@ -94,7 +94,8 @@ def load_map(path):
     try:
         problem = _kind_mismatch(settings, flat.dtype, grid.get("scope"))
     except ValueError as e:
-        raise MapFileError(f"{path}: {e} (a kind's module must be imported, so registered, before its maps load)") from None
+        raise MapFileError(f"{path}: {e} (a kind's module must be imported, so registered, before its maps "
+                           "load)") from None
     if problem:
         raise MapFileError(f"{path} is not a consistent wsmap map file: {problem}")
     return flat, nodes, grid, settings
