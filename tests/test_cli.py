@@ -208,10 +208,10 @@ def test_the_installed_command_prints_no_traceback(tmp_path):
 
 
 def test_mesh_of_puma560_is_closed():
-    from wsmap.viz import map_to_mesh
+    from wsmap.views import iso_mesh
 
     flat = ws.constant_orientation_map(robots.puma560(), ws.cartesian_grid(-1, 1, 0.1))
-    mesh = map_to_mesh(flat, (21, 21, 21), -1.0, 0.1)
+    mesh = iso_mesh(flat, ws.grid_spec("R3", -1, 1, 0.1), 0.5)
     assert mesh.is_watertight
     assert np.all(mesh.bounds[0] >= -1.0 - 1e-9) and np.all(mesh.bounds[1] <= 1.0 + 1e-9)
     # the reachable volume is a thick shell of radius ~0.86 m: mesh volume between the grid

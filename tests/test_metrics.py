@@ -6,12 +6,17 @@ import numpy as np
 import pytest
 import torch
 
+from wsmap.learn.training import History
 from wsmap.metrics import (
     Confusion,
     best_threshold,
     confusion,
     error_histogram,
+    outcomes,
+    per_sample_error,
     precision_recall_f,
+    session_curves,
+    session_mean_std,
     threshold_sweep,
 )
 
@@ -153,3 +158,53 @@ def test_error_histogram():
     np.testing.assert_allclose(h.centers, [-0.75, -0.25, 0.25, 0.75])
     h2 = error_histogram(torch.tensor([[0.5, np.inf]]), np.array([[True, False]]))
     assert h2.n == 1 and h2.n_nonfinite == 1 and h2.counts.sum() == 1 and len(h2.edges) == 21
+
+
+# --------------------------------------------------------------------------------------------
+# per-node outcomes, per-sample errors, curves over training sessions
+# --------------------------------------------------------------------------------------------
+
+
+def _hist(values, key="grad_norm"):
+    h = History()
+    for i, v in enumerate(values):
+        h.epoch.append(i)
+        h.time.append(0.1 * i)
+        for k in ("loss", "grad_norm", "val_loss"):
+            h.__getattribute__(k).append(v if k == key else 1.0 / (i + 1))
+    return h
+
+
+def test_session_curves_pads_stopped_sessions_with_nan():
+    c = session_curves([_hist([3.0, 2.0, 1.0]), _hist([4.0, 5.0])], "grad_norm")
+    assert c.shape == (2, 3)
+    np.testing.assert_array_equal(c[0], [3, 2, 1])
+    np.testing.assert_array_equal(c[1, :2], [4, 5])
+    assert math.isnan(c[1, 2])
+    with pytest.raises(ValueError):
+        session_curves([], "loss")
+
+
+def test_mean_band_statistics_ignore_stopped_sessions():
+    mean, std, count = session_mean_std(np.array([[1.0, 2.0, 3.0], [3.0, 4.0, np.nan]]))
+    np.testing.assert_allclose(mean, [2, 3, 3])
+    np.testing.assert_allclose(std, [1, 1, 0])
+    np.testing.assert_array_equal(count, [2, 2, 1])
+
+
+def test_per_sample_error_counts_wrong_nodes():
+    scores = np.array([[0.9, 0.1, 0.6, 0.5], [0.0, 0.0, 0.0, 0.0]], dtype=np.float32)
+    truth = np.array([[1, 0, 0, 1], [0, 0, 0, 0]], dtype=bool)
+    # 0.5 is not > 0.5: node 3 of sample 0 is a false negative, node 2 a false positive
+    np.testing.assert_allclose(per_sample_error(scores, truth), [0.5, 0.0])
+    np.testing.assert_allclose(per_sample_error(scores, truth, threshold=0.7), [0.25, 0.0])
+    with pytest.raises(ValueError):
+        per_sample_error(scores[:, :2], truth)
+
+
+def test_outcomes_codes():
+    pred = np.array([True, True, False, False])
+    truth = np.array([True, False, True, False])
+    np.testing.assert_array_equal(outcomes(pred, truth), [1, 2, 3, 0])
+    with pytest.raises(ValueError):
+        outcomes(pred, truth[:3])

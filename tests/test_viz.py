@@ -17,7 +17,8 @@ from wsmap import io as IO
 from wsmap.kinematics import arm_batch
 from wsmap.timing import time_call
 from wsmap import robots
-from wsmap.viz import map_to_mesh, save_figure
+from wsmap.views import iso_mesh
+from wsmap.viz import save_figure
 from wsmap.training import History
 
 
@@ -29,23 +30,6 @@ def _hist(values, key="grad_norm"):
         for k in ("loss", "grad_norm", "val_loss"):
             h.__getattribute__(k).append(v if k == key else 1.0 / (i + 1))
     return h
-
-
-def test_session_curves_pads_stopped_sessions_with_nan():
-    c = P.session_curves([_hist([3.0, 2.0, 1.0]), _hist([4.0, 5.0])], "grad_norm")
-    assert c.shape == (2, 3)
-    np.testing.assert_array_equal(c[0], [3, 2, 1])
-    np.testing.assert_array_equal(c[1, :2], [4, 5])
-    assert math.isnan(c[1, 2])
-    with pytest.raises(ValueError):
-        P.session_curves([], "loss")
-
-
-def test_mean_band_statistics_ignore_stopped_sessions():
-    mean, std, count = P._nan_mean_std(np.array([[1.0, 2.0, 3.0], [3.0, 4.0, np.nan]]))
-    np.testing.assert_allclose(mean, [2, 3, 3])
-    np.testing.assert_allclose(std, [1, 1, 0])
-    np.testing.assert_array_equal(count, [2, 2, 1])
 
 
 def test_plot_mean_band_log_axis_with_sigma_above_mean(tmp_path):
@@ -67,24 +51,6 @@ def test_plot_training_curves(tmp_path):
         P.plot_training_curves(hs, ["a"])
 
 
-def test_per_sample_error_counts_wrong_nodes():
-    scores = np.array([[0.9, 0.1, 0.6, 0.5], [0.0, 0.0, 0.0, 0.0]], dtype=np.float32)
-    truth = np.array([[1, 0, 0, 1], [0, 0, 0, 0]], dtype=bool)
-    # 0.5 is not > 0.5: node 3 of sample 0 is a false negative, node 2 a false positive
-    np.testing.assert_allclose(P.per_sample_error(scores, truth), [0.5, 0.0])
-    np.testing.assert_allclose(P.per_sample_error(scores, truth, threshold=0.7), [0.25, 0.0])
-    with pytest.raises(ValueError):
-        P.per_sample_error(scores[:, :2], truth)
-
-
-def test_outcomes_codes():
-    pred = np.array([True, True, False, False])
-    truth = np.array([True, False, True, False])
-    np.testing.assert_array_equal(P.outcomes(pred, truth), [1, 2, 3, 0])
-    with pytest.raises(ValueError):
-        P.outcomes(pred, truth[:3])
-
-
 def test_plot_sections_grid(tmp_path):
     rng = np.random.default_rng(0)
     truth = rng.random((7, 5 * 4 * 3)) > 0.5
@@ -103,7 +69,7 @@ def test_plot_threshold_sweep_and_errors_and_histograms(tmp_path):
     scores = (truth + rng.normal(0, 0.3, truth.shape)).astype(np.float32)
     sweep = M.threshold_sweep(scores, truth)
     save_figure(P.plot_threshold_sweep(sweep, mark=0.5, title="s"), tmp_path / "sweep.png")
-    save_figure(P.plot_sample_errors(P.per_sample_error(scores, truth), title="e"), tmp_path / "err.png")
+    save_figure(P.plot_sample_errors(M.per_sample_error(scores, truth), title="e"), tmp_path / "err.png")
     h = M.error_histogram(scores, truth, bins=20)
     h2 = M.error_histogram(scores[:10], truth[:10], bins=h.edges)
     save_figure(P.plot_error_histograms([h, h2, h], ["a", "b", "c"], ncols=2), tmp_path / "hist.png")
@@ -125,7 +91,7 @@ def test_meshes_plot_and_export(tmp_path):
 
     vol = np.zeros((6, 6, 6), dtype=bool)
     vol[1:4, 1:5, 2:5] = True
-    mesh = map_to_mesh(vol.reshape(-1), (6, 6, 6), lo=-0.5, step=0.2)
+    mesh = iso_mesh(vol.reshape(-1), {"lo": -0.5, "step": 0.2, "shape": (6, 6, 6)}, 0.5)
     fig = P.plot_meshes([mesh, trimesh.Trimesh(), None], ["box", "empty", "none"], lim=0.6, suptitle="m")
     save_figure(fig, tmp_path / "meshes.png")
     assert (tmp_path / "meshes.png").stat().st_size > 5_000

@@ -17,7 +17,8 @@ import numpy as np
 from wsmap import paths, robots
 from wsmap import workspace as ws
 from wsmap.io import atomic_path, write_json
-from wsmap.viz import map_to_mesh, plot_slices, render_mesh, save_figure
+from wsmap.views import iso_mesh
+from wsmap.viz import plot_slices, render_mesh, save_figure
 
 out = paths.Outputs(output_root).make()
 cfg = paths.notebook_params("classical_workspace", params_file)
@@ -34,7 +35,7 @@ print(f"{len(nodes)} nodes, grid shape {shape}")
 exact = ws.constant_orientation_map(puma, nodes, cfg["rpy"], method="exact")
 fig = plot_slices(exact, shape, cfg["lo"], cfg["step"], title=f"PUMA560, R = I: {exact.sum()} of {exact.size} nodes reachable")
 save_figure(fig, out.figures / "puma560_workspace_slices.png")
-mesh = map_to_mesh(exact, shape, cfg["lo"], cfg["step"])
+mesh = iso_mesh(exact, ws.grid_spec("R3", cfg["lo"], cfg["hi"], cfg["step"]), 0.5)
 import matplotlib.pyplot as plt
 
 ax = render_mesh(mesh, title="PUMA560 constant-orientation workspace (exact)", lim=max(abs(cfg["lo"]), abs(cfg["hi"])))

@@ -78,7 +78,7 @@ print(f"all sessions: {t_fit:.1f} s")
 
 # %%
 histories = [r.history for r in results]
-grad = V.session_curves(histories, "grad_norm")
+grad = M.session_curves(histories, "grad_norm")
 fig = V.plot_mean_band(grad, label="gradient norm", ylabel="‖∇ MSE‖ (L2, all weights and biases)",
                        title=f"Average gradient (± σ) of {len(results)} training sessions")
 V.save_figure(fig, out.figures / "sec61_gradient.png")
@@ -86,8 +86,8 @@ V.save_figure(fig, out.figures / "sec61_gradient.png")
 import matplotlib.pyplot as plt
 
 fig, ax = plt.subplots(figsize=(6.4, 4.0))
-V.plot_mean_band(V.session_curves(histories, "loss"), ax=ax, label="training MSE", ylabel="MSE")
-V.plot_mean_band(V.session_curves(histories, "val_loss"), ax=ax, label="validation MSE", color="#d62728",
+V.plot_mean_band(M.session_curves(histories, "loss"), ax=ax, label="training MSE", ylabel="MSE")
+V.plot_mean_band(M.session_curves(histories, "val_loss"), ax=ax, label="validation MSE", color="#d62728",
                  ylabel="MSE", title=f"Loss of {len(results)} training sessions (mean ± σ)", show_sessions=False)
 V.save_figure(fig, out.figures / "sec61_loss.png")
 
@@ -119,7 +119,7 @@ print(f"F-measure {f_mean:.4f} ± {f_std:.4f} over {len(f)} sessions "
 # %%
 best = int(np.argmin([r.best_val_loss for r in results]))
 ev = evals[best]
-err = V.per_sample_error(ev["scores"], ev["truth"], cfg["threshold"])
+err = M.per_sample_error(ev["scores"], ev["truth"], cfg["threshold"])
 fig = V.plot_sample_errors(err, title=f"Error of predictions on a test set of {len(test)} examples "
                                       f"(session {best}, threshold {cfg['threshold']})")
 V.save_figure(fig, out.figures / "sec61_test_error.png")

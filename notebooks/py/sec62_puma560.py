@@ -41,6 +41,7 @@ from wsmap import metrics as M
 from wsmap import models, paths, robots
 from wsmap import viz as V
 from wsmap import workspace as ws
+from wsmap.views import iso_mesh
 from wsmap.io import write_json, write_table
 from wsmap.kinematics import arm_batch
 from wsmap.learn.device import resolve_device
@@ -150,10 +151,9 @@ puma_prf = M.precision_recall_f(predicted, exact)
 print(f"PUMA560: {predicted.sum()} nodes predicted reachable, {exact.sum()} exact; "
       f"precision {puma_prf.precision:.4f}, recall {puma_prf.recall:.4f}, F {puma_prf.f:.4f}; {t_puma * 1e3:.1f} ms")
 
-import trimesh
-
-mesh_exact = V.map_to_mesh(exact, shape, spec.lo, spec.step)
-mesh_pred = V.map_to_mesh(predicted, shape, spec.lo, spec.step) if predicted.any() else trimesh.Trimesh()
+grid = {"lo": spec.lo, "step": spec.step, "shape": shape}
+mesh_exact = iso_mesh(exact, grid, 0.5)
+mesh_pred = iso_mesh(predicted, grid, 0.5)  # empty when no node is predicted reachable
 lim = float(np.max(np.abs(np.concatenate([np.ravel(spec.lo), np.ravel(spec.hi)]))))
 fig = V.plot_meshes([mesh_exact, mesh_pred],
                     ["PUMA560, exact (closed form)",

@@ -184,26 +184,27 @@ def _arm_arguments(m):
 
 
 def _map_parser(sub):
+    from .workspace.kinds import default_kind, kind_names, kinds, kinds_taking
+
     m = sub.add_parser(
         "map",
         help="compute the workspace map of an arm on a grid",
-        description="Compute a binary workspace map (one bit per grid node) and write it as .npz.",
+        description="Compute a workspace map of an arm (one value per grid node: a bit or a number, as --kind "
+                    "says) and write it as .npz.",
         epilog="Node order: x fastest, then y, then z (flat index i + nx*j + nx*ny*k).",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     _arm_arguments(m)
     g = m.add_argument_group("kind and scope")
-    g.add_argument("--kind", choices=list(_KINDS), default=None,
-                   help="constant: positions at a fixed orientation (--rpy; the paper's R3); orientation: "
-                        "orientations at a fixed point (--point; the paper's SO3); index: the fraction of "
-                        "--orientations reachable at each position; reach: reachable at some orientation; "
-                        "dexterous: reachable at every one of --orientations; manipulability: the largest "
-                        "Yoshikawa manipulability of the IK solutions at --rpy (default: constant, or as --scope)")
+    g.add_argument("--kind", choices=kind_names(), default=None,
+                   help="; ".join(f"{k.name}: {k.description}" for k in kinds())
+                        + f" (default: {default_kind('R3').name}, or as --scope)")
     g.add_argument("--orientations", type=positive_int, default=None, metavar="K",
-                   help="index/dexterous: K orientations spread over SO(3) (super-Fibonacci; default 50)")
+                   help=f"{'/'.join(k.name for k in kinds_taking('orientations'))}: K orientations spread over "
+                        "SO(3) (super-Fibonacci; default 50)")
     g.add_argument("--scope", choices=["R3", "SO3"], default=None,
                    help="R3: positions at a fixed orientation; SO3: orientations at a fixed point "
-                        "(the same as --kind constant / orientation; default R3)")
+                        f"(the same as --kind {default_kind('R3').name} / {default_kind('SO3').name}; default R3)")
     g.add_argument("--lo", type=number, nargs="+", help="grid start, one value or three (default -1 m for R3, 0 rad for SO3)")
     g.add_argument("--hi", type=number, nargs="+", help="grid end, inclusive (default 1 m for R3, 2*pi for SO3)")
     g.add_argument("--step", type=number, nargs="+", help="grid step (default 0.1 m for R3, pi/10 for SO3)")
@@ -246,15 +247,12 @@ def _map_parser(sub):
     m.set_defaults(run=_run_map)
 
 
-#: ``--kind``: what each node holds. constant/orientation are the paper's binary maps (R3/SO3).
-_KINDS = {"constant": "R3", "orientation": "SO3", "index": "R3", "reach": "R3", "dexterous": "R3",
-          "manipulability": "R3"}
-_FLOAT_KINDS = ("index", "manipulability")
-
-
 def _run_map(args) -> int:
+    """``wsmap map``: what the kind needs, checked, then its ``compute`` (the kinds' registry,
+    :mod:`wsmap.workspace.kinds`, says what each kind reads, computes and how its values read)."""
     from . import workspace as ws
     from .io import atomic_paths, check_output_path
+    from .workspace.kinds import MapRequest, default_kind, get_kind, kinds, kinds_taking
 
     # every check before any work
     out = check_output_path(args.out, "--out")
@@ -263,15 +261,17 @@ def _run_map(args) -> int:
     names = [os.path.abspath(out)] + [os.path.abspath(v) for v in extra.values()]
     if len(set(names)) != len(names):
         raise ValueError("two of --out, --png, --html, --ply and --glb name the same file")
-    kind = args.kind or ("orientation" if args.scope == "SO3" else "constant")
-    if args.scope is not None and _KINDS[kind] != args.scope:
-        raise ValueError(f"--scope {args.scope} does not go with --kind {kind} (a {_KINDS[kind]} map)")
-    scope = _KINDS[kind]
-    if args.orientations is not None and kind not in ("index", "dexterous"):
-        raise ValueError(f"--orientations is used by --kind index and dexterous (kind is {kind!r})")
+    kind = get_kind(args.kind) if args.kind else default_kind(args.scope or "R3")
+    if args.scope is not None and kind.scope != args.scope:
+        raise ValueError(f"--scope {args.scope} does not go with --kind {kind.name} (a {kind.scope} map)")
+    scope = kind.scope
+    if args.orientations is not None and "orientations" not in kind.inputs:
+        users = " and ".join(k.name for k in kinds_taking("orientations"))
+        raise ValueError(f"--orientations is used by --kind {users} (kind is {kind.name!r})")
     if args.method == "model":
-        if kind not in ("constant", "orientation"):
-            raise ValueError(f"--method model predicts the paper's maps (--kind constant or orientation), not {kind!r}")
+        if "model" not in kind.methods:
+            predicted = " or ".join(k.name for k in kinds() if "model" in k.methods)
+            raise ValueError(f"--method model predicts the paper's maps (--kind {predicted}), not {kind.name!r}")
         if not args.model:
             raise ValueError("--method model needs a model file (--model PATH)")
         if not Path(args.model).is_file():
@@ -280,15 +280,16 @@ def _run_map(args) -> int:
         raise ValueError(f"--model is only used with --method model (method is {args.method!r})")
     if args.allow_extrapolation and args.method != "model":
         raise ValueError("--allow-extrapolation is only used with --method model")
-    if args.paper_lm and kind not in ("constant", "orientation"):
-        raise ValueError(f"--paper-lm is the paper's solver of its own maps (--kind constant or orientation), not {kind!r}")
+    if args.paper_lm and not kind.paper_solver:
+        takers = " or ".join(k.name for k in kinds() if k.paper_solver)
+        raise ValueError(f"--paper-lm is the paper's solver of its own maps (--kind {takers}), not {kind.name!r}")
     robot = _robot_from_args(args)
     grid = ws.grid_spec(scope, _arg3(args.lo, "--lo"), _arg3(args.hi, "--hi"), _arg3(args.step, "--step"))
-    if kind != "constant" and kind != "orientation" and robot.batch_shape != ():
-        raise ValueError(f"--kind {kind} maps one arm")
+    if not kind.batch and robot.batch_shape != ():
+        raise ValueError(f"--kind {kind.name} maps one arm")
     method = _method_for(robot, args.method)
-    if kind == "reach" and method == "exact":
-        method = "numerical"  # reach at any orientation: the position search (no closed form of its own)
+    if method == "exact" and "exact" not in kind.methods:
+        method = "numerical"  # no closed form of the kind's own (reach: the position search)
     for flag, value in (("--starts", args.starts), ("--retry", args.retry), ("--paper-lm", args.paper_lm or None)):
         if value is not None and method != "numerical":
             raise ValueError(f"{flag} is used by the numerical method (method is {method!r})")
@@ -296,7 +297,7 @@ def _run_map(args) -> int:
         raise ValueError("--paper-lm is the paper's one-start LM; it takes no --starts or --retry")
     limited = robot.qlim is not None
     K = args.orientations or 50
-    R = ws.orientation_samples(K, seed=args.seed) if kind in ("index", "dexterous") else None
+    R = ws.orientation_samples(K, seed=args.seed) if "orientations" in kind.inputs else None
 
     t0 = time.perf_counter()
     ik = {k: v for k, v in dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit).items() if v is not None}
@@ -304,33 +305,15 @@ def _run_map(args) -> int:
         if args.paper_lm:
             ik.update(solver="paper")
         else:
-            ik.update({**ws.MAP_SETTINGS, **{k: v for k, v in dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit,
-                                                                   starts=args.starts, retry=args.retry).items()
-                                             if v is not None}}, seed=args.seed)
-    search = {k: v for k, v in ik.items() if k not in ("seed", "solver")}
-    if kind in ("index", "dexterous") and method == "numerical":
-        # the index's own defaults (fewer retries), with what the command line set on top
-        from .workspace.reach import INDEX_SETTINGS
-
-        search = {**INDEX_SETTINGS, **{k: v for k, v in dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit,
-                                                             starts=args.starts, retry=args.retry).items()
-                                       if v is not None}}
-        ik.update(retry=search["retry"])
-    if kind in ("constant", "orientation"):
-        flat = ws.grid_map(robot, grid, rpy=args.rpy, point=args.point, method=method, convention=args.convention,
-                           model=args.model, allow_extrapolation=args.allow_extrapolation, ik=ik,
-                           progress=not args.quiet)
-    else:
-        nodes = ws.cartesian_grid(grid["lo"], grid["hi"], grid["step"])
-        if kind == "index":
-            flat = ws.reachability_index(robot, nodes, R, method=method, ik=search, seed=args.seed)
-        elif kind == "dexterous":
-            flat = ws.dexterous_map(robot, nodes, R, method=method, ik=search, seed=args.seed)
-        elif kind == "reach":
-            flat = ws.position_map(robot, nodes, ik=search, seed=args.seed)
-        else:
-            flat = ws.manipulability_map(robot, nodes, args.rpy, convention=args.convention, method=method,
-                                         ik=search, seed=args.seed)
+            # the kind's own search defaults, with what the command line set on top
+            ik.update({**kind.search_settings, **{k: v for k, v in dict(
+                tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit, starts=args.starts, retry=args.retry).items()
+                if v is not None}}, seed=args.seed)
+    convention = kind.convention or args.convention
+    request = MapRequest(method=method, convention=convention, rpy=tuple(args.rpy), point=tuple(args.point),
+                         orientations=R, ik=ik, seed=args.seed, model=args.model,
+                         allow_extrapolation=args.allow_extrapolation, progress=not args.quiet)
+    flat = kind.compute(robot, grid, request)
     seconds = time.perf_counter() - t0
     how = {"exact": "closed form", "model": f"network {args.model}",
            "numerical": ("the paper's LM, one start at q = 0" if args.paper_lm else
@@ -342,27 +325,24 @@ def _run_map(args) -> int:
     if R is not None:
         how += f", {K} orientations (super-Fibonacci, seed {args.seed})"
     settings = {
-        "kind": kind, "robot": robot.name, "source": getattr(robot, "source", None), "urdf": args.urdf,
+        "kind": kind.name, "robot": robot.name, "source": getattr(robot, "source", None), "urdf": args.urdf,
         "ee": args.ee, "n": robot.n, "qlim": None if robot.qlim is None else np.asarray(robot.qlim).tolist(),
-        "method": method, "how": how, "convention": "standard" if R is not None or kind == "reach" else args.convention,
+        "method": method, "how": how, "convention": convention,
         "rpy": list(args.rpy), "point": list(args.point), "model": args.model, "ik": ik, "seconds": seconds,
     }
     if hasattr(robot, "d"):  # a DH arm: its table
         settings.update(d=robot.d.tolist(), a=robot.a.tolist(), alpha=robot.alpha.tolist())
-    label = {"index": "reachability index", "manipulability": "manipulability √det(J Jᵀ)"}.get(kind, "reachable")
-    if kind in _FLOAT_KINDS:
-        summary = f"{int((flat > 0).sum())} of {flat.size} nodes reachable, mean {label} {flat.mean():.3f}"
-    else:
-        summary = f"{int(flat.sum())} of {flat.size} nodes {'reachable' if kind != 'dexterous' else 'dexterous'}"
+    summary = kind.summary(flat)
     fig = None
     if "--png" in extra:
         from .viz import plot_slices, plot_value_slices
 
         labels = ("x", "y", "z") if scope == "R3" else ("r1", "r2", "r3")
-        title = f"{robot.name or 'arm'} ({kind}): {summary} ({method}: {how})"
-        if kind in _FLOAT_KINDS:
-            fig = plot_value_slices(flat, grid["shape"], grid["lo"], grid["step"], label=label, title=title,
-                                    labels=labels, vmin=0.0, vmax=1.0 if kind == "index" else None)
+        title = f"{robot.name or 'arm'} ({kind.name}): {summary} ({method}: {how})"
+        if kind.value_type is float:
+            vmin, vmax = kind.value_range
+            fig = plot_value_slices(flat, grid["shape"], grid["lo"], grid["step"], label=kind.label, title=title,
+                                    labels=labels, vmin=vmin, vmax=vmax)
         else:
             fig = plot_slices(flat, grid["shape"], grid["lo"], grid["step"], labels=labels, title=title)
     values = np.asarray(flat, dtype=np.float64)
@@ -377,24 +357,22 @@ def _run_map(args) -> int:
                 elif flag == "--html":
                     from .views import save_html
 
-                    save_html(tmp, values, grid, label=label, title=f"{robot.name or 'arm'}: {kind} map")
+                    save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map")
                 elif flag == "--ply":
                     from .views import save_ply
 
-                    save_ply(tmp, values, grid, label=label)
+                    save_ply(tmp, values, grid, label=kind.label)
                 else:
                     from .views import save_glb
 
-                    levels = (0.5,) if kind not in _FLOAT_KINDS else (
-                        (0.25, 0.5, 0.75) if kind == "index" else tuple(np.quantile(values[values > 0], [0.25, 0.5, 0.75])))
-                    save_glb(tmp, values, grid, levels=levels)
+                    save_glb(tmp, values, grid, levels=kind.levels(values))
     finally:
         if fig is not None:
             import matplotlib.pyplot as plt
 
             plt.close(fig)
     if not args.quiet:
-        print(f"{summary}; {method} {kind} map ({how}) in {seconds:.3f} s -> {', '.join(map(str, paths))}")
+        print(f"{summary}; {method} {kind.name} map ({how}) in {seconds:.3f} s -> {', '.join(map(str, paths))}")
     return 0
 
 

@@ -1,5 +1,6 @@
-"""Scores of binary workspace maps: confusion counts, precision / recall / F-measure, threshold
-sweeps and the prediction-error histogram.
+"""Scores of binary workspace maps: confusion counts, precision / recall / F-measure, per-node
+outcomes and per-sample errors, threshold sweeps, the prediction-error histogram, and the statistics
+of training curves over sessions (what the figures of :mod:`wsmap.viz` draw).
 
 Conventions
 -----------
@@ -42,6 +43,11 @@ __all__ = [
     "best_threshold",
     "error_histogram",
     "score_maps",
+    "OUTCOME_NAMES",
+    "outcomes",
+    "per_sample_error",
+    "session_curves",
+    "session_mean_std",
 ]
 
 
@@ -400,3 +406,72 @@ def error_histogram(scores, truth, bins=20, range: tuple[float, float] | None = 
     return ErrorHistogram(edges, counts, reach, unreach, int(err.size),
                           float(err.mean()) if err.size else math.nan,
                           float(err.std()) if err.size else math.nan, n_bad)
+
+
+# --------------------------------------------------------------------------------------------
+# Per-node outcomes and per-sample errors
+# --------------------------------------------------------------------------------------------
+
+#: :func:`outcomes` codes 0..3 and their names.
+OUTCOME_NAMES = ("true negative", "true positive", "false positive", "false negative")
+
+
+def outcomes(pred, truth) -> np.ndarray:
+    """Per-element outcome codes (uint8) of a prediction against the truth (same shape, read as
+    bool): 0 true negative, 1 true positive, 2 false positive, 3 false negative (:data:`OUTCOME_NAMES`)."""
+    p, t = _to_numpy(pred), _to_numpy(truth)
+    if p.shape != t.shape:
+        raise ValueError(f"prediction shape {p.shape} does not match truth shape {t.shape}")
+    p, t = p.astype(bool), t.astype(bool)
+    out = np.zeros(p.shape, dtype=np.uint8)
+    out[p & t] = 1
+    out[p & ~t] = 2
+    out[~p & t] = 3
+    return out
+
+
+def per_sample_error(scores, truth, threshold: float = 0.5) -> np.ndarray:
+    """Fraction of each sample's nodes predicted wrongly (``score > threshold`` against the
+    truth), ``(samples,)`` float64: the error of each prediction on a test set. ``scores`` and
+    ``truth`` are ``(samples, nodes)``."""
+    s = _to_numpy(scores)
+    t = np.asarray(_to_numpy(truth), dtype=bool)
+    if s.shape != t.shape or s.ndim != 2:
+        raise ValueError(f"scores and truth must both be (samples, nodes); got {s.shape} and {t.shape}")
+    pred = s > np.asarray(threshold, dtype=s.dtype if s.dtype.kind == "f" else np.float64)
+    return np.mean(pred != t, axis=1, dtype=np.float64)
+
+
+# --------------------------------------------------------------------------------------------
+# Curves over training sessions
+# --------------------------------------------------------------------------------------------
+
+
+def session_curves(histories, key: str) -> np.ndarray:
+    """``(sessions, epochs)`` float64 matrix of ``history.<key>`` (``loss``, ``grad_norm``,
+    ``val_loss``, ``test_loss``, ``time``) of single-session histories
+    (:class:`wsmap.learn.training.History`), padded with NaN after a session that stopped early
+    (epochs = the longest history)."""
+    rows = [np.asarray(getattr(h, key), dtype=np.float64).reshape(-1) for h in histories]
+    if not rows:
+        raise ValueError("session_curves needs at least one history")
+    if any(r.ndim != 1 for r in rows):
+        raise ValueError(f"history.{key} must be one value per epoch (single-session histories)")
+    n = max(len(r) for r in rows)
+    out = np.full((len(rows), n), np.nan)
+    for i, r in enumerate(rows):
+        out[i, : len(r)] = r
+    return out
+
+
+def session_mean_std(curves) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per epoch (column) of ``curves`` ``(sessions, epochs)`` (NaN: the session had stopped): the
+    mean, the population standard deviation (0 with one session) and the number of sessions
+    present, each ``(epochs,)``; NaN mean and deviation where no session is present."""
+    curves = np.atleast_2d(np.asarray(curves, dtype=np.float64))
+    count = np.sum(np.isfinite(curves), axis=0)
+    safe = np.where(np.isfinite(curves), curves, 0.0)
+    mean = np.where(count > 0, safe.sum(0) / np.maximum(count, 1), np.nan)
+    dev = np.where(np.isfinite(curves), curves - mean, 0.0)
+    std = np.where(count > 0, np.sqrt((dev**2).sum(0) / np.maximum(count, 1)), np.nan)
+    return mean, std, count

@@ -187,7 +187,7 @@ def _iso(v: np.ndarray, shape, lo, step, level: float):
     verts, faces, _, _ = marching_cubes(np.ascontiguousarray(padded), level=level)
     verts = lo + (verts - 1.0) * step
     # the (z, y, x) -> (x, y, z) transpose is a reflection: reverse the winding so normals point
-    # out of the region above the level (as wsmap.viz.map_to_mesh)
+    # out of the region above the level
     return trimesh.Trimesh(vertices=verts, faces=faces[:, ::-1], process=True)
 
 

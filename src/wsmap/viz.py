@@ -4,14 +4,16 @@ errors, threshold sweeps, run-time bars, and writing figures and meshes to files
 Maps are flat boolean arrays in the paper's node order; ``shape = (nx, ny, nz)`` and the grid's
 ``lo``/``step`` place them in space (metres for R3 maps, radians for SO3 maps). Everything that
 draws returns a matplotlib ``Figure`` (or ``Axes``); everything that writes a file writes it
-atomically (:mod:`wsmap.io`).
+atomically (:mod:`wsmap.io`). What is drawn is computed elsewhere: scores, outcomes, per-sample
+errors and the statistics over sessions in :mod:`wsmap.metrics`, surface meshes of maps in
+:mod:`wsmap.views` (:func:`wsmap.views.iso_mesh`).
 
-* maps: :func:`plot_slices`, :func:`plot_value_slices` (float maps), :func:`plot_voxels`, :func:`map_to_mesh`, :func:`render_mesh`,
+* maps: :func:`plot_slices`, :func:`plot_value_slices` (float maps), :func:`plot_voxels`, :func:`render_mesh`,
   :func:`plot_meshes`, :func:`export_mesh`, :func:`save_figure`;
-* curves over training sessions: :func:`session_curves`, :func:`plot_mean_band` (the paper's
-  "Average gradient (± sigma) of 10 training sessions"), :func:`plot_training_curves`;
-* predictions against the truth: :func:`per_sample_error`, :func:`plot_sample_errors`,
-  :func:`outcomes` / :func:`plot_sections` (TP/FP/FN/TN of a z-layer for a grid of arms),
+* curves over training sessions (:func:`wsmap.metrics.session_curves`): :func:`plot_mean_band` (the
+  paper's "Average gradient (± sigma) of 10 training sessions"), :func:`plot_training_curves`;
+* predictions against the truth: :func:`plot_sample_errors` (of :func:`wsmap.metrics.per_sample_error`),
+  :func:`plot_sections` (TP/FP/FN/TN of a z-layer for a grid of arms, :func:`wsmap.metrics.outcomes`),
   :func:`plot_threshold_sweep`, :func:`plot_error_histograms`;
 * run time: :func:`plot_runtimes`.
 """
@@ -25,17 +27,16 @@ from pathlib import Path
 import numpy as np
 
 from .io import atomic_path
-from .workspace import map_to_volume
+from .metrics import OUTCOME_NAMES, outcomes, session_mean_std
+from .workspace.grids import map_to_volume
 
 __all__ = [
-    "OUTCOME_COLORS", "OUTCOME_NAMES", "session_curves", "plot_mean_band", "plot_training_curves",
-    "per_sample_error", "plot_sample_errors", "outcomes", "plot_sections", "plot_threshold_sweep",
-    "plot_error_histograms", "plot_runtimes", "plot_meshes", "export_mesh", "plot_slices", "plot_voxels",
-    "map_to_mesh", "save_figure", "render_mesh", "plot_value_slices",
+    "OUTCOME_COLORS", "plot_mean_band", "plot_training_curves", "plot_sample_errors", "plot_sections",
+    "plot_threshold_sweep", "plot_error_histograms", "plot_runtimes", "plot_meshes", "export_mesh", "plot_slices",
+    "plot_voxels", "save_figure", "render_mesh", "plot_value_slices",
 ]
 
-#: :func:`outcomes` codes 0..3 and their colours / names.
-OUTCOME_NAMES = ("true negative", "true positive", "false positive", "false negative")
+#: The colours of :func:`wsmap.metrics.outcomes` codes 0..3 (:data:`wsmap.metrics.OUTCOME_NAMES`).
 OUTCOME_COLORS = ("#f4f4f4", "#1f4e79", "#ff9f1c", "#d62728")
 
 
@@ -57,33 +58,6 @@ def _plt():
 # --------------------------------------------------------------------------------------------
 
 
-def session_curves(histories: Sequence, key: str) -> np.ndarray:
-    """``(sessions, epochs)`` float64 matrix of ``history.<key>`` (``loss``, ``grad_norm``,
-    ``val_loss``, ``test_loss``, ``time``) of single-session histories, padded with NaN after a
-    session that stopped early (epochs = the longest history)."""
-    rows = [np.asarray(getattr(h, key), dtype=np.float64).reshape(-1) for h in histories]
-    if not rows:
-        raise ValueError("session_curves needs at least one history")
-    if any(r.ndim != 1 for r in rows):
-        raise ValueError(f"history.{key} must be one value per epoch (single-session histories)")
-    n = max(len(r) for r in rows)
-    out = np.full((len(rows), n), np.nan)
-    for i, r in enumerate(rows):
-        out[i, : len(r)] = r
-    return out
-
-
-def _nan_mean_std(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    curves = np.atleast_2d(np.asarray(curves, dtype=np.float64))
-    count = np.sum(np.isfinite(curves), axis=0)
-    safe = np.where(np.isfinite(curves), curves, 0.0)
-    mean = np.where(count > 0, safe.sum(0) / np.maximum(count, 1), np.nan)
-    dev = np.where(np.isfinite(curves), curves - mean, 0.0)
-    # population std over the sessions present at that epoch (0 with one session)
-    std = np.where(count > 0, np.sqrt((dev**2).sum(0) / np.maximum(count, 1)), np.nan)
-    return mean, std, count
-
-
 def plot_mean_band(curves, *, epochs=None, ax=None, label: str = "mean", color: str = "#1f4e79",
                    logy: bool = True, ylabel: str = "", title: str | None = None, show_sessions: bool = True):
     """Mean ± sigma over sessions (rows of ``curves``, NaN = session stopped) per epoch.
@@ -95,7 +69,7 @@ def plot_mean_band(curves, *, epochs=None, ax=None, label: str = "mean", color: 
     plt = _plt()
     curves = np.atleast_2d(np.asarray(curves, dtype=np.float64))
     epochs = np.arange(curves.shape[1]) if epochs is None else np.asarray(epochs)
-    mean, std, _ = _nan_mean_std(curves)
+    mean, std, _ = session_mean_std(curves)
     if ax is None:
         fig, ax = plt.subplots(figsize=(6.4, 4.0))
     else:
@@ -157,26 +131,8 @@ def plot_training_curves(histories: Sequence, labels: Sequence[str], *, best_epo
 # --------------------------------------------------------------------------------------------
 
 
-def _pred_truth(pred, truth) -> tuple[np.ndarray, np.ndarray]:
-    p, t = np.asarray(pred), np.asarray(truth)
-    if p.shape != t.shape:
-        raise ValueError(f"prediction shape {p.shape} does not match truth shape {t.shape}")
-    return p.astype(bool), t.astype(bool)
-
-
-def per_sample_error(scores, truth, threshold: float = 0.5) -> np.ndarray:
-    """Fraction of each sample's nodes predicted wrongly (``score > threshold`` against the
-    truth), ``(samples,)`` float64: the error of each prediction on a test set."""
-    s = np.asarray(scores)
-    t = np.asarray(truth, dtype=bool)
-    if s.shape != t.shape or s.ndim != 2:
-        raise ValueError(f"scores and truth must both be (samples, nodes); got {s.shape} and {t.shape}")
-    pred = s > np.asarray(threshold, dtype=s.dtype if s.dtype.kind == "f" else np.float64)
-    return np.mean(pred != t, axis=1, dtype=np.float64)
-
-
 def plot_sample_errors(errors, *, title: str | None = None):
-    """Per-sample error (:func:`per_sample_error`) of a test set: left, the error of every sample
+    """Per-sample error (:func:`wsmap.metrics.per_sample_error`) of a test set: left, the error of every sample
     in test-set order with its mean and mean ± sigma; right, their histogram. Returns the Figure."""
     plt = _plt()
     e = 100.0 * np.asarray(errors, dtype=np.float64)
@@ -200,21 +156,10 @@ def plot_sample_errors(errors, *, title: str | None = None):
     return fig
 
 
-def outcomes(pred, truth) -> np.ndarray:
-    """Per-element outcome codes (uint8): 0 true negative, 1 true positive, 2 false positive,
-    3 false negative (:data:`OUTCOME_NAMES`)."""
-    p, t = _pred_truth(pred, truth)
-    out = np.zeros(p.shape, dtype=np.uint8)
-    out[p & t] = 1
-    out[p & ~t] = 2
-    out[~p & t] = 3
-    return out
-
-
 def plot_sections(pred, truth, shape, *, layer: int, lo=-1.0, step=0.1, z_value: float | None = None,
                   titles: Sequence[str] | None = None, ncols: int = 5, title: str | None = None):
     """One panel per sample: z-layer ``layer`` of its predicted map against the exact one,
-    coloured by outcome (TP/FP/FN/TN, :data:`OUTCOME_COLORS`).
+    coloured by outcome (TP/FP/FN/TN, :func:`wsmap.metrics.outcomes`, :data:`OUTCOME_COLORS`).
 
     Args:
         pred, truth: bool ``(samples, nx*ny*nz)`` maps in node order (e.g. one block subspace,
@@ -348,10 +293,9 @@ def plot_runtimes(groups: dict[str, dict[str, np.ndarray]], *, unit: str = "ms",
 
 
 def plot_meshes(meshes: Sequence, titles: Sequence[str], *, lim: float = 1.0, colors=None, suptitle=None):
-    """Meshes rendered side by side (:func:`wsmap.viz.render_mesh`, no OpenGL); a ``None`` or
-    empty mesh gets an empty panel that says so."""
+    """Meshes (e.g. :func:`wsmap.views.iso_mesh`) rendered side by side (:func:`render_mesh`, no
+    OpenGL); a ``None`` or empty mesh gets an empty panel that says so."""
     plt = _plt()
-    
     colors = colors or ["#1f4e79", "#2e7d32", "#8e44ad", "#d35400"]
     fig = plt.figure(figsize=(5.0 * len(meshes), 5.0))
     for i, (mesh, t) in enumerate(zip(meshes, titles)):
@@ -514,28 +458,6 @@ def plot_voxels(flat_map, shape, lo=-1.0, step=0.1, *, ax=None, color="#1f4e79",
     if title:
         ax.set_title(title)
     return ax
-
-
-def map_to_mesh(flat_map, shape, lo=-1.0, step=0.1):
-    """Surface of the reachable region as a ``trimesh.Trimesh`` (marching cubes at level 0.5).
-
-    The volume is padded by one empty node on every side so that the surface is closed where the
-    workspace touches the grid's border. Vertices are in the grid's units.
-    """
-    import trimesh
-    from skimage.measure import marching_cubes
-
-    vol = map_to_volume(np.asarray(flat_map, dtype=bool), shape)
-    if not vol.any():
-        raise ValueError("the map has no reachable node: there is no surface to mesh")
-    padded = np.pad(vol.astype(np.float32), 1)
-    # (z, y, x) volume → transpose to (x, y, z) so that vertex columns are x, y, z
-    verts, faces, _, _ = marching_cubes(padded.transpose(2, 1, 0), level=0.5)
-    lo = np.broadcast_to(np.asarray(lo, dtype=float), (3,))
-    step = np.broadcast_to(np.asarray(step, dtype=float), (3,))
-    verts = lo + (verts - 1.0) * step
-    # swapping the x and z axes is a reflection: reverse the winding so normals point outwards
-    return trimesh.Trimesh(vertices=verts, faces=faces[:, ::-1], process=True)
 
 
 def render_mesh(mesh, *, ax=None, color="#1f4e79", title=None, elev=25, azim=-60, lim=1.0):

@@ -7,9 +7,13 @@
 * :mod:`.reach` — maps over orientations: reach at any orientation, reachability index, dexterous
   workspace, manipulability;
 * :mod:`.placement` — base placement (inverse reachability);
+* :mod:`.kinds` — the registry of map kinds (one module per kind: what a node holds, what the kind
+  reads, the function above that computes it, how its values read), which ``wsmap map --kind``,
+  the map files and the views ask;
 * :mod:`.files` — the ``.npz`` map file.
 """
 
+from . import kinds
 from .files import MapFileError, load_map, save_map
 from .grids import (
     BLOCK_NODES,
@@ -63,5 +67,5 @@ __all__ = [
     "MAP_SETTINGS", "SCOPES", "SOLVERS", "closed_form_family", "node_neighbours", "reachable", "resolve_method",
     "angle_grid", "available_memory", "block_slice", "cartesian_grid", "constant_orientation_map", "default_grid",
     "grid_axes", "grid_counts", "grid_map", "grid_spec", "load_map", "map_to_volume", "orientation_map", "save_map",
-    "target_poses", "volume_to_map",
+    "target_poses", "volume_to_map", "kinds",
 ]

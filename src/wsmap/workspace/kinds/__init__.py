@@ -1,0 +1,40 @@
+"""Map kinds: one module per kind of workspace map, each ending by registering its :class:`MapKind`.
+
+The command line (``wsmap map --kind NAME``), the map files (:mod:`wsmap.workspace.files`) and the
+views ask this registry what a kind is (:func:`get_kind`, :func:`kinds`); none of them names a kind.
+
+Kinds (in the order they register, the order of ``--kind``'s choices):
+
+* :mod:`.constant` — the paper's R3 map: positions reachable at a fixed orientation (bool);
+* :mod:`.orientation` — the paper's SO3 map: orientations reachable at a fixed point (bool);
+* :mod:`.index` — the reachability index over a set of orientations (float in [0, 1]);
+* :mod:`.reach` — reachable at some orientation (bool);
+* :mod:`.dexterous` — reachable at every orientation of a set (bool);
+* :mod:`.manipulability` — the best Yoshikawa manipulability at a fixed orientation (float, m³).
+
+A new kind is one new module here (its glue: a ``compute(robot, grid, request)`` that calls the
+library function, and ``register(MapKind(...))`` at its end), its name added to the import line
+below, and its tests; the computing function itself lives with the maps (:mod:`wsmap.workspace.maps`,
+:mod:`wsmap.workspace.reach`).
+"""
+
+from .registry import (
+    INPUTS,
+    METHODS,
+    MapKind,
+    MapRequest,
+    default_kind,
+    get_kind,
+    kind_names,
+    kinds,
+    kinds_taking,
+    register,
+    unregister,
+)
+
+# Importing a kind module registers it. The order is the registry's: the paper's map of each scope
+# first (the default kind of its scope, default_kind), then the maps over orientations.
+from . import constant, orientation, index, reach, dexterous, manipulability  # noqa: E402, F401, I001
+
+__all__ = ["INPUTS", "METHODS", "MapKind", "MapRequest", "default_kind", "get_kind", "kind_names",
+           "kinds", "kinds_taking", "register", "unregister"]

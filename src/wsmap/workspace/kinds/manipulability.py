@@ -1,0 +1,34 @@
+"""The manipulability map: the largest Yoshikawa manipulability ``√det(J Jᵀ)`` over the IK solutions
+found at each position for one orientation ``rpy`` (float >= 0 per node, 0 where unreachable; m³ for
+a 6-joint arm with lengths in metres).
+
+Computed by :func:`wsmap.workspace.manipulability_map` (every closed-form branch, or the solution the
+numerical search finds).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..grids import cartesian_grid
+from ..reach import manipulability_map
+from .registry import MapKind, register
+
+
+def _compute(robot, grid, request):
+    nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
+    return manipulability_map(robot, nodes, request.rpy, convention=request.convention, method=request.method,
+                              ik=request.search, seed=request.seed)
+
+
+def _levels(values):
+    # the quartiles of the reachable nodes' values: the map's scale depends on the arm's size (m³)
+    values = np.asarray(values, dtype=np.float64)
+    return tuple(np.quantile(values[values > 0], [0.25, 0.5, 0.75]))
+
+
+KIND = register(MapKind(
+    name="manipulability", scope="R3", value_type=float, compute=_compute, function=manipulability_map,
+    description="the largest Yoshikawa manipulability of the IK solutions at --rpy",
+    label="manipulability √det(J Jᵀ)", inputs=("rpy", "convention"), levels=_levels, value_range=(0.0, None),
+))

@@ -1,0 +1,22 @@
+"""Reach at any orientation: whether the tool origin can be put at each position (bool per node).
+
+Computed by :func:`wsmap.workspace.position_map` (the numerical search on the position alone; there
+is no closed form of its own, so ``method="exact"`` computes it numerically too).
+"""
+
+from __future__ import annotations
+
+from ..grids import cartesian_grid
+from ..reach import position_map
+from .registry import MapKind, register
+
+
+def _compute(robot, grid, request):
+    nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
+    return position_map(robot, nodes, ik=request.search, seed=request.seed)
+
+
+KIND = register(MapKind(
+    name="reach", scope="R3", value_type=bool, compute=_compute, function=position_map,
+    description="reachable at some orientation", methods=("numerical",), convention="standard",
+))

@@ -1,0 +1,220 @@
+"""The registry of map kinds: what a kind of workspace map is, and where the library finds one.
+
+A *map kind* says what each node of a grid holds (reachable at a fixed orientation, the fraction of a
+set of orientations reachable, Yoshikawa's manipulability, ...). Its :class:`MapKind` record carries
+everything the command line (``wsmap map --kind NAME``), the map files (:mod:`wsmap.workspace.files`)
+and the views need to know about it: its scope (a grid of positions, ``"R3"``, or of orientations,
+``"SO3"``), its value type (``bool`` or ``float``), the inputs and methods it takes, the function that
+computes it on the nodes of a grid, and how its values read (a label with units, iso-surface levels,
+a colour range). Each kind is one module of :mod:`wsmap.workspace.kinds` that ends with
+:func:`register`; nothing outside the registry names a kind.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+import numpy as np
+
+from ..maps import CONVENTIONS, MAP_SETTINGS, SCOPES
+
+__all__ = ["INPUTS", "METHODS", "MapKind", "MapRequest", "register", "unregister", "get_kind", "kinds",
+           "kind_names", "default_kind", "kinds_taking"]
+
+#: What a kind may read besides the arm and the grid: ``"rpy"`` the fixed orientation (rad,
+#: ``R = Rx·Ry·Rz``), ``"point"`` the fixed point (m), ``"orientations"`` a set of orientations
+#: ``(K, 3, 3)``, ``"convention"`` the caller's pose convention (:func:`wsmap.workspace.target_poses`).
+INPUTS = ("rpy", "point", "orientations", "convention")
+#: How a kind can be computed: ``"exact"`` (a closed form), ``"numerical"`` (the IK search),
+#: ``"model"`` (a trained network that predicts the map, :func:`wsmap.workspace.grid_map`).
+METHODS = ("exact", "numerical", "model")
+
+_NAME = re.compile(r"^[a-z][a-z0-9_]*$")
+
+
+@dataclass(frozen=True)
+class MapRequest:
+    """What a kind's ``compute`` is asked for, besides the arm and the grid.
+
+    Attributes:
+        method: ``"exact"``, ``"numerical"`` or ``"model"`` (``"auto"`` lets the kind's function
+            choose, :func:`wsmap.workspace.resolve_method`).
+        convention: the pose convention, ``"paper"`` or ``"standard"`` (a kind with a fixed
+            :attr:`MapKind.convention` is always given that one).
+        rpy: the fixed orientation ``(r1, r2, r3)`` in radians, ``R = Rx(r1)·Ry(r2)·Rz(r3)``.
+        point: the fixed point ``(x, y, z)`` in metres.
+        orientations: ``(K, 3, 3)`` rotation matrices, or ``None`` (kinds without ``"orientations"``).
+        ik: the numerical settings as a map file records them (:data:`wsmap.workspace.MAP_SETTINGS`
+            keys, ``tol``, ``ilimit``, ``rlimit``, ``seed``, and ``solver`` for the paper's one-start LM).
+        seed: the seed of random IK starts and of the orientation set.
+        model: a trained model file (``method="model"``); ``allow_extrapolation`` as
+            :func:`wsmap.workspace.grid_map`.
+        progress: show a progress bar where the computation has one.
+    """
+
+    method: str = "auto"
+    convention: str = "paper"
+    rpy: tuple = (0.0, 0.0, 0.0)
+    point: tuple = (0.5, 0.5, 0.5)
+    orientations: np.ndarray | None = None
+    ik: Mapping = field(default_factory=dict)
+    seed: int = 0
+    model: str | None = None
+    allow_extrapolation: bool = False
+    progress: bool = False
+
+    @property
+    def search(self) -> dict:
+        """The search's keyword arguments: :attr:`ik` without ``seed`` and ``solver`` (given apart)."""
+        return {k: v for k, v in self.ik.items() if k not in ("seed", "solver")}
+
+
+def _boolean_levels(values) -> tuple[float, ...]:
+    return (0.5,)
+
+
+@dataclass(frozen=True)
+class MapKind:
+    """One kind of workspace map.
+
+    Attributes:
+        name: the kind's name (``wsmap map --kind NAME``; the ``"kind"`` of a map file's settings):
+            lower case letters, digits and ``_``.
+        scope: ``"R3"`` (nodes are positions, m) or ``"SO3"`` (nodes are angles ``(r1, r2, r3)``, rad).
+        value_type: ``bool`` (one bit per node) or ``float`` (float64 per node, finite).
+        compute: ``compute(robot, grid, request) -> (N,) array`` of ``value_type``: the map of one arm
+            (or of a batch, where :attr:`batch`) on the nodes of ``grid``
+            (:func:`wsmap.workspace.grid_spec`; node order x fastest) for a :class:`MapRequest`.
+        function: the library function ``compute`` calls (its docstring gives units and conventions).
+        description: one line for ``wsmap map --help``: what a node holds, which options it reads.
+        label: what a value is, with units (colour bars, point-cloud comments, HTML views).
+        noun: what a ``True`` node is, in a summary (``"reachable"``, ``"dexterous"``); bool kinds.
+        inputs: the subset of :data:`INPUTS` the kind reads.
+        methods: the subset of :data:`METHODS` the kind has; a kind without ``"exact"`` is computed
+            numerically when the closed form is asked for (an arm with a closed form).
+        paper_solver: takes the paper's one-start LM (``ik={"solver": "paper"}``, ``--paper-lm``).
+        batch: maps a batch of arms at once (otherwise one arm).
+        search_settings: the numerical search's defaults for this kind (what the command line's
+            ``--starts``/``--retry``/... override).
+        convention: the pose convention the kind always uses, or ``None`` when it takes the caller's
+            (``"convention"`` in :attr:`inputs`).
+        levels: ``levels(values) -> tuple`` of iso-surface levels of a map (``.glb`` views).
+        value_range: ``(lo, hi)`` colour range of float maps; ``None`` for an end means the map's own.
+    """
+
+    name: str
+    scope: str
+    value_type: type
+    compute: Callable
+    function: Callable
+    description: str
+    label: str = "reachable"
+    noun: str = "reachable"
+    inputs: tuple = ()
+    methods: tuple = ("exact", "numerical")
+    paper_solver: bool = False
+    batch: bool = False
+    search_settings: Mapping = field(default_factory=lambda: MAP_SETTINGS)
+    convention: str | None = None
+    levels: Callable = _boolean_levels
+    value_range: tuple = (None, None)
+
+    def __post_init__(self):
+        where = f"map kind {self.name!r}"
+        if not isinstance(self.name, str) or not _NAME.match(self.name):
+            raise ValueError(f"a map kind's name is lower case letters, digits and '_', got {self.name!r}")
+        if self.scope not in SCOPES:
+            raise ValueError(f"{where}: scope must be one of {', '.join(SCOPES)}, got {self.scope!r}")
+        if self.value_type not in (bool, float):
+            raise ValueError(f"{where}: value_type must be bool or float, got {self.value_type!r}")
+        for attr, allowed in (("inputs", INPUTS), ("methods", METHODS)):
+            values = getattr(self, attr)
+            if isinstance(values, str) or not all(v in allowed for v in values):
+                raise ValueError(f"{where}: {attr} must be a tuple of {', '.join(allowed)}, got {values!r}")
+            object.__setattr__(self, attr, tuple(values))
+        if "numerical" not in self.methods:
+            raise ValueError(f"{where}: every kind has the numerical method (any arm), got {self.methods!r}")
+        if self.convention is not None and self.convention not in CONVENTIONS:
+            raise ValueError(f"{where}: convention must be None or one of {', '.join(CONVENTIONS)}, "
+                             f"got {self.convention!r}")
+        if (self.convention is None) != ("convention" in self.inputs):
+            raise ValueError(f"{where}: a kind either takes the caller's convention ('convention' in inputs, "
+                             "convention None) or fixes its own")
+        for attr in ("compute", "function", "levels"):
+            if not callable(getattr(self, attr)):
+                raise ValueError(f"{where}: {attr} must be callable")
+        object.__setattr__(self, "search_settings", MappingProxyType(dict(self.search_settings)))
+
+    @property
+    def dtype(self) -> np.dtype:
+        """The map file's dtype of this kind: bool or float64."""
+        return np.dtype(bool) if self.value_type is bool else np.dtype(np.float64)
+
+    def summary(self, values) -> str:
+        """One line on a computed map ``values`` (N,): how many nodes are reachable (and the mean value
+        of a float map)."""
+        values = np.asarray(values)
+        if self.value_type is float:
+            return (f"{int((values > 0).sum())} of {values.size} nodes reachable, "
+                    f"mean {self.label} {values.mean():.3f}")
+        return f"{int(values.sum())} of {values.size} nodes {self.noun}"
+
+
+_REGISTRY: dict[str, MapKind] = {}
+
+
+def register(kind: MapKind, *, replace: bool = False) -> MapKind:
+    """Add ``kind`` to the registry (the end of every kind module) and return it. A second kind of
+    the same name is a ``ValueError`` unless ``replace``; kinds keep the order they registered in
+    (``--kind``'s choices, :func:`kinds`)."""
+    if not isinstance(kind, MapKind):
+        raise TypeError(f"register takes a MapKind, got {type(kind).__name__}")
+    if kind.name in _REGISTRY and not replace:
+        raise ValueError(f"a map kind named {kind.name!r} is already registered (register(..., replace=True) "
+                         "replaces it)")
+    _REGISTRY[kind.name] = kind
+    return kind
+
+
+def unregister(name: str) -> MapKind:
+    """Remove the kind ``name`` from the registry and return it (``ValueError`` when unknown)."""
+    kind = get_kind(name)
+    del _REGISTRY[name]
+    return kind
+
+
+def get_kind(name) -> MapKind:
+    """The registered kind ``name``; ``ValueError`` naming the known kinds otherwise."""
+    kind = _REGISTRY.get(name) if isinstance(name, str) else None
+    if kind is None:
+        raise ValueError(f"unknown map kind {name!r}; known kinds: {', '.join(_REGISTRY)}")
+    return kind
+
+
+def kinds() -> tuple[MapKind, ...]:
+    """Every registered kind, in registration order."""
+    return tuple(_REGISTRY.values())
+
+
+def kind_names() -> tuple[str, ...]:
+    """The names of the registered kinds, in registration order."""
+    return tuple(_REGISTRY)
+
+
+def default_kind(scope: str) -> MapKind:
+    """The first kind registered for ``scope``: the paper's map of that scope (``constant`` for R3,
+    ``orientation`` for SO3)."""
+    for kind in _REGISTRY.values():
+        if kind.scope == scope:
+            return kind
+    raise ValueError(f"no map kind of scope {scope!r} is registered")
+
+
+def kinds_taking(input_name: str) -> tuple[MapKind, ...]:
+    """The kinds that read ``input_name`` (one of :data:`INPUTS`), in registration order."""
+    if input_name not in INPUTS:
+        raise ValueError(f"unknown input {input_name!r}; inputs: {', '.join(INPUTS)}")
+    return tuple(k for k in _REGISTRY.values() if input_name in k.inputs)
