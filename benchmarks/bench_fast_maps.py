@@ -93,7 +93,7 @@ def section_kernel(args, out):
 
     puma = robots.puma560()
     T = poses(cartesian_grid(-1, 1, 0.1), np.eye(3))
-    T = T[ikine_spherical_wrist(puma, T)[1].any(axis=-1)]
+    T = T[ikine_spherical_wrist(puma, T).success.any(axis=-1)]
     M = len(T)
     rows = []
 
@@ -166,7 +166,7 @@ def section_maps(args, out):
         arm = robots.load(name)
         for label, R, rpy in (("R = I", np.eye(3), (0, 0, 0)), ("tool down", rotx(PI), (PI, 0, 0))):
             T = poses(nodes, R)
-            exact = (ikine_spherical_wrist(arm, T)[1].any(axis=-1) if name == "puma560" else ur_reachable(arm, T))
+            exact = (ikine_spherical_wrist(arm, T).success.any(axis=-1) if name == "puma560" else ur_reachable(arm, T))
             t, m = best_of(lambda: constant_orientation_map(arm, nodes, rpy, method="numerical",
                                                             convention="standard"), args.repeats)
             row = {"arm": name, "orientation": label, "method": "wsmap numerical map (compiled, 2 threads)",

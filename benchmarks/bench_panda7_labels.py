@@ -76,7 +76,7 @@ def main() -> None:
         t0 = time.perf_counter()
         L = ws.constant_orientation_map(arm, nodes, spec.fixed, method="numerical", convention=spec.convention)
         t_map = time.perf_counter() - t0
-        possible = _reach_filter(as_chain(arm), T, 1e-6)
+        possible = reach_filter(as_chain(arm), T, 1e-6)
         cand = np.flatnonzero(~L & possible)
         pick = cand if args.sample <= 0 else rng.choice(cand, size=min(args.sample, cand.size), replace=False)
         yes = np.flatnonzero(L)

@@ -156,7 +156,7 @@ def main(argv=None):
             ("wsmap ur_reachable, numpy reference (1 thread)", nothing,
              lambda: ur_reachable(chain, T, backend="numpy")),
             ("wsmap ikine_ur, compiled, all 8 branches with angles (1 thread)", threads(1),
-             lambda: ikine_ur(chain, T)[1].any(axis=-1)),
+             lambda: ikine_ur(chain, T).success.any(axis=-1)),
         ]
         ours = len(methods)
         eaik_threads = [1] + ([args.eaik_threads] if batched and args.eaik_threads != 1 else [])
