@@ -89,6 +89,7 @@ def poses(nodes, R):
 def section_kernel(args, out):
     from wsmap import robots
     from wsmap.kinematics import ikine_LM, ikine_search, ikine_spherical_wrist, lm_compiled
+    from wsmap.kinematics.ik.lm_reference import ikine_LM_reference, ikine_search_reference
     from wsmap.workspace import cartesian_grid
 
     puma = robots.puma560()
@@ -108,9 +109,9 @@ def section_kernel(args, out):
     lm_compiled.set_threads(2)
     t, r = best_of(lambda: ikine_LM(puma, T), args.repeats)
     add("wsmap ikine_LM (paper's LM), compiled, 2 threads", t, r.success)
-    t, r = best_of(lambda: ikine_search(puma, T, backend="numpy"), max(1, args.repeats // 2))
+    t, r = best_of(lambda: ikine_search_reference(puma, T), max(1, args.repeats // 2))
     add("wsmap ikine_search, numpy reference", t, r.success)
-    t, r = best_of(lambda: ikine_LM(puma, T, backend="numpy"), max(1, args.repeats // 2))
+    t, r = best_of(lambda: ikine_LM_reference(puma, T), max(1, args.repeats // 2))
     add("wsmap ikine_LM (paper's LM), numpy reference", t, r.success)
     try:
         rob = rtb_robot(puma.d, puma.a, puma.alpha)

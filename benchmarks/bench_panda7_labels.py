@@ -61,7 +61,8 @@ def main() -> None:
     from wsmap import robots
     from wsmap import workspace as ws
     from wsmap.kinematics import ikine_search, lm_compiled
-    from wsmap.kinematics.search import _reach_filter, as_chain
+    from wsmap.kinematics import as_chain
+    from wsmap.kinematics.ik.reach_filter import reach_filter
     from wsmap.paper.specs import PANDA7_TOOLDOWN as spec
 
     lm_compiled.set_threads(1)

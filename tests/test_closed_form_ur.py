@@ -246,7 +246,7 @@ def test_agrees_with_eaik_on_random_arms_and_orientations():
 # ------------------------------------------------------------------------------------------ joint limits
 def _in_range_mod_2pi(Q, lo, hi):
     """Independent check: some Q + 2·pi·k (k = -3..3) within [lo, hi], every joint."""
-    k = np.arange(-3, 4)[:, None, None, None]
+    k = np.arange(-3, 4).reshape((7,) + (1,) * Q.ndim)
     shifted = Q[None] + TWO_PI * k
     return np.any((shifted >= lo - 1e-12) & (shifted <= hi + 1e-12), axis=0).all(axis=-1)
 

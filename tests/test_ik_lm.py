@@ -86,13 +86,17 @@ def test_target_at_start_pose_succeeds_at_first_iteration(puma):
 
 
 def test_stagnated_failures_are_counted_to_their_limits(puma, unreachable):
-    # a stagnated run is counted to where its rejections (or ilimit) would have ended it, in both
+    # a failure ends by more than rlimit rejections in a row or at ilimit, and a stagnated run is
+    # counted to where its rejections (or ilimit) would have ended it: never fewer than
+    # min(rlimit + 1, ilimit) iterations, in both implementations (where a failure stops at the
+    # local minimum depends on rounding, so the counts of the two need not agree)
     for ilimit, rlimit in ((60, 100), (120, 30), (200, 45)):
-        ref = ikine_LM_reference(puma, unreachable, ilimit=ilimit, rlimit=rlimit)
-        new = K.ikine_LM(puma, unreachable, ilimit=ilimit, rlimit=rlimit)
-        assert not new.success.any() and not ref.success.any()
-        assert np.all(new.iterations <= ilimit) and np.all(ref.iterations <= ilimit)
-        assert (new.iterations == ref.iterations).mean() > 0.8
+        for solve in (K.ikine_LM, ikine_LM_reference):
+            res = solve(puma, unreachable, ilimit=ilimit, rlimit=rlimit)
+            assert not res.success.any()
+            assert np.all(res.iterations <= ilimit)
+            assert np.all(res.iterations >= min(rlimit + 1, ilimit))
+            assert (res.reason == IKReason.NO_CONVERGENCE).all()
 
 
 def test_round_trip_on_random_reachable_poses():
