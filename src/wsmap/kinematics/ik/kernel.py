@@ -52,10 +52,11 @@ def arm_arrays(chain: SerialChain) -> dict:
 
     ``Rf`` (B, n+1, 3, 3) and ``tf`` (B, n+1, 3): the fixed transforms with the base folded into the
     first and the tool into the last; ``off``, ``lo``, ``hi`` (B, n): offsets and limits (±inf where
-    unlimited); ``clo``, ``chi``, ``clipped`` (B, n): the bounds the LM projects onto (see
-    :class:`wsmap.kinematics.ik.lm_reference._Arm`); ``limited`` (B,): any joint clipped; ``unlimited`` (B, n): revolute without limits;
-    ``blo``, ``bhi`` (B, n): the box random starts are drawn in; shared ``axes`` (n, 3), ``pris``
-    and ``zax`` (n,) bool.
+    unlimited); ``clo``, ``chi``, ``clipped`` (B, n): the bounds the LM projects onto (the clipped
+    joints: prismatic, or revolute with a range narrower than a turn; the others move freely and are
+    brought into their range by a multiple of 2·pi at the end); ``limited`` (B,): any joint clipped;
+    ``unlimited`` (B, n): revolute without limits; ``blo``, ``bhi`` (B, n): the box random starts are
+    drawn in; shared ``axes`` (n, 3), ``pris`` and ``zax`` (n,) bool.
     """
     n = chain.n
     batch = chain.batch_shape

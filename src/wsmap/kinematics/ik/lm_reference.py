@@ -23,7 +23,8 @@ from ..dh import DHRobot
 from ..transforms import check_rigid
 from .kernel import mix, pose_keys, start_box
 from .reach_filter import reach_filter
-from .search import DEFAULT_ILIMIT, DEFAULT_RLIMIT, DEFAULT_STARTS, FK_CONFIRM_TOL, _check_count, _check_settings, _limited
+from .search import (DEFAULT_ILIMIT, DEFAULT_RLIMIT, DEFAULT_STARTS, FK_CONFIRM_TOL, _check_count, _check_settings,
+                     _limited)
 from .solution import IKSolution, failure_reasons
 
 __all__ = ["ikine_search_reference", "ikine_LM_reference"]
@@ -540,9 +541,9 @@ def ikine_LM_reference(robot: DHRobot, T, q0=None, *, ilimit: int = 500, rlimit:
     pt = np.ascontiguousarray(Tf[:, :3, 3].T)
     q, code, it, rej, res, _ = _lm(arm, Rt, pt, np.array(qf.T), int(ilimit), int(rlimit), float(tol), float(lam),
                                    constrained=False, rotvec=False)
+    stagnated = np.minimum(it + 1 + (rlimit - rej), ilimit)
     its = np.select([code == _AT_START, code == _SUCCESS, code == _REJECTIONS, code == _STAGNATED],
-                    [np.minimum(1, ilimit), np.minimum(it + 1, ilimit), it, np.minimum(it + 1 + (rlimit - rej), ilimit)],
-                    ilimit).astype(np.int64)
+                    [np.minimum(1, ilimit), np.minimum(it + 1, ilimit), it, stagnated], ilimit).astype(np.int64)
     q = q.T.reshape(shape + (n,))
     converged = ((code == _SUCCESS) | (code == _AT_START)).reshape(shape)
     ok = converged

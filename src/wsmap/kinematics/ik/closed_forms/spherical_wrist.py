@@ -97,8 +97,9 @@ def ikine_spherical_wrist(robot: DHRobot, T, atol: float = 1e-9) -> IKSolution:
     angles in (-pi, pi], branch ``k = 4·shoulder + 2·wrist + elbow``
     (:mod:`wsmap.kinematics.ik.registry`): shoulder 0 has ``q1 = φ + asin(d3/r)`` (``(r, φ)`` the
     polar coordinates of the wrist centre); wrist 0 has ``sin q5 >= 0`` (the two wrist branches are
-    each other's flip, ``(q4 + pi, −q5, q6 + pi)``); elbow 0 has ``sin(q3 + atan2(d4, a3)) >= 0``. ``success`` (..., 8): the branch solves the pose and, if the
-    robot has joint limits, respects them up to multiples of 2·pi; ``reason`` ``OUT_OF_REACH``
+    each other's flip, ``(q4 + pi, −q5, q6 + pi)``); elbow 0 has ``sin(q3 + atan2(d4, a3)) >= 0``.
+    ``success`` (..., 8): the branch solves the pose and, if the robot has joint limits, respects
+    them up to multiples of 2·pi; ``reason`` ``OUT_OF_REACH``
     where the shoulder or the elbow cannot reach the wrist centre, ``OUTSIDE_LIMITS`` where a
     reaching branch leaves the limits; ``iterations`` 0, ``residual`` NaN.
     """
