@@ -55,17 +55,6 @@ def _agreement(pred, exact):
     }
 
 
-def _load_reference():
-    """The reference chunk solver kept in tests/test_lm_kernel.py (the code wsmap.kinematics.lm_kernel replaced)."""
-    import importlib.util
-
-    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "test_lm_kernel.py")
-    spec = importlib.util.spec_from_file_location("_lm_reference", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod._reference_lm_chunk
-
-
 def _rtb_puma(puma):
     """Robotics Toolbox's DHRobot with the paper's PUMA560 table (d1 = 0), or None."""
     import roboticstoolbox as rtb  # noqa: F401 - optional
@@ -83,26 +72,20 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=5, help="repeats of the whole-map timings (best is kept)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the node sample")
     ap.add_argument("--threads", type=int, default=None,
-                    help="worker threads of the batched kernel (WSMAP_LM_THREADS; default: the kernel's choice)")
-    ap.add_argument("--torch-threads", type=int, default=1,
-                    help="torch intra-op threads (the kernel's sin/cos calls are below torch's grain size, so 1 is right)")
+                    help="threads of the compiled kernel (wsmap.kinematics.lm_compiled.set_threads; default: "
+                         "WSMAP_THREADS or every core)")
     ap.add_argument("--reference", action="store_true",
-                    help="also time the implementation that wsmap.kinematics.lm_kernel replaced (kept in tests/test_lm_kernel.py)")
+                    help="also time the numpy reference of the LM iteration (wsmap.kinematics.ik.lm_reference)")
     ap.add_argument("--json", metavar="PATH", help="also write the numbers to this JSON file")
     args = ap.parse_args(argv)
     if args.nodes_sample < 1 or args.repeats < 1:
         ap.error("--nodes-sample and --repeats must be positive")
-    if args.threads is not None:
-        os.environ["WSMAP_LM_THREADS"] = str(args.threads)
-
-    import torch  # imported before timing: the kernel uses its sin/cos
-
-    torch.set_num_threads(args.torch_threads)
-
     from wsmap import robots
     from wsmap import workspace as ws
-    from wsmap.kinematics.lm_kernel import default_threads
-    from wsmap.kinematics import ikine_LM
+    from wsmap.kinematics import ikine_LM, lm_compiled
+    from wsmap.kinematics.ik.lm_reference import ikine_LM_reference
+
+    kernel_threads = lm_compiled.set_threads(args.threads)
 
     puma = robots.puma560()
     nodes = ws.cartesian_grid(-1.0, 1.0, 0.1)
@@ -114,12 +97,10 @@ def main(argv=None):
     info = {
         "python": sys.version.split()[0],
         "numpy": np.__version__,
-        "torch": torch.__version__,
         "machine": platform.machine(),
         "cpus": os.cpu_count(),
         "load_average": os.getloadavg() if hasattr(os, "getloadavg") else None,
-        "kernel_threads": default_threads(),
-        "torch_threads": torch.get_num_threads(),
+        "kernel_threads": kernel_threads,
         "nodes": N,
         "sample": int(len(sample)),
     }
@@ -138,14 +119,10 @@ def main(argv=None):
     rows.append({"method": "numerical map (batched LM, tol 1e-10)", "nodes": N, "seconds": t, "cpu_seconds": c,
                  "agreement": _agreement(num, exact)})
 
-    # 2b. the batched implementation before wsmap.kinematics.lm_kernel, for comparison
+    # 2b. the numpy reference of the same iteration, for comparison
     if args.reference:
-        ref_chunk = _load_reference()
-        dh = np.broadcast_to(puma.dh, (N, 6, 3))
-        t, c, ref = _best_of(
-            lambda: ref_chunk(dh, T, np.zeros((N, 6)), None, 500, 100, 1e-10, 0.1)[1], max(1, min(args.repeats, 2))
-        )
-        rows.append({"method": "numerical map, previous batched LM (reference)", "nodes": N, "seconds": t,
+        t, c, ref = _best_of(lambda: ikine_LM_reference(puma, T, tol=1e-10).success, max(1, min(args.repeats, 2)))
+        rows.append({"method": "numerical map, numpy reference LM", "nodes": N, "seconds": t,
                      "cpu_seconds": c, "agreement": _agreement(ref, exact),
                      "same_success_as_new": bool(np.array_equal(ref, num))})
 
@@ -189,8 +166,8 @@ def main(argv=None):
         r["speedup_vs_paper"] = PAPER_SECONDS_9261 / r["seconds"]
 
     print(f"PUMA560, 21^3 grid ({N} nodes), rpy = 0, paper convention; python {info['python']}, numpy "
-          f"{info['numpy']}, torch {info['torch']}, {info['cpus']} CPUs, load average {info['load_average']}, "
-          f"kernel threads {info['kernel_threads']}, torch threads {info['torch_threads']}")
+          f"{info['numpy']}, {info['cpus']} CPUs, load average {info['load_average']}, "
+          f"kernel threads {info['kernel_threads']}")
     print()
     print(f"| method | nodes timed | seconds for 9261 | CPU seconds | nodes/s | speed-up vs paper ({PAPER_SECONDS_9261} s) "
           "| agreement with exact | false neg. | false pos. |")

@@ -89,11 +89,12 @@ def poses(nodes, R):
 def section_kernel(args, out):
     from wsmap import robots
     from wsmap.kinematics import ikine_LM, ikine_search, ikine_spherical_wrist, lm_compiled
+    from wsmap.kinematics.ik.lm_reference import ikine_LM_reference, ikine_search_reference
     from wsmap.workspace import cartesian_grid
 
     puma = robots.puma560()
     T = poses(cartesian_grid(-1, 1, 0.1), np.eye(3))
-    T = T[ikine_spherical_wrist(puma, T)[1].any(axis=-1)]
+    T = T[ikine_spherical_wrist(puma, T).success.any(axis=-1)]
     M = len(T)
     rows = []
 
@@ -108,9 +109,9 @@ def section_kernel(args, out):
     lm_compiled.set_threads(2)
     t, r = best_of(lambda: ikine_LM(puma, T), args.repeats)
     add("wsmap ikine_LM (paper's LM), compiled, 2 threads", t, r.success)
-    t, r = best_of(lambda: ikine_search(puma, T, backend="numpy"), max(1, args.repeats // 2))
+    t, r = best_of(lambda: ikine_search_reference(puma, T), max(1, args.repeats // 2))
     add("wsmap ikine_search, numpy reference", t, r.success)
-    t, r = best_of(lambda: ikine_LM(puma, T, backend="numpy"), max(1, args.repeats // 2))
+    t, r = best_of(lambda: ikine_LM_reference(puma, T), max(1, args.repeats // 2))
     add("wsmap ikine_LM (paper's LM), numpy reference", t, r.success)
     try:
         rob = rtb_robot(puma.d, puma.a, puma.alpha)
@@ -166,7 +167,7 @@ def section_maps(args, out):
         arm = robots.load(name)
         for label, R, rpy in (("R = I", np.eye(3), (0, 0, 0)), ("tool down", rotx(PI), (PI, 0, 0))):
             T = poses(nodes, R)
-            exact = (ikine_spherical_wrist(arm, T)[1].any(axis=-1) if name == "puma560" else ur_reachable(arm, T))
+            exact = (ikine_spherical_wrist(arm, T).success.any(axis=-1) if name == "puma560" else ur_reachable(arm, T))
             t, m = best_of(lambda: constant_orientation_map(arm, nodes, rpy, method="numerical",
                                                             convention="standard"), args.repeats)
             row = {"arm": name, "orientation": label, "method": "wsmap numerical map (compiled, 2 threads)",

@@ -61,7 +61,8 @@ def main() -> None:
     from wsmap import robots
     from wsmap import workspace as ws
     from wsmap.kinematics import ikine_search, lm_compiled
-    from wsmap.kinematics.search import _reach_filter, as_chain
+    from wsmap.kinematics import as_chain
+    from wsmap.kinematics.ik.reach_filter import reach_filter
     from wsmap.paper.specs import PANDA7_TOOLDOWN as spec
 
     lm_compiled.set_threads(1)
@@ -76,7 +77,7 @@ def main() -> None:
         t0 = time.perf_counter()
         L = ws.constant_orientation_map(arm, nodes, spec.fixed, method="numerical", convention=spec.convention)
         t_map = time.perf_counter() - t0
-        possible = _reach_filter(as_chain(arm), T, 1e-6)
+        possible = reach_filter(as_chain(arm), T, 1e-6)
         cand = np.flatnonzero(~L & possible)
         pick = cand if args.sample <= 0 else rng.choice(cand, size=min(args.sample, cand.size), replace=False)
         yes = np.flatnonzero(L)

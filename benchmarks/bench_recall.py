@@ -39,7 +39,7 @@ import numpy as np
 from wsmap import robots
 from wsmap import workspace as ws
 from wsmap.kinematics import from_dh
-from wsmap.kinematics.search import DEFAULT_STARTS, ikine_search
+from wsmap.kinematics.ik.search import DEFAULT_STARTS, ikine_search
 
 COUNTS = (1, 2, 4, 8, 12, 16, 24, 32, 48, 64)
 ORIENTATIONS = {"R=I": (0.0, 0.0, 0.0), "tool down": (math.pi, 0.0, 0.0)}

@@ -1,4 +1,4 @@
-"""Time the UR closed form (:mod:`wsmap.kinematics.closed_form_ur`) against EAIK on UR5e maps.
+"""Time the UR closed form (:mod:`wsmap.kinematics.ik.closed_forms.ur`) against EAIK on UR5e maps.
 
 Two maps of the 9261 nodes of ``cartesian_grid(-1, 1, 0.1)`` (m), each at one orientation:
 ``R = I`` and tool-down ``R = Rx(pi)``; pose ``T = transl(p) · R`` in the UR5e base frame (flange,
@@ -6,15 +6,13 @@ no tool). Per map and method, the best wall time of one whole map over ``--round
 ``--repeats`` runs in a row (after an untimed warm-up run; numba's compile, or the load of its
 cache, happens before any of it):
 
-1. ``ur_reachable(robot, T)``, the compiled backend (default), from the robot (its structure check
-   included), on 1 thread and on ``--threads`` threads (``lm_compiled.set_threads``; default 2);
-2. ``ur_reachable(robot, T, backend="numpy")``: the numpy reference (all 8 branches of every
-   pose), single thread (run with ``OMP_NUM_THREADS=1``);
-3. ``ikine_ur(robot, T)``, compiled, 1 thread: all 8 branches with their joint angles (more than a
+1. ``ur_reachable(robot, T)`` (compiled) from the robot (its structure check included), on 1 thread
+   and on ``--threads`` threads (``lm_compiled.set_threads``; default 2);
+2. ``ikine_ur(robot, T)``, compiled, 1 thread: all 8 branches with their joint angles (more than a
    map needs: about 20 ``atan2`` per pose);
-4. EAIK's ``IK_batched`` with 1 worker thread (``IK`` in a Python loop if ``IK_batched`` is
+3. EAIK's ``IK_batched`` with 1 worker thread (``IK`` in a Python loop if ``IK_batched`` is
    missing), the C++ solve only: building its reachable labels is not timed;
-5. the same with ``--eaik-threads`` workers (its default is 4), when that is not 1.
+4. the same with ``--eaik-threads`` workers (its default is 4), when that is not 1.
 
 EAIK's label of a node: one of its solutions puts the flange within 1e-6 of ``T`` (forward
 kinematics of :meth:`SerialChain.fkine`, every matrix entry). The script asserts that the labels
@@ -99,7 +97,7 @@ def main(argv=None):
 
     from wsmap import robots
     from wsmap.kinematics import lm_compiled, rotx
-    from wsmap.kinematics.closed_form_ur import ikine_ur, is_ur_type, ur_parameters, ur_reachable
+    from wsmap.kinematics.ik.closed_forms.ur import ikine_ur, is_ur_type, ur_parameters, ur_reachable
     from wsmap.workspace import cartesian_grid
 
     import numba
@@ -153,10 +151,8 @@ def main(argv=None):
             methods.append((f"wsmap ur_reachable, compiled ({plural(many)})", threads(many),
                             lambda: ur_reachable(chain, T)))
         methods += [
-            ("wsmap ur_reachable, numpy reference (1 thread)", nothing,
-             lambda: ur_reachable(chain, T, backend="numpy")),
             ("wsmap ikine_ur, compiled, all 8 branches with angles (1 thread)", threads(1),
-             lambda: ikine_ur(chain, T)[1].any(axis=-1)),
+             lambda: ikine_ur(chain, T).success.any(axis=-1)),
         ]
         ours = len(methods)
         eaik_threads = [1] + ([args.eaik_threads] if batched and args.eaik_threads != 1 else [])

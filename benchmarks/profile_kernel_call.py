@@ -7,7 +7,7 @@ a cProfile of 20 calls.
 import cProfile, pstats, time, numpy as np
 from wsmap import robots, workspace as ws
 from wsmap.kinematics import ikine_search, lm_compiled
-from wsmap.kinematics import search as S
+from wsmap.kinematics.ik import search as S
 lm_compiled.set_threads(2)
 puma = robots.puma560()
 nodes = ws.cartesian_grid(-1, 1, 0.1)

@@ -1,14 +1,16 @@
-"""Closed-form IK of the UR family (wsmap.kinematics.closed_form_ur): round trips through forward
+"""Closed-form IK of the UR family (wsmap.kinematics.ik.closed_forms.ur): round trips through forward
 kinematics, agreement with EAIK on the 21³ grid, joint limits, refusals, broadcasting, mounts; the
-compiled backend against the numpy reference (same valid branches, same angles, any thread count)."""
+solver checked against itself on random arms and poses (the reach-only path against the full solve,
+the limits against an independent range check, every success against forward kinematics, any
+thread count)."""
 
 import numpy as np
 import pytest
 
 from wsmap import robots
-from wsmap.kinematics import DHRobot, SerialChain, from_dh, lm_compiled, rotx, rpy2r
-from wsmap.kinematics import closed_form_ur
-from wsmap.kinematics.closed_form_ur import (
+from wsmap.kinematics import DHRobot, IKReason, SerialChain, from_dh, lm_compiled, rotx, rpy2r
+from wsmap.kinematics.ik.closed_forms import ur as closed_form_ur
+from wsmap.kinematics.ik.closed_forms.ur import (
     UR_ALPHA,
     ikine_ur,
     is_ur_type,
@@ -64,9 +66,10 @@ def _angle_gap(Q, q):
     return np.abs(d).max(axis=-1)
 
 
-def _check_round_trip(chain, q, fk_tol=1e-9, q_tol=1e-7, backend="compiled"):
+def _check_round_trip(chain, q, fk_tol=1e-9, q_tol=1e-7):
     T = chain.fkine(q)
-    Q, valid = ikine_ur(chain, T, backend=backend)
+    sol = ikine_ur(chain, T)
+    Q, valid = sol.q, sol.success
     assert Q.shape == T.shape[:-2] + (8, 6) and valid.shape == T.shape[:-2] + (8,)
     assert np.all(np.abs(Q) <= np.pi + 1e-12)
     err = _fk_error(chain, Q, T)
@@ -109,8 +112,7 @@ def test_round_trip_random_variants_batched():
     _check_round_trip(arms, q)
 
 
-@pytest.mark.parametrize("backend", ["compiled", "numpy"])
-def test_round_trip_generalised_ur_type(backend):
+def test_round_trip_generalised_ur_type():
     # mirrored twists at joints 1, 4, 5, axes -z, joint offsets, d2 + d3, a1, F_6 with a6 and a twist
     rng = np.random.default_rng(3)
     for trial in range(12):
@@ -128,11 +130,10 @@ def test_round_trip_generalised_ur_type(backend):
         p = ur_parameters(chain)
         np.testing.assert_allclose(p.d4, d[1] + d[2] + d4, atol=1e-15)
         q = chain.random_q(100, rng)
-        _check_round_trip(chain, q, backend=backend)
+        _check_round_trip(chain, q)
 
 
-@pytest.mark.parametrize("backend", ["compiled", "numpy"])
-def test_mounted_base_flange_and_tool(backend):
+def test_mounted_base_flange_and_tool():
     rng = np.random.default_rng(4)
     ur = _ur("ur5e")
     for _ in range(5):
@@ -140,10 +141,10 @@ def test_mounted_base_flange_and_tool(backend):
         fixed[0] = _random_rigid(rng) @ fixed[0]  # a mount before joint 1
         fixed[6] = fixed[6] @ _random_rigid(rng)  # a flange adapter after joint 6
         chain = ur.replace(fixed=fixed, base=_random_rigid(rng), tool=_random_rigid(rng))
-        _check_round_trip(chain, chain.random_q(100, rng), backend=backend)
+        _check_round_trip(chain, chain.random_q(100, rng))
     # a tool that is a pure offset along the flange axis (folded into d6 by the solver)
     tool = hom(p=(0, 0, 0.2))
-    _check_round_trip(ur.replace(tool=tool), ur.random_q(100, rng), backend=backend)
+    _check_round_trip(ur.replace(tool=tool), ur.random_q(100, rng))
 
 
 def test_dhrobot_input_matches_the_chain():
@@ -153,23 +154,25 @@ def test_dhrobot_input_matches_the_chain():
     chain = from_dh(d, a, alpha, qlim=QLIM_360, tool=tool)
     q = chain.random_q(50, np.random.default_rng(5))
     T = chain.fkine(q)
-    Q1, V1 = ikine_ur(dh, T)
-    Q2, V2 = ikine_ur(chain, T)
+    sol = ikine_ur(dh, T)
+    Q1, V1 = sol.q, sol.success
+    sol = ikine_ur(chain, T)
+    Q2, V2 = sol.q, sol.success
     np.testing.assert_array_equal(V1, V2)
     np.testing.assert_allclose(Q1, Q2, atol=1e-12)
     _check_round_trip(chain, q)
 
 
 # ------------------------------------------------------------------------------------------ singular poses
-@pytest.mark.parametrize("backend", ["compiled", "numpy"])
 @pytest.mark.parametrize("q5", [0.0, np.pi, 1e-13, -1e-9, np.pi - 1e-10])
-def test_singular_wrist_is_solved(q5, backend):
+def test_singular_wrist_is_solved(q5):
     chain = _ur("ur5e")
     rng = np.random.default_rng(6)
     q = chain.random_q(300, rng)
     q[:, 4] = q5
     T = chain.fkine(q)
-    Q, valid = ikine_ur(chain, T, backend=backend)
+    sol = ikine_ur(chain, T)
+    Q, valid = sol.q, sol.success
     assert valid.any(axis=-1).all()
     assert _fk_error(chain, Q, T)[valid].max() < 1e-9
 
@@ -182,7 +185,8 @@ def test_singular_wrist_reaches_where_the_elbow_needs_the_free_angle():
     q[:, 2] = rng.uniform(-0.05, 0.05, 300)
     q[:, 4] = 0.0
     T = chain.fkine(q)
-    Q, valid = ikine_ur(chain, T)
+    sol = ikine_ur(chain, T)
+    Q, valid = sol.q, sol.success
     assert valid.any(axis=-1).all()
     assert _fk_error(chain, Q, T)[valid].max() < 1e-9
 
@@ -212,7 +216,8 @@ def test_agrees_with_eaik_on_the_ur5e_grid(orientation):
     T = np.broadcast_to(hom(R), (len(p), 4, 4)).copy()
     T[:, :3, 3] = p
     reach_eaik, count_eaik = _eaik_labels(chain, T)
-    Q, valid = ikine_ur(chain, T)
+    sol = ikine_ur(chain, T)
+    Q, valid = sol.q, sol.success
     assert len(p) == 9261 and 2500 < reach_eaik.sum() < 3500
     mismatch = np.flatnonzero(valid.any(axis=-1) != reach_eaik)
     assert mismatch.size == 0, f"labels differ at nodes {mismatch[:10]} (positions {p[mismatch[:3]]})"
@@ -231,7 +236,8 @@ def test_agrees_with_eaik_on_random_arms_and_orientations():
         T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = rpy2r(rng.uniform(-np.pi, np.pi, (1500, 3))), \
             rng.uniform(-1.1, 1.1, (1500, 3)), 1.0
         reach_eaik, count_eaik = _eaik_labels(chain, T, lengths)
-        Q, valid = ikine_ur(chain, T)
+        sol = ikine_ur(chain, T)
+        Q, valid = sol.q, sol.success
         assert 0.1 < reach_eaik.mean() < 0.6
         np.testing.assert_array_equal(valid.any(axis=-1), reach_eaik)
         np.testing.assert_array_equal(valid.sum(axis=-1), count_eaik)
@@ -240,7 +246,7 @@ def test_agrees_with_eaik_on_random_arms_and_orientations():
 # ------------------------------------------------------------------------------------------ joint limits
 def _in_range_mod_2pi(Q, lo, hi):
     """Independent check: some Q + 2·pi·k (k = -3..3) within [lo, hi], every joint."""
-    k = np.arange(-3, 4)[:, None, None, None]
+    k = np.arange(-3, 4).reshape((7,) + (1,) * Q.ndim)
     shifted = Q[None] + TWO_PI * k
     return np.any((shifted >= lo - 1e-12) & (shifted <= hi + 1e-12), axis=0).all(axis=-1)
 
@@ -250,7 +256,8 @@ def test_joint_limits_up_to_full_turns():
     free = _ur("ur10e", qlim=None)
     q = free.random_q(400, rng)
     T = free.fkine(q)
-    Q0, V0 = ikine_ur(free, T)
+    sol = ikine_ur(free, T)
+    Q0, V0 = sol.q, sol.success
     # narrowed limits: random intervals of 0.5..5 rad placed anywhere in [-2pi, 2pi]; one joint
     # keeps a full turn (no check), one is half-open (-inf, hi]
     width = rng.uniform(0.5, 5.0, 6)
@@ -259,7 +266,8 @@ def test_joint_limits_up_to_full_turns():
     qlim[2] = [-np.pi, np.pi]
     qlim[5] = [-np.inf, 0.3]
     limited = free.replace(qlim=qlim)
-    Q, V = ikine_ur(limited, T)
+    sol = ikine_ur(limited, T)
+    Q, V = sol.q, sol.success
     np.testing.assert_array_equal(Q, Q0)  # limits only filter, the angles are the same
     expected = V0 & _in_range_mod_2pi(Q0, qlim[:, 0], qlim[:, 1])
     np.testing.assert_array_equal(V, expected)
@@ -279,7 +287,8 @@ def test_batched_limits_per_arm():
                    qlim=np.array([QLIM_360, np.tile([-1.0, 1.0], (6, 1))]))
     q = rng.uniform(-1, 1, (30, 2, 6))
     T = arms.fkine(q)
-    Q, V = ikine_ur(arms, T)
+    sol = ikine_ur(arms, T)
+    Q, V = sol.q, sol.success
     assert V[:, 0].any(axis=-1).all() and V[:, 1].any(axis=-1).all()
     np.testing.assert_array_equal(V[:, 1], V[:, 1] & _in_range_mod_2pi(Q[:, 1], -1.0, 1.0))
     assert V[:, 1].sum() < V[:, 0].sum()
@@ -361,24 +370,16 @@ def test_batch_refusal_names_the_arm():
 def test_non_rigid_targets_are_refused(T, message):
     good = np.broadcast_to(np.eye(4), (5, 4, 4)).copy()
     good[3] = T
-    for backend in ("compiled", "numpy"):
-        with pytest.raises(ValueError, match=message):
-            ikine_ur(_ur("ur5e"), good, backend=backend)
-        with pytest.raises(ValueError, match=message):
-            ur_reachable(_ur("ur5e"), good, backend=backend)
-        with pytest.raises(ValueError, match="shape"):
-            ikine_ur(_ur("ur5e"), np.eye(3), backend=backend)
+    with pytest.raises(ValueError, match=message):
+        ikine_ur(_ur("ur5e"), good)
+    with pytest.raises(ValueError, match=message):
+        ur_reachable(_ur("ur5e"), good)
+    with pytest.raises(ValueError, match="shape"):
+        ikine_ur(_ur("ur5e"), np.eye(3))
     # a non-rigid target that only one arm of a batch sees (the compiled kernel reads targets by index)
     arms = from_dh(*_table(*np.array([UR_DH["ur5e"], UR_DH["ur3e"]]).T))
     with pytest.raises(ValueError, match=message):
         ur_reachable(arms, good[:, None])
-
-
-def test_unknown_backend_is_refused():
-    with pytest.raises(ValueError, match="backend must be one of"):
-        ikine_ur(_ur("ur5e"), np.eye(4), backend="cuda")
-    with pytest.raises(ValueError, match="backend must be one of"):
-        ur_reachable(_ur("ur5e"), np.eye(4), backend="fortran")
 
 
 # ------------------------------------------------------------------------------------------ broadcasting
@@ -390,20 +391,24 @@ def test_arms_times_targets_broadcast_like_one_at_a_time():
     arms = from_dh(*_table(*lengths.T), qlim=lim)
     T = arms[0].fkine(arms[0].random_q(7, rng))[:, None]  # (7, 1, 4, 4)
     T[2, 0, :3, 3] = [3.0, 0.0, 0.0]  # out of reach of all
-    Q, V = ikine_ur(arms, T)
+    sol = ikine_ur(arms, T)
+    Q, V = sol.q, sol.success
     assert Q.shape == (7, 4, 8, 6) and V.shape == (7, 4, 8)
     for b in range(4):
-        Qb, Vb = ikine_ur(arms[b], T[:, 0])
+        sol = ikine_ur(arms[b], T[:, 0])
+        Qb, Vb = sol.q, sol.success
         np.testing.assert_array_equal(V[:, b], Vb)
         np.testing.assert_allclose(Q[:, b], Qb, atol=1e-12)
         for n in (0, 2, 5):
-            Qn, Vn = ikine_ur(arms[b], T[n, 0])
+            sol = ikine_ur(arms[b], T[n, 0])
+            Qn, Vn = sol.q, sol.success
             assert Qn.shape == (8, 6)
             np.testing.assert_array_equal(V[n, b], Vn)
             np.testing.assert_allclose(Q[n, b], Qn, atol=1e-12)
     assert not V[2].any()
     # precomputed parameters give the same answer
-    Qp, Vp = ikine_ur(ur_parameters(arms), T)
+    sol = ikine_ur(ur_parameters(arms), T)
+    Qp, Vp = sol.q, sol.success
     np.testing.assert_array_equal(Vp, V)
     np.testing.assert_array_equal(Qp, Q)
 
@@ -420,7 +425,8 @@ def test_branch_order_and_reach_tolerance():
     rng = np.random.default_rng(12)
     q = chain.random_q(200, rng)
     T = chain.fkine(q)
-    Q, V = ikine_ur(chain, T)
+    sol = ikine_ur(chain, T)
+    Q, V = sol.q, sol.success
     assert V.any(axis=-1).all() and V.mean() > 0.8
     k = np.arange(8)
     wrist, elbow = (k // 2) % 2, k % 2
@@ -439,7 +445,8 @@ def test_branch_order_and_reach_tolerance():
     # further is out of that pair's reach (both elbows), unless atol allows it
     q0 = np.array([0.3, -0.7, 0.0, 0.4, 1.1, -0.2])
     T0 = chain.fkine(q0)
-    Q0, V0 = ikine_ur(chain, T0)
+    sol = ikine_ur(chain, T0)
+    Q0, V0 = sol.q, sol.success
     assert _fk_error(chain, Q0, T0)[V0].max() < 1e-9
     k0 = int(np.argmin(np.where(V0, _angle_gap(Q0, q0), np.inf)))
     pair = [k0 - k0 % 2, k0 - k0 % 2 + 1]
@@ -448,8 +455,9 @@ def test_branch_order_and_reach_tolerance():
     out = frames[3, :3, 3] - frames[1, :3, 3]  # shoulder → wrist-1 axis: the stretched direction
     T1 = T0.copy()
     T1[:3, 3] += 1e-6 * out / np.linalg.norm(out)  # 1 µm beyond the stretched elbow
-    assert not ikine_ur(chain, T1)[1][pair].any()
-    Q2, V2 = ikine_ur(chain, T1, atol=1e-5)
+    assert not ikine_ur(chain, T1).success[pair].any()
+    sol = ikine_ur(chain, T1, atol=1e-5)
+    Q2, V2 = sol.q, sol.success
     assert V2[pair].all() and _fk_error(chain, Q2, T1)[pair].max() < 1.5e-6
 
     # the wrist point on the shoulder cylinder r = |d4| (upper arm vertical, ψ = 0): a hair
@@ -458,16 +466,18 @@ def test_branch_order_and_reach_tolerance():
     T0 = chain.fkine(q0)
     w0 = T0[:3, 3] - d6 * T0[:3, 2]
     np.testing.assert_allclose(np.hypot(w0[0], w0[1]), d4, atol=1e-12)
-    Q0, V0 = ikine_ur(chain, T0)
+    sol = ikine_ur(chain, T0)
+    Q0, V0 = sol.q, sol.success
     assert V0.any() and _fk_error(chain, Q0, T0)[V0].max() < 1e-9
     T1 = T0.copy()
     T1[:2, 3] -= 1e-6 * w0[:2] / np.hypot(w0[0], w0[1])
     assert not ur_reachable(chain, T1)
-    Q2, V2 = ikine_ur(chain, T1, atol=1e-5)
+    sol = ikine_ur(chain, T1, atol=1e-5)
+    Q2, V2 = sol.q, sol.success
     assert V2.any() and _fk_error(chain, Q2, T1)[V2].max() < 1.5e-6
 
 
-# ------------------------------------------------------------------------------------------ backends
+# ------------------------------------------------------------------------------------------ random arms and poses
 def _random_arms(rng, B, generalised=True, limited=True):
     """A batch of B UR-type arms: lengths of the published arms times U(0.7, 1.3) with random signs;
     ``generalised``: mirrored twists, offsets, d2 + d3, a1, a twisted F_6 with a6, -z axes, a base
@@ -517,46 +527,56 @@ def _poses(rng, arms, n):
     return T
 
 
-def _assert_backends_agree(robot, T, atol=1e-9):
-    Qc, Vc = ikine_ur(robot, T, atol)
-    Qn, Vn = ikine_ur(robot, T, atol, backend="numpy")
-    assert Qc.shape == Qn.shape and Vc.shape == Vn.shape
-    np.testing.assert_array_equal(Vc, Vn)
-    gap = np.abs(np.mod(Qc - Qn + np.pi, TWO_PI) - np.pi)
-    assert gap.max() <= 1e-12, f"q differs by {gap.max():.3g} rad"
-    twin = np.abs(Qc - Qn) > 1e-12  # only an angle at ±pi may come out as its twin at ∓pi
-    assert np.all(np.abs(np.abs(Qc[twin]) - np.pi) <= 1e-12) and np.all(np.abs(Qc) <= np.pi + 1e-12)
-    reach = Vn.any(axis=-1)
-    np.testing.assert_array_equal(ur_reachable(robot, T, atol), reach)
-    np.testing.assert_array_equal(ur_reachable(robot, T, atol, backend="numpy"), reach)
-    return Vn
+def _assert_consistent(robot, T, atol=1e-9):
+    """The solver against itself and independent checks: the limits only filter (the angles are
+    those of the arm without limits), a branch succeeds exactly where the unlimited arm's branch does
+    and its angles lie inside the limits by :func:`_in_range_mod_2pi`, ``reason`` says which failed,
+    the reach-only path agrees with the full solve, and every success reproduces the pose by forward
+    kinematics. Returns ``success``."""
+    sol = ikine_ur(robot, T, atol)
+    Q, V = sol.q, sol.success
+    free = ikine_ur(robot.replace(qlim=None), T, atol)
+    np.testing.assert_array_equal(free.q, Q)
+    assert np.all(np.abs(Q) <= np.pi + 1e-12)
+    if robot.qlim is None:
+        np.testing.assert_array_equal(V, free.success)
+    else:
+        lim = np.broadcast_to(robot.qlim, robot.batch_shape + (6, 2))[..., None, :, :]
+        np.testing.assert_array_equal(V, free.success & _in_range_mod_2pi(Q, lim[..., 0], lim[..., 1]))
+    expected = np.where(V, IKReason.SOLVED, np.where(free.success, IKReason.OUTSIDE_LIMITS, IKReason.OUT_OF_REACH))
+    np.testing.assert_array_equal(sol.reason, expected)
+    np.testing.assert_array_equal(ur_reachable(robot, T, atol), V.any(axis=-1))
+    if V.any():
+        assert _fk_error(robot, Q, T)[V].max() < 2 * atol + 1e-8
+    return V
 
 
 @pytest.mark.parametrize("generalised, limited", [(False, False), (False, True), (True, False), (True, True)])
-def test_backends_agree_on_random_arms_poses_and_limits(generalised, limited):
+def test_consistent_on_random_arms_poses_and_limits(generalised, limited):
     rng = np.random.default_rng(20 + 2 * generalised + limited)
     arms = _random_arms(rng, 24, generalised, limited)
     T = _poses(rng, arms, 160)  # (160, 24, 4, 4): 3840 targets, two tasks' worth and more
-    V = _assert_backends_agree(arms, T)
+    V = _assert_consistent(arms, T)
     reach = V.any(axis=-1)
     assert 0.2 < reach.mean() < 0.8 and 0 < V.sum() < V.size  # neither trivial nor empty
     # one arm at a time, and the targets shared by all arms (broadcast inside the kernel)
     for b in (0, 7):
-        _assert_backends_agree(arms[b], T[:, b])
-    _assert_backends_agree(arms, T[:, :1])
+        _assert_consistent(arms[b], T[:, b])
+    _assert_consistent(arms, T[:, :1])
     # a looser reach tolerance moves the boundary cases
-    _assert_backends_agree(arms, T[:48], atol=1e-5)
+    _assert_consistent(arms, T[:48], atol=1e-5)
 
 
-def test_backends_agree_with_limits_on_the_boundary():
+def test_limits_on_the_boundary():
     # limits that put one joint of a valid branch 1e-9 rad inside or outside (by multiples of 2·pi),
     # or exactly on the upper limit (inside: the check allows 1e-12 above it). Not exactly on the
-    # lower limit: there an angle an ulp below (the two arctan2 differ by that) is out by the check's
-    # own definition (dh._angle_in_range has no slack below), so the backends may differ there
+    # lower limit: the solver's check (as dh._angle_in_range) has no slack below, the independent
+    # one of _in_range_mod_2pi has 1e-12
     rng = np.random.default_rng(30)
     ur = _ur("ur5e", qlim=None)
     T = ur.fkine(ur.random_q(64, rng))
-    Q, V = ikine_ur(ur, T, backend="numpy")
+    sol = ikine_ur(ur, T)
+    Q, V = sol.q, sol.success
     B = 32
     qlim = np.tile(QLIM_360, (B, 1, 1))
     for b in range(B):
@@ -574,17 +594,17 @@ def test_backends_agree_with_limits_on_the_boundary():
         else:
             qlim[b, j] = [x - width, x]
     arms = from_dh(*_table(*np.tile(UR_DH["ur5e"], (B, 1)).T), qlim=qlim)
-    V = _assert_backends_agree(arms, T[:, None])
+    V = _assert_consistent(arms, T[:, None])
     assert 0 < V.sum() < V.size
 
 
-def test_backends_agree_on_the_ur5e_grid_and_at_the_shoulder_axis():
+def test_consistent_on_the_ur5e_grid_and_at_the_shoulder_axis():
     chain = robots.load("ur5e")
     p = cartesian_grid(-1, 1, 0.1)
     for R in (np.eye(3), rotx(np.pi), rpy2r([0.3, -1.2, 2.0])):
         T = np.broadcast_to(hom(R), (len(p), 4, 4)).copy()
         T[:, :3, 3] = p
-        _assert_backends_agree(chain, T)
+        _assert_consistent(chain, T)
     # wrist point on the joint-1 axis, with and without d4 (free θ1) and a1
     for d4, a1 in ((0.0, 0.0), (0.1333, 0.0), (0.0, 0.05)):
         d, a, alpha = (np.array(x) for x in _table(*UR_DH["ur5e"]))
@@ -593,20 +613,20 @@ def test_backends_agree_on_the_ur5e_grid_and_at_the_shoulder_axis():
         T = np.broadcast_to(hom(rotx(np.pi), (0.0, 0.0, 0.3)), (3, 4, 4)).copy()
         T[:, 2, 3] = (0.3, 0.5, 0.1625)
         T[:, :3, 3] -= (UR_DH["ur5e"][5] * T[:, :3, 2])  # flange such that the wrist point is on the axis
-        _assert_backends_agree(arm, T)
+        _assert_consistent(arm, T)
 
 
-def test_backends_agree_on_empty_and_single_targets():
+def test_empty_and_single_targets():
     ur = _ur("ur10e")
     for T in (np.zeros((0, 4, 4)), np.eye(4), ur.fkine(np.array([0.1, -1.0, 1.2, 0.3, 0.0, 2.0]))):
-        Qc, Vc = ikine_ur(ur, T)
-        Qn, Vn = ikine_ur(ur, T, backend="numpy")
-        assert Qc.shape == Qn.shape == T.shape[:-2] + (8, 6)
-        np.testing.assert_array_equal(Vc, Vn)
+        sol = ikine_ur(ur, T)
+        assert sol.q.shape == T.shape[:-2] + (8, 6)
+        assert sol.success.shape == sol.reason.shape == sol.iterations.shape == T.shape[:-2] + (8,)
         assert ur_reachable(ur, T).shape == T.shape[:-2]
+        _assert_consistent(ur, T)
 
 
-def test_compiled_results_do_not_depend_on_the_thread_count():
+def test_results_do_not_depend_on_the_thread_count():
     rng = np.random.default_rng(40)
     arms = _random_arms(rng, 8, generalised=True, limited=True)
     T = _poses(rng, arms, 400)  # 3200 targets: several tasks per thread
@@ -615,7 +635,8 @@ def test_compiled_results_do_not_depend_on_the_thread_count():
         out = {}
         for n in sorted({1, 2, lm_compiled.set_threads(None)}):
             lm_compiled.set_threads(n)
-            out[n] = ikine_ur(arms, T) + (ur_reachable(arms, T),)
+            sol = ikine_ur(arms, T)
+            out[n] = (sol.q, sol.success, sol.reason, ur_reachable(arms, T))
         ref = out[1]
         for n, res in out.items():
             for x, y in zip(res, ref):

@@ -438,13 +438,14 @@ def test_starts_recall_small():
 
 def test_half_turn_success_is_rejected(monkeypatch):
     # pose_error vanishes at a half turn: an LM "success" there must not become a label
-    from wsmap.kinematics import IKResult, rotz
+    from wsmap.kinematics import IKSolution, rotz
 
     arms, _ = D.draw_samples(small("table3_nosubspace", 4))
     q = np.full((4, 6), 0.3)
     T = arms.fkine(q)
     T[1, :3, :3] = T[1, :3, :3] @ rotz(np.pi)  # same position, orientation off by pi
-    fake = IKResult(q=q, success=np.ones(4, bool), iterations=np.ones(4, int), residual=np.zeros(4))
+    fake = IKSolution(q=q, success=np.ones(4, bool), iterations=np.ones(4, int), residual=np.zeros(4),
+                      reason=np.zeros(4, np.int8))
     monkeypatch.setattr(labels_module, "ikine_LM", lambda *a, **k: fake)
     ok = labels_module._solve(arms, T, np.zeros(6), P["table3_nosubspace"])
     np.testing.assert_array_equal(ok, [True, False, True, True])

@@ -102,7 +102,8 @@ def test_targets_agree_with_robotics_toolbox_at_reachable_nodes():
     idx = np.flatnonzero(m > 0)[:: max(1, np.count_nonzero(m) // 5)][:5]
     assert idx.size == 5
     T = ws.target_poses(NODES[idx], (0.0, 0.0, 0.0), "paper")
-    q, valid = ikine_spherical_wrist(arm, T)
+    sol = ikine_spherical_wrist(arm, T)
+    q, valid = sol.q, sol.success
     for k, node in enumerate(idx):
         theirs = max(rob.manipulability(qi, method="yoshikawa") for qi in q[k][valid[k]])
         assert m[node] == pytest.approx(theirs, rel=1e-9, abs=1e-12)

@@ -1,4 +1,4 @@
-"""The sound pre-filter of the reachability search (wsmap.kinematics.search._reach_filter) with the
+"""The sound pre-filter of the reachability search (wsmap.kinematics.ik.reach_filter.reach_filter) with the
 wrist-point bound for a fixed orientation: it never excludes a pose that forward kinematics reaches
 (named arms, random DH arms, random chains with any axes, base and tool), and it leaves the maps'
 answers as they were while the search does less work."""
@@ -11,8 +11,10 @@ import pytest
 from wsmap import robots
 from wsmap import workspace as ws
 from wsmap.kinematics import SerialChain, as_chain, ikine_spherical_wrist, rotx, ur_reachable
-from wsmap.kinematics import search as S
-from wsmap.kinematics.search import FK_CONFIRM_TOL, _reach_filter, map_search
+from wsmap.kinematics.ik import memo
+from wsmap.kinematics.ik import search as S
+from wsmap.kinematics.ik.reach_filter import reach_filter
+from wsmap.kinematics.ik.search import FK_CONFIRM_TOL, map_search
 
 PI = math.pi
 
@@ -72,8 +74,8 @@ def _perturbed(rng, T, tol):
 def _assert_keeps_fk_poses(chain, rng, count):
     q = chain.random_q(count, rng)
     T = chain.fkine(q)
-    assert _reach_filter(chain, T, FK_CONFIRM_TOL).all()
-    assert _reach_filter(chain, _perturbed(rng, T, FK_CONFIRM_TOL), FK_CONFIRM_TOL).all()
+    assert reach_filter(chain, T, FK_CONFIRM_TOL).all()
+    assert reach_filter(chain, _perturbed(rng, T, FK_CONFIRM_TOL), FK_CONFIRM_TOL).all()
 
 
 @pytest.mark.parametrize("name", list(robots.ROBOTS))
@@ -102,12 +104,12 @@ def test_bound_is_tight_for_the_puma560():
     for R in (np.eye(3), rotx(PI)):
         T = ws.target_poses(nodes, (0, 0, 0), "standard")
         T[:, :3, :3] = R
-        exact = ikine_spherical_wrist(puma, T)[1].any(axis=-1)
-        possible = _reach_filter(as_chain(puma), T, FK_CONFIRM_TOL)
+        exact = ikine_spherical_wrist(puma, T).success.any(axis=-1)
+        possible = reach_filter(as_chain(puma), T, FK_CONFIRM_TOL)
         assert possible[exact].all()
         assert possible.sum() == exact.sum()
         # the bound without the wrist orbit (the sum of link lengths) keeps over 1700 more
-        assert _reach_filter(as_chain(puma), T, FK_CONFIRM_TOL, wrist_orbit=False).sum() > exact.sum() + 1700
+        assert reach_filter(as_chain(puma), T, FK_CONFIRM_TOL, wrist_orbit=False).sum() > exact.sum() + 1700
 
 
 @pytest.mark.parametrize("name", ["puma560", "ur5e"])
@@ -120,11 +122,11 @@ def test_same_map_with_less_work(name, monkeypatch):
         T[:, :3, :3] = R
         new = map_search(arm, T, nb)
         with monkeypatch.context() as m:
-            m.setattr(S, "_reach_filter", lambda *a, **k: _reach_filter(*a, wrist_orbit=False, **k))
+            m.setattr(S, "reach_filter", lambda *a, **k: reach_filter(*a, wrist_orbit=False, **k))
             old = map_search(arm, T, nb)
         assert np.array_equal(new.success, old.success)
         assert new.iterations.sum() < 0.4 * old.iterations.sum()
-        exact = ikine_spherical_wrist(arm, T)[1].any(axis=-1) if name == "puma560" else ur_reachable(arm, T)
+        exact = ikine_spherical_wrist(arm, T).success.any(axis=-1) if name == "puma560" else ur_reachable(arm, T)
         assert np.array_equal(new.success, exact)
 
 
@@ -134,11 +136,11 @@ def test_one_arm_and_a_batch_agree():
     T = ws.target_poses(nodes, (PI, 0, 0), "standard")
     for name in ("puma560", "ur5e", "panda"):
         chain = as_chain(robots.load(name))
-        one = _reach_filter(chain, T, FK_CONFIRM_TOL)
+        one = reach_filter(chain, T, FK_CONFIRM_TOL)
         batch = chain.replace(fixed=chain.fixed[None], offset=chain.offset[None])
         assert batch.batch_shape == (1,)
-        assert np.array_equal(one, _reach_filter(batch, T[:, None], FK_CONFIRM_TOL)[:, 0])
-        assert np.array_equal(one[:5], [_reach_filter(chain, t, FK_CONFIRM_TOL) for t in T[:5]])
+        assert np.array_equal(one, reach_filter(batch, T[:, None], FK_CONFIRM_TOL)[:, 0])
+        assert np.array_equal(one[:5], [reach_filter(chain, t, FK_CONFIRM_TOL) for t in T[:5]])
 
 
 def test_memos_follow_the_arms_numbers():
@@ -146,10 +148,10 @@ def test_memos_follow_the_arms_numbers():
     from wsmap.kinematics import ikine_search
 
     arm = robots.puma560()
-    assert S._as_chain_memo(arm) is S._as_chain_memo(robots.puma560())
+    assert memo.as_chain_memo(arm) is memo.as_chain_memo(robots.puma560())
     T = arm.fkine(np.full(6, 0.3))
     assert ikine_search(arm, T).success
     short = robots.spherical_wrist(a2=0.2159, a3=0.0203, d3=0.15005, d4=0.2159)
-    assert S._as_chain_memo(short) is not S._as_chain_memo(arm)
+    assert memo.as_chain_memo(short) is not memo.as_chain_memo(arm)
     assert not ikine_search(short, T).success  # out of its reach
     assert ikine_search(arm, T).success

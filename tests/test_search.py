@@ -1,4 +1,4 @@
-"""The reachability search (wsmap.kinematics.search): known answers against exact references,
+"""The reachability search (wsmap.kinematics.ik.search): known answers against exact references,
 joint limits inside the search, confirmation by forward kinematics, determinism."""
 
 import math
@@ -8,8 +8,11 @@ import pytest
 
 from wsmap import robots
 from wsmap import workspace as ws
-from wsmap.kinematics import DHRobot, SerialChain, from_dh, ikine_search, ikine_spherical_wrist, rotx, rotz
-from wsmap.kinematics.search import DEFAULT_STARTS, FK_CONFIRM_TOL, _project, _reach_filter, as_chain
+from wsmap.kinematics import (DHRobot, SerialChain, as_chain, from_dh, ikine_LM, ikine_search, ikine_spherical_wrist,
+                              rotx, rotz)
+from wsmap.kinematics.ik.lm_reference import _project
+from wsmap.kinematics.ik.reach_filter import reach_filter
+from wsmap.kinematics.ik.search import DEFAULT_STARTS, FK_CONFIRM_TOL
 
 PI = math.pi
 TOOL_DOWN = (PI, 0.0, 0.0)  # R = Rx(pi)
@@ -59,7 +62,7 @@ def test_puma560_without_limits_equals_exact_map(coarse, rpy):
 def test_puma560_with_limits_equals_closed_form(coarse, rpy):
     puma = robots.puma560(joint_limits=True)
     T = ws.target_poses(coarse, rpy, "standard")
-    exact = ikine_spherical_wrist(puma, T)[1].any(axis=-1)
+    exact = ikine_spherical_wrist(puma, T).success.any(axis=-1)
     assert exact.sum() < ws.constant_orientation_map(robots.puma560(), coarse, rpy, convention="standard").sum()
     res = ikine_search(puma, T)
     _compare(res.success, exact, coarse, f"PUMA560 + limits {rpy}")
@@ -179,7 +182,7 @@ def test_puma560_with_limits_finds_the_branch_inside_the_limits():
     res = ikine_search(puma, T)
     assert res.success.mean() >= 0.999, np.flatnonzero(~res.success)
     _check_solutions(as_chain(puma), res, T)
-    paper = puma.ikine_LM(T, check_limits=True).success
+    paper = ikine_LM(puma, T, check_limits=True).success
     assert paper.mean() < res.success.mean()
 
 
@@ -310,7 +313,7 @@ def _random_chain(rng, batch=()):
 
 
 def test_solver_kinematics_equal_the_chains():
-    from wsmap.kinematics.search import _Arm
+    from wsmap.kinematics.ik.lm_reference import _Arm
 
     rng = np.random.default_rng(9)
     for chain, index in ((_random_chain(rng), None), (_random_chain(rng, (3,)), np.array([2, 0, 1, 1]))):
@@ -332,7 +335,7 @@ def test_general_chain_poses_are_found_inside_the_limits():
     q = lo + rng.random((60, chain.n)) * (hi - lo)
     T = chain.fkine(q)
     # the pre-filter is sound: it never rejects a reachable pose (offsets on the slide included)
-    assert _reach_filter(chain, T, FK_CONFIRM_TOL).all()
+    assert reach_filter(chain, T, FK_CONFIRM_TOL).all()
     res = ikine_search(chain, T)
     assert res.success.all(), np.flatnonzero(~res.success)
     _check_solutions(chain, res, T)
@@ -351,13 +354,13 @@ def test_empty_and_single_targets():
     assert one.success.shape == () and bool(one.success) and one.q.shape == (6,)
 
 
-def test_reach_filters_are_sound_about_the_first_axis_point():
+def test_reach_filters_are_sound_about_thefirst_axis_point():
     """The reach pre-filters bound the tool (the wrist point) from a point of the first joint's axis
     (the shoulder): never a reachable pose refused, on named arms and general chains (any axis, a
     slide, a base and a tool), and on the Panda far fewer candidates than a bound from the base."""
     from wsmap import robots
     from wsmap import workspace as ws
-    from wsmap.kinematics.search import _first_axis_point, _position_filter
+    from wsmap.kinematics.ik.reach_filter import first_axis_point, position_filter
 
     rng = np.random.default_rng(11)
     chains = [robots.load(n) for n in ("panda", "iiwa14", "gen3", "ur5e")] + [as_chain(robots.puma560())]
@@ -366,23 +369,23 @@ def test_reach_filters_are_sound_about_the_first_axis_point():
         lim = np.clip(chain.qlim, -PI, PI) if chain.qlim is not None else np.tile([-PI, PI], (chain.n, 1))
         q = lim[:, 0] + rng.random((3000, chain.n)) * (lim[:, 1] - lim[:, 0])  # continuous joints: one turn
         T = chain.fkine(q)
-        assert _reach_filter(chain, T, 0.0).all()
-        assert _position_filter(chain, T[:, :3, 3], 0.0).all()
+        assert reach_filter(chain, T, 0.0).all()
+        assert position_filter(chain, T[:, :3, 3], 0.0).all()
     # a batch of arms: each arm's own point
     batch = _random_chain(rng, (3,))
-    centre, used = _first_axis_point(batch)
+    centre, used = first_axis_point(batch)
     assert centre.shape == (3, 3) and used.shape == (3,)
     for b in range(3):
         one = batch[b]
         q = one.qlim[:, 0] + rng.random((500, one.n)) * (one.qlim[:, 1] - one.qlim[:, 0])
-        assert _position_filter(batch, one.fkine(q)[:, :3, 3], 0.0)[b].all()
+        assert position_filter(batch, one.fkine(q)[:, :3, 3], 0.0)[b].all()
     # the Panda: the shoulder (0, 0, 0.333) is the centre, not the base
     panda = robots.load("panda")
-    centre, used = _first_axis_point(panda)
+    centre, used = first_axis_point(panda)
     np.testing.assert_allclose(centre, [0, 0, 0.333], atol=1e-12)
     nodes = ws.cartesian_grid(-1.2, 1.2, 0.1)
     T = ws.target_poses(nodes, (PI, 0, 0), "standard")
-    candidates = _reach_filter(panda, T, FK_CONFIRM_TOL)
+    candidates = reach_filter(panda, T, FK_CONFIRM_TOL)
     reach = ws.constant_orientation_map(panda, nodes, (PI, 0, 0), method="numerical", convention="standard")
     assert not (reach & ~candidates).any()
     assert candidates.sum() < 0.4 * len(nodes) and candidates.sum() < 1.6 * reach.sum()

@@ -27,7 +27,7 @@ __version__ = "0.1.0"
 from . import kinematics, robots, workspace  # noqa: E402
 from .kinematics import (  # noqa: E402
     DHRobot,
-    IKResult,
+    IKSolution,
     SerialChain,
     ikine_LM,
     ikine_search,
@@ -50,7 +50,7 @@ from .workspace import (  # noqa: E402
 
 __all__ = [
     "__version__", "kinematics", "robots", "workspace",
-    "DHRobot", "IKResult", "SerialChain", "ikine_LM", "ikine_search", "ikine_spherical_wrist", "rpy2r", "transl",
+    "DHRobot", "IKSolution", "SerialChain", "ikine_LM", "ikine_search", "ikine_spherical_wrist", "rpy2r", "transl",
     "angle_grid", "cartesian_grid", "constant_orientation_map", "grid_map", "grid_spec", "load_map",
     "map_to_volume", "orientation_map", "reachable", "save_map",
 ]

@@ -252,6 +252,7 @@ def _run_map(args) -> int:
     :mod:`wsmap.workspace.kinds`, says what each kind reads, computes and how its values read)."""
     from . import workspace as ws
     from .io import atomic_paths, check_output_path
+    from .kinematics import closed_form_for
     from .workspace.kinds import MapRequest, default_kind, get_kind, kinds, kinds_taking
 
     # every check before any work
@@ -320,7 +321,7 @@ def _run_map(args) -> int:
                          f"start at q = 0, {ik.get('starts')} random, neighbours' solutions, {ik.get('retry')} "
                          f"retries, seed {args.seed}")}[method]
     if method == "exact":
-        how += f" ({ws.closed_form_family(robot).replace('_', '-')} family)"
+        how += f" ({closed_form_for(robot).name.replace('_', '-')} family)"
     how += f", joint limits {'on' if limited else 'off'}"
     if R is not None:
         how += f", {K} orientations (super-Fibonacci, seed {args.seed})"

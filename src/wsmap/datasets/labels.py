@@ -16,8 +16,8 @@ orientation, see ``_solve``).
 A chain family (``panda7``, :data:`wsmap.datasets.spec.CHAIN_FAMILIES`) is labelled by the maps'
 numerical path: :func:`wsmap.workspace.constant_orientation_map` (R3) or
 :func:`wsmap.workspace.orientation_map` (SO3) with ``method="numerical"`` and the spec's
-convention, i.e. :func:`wsmap.kinematics.search.map_search` with its defaults
-(:data:`~wsmap.kinematics.search.MAP_SETTINGS`, seed 0): the search with the joint limits inside
+convention, i.e. :func:`wsmap.kinematics.ik.search.map_search` with its defaults
+(:data:`~wsmap.kinematics.ik.search.MAP_SETTINGS`, seed 0): the search with the joint limits inside
 it, each node started from its neighbours' solutions, every success confirmed by forward
 kinematics inside the limits (so ``True`` is never wrong). An arm's labels do not depend on the
 other arms of its batch, nor on the thread count.
@@ -29,7 +29,7 @@ import numpy as np
 
 from .. import robots
 from .. import workspace as ws
-from ..kinematics import DHRobot, SerialChain, ikine_LM, require_spherical_wrist, wrist_centre_reachable
+from ..kinematics import DHRobot, SerialChain, ikine_LM, require_closed_form
 from .features import _check_arms, _fixed_rows, scales_for, spec_nodes
 from .sampling import start_configurations
 from .spec import METHODS, N_JOINTS, DatasetSpec, _check_spec, _choice
@@ -255,9 +255,9 @@ def labels_for(
         if spec.scope == "R3":
             return ws.constant_orientation_map(arms, nodes, fx[0], method="exact", convention=spec.convention)
         return ws.orientation_map(arms, nodes, fx[0], method="exact", convention=spec.convention)
-    # one orientation (point) per arm: the pose of node n for arm b, exact wrist-centre test,
+    # one orientation (point) per arm: the pose of node n for arm b, the closed form's reach test,
     # a few arms at a time (the (arms, nodes, 4, 4) poses are 128 bytes per pair)
-    require_spherical_wrist(arms)
+    closed_form = require_closed_form(arms)
     out = np.empty((count, len(nodes)), dtype=bool)
     per = max(1, (1 << 18) // max(len(nodes), 1))
     for s in range(0, count, per):
@@ -268,5 +268,5 @@ def labels_for(
             T = ws.target_poses(fx[sl, None, :], nodes[None, :, :], spec.convention)
         sub = arms[sl]
         node_arms = DHRobot(sub.d[:, None, :], sub.a[:, None, :], sub.alpha[:, None, :])
-        out[sl] = wrist_centre_reachable(node_arms, T[..., :3, 3])
+        out[sl] = closed_form.reachable(node_arms, T)
     return out

@@ -179,7 +179,7 @@ class DatasetSpec:
         :data:`CHAIN_FAMILIES` (``panda7``: the Franka Panda with its six non-zero DH lengths each
         scaled by U(0.7, 1.3), :func:`wsmap.robots.sample_family`). A chain family's features are
         its scale factors and its labels the numerical map search with its own settings
-        (:data:`wsmap.kinematics.search.MAP_SETTINGS`), so it needs ``method="numerical"``, a
+        (:data:`wsmap.kinematics.ik.search.MAP_SETTINGS`), so it needs ``method="numerical"``, a
         fixed orientation (or point), and ``tol``, ``ilimit``, ``rlimit``, ``starts`` and ``beta``
         left at their defaults (they set the paper's LM path and DH draws); its default R3 grid is
         ``[-1.2, 1.2]`` m (:data:`CHAIN_FAMILY_GRID`).
@@ -320,7 +320,7 @@ class DatasetSpec:
                 changed.append(f"{k}={getattr(self, k)!r}")
         if changed:
             raise ValueError(
-                f"family {fam!r} is labelled by the map search (wsmap.kinematics.search.MAP_SETTINGS) and "
+                f"family {fam!r} is labelled by the map search (wsmap.kinematics.ik.search.MAP_SETTINGS) and "
                 f"drawn by its scale factors; {', '.join(changed)} would change nothing: tol, ilimit, rlimit, "
                 "starts and beta set the paper's LM path and DH draws, leave them at their defaults"
             )

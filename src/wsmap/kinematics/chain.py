@@ -25,9 +25,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from .arms import ArmBatch
+from .dh import DHRobot
 from .transforms import as_real_array, check_finite, check_rigid
 
-__all__ = ["SerialChain", "from_dh", "REVOLUTE", "PRISMATIC"]
+__all__ = ["SerialChain", "from_dh", "as_chain", "flatten_arms", "REVOLUTE", "PRISMATIC"]
 
 REVOLUTE = "R"
 PRISMATIC = "P"
@@ -312,3 +313,29 @@ def from_dh(d, a, alpha, offset=None, qlim=None, modified: bool = False, prismat
     motion_offset = off_b * own  # prismatic joints carry θ in the fixed part
     return SerialChain(fixed, np.tile([0.0, 0.0, 1.0], (n, 1)), kinds, offset=motion_offset, qlim=qlim,
                        base=base, tool=tool, name=name, source=source)
+
+
+def as_chain(robot) -> SerialChain:
+    """``robot`` as a :class:`SerialChain`: a chain is returned as is, a :class:`DHRobot` converted
+    with :func:`from_dh` (standard DH, same limits and tool); anything else is a ``TypeError``."""
+    if isinstance(robot, SerialChain):
+        return robot
+    if isinstance(robot, DHRobot):
+        return from_dh(robot.d, robot.a, robot.alpha, qlim=robot.qlim, tool=robot.tool, name=robot.name)
+    raise TypeError(f"robot must be a SerialChain or a DHRobot, got {type(robot).__name__}")
+
+
+def flatten_arms(arms):
+    """A batch of arms (:class:`SerialChain` or :class:`DHRobot`, batch shape ``(...)``) as a flat
+    batch ``(B,)`` of the same arms, in C order."""
+    n = arms.n
+    if isinstance(arms, SerialChain):
+        b = arms.batch_shape
+        qlim = None if arms.qlim is None else np.broadcast_to(arms.qlim, b + (n, 2)).reshape(-1, n, 2)
+        fshape = arms.fixed.shape[-3:]
+        return arms.replace(fixed=np.broadcast_to(arms.fixed, b + fshape).reshape((-1,) + fshape),
+                            offset=np.broadcast_to(arms.offset, b + (n,)).reshape(-1, n), qlim=qlim)
+    qlim = arms.qlim
+    if qlim is not None and qlim.ndim > 2:
+        qlim = np.broadcast_to(qlim, arms.batch_shape + (n, 2)).reshape(-1, n, 2)
+    return DHRobot(arms.d.reshape(-1, n), arms.a.reshape(-1, n), arms.alpha.reshape(-1, n), qlim=qlim, tool=arms.tool)

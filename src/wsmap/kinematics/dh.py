@@ -7,13 +7,15 @@ Conventions (as in Corke's Robotics Toolbox and the paper):
 * every array may carry leading batch dimensions, which broadcast against each other:
   a ``DHRobot`` whose ``d`` has shape ``(B, 6)`` is a batch of ``B`` arms, and ``fkine(q)`` with
   ``q`` of shape ``(N, 1, 6)`` gives poses of shape ``(N, B, 4, 4)``.
+
+Forward kinematics and Jacobians only; inverse kinematics is :mod:`wsmap.kinematics.ik`
+(:func:`~wsmap.kinematics.ik.lm.ikine_LM` is the paper's).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .ik import IKResult, ikine_LM
 from .arms import ArmBatch
 from .transforms import as_real_array, check_finite, check_rigid
 
@@ -109,10 +111,6 @@ class DHRobot(ArmBatch):
         """Geometric Jacobian in the base frame, shape ``(..., 6, n)``: rows ``[v; omega]``."""
         q = self._check_q(q)
         return _jacob0(self.d, self.a, self.alpha, q, self.tool)[0]
-
-    def ikine_LM(self, T, q0=None, **kwargs) -> "IKResult":
-        """Numerical inverse kinematics of the paper's Appendix; see :func:`ikine_LM`."""
-        return ikine_LM(self, T, q0=q0, **kwargs)
 
     def within_limits(self, q) -> np.ndarray:
         """True where every joint angle, up to a multiple of 2·pi, lies inside its limits.

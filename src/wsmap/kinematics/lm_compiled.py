@@ -1,11 +1,12 @@
 """Compiled (numba) Levenberg–Marquardt kernel: the paper's LM and the multi-start reachability search.
 
-One compiled loop per target, the targets spread over threads. It runs the same iterations as the
-numpy kernels it replaces as the default (:mod:`.search` for :func:`~wsmap.kinematics.ikine_search`,
-:mod:`.lm_kernel` for :func:`~wsmap.kinematics.ikine_LM`), which stay as the references that the
-tests compare it with: the same arithmetic per target, so answers agree up to rounding (of
-``sin``/``cos``, :func:`_sincos` here and SIMD or SLEEF there, and of the sums, see below), which
-can, rarely, send an iteration down another path near a branch point.
+One compiled loop per target, the targets spread over threads; the one implementation of the LM
+iteration behind :func:`~wsmap.kinematics.ik.search.ikine_search`,
+:func:`~wsmap.kinematics.ik.search.map_search` and :func:`~wsmap.kinematics.ik.lm.ikine_LM` (called
+through :mod:`wsmap.kinematics.ik.kernel`). :mod:`wsmap.kinematics.ik.lm_reference` is the same
+iteration in numpy, the reference that the tests compare it with: the same arithmetic per target,
+so answers agree up to rounding (of ``sin``/``cos``, :func:`_sincos` here and SIMD there, and of
+the sums, see below), which can, rarely, send an iteration down another path near a branch point.
 
 Why a compiled loop: a numpy kernel pays a Python-level dispatch for every small operation on a row
 of targets, and the rows thin out as targets finish; per target, a compiled loop does an iteration
@@ -30,7 +31,7 @@ changes), once: they are cached on disk.
 
 Floating point: compiled with ``fastmath={"contract", "reassoc"}`` (fused multiply-adds, and sums
 the compiler may reorder and vectorise; no assumption about NaN or infinity, which the limits use):
-about 15 % faster here than strict IEEE order, and the comparison with the numpy kernels in
+about 15 % faster here than strict IEEE order, and the comparison with the numpy reference in
 ``tests/test_lm_compiled.py`` holds (same successes and starts on the test grids).
 
 Threads: :func:`set_threads` (default: ``WSMAP_THREADS`` or every core numba sees). Targets go to
@@ -140,7 +141,7 @@ def _sincos(x):
 @njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
 def _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33, n):
     """Tool rotation ``R`` (3, 3), position ``p`` (3,), world joint axes ``w`` (n, 3) and joint
-    origins ``o`` (n, 3) of arm ``b`` at ``q`` (n,); sums in the numpy kernel's order.
+    origins ``o`` (n, 3) of arm ``b`` at ``q`` (n,); sums in the numpy reference's order.
     ``rkind`` (B, n+1): each fixed rotation is 0 the identity, 1 an ``Rx(α)``, 2 any."""
     for r in range(3):
         for c in range(3):
@@ -207,7 +208,7 @@ def _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33, n):
 def _pose_error(R, p, Rt, pt, e, rotvec, rows):
     """``e`` (6,) ← ``[pt − p; v]`` and returns |e|. ``v`` is ``½ Σ_k R_k × Rt_k = sin θ·a``
     (Corke's ``tr2delta``, the paper's) or, with ``rotvec``, the rotation vector ``θ·a`` of
-    ``Rt·Rᵀ`` (see :func:`wsmap.kinematics.search._pose_error` for why); ``rows`` = 3: position
+    ``Rt·Rᵀ`` (see :func:`wsmap.kinematics.ik.lm_reference._pose_error` for why); ``rows`` = 3: position
     only (``v`` = 0)."""
     for r in range(3):
         e[r] = pt[r] - p[r]
@@ -444,7 +445,10 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
         elif it >= ilimit:
             code = _ILIMIT
         elif rej > 0:
-            # exact stagnation (lm_kernel._Kernel.stagnated): no later trial can move q by a bit
+            # exact stagnation: with μ = λ², A = JᵀJ and g = Jᵀe, every component of the step obeys
+            # |dq_j| <= (|g_j| + (tr A / μ)·|g|) / μ (plus a bound of the solve's rounding), which only
+            # shrinks as λ doubles; below an eighth of the spacing at q_j for every joint, q + dq
+            # rounds back to q now and at every later trial, so every later trial is rejected
             mu = lam * lam
             g2, trace = _g2_trace(A, g, n)
             slack = (trace / mu + 64.0 * n * _EPS) * math.sqrt(g2)
@@ -533,7 +537,7 @@ def _confirm(q, b, Rt, pt, atol, rows, Rf, tf, off, axes, pris, lo, hi, M4, N4, 
 # --------------------------------------------------------------------------- random starts
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def _mix(z):
-    """splitmix64's finaliser (uint64, wrapping), as :func:`wsmap.kinematics.search._mix`."""
+    """splitmix64's finaliser (uint64, wrapping), as :func:`wsmap.kinematics.ik.kernel.mix`."""
     z = z + np.uint64(0x9E3779B97F4A7C15)
     z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
     z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
@@ -542,7 +546,7 @@ def _mix(z):
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def _random_start(key, k, b, blo, bhi, q):
-    """Start ``k`` of the target with hash ``key``: uniform in the start box (as ``search._uniform``)."""
+    """Start ``k`` of the target with hash ``key``: uniform in the start box (as ``lm_reference._uniform``)."""
     n = q.shape[0]
     for j in range(n):
         ctr = _mix(np.uint64(k) * np.uint64(1 << 16) + np.uint64(j + 1))
@@ -596,7 +600,7 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
                           n)
             it = int(out[0])
             if code == _AT_START:
-                its = min(1, ilimit)  # lm_kernel: 1, or 0 when ilimit = 0
+                its = min(1, ilimit)  # the Appendix's count: 1, or 0 when ilimit = 0
             elif code == _SUCCESS:
                 its = min(it + 1, ilimit)
             elif code == _REJECTIONS:
@@ -679,7 +683,8 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
     ``MODE_POSITION``: as ``MODE_SEARCH`` with the position error alone (the tool's orientation free).
 
     ``MODE_PAPER``: one run from ``qexp[i, 0]`` with the paper's error, no limits, no confirmation;
-    ``it_out`` counts iterations as :mod:`.lm_kernel` does.
+    ``it_out`` counts iterations as the Appendix's loop does (success is tested at the top of the
+    next iteration; see :func:`wsmap.kinematics.ik.lm_reference.ikine_LM_reference`).
     """
     M = Rt.shape[0]
     n = axes.shape[0]
@@ -695,11 +700,11 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
             _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n)
 
 
-# --------------------------------------------------------------------------- helpers of search.py
+# --------------------------------------------------------------------------- helpers of the search
 @njit(cache=True, error_model="numpy")
 def pose_keys(h0, words):
     """Per target ``i``: ``h0`` mixed in turn with each of ``words[i]`` (K, W) uint64 by :func:`_mix`
-    (the loop of :func:`wsmap.kinematics.search._pose_keys`, one pass instead of a numpy pass per
+    (the loop of :func:`wsmap.kinematics.ik.kernel.pose_keys`, one pass instead of a numpy pass per
     word). Returns (K,) uint64."""
     K, W = words.shape
     out = np.empty(K, dtype=np.uint64)
@@ -713,7 +718,7 @@ def pose_keys(h0, words):
 
 @njit(cache=True, error_model="numpy")
 def orbit_test(a, e0, c, r, u, w, p):
-    """The loop of :func:`wsmap.kinematics.search._orbit_test` (its notes give the geometry), one
+    """The loop of :func:`wsmap.kinematics.ik.reach_filter._orbit_test` (its notes give the geometry), one
     point per row: ``a``, ``e0`` (3,) the axis and a unit vector normal to it; ``c``, ``u``, ``p``
     (K, 3); ``r``, ``w`` (K,), the slack already added. Returns (K,) bool."""
     K = p.shape[0]

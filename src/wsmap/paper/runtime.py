@@ -5,7 +5,7 @@ PUMA560's constant-orientation map on the 27-, 125- and 9261-node grids ([-1, 1]
 0.5 and 0.1, R = I). :func:`runtime_comparison` measures, per grid:
 
 ``classical_per_node_numerical``
-    The paper's way: one :func:`wsmap.kinematics.ikine_LM` call per node (the Appendix's LM, tol
+    The paper's way: one :func:`wsmap.kinematics.ik.lm.ikine_LM` call per node (the Appendix's LM, tol
     1e-10, q0 = 0), in a Python loop. On the large grids only a random sample of nodes is solved
     per repeat (a fresh sample each repeat) and the time is **extrapolated** to all nodes
     (``seconds x nodes / sampled``); grids no larger than the sample are solved whole.

@@ -94,7 +94,7 @@ PAPER_SPECS: dict[str, DatasetSpec] = _paper_specs()
 #: at 0.1 m (25³ = 15,625 nodes, first coordinate fastest). Features: the 6 scales, the grid axes,
 #: the orientation (6 + 75 + 3 = 84); labels: the numerical map search
 #: (``constant_orientation_map(arms, nodes, (pi, 0, 0), method="numerical", convention="standard")``,
-#: :data:`wsmap.kinematics.search.MAP_SETTINGS`), whose ``True`` is confirmed by forward kinematics
+#: :data:`wsmap.kinematics.ik.search.MAP_SETTINGS`), whose ``True`` is confirmed by forward kinematics
 #: inside the joint limits. About 12 % of the nodes are reachable (1268-2749 for the first arms,
 #: 1883 for the Panda); the largest arms reach a little past the grid's top face (z = 1.2 m: 61
 #: nodes of that face for all scales 1.3), nothing reaches its other faces.

@@ -20,30 +20,23 @@ import sys
 
 import numpy as np
 
-from ..kinematics import (
-    DHRobot,
-    SerialChain,
-    ikine_LM,
-    ikine_spherical_wrist,
-    require_spherical_wrist,
-    rpy2r,
-    wrist_centre_reachable,
-)
-from ..kinematics.search import DEFAULT_STARTS, MAP_SETTINGS, flatten_arms, ikine_search, map_search
+from ..kinematics import DHRobot, SerialChain, closed_form_for, ikine_LM, require_closed_form, rpy2r
+from ..kinematics.chain import flatten_arms
+from ..kinematics.ik.search import DEFAULT_STARTS, MAP_SETTINGS, ikine_search, map_search
 from .grids import _check_fits, _triple, cartesian_grid, grid_axes, node_neighbours
 
 __all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP_SETTINGS", "target_poses",
-           "reachable", "closed_form_family", "resolve_method", "constant_orientation_map", "orientation_map",
+           "reachable", "resolve_method", "constant_orientation_map", "orientation_map",
            "grid_map"]
 
 #: ``"auto"`` is ``"exact"`` for an arm of a closed-form family, else ``"numerical"``.
 METHODS = ("auto", "exact", "numerical")
 #: Numerical solvers (``ik={"solver": ...}``): ``"search"`` (default) is the search with joint limits
 #: inside it, started at each node from its neighbours' solutions as well
-#: (:func:`wsmap.kinematics.search.map_search`, settings :data:`MAP_SETTINGS`); ``"independent"``
-#: solves every node on its own with :func:`wsmap.kinematics.search.ikine_search` (``starts``
+#: (:func:`wsmap.kinematics.ik.search.map_search`, settings :data:`MAP_SETTINGS`); ``"independent"``
+#: solves every node on its own with :func:`wsmap.kinematics.ik.search.ikine_search` (``starts``
 #: default :data:`DEFAULT_STARTS`); ``"paper"`` is the paper's one-start LM from q0 = 0
-#: (:func:`wsmap.kinematics.ikine_LM`, DH arms, a converged solution outside the limits rejected
+#: (:func:`wsmap.kinematics.ik.lm.ikine_LM`, DH arms, a converged solution outside the limits rejected
 #: afterwards), which the paper's pipeline uses.
 SOLVERS = ("search", "independent", "paper")
 CONVENTIONS = ("paper", "standard")
@@ -95,7 +88,7 @@ def reachable(robot, T, *, starts: int = DEFAULT_STARTS, seed=0, **settings) -> 
         the limits) and the seed of the random ones.
     **settings :
         ``q0``, ``tol``, ``ilimit``, ``rlimit``, ``lam``, ``joint_limits``, ``confirm_tol``, ``chunk``,
-        ``progress`` of :func:`wsmap.kinematics.search.ikine_search`, which also returns the solutions.
+        ``progress`` of :func:`wsmap.kinematics.ik.search.ikine_search`, which also returns the solutions.
 
     A pose is reachable when some start converges to it inside the joint limits and forward
     kinematics confirms the solution (within 1e-6 m and rad), so ``True`` comes with a solution;
@@ -138,46 +131,24 @@ def _search_settings(ik, base=MAP_SETTINGS, drop=("solver", "chunk", "progress")
     return settings
 
 
-def closed_form_family(robot) -> str | None:
-    """The closed-form family every arm of ``robot`` belongs to: ``"spherical_wrist"`` (the paper's
-    DH family, :func:`wsmap.kinematics.ikine_spherical_wrist`), ``"ur"`` (three parallel axes,
-    :func:`wsmap.kinematics.ikine_ur`), or ``None``."""
-    from ..kinematics import is_spherical_wrist, is_ur_type
-
-    if isinstance(robot, DHRobot) and bool(np.all(is_spherical_wrist(robot))):
-        return "spherical_wrist"
-    if isinstance(robot, (DHRobot, SerialChain)) and bool(np.all(is_ur_type(robot))):
-        return "ur"
-    return None
-
-
 def resolve_method(robot, method: str = "auto") -> str:
-    """``"exact"`` or ``"numerical"``: ``auto`` picks the closed form where the arm belongs to a
-    closed-form family (:func:`closed_form_family`), else numerical IK. ``exact`` for an arm of no
-    closed-form family is a ``ValueError`` that says so."""
+    """``"exact"`` or ``"numerical"``: ``auto`` picks the closed form where a registered closed form
+    solves the arm (:func:`wsmap.kinematics.closed_form_for`), else numerical IK. ``exact`` for an
+    arm without a closed form is a ``ValueError`` that says so."""
     _check_choice("method", method, METHODS)
-    family = closed_form_family(robot)
     if method == "auto":
-        return "exact" if family else "numerical"
-    if method == "exact" and family is None:
-        raise ValueError(f"method 'exact' has no closed form for {getattr(robot, 'name', None) or 'this arm'} "
-                         "(closed forms: the spherical-wrist DH family and the UR family); use method 'numerical'")
+        return "exact" if closed_form_for(robot) is not None else "numerical"
+    if method == "exact":
+        require_closed_form(robot)
     return method
 
 
 def _exact(arms, T):
     """Closed-form reachability of poses ``T`` (N, 4, 4) for arms (batch ``(B,)`` or one): (..., N)."""
-    from ..kinematics import ur_reachable
-
-    if closed_form_family(arms) == "ur":
-        Tn = T if arms.batch_shape == () else T[None]
-        ar = arms if arms.batch_shape == () else _per_node(arms)
-        return ur_reachable(ar, Tn)
-    node_arms = _per_node(arms)
-    if arms.qlim is None:
-        # unlimited spherical wrist: every orientation is reachable at a reachable centre
-        return wrist_centre_reachable(node_arms, T[:, :3, 3])
-    return ikine_spherical_wrist(node_arms, T)[1].any(axis=-1)
+    cf = require_closed_form(arms)
+    if arms.batch_shape == () and not isinstance(arms, DHRobot):
+        return cf.reachable(arms, T)
+    return cf.reachable(_per_node(arms), T)
 
 
 def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress, space):
@@ -246,9 +217,9 @@ def constant_orientation_map(
     nodes : (N, 3) positions in metres, e.g. from :func:`cartesian_grid`
     rpy : (3,) angles (r1, r2, r3) in radians, ``R = Rx(r1)·Ry(r2)·Rz(r3)``
     method : ``"auto"`` (default: the closed form where the arms belong to a closed-form family,
-        :func:`closed_form_family`, else numerical), ``"exact"`` (closed form only) or
+        :func:`wsmap.kinematics.closed_form_for`, else numerical), ``"exact"`` (closed form only) or
         ``"numerical"`` (any arm). ``ik`` passes the numerical settings: by default the search
-        started from neighbouring nodes' solutions (:func:`wsmap.kinematics.search.map_search`;
+        started from neighbouring nodes' solutions (:func:`wsmap.kinematics.ik.search.map_search`;
         ``starts``, ``retry``, ``seeds``, ``seed``, ``q0``, ``tol``, ``ilimit``, ``rlimit``, ``gtol``,
         ``joint_limits``; defaults :data:`MAP_SETTINGS`); ``{"solver": "independent"}`` solves each
         node alone with :func:`reachable`'s search (``starts`` default :data:`DEFAULT_STARTS`);

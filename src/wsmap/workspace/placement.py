@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kinematics import DHRobot, SerialChain, check_rigid, map_search
-from ..kinematics.search import MAP_SETTINGS, as_chain
+from ..kinematics import DHRobot, SerialChain, as_chain, check_rigid, map_search, require_closed_form
+from ..kinematics.ik.search import MAP_SETTINGS
 from .grids import _triple, node_neighbours
 from .maps import _exact, resolve_method
 
@@ -139,11 +139,8 @@ def base_placement(robot, targets, x=(-1.0, 1.0), y=(-1.0, 1.0), *, step: float 
     best = order[0]
     if method == "exact":
         # the solutions of the best base from the closed form, for its reached targets
-        from ..kinematics import ikine_spherical_wrist, ikine_ur
-        from .maps import closed_form_family
-
-        solve = ikine_spherical_wrist if closed_form_family(robot) == "spherical_wrist" else ikine_ur
-        q8, valid = solve(robot, Binv[best] @ T)
+        sol = require_closed_form(robot).solve(robot, Binv[best] @ T)
+        q8, valid = sol.q, sol.success
         pick = valid.argmax(axis=1)
         q_best = np.where(valid.any(axis=1)[:, None], q8[np.arange(M), pick], np.nan)
     else:

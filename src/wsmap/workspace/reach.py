@@ -14,7 +14,7 @@ For an arm and nodes ``p`` (N, 3) in its base frame (metres), and target poses `
 * :func:`manipulability_maps` — the same map, exactly, for a batch of unlimited spherical-wrist
   arms at once (a factorised closed form of the same quantity, no Jacobians).
 
-Arms of a closed-form family (:func:`wsmap.workspace.closed_form_family`) are mapped exactly (every
+Arms with a closed form (:func:`wsmap.kinematics.closed_form_for`) are mapped exactly (every
 branch); other arms by the numerical search started from neighbouring nodes' solutions and, across
 orientations, from the same node's solution at the nearest orientation already solved
 (:func:`wsmap.kinematics.map_search`): ``True`` always comes with a joint solution inside the limits
@@ -25,11 +25,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kinematics import DHRobot, SerialChain, ikine_spherical_wrist, ikine_ur, map_search, require_spherical_wrist
-from ..kinematics.search import MAP_SETTINGS, as_chain
+from ..kinematics import DHRobot, SerialChain, as_chain, map_search, require_closed_form, require_spherical_wrist
+from ..kinematics.ik.search import MAP_SETTINGS
 from .grids import _check_fits, node_neighbours
-from .maps import (_check_choice, _check_nodes, _exact, _search_settings, closed_form_family, resolve_method,
-                   target_poses)
+from .maps import _check_choice, _check_nodes, _exact, _search_settings, resolve_method, target_poses
 from .orientations import check_rotations, continuation_order
 
 __all__ = ["INDEX_SETTINGS", "position_map", "reachability_index", "dexterous_map", "manipulability_map",
@@ -175,11 +174,8 @@ def manipulability_map(robot, nodes, rpy=(0.0, 0.0, 0.0), *, convention: str = "
     T = target_poses(nodes, rpy, convention)
     out = np.zeros(len(nodes))
     if method == "exact":
-        family = closed_form_family(robot)
-        if family == "spherical_wrist":
-            q, valid = ikine_spherical_wrist(robot, T)
-        else:
-            q, valid = ikine_ur(robot, T)
+        sol = require_closed_form(robot).solve(robot, T)
+        q, valid = sol.q, sol.success
         rows = np.flatnonzero(valid.any(axis=1))
         if rows.size:
             w = yoshikawa(robot.jacob0(q[rows]))  # (R, 8)

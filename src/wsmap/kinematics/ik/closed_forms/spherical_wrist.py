@@ -1,18 +1,22 @@
-"""Closed-form inverse kinematics of the spherical-wrist family (PUMA-type geometry).
+"""Closed-form inverse kinematics of the spherical-wrist family (PUMA-type geometry), registered as
+``"spherical_wrist"``.
 
-All 8 branches (shoulder × elbow × wrist flip), vectorised over arms and targets; joint limits
-honoured up to multiples of 2·pi.
+All 8 branches (shoulder × wrist × elbow, numbered as :mod:`wsmap.kinematics.ik.registry` says),
+vectorised over arms and targets; joint limits honoured up to multiples of 2·pi. Units: metres and
+radians.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .dh import DHRobot, _angle_in_range, _link_frames
-from .transforms import check_rigid
+from ...dh import DHRobot, _angle_in_range, _link_frames
+from ...transforms import check_rigid
+from ..registry import ClosedForm, register
+from ..solution import IKReason, IKSolution
 
 __all__ = ["SPHERICAL_WRIST_ALPHA", "is_spherical_wrist", "require_spherical_wrist", "wrist_centre_reachable",
-           "ikine_spherical_wrist"]
+           "ikine_spherical_wrist", "spherical_wrist_reachable"]
 
 
 # The spherical-wrist family of the paper (PUMA-type geometry, Corke's ``ikine6s``):
@@ -26,8 +30,11 @@ _FREE_D = np.array([True, False, True, True, False, False])
 _FREE_A = np.array([False, True, True, False, False, False])
 
 
-def is_spherical_wrist(robot: DHRobot, atol: float = 1e-9) -> np.ndarray:
-    """True for each arm of the batch that belongs to the spherical-wrist family (no tool)."""
+def is_spherical_wrist(robot, atol: float = 1e-9) -> np.ndarray:
+    """True for each arm of the batch that belongs to the spherical-wrist family (a :class:`DHRobot`
+    without a tool); all False for any other robot."""
+    if not isinstance(robot, DHRobot):
+        return np.zeros(getattr(robot, "batch_shape", ()), dtype=bool)
     if robot.n != 6 or robot.tool is not None:
         return np.zeros(robot.batch_shape, dtype=bool)
     ok = np.all(np.abs(robot.alpha - SPHERICAL_WRIST_ALPHA) <= atol, axis=-1)
@@ -36,11 +43,13 @@ def is_spherical_wrist(robot: DHRobot, atol: float = 1e-9) -> np.ndarray:
     return ok
 
 
-def require_spherical_wrist(robot: DHRobot) -> None:
+def require_spherical_wrist(robot) -> None:
     """Raise ``ValueError`` naming the first arm outside the closed-form family."""
     ok = is_spherical_wrist(robot)
     if not np.all(ok):
-        if robot.n != 6:
+        if not isinstance(robot, DHRobot):
+            why = f"it is a {type(robot).__name__}, the family is given by DH parameters (a DHRobot)"
+        elif robot.n != 6:
             why = f"it has {robot.n} joints, the family has 6"
         elif robot.tool is not None:
             why = "it carries a tool transform (the closed form solves for the wrist centre)"
@@ -73,20 +82,26 @@ def wrist_centre_reachable(robot: DHRobot, p, atol: float = 1e-12) -> np.ndarray
     return (r2 >= d3 * d3 - atol) & (rho2 >= lo - atol) & (rho2 <= hi + atol)
 
 
-def ikine_spherical_wrist(robot: DHRobot, T, atol: float = 1e-9):
-    """All 8 closed-form solutions for spherical-wrist arms (shoulder × elbow × wrist flip).
+def ikine_spherical_wrist(robot: DHRobot, T, atol: float = 1e-9) -> IKSolution:
+    """All 8 closed-form solutions for spherical-wrist arms.
 
     Parameters
     ----------
     robot : DHRobot of the spherical-wrist family (see :func:`is_spherical_wrist`)
     T : array_like, shape (..., 4, 4), target flange poses broadcasting with the robot batch
+    atol : reach tolerance of the shoulder and elbow tests, on squared distances (m²)
 
     Returns
     -------
-    q : (..., 8, 6) joint angles in (-pi, pi]; branch ``k`` has shoulder ``k // 4``, elbow
-        ``(k // 2) % 2`` and wrist flip ``k % 2``.
-    valid : (..., 8) bool; the branch solves the pose (and, if the robot has joint limits, respects
-        them up to multiples of 2·pi).
+    :class:`~wsmap.kinematics.ik.solution.IKSolution` with a branch axis: ``q`` (..., 8, 6) joint
+    angles in (-pi, pi], branch ``k = 4·shoulder + 2·wrist + elbow``
+    (:mod:`wsmap.kinematics.ik.registry`): shoulder 0 has ``q1 = φ + asin(d3/r)`` (``(r, φ)`` the
+    polar coordinates of the wrist centre); wrist 0 has ``sin q5 >= 0`` (the two wrist branches are
+    each other's flip, ``(q4 + pi, −q5, q6 + pi)``); elbow 0 has ``sin(q3 + atan2(d4, a3)) >= 0``.
+    ``success`` (..., 8): the branch solves the pose and, if the robot has joint limits, respects
+    them up to multiples of 2·pi; ``reason`` ``OUT_OF_REACH``
+    where the shoulder or the elbow cannot reach the wrist centre, ``OUTSIDE_LIMITS`` where a
+    reaching branch leaves the limits; ``iterations`` 0, ``residual`` NaN.
     """
     require_spherical_wrist(robot)
     T = check_rigid("target poses", T)
@@ -143,19 +158,37 @@ def ikine_spherical_wrist(robot: DHRobot, T, atol: float = 1e-9):
     q5 = -b
     wrist = np.stack(
         [
-            np.stack([q4, q5, q6], axis=-1),
-            np.stack([q4 + np.pi, -q5, q6 + np.pi], axis=-1),  # the flipped wrist
+            np.stack([q4 + np.pi, -q5, q6 + np.pi], axis=-1),  # wrist 0: sin q5 >= 0 (the flipped wrist)
+            np.stack([q4, q5, q6], axis=-1),  # wrist 1: sin q5 <= 0
         ],
-        axis=-2,
-    )  # (..., 2, 2, 2, 3)
-    arm = np.broadcast_to(np.stack([q1e, q2, q3], axis=-1)[..., None, :], wrist.shape)
+        axis=-3,
+    )  # (..., 2 shoulder, 2 wrist, 2 elbow, 3)
+    arm = np.broadcast_to(np.stack([q1e, q2, q3], axis=-1)[..., None, :, :], wrist.shape)
     q = np.concatenate([arm, wrist], axis=-1).reshape(shape + (8, 6))
     q = np.mod(q + np.pi, 2 * np.pi) - np.pi
     q = np.where(q <= -np.pi, q + 2 * np.pi, q)
 
-    valid = reach_sh[..., None, None, None] & reach_el[..., :, None, None]
-    valid = np.broadcast_to(valid, shape + (2, 2, 2)).reshape(shape + (8,))
+    reach = reach_sh[..., None, None, None] & reach_el[..., :, None, None]
+    reach = np.broadcast_to(reach, shape + (2, 2, 2)).reshape(shape + (8,))
+    valid = reach
     if robot.qlim is not None:
         qlim = robot.qlim[..., None, :, :] if robot.qlim.ndim > 2 else robot.qlim
-        valid &= np.all(_angle_in_range(q, qlim[..., 0], qlim[..., 1]), axis=-1)
-    return q, valid
+        valid = reach & np.all(_angle_in_range(q, qlim[..., 0], qlim[..., 1]), axis=-1)
+    reason = np.where(valid, IKReason.SOLVED, np.where(reach, IKReason.OUTSIDE_LIMITS, IKReason.OUT_OF_REACH))
+    return IKSolution(q=q, success=valid, iterations=np.zeros(valid.shape, dtype=np.int64),
+                      residual=np.full(valid.shape, np.nan), reason=reason.astype(np.int8))
+
+
+def spherical_wrist_reachable(robot: DHRobot, T) -> np.ndarray:
+    """Some branch of :func:`ikine_spherical_wrist` succeeds: bool, ``T.shape[:-2]`` broadcast with
+    the robot's batch shape. Without joint limits every orientation is reachable wherever the wrist
+    centre is, so only the position is tested (:func:`wrist_centre_reachable`)."""
+    T = np.asarray(T, dtype=np.float64)
+    if robot.qlim is None:
+        return wrist_centre_reachable(robot, T[..., :3, 3])
+    return ikine_spherical_wrist(robot, T).success.any(axis=-1)
+
+
+register(ClosedForm(name="spherical_wrist", description="the spherical-wrist DH family",
+                    recognise=is_spherical_wrist, require=require_spherical_wrist, solve=ikine_spherical_wrist,
+                    reachable=spherical_wrist_reachable))

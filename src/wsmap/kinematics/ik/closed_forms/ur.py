@@ -1,15 +1,12 @@
-"""Closed-form inverse kinematics of the UR family: three parallel axes (Universal Robots' geometry).
+"""Closed-form inverse kinematics of the UR family: three parallel axes (Universal Robots' geometry),
+registered as ``"ur"``.
 
-All 8 branches (shoulder × wrist × elbow) over arms and targets in float64; joint limits honoured
-up to multiples of 2·pi. Units: metres and radians.
+All 8 branches (shoulder × wrist × elbow, numbered as :mod:`wsmap.kinematics.ik.registry` says)
+over arms and targets in float64; joint limits honoured up to multiples of 2·pi. Units: metres and
+radians.
 
-Two backends (``backend=`` of :func:`ikine_ur` and :func:`ur_reachable`): ``"compiled"`` (the
-default), a numba loop over the targets spread over threads
-(:func:`wsmap.kinematics.lm_compiled.set_threads`), and ``"numpy"``, the vectorised reference. They
-do the same floating-point operations in the same order (no fused multiply-adds, mounts composed
-entry by entry left to right), so the reach of every branch is the same bit for bit; only
-``arctan2`` differs (numpy's SIMD one and libm's, by an ulp or so), which moves ``q`` by about
-1e-15 rad and could flip a limit check only for an angle within that of a limit. For maps,
+The solver is a numba loop over the targets spread over threads
+(:func:`wsmap.kinematics.lm_compiled.set_threads`), :func:`_branches` per target. For maps,
 :func:`ur_reachable` stops at the first valid branch of each target and computes only what decides
 it (no angle at all when no joint limit needs checking).
 
@@ -52,15 +49,15 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from .chain import PRISMATIC, SerialChain, from_dh
-from .dh import DHRobot, _angle_in_range
-from .transforms import as_real_array, check_rigid
+from ...arms import ArmBatch
+from ...chain import PRISMATIC, SerialChain, as_chain
+from ...lm_compiled import threads_for
+from ...transforms import as_real_array, check_rigid
+from ..registry import ClosedForm, register
+from ..solution import IKReason, IKSolution
 
-__all__ = ["UR_ALPHA", "BACKENDS", "URParameters", "ur_parameters", "is_ur_type", "require_ur_type", "ikine_ur",
+__all__ = ["UR_ALPHA", "URParameters", "ur_parameters", "is_ur_type", "require_ur_type", "ikine_ur",
            "ur_reachable"]
-
-#: The implementations of :func:`ikine_ur` and :func:`ur_reachable` (the first is the default).
-BACKENDS = ("compiled", "numpy")
 
 #: UR's twists ``alpha`` (rad) of joints 1..6 (standard DH); joint 6's twist is part of the flange.
 UR_ALPHA = np.array([np.pi / 2, 0.0, 0.0, np.pi / 2, -np.pi / 2, 0.0])
@@ -69,13 +66,8 @@ _TWO_PI = 2.0 * np.pi
 # |z6 projected on the arm plane| below this: the wrist is singular (z6 = ±z1) and θ2+θ3+θ4 is
 # free. Treating a nearly singular pose as singular costs a rotation error of at most this, in rad.
 _SINGULAR = 1e-12
-# Targets per block of the solver (see ikine_ur).
-_BLOCK = 2048
 # Rigid-transform tolerance of the target check, as wsmap.kinematics.transforms.check_rigid.
 _RIGID_TOL = 1e-6
-_EYE3 = np.eye(3)[:, :, None]
-_SIGN = np.array([1.0, -1.0])[:, None]  # the two branches of a choice, broadcast over targets
-_BOTTOM = np.array([0.0, 0.0, 0.0, 1.0])[:, None]
 
 
 class URParameters(NamedTuple):
@@ -102,27 +94,6 @@ class URParameters(NamedTuple):
     base: np.ndarray
     flange: np.ndarray
     qlim: np.ndarray | None
-
-
-def _as_chain(robot) -> SerialChain:
-    if isinstance(robot, SerialChain):
-        return robot
-    if isinstance(robot, DHRobot):
-        return from_dh(robot.d, robot.a, robot.alpha, qlim=robot.qlim, tool=robot.tool, name=robot.name)
-    raise TypeError(f"robot must be a SerialChain or a DHRobot, got {type(robot).__name__}")
-
-
-def _wrap(x):
-    """``x`` moved by a multiple of 2·pi into ``[-pi, pi]`` (rint is far cheaper than mod)."""
-    return x - _TWO_PI * np.rint(x * (1.0 / _TWO_PI))
-
-
-def _wrap_in_place(x):
-    """:func:`_wrap` overwriting ``x``."""
-    t = x * (1.0 / _TWO_PI)
-    np.rint(t, out=t)
-    t *= _TWO_PI
-    x -= t
 
 
 def _fmt(x) -> str:
@@ -173,7 +144,7 @@ def _explain(robot, atol: float):
     Returns ``(chain, ok, why)``: ``ok`` (batch) bool; ``why(idx)`` the first difference of arm
     ``idx`` from the UR type (a sentence naming the joint). Slow; :func:`_structure` decides.
     """
-    chain = _as_chain(robot)
+    chain = as_chain(robot)
     batch = chain.batch_shape
     none = np.zeros(batch, dtype=bool)
     if chain.n != 6:
@@ -228,7 +199,9 @@ def is_ur_type(robot, atol: float = 1e-9) -> np.ndarray:
     transforms after joints 1..5 of the form ``Tz(d)·Tx(a)·Rx(alpha)`` with ``alpha`` ±pi/2, 0, 0,
     ±pi/2, ±pi/2 and ``a4 = a5 = 0``. Base, ``F_0``, ``F_6`` and tool are free (see the module doc).
     """
-    return _structure(_as_chain(robot), atol)[0]
+    if not isinstance(robot, ArmBatch):
+        return np.zeros((), dtype=bool)
+    return _structure(as_chain(robot), atol)[0]
 
 
 def _raise_not_ur(robot, atol):
@@ -254,16 +227,6 @@ def _rigid_inverse(T):
     return out
 
 
-def _compose(A, B):
-    """``A @ B`` of (batches of) 4 x 4 matrices, each entry summed left to right without fused
-    multiply-adds: the compiled kernel's order, so that both backends see the same bits (matmul
-    leaves the order to BLAS)."""
-    out = A[..., :, 0, None] * B[..., None, 0, :]
-    for k in range(1, 4):
-        out = out + A[..., :, k, None] * B[..., None, k, :]
-    return out
-
-
 def ur_parameters(robot, atol: float = 1e-9) -> URParameters:
     """The canonical UR numbers of a UR-type arm (see :class:`URParameters`); ``ValueError`` otherwise.
 
@@ -272,7 +235,7 @@ def ur_parameters(robot, atol: float = 1e-9) -> URParameters:
     ``flange = Tz(−d6) · F_6 · chain.tool`` with ``d6 = F_6[2, 3]``, the translation of ``F_6``
     along joint 6 (it commutes with joint 6, so any split is exact).
     """
-    chain = _as_chain(robot)
+    chain = as_chain(robot)
     ok, values = _structure(chain, atol)
     if not np.all(ok):
         _raise_not_ur(chain, atol)
@@ -296,29 +259,7 @@ def ur_parameters(robot, atol: float = 1e-9) -> URParameters:
                         base=base, flange=flange, qlim=qlim)
 
 
-def _target_components(T, T_given):
-    """``T`` (m, 4, 4) → its entries row by row, (16, m) contiguous; rigid checked (an error names
-    the first offending index of the targets as given, ``T_given``)."""
-    C = T.reshape(-1, 16).T.copy()  # C order, and our own: _solve overwrites it
-    R = C[:12].reshape(3, 4, -1)[:, :3]  # R[i, c]: row i of column c
-    # check_rigid's conditions (RᵀR = I, det R = +1, bottom row) without its batched matmul and
-    # det, which would cost as much as the whole solve: a quarter of its tolerance on RᵀR − I and
-    # on a − n × o implies its own bounds, so what passes here passes there; what fails here goes
-    # to check_rigid, which decides and words the error
-    G = np.einsum("icb,idb->cdb", R, R)
-    G -= _EYE3
-    n, o = R[:, 0], R[:, 1]
-    cross = n[[1, 2, 0]] * o[[2, 0, 1]]
-    cross -= n[[2, 0, 1]] * o[[1, 2, 0]]
-    cross -= R[:, 2]
-    tol = 0.25 * _RIGID_TOL
-    if not ((np.abs(G) <= tol).all() and (np.abs(cross) <= tol).all()
-            and (np.abs(C[12:] - _BOTTOM) <= tol).all()):  # NaN fails too
-        check_rigid("target poses", T_given)
-    return C
-
-
-def ikine_ur(robot, T, atol: float = 1e-9, backend: str = "compiled"):
+def ikine_ur(robot, T, atol: float = 1e-9) -> IKSolution:
     """All 8 closed-form solutions of a UR-type arm (shoulder × wrist × elbow).
 
     Parameters
@@ -333,27 +274,25 @@ def ikine_ur(robot, T, atol: float = 1e-9, backend: str = "compiled"):
         cylinder ``r >= |d4|`` and the frame-4 origin up to ``atol`` outside the elbow annulus
         ``||a2| − |a3|| <= ρ <= |a2| + |a3|``; such a branch is the nearest configuration, with a
         position error of at most about ``atol``. Also the tolerance of the structure check.
-    backend : ``"compiled"`` (default) or ``"numpy"``
-        ``"compiled"``: a numba loop over the targets, spread over threads
-        (:func:`wsmap.kinematics.lm_compiled.set_threads`); ``"numpy"``: the vectorised reference.
-        Both do the same arithmetic operation for operation (see :func:`_branches`): ``valid`` is
-        the same, ``q`` the same up to the last bits of ``arctan2`` (numpy's SIMD one and libm's
-        differ by an ulp or so), so within about 1e-15 rad modulo 2·pi (an angle at ±pi may come out
-        as its twin at ∓pi).
 
     Returns
     -------
+    :class:`~wsmap.kinematics.ik.solution.IKSolution` with a branch axis, ``...`` the broadcast of
+    ``T.shape[:-2]`` and the robot's batch shape:
+
     q : (..., 8, 6) float64
-        Joint coordinates (rad) in ``[-pi, pi]``, ``...`` the broadcast of ``T.shape[:-2]`` and the
-        robot's batch shape. Branch ``k = 4·i + 2·j + l``, defined on the canonical angles ``θ``
-        (UR's table, ``q = sign·θ − shift``, :class:`URParameters`; for UR's own arms ``θ = q``):
-        shoulder ``i``: ``θ1 = φ + asin(d4/r)`` (``i = 0``) or ``φ + pi − asin(d4/r)`` (``i = 1``),
-        with ``(r, φ)`` the polar coordinates of the wrist point ``p − d6·z`` in the joint-1 frame;
-        wrist ``j``: ``sin θ5 >= 0`` (0) or ``<= 0`` (1); elbow ``l``: ``sin θ3 >= 0`` (0) or
-        ``<= 0`` (1). Entries of branches that are not valid are finite but meaningless.
-    valid : (..., 8) bool
+        Joint coordinates (rad) in ``[-pi, pi]``. Branch ``k = 4·shoulder + 2·wrist + elbow``
+        (:mod:`wsmap.kinematics.ik.registry`), defined on the canonical angles ``θ`` (UR's table,
+        ``q = sign·θ − shift``, :class:`URParameters`; for UR's own arms ``θ = q``): shoulder 0:
+        ``θ1 = φ + asin(d4/r)``, 1: ``φ + pi − asin(d4/r)``, with ``(r, φ)`` the polar coordinates
+        of the wrist point ``p − d6·z`` in the joint-1 frame; wrist 0: ``sin θ5 >= 0``, 1:
+        ``<= 0``; elbow 0: ``sin θ3 >= 0``, 1: ``<= 0``. Entries of branches that do not succeed
+        are finite but meaningless.
+    success : (..., 8) bool
         The branch reaches the pose (tolerance ``atol``) and, if the robot has joint limits, every
         joint lies inside them up to a multiple of 2·pi (``q`` itself is not moved into the range).
+    reason : (..., 8) ``OUT_OF_REACH`` where the branch does not reach the pose, ``OUTSIDE_LIMITS``
+        where it reaches it outside the limits; ``iterations`` 0, ``residual`` NaN.
 
     Notes
     -----
@@ -363,16 +302,19 @@ def ikine_ur(robot, T, atol: float = 1e-9, backend: str = "compiled"):
     whenever any choice does. A free ``θ1`` (wrist point on the joint-1 axis with ``d4 = 0``)
     takes 0 and pi. In these one-parameter families the limits are checked on the chosen member only.
     """
-    prm, T = _front(robot, T, atol, backend)
-    if backend == "numpy":
-        return _ikine_numpy(prm, T, atol)
-    return _ikine_compiled(prm, T, atol, full=True)
+    prm, T = _front(robot, T, atol)
+    q, valid = _ikine_compiled(prm, T, atol, full=True)
+    reach = valid
+    if prm.qlim is not None and not valid.all():
+        # which failing branches reach the pose: the same solve without the limits
+        reach = _ikine_compiled(prm._replace(qlim=None), T, atol, full=True)[1]
+    reason = np.where(valid, IKReason.SOLVED, np.where(reach, IKReason.OUTSIDE_LIMITS, IKReason.OUT_OF_REACH))
+    return IKSolution(q=q, success=valid, iterations=np.zeros(valid.shape, dtype=np.int64),
+                      residual=np.full(valid.shape, np.nan), reason=reason.astype(np.int8))
 
 
-def _front(robot, T, atol, backend):
-    """The checks both backends share: ``(URParameters, T as float64)``."""
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+def _front(robot, T, atol):
+    """The checks of :func:`ikine_ur` and :func:`ur_reachable`: ``(URParameters, T as float64)``."""
     prm = robot if isinstance(robot, URParameters) else ur_parameters(robot, atol)
     T = as_real_array("target poses", T)
     if T.ndim < 2 or T.shape[-2:] != (4, 4):
@@ -380,249 +322,22 @@ def _front(robot, T, atol, backend):
     return prm, T
 
 
-def _ikine_numpy(prm, T, atol):
-    """:func:`ikine_ur` vectorised in numpy, in blocks of targets: the reference."""
-    batch = prm.d1.shape
-    shape = np.broadcast_shapes(T.shape[:-2], batch, prm.base.shape[:-2], prm.flange.shape[:-2])
-    M = int(np.prod(shape, dtype=np.int64))
-    T_given = T
-    T = np.broadcast_to(T, shape + (4, 4))
-
-    # mount and flange: T' = base⁻¹ · T · flange⁻¹, skipped when they are exactly the identity (UR's
-    # own tables); a flange that is a pure translation along z is folded into d6 instead
-    d6 = prm.d6
-    base, flange = prm.base, prm.flange
-    if not np.all(base == np.eye(4)):
-        T = _compose(_rigid_inverse(base), T)
-    if not np.all(flange == np.eye(4)):
-        fz = flange.copy()
-        fz[..., 2, 3] = 0.0
-        if np.all(fz == np.eye(4)):
-            d6 = d6 + flange[..., 2, 3]
-        else:
-            T = _compose(T, _rigid_inverse(flange))
-    T = np.broadcast_to(T, shape + (4, 4)).reshape(M, 4, 4)
-
-    def flat(x):  # a per-arm number as a scalar (one arm) or (M,) aligned with the targets
-        x = np.asarray(x, dtype=np.float64)
-        return float(x) if x.ndim == 0 else np.broadcast_to(x, shape).reshape(M)
-
-    lengths = [flat(x) for x in (prm.d1, prm.a1, prm.a2, prm.a3, prm.d4, prm.d5, d6)]
-    sign = np.broadcast_to(prm.sign, batch + (6,))
-    shift = np.broadcast_to(prm.shift, batch + (6,))
-    lim = None if prm.qlim is None else np.broadcast_to(prm.qlim, batch + (6, 2))
-    # per joint: (sign, shift) unless they are +1 and 0 for every arm; limits unless a full turn or more
-    # (then every angle has an equivalent inside and the check is moot)
-    joint_map = [None if np.all(sign[..., j] == 1.0) and np.all(shift[..., j] == 0.0)
-                 else (flat(sign[..., j]), flat(shift[..., j])) for j in range(6)]
-    joint_lim = [None if lim is None or not np.any(lim[..., j, 1] - lim[..., j, 0] < _TWO_PI)
-                 else (flat(lim[..., j, 0]), flat(lim[..., j, 1])) for j in range(6)]
-
-    q = np.empty((M, 2, 2, 2, 6))
-    valid = np.empty((M, 2, 2, 2), dtype=bool)
-    # Blocks of targets keep the temporaries small (in cache, and reused by the allocator):
-    # whole-map temporaries (0.6 MB each for 9261 targets) come as fresh pages, whose faults cost
-    # more than the arithmetic.
-    with np.errstate(invalid="ignore"):  # limits of -inf on some arms: NaN there, decided by the width
-        for m0 in range(0, M, _BLOCK):  # a loop over blocks of targets; each block is vectorised
-            blk = slice(m0, min(m0 + _BLOCK, M))
-            part = [x if np.ndim(x) == 0 else x[blk] for x in lengths]
-            # (shoulder, wrist, elbow, joint, target) views: the branch arrays, targets last and
-            # contiguous, are written in one pass each (a transposing copy of whole blocks is slower)
-            qv = q[blk].transpose(1, 2, 3, 4, 0)
-            vv = valid[blk].transpose(1, 2, 3, 0)
-            in_range = []
-
-            def put(j, x):
-                """Joint j's canonical angles x (broadcasting to (2, 2, 2, b)) → q, limits → valid."""
-                if joint_map[j] is not None:
-                    s, c = (y if np.ndim(y) == 0 else y[blk] for y in joint_map[j])
-                    x = _wrap(s * x - c)
-                elif j in (1, 3):  # θ2, θ4 are sums of angles; the others are in [-pi, pi] already
-                    _wrap_in_place(x)
-                if joint_lim[j] is not None:
-                    lo, hi = (y[blk] if np.ndim(y) else y for y in joint_lim[j])
-                    in_range.append(_angle_in_range(x, lo, hi))
-                qv[..., j, :] = x
-
-            vv[...] = _solve(_target_components(T[blk], T_given), *part, atol, put)
-            for ok in in_range:
-                vv &= ok
-    return q.reshape(shape + (8, 6)), valid.reshape(shape + (8,))
-
-
-def _solve(C, d1, a1, a2, a3, d4, d5, d6, atol, put):
-    """The closed form on a block of targets and canonical parameters (scalars or (b,) arrays).
-
-    ``C`` (16, b): the targets' entries row by row (``C[4·i + k] = T[i, k]``), this block's own
-    copy (overwritten). Arrays are laid out (shoulder, wrist, elbow, b) with the targets last and
-    contiguous: numpy's inner loops then run over the targets, and every quantity is computed at
-    the level of the branches it depends on (shoulder terms once for the 4 branches that share
-    them, and so on). Calls ``put(j, θ_j)`` for the six canonical angles (broadcastable to
-    (2, 2, 2, b)) and returns the geometric reach (2, 2, 1, b).
-    """
-    # ---- shoulder: the wrist point's component along z1 = (s1, −c1, 0) is d4
-    C[3::4] -= d6 * C[2::4]  # the wrist point p − d6·z6 in place of p (rows 3, 7, 11)
-    wx, wy, wz, nz, az = C[3], C[7], C[11], C[8], C[10]
-    r2 = wx * wx
-    r2 += wy * wy
-    r = np.sqrt(r2)
-    reach_sh = r >= np.abs(d4) - atol
-    on_axis = r2 < 1e-200  # wrist point on the joint-1 axis: take the direction (1, 0)
-    r += on_axis
-    ux, uy = wx / r, wy / r
-    ux += on_axis
-    sd = np.clip(d4 / r, -1.0, 1.0)  # sin(θ1 − φ); clipped, the branch is the nearest reach
-    cd = np.sqrt(1.0 - sd * sd)
-    # θ1 = φ + δ and φ + pi − δ: cos δ = ±cd
-    c1 = _SIGN * (ux * cd) - uy * sd  # (2, b)
-    s1 = _SIGN * (uy * cd) + ux * sd
-    put(0, np.arctan2(s1, c1)[:, None, None, :])
-
-    # ---- wrist: z1 seen from the flange gives θ5; z6 seen from frame 1 gives θ2+θ3+θ4 (= ψ).
-    # Computed for sin θ5 >= 0; the other wrist branch is θ5 → −θ5, ψ → ψ + pi, θ6 → θ6 + pi.
-    # Rows 0..3 of C are the x components of n, o, a and the wrist point, rows 4..7 their y.
-    c1_, s1_ = c1[:, None, :], s1[:, None, :]
-    on_x1 = C[0:4] * c1_  # (2, 4, b): n, o, a, wrist point · x1
-    on_x1 += C[4:8] * s1_
-    on_z1 = C[0:3] * s1_  # (2, 3, b): n, o, a · z1
-    on_z1 -= C[4:7] * c1_
-    u, v, w = on_z1[:, 0], on_z1[:, 1], on_z1[:, 2]  # w = cos θ5
-    nx1, ax1 = on_x1[:, 0], on_x1[:, 2]
-    s5 = np.sqrt(u * u + v * v)
-    th5 = np.arctan2(s5, w)
-    m = np.sqrt(ax1 * ax1 + az * az)  # = |sin θ5|, from the other side
-    sing = m < _SINGULAR
-    m += sing
-    # z6 = −sin θ5 · x4 + cos θ5 · z1  →  (cos ψ, sin ψ) = −(a·x1, a_z) / sin θ5
-    cp = ax1 / m
-    np.negative(cp, out=cp)
-    cp += sing
-    sp = az / m
-    np.negative(sp, out=sp)
-    # θ6 from frames 4 and 5 as fixed above: exact for whatever ψ (also near the singularity)
-    x4n = cp * nx1
-    x4n += sp * nz
-    z4n = cp * nz
-    z4n -= sp * nx1
-    x4n *= w
-    x4n += s5 * u
-    th6 = np.empty((2, 2, r.shape[0]))
-    np.arctan2(z4n, x4n, out=th6[:, 0])
-    np.subtract(th6[:, 0], np.copysign(np.pi, th6[:, 0]), out=th6[:, 1])  # + pi, in [-pi, pi]
-    psi = np.empty((2, 2, r.shape[0]))
-    np.arctan2(sp, cp, out=psi[:, 0])
-    np.add(psi[:, 0], np.pi, out=psi[:, 1])
-    X0 = on_x1[:, 3]  # the wrist point in the arm plane (frame 1)
-    X0 -= a1
-    Y0 = wz - d1
-    sp *= d5
-    cp *= d5
-    # the frame-4 origin p5 − d5·z4 in the arm plane, z4 = ±(sin ψ · x1 − cos ψ · y1)
-    X = X0[:, None, :] - _SIGN * sp[:, None, :]  # (2, 2, b)
-    Y = _SIGN * cp[:, None, :]
-    Y += Y0
-    if np.any(sing):
-        _singular_wrist(sing, psi, th6, X, Y, X0, Y0, s5, u, w, nx1, nz, a2, a3, d5)
-    th5 = th5[:, None, None, :] * _SIGN[:, :, None]
-    put(4, th5)
-    put(5, th6[:, :, None, :])
-
-    # ---- elbow: a planar two-link arm (a2, a3) to (X, Y)
-    rho2 = X * X
-    rho2 += Y * Y
-    L1, L2 = np.abs(a2), np.abs(a3)
-    lo, hi = np.maximum(np.abs(L1 - L2) - atol, 0.0), L1 + L2 + atol
-    reach = rho2 >= lo * lo
-    reach &= rho2 <= hi * hi
-    reach &= reach_sh
-    den = 2.0 * a2 * a3
-    free = den == 0.0  # a2 or a3 zero: θ3 is free (or fixed by reach alone); take θ3 = 0
-    k1 = np.where(free, 0.0, 1.0 / np.where(free, 1.0, den))
-    c3 = rho2
-    c3 -= a2 * a2 + a3 * a3
-    c3 *= k1
-    c3 += free
-    np.clip(c3, -1.0, 1.0, out=c3)
-    s3 = c3 * c3
-    np.subtract(1.0, s3, out=s3)
-    np.sqrt(s3, out=s3)
-    gam = np.arctan2(Y, X)
-    th3 = np.arctan2(s3, c3)
-    s3 *= a3
-    c3 *= a3
-    c3 += a2
-    beta = np.arctan2(s3, c3)
-    # elbow branches: the sign of sin θ3
-    th = np.empty((2, 2, 2, r.shape[0]))
-    np.subtract(gam, beta, out=th[:, :, 0])
-    np.add(gam, beta, out=th[:, :, 1])
-    put(1, th)
-    th = np.empty((2, 2, 2, r.shape[0]))
-    th[:, :, 0] = th3
-    np.negative(th3, out=th[:, :, 1])
-    put(2, th)
-    psi -= gam
-    beta -= th3
-    th = np.empty((2, 2, 2, r.shape[0]))
-    np.add(psi, beta, out=th[:, :, 0])
-    np.subtract(psi, beta, out=th[:, :, 1])
-    put(3, th)
-    return reach[:, :, None, :]
-
-
-def _singular_wrist(sing, psi, th6, X, Y, X0, Y0, s5, u, w, nx1, nz, a2, a3, d5):
-    """Choose ψ where the wrist is singular; ``psi``, ``th6``, ``X``, ``Y`` (2, 2, b) in place.
-
-    The frame-4 origin ``o = P + d5·e`` (``P`` the wrist point in the arm plane, ``e = (−sin ψ,
-    cos ψ)``) then runs round a circle; the elbow reaches ``|o|`` in an annulus around the shoulder
-    that contains ``a2² + a3²`` (a right-angled elbow). Aiming ``|o|²`` at that value, clipped to
-    what the circle offers, lands in the annulus whenever the circle meets it. The two wrist
-    branches take the two points of the circle with that ``|o|``.
-    """
-    ii, mm = np.nonzero(sing)
-    pick = (lambda x: x if np.ndim(x) == 0 else x[mm])
-    Px, Py = X0[ii, mm], Y0[mm]
-    A2, A3, D5 = pick(a2), pick(a3), pick(d5)
-    # sqrt of the sum of squares, not hypot: correctly rounded operations only, so that the compiled
-    # kernel computes the same bits (numpy's hypot and libm's differ in the last place)
-    pn = np.sqrt(Px * Px + Py * Py)
-    tiny = (pn < 1e-150) | (np.abs(D5) < 1e-150)
-    pn_s = np.where(tiny, 1.0, pn)
-    ex, ey = np.where(tiny, 1.0, Px / pn_s), np.where(tiny, 0.0, Py / pn_s)  # P̂
-    k = (A2 * A2 + A3 * A3 - pn * pn - D5 * D5) / np.where(tiny, 1.0, 2.0 * D5 * pn_s)
-    kappa = np.where(tiny, 0.0, np.clip(k, -1.0, 1.0))
-    perp = np.sqrt(1.0 - kappa * kappa)
-    S5, U, W, NX1, NZ = s5[ii, mm], u[ii, mm], w[ii, mm], nx1[ii, mm], nz[mm]
-    for jw, sgn in ((0, 1.0), (1, -1.0)):
-        e_x = kappa * ex - sgn * perp * ey
-        e_y = kappa * ey + sgn * perp * ex
-        cp, sp = e_y, -e_x
-        psi[ii, jw, mm] = np.arctan2(sp, cp)
-        th6[ii, jw, mm] = np.arctan2(cp * NZ - sp * NX1, W * (cp * NX1 + sp * NZ) + sgn * S5 * U)
-        X[ii, jw, mm] = Px + D5 * e_x
-        Y[ii, jw, mm] = Py + D5 * e_y
-
-
-def ur_reachable(robot, T, atol: float = 1e-9, backend: str = "compiled") -> np.ndarray:
-    """True where some branch of :func:`ikine_ur` is valid: bool, shape ``T.shape[:-2]`` broadcast
+def ur_reachable(robot, T, atol: float = 1e-9) -> np.ndarray:
+    """True where some branch of :func:`ikine_ur` succeeds: bool, shape ``T.shape[:-2]`` broadcast
     with the robot's batch shape.
 
-    ``backend="compiled"`` (default) stops at the first valid branch of each target and computes
-    only what decides it: without joint limits that need checking (none, or each a full turn or
-    more) no angle at all, only the reach, by square roots and divisions; ``"numpy"`` is
-    ``ikine_ur(..., backend="numpy")[1].any(axis=-1)``. The answers are the same.
+    Stops at the first valid branch of each target and computes only what decides it: without
+    joint limits that need checking (none, or each a full turn or more) no angle at all, only the
+    reach, by square roots and divisions.
     """
-    prm, T = _front(robot, T, atol, backend)
-    if backend == "numpy":
-        return _ikine_numpy(prm, T, atol)[1].any(axis=-1)
+    prm, T = _front(robot, T, atol)
     return _ikine_compiled(prm, T, atol, full=False)
 
 
-# --------------------------------------------------------------------------- the compiled backend
+# --------------------------------------------------------------------------- the compiled solver
 #: Targets per task handed to a thread of the compiled kernel (every target costs about the same).
 TARGETS_PER_TASK = 256
-_INV_TWO_PI = 1.0 / _TWO_PI  # the constant numpy's _wrap multiplies by
+_INV_TWO_PI = 1.0 / _TWO_PI
 _EYE4 = np.eye(4)
 # placeholders of the compiled kernel's arguments (never written)
 _NO_INDEX = np.zeros(0, dtype=np.int64)
@@ -639,8 +354,8 @@ def _ikine_compiled(prm, T, atol, full):
     Per arm of the batch (``B`` arms, shape ``arms``): the canonical lengths ``(B, 7)``, joint signs,
     shifts and limits ``(B, 6)``, inverse mounts ``(B, 4, 4)``; per target ``i`` (``M`` of them, the
     broadcast of ``T`` and the arms) the index of its pose in ``T`` and of its arm (empty index
-    arrays: the identity, resp. arm 0). The choices the numpy code makes for the whole batch (which
-    mounts to apply, which joints to map and to check) are made here the same way.
+    arrays: the identity, resp. arm 0). Which mounts to apply and which joints to map and to check
+    is decided once for the whole batch.
     """
     qlim = prm.qlim
     arms = np.broadcast_shapes(prm.d1.shape, prm.base.shape[:-2], prm.flange.shape[:-2], prm.sign.shape[:-1],
@@ -659,7 +374,7 @@ def _ikine_compiled(prm, T, atol, full):
             x = np.broadcast_to(x, arms + tail)
         return np.ascontiguousarray(x.reshape((B,) + tail))
 
-    # mounts, as the numpy code: T' = base⁻¹ · T · flange⁻¹, skipped when exactly the identity; a
+    # mounts: T' = base⁻¹ · T · flange⁻¹, skipped when exactly the identity; a
     # flange that is a pure translation along z folded into d6
     d6 = prm.d6
     base, flange = prm.base, prm.flange
@@ -696,8 +411,6 @@ def _ikine_compiled(prm, T, atol, full):
         q, valid, reach = np.empty((M, 8, 6)), np.empty((M, 8), dtype=bool), np.empty(0, dtype=bool)
     else:
         q, valid, reach = _NO_Q, _NO_VALID, np.empty(M, dtype=bool)
-    from .lm_compiled import threads_for
-
     # about 33 ns a pose on the reachability path: one thread below some 10^5 poses
     with threads_for(M, 4096 if full else 65536):
         _run(Tf, tix, arm, par, int(bits[mapped].sum()), int(bits[limited].sum()), base_mode, Binv, flange_mode, Finv,
@@ -711,7 +424,7 @@ def _ikine_compiled(prm, T, atol, full):
 
 @njit(cache=True, error_model="numpy")
 def _wrap1(x):
-    """:func:`_wrap` of one number (the same operations)."""
+    """``x`` moved by a multiple of 2·pi into ``[-pi, pi]`` (rint is far cheaper than mod)."""
     return x - _TWO_PI * np.rint(x * _INV_TWO_PI)
 
 
@@ -727,7 +440,7 @@ def _clip1(x):
 
 @njit(cache=True, error_model="numpy")
 def _joint(x, j, P, mapped):
-    """Canonical angle ``x`` of joint ``j`` → the robot's ``q_j``, as the numpy code's ``put``
+    """Canonical angle ``x`` of joint ``j`` → the robot's ``q_j``
     (``P``: the arm's row, :func:`_arm_row`; ``mapped``: bit ``j`` set where joint ``j`` is mapped)."""
     if mapped >> j & 1:
         return _wrap1(P[_SIGN0 + j] * x - P[_SHIFT0 + j])
@@ -754,7 +467,10 @@ def _inside(x, j, P, limited):
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _rigid_bad(T, t, tol):
-    """Target ``t`` fails the quick rigidity test of :func:`_target_components` (NaN fails)."""
+    """Target ``t`` fails a quick rigidity test (NaN fails): :func:`check_rigid`'s conditions
+    (``RᵀR = I``, ``a = n × o``, the bottom row) at a quarter of its tolerance, so what passes here
+    passes there; a pose that fails is handed to :func:`check_rigid`, which decides and words the
+    error."""
     for c in range(3):
         for d in range(c, 3):
             g = T[t, 0, c] * T[t, 0, d] + T[t, 1, c] * T[t, 1, d] + T[t, 2, c] * T[t, 2, d]
@@ -773,7 +489,7 @@ def _rigid_bad(T, t, tol):
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _left(L, b, T, t, r, c):
-    """Entry ``(r, c)`` of ``L[b] · T[t]``, summed left to right (as :func:`_compose`)."""
+    """Entry ``(r, c)`` of ``L[b] · T[t]``, summed left to right."""
     return L[b, r, 0] * T[t, 0, c] + L[b, r, 1] * T[t, 1, c] + L[b, r, 2] * T[t, 2, c] + L[b, r, 3] * T[t, 3, c]
 
 
@@ -821,8 +537,8 @@ def _arm_row(par, b):
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _branches(A, P, mapped, limited, atol, full, q, valid, i):
-    """The closed form of one target, operation for operation as :func:`_solve` and
-    :func:`_singular_wrist` (the numpy reference) do it; returns whether some branch is valid.
+    """The closed form of one target (the geometry is in the module notes); returns whether some
+    branch is valid.
 
     ``A``: rows 0..2 of the target in the joint-1 frame (mounts applied), a 12-tuple row by row;
     ``P``: the arm's numbers (:func:`_arm_row`); ``mapped``, ``limited``: bit ``j`` set where joint
@@ -934,7 +650,8 @@ def _branches(A, P, mapped, limited, atol, full, q, valid, i):
             Y_0 = cpd + Y0
             Y_1 = -cpd + Y0
         else:
-            # the free angle: |frame-4 origin|² aimed at a2² + a3² (_singular_wrist)
+            # the free angle: |frame-4 origin|² aimed at a2² + a3², so the elbow is as close to a
+            # right angle as the position allows
             pn = math.sqrt(X0 * X0 + Y0 * Y0)
             if pn < 1e-150 or abs(d5) < 1e-150:
                 ex, ey, kappa = 1.0, 0.0, 0.0
@@ -1036,3 +753,7 @@ def _run(T, tix, arm, par, mapped, limited, base_mode, Binv, flange_mode, Finv, 
             else:
                 reach[i] = _branches(A, P, mapped, limited, atol, False, q, valid, i)
         bad[task] = flag
+
+
+register(ClosedForm(name="ur", description="the UR family", recognise=is_ur_type, require=require_ur_type,
+                    solve=ikine_ur, reachable=ur_reachable))

@@ -1,0 +1,43 @@
+"""Inverse kinematics: closed forms, the paper's Levenberg–Marquardt, the reachability search.
+
+Every solver returns one answer type, :class:`~.solution.IKSolution` (``q``, ``success``,
+``iterations``, ``residual``, ``reason``; batched arrays).
+
+* :mod:`.solution` — :class:`IKSolution` and :class:`IKReason`, why a target failed;
+* :mod:`.registry` — the closed-form extension point: :class:`ClosedForm`, :func:`register`,
+  :func:`closed_form_for` (which closed form solves an arm, or None), the shared branch numbering;
+* :mod:`.closed_forms` — one module per closed form, each registering itself
+  (:mod:`.closed_forms.spherical_wrist`, :mod:`.closed_forms.ur`); a new closed form is a new
+  module there;
+* :mod:`.lm` — :func:`ikine_LM`, the paper's one-start LM (DH arms);
+* :mod:`.search` — :func:`ikine_search` and :func:`map_search`, the multi-start reachability search
+  with joint limits inside it, every success confirmed by forward kinematics;
+* :mod:`.reach_filter` — the search's sound pre-filters (targets proven out of reach);
+* :mod:`.kernel` — the bridge to the compiled LM kernel (:mod:`wsmap.kinematics.lm_compiled`);
+* :mod:`.memo` — content-keyed memos of what the solvers derive from an arm;
+* :mod:`.lm_reference` — the LM iteration in numpy, the reference the tests compare the kernel with.
+"""
+
+from . import closed_forms  # noqa: F401  (imports and so registers every closed form)
+from .closed_forms.spherical_wrist import (
+    SPHERICAL_WRIST_ALPHA,
+    ikine_spherical_wrist,
+    is_spherical_wrist,
+    require_spherical_wrist,
+    spherical_wrist_reachable,
+    wrist_centre_reachable,
+)
+from .closed_forms.ur import UR_ALPHA, URParameters, ikine_ur, is_ur_type, require_ur_type, ur_parameters, ur_reachable
+from .lm import ikine_LM
+from .registry import ELBOW, SHOULDER, WRIST, ClosedForm, closed_form_for, closed_forms, register, require_closed_form
+from .search import DEFAULT_STARTS, FK_CONFIRM_TOL, MAP_SETTINGS, ikine_search, map_search
+from .solution import IKReason, IKSolution
+
+__all__ = [
+    "IKSolution", "IKReason",
+    "ClosedForm", "register", "closed_forms", "closed_form_for", "require_closed_form", "SHOULDER", "WRIST", "ELBOW",
+    "SPHERICAL_WRIST_ALPHA", "ikine_spherical_wrist", "is_spherical_wrist", "require_spherical_wrist",
+    "spherical_wrist_reachable", "wrist_centre_reachable",
+    "UR_ALPHA", "URParameters", "ikine_ur", "is_ur_type", "require_ur_type", "ur_parameters", "ur_reachable",
+    "ikine_LM", "ikine_search", "map_search", "DEFAULT_STARTS", "FK_CONFIRM_TOL", "MAP_SETTINGS",
+]

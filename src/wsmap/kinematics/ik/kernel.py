@@ -1,0 +1,114 @@
+"""The bridge from arms and targets to the compiled LM kernel (:mod:`wsmap.kinematics.lm_compiled`).
+
+* :func:`arm_arrays` — a chain's numbers laid out as the kernel reads them;
+* :func:`run_compiled` — one call of the kernel on a set of targets;
+* :func:`pose_keys` — the per-target keys of the random starts (counter-based hashing, so a pose
+  gets the same starts wherever it sits in a batch), and :func:`start_box`, where they are drawn.
+
+Used by the paper's LM (:mod:`.lm`) and the search (:mod:`.search`); the numpy reference
+(:mod:`.lm_reference`) draws the same starts from :func:`mix` and :func:`start_box`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import lm_compiled
+from ..chain import PRISMATIC, SerialChain
+
+__all__ = ["arm_arrays", "run_compiled", "pose_keys", "start_box", "mix"]
+
+_TWO_PI = 2.0 * np.pi
+
+
+def start_box(limits: np.ndarray):
+    """Bounds ``(lo, hi)`` (..., n) that random starts are drawn in: the limits, ``[-pi, pi)`` where unlimited."""
+    lo = np.where(np.isfinite(limits[..., 0]), limits[..., 0], -np.pi)
+    hi = np.where(np.isfinite(limits[..., 1]), limits[..., 1], np.pi)
+    # a half-open revolute range: one turn from its finite end
+    lo = np.where(np.isfinite(limits[..., 1]) & ~np.isfinite(limits[..., 0]), hi - _TWO_PI, lo)
+    hi = np.where(np.isfinite(limits[..., 0]) & ~np.isfinite(limits[..., 1]), lo + _TWO_PI, hi)
+    return lo, hi
+
+
+def mix(z):
+    """splitmix64's finaliser on uint64 arrays (wrapping arithmetic)."""
+    z = z + np.uint64(0x9E3779B97F4A7C15)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+def pose_keys(seed: int, T) -> np.ndarray:
+    """A 64-bit key per target pose ``(K, 4, 4)``: the seed mixed with the bits of ``T[:3, :]``,
+    so a pose gets the same random starts wherever it sits in a batch."""
+    # + 0.0 turns -0.0 into 0.0, so that equal poses have equal keys
+    words = np.ascontiguousarray(T[:, :3, :] + 0.0, dtype=np.float64).reshape(len(T), 12).view(np.uint64)
+    return lm_compiled.pose_keys(mix(np.array([seed], dtype=np.uint64))[0], words)
+
+
+def arm_arrays(chain: SerialChain) -> dict:
+    """The numbers of a chain (or a batch, flattened to ``B`` arms) as the compiled kernel reads them.
+
+    ``Rf`` (B, n+1, 3, 3) and ``tf`` (B, n+1, 3): the fixed transforms with the base folded into the
+    first and the tool into the last; ``off``, ``lo``, ``hi`` (B, n): offsets and limits (±inf where
+    unlimited); ``clo``, ``chi``, ``clipped`` (B, n): the bounds the LM projects onto (the clipped
+    joints: prismatic, or revolute with a range narrower than a turn; the others move freely and are
+    brought into their range by a multiple of 2·pi at the end); ``limited`` (B,): any joint clipped;
+    ``unlimited`` (B, n): revolute without limits; ``blo``, ``bhi`` (B, n): the box random starts are
+    drawn in; shared ``axes`` (n, 3), ``pris`` and ``zax`` (n,) bool.
+    """
+    n = chain.n
+    batch = chain.batch_shape
+    B = int(np.prod(batch, dtype=np.int64))
+    F = np.array(np.broadcast_to(chain.fixed, batch + (n + 1, 4, 4)), dtype=np.float64).reshape(B, n + 1, 4, 4)
+    if chain.base is not None:
+        F[:, 0] = chain.base @ F[:, 0]
+    if chain.tool is not None:
+        F[:, n] = F[:, n] @ chain.tool
+    lim = np.broadcast_to(chain.limits, batch + (n, 2)).reshape(B, n, 2)
+    lo, hi = np.ascontiguousarray(lim[..., 0]), np.ascontiguousarray(lim[..., 1])
+    pris = np.array([k == PRISMATIC for k in chain.kinds])
+    with np.errstate(invalid="ignore"):
+        clipped = np.where(~pris, (hi - lo) < _TWO_PI, True) & (np.isfinite(lo) | np.isfinite(hi))
+    blo, bhi = start_box(lim)
+    Rf = np.ascontiguousarray(F[:, :, :3, :3])
+    # 0: identity, 1: a rotation about x (R[0] = e0, R[:, 0] = e0), 2: any; exact comparisons, so
+    # the kernel's shortcuts drop only products with exact zeros and ones
+    e0 = np.array([1.0, 0.0, 0.0])
+    about_x = np.all(Rf[..., 0, :] == e0, axis=-1) & np.all(Rf[..., :, 0] == e0, axis=-1)
+    rkind = np.where(np.all(Rf == np.eye(3), axis=(-2, -1)), 0, np.where(about_x, 1, 2)).astype(np.int8)
+    return dict(
+        Rf=Rf, tf=np.ascontiguousarray(F[:, :, :3, 3]), rkind=rkind,
+        off=np.ascontiguousarray(np.broadcast_to(chain.offset, batch + (n,)).reshape(B, n), dtype=np.float64),
+        axes=np.ascontiguousarray(chain.axes, dtype=np.float64), pris=pris,
+        zax=np.array([a[0] == 0.0 and a[1] == 0.0 for a in chain.axes]),
+        lo=lo, hi=hi, clo=np.where(clipped, lo, -np.inf), chi=np.where(clipped, hi, np.inf), clipped=clipped,
+        limited=clipped.any(axis=1), unlimited=~pris & np.isinf(lo) & np.isinf(hi),
+        blo=np.ascontiguousarray(blo), bhi=np.ascontiguousarray(bhi),
+    )
+
+
+def run_compiled(mode, aa: dict, arm, T, keys, qexp, nexp, k_first, k_last, ilimit, rlimit, tol, lam, confirm_tol,
+                 gtol=0.0, free_pass=True):
+    """Run :func:`wsmap.kinematics.lm_compiled.run_targets` on targets ``T`` (M, 4, 4) of arms
+    ``arm`` (M,) (indices into ``aa``, from :func:`arm_arrays`). Returns ``q`` (M, n), ``ok``,
+    ``iterations``, ``residual``, ``start`` (M,)."""
+    M, n = len(T), aa["axes"].shape[0]
+    q = np.full((M, n), np.nan)
+    ok = np.zeros(M, dtype=bool)
+    it = np.zeros(M, dtype=np.int64)
+    res = np.full(M, np.inf)
+    start = np.full(M, -1, dtype=np.int64)
+    if M:
+        Rt = np.ascontiguousarray(T[:, :3, :3], dtype=np.float64)
+        pt = np.ascontiguousarray(T[:, :3, 3], dtype=np.float64)
+        with lm_compiled.threads_for(M, 64):
+            lm_compiled.run_targets(
+                mode, np.ascontiguousarray(arm, dtype=np.int64), Rt, pt, np.ascontiguousarray(keys, dtype=np.uint64),
+                np.ascontiguousarray(qexp, dtype=np.float64), np.ascontiguousarray(nexp, dtype=np.int64),
+                int(k_first), int(k_last), aa["Rf"], aa["tf"], aa["rkind"], aa["off"], aa["axes"], aa["pris"], aa["zax"],
+                aa["lo"], aa["hi"], aa["clo"], aa["chi"], aa["clipped"], aa["limited"], aa["unlimited"], aa["blo"],
+                aa["bhi"], int(ilimit), int(rlimit), float(tol), float(lam), float(gtol), float(confirm_tol),
+                bool(free_pass), q, ok, it, res, start)
+    return q, ok, it, res, start

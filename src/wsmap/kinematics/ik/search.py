@@ -1,0 +1,424 @@
+"""Reachability search: multi-start Levenberg–Marquardt for any serial arm, joint limits inside the search.
+
+:func:`ikine_search` decides, per target pose, whether the arm reaches it, and returns a solution
+where it does. It is the numerical path of :mod:`wsmap.workspace` (maps and
+:func:`wsmap.workspace.reachable`). Per target:
+
+* **Starts, in order, with early exit.** Start 0 is ``q0`` (default zeros); starts ``1 ..`` are
+  drawn uniformly inside the limits (``[-pi, pi)`` for an unlimited revolute joint). Start ``k``
+  runs only on the targets that starts ``0 .. k-1`` did not solve, so a run with ``k`` starts is
+  the first ``k`` starts of a longer one. The random numbers of a target come from a counter-based
+  hash (splitmix64) of ``seed``, the target pose's bits, the start and the joint
+  (:func:`wsmap.kinematics.ik.kernel.pose_keys`): deterministic, independent between targets, and
+  the same wherever the pose sits in a batch. Every target is solved on its own (one compiled loop
+  per target, :mod:`wsmap.kinematics.lm_compiled`), so results do not depend on ``chunk``, on the
+  thread count or on which targets share a call.
+* **The iteration** is the paper's LM (Appendix; :func:`wsmap.kinematics.ik.lm.ikine_LM`)::
+
+      dq = (JᵀJ + λ² I)⁻¹ Jᵀe,   q' = P(q + dq)
+      accept if |e(q')| < |e(q)|: q = q', λ /= 2, r = 0;  else λ *= 2, r += 1 (fail when r > rlimit)
+
+  with ``J`` the base-frame geometric Jacobian, and three changes. (1) The rotation part of ``e``
+  is the rotation vector ``θ·a`` of ``R_target·Rᵀ`` rather than Corke's ``tr2delta``
+  ``sin θ·a``, which also vanishes at a half turn: from random starts LM fell into that false zero
+  about half the time. (2) ``P`` projects onto the limits: a revolute joint whose range is
+  narrower than a turn and which leaves it is first moved by a multiple of 2·pi to the equivalent
+  angle closest to the range (inside it when there is one), then clipped; a prismatic joint is
+  clipped. And a joint on a limit that the gradient ``Jᵀe`` pushes outward is held for that step
+  (its row and column replaced by the identity, as in Bertsekas' projected Newton), so the
+  iteration slides along the limits instead of stalling against them. Joints without limits, or
+  with a range of a turn or more, move freely and are brought into their range by a multiple of
+  2·pi at the end. (3) Per-start limits ``ilimit = 100``, ``rlimit = 20`` (see
+  :data:`DEFAULT_ILIMIT`).
+* **Two passes per start on limited arms.** Where the constrained run fails and the limits did
+  change it, LM runs again from the same start ignoring the limits, and its solution, moved into
+  the range by multiples of 2·pi, counts if it lies inside the limits (a solution behind a limit
+  that the constrained run could not walk around). Where the limits never changed the
+  constrained run, the free run would be the same run, so it is skipped.
+* **Success** = the error norm reached ``tol``, ``q`` lies inside the limits, and an independent
+  forward kinematics (:meth:`SerialChain.fkine`) of the returned ``q`` puts the tool within
+  ``confirm_tol`` of the target (metres in position, radians in rotation angle). A start whose
+  check fails does not count, and the next start runs.
+* **Sound pre-filter** (:mod:`wsmap.kinematics.ik.reach_filter`). A target whose wrist point is
+  farther from the base than the sum of the arm's link lengths (plus ``confirm_tol`` margins), or
+  outside the set that the joints before it can sweep it through, cannot be confirmed by any
+  ``q``; it is marked unreachable (``IKReason.OUT_OF_REACH``) without running LM. It changes no
+  success, only the time.
+* **Exact stagnation shortcut**: once λ is so large that no later step can move ``q`` by one bit,
+  every later trial is rejected, so the start fails at once.
+
+:mod:`wsmap.kinematics.ik.lm_reference` is the same search in numpy, the reference the tests
+compare the compiled kernel with. The paper's own one-start path,
+:func:`wsmap.kinematics.ik.lm.ikine_LM` (DH arms, limits checked after convergence), is unchanged;
+the paper's pipeline keeps using it (in the maps: ``ik={"solver": "paper"}``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..chain import PRISMATIC, SerialChain, flatten_arms
+from ..transforms import check_rigid
+from .kernel import arm_arrays, pose_keys, run_compiled
+from .memo import Memo, as_chain_memo, chain_key
+from .reach_filter import position_filter, reach_filter
+from .solution import IKSolution, failure_reasons
+
+__all__ = ["MAP_SETTINGS", "map_search", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DEFAULT_STARTS", "FK_CONFIRM_TOL",
+           "ikine_search"]
+
+_ARM_ARRAYS = Memo()
+
+#: Starts per target of :func:`ikine_search`, the maps' numerical path and ``reachable``. Measured
+#: with ``benchmarks/bench_recall.py`` (21³ grid; PUMA560 with and without limits against the closed
+#: form, UR5e against EAIK; R = I and tool down): the hardest case, PUMA560 with limits, needs 24
+#: starts for recall >= 0.999 at seed 0 but 32 at seed 1 (24: 0.9986); 32 starts missed no node in
+#: any case at seeds 0-4. No false positive at any count.
+DEFAULT_STARTS = 32
+
+#: Per-start iteration and consecutive-rejection limits. The paper's 500 and 100 spend most of a
+#: failing start on rejections (a start that fails, fails slowly); 100 and 20 gave the same recall
+#: at every count of starts in ``benchmarks/bench_recall.py`` (so did 60 and 10) at about half the time.
+DEFAULT_ILIMIT = 100
+DEFAULT_RLIMIT = 20
+
+#: Tolerance of the forward-kinematics confirmation of every success (m and rad).
+FK_CONFIRM_TOL = 1e-6
+
+
+def _check_count(name, v, minimum):
+    try:
+        ok = not isinstance(v, bool) and np.isscalar(v) and np.isreal(v) and np.isfinite(v) and int(v) == v
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok or v < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {v!r}")
+    return int(v)
+
+
+def _check_seed(seed):
+    if seed is None:
+        return int(np.random.default_rng().integers(0, 2**63))
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
+        raise ValueError(f"seed must be a non-negative integer (or None for a random one), got {seed!r}")
+    return int(seed)
+
+
+def _check_settings(chain: SerialChain, tol, lam, confirm_tol, seed, q0):
+    """The checks :func:`ikine_search` and :func:`map_search` share: ``tol``, ``lam`` and
+    ``confirm_tol`` positive and finite with ``confirm_tol >= tol``; returns ``(seed, q0)`` checked
+    (``q0`` default zeros, shape ``(..., n)``)."""
+    for label, v in (("tol", tol), ("lam", lam), ("confirm_tol", confirm_tol)):
+        if isinstance(v, bool) or not (np.isscalar(v) and np.isreal(v) and v > 0 and np.isfinite(v)):
+            raise ValueError(f"{label} must be positive and finite, got {v!r}")
+    if confirm_tol < tol:
+        raise ValueError(f"confirm_tol ({confirm_tol}) must be at least tol ({tol})")
+    seed = _check_seed(seed)
+    q0 = np.zeros(chain.n) if q0 is None else chain._check_q(q0)
+    return seed, q0
+
+
+def _limited(chain: SerialChain, joint_limits: bool) -> SerialChain:
+    """The chain, or without its revolute limits (prismatic joints keep their strokes)."""
+    if joint_limits or chain.qlim is None:
+        return chain
+    pris = np.array([k == PRISMATIC for k in chain.kinds])
+    if not pris.any():
+        return chain.replace(qlim=None)
+    qlim = np.array(chain.qlim, dtype=np.float64)
+    qlim[..., ~pris, 0], qlim[..., ~pris, 1] = -np.inf, np.inf
+    return chain.replace(qlim=qlim)
+
+
+def ikine_search(
+    robot,
+    T,
+    *,
+    starts: int = DEFAULT_STARTS,
+    seed=0,
+    q0=None,
+    tol: float = 1e-10,
+    ilimit: int = DEFAULT_ILIMIT,
+    rlimit: int = DEFAULT_RLIMIT,
+    lam: float = 0.1,
+    joint_limits: bool = True,
+    confirm_tol: float = FK_CONFIRM_TOL,
+    chunk: int = 16384,
+    progress=None,
+    position_only: bool = False,
+) -> IKSolution:
+    """Multi-start Levenberg–Marquardt reachability search with joint limits (see the module notes).
+
+    Parameters
+    ----------
+    robot : SerialChain or DHRobot
+        One arm or a batch; its batch shape broadcasts with the targets'.
+    T : array_like, shape (..., 4, 4)
+        Target tool poses in the base (world) frame; each must be a rigid transform.
+    starts : int
+        Start configurations per target, tried in order until one succeeds (1: only ``q0``).
+    seed : int >= 0, or None
+        Seed of the random starts 1.. (None: a fresh random seed, not reproducible).
+    q0 : array_like, shape (n,) or (..., n), optional
+        Start 0 (default zeros; projected into the limits).
+    tol, ilimit, rlimit, lam :
+        Per start: tolerance on the error norm (m and rad), iteration limit, consecutive-rejection
+        limit, initial λ. Defaults 1e-10, 100, 20, 0.1 (the paper's LM: 1e-10, 500, 100, 0.1).
+    joint_limits : bool
+        Honour the arm's limits (default). False drops the revolute joints' limits.
+    confirm_tol : float
+        Forward-kinematics confirmation tolerance (m, rad); at least ``tol``.
+    chunk : int
+        Targets solved together (bounds memory; the result does not depend on it).
+    progress : callable, optional
+        Called with the number of targets finished after each chunk.
+    position_only : reach the position of each ``T`` at any orientation
+
+    Runs on :func:`wsmap.kinematics.lm_compiled.set_threads` threads. Returns an
+    :class:`~wsmap.kinematics.ik.solution.IKSolution` of the broadcast batch shape of targets and
+    arms: ``q`` a confirmed solution where ``success`` (inside the limits); elsewhere the end point
+    of the start with the smallest final error (inside the limits; NaN where LM was not run);
+    ``iterations`` over all starts tried; ``residual`` the error norm at ``q`` (``inf`` where LM
+    was not run); ``reason`` ``OUT_OF_REACH`` where the pre-filter ruled the target out, else
+    ``NO_CONVERGENCE`` where no start succeeded; ``start`` the index of the start that succeeded,
+    -1 where none did.
+    """
+    chain = _limited(as_chain_memo(robot), joint_limits)
+    T = check_rigid("target poses", T)
+    starts = _check_count("starts", starts, 1)
+    ilimit = _check_count("ilimit", ilimit, 0)
+    rlimit = _check_count("rlimit", rlimit, 0)
+    chunk = _check_count("chunk", chunk, 1)
+    seed, q0 = _check_settings(chain, tol, lam, confirm_tol, seed, q0)
+    n = chain.n
+    batch = chain.batch_shape
+    shape = np.broadcast_shapes(T.shape[:-2], batch, q0.shape[:-1])
+    count = int(np.prod(shape, dtype=np.int64))
+    Tf = np.broadcast_to(T, shape + (4, 4)).reshape(-1, 4, 4)
+    Q0 = np.broadcast_to(q0, shape + (n,)).reshape(-1, n)
+    B = int(np.prod(batch, dtype=np.int64))
+    arm_of = np.broadcast_to(np.arange(B).reshape(batch), shape).reshape(-1)
+
+    q_out = np.full((count, n), np.nan)
+    ok_out = np.zeros(count, dtype=bool)
+    it_out = np.zeros(count, dtype=np.int64)
+    res_out = np.full(count, np.inf)
+    start_out = np.full(count, -1, dtype=np.int64)
+    if position_only:
+        pb = position_filter(chain, np.broadcast_to(T, shape + (4, 4))[..., :3, 3].reshape(-1, 3), confirm_tol)
+        possible = np.broadcast_to(pb, (count,)) if pb.ndim == 1 else None
+        if possible is None:  # a batch of arms: the filter per target's arm
+            possible = pb.reshape(B, count)[arm_of, np.arange(count)]
+    else:
+        possible = reach_filter(chain, np.broadcast_to(T, shape + (4, 4)), confirm_tol).reshape(-1)
+
+    aa = _ARM_ARRAYS.get(chain_key(chain), lambda: arm_arrays(chain))
+    for s0 in range(0, count, chunk):
+        todo = s0 + np.flatnonzero(possible[s0 : s0 + chunk])
+        keys = pose_keys(seed, Tf[todo])
+        q, ok, it, res, st = run_compiled(2 if position_only else 0, aa, arm_of[todo], Tf[todo], keys,
+                                          Q0[todo][:, None, :],
+                                          np.ones(todo.size, dtype=np.int64), 1, starts, ilimit, rlimit, tol,
+                                          lam, confirm_tol)
+        q_out[todo], ok_out[todo], it_out[todo], res_out[todo], start_out[todo] = q, ok, it, res, st
+        if progress is not None:
+            progress(min(s0 + chunk, count) - s0)
+    return IKSolution(q_out.reshape(shape + (n,)), ok_out.reshape(shape), it_out.reshape(shape),
+                      res_out.reshape(shape), failure_reasons(ok_out, out_of_reach=~possible).reshape(shape),
+                      start_out.reshape(shape))
+
+
+# --------------------------------------------------------------------------- maps: starts from neighbours
+#: Defaults of :func:`map_search` for the maps, measured with ``benchmarks/bench_fast_maps.py``
+#: (recall against the closed forms and a 64-start reference on the 21³ grid for PUMA560 with and
+#: without limits, UR5e, Panda, iiwa14, Gen3): start 0 only in the first pass (a neighbour's solution
+#: is a better start than a random one), two seeds per wave, four random retries next to solved
+#: nodes; per start 60 iterations and 10 rejections, and the stationary-point test at 1e-4, which
+#: cut the iterations spent on unreachable nodes by about half without a missed node; a neighbour's
+#: solution is not rerun without the limits (the Panda index: 13 % less time, the same recall); a
+#: hole in a solved region gets 16 retries (the iiwa14 from its URDF, tool down, missed 3 of 1768
+#: nodes near its axis with 4).
+MAP_SETTINGS = dict(starts=0, seeds=2, retry=4, hole_retry=16, ilimit=60, rlimit=10, gtol=1e-4, seed_free_pass=False)
+
+
+def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], seeds: int = MAP_SETTINGS["seeds"],
+               retry: int = MAP_SETTINGS["retry"], seed=0, q0=None, tol: float = 1e-10,
+               ilimit: int = MAP_SETTINGS["ilimit"], rlimit: int = MAP_SETTINGS["rlimit"], lam: float = 0.1,
+               joint_limits: bool = True, confirm_tol: float = FK_CONFIRM_TOL, gtol: float = MAP_SETTINGS["gtol"],
+               q_init=None, position_only: bool = False, seed_free_pass: bool = MAP_SETTINGS["seed_free_pass"],
+               hole_retry: int = MAP_SETTINGS["hole_retry"], progress=None) -> IKSolution:
+    """Reachability of a map's nodes, each start of :func:`ikine_search`'s iteration, with starts taken
+    from neighbouring nodes' solutions (continuation): the solution at a node is an excellent start
+    at the next one, and an unreachable node costs a few failed starts instead of dozens.
+
+    Parameters
+    ----------
+    robot : SerialChain or DHRobot, one arm or a batch of ``B`` arms (flattened)
+    T : (N, 4, 4) the nodes' target poses (base frame), shared by the arms
+    neighbours : (N, K) int, node indices of each node's neighbours, ``-1`` padding (e.g. from
+        :func:`wsmap.workspace.grids.node_neighbours`)
+    starts : random starts per node in the first pass, after start 0 (``q0``, default zeros)
+    seeds : neighbours' solutions tried per node and wave
+    retry : random starts per node for the nodes still unsolved when no wave solves any more and
+        next to a solved node, after which the waves run again from what they found
+    hole_retry : the random starts instead for such a node with at least half of its neighbours
+        solved (a hole in a reachable region is most likely reachable)
+    ilimit, rlimit, tol, lam, joint_limits, confirm_tol : per start, as :func:`ikine_search`
+    gtol : the stationary-point test (:mod:`wsmap.kinematics.lm_compiled`): a start fails once the gradient
+        vanishes relative to ``|J|·|e|`` away from a solution; 0 turns it off
+    q_init : optional ``(N, n)`` (or ``(B, N, n)``) starts tried first at each node, NaN rows where
+        none (e.g. each node's solution at a neighbouring orientation, or a sampled configuration
+        whose tool lies near the node)
+    position_only : reach the position of ``T`` at any orientation (the error and the
+        confirmation on the position alone)
+    seed_free_pass : whether a neighbour's solution that fails inside the limits is also run
+        without them (the second pass of :func:`ikine_search`'s starts)
+    progress : called once with the number of targets when done
+
+    Per arm, in passes: (1) every node: ``q0`` then ``starts`` random starts (the first ones of
+    :func:`ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
+    neighbour whose solution it has not tried takes up to ``seeds`` of them, in neighbour order, as
+    starts, until a wave solves nothing new; (3) the nodes left take ``retry`` more random starts,
+    and (2) again. Every success is confirmed by forward kinematics inside the limits, so ``True``
+    is never wrong; recall is measured in ``benchmarks/bench_fast_maps.py``. Deterministic; does not
+    depend on the thread count.
+
+    Returns an :class:`~wsmap.kinematics.ik.solution.IKSolution` of shape ``(B, N)`` (``(N,)`` for one
+    arm), its fields as :func:`ikine_search`'s; ``start`` is the random start's index ``k``
+    (0 = ``q0``) that succeeded, ``-2`` where a neighbour's solution did, ``-1`` where none did.
+    """
+    chain = _limited(as_chain_memo(robot), joint_limits)
+    T = check_rigid("target poses", T)
+    if T.ndim != 3:
+        raise ValueError(f"target poses must have shape (N, 4, 4), got {T.shape}")
+    N = T.shape[0]
+    nb = np.asarray(neighbours)
+    if nb.ndim != 2 or nb.shape[0] != N or not np.issubdtype(nb.dtype, np.integer):
+        raise ValueError(f"neighbours must be an integer array of shape ({N}, K), got {nb.dtype} {nb.shape}")
+    if nb.size and (nb.min() < -1 or nb.max() >= N):
+        raise ValueError(f"neighbours must be node indices in [0, {N}) or -1 (none)")
+    starts = _check_count("starts", starts, 0)
+    seeds = _check_count("seeds", seeds, 0)
+    retry = _check_count("retry", retry, 0)
+    hole_retry = _check_count("hole_retry", hole_retry, 0)
+    ilimit = _check_count("ilimit", ilimit, 0)
+    rlimit = _check_count("rlimit", rlimit, 0)
+    seed, q0 = _check_settings(chain, tol, lam, confirm_tol, seed, q0)
+    n = chain.n
+    if q0.shape != (n,):
+        raise ValueError(f"q0 must have shape ({n},) for a map, got {q0.shape}")
+    batch = chain.batch_shape
+    B = int(np.prod(batch, dtype=np.int64))
+    flat = chain if not batch else flatten_arms(chain)
+    M = B * N
+    arm_of = np.repeat(np.arange(B), N)
+    node_of = np.tile(np.arange(N), B)
+    Tb = T[None] if not batch else T[None, :]
+    if position_only:
+        # (N,) for one arm, (B, N) for a batch: target b·N + i
+        possible = position_filter(flat if batch else chain, T[:, :3, 3], confirm_tol).reshape(-1)
+    else:
+        possible = reach_filter(flat if batch else chain, Tb if not batch else T[:, None], confirm_tol)
+        possible = (possible.T if batch else possible).reshape(-1)
+    mode = 2 if position_only else 0
+    if q_init is not None:
+        q_init = np.asarray(q_init, dtype=np.float64)
+        if q_init.shape not in ((N, n), (B, N, n)):
+            raise ValueError(f"q_init must have shape ({N}, {n}) or ({B}, {N}, {n}), got {q_init.shape}")
+        q_init = np.broadcast_to(q_init, (B, N, n)).reshape(M, n)
+    keys_node = pose_keys(seed, T)
+    aa = _ARM_ARRAYS.get(chain_key(flat), lambda: arm_arrays(flat))
+    settings = (ilimit, rlimit, tol, lam, confirm_tol, float(gtol))
+
+    q = np.full((M, n), np.nan)
+    ok = np.zeros(M, dtype=bool)
+    its = np.zeros(M, dtype=np.int64)
+    res = np.full(M, np.inf)
+    start = np.full(M, -1, dtype=np.int64)
+
+    def run(idx, qexp, nexp, k_first, k_last, seeded):
+        if not idx.size:
+            return 0
+        qq, okk, it, rr, st = run_compiled(mode, aa, arm_of[idx], T[node_of[idx]], keys_node[node_of[idx]], qexp, nexp,
+                                           k_first, k_last, *settings, free_pass=not seeded or seed_free_pass)
+        its[idx] += it
+        better = okk | (~ok[idx] & (rr < res[idx]))
+        q[idx[better]] = qq[better]
+        res[idx[better]] = rr[better]
+        ok[idx] |= okk
+        if seeded:
+            start[idx[okk]] = -2
+        else:
+            # positions in the run's order (explicit q0 first) → random-start index k
+            start[idx[okk]] = np.where(st[okk] < nexp[okk], 0, st[okk] - nexp[okk] + k_first)
+        return int(okk.sum())
+
+    K = nb.shape[1]
+    tried = np.zeros((M, K), dtype=bool)
+
+    def waves():
+        # a wave: every unsolved node next to a node solved since the last wave tries up to
+        # ``seeds`` of those fresh solutions; it ends when a wave solves nothing
+        if not seeds or not K:
+            return
+        fresh = ok.copy()
+        while fresh.any():
+            cand = np.flatnonzero(~ok & possible)
+            if not cand.size:
+                return
+            nbn = nb[node_of[cand]]  # (C, K) node indices
+            nbt = arm_of[cand][:, None] * N + np.where(nbn >= 0, nbn, 0)
+            usable = (nbn >= 0) & fresh[nbt] & ~tried[cand]
+            pick = usable & (np.cumsum(usable, axis=1) <= seeds)
+            count = pick.sum(axis=1)
+            has = count > 0
+            if not has.any():
+                return
+            cand, pick, nbt, count = cand[has], pick[has], nbt[has], count[has]
+            tried[cand] |= pick
+            qexp = np.zeros((cand.size, seeds, n))
+            slot = np.cumsum(pick, axis=1) - 1
+            r, c = np.nonzero(pick)
+            qexp[r, slot[r, c]] = q[nbt[r, c]]
+            before = ok.copy()
+            run(cand, qexp, count, 0, 0, True)
+            fresh = ok & ~before
+
+    first = np.flatnonzero(possible)
+    if q_init is None:
+        run(first, np.broadcast_to(q0, (first.size, 1, n)), np.ones(first.size, dtype=np.int64), 1, 1 + starts, False)
+    else:
+        # the given start first where there is one, then q0 (start 0 counts for both)
+        qexp = np.empty((first.size, 2, n))
+        given = np.all(np.isfinite(q_init[first]), axis=1)
+        qexp[:, 0] = np.where(given[:, None], q_init[first], q0)
+        qexp[:, 1] = q0
+        run(first, qexp, np.where(given, 2, 1).astype(np.int64), 1, 1 + starts, False)
+    waves()
+    if retry:
+        # only next to solved nodes: a reachable node that the waves missed borders solved ones (a
+        # pocket behind a joint limit, another branch), while nodes deep in an unreachable region
+        # would spend every retry in vain. A hole (at least half of its neighbours solved) is most
+        # likely reachable: it gets hole_retry starts instead
+        left = ~ok & possible
+        hole = np.zeros(M, dtype=bool)
+        if K:
+            # solved neighbours per target, one neighbour slot at a time: (B, N) arrays, never (B·N, K)
+            valid = nb >= 0
+            slot = np.where(valid, nb, 0)
+            ok_bn = ok.reshape(B, N)
+            solved_nb = np.zeros((B, N), dtype=np.int32)
+            for k in range(K):
+                solved_nb += ok_bn[:, slot[:, k]] & valid[:, k]
+            left &= (solved_nb > 0).reshape(-1)
+            hole = left & (2 * solved_nb >= valid.sum(axis=1)).reshape(-1)
+        for group, count in ((left & ~hole, retry), (hole, max(retry, hole_retry))):
+            idx = np.flatnonzero(group)
+            run(idx, np.zeros((idx.size, 1, n)), np.zeros(idx.size, dtype=np.int64), 1 + starts, 1 + starts + count,
+                False)
+        waves()
+    if progress is not None:
+        progress(M)
+    shape = (N,) if not batch else batch + (N,)
+    return IKSolution(q.reshape(shape + (n,)), ok.reshape(shape), its.reshape(shape), res.reshape(shape),
+                      failure_reasons(ok, out_of_reach=~possible).reshape(shape), start.reshape(shape))
