@@ -645,7 +645,7 @@ class SubspaceMLP(nn.Module):
 
     def set_training_range(self, data) -> SubspaceMLP:
         """Record the training range from ``data``: training features ``(n, n_inputs)`` (numpy or
-        torch), an object with such ``.features`` (a :class:`wsmap.data.Dataset`), or a
+        torch), an object with such ``.features`` (a :class:`wsmap.datasets.Dataset`), or a
         :class:`~wsmap.learn.training_range.TrainingRange`. Returns ``self``."""
         self.training_range = training_range_of(data)
         return self
