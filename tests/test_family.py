@@ -8,8 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
-from wsmap import datasets as D
-from wsmap import robots
+from wsmap import datasets, robots
 from wsmap import workspace as ws
 from wsmap.cli import main
 from wsmap.kinematics import SerialChain
@@ -132,19 +131,19 @@ def test_panda7_tooldown_spec():
     assert (s.family, s.scope, s.convention, s.method, s.fixed) == ("panda7", "R3", "standard", "numerical",
                                                                      (np.pi, 0.0, 0.0))
     assert s.grid_shape == (25, 25, 25) and s.n_nodes == 15625 and s.n_features == 6 + 75 + 3
-    nodes = D.spec_nodes(s)
+    nodes = datasets.spec_nodes(s)
     np.testing.assert_allclose(nodes[[0, 1, 25, 625, -1]],
                                [[-1.2, -1.2, -1.2], [-1.1, -1.2, -1.2], [-1.2, -1.1, -1.2], [-1.2, -1.2, -1.1],
                                 [1.2, 1.2, 1.2]], atol=1e-12)  # first coordinate fastest
-    names = D.feature_names(s)
+    names = datasets.feature_names(s)
     assert names[:6] == ["scale_d1", "scale_d3", "scale_d5", "scale_a4", "scale_a5", "scale_a7"]
     assert names[6] == "n_x_1" and names[-3:] == ["r_1", "r_2", "r_3"] and len(names) == s.n_features
     T = ws.target_poses(nodes[:1], s.fixed, s.convention)[0]  # tool down: transl(p)·Rx(pi)
     np.testing.assert_allclose(T[:3, :3], np.diag([1.0, -1.0, -1.0]), atol=1e-15)
     np.testing.assert_allclose(T[:3, 3], nodes[0])
-    assert D.DatasetSpec.from_dict(s.to_dict()) == s
+    assert datasets.DatasetSpec.from_dict(s.to_dict()) == s
     # defaults of the family: the 1.2 m grid
-    t = D.DatasetSpec("t", family="panda7", method="numerical", step=0.6)
+    t = datasets.DatasetSpec("t", family="panda7", method="numerical", step=0.6)
     assert (t.lo, t.hi) == (-1.2, 1.2)
 
 
@@ -160,48 +159,48 @@ def test_spec_refuses_what_the_family_cannot_honour(changes, message):
 
 
 def test_features_and_labels_of_the_family():
-    spec = D.scaled(PANDA7_TOOLDOWN, 3).replace(step=0.3)  # 9³ nodes: fast
-    arms, fixed = D.draw_samples(spec)
-    scales = D.draw_scales(spec)
+    spec = datasets.scaled(PANDA7_TOOLDOWN, 3).replace(step=0.3)  # 9³ nodes: fast
+    arms, fixed = datasets.draw_samples(spec)
+    scales = datasets.draw_scales(spec)
     np.testing.assert_array_equal(arms.fixed, robots.family_arm("panda7", scales).fixed)
-    X = D.features_for(scales, spec, fixed)
+    X = datasets.features_for(scales, spec, fixed)
     assert X.shape == (3, spec.n_features)
     np.testing.assert_array_equal(X[:, :6], scales)
-    np.testing.assert_allclose(D.features_for(arms, spec), X, rtol=1e-15)  # scales read back from the chains
-    np.testing.assert_array_equal(D.arms_from_features(X, spec).fixed, arms.fixed)
-    L = D.labels_for(arms, spec, fixed)
-    np.testing.assert_array_equal(L, D.labels_for(scales, spec))
-    ref = ws.constant_orientation_map(arms, D.spec_nodes(spec), (np.pi, 0, 0), method="numerical",
+    np.testing.assert_allclose(datasets.features_for(arms, spec), X, rtol=1e-15)  # scales read back from the chains
+    np.testing.assert_array_equal(datasets.arms_from_features(X, spec).fixed, arms.fixed)
+    L = datasets.labels_for(arms, spec, fixed)
+    np.testing.assert_array_equal(L, datasets.labels_for(scales, spec))
+    ref = ws.constant_orientation_map(arms, datasets.spec_nodes(spec), (np.pi, 0, 0), method="numerical",
                                       convention="standard")
     np.testing.assert_array_equal(L, ref)
     assert 0 < L.sum() < L.size
     with pytest.raises(ValueError, match="has no closed form"):
-        D.labels_for(arms, spec, method="exact")
+        datasets.labels_for(arms, spec, method="exact")
     with pytest.raises(ValueError, match="q0 sets the paper's LM starts"):
-        D.labels_for(arms, spec, q0=np.zeros((1, 7)))
+        datasets.labels_for(arms, spec, q0=np.zeros((1, 7)))
     with pytest.raises(TypeError, match="not a DHRobot"):
-        D.features_for(robots.puma560(), spec)
+        datasets.features_for(robots.puma560(), spec)
     with pytest.raises(ValueError, match="outside the range"):
-        D.features_for(np.full((1, 6), 2.0), spec)
+        datasets.features_for(np.full((1, 6), 2.0), spec)
     with pytest.raises(ValueError, match="no scale factors"):
-        D.draw_scales(PAPER_SPECS["sec61"])
+        datasets.draw_scales(PAPER_SPECS["sec61"])
 
 
 # --------------------------------------------------------------------------- dataset files
-SMALL = D.scaled(PANDA7_TOOLDOWN, 6)  # the real 25³ grid, 6 arms
+SMALL = datasets.scaled(PANDA7_TOOLDOWN, 6)  # the real 25³ grid, 6 arms
 
 
 @pytest.fixture(scope="module")
 def single_process(tmp_path_factory):
     """The single-process build of 6 arms: (path, bytes)."""
     path = tmp_path_factory.mktemp("single") / "panda7.npz"
-    D.build_dataset(SMALL, path, progress=False)
+    datasets.build_dataset(SMALL, path, progress=False)
     return path, path.read_bytes()
 
 
 def test_build_is_deterministic_checksummed_and_labelled_by_the_map(single_process, tmp_path):
     path, raw = single_process
-    ds = D.load_dataset(path, expect_spec=SMALL)
+    ds = datasets.load_dataset(path, expect_spec=SMALL)
     assert ds.features.shape == (6, 84) and ds.labels.shape == (6, 15625)
     np.testing.assert_array_equal(ds.features[:, :6], robots.sample_family(
         "panda7", 6, seed=np.random.default_rng(np.random.SeedSequence(1401, spawn_key=(0, 0))))[1])
@@ -214,11 +213,11 @@ def test_build_is_deterministic_checksummed_and_labelled_by_the_map(single_proce
     assert main(["data", "build", "panda7_tooldown", "--samples", "3", "--test-samples", "1", "--out", str(out),
                  "--quiet"]) == 0
     first = out.read_bytes()
-    train, test = D.load_dataset_files(out)
+    train, test = datasets.load_dataset_files(out)
     np.testing.assert_array_equal(train.features, ds.features[:3])
     np.testing.assert_array_equal(train.labels, ds.labels[:3])
     assert test.spec.stream == "test" and len(test) == 1
-    D.build_dataset(D.scaled(PANDA7_TOOLDOWN, 3), out, progress=False)
+    datasets.build_dataset(datasets.scaled(PANDA7_TOOLDOWN, 3), out, progress=False)
     assert out.read_bytes() == first
     # the checksum guards the labels
     flipped = bytearray(first)
@@ -227,21 +226,21 @@ def test_build_is_deterministic_checksummed_and_labelled_by_the_map(single_proce
     damaged = tmp_path / "damaged.npz"
     flipped[body + 200] ^= 0x10
     damaged.write_bytes(bytes(flipped))
-    with pytest.raises(D.DatasetError, match=re.escape(str(damaged))):
-        D.load_dataset(damaged)
+    with pytest.raises(datasets.DatasetError, match=re.escape(str(damaged))):
+        datasets.load_dataset(damaged)
 
 
 def test_dask_build_is_byte_identical(single_process, tmp_path):
     _, raw = single_process
     out = tmp_path / "dask.npz"
-    D.build_dataset(SMALL, out, chunk=1, progress=False, workers=2)  # 6 tasks on 2 single-threaded processes
+    datasets.build_dataset(SMALL, out, chunk=1, progress=False, workers=2)  # 6 tasks on 2 single-threaded processes
     assert out.read_bytes() == raw
 
 
 def test_dask_build_of_a_paper_dataset_is_byte_identical(tmp_path):
-    spec = D.scaled(PAPER_SPECS["table3_workspace"], 50)  # exact labels, one random orientation per arm
-    D.build_dataset(spec, tmp_path / "single.npz", progress=False)
-    D.build_dataset(spec, tmp_path / "dask.npz", chunk=7, progress=False, workers=2)
+    spec = datasets.scaled(PAPER_SPECS["table3_workspace"], 50)  # exact labels, one random orientation per arm
+    datasets.build_dataset(spec, tmp_path / "single.npz", progress=False)
+    datasets.build_dataset(spec, tmp_path / "dask.npz", chunk=7, progress=False, workers=2)
     assert (tmp_path / "dask.npz").read_bytes() == (tmp_path / "single.npz").read_bytes()
 
 
@@ -252,8 +251,8 @@ def test_unreachable_scheduler_fails_fast_and_writes_nothing(tmp_path):
     address = f"tcp://127.0.0.1:{port}"
     out = tmp_path / "new" / "panda7.npz"
     t0 = time.perf_counter()
-    with pytest.raises(D.SchedulerError, match=re.escape(f"no Dask scheduler answered at {address!r} within 2 s")):
-        D.build_dataset_files(SMALL, out, test_samples=2, scheduler=address, connect_timeout=2, progress=False)
+    with pytest.raises(datasets.SchedulerError, match=re.escape(f"no Dask scheduler answered at {address!r} within 2 s")):
+        datasets.build_dataset_files(SMALL, out, test_samples=2, scheduler=address, connect_timeout=2, progress=False)
     assert time.perf_counter() - t0 < 10
     assert not (tmp_path / "new").exists()
     # the command line: one line, exit code 2, nothing written
@@ -264,12 +263,12 @@ def test_unreachable_scheduler_fails_fast_and_writes_nothing(tmp_path):
 
 def test_cluster_arguments_are_checked():
     with pytest.raises(ValueError, match="give one or the other"):
-        D.build_dataset_files(SMALL, "x.npz", workers=2, scheduler="tcp://127.0.0.1:1")
+        datasets.build_dataset_files(SMALL, "x.npz", workers=2, scheduler="tcp://127.0.0.1:1")
     with pytest.raises(ValueError, match="workers must be at least 1"):
-        D.build_dataset(SMALL, "x.npz", workers=0)
+        datasets.build_dataset(SMALL, "x.npz", workers=0)
     with pytest.raises(ValueError, match="scheduler must be a Dask scheduler address"):
-        D.build_dataset(SMALL, "x.npz", scheduler=8786)
+        datasets.build_dataset(SMALL, "x.npz", scheduler=8786)
     with pytest.raises(ValueError, match="connect_timeout must be a positive number"):
-        D.build_dataset(SMALL, "x.npz", scheduler="tcp://127.0.0.1:1", connect_timeout=0)
+        datasets.build_dataset(SMALL, "x.npz", scheduler="tcp://127.0.0.1:1", connect_timeout=0)
     assert main(["data", "build", "panda7_tooldown", "--out", "x.npz", "--workers", "2", "--scheduler",
                  "tcp://127.0.0.1:1"]) == 2
