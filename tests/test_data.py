@@ -479,4 +479,4 @@ def test_build_by_name(tmp_path):
     ds = datasets.load_dataset(out, expect_spec=datasets.scaled(P["table1_r3_step1"], 5))
     assert ds.labels.shape == (5, 27)
     assert len(datasets.load_dataset(written[1], expect_spec=datasets.test_spec(P["table1_r3_step1"], 3))) == 3
-    assert not hasattr(D, "main")  # the command line is `wsmap data`
+    assert not hasattr(datasets, "main")  # the command line is `wsmap data`
