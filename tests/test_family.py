@@ -61,7 +61,7 @@ def test_scaled_lengths_by_hand_and_batch_shape():
     # one arm of a batch is that arm alone; away from q = 0 too
     q = rng.uniform(-1, 1, size=7)
     np.testing.assert_allclose(arms.fkine(q)[1, 2], robots.family_arm("panda7", scales[1, 2]).fkine(q), atol=1e-15)
-    np.testing.assert_allclose(robots.family_scales("panda7", arms), scales, rtol=1e-15)
+    np.testing.assert_allclose(robots.family_params("panda7", arms), scales, rtol=1e-15)
 
 
 def test_sampling_is_deterministic_in_range_and_a_prefix():
@@ -77,9 +77,10 @@ def test_sampling_is_deterministic_in_range_and_a_prefix():
 
 
 def test_refusals_name_the_problem():
-    with pytest.raises(ValueError, match=re.escape("unknown arm family 'panda8'; known families: panda7")):
+    with pytest.raises(ValueError, match=re.escape("unknown arm family 'panda8'; known families: spherical_wrist, "
+                                                   "arbitrary_6dof, puma560, panda7")):
         robots.family_arm("panda8", np.ones(6))
-    with pytest.raises(ValueError, match="known families: panda7"):
+    with pytest.raises(ValueError, match="known families: spherical_wrist, arbitrary_6dof, puma560, panda7"):
         robots.sample_family("ur", 3, seed=0)
     bad = np.ones((2, 6))
     bad[1, 4] = 1.35
@@ -107,9 +108,9 @@ def test_refusals_name_the_problem():
     with pytest.raises(ValueError, match="count must be a positive integer"):
         robots.sample_family("panda7", 0, seed=0)
     with pytest.raises(ValueError, match="not of family 'panda7'"):
-        robots.family_scales("panda7", robots.load("iiwa14"))
+        robots.family_params("panda7", robots.load("iiwa14"))
     with pytest.raises(ValueError, match="not of family 'panda7'"):
-        robots.family_scales("panda7", robots.load("panda", joint_limits=False))
+        robots.family_params("panda7", robots.load("panda", joint_limits=False))
 
 
 def test_extrapolation_builds_with_a_loud_warning():

@@ -187,17 +187,16 @@ def family_scales(arms, spec) -> tuple[np.ndarray, tuple[int, ...]]:
     (a ``DHRobot``, a chain whose fixed transforms are not the family's) are refused with the
     family's ``ValueError`` / ``TypeError``; scales outside the family's range as
     :func:`wsmap.robots.family_arm` refuses them."""
-    from .. import robots
     from ..kinematics import SerialChain
 
-    family = robots.arm_family(spec.family)
+    family = spec.arm_family
     if isinstance(arms, DHRobot):
         raise TypeError(f"the model maps arms of the family {spec.family!r} (dataset {spec.name!r}): give a "
                         "SerialChain from wsmap.robots.family_arm or the scale factors, not a DHRobot")
     if isinstance(arms, SerialChain):
-        scales = family.scales_of(arms)
+        scales = family.params_of(arms)
     else:
-        scales = family.check_scales(arms)
+        scales = family.check_params(arms)
     batch = tuple(scales.shape[:-1])
     return scales.reshape(-1, family.n_params), batch
 
