@@ -1,5 +1,8 @@
 """The model as a stand-in for the classical algorithm: map_spec, predict_maps, files, the CLI."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import torch
@@ -13,6 +16,7 @@ from wsmap.learn.network import MLPConfig, SubspaceMLP
 from wsmap.learn.predictor import predict_maps_from_file
 from wsmap.learn.training import TrainConfig, split_indices, train
 from wsmap.paper.specs import PAPER_SPECS
+from wsmap.workspace.maps import register_map_predictor
 
 torch.set_num_threads(1)  # tiny models; other work shares the CPU
 
@@ -229,6 +233,39 @@ def test_load_refuses_an_invalid_map_spec(tmp_path, block_model):
     payload["map_spec"] = None
     torch.save({**payload, "checksum": payload_checksum(payload)}, path)
     assert load(path)[0].map_spec is None
+
+
+# ---------------------------------------------------------------------------------------------
+# workspace.grid_map(method="model"): registered by wsmap.learn.predictor
+# ---------------------------------------------------------------------------------------------
+
+
+def test_grid_map_model_method_is_the_predictor(tmp_path, block_model, puma_map):
+    path = save(block_model, tmp_path / "puma_blocks.pt")
+    grid = ws.grid_spec("R3", -1, 1, 0.1)
+    flat, used = ws.grid_map(robots.puma560(), grid, method="model", model=path, return_method=True)
+    assert used == "model"
+    np.testing.assert_array_equal(flat, predict_maps_from_file(path, robots.puma560(), (0.0, 0.0, 0.0), grid=grid,
+                                                               whole_grid=True))
+    np.testing.assert_array_equal(flat, puma_map)
+    with pytest.raises(TypeError, match="map predictor 'x' must be callable, got str"):
+        register_map_predictor("x", "not a function")
+
+
+def test_grid_map_model_method_needs_the_learned_library():
+    """A classical user's wsmap.workspace has no "model" method until wsmap.learn is imported, and says so."""
+    code = ("import sys, wsmap.robots as r, wsmap.workspace as ws\n"
+            "from wsmap.workspace.maps import MAP_PREDICTORS\n"
+            "try:\n"
+            "    ws.grid_map(r.puma560(), ws.grid_spec('R3', step=0.5), method='model', model='m.pt')\n"
+            "except ValueError as e:\n"
+            "    print(e)\n"
+            "assert 'torch' not in sys.modules\n"
+            "import wsmap.learn\n"
+            "print(sorted(MAP_PREDICTORS))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
+    assert out == ["method 'model' is supplied by wsmap.learn (trained networks, needs torch): import wsmap.learn first",
+                   "['model']"]
 
 
 # ---------------------------------------------------------------------------------------------
