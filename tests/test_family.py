@@ -1,4 +1,5 @@
-"""The panda7 arm family (scaled Franka Panda) and its tool-down experience, built in one process or on Dask."""
+"""Families of arms (wsmap.robots.FAMILIES, one definition for the whole package); the panda7 family
+(scaled Franka Panda) and its tool-down experience, built in one process or on Dask."""
 
 import re
 import socket
@@ -122,6 +123,61 @@ def test_extrapolation_builds_with_a_loud_warning():
                                              "(and 1 more scale(s) out of range); built anyway")
     assert caught[0].filename == __file__  # points at the caller
     np.testing.assert_allclose(arm.fkine(np.zeros(7)), _fk_at_zero_by_hand([1, 1, 1, 1, 1.35, 1.5]), atol=1e-15)
+
+
+# --------------------------------------------------------------------------- every family, one list
+def test_one_list_of_families_used_everywhere():
+    from wsmap import design
+    from wsmap.learn import manipulability
+
+    assert list(robots.FAMILIES) == ["spherical_wrist", "arbitrary_6dof", "puma560", "panda7"]
+    assert datasets.FAMILIES == tuple(robots.FAMILIES) and datasets.CHAIN_FAMILIES == ("panda7",)
+    assert [f.exact for f in robots.FAMILIES.values()] == [True, False, True, False]
+    for name, fam in design.DESIGN_FAMILIES.items():
+        assert fam.family is robots.FAMILIES[name] and sorted(fam.params) == sorted(fam.family.params)
+    assert design.DESIGN_FAMILIES["spherical_wrist"].method == "exact"
+    assert design.DESIGN_FAMILIES["panda7"].method == "numerical"
+    assert manipulability.PARAM_NAMES == robots.SPHERICAL_WRIST.params == ("d3", "d4", "a2", "a3")
+    assert manipulability.FAMILY_RANGE == (0.0, 0.5)
+    spec = datasets.DatasetSpec("x", family="arbitrary_6dof", method="numerical", beta=0.3)
+    assert spec.arm_family.name == "arbitrary_6dof" and (spec.arm_family.low, spec.arm_family.high) == (0.0, 0.3)
+    assert PANDA7_TOOLDOWN.arm_family is robots.PANDA7
+
+
+def test_dh_families_are_the_paper_samplers_and_read_back():
+    # the paper's draws: (count, 4) U(0, beta) in the order d3, d4, a2, a3, and (count, 3, 6) rows d, a, alpha
+    u = np.random.default_rng(3).uniform(0.0, 0.4, size=(5, 4))
+    sw = robots.sample_spherical_wrist(5, seed=3, beta=0.4)
+    by_hand = robots.spherical_wrist(a2=u[:, 2], a3=u[:, 3], d3=u[:, 0], d4=u[:, 1])
+    for k in ("d", "a", "alpha"):
+        np.testing.assert_array_equal(getattr(sw, k), getattr(by_hand, k))
+    arms, params = robots.sample_family("spherical_wrist", 5, seed=3)
+    np.testing.assert_array_equal(robots.family_params("spherical_wrist", arms), params)
+    np.testing.assert_array_equal(robots.family_params("spherical_wrist", robots.puma560()),
+                                  [0.15005, 0.4318, 0.4318, 0.0203])
+    u = np.random.default_rng(4).uniform(0.0, 0.5, size=(3, 3, 6))
+    arb = robots.sample_arbitrary_6dof(3, seed=4)
+    np.testing.assert_array_equal(np.stack([arb.d, arb.a, arb.alpha], axis=1), u)
+    np.testing.assert_array_equal(robots.family_params("arbitrary_6dof", arb), u.reshape(3, 18))
+    puma, none = robots.sample_family("puma560", 2, seed=0)
+    assert none.shape == (2, 0) and puma.batch_shape == (2,)
+    np.testing.assert_array_equal(puma.a, np.tile(robots.puma560().a, (2, 1)))
+    with pytest.raises(ValueError, match=re.escape("these arms are not of family 'spherical_wrist'")):
+        robots.family_params("spherical_wrist", arb)
+    with pytest.raises(ValueError, match=re.escape("these arms are not of family 'spherical_wrist'")):
+        robots.family_params("spherical_wrist", robots.puma560(joint_limits=True))
+    with pytest.raises(TypeError, match="arms of family 'spherical_wrist' must be a DHRobot, got SerialChain"):
+        robots.family_params("spherical_wrist", robots.load("panda"))
+    with pytest.raises(ValueError) as e:
+        robots.family_arm("spherical_wrist", [0.1, 0.2, 0.3, 0.6])
+    assert str(e.value) == ("a3 is 0.6, outside the range [0.0, 0.5] of family 'spherical_wrist'; "
+                            "pass allow_extrapolation=True to build the arm anyway")
+    with pytest.raises(ValueError, match=re.escape("parameters of family 'spherical_wrist' must have shape (..., 4)")):
+        robots.family_arm("spherical_wrist", np.ones(3))
+    with pytest.raises(ValueError, match=re.escape("beta must be positive and finite, got 0")):
+        robots.sample_spherical_wrist(3, beta=0)
+    with pytest.raises(ValueError, match=re.escape("the range of family 'spherical_wrist' must have low < high")):
+        robots.SPHERICAL_WRIST.with_range(high=-1.0)
 
 
 # --------------------------------------------------------------------------- the spec
