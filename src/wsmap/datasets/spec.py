@@ -172,10 +172,11 @@ class DatasetSpec:
     ----------
     name : str
         Identifier (file names, progress bars).
-    family : ``"spherical_wrist"`` | ``"arbitrary_6dof"`` | ``"puma560"`` | ``"panda7"`` (:data:`wsmap.robots.FAMILIES`)
-        The arms (:attr:`arm_family`): the paper's spherical-wrist family (d3, d4, a2, a3 ~ U(0, beta)), Table 3's
-        arbitrary 6-DOF arms (every d_i, a_i, alpha_i ~ U(0, beta)), the PUMA560 (d1 = 0) in
-        every sample (useful with a random orientation), or a real-arm family of
+    family : ``"spherical_wrist"`` | ``"arbitrary_6dof"`` | ``"puma560"`` | ``"panda7"``
+        The arms, a family of :data:`wsmap.robots.FAMILIES` (:attr:`arm_family`): the paper's
+        spherical-wrist family (d3, d4, a2, a3 ~ U(0, beta)), Table 3's arbitrary 6-DOF arms
+        (every d_i, a_i, alpha_i ~ U(0, beta)), the PUMA560 (d1 = 0) in every sample (useful with
+        a random orientation), or a real-arm family of
         :data:`CHAIN_FAMILIES` (``panda7``: the Franka Panda with its six non-zero DH lengths each
         scaled by U(0.7, 1.3), :func:`wsmap.robots.sample_family`). A chain family's features are
         its scale factors and its labels the numerical map search with its own settings
