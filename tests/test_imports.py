@@ -91,9 +91,9 @@ def import_graph(src: Path, top: str = "wsmap") -> dict[str, set[str]]:
     return graph
 
 
-def circles(graph: dict[str, set[str]]) -> list[list[str]]:
-    """One circle ``[a, b, ..., a]`` through each strongly connected component of more than one module
-    (Tarjan's algorithm, then a shortest path back within the component), sorted."""
+def knots(graph: dict[str, set[str]]) -> list[set[str]]:
+    """The strongly connected components of more than one module (Tarjan's algorithm): the modules
+    of a knot all import each other, through circles."""
     index: dict[str, int] = {}
     low: dict[str, int] = {}
     stack: list[str] = []
@@ -129,9 +129,14 @@ def circles(graph: dict[str, set[str]]) -> list[list[str]]:
                 strongconnect(v)
     finally:
         sys.setrecursionlimit(limit)
+    return components
 
+
+def circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """One circle ``[a, b, ..., a]`` through each knot (:func:`knots`): a shortest path from its
+    first module back to itself within the knot; sorted."""
     out = []
-    for comp in components:
+    for comp in knots(graph):
         start = min(comp)
         # breadth-first from start's successors back to start, inside the component
         prev: dict[str, str] = {}
@@ -183,6 +188,7 @@ def test_the_graph_sees_function_level_and_relative_imports(tmp_path):
     assert g["pkg.sub.b"] == {"pkg.c"}  # ``..c`` resolved; ``os`` is outside the package
     assert g["pkg.c"] == {"pkg.a"}
     assert circles(g) == [["pkg.a", "pkg.sub.b", "pkg.c", "pkg.a"]]
+    assert knots(g) == [{"pkg.a", "pkg.sub.b", "pkg.c"}]
 
 
 def test_a_package_reexporting_its_submodules_is_not_a_circle_but_reading_it_back_is(tmp_path):
@@ -202,8 +208,10 @@ def test_a_package_reexporting_its_submodules_is_not_a_circle_but_reading_it_bac
 # ------------------------------------------------------------------------------------ wsmap
 def test_no_import_circles():
     """No circle of imports between the modules of wsmap, at module level or inside functions."""
-    found = circles(import_graph(SRC))
-    assert not found, "import circles:\n" + "\n".join(" -> ".join(c) for c in found)
+    graph = import_graph(SRC)
+    found = [f"{' -> '.join(c)}  (a knot of {len(k)} modules: {', '.join(sorted(k))})"
+             for c, k in zip(circles(graph), sorted(knots(graph), key=min))]
+    assert not found, "import circles:\n" + "\n".join(found)
 
 
 def test_the_classical_library_does_not_import_the_learned_one():
