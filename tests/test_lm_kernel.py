@@ -8,7 +8,7 @@ import pytest
 
 from wsmap import robots
 from wsmap.kinematics import lm_kernel as _lm
-from wsmap import kinematics
+from wsmap import kinematics as K
 from wsmap import workspace as ws
 from wsmap.kinematics import pose_error
 from wsmap.kinematics.dh import _jacob0
@@ -112,7 +112,7 @@ def grid_sample():
 
 @pytest.fixture(scope="module")
 def unreachable(puma, grid_sample):
-    exact = kinematics.wrist_centre_reachable(puma, grid_sample[:, :3, 3])
+    exact = K.wrist_centre_reachable(puma, grid_sample[:, :3, 3])
     return grid_sample[~exact][:60]
 
 
@@ -128,16 +128,16 @@ def test_success_mask_and_converged_iterations_match_reference(puma, grid_sample
     assert np.all(it_n[~ok_n] <= 500) and np.all(it_n[~ok_n] > 100)
     np.testing.assert_allclose(res_n[~ok_n], res_r[~ok_r], rtol=1e-6)
     # the exact map agrees too
-    exact = kinematics.wrist_centre_reachable(puma, grid_sample[:, :3, 3])
+    exact = K.wrist_centre_reachable(puma, grid_sample[:, :3, 3])
     assert not np.any(ok_n & ~exact)
 
 
 def test_per_target_arms_and_a_tool_match_reference():
     rng = np.random.default_rng(3)
     arms = robots.sample_arbitrary_6dof(120, seed=4)
-    tool = kinematics.transl([0.01, -0.02, 0.05])
-    tool[:3, :3] = kinematics.rpy2r([0.1, -0.2, 0.3])
-    arms = kinematics.DHRobot(arms.d, arms.a, arms.alpha, tool=tool)
+    tool = K.transl([0.01, -0.02, 0.05])
+    tool[:3, :3] = K.rpy2r([0.1, -0.2, 0.3])
+    arms = K.DHRobot(arms.d, arms.a, arms.alpha, tool=tool)
     q_true = rng.uniform(-np.pi, np.pi, (120, 6))
     T = arms.fkine(q_true)
     T[60:, :3, 3] *= 3.0  # half of them moved out of reach
@@ -241,14 +241,14 @@ def test_round_trip_on_random_reachable_poses():
 
 def test_chunks_and_progress_are_kept(puma, grid_sample):
     seen = []
-    whole = kinematics.ikine_LM(puma, grid_sample[:90])
-    parts = kinematics.ikine_LM(puma, grid_sample[:90], chunk=32, progress=seen.append)
+    whole = K.ikine_LM(puma, grid_sample[:90])
+    parts = K.ikine_LM(puma, grid_sample[:90], chunk=32, progress=seen.append)
     assert seen == [32, 32, 26]
     # a target's arithmetic does not depend on the other targets in its chunk: identical bits
     for a, b in zip((whole.q, whole.success, whole.iterations, whole.residual),
                     (parts.q, parts.success, parts.iterations, parts.residual)):
         np.testing.assert_array_equal(a, b)
-    one = kinematics.ikine_LM(puma, grid_sample[7])
+    one = K.ikine_LM(puma, grid_sample[7])
     assert one.iterations == whole.iterations[7] and np.array_equal(one.q, whole.q[7])
 
 

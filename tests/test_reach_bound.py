@@ -11,7 +11,7 @@ import pytest
 from wsmap import robots
 from wsmap import workspace as ws
 from wsmap.kinematics import SerialChain, as_chain, ikine_spherical_wrist, rotx, ur_reachable
-from wsmap.kinematics import search
+from wsmap.kinematics import search as S
 from wsmap.kinematics.search import FK_CONFIRM_TOL, _reach_filter, map_search
 
 PI = math.pi
@@ -120,7 +120,7 @@ def test_same_map_with_less_work(name, monkeypatch):
         T[:, :3, :3] = R
         new = map_search(arm, T, nb)
         with monkeypatch.context() as m:
-            m.setattr(search, "_reach_filter", lambda *a, **k: _reach_filter(*a, wrist_orbit=False, **k))
+            m.setattr(S, "_reach_filter", lambda *a, **k: _reach_filter(*a, wrist_orbit=False, **k))
             old = map_search(arm, T, nb)
         assert np.array_equal(new.success, old.success)
         assert new.iterations.sum() < 0.4 * old.iterations.sum()
@@ -146,10 +146,10 @@ def test_memos_follow_the_arms_numbers():
     from wsmap.kinematics import ikine_search
 
     arm = robots.puma560()
-    assert search._as_chain_memo(arm) is search._as_chain_memo(robots.puma560())
+    assert S._as_chain_memo(arm) is S._as_chain_memo(robots.puma560())
     T = arm.fkine(np.full(6, 0.3))
     assert ikine_search(arm, T).success
     short = robots.spherical_wrist(a2=0.2159, a3=0.0203, d3=0.15005, d4=0.2159)
-    assert search._as_chain_memo(short) is not search._as_chain_memo(arm)
+    assert S._as_chain_memo(short) is not S._as_chain_memo(arm)
     assert not ikine_search(short, T).success  # out of its reach
     assert ikine_search(arm, T).success
