@@ -22,10 +22,10 @@ import time
 import numpy as np
 import torch
 
-from wsmap import data as D
-from wsmap.paper import fitting as E
 from wsmap import paths
-from wsmap.training import TrainConfig
+from wsmap.learn import TrainConfig
+from wsmap.paper import fitting
+from wsmap.paper.specs import load_pair
 
 PAPER_HIDDEN = [125, 100, 100, 125]
 WIDE = [256, 256, 256]
@@ -53,7 +53,7 @@ def main(argv=None) -> int:
         p.error(f"unknown variants {unknown}; choose from {list(VARIANTS)}")
     torch.set_num_threads(args.threads)
 
-    train_all, test = D.load_pair("sec62", paths.DATA)
+    train_all, test = load_pair("sec62", paths.DATA)
     train = train_all.head(args.train_samples)
     free = [int(c) for c in np.flatnonzero(np.ptp(train.features, axis=0) > 1e-9)]
     rows = []
@@ -67,10 +67,10 @@ def main(argv=None) -> int:
                           loss=loss, max_epochs=args.epochs, max_fail=args.epochs, fractions=(0.95, 0.05, 0.0),
                           seed=args.seed)
         t0 = time.perf_counter()
-        (res,) = E.fit(train, cfg, hidden=hidden, input_columns=free if inputs == "free" else None,
+        (res,) = fitting.fit(train, cfg, hidden=hidden, input_columns=free if inputs == "free" else None,
                        input_scaling=scaling, output_kind=output, init="torch")
         seconds = time.perf_counter() - t0
-        ev = E.evaluate(res.model, test)
+        ev = fitting.evaluate(res.model, test)
         row = dict(variant=name, hidden=hidden, inputs=inputs, scaling=scaling, output=output, loss=loss,
                    f=ev["f"], precision=ev["precision"], recall=ev["recall"], train_seconds=seconds,
                    epochs=int(res.stop_epoch))

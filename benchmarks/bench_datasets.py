@@ -16,31 +16,32 @@ import tempfile
 import time
 from pathlib import Path
 
-from wsmap import data as D
+from wsmap import datasets
+from wsmap.paper.specs import PAPER_SPECS
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--spec", default="sec62", choices=sorted(D.PAPER_SPECS), help="paper spec (default sec62)")
+    p.add_argument("--spec", default="sec62", choices=sorted(PAPER_SPECS), help="paper spec (default sec62)")
     p.add_argument("--samples", type=int, help="scale the sample count (default: the spec's, 1e5 for sec62)")
     p.add_argument("--chunk", type=int, help="arms per chunk (default: the builder's)")
     p.add_argument("--load", action="store_true", help="also time load_dataset and unpacking the labels")
     p.add_argument("--progress", action="store_true")
     args = p.parse_args(argv)
 
-    full = D.PAPER_SPECS[args.spec]
-    spec = D.scaled(full, args.samples) if args.samples else full
+    full = PAPER_SPECS[args.spec]
+    spec = datasets.scaled(full, args.samples) if args.samples else full
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{spec.name}.npz"
         t = time.perf_counter()
-        D.build_dataset(spec, path, chunk=args.chunk, progress=args.progress)
+        datasets.build_dataset(spec, path, chunk=args.chunk, progress=args.progress)
         build_s = time.perf_counter() - t
         size = path.stat().st_size
         rss_build = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
         if args.load:
             t = time.perf_counter()
-            ds = D.load_dataset(path, expect_spec=spec)
+            ds = datasets.load_dataset(path, expect_spec=spec)
             load_s = time.perf_counter() - t
             t = time.perf_counter()
             pos = float(ds.labels.mean())

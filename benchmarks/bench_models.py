@@ -28,14 +28,12 @@ import time
 import numpy as np
 import torch
 
-from wsmap import data as D
-from wsmap import metrics as M
-from wsmap import robots
-from wsmap.learn import MLPConfig, SubspaceMLP
+from wsmap import datasets, metrics, robots
+from wsmap.learn import MLPConfig, SubspaceMLP, TrainConfig, split_indices, train
+from wsmap.paper.specs import PAPER_SPECS
 from wsmap.timing import time_call
-from wsmap.training import TrainConfig, split_indices, train
 
-SEC62 = D.PAPER_SPECS["sec62"]
+SEC62 = PAPER_SPECS["sec62"]
 FREE_DH = [2, 3, 7, 8]  # feature columns d3, d4, a2, a3: the spherical-wrist family's free parameters
 PAPER_HIDDEN = [125, 100, 100, 125]
 IMPROVED_HIDDEN = [256, 256, 256]
@@ -43,7 +41,7 @@ IMPROVED_HIDDEN = [256, 256, 256]
 
 def family_features():
     """Feature rows of 2000 arms of the family: the training range an untrained timing model records."""
-    return D.features_for(robots.sample_spherical_wrist(2000, seed=0), SEC62)
+    return datasets.features_for(robots.sample_spherical_wrist(2000, seed=0), SEC62)
 
 
 def paper_model() -> SubspaceMLP:
@@ -78,8 +76,8 @@ def stats_ms(seconds: np.ndarray) -> dict:
 
 def labelled(spec, count: int):
     """Features and exact labels of the first ``count`` arms of ``spec``."""
-    arms, _ = D.draw_samples(D.scaled(spec, count))
-    return arms, D.features_for(arms, spec), D.labels_for(arms, spec)
+    arms, _ = datasets.draw_samples(datasets.scaled(spec, count))
+    return arms, datasets.features_for(arms, spec), datasets.labels_for(arms, spec)
 
 
 def bench_inference(repeats: int, n_arms: int) -> list[dict]:
@@ -105,7 +103,7 @@ def bench_inference(repeats: int, n_arms: int) -> list[dict]:
 
 def bench_training(samples: int, rprop_epochs: int, adam_epochs: int) -> list[dict]:
     rows = []
-    block = D.PAPER_SPECS["sec61"]  # block 5: the paper's 1323-output subspace
+    block = PAPER_SPECS["sec61"]  # block 5: the paper's 1323-output subspace
     _, X, Y = labelled(block, samples)
     cfg = MLPConfig(n_inputs=X.shape[1], n_outputs=Y.shape[1], hidden=PAPER_HIDDEN)
     sp = split_indices(len(X), seed=0)
@@ -133,10 +131,10 @@ def _throughput(name, res, n_train, batch) -> dict:
 
 def bench_accuracy(n_train: int, minutes: float, lr_decay: str | None, test_samples: int) -> dict:
     t = time.perf_counter()
-    spec = D.scaled(SEC62, n_train)
+    spec = datasets.scaled(SEC62, n_train)
     _, X, Y = labelled(spec, n_train)
-    test_arms, _ = D.draw_samples(D.test_spec(spec, test_samples))
-    truth = D.labels_for(test_arms, spec)
+    test_arms, _ = datasets.draw_samples(datasets.test_spec(spec, test_samples))
+    truth = datasets.labels_for(test_arms, spec)
     data_s = time.perf_counter() - t
     # A small validation split picks the best epoch; no test split (the test set is separate).
     sp = split_indices(n_train, (0.95, 0.05, 0.0), seed=0)
@@ -147,7 +145,7 @@ def bench_accuracy(n_train: int, minutes: float, lr_decay: str | None, test_samp
     res = train(model, X, Y, cfg, split=sp)
     train_s = time.perf_counter() - t
     pred = model.predict_maps(test_arms, batch_size=1000)
-    micro = M.precision_recall_f(pred, truth, "micro")
+    micro = metrics.precision_recall_f(pred, truth, "micro")
     return {"n_train": n_train, "train_split": len(sp.train), "minutes": minutes, "lr_decay": lr_decay,
             "epochs": res.stop_epoch[0], "best_epoch": res.best_epoch[0], "stop_reason": res.stop_reason[0],
             "train_seconds": train_s, "data_seconds": data_s, "test_samples": test_samples,

@@ -31,13 +31,13 @@ def main() -> None:
     p.add_argument("--json", help="write the results here")
     args = p.parse_args()
 
-    from wsmap import datasets as D
+    from wsmap import datasets
     from wsmap.datasets.store import _dask_client
     from wsmap.kinematics import lm_compiled
     from wsmap.paper.specs import PANDA7_TOOLDOWN
 
     lm_compiled.set_threads(1)
-    spec = D.scaled(PANDA7_TOOLDOWN, args.arms)
+    spec = datasets.scaled(PANDA7_TOOLDOWN, args.arms)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -45,13 +45,13 @@ def main() -> None:
         def timed(label, n_workers, **kw):
             out = tmp / f"{label.replace(' ', '_')}.npz"
             t0 = time.perf_counter()
-            D.build_dataset(kw.pop("spec", spec), out, progress=False, **kw)
+            datasets.build_dataset(kw.pop("spec", spec), out, progress=False, **kw)
             dt = time.perf_counter() - t0
             row = dict(build=label, workers=n_workers, arms=args.arms, seconds=round(dt, 2),
                        arms_per_s=round(args.arms / dt, 3))
             return row, out.read_bytes()
 
-        D.build_dataset(D.scaled(PANDA7_TOOLDOWN, 1), tmp / "warmup.npz", progress=False)  # numba cache loads
+        datasets.build_dataset(datasets.scaled(PANDA7_TOOLDOWN, 1), tmp / "warmup.npz", progress=False)  # numba cache loads
         row, ref = timed("single", 0)
         rows.append(row)
         print(row, flush=True)
@@ -61,7 +61,7 @@ def main() -> None:
             rows.append(row)
             print(row, flush=True)
             with _dask_client(k, None, 5.0) as client:
-                D.build_dataset(D.scaled(PANDA7_TOOLDOWN, 2), tmp / "warm.npz", progress=False, scheduler=client)
+                datasets.build_dataset(datasets.scaled(PANDA7_TOOLDOWN, 2), tmp / "warm.npz", progress=False, scheduler=client)
                 row, raw = timed(f"dask {k} warm", k, scheduler=client)
             row["identical"] = raw == ref
             rows.append(row)

@@ -57,7 +57,7 @@ def main() -> None:
 
     from scipy.stats import beta
 
-    from wsmap import datasets as D
+    from wsmap import datasets
     from wsmap import robots
     from wsmap import workspace as ws
     from wsmap.kinematics import ikine_search, lm_compiled
@@ -67,9 +67,9 @@ def main() -> None:
 
     lm_compiled.set_threads(1)
     rng = np.random.default_rng(args.seed)
-    nodes = D.spec_nodes(spec)
+    nodes = datasets.spec_nodes(spec)
     T = ws.target_poses(nodes, spec.fixed, spec.convention)
-    drawn = D.draw_scales(D.scaled(spec, args.arms)) if args.arms > 0 else np.zeros((0, 6))
+    drawn = datasets.draw_scales(datasets.scaled(spec, args.arms)) if args.arms > 0 else np.zeros((0, 6))
     scales = np.vstack([drawn, np.ones((1, 6))])
     rows, totals = [], dict(tp=0, fn_est=0.0, fn_hi=0.0, sampled=0, found=0, checked=0, confirmed=0)
     for i, s in enumerate(scales):

@@ -34,41 +34,40 @@ def main() -> int:
     p.add_argument("--threads", type=int, default=2, help="torch threads for training")
     p.add_argument("--curve", type=int, nargs="*", default=[], help="also train on these numbers of arms")
     p.add_argument("--speed-arms", type=int, default=3, help="held-out arms whose classical map is timed")
-    p.add_argument("--save", help="write the model here (wsmap.models.save)")
+    p.add_argument("--save", help="write the model here (wsmap.learn.save)")
     p.add_argument("--json", help="write the results here")
     args = p.parse_args()
 
     import torch
 
-    from wsmap import datasets as D
-    from wsmap import models
+    from wsmap import datasets, learn
     from wsmap.io import write_json
-    from wsmap.learn import family as LF
+    from wsmap.learn import family as map_family
 
     torch.set_num_threads(args.threads)
-    train_all = D.load_dataset(args.train)
-    test = D.load_dataset(args.test)
+    train_all = datasets.load_dataset(args.train)
+    test = datasets.load_dataset(args.test)
     train = train_all.head(args.train_arms)
-    recipe = LF.MapRecipe(hidden=tuple(args.hidden), epochs=args.epochs, lr=args.lr, batch_size=args.batch_size)
+    recipe = map_family.MapRecipe(hidden=tuple(args.hidden), epochs=args.epochs, lr=args.lr, batch_size=args.batch_size)
     print(f"{len(train)} training arms, {len(test)} held-out arms, {test.n_nodes} nodes; recipe {recipe.to_dict()}",
           flush=True)
 
     t0 = time.perf_counter()
-    model, result = LF.fit_map_model(train, recipe)
+    model, result = map_family.fit_map_model(train, recipe)
     train_s = time.perf_counter() - t0
-    ev = LF.evaluate_map_model(model, test)
+    ev = map_family.evaluate_map_model(model, test)
     print(f"trained in {train_s:.0f} s ({torch.get_num_threads()} threads), best epoch {result.best_epoch}; "
           f"held-out F {ev['f']:.4f} (P {ev['precision']:.4f}, R {ev['recall']:.4f}; per arm {ev['f_mean']:.4f} "
           f"± {ev['f_std']:.4f})", flush=True)
     if args.save:
-        models.save(model, args.save, dataset_spec=train.spec, train_config=recipe.train_config(),
+        learn.save(model, args.save, dataset_spec=train.spec, train_config=recipe.train_config(),
                     extra={"recipe": recipe.to_dict(), "test_f": ev["f"]})
-    speed = {t: LF.speed_against_classical(model, test, arms=args.speed_arms, threads=t) for t in (1, 2)}
+    speed = {t: map_family.speed_against_classical(model, test, arms=args.speed_arms, threads=t) for t in (1, 2)}
     for t, s in speed.items():
         print(f"{t} thread(s): model {s['model_s'] * 1e3:.3f} ms/map (min {s['model_min_s'] * 1e3:.3f}), numerical "
               f"map {s['classical_s']:.3f} s/map: {s['speedup']:.0f}x", flush=True)
-    curve = LF.learning_curve(train_all, test, args.curve, recipe) if args.curve else []
-    curve.append(LF.curve_row(len(train), ev, train_s, result.stop_epoch))
+    curve = map_family.learning_curve(train_all, test, args.curve, recipe) if args.curve else []
+    curve.append(map_family.curve_row(len(train), ev, train_s, result.stop_epoch))
     curve.sort(key=lambda r: r["train_arms"])
 
     s1 = speed[1]

@@ -24,9 +24,7 @@ def main() -> int:
     import numpy as np
     import torch
 
-    from wsmap import datasets as D
-    from wsmap import metrics as M
-    from wsmap import models, paths
+    from wsmap import datasets, learn, metrics, paths
     from wsmap.io import write_json
     from wsmap.learn import unit_saturation
 
@@ -35,12 +33,12 @@ def main() -> int:
     print("| part | F at 0.5 | best threshold | F there | false negatives (their highest scores) | false positives |")
     print("|---|---:|---:|---:|---|---:|")
     for part in args.parts:
-        model, _ = models.load(paths.ROOT / "results" / "full" / "models" / part / "session_0.pt")
-        test = D.load_dataset(paths.ROOT / "data" / "full" / f"{part}.test.npz")
+        model, _ = learn.load(paths.ROOT / "results" / "full" / "models" / part / "session_0.pt")
+        test = datasets.load_dataset(paths.ROOT / "data" / "full" / f"{part}.test.npz")
         s = model.score(test.features, key=0).cpu().numpy()
         t = test.labels
-        f05 = M.precision_recall_f(s > 0.5, t).f
-        thr, fbest = M.best_threshold(s, t)
+        f05 = metrics.precision_recall_f(s > 0.5, t).f
+        thr, fbest = metrics.best_threshold(s, t)
         fn = np.sort(s[t & (s <= 0.5)])
         fp = int(((s > 0.5) & ~t).sum())
         rows.append(dict(part=part, f_at_05=f05, best_threshold=thr, f_best=fbest, false_negatives=int(fn.size),

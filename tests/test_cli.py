@@ -220,8 +220,6 @@ def test_mesh_of_puma560_is_closed():
 
 
 def test_named_real_arm_uses_the_numerical_search_within_its_limits(tmp_path, capsys):
-    from wsmap import robots as R
-
     out = tmp_path / "panda.npz"
     assert cli.main(["map", "--robot", "panda", "--step", "0.5", "--out", str(out)]) == 0
     summary = capsys.readouterr().out
@@ -231,7 +229,7 @@ def test_named_real_arm_uses_the_numerical_search_within_its_limits(tmp_path, ca
     flat, nodes, grid, settings = ws.load_map(out)
     assert settings["method"] == "numerical" and settings["ik"]["retry"] == s["retry"]
     assert "Franka" in settings["source"] and np.isfinite(settings["qlim"]).all()
-    expected = ws.constant_orientation_map(R.load("panda"), nodes, method="numerical")
+    expected = ws.constant_orientation_map(robots.load("panda"), nodes, method="numerical")
     np.testing.assert_array_equal(flat, expected)
     assert 0 < flat.sum() < flat.size
 
@@ -243,30 +241,24 @@ def test_auto_method_is_exact_for_the_closed_form_families(tmp_path, capsys):
     assert "exact constant map (closed form (ur family), joint limits on)" in capsys.readouterr().out
     flat, nodes, grid, settings = ws.load_map(tmp_path / "u.npz")
     assert settings["method"] == "exact"
-    from wsmap import robots as R
-
-    np.testing.assert_array_equal(flat, ws.constant_orientation_map(R.load("ur5e"), nodes, method="numerical"))
+    np.testing.assert_array_equal(flat, ws.constant_orientation_map(robots.load("ur5e"), nodes, method="numerical"))
 
 
 def test_urdf_arm_equals_the_named_arm(tmp_path):
     import rtbdata  # test-only: the URDFs of real arms
-
-    from wsmap import robots as R
 
     urdf = Path(rtbdata.__file__).parent / "xacro/kuka_description/kuka_lbr_iiwa/urdf/lbr_iiwa_14_r820.urdf"
     out = tmp_path / "iiwa.npz"
     assert cli.main(["map", "--urdf", str(urdf), "--ee", "tool0", "--step", "0.5", "--quiet", "--out", str(out)]) == 0
     flat, nodes, _, settings = ws.load_map(out)
     assert settings["urdf"] == str(urdf) and settings["ee"] == "tool0" and settings["n"] == 7
-    named = ws.constant_orientation_map(R.load("iiwa14"), nodes, method="numerical",
+    named = ws.constant_orientation_map(robots.load("iiwa14"), nodes, method="numerical",
                                         ik=dict(starts=ws.DEFAULT_STARTS, seed=0))
     # the URDF differs from KUKA's dimensions by 0.4 mm side offsets: at 0.5 m spacing the maps agree
     assert np.mean(flat == named) >= 0.99
 
 
 def test_modified_dh_columns(tmp_path):
-    from wsmap import robots as R
-
     d, a = [0.333, 0, 0.316, 0, 0.384, 0, 0], [0, 0, 0, 0.0825, -0.0825, 0, 0.088]
     alpha = ["0", "-pi/2", "pi/2", "pi/2", "-pi/2", "pi/2", "pi/2"]
     out = tmp_path / "mdh.npz"
@@ -275,7 +267,7 @@ def test_modified_dh_columns(tmp_path):
     assert cli.main(argv) == 0
     flat, nodes, _, settings = ws.load_map(out)
     assert settings["qlim"] is None and settings["ik"]["starts"] == 4
-    chain = R.from_dh(d, a, [0, -np.pi / 2, np.pi / 2, np.pi / 2, -np.pi / 2, np.pi / 2, np.pi / 2], modified=True)
+    chain = robots.from_dh(d, a, [0, -np.pi / 2, np.pi / 2, np.pi / 2, -np.pi / 2, np.pi / 2, np.pi / 2], modified=True)
     np.testing.assert_array_equal(flat, ws.constant_orientation_map(chain, nodes, method="numerical",
                                                                     ik=dict(starts=4, seed=0)))
 
@@ -298,9 +290,7 @@ def test_a_urdf_that_is_not_xml_is_one_line(tmp_path, capsys):
 
 
 def test_robots_lists_every_named_arm_with_its_source(capsys):
-    from wsmap import robots as R
-
     assert cli.main(["robots"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert [line.split()[0] for line in out] == list(R.ROBOTS)
+    assert [line.split()[0] for line in out] == list(robots.ROBOTS)
     assert all(";" in line for line in out)

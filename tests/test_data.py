@@ -8,13 +8,14 @@ import numpy as np
 import pytest
 import yaml
 
-from wsmap import data as D
+from wsmap import datasets
+from wsmap import workspace as ws
 from wsmap.datasets import labels as labels_module
 from wsmap.datasets import store
-from wsmap import workspace as ws
 from wsmap.kinematics import DHRobot, rpy2r
+from wsmap.paper.specs import PAPER_SPECS, STARTS_STUDY_SPEC, TABLE3_RPY
 
-P = D.PAPER_SPECS
+P = PAPER_SPECS
 
 # (features, label columns, training samples) of every paper spec
 EXPECTED = {
@@ -36,7 +37,7 @@ EXPECTED = {
 
 
 def small(key, n, **changes):
-    return D.scaled(P[key], n).replace(**changes)
+    return datasets.scaled(P[key], n).replace(**changes)
 
 
 # --------------------------------------------------------------------------- specs
@@ -49,12 +50,12 @@ def test_paper_spec_layout(name):
     spec = P[name]
     f, n, samples = EXPECTED[name]
     assert (spec.n_features, spec.n_nodes, spec.samples) == (f, n, samples)
-    names = D.feature_names(spec)
+    names = datasets.feature_names(spec)
     assert len(names) == f and len(set(names)) == f
     assert names[:3] == ["d_1", "d_2", "d_3"] and names[17] == "alpha_6"
     assert names[-3:] == (["r_1", "r_2", "r_3"] if spec.scope == "R3" else ["p_1", "p_2", "p_3"])
-    assert D.spec_nodes(spec).shape == (n, 3)
-    t = D.test_spec(spec)
+    assert datasets.spec_nodes(spec).shape == (n, 3)
+    t = datasets.test_spec(spec)
     assert (t.samples, t.stream, t.seed, t.n_nodes, t.n_features) == (1000, "test", spec.seed, n, f)
     # the paper's convention, and exact labels wherever the arms are spherical-wrist
     assert spec.convention == "paper"
@@ -64,10 +65,10 @@ def test_paper_spec_layout(name):
 def test_paper_selections():
     assert P["sec61"].select == (5292, 6615)
     assert P["table1_r3_crop3087"].select == (5292, 8379)
-    z = D.spec_nodes(P["sec61"])[:, 2]
+    z = datasets.spec_nodes(P["sec61"])[:, 2]
     np.testing.assert_allclose(np.unique(z), [0.2, 0.3, 0.4], atol=1e-12)
     assert P["table1_so3_pi8"].fixed == (1.0, 0.0, 0.0) and P["table1_so3_pi10"].fixed == (0.5, 0.5, 0.5)
-    assert P["table3_workspace"].fixed == "random" and P["table3_nosubspace"].fixed == D.TABLE3_RPY
+    assert P["table3_workspace"].fixed == "random" and P["table3_nosubspace"].fixed == TABLE3_RPY
     assert len({s.seed for s in P.values()}) == len(P)  # experiments do not share arms
 
 
@@ -75,9 +76,9 @@ def test_paper_selections():
 def test_spec_round_trips_through_yaml(name):
     spec = P[name]
     text = yaml.safe_dump({"datasets": {name: spec.to_dict()}})
-    back = D.DatasetSpec.from_dict(yaml.safe_load(text)["datasets"][name])
+    back = datasets.DatasetSpec.from_dict(yaml.safe_load(text)["datasets"][name])
     assert back == spec and back.to_dict() == spec.to_dict()
-    assert D.DatasetSpec.from_dict(D.test_spec(spec).to_dict()) == D.test_spec(spec)
+    assert datasets.DatasetSpec.from_dict(datasets.test_spec(spec).to_dict()) == datasets.test_spec(spec)
 
 
 @pytest.mark.parametrize(
@@ -122,7 +123,7 @@ samples: 15000
 seed: 108
 """
     # YAML reads 1e-10 as a string: a plain numeral is accepted
-    assert D.DatasetSpec.from_dict(yaml.safe_load(text)) == P["table1_so3_pi10"]
+    assert datasets.DatasetSpec.from_dict(yaml.safe_load(text)) == P["table1_so3_pi10"]
     # expressions are not evaluated (the spec takes plain numbers)
     with pytest.raises(ValueError, match=re.escape("step must be a number, got the string 'pi/10'")):
         P["sec61"].replace(step="pi/10")
@@ -131,47 +132,47 @@ seed: 108
 def test_bad_spec_dicts():
     d = P["sec61"].to_dict()
     with pytest.raises(ValueError, match="unknown dataset spec field"):
-        D.DatasetSpec.from_dict({**d, "sample": 5})
+        datasets.DatasetSpec.from_dict({**d, "sample": 5})
     d.pop("name")
     with pytest.raises(ValueError, match="needs a name"):
-        D.DatasetSpec.from_dict(d)
+        datasets.DatasetSpec.from_dict(d)
     with pytest.raises(ValueError, match="already a test spec"):
-        D.test_spec(D.test_spec(P["sec61"]))
+        datasets.test_spec(datasets.test_spec(P["sec61"]))
 
 
 # --------------------------------------------------------------------------- features
 def test_features_for_layout():
     spec = P["table1_r3_step05"]
-    arms, _ = D.draw_samples(spec, 4)
-    X = D.features_for(arms, spec)
+    arms, _ = datasets.draw_samples(spec, 4)
+    X = datasets.features_for(arms, spec)
     assert X.shape == (4, 36) and X.dtype == np.float64
-    sl = D.feature_slices(spec)
+    sl = datasets.feature_slices(spec)
     np.testing.assert_array_equal(X[:, sl["d"]], arms.d)
     np.testing.assert_array_equal(X[:, sl["alpha"]], arms.alpha)
     np.testing.assert_allclose(X[0, sl["nx"]], [-1, -0.5, 0, 0.5, 1], atol=1e-15)
     np.testing.assert_array_equal(X[:, sl["fixed"]], 0.0)
-    X2 = D.features_for(arms, spec, fixed=(0.1, 0.2, 0.3))
+    X2 = datasets.features_for(arms, spec, fixed=(0.1, 0.2, 0.3))
     np.testing.assert_array_equal(X2[:, -3:], [[0.1, 0.2, 0.3]] * 4)
     with pytest.raises(ValueError, match="fixed='random'"):
-        D.features_for(arms, P["table3_workspace"])
+        datasets.features_for(arms, P["table3_workspace"])
     with pytest.raises(ValueError, match="6-joint arms"):
-        D.features_for(DHRobot(np.zeros((2, 5)), np.zeros((2, 5)), np.zeros((2, 5))), spec)
+        datasets.features_for(DHRobot(np.zeros((2, 5)), np.zeros((2, 5)), np.zeros((2, 5))), spec)
 
 
 def test_uniform_rotations_and_angle_round_trip():
     rng = np.random.default_rng(0)
-    R = D.uniform_rotations(20_000, rng)
+    R = datasets.uniform_rotations(20_000, rng)
     np.testing.assert_allclose(R @ np.swapaxes(R, 1, 2), np.broadcast_to(np.eye(3), R.shape), atol=1e-12)
     assert np.allclose(np.linalg.det(R), 1.0)
     # Haar measure: E[R] = 0, and the rotation angle has density (1 - cos t) / pi (mean pi/2 + 2/pi)
     assert np.abs(R.mean(axis=0)).max() < 0.02
     angle = np.arccos(np.clip((np.trace(R, axis1=1, axis2=2) - 1) / 2, -1, 1))
     assert abs(angle.mean() - (np.pi / 2 + 2 / np.pi)) < 0.02
-    rpy = D.rotation_to_rpy(R)
+    rpy = datasets.rotation_to_rpy(R)
     assert rpy.min() >= 0 and rpy.max() < 2 * np.pi
     np.testing.assert_allclose(rpy2r(rpy), R, atol=1e-12)
     # the Table 3 orientation is written the same way
-    np.testing.assert_allclose(D.rotation_to_rpy(rpy2r(np.array(D.TABLE3_RPY))), D.TABLE3_RPY, atol=1e-12)
+    np.testing.assert_allclose(datasets.rotation_to_rpy(rpy2r(np.array(TABLE3_RPY))), TABLE3_RPY, atol=1e-12)
 
 
 # --------------------------------------------------------------------------- build and load
@@ -186,34 +187,34 @@ def built(tmp_path_factory):
         "puma": small("table3_workspace", 10, family="puma560", name="puma_random"),
         "so3_random": small("table1_so3_pi3", 20, fixed="random", convention="standard", name="so3r"),
     }
-    return {k: (s, D.build_dataset(s, root / f"{k}.npz", chunk=7, progress=False)) for k, s in specs.items()}
+    return {k: (s, datasets.build_dataset(s, root / f"{k}.npz", chunk=7, progress=False)) for k, s in specs.items()}
 
 
 @pytest.mark.parametrize("kind", ["r3", "so3", "random", "puma", "so3_random"])
 def test_built_file_shapes(built, kind):
     spec, path = built[kind]
-    ds = D.load_dataset(path, expect_spec=spec)
+    ds = datasets.load_dataset(path, expect_spec=spec)
     assert ds.spec == spec and len(ds) == spec.samples
     assert ds.features.shape == (spec.samples, spec.n_features) and ds.features.dtype == np.float64
     assert ds.labels.shape == (spec.samples, spec.n_nodes) and ds.labels.dtype == bool
     assert ds.labels_packed.shape == (spec.samples, math.ceil(spec.n_nodes / 8))
     assert ds.header["wsmap_version"] and ds.header["labels_shape"] == [spec.samples, spec.n_nodes]
-    assert ds.feature_names == D.feature_names(spec)
+    assert ds.feature_names == datasets.feature_names(spec)
     assert 0 < ds.labels.mean() < 1
 
 
 def _rebuild_nodes(X, spec):
     """The labelled nodes from the axis columns alone: cartesian product, first axis fastest."""
-    sl = D.feature_slices(spec)
+    sl = datasets.feature_slices(spec)
     zz, yy, xx = np.meshgrid(X[sl["nz"]], X[sl["ny"]], X[sl["nx"]], indexing="ij")
     nodes = np.stack([xx.ravel(), yy.ravel(), zz.ravel()], axis=-1)
-    return nodes[D.node_slice(spec)]
+    return nodes[datasets.node_slice(spec)]
 
 
 @pytest.mark.parametrize("kind", ["r3", "so3", "random", "puma", "so3_random"])
 def test_labels_recomputed_from_features(built, kind):
     spec, path = built[kind]
-    ds = D.load_dataset(path)
+    ds = datasets.load_dataset(path)
     for i in (0, 3, spec.samples - 1):
         x = ds.features[i]
         arm = DHRobot(x[0:6], x[6:12], x[12:18])  # the stored DH columns, nothing else
@@ -228,38 +229,38 @@ def test_labels_recomputed_from_features(built, kind):
 
 def test_random_orientation_is_per_sample(built):
     spec, path = built["random"]
-    X = D.load_dataset(path).features
-    rpy = D.fixed_from_features(X, spec)
+    X = datasets.load_dataset(path).features
+    rpy = datasets.fixed_from_features(X, spec)
     assert len(np.unique(rpy, axis=0)) == spec.samples
     assert rpy.min() >= 0 and rpy.max() < 2 * np.pi
 
 
 def test_same_spec_gives_identical_bytes(tmp_path):
     spec = small("sec62", 25)
-    a = D.build_dataset(spec, tmp_path / "a.npz", chunk=4, progress=False)
-    b = D.build_dataset(spec, tmp_path / "b.npz", chunk=1000, progress=False)
-    c = D.build_dataset(spec.replace(seed=spec.seed + 1), tmp_path / "c.npz", progress=False)
+    a = datasets.build_dataset(spec, tmp_path / "a.npz", chunk=4, progress=False)
+    b = datasets.build_dataset(spec, tmp_path / "b.npz", chunk=1000, progress=False)
+    c = datasets.build_dataset(spec.replace(seed=spec.seed + 1), tmp_path / "c.npz", progress=False)
     assert a.read_bytes() == b.read_bytes()
     assert a.read_bytes() != c.read_bytes()
-    fa, fc = D.load_dataset(a).features, D.load_dataset(c).features
+    fa, fc = datasets.load_dataset(a).features, datasets.load_dataset(c).features
     assert not np.any(np.all(fa[:, :18] == fc[:, :18], axis=1))
     assert [p.name for p in tmp_path.iterdir()] and all(not p.name.startswith(".") for p in tmp_path.iterdir())
 
 
 def test_scaled_is_a_prefix():
     big, little = small("table3_workspace", 50), small("table3_workspace", 20)
-    arms_b, fix_b = D.draw_samples(big)
-    arms_l, fix_l = D.draw_samples(little)
-    np.testing.assert_array_equal(D.features_for(arms_b, big, fix_b)[:20], D.features_for(arms_l, little, fix_l))
+    arms_b, fix_b = datasets.draw_samples(big)
+    arms_l, fix_l = datasets.draw_samples(little)
+    np.testing.assert_array_equal(datasets.features_for(arms_b, big, fix_b)[:20], datasets.features_for(arms_l, little, fix_l))
 
 
 @pytest.mark.parametrize("name", ["sec61", "table3_workspace", "table3_nosubspace", "table1_so3_pi8"])
 def test_test_sets_are_disjoint_from_training(name):
     spec = P[name]
-    arms, fixed = D.draw_samples(spec, 2000)
-    train = D.features_for(arms, spec, fixed)
-    arms, fixed = D.draw_samples(D.test_spec(spec))
-    test = D.features_for(arms, spec, fixed)
+    arms, fixed = datasets.draw_samples(spec, 2000)
+    train = datasets.features_for(arms, spec, fixed)
+    arms, fixed = datasets.draw_samples(datasets.test_spec(spec))
+    test = datasets.features_for(arms, spec, fixed)
     assert test.shape[0] == 1000
     train_rows = {r.tobytes() for r in train[:, :18]}
     assert not any(r.tobytes() in train_rows for r in test[:, :18])
@@ -269,8 +270,8 @@ def test_test_sets_are_disjoint_from_training(name):
 
 def test_built_test_set_disjoint_from_built_training_set(tmp_path):
     spec = small("sec61", 300)
-    train = D.load_dataset(D.build_dataset(spec, tmp_path / "train.npz", progress=False))
-    test = D.load_dataset(D.build_dataset(D.test_spec(spec), tmp_path / "test.npz", progress=False))
+    train = datasets.load_dataset(datasets.build_dataset(spec, tmp_path / "train.npz", progress=False))
+    test = datasets.load_dataset(datasets.build_dataset(datasets.test_spec(spec), tmp_path / "test.npz", progress=False))
     assert len(test) == 1000
     rows = {r.tobytes() for r in train.features[:, :18]}
     assert not any(r.tobytes() in rows for r in test.features[:, :18])
@@ -278,7 +279,7 @@ def test_built_test_set_disjoint_from_built_training_set(tmp_path):
 
 def test_interrupted_build_leaves_no_file(tmp_path, monkeypatch):
     spec = small("sec61", 20)
-    real, calls = D.labels_for, []
+    real, calls = datasets.labels_for, []
 
     def failing(*args, **kwargs):
         calls.append(1)
@@ -288,7 +289,7 @@ def test_interrupted_build_leaves_no_file(tmp_path, monkeypatch):
 
     monkeypatch.setattr(store, "labels_for", failing)
     with pytest.raises(KeyboardInterrupt):
-        D.build_dataset(spec, tmp_path / "x.npz", chunk=5, progress=False)
+        datasets.build_dataset(spec, tmp_path / "x.npz", chunk=5, progress=False)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -296,21 +297,21 @@ def test_interrupted_build_leaves_no_file(tmp_path, monkeypatch):
 @pytest.fixture
 def good_file(tmp_path):
     spec = small("table1_r3_step05", 30)
-    return spec, D.build_dataset(spec, tmp_path / "good.npz", progress=False)
+    return spec, datasets.build_dataset(spec, tmp_path / "good.npz", progress=False)
 
 
 def test_missing_file(tmp_path):
     path = tmp_path / "nothing.npz"
     with pytest.raises(FileNotFoundError, match=re.escape(f"dataset file {path} does not exist")):
-        D.load_dataset(path)
+        datasets.load_dataset(path)
 
 
 def test_truncated_file(good_file):
     _, path = good_file
     raw = path.read_bytes()
     path.write_bytes(raw[: len(raw) // 2])
-    with pytest.raises(D.DatasetError, match=re.escape(f"dataset file {path} is truncated or not a dataset file")):
-        D.load_dataset(path)
+    with pytest.raises(datasets.DatasetError, match=re.escape(f"dataset file {path} is truncated or not a dataset file")):
+        datasets.load_dataset(path)
 
 
 def test_flipped_byte_is_corrupt(good_file):
@@ -318,8 +319,8 @@ def test_flipped_byte_is_corrupt(good_file):
     raw = bytearray(path.read_bytes())
     raw[len(raw) // 3] ^= 0xFF  # inside the compressed features
     path.write_bytes(bytes(raw))
-    with pytest.raises(D.DatasetError, match=re.escape(f"dataset file {path} is corrupt")):
-        D.load_dataset(path)
+    with pytest.raises(datasets.DatasetError, match=re.escape(f"dataset file {path} is corrupt")):
+        datasets.load_dataset(path)
 
 
 def test_checksum_mismatch_is_corrupt(good_file, tmp_path):
@@ -332,27 +333,27 @@ def test_checksum_mismatch_is_corrupt(good_file, tmp_path):
     bad = tmp_path / "tampered.npz"
     np.savez_compressed(bad, **arrays)
     with pytest.raises(
-        D.DatasetError,
+        datasets.DatasetError,
         match=re.escape(f"dataset file {bad} is corrupt (SHA-256 of its arrays does not match its header)"),
     ):
-        D.load_dataset(bad)
+        datasets.load_dataset(bad)
 
 
 def test_foreign_npz_is_refused(tmp_path):
     path = tmp_path / "other.npz"
     np.savez(path, features=np.zeros((2, 3)))
-    with pytest.raises(D.DatasetError, match=re.escape(f"dataset file {path} is not a wsmap dataset")):
-        D.load_dataset(path)
+    with pytest.raises(datasets.DatasetError, match=re.escape(f"dataset file {path} is not a wsmap dataset")):
+        datasets.load_dataset(path)
 
 
 def test_mismatched_spec_is_refused(good_file):
     spec, path = good_file
-    with pytest.raises(D.DatasetError, match=re.escape(
+    with pytest.raises(datasets.DatasetError, match=re.escape(
         f"dataset file {path} was built for a different spec (seed: file has {spec.seed}, expected {spec.seed + 1})"
     )):
-        D.load_dataset(path, expect_spec=spec.replace(seed=spec.seed + 1))
-    with pytest.raises(D.DatasetError, match="samples: file has 30, expected 31"):
-        D.load_dataset(path, expect_spec=D.scaled(spec, 31))
+        datasets.load_dataset(path, expect_spec=spec.replace(seed=spec.seed + 1))
+    with pytest.raises(datasets.DatasetError, match="samples: file has 30, expected 31"):
+        datasets.load_dataset(path, expect_spec=datasets.scaled(spec, 31))
 
 
 def test_file_layout_is_documented(good_file):
@@ -366,38 +367,38 @@ def test_file_layout_is_documented(good_file):
         digest = hashlib.sha256(z["features"].tobytes() + z["labels_packed"].tobytes()).hexdigest()
         labels = np.unpackbits(z["labels_packed"], axis=1, count=spec.n_nodes).astype(bool)
     assert header["sha256"] == digest and header["spec"] == spec.to_dict()
-    np.testing.assert_array_equal(labels, D.load_dataset(path).labels)
+    np.testing.assert_array_equal(labels, datasets.load_dataset(path).labels)
 
 
 # --------------------------------------------------------------------------- numerical labels
 def test_numerical_labels_multistart_and_chunking(tmp_path):
     spec = small("table3_nosubspace", 4, step=1.0, select=None, starts=3, fixed=(0.0, 0.0, 0.0))
-    a = D.build_dataset(spec, tmp_path / "a.npz", chunk=1, progress=False)
-    b = D.build_dataset(spec, tmp_path / "b.npz", chunk=3, progress=False)
+    a = datasets.build_dataset(spec, tmp_path / "a.npz", chunk=1, progress=False)
+    b = datasets.build_dataset(spec, tmp_path / "b.npz", chunk=3, progress=False)
     assert a.read_bytes() == b.read_bytes()
-    ds = D.load_dataset(a)
-    arms = D.arms_from_features(ds.features)
-    q0 = D.start_configurations(spec)
+    ds = datasets.load_dataset(a)
+    arms = datasets.arms_from_features(ds.features)
+    q0 = datasets.start_configurations(spec)
     assert q0.shape == (4, 3, 6) and np.all(q0[:, 0] == 0) and np.all(np.abs(q0[:, 1:]) <= np.pi)
-    one = D.labels_for(arms, spec, q0=q0[:, :1])
-    np.testing.assert_array_equal(ds.labels, D.labels_for(arms, spec, q0=q0))
+    one = datasets.labels_for(arms, spec, q0=q0[:, :1])
+    np.testing.assert_array_equal(ds.labels, datasets.labels_for(arms, spec, q0=q0))
     assert not np.any(one & ~ds.labels)  # more starts only add reachable nodes
     # every node solved by start k alone is labelled reachable
     for k in range(3):
-        assert not np.any(D.labels_for(arms, spec, q0=q0[:, k : k + 1]) & ~ds.labels)
+        assert not np.any(datasets.labels_for(arms, spec, q0=q0[:, k : k + 1]) & ~ds.labels)
 
 
 def test_numerical_labels_find_constructed_poses():
     # targets made by forward kinematics are reachable: multi-start LM must find (nearly) all
     spec = small("table3_nosubspace", 30, starts=9)
-    arms, _ = D.draw_samples(spec)
+    arms, _ = datasets.draw_samples(spec)
     rng = np.random.default_rng(3)
     q = rng.uniform(-np.pi, np.pi, (30, 6))
     T = arms.fkine(q)
-    rpy = D.rotation_to_rpy(T[:, :3, :3])
+    rpy = datasets.rotation_to_rpy(T[:, :3, :3])
     # under the paper convention the tested position is R·p, so ask for p = Rᵀ·t
     p = np.einsum("bji,bj->bi", T[:, :3, :3], T[:, :3, 3])
-    found = np.array([D.labels_for(arms[i : i + 1], spec, fixed=rpy[i], nodes=p[i : i + 1])[0, 0] for i in range(30)])
+    found = np.array([datasets.labels_for(arms[i : i + 1], spec, fixed=rpy[i], nodes=p[i : i + 1])[0, 0] for i in range(30)])
     assert found.mean() >= 0.9
 
 
@@ -408,29 +409,29 @@ def test_prefilter_never_rejects_a_reachable_pose(family):
     if family == "general":  # negative lengths and large twists too
         arms = DHRobot(rng.uniform(-1, 1, (n, 6)), rng.uniform(-1, 1, (n, 6)), rng.uniform(-4, 4, (n, 6)))
     else:
-        arms, _ = D.draw_samples(P["table3_nosubspace"].replace(family=family, method="numerical"), n)
+        arms, _ = datasets.draw_samples(P["table3_nosubspace"].replace(family=family, method="numerical"), n)
     T = arms.fkine(rng.uniform(-np.pi, np.pi, (n, 6)))
-    assert D.possibly_reachable(arms, T, margin=0.0).all()
+    assert datasets.possibly_reachable(arms, T, margin=0.0).all()
     # and it does reject: the same poses pushed 3 m up are out of reach of every arm here
     T[:, 2, 3] += 3.0 + np.abs(arms.d).sum(axis=1) + np.abs(arms.a).sum(axis=1)
-    assert not D.possibly_reachable(arms, T).any()
+    assert not datasets.possibly_reachable(arms, T).any()
 
 
 def test_prefilter_does_not_change_numerical_labels():
     # spherical-wrist arms on the 125-node grid: positives, and far nodes the filter rules out
     spec = small("table1_r3_step05", 4, method="numerical", starts=2)
-    arms, fixed = D.draw_samples(spec)
-    with_filter = D.labels_for(arms, spec, fixed)
-    without = D.labels_for(arms, spec, fixed, prefilter=False)
+    arms, fixed = datasets.draw_samples(spec)
+    with_filter = datasets.labels_for(arms, spec, fixed)
+    without = datasets.labels_for(arms, spec, fixed, prefilter=False)
     np.testing.assert_array_equal(with_filter, without)
     assert with_filter.any()
-    T = ws.target_poses(D.spec_nodes(spec), (0.0, 0.0, 0.0))
-    possible = D.possibly_reachable(DHRobot(arms.d[:, None], arms.a[:, None], arms.alpha[:, None]), T)
+    T = ws.target_poses(datasets.spec_nodes(spec), (0.0, 0.0, 0.0))
+    possible = datasets.possibly_reachable(DHRobot(arms.d[:, None], arms.a[:, None], arms.alpha[:, None]), T)
     assert 0 < possible.mean() < 0.5 and not np.any(with_filter & ~possible)
 
 
 def test_starts_recall_small():
-    rows = D.starts_recall(n_poses=100, counts=(1, 5), seed=2)
+    rows = datasets.starts_recall(STARTS_STUDY_SPEC, n_poses=100, counts=(1, 5), seed=2)
     assert [r["starts"] for r in rows] == [1, 5]
     # q0 = 0 alone misses many reachable poses of arbitrary arms; 5 starts find nearly all
     assert rows[0]["recall"] < 0.9 and rows[1]["recall"] > 0.9
@@ -440,7 +441,7 @@ def test_half_turn_success_is_rejected(monkeypatch):
     # pose_error vanishes at a half turn: an LM "success" there must not become a label
     from wsmap.kinematics import IKSolution, rotz
 
-    arms, _ = D.draw_samples(small("table3_nosubspace", 4))
+    arms, _ = datasets.draw_samples(small("table3_nosubspace", 4))
     q = np.full((4, 6), 0.3)
     T = arms.fkine(q)
     T[1, :3, :3] = T[1, :3, :3] @ rotz(np.pi)  # same position, orientation off by pi
@@ -452,20 +453,20 @@ def test_half_turn_success_is_rejected(monkeypatch):
 
 
 def test_audit_small():
-    row = D.audit_labels(P["table1_r3_step05"], n_arms=4, seed=1)
+    row = datasets.audit_labels(P["table1_r3_step05"], n_arms=4, seed=1)
     assert row["pairs"] == 4 * 125 and row["nodes"] == 125
     assert row["false_negatives"] + row["false_positives"] == round((1 - row["agreement"]) * row["pairs"])
     assert row["false_positives"] == 0  # LM can only fail to find a solution, not invent one
     assert 0 <= row["fn_rate"] <= 1
     with pytest.raises(ValueError, match="no exact labels"):
-        D.audit_labels(P["table3_nosubspace"], n_arms=2)
-    rows = D.audit_table(["table1_r3_step1"], n_arms=2)
+        datasets.audit_labels(P["table3_nosubspace"], n_arms=2)
+    rows = datasets.audit_table([P["table1_r3_step1"]], n_arms=2)
     assert len(rows) == 1 and rows[0]["spec"] == "table1_r3_step1"
 
 
 def test_starts_study_small():
     spec = P["table3_nosubspace"].replace(step=1.0, select=None, fixed=(0.0, 0.0, 0.0))
-    rows = D.starts_study(spec, n_arms=2, counts=(1, 2, 3), progress=False)
+    rows = datasets.starts_study(spec, n_arms=2, counts=(1, 2, 3), progress=False)
     assert [r["starts"] for r in rows] == [1, 2, 3]
     reach = [r["reachable"] for r in rows]
     assert reach == sorted(reach) and sum(r["new"] for r in rows) == reach[-1]
@@ -474,9 +475,9 @@ def test_starts_study_small():
 def test_build_by_name(tmp_path):
     # what `wsmap data build table1_r3_step1 --samples 5 --test-samples 3 --out cli.npz` runs
     out = tmp_path / "cli.npz"
-    written = D.build_dataset_files("table1_r3_step1", out, samples=5, test_samples=3, catalogue=P, progress=False)
+    written = datasets.build_dataset_files("table1_r3_step1", out, samples=5, test_samples=3, catalogue=P, progress=False)
     assert written == [out, tmp_path / "cli.test.npz"]
-    ds = D.load_dataset(out, expect_spec=D.scaled(P["table1_r3_step1"], 5))
+    ds = datasets.load_dataset(out, expect_spec=datasets.scaled(P["table1_r3_step1"], 5))
     assert ds.labels.shape == (5, 27)
-    assert len(D.load_dataset(written[1], expect_spec=D.test_spec(P["table1_r3_step1"], 3))) == 3
-    assert not hasattr(D, "main")  # the command line is `wsmap data`
+    assert len(datasets.load_dataset(written[1], expect_spec=datasets.test_spec(P["table1_r3_step1"], 3))) == 3
+    assert not hasattr(datasets, "main")  # the command line is `wsmap data`

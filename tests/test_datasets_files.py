@@ -12,14 +12,14 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from wsmap import datasets as D
+from wsmap import datasets
 from wsmap import io as wio
 from wsmap.datasets import store
 from wsmap.paper.specs import PAPER_SPECS as P
 
 
 def small(key, n, **changes):
-    return D.scaled(P[key], n).replace(**changes)
+    return datasets.scaled(P[key], n).replace(**changes)
 
 
 # --------------------------------------------------------------------------- corrupt files
@@ -28,8 +28,8 @@ def reference(tmp_path_factory):
     """A small dataset file (the `good_file` of test_data.py: 30 arms, 125 nodes), its bytes and contents."""
     path = tmp_path_factory.mktemp("ref") / "good.npz"
     spec = small("table1_r3_step05", 30)
-    D.build_dataset(spec, path, progress=False)
-    ds = D.load_dataset(path)
+    datasets.build_dataset(spec, path, progress=False)
+    ds = datasets.load_dataset(path)
     return spec, path.read_bytes(), ds.features.copy(), ds.labels.copy()
 
 
@@ -38,8 +38,8 @@ def _outcome(path, reference):
     anything else (another exception, different data) fails the test."""
     spec, _, X, L = reference
     try:
-        ds = D.load_dataset(path)
-    except D.DatasetError as e:
+        ds = datasets.load_dataset(path)
+    except datasets.DatasetError as e:
         assert str(path) in str(e)
         return "error"
     assert ds.spec == spec
@@ -79,8 +79,8 @@ def test_flip_in_the_npy_header_is_a_dataset_error(reference, tmp_path):
     assert _data_start(raw, info) <= 173 < _data_start(raw, info) + info.compress_size
     path = tmp_path / "flipped.npz"
     path.write_bytes(_flip(raw, 173, 0x08))
-    with pytest.raises(D.DatasetError, match=re.escape(f"dataset file {path} is corrupt")):
-        D.load_dataset(path)
+    with pytest.raises(datasets.DatasetError, match=re.escape(f"dataset file {path} is corrupt")):
+        datasets.load_dataset(path)
 
 
 @pytest.mark.parametrize(
@@ -163,8 +163,8 @@ def test_tampered_files_are_dataset_errors(reference, tmp_path, what, change, me
     good = tmp_path / "good.npz"
     good.write_bytes(reference[1])
     bad = _rewrite(good, tmp_path / "bad.npz", change)
-    with pytest.raises(D.DatasetError, match=re.escape(f"dataset file {bad} ")) as e:
-        D.load_dataset(bad)
+    with pytest.raises(datasets.DatasetError, match=re.escape(f"dataset file {bad} ")) as e:
+        datasets.load_dataset(bad)
     assert message in str(e.value), what
 
 
@@ -173,27 +173,27 @@ def test_extra_or_missing_entries(reference, tmp_path):
     good.write_bytes(reference[1])
     with zipfile.ZipFile(good, "a") as zf:
         zf.writestr("extra.npy", b"hello")
-    with pytest.raises(D.DatasetError, match="unexpected entries"):
-        D.load_dataset(good)
+    with pytest.raises(datasets.DatasetError, match="unexpected entries"):
+        datasets.load_dataset(good)
 
 
 def test_load_bad_arguments(reference, tmp_path):
-    with pytest.raises(D.DatasetError, match=re.escape(f"dataset file {tmp_path} is a directory")):
-        D.load_dataset(tmp_path)
+    with pytest.raises(datasets.DatasetError, match=re.escape(f"dataset file {tmp_path} is a directory")):
+        datasets.load_dataset(tmp_path)
     good = tmp_path / "good.npz"
     good.write_bytes(reference[1])
     with pytest.raises(TypeError, match="spec must be a DatasetSpec, got str"):
-        D.load_dataset(good, expect_spec="table1_r3_step05")
+        datasets.load_dataset(good, expect_spec="table1_r3_step05")
     empty = tmp_path / "empty.npz"
     empty.write_bytes(b"")
-    with pytest.raises(D.DatasetError, match=re.escape(f"dataset file {empty} is truncated or not a dataset file")):
-        D.load_dataset(empty)
+    with pytest.raises(datasets.DatasetError, match=re.escape(f"dataset file {empty} is truncated or not a dataset file")):
+        datasets.load_dataset(empty)
 
 
 def test_loaded_arrays_are_writable(reference, tmp_path):
     good = tmp_path / "good.npz"
     good.write_bytes(reference[1])
-    ds = D.load_dataset(good)
+    ds = datasets.load_dataset(good)
     assert ds.features.flags.writeable and ds.labels_packed.flags.writeable
     assert ds.features.flags.c_contiguous and ds.features.dtype == np.float64
 
@@ -208,18 +208,18 @@ def _listing(d):
 
 def test_build_files_writes_both(tmp_path):
     out = tmp_path / "t.npz"
-    written = D.build_dataset_files(SPEC, out, test_samples=3, progress=False)
+    written = datasets.build_dataset_files(SPEC, out, test_samples=3, progress=False)
     assert written == [out, tmp_path / "t.test.npz"] and _listing(tmp_path) == ["t.npz", "t.test.npz"]
-    train, test = D.load_dataset_files(out)
-    assert (len(train), len(test)) == (4, 3) and test.spec == D.test_spec(SPEC, 3)
+    train, test = datasets.load_dataset_files(out)
+    assert (len(train), len(test)) == (4, 3) and test.spec == datasets.test_spec(SPEC, 3)
     # only the training file; only a test file (test_only: `samples` arms, default 1000 -> here 2)
-    assert D.build_dataset_files(SPEC, tmp_path / "u.npz", progress=False) == [tmp_path / "u.npz"]
-    assert D.build_dataset_files(SPEC, tmp_path / "v.npz", samples=2, test_only=True, progress=False) == [tmp_path / "v.npz"]
-    assert D.load_dataset(tmp_path / "v.npz").spec == D.test_spec(SPEC, 2)
+    assert datasets.build_dataset_files(SPEC, tmp_path / "u.npz", progress=False) == [tmp_path / "u.npz"]
+    assert datasets.build_dataset_files(SPEC, tmp_path / "v.npz", samples=2, test_only=True, progress=False) == [tmp_path / "v.npz"]
+    assert datasets.load_dataset(tmp_path / "v.npz").spec == datasets.test_spec(SPEC, 2)
     # by name, in a catalogue; a test set at a path of one's own
-    written = D.build_dataset_files("table1_r3_step1", tmp_path / "w.npz", samples=2, test_out=tmp_path / "w_t.npz",
+    written = datasets.build_dataset_files("table1_r3_step1", tmp_path / "w.npz", samples=2, test_out=tmp_path / "w_t.npz",
                                     catalogue=P, progress=False)
-    assert written == [tmp_path / "w.npz", tmp_path / "w_t.npz"] and len(D.load_dataset(written[1])) == 1000
+    assert written == [tmp_path / "w.npz", tmp_path / "w_t.npz"] and len(datasets.load_dataset(written[1])) == 1000
 
 
 @pytest.mark.parametrize(
@@ -244,19 +244,19 @@ def test_build_files_writes_both(tmp_path):
 def test_build_files_refuses_bad_counts_before_any_work(tmp_path, monkeypatch, kwargs, error, message):
     monkeypatch.setattr(store, "_write_dataset", lambda *a, **k: pytest.fail("work started"))
     with pytest.raises(error, match=re.escape(message)):
-        D.build_dataset_files(SPEC, tmp_path / "t.npz", progress=False, **kwargs)
+        datasets.build_dataset_files(SPEC, tmp_path / "t.npz", progress=False, **kwargs)
     assert _listing(tmp_path) == []
 
 
 def test_build_files_refuses_bad_specs_and_names(tmp_path):
     with pytest.raises(ValueError, match=re.escape("unknown dataset 'sec99'; choose one of sec61, sec62")):
-        D.build_dataset_files("sec99", tmp_path / "t.npz", catalogue=P)
+        datasets.build_dataset_files("sec99", tmp_path / "t.npz", catalogue=P)
     with pytest.raises(ValueError, match="needs a catalogue"):
-        D.build_dataset_files("sec61", tmp_path / "t.npz")
+        datasets.build_dataset_files("sec61", tmp_path / "t.npz")
     with pytest.raises(TypeError, match="spec must be a DatasetSpec, got int"):
-        D.build_dataset_files(61, tmp_path / "t.npz")
+        datasets.build_dataset_files(61, tmp_path / "t.npz")
     with pytest.raises(ValueError, match="already a test spec"):
-        D.build_dataset_files(D.test_spec(SPEC), tmp_path / "t.npz", test_samples=3)
+        datasets.build_dataset_files(datasets.test_spec(SPEC), tmp_path / "t.npz", test_samples=3)
     assert _listing(tmp_path) == []
 
 
@@ -287,7 +287,7 @@ def test_build_files_refuses_bad_paths_before_any_work(tmp_path, monkeypatch, ou
     before = _listing(tmp_path)
     monkeypatch.setattr(store, "_write_dataset", lambda *a, **k: pytest.fail("work started"))
     with pytest.raises(wio.OutputPathError, match=re.escape(message)):
-        D.build_dataset_files(SPEC, out, test_samples=2, test_out=test_out, progress=False)
+        datasets.build_dataset_files(SPEC, out, test_samples=2, test_out=test_out, progress=False)
     assert _listing(tmp_path) == before
 
 
@@ -300,7 +300,7 @@ def test_build_files_refuses_an_unwritable_folder(tmp_path, monkeypatch):
         monkeypatch.setattr(os, "access", lambda p, mode, **k: False if str(p) == str(ro) else real(p, mode, **k))
     try:
         with pytest.raises(wio.OutputPathError, match=re.escape(f"no permission to write in {str(ro)!r}")):
-            D.build_dataset_files(SPEC, ro / "t.npz", test_samples=2, progress=False)
+            datasets.build_dataset_files(SPEC, ro / "t.npz", test_samples=2, progress=False)
     finally:
         ro.chmod(0o700)
 
@@ -308,7 +308,7 @@ def test_build_files_refuses_an_unwritable_folder(tmp_path, monkeypatch):
 def test_build_files_creates_missing_folders(tmp_path):
     # the project's rule (wsmap.io.check_output_path): missing folders are created, on success only
     out = tmp_path / "new" / "deeper" / "t.npz"
-    D.build_dataset_files(SPEC, out, test_samples=2, progress=False)
+    datasets.build_dataset_files(SPEC, out, test_samples=2, progress=False)
     assert _listing(out.parent) == ["t.npz", "t.test.npz"]
 
 
@@ -326,7 +326,7 @@ def test_build_files_is_all_or_nothing(tmp_path, monkeypatch, fail_on):
 
     monkeypatch.setattr(store, "labels_for", failing)
     with pytest.raises(RuntimeError, match="labelling failed"):
-        D.build_dataset_files(SPEC, out, test_samples=2, progress=False)
+        datasets.build_dataset_files(SPEC, out, test_samples=2, progress=False)
     assert out.read_bytes() == b"old training file" and test_out.read_bytes() == b"old test file"
     assert _listing(tmp_path) == ["t.npz", "t.test.npz"]  # no temporary files left
 
@@ -337,7 +337,7 @@ def test_build_files_interrupted_leaves_nothing(tmp_path, monkeypatch):
 
     monkeypatch.setattr(store, "labels_for", interrupt)
     with pytest.raises(KeyboardInterrupt):
-        D.build_dataset_files(SPEC, tmp_path / "t.npz", test_samples=2, progress=False)
+        datasets.build_dataset_files(SPEC, tmp_path / "t.npz", test_samples=2, progress=False)
     assert _listing(tmp_path) == []
 
 
@@ -349,7 +349,7 @@ def test_os_errors_name_the_users_path(tmp_path, monkeypatch):
 
     monkeypatch.setattr(store, "_write_dataset", disk_full)
     with pytest.raises(OSError) as e:
-        D.build_dataset_files(SPEC, out, test_samples=2, progress=False)
+        datasets.build_dataset_files(SPEC, out, test_samples=2, progress=False)
     assert str(out) in str(e.value) and "No space left on device" in str(e.value)
     assert ".t.npz." not in str(e.value)  # not the temporary file
     assert _listing(tmp_path) == []
@@ -361,7 +361,7 @@ def test_os_errors_name_the_users_path(tmp_path, monkeypatch):
 
     monkeypatch.setattr(wio.tempfile, "mkstemp", denied)
     with pytest.raises(PermissionError) as e:
-        D.build_dataset_files(SPEC, out, progress=False)
+        datasets.build_dataset_files(SPEC, out, progress=False)
     assert str(out) in str(e.value) and "abc123" not in str(e.value)
 
 
@@ -369,18 +369,18 @@ def test_build_dataset_checks_its_path_before_work(tmp_path, monkeypatch):
     monkeypatch.setattr(store, "_write_dataset", lambda *a, **k: pytest.fail("work started"))
     for bad in ("", tmp_path):
         with pytest.raises(wio.OutputPathError):
-            D.build_dataset(SPEC, bad, progress=False)
+            datasets.build_dataset(SPEC, bad, progress=False)
     with pytest.raises(ValueError, match="chunk must be at least 1"):
-        D.build_dataset(SPEC, tmp_path / "t.npz", chunk=0)
+        datasets.build_dataset(SPEC, tmp_path / "t.npz", chunk=0)
     with pytest.raises(TypeError, match="spec must be a DatasetSpec"):
-        D.build_dataset("sec61", tmp_path / "t.npz")
+        datasets.build_dataset("sec61", tmp_path / "t.npz")
     assert _listing(tmp_path) == []
 
 
 def test_load_dataset_files_checks_the_pair(tmp_path):
-    D.build_dataset_files(SPEC, tmp_path / "a.npz", test_samples=2, progress=False)
-    D.build_dataset_files(SPEC.replace(seed=SPEC.seed + 1), tmp_path / "b.npz", test_samples=2, progress=False)
-    with pytest.raises(D.DatasetError, match=re.escape(f"{tmp_path / 'b.test.npz'} is not the test set of {tmp_path / 'a.npz'}")):
-        D.load_dataset_files(tmp_path / "a.npz", tmp_path / "b.test.npz")
-    with pytest.raises(D.DatasetError, match="is not a training set"):
-        D.load_dataset_files(tmp_path / "a.test.npz", tmp_path / "b.test.npz")
+    datasets.build_dataset_files(SPEC, tmp_path / "a.npz", test_samples=2, progress=False)
+    datasets.build_dataset_files(SPEC.replace(seed=SPEC.seed + 1), tmp_path / "b.npz", test_samples=2, progress=False)
+    with pytest.raises(datasets.DatasetError, match=re.escape(f"{tmp_path / 'b.test.npz'} is not the test set of {tmp_path / 'a.npz'}")):
+        datasets.load_dataset_files(tmp_path / "a.npz", tmp_path / "b.test.npz")
+    with pytest.raises(datasets.DatasetError, match="is not a training set"):
+        datasets.load_dataset_files(tmp_path / "a.test.npz", tmp_path / "b.test.npz")

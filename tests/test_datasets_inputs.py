@@ -1,5 +1,5 @@
 """Bad inputs of the datasets API: each a ValueError (or TypeError for a wrong object) naming the field,
-raised before any work; and the package's layout (names, import hygiene, the wsmap.data shim)."""
+raised before any work; and the package's layout (names, import hygiene)."""
 
 import math
 import re
@@ -9,10 +9,10 @@ import sys
 import numpy as np
 import pytest
 
-from wsmap import datasets as D
+from wsmap import datasets
 from wsmap.paper.specs import PAPER_SPECS as P
 
-BASE = D.scaled(P["table1_r3_step1"], 5)
+BASE = datasets.scaled(P["table1_r3_step1"], 5)
 
 
 # --------------------------------------------------------------------------- spec fields
@@ -81,9 +81,9 @@ def test_replace_and_from_dict_refuse_unknown_fields():
     with pytest.raises(ValueError, match=re.escape("unknown dataset spec field(s) bogus; known: beta")):
         BASE.replace(bogus=1)
     with pytest.raises(ValueError, match=re.escape("unknown dataset spec field(s) 3")):
-        D.DatasetSpec.from_dict({"name": "x", 3: 4})
+        datasets.DatasetSpec.from_dict({"name": "x", 3: 4})
     with pytest.raises(ValueError, match="must be a mapping, got NoneType"):
-        D.DatasetSpec.from_dict(None)
+        datasets.DatasetSpec.from_dict(None)
 
 
 def test_good_edge_values_still_work():
@@ -95,50 +95,50 @@ def test_good_edge_values_still_work():
     assert BASE.replace(lo=np.float64(-1.0)).lo == -1.0
     one = BASE.replace(lo=0.0, hi=0.0)
     assert one.grid_shape == (1, 1, 1) and one.n_features == 18 + 3 + 3
-    assert D.DatasetSpec("x", step=0.5).replace(fixed=np.array([0.1, 0.2, 0.3])).fixed == (0.1, 0.2, 0.3)
+    assert datasets.DatasetSpec("x", step=0.5).replace(fixed=np.array([0.1, 0.2, 0.3])).fixed == (0.1, 0.2, 0.3)
 
 
 # --------------------------------------------------------------------------- functions
-ARMS, FIXED = D.draw_samples(BASE)
+ARMS, FIXED = datasets.draw_samples(BASE)
 
 
 @pytest.mark.parametrize(
     "call, error, message",
     [
-        (lambda: D.test_spec(BASE, 0), ValueError, "samples must be at least 1, got 0"),
-        (lambda: D.test_spec("sec61"), TypeError, "spec must be a DatasetSpec, got str"),
-        (lambda: D.scaled(BASE, None), ValueError, "samples must be an integer, got None"),
-        (lambda: D.draw_samples(BASE, 0), ValueError, "count must be at least 1, got 0"),
-        (lambda: D.start_configurations(BASE, count=-1), ValueError, "count must be at least 0, got -1"),
-        (lambda: D.start_configurations(BASE, count=2.5), ValueError, "count must be an integer, got 2.5"),
-        (lambda: D.start_configurations(BASE, starts=5000), ValueError, "starts must be at most 1000"),
-        (lambda: D.uniform_rotations(-1, 0), ValueError, "count must be at least 0, got -1"),
-        (lambda: D.rotation_to_rpy(np.eye(4)), ValueError, "R must have shape (..., 3, 3), got (4, 4)"),
-        (lambda: D.rotation_to_rpy(np.full((3, 3), np.nan)), ValueError, "R contains NaN"),
-        (lambda: D.possibly_reachable(ARMS, np.zeros((3, 3))), ValueError, "T must have shape (..., 4, 4), got (3, 3)"),
-        (lambda: D.possibly_reachable(ARMS, np.eye(4), margin=-1.0), ValueError, "margin must be a non-negative number"),
-        (lambda: D.possibly_reachable("puma", np.eye(4)), TypeError, "arms must be a DHRobot"),
-        (lambda: D.labels_for(ARMS, BASE, nodes=np.zeros((3, 2))), ValueError, "nodes must have shape (N, 3), got (3, 2)"),
-        (lambda: D.labels_for(ARMS, BASE, nodes=[[math.nan, 0, 0]]), ValueError, "nodes contain NaN"),
-        (lambda: D.labels_for(ARMS, BASE, method="lm"), ValueError, "unknown method 'lm'"),
-        (lambda: D.labels_for(ARMS, BASE, method="numerical", q0=np.full((1, 6), np.nan)), ValueError,
+        (lambda: datasets.test_spec(BASE, 0), ValueError, "samples must be at least 1, got 0"),
+        (lambda: datasets.test_spec("sec61"), TypeError, "spec must be a DatasetSpec, got str"),
+        (lambda: datasets.scaled(BASE, None), ValueError, "samples must be an integer, got None"),
+        (lambda: datasets.draw_samples(BASE, 0), ValueError, "count must be at least 1, got 0"),
+        (lambda: datasets.start_configurations(BASE, count=-1), ValueError, "count must be at least 0, got -1"),
+        (lambda: datasets.start_configurations(BASE, count=2.5), ValueError, "count must be an integer, got 2.5"),
+        (lambda: datasets.start_configurations(BASE, starts=5000), ValueError, "starts must be at most 1000"),
+        (lambda: datasets.uniform_rotations(-1, 0), ValueError, "count must be at least 0, got -1"),
+        (lambda: datasets.rotation_to_rpy(np.eye(4)), ValueError, "R must have shape (..., 3, 3), got (4, 4)"),
+        (lambda: datasets.rotation_to_rpy(np.full((3, 3), np.nan)), ValueError, "R contains NaN"),
+        (lambda: datasets.possibly_reachable(ARMS, np.zeros((3, 3))), ValueError, "T must have shape (..., 4, 4), got (3, 3)"),
+        (lambda: datasets.possibly_reachable(ARMS, np.eye(4), margin=-1.0), ValueError, "margin must be a non-negative number"),
+        (lambda: datasets.possibly_reachable("puma", np.eye(4)), TypeError, "arms must be a DHRobot"),
+        (lambda: datasets.labels_for(ARMS, BASE, nodes=np.zeros((3, 2))), ValueError, "nodes must have shape (N, 3), got (3, 2)"),
+        (lambda: datasets.labels_for(ARMS, BASE, nodes=[[math.nan, 0, 0]]), ValueError, "nodes contain NaN"),
+        (lambda: datasets.labels_for(ARMS, BASE, method="lm"), ValueError, "unknown method 'lm'"),
+        (lambda: datasets.labels_for(ARMS, BASE, method="numerical", q0=np.full((1, 6), np.nan)), ValueError,
          "q0 contains NaN or infinite values"),
-        (lambda: D.labels_for(ARMS, BASE, method="numerical", q0=np.zeros((5, 0, 6))), ValueError, "with S >= 1"),
-        (lambda: D.labels_for(ARMS, BASE, fixed=(0.0, 0.0)), ValueError, "fixed must have shape (3,) or (5, 3)"),
-        (lambda: D.features_for(ARMS, BASE, fixed="up"), ValueError, "fixed must be numbers of shape (3,) or (5, 3)"),
-        (lambda: D.arms_from_features(np.zeros((2, 5))), ValueError, "features must have shape (count, >= 18)"),
-        (lambda: D.arms_from_features(np.full((2, 30), np.nan)), ValueError, "features contain NaN"),
-        (lambda: D.fixed_from_features(np.zeros((2, 3)), BASE), ValueError, "must have shape (count, 30), got (2, 3)"),
-        (lambda: D.feature_names("sec61"), TypeError, "spec must be a DatasetSpec"),
-        (lambda: D.starts_recall(BASE, n_poses=0), ValueError, "n_poses must be at least 1, got 0"),
-        (lambda: D.starts_recall(BASE, counts=()), ValueError, "counts must name at least one number of starts"),
-        (lambda: D.starts_recall(BASE, counts=5), ValueError, "counts must be a list of start counts, got 5"),
-        (lambda: D.starts_study(BASE, n_arms=0), ValueError, "n_arms must be at least 1, got 0"),
-        (lambda: D.starts_study(BASE, counts=(1, 0)), ValueError, "counts entry must be at least 1, got 0"),
-        (lambda: D.audit_labels(BASE, n_arms=0), ValueError, "n_arms must be at least 1, got 0"),
-        (lambda: D.audit_labels(BASE, n_arms=1, ik=dict(stars=3)), ValueError, "ik must be a dict with keys among"),
-        (lambda: D.audit_table(["sec61"]), TypeError, "audit_table takes DatasetSpecs, got 'sec61'"),
-        (lambda: D.audit_table(BASE), ValueError, "specs must be a list of DatasetSpecs"),
+        (lambda: datasets.labels_for(ARMS, BASE, method="numerical", q0=np.zeros((5, 0, 6))), ValueError, "with S >= 1"),
+        (lambda: datasets.labels_for(ARMS, BASE, fixed=(0.0, 0.0)), ValueError, "fixed must have shape (3,) or (5, 3)"),
+        (lambda: datasets.features_for(ARMS, BASE, fixed="up"), ValueError, "fixed must be numbers of shape (3,) or (5, 3)"),
+        (lambda: datasets.arms_from_features(np.zeros((2, 5))), ValueError, "features must have shape (count, >= 18)"),
+        (lambda: datasets.arms_from_features(np.full((2, 30), np.nan)), ValueError, "features contain NaN"),
+        (lambda: datasets.fixed_from_features(np.zeros((2, 3)), BASE), ValueError, "must have shape (count, 30), got (2, 3)"),
+        (lambda: datasets.feature_names("sec61"), TypeError, "spec must be a DatasetSpec"),
+        (lambda: datasets.starts_recall(BASE, n_poses=0), ValueError, "n_poses must be at least 1, got 0"),
+        (lambda: datasets.starts_recall(BASE, counts=()), ValueError, "counts must name at least one number of starts"),
+        (lambda: datasets.starts_recall(BASE, counts=5), ValueError, "counts must be a list of start counts, got 5"),
+        (lambda: datasets.starts_study(BASE, n_arms=0), ValueError, "n_arms must be at least 1, got 0"),
+        (lambda: datasets.starts_study(BASE, counts=(1, 0)), ValueError, "counts entry must be at least 1, got 0"),
+        (lambda: datasets.audit_labels(BASE, n_arms=0), ValueError, "n_arms must be at least 1, got 0"),
+        (lambda: datasets.audit_labels(BASE, n_arms=1, ik=dict(stars=3)), ValueError, "ik must be a dict with keys among"),
+        (lambda: datasets.audit_table(["sec61"]), TypeError, "audit_table takes DatasetSpecs, got 'sec61'"),
+        (lambda: datasets.audit_table(BASE), ValueError, "specs must be a list of DatasetSpecs"),
     ],
 )
 def test_bad_function_arguments(call, error, message):
@@ -147,7 +147,7 @@ def test_bad_function_arguments(call, error, message):
 
 
 def test_dataset_head_checks_n(tmp_path):
-    ds = D.load_dataset(D.build_dataset(BASE, tmp_path / "b.npz", progress=False))
+    ds = datasets.load_dataset(datasets.build_dataset(BASE, tmp_path / "b.npz", progress=False))
     with pytest.raises(ValueError, match=re.escape("n must be an integer, got '3'")):  # was TypeError from '>='
         ds.head("3")
     with pytest.raises(ValueError, match="n must be at least 1, got 0"):
@@ -157,18 +157,18 @@ def test_dataset_head_checks_n(tmp_path):
 
 def test_more_than_127_starts_label_correctly():
     # the first solving start was kept as int8: start 128 and later overflowed (numpy 2: OverflowError)
-    spec = D.scaled(P["table3_nosubspace"], 1).replace(starts=200, ilimit=1)
-    arms, _ = D.draw_samples(spec)
+    spec = datasets.scaled(P["table3_nosubspace"], 1).replace(starts=200, ilimit=1)
+    arms, _ = datasets.draw_samples(spec)
     q = np.array([[0.3, -0.5, 0.7, 0.2, -0.4, 0.6]])
     T = arms.fkine(q)
-    rpy = D.rotation_to_rpy(T[:, :3, :3])
+    rpy = datasets.rotation_to_rpy(T[:, :3, :3])
     p = np.einsum("bji,bj->bi", T[:, :3, :3], T[:, :3, 3])  # paper convention: the tested position is R·p
     q0 = np.tile(q + 1.0, (1, 200, 1))  # one LM iteration from 1 rad away does not converge ...
     q0[0, 150] = q[0]  # ... start 150 is the solution itself
-    labels = D.labels_for(arms, spec, fixed=rpy[0], nodes=p, q0=q0)
+    labels = datasets.labels_for(arms, spec, fixed=rpy[0], nodes=p, q0=q0)
     assert labels.tolist() == [[True]]
     q0[0, 150] = q[0] + 1.0  # without it, no start solves the node
-    assert D.labels_for(arms, spec, fixed=rpy[0], nodes=p, q0=q0).tolist() == [[False]]
+    assert datasets.labels_for(arms, spec, fixed=rpy[0], nodes=p, q0=q0).tolist() == [[False]]
 
 
 # --------------------------------------------------------------------------- layout
@@ -176,35 +176,14 @@ def test_datasets_imports_no_higher_layer():
     code = "import sys, wsmap.datasets; print(' '.join(sorted(m for m in sys.modules if m.startswith('wsmap'))))"
     mods = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert "wsmap.datasets.store" in mods
-    for banned in ("wsmap.cli", "wsmap.paper", "wsmap.models", "wsmap.learn", "wsmap.data"):
+    for banned in ("wsmap.cli", "wsmap.paper", "wsmap.learn"):
         assert banned not in mods
 
 
 def test_public_names():
-    for name in D.__all__:
-        assert hasattr(D, name), name
-    assert len(set(D.__all__)) == len(D.__all__)
-
-
-def test_data_shim_keeps_the_old_names():
-    from wsmap import data
-    from wsmap.paper import specs
-
-    old = ["FAMILIES", "SCOPES", "STREAMS", "DEFAULT_STARTS", "DatasetSpec", "DatasetError", "Dataset",
-           "PAPER_SPECS", "TABLE3_RPY", "test_spec", "scaled", "grid_axes", "grid_nodes", "spec_nodes", "node_slice",
-           "feature_names", "feature_slices", "features_for", "arms_from_features", "fixed_from_features",
-           "draw_samples", "start_configurations", "uniform_rotations", "rotation_to_rpy", "labels_for",
-           "possibly_reachable", "build_dataset", "load_dataset", "starts_study", "starts_recall", "audit_labels",
-           "audit_table", "dataset_paths", "build_pair", "load_pair", "CONVENTIONS", "METHODS", "FORMAT",
-           "FORMAT_VERSION"]
-    for name in old:
-        assert hasattr(data, name), name
-    assert not hasattr(data, "main")
-    assert data.PAPER_SPECS is specs.PAPER_SPECS and data.DatasetSpec is D.DatasetSpec
-    assert data.DatasetError is D.DatasetError
-    # the audits keep their paper defaults there, and take paper names
-    with pytest.raises(ValueError, match=re.escape("unknown dataset 'nope'; choose one of sec61")):
-        data.audit_table(["nope"], n_arms=1)
+    for name in datasets.__all__:
+        assert hasattr(datasets, name), name
+    assert len(set(datasets.__all__)) == len(datasets.__all__)
 
 
 def test_paper_catalogue():
@@ -232,8 +211,3 @@ def test_build_pair_refuses_before_writing(tmp_path):
     train, test = specs.build_pair("table1_r3_step1", tmp_path / "d", samples=3, test_samples=2, progress=False)
     a, b = specs.load_pair("table1_r3_step1", tmp_path / "d")
     assert (len(a), len(b)) == (3, 2)
-
-
-def test_python_m_wsmap_data_points_to_the_cli():
-    r = subprocess.run([sys.executable, "-m", "wsmap.data", "build", "sec61"], capture_output=True, text=True)
-    assert r.returncode == 1 and "wsmap data build" in r.stderr

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 import torch
 
-from wsmap import design as D
+from wsmap import design
+from wsmap import workspace as ws
 from wsmap.datasets.spec import DatasetSpec
 from wsmap.learn import MLPConfig, SubspaceMLP
 
@@ -21,7 +22,7 @@ SMALL = DatasetSpec("tiny_sw", family="spherical_wrist", scope="R3", lo=-1.0, hi
 
 def test_box_tasks_are_the_corners_and_edge_midpoints():
     c = np.array([0.5, -0.1, 0.2])
-    t = D.box_tasks(c, 0.4)
+    t = design.box_tasks(c, 0.4)
     assert t.shape == (20, 3)
     off = t - c
     # 8 corners: every coordinate ±0.2; 12 midpoints: one coordinate 0, two ±0.2
@@ -37,9 +38,9 @@ def test_box_tasks_are_the_corners_and_edge_midpoints():
         assert len(ends) == 2
         np.testing.assert_allclose((ends[0] + ends[1]) / 2, m, atol=1e-15)
     with pytest.raises(ValueError, match="size"):
-        D.box_tasks(c, -0.4)
+        design.box_tasks(c, -0.4)
     with pytest.raises(ValueError, match="centre"):
-        D.box_tasks([0, 0], 0.4)
+        design.box_tasks([0, 0], 0.4)
 
 
 def _tiny_model(output_kind="logit", seed=0) -> SubspaceMLP:
@@ -55,10 +56,10 @@ def _tiny_model(output_kind="logit", seed=0) -> SubspaceMLP:
 @pytest.mark.parametrize("kind", ["logit", "linear"])
 def test_interpolation_equals_nodes_at_nodes_and_is_linear_between(kind):
     model = _tiny_model(kind)
-    nodes = D.ws.cartesian_grid(-1, 1, 0.5)
+    nodes = ws.cartesian_grid(-1, 1, 0.5)
     params = torch.tensor([[0.3, 0.2, 0.1, 0.25], [0.1, 0.4, 0.05, 0.3]], dtype=torch.float64)
     some = nodes[[0, 7, 62, 124]]
-    s = D.MapSurrogate(model, "spherical_wrist", some)
+    s = design.MapSurrogate(model, "spherical_wrist", some)
     with torch.no_grad():
         full = model.forward(s.features(params), key=0).double()
         thr = np.log(0.5 / 0.5) if kind == "logit" else 0.5
@@ -66,14 +67,14 @@ def test_interpolation_equals_nodes_at_nodes_and_is_linear_between(kind):
     np.testing.assert_allclose(got.numpy(), (full[:, [0, 7, 62, 124]] - thr).numpy(), atol=1e-5)
     # the pruned output layer gives the model's own outputs at the needed nodes
     a, b = nodes[62], nodes[63]  # neighbours along x
-    mid = D.MapSurrogate(model, "spherical_wrist", np.array([a + w * (b - a) for w in (0.0, 0.25, 0.7, 1.0)]))
+    mid = design.MapSurrogate(model, "spherical_wrist", np.array([a + w * (b - a) for w in (0.0, 0.25, 0.7, 1.0)]))
     with torch.no_grad():
         v = mid(params).numpy()
     for j, w in enumerate((0.0, 0.25, 0.7, 1.0)):
         np.testing.assert_allclose(v[:, j], (1 - w) * v[:, 0] + w * v[:, 3], atol=1e-5)
     # trilinear at a cell centre: the mean of the 8 corners
     centre = nodes[0] + 0.25
-    c = D.MapSurrogate(model, "spherical_wrist", centre[None])
+    c = design.MapSurrogate(model, "spherical_wrist", centre[None])
     corner_idx = [i + 5 * j + 25 * k for i, j, k in itertools.product((0, 1), repeat=3)]
     with torch.no_grad():
         np.testing.assert_allclose(c(params).numpy()[:, 0], (full[:, corner_idx] - thr).mean(1).numpy(), atol=1e-5)
@@ -85,23 +86,23 @@ def test_interpolation_equals_nodes_at_nodes_and_is_linear_between(kind):
 
 def test_tasks_outside_the_grid_and_unknown_family_are_clear_errors():
     model = _tiny_model()
-    tasks = D.box_tasks((0.5, 0.0, 0.9), 0.4)  # z up to 1.1 m: above the grid's 1.0
+    tasks = design.box_tasks((0.5, 0.0, 0.9), 0.4)  # z up to 1.1 m: above the grid's 1.0
     with pytest.raises(ValueError, match=r"task 1 at \[0\.3, -0\.2, 1\.1\] m is outside the model's grid "
                                          r"\[-1, 1\] x \[-1, 1\] x \[-1, 1\] m"):
-        D.MapSurrogate(model, "spherical_wrist", tasks)
+        design.MapSurrogate(model, "spherical_wrist", tasks)
     # before any work: design_by_gradient refuses too, with a verify that would fail loudly
     def never(_):
         raise AssertionError("verification ran")
     with pytest.raises(ValueError, match="outside the model's grid"):
-        D.design_by_gradient("spherical_wrist", tasks, model, verify=never)
+        design.design_by_gradient("spherical_wrist", tasks, model, verify=never)
     with pytest.raises(ValueError, match="unknown design family 'ur5'; known families: panda7, spherical_wrist"):
-        D.design_by_gradient("ur5", D.box_tasks((0.4, 0, 0.2)), model)
+        design.design_by_gradient("ur5", design.box_tasks((0.4, 0, 0.2)), model)
     with pytest.raises(ValueError, match="unknown design family"):
-        D.design_by_cmaes("ur5", D.box_tasks((0.4, 0, 0.2)))
+        design.design_by_cmaes("ur5", design.box_tasks((0.4, 0, 0.2)))
     with pytest.raises(ValueError, match="maps family 'spherical_wrist'"):
-        D.MapSurrogate(model, "panda7", D.box_tasks((0.4, 0, 0.2)))
+        design.MapSurrogate(model, "panda7", design.box_tasks((0.4, 0, 0.2)))
     with pytest.raises(ValueError, match="orientation"):
-        D.MapSurrogate(model, "spherical_wrist", D.box_tasks((0.4, 0, 0.2)), rpy=(np.pi, 0, 0))
+        design.MapSurrogate(model, "spherical_wrist", design.box_tasks((0.4, 0, 0.2)), rpy=(np.pi, 0, 0))
 
 
 def test_a_node_slice_model_refuses_tasks_off_its_slice():
@@ -110,16 +111,16 @@ def test_a_node_slice_model_refuses_tasks_off_its_slice():
     model = SubspaceMLP(cfg)
     model.set_map_spec(SMALL, nodes=(50, 75))  # the z = 0 layer only
     with pytest.raises(ValueError, match=r"does not cover: it maps nodes \[50, 75\).*\[-1, 1\] x \[-1, 1\] x \[0, 0\]"):
-        D.MapSurrogate(model, "spherical_wrist", np.array([[0.1, 0.2, 0.3]]))
-    D.MapSurrogate(model, "spherical_wrist", np.array([[0.1, 0.2, 0.0]]))  # in the layer: fine
+        design.MapSurrogate(model, "spherical_wrist", np.array([[0.1, 0.2, 0.3]]))
+    design.MapSurrogate(model, "spherical_wrist", np.array([[0.1, 0.2, 0.0]]))  # in the layer: fine
 
 
 # ------------------------------------------------------------------------------------- known answer
 #: reach(s) = W · s (m) for the panda7 scales; coverage of p is |p| <= reach.
 W = np.array([0.2, 0.3, 0.25, 0.05, 0.05, 0.05])
-TASKS = D.box_tasks((0.5, 0.0, 0.2), 0.4)
+TASKS = design.box_tasks((0.5, 0.0, 0.2), 0.4)
 R_NEED = float(np.linalg.norm(TASKS, axis=1).max())
-FAM = D.design_family("panda7")
+FAM = design.design_family("panda7")
 
 
 def _known_answer():
@@ -156,7 +157,7 @@ def test_the_known_answer_uses_two_parameters():
 
 def test_gradient_design_finds_the_known_answer():
     s_star, L_star = _known_answer()
-    r = D.design_by_gradient("panda7", TASKS, _analytic_surrogate, verify=_analytic_verify, margin=0.0,
+    r = design.design_by_gradient("panda7", TASKS, _analytic_surrogate, verify=_analytic_verify, margin=0.0,
                              margin_step=1e-4, starts=4, steps=400, seed=0)
     assert r.verified and r.covered.all() and r.method == "gradient"
     assert r.total_length == pytest.approx(L_star, rel=2e-3)
@@ -167,11 +168,11 @@ def test_gradient_design_finds_the_known_answer():
 
 def test_cmaes_and_random_search_on_the_known_answer():
     s_star, L_star = _known_answer()
-    r = D.design_by_cmaes("panda7", TASKS, verify=_analytic_verify, target_length=L_star * 1.01, max_calls=4000,
+    r = design.design_by_cmaes("panda7", TASKS, verify=_analytic_verify, target_length=L_star * 1.01, max_calls=4000,
                           seed=1)
     assert r.verified and r.time_to_target is not None and r.time_to_verified <= r.time_to_target
     assert L_star <= r.total_length <= L_star * 1.01
-    q = D.design_by_random_search("panda7", TASKS, verify=_analytic_verify, target_length=L_star * 1.01,
+    q = design.design_by_random_search("panda7", TASKS, verify=_analytic_verify, target_length=L_star * 1.01,
                                   max_calls=64, seed=0)
     # 64 uniform draws do not come within 1 % of a corner of a 6-D box: the budget stops it
     assert q.classical_calls == 64 and q.time_to_target is None
@@ -185,8 +186,8 @@ def test_a_tiny_trained_model_gives_a_verified_design():
 
     rng = np.random.default_rng(0)
     arms = robots.sample_spherical_wrist(600, seed=rng)
-    nodes = D.ws.cartesian_grid(-1, 1, 0.5)
-    Y = D.ws.constant_orientation_map(arms, nodes, (0, 0, 0), method="exact").astype(np.float32)
+    nodes = ws.cartesian_grid(-1, 1, 0.5)
+    Y = ws.constant_orientation_map(arms, nodes, (0, 0, 0), method="exact").astype(np.float32)
     X = features_for(arms, SMALL)
     torch.manual_seed(0)
     cfg = MLPConfig(n_inputs=SMALL.n_features, n_outputs=125, hidden=[32, 32], init="torch",
@@ -201,17 +202,17 @@ def test_a_tiny_trained_model_gives_a_verified_design():
         opt.step()
     model.set_map_spec(SMALL)
     tasks = np.array([[0.5, 0.0, 0.0], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5]])
-    r = D.design_by_gradient("spherical_wrist", tasks, model, starts=4, steps=200, seed=0)
+    r = design.design_by_gradient("spherical_wrist", tasks, model, starts=4, steps=200, seed=0)
     assert r.verified and r.covered.all()
-    exact = D.design_family("spherical_wrist").classical(r.params[None], tasks)
+    exact = design.design_family("spherical_wrist").classical(r.params[None], tasks)
     assert exact.all()
     # a design can be no shorter than the farthest task: reach <= a2 + a3 + d3 + d4
     assert r.total_length >= np.linalg.norm(tasks, axis=1).max() - 1e-9
-    rows, res = D.compare_designs("spherical_wrist", tasks, model, gradient={"starts": 4, "steps": 200},
+    rows, res = design.compare_designs("spherical_wrist", tasks, model, gradient={"starts": 4, "steps": 200},
                                   max_calls=500, max_seconds=10)
     assert [row["method"] for row in rows] == ["gradient", "cmaes", "random"]
     assert res["gradient"].verified and res["cmaes"].target_length == pytest.approx(res["gradient"].total_length * 1.02)
-    assert "| gradient | spherical_wrist |" in D.format_design_table(rows)
+    assert "| gradient | spherical_wrist |" in design.format_design_table(rows)
 
 
 def test_panda7_surrogate_puts_the_scales_in_the_model_features():
@@ -224,18 +225,18 @@ def test_panda7_surrogate_puts_the_scales_in_the_model_features():
     model = SubspaceMLP(MLPConfig(n_inputs=spec.n_features, n_outputs=spec.grid_nodes, hidden=[4], init="torch",
                                   output_kind="logit"))
     model.set_map_spec(spec)
-    tasks = D.box_tasks((0.5, 0.0, 0.2), 0.4)
-    s = D.MapSurrogate(model, "panda7", tasks)  # the family's default orientation: tool-down, standard
+    tasks = design.box_tasks((0.5, 0.0, 0.2), 0.4)
+    s = design.MapSurrogate(model, "panda7", tasks)  # the family's default orientation: tool-down, standard
     scales = np.array([[0.8, 0.9, 1.0, 1.1, 1.2, 1.3], [1.0] * 6])
     np.testing.assert_array_equal(s.features(torch.as_tensor(scales)).numpy(), features_for(scales, spec))
     with torch.no_grad():
         full = model.forward(torch.as_tensor(features_for(scales, spec)), key=0).double()
-        on_nodes = D.MapSurrogate(model, "panda7", np.array([[0.0, 0.0, 0.0], [0.6, -0.6, 1.2]]))
+        on_nodes = design.MapSurrogate(model, "panda7", np.array([[0.0, 0.0, 0.0], [0.6, -0.6, 1.2]]))
         np.testing.assert_allclose(on_nodes(torch.as_tensor(scales)).numpy(), full[:, [62, 3 + 5 * 1 + 25 * 4]].numpy(),
                                    atol=1e-5)
     assert s.bounds[0].tolist() == [0.7] * 6 and s.bounds[1].tolist() == [1.3] * 6  # no training range recorded
     with pytest.raises(ValueError, match="orientation"):
-        D.MapSurrogate(model, "panda7", tasks, rpy=(0.0, 0.0, 0.0))
+        design.MapSurrogate(model, "panda7", tasks, rpy=(0.0, 0.0, 0.0))
 
 
 def test_spherical_wrist_map_at_the_tasks_does_not_depend_on_the_orientation():
@@ -244,9 +245,9 @@ def test_spherical_wrist_map_at_the_tasks_does_not_depend_on_the_orientation():
     from wsmap import robots
 
     arms = robots.sample_spherical_wrist(300, seed=3)
-    tasks = D.box_tasks((0.4, 0.0, 0.2), 0.4)
-    at_identity = D.ws.constant_orientation_map(arms, tasks, (0, 0, 0), method="exact", convention="standard")
-    tool_down = D.ws.constant_orientation_map(arms, tasks, (np.pi, 0, 0), method="exact", convention="standard")
+    tasks = design.box_tasks((0.4, 0.0, 0.2), 0.4)
+    at_identity = ws.constant_orientation_map(arms, tasks, (0, 0, 0), method="exact", convention="standard")
+    tool_down = ws.constant_orientation_map(arms, tasks, (np.pi, 0, 0), method="exact", convention="standard")
     assert 0.1 < at_identity.mean() < 0.9
     np.testing.assert_array_equal(at_identity, tool_down)
 
@@ -256,9 +257,9 @@ def test_an_assembled_block_model_is_read_block_by_block():
     torch.manual_seed(1)
     model = SubspaceMLP(MLPConfig(n_inputs=SMALL.n_features, n_outputs=25, hidden=[6], init="torch", n_subspaces=5))
     model.set_map_spec(SMALL, assemble=True)
-    nodes = D.ws.cartesian_grid(-1, 1, 0.5)
+    nodes = ws.cartesian_grid(-1, 1, 0.5)
     pick = [0, 24, 25, 63, 99, 124]
-    s = D.MapSurrogate(model, "spherical_wrist", nodes[pick])
+    s = design.MapSurrogate(model, "spherical_wrist", nodes[pick])
     params = torch.tensor([[0.3, 0.2, 0.1, 0.25]], dtype=torch.float64)
     with torch.no_grad():
         want = model.assemble(s.features(params)).double()[:, pick] - 0.5
@@ -271,7 +272,7 @@ def test_a_failed_verification_raises_the_margin_and_goes_on():
     def stricter(params):
         return (params @ W)[:, None] >= np.linalg.norm(TASKS, axis=1)[None] + 0.01
 
-    r = D.design_by_gradient("panda7", TASKS, _analytic_surrogate, verify=stricter, margin=0.0, margin_step=0.004,
+    r = design.design_by_gradient("panda7", TASKS, _analytic_surrogate, verify=stricter, margin=0.0, margin_step=0.004,
                              starts=2, steps=300, seed=0)
     assert r.verified and r.rounds >= 4 and np.all(r.margins >= 0.012 - 1e-12)
     assert R_NEED + 0.01 <= r.params @ W <= R_NEED + 0.02

@@ -94,31 +94,3 @@ def test_the_closure_matches_what_python_loads():
                                                          text=True, check=True).stdout)}
     static = import_closure({"wsmap.cli", "wsmap.paper.notebook", "wsmap.paper.dataset", "wsmap.__main__"})
     assert {p.resolve() for p in loaded} <= {p.resolve() for p in static}
-
-
-def test_no_import_cycles_between_modules():
-    """No two package modules import each other at module level (a circle of any length)."""
-    graph: dict[str, set[str]] = {}
-    for f in PKG.rglob("*.py"):
-        rel = f.relative_to(ROOT / "src").with_suffix("")
-        name = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
-        tree = ast.parse(f.read_text())
-        top = ast.Module(body=[n for n in tree.body if isinstance(n, (ast.Import, ast.ImportFrom))], type_ignores=[])
-        graph[name] = {m for m in _wsmap_imports(ast.unparse(top), name) if m != name and _module_file(m)}
-    # a package's __init__ re-exporting its submodules is not a cycle: drop edges child -> own parent
-    for n in graph:
-        graph[n] = {m for m in graph[n] if not n.startswith(m + ".")}
-    state: dict[str, int] = {}
-
-    def visit(n, stack):
-        state[n] = 1
-        for m in graph.get(n, ()):
-            if state.get(m) == 1:
-                raise AssertionError(f"import cycle: {' -> '.join(stack[stack.index(m):] + [m])}")
-            if not state.get(m):
-                visit(m, stack + [m])
-        state[n] = 2
-
-    for n in sorted(graph):
-        if not state.get(n):
-            visit(n, [n])

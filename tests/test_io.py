@@ -39,7 +39,7 @@ def test_written_file_gets_the_usual_mode(tmp_path):
 
 
 def test_outputs_of_one_run_appear_together_or_not_at_all(tmp_path, monkeypatch):
-    from wsmap import io as IO
+    from wsmap import io
 
     a, b = tmp_path / "map.npz", tmp_path / "map.png"
     a.write_text("old map")
@@ -50,9 +50,9 @@ def test_outputs_of_one_run_appear_together_or_not_at_all(tmp_path, monkeypatch)
             raise OSError(28, "No space left on device")
         return real_replace(src, dst)
 
-    monkeypatch.setattr(IO.os, "replace", failing_replace)
+    monkeypatch.setattr(io.os, "replace", failing_replace)
     with pytest.raises(OSError, match="cannot write .*map.png.*No space left"):
-        with IO.atomic_paths([a, b]) as (ta, tb):
+        with io.atomic_paths([a, b]) as (ta, tb):
             ta.write_text("new map")
             tb.write_text("new png")
     # the first rename had happened: it is undone
@@ -61,14 +61,14 @@ def test_outputs_of_one_run_appear_together_or_not_at_all(tmp_path, monkeypatch)
 
 
 def test_a_new_first_output_is_removed_when_the_second_fails(tmp_path, monkeypatch):
-    from wsmap import io as IO
+    from wsmap import io
 
     a, b = tmp_path / "new.npz", tmp_path / "new.png"
     real_replace = os.replace
-    monkeypatch.setattr(IO.os, "replace", lambda s, d: (_ for _ in ()).throw(OSError(13, "Permission denied"))
+    monkeypatch.setattr(io.os, "replace", lambda s, d: (_ for _ in ()).throw(OSError(13, "Permission denied"))
                         if str(d) == str(b) else real_replace(s, d))
     with pytest.raises(OSError):
-        with IO.atomic_paths([a, b]) as (ta, tb):
+        with io.atomic_paths([a, b]) as (ta, tb):
             ta.write_text("x")
             tb.write_text("y")
     assert os.listdir(tmp_path) == []

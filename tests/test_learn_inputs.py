@@ -1,4 +1,4 @@
-"""Bad inputs of the learn API give clear errors; the package layout (names, compatibility modules, imports)."""
+"""Bad inputs of the learn API give clear errors; the package layout (names, imports)."""
 
 import ast
 import subprocess
@@ -10,19 +10,19 @@ import pytest
 import torch
 
 import wsmap
-from wsmap import data as D
-from wsmap import learn, robots
+from wsmap import datasets, learn, robots
 from wsmap.learn import MLPConfig, SubspaceMLP, TrainConfig, predict_maps_from_file, save, train
+from wsmap.paper.specs import PAPER_SPECS
 
 torch.set_num_threads(1)  # tiny models; the CPU is shared
 
-SMALL = D.scaled(D.PAPER_SPECS["table1_r3_step05"], 200)  # 5³ grid, 36 features
+SMALL = datasets.scaled(PAPER_SPECS["table1_r3_step05"], 200)  # 5³ grid, 36 features
 
 
 @pytest.fixture(scope="module")
 def model():
-    arms, _ = D.draw_samples(SMALL)
-    X = D.features_for(arms, SMALL)
+    arms, _ = datasets.draw_samples(SMALL)
+    X = datasets.features_for(arms, SMALL)
     torch.manual_seed(0)
     cfg = MLPConfig(n_inputs=X.shape[1], n_outputs=125, hidden=[4], init="torch", output_kind="logit")
     return SubspaceMLP(cfg).configure(X).set_map_spec(SMALL)
@@ -66,7 +66,7 @@ def test_non_finite_features_are_refused_not_mapped_to_empty_maps(model, X):
 
 def test_wrong_feature_layout_of_a_map_spec(model):
     with pytest.raises(ValueError, match="has 84 features per arm but the model expects 36"):
-        SubspaceMLP(model.config).set_map_spec(D.PAPER_SPECS["sec62"], nodes=(0, 125))
+        SubspaceMLP(model.config).set_map_spec(PAPER_SPECS["sec62"], nodes=(0, 125))
 
 
 def test_bad_fixed_orientation(model):
@@ -125,18 +125,11 @@ def test_bad_training_data(model):
 # ------------------------------------------------------------------ the layout
 
 
-def test_old_modules_re_export_the_same_objects():
-    from wsmap import models, optim, training
-
-    for name in models.__all__:
-        assert getattr(models, name) is getattr(learn, name), name
-    for name in training.__all__:
-        assert getattr(training, name) is getattr(learn.training, name), name
-    for name in optim.__all__:
-        assert getattr(optim, name) is getattr(learn.optim, name), name
+def test_public_names():
     for name in learn.__all__:
         assert hasattr(learn, name), name
-    assert models.ModelFileError is learn.files.ModelFileError and issubclass(learn.ExtrapolationError, ValueError)
+    assert len(set(learn.__all__)) == len(learn.__all__)
+    assert learn.ModelFileError is learn.files.ModelFileError and issubclass(learn.ExtrapolationError, ValueError)
     assert issubclass(learn.ExtrapolationWarning, UserWarning) and issubclass(learn.ModelFileError, ValueError)
 
 
@@ -179,7 +172,7 @@ def test_learn_has_no_import_cycles_and_no_cli_or_paper():
         visit(m, [])
     outside = {d for deps in graph.values() for d in deps if not d.startswith("wsmap.learn")}
     assert not any(d.startswith(("wsmap.cli", "wsmap.paper")) for d in outside), outside
-    code = ("import sys, wsmap.learn, wsmap.models, wsmap.training, wsmap.optim; "
+    code = ("import sys, wsmap.learn; "
             "bad = [m for m in sys.modules if m.startswith(('wsmap.cli', 'wsmap.paper'))]; "
             "assert not bad, bad")
     subprocess.run([sys.executable, "-c", code], check=True, cwd=Path(wsmap.__file__).parents[2])

@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from wsmap import cli, robots
-from wsmap import data as D
+from wsmap import cli, datasets, robots
 from wsmap.kinematics import DHRobot
 from wsmap.learn import (
     ExtrapolationError,
@@ -22,16 +21,17 @@ from wsmap.learn import (
     predict_maps_from_file,
     save,
 )
+from wsmap.paper.specs import PAPER_SPECS
 
 torch.set_num_threads(1)  # tiny models; the CPU is shared
 
-SMALL = D.scaled(D.PAPER_SPECS["table1_r3_step05"], 300)  # 5³ = 125 nodes, 36 features, spherical wrist
+SMALL = datasets.scaled(PAPER_SPECS["table1_r3_step05"], 300)  # 5³ = 125 nodes, 36 features, spherical wrist
 
 
 @pytest.fixture(scope="module")
 def family():
-    arms, _ = D.draw_samples(SMALL)
-    return arms, D.features_for(arms, SMALL)
+    arms, _ = datasets.draw_samples(SMALL)
+    return arms, datasets.features_for(arms, SMALL)
 
 
 @pytest.fixture(scope="module")
@@ -72,7 +72,7 @@ def test_disjoint_ranges_do_not_stack(model, family):
 
 
 def test_arms_of_the_family_pass(model):
-    test_arms, _ = D.draw_samples(D.test_spec(SMALL, 1000))  # independent arms of the same family
+    test_arms, _ = datasets.draw_samples(datasets.test_spec(SMALL, 1000))  # independent arms of the same family
     maps = model.predict_maps(test_arms)
     assert maps.shape == (1000, 125)
     assert model.predict_maps(robots.puma560()).shape == (125,)
@@ -89,7 +89,7 @@ def test_a_9_m_link_is_refused_naming_parameter_value_and_range(model):
     # with allow_extrapolation: a loud warning and the network's answer
     with pytest.warns(ExtrapolationWarning, match="d_4 = 9 is outside the trained range"):
         out = model.predict_maps(arm(d=(0, 0, 0.15, 9.0, 0, 0)), allow_extrapolation=True)
-    X = D.features_for(D.draw_samples(D.scaled(SMALL, 1))[0], SMALL)
+    X = datasets.features_for(datasets.draw_samples(datasets.scaled(SMALL, 1))[0], SMALL)
     X[0, :18] = np.r_[[0, 0, 0.15, 9.0, 0, 0], [0, 0.43, 0.02, 0, 0, 0], robots.puma560().alpha]
     np.testing.assert_array_equal(out, model.predict(X).numpy()[0, 0])
 
@@ -136,7 +136,7 @@ def test_the_range_is_saved_with_names_and_enforced_from_the_file(tmp_path, mode
     path = save(model, tmp_path / "m.pt", dataset_spec=SMALL)
     loaded, meta = load(path)
     rng = loaded.training_range
-    assert rng.names == tuple(D.feature_names(SMALL)) and rng.samples == model.training_range.samples
+    assert rng.names == tuple(datasets.feature_names(SMALL)) and rng.samples == model.training_range.samples
     np.testing.assert_array_equal(rng.low, model.training_range.low)
     stored = meta["training_range"]
     assert stored["fixed"]["d_1"] == 0.0 and stored["fixed"]["alpha_1"] == float(np.pi / 2)
@@ -155,7 +155,7 @@ def test_save_takes_the_range_from_training_data(tmp_path, model, family):
     arms, X = family
     bare = SubspaceMLP(model.config).set_map_spec(SMALL)
 
-    class Data:  # what wsmap.data.load_dataset returns: .features and .spec
+    class Data:  # what wsmap.datasets.load_dataset returns: .features and .spec
         features, spec = X, SMALL
 
     loaded, _ = load(save(bare, tmp_path / "m.pt", training_data=Data()))
@@ -182,10 +182,10 @@ def test_the_command_line_refuses_a_9_m_link(tmp_path, capsys, model):
 
 
 def test_random_orientation_columns_are_checked_too():
-    spec = D.scaled(D.PAPER_SPECS["table3_workspace"], 200)  # one random orientation per arm
-    arms, fixed = D.draw_samples(spec)
+    spec = datasets.scaled(PAPER_SPECS["table3_workspace"], 200)  # one random orientation per arm
+    arms, fixed = datasets.draw_samples(spec)
     model = SubspaceMLP(MLPConfig(n_inputs=spec.n_features, n_outputs=1323, hidden=[3]))
-    model.configure(D.features_for(arms, spec, fixed)).set_map_spec(spec)
+    model.configure(datasets.features_for(arms, spec, fixed)).set_map_spec(spec)
     model.predict_maps(arms[:3], fixed[:3])
     with pytest.raises(ExtrapolationError, match=r"r_1 = 7 is outside the trained range"):
         model.predict_maps(arms[:1], np.array([7.0, 1.0, 1.0]))

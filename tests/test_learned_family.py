@@ -6,10 +6,16 @@ import re
 import numpy as np
 import pytest
 
-from wsmap import data as D
-from wsmap import datasets as DS
-from wsmap import models, robots
-from wsmap.learn import family as LF
+from wsmap import datasets, learn, robots
+from wsmap.learn.family import (
+    MapRecipe,
+    evaluate_map_model,
+    fit_map_model,
+    learning_curve,
+    map_scores,
+    score_maps,
+    varying_columns,
+)
 from wsmap.learn.training_range import ExtrapolationError
 from wsmap.paper.specs import PANDA7_TOOLDOWN, PAPER_SPECS
 
@@ -22,46 +28,46 @@ pytestmark = pytest.mark.usefixtures("one_thread")  # tests/conftest.py
 def sw_data(tmp_path_factory):
     """300 training and 200 held-out arms of the spherical-wrist family (section 6.2's spec, exact
     labels: milliseconds per arm)."""
-    spec = D.scaled(PAPER_SPECS["sec62"], 300)
+    spec = datasets.scaled(PAPER_SPECS["sec62"], 300)
     path = tmp_path_factory.mktemp("sw") / "sec62.npz"
-    D.build_dataset_files(spec, path, test_samples=200, progress=False)
-    return DS.load_dataset_files(path, DS.test_path_for(path))
+    datasets.build_dataset_files(spec, path, test_samples=200, progress=False)
+    return datasets.load_dataset_files(path, datasets.test_path_for(path))
 
 
 def test_the_recipe_beats_the_family_average_map(sw_data):
     train, test = sw_data
-    model, result = LF.fit_map_model(train, LF.MapRecipe(hidden=(64,), epochs=40, lr=3e-3, batch_size=32))
+    model, result = fit_map_model(train, MapRecipe(hidden=(64,), epochs=40, lr=3e-3, batch_size=32))
     assert result.stop_reason == "max_epochs" and result.stop_epoch == 40
     hist = result.history.to_frame()
     assert hist["loss"].iloc[-1] < 0.5 * hist["loss"].iloc[0]
-    ev = LF.evaluate_map_model(model, test)
+    ev = evaluate_map_model(model, test)
     # the baseline a network must beat: each node reachable where most training arms reach it
     average = np.broadcast_to(train.labels.mean(axis=0) > 0.5, test.labels.shape)
-    base = LF.score_maps(average, test.labels)
+    base = score_maps(average, test.labels)
     assert ev["f"] > base["f"] + 0.05, (ev["f"], base["f"])
     assert ev["samples"] == 200 and ev["nodes"] == 9261
     assert ev["tp"] + ev["fn"] == int(test.labels.sum())
     # inputs are the 4 free DH parameters only
     assert [train.feature_names[c] for c in model.config.input_columns] == ["d_3", "d_4", "a_2", "a_3"]
     # predict_maps of the arms equals thresholding the scores of their feature rows
-    arms = D.arms_from_features(test.features[:5])
-    np.testing.assert_array_equal(model.predict_maps(arms), LF.map_scores(model, test.features[:5]) > 0.5)
+    arms = datasets.arms_from_features(test.features[:5])
+    np.testing.assert_array_equal(model.predict_maps(arms), map_scores(model, test.features[:5]) > 0.5)
 
 
 def test_learning_curve_rows_and_refusals(sw_data):
     train, test = sw_data
-    rows = LF.learning_curve(train, test, [40, 120], LF.MapRecipe(hidden=(16,), epochs=3))
+    rows = learning_curve(train, test, [40, 120], MapRecipe(hidden=(16,), epochs=3))
     assert [r["train_arms"] for r in rows] == [40, 120]
     assert all(0.0 <= r["f"] <= 1.0 and r["seconds"] > 0 and r["epochs"] == 3 for r in rows)
     with pytest.raises(ValueError, match=re.escape("training sizes must be in [20, 300] (the training arms "
                                                    "available); got [301]")):
-        LF.learning_curve(train, test, [40, 301])
+        learning_curve(train, test, [40, 301])
 
 
 def test_score_maps_known_counts():
     truth = np.array([[1, 1, 0, 0], [1, 0, 0, 0]], bool)
     pred = np.array([[1, 0, 1, 0], [1, 0, 0, 0]], bool)
-    s = LF.score_maps(pred, truth)
+    s = score_maps(pred, truth)
     assert (s["tp"], s["fp"], s["fn"]) == (2, 1, 1)
     assert s["precision"] == pytest.approx(2 / 3) and s["recall"] == pytest.approx(2 / 3)
     assert s["node_error"] == pytest.approx(2 / 8)
@@ -78,32 +84,32 @@ def test_score_maps_known_counts():
 ])
 def test_recipe_refusals(kwargs, message):
     with pytest.raises(ValueError, match=re.escape(message)):
-        LF.MapRecipe(**kwargs)
+        MapRecipe(**kwargs)
 
 
 def test_recipe_from_params_round_trip_and_unknown_keys():
-    r = LF.MapRecipe(hidden=(32, 16), epochs=5)
-    assert LF.MapRecipe.from_dict(r.to_dict()) == r
+    r = MapRecipe(hidden=(32, 16), epochs=5)
+    assert MapRecipe.from_dict(r.to_dict()) == r
     with pytest.raises(ValueError, match=re.escape("unknown map recipe keys ['epoch']")):
-        LF.MapRecipe.from_dict({"epoch": 3})
+        MapRecipe.from_dict({"epoch": 3})
 
 
 def test_varying_columns():
     X = np.array([[1.0, 2.0, 3.0], [1.0, 2.5, 3.0]])
-    assert LF.varying_columns(X) == [1]
+    assert varying_columns(X) == [1]
     with pytest.raises(ValueError, match=re.escape("features must be a matrix of at least 2 rows; got shape (3,)")):
-        LF.varying_columns(X[0])
+        varying_columns(X[0])
 
 
 # ------------------------------------------------------------------ the panda7 family's model
 @pytest.fixture(scope="module")
 def panda7_model(tmp_path_factory):
     """A small model of 24 panda7 arms (the real 25³ grid and numerical labels)."""
-    spec = D.scaled(PANDA7_TOOLDOWN, 24)
+    spec = datasets.scaled(PANDA7_TOOLDOWN, 24)
     path = tmp_path_factory.mktemp("p7") / "panda7.npz"
-    D.build_dataset(spec, path, progress=False)
-    train = D.load_dataset(path)
-    model, _ = LF.fit_map_model(train, LF.MapRecipe(hidden=(16,), epochs=2))
+    datasets.build_dataset(spec, path, progress=False)
+    train = datasets.load_dataset(path)
+    model, _ = fit_map_model(train, MapRecipe(hidden=(16,), epochs=2))
     return model, train
 
 
@@ -113,13 +119,13 @@ def test_panda7_maps_come_in_node_order_for_the_family(panda7_model, tmp_path):
     arms = robots.family_arm("panda7", scales)
     maps = model.predict_maps(arms)
     assert maps.shape == (4, 15625) and maps.dtype == bool
-    np.testing.assert_array_equal(maps, LF.map_scores(model, train.features[:4]) > 0.5)
+    np.testing.assert_array_equal(maps, map_scores(model, train.features[:4]) > 0.5)
     # one arm, a batch of any shape, or the scales themselves
     assert model.predict_maps(robots.family_arm("panda7", scales[0])).shape == (15625,)
     np.testing.assert_array_equal(model.predict_maps(scales.reshape(2, 2, 6)), maps.reshape(2, 2, -1))
-    # the file round trip gives the same maps (model, meta = wsmap.models.load(path))
-    path = models.save(model, tmp_path / "panda7_map.pt", dataset_spec=train.spec)
-    loaded, meta = models.load(path)
+    # the file round trip gives the same maps (model, meta = wsmap.learn.load(path))
+    path = learn.save(model, tmp_path / "panda7_map.pt", dataset_spec=train.spec)
+    loaded, meta = learn.load(path)
     np.testing.assert_array_equal(loaded.predict_maps(arms), maps)
     assert meta["map_spec"]["dataset"]["family"] == "panda7"
 

@@ -1,4 +1,4 @@
-"""Tests of wsmap.models: initialisation, the stacked subspace MLP, files."""
+"""Tests of wsmap.learn's networks and files: initialisation, the stacked subspace MLP, model files."""
 
 import dataclasses
 import math
@@ -9,20 +9,10 @@ import pytest
 import torch
 from torch import nn
 
-from wsmap.learn.files import payload_checksum
+from wsmap.learn.files import FORMAT, FORMAT_VERSION, load, payload_checksum, save
+from wsmap.learn.init import matlab_rands_, nguyen_widrow_, torch_default_
+from wsmap.learn.network import MLPConfig, SubspaceMLP, check_features
 from wsmap.metrics import precision_recall_f, threshold_sweep
-from wsmap.models import (
-    FORMAT,
-    FORMAT_VERSION,
-    MLPConfig,
-    SubspaceMLP,
-    check_features,
-    load,
-    matlab_rands_,
-    nguyen_widrow_,
-    save,
-    torch_default_,
-)
 
 torch.set_num_threads(1)  # tiny models; the CPU is shared
 
@@ -306,7 +296,7 @@ def test_wrong_feature_count():
 
 
 def test_trains_as_stacked_model():
-    from wsmap.training import TrainConfig, train
+    from wsmap.learn.training import TrainConfig, train
 
     x = features(60)
     y = (x[:, :M_OUT] > 0).astype(np.float32)
@@ -414,16 +404,17 @@ def test_load_rejects_bad_files(tmp_path, singles):
 
 
 def test_map_spec_is_saved_and_not_carried_by_restacking(tmp_path):
-    from wsmap import data as D
+    from wsmap.datasets import DatasetSpec
+    from wsmap.paper.specs import PAPER_SPECS
 
-    spec = D.PAPER_SPECS["table1_r3_step1"]  # 3³ = 27 nodes, 48 features
+    spec = PAPER_SPECS["table1_r3_step1"]  # 3³ = 27 nodes, 48 features
     stack = SubspaceMLP(MLPConfig(n_inputs=spec.n_features, n_outputs=9, hidden=[4], n_subspaces=3), seeds=[0, 1, 2])
     stack.set_map_spec(spec, assemble=True, threshold=0.4)
     assert stack.map_spec["nodes"] == [0, 27]
     with pytest.warns(UserWarning, match="without a training range: predict_maps will refuse"):
         loaded, meta = load(save(stack, tmp_path / "m.pt"))
     assert loaded.map_spec == stack.map_spec == meta["map_spec"]
-    assert D.DatasetSpec.from_dict(loaded.map_spec["dataset"]) == spec
+    assert DatasetSpec.from_dict(loaded.map_spec["dataset"]) == spec
     # A slice or a restack maps something else: the description is not carried over.
     assert stack.subspace(1).map_spec is None
     assert SubspaceMLP.from_models([stack, stack]).map_spec is None

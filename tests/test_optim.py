@@ -4,8 +4,7 @@ import re
 import pytest
 import torch
 
-from wsmap import optim
-from wsmap.optim import CGB, GDX, OSS, SCG, charalambous_search, make_optimizer, paper_rprop
+from wsmap.learn.optim import CGB, ELEMENTWISE, GDX, OSS, SCG, charalambous_search, make_optimizer, paper_rprop
 
 torch.set_num_threads(1)  # small problems: threads only add overhead (and other agents share the CPU)
 
@@ -146,7 +145,7 @@ def test_unknown_name_fails_with_the_exact_error():
 
 
 def test_elementwise_set():
-    assert optim.ELEMENTWISE == {"rprop"}
+    assert ELEMENTWISE == {"rprop"}
 
 
 def test_line_search_finds_the_minimum_of_a_parabola():

@@ -1,21 +1,27 @@
 """The model as a stand-in for the classical algorithm: map_spec, predict_maps, files, the CLI."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import torch
 
-from wsmap import cli, robots
-from wsmap import data as D
+from wsmap import cli, datasets, robots
 from wsmap import workspace as ws
 from wsmap.kinematics import DHRobot
-from wsmap.learn.files import payload_checksum
-from wsmap.models import MLPConfig, SubspaceMLP, load, make_map_spec, predict_maps_from_file, save
-from wsmap.training import TrainConfig, split_indices, train
+from wsmap.learn.files import load, payload_checksum, save
+from wsmap.learn.mapspec import make_map_spec
+from wsmap.learn.network import MLPConfig, SubspaceMLP
+from wsmap.learn.predictor import predict_maps_from_file
+from wsmap.learn.training import TrainConfig, split_indices, train
+from wsmap.paper.specs import PAPER_SPECS
+from wsmap.workspace.maps import register_map_predictor
 
 torch.set_num_threads(1)  # tiny models; other work shares the CPU
 
-SEC62 = D.PAPER_SPECS["sec62"]  # the 21³ grid on [-1, 1] m, all 9261 nodes, orientation 0
-SMALL = D.scaled(D.PAPER_SPECS["table1_r3_step05"], 800)  # 5³ = 125 nodes, 36 features
+SEC62 = PAPER_SPECS["sec62"]  # the 21³ grid on [-1, 1] m, all 9261 nodes, orientation 0
+SMALL = datasets.scaled(PAPER_SPECS["table1_r3_step05"], 800)  # 5³ = 125 nodes, 36 features
 
 
 def F(pred, truth):
@@ -25,7 +31,7 @@ def F(pred, truth):
 def family_features(spec, n=500, seed=0):
     """Features of ``n`` arms of the spherical-wrist family for ``spec``: the training range of a
     model of that family (what ``configure`` records from real training data)."""
-    return D.features_for(robots.sample_spherical_wrist(n, seed=seed), spec)
+    return datasets.features_for(robots.sample_spherical_wrist(n, seed=seed), spec)
 
 
 def pattern_model(patterns, n_inputs, hidden=(3,)):
@@ -45,7 +51,7 @@ def pattern_model(patterns, n_inputs, hidden=(3,)):
 @pytest.fixture(scope="module")
 def puma_map():
     """PUMA560's exact 9261-node map on the sec62 grid (the classical algorithm)."""
-    return ws.constant_orientation_map(robots.puma560(), D.grid_nodes(SEC62))
+    return ws.constant_orientation_map(robots.puma560(), datasets.grid_nodes(SEC62))
 
 
 @pytest.fixture(scope="module")
@@ -59,8 +65,8 @@ def block_model(puma_map):
 def trained():
     """The improved recipe in miniature (4 free DH inputs standardised, logits, cross-entropy, Adam
     in minibatches) on 800 arms of the 125-node grid: ~2 s."""
-    arms, _ = D.draw_samples(SMALL)
-    X, Y = D.features_for(arms, SMALL), D.labels_for(arms, SMALL)
+    arms, _ = datasets.draw_samples(SMALL)
+    X, Y = datasets.features_for(arms, SMALL), datasets.labels_for(arms, SMALL)
     cfg = MLPConfig(n_inputs=X.shape[1], n_outputs=Y.shape[1], hidden=[32, 32], init="torch",
                     input_columns=[2, 3, 7, 8], input_scaling="standardize", output_kind="logit")
     sp = split_indices(len(X), (0.85, 0.15, 0.0), 0)
@@ -84,10 +90,10 @@ def test_trained_model_round_trip_and_predict_equals_predict_on_features(tmp_pat
     assert loaded.map_spec == model.map_spec == meta["map_spec"]
     assert loaded.map_spec == {"dataset": SMALL.to_dict(), "nodes": [0, 125], "assemble": False, "subspace": 0,
                                "threshold": 0.5}
-    arms, _ = D.draw_samples(D.test_spec(SMALL, 200))
+    arms, _ = datasets.draw_samples(datasets.test_spec(SMALL, 200))
     maps = loaded.predict_maps(arms)
     assert maps.dtype == np.bool_ and maps.shape == (200, 125)
-    X = D.features_for(arms, SMALL)
+    X = datasets.features_for(arms, SMALL)
     np.testing.assert_array_equal(loaded.map_features(arms), X)  # built from a cached row: same values
     np.testing.assert_array_equal(maps, loaded.predict(X).numpy()[0])
     np.testing.assert_array_equal(maps, model.predict_maps(arms))
@@ -101,7 +107,7 @@ def test_trained_model_round_trip_and_predict_equals_predict_on_features(tmp_pat
 
 def test_trained_model_maps_in_classical_node_order(trained):
     model, _ = trained
-    arms, _ = D.draw_samples(D.test_spec(SMALL, 200))
+    arms, _ = datasets.draw_samples(datasets.test_spec(SMALL, 200))
     truth = ws.constant_orientation_map(arms, model.map_nodes())
     np.testing.assert_array_equal(model.map_nodes(), ws.cartesian_grid(-1, 1, 0.5))
     pred = model.predict_maps(arms)
@@ -132,33 +138,33 @@ def test_node_slice_and_selected_spec(puma_map):
     # one block model trained on columns 5292..6614 of the whole-grid labels
     one.set_map_spec(SEC62, nodes=(5292, 6615))
     np.testing.assert_array_equal(one.predict_maps(puma), ws.constant_orientation_map(puma, one.map_nodes()))
-    np.testing.assert_array_equal(one.map_nodes(), D.grid_nodes(SEC62)[block5])
+    np.testing.assert_array_equal(one.map_nodes(), datasets.grid_nodes(SEC62)[block5])
     # the section 6.1 spec labels exactly that block: the default coverage is the same
-    one.set_map_spec(D.PAPER_SPECS["sec61"])
+    one.set_map_spec(PAPER_SPECS["sec61"])
     assert one.map_spec["nodes"] == [5292, 6615]
     np.testing.assert_array_equal(one.predict_maps(puma), puma_map[block5])
 
 
 def test_so3_spec_matches_orientation_map():
-    spec = D.PAPER_SPECS["table1_so3_pi3"]  # 7³ = 343 angle nodes at the point (0.5, 0.5, 0.5)
-    arms, _ = D.draw_samples(D.scaled(spec, 50))
-    maps = ws.orientation_map(arms, D.grid_nodes(spec), spec.fixed)
+    spec = PAPER_SPECS["table1_so3_pi3"]  # 7³ = 343 angle nodes at the point (0.5, 0.5, 0.5)
+    arms, _ = datasets.draw_samples(datasets.scaled(spec, 50))
+    maps = ws.orientation_map(arms, datasets.grid_nodes(spec), spec.fixed)
     k = int(np.flatnonzero((maps.sum(1) > 0) & (maps.sum(1) < 343))[0])  # an arm reaching some orientations
     arm, truth = arms[k], maps[k]
-    model = pattern_model(truth, spec.n_features).set_map_spec(spec).set_training_range(D.features_for(arms, spec))
+    model = pattern_model(truth, spec.n_features).set_map_spec(spec).set_training_range(datasets.features_for(arms, spec))
     np.testing.assert_array_equal(model.predict_maps(arm), truth)
     np.testing.assert_array_equal(model.map_nodes(), ws.angle_grid(0, 2 * np.pi, np.pi / 3))
 
 
 def test_random_orientation_spec_needs_fixed():
-    spec = D.PAPER_SPECS["table3_workspace"]  # one random orientation per sample, block 5
+    spec = PAPER_SPECS["table3_workspace"]  # one random orientation per sample, block 5
     model = SubspaceMLP(MLPConfig(n_inputs=spec.n_features, n_outputs=1323, hidden=[4])).set_map_spec(spec)
-    arms, fixed = D.draw_samples(D.scaled(spec, 5))
-    model.set_training_range(D.features_for(arms, spec, fixed))
+    arms, fixed = datasets.draw_samples(datasets.scaled(spec, 5))
+    model.set_training_range(datasets.features_for(arms, spec, fixed))
     with pytest.raises(ValueError, match="pass fixed"):
         model.predict_maps(arms)
     out = model.predict_maps(arms, fixed)
-    np.testing.assert_array_equal(out, model.predict(D.features_for(arms, spec, fixed)).numpy()[0])
+    np.testing.assert_array_equal(out, model.predict(datasets.features_for(arms, spec, fixed)).numpy()[0])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -196,7 +202,7 @@ def test_map_spec_validation():
     with pytest.raises(ValueError, match=r"covers 1323 nodes \[0, 1323\) but the model gives 9261"):
         model.set_map_spec(SEC62, nodes=(0, 1323), assemble=True)
     with pytest.raises(ValueError, match="not within the nodes"):
-        model.set_map_spec(D.PAPER_SPECS["sec61"], nodes=(0, 1323), subspace=2)
+        model.set_map_spec(PAPER_SPECS["sec61"], nodes=(0, 1323), subspace=2)
     with pytest.raises(ValueError, match="subspace must be an integer in 0..6"):
         model.set_map_spec(SEC62, nodes=(0, 1323), subspace=7)
     with pytest.raises(ValueError, match="unknown map_spec keys"):
@@ -227,6 +233,39 @@ def test_load_refuses_an_invalid_map_spec(tmp_path, block_model):
     payload["map_spec"] = None
     torch.save({**payload, "checksum": payload_checksum(payload)}, path)
     assert load(path)[0].map_spec is None
+
+
+# ---------------------------------------------------------------------------------------------
+# workspace.grid_map(method="model"): registered by wsmap.learn.predictor
+# ---------------------------------------------------------------------------------------------
+
+
+def test_grid_map_model_method_is_the_predictor(tmp_path, block_model, puma_map):
+    path = save(block_model, tmp_path / "puma_blocks.pt")
+    grid = ws.grid_spec("R3", -1, 1, 0.1)
+    flat, used = ws.grid_map(robots.puma560(), grid, method="model", model=path, return_method=True)
+    assert used == "model"
+    np.testing.assert_array_equal(flat, predict_maps_from_file(path, robots.puma560(), (0.0, 0.0, 0.0), grid=grid,
+                                                               whole_grid=True))
+    np.testing.assert_array_equal(flat, puma_map)
+    with pytest.raises(TypeError, match="map predictor 'x' must be callable, got str"):
+        register_map_predictor("x", "not a function")
+
+
+def test_grid_map_model_method_needs_the_learned_library():
+    """A classical user's wsmap.workspace has no "model" method until wsmap.learn is imported, and says so."""
+    code = ("import sys, wsmap.robots as r, wsmap.workspace as ws\n"
+            "from wsmap.workspace.maps import MAP_PREDICTORS\n"
+            "try:\n"
+            "    ws.grid_map(r.puma560(), ws.grid_spec('R3', step=0.5), method='model', model='m.pt')\n"
+            "except ValueError as e:\n"
+            "    print(e)\n"
+            "assert 'torch' not in sys.modules\n"
+            "import wsmap.learn\n"
+            "print(sorted(MAP_PREDICTORS))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
+    assert out == ["method 'model' is supplied by wsmap.learn (trained networks, needs torch): import wsmap.learn first",
+                   "['model']"]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -22,10 +22,9 @@ experiments, run-time comparison, report and notebook runner). A reproduction an
 P. Liao, "Deep Neural Network Based Subspace Learning of Robotic Manipulator Workspace Mapping".
 """
 
-__version__ = "0.1.0"
-
-from . import kinematics, robots, workspace  # noqa: E402
-from .kinematics import (  # noqa: E402
+from . import kinematics, robots, workspace
+from ._version import __version__
+from .kinematics import (
     DHRobot,
     IKSolution,
     SerialChain,
@@ -35,7 +34,7 @@ from .kinematics import (  # noqa: E402
     rpy2r,
     transl,
 )
-from .workspace import (  # noqa: E402
+from .workspace import (
     angle_grid,
     cartesian_grid,
     constant_orientation_map,

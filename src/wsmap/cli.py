@@ -277,6 +277,7 @@ def _run_map(args) -> int:
             raise ValueError("--method model needs a model file (--model PATH)")
         if not Path(args.model).is_file():
             raise ValueError(f"--model {args.model!r}: no such file")
+        from . import learn  # noqa: F401 -- registers the "model" map method of wsmap.workspace.grid_map
     elif args.model:
         raise ValueError(f"--model is only used with --method model (method is {args.method!r})")
     if args.allow_extrapolation and args.method != "model":

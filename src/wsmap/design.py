@@ -66,31 +66,52 @@ __all__ = [
 # ------------------------------------------------------------------------------------------ families
 @dataclass(frozen=True)
 class DesignFamily:
-    """A family of arms seen as a design space.
+    """A family of arms (:class:`wsmap.robots.ArmFamily`) seen as a design space.
 
     Attributes:
-        name: ``"panda7"`` or ``"spherical_wrist"`` (:data:`DESIGN_FAMILIES`).
-        params: names of the ``n`` design parameters, in order.
-        low, high: box bounds ``(n,)`` of the parameters (their units: see the module docstring).
+        family: the arm family of :data:`wsmap.robots.FAMILIES`: its arms, parameters and range.
+        params: the ``n`` design parameters, in order: the family's parameters by name (``panda7``:
+            its own order; the spherical wrist: ``(a2, a3, d3, d4)``).
         length_coeffs: ``(n,)`` metres per unit of each parameter: the total link length is
             ``sum(length_coeffs * params)`` (the absolute nominal lengths for ``panda7``, ones for
             the spherical-wrist family whose parameters are lengths).
         rpy, convention: the default task orientation (rad) and pose convention.
-        method: the classical map's method for this family (``"exact"`` or ``"numerical"``).
     """
 
-    name: str
+    family: robots.ArmFamily
     params: tuple[str, ...]
-    low: np.ndarray
-    high: np.ndarray
     length_coeffs: np.ndarray
     rpy: tuple[float, float, float]
     convention: str
-    method: str
+
+    def __post_init__(self):
+        if sorted(self.params) != sorted(self.family.params):
+            raise ValueError(f"design parameters {self.params} must be the parameters of family "
+                             f"{self.family.name!r} ({', '.join(self.family.params)}) in some order")
+
+    @property
+    def name(self) -> str:
+        """``"panda7"`` or ``"spherical_wrist"`` (:data:`DESIGN_FAMILIES`)."""
+        return self.family.name
 
     @property
     def n_params(self) -> int:
         return len(self.params)
+
+    @property
+    def low(self) -> np.ndarray:
+        """Lower bounds ``(n,)`` of the parameters: the family's range (units: see the module docstring)."""
+        return np.full(self.n_params, self.family.low)
+
+    @property
+    def high(self) -> np.ndarray:
+        """Upper bounds ``(n,)`` of the parameters."""
+        return np.full(self.n_params, self.family.high)
+
+    @property
+    def method(self) -> str:
+        """The classical map's method for this family: ``"exact"`` where the family has a closed form."""
+        return "exact" if self.family.exact else "numerical"
 
     def total_length(self, params):
         """Total link length in metres of ``params`` ``(..., n)`` (numpy or torch): ``(...)``."""
@@ -101,10 +122,8 @@ class DesignFamily:
     def arms(self, params):
         """The arms of ``params`` ``(k, n)``: a batch ``(k,)`` for the classical map."""
         p = np.asarray(params, dtype=np.float64)
-        if self.name == "panda7":
-            return robots.family_arm("panda7", p)
-        a2, a3, d3, d4 = (p[..., i] for i in range(4))
-        return robots.spherical_wrist(a2=a2, a3=a3, d3=d3, d4=d4, name="spherical_wrist")
+        order = [self.params.index(name) for name in self.family.params]
+        return self.family.arms(p[..., order])
 
     def classical(self, params, tasks, rpy=None, convention=None) -> np.ndarray:
         """The classical map of the arms ``params`` ``(k, n)`` at ``tasks`` ``(T, 3)`` (m): bool ``(k, T)``."""
@@ -115,37 +134,32 @@ class DesignFamily:
 
     def model_columns(self, spec) -> list[int]:
         """The feature columns (of :func:`wsmap.datasets.features_for`'s layout for ``spec``) that
-        hold each design parameter, in parameter order."""
-        from .datasets import features as F
+        hold each design parameter, in parameter order: a scaled family's scale columns, else the
+        DH table entries the parameters set."""
+        from .datasets.features import feature_slices
 
-        sl = F.feature_slices(spec)
-        if self.name == "panda7":
-            return list(range(sl["scales"].start, sl["scales"].stop))
-        # spherical wrist (standard DH): d = [0, 0, d3, d4, 0, 0], a = [0, a2, a3, 0, 0, 0]
-        return [sl["a"].start + 1, sl["a"].start + 2, sl["d"].start + 2, sl["d"].start + 3]
+        columns = feature_slices(spec)
+        if self.family.scaled:
+            return [columns["scales"].start + self.family.params.index(name) for name in self.params]
+        entries = dict(zip(self.family.params, self.family.entries()))
+        return [columns[column].start + row for column, row in (entries[name] for name in self.params)]
 
     def feature_template(self, spec) -> np.ndarray:
         """One feature row ``(n_features,)`` for ``spec`` (any arm of the family: the design columns
         are overwritten by :class:`MapSurrogate`)."""
-        from .datasets import features as F
+        from .datasets.features import features_for
 
         mid = (self.low + self.high) / 2
-        arms = mid[None] if self.name == "panda7" else self.arms(mid[None])
-        return F.features_for(arms, spec)[0]
-
-
-def _panda7_family() -> DesignFamily:
-    fam = robots.arm_family("panda7")
-    n = fam.n_params
-    return DesignFamily("panda7", fam.params, np.full(n, fam.low), np.full(n, fam.high), np.abs(fam.nominal),
-                        (math.pi, 0.0, 0.0), "standard", "numerical")
+        arms = mid[None] if self.family.scaled else self.arms(mid[None])
+        return features_for(arms, spec)[0]
 
 
 #: The design families by name. The spherical-wrist range ``[0, 0.5]`` m is the paper's (``beta``).
 DESIGN_FAMILIES: dict[str, DesignFamily] = {
-    "panda7": _panda7_family(),
-    "spherical_wrist": DesignFamily("spherical_wrist", ("a2", "a3", "d3", "d4"), np.zeros(4), np.full(4, 0.5),
-                                    np.ones(4), (0.0, 0.0, 0.0), "standard", "exact"),
+    "panda7": DesignFamily(robots.PANDA7, robots.PANDA7.params, np.abs(robots.PANDA7.nominal), (math.pi, 0.0, 0.0),
+                           "standard"),
+    "spherical_wrist": DesignFamily(robots.SPHERICAL_WRIST, ("a2", "a3", "d3", "d4"), np.ones(4), (0.0, 0.0, 0.0),
+                                    "standard"),
 }
 
 

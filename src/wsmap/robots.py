@@ -1,15 +1,18 @@
-"""Named arms and the random arm families of the paper.
+"""Named arms and the families of arms.
 
 * :func:`load` — a named arm: the paper's ``puma560`` (a :class:`~wsmap.kinematics.DHRobot`) and
   real arms from their manufacturers' published kinematics (:class:`~wsmap.kinematics.SerialChain`),
   each one :class:`ArmTable` in :data:`NAMED` with the document it comes from;
 * :func:`from_dh` (standard or modified DH) and :func:`from_urdf` — any other serial arm;
-* :func:`puma560`, :func:`spherical_wrist` and the samplers of the paper's arm families (batches of
-  :class:`~wsmap.kinematics.DHRobot`, batch shape ``(count,)``, drawn with a seed or a
-  ``numpy.random.Generator``);
-* :func:`family_arm` and :func:`sample_family` — families of real arms with scaled lengths
-  (:data:`ARM_FAMILIES`: ``panda7``, the Panda with its six non-zero DH lengths each scaled by
-  ``U(0.7, 1.3)``), batches of :class:`~wsmap.kinematics.SerialChain`.
+* :func:`puma560` and :func:`spherical_wrist` — the paper's arms from their DH lengths;
+* :class:`ArmFamily` — what a family of arms is (free parameters drawn from ``U(low, high)`` and the
+  arms they make); :data:`FAMILIES` lists every family the package knows: the paper's
+  ``spherical_wrist``, ``arbitrary_6dof`` and ``puma560`` (:class:`DHFamily`, batches of
+  :class:`~wsmap.kinematics.DHRobot`) and ``panda7``, the Panda with its six non-zero DH lengths
+  each scaled by ``U(0.7, 1.3)`` (:class:`ScaledFamily`, batches of
+  :class:`~wsmap.kinematics.SerialChain`); :func:`family_arm`, :func:`sample_family`,
+  :func:`family_params`, and the paper's samplers :func:`sample_spherical_wrist`,
+  :func:`sample_arbitrary_6dof` (drawn with a seed or a ``numpy.random.Generator``).
 
 Every named arm has its base at the manufacturer's base (mounting flange) frame and its end at the
 tool flange (no gripper), its joint zero and signs as the manufacturer's controller, and its joint
@@ -18,8 +21,10 @@ limits in radians (``±inf`` for a continuous joint; ``qlim`` is ``None`` when n
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -31,8 +36,6 @@ __all__ = [
     "PUMA560_QLIM_DEG",
     "puma560",
     "spherical_wrist",
-    "sample_spherical_wrist",
-    "sample_arbitrary_6dof",
     "ArmTable",
     "NAMED",
     "ROBOTS",
@@ -42,13 +45,20 @@ __all__ = [
     "from_urdf",
     "URDFError",
     "ArmFamily",
-    "ARM_FAMILIES",
-    "PANDA7",
+    "DHFamily",
+    "ScaledFamily",
     "FamilyRangeWarning",
+    "SPHERICAL_WRIST",
+    "ARBITRARY_6DOF",
+    "PUMA560",
+    "PANDA7",
+    "FAMILIES",
     "arm_family",
     "family_arm",
     "sample_family",
-    "family_scales",
+    "family_params",
+    "sample_spherical_wrist",
+    "sample_arbitrary_6dof",
 ]
 
 #: PUMA560 joint limits in degrees (Corke's ``mdl_puma560``); the paper ignores them.
@@ -280,7 +290,7 @@ def from_name(name: str, joint_limits: bool | None = None) -> DHRobot | SerialCh
     return load(name, joint_limits=joint_limits)
 
 
-# ------------------------------------------------------------------------------------------ samplers
+# ------------------------------------------------------------------------------------------ arm families
 def _rng(seed) -> np.random.Generator:
     return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
 
@@ -291,61 +301,196 @@ def _check_count(count):
     return int(count)
 
 
-def sample_spherical_wrist(count: int, seed=None, beta: float = 0.5) -> DHRobot:
-    """``count`` arms of the spherical-wrist family with d3, d4, a2, a3 ~ U(0, beta), independent.
-
-    The draw order per arm is (d3, d4, a2, a3): one ``(count, 4)`` uniform array.
-    """
-    count = _check_count(count)
-    if not (beta > 0 and np.isfinite(beta)):
-        raise ValueError(f"beta must be positive and finite, got {beta!r}")
-    u = _rng(seed).uniform(0.0, beta, size=(count, 4))
-    return spherical_wrist(a2=u[:, 2], a3=u[:, 3], d3=u[:, 0], d4=u[:, 1], name="spherical_wrist")
-
-
-def sample_arbitrary_6dof(count: int, seed=None, beta: float = 0.5) -> DHRobot:
-    """``count`` arbitrary 6-DOF arms (Table 3): every d_i, a_i, alpha_i ~ U(0, beta) (m, rad).
-
-    The draw is one ``(count, 3, 6)`` uniform array: rows d, a, alpha.
-    """
-    count = _check_count(count)
-    if not (beta > 0 and np.isfinite(beta)):
-        raise ValueError(f"beta must be positive and finite, got {beta!r}")
-    u = _rng(seed).uniform(0.0, beta, size=(count, 3, 6))
-    return DHRobot(u[:, 0], u[:, 1], u[:, 2], name="arbitrary_6dof")
-
-
-# ------------------------------------------------------------------------------------- arm families
 class FamilyRangeWarning(UserWarning):
-    """An arm of a family was built, with ``allow_extrapolation=True``, from scale factors outside
-    the family's range: no dataset of the family has such an arm."""
+    """An arm of a family was built, with ``allow_extrapolation=True``, from parameters outside the
+    family's range: no dataset of the family has such an arm."""
 
 
 @dataclass(frozen=True)
 class ArmFamily:
-    """A family of arms: a named arm's published table with some of its lengths scaled.
+    """A family of arms: ``n`` free parameters, each drawn from ``U(low, high)``, and the arms they make.
 
-    ``params`` name the scaled lengths after the table's rows as the manufacturer numbers them:
-    ``"d3"`` is the ``d`` of the joint-3 row, ``"a4"`` the ``a`` of the joint-4 row (in the modified
-    convention that is Craig's ``a_3``, acting before joint 4). Arm ``b`` of a batch has length
-    ``k`` equal to ``scales[b, k] * nominal[k]``, every scale in ``[low, high]``; every other number
-    of the table (twists, offsets, flange row, mount, joint limits) is the named arm's.
+    This is the one definition of a family in the package; every family is listed in
+    :data:`FAMILIES`, and the datasets (:attr:`wsmap.datasets.DatasetSpec.family`), the map models
+    and the design study (:mod:`wsmap.design`) take their families from there. Two kinds:
+
+    * :class:`DHFamily` -- 6-joint standard-DH arms (:class:`~wsmap.kinematics.DHRobot`) whose
+      parameters are entries of the DH table (metres, radians): the paper's families
+      :data:`SPHERICAL_WRIST`, :data:`ARBITRARY_6DOF` and :data:`PUMA560` (one arm, no parameter);
+    * :class:`ScaledFamily` -- a named arm's published table with some of its lengths scaled
+      (:class:`~wsmap.kinematics.SerialChain`); the parameters are dimensionless factors
+      (:data:`PANDA7`).
+
+    A parameter is named after the table entry it sets: ``"d3"`` is the ``d`` of the joint-3 row,
+    ``"a4"`` the ``a`` of the joint-4 row, ``"alpha2"`` the twist of the joint-2 row (1-based).
+
+    Attributes:
+        name: the family's name (the key of :data:`FAMILIES`).
+        title: one line for people.
+        params: the names of the parameters, in their order (the columns of ``params`` arrays).
+        low, high: the range of every parameter (the draws are ``U(low, high)``).
+        exact: every arm of the family has a closed-form inverse kinematics (``method="exact"``
+            maps and labels).
     """
 
     name: str
     title: str
-    table: ArmTable
     params: tuple[str, ...]
     low: float
     high: float
+    exact: bool
+
+    #: whether the parameters are scale factors of a named arm's lengths (:class:`ScaledFamily`)
+    scaled: ClassVar[bool] = False
+    #: how an error message names the parameter values
+    _values: ClassVar[str] = "parameters"
+    _value: ClassVar[str] = ""
 
     @property
     def n_params(self) -> int:
         return len(self.params)
 
+    def entries(self) -> list[tuple[str, int]]:
+        """Where each parameter sits in the arm's table: ``(column, row)``, column ``"d"``, ``"a"`` or
+        ``"alpha"``, row 0-based."""
+        out = []
+        for p in self.params:
+            column = p.rstrip("0123456789")
+            out.append((column, int(p[len(column):]) - 1))
+        return out
+
+    def with_range(self, low: float | None = None, high: float | None = None) -> ArmFamily:
+        """The same family with another range of its parameters (e.g. the paper's ``beta``:
+        ``SPHERICAL_WRIST.with_range(high=beta)``)."""
+        low = self.low if low is None else low
+        high = self.high if high is None else high
+        for what, v in (("low", low), ("high", high)):
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not np.isfinite(v):
+                raise ValueError(f"{what} of family {self.name!r} must be a finite number, got {v!r}")
+        if not low < high:
+            raise ValueError(f"the range of family {self.name!r} must have low < high, got [{low}, {high}]")
+        return dataclasses.replace(self, low=float(low), high=float(high))
+
+    def _check_value(self, s: np.ndarray) -> None:
+        """Refuse values no arm of the family can have (any range); NaN and infinities always."""
+        bad = ~np.isfinite(s)
+        if bad.any():
+            idx = tuple(int(i) for i in np.argwhere(bad)[0])
+            raise ValueError(f"{self._value}{self.params[idx[-1]]} is {float(s[idx])!r}: {self._values} must be "
+                             "finite")
+
+    def check_params(self, params, allow_extrapolation: bool = False, stacklevel: int = 2) -> np.ndarray:
+        """``params`` as a float64 array ``(..., n_params)``, checked: numbers of that shape, valid
+        values, and inside ``[low, high]`` -- outside it a ``ValueError``, or with
+        ``allow_extrapolation`` a :class:`FamilyRangeWarning` (``stacklevel`` as
+        :func:`warnings.warn` counts it here)."""
+        if not isinstance(allow_extrapolation, (bool, np.bool_)):
+            raise ValueError(f"allow_extrapolation must be True or False, got {allow_extrapolation!r}")
+        names = ", ".join(self.params)
+        what = self._values + (" of family " + repr(self.name))
+        try:
+            s = np.array(params, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"{what} must be numbers of shape (..., {self.n_params}) ({names}), got "
+                             f"{type(params).__name__}") from None
+        if s.ndim == 0 or s.shape[-1] != self.n_params:
+            raise ValueError(f"{what} must have shape (..., {self.n_params}): one "
+                             f"{'factor' if self.scaled else 'value'} per parameter ({names}) in that order, got "
+                             f"shape {s.shape}")
+        self._check_value(s)
+        out = (s < self.low) | (s > self.high)
+        if out.any():
+            idx = tuple(int(i) for i in np.argwhere(out)[0])
+            where = "" if len(idx) == 1 else f" (arm {idx[0] if len(idx) == 2 else idx[:-1]})"
+            what = (f"{self._value}{self.params[idx[-1]]}{where} is {float(s[idx])!r}, outside the range "
+                    f"[{self.low}, {self.high}] of family {self.name!r}")
+            if not allow_extrapolation:
+                raise ValueError(f"{what}; pass allow_extrapolation=True to build the arm anyway")
+            more = int(out.sum()) - 1
+            word = "scale(s)" if self.scaled else "parameter(s)"
+            warnings.warn(f"{what}{f' (and {more} more {word} out of range)' if more else ''}; built anyway "
+                          "(allow_extrapolation=True): the family's datasets and models have no such arm",
+                          FamilyRangeWarning, stacklevel=stacklevel)
+        return s
+
+    def draw(self, count: int, seed=None) -> np.ndarray:
+        """The parameters ``(count, n_params)`` of ``count`` random arms: one uniform ``U(low, high)``
+        array from ``seed`` (an int, ``None`` or a ``numpy.random.Generator``), so the first ``k``
+        arms of a seed are the arms of ``count = k``."""
+        count = _check_count(count)
+        return _rng(seed).uniform(self.low, self.high, size=(count, self.n_params))
+
+    def sample(self, count: int, seed=None) -> tuple[DHRobot | SerialChain, np.ndarray]:
+        """``count`` random arms: ``(arms, params)``, batch ``(count,)``, ``params`` from :meth:`draw`."""
+        params = self.draw(count, seed)
+        return self.arms(params), params
+
+    def arms(self, params, *, allow_extrapolation: bool = False, stacklevel: int = 2):
+        """The arms of ``params`` ``(..., n_params)``: a batch of shape ``(...)``."""
+        raise NotImplementedError
+
+    def params_of(self, arms) -> np.ndarray:
+        """The parameters ``(..., n_params)`` of arms of the family (read back from them); arms that
+        are not of the family are a ``ValueError`` (``TypeError`` for another kind of robot)."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class DHFamily(ArmFamily):
+    """6-joint standard-DH arms whose free parameters are entries of one DH table.
+
+    ``d``, ``a``, ``alpha`` (6 each; metres, radians) are the table's fixed entries; an entry named
+    by a parameter is set from it. The arms have no joint limits and no tool, as in the paper.
+    """
+
+    d: tuple = (0.0,) * 6
+    a: tuple = (0.0,) * 6
+    alpha: tuple = (0.0,) * 6
+
+    def arms(self, params, *, allow_extrapolation: bool = False, stacklevel: int = 2) -> DHRobot:
+        p = self.check_params(params, allow_extrapolation, stacklevel + 1)
+        shape = p.shape[:-1]
+        table = {k: np.broadcast_to(np.asarray(getattr(self, k), dtype=np.float64), shape + (6,)).copy()
+                 for k in ("d", "a", "alpha")}
+        for k, (column, row) in enumerate(self.entries()):
+            table[column][..., row] = p[..., k]
+        return DHRobot(table["d"], table["a"], table["alpha"], name=self.name)
+
+    def params_of(self, arms: DHRobot, atol: float = 1e-9) -> np.ndarray:
+        if not isinstance(arms, DHRobot):
+            raise TypeError(f"arms of family {self.name!r} must be a DHRobot, got {type(arms).__name__}")
+        free = {(column, row) for column, row in self.entries()}
+        same = arms.n == 6 and arms.tool is None and arms.qlim is None
+        for column in ("d", "a", "alpha") if same else ():
+            fixed = [row for row in range(6) if (column, row) not in free]
+            got = getattr(arms, column)[..., fixed]
+            same = same and np.allclose(got, np.asarray(getattr(self, column))[fixed], rtol=0, atol=atol)
+        if not same:
+            raise ValueError(f"these arms are not of family {self.name!r} ({self.title}; only "
+                             f"{', '.join(self.params) or 'nothing'} may differ, no joint limits, no tool)")
+        return np.stack([getattr(arms, column)[..., row] for column, row in self.entries()], axis=-1)
+
+
+@dataclass(frozen=True)
+class ScaledFamily(ArmFamily):
+    """A named arm's published table (``table``) with some of its lengths scaled.
+
+    ``params`` name the scaled lengths after the table's rows as the manufacturer numbers them (in
+    the modified convention ``"a4"`` is Craig's ``a_3``, acting before joint 4). Arm ``b`` of a
+    batch has length ``k`` equal to ``scales[b, k] * nominal[k]``, every scale in ``[low, high]``;
+    every other number of the table (twists, offsets, flange row, mount, joint limits) is the
+    named arm's.
+    """
+
+    table: ArmTable | None = None
+
+    scaled: ClassVar[bool] = True
+    _values: ClassVar[str] = "scales"
+    _value: ClassVar[str] = "scale of "
+
     def _columns(self) -> list[tuple[int, int]]:
         """``(column, row)`` of each parameter: column 0 is ``d``, 1 is ``a``; rows 0-based."""
-        return [("da".index(p[0]), int(p[1:]) - 1) for p in self.params]
+        return [("da".index(column), row) for column, row in self.entries()]
 
     @property
     def nominal(self) -> np.ndarray:
@@ -353,65 +498,25 @@ class ArmFamily:
         rows = np.array(self.table.rows, dtype=np.float64)
         return np.array([rows[r, c] for c, r in self._columns()])
 
-    def check_scales(self, scales, allow_extrapolation: bool = False, stacklevel: int = 2) -> np.ndarray:
-        """``scales`` as a float64 array ``(..., n_params)``, checked (see :func:`family_arm`);
-        ``stacklevel`` of the :class:`FamilyRangeWarning` as :func:`warnings.warn` counts it here."""
-        if not isinstance(allow_extrapolation, (bool, np.bool_)):
-            raise ValueError(f"allow_extrapolation must be True or False, got {allow_extrapolation!r}")
-        names = ", ".join(self.params)
-        try:
-            s = np.array(scales, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"scales of family {self.name!r} must be numbers of shape (..., {self.n_params}) "
-                             f"({names}), got {type(scales).__name__}") from None
-        if s.ndim == 0 or s.shape[-1] != self.n_params:
-            raise ValueError(f"scales of family {self.name!r} must have shape (..., {self.n_params}): one factor "
-                             f"per parameter ({names}) in that order, got shape {s.shape}")
+    def _check_value(self, s: np.ndarray) -> None:
         bad = ~np.isfinite(s) | (s <= 0)
         if bad.any():
             idx = tuple(int(i) for i in np.argwhere(bad)[0])
             raise ValueError(f"scale of {self.params[idx[-1]]} is {float(s[idx])!r}: scales must be positive "
                              "and finite")
-        out = (s < self.low) | (s > self.high)
-        if out.any():
-            idx = tuple(int(i) for i in np.argwhere(out)[0])
-            where = "" if len(idx) == 1 else f" (arm {idx[0] if len(idx) == 2 else idx[:-1]})"
-            what = (f"scale of {self.params[idx[-1]]}{where} is {float(s[idx])!r}, outside the range "
-                    f"[{self.low}, {self.high}] of family {self.name!r}")
-            if not allow_extrapolation:
-                raise ValueError(f"{what}; pass allow_extrapolation=True to build the arm anyway")
-            more = int(out.sum()) - 1
-            warnings.warn(f"{what}{f' (and {more} more scale(s) out of range)' if more else ''}; built anyway "
-                          "(allow_extrapolation=True): the family's datasets and models have no such arm",
-                          FamilyRangeWarning, stacklevel=stacklevel)
-        return s
 
-    def arms(self, scales, *, allow_extrapolation: bool = False, joint_limits: bool = True,
+    def arms(self, params, *, allow_extrapolation: bool = False, joint_limits: bool = True,
              stacklevel: int = 2) -> SerialChain:
-        """The arms of ``scales`` ``(..., n_params)``: a :class:`SerialChain` of batch shape ``(...)``
-        (see :func:`family_arm`)."""
-        s = self.check_scales(scales, allow_extrapolation, stacklevel + 1)
+        """The arms of ``params`` (scales) ``(..., n_params)``: a :class:`SerialChain` of batch
+        shape ``(...)`` (see :func:`family_arm`)."""
+        s = self.check_params(params, allow_extrapolation, stacklevel + 1)
         rows = np.array(self.table.rows, dtype=np.float64)
         cols = np.broadcast_to(rows[:, :2].T, s.shape[:-1] + (2, self.table.n)).copy()  # (..., 2, n): d, a
         for k, (c, r) in enumerate(self._columns()):
             cols[..., c, r] = s[..., k] * rows[r, c]
         return self.table.chain(joint_limits, d=cols[..., 0, :], a=cols[..., 1, :], name=self.name)
 
-    def sample(self, count: int, seed=None) -> tuple[SerialChain, np.ndarray]:
-        """``count`` arms with independent scales ``U(low, high)``: ``(arms, scales)``, batch ``(count,)``.
-
-        The draw is one ``(count, n_params)`` uniform array, so the first ``k`` arms of a seed are
-        the arms of ``count = k``.
-        """
-        scales = self.draw_scales(count, seed)
-        return self.arms(scales), scales
-
-    def draw_scales(self, count: int, seed=None) -> np.ndarray:
-        """The scales ``(count, n_params)`` of :meth:`sample` alone (no arms built)."""
-        count = _check_count(count)
-        return _rng(seed).uniform(self.low, self.high, size=(count, self.n_params))
-
-    def scales_of(self, arms: SerialChain, atol: float = 1e-12) -> np.ndarray:
+    def params_of(self, arms: SerialChain, atol: float = 1e-12) -> np.ndarray:
         """The scales ``(..., n_params)`` of arms built by :meth:`arms` (read from their fixed
         transforms); an arm that is not of the family (other lengths, twists, joints, limits) is a
         ``ValueError``."""
@@ -447,61 +552,103 @@ class ArmFamily:
         return s
 
 
+#: The paper's spherical-wrist family: d = [0, 0, d3, d4, 0, 0], a = [0, a2, a3, 0, 0, 0], alpha =
+#: [pi/2, 0, -pi/2, pi/2, -pi/2, 0] with d3, d4, a2, a3 ~ U(0, 0.5) m (the paper's beta), drawn in
+#: that order; the PUMA560 (d1 = 0) is one of its arms.
+SPHERICAL_WRIST = DHFamily(name="spherical_wrist", title="spherical-wrist arms, d3, d4, a2, a3 ~ U(0, 0.5) m",
+                           params=("d3", "d4", "a2", "a3"), low=0.0, high=0.5, exact=True,
+                           alpha=tuple(float(x) for x in SPHERICAL_WRIST_ALPHA))
+#: Table 3's arbitrary 6-DOF arms: every d_i, a_i, alpha_i ~ U(0, 0.5) (m, rad), drawn as one
+#: ``(count, 18)`` array (rows d, a, alpha).
+ARBITRARY_6DOF = DHFamily(name="arbitrary_6dof", title="arbitrary 6-DOF arms, every d, a, alpha ~ U(0, 0.5) m, rad",
+                          params=tuple(f"{k}{i}" for k in ("d", "a", "alpha") for i in range(1, 7)),
+                          low=0.0, high=0.5, exact=False)
+_PUMA = puma560()
+#: The PUMA560 (:func:`puma560`, d1 = 0) as a family of one arm: no parameter.
+PUMA560 = DHFamily(name="puma560", title="the PUMA560 (d1 = 0) in every sample", params=(), low=0.0, high=0.5,
+                   exact=True, d=tuple(_PUMA.d.tolist()), a=tuple(_PUMA.a.tolist()), alpha=tuple(_PUMA.alpha.tolist()))
 #: The Franka Emika Panda with the six non-zero lengths of its modified-DH table (d1 = 0.333,
 #: d3 = 0.316, d5 = 0.384, a4 = 0.0825, a5 = -0.0825, a7 = 0.088 m) each scaled by an independent
 #: factor in [0.7, 1.3]; flange row (d = 0.107 m) and joint limits as the Panda's.
-PANDA7 = ArmFamily(name="panda7", title="Franka Emika Panda, six lengths scaled by U(0.7, 1.3)", table=PANDA,
-                   params=("d1", "d3", "d5", "a4", "a5", "a7"), low=0.7, high=1.3)
+PANDA7 = ScaledFamily(name="panda7", title="Franka Emika Panda, six lengths scaled by U(0.7, 1.3)",
+                      params=("d1", "d3", "d5", "a4", "a5", "a7"), low=0.7, high=1.3, exact=False, table=PANDA)
 
-#: The arm families by name (:func:`family_arm`, :func:`sample_family`).
-ARM_FAMILIES: dict[str, ArmFamily] = {f.name: f for f in (PANDA7,)}
+#: Every family of arms, by name: where the package looks a family up (:func:`arm_family`).
+FAMILIES: dict[str, ArmFamily] = {f.name: f for f in (SPHERICAL_WRIST, ARBITRARY_6DOF, PUMA560, PANDA7)}
 
 
 def arm_family(name: str) -> ArmFamily:
-    """The :class:`ArmFamily` ``name``; an unknown name is a ``ValueError`` listing the known ones."""
-    if not isinstance(name, str) or name not in ARM_FAMILIES:
-        raise ValueError(f"unknown arm family {name!r}; known families: {', '.join(ARM_FAMILIES)}")
-    return ARM_FAMILIES[name]
+    """The :class:`ArmFamily` ``name`` of :data:`FAMILIES`; an unknown name is a ``ValueError``
+    listing the known ones."""
+    if not isinstance(name, str) or name not in FAMILIES:
+        raise ValueError(f"unknown arm family {name!r}; known families: {', '.join(FAMILIES)}")
+    return FAMILIES[name]
 
 
-def family_arm(name: str, scales, *, allow_extrapolation: bool = False) -> SerialChain:
-    """A batch of arms of the family ``name`` from their scale factors.
+def family_arm(name: str, params, *, allow_extrapolation: bool = False) -> DHRobot | SerialChain:
+    """A batch of arms of the family ``name`` from their parameters.
 
     Parameters
     ----------
     name : str
-        ``"panda7"`` (:data:`ARM_FAMILIES`): the Franka Panda's modified-DH chain (base: the
-        mounting flange, ``panda_link0``; end: the tool flange) whose lengths d1, d3, d5, a4, a5, a7
-        (0.333, 0.316, 0.384, 0.0825, -0.0825, 0.088 m) are multiplied by ``scales``.
-    scales : array_like, shape (..., 6)
-        Dimensionless factors, in the order d1, d3, d5, a4, a5, a7, each in ``[0.7, 1.3]``.
+        A family of :data:`FAMILIES`, e.g. ``"panda7"``: the Franka Panda's modified-DH chain
+        (base: the mounting flange, ``panda_link0``; end: the tool flange) whose lengths d1, d3,
+        d5, a4, a5, a7 (0.333, 0.316, 0.384, 0.0825, -0.0825, 0.088 m) are multiplied by
+        ``params``, or ``"spherical_wrist"`` (``params`` are d3, d4, a2, a3 in metres).
+    params : array_like, shape (..., n_params)
+        In the family's order (:attr:`ArmFamily.params`), each in ``[low, high]`` (``panda7``:
+        dimensionless factors in ``[0.7, 1.3]``).
     allow_extrapolation : bool
-        Build arms with factors outside ``[0.7, 1.3]`` (still positive and finite), with a
+        Build arms with parameters outside the range (still valid values), with a
         :class:`FamilyRangeWarning`, instead of refusing them.
 
     Returns
     -------
-    SerialChain of batch shape ``scales.shape[:-1]`` (``()`` for one arm), with the Panda's joint
-    limits (rad) and flange; ``fkine`` gives flange poses in the base frame (metres).
+    A batch of shape ``params.shape[:-1]`` (``()`` for one arm): a :class:`SerialChain` with the
+    Panda's joint limits (rad) and flange for ``panda7``, a :class:`DHRobot` for the DH families;
+    ``fkine`` gives flange poses in the base frame (metres).
 
-    An unknown family, a shape other than ``(..., 6)``, a factor that is not a positive finite
-    number, and a factor out of range (without ``allow_extrapolation``) are each a ``ValueError``
-    naming the family, the parameter and the value.
+    An unknown family, a shape other than ``(..., n_params)``, a value that is not valid (not
+    finite; a scale that is not positive), and a value out of range (without
+    ``allow_extrapolation``) are each a ``ValueError`` naming the family, the parameter and the value.
     """
-    return arm_family(name).arms(scales, allow_extrapolation=allow_extrapolation, stacklevel=3)
+    return arm_family(name).arms(params, allow_extrapolation=allow_extrapolation, stacklevel=3)
 
 
-def sample_family(name: str, count: int, seed=None) -> tuple[SerialChain, np.ndarray]:
-    """``count`` random arms of the family ``name``: ``(arms, scales)``.
+def sample_family(name: str, count: int, seed=None) -> tuple[DHRobot | SerialChain, np.ndarray]:
+    """``count`` random arms of the family ``name``: ``(arms, params)``.
 
-    ``scales`` ``(count, 6)`` are independent ``U(0.7, 1.3)`` draws (one ``(count, 6)`` uniform
-    array from ``seed``: an int, ``None``, or a ``numpy.random.Generator``), in the order of
-    :func:`family_arm`; ``arms`` is ``family_arm(name, scales)``, batch shape ``(count,)``.
+    ``params`` ``(count, n_params)`` are independent ``U(low, high)`` draws (one uniform array from
+    ``seed``: an int, ``None``, or a ``numpy.random.Generator``), in the order of
+    :func:`family_arm`; ``arms`` is ``family_arm(name, params)``, batch shape ``(count,)``.
     """
     return arm_family(name).sample(count, seed)
 
 
-def family_scales(name: str, arms: SerialChain) -> np.ndarray:
-    """The scales ``(..., 6)`` of arms of the family ``name`` (built by :func:`family_arm`), read back
-    from their fixed transforms; arms of another kind are a ``ValueError``."""
-    return arm_family(name).scales_of(arms)
+def family_params(name: str, arms) -> np.ndarray:
+    """The parameters ``(..., n_params)`` of arms of the family ``name`` (built by :func:`family_arm`),
+    read back from the arms; arms of another kind are a ``ValueError``."""
+    return arm_family(name).params_of(arms)
+
+
+def _check_beta(beta) -> float:
+    if isinstance(beta, bool) or not isinstance(beta, (int, float, np.integer, np.floating)) or not (
+            beta > 0 and np.isfinite(beta)):
+        raise ValueError(f"beta must be positive and finite, got {beta!r}")
+    return float(beta)
+
+
+def sample_spherical_wrist(count: int, seed=None, beta: float = 0.5) -> DHRobot:
+    """``count`` arms of :data:`SPHERICAL_WRIST` with d3, d4, a2, a3 ~ U(0, beta), independent.
+
+    The draw order per arm is (d3, d4, a2, a3): one ``(count, 4)`` uniform array.
+    """
+    return SPHERICAL_WRIST.with_range(high=_check_beta(beta)).sample(count, seed)[0]
+
+
+def sample_arbitrary_6dof(count: int, seed=None, beta: float = 0.5) -> DHRobot:
+    """``count`` arms of :data:`ARBITRARY_6DOF` (Table 3): every d_i, a_i, alpha_i ~ U(0, beta) (m, rad).
+
+    The draw is one ``(count, 18)`` uniform array: d_1..d_6, a_1..a_6, alpha_1..alpha_6.
+    """
+    return ARBITRARY_6DOF.with_range(high=_check_beta(beta)).sample(count, seed)[0]

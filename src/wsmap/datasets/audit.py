@@ -166,8 +166,9 @@ def audit_labels(spec: DatasetSpec, n_arms: int = 50, seed: int = 0, *, ik: dict
     but skips far nodes).
     """
     _check_spec(spec)
-    if spec.family == "arbitrary_6dof":
-        raise ValueError(f"spec {spec.name!r} has arbitrary 6-DOF arms: no exact labels to audit against")
+    if not spec.arm_family.exact:
+        raise ValueError(f"spec {spec.name!r} has arms of family {spec.family!r}, which has no closed form: no "
+                         "exact labels to audit against")
     n_arms = _int("n_arms", n_arms, 1, MAX_SAMPLES)
     seed = _int("seed", seed, 0)
     settings = dict(tol=1e-10, ilimit=500, rlimit=100, starts=1)

@@ -145,16 +145,16 @@ def scales_for(arms, spec: DatasetSpec) -> np.ndarray:
     """The scale factors ``(count, n)`` of a chain family's arms: ``arms`` is the scales themselves
     (``(count, n)``, checked as :func:`wsmap.robots.family_arm` checks them) or a
     :class:`~wsmap.kinematics.SerialChain` batch ``(count,)`` of the family (scales read back with
-    :func:`wsmap.robots.family_scales`)."""
+    :func:`wsmap.robots.family_params`)."""
     family = robots.arm_family(spec.family)
     if isinstance(arms, SerialChain):
         if len(arms.batch_shape) != 1:
             raise ValueError(f"arms must be a batch of shape (count,), got batch shape {arms.batch_shape}")
-        return family.scales_of(arms)
+        return family.params_of(arms)
     if isinstance(arms, DHRobot):
         raise TypeError(f"spec {spec.name!r} is of family {spec.family!r}: give its arms (a SerialChain from "
                         "wsmap.robots.family_arm) or their scale factors, not a DHRobot")
-    s = family.check_scales(arms)
+    s = family.check_params(arms)
     if s.ndim != 2:
         raise ValueError(f"scales must have shape (count, {family.n_params}), got {s.shape}")
     return s

@@ -13,9 +13,10 @@ arms, 1 for random orientations / points, 2 for IK start configurations. Hence
 The label audits (:mod:`wsmap.datasets.audit`) draw from splits 7, 8 and 9 of their own seed,
 independent of every training and test stream.
 
-A chain family (``panda7``) draws its scale factors from the arms stream as
-:func:`wsmap.robots.sample_family` does (one ``(count, 6)`` uniform array, :func:`draw_scales`);
-it has no random orientation and no LM start configurations (its labels are the map search).
+Every family draws its arms from the arms stream as :meth:`wsmap.robots.ArmFamily.sample` does
+(one ``(count, n_params)`` uniform array; a DH family's range is ``[0, beta]``). A chain family
+(``panda7``) has no random orientation and no LM start configurations (its labels are the map
+search); :func:`draw_scales` gives its scale factors alone.
 
 Random orientation ("workspace" embedding of Table 3)
 ----------------------------------------------------
@@ -36,8 +37,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import robots
-from ..kinematics import DHRobot
 from .spec import MAX_SAMPLES, MAX_STARTS, N_JOINTS, STREAMS, DatasetSpec, _check_spec, _int
 
 __all__ = ["draw_samples", "draw_scales", "start_configurations", "uniform_rotations", "rotation_to_rpy"]
@@ -101,16 +100,7 @@ def rotation_to_rpy(R) -> np.ndarray:
 
 
 def _draw_arms(spec: DatasetSpec, count: int, rng):
-    if spec.is_chain_family:
-        return robots.sample_family(spec.family, count, seed=rng)[0]
-    if spec.family == "spherical_wrist":
-        arms = robots.sample_spherical_wrist(count, seed=rng, beta=spec.beta)
-    elif spec.family == "arbitrary_6dof":
-        arms = robots.sample_arbitrary_6dof(count, seed=rng, beta=spec.beta)
-    else:
-        p = robots.puma560()
-        arms = DHRobot(*(np.tile(x, (count, 1)) for x in (p.d, p.a, p.alpha)), name="puma560")
-    return arms
+    return spec.arm_family.sample(count, seed=rng)[0]
 
 
 def _draw_fixed(spec: DatasetSpec, count: int, rng) -> np.ndarray:
@@ -139,7 +129,7 @@ def draw_scales(spec: DatasetSpec, count: int | None = None) -> np.ndarray:
     if not spec.is_chain_family:
         raise ValueError(f"spec {spec.name!r} is of the DH family {spec.family!r}: its arms have no scale factors")
     count = spec.samples if count is None else _int("count", count, 1, MAX_SAMPLES)
-    return robots.arm_family(spec.family).draw_scales(count, _rng(spec, "arms"))
+    return spec.arm_family.draw(count, _rng(spec, "arms"))
 
 
 def start_configurations(spec: DatasetSpec, count: int | None = None, starts: int | None = None) -> np.ndarray:

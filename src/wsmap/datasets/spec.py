@@ -49,13 +49,13 @@ __all__ = [
     "scaled",
 ]
 
-#: Families of a dataset's arms: the paper's three (DH arms, :class:`~wsmap.kinematics.DHRobot`)
-#: and the real-arm families of :data:`wsmap.robots.ARM_FAMILIES` (:data:`CHAIN_FAMILIES`).
-FAMILIES = ("spherical_wrist", "arbitrary_6dof", "puma560", *robots.ARM_FAMILIES)
+#: Families of a dataset's arms: the names of :data:`wsmap.robots.FAMILIES` (the paper's three DH
+#: families, :class:`~wsmap.kinematics.DHRobot` arms, and the real-arm families).
+FAMILIES = tuple(robots.FAMILIES)
 #: Families whose arms are :class:`~wsmap.kinematics.SerialChain` batches built from scale
-#: factors (:func:`wsmap.robots.family_arm`): their features are the scales, their labels the
+#: factors (:class:`wsmap.robots.ScaledFamily`): their features are the scales, their labels the
 #: numerical map search (:mod:`wsmap.datasets.labels`).
-CHAIN_FAMILIES = tuple(robots.ARM_FAMILIES)
+CHAIN_FAMILIES = tuple(name for name, family in robots.FAMILIES.items() if family.scaled)
 #: The default R3 grid bounds of a chain family (metres), ``lo = -hi``: ``[-1.2, 1.2]³`` holds the
 #: Panda's reach (0.855 m) and nearly all of the scaled arms' tool-down workspace.
 CHAIN_FAMILY_GRID = 1.2
@@ -173,9 +173,10 @@ class DatasetSpec:
     name : str
         Identifier (file names, progress bars).
     family : ``"spherical_wrist"`` | ``"arbitrary_6dof"`` | ``"puma560"`` | ``"panda7"``
-        The arms: the paper's spherical-wrist family (d3, d4, a2, a3 ~ U(0, beta)), Table 3's
-        arbitrary 6-DOF arms (every d_i, a_i, alpha_i ~ U(0, beta)), the PUMA560 (d1 = 0) in
-        every sample (useful with a random orientation), or a real-arm family of
+        The arms, a family of :data:`wsmap.robots.FAMILIES` (:attr:`arm_family`): the paper's
+        spherical-wrist family (d3, d4, a2, a3 ~ U(0, beta)), Table 3's arbitrary 6-DOF arms
+        (every d_i, a_i, alpha_i ~ U(0, beta)), the PUMA560 (d1 = 0) in every sample (useful with
+        a random orientation), or a real-arm family of
         :data:`CHAIN_FAMILIES` (``panda7``: the Franka Panda with its six non-zero DH lengths each
         scaled by U(0.7, 1.3), :func:`wsmap.robots.sample_family`). A chain family's features are
         its scale factors and its labels the numerical map search with its own settings
@@ -237,16 +238,17 @@ class DatasetSpec:
         for k, choices in (("family", FAMILIES), ("scope", SCOPES), ("convention", CONVENTIONS),
                            ("method", METHODS), ("stream", STREAMS)):
             set_(k, _choice(k, getattr(self, k), choices))
-        if self.method == "exact" and self.family == "arbitrary_6dof":
+        family = robots.arm_family(self.family)
+        if self.method == "exact" and not family.exact and not family.scaled:  # (scaled: _check_chain_family)
             raise ValueError(
                 "method 'exact' needs arms of the spherical-wrist family (closed form); "
-                "family 'arbitrary_6dof' needs method 'numerical'"
+                f"family {self.family!r} needs method 'numerical'"
             )
         beta = _real("beta", self.beta)
         if beta <= 0:
             raise ValueError(f"beta must be positive, got {self.beta!r}")
         set_("beta", beta)
-        chain = self.family in CHAIN_FAMILIES
+        chain = family.scaled
         if chain:
             self._check_chain_family()
         half = CHAIN_FAMILY_GRID if chain else 2.0 * beta
@@ -329,6 +331,12 @@ class DatasetSpec:
     def is_chain_family(self) -> bool:
         """Whether the arms are a real-arm family (:data:`CHAIN_FAMILIES`): scale-factor features."""
         return self.family in CHAIN_FAMILIES
+
+    @property
+    def arm_family(self) -> robots.ArmFamily:
+        """The spec's :class:`wsmap.robots.ArmFamily`; a DH family's range is ``[0, beta]``."""
+        family = robots.arm_family(self.family)
+        return family if family.scaled else family.with_range(high=self.beta)
 
     # ---------------------------------------------------------------- derived sizes
     @cached_property

@@ -67,7 +67,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..io import OutputPathError, atomic_paths, check_output_path
 from .features import feature_names, features_for
 from .labels import labels_for

@@ -32,8 +32,9 @@ module                 contents
 Imports go one way: ``device``, ``init``, ``training_range``, ``mapspec`` and ``optim`` depend on nothing here;
 ``network`` on those; ``files`` on ``network``; ``predictor`` on ``files``; ``training`` on ``optim``
 (and ``predictor`` and ``training`` on ``device``); ``manipulability`` on ``network``, ``training`` and
-``files``.
-``wsmap.models``, ``wsmap.training`` and ``wsmap.optim`` re-export the old names from here.
+``files``. ``mapspec`` reads the dataset layout from :mod:`wsmap.datasets`. The classical library
+never imports this package: ``predictor`` registers the ``"model"`` method of
+:func:`wsmap.workspace.grid_map` when it is imported.
 
 A typical round trip::
 

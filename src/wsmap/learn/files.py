@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from .. import __version__
+from .._version import __version__
 from ..io import atomic_path
 from .mapspec import spec_feature_names
 from .network import MLPConfig, SubspaceMLP, training_range_of
@@ -329,7 +329,7 @@ def load(path, *, map_location: str | torch.device = "cpu",
                    "verified")
         if not allow_unverified:
             fail(message + ". Re-create it (make paper), or, if you trust it, re-save it in the current format: "
-                 "model, meta = wsmap.models.load(path, allow_unverified=True); wsmap.models.save(model, path, "
+                 "model, meta = wsmap.learn.load(path, allow_unverified=True); wsmap.learn.save(model, path, "
                  "training_data=<training features>, dataset_spec=meta['dataset_spec'], ...)")
         warnings.warn(f"model {path}: {message}; loaded anyway (allow_unverified=True)", UnverifiedModelWarning,
                       stacklevel=2)

@@ -55,6 +55,7 @@ import numpy as np
 import torch
 
 from ..kinematics import DHRobot, is_spherical_wrist
+from ..robots import SPHERICAL_WRIST
 from .files import ModelFileError, load, save
 from .network import MLPConfig, SubspaceMLP
 from .training import TrainConfig, TrainResult, split_indices, train
@@ -78,10 +79,10 @@ __all__ = [
     "load_manipulability_model",
 ]
 
-#: The family's free parameters, in the input order (metres).
-PARAM_NAMES = ("d3", "d4", "a2", "a3")
+#: The family's free parameters, in the input order (metres): :data:`wsmap.robots.SPHERICAL_WRIST`'s.
+PARAM_NAMES = SPHERICAL_WRIST.params
 #: Their range in the paper's family: each ~ U(0, 0.5) m (``sample_spherical_wrist``'s ``beta``).
-FAMILY_RANGE = (0.0, 0.5)
+FAMILY_RANGE = (SPHERICAL_WRIST.low, SPHERICAL_WRIST.high)
 #: Target transforms: what the network's outputs are, up to the stored scale.
 MANIPULABILITY_TARGETS = ("linear", "sqrt")
 #: The ``extra["kind"]`` tag of a saved manipulability model.
@@ -115,7 +116,7 @@ def _arm_params(arms: DHRobot) -> np.ndarray:
         raise ValueError("arms must have no joint limits: the family's maps (and the paper's) ignore them")
     if np.any(np.abs(arms.d[..., 0]) > 1e-9):
         raise ValueError("arms must have d1 = 0: the family's base height is fixed at 0 and is not an input")
-    return np.stack([arms.d[..., 2], arms.d[..., 3], arms.a[..., 1], arms.a[..., 2]], axis=-1)
+    return SPHERICAL_WRIST.params_of(arms)
 
 
 def manipulability_params(arms_or_params) -> tuple[np.ndarray, bool]:

@@ -14,7 +14,7 @@ the model), a plain dict::
 This module validates such a dict against a model's config (:func:`map_plan`), checks the arms,
 fixed orientation / point and grid a caller asks for (:func:`check_map_arms`,
 :func:`grid_mismatch`, :func:`check_threshold`), and builds the feature rows of arms for the spec
-(:func:`map_features`, the layout of :func:`wsmap.data.features_for`). It does not run networks:
+(:func:`map_features`, the layout of :func:`wsmap.datasets.features_for`). It does not run networks:
 :meth:`~wsmap.learn.network.SubspaceMLP.predict_maps` and :mod:`wsmap.learn.predictor` do.
 """
 
@@ -26,26 +26,9 @@ from typing import Any
 
 import numpy as np
 
+from ..datasets.features import feature_names, features_for, node_slice
+from ..datasets.spec import DatasetSpec
 from ..kinematics import DHRobot
-
-
-
-def _dataset_module():
-    """``wsmap.datasets`` once it is a package (it has an ``__init__.py``), else the flat ``wsmap.data``."""
-    try:
-        from .. import datasets
-    except ModuleNotFoundError as e:
-        if e.name != f"{__package__.rpartition('.')[0]}.datasets":
-            raise
-        datasets = None
-    if datasets is not None and getattr(datasets, "__file__", None) is not None:  # not a bare namespace
-        return datasets
-    from .. import data
-
-    return data
-
-
-_data = _dataset_module()
 
 __all__ = [
     "make_map_spec",
@@ -90,7 +73,7 @@ def check_batch_size(batch_size) -> int | None:
 class MapPlan:
     """A validated ``map_spec``: the parsed dataset spec and how to run the model."""
 
-    spec: Any  # wsmap.data.DatasetSpec
+    spec: DatasetSpec
     nodes: slice  # flat indices of the spec's grid covered by the outputs
     assemble: bool
     key: int | None
@@ -106,10 +89,10 @@ def make_map_spec(dataset, *, nodes=None, assemble: bool = False, subspace: int 
     """A ``map_spec`` dict (module docstring), before checking it against a model.
 
     Args:
-        dataset: the :class:`wsmap.data.DatasetSpec` the model was trained on, or its ``to_dict()``.
+        dataset: the :class:`wsmap.datasets.DatasetSpec` the model was trained on, or its ``to_dict()``.
         nodes: ``(start, stop)`` or a slice of the spec grid's flat node order covered by the
             model's outputs (0-based, stop exclusive; within the spec's labelled nodes). ``None``:
-            the spec's labelled nodes (:func:`wsmap.data.node_slice`); with ``assemble`` and a
+            the spec's labelled nodes (:func:`wsmap.datasets.node_slice`); with ``assemble`` and a
             node count different from the model's, ``start`` is kept and ``stop`` follows from
             the model (see :meth:`~wsmap.learn.network.SubspaceMLP.set_map_spec`).
         assemble: the S subspaces are consecutive node blocks of ``m`` nodes each, concatenated
@@ -117,7 +100,7 @@ def make_map_spec(dataset, *, nodes=None, assemble: bool = False, subspace: int 
         subspace: for a stacked model used without ``assemble``, the subspace that predicts.
         threshold: score threshold (``score > threshold`` is reachable; the paper's 0.5).
     """
-    spec = dataset if isinstance(dataset, _data.DatasetSpec) else _data.DatasetSpec.from_dict(dataset)
+    spec = dataset if isinstance(dataset, DatasetSpec) else DatasetSpec.from_dict(dataset)
     if isinstance(nodes, slice):
         nodes = (nodes.start, nodes.stop)
     return {"dataset": spec.to_dict(), "nodes": None if nodes is None else [nodes[0], nodes[1]],
@@ -135,7 +118,7 @@ def map_plan(config, map_spec) -> tuple[dict[str, Any], MapPlan]:
     if "dataset" not in map_spec:
         raise ValueError("map_spec needs 'dataset' (the DatasetSpec dict the model was trained on)")
     try:
-        spec = _data.DatasetSpec.from_dict(dict(map_spec["dataset"]))
+        spec = DatasetSpec.from_dict(dict(map_spec["dataset"]))
     except (TypeError, ValueError) as e:
         raise ValueError(f"map_spec dataset is not a valid dataset spec: {e}") from None
     n_inputs = getattr(config, "n_inputs", None)
@@ -161,7 +144,7 @@ def map_plan(config, map_spec) -> tuple[dict[str, Any], MapPlan]:
         if isinstance(key, bool) or not isinstance(key, (int, np.integer)) or not 0 <= key < S:
             raise ValueError(f"map_spec subspace must be an integer in 0..{S - 1}; got {key!r}")
         key = int(key)
-    labelled = _data.node_slice(spec)
+    labelled = node_slice(spec)
     nodes = map_spec.get("nodes")
     if nodes is None:
         start = labelled.start
@@ -188,10 +171,10 @@ def map_plan(config, map_spec) -> tuple[dict[str, Any], MapPlan]:
     if spec.fixed != "random":
         if spec.is_chain_family:
             # the nominal arm (scales 1): map_features overwrites the scale columns
-            template = _data.features_for(np.ones((1, spec.n_arm_features)), spec)[0]
+            template = features_for(np.ones((1, spec.n_arm_features)), spec)[0]
         else:
             zero = np.zeros((1, 6))
-            template = _data.features_for(DHRobot(zero, zero, zero), spec)[0]
+            template = features_for(DHRobot(zero, zero, zero), spec)[0]
         template.setflags(write=False)
     return normalised, MapPlan(spec, slice(start, stop), assemble, None if assemble else key, float(threshold),
                                 template)
@@ -204,17 +187,16 @@ def family_scales(arms, spec) -> tuple[np.ndarray, tuple[int, ...]]:
     (a ``DHRobot``, a chain whose fixed transforms are not the family's) are refused with the
     family's ``ValueError`` / ``TypeError``; scales outside the family's range as
     :func:`wsmap.robots.family_arm` refuses them."""
-    from .. import robots
     from ..kinematics import SerialChain
 
-    family = robots.arm_family(spec.family)
+    family = spec.arm_family
     if isinstance(arms, DHRobot):
         raise TypeError(f"the model maps arms of the family {spec.family!r} (dataset {spec.name!r}): give a "
                         "SerialChain from wsmap.robots.family_arm or the scale factors, not a DHRobot")
     if isinstance(arms, SerialChain):
-        scales = family.scales_of(arms)
+        scales = family.params_of(arms)
     else:
-        scales = family.check_scales(arms)
+        scales = family.check_params(arms)
     batch = tuple(scales.shape[:-1])
     return scales.reshape(-1, family.n_params), batch
 
@@ -287,7 +269,7 @@ def map_features(plan: MapPlan, arms, fixed=None) -> np.ndarray:
         else:
             X[:, 0:6], X[:, 6:12], X[:, 12:18] = flat.d, flat.a, flat.alpha
         return X
-    return _data.features_for(flat, spec, fixed)
+    return features_for(flat, spec, fixed)
 
 
 _GRID_KEYS = ("scope", "lo", "hi", "step", "shape")
@@ -333,9 +315,9 @@ def spec_feature_names(dataset_spec, n_features: int) -> list[str] | None:
     if dataset_spec is None:
         return None
     try:
-        spec = dataset_spec if isinstance(dataset_spec, _data.DatasetSpec) else _data.DatasetSpec.from_dict(
+        spec = dataset_spec if isinstance(dataset_spec, DatasetSpec) else DatasetSpec.from_dict(
             dict(dataset_spec.to_dict() if hasattr(dataset_spec, "to_dict") else dataset_spec))
-        names = list(_data.feature_names(spec))
+        names = list(feature_names(spec))
     except (TypeError, ValueError, KeyError, AttributeError):
         return None
     return names if len(names) == n_features else None

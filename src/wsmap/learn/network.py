@@ -60,10 +60,10 @@ import numpy as np
 import torch
 from torch import nn
 
+from ..datasets.features import feature_names, grid_nodes
 from .init import _input_range_array, _to_numpy, matlab_rands_, nguyen_widrow_, torch_default_
 from .mapspec import (
     MapPlan,
-    _data,
     check_batch_size,
     check_threshold,
     make_map_spec,
@@ -608,7 +608,7 @@ class SubspaceMLP(nn.Module):
         """The nodes the maps cover ``(N, 3)`` in output order: positions in metres (R3 specs) or
         angles in radians (SO3 specs); ``N = stop - start`` of ``map_spec["nodes"]``."""
         plan = self._require_plan()
-        return _data.grid_nodes(plan.spec)[plan.nodes]
+        return grid_nodes(plan.spec)[plan.nodes]
 
     def map_features(self, arms, fixed=None) -> np.ndarray:
         """Features ``(B, n_inputs)`` float64 of ``arms`` (a :class:`~wsmap.kinematics.DHRobot`, one
@@ -645,7 +645,7 @@ class SubspaceMLP(nn.Module):
 
     def set_training_range(self, data) -> SubspaceMLP:
         """Record the training range from ``data``: training features ``(n, n_inputs)`` (numpy or
-        torch), an object with such ``.features`` (a :class:`wsmap.data.Dataset`), or a
+        torch), an object with such ``.features`` (a :class:`wsmap.datasets.Dataset`), or a
         :class:`~wsmap.learn.training_range.TrainingRange`. Returns ``self``."""
         self.training_range = training_range_of(data)
         return self
@@ -664,7 +664,7 @@ class SubspaceMLP(nn.Module):
             return
         names = None
         if rng.names is None and self._map_plan is not None:
-            names = _data.feature_names(self._map_plan.spec)
+            names = feature_names(self._map_plan.spec)
         what = "the model"
         if self._map_plan is not None:
             what = f"the model (trained on dataset {self._map_plan.spec.name!r})"
@@ -803,7 +803,7 @@ def training_range_of(data) -> TrainingRange:
     spec = getattr(data, "spec", None)
     if spec is not None:
         try:
-            names = _data.feature_names(spec)
+            names = feature_names(spec)
         except (TypeError, ValueError, AttributeError):
             names = None
     rng = TrainingRange.from_features(_to_numpy(features) if isinstance(features, torch.Tensor) else features)

@@ -5,7 +5,8 @@ model (:func:`wsmap.learn.files.load`, checksum verified), checks that the model
 pose convention and coverage the caller wants, and returns
 :meth:`~wsmap.learn.network.SubspaceMLP.predict_maps` of the arms -- which refuses arms outside the
 model's training range (:mod:`wsmap.learn.training_range`) unless ``allow_extrapolation=True``.
-:func:`predict_maps` is the same for a model in memory.
+:func:`predict_maps` is the same for a model in memory. Importing this module registers the
+``"model"`` method of :func:`wsmap.workspace.grid_map` (:data:`wsmap.workspace.maps.MAP_PREDICTORS`).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from ..workspace.maps import register_map_predictor
 from .device import resolve_device
 from .files import load
 from .mapspec import grid_mismatch
@@ -103,3 +105,13 @@ def predict_maps_from_file(path, arms, fixed=None, *, threshold: float | None = 
     check_model_grid(model, grid=grid, convention=convention, whole_grid=whole_grid, what=f"model {path}")
     return model.predict_maps(arms, fixed, threshold=threshold, batch_size=batch_size,
                               allow_extrapolation=allow_extrapolation)
+
+
+def _whole_grid_map(path, robot, fixed, *, grid: dict, convention: str, allow_extrapolation: bool) -> np.ndarray:
+    """``method="model"`` of :func:`wsmap.workspace.grid_map`: the map ``(N,)`` of one arm on the whole
+    grid ``grid`` from the model file at ``path`` (:func:`predict_maps_from_file` with ``whole_grid``)."""
+    return predict_maps_from_file(path, robot, fixed, grid=grid, convention=convention, whole_grid=True,
+                                  allow_extrapolation=allow_extrapolation)
+
+
+register_map_predictor("model", _whole_grid_map)

@@ -59,7 +59,7 @@ class TrainingRange:
 
     Args:
         low, high: the minimum and maximum of each stored feature over the training arms.
-        names: optional feature names (``wsmap.data.feature_names(spec)``: ``d_1``, ..., ``r_3``).
+        names: optional feature names (``wsmap.datasets.feature_names(spec)``: ``d_1``, ..., ``r_3``).
         samples: how many training rows the range was taken from (``None``: unknown).
 
     Immutable; compare with ``==``. :meth:`to_dict` / :meth:`from_dict` give the plain form stored

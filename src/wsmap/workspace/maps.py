@@ -27,7 +27,7 @@ from .grids import _check_fits, _triple, cartesian_grid, grid_axes, node_neighbo
 
 __all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP_SETTINGS", "target_poses",
            "reachable", "resolve_method", "constant_orientation_map", "orientation_map",
-           "grid_map"]
+           "grid_map", "MAP_PREDICTORS", "register_map_predictor"]
 
 #: ``"auto"`` is ``"exact"`` for an arm of a closed-form family, else ``"numerical"``.
 METHODS = ("auto", "exact", "numerical")
@@ -41,6 +41,18 @@ METHODS = ("auto", "exact", "numerical")
 SOLVERS = ("search", "independent", "paper")
 CONVENTIONS = ("paper", "standard")
 SCOPES = ("R3", "SO3")
+#: Map methods of :func:`grid_map` that other packages supply, by name: ``predict(model, robot,
+#: fixed, *, grid, convention, allow_extrapolation)`` -> bool ``(N,)`` in the grid's node order.
+#: :mod:`wsmap.learn.predictor` registers ``"model"`` (a trained network, torch) when it is
+#: imported, so the classical library never imports the learned one.
+MAP_PREDICTORS: dict = {}
+
+
+def register_map_predictor(name: str, predict) -> None:
+    """Make ``method=name`` of :func:`grid_map` call ``predict`` (see :data:`MAP_PREDICTORS`)."""
+    if not callable(predict):
+        raise TypeError(f"map predictor {name!r} must be callable, got {type(predict).__name__}")
+    MAP_PREDICTORS[name] = predict
 
 
 def _check_choice(name, value, choices):
@@ -293,7 +305,8 @@ def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), m
     ``point``). ``method`` is ``"auto"`` (see :func:`resolve_method`), ``"exact"``, ``"numerical"``
     (``ik`` passes the solver's settings) or
     ``"model"``: ``model`` is then a path to a model file saved with a ``map_spec``
-    (:func:`wsmap.models.predict_maps_from_file`) whose grid, pose convention and fixed orientation
+    (:func:`wsmap.learn.predict_maps_from_file`; :mod:`wsmap.learn` must be imported, it registers
+    the method in :data:`MAP_PREDICTORS`) whose grid, pose convention and fixed orientation
     (R3) or point (SO3) are the ones asked for and which covers every node of the grid; otherwise
     ``ValueError`` says what differs, and arms outside the model's training range are refused unless
     ``allow_extrapolation``.
@@ -304,11 +317,12 @@ def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), m
     if method == "model":
         if model is None:
             raise ValueError("method 'model' needs a model file (--model PATH)")
-        from ..learn.predictor import predict_maps_from_file
-
+        if "model" not in MAP_PREDICTORS:
+            raise ValueError("method 'model' is supplied by wsmap.learn (trained networks, needs torch): "
+                             "import wsmap.learn first")
         fixed = rpy if scope == "R3" else point
-        flat = predict_maps_from_file(model, robot, fixed, grid=grid, convention=convention, whole_grid=True,
-                                      allow_extrapolation=allow_extrapolation)
+        flat = MAP_PREDICTORS["model"](model, robot, fixed, grid=grid, convention=convention,
+                                       allow_extrapolation=allow_extrapolation)
         if flat.shape != (len(nodes),):  # a model file disagreeing with its own spec
             raise ValueError(f"model {model} gave a map of shape {flat.shape}, the grid has {len(nodes)} nodes")
         return (flat, "model") if return_method else flat

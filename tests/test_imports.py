@@ -1,0 +1,251 @@
+"""The package's import graph: no circles at any level, and a classical tool that stays light.
+
+The graph is read from the source, not from what an interpreter happened to load: every import
+statement of every module under ``src/wsmap`` counts, at module level or inside a function
+(a function-level import is a circle waiting for the day someone moves it to the top). An edge
+``A -> B`` means that running ``A``'s imports runs ``B``:
+
+* ``import a.b.c`` and ``from a.b.c import name``: ``a.b.c`` and its packages ``a.b`` (their
+  ``__init__`` runs first), except the packages that contain ``A`` itself (they are running);
+* ``from a.b import c`` where ``a.b.c`` is a module: the module ``a.b.c`` (not ``a.b``'s namespace);
+* ``from .. import name`` where ``name`` is not a module: the package itself (``name`` is read
+  from its ``__init__``, e.g. ``from .. import __version__``), so a package ``__init__`` re-exporting
+  its own submodules is not a circle, but a submodule reading a name back from it is.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib.util
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+
+
+# ------------------------------------------------------------------------------------ the graph
+def _modules(src: Path, top: str) -> dict[str, Path]:
+    """Every module of the package ``top`` under ``src``: dotted name -> file (a package is its ``__init__``)."""
+    out = {}
+    for f in sorted((src / top).rglob("*.py")):
+        rel = f.relative_to(src).with_suffix("")
+        parts = rel.parts[:-1] if rel.name == "__init__" else rel.parts
+        out[".".join(parts)] = f
+    return out
+
+
+def _ancestors(name: str) -> list[str]:
+    parts = name.split(".")
+    return [".".join(parts[:i]) for i in range(1, len(parts))]
+
+
+def import_graph(src: Path, top: str = "wsmap") -> dict[str, set[str]]:
+    """``{module: modules its import statements run}`` for every module of ``top`` (module docstring)."""
+    modules = _modules(src, top)
+
+    def resolve(name: str) -> str | None:
+        """``name`` or its longest prefix that is a module of the package (``None`` outside it)."""
+        while name and name not in modules:
+            name = name.rpartition(".")[0]
+        return name or None
+
+    graph: dict[str, set[str]] = {}
+    for mod, path in modules.items():
+        package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
+        running = set(_ancestors(mod)) | {mod}
+        targets: set[str] = set()
+
+        def add(target: str | None, explicit: bool = True) -> None:
+            if target is None:
+                return
+            # the packages of a module run before it; those containing ``mod`` are running already
+            targets.update(a for a in _ancestors(target) if a not in running)
+            if explicit or target not in running:
+                targets.add(target)
+
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.Import):
+                for alias in node.names:
+                    if alias.name.split(".")[0] == top:
+                        add(resolve(alias.name), explicit=False)
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    base = package.split(".")
+                    base = base[: len(base) - (node.level - 1)]
+                    where = ".".join(base + ([node.module] if node.module else []))
+                else:
+                    where = node.module or ""
+                if where.split(".")[0] != top:
+                    continue
+                for alias in node.names:
+                    sub = f"{where}.{alias.name}"
+                    if sub in modules:
+                        add(sub)  # ``from pkg import submodule``: the submodule
+                    else:
+                        add(resolve(where))  # a name read from ``where``'s namespace
+        graph[mod] = targets - {mod}
+    return graph
+
+
+def knots(graph: dict[str, set[str]]) -> list[set[str]]:
+    """The strongly connected components of more than one module (Tarjan's algorithm): the modules
+    of a knot all import each other, through circles."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    components: list[set[str]] = []
+
+    def strongconnect(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                strongconnect(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = set()
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                comp.add(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                components.append(comp)
+
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(limit, 10 * len(graph) + 100))
+    try:
+        for v in sorted(graph):
+            if v not in index:
+                strongconnect(v)
+    finally:
+        sys.setrecursionlimit(limit)
+    return components
+
+
+def circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """One circle ``[a, b, ..., a]`` through each knot (:func:`knots`): a shortest path from its
+    first module back to itself within the knot; sorted."""
+    out = []
+    for comp in knots(graph):
+        start = min(comp)
+        # breadth-first from start's successors back to start, inside the component
+        prev: dict[str, str] = {}
+        frontier = [start]
+        found = False
+        while frontier and not found:
+            nxt = []
+            for v in frontier:
+                for w in sorted(graph[v] & comp):
+                    if w == start:
+                        prev[start] = v
+                        found = True
+                        break
+                    if w not in prev:
+                        prev[w] = v
+                        nxt.append(w)
+                if found:
+                    break
+            frontier = nxt
+        path = [start]
+        v = prev[start]
+        while v != start:
+            path.append(v)
+            v = prev[v]
+        out.append([start] + path[1:][::-1] + [start])
+    return sorted(out)
+
+
+# ------------------------------------------------------------------------------------ the finder itself
+def _package(tmp_path: Path, files: dict[str, str]) -> Path:
+    for rel, text in files.items():
+        f = tmp_path / rel
+        f.parent.mkdir(parents=True, exist_ok=True)
+        f.write_text(text)
+    return tmp_path
+
+
+def test_the_graph_sees_function_level_and_relative_imports(tmp_path):
+    src = _package(tmp_path, {
+        "pkg/__init__.py": "from . import a\nfrom .sub import b\n",
+        "pkg/a.py": "def f():\n    from .sub.b import g\n    return g\n",
+        "pkg/sub/__init__.py": "",
+        "pkg/sub/b.py": "import os\nfrom ..c import h\n",
+        "pkg/c.py": "def h():\n    import pkg.a\n",
+    })
+    g = import_graph(src, "pkg")
+    assert g["pkg"] == {"pkg.a", "pkg.sub", "pkg.sub.b"}
+    assert g["pkg.a"] == {"pkg.sub", "pkg.sub.b"}  # the function-level import, and the package it runs
+    assert g["pkg.sub.b"] == {"pkg.c"}  # ``..c`` resolved; ``os`` is outside the package
+    assert g["pkg.c"] == {"pkg.a"}
+    assert circles(g) == [["pkg.a", "pkg.sub.b", "pkg.c", "pkg.a"]]
+    assert knots(g) == [{"pkg.a", "pkg.sub.b", "pkg.c"}]
+
+
+def test_a_package_reexporting_its_submodules_is_not_a_circle_but_reading_it_back_is(tmp_path):
+    src = _package(tmp_path, {
+        "pkg/__init__.py": "from .version import V\nfrom . import tools\n",
+        "pkg/version.py": "V = 1\n",
+        "pkg/tools.py": "from . import version\nfrom .version import V\n",
+    })
+    g = import_graph(src, "pkg")
+    assert g["pkg.tools"] == {"pkg.version"} and circles(g) == []
+    (src / "pkg" / "tools.py").write_text("def f():\n    from . import V\n    return V\n")
+    g = import_graph(src, "pkg")
+    assert g["pkg.tools"] == {"pkg"}
+    assert circles(g) == [["pkg", "pkg.tools", "pkg"]]
+
+
+# ------------------------------------------------------------------------------------ wsmap
+def test_no_import_circles():
+    """No circle of imports between the modules of wsmap, at module level or inside functions."""
+    graph = import_graph(SRC)
+    found = [f"{' -> '.join(c)}  (a knot of {len(k)} modules: {', '.join(sorted(k))})"
+             for c, k in zip(circles(graph), sorted(knots(graph), key=min))]
+    assert not found, "import circles:\n" + "\n".join(found)
+
+
+def test_the_classical_library_does_not_import_the_learned_one():
+    graph = import_graph(SRC)
+    learned = ("wsmap.learn", "wsmap.datasets", "wsmap.paper", "wsmap.design", "wsmap.cli")
+    for mod, targets in graph.items():
+        if mod.startswith(("wsmap.workspace", "wsmap.kinematics")) or mod in ("wsmap.robots", "wsmap"):
+            bad = sorted(t for t in targets if t.startswith(learned))
+            assert not bad, f"{mod} imports {bad}"
+
+
+@pytest.mark.parametrize("module", ["wsmap", "wsmap.workspace", "wsmap.kinematics", "wsmap.robots"])
+def test_the_classical_tool_stays_light(module):
+    """A classical user's import loads neither torch nor the learned side (fresh interpreter)."""
+    code = (f"import sys, json, {module}; "
+            "print(json.dumps(sorted(m for m in sys.modules if m.split('.')[0] in ('torch', 'wsmap'))))")
+    loaded = json.loads(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                       check=True).stdout)
+    assert module in loaded
+    heavy = [m for m in loaded if m == "torch" or m.startswith(("torch.", "wsmap.learn", "wsmap.datasets",
+                                                                 "wsmap.paper"))]
+    assert not heavy, f"import {module} loads {heavy}"
+
+
+def test_no_compatibility_modules():
+    for old in ("wsmap.data", "wsmap.models", "wsmap.training", "wsmap.optim"):
+        assert importlib.util.find_spec(old) is None, f"{old} is back: import wsmap.datasets / wsmap.learn"
+
+
+def test_version_lives_in_its_own_module():
+    from wsmap import _version
+    import wsmap
+
+    assert wsmap.__version__ == _version.__version__
+    graph = import_graph(SRC)
+    readers = sorted(m for m, t in graph.items() if "wsmap" in t)
+    assert readers == [], f"these modules read names from the package root: {readers}"
