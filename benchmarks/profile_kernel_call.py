@@ -7,7 +7,7 @@ a cProfile of 20 calls.
 import cProfile, pstats, time, numpy as np
 from wsmap import robots, workspace as ws
 from wsmap.kinematics import ikine_search, lm_compiled
-from wsmap.kinematics.ik import search as S
+from wsmap.kinematics.ik import search
 lm_compiled.set_threads(2)
 puma = robots.puma560()
 nodes = ws.cartesian_grid(-1, 1, 0.1)
@@ -18,17 +18,17 @@ ts = []
 for _ in range(15):
     t0 = time.perf_counter(); ikine_search(puma, T); ts.append(time.perf_counter() - t0)
 print("best ms", min(ts) * 1e3)
-orig = S.run_compiled
+orig = search.run_compiled
 kt = []
 def timed(*a, **k):
     t0 = time.perf_counter(); r = orig(*a, **k); kt.append(time.perf_counter() - t0); return r
-S.run_compiled = timed
+search.run_compiled = timed
 ts = []
 for _ in range(15):
     kt.clear(); t0 = time.perf_counter(); ikine_search(puma, T); ts.append((time.perf_counter() - t0, sum(kt)))
 b = min(ts)
 print("total %.2f ms, kernel %.2f ms, python %.2f ms" % (b[0] * 1e3, b[1] * 1e3, (b[0] - b[1]) * 1e3))
-S.run_compiled = orig
+search.run_compiled = orig
 pr = cProfile.Profile(); pr.enable()
 for _ in range(20): ikine_search(puma, T)
 pr.disable(); pstats.Stats(pr).sort_stats("tottime").print_stats(12)

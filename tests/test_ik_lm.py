@@ -5,7 +5,7 @@ Appendix's counting at its edges, and the answer's fields."""
 import numpy as np
 import pytest
 
-from wsmap import kinematics as K
+from wsmap import kinematics
 from wsmap import robots
 from wsmap import workspace as ws
 from wsmap.kinematics import IKReason, lm_compiled
@@ -27,12 +27,12 @@ def grid_sample():
 
 @pytest.fixture(scope="module")
 def unreachable(puma, grid_sample):
-    exact = K.wrist_centre_reachable(puma, grid_sample[:, :3, 3])
+    exact = kinematics.wrist_centre_reachable(puma, grid_sample[:, :3, 3])
     return grid_sample[~exact][:60]
 
 
 def test_success_mask_and_converged_iterations_match_the_reference(puma, grid_sample):
-    ref, new = ikine_LM_reference(puma, grid_sample), K.ikine_LM(puma, grid_sample)
+    ref, new = ikine_LM_reference(puma, grid_sample), kinematics.ikine_LM(puma, grid_sample)
     assert 50 < ref.success.sum() < 250  # a real mix of reachable and unreachable nodes
     np.testing.assert_array_equal(new.success, ref.success)
     ok = new.success
@@ -43,19 +43,19 @@ def test_success_mask_and_converged_iterations_match_the_reference(puma, grid_sa
     assert np.all(new.iterations[~ok] <= 500) and np.all(new.iterations[~ok] > 100)
     np.testing.assert_allclose(new.residual[~ok], ref.residual[~ok], rtol=1e-6)
     # the exact map agrees too
-    exact = K.wrist_centre_reachable(puma, grid_sample[:, :3, 3])
+    exact = kinematics.wrist_centre_reachable(puma, grid_sample[:, :3, 3])
     assert not np.any(ok & ~exact)
 
 
 def test_per_target_arms_and_a_tool_match_the_reference():
     rng = np.random.default_rng(3)
     arms = robots.sample_arbitrary_6dof(120, seed=4)
-    tool = K.transl([0.01, -0.02, 0.05])
-    tool[:3, :3] = K.rpy2r([0.1, -0.2, 0.3])
-    arms = K.DHRobot(arms.d, arms.a, arms.alpha, tool=tool)
+    tool = kinematics.transl([0.01, -0.02, 0.05])
+    tool[:3, :3] = kinematics.rpy2r([0.1, -0.2, 0.3])
+    arms = kinematics.DHRobot(arms.d, arms.a, arms.alpha, tool=tool)
     T = arms.fkine(rng.uniform(-np.pi, np.pi, (120, 6)))
     T[60:, :3, 3] *= 3.0  # half of them moved out of reach
-    ref, new = ikine_LM_reference(arms, T), K.ikine_LM(arms, T)
+    ref, new = ikine_LM_reference(arms, T), kinematics.ikine_LM(arms, T)
     np.testing.assert_array_equal(new.success, ref.success)
     np.testing.assert_array_equal(new.iterations[new.success], ref.iterations[ref.success])
     assert new.success[:60].sum() > 20 and not new.success[60:].any()
@@ -65,7 +65,7 @@ def test_per_target_arms_and_a_tool_match_the_reference():
 def test_small_limits_match_the_reference(puma, grid_sample, ilimit, rlimit):
     T = grid_sample[:120]
     ref = ikine_LM_reference(puma, T, ilimit=ilimit, rlimit=rlimit)
-    new = K.ikine_LM(puma, T, ilimit=ilimit, rlimit=rlimit)
+    new = kinematics.ikine_LM(puma, T, ilimit=ilimit, rlimit=rlimit)
     np.testing.assert_array_equal(new.success, ref.success)
     assert np.all(new.iterations <= ilimit)
     np.testing.assert_array_equal(new.iterations[new.success], ref.iterations[ref.success])
@@ -80,7 +80,7 @@ def test_small_limits_match_the_reference(puma, grid_sample, ilimit, rlimit):
 def test_target_at_start_pose_succeeds_at_first_iteration(puma):
     T = puma.fkine(np.zeros(6))[None]
     for ilimit, expected in ((0, 0), (1, 1), (500, 1)):
-        for solve in (K.ikine_LM, ikine_LM_reference):
+        for solve in (kinematics.ikine_LM, ikine_LM_reference):
             res = solve(puma, T, ilimit=ilimit)
             assert res.success[0] and res.iterations[0] == expected and res.residual[0] == 0.0
 
@@ -91,7 +91,7 @@ def test_stagnated_failures_are_counted_to_their_limits(puma, unreachable):
     # min(rlimit + 1, ilimit) iterations, in both implementations (where a failure stops at the
     # local minimum depends on rounding, so the counts of the two need not agree)
     for ilimit, rlimit in ((60, 100), (120, 30), (200, 45)):
-        for solve in (K.ikine_LM, ikine_LM_reference):
+        for solve in (kinematics.ikine_LM, ikine_LM_reference):
             res = solve(puma, unreachable, ilimit=ilimit, rlimit=rlimit)
             assert not res.success.any()
             assert np.all(res.iterations <= ilimit)
@@ -104,7 +104,7 @@ def test_round_trip_on_random_reachable_poses():
     arms = robots.sample_spherical_wrist(200, seed=22)
     q_true = rng.uniform(-np.pi, np.pi, (200, 6))
     T = arms.fkine(q_true)
-    res = K.ikine_LM(arms, T, q0=q_true + rng.normal(0.0, 0.3, q_true.shape))
+    res = kinematics.ikine_LM(arms, T, q0=q_true + rng.normal(0.0, 0.3, q_true.shape))
     assert res.success.mean() > 0.9
     ok = res.success
     np.testing.assert_allclose(arms[ok].fkine(res.q[ok]), T[ok], atol=1e-9)
@@ -114,20 +114,20 @@ def test_round_trip_on_random_reachable_poses():
 
 def test_chunks_threads_and_progress_change_no_result(puma, grid_sample):
     seen = []
-    whole = K.ikine_LM(puma, grid_sample[:90])
-    parts = K.ikine_LM(puma, grid_sample[:90], chunk=32, progress=seen.append)
+    whole = kinematics.ikine_LM(puma, grid_sample[:90])
+    parts = kinematics.ikine_LM(puma, grid_sample[:90], chunk=32, progress=seen.append)
     assert seen == [32, 32, 26]
     before = lm_compiled.threads()
     try:
         lm_compiled.set_threads(1)
-        one_thread = K.ikine_LM(puma, grid_sample[:90])
+        one_thread = kinematics.ikine_LM(puma, grid_sample[:90])
     finally:
         lm_compiled.set_threads(before)
     # a target's arithmetic does not depend on the other targets in its chunk: identical bits
     for other in (parts, one_thread):
         for f in ("q", "success", "iterations", "residual", "reason"):
             np.testing.assert_array_equal(getattr(whole, f), getattr(other, f))
-    one = K.ikine_LM(puma, grid_sample[7])
+    one = kinematics.ikine_LM(puma, grid_sample[7])
     assert one.iterations == whole.iterations[7] and np.array_equal(one.q, whole.q[7])
 
 
@@ -135,9 +135,9 @@ def test_reasons_of_the_papers_lm():
     limited = robots.puma560(joint_limits=True)
     rng = np.random.default_rng(5)
     q = rng.uniform(-np.pi, np.pi, (60, 6))
-    T = np.concatenate([limited.fkine(q), K.transl([[2.0, 0, 0], [0, 2.5, 0]])])
-    res = K.ikine_LM(limited, T, q0=np.concatenate([q, np.zeros((2, 6))]), check_limits=True)
-    converged = K.ikine_LM(limited, T, q0=np.concatenate([q, np.zeros((2, 6))])).success
+    T = np.concatenate([limited.fkine(q), kinematics.transl([[2.0, 0, 0], [0, 2.5, 0]])])
+    res = kinematics.ikine_LM(limited, T, q0=np.concatenate([q, np.zeros((2, 6))]), check_limits=True)
+    converged = kinematics.ikine_LM(limited, T, q0=np.concatenate([q, np.zeros((2, 6))])).success
     outside = converged & ~limited.within_limits(res.q)
     assert outside.any() and res.success.any()
     np.testing.assert_array_equal(res.success, converged & ~outside)
@@ -150,4 +150,4 @@ def test_reasons_of_the_papers_lm():
 
 def test_ikine_LM_takes_dh_arms_only():
     with pytest.raises(TypeError, match="ikine_LM takes a DHRobot .* use wsmap.kinematics.ikine_search"):
-        K.ikine_LM(robots.load("ur5e"), np.eye(4))
+        kinematics.ikine_LM(robots.load("ur5e"), np.eye(4))

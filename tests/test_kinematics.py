@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from wsmap import kinematics as K
+from wsmap import kinematics
 from wsmap import robots
 
 
@@ -31,7 +31,7 @@ def test_fkine_broadcasts_over_arms_and_configurations():
     q = np.random.default_rng(2).uniform(-np.pi, np.pi, (7, 1, 6))
     T = arms.fkine(q)
     assert T.shape == (7, 5, 4, 4)
-    one = K.DHRobot(arms.d[3], arms.a[3], arms.alpha[3])
+    one = kinematics.DHRobot(arms.d[3], arms.a[3], arms.alpha[3])
     np.testing.assert_allclose(T[4, 3], one.fkine(q[4, 0]), atol=1e-14)
 
 
@@ -57,11 +57,11 @@ def test_jacob0_matches_finite_differences():
 
 def test_pose_error_zero_iff_equal_and_small_rotation_is_angle():
     T = robots.puma560().fkine(np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6]))
-    np.testing.assert_allclose(K.pose_error(T, T), 0.0, atol=1e-15)
-    R = K.rotz(1e-4)
+    np.testing.assert_allclose(kinematics.pose_error(T, T), 0.0, atol=1e-15)
+    R = kinematics.rotz(1e-4)
     T2 = T.copy()
     T2[:3, :3] = R @ T[:3, :3]
-    np.testing.assert_allclose(K.pose_error(T, T2), [0, 0, 0, 0, 0, 1e-4], atol=1e-10)
+    np.testing.assert_allclose(kinematics.pose_error(T, T2), [0, 0, 0, 0, 0, 1e-4], atol=1e-10)
 
 
 def test_ikine_LM_round_trip_on_reachable_poses():
@@ -69,7 +69,7 @@ def test_ikine_LM_round_trip_on_reachable_poses():
     arms = robots.sample_spherical_wrist(50, seed=6)
     q_true = rng.uniform(-np.pi, np.pi, (50, 6))
     T = arms.fkine(q_true)
-    res = K.ikine_LM(arms, T, q0=q_true + rng.normal(0, 0.2, q_true.shape))
+    res = kinematics.ikine_LM(arms, T, q0=q_true + rng.normal(0, 0.2, q_true.shape))
     assert res.success.mean() > 0.9
     err = np.abs(arms.fkine(res.q)[res.success] - T[res.success]).max()
     assert err < 1e-9
@@ -77,8 +77,8 @@ def test_ikine_LM_round_trip_on_reachable_poses():
 
 
 def test_ikine_LM_fails_on_unreachable_target(puma):
-    T = K.transl([2.0, 0.0, 0.0])  # far outside the 0.9 m reach
-    res = K.ikine_LM(puma, T)
+    T = kinematics.transl([2.0, 0.0, 0.0])  # far outside the 0.9 m reach
+    res = kinematics.ikine_LM(puma, T)
     assert not res.success
     assert res.iterations > 100  # ran until the rejection or iteration limit
     assert res.residual > 1.0
@@ -86,31 +86,31 @@ def test_ikine_LM_fails_on_unreachable_target(puma):
 
 def test_ikine_LM_settings_are_used(puma):
     T = puma.fkine(np.array([0.3, -0.4, 0.5, 0.1, 0.7, -0.2]))
-    assert K.ikine_LM(puma, T).success
-    assert not K.ikine_LM(puma, T, ilimit=1).success
+    assert kinematics.ikine_LM(puma, T).success
+    assert not kinematics.ikine_LM(puma, T, ilimit=1).success
 
 
 def test_closed_form_all_branches_reproduce_the_pose():
     rng = np.random.default_rng(7)
     arms = robots.sample_spherical_wrist(200, seed=8)
     T = arms.fkine(rng.uniform(-np.pi, np.pi, (200, 6)))
-    sol = K.ikine_spherical_wrist(arms, T)
+    sol = kinematics.ikine_spherical_wrist(arms, T)
     q, valid = sol.q, sol.success
     assert q.shape == (200, 8, 6) and valid.shape == (200, 8)
     assert valid.all()
-    Tq = K.DHRobot(arms.d[:, None], arms.a[:, None], arms.alpha[:, None]).fkine(q)
+    Tq = kinematics.DHRobot(arms.d[:, None], arms.a[:, None], arms.alpha[:, None]).fkine(q)
     np.testing.assert_allclose(Tq, np.broadcast_to(T[:, None], Tq.shape), atol=1e-9)
     # the 8 branches are distinct configurations for a generic pose
     assert np.all(np.ptp(q[:, :, 1], axis=1) > 1e-6)
 
 
 def test_closed_form_rejects_unreachable_and_other_arms(puma):
-    sol = K.ikine_spherical_wrist(puma, K.transl([2.0, 0.0, 0.0]))
+    sol = kinematics.ikine_spherical_wrist(puma, kinematics.transl([2.0, 0.0, 0.0]))
     q, valid = sol.q, sol.success
     assert not valid.any()
     other = robots.sample_arbitrary_6dof(2, seed=0)
     with pytest.raises(ValueError, match="spherical-wrist family"):
-        K.ikine_spherical_wrist(other, K.transl([0.3, 0.0, 0.0]))
+        kinematics.ikine_spherical_wrist(other, kinematics.transl([0.3, 0.0, 0.0]))
 
 
 def test_joint_limits_reject_what_they_must():
@@ -118,8 +118,8 @@ def test_joint_limits_reject_what_they_must():
     # joint 5 limited to [-100, 100] deg: a pose needing |q5| = 150 deg on every branch is out
     q = np.deg2rad([10, 20, -30, 0, 150, 0])
     T = limited.fkine(q)
-    valid = K.ikine_spherical_wrist(limited, T).success
-    sol = K.ikine_spherical_wrist(robots.puma560(), T)
+    valid = kinematics.ikine_spherical_wrist(limited, T).success
+    sol = kinematics.ikine_spherical_wrist(robots.puma560(), T)
     free_q, free_valid = sol.q, sol.success
     assert free_valid.all()
     ok_by_limits = limited.within_limits(free_q)
@@ -133,10 +133,10 @@ def test_joint_limits_reject_what_they_must():
 def test_wrist_centre_reachability_agrees_with_closed_form():
     arms = robots.sample_spherical_wrist(30, seed=9)
     p = np.random.default_rng(10).uniform(-1, 1, (30, 500, 3))
-    T = K.transl(p)
-    node_arms = K.DHRobot(arms.d[:, None], arms.a[:, None], arms.alpha[:, None])
-    reach = K.wrist_centre_reachable(node_arms, p)
-    valid = K.ikine_spherical_wrist(node_arms, T).success
+    T = kinematics.transl(p)
+    node_arms = kinematics.DHRobot(arms.d[:, None], arms.a[:, None], arms.alpha[:, None])
+    reach = kinematics.wrist_centre_reachable(node_arms, p)
+    valid = kinematics.ikine_spherical_wrist(node_arms, T).success
     np.testing.assert_array_equal(reach, valid.any(axis=-1))
     assert 0.05 < reach.mean() < 0.95
 
@@ -153,7 +153,7 @@ def test_wrist_centre_reachability_agrees_with_closed_form():
 )
 def test_bad_dh_input_is_named(kwargs, message):
     with pytest.raises(ValueError, match=message):
-        K.DHRobot(**kwargs)
+        kinematics.DHRobot(**kwargs)
 
 
 def test_bad_q_and_targets(puma):
@@ -162,9 +162,9 @@ def test_bad_q_and_targets(puma):
     with pytest.raises(ValueError, match="NaN"):
         puma.fkine(np.full(6, np.nan))
     with pytest.raises(ValueError, match=r"shape \(\.\.\., 4, 4\)"):
-        K.ikine_LM(puma, np.eye(3))
+        kinematics.ikine_LM(puma, np.eye(3))
     with pytest.raises(ValueError, match="tol must be positive"):
-        K.ikine_LM(puma, np.eye(4), tol=-1)
+        kinematics.ikine_LM(puma, np.eye(4), tol=-1)
 
 
 def test_unknown_robot_is_named():
@@ -175,11 +175,11 @@ def test_unknown_robot_is_named():
 def test_samplers_follow_the_paper_distribution():
     arms = robots.sample_spherical_wrist(2000, seed=11)
     assert arms.batch_shape == (2000,)
-    assert K.is_spherical_wrist(arms).all()
+    assert kinematics.is_spherical_wrist(arms).all()
     free = np.concatenate([arms.d[:, [2, 3]], arms.a[:, [1, 2]]], axis=1)
     assert free.min() >= 0 and free.max() <= 0.5 and abs(free.mean() - 0.25) < 0.01
     assert not np.allclose(robots.sample_spherical_wrist(3, seed=1).d, robots.sample_spherical_wrist(3, seed=2).d)
     np.testing.assert_array_equal(robots.sample_spherical_wrist(3, seed=1).d, robots.sample_spherical_wrist(3, seed=1).d)
     arb = robots.sample_arbitrary_6dof(100, seed=12)
-    assert not K.is_spherical_wrist(arb).any()
+    assert not kinematics.is_spherical_wrist(arb).any()
     assert arb.alpha.min() >= 0 and arb.alpha.max() <= 0.5

@@ -12,7 +12,7 @@ from wsmap import robots
 from wsmap import workspace as ws
 from wsmap.kinematics import SerialChain, as_chain, ikine_spherical_wrist, rotx, ur_reachable
 from wsmap.kinematics.ik import memo
-from wsmap.kinematics.ik import search as S
+from wsmap.kinematics.ik import search
 from wsmap.kinematics.ik.reach_filter import reach_filter
 from wsmap.kinematics.ik.search import FK_CONFIRM_TOL, map_search
 
@@ -122,7 +122,7 @@ def test_same_map_with_less_work(name, monkeypatch):
         T[:, :3, :3] = R
         new = map_search(arm, T, nb)
         with monkeypatch.context() as m:
-            m.setattr(S, "reach_filter", lambda *a, **k: reach_filter(*a, wrist_orbit=False, **k))
+            m.setattr(search, "reach_filter", lambda *a, **k: reach_filter(*a, wrist_orbit=False, **k))
             old = map_search(arm, T, nb)
         assert np.array_equal(new.success, old.success)
         assert new.iterations.sum() < 0.4 * old.iterations.sum()
