@@ -144,6 +144,7 @@ def knows_key(name: str, key: str) -> bool:
     schema, rest = module.Metrics, key.split(".")
     while rest and rest[0] in schema.__annotations__:
         annotation = schema.__annotations__[rest.pop(0)]
+        annotation = getattr(annotation, "__forward_arg__", annotation)  # TypedDict keeps strings as ForwardRefs
         nested = getattr(module, annotation, None) if isinstance(annotation, str) else annotation
         if not (isinstance(nested, type) and hasattr(nested, "__annotations__") and issubclass(nested, dict)):
             return True  # a plain value or a mapping of values
