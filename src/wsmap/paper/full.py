@@ -19,8 +19,12 @@ part                   what (settings from the params file's section, default pa
 =====================  ==========================================================================
 
 Every part trains with the package's own code (:func:`wsmap.paper.fitting.fit`, scored by
-:func:`wsmap.paper.tables.score_results` / :func:`wsmap.paper.fitting.evaluate`, summarised by the
-``tables`` functions the notebooks use), at exactly the params file's settings. The datasets are
+:func:`wsmap.paper.tables.score_results` / :func:`wsmap.paper.fitting.evaluate`), summarised by
+the code the notebooks' parts use (:func:`wsmap.paper.parts.sec61_subspace.summarise`,
+:func:`wsmap.paper.parts.sec62_puma560.summarise` and ``puma560_map``, the ``tables`` summaries),
+at exactly the params file's settings; §6.1's and §6.2's ``metrics`` follow the parts'
+``PaperScaleMetrics`` schemas. The command is ``wsmap paper full`` (``python -m wsmap paper full``):
+this module has no entry point of its own, so that it never imports the command line. The datasets are
 built on demand at the params file's sizes (``datasets`` section) into ``data/full/`` (not a DVC
 output; git-ignored) with :func:`wsmap.paper.specs.build_pair`, and rebuilt when a file there is of
 another size or spec.

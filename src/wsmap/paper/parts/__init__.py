@@ -121,8 +121,8 @@ def check_metrics(metrics: dict, schema: type, what: str) -> dict:
     missing = [k for k in keys if k not in metrics]
     unknown = [k for k in metrics if k not in keys]
     if missing or unknown:
-        raise ValueError(f"{what}: metrics {'lack ' + str(missing) if missing else ''}"
-                         f"{'; ' if missing and unknown else ''}{'have keys not in the schema ' + str(unknown) if unknown else ''}")
+        problems = ([f"lack {missing}"] if missing else []) + ([f"have keys not in the schema {unknown}"] if unknown else [])
+        raise ValueError(f"{what}: metrics {'; '.join(problems)}")
     return metrics
 
 
