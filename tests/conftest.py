@@ -1,8 +1,9 @@
 """Shared fixtures: the smoke pipeline (params.smoke.yaml) run into one temporary root per session.
 
 ``smoke_root`` builds every dataset of the smoke configuration once; ``smoke_notebook(name)``
-executes a pipeline notebook there (once per session, after the notebooks it depends on), so a
-notebook that reads another's models or metrics finds them, as under ``dvc repro``.
+executes a pipeline notebook there (once per session, after the notebooks whose outputs it reads:
+:func:`wsmap.paper.parts.reads`), so a notebook that reads another's models or metrics finds them,
+as under ``dvc repro``.
 
 ``make test`` runs the tests on two pytest-xdist workers (``-n 2 --dist loadgroup``). Every test
 that uses the smoke pipeline is put in one group, so one worker builds it once and runs the
@@ -18,6 +19,7 @@ import os
 import pytest
 
 from wsmap import paths
+from wsmap.paper import parts
 from wsmap.paper.pipeline import build_datasets, run_notebook
 
 SMOKE_FIXTURES = {"smoke_root", "smoke_notebook"}
@@ -46,14 +48,6 @@ def pytest_collection_modifyitems(config, items):
 
 SMOKE = paths.ROOT / "params.smoke.yaml"
 
-#: Notebooks that read what another notebook wrote (mirrors the deps in dvc.yaml).
-NOTEBOOK_DEPS = {
-    "report": ["classical_workspace", "sec61_subspace", "sec62_puma560", "table1_workspaces",
-               "table2_optimisers", "table3_embeddings", "runtime_comparison", "improved_model", "learned_maps"],
-    "learned_maps": ["improved_model"],
-}
-
-
 @pytest.fixture(scope="session")
 def smoke_root(tmp_path_factory):
     root = tmp_path_factory.mktemp("smoke")
@@ -68,7 +62,7 @@ def smoke_notebook(smoke_root):
 
     def run(name: str):
         if name not in done:
-            for dep in NOTEBOOK_DEPS.get(name, []):
+            for dep in parts.reads(name):  # the parts whose outputs it reads (the registry's)
                 if (paths.NOTEBOOKS / f"{dep}.ipynb").exists():
                     run(dep)
             done[name] = run_notebook(name, SMOKE, smoke_root, timeout=600)

@@ -6,10 +6,11 @@ import json
 import numpy as np
 import pytest
 
-from wsmap import data as D
-from wsmap import metrics as M
-from wsmap import models, paths, robots
+from wsmap import datasets, paths, robots
 from wsmap.kinematics import arm_batch
+from wsmap.learn import files as model_files
+from wsmap.metrics import precision_recall_f
+from wsmap.paper.parts import improved_model
 
 
 @pytest.fixture(scope="module")
@@ -24,6 +25,7 @@ def metrics(out):
 
 def test_metrics_and_figures(out, metrics):
     smoke = paths.load_params("improved_model", paths.ROOT / "params.smoke.yaml")
+    assert list(metrics) == list(improved_model.Metrics.__annotations__)  # the part's schema
     assert metrics["train_samples"] == smoke["train_samples"]
     assert 1 <= metrics["epochs"] <= smoke["max_epochs"]
     # the inputs are the family's free DH parameters, found from the data (constant columns dropped)
@@ -37,11 +39,11 @@ def test_metrics_and_figures(out, metrics):
 
 
 def test_saved_model_maps_the_puma560_as_the_notebook_reported(out, metrics):
-    model, meta = models.load(out.models / "improved_model.pt")
+    model, meta = model_files.load(out.models / "improved_model.pt")
     assert meta["map_spec"]["dataset"]["name"] == "sec62" and meta["map_spec"]["nodes"] == [0, 9261]
     predicted = model.predict_maps(robots.puma560())
-    spec = D.DatasetSpec.from_dict(meta["map_spec"]["dataset"])
-    exact = D.labels_for(arm_batch(robots.puma560()), spec)[0]
+    spec = datasets.DatasetSpec.from_dict(meta["map_spec"]["dataset"])
+    exact = datasets.labels_for(arm_batch(robots.puma560()), spec)[0]
     assert predicted.shape == (9261,)
     assert int((predicted != exact).sum()) == metrics["puma560_nodes_differ"]
-    np.testing.assert_allclose(M.precision_recall_f(predicted, exact).f, metrics["puma560_f"])
+    np.testing.assert_allclose(precision_recall_f(predicted, exact).f, metrics["puma560_f"])

@@ -7,7 +7,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from wsmap import models, paths, robots
+from wsmap import paths, robots
+from wsmap.learn import files as model_files
 
 SMOKE = paths.ROOT / "params.smoke.yaml"
 
@@ -26,7 +27,7 @@ def test_learned_maps_smoke(out):
     assert [r["train_arms"] for r in p7["curve"]] == [*cfg["panda7"]["curve"], p7["train_arms"]]
     assert p7["speed"]["classical_s"] > p7["speed"]["model_s"] > 0
     # the saved model maps the family's arms, in node order, and refuses others
-    model, meta = models.load(out.models / "panda7_map.pt")
+    model, meta = model_files.load(out.models / "panda7_map.pt")
     assert meta["map_spec"]["dataset"]["family"] == "panda7"
     scales = np.full((2, 6), 1.0)
     maps = model.predict_maps(robots.family_arm("panda7", scales))

@@ -2,8 +2,9 @@
 
 Every notebook's papermill parameters cell holds exactly ``params_file`` and ``output_root``; the
 notebook reads its section with ``paths.notebook_params(NAME, params_file)`` and holds no defaults
-of its own, so every key it reads must be in the committed, smoke and paper-scale files alike, and a
-missing key is an error, not a silent default.
+of its own; it hands the section to its part (``wsmap.paper.parts.NAME``), so every key the two
+read must be in the committed, smoke and paper-scale files alike, and a missing key is an error,
+not a silent default.
 """
 
 import ast
@@ -29,6 +30,11 @@ def _source(name):
     return (paths.NOTEBOOKS / "py" / f"{name}.py").read_text()
 
 
+def _part_source(name):
+    """The source of the notebook's part, ``src/wsmap/paper/parts/NAME.py``."""
+    return (paths.ROOT / "src" / "wsmap" / "paper" / "parts" / f"{name}.py").read_text()
+
+
 def _code(name):
     """The code cells of the built notebook (what papermill runs), joined."""
     nb = nbformat.read(paths.NOTEBOOKS / f"{name}.ipynb", as_version=4)
@@ -40,7 +46,8 @@ def _sections(name):
 
 
 def _read_keys(name):
-    return {m.group(2) for m in CFG_KEY.finditer(_source(name))}
+    """The keys the notebook and its part read (``cfg[...]``; a part reads nothing else of it)."""
+    return {m.group(2) for src in (_source(name), _part_source(name)) for m in CFG_KEY.finditer(src)}
 
 
 @pytest.mark.parametrize("name", _notebooks())
@@ -89,7 +96,7 @@ def test_notebook_reads_its_section_and_holds_no_defaults(name):
                 f"{name}: a defaults dict merged with the parameters")
         # the old parameters dict is gone
         assert not (isinstance(node, ast.Name) and node.id == "params"), f"{name}: uses the old `params` dict"
-    assert "cfg.get(" not in _source(name)
+    assert "cfg.get(" not in _source(name) and "cfg.get(" not in _part_source(name)
 
 
 @pytest.mark.parametrize("name", _notebooks())
@@ -98,9 +105,9 @@ def test_every_key_a_notebook_reads_is_in_every_params_file(name):
     assert keys, f"{name} reads no cfg[...] key"
     for f, section in _sections(name).items():
         missing = sorted(keys - set(section))
-        assert not missing, f"{f} section {name!r} lacks {missing}, which notebooks/py/{name}.py reads"
+        assert not missing, f"{f} section {name!r} lacks {missing}, which {name}'s notebook or part reads"
         unread = sorted(set(section) - keys)
-        assert not unread, f"{f} section {name!r} has {unread}, which notebooks/py/{name}.py never reads"
+        assert not unread, f"{f} section {name!r} has {unread}, which {name}'s notebook and part never read"
 
 
 @pytest.mark.parametrize("name", _notebooks())
@@ -139,6 +146,7 @@ def test_notebooks_take_the_papers_numbers_from_published(name):
     """The paper's numbers live in wsmap.paper.published only: no notebook repeats them."""
     numbers = sorted({repr(v) for v in published.PAPER.values() if _distinctive(v)})
     assert "0.9665" in numbers and "5227.8" in numbers  # the guard guards something
-    src = _source(name)
-    found = [n for n in numbers if re.search(rf"(?<![\d.]){re.escape(n)}(?!\d)", src)]
-    assert not found, f"notebooks/py/{name}.py repeats the paper's {found}: use wsmap.paper.published"
+    for what, src in ((f"notebooks/py/{name}.py", _source(name)),
+                      (f"src/wsmap/paper/parts/{name}.py", _part_source(name))):
+        found = [n for n in numbers if re.search(rf"(?<![\d.]){re.escape(n)}(?!\d)", src)]
+        assert not found, f"{what} repeats the paper's {found}: use wsmap.paper.published"

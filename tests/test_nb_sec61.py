@@ -7,10 +7,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from wsmap import data as D
-from wsmap import models, paths, robots
+from wsmap import datasets, paths, robots
 from wsmap.kinematics import arm_batch
+from wsmap.learn import files as model_files
+from wsmap.paper.parts import sec61_subspace
 from wsmap.paper.published import SEC61
+from wsmap.paper.specs import PAPER_SPECS
 
 FIGURES = ("sec61_gradient", "sec61_loss", "sec61_test_error", "sec61_sections", "sec61_threshold_sweep")
 
@@ -28,6 +30,7 @@ def metrics(out):
 def test_metrics_keys_and_ranges(metrics):
     smoke = paths.load_params("sec61_subspace", paths.ROOT / "params.smoke.yaml")
     sessions = smoke["sessions"]
+    assert set(metrics) == set(sec61_subspace.Metrics.__annotations__)  # the part's schema
     assert metrics["sessions"] == sessions and len(metrics["f_sessions"]) == sessions
     assert len(metrics["seconds_per_session"]) == sessions and all(s > 0 for s in metrics["seconds_per_session"])
     assert metrics["train_samples"] == smoke["train_samples"] and metrics["test_samples"] > 0
@@ -58,7 +61,7 @@ def test_figures_and_tables(out):
 
 
 def test_best_model_saved(out, metrics):
-    model, meta = models.load(out.models / "sec61_subspace.pt")
+    model, meta = model_files.load(out.models / "sec61_subspace.pt")
     assert model.n_subspaces == 1
     assert model.config.n_outputs == 1323 and model.config.n_inputs == 84
     assert model.config.hidden == [125, 100, 100, 125]
@@ -67,7 +70,7 @@ def test_best_model_saved(out, metrics):
     assert meta["extra"]["session"] == metrics["best_session"]
     # usable as a predictor: block 5 of the 21^3 grid, in node order
     assert meta["map_spec"]["nodes"] == [5292, 6615]
-    np.testing.assert_allclose(model.map_nodes(), D.grid_nodes(D.PAPER_SPECS["sec62"])[5292:6615])
+    np.testing.assert_allclose(model.map_nodes(), datasets.grid_nodes(PAPER_SPECS["sec62"])[5292:6615])
     puma = robots.puma560()
-    x = D.features_for(arm_batch(puma), D.DatasetSpec.from_dict(meta["dataset_spec"]))
+    x = datasets.features_for(arm_batch(puma), datasets.DatasetSpec.from_dict(meta["dataset_spec"]))
     np.testing.assert_array_equal(model.predict_maps(puma), model.predict(x).numpy().reshape(-1))

@@ -7,9 +7,10 @@ import pandas as pd
 import pytest
 import trimesh
 
-from wsmap import data as D
-from wsmap import models, paths, robots
+from wsmap import datasets, paths, robots
 from wsmap.kinematics import arm_batch
+from wsmap.learn import files as model_files
+from wsmap.paper.parts import sec62_puma560
 
 FIGURES = ("sec62_training", "sec62_error_histogram", "sec62_subspace_runtime", "puma560_workspace_predicted",
            "sec62_puma560_slices")
@@ -27,6 +28,7 @@ def metrics(out):
 
 def test_metrics_keys_and_ranges(metrics):
     smoke = paths.load_params("sec62_puma560", paths.ROOT / "params.smoke.yaml")
+    assert set(metrics) == set(sec62_puma560.Metrics.__annotations__)  # the part's schema
     assert metrics["subspaces"] == 7
     assert metrics["train_samples"] == smoke["train_samples"] and metrics["max_fail"] == smoke["max_fail"]
     assert len(metrics["f_blocks"]) == 7 and len(metrics["seconds_per_block"]) == 7
@@ -53,12 +55,12 @@ def test_figures_and_table(out):
 
 
 def test_stacked_model_predicts_the_saved_puma560_map(out, metrics):
-    model, meta = models.load(out.models / "sec62_puma560.pt")
+    model, meta = model_files.load(out.models / "sec62_puma560.pt")
     assert model.n_subspaces == 7 and model.config.n_outputs == 1323
-    spec = D.DatasetSpec.from_dict(meta["dataset_spec"])
+    spec = datasets.DatasetSpec.from_dict(meta["dataset_spec"])
     assert spec.name == "sec62" and spec.select is None
     assert meta["train_config"]["max_fail"] == metrics["max_fail"]
-    x = D.features_for(arm_batch(robots.puma560()), spec)
+    x = datasets.features_for(arm_batch(robots.puma560()), spec)
     pred = model.predict(x, assemble=True).numpy()[0]
     assert pred.shape == (9261,) and int(pred.sum()) == metrics["puma560_reachable_predicted"]
     # the saved model stands in for the classical map: predict_maps gives the assembled map

@@ -8,8 +8,7 @@ import pandas as pd
 import pytest
 
 from wsmap import paths
-from wsmap.paper import report
-from wsmap.paper import tables as S
+from wsmap.paper import report, tables
 from wsmap.paper.published import PAPER_TABLE1, PAPER_TABLE2, PAPER_TABLE3
 
 SMOKE = paths.ROOT / "params.smoke.yaml"
@@ -34,7 +33,7 @@ def test_table1_workspaces(smoke_notebook):
     out = smoke_notebook("table1_workspaces")
     smoke = paths.load_params("table1_workspaces", SMOKE)
     table, runs = _tables(out, "table1_workspaces")
-    assert list(table.dataset) == smoke["datasets"] == list(S.TABLE1_DATASETS)
+    assert list(table.dataset) == smoke["datasets"] == list(tables.TABLE1_DATASETS)
     assert list(table.nodes) == [27, 125, 1323, 3087, 9261, 343, 4913, 9261]
     for c in ("workspace", "delta", "nodes", "train_samples", "epochs", "seconds", "precision", "recall", "f",
               "paper_f", "difference"):
@@ -42,10 +41,10 @@ def test_table1_workspaces(smoke_notebook):
     assert (table.train_samples == smoke["train_samples"]).all() and (table.epochs == smoke["max_epochs"]).all()
     assert _unit_or_nan(table.f) and _unit_or_nan(table.precision) and _unit_or_nan(table.recall)
     np.testing.assert_allclose(table.difference, table.f - table.paper_f)
-    assert len(runs) == len(S.TABLE1_DATASETS) * smoke["sessions"]
+    assert len(runs) == len(tables.TABLE1_DATASETS) * smoke["sessions"]
     metrics = json.loads((out.results / "table1_workspaces.json").read_text())
-    assert set(metrics["f"]) == set(S.TABLE1_DATASETS) and _unit_or_nan(metrics["f"].values())
-    assert metrics["paper_f"] == {n: PAPER_TABLE1[n]["paper_f"] for n in S.TABLE1_DATASETS}
+    assert set(metrics["f"]) == set(tables.TABLE1_DATASETS) and _unit_or_nan(metrics["f"].values())
+    assert metrics["paper_f"] == {n: PAPER_TABLE1[n]["paper_f"] for n in tables.TABLE1_DATASETS}
     # the report finds its keys (None where F is undefined)
     for name, f in zip(table.dataset, table.f):
         got = report.lookup(metrics, f"f.{name}")
@@ -80,7 +79,7 @@ def test_table3_embeddings(smoke_notebook):
     out = smoke_notebook("table3_embeddings")
     smoke = paths.load_params("table3_embeddings", SMOKE)
     summary, runs = _tables(out, "table3_embeddings")
-    emb = list(S.TABLE3_EMBEDDINGS)
+    emb = list(tables.TABLE3_EMBEDDINGS)
     assert len(summary) == 9 and set(zip(summary.embedding, summary.test)) == {(a, b) for a in emb for b in emb}
     assert len(runs) == 9 * smoke["sessions"] and (summary.sessions == smoke["sessions"]).all()
     assert _unit_or_nan(summary[["precision", "recall", "f"]].to_numpy().ravel())

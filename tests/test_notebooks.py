@@ -31,12 +31,13 @@ def test_source_notebooks_are_committed_without_outputs(name):
 
 
 def _audited_specs():
-    """The specs wsmap.data.audit_table audits by default: every spherical-wrist (exact-label) spec
-    of PAPER_SPECS, one per distinct grid / node selection / orientation / convention."""
-    from wsmap import data as D
+    """The specs the notebook audits (wsmap.paper.specs.audit_specs): every spherical-wrist
+    (exact-label) spec of PAPER_SPECS, one per distinct grid / node selection / orientation /
+    convention."""
+    from wsmap.paper.specs import PAPER_SPECS
 
     seen, names = set(), []
-    for s in D.PAPER_SPECS.values():
+    for s in PAPER_SPECS.values():
         key = (s.family, s.scope, s.lo, s.hi, s.step, s.select, s.fixed, s.convention)
         if s.method == "exact" and key not in seen:
             seen.add(key)

@@ -4,18 +4,17 @@ import numpy as np
 import pytest
 import torch
 
-from wsmap import data as D
-from wsmap.paper import fitting as E
-from wsmap import workspace as ws
-from wsmap.training import TrainConfig
+from wsmap import datasets, workspace
+from wsmap.learn.training import TrainConfig
+from wsmap.paper import fitting, specs
 
 
 @pytest.fixture(scope="module")
 def pair(tmp_path_factory):
     torch.set_num_threads(1)
     d = tmp_path_factory.mktemp("data")
-    D.build_pair("table1_r3_step05", d, samples=120, test_samples=40, progress=False)
-    return D.load_pair("table1_r3_step05", d)
+    specs.build_pair("table1_r3_step05", d, samples=120, test_samples=40, progress=False)
+    return specs.load_pair("table1_r3_step05", d)
 
 
 def test_build_pair_and_load_pair_check_the_test_stream(pair, tmp_path):
@@ -23,26 +22,26 @@ def test_build_pair_and_load_pair_check_the_test_stream(pair, tmp_path):
     assert (len(train), len(test)) == (120, 40) and train.n_nodes == test.n_nodes == 125
     assert test.spec.stream == "test" and train.spec.stream == "train"
     # a test file of another dataset is refused
-    D.build_pair("table1_r3_step1", tmp_path, samples=10, test_samples=5, progress=False)
-    a, b = D.dataset_paths("table1_r3_step05", tmp_path)
-    c, d = D.dataset_paths("table1_r3_step1", tmp_path)
+    specs.build_pair("table1_r3_step1", tmp_path, samples=10, test_samples=5, progress=False)
+    a, b = specs.dataset_paths("table1_r3_step05", tmp_path)
+    c, d = specs.dataset_paths("table1_r3_step1", tmp_path)
     a.write_bytes(c.read_bytes())
-    b.write_bytes(D.dataset_paths("table1_r3_step1", tmp_path)[1].read_bytes())
-    D.load_pair("table1_r3_step05", tmp_path)  # consistent pair of step1 under another name: fine
+    b.write_bytes(specs.dataset_paths("table1_r3_step1", tmp_path)[1].read_bytes())
+    specs.load_pair("table1_r3_step05", tmp_path)  # consistent pair of step1 under another name: fine
     b.write_bytes(train.path.read_bytes())  # a training file posing as the test set
-    with pytest.raises(D.DatasetError, match="is not the test set"):
-        D.load_pair("table1_r3_step05", tmp_path)
+    with pytest.raises(datasets.DatasetError, match="is not the test set"):
+        specs.load_pair("table1_r3_step05", tmp_path)
     with pytest.raises(ValueError, match="unknown dataset 'nope'"):
-        D.dataset_paths("nope", tmp_path)
+        specs.dataset_paths("nope", tmp_path)
 
 
 def test_fit_is_reproducible_and_evaluate_matches_a_direct_computation(pair):
     train, test = pair
     cfg = TrainConfig(max_epochs=5, seed=3)
-    r1 = E.fit(train, cfg, nodes=(0, 50), hidden=[8])
-    r2 = E.fit(train, cfg, nodes=(0, 50), hidden=[8])
+    r1 = fitting.fit(train, cfg, nodes=(0, 50), hidden=[8])
+    r2 = fitting.fit(train, cfg, nodes=(0, 50), hidden=[8])
     assert r1[0].history.loss == r2[0].history.loss
-    ev = E.evaluate(r1[0].model, test, nodes=(0, 50))
+    ev = fitting.evaluate(r1[0].model, test, nodes=(0, 50))
     pred = r1[0].model.predict(test.features).numpy()
     truth = test.labels[:, :50]
     tp = (pred & truth).sum()
@@ -54,34 +53,34 @@ def test_fit_is_reproducible_and_evaluate_matches_a_direct_computation(pair):
 def test_fit_blocks_assembles_the_blocks_in_node_order(pair):
     train, test = pair
     blocks = [(0, 25), (25, 50), (50, 75), (75, 100), (100, 125)]
-    model, results = E.fit_blocks(train, TrainConfig(max_epochs=2), blocks, hidden=[6])
+    model, results = fitting.fit_blocks(train, TrainConfig(max_epochs=2), blocks, hidden=[6])
     assert model.n_subspaces == 5 and len(results) == 5
     whole = model.score(test.features, assemble=True).numpy()
     for k, (a, b) in enumerate(blocks):
         np.testing.assert_array_equal(whole[:, a:b], results[k].model.score(test.features, key=0).numpy())
-    ev = E.evaluate(model, test, assemble=True)
+    ev = fitting.evaluate(model, test, assemble=True)
     assert ev["nodes"] == 125
     with pytest.raises(ValueError, match="give key=k or assemble=True"):
-        E.evaluate(model, test)
+        fitting.evaluate(model, test)
     with pytest.raises(ValueError, match="same number of nodes"):
-        E.fit_blocks(train, TrainConfig(max_epochs=1), [(0, 25), (25, 75)], hidden=[4])
+        fitting.fit_blocks(train, TrainConfig(max_epochs=1), [(0, 25), (25, 75)], hidden=[4])
 
 
 def test_node_slices_are_checked():
-    assert E.node_slice(None, 10) == slice(0, 10)
-    assert E.node_slice((2, 5), 10) == slice(2, 5)
-    assert E.node_slice(ws.block_slice(4), 9261) == slice(5292, 6615)
+    assert fitting.node_slice(None, 10) == slice(0, 10)
+    assert fitting.node_slice((2, 5), 10) == slice(2, 5)
+    assert fitting.node_slice(workspace.block_slice(4), 9261) == slice(5292, 6615)
     for bad in [(5, 5), (0, 11), (3, 2)]:
         with pytest.raises(ValueError, match="contiguous range"):
-            E.node_slice(bad, 10)
+            fitting.node_slice(bad, 10)
 
 
 def test_head_is_the_smaller_build(pair, tmp_path):
     train, _ = pair
     small = train.head(30)
     assert len(small) == 30 and small.n_nodes == 125 and small.spec.samples == 30
-    D.build_dataset(D.scaled(train.spec, 30), tmp_path / "s.npz", progress=False)
-    built = D.load_dataset(tmp_path / "s.npz")
+    datasets.build_dataset(datasets.scaled(train.spec, 30), tmp_path / "s.npz", progress=False)
+    built = datasets.load_dataset(tmp_path / "s.npz")
     np.testing.assert_array_equal(small.features, built.features)
     np.testing.assert_array_equal(small.labels, built.labels)
     assert train.head(None) is train and train.head(10_000) is train

@@ -182,10 +182,10 @@ def test_section_6_1_sweeps_its_best_session_and_a_new_sweep_trains_nothing(tmp_
     """§6.1's threshold sweep (the paper's "best threshold 0.5, F 0.9714") is its best session's
     model on the test set. Another ``sweep_points`` summarises the same sessions again without
     training; a fresh checkout (step files, no models) trains them again, seeded as before."""
-    from wsmap import metrics as M
     from wsmap.learn.files import load
-    from wsmap.paper import fitting as E
-    from wsmap.paper import specs as D
+    from wsmap.metrics import threshold_sweep
+    from wsmap.paper import fitting
+    from wsmap.paper.specs import load_pair
 
     out = tmp_path / "out"
     code, _, err = _run(["paper", "full", "sec61", *_args(out, data_dir)], capsys)
@@ -195,8 +195,8 @@ def test_section_6_1_sweeps_its_best_session_and_a_new_sweep_trains_nothing(tmp_
     best = m["best_session"]
     assert best == int(np.argmin([r["best_val_loss"] for r in m["runs"]]))
     model, _ = load(out / "models" / "sec61_subspace" / f"session_{best}.pt")
-    ev = E.evaluate(model, D.load_pair("sec61", data_dir)[1])
-    sweep = M.threshold_sweep(ev["scores"], ev["truth"], np.linspace(0.0, 1.0, 101))
+    ev = fitting.evaluate(model, load_pair("sec61", data_dir)[1])
+    sweep = threshold_sweep(ev["scores"], ev["truth"], np.linspace(0.0, 1.0, 101))
     assert (m["best_threshold"], m["best_threshold_f"]) == (sweep.best_threshold, sweep.best_f)
     assert first["analysis"] == {"sweep_points": 101} and len(m["sweep"]["f"]) == 101
     assert m["sweep"]["thresholds"][50] == 0.5 and m["sweep"]["f"][50] == pytest.approx(m["best_session_f"])
@@ -296,18 +296,22 @@ def test_cuda_without_a_gpu_fails_before_any_work(tmp_path, capsys):
 
 def test_sections_6_1_and_6_2_end_to_end(tmp_path, data_dir):
     """§6.1's sessions equal one fit of all sessions; §6.2's 7 blocks assemble the whole map."""
-    from wsmap.paper import fitting as E
-    from wsmap.paper import specs as D
-    from wsmap.training import TrainConfig
+    from wsmap.learn.training import TrainConfig
+    from wsmap.paper import fitting
+    from wsmap.paper.parts import sec61_subspace, sec62_puma560
+    from wsmap.paper.specs import load_pair
 
     out = tmp_path / "out"
     sec61, sec62 = full.run(["sec61", "sec62"], SMOKE, out, data_dir, log=lambda s: None)
     cfg = paths.notebook_params("sec61_subspace", SMOKE)
-    train, test = D.load_pair("sec61", data_dir)
-    results = E.fit(train.head(cfg["train_samples"]), TrainConfig(max_epochs=cfg["max_epochs"],
+    train, test = load_pair("sec61", data_dir)
+    results = fitting.fit(train.head(cfg["train_samples"]), TrainConfig(max_epochs=cfg["max_epochs"],
                     max_fail=cfg["max_fail"], seed=cfg["seed"]), sessions=cfg["sessions"], hidden=cfg["hidden"])
-    np.testing.assert_array_equal(sec61["metrics"]["f_sessions"], [E.evaluate(r.model, test)["f"] for r in results])
+    np.testing.assert_array_equal(sec61["metrics"]["f_sessions"], [fitting.evaluate(r.model, test)["f"] for r in results])
     assert sec61["metrics"]["paper"]["f_mean"] == 0.9665
+    # the notebooks' parts' schemas: the paper-scale metrics are their summaries, key for key
+    assert list(sec61["metrics"]) == list(sec61_subspace.PaperScaleMetrics.__annotations__)
+    assert list(sec62["metrics"]) == list(sec62_puma560.PaperScaleMetrics.__annotations__)
     m = sec62["metrics"]
     assert len(m["f_blocks"]) == 7 and 0 <= m["f_full"] <= 1 and m["puma560_reachable_exact"] > 0
     assert [s["metrics"]["block"] for s in sec62["steps"]] == list(range(1, 8))
@@ -318,7 +322,9 @@ def test_sections_6_1_and_6_2_end_to_end(tmp_path, data_dir):
 
 
 def test_module_entry_point_lists(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "wsmap.paper.full", "--list", "--params", str(SMOKE),
+    """``python -m wsmap paper full`` (the runner has no entry point of its own: cli imports it, not
+    the other way round)."""
+    r = subprocess.run([sys.executable, "-m", "wsmap", "paper", "full", "--list", "--params", str(SMOKE),
                         "--out", str(tmp_path / "out"), "--data", str(tmp_path / "data")],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr

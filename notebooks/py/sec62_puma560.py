@@ -23,195 +23,62 @@
 #   `.stl`), and `sec62_puma560_slices.png`, its z-layers against the exact map.
 #
 # The committed run trains on fewer arms and epochs than the paper (see params.yaml). Every number
-# comes from `wsmap`; this notebook only orchestrates and plots.
+# comes from `wsmap.paper.parts.sec62_puma560` (the paper-scale runner `wsmap paper full` summarises
+# its blocks with the same code); this notebook only runs it and shows it.
 
 # %% parameters
 params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
 output_root = None
 
 # %%
-import time
+from IPython.display import Image
 
-import numpy as np
-import pandas as pd
-import torch
-
-from wsmap import data as D
-from wsmap import metrics as M
-from wsmap import models, paths, robots
-from wsmap import viz as V
-from wsmap import workspace as ws
-from wsmap.views import iso_mesh
-from wsmap.io import write_json, write_table
-from wsmap.kinematics import arm_batch
-from wsmap.learn.device import resolve_device
-from wsmap.paper import fitting as E
-from wsmap.paper import published
-from wsmap.timing import time_call
-from wsmap.training import TrainConfig
+from wsmap import paths
+from wsmap.paper.parts import sec62_puma560 as part
 
 out = paths.Outputs(output_root).make()
 cfg = paths.notebook_params("sec62_puma560", params_file)
-device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
-threads = torch.get_num_threads()
-train_all, test = D.load_pair(cfg["dataset"], out.data)
-train = train_all.head(cfg["train_samples"])
-spec = train.spec
-shape = spec.grid_shape
-blocks = [ws.block_slice(k) for k in range(ws.N_BLOCKS)]
-z_axis = D.grid_axes(spec)[2]
-names = [f"block {k + 1}" for k in range(len(blocks))]
-z_ranges = [f"{z_axis[3 * k]:+.1f}..{z_axis[3 * k + 2]:+.1f}" for k in range(len(blocks))]
-print(f"training on {len(train)} of {len(train_all)} arms, testing on {len(test)}; grid {shape}, "
-      f"{len(blocks)} blocks of {ws.BLOCK_NODES} nodes; torch threads {threads}; device {device}")
 
 # %% [markdown]
-# ## Training the 7 subspaces (one after another, same seed and split)
+# ## Training the 7 subspaces (one after another, same seed and split), scoring them per block and
+# assembled (1000 test arms, threshold 0.5), timing them, and the PUMA560 they generate
 
 # %%
-train_cfg = TrainConfig(optimizer="rprop", loss="mse", max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"],
-                        seed=cfg["seed"], device=device)
-t0 = time.perf_counter()
-model, results = E.fit_blocks(train, train_cfg, blocks, hidden=cfg["hidden"])
-t_fit = time.perf_counter() - t0
-seconds = [float(r.history.time[-1]) for r in results]
-for k, r in enumerate(results):
-    print(f"{names[k]} (z {z_ranges[k]}): {r.stop_epoch} epochs ({r.stop_reason}), best {r.best_epoch}, "
-          f"val MSE {r.best_val_loss:.5f}, {seconds[k]:.1f} s")
-print(f"all blocks: {t_fit:.1f} s")
-assert model.n_subspaces == len(blocks)
-
-fig = V.plot_training_curves([r.history for r in results], [f"{n} (z {z})" for n, z in zip(names, z_ranges)],
-                             best_epochs=[r.best_epoch for r in results],
-                             title="Subspace training of equal dimension")
-V.save_figure(fig, out.figures / "sec62_training.png")
+result = part.run(cfg, out)
+part.save(result, out)
+figures = part.figures(result, out)
+part.table(result)
 
 # %% [markdown]
-# ## Accuracy per subspace and of the assembled 9261-node map (1000 test arms, threshold 0.5)
+# ## Subspace training of equal dimension
 
 # %%
-evals = [E.evaluate(model, test, nodes=b, key=k, threshold=cfg["threshold"]) for k, b in enumerate(blocks)]
-full = E.evaluate(model, test, assemble=True, threshold=cfg["threshold"])
-hist_full = M.error_histogram(full["scores"], full["truth"], bins=cfg["histogram_bins"])
-hists = [M.error_histogram(e["scores"], e["truth"], bins=hist_full.edges) for e in evals]
-fig = V.plot_error_histograms(hists + [hist_full], names + [f"assembled ({full['nodes']} nodes)"],
-                              title=f"Histogram of prediction errors ({len(test)} test arms)")
-V.save_figure(fig, out.figures / "sec62_error_histogram.png")
+Image(filename=str(out.figures / "sec62_training.png"))
+
+# %% [markdown]
+# ## Histogram of prediction errors
+
+# %%
+Image(filename=str(out.figures / "sec62_error_histogram.png"))
 
 # %% [markdown]
 # ## Run time of the subspace models
 
 # %%
-def times(fn, repeats):
-    """Wall-clock seconds of ``repeats`` calls of ``fn`` after 2 untimed ones, as an array. ``fn``
-    returns a tensor, copied to the host inside the timing (on a GPU: the work is finished)."""
-    return np.asarray(time_call(lambda: fn().cpu(), repeats, warmup=2).values)
-
-
-x_one = test.features[:1]
-reps = cfg["runtime_repeats"]
-one_arm = {n: times(lambda k=k: model.score(x_one, key=k), reps) for k, n in enumerate(names)}
-one_arm["assembled (9261)"] = times(lambda: model.score(x_one, assemble=True), reps)
-all_arms = {n: times(lambda k=k: model.score(test.features, key=k), max(3, reps // 5)) for k, n in enumerate(names)}
-all_arms["assembled (9261)"] = times(lambda: model.score(test.features, assemble=True), max(3, reps // 5))
-fig = V.plot_runtimes({"one arm's map": one_arm, f"maps of the {len(test)} test arms": all_arms},
-                      title=f"Run time of subspace models (torch, {device}, {threads} thread(s))")
-V.save_figure(fig, out.figures / "sec62_subspace_runtime.png")
-
-# %%
-rows = []
-for k, (e, r, h) in enumerate(zip(evals, results, hists)):
-    rows.append({"subspace": names[k], "z (m)": z_ranges[k], "nodes": e["nodes"],
-                 "reachable": float(e["truth"].mean()), "precision": e["precision"], "recall": e["recall"],
-                 "f": e["f"], "f_per_sample": e["f_mean"], "error_mean": h.mean, "error_std": h.std,
-                 "epochs": r.stop_epoch, "best_epoch": r.best_epoch, "stop": r.stop_reason, "val_mse": r.best_val_loss,
-                 "train_s": seconds[k], "one_map_ms": 1e3 * one_arm[names[k]].mean(),
-                 "one_map_ms_std": 1e3 * one_arm[names[k]].std()})
-rows.append({"subspace": "assembled", "z (m)": f"{z_axis[0]:+.1f}..{z_axis[-1]:+.1f}", "nodes": full["nodes"],
-             "reachable": float(full["truth"].mean()), "precision": full["precision"], "recall": full["recall"],
-             "f": full["f"], "f_per_sample": full["f_mean"], "error_mean": hist_full.mean,
-             "error_std": hist_full.std, "epochs": None, "best_epoch": None, "stop": "", "val_mse": None,
-             "train_s": float(sum(seconds)), "one_map_ms": 1e3 * one_arm["assembled (9261)"].mean(),
-             "one_map_ms_std": 1e3 * one_arm["assembled (9261)"].std()})
-table = pd.DataFrame(rows).astype({"epochs": "Int64", "best_epoch": "Int64"})
-write_table(table, out.tables / "sec62_subspaces")
-print(table.to_string(index=False))
+Image(filename=str(out.figures / "sec62_subspace_runtime.png"))
 
 # %% [markdown]
 # ## The PUMA560 workspace generated by the 7 subspace models
 
 # %%
-puma = arm_batch(robots.puma560())
-x_puma = D.features_for(puma, spec)
-t0 = time.perf_counter()
-predicted = model.predict(x_puma, cfg["threshold"], assemble=True).cpu().numpy()[0]
-t_puma = time.perf_counter() - t0
-exact = D.labels_for(puma, spec)[0]
-puma_prf = M.precision_recall_f(predicted, exact)
-print(f"PUMA560: {predicted.sum()} nodes predicted reachable, {exact.sum()} exact; "
-      f"precision {puma_prf.precision:.4f}, recall {puma_prf.recall:.4f}, F {puma_prf.f:.4f}; {t_puma * 1e3:.1f} ms")
-
-grid = {"lo": spec.lo, "step": spec.step, "shape": shape}
-mesh_exact = iso_mesh(exact, grid, 0.5)
-mesh_pred = iso_mesh(predicted, grid, 0.5)  # empty when no node is predicted reachable
-lim = float(np.max(np.abs(np.concatenate([np.ravel(spec.lo), np.ravel(spec.hi)]))))
-fig = V.plot_meshes([mesh_exact, mesh_pred],
-                    ["PUMA560, exact (closed form)",
-                     f"generated by {model.n_subspaces} subspace models (F {puma_prf.f:.3f})"], lim=lim,
-                    suptitle="Workspace of PUMA560 robot generated by 7 subspace models")
-V.save_figure(fig, out.figures / "puma560_workspace_predicted.png")
-V.export_mesh(mesh_pred, out.results / "puma560_workspace_predicted.glb")
-V.export_mesh(mesh_pred, out.results / "puma560_workspace_predicted.stl")
-fig = V.plot_slices(predicted, shape, spec.lo, spec.step, compare=exact,
-                  title=f"PUMA560: predicted (first) vs exact (second), F {puma_prf.f:.4f}")
-V.save_figure(fig, out.figures / "sec62_puma560_slices.png")
-print(f"predicted mesh: {len(mesh_pred.vertices)} vertices, {len(mesh_pred.faces)} faces, "
-      f"watertight={mesh_pred.is_watertight}")
+Image(filename=str(out.figures / "puma560_workspace_predicted.png"))
 
 # %%
-# the 7 subspaces assembled in node order are the 9261-node map: predict_maps and
-# `wsmap map --method model` use the saved model as a stand-in for the classical map
-model.set_map_spec(spec, assemble=True, threshold=cfg["threshold"])
-models.save(model, out.models / "sec62_puma560.pt", dataset_spec=spec, train_config=train_cfg,
-            extra={"blocks": [[b.start, b.stop] for b in blocks], "threshold": cfg["threshold"]})
-metrics = {
-    "f_full": full["f"],
-    "precision_full": full["precision"],
-    "recall_full": full["recall"],
-    "f_per_sample_full": full["f_mean"],
-    "f_blocks": [e["f"] for e in evals],
-    "precision_blocks": [e["precision"] for e in evals],
-    "recall_blocks": [e["recall"] for e in evals],
-    "error_mean_blocks": [h.mean for h in hists],
-    "error_std_blocks": [h.std for h in hists],
-    "puma560_f": puma_prf.f,
-    "puma560_precision": puma_prf.precision,
-    "puma560_recall": puma_prf.recall,
-    "puma560_reachable_predicted": int(predicted.sum()),
-    "puma560_reachable_exact": int(exact.sum()),
-    "puma560_mesh_faces": int(len(mesh_pred.faces)),
-    "puma560_mesh_watertight": bool(mesh_pred.is_watertight) if len(mesh_pred.faces) else False,
-    "runtime_one_map_s": {n: float(t.mean()) for n, t in one_arm.items()},
-    "runtime_one_map_std_s": {n: float(t.std()) for n, t in one_arm.items()},
-    "runtime_test_set_s": {n: float(t.mean()) for n, t in all_arms.items()},
-    "runtime_test_set_std_s": {n: float(t.std()) for n, t in all_arms.items()},
-    "subspaces": model.n_subspaces,
-    "epochs": cfg["max_epochs"],
-    "max_fail": cfg["max_fail"],
-    "epochs_run": [int(r.stop_epoch) for r in results],
-    "best_epochs": [int(r.best_epoch) for r in results],
-    "stop_reasons": [r.stop_reason for r in results],
-    "seconds_per_block": seconds,
-    "seconds_training_total": t_fit,
-    "torch_threads": threads,
-    "device": str(device),
-    "paper": dict(published.SEC62),
-    "train_samples": len(train),
-    "test_samples": len(test),
-    "hidden": list(cfg["hidden"]),
-}
-write_json(metrics, out.results / "sec62_puma560.json")
+Image(filename=str(out.figures / "sec62_puma560_slices.png"))
+
+# %%
+metrics = result.metrics
 # a smoke run checks what it produced, not just that it ran
-assert model.n_subspaces == 7 and full["nodes"] == 9261 and exact.sum() > 0
+assert metrics["subspaces"] == 7 and result.full["nodes"] == 9261 and metrics["puma560_reachable_exact"] > 0
 assert (out.figures / "puma560_workspace_predicted.png").stat().st_size > 5_000
 {k: v for k, v in metrics.items() if not isinstance(v, (list, dict))}

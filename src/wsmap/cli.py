@@ -631,7 +631,7 @@ def _run_paper(args) -> int:
     if not args.all and not args.notebooks:
         raise ValueError("name at least one notebook, or --all")
     params = Path(args.params) if args.params else paths.PARAMS
-    names = pipeline.ORDER if args.all else args.notebooks
+    names = pipeline.order() if args.all else args.notebooks
     for name in names:  # every name and section checked before anything runs
         pipeline.check_notebook(name)
         paths.notebook_params(name, params)
@@ -675,7 +675,7 @@ def _run_paper_full(args) -> int:
 def _run_paper_list(args) -> int:
     from .paper import pipeline
 
-    for name in pipeline.ORDER:
+    for name in pipeline.order():
         print(name)
     return 0
 

@@ -5,7 +5,7 @@ Notebooks call these so that every number they show comes from tested code:
 * :func:`fit` trains ``sessions`` independent models (the paper repeats 10) of one architecture on
   one dataset, optionally on a slice of its nodes (one output subspace);
 * :func:`fit_blocks` trains one model per output block and stacks them into one
-  :class:`~wsmap.models.SubspaceMLP` whose subspaces assemble the whole map (section 6.2);
+  :class:`~wsmap.learn.SubspaceMLP` whose subspaces assemble the whole map (section 6.2);
 * :func:`evaluate` gives the pooled (micro) and per-sample precision, recall and F-measure of a
   model on a test set, the paper's numbers.
 
@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from .. import metrics as M
+from ..metrics import score_maps
 from ..datasets import Dataset
 from ..learn import MLPConfig, SubspaceMLP
 from ..learn.training import TrainConfig, TrainResult, train_mlp_sessions
@@ -125,4 +125,4 @@ def evaluate(model: SubspaceMLP, test: Dataset, *, nodes=None, key: int | None =
     truth = test.labels[:, sl]
     if scores.shape != truth.shape:
         raise ValueError(f"model outputs {scores.shape[1]} nodes but the truth slice {sl} has {truth.shape[1]}")
-    return dict(M.score_maps(scores > threshold, truth), threshold=float(threshold), scores=scores, truth=truth)
+    return dict(score_maps(scores > threshold, truth), threshold=float(threshold), scores=scores, truth=truth)

@@ -19,8 +19,12 @@ part                   what (settings from the params file's section, default pa
 =====================  ==========================================================================
 
 Every part trains with the package's own code (:func:`wsmap.paper.fitting.fit`, scored by
-:func:`wsmap.paper.tables.score_results` / :func:`wsmap.paper.fitting.evaluate`, summarised by the
-``tables`` functions the notebooks use), at exactly the params file's settings. The datasets are
+:func:`wsmap.paper.tables.score_results` / :func:`wsmap.paper.fitting.evaluate`), summarised by
+the code the notebooks' parts use (:func:`wsmap.paper.parts.sec61_subspace.summarise`,
+:func:`wsmap.paper.parts.sec62_puma560.summarise` and ``puma560_map``, the ``tables`` summaries),
+at exactly the params file's settings; §6.1's and §6.2's ``metrics`` follow the parts'
+``PaperScaleMetrics`` schemas. The command is ``wsmap paper full`` (``python -m wsmap paper full``):
+this module has no entry point of its own, so that it never imports the command line. The datasets are
 built on demand at the params file's sizes (``datasets`` section) into ``data/full/`` (not a DVC
 output; git-ignored) with :func:`wsmap.paper.specs.build_pair`, and rebuilt when a file there is of
 another size or spec.
@@ -83,7 +87,6 @@ import math
 import os
 import platform
 import subprocess
-import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -91,6 +94,8 @@ from pathlib import Path
 from typing import Any
 
 from .. import paths
+from . import fitting, tables
+from .parts import check_metrics, sec61_subspace, sec62_puma560
 
 __all__ = [
     "RUNNER_VERSION",
@@ -206,7 +211,6 @@ def plan(params_file=None, *, device: str | None = None) -> list[Part]:
     """
     from ..learn.training import TrainConfig
     from ..workspace import N_BLOCKS
-    from . import tables as S
 
     params_file = Path(params_file) if params_file else paths.ROOT / "params.full.yaml"
     sizes = paths.load_params("datasets", params_file)
@@ -249,8 +253,8 @@ def plan(params_file=None, *, device: str | None = None) -> list[Part]:
                       "§6.2: 7 block subspaces, stacked; PUMA560"))
     c = section("table1_workspaces")
     for name in c["datasets"]:
-        max_epochs = int(S.per_dataset(c["max_epochs"], name))
-        values = {"dataset": name, "train_samples": S.per_dataset(c["train_samples"], name), "sessions": c["sessions"],
+        max_epochs = int(tables.per_dataset(c["max_epochs"], name))
+        values = {"dataset": name, "train_samples": tables.per_dataset(c["train_samples"], name), "sessions": c["sessions"],
                   "max_epochs": max_epochs, "max_fail": c["max_fail"], "hidden": c["hidden"], "seed": c["seed"],
                   "optimizer": c["optimizer"], "loss": c["loss"], "threshold": 0.5}
         parts.append(make(name, "table1", c, [f"session_{k}" for k in range(int(c["sessions"]))], [name], values,
@@ -266,7 +270,7 @@ def plan(params_file=None, *, device: str | None = None) -> list[Part]:
     embeddings = dict(c["embeddings"])
     for emb, dataset in embeddings.items():
         values = {"embedding": emb, "dataset": dataset, "embeddings": embeddings,
-                  "train_samples": S.per_dataset(c["train_samples"], emb), "sessions": c["sessions"],
+                  "train_samples": tables.per_dataset(c["train_samples"], emb), "sessions": c["sessions"],
                   "max_epochs": c["max_epochs"], "max_fail": c["max_fail"], "hidden": c["hidden"], "seed": c["seed"],
                   "optimizer": c["optimizer"], "loss": c["loss"], "threshold": 0.5}
         parts.append(make(f"table3_{emb}", "table3", c, [f"session_{k}" for k in range(int(c["sessions"]))],
@@ -474,17 +478,15 @@ def _tests(part: Part, data: _Data) -> dict:
 
 def _session_step(part: Part, step: str, data: _Data, out: Path) -> dict:
     """One session (seed ``seed + k``) of a sec61/table1/table2/table3 part: train, score, save."""
-    from . import fitting as E
-    from . import tables as S
 
     k = int(step.split("_")[1])
     sec = part.settings["section"]
     train = data.pairs[sec["dataset"]][0].head(sec["train_samples"])
     config = part.train_config.replace(seed=int(sec["seed"]) + k)
     t0 = time.perf_counter()
-    (result,) = E.fit(train, config, sessions=1, hidden=sec["hidden"], **S.mlp_options(config.loss))
+    (result,) = fitting.fit(train, config, sessions=1, hidden=sec["hidden"], **tables.mlp_options(config.loss))
     t1 = time.perf_counter()
-    rows = S.score_results([result], train, _tests(part, data), float(sec["threshold"]), first_session=k)
+    rows = tables.score_results([result], train, _tests(part, data), float(sec["threshold"]), first_session=k)
     t2 = time.perf_counter()
     threshold = float(sec["threshold"])
     _save_model(result.model, _model_file(out, part, step), train.spec, config,
@@ -498,19 +500,18 @@ def _session_step(part: Part, step: str, data: _Data, out: Path) -> dict:
 
 def _block_step(part: Part, step: str, data: _Data, out: Path) -> dict:
     """One §6.2 block (``block_k``, 1-based): as :func:`wsmap.paper.fitting.fit_blocks` trains it."""
-    from .. import workspace as ws
-    from . import fitting as E
+    from .. import workspace
 
     k = int(step.split("_")[1]) - 1
     sec = part.settings["section"]
     train_all, test = data.pairs[sec["dataset"]]
     train = train_all.head(sec["train_samples"])
-    block = ws.block_slice(k)
+    block = workspace.block_slice(k)
     config = part.train_config
     t0 = time.perf_counter()
-    (result,) = E.fit(train, config, nodes=block, sessions=1, hidden=sec["hidden"])
+    (result,) = fitting.fit(train, config, nodes=block, sessions=1, hidden=sec["hidden"])
     t1 = time.perf_counter()
-    ev = E.evaluate(result.model, test, nodes=block, key=0, threshold=float(sec["threshold"]))
+    ev = fitting.evaluate(result.model, test, nodes=block, key=0, threshold=float(sec["threshold"]))
     t2 = time.perf_counter()
     _save_model(result.model, _model_file(out, part, step), train.spec, config,
                 {"part": part.name, "step": step, "block": [block.start, block.stop], "settings_hash": part.hash},
@@ -535,41 +536,29 @@ def _runs(steps: dict[str, dict]):
 
 def _finalize(part: Part, steps: dict[str, dict], data: _Data, out: Path) -> tuple[dict, list[Path]]:
     """The part's metrics from its steps' (and, for §6.2, the stacked model file)."""
-    from . import published
-    from . import tables as S
 
     sec = part.settings["section"]
     if part.kind == "sec62":
         return _finalize_sec62(part, steps, data, out)
     runs = _runs(steps)
     if part.kind == "sec61":
-        import numpy as np
-
-        f = runs.f.to_numpy(dtype=float)
         best = int(runs.best_val_loss.to_numpy(dtype=float).argmin())
-        metrics = {
-            "f_mean": float(f.mean()), "f_std": float(f.std(ddof=1)) if len(f) > 1 else math.nan,
-            "f_sessions": f.tolist(), "precision_mean": float(runs.precision.mean()),
-            "recall_mean": float(runs.recall.mean()), "precision_sessions": runs.precision.tolist(),
-            "recall_sessions": runs.recall.tolist(), "best_session": int(runs.session.iloc[best]),
-            "best_session_f": float(f[best]), "sessions": int(len(runs)), "epochs": int(sec["max_epochs"]),
-            "epochs_run": runs.epochs.astype(int).tolist(), "best_epochs": runs.best_epoch.astype(int).tolist(),
-            "stop_reasons": runs.stop_reason.tolist(), "seconds_per_session": runs.seconds.tolist(),
-            "seconds_per_session_mean": float(np.mean(runs.seconds)), "train_samples": int(runs.train_samples.iloc[0]),
-            "threshold": float(sec["threshold"]), "paper": dict(published.SEC61),
-            **_sec61_sweep(part, f"session_{int(runs.session.iloc[best])}", data, out),
-        }
+        sweep = _sec61_sweep(part, f"session_{int(runs.session.iloc[best])}", data, out)
+        metrics = {**sec61_subspace.summarise(runs.to_dict("records"), sweep, threshold=float(sec["threshold"]),
+                                              max_epochs=int(sec["max_epochs"]),
+                                              train_samples=int(runs.train_samples.iloc[0])),
+                   "sweep": sweep.to_dict()}
     elif part.kind == "table1":
         runs.insert(0, "dataset", sec["dataset"])
-        row = S.table1_summary(runs).iloc[0].to_dict()
+        row = tables.table1_summary(runs).iloc[0].to_dict()
         metrics = {**row, "sessions": int(len(runs))}
     elif part.kind == "table2":
         runs.insert(0, "loss", sec["loss"])
         runs.insert(0, "optimizer", sec["optimizer"])
-        metrics = S.table2_summary(runs).iloc[0].to_dict()
+        metrics = tables.table2_summary(runs).iloc[0].to_dict()
     elif part.kind == "table3":
         runs.insert(0, "embedding", sec["embedding"])
-        summary = S.table3_summary(runs)
+        summary = tables.table3_summary(runs)
         metrics = {"embedding": sec["embedding"],
                    "tests": {r["test"]: {k: v for k, v in r.items() if k not in ("embedding", "test")}
                              for r in summary.to_dict("records")}}
@@ -578,37 +567,28 @@ def _finalize(part: Part, steps: dict[str, dict], data: _Data, out: Path) -> tup
     else:  # pragma: no cover - plan() makes no other kind
         raise ValueError(f"unknown part kind {part.kind!r}")
     metrics["runs"] = runs.to_dict("records")
+    if part.kind == "sec61":
+        check_metrics(metrics, sec61_subspace.PaperScaleMetrics, f"{part.name} (paper scale)")
     return metrics, []
 
 
-def _sec61_sweep(part: Part, step: str, data: _Data, out: Path) -> dict:
+def _sec61_sweep(part: Part, step: str, data: _Data, out: Path):
     """The threshold sweep of §6.1's best session (lowest validation loss), as the paper's: its
-    model scored on the test set at ``sweep_points`` thresholds evenly from 0 to 1."""
-    import numpy as np
-
-    from .. import metrics as M
+    model scored on the test set at ``sweep_points`` thresholds evenly from 0 to 1
+    (:func:`wsmap.paper.parts.sec61_subspace.sweep_of`)."""
     from ..learn.device import resolve_device
     from ..learn.files import load
-    from . import fitting as E
 
     sec = part.settings["section"]
     model, _ = load(_model_file(out, part, step), map_location=resolve_device(part.device, part.device_what))
-    ev = E.evaluate(model, data.pairs[sec["dataset"]][1], threshold=float(sec["threshold"]))
-    sweep = M.threshold_sweep(ev["scores"], ev["truth"], np.linspace(0.0, 1.0, int(part.analysis["sweep_points"])))
-    return {"best_threshold": sweep.best_threshold, "best_threshold_f": sweep.best_f,
-            "sweep": sweep.to_dict()}
+    evaluation = fitting.evaluate(model, data.pairs[sec["dataset"]][1], threshold=float(sec["threshold"]))
+    return sec61_subspace.sweep_of(evaluation, part.analysis["sweep_points"])
 
 
 def _finalize_sec62(part: Part, steps: dict[str, dict], data: _Data, out: Path) -> tuple[dict, list[Path]]:
-    from .. import metrics as M
-    from .. import robots
-    from ..datasets import features_for, labels_for
-    from ..kinematics import arm_batch
     from ..learn import SubspaceMLP
     from ..learn.device import resolve_device
     from ..learn.files import load, save
-    from . import fitting as E
-    from . import published
 
     sec = part.settings["section"]
     device = resolve_device(part.device, part.device_what)
@@ -617,28 +597,19 @@ def _finalize_sec62(part: Part, steps: dict[str, dict], data: _Data, out: Path) 
     train_all, test = data.pairs[sec["dataset"]]
     spec = train_all.head(sec["train_samples"]).spec
     threshold = float(sec["threshold"])
-    full = E.evaluate(model, test, assemble=True, threshold=threshold)
-    puma = arm_batch(robots.puma560())
-    predicted = model.predict(features_for(puma, spec), threshold, assemble=True).cpu().numpy()[0]
-    exact = labels_for(puma, spec)[0]
-    prf = M.precision_recall_f(predicted, exact)
+    full = fitting.evaluate(model, test, assemble=True, threshold=threshold)
+    puma = sec62_puma560.puma560_map(model, spec, threshold)
     model.set_map_spec(spec, assemble=True, threshold=threshold)
     stacked = out / "models" / f"{part.name}.pt"
     save(model, stacked, dataset_spec=spec, train_config=part.train_config,
          extra={"part": part.name, "settings_hash": part.hash, "threshold": threshold})
     blocks = [steps[s]["metrics"] for s in part.steps]
     metrics = {
-        "f_full": full["f"], "precision_full": full["precision"], "recall_full": full["recall"],
-        "f_per_sample_full": full["f_mean"], "f_blocks": [b["f"] for b in blocks],
-        "precision_blocks": [b["precision"] for b in blocks], "recall_blocks": [b["recall"] for b in blocks],
-        "epochs_run": [b["epochs"] for b in blocks], "best_epochs": [b["best_epoch"] for b in blocks],
-        "stop_reasons": [b["stop_reason"] for b in blocks], "seconds_per_block": [b["seconds"] for b in blocks],
-        "puma560_f": prf.f, "puma560_precision": prf.precision, "puma560_recall": prf.recall,
-        "puma560_reachable_predicted": int(predicted.sum()), "puma560_reachable_exact": int(exact.sum()),
-        "train_samples": blocks[0]["train_samples"], "test_samples": len(test), "max_epochs": int(sec["max_epochs"]),
-        "max_fail": int(sec["max_fail"]), "model_file": _relative(stacked, out), "paper": dict(published.SEC62),
+        **sec62_puma560.summarise(blocks, full, puma, train_samples=blocks[0]["train_samples"],
+                                  test_samples=len(test), max_fail=int(sec["max_fail"])),
+        "max_epochs": int(sec["max_epochs"]), "model_file": _relative(stacked, out),
     }
-    return metrics, [stacked]
+    return check_metrics(metrics, sec62_puma560.PaperScaleMetrics, f"{part.name} (paper scale)"), [stacked]
 
 
 _STEP = {"sec61": _session_step, "table1": _session_step, "table2": _session_step, "table3": _session_step,
@@ -819,7 +790,6 @@ def estimate_part(part: Part, epochs: int = 4) -> dict[str, Any]:
     from ..learn import MLPConfig, SubspaceMLP
     from ..learn.device import resolve_device
     from ..learn.training import split_indices, train
-    from . import tables as S
 
     device = resolve_device(part.device, part.device_what)
     s = _shape(part)
@@ -830,7 +800,7 @@ def estimate_part(part: Part, epochs: int = 4) -> dict[str, Any]:
     Y = Y.to(torch.float32)
     cfg = part.train_config.replace(max_epochs=int(epochs), max_fail=10**6)
     split = split_indices(s["n"], cfg.fractions, cfg.seed)
-    mlp = MLPConfig(n_inputs=s["f"], n_outputs=s["m"], hidden=list(sec["hidden"]), **S.mlp_options(cfg.loss))
+    mlp = MLPConfig(n_inputs=s["f"], n_outputs=s["m"], hidden=list(sec["hidden"]), **tables.mlp_options(cfg.loss))
     model = SubspaceMLP(mlp, seeds=[0]).configure(X[split.train], seeds=[0])
     res = train(model, X, Y, cfg, split=split)
     t = np.asarray(res.history.time)
@@ -935,8 +905,3 @@ def list_lines(params_file=None, out=None, data_dir=None, *, device: str | None 
     lines.append(tail)
     return lines
 
-
-if __name__ == "__main__":  # python -m wsmap.paper.full [PART ...] [--list] ...
-    from ..cli import main
-
-    sys.exit(main(["paper", "full", *sys.argv[1:]]))

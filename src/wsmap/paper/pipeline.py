@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 from .. import paths
+from . import parts
 
 
 class NotebookError(RuntimeError):
@@ -77,28 +78,29 @@ def run_notebook(name: str, params_file=None, root=None, timeout: int | None = 3
     return dest
 
 
-#: The notebooks in dependency order (as dvc.yaml runs them): report reads every other's metrics.
-ORDER = ["classical_workspace", "sec61_subspace", "sec62_puma560", "table1_workspaces", "table2_optimisers",
-         "table3_embeddings", "runtime_comparison", "improved_model", "real_arms", "learned_maps", "report"]
+def order() -> list[str]:
+    """The notebooks in run order (as dvc.yaml runs them): the parts' registry
+    (:func:`wsmap.paper.parts.order`), every part after the parts whose outputs it reads."""
+    return parts.order()
 
 
 def build_datasets(params_file, data_dir, *, rebuild: bool = False):
     """Build every dataset (and its test set) of the params file's ``datasets`` section into
     ``data_dir``, skipping pairs already there unless ``rebuild``; yields ``(name, seconds)`` for
     each one built, as it is built (the dvc stages ``datasets@NAME`` do the same one by one)."""
-    from . import specs as D
+    from .specs import build_pair, dataset_paths
 
     for name, item in paths.load_params("datasets", params_file).items():
-        if not rebuild and all(p.exists() for p in D.dataset_paths(name, data_dir)):
+        if not rebuild and all(p.exists() for p in dataset_paths(name, data_dir)):
             continue
         t0 = time.perf_counter()
-        D.build_pair(name, data_dir, item["samples"], item["test_samples"], progress=False)
+        build_pair(name, data_dir, item["samples"], item["test_samples"], progress=False)
         yield name, time.perf_counter() - t0
 
 
 def run_all(params_file=None, root=None, timeout: int | None = 3600) -> list[Path]:
     """Without DVC: build every dataset of the params file's ``datasets`` section that ``root``
-    lacks, then execute every notebook in :data:`ORDER`. For runs outside the committed
+    lacks, then execute every notebook in :func:`order`. For runs outside the committed
     configuration (the paper's full scale: ``params.full.yaml``) into their own root, so that the
     committed results stay what ``params.yaml`` produces. The wall time of every dataset and
     notebook goes to ``<root>/results/pipeline_timings.json`` (rewritten after each step)."""
@@ -119,7 +121,7 @@ def run_all(params_file=None, root=None, timeout: int | None = 3600) -> list[Pat
         record(f"datasets@{name}", seconds)
         print(f"dataset {name}: built in {seconds:.1f} s", flush=True)
     executed = []
-    for n in ORDER:
+    for n in order():
         if (paths.NOTEBOOKS / f"{n}.ipynb").exists():
             t0 = time.perf_counter()
             executed.append(run_notebook(n, params_file, out.root, timeout))

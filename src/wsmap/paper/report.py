@@ -30,7 +30,7 @@ from .full import _fmt_seconds
 from .published import PAPER
 
 __all__ = ["PAPER", "DEPARTURES", "PAPER_SCALE", "FULL_PARTS", "NOT_RUN", "Row", "markdown_table", "lookup",
-           "load_metrics", "load_full", "wall_time", "comparison_rows", "reductions", "write_report"]
+           "load_metrics", "load_full", "wall_time", "comparison_rows", "reductions", "unknown_keys", "write_report"]
 
 #: Where the project departs from the paper, and why (the report lists them all).
 DEPARTURES: list[tuple[str, str]] = [
@@ -237,6 +237,19 @@ PAPER_SCALE: dict[tuple[str, str], tuple[str, str]] = {
 #: Every ``wsmap paper full`` part the report reads, in the runner's order (a test checks that
 #: these are all of :func:`wsmap.paper.full.plan`'s parts).
 FULL_PARTS: list[str] = list(dict.fromkeys(part for part, _ in PAPER_SCALE.values()))
+
+
+def unknown_keys() -> list[str]:
+    """The keys of :data:`COMPARISONS` that their part's metrics schema lacks
+    (:func:`wsmap.paper.parts.knows_key`), and those of :data:`PAPER_SCALE` that the §6.1 and §6.2
+    parts' paper-scale schemas lack, as ``"<file>: <key>"``; empty when the report and the parts agree."""
+    from .parts import knows_key, sec61_subspace, sec62_puma560
+
+    bad = [f"results/{stem}.json: {key}" for _, _, stem, key, _, _ in COMPARISONS if not knows_key(stem, key)]
+    paper_scale = {"sec61_subspace": sec61_subspace.PaperScaleMetrics, "sec62_puma560": sec62_puma560.PaperScaleMetrics}
+    bad += [f"results/full/{part}.json: {key}" for part, key in PAPER_SCALE.values()
+            if part in paper_scale and key.split(".")[0] not in paper_scale[part].__annotations__]
+    return bad
 
 
 def load_full(full_dir) -> dict[str, dict]:

@@ -16,12 +16,12 @@ PUMA560's constant-orientation map on the 27-, 125- and 9261-node grids ([-1, 1]
     The closed-form wrist-centre test (``method="exact"``), batched.
 ``network``
     ``model.predict`` of a freshly initialised paper network on the PUMA560's feature row
-    (:func:`wsmap.data.features_for`): hidden layers [125, 100, 100, 125] (tanh); 27 or 125
+    (:func:`wsmap.datasets.features_for`): hidden layers [125, 100, 100, 125] (tanh); 27 or 125
     outputs for the small grids, and for 9261 nodes the section-6.2 assembly of 7 block subspaces
     of 1323 outputs (``predict(..., assemble=True)``). Inference time does not depend on the
     values of the weights, so an untrained network times the same as a trained one.
 ``network_end_to_end``
-    :func:`wsmap.data.features_for` + ``predict``: from the arm's DH table to the map.
+    :func:`wsmap.datasets.features_for` + ``predict``: from the arm's DH table to the map.
 
 Times are wall-clock (``time.perf_counter``), mean ± sigma (sample standard deviation) over
 ``repeats`` calls after ``warmup`` untimed ones.
@@ -63,7 +63,7 @@ _CLASSICAL = ("classical_per_node_numerical", "classical_batched_numerical", "cl
 
 
 def grid_spec(step: float, lo: float = -1.0, hi: float = 1.0, rpy=(0.0, 0.0, 0.0)):
-    """The R3 :class:`wsmap.data.DatasetSpec` of a grid (all nodes, spherical-wrist layout) whose
+    """The R3 :class:`wsmap.datasets.DatasetSpec` of a grid (all nodes, spherical-wrist layout) whose
     feature layout the network of that grid is fed."""
     from ..datasets import DatasetSpec
 
@@ -153,7 +153,7 @@ def runtime_comparison(
     import torch
 
     from .. import robots
-    from .. import workspace as ws
+    from .. import workspace
     from ..datasets import features_for
     from ..kinematics import DHRobot, ikine_LM
     from ..learn.device import resolve_device
@@ -172,9 +172,9 @@ def runtime_comparison(
     rng = np.random.default_rng(seed)
     rows = []
     for step in steps:
-        nodes = ws.cartesian_grid(lo, hi, step)
+        nodes = workspace.cartesian_grid(lo, hi, step)
         N = len(nodes)
-        exact = ws.constant_orientation_map(robot, nodes, rpy, method="exact")
+        exact = workspace.constant_orientation_map(robot, nodes, rpy, method="exact")
         paper_classical, paper_network_s = RUNTIME_SECONDS.get(N, (math.nan, math.nan))
 
         def add(method, timing, timed_nodes, extrapolated=False, agreement=math.nan):
@@ -189,7 +189,7 @@ def runtime_comparison(
             ))
 
         if "classical_per_node_numerical" in methods:
-            T = ws.target_poses(nodes, rpy, "paper")
+            T = workspace.target_poses(nodes, rpy, "paper")
             n = min(int(per_node_sample), N)
             samples = [np.sort(rng.choice(N, size=n, replace=False)) if n < N else np.arange(N)
                        for _ in range(classical_repeats)]
@@ -213,7 +213,7 @@ def runtime_comparison(
 
             def batched():
                 # the paper's one-start LM, not the library's multi-start search
-                out["map"] = ws.constant_orientation_map(robot, nodes, rpy, method="numerical",
+                out["map"] = workspace.constant_orientation_map(robot, nodes, rpy, method="numerical",
                                                          ik={**ik, "solver": "paper"})
 
             say(f"{N} nodes: batched LM x {classical_repeats} repeats")
@@ -222,7 +222,8 @@ def runtime_comparison(
 
         if "classical_exact" in methods:
             say(f"{N} nodes: exact x {repeats} repeats")
-            t = time_call(lambda: ws.constant_orientation_map(robot, nodes, rpy, method="exact"), repeats, warmup)
+            t = time_call(lambda: workspace.constant_orientation_map(robot, nodes, rpy, method="exact"), repeats,
+                          warmup)
             add("classical_exact", t, N, agreement=1.0)
 
         if "network" in methods or "network_end_to_end" in methods:

@@ -26,14 +26,14 @@ have a spread over sessions). Undefined pooled values are NaN (the paper printed
 Cross entropy
 -------------
 ``loss="crossentropy"`` trains the network's linear output as a *logit* (binary cross entropy on
-``sigmoid(z)``, :func:`wsmap.training.make_loss`), and the model is built with
+``sigmoid(z)``, :func:`wsmap.learn.training.make_loss`), and the model is built with
 ``output_kind="logit"`` so that it predicts a node where ``sigmoid(z) > 0.5``
 (:func:`mlp_options`). MATLAB's ``crossentropy`` on the paper's linear (``purelin``) output layer
 takes logarithms of raw outputs that may be negative or above 1; it is not reproduced.
 
 Reduced runs
 ------------
-``train_samples`` keeps the first ``n`` arms of a training set (:meth:`wsmap.data.Dataset.head`:
+``train_samples`` keeps the first ``n`` arms of a training set (:meth:`wsmap.datasets.Dataset.head`:
 exactly the arms a smaller build would have drawn); the 70/15/15 split is drawn inside them.
 """
 
@@ -47,13 +47,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from . import specs as D
-from .. import metrics as M
 from ..datasets import Dataset
 from ..io import plus_minus
 from ..learn.training import TrainConfig, optimizer_name
-from . import fitting as E
+from ..metrics import confusion, precision_recall_f
+from . import fitting
 from .published import PAPER_TABLE1, PAPER_TABLE2, PAPER_TABLE3
+from .specs import load_pair
 
 __all__ = [
     "PAPER_HIDDEN",
@@ -87,7 +87,7 @@ TABLE3_HIDDEN = (80, 80, 80)
 
 TABLE1_DATASETS = ("table1_r3_step1", "table1_r3_step05", "table1_r3_block5", "table1_r3_crop3087",
                    "table1_r3_full", "table1_so3_pi3", "table1_so3_pi8", "table1_so3_pi10")
-#: Table 2's optimisers in the paper's row order, by their :mod:`wsmap.optim` names.
+#: Table 2's optimisers in the paper's row order, by their :mod:`wsmap.learn.optim` names.
 TABLE2_OPTIMIZERS = ("cgb", "gdx", "oss", "rprop", "scg")
 TABLE2_LOSSES = ("crossentropy", "mse", "mae")
 #: Table 3's embeddings: name -> dataset.
@@ -124,10 +124,10 @@ def scores(model, test: Dataset, threshold: float = 0.5) -> dict[str, Any]:
     """Pooled and per-sample precision, recall, F of ``model`` on ``test`` (all its nodes),
     plus the counts: ``tp``, ``fp``, ``fn``, ``positives`` (true), ``predicted`` (positive) and
     ``positive_rate`` (fraction of reachable nodes in the test set)."""
-    ev = E.evaluate(model, test, threshold=threshold)
+    ev = fitting.evaluate(model, test, threshold=threshold)
     pred = ev["scores"] > threshold
-    per = M.precision_recall_f(pred, ev["truth"], "samples")
-    c = M.confusion(pred, ev["truth"])
+    per = precision_recall_f(pred, ev["truth"], "samples")
+    c = confusion(pred, ev["truth"])
     return dict(
         precision=ev["precision"], recall=ev["recall"], f=ev["f"],
         precision_sample_mean=per.precision, precision_sample_std=per.precision_std,
@@ -150,7 +150,7 @@ def fit_and_score(train: Dataset, tests: Mapping[str, Dataset], config: TrainCon
     """
     ds = train.head(train_samples)
     mlp = {**mlp_options(config.loss), **mlp}
-    results = E.fit(ds, config, sessions=sessions, hidden=hidden, **mlp)
+    results = fitting.fit(ds, config, sessions=sessions, hidden=hidden, **mlp)
     return pd.DataFrame(score_results(results, ds, tests, threshold))
 
 
@@ -162,7 +162,7 @@ def score_results(results: Sequence, train: Dataset, tests: Mapping[str, Dataset
     with seed ``seed + k``, passes ``first_session=k``)."""
     rows = []
     for s, r in enumerate(results, start=first_session):
-        model = E.stack_sessions([r]) if r.session is not None else r.model
+        model = fitting.stack_sessions([r]) if r.session is not None else r.model
         best = r.history.loss[r.best_epoch]
         base = dict(session=s, seed=r.config.seed, train_samples=len(train), nodes=int(train.n_nodes),
                     epochs=int(r.stop_epoch), best_epoch=int(r.best_epoch), stop_reason=r.stop_reason,
@@ -209,7 +209,7 @@ def per_dataset(value, name: str, default=None):
 def table1(data_dir, names: Sequence[str] = TABLE1_DATASETS, *, config: TrainConfig | None = None,
            train_samples=None, max_epochs=None, sessions: int = 1, hidden: Sequence[int] = PAPER_HIDDEN,
            log: Log = print) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Table 1: one model per workspace dataset in ``data_dir`` (:func:`wsmap.data.load_pair`).
+    """Table 1: one model per workspace dataset in ``data_dir`` (:func:`wsmap.paper.specs.load_pair`).
 
     ``train_samples`` and ``max_epochs`` are one value or a mapping dataset -> value (key
     ``"default"`` for the rest); ``max_epochs`` overrides ``config.max_epochs``.
@@ -222,7 +222,7 @@ def table1(data_dir, names: Sequence[str] = TABLE1_DATASETS, *, config: TrainCon
     config = TrainConfig() if config is None else config
     frames = []
     for name in names:
-        train, test = D.load_pair(name, data_dir)
+        train, test = load_pair(name, data_dir)
         cfg = config.replace(max_epochs=int(per_dataset(max_epochs, name, config.max_epochs)))
         n = per_dataset(train_samples, name)
         t0 = time.perf_counter()

@@ -1,0 +1,154 @@
+"""The parts of the paper's reproduction: one module per notebook (pipeline stage), each registering itself.
+
+A part module ``wsmap.paper.parts.<name>`` holds everything its notebook computes and draws:
+
+* ``PART`` — its :class:`Part` record (name, place in the run order, the parts whose outputs it
+  reads, the files it writes), registered with :func:`register` when the module is imported;
+* ``Metrics`` — the schema of its ``results/<name>.json`` (a :class:`typing.TypedDict`, every key
+  documented once; :func:`check_metrics` holds a metrics dict to it);
+* ``run(cfg, out, ...)`` — the computation, from the notebook's params section ``cfg``
+  (:func:`wsmap.paths.notebook_params`) and the run's folders ``out`` (:class:`wsmap.paths.Outputs`:
+  the datasets and the models of the parts it reads); returns a result whose ``metrics`` follow
+  ``Metrics``;
+* ``save(result, out)`` — its metrics file, tables and model files; ``figures(result, out)`` — its
+  figures (drawn with :mod:`wsmap.viz`), returning their paths.
+
+The notebook ``notebooks/<name>.ipynb`` loads its params, calls these and narrates.
+:func:`order` (the pipeline order, ``wsmap paper run --all`` and ``wsmap paper list``) and
+:func:`reads` (which parts a part reads; the smoke tests run those first) come from the registry;
+DVC's ``dvc.yaml`` holds the same stages (``tests/test_paper_pipeline.py`` compares them).
+
+A new figure of the paper is one new module here (with its ``PART``), one notebook and one stage.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from dataclasses import dataclass
+
+__all__ = ["Part", "register", "registry", "part", "order", "reads", "metric_keys", "check_metrics", "save_figure"]
+
+
+@dataclass(frozen=True)
+class Part:
+    """One part of the paper: a notebook, a DVC stage, a metrics file.
+
+    ``name``: the notebook, the params section and the stage (``results/<name>.json``).
+    ``position``: its place in the run order (the paper's order; ties are not allowed).
+    ``reads``: the parts whose output files it reads (they run first).
+    ``outputs``: the files and folders it writes, relative to the output root (the executed
+    notebook aside), as ``dvc.yaml`` lists them for the committed params.
+    """
+
+    name: str
+    title: str
+    position: int
+    reads: tuple[str, ...] = ()
+    outputs: tuple[str, ...] = ()
+
+    @property
+    def module(self) -> str:
+        return f"{__name__}.{self.name}"
+
+
+_REGISTRY: dict[str, Part] = {}
+
+
+def register(p: Part) -> Part:
+    """Add ``p`` to the registry (a part module's last statement); a second part of the same name
+    or position is a ``ValueError``."""
+    if not p.name.isidentifier():
+        raise ValueError(f"a part's name must be a Python identifier (its module's), got {p.name!r}")
+    old = _REGISTRY.get(p.name)
+    if old is not None and old != p:
+        raise ValueError(f"part {p.name!r} registered twice")
+    clash = [q.name for q in _REGISTRY.values() if q.position == p.position and q.name != p.name]
+    if clash:
+        raise ValueError(f"parts {p.name!r} and {clash[0]!r} share position {p.position}")
+    _REGISTRY[p.name] = p
+    return p
+
+
+def registry() -> dict[str, Part]:
+    """Every part, by name, in run order: each module of this package imported (it registers itself).
+
+    The modules are found by listing the package, so that running one notebook imports only its
+    own part; a part that reads an unknown part, or one placed before a part it reads, is a
+    ``ValueError``.
+    """
+    for info in pkgutil.iter_modules(__path__):
+        if not info.name.startswith("_"):
+            importlib.import_module(f"{__name__}.{info.name}")
+    parts = sorted(_REGISTRY.values(), key=lambda p: p.position)
+    for p in parts:
+        for r in p.reads:
+            if r not in _REGISTRY:
+                raise ValueError(f"part {p.name!r} reads unknown part {r!r}; known: {', '.join(_REGISTRY)}")
+            if _REGISTRY[r].position >= p.position:
+                raise ValueError(f"part {p.name!r} reads {r!r}, which runs after it")
+    return {p.name: p for p in parts}
+
+
+def part(name: str) -> Part:
+    """The registered part ``name``; an unknown name is a ``ValueError`` listing the known ones."""
+    parts = registry()
+    if name not in parts:
+        raise ValueError(f"unknown part {name!r}; known: {', '.join(parts)}")
+    return parts[name]
+
+
+def order() -> list[str]:
+    """The parts' names in run order (every part after those it reads)."""
+    return list(registry())
+
+
+def reads(name: str) -> list[str]:
+    """The parts whose outputs part ``name`` reads, in run order."""
+    p = part(name)
+    return [n for n in order() if n in p.reads]
+
+
+def metric_keys(schema: type) -> tuple[str, ...]:
+    """The keys of a ``Metrics`` TypedDict, in declaration order."""
+    return tuple(schema.__annotations__)
+
+
+def check_metrics(metrics: dict, schema: type, what: str) -> dict:
+    """``metrics`` unchanged when its keys are exactly the schema's; else a ``ValueError`` naming the
+    keys missing and the keys the schema does not know (``what``: whose metrics)."""
+    keys = metric_keys(schema)
+    missing = [k for k in keys if k not in metrics]
+    unknown = [k for k in metrics if k not in keys]
+    if missing or unknown:
+        problems = ([f"lack {missing}"] if missing else []) + ([f"have keys not in the schema {unknown}"] if unknown else [])
+        raise ValueError(f"{what}: metrics {'; '.join(problems)}")
+    return metrics
+
+
+def save_figure(fig, path):
+    """:func:`wsmap.viz.save_figure` (the figure written, then closed), returning ``path`` so that
+    ``figures`` can list what it wrote."""
+    from ... import viz
+
+    viz.save_figure(fig, path)
+    return path
+
+
+def knows_key(name: str, key: str) -> bool:
+    """Whether part ``name``'s metrics schema has the dotted ``key`` (``"f_mean"``,
+    ``"panda7.f"``, ``"rprop_mse.f_mean"``): the first component a key of its ``Metrics`` (nested
+    TypedDicts followed), or else a key its module's ``is_cell_key`` accepts (the parts whose
+    metrics hold one entry per table cell or method)."""
+    module = importlib.import_module(part(name).module)
+    schema, rest = module.Metrics, key.split(".")
+    while rest and rest[0] in schema.__annotations__:
+        annotation = schema.__annotations__[rest.pop(0)]
+        annotation = getattr(annotation, "__forward_arg__", annotation)  # TypedDict keeps strings as ForwardRefs
+        nested = getattr(module, annotation, None) if isinstance(annotation, str) else annotation
+        if not (isinstance(nested, type) and hasattr(nested, "__annotations__") and issubclass(nested, dict)):
+            return True  # a plain value or a mapping of values
+        schema = nested
+    if not rest:
+        return True
+    return bool(getattr(module, "is_cell_key", lambda k: False)(key)) and schema is module.Metrics
