@@ -385,7 +385,7 @@ def machine_facts() -> dict[str, Any]:
     import numpy as np
     import torch
 
-    from .. import __version__
+    from .._version import __version__
 
     try:
         memory_gib = round(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30, 1)
