@@ -88,7 +88,7 @@ def test_dvc_stages_hold_the_registry():
     writer = {o: name for name in registry for o in _stage_files(stages[name], "outs", "plots", "metrics")}
     for name, part in registry.items():
         stage = stages[name]
-        assert stage["cmd"] == f"python -m wsmap paper run {name}"
+        assert stage["cmd"] == f"python -m wsmap.paper.notebook {name}"
         outs = _stage_files(stage, "outs", "plots", "metrics")
         assert outs == {*part.outputs, f"results/notebooks/{name}.ipynb"}, name
         read = {writer[d] for d in stage["deps"] if d in writer}

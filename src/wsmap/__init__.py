@@ -3,19 +3,21 @@
 The library (what a roboticist imports)::
 
     import wsmap
-    arm = wsmap.robots.puma560()
-    nodes = wsmap.cartesian_grid(-1, 1, 0.1)
-    reach = wsmap.constant_orientation_map(arm, nodes, method="exact")
+    arm = wsmap.load("ur5e")                                   # or wsmap.from_urdf(path), wsmap.from_dh(...)
+    nodes = wsmap.cartesian_grid(-1, 1, 0.1)                   # (9261, 3) metres, x fastest
+    reach = wsmap.constant_orientation_map(arm, nodes, rpy=(3.14159, 0, 0), convention="standard")
+    index = wsmap.reachability_index(arm, nodes, wsmap.workspace.orientation_samples(50))  # (9261,) in [0, 1]
 
 * :mod:`wsmap.kinematics` — transforms, robot models (:class:`DHRobot`), forward kinematics, IK;
 * :mod:`wsmap.robots` — named arms and families of arms;
-* :mod:`wsmap.workspace` — grids, maps, map files;
+* :mod:`wsmap.workspace` — grids, maps of every kind (one module each in :mod:`wsmap.workspace.kinds`),
+  base placement, map files;
 * :mod:`wsmap.datasets` — experience datasets (spec, features, labels, store);
 * :mod:`wsmap.learn` — networks, initialisation, optimisers, training, the map predictor, model files;
 * :mod:`wsmap.design` — the shortest arm of a family whose map covers task positions: gradient
   descent through a map model against CMA-ES and random search on the classical map;
-* :mod:`wsmap.metrics` — precision, recall, F of maps;
-* :mod:`wsmap.viz` — drawing; :mod:`wsmap.io` — atomic writes, tables, JSON; :mod:`wsmap.paths`.
+* :mod:`wsmap.metrics` — precision, recall, F of maps, threshold sweeps, per-node outcomes;
+* :mod:`wsmap.viz` — drawing only; :mod:`wsmap.views` — 3-D views and exchange files; :mod:`wsmap.io` — atomic writes, tables, JSON; :mod:`wsmap.paths`.
 
 The paper's reproduction lives apart, in :mod:`wsmap.paper` (its dataset specs, published numbers,
 experiments, run-time comparison, report and notebook runner). A reproduction and extension of
@@ -28,28 +30,44 @@ from .kinematics import (
     DHRobot,
     IKSolution,
     SerialChain,
+    closed_form_for,
     ikine_LM,
     ikine_search,
     ikine_spherical_wrist,
+    ikine_ur,
     rpy2r,
     transl,
 )
+from .robots import from_dh, from_urdf, load
 from .workspace import (
+    Placement,
     angle_grid,
+    base_placement,
     cartesian_grid,
     constant_orientation_map,
+    dexterous_map,
     grid_map,
     grid_spec,
     load_map,
+    manipulability_map,
     map_to_volume,
     orientation_map,
+    position_map,
+    reachability_index,
     reachable,
     save_map,
 )
+from .workspace.kinds import get_kind, kind_names
 
 __all__ = [
     "__version__", "kinematics", "robots", "workspace",
-    "DHRobot", "IKSolution", "SerialChain", "ikine_LM", "ikine_search", "ikine_spherical_wrist", "rpy2r", "transl",
-    "angle_grid", "cartesian_grid", "constant_orientation_map", "grid_map", "grid_spec", "load_map",
-    "map_to_volume", "orientation_map", "reachable", "save_map",
+    # arms: by name, from a URDF file, from a (modified) DH table
+    "load", "from_urdf", "from_dh", "DHRobot", "SerialChain",
+    # kinematics
+    "IKSolution", "closed_form_for", "ikine_LM", "ikine_search", "ikine_spherical_wrist", "ikine_ur", "rpy2r",
+    "transl",
+    # maps: grids, every map kind, their files; base placement
+    "angle_grid", "cartesian_grid", "grid_spec", "grid_map", "map_to_volume", "reachable",
+    "constant_orientation_map", "orientation_map", "reachability_index", "position_map", "dexterous_map",
+    "manipulability_map", "get_kind", "kind_names", "load_map", "save_map", "base_placement", "Placement",
 ]

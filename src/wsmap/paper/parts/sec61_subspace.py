@@ -22,14 +22,14 @@ from typing import Any, TypedDict
 import numpy as np
 import pandas as pd
 
-from ... import metrics, viz
+from ... import viz
 from ... import workspace
 from ...datasets import Dataset, spec_nodes
 from ...io import write_json, write_table
 from ...learn.device import resolve_device
 from ...learn.files import save as save_model
 from ...learn.training import TrainConfig
-from ...metrics import Sweep, threshold_sweep
+from ...metrics import Sweep, per_sample_error, session_curves, threshold_sweep
 from ...paths import Outputs
 from .. import fitting
 from ..published import SEC61
@@ -185,7 +185,7 @@ def run(cfg: Mapping, out: Outputs, *, log: Callable[[str], Any] = print) -> Res
              "seconds": seconds[i], "best_val_loss": r.best_val_loss} for i, (r, e) in enumerate(zip(results, evals))]
     best = int(np.argmin([r.best_val_loss for r in results]))
     ev = evals[best]
-    err = metrics.per_sample_error(ev["scores"], ev["truth"], cfg["threshold"])
+    err = per_sample_error(ev["scores"], ev["truth"], cfg["threshold"])
     sweep = sweep_of(ev, cfg["sweep_points"])
     summary = summarise(rows, sweep, threshold=cfg["threshold"], max_epochs=cfg["max_epochs"],
                         train_samples=len(train))
@@ -240,13 +240,13 @@ def figures(result: Result, out: Outputs) -> list[Path]:
     histories = [r.history for r in result.results]
     n = len(result.results)
     paths = []
-    fig = viz.plot_mean_band(metrics.session_curves(histories, "grad_norm"), label="gradient norm",
+    fig = viz.plot_mean_band(session_curves(histories, "grad_norm"), label="gradient norm",
                              ylabel="‖∇ MSE‖ (L2, all weights and biases)",
                              title=f"Average gradient (± σ) of {n} training sessions")
     paths.append(save_figure(fig, out.figures / "sec61_gradient.png"))
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
-    viz.plot_mean_band(metrics.session_curves(histories, "loss"), ax=ax, label="training MSE", ylabel="MSE")
-    viz.plot_mean_band(metrics.session_curves(histories, "val_loss"), ax=ax, label="validation MSE", color="#d62728",
+    viz.plot_mean_band(session_curves(histories, "loss"), ax=ax, label="training MSE", ylabel="MSE")
+    viz.plot_mean_band(session_curves(histories, "val_loss"), ax=ax, label="validation MSE", color="#d62728",
                        ylabel="MSE", title=f"Loss of {n} training sessions (mean ± σ)", show_sessions=False)
     paths.append(save_figure(fig, out.figures / "sec61_loss.png"))
     fig = viz.plot_sample_errors(result.errors, title=f"Error of predictions on a test set of {len(test)} examples "
