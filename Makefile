@@ -25,6 +25,10 @@ paper: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
+# only the papermill smoke runs of the notebooks (tests marked `smoke`; `-m "not smoke"` for the rest)
+smoke: $(STAMP)
+	$(BIN)/python -m pytest -q -m smoke
+
 # Speed measurements (minutes; never part of the tests). JSON results land in bench/.
 bench: $(STAMP)
 	mkdir -p bench

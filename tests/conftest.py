@@ -9,7 +9,8 @@ as under ``dvc repro``.
 that uses the smoke pipeline is put in one group, so one worker builds it once and runs the
 notebooks in their dependency order while the other takes the rest; each worker runs torch, numba
 and the notebooks' kernels on one thread, because two processes of two threads each on the two
-cores run slower than one.
+cores run slower than one. The smoke-pipeline tests carry the mark ``smoke``: ``pytest -m smoke`` runs them
+alone, ``pytest -m "not smoke"`` the rest.
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if SMOKE_FIXTURES & set(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.xdist_group("smoke"))
+            item.add_marker(pytest.mark.smoke)
 
 
 SMOKE = paths.ROOT / "params.smoke.yaml"

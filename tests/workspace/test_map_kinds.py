@@ -9,7 +9,7 @@ import pytest
 
 from wsmap import cli, robots
 from wsmap import workspace as ws
-from wsmap.workspace import kinds as K
+from wsmap.workspace import kinds
 from wsmap.workspace.files import MapFileError
 
 
@@ -32,9 +32,9 @@ def _tiny_grid_args(kind):
 # ---------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name", K.kind_names())
+@pytest.mark.parametrize("name", kinds.kind_names())
 def test_every_kind_runs_through_the_cli_and_its_file_reproduces_it(tmp_path, capsys, name):
-    kind = K.get_kind(name)
+    kind = kinds.get_kind(name)
     out = tmp_path / f"{name}.npz"
     code, stdout, err = run(["map", "--robot", "puma560", "--kind", name, *_tiny_grid_args(kind), "--out", str(out),
                              "--png", str(tmp_path / "s.png")], capsys)
@@ -44,7 +44,7 @@ def test_every_kind_runs_through_the_cli_and_its_file_reproduces_it(tmp_path, ca
     assert settings["kind"] == name and grid["scope"] == kind.scope and flat.dtype == kind.dtype
     assert flat.shape == (len(nodes),) == (int(np.prod(grid["shape"])),)
     # the settings a file records are the request that computes the same map again
-    request = K.MapRequest(method=settings["method"], convention=settings["convention"], rpy=tuple(settings["rpy"]),
+    request = kinds.MapRequest(method=settings["method"], convention=settings["convention"], rpy=tuple(settings["rpy"]),
                            point=tuple(settings["point"]), orientations=settings.get("orientations"),
                            ik=settings["ik"], seed=0)
     np.testing.assert_array_equal(kind.compute(robots.puma560(), grid, request), flat)
@@ -52,24 +52,24 @@ def test_every_kind_runs_through_the_cli_and_its_file_reproduces_it(tmp_path, ca
 
 
 def test_the_kinds_and_their_functions():
-    assert K.kind_names() == ("constant", "orientation", "index", "reach", "dexterous", "manipulability")
-    assert K.default_kind("R3").name == "constant" and K.default_kind("SO3").name == "orientation"
-    assert [k.name for k in K.kinds_taking("orientations")] == ["index", "dexterous"]
-    assert K.get_kind("index").function is ws.reachability_index
-    assert K.get_kind("manipulability").function is ws.manipulability_map
-    assert K.get_kind("constant").function is ws.constant_orientation_map
-    assert {k.name for k in K.kinds() if k.value_type is float} == {"index", "manipulability"}
-    assert K.get_kind("manipulability").levels(np.array([0.0, 1.0, 2.0, 3.0, 4.0])) == (1.75, 2.5, 3.25)
-    assert K.get_kind("reach").levels(np.zeros(3)) == (0.5,)
-    assert K.get_kind("dexterous").summary(np.array([True, False, True])) == "2 of 3 nodes dexterous"
-    assert (K.get_kind("index").summary(np.array([0.0, 0.5, 1.0]))
+    assert kinds.kind_names() == ("constant", "orientation", "index", "reach", "dexterous", "manipulability")
+    assert kinds.default_kind("R3").name == "constant" and kinds.default_kind("SO3").name == "orientation"
+    assert [k.name for k in kinds.kinds_taking("orientations")] == ["index", "dexterous"]
+    assert kinds.get_kind("index").function is ws.reachability_index
+    assert kinds.get_kind("manipulability").function is ws.manipulability_map
+    assert kinds.get_kind("constant").function is ws.constant_orientation_map
+    assert {k.name for k in kinds.kinds() if k.value_type is float} == {"index", "manipulability"}
+    assert kinds.get_kind("manipulability").levels(np.array([0.0, 1.0, 2.0, 3.0, 4.0])) == (1.75, 2.5, 3.25)
+    assert kinds.get_kind("reach").levels(np.zeros(3)) == (0.5,)
+    assert kinds.get_kind("dexterous").summary(np.array([True, False, True])) == "2 of 3 nodes dexterous"
+    assert (kinds.get_kind("index").summary(np.array([0.0, 0.5, 1.0]))
             == "2 of 3 nodes reachable, mean reachability index 0.500")
 
 
 def test_every_module_of_the_package_registers_one_kind():
-    folder = Path(K.__file__).parent
+    folder = Path(kinds.__file__).parent
     modules = [m.name for m in pkgutil.iter_modules([str(folder)]) if m.name != "registry"]
-    registered = {k.name: k for k in K.kinds()}
+    registered = {k.name: k for k in kinds.kinds()}
     for name in modules:
         module = getattr(K, name, None)
         assert module is not None, f"wsmap/workspace/kinds/{name}.py is not imported by the package's __init__"
@@ -79,9 +79,9 @@ def test_every_module_of_the_package_registers_one_kind():
 
 def test_unknown_kind_is_an_error_naming_the_known_ones():
     with pytest.raises(ValueError, match=r"unknown map kind 'volume'; known kinds: constant, orientation, index"):
-        K.get_kind("volume")
+        kinds.get_kind("volume")
     with pytest.raises(ValueError, match="already registered"):
-        K.register(K.get_kind("index"))
+        kinds.register(kinds.get_kind("index"))
 
 
 @pytest.mark.parametrize("change, message", [
@@ -97,7 +97,7 @@ def test_a_bad_kind_record_is_refused(change, message):
     fields = dict(name="toy", scope="R3", value_type=bool, compute=_distance_compute, function=np.linalg.norm,
                   description="toy", convention="standard")
     with pytest.raises(ValueError, match=message):
-        K.MapKind(**{**fields, **change})
+        kinds.MapKind(**{**fields, **change})
 
 
 # ---------------------------------------------------------------------------------------------
@@ -113,15 +113,15 @@ def _distance_compute(robot, grid, request):
 
 @pytest.fixture
 def distance_kind():
-    kind = K.register(K.MapKind(
+    kind = kinds.register(kinds.MapKind(
         name="distance", scope="R3", value_type=float, compute=_distance_compute, function=np.linalg.norm,
         description="the distance of each position from the base (a test's toy kind)", label="distance (m)",
         convention="standard", levels=lambda v: (0.5,), value_range=(0.0, None)))
     try:
         yield kind
     finally:
-        K.unregister("distance")
-    assert "distance" not in K.kind_names()
+        kinds.unregister("distance")
+    assert "distance" not in kinds.kind_names()
 
 
 def test_a_registered_kind_reaches_the_command_line_and_the_map_files(tmp_path, capsys, distance_kind):
@@ -139,7 +139,7 @@ def test_a_registered_kind_reaches_the_command_line_and_the_map_files(tmp_path, 
     np.testing.assert_allclose(flat, np.linalg.norm(nodes, axis=1))
     assert (tmp_path / "d.glb").stat().st_size > 100
     # a kind that is not registered: its files do not load, its name is not a choice
-    K.unregister("distance")
+    kinds.unregister("distance")
     try:
         with pytest.raises(MapFileError, match="unknown map kind 'distance'; known kinds: constant"):
             ws.load_map(out)
@@ -147,7 +147,7 @@ def test_a_registered_kind_reaches_the_command_line_and_the_map_files(tmp_path, 
             cli.main(["map", "--kind", "distance", "--out", str(tmp_path / "e.npz")])
         assert e.value.code == 2 and "invalid choice: 'distance'" in capsys.readouterr().err
     finally:
-        K.register(distance_kind)
+        kinds.register(distance_kind)
 
 
 def test_map_files_check_the_kind_before_writing_and_when_loading(tmp_path, distance_kind):
