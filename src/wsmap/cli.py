@@ -584,8 +584,9 @@ def _run_robots(args) -> int:
 # ----------------------------------------------------------------------------------- wsmap paper
 def _paper_parser(sub):
     p = sub.add_parser("paper", help="reproduce the paper: run its notebooks (the DVC stages)",
-                       description="Run the paper's notebooks with papermill. `dvc repro` calls "
-                                   "`wsmap paper run NAME` per stage; --all runs everything without DVC.")
+                       description="Run the paper's notebooks with papermill. `dvc repro` runs each stage as "
+                                   "`python -m wsmap.paper.notebook NAME`, the same run as `wsmap paper run NAME`; "
+                                   "--all runs everything without DVC.")
     psub = p.add_subparsers(dest="paper_command", required=True, metavar="{run,list,full}", parser_class=_Parser)
     r = psub.add_parser("run", help="run notebooks (stages) by name, or all of them",
                         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
