@@ -181,8 +181,8 @@ def section_maps(args, out):
                     rob = rtb_robot(arm.d, arm.a, arm.alpha)
                     jl = False
                 else:
-                    d, a, alpha, _ = np.array(robots.UR5E.rows).T
-                    rob = rtb_robot(d, a, alpha, robots.UR5E.qlim)
+                    d, a, alpha, _ = np.array(robots.NAMED["ur5e"].rows).T
+                    rob = rtb_robot(d, a, alpha, robots.NAMED["ur5e"].qlim)
                     jl = True
                 t0 = time.perf_counter()
                 ok = np.array([rob.ik_LM(T[i], tol=1e-10, joint_limits=jl)[1] for i in sample], dtype=bool)
@@ -230,7 +230,7 @@ def section_ur_exact(args, out):
 
     lm_compiled.set_threads(1)  # one thread each, as EAIK's IK_batched(T, 1)
     chain = robots.load("ur5e")
-    d, a, alpha, _ = np.array(robots.UR5E.rows).T
+    d, a, alpha, _ = np.array(robots.NAMED["ur5e"].rows).T
     eaik = DhRobot(alpha, a, d)
     nodes = cartesian_grid(-1, 1, 0.1)
     rows = []

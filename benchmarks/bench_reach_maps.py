@@ -103,10 +103,10 @@ def main(argv=None):
         # the same arm in the toolbox: Franka's modified-DH rows, limits and flange (d = 0.107 m)
         from spatialmath import SE3
 
-        rows = np.array(robots.PANDA.rows)
+        rows = np.array(robots.NAMED["panda"].rows)
         links = [rtb.RevoluteMDH(d=d, a=a, alpha=al, qlim=list(lim)) for (d, a, al, _), lim in
-                 zip(rows, robots.PANDA.qlim)]
-        rob = rtb.DHRobot(links, tool=SE3(0, 0, robots.PANDA.flange[0]))
+                 zip(rows, robots.NAMED["panda"].qlim)]
+        rob = rtb.DHRobot(links, tool=SE3(0, 0, robots.NAMED["panda"].flange[0]))
         q = panda.random_q(5, rng)
         assert np.allclose(np.array([rob.fkine(qi).A for qi in q]), panda.fkine(q), atol=1e-12)
         picks = rng.choice(cand, args.rtb_sample)

@@ -103,7 +103,7 @@ def main(argv=None):
     import numba
 
     chain = robots.load("ur5e")
-    d, a, alpha, _ = np.array(robots.UR5E.rows).T
+    d, a, alpha, _ = np.array(robots.NAMED["ur5e"].rows).T
     eaik = DhRobot(alpha, a, d)
     batched = hasattr(eaik, "IK_batched")
     nodes = cartesian_grid(-1.0, 1.0, 0.1)

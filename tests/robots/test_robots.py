@@ -1,9 +1,10 @@
 """wsmap.robots: the named arms against independent implementations, load(), from_dh().
 
-The named arms come from manufacturers' tables (wsmap.robots.NAMED); here each is compared with
-Robotics Toolbox for Python (its rtb-data URDFs, read by rtb's own parser) at random
-configurations, up to a constant tool transform estimated at q = 0 with the base frames related by
-a known transform, so any other configuration checks joint zeros, signs, axes and lengths.
+The named arms come from manufacturers' tables (one module per arm in wsmap.robots.arms, collected
+in wsmap.robots.NAMED); here each is compared with Robotics Toolbox for Python (its rtb-data URDFs,
+read by rtb's own parser) at random configurations, up to a constant tool transform estimated at
+q = 0 with the base frames related by a known transform, so any other configuration checks joint
+zeros, signs, axes and lengths.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from frames import hom, inv, max_err_up_to_tool
 from wsmap import robots
 from wsmap.kinematics import DHRobot, SerialChain, from_dh, rotx, rotz
 from wsmap.kinematics.urdf import from_urdf
+from wsmap.robots.arms._ur import ur_table
 
 rtb = pytest.importorskip("roboticstoolbox")
 rtbdata = pytest.importorskip("rtbdata")
@@ -91,18 +93,18 @@ def test_iiwa14_differs_from_the_urdf_only_by_its_offsets():
     np.testing.assert_allclose(arm.fkine(qs), urdf.fkine(qs), atol=1e-12)
 
 
-@pytest.mark.parametrize("name, rtb_model, ur_table", [
+@pytest.mark.parametrize("name, rtb_model, cb3_lengths", [
     # UR's published tables for the CB3 UR5 / UR10, which rtb-data describes as URDFs
     ("ur5e", "UR5", dict(d1=0.089159, a2=-0.425, a3=-0.39225, d4=0.10915, d5=0.09465, d6=0.0823)),
     ("ur10e", "UR10", dict(d1=0.1273, a2=-0.612, a3=-0.5723, d4=0.163941, d5=0.1157, d6=0.0922)),
 ])
-def test_ur_e_series_against_eaik_and_the_structure_of_rtb_ur_urdf(name, rtb_model, ur_table, rng):
+def test_ur_e_series_against_eaik_and_the_structure_of_rtb_ur_urdf(name, rtb_model, cb3_lengths, rng):
     """No independent model of the e-series is installed, so two checks, each partial:
 
     1. eaik's ``DhRobot(alpha, a, d).fwdKin`` on the same table: proves our standard-DH forward
        kinematics of the e-series numbers (convention, zero offsets, flange at d6), not the numbers.
-    2. The same builder (wsmap.robots._ur: UR's alpha column, zero offsets, base = UR's base
-       frame, end = the flange) with UR's published CB3 UR5/UR10 lengths equals rtb's UR5/UR10 URDF
+    2. The same builder (wsmap.robots.arms._ur.ur_table: UR's alpha column, zero offsets, base =
+       UR's base frame, end = the flange) with UR's published CB3 UR5/UR10 lengths equals rtb's UR5/UR10 URDF
        (tool0 in the URDF's "base" frame, UR's controller frame) exactly, with C = I: the axis
        layout, joint zero and signs, base and flange frames are UR's. The e-series changes only the
        six lengths, which are checked against UR's document by their literal values.
@@ -115,7 +117,7 @@ def test_ur_e_series_against_eaik_and_the_structure_of_rtb_ur_urdf(name, rtb_mod
     qs = arm.random_q(20, rng)
     assert max(np.abs(arm.fkine(q) - theirs.fwdKin(q)).max() for q in qs) < 1e-12
 
-    cb3 = robots._ur("cb3", "cb3", **ur_table).chain()
+    cb3 = ur_table("cb3", "cb3", **cb3_lengths).chain()
     np.testing.assert_array_equal(cb3.axes, arm.axes)
     np.testing.assert_array_equal(cb3.offset, arm.offset)
     urdf = getattr(rtb.models.URDF, rtb_model)()

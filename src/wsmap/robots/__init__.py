@@ -1,0 +1,84 @@
+"""Named arms and the families of arms.
+
+* :func:`load` — a named arm by name (:data:`ROBOTS`): the paper's ``puma560`` (a
+  :class:`~wsmap.kinematics.DHRobot`) and real arms from their manufacturers' published kinematics
+  (:class:`~wsmap.kinematics.SerialChain`), each one :class:`ArmTable` in :data:`NAMED` with the
+  document it comes from (:data:`SOURCES`);
+* :func:`from_dh` (standard or modified DH) and :func:`from_urdf` — any other serial arm;
+* :func:`puma560` and :func:`spherical_wrist` — the paper's arms from their DH lengths;
+* :class:`ArmFamily` and :data:`FAMILIES` — the families of random arms (:mod:`.families`).
+
+Where things are:
+
+* :mod:`.registry` — the :class:`ArmTable` record and the registry (:func:`register`,
+  :func:`register_constructor`, :func:`load`);
+* :mod:`.arms` — one module per named arm (``arms/panda.py`` is ``load("panda")``), each a short
+  table of the manufacturer's numbers with its source, ending with its registration. A new named
+  arm is one new module there (and its name on the import line of ``arms/__init__.py``) plus its
+  tests in ``tests/robots/``;
+* :mod:`.families` — the families of arms and their samplers.
+
+Every named arm has its base at the manufacturer's base (mounting flange) frame and its end at the
+tool flange (no gripper), its joint zero and signs as the manufacturer's controller, and its joint
+limits in radians (``±inf`` for a continuous joint; ``qlim`` is ``None`` when no joint is limited).
+"""
+
+from __future__ import annotations
+
+from ..kinematics.chain import from_dh
+from ..kinematics.urdf import URDFError, from_urdf
+from .registry import NAMED, ROBOTS, SOURCES, ArmTable, from_name, load, register, register_constructor
+
+# Importing the arms registers them, in the order of ROBOTS (the paper's puma560 first).
+from . import arms  # noqa: E402, F401, I001
+from .arms.puma560 import PUMA560_QLIM_DEG, puma560  # noqa: E402
+from .families import (  # noqa: E402
+    ARBITRARY_6DOF,
+    FAMILIES,
+    PANDA7,
+    PUMA560,
+    SPHERICAL_WRIST,
+    ArmFamily,
+    DHFamily,
+    FamilyRangeWarning,
+    ScaledFamily,
+    arm_family,
+    family_arm,
+    family_params,
+    sample_arbitrary_6dof,
+    sample_family,
+    sample_spherical_wrist,
+    spherical_wrist,
+)
+
+__all__ = [
+    "PUMA560_QLIM_DEG",
+    "puma560",
+    "spherical_wrist",
+    "ArmTable",
+    "NAMED",
+    "ROBOTS",
+    "SOURCES",
+    "register",
+    "register_constructor",
+    "load",
+    "from_name",
+    "from_dh",
+    "from_urdf",
+    "URDFError",
+    "ArmFamily",
+    "DHFamily",
+    "ScaledFamily",
+    "FamilyRangeWarning",
+    "SPHERICAL_WRIST",
+    "ARBITRARY_6DOF",
+    "PUMA560",
+    "PANDA7",
+    "FAMILIES",
+    "arm_family",
+    "family_arm",
+    "sample_family",
+    "family_params",
+    "sample_spherical_wrist",
+    "sample_arbitrary_6dof",
+]

@@ -1,0 +1,202 @@
+"""The named arms' registry: the :class:`ArmTable` record and the lookup by name.
+
+Each module of :mod:`wsmap.robots.arms` ends by registering its arm here: a real arm registers its
+published table with :func:`register` (``NAMED`` holds the tables), the paper's ``puma560`` (a
+:class:`~wsmap.kinematics.DHRobot`, not a table) its constructor with :func:`register_constructor`.
+:data:`ROBOTS` holds every arm's constructor and :data:`SOURCES` the document its numbers come from,
+in the order they registered; :func:`load` looks an arm up by name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from numbers import Real
+
+import numpy as np
+
+from ..kinematics import DHRobot, SerialChain
+from ..kinematics.chain import from_dh
+
+__all__ = ["ArmTable", "NAMED", "ROBOTS", "SOURCES", "register", "register_constructor", "load", "from_name"]
+
+CONVENTIONS = ("standard", "modified")
+LIMIT_UNITS = ("deg", "rad")
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, Real) and not isinstance(x, bool) and np.isfinite(x)
+
+
+@dataclass(frozen=True)
+class ArmTable:
+    """One arm's published kinematics: a DH table, its joint limits, and the document they come from.
+
+    ``rows`` are per joint ``(d, a, alpha, offset)`` (metres, radians); in the modified (Craig)
+    convention ``a`` and ``alpha`` of row ``i`` are ``a_{i-1}``, ``alpha_{i-1}`` (they act before
+    joint ``i``), as :func:`wsmap.kinematics.chain.from_dh` takes them. ``offset`` is added to the
+    joint angle (the manufacturer's zero against the DH zero). ``mount`` is a fixed DH row
+    ``(d, a, alpha, theta)`` of the same convention before joint 1 (Kinova's "base to frame 1"),
+    ``flange`` one after the last joint (Franka's flange row). ``limits`` are per joint
+    ``(lo, hi)`` in ``limit_unit`` as published, ``None`` for a continuous joint.
+
+    A table that cannot describe an arm (no rows, a row that is not four finite numbers, limits
+    that do not match the rows one per joint, an unknown convention or unit, no source) is a
+    ``ValueError`` naming the table and what is wrong, when it is made.
+    """
+
+    name: str
+    title: str
+    convention: str  # "standard" (distal, Corke) or "modified" (Craig)
+    rows: tuple
+    limits: tuple
+    limit_unit: str  # "deg" or "rad"
+    source: str
+    mount: tuple | None = None
+    flange: tuple | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name or self.name != self.name.lower() or any(
+                c.isspace() for c in self.name):
+            raise ValueError(f"arm table name must be a non-empty lower-case word (load() looks names up in "
+                             f"lower case), got {self.name!r}")
+        what = f"arm table {self.name!r}"
+        if self.convention not in CONVENTIONS:
+            raise ValueError(f"{what}: convention must be one of {', '.join(CONVENTIONS)}, got {self.convention!r}")
+        if self.limit_unit not in LIMIT_UNITS:
+            raise ValueError(f"{what}: limit_unit must be one of {', '.join(LIMIT_UNITS)}, got {self.limit_unit!r}")
+        if not isinstance(self.source, str) or not self.source.strip():
+            raise ValueError(f"{what} has no source: name the document its numbers come from")
+        if not isinstance(self.rows, tuple) or not self.rows:
+            raise ValueError(f"{what}: rows must be a non-empty tuple of (d, a, alpha, offset), one per joint")
+        for i, row in enumerate(self.rows, 1):
+            if not isinstance(row, tuple) or len(row) != 4 or not all(_is_number(x) for x in row):
+                raise ValueError(f"{what}: row {i} must be four finite numbers (d, a, alpha, offset), got {row!r}")
+        for label, row in (("mount", self.mount), ("flange", self.flange)):
+            if row is not None and (not isinstance(row, tuple) or len(row) != 4
+                                    or not all(_is_number(x) for x in row)):
+                raise ValueError(f"{what}: {label} must be None or four finite numbers (d, a, alpha, theta), "
+                                 f"got {row!r}")
+        if not isinstance(self.limits, tuple) or len(self.limits) != len(self.rows):
+            got = len(self.limits) if isinstance(self.limits, tuple) else type(self.limits).__name__
+            raise ValueError(f"{what} has {len(self.rows)} rows (joints) but {got} limits: give one (lo, hi) or "
+                             "None (continuous) per joint")
+        for i, lim in enumerate(self.limits, 1):
+            if lim is None:
+                continue
+            if (not isinstance(lim, tuple) or len(lim) != 2 or not all(_is_number(x) for x in lim)
+                    or not lim[0] < lim[1]):
+                raise ValueError(f"{what}: limits of joint {i} must be None (continuous) or (lo, hi) with "
+                                 f"lo < hi, got {lim!r}")
+
+    @property
+    def n(self) -> int:
+        return len(self.rows)
+
+    @property
+    def qlim(self) -> np.ndarray:
+        """``(n, 2)`` limits in radians, ``±inf`` for continuous joints."""
+        lim = np.array([(-np.inf, np.inf) if x is None else x for x in self.limits], dtype=np.float64)
+        return np.deg2rad(lim) if self.limit_unit == "deg" else lim
+
+    def row_transform(self, row) -> np.ndarray:
+        """The 4x4 transform of one fixed DH row ``(d, a, alpha, theta)`` in this table's convention."""
+        d, a, alpha, theta = (float(x) for x in row)
+        ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
+        Rz = np.array([[ct, -st, 0, 0], [st, ct, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+        Rx = np.array([[1, 0, 0, 0], [0, ca, -sa, 0], [0, sa, ca, 0], [0, 0, 0, 1.0]])
+        Tz, Tx = np.eye(4), np.eye(4)
+        Tz[2, 3], Tx[0, 3] = d, a
+        return Rz @ Tz @ Tx @ Rx if self.convention == "standard" else Rx @ Tx @ Rz @ Tz
+
+    def chain(self, joint_limits: bool = True, *, d=None, a=None, name: str | None = None) -> SerialChain:
+        """The arm as a :class:`SerialChain` (base frame → tool flange).
+
+        ``d`` and ``a`` (``(..., n)``, metres) replace the table's columns of those names (a batch
+        of arms with the table's twists, offsets, mount, flange and limits: an arm family, see
+        :func:`wsmap.robots.family_arm`); ``name`` replaces the table's name.
+        """
+        d0, a0, alpha, offset = np.array(self.rows, dtype=np.float64).T
+        d = d0 if d is None else d
+        a = a0 if a is None else a
+        flange = None if self.flange is None else self.row_transform(self.flange)
+        arm = from_dh(d, a, alpha, offset=offset, qlim=self.qlim if joint_limits else None,
+                      modified=self.convention == "modified", flange=flange, name=name or self.name,
+                      source=self.source)
+        if self.mount is not None:
+            fixed = arm.fixed.copy()
+            fixed[..., 0, :, :] = self.row_transform(self.mount) @ fixed[..., 0, :, :]
+            arm = arm.replace(fixed=fixed)
+        return arm
+
+
+#: The real arms' tables by name, each from its manufacturer's published kinematics.
+NAMED: dict[str, ArmTable] = {}
+#: Constructors of every named arm, ``name -> f(joint_limits=None)``, in the order they registered
+#: (:mod:`wsmap.robots.arms` imports the paper's ``puma560`` first).
+ROBOTS: dict = {}
+#: The document each named arm's numbers come from, ``name -> str``.
+SOURCES: dict[str, str] = {}
+
+
+def register_constructor(name: str, constructor, source: str) -> None:
+    """Make ``load(name)`` call ``constructor(joint_limits=...)`` (``None``: the arm's default).
+
+    For an arm that is not an :class:`ArmTable` (the paper's ``puma560``); a table registers with
+    :func:`register`. ``source`` names the document the arm's numbers come from. A name already
+    registered, a name :func:`load` cannot find (not lower case), or an empty source is a
+    ``ValueError``; nothing is registered then.
+    """
+    if not isinstance(name, str) or not name or name != name.lower():
+        raise ValueError(f"a named arm's name must be a non-empty lower-case string, got {name!r}")
+    if name in ROBOTS:
+        raise ValueError(f"a robot named {name!r} is already registered; known robots: {', '.join(ROBOTS)}")
+    if not callable(constructor):
+        raise ValueError(f"the constructor of robot {name!r} must be callable, got {type(constructor).__name__}")
+    if not isinstance(source, str) or not source.strip():
+        raise ValueError(f"robot {name!r} has no source: name the document its numbers come from")
+    ROBOTS[name] = constructor
+    SOURCES[name] = source
+
+
+def _named(table: ArmTable):
+    def make(joint_limits: bool | None = None) -> SerialChain:
+        return table.chain(joint_limits=True if joint_limits is None else bool(joint_limits))
+
+    make.__name__ = table.name
+    make.__doc__ = f"The {table.title} (base → tool flange). Source: {table.source}."
+    return make
+
+
+def register(table: ArmTable) -> ArmTable:
+    """Register a real arm's published table: ``NAMED[table.name]`` and ``load(table.name)``
+    (a :class:`SerialChain` with the table's joint limits by default). Returns ``table``.
+
+    Anything but an :class:`ArmTable` is a ``TypeError``, a name already registered a
+    ``ValueError`` listing the known ones (the table itself is checked when it is made).
+    """
+    if not isinstance(table, ArmTable):
+        raise TypeError(f"register() takes an ArmTable, got {type(table).__name__}")
+    register_constructor(table.name, _named(table), table.source)
+    NAMED[table.name] = table
+    return table
+
+
+def load(name: str, joint_limits: bool | None = None) -> DHRobot | SerialChain:
+    """A named arm of :data:`ROBOTS` (``wsmap robots`` lists them): ``puma560`` (the paper's
+    :class:`DHRobot`, d1 = 0) and the real arms of :mod:`wsmap.robots.arms` (``panda``, ``iiwa14``,
+    ``ur5e``, ``ur10e``, ``gen3``: :class:`SerialChain`).
+
+    ``joint_limits`` ``None`` is the arm's default: the manufacturer's limits for a real arm, none
+    for ``puma560`` (as the paper). ``True``/``False`` attach or drop them. The robot has ``.n``,
+    ``.qlim`` (``(n, 2)`` rad, ``±inf`` for a continuous joint, ``None`` when unlimited) and
+    ``.fkine(q)`` (base → flange). An unknown name is a ``ValueError`` listing the known ones.
+    """
+    key = str(name).lower()
+    if key not in ROBOTS:
+        raise ValueError(f"unknown robot {name!r}; known robots: {', '.join(ROBOTS)}")
+    return ROBOTS[key](joint_limits=joint_limits)
+
+
+def from_name(name: str, joint_limits: bool | None = None) -> DHRobot | SerialChain:
+    """Look up a named arm: :func:`load`."""
+    return load(name, joint_limits=joint_limits)
