@@ -576,8 +576,7 @@ def _run_robots(args) -> int:
         arm = robots.load(name)
         kinds = "".join(getattr(arm, "kinds", ("R",) * arm.n))
         limits = "no limits" if arm.qlim is None else "joint limits"
-        source = getattr(arm, "source", None) or "MATLAB Robotics Toolbox mdl_puma560 (the paper's arm, d1 = 0)"
-        print(f"{name:8s} {arm.n} joints ({kinds}), {limits}; {source}")
+        print(f"{name:8s} {arm.n} joints ({kinds}), {limits}; {robots.SOURCES[name]}")
     return 0
 
 
