@@ -19,7 +19,8 @@ picks ``m`` of them. Networks run in float32; labels are bool on disk and float3
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -66,6 +67,26 @@ def paper_train_config(cfg, device) -> TrainConfig:
     ``seed``, on ``device``."""
     return TrainConfig(optimizer="rprop", loss="mse", max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"],
                        seed=cfg["seed"], device=device)
+
+
+def timed(train: Callable[[], Any]) -> tuple[Any, float]:
+    """``(train(), wall-clock seconds it took)``: the training time a part reports over all sessions."""
+    t0 = time.perf_counter()
+    value = train()
+    return value, time.perf_counter() - t0
+
+
+def log_training(results: Sequence[TrainResult], labels: Sequence[str], total_seconds: float, what: str,
+                 log: Callable[[str], Any]) -> list[float]:
+    """Log one line per training run (its label, epochs, why it stopped, best epoch, validation MSE,
+    seconds) and one for all ``what`` together; returns the seconds each run took (the last time of
+    its history)."""
+    seconds = [float(r.history.time[-1]) for r in results]
+    for label, r, s in zip(labels, results, seconds):
+        log(f"{label}: {r.stop_epoch} epochs ({r.stop_reason}), best epoch {r.best_epoch}, "
+            f"val MSE {r.best_val_loss:.5f}, {s:.1f} s")
+    log(f"all {what}: {total_seconds:.1f} s")
+    return seconds
 
 
 def model_config(ds: Dataset, nodes=None, hidden: Sequence[int] = (125, 100, 100, 125), **kwargs) -> MLPConfig:

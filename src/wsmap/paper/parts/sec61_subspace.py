@@ -13,7 +13,6 @@ resumable step) summarise the sessions with the same :func:`summarise` into :cla
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -152,14 +151,9 @@ def run(cfg: Mapping, out: Outputs, *, log: Callable[[str], Any] = print) -> Res
     log(f"training on {len(train)} of {len(train_all)} arms, testing on {len(test)}; "
         f"{train.n_nodes} nodes {spec.select}; torch threads {threads}; device {device}")
     train_config = fitting.paper_train_config(cfg, device)
-    t0 = time.perf_counter()
-    results = fitting.fit(train, train_config, sessions=cfg["sessions"], hidden=cfg["hidden"])
-    t_fit = time.perf_counter() - t0
-    seconds = [float(r.history.time[-1]) for r in results]
-    for i, r in enumerate(results):
-        log(f"session {i}: {r.stop_epoch} epochs ({r.stop_reason}), best epoch {r.best_epoch}, "
-            f"val MSE {r.best_val_loss:.5f}, {seconds[i]:.1f} s")
-    log(f"all sessions: {t_fit:.1f} s")
+    results, t_fit = fitting.timed(lambda: fitting.fit(train, train_config, sessions=cfg["sessions"],
+                                                       hidden=cfg["hidden"]))
+    seconds = fitting.log_training(results, [f"session {i}" for i in range(len(results))], t_fit, "sessions", log)
 
     evals = [fitting.evaluate(r.model, test, threshold=cfg["threshold"]) for r in results]
     per_session = pd.DataFrame({

@@ -169,14 +169,9 @@ def run(cfg: Mapping, out: Outputs, *, log: Callable[[str], Any] = print) -> Res
         f"{len(blocks)} blocks of {workspace.BLOCK_NODES} nodes; torch threads {threads}; device {device}")
 
     train_config = fitting.paper_train_config(cfg, device)
-    t0 = time.perf_counter()
-    model, results = fitting.fit_blocks(train, train_config, blocks, hidden=cfg["hidden"])
-    t_fit = time.perf_counter() - t0
-    seconds = [float(r.history.time[-1]) for r in results]
-    for k, r in enumerate(results):
-        log(f"{names[k]} (z {z_ranges[k]}): {r.stop_epoch} epochs ({r.stop_reason}), best {r.best_epoch}, "
-            f"val MSE {r.best_val_loss:.5f}, {seconds[k]:.1f} s")
-    log(f"all blocks: {t_fit:.1f} s")
+    (model, results), t_fit = fitting.timed(lambda: fitting.fit_blocks(train, train_config, blocks,
+                                                                       hidden=cfg["hidden"]))
+    seconds = fitting.log_training(results, [f"{n} (z {z})" for n, z in zip(names, z_ranges)], t_fit, "blocks", log)
     if model.n_subspaces != len(blocks):
         raise RuntimeError(f"the stacked model has {model.n_subspaces} subspaces, not {len(blocks)}")
 
