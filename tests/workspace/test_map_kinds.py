@@ -71,7 +71,7 @@ def test_every_module_of_the_package_registers_one_kind():
     modules = [m.name for m in pkgutil.iter_modules([str(folder)]) if m.name != "registry"]
     registered = {k.name: k for k in kinds.kinds()}
     for name in modules:
-        module = getattr(K, name, None)
+        module = getattr(kinds, name, None)
         assert module is not None, f"wsmap/workspace/kinds/{name}.py is not imported by the package's __init__"
         assert registered[module.KIND.name] is module.KIND
     assert len(modules) == len(registered)

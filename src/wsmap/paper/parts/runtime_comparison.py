@@ -24,7 +24,8 @@ from ...learn.device import device_facts, resolve_device
 from ...paths import Outputs
 from .. import runtime
 from ..published import RUNTIME_SECONDS
-from . import Part, check_metrics, register, save_figure
+from . import Part, register, save_figure
+from . import check_metrics as check_schema
 
 
 class Metrics(TypedDict):
@@ -52,8 +53,8 @@ def check_metrics(metrics: Mapping) -> dict:
     """``metrics`` unchanged when it holds :class:`Metrics`' keys and, beside them, only methods of
     :data:`wsmap.paper.runtime.METHODS` (and their ``_std``); else a ``ValueError``."""
     methods = set(runtime.METHODS) | {f"{m}_std" for m in runtime.METHODS}
-    return dict(check_metrics(metrics, Metrics, PART.name, other="have unknown keys",
-                              beside=lambda key, value: key in methods))
+    return dict(check_schema(metrics, Metrics, PART.name, other="have unknown keys",
+                             beside=lambda key, value: key in methods))
 
 
 @dataclass

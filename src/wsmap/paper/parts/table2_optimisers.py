@@ -23,7 +23,8 @@ from ...paths import Outputs
 from .. import tables
 from ..published import PAPER_TABLE2
 from ..specs import load_pair
-from . import Part, check_metrics, register, save_figure, save_tables
+from . import Part, register, save_figure, save_tables
+from . import check_metrics as check_schema
 
 #: The keys of each cell ``<optimizer>_<loss>`` of the metrics (:class:`Metrics`).
 CELL_KEYS = ("f_mean", "f_std", "f_sample_mean", "f_sample_std", "precision", "recall", "epochs", "seconds",
@@ -53,8 +54,8 @@ PART = Part("table2_optimisers", "Table 2: optimisers and losses", 50, outputs=(
 def check_metrics(metrics: Mapping) -> dict:
     """``metrics`` unchanged when it holds :class:`Metrics`' keys and, beside them, cells of exactly
     :data:`CELL_KEYS`; else a ``ValueError``."""
-    return dict(check_metrics(metrics, Metrics, PART.name, other=f"have cells not of {CELL_KEYS}:",
-                              beside=lambda key, value: isinstance(value, dict) and tuple(value) == CELL_KEYS))
+    return dict(check_schema(metrics, Metrics, PART.name, other=f"have cells not of {CELL_KEYS}:",
+                             beside=lambda key, value: isinstance(value, dict) and tuple(value) == CELL_KEYS))
 
 
 @dataclass
