@@ -33,7 +33,8 @@ from ..learn.device import resolve_device
 from ..learn.training import TrainConfig, TrainResult, train_mlp_sessions
 from .specs import load_pair
 
-__all__ = ["model_config", "fit", "fit_blocks", "stack_sessions", "evaluate", "node_slice"]
+__all__ = ["model_config", "fit", "fit_blocks", "stack_sessions", "evaluate", "node_slice", "training_data",
+           "paper_train_config", "timed", "log_training"]
 
 
 def node_slice(nodes, n_nodes: int) -> slice:
