@@ -1,4 +1,5 @@
-"""Writing files: atomic writes, output-path checks, the one writer of tables and of JSON.
+"""Writing files: atomic writes, output-path checks, the one writer of tables and of JSON (and the
+key check of a JSON record read back, :func:`check_record`).
 
 Every file the project writes goes through :func:`atomic_path` (one file) or :func:`atomic_paths`
 (several outputs of one run): a reader never sees half a file, an interrupted or failed run leaves
@@ -25,6 +26,7 @@ __all__ = [
     "atomic_paths",
     "jsonable",
     "write_json",
+    "check_record",
     "format_cell",
     "plus_minus",
     "markdown_table",
@@ -175,6 +177,17 @@ def jsonable(value):
         v = float(value)
         return v if math.isfinite(v) else None
     return value
+
+
+def check_record(d, known, what: str, name: str) -> None:
+    """Hold a record read back (a dict from JSON) to its keys: ``ValueError`` "``what`` must be a
+    dict" when ``d`` is not one, "unknown ``name`` keys [...]; known: [...]" when it has a key not
+    in ``known`` (missing keys are the reader's to check)."""
+    if not isinstance(d, dict):
+        raise ValueError(f"{what} must be a dict; got {type(d).__name__}")
+    unknown = sorted(set(d) - set(known))
+    if unknown:
+        raise ValueError(f"unknown {name} keys {unknown}; known: {sorted(known)}")
 
 
 def write_json(obj, path) -> Path:

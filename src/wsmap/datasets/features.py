@@ -35,7 +35,7 @@ import numpy as np
 from .. import robots
 from .. import workspace as ws
 from ..kinematics import DHRobot, SerialChain
-from .spec import N_DH, N_JOINTS, DatasetSpec, _check_spec
+from .spec import N_DH, N_JOINTS, DatasetSpec, _check_spec, float64_array, require_finite
 
 __all__ = [
     "grid_axes",
@@ -118,14 +118,10 @@ def _fixed_rows(spec: DatasetSpec, count: int, fixed) -> np.ndarray:
                 "(fixed='random'); pass fixed=(count, 3) or (3,)"
             )
         fixed = spec.fixed
-    try:
-        fixed = np.asarray(fixed, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"fixed must be numbers of shape (3,) or ({count}, 3), got {fixed!r}") from None
+    fixed = float64_array(fixed, f"fixed must be numbers of shape (3,) or ({count}, 3), got {fixed!r}")
     if fixed.shape not in ((3,), (count, 3)):
         raise ValueError(f"fixed must have shape (3,) or ({count}, 3), got {fixed.shape}")
-    if not np.all(np.isfinite(fixed)):
-        raise ValueError("fixed contains NaN or infinite values")
+    require_finite(fixed, "fixed contains NaN or infinite values")
     return np.broadcast_to(fixed, (count, 3))
 
 
@@ -192,13 +188,8 @@ def features_for(arms, spec: DatasetSpec, fixed=None) -> np.ndarray:
 
 
 def _feature_matrix(X) -> np.ndarray:
-    try:
-        X = np.asarray(X, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"features must be a numeric matrix, got {type(X).__name__}") from None
-    if not np.all(np.isfinite(X)):
-        raise ValueError("features contain NaN or infinite values")
-    return X
+    X = float64_array(X, f"features must be a numeric matrix, got {type(X).__name__}")
+    return require_finite(X, "features contain NaN or infinite values")
 
 
 def arms_from_features(X, spec: DatasetSpec | None = None) -> DHRobot | SerialChain:

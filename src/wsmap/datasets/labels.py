@@ -32,7 +32,7 @@ from .. import workspace as ws
 from ..kinematics import DHRobot, SerialChain, ikine_LM, require_closed_form
 from .features import _check_arms, _fixed_rows, scales_for, spec_nodes
 from .sampling import start_configurations
-from .spec import METHODS, N_JOINTS, DatasetSpec, _check_spec, _choice
+from .spec import METHODS, N_JOINTS, DatasetSpec, _check_spec, _choice, float64_array, require_finite
 
 __all__ = ["possibly_reachable", "labels_for"]
 
@@ -66,10 +66,7 @@ def possibly_reachable(arms: DHRobot, T, margin: float = 1e-8) -> np.ndarray:
     label; for arms with small twists (Table 3's arbitrary family) it skips most unreachable pairs.
     """
     _check_arms_6(arms)
-    try:
-        T = np.asarray(T, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"T must be poses of shape (..., 4, 4), got {type(T).__name__}") from None
+    T = float64_array(T, f"T must be poses of shape (..., 4, 4), got {type(T).__name__}")
     if T.ndim < 2 or T.shape[-2:] != (4, 4):
         raise ValueError(f"T must have shape (..., 4, 4), got {T.shape}")
     margin = float(margin)
@@ -154,14 +151,10 @@ def _numerical_first_start(arms, spec, nodes, fixed, q0, prefilter=True) -> np.n
 
 
 def _nodes_array(nodes) -> np.ndarray:
-    try:
-        nodes = np.asarray(nodes, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"nodes must be numbers of shape (N, 3), got {type(nodes).__name__}") from None
+    nodes = float64_array(nodes, f"nodes must be numbers of shape (N, 3), got {type(nodes).__name__}")
     if nodes.ndim != 2 or nodes.shape[1] != 3:
         raise ValueError(f"nodes must have shape (N, 3), got {nodes.shape}")
-    if not np.all(np.isfinite(nodes)):
-        raise ValueError("nodes contain NaN or infinite values")
+    require_finite(nodes, "nodes contain NaN or infinite values")
     return nodes
 
 
@@ -237,16 +230,12 @@ def labels_for(
     if method == "numerical":
         if q0 is None:
             q0 = start_configurations(spec, count)
-        try:
-            q0 = np.asarray(q0, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"q0 must be numbers of shape (S, 6) or ({count}, S, 6)") from None
+        q0 = float64_array(q0, f"q0 must be numbers of shape (S, 6) or ({count}, S, 6)")
         if q0.ndim == 2:
             q0 = np.broadcast_to(q0, (count,) + q0.shape)
         if q0.ndim != 3 or q0.shape[0] != count or q0.shape[2] != N_JOINTS or q0.shape[1] < 1:
             raise ValueError(f"q0 must have shape (S, 6) or ({count}, S, 6) with S >= 1, got {q0.shape}")
-        if not np.all(np.isfinite(q0)):
-            raise ValueError("q0 contains NaN or infinite values")
+        require_finite(q0, "q0 contains NaN or infinite values")
         return _numerical_first_start(arms, spec, nodes, fx, q0, prefilter) >= 0
     if count == 0:
         return np.zeros((0, len(nodes)), dtype=bool)

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .spec import MAX_SAMPLES, MAX_STARTS, N_JOINTS, STREAMS, DatasetSpec, _check_spec, _int
+from .spec import MAX_SAMPLES, MAX_STARTS, N_JOINTS, STREAMS, DatasetSpec, _check_spec, _int, float64_array, require_finite
 
 __all__ = ["draw_samples", "draw_scales", "start_configurations", "uniform_rotations", "rotation_to_rpy"]
 
@@ -83,14 +83,10 @@ def rotation_to_rpy(R) -> np.ndarray:
     ``r2 = asin(R[0,2])`` lies in ``[-pi/2, pi/2]`` before wrapping; at ``cos(r2) = 0`` (measure
     zero) the split between ``r1`` and ``r3`` is arbitrary.
     """
-    try:
-        R = np.asarray(R, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"R must be rotation matrices of shape (..., 3, 3), got {type(R).__name__}") from None
+    R = float64_array(R, f"R must be rotation matrices of shape (..., 3, 3), got {type(R).__name__}")
     if R.ndim < 2 or R.shape[-2:] != (3, 3):
         raise ValueError(f"R must have shape (..., 3, 3), got {R.shape}")
-    if not np.all(np.isfinite(R)):
-        raise ValueError("R contains NaN or infinite values")
+    require_finite(R, "R contains NaN or infinite values")
     r2 = np.arcsin(np.clip(R[..., 0, 2], -1.0, 1.0))
     r1 = np.arctan2(-R[..., 1, 2], R[..., 2, 2])
     r3 = np.arctan2(-R[..., 0, 1], R[..., 0, 0])

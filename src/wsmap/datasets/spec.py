@@ -151,6 +151,21 @@ def _int(name, value, minimum, maximum=None) -> int:
     return value
 
 
+def float64_array(value, message: str) -> np.ndarray:
+    """``value`` as a float64 array; ``ValueError(message)`` (what it must be) when it is not numbers."""
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(message) from None
+
+
+def require_finite(x: np.ndarray, message: str) -> np.ndarray:
+    """``x`` unchanged when every value is finite; else ``ValueError(message)``."""
+    if not np.all(np.isfinite(x)):
+        raise ValueError(message)
+    return x
+
+
 def _choice(name, value, choices):
     if not isinstance(value, str) or value not in choices:
         raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")

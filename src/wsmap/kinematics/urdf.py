@@ -102,6 +102,17 @@ def _limit_value(label: str, jname: str, limit: ET.Element, key: str) -> float:
     return v
 
 
+def _new_name(el: ET.Element, tag: str, seen, label: str) -> str:
+    """The ``name`` of a ``<link>`` or ``<joint>`` element ``el``; a ``URDFError`` when it has none
+    or when ``seen`` (the names of that tag so far) holds it already."""
+    name = el.get("name")
+    if not name:
+        raise URDFError(f"{label}: a <{tag}> has no name")
+    if name in seen:
+        raise URDFError(f"{label}: {tag} {name!r} is defined twice")
+    return name
+
+
 class _Tree:
     """Links and joints of a URDF, checked: unique names, defined links, finite numbers, no loops."""
 
@@ -109,22 +120,13 @@ class _Tree:
         self.label = label
         self.links: list[str] = []
         for el in root.findall("link"):
-            name = el.get("name")
-            if not name:
-                raise URDFError(f"{label}: a <link> has no name")
-            if name in self.links:
-                raise URDFError(f"{label}: link {name!r} is defined twice")
-            self.links.append(name)
+            self.links.append(_new_name(el, "link", self.links, label))
         known = set(self.links)
         self.joints: dict[str, ET.Element] = {}
         self.parent_joint: dict[str, str] = {}  # child link -> joint
         self.children: dict[str, list[str]] = {name: [] for name in self.links}  # link -> joints
         for el in root.findall("joint"):
-            name = el.get("name")
-            if not name:
-                raise URDFError(f"{label}: a <joint> has no name")
-            if name in self.joints:
-                raise URDFError(f"{label}: joint {name!r} is defined twice")
+            name = _new_name(el, "joint", self.joints, label)
             jtype = el.get("type")
             if jtype not in JOINT_TYPES:
                 raise URDFError(f"{label}: joint {name!r} has type {jtype!r}; URDF types are {', '.join(JOINT_TYPES)}")

@@ -27,7 +27,8 @@ from typing import Any
 import numpy as np
 
 from ..datasets.features import feature_names, features_for, node_slice
-from ..datasets.spec import DatasetSpec
+from ..datasets.spec import DatasetSpec, float64_array, require_finite
+from ..io import check_record
 from ..kinematics import DHRobot
 
 __all__ = [
@@ -109,12 +110,7 @@ def make_map_spec(dataset, *, nodes=None, assemble: bool = False, subspace: int 
 
 def map_plan(config, map_spec) -> tuple[dict[str, Any], MapPlan]:
     """Validate ``map_spec`` against a model's config -> (normalised dict, plan)."""
-    if not isinstance(map_spec, dict):
-        raise ValueError(f"map_spec must be a dict; got {type(map_spec).__name__}")
-    known = {"dataset", "nodes", "assemble", "subspace", "threshold"}
-    unknown = sorted(set(map_spec) - known)
-    if unknown:
-        raise ValueError(f"unknown map_spec keys {unknown}; known: {sorted(known)}")
+    check_record(map_spec, {"dataset", "nodes", "assemble", "subspace", "threshold"}, "map_spec", "map_spec")
     if "dataset" not in map_spec:
         raise ValueError("map_spec needs 'dataset' (the DatasetSpec dict the model was trained on)")
     try:
@@ -248,14 +244,10 @@ def map_features(plan: MapPlan, arms, fixed=None) -> np.ndarray:
         flat = check_map_arms(arms, spec)
         n = flat.batch_shape[0]
     if fixed is not None:
-        try:
-            f = np.asarray(fixed, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"fixed must be 3 numbers (or ({n}, 3)); got {fixed!r}") from None
+        f = float64_array(fixed, f"fixed must be 3 numbers (or ({n}, 3)); got {fixed!r}")
         if f.shape not in ((3,), (n, 3)):
             raise ValueError(f"fixed must have shape (3,) or ({n}, 3), got {f.shape}")
-        if not np.isfinite(f).all():
-            raise ValueError("fixed contains NaN or infinite values")
+        require_finite(f, "fixed contains NaN or infinite values")
         if spec.fixed != "random" and not np.allclose(f, spec.fixed, rtol=0, atol=1e-9):
             what = "orientation (rad)" if spec.scope == "R3" else "point (m)"
             raise ValueError(f"the model was trained at the fixed {what} {list(spec.fixed)} only "

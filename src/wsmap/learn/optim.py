@@ -118,6 +118,15 @@ class _FlatOptimizer(Optimizer):
             parts.append(torch.zeros_like(p).reshape(-1) if g is None else g.detach().reshape(-1))
         return torch.cat(parts).clone()
 
+    def _start_step(self, closure: Callable) -> tuple[torch.Tensor, float, torch.Tensor]:
+        """The start of every step: ``closure`` checked (these optimisers re-evaluate the loss), then
+        the flat weights ``x``, the loss ``f`` and its gradient ``g`` at ``x``."""
+        if closure is None:
+            raise ValueError(f"{type(self).__name__} needs a closure that re-evaluates the loss")
+        x = self._get_x()
+        f, g = self._evaluate(closure)
+        return x, f, g
+
     def _evaluate(self, closure: Callable, x: torch.Tensor | None = None) -> tuple[float, torch.Tensor]:
         """Loss and flat gradient at ``x`` (at the current parameters when ``x`` is None).
 
@@ -278,12 +287,9 @@ class SCG(_FlatOptimizer):
 
     @torch.no_grad()
     def step(self, closure: Callable):
-        if closure is None:
-            raise ValueError("SCG needs a closure that re-evaluates the loss")
+        x, f, g = self._start_step(closure)
         group = self.param_groups[0]
         st = self._state
-        x = self._get_x()
-        f, g = self._evaluate(closure)
         loss = f
         self.stalled = False
         if "p" not in st:
@@ -391,12 +397,9 @@ class CGB(_LineSearchOptimizer):
 
     @torch.no_grad()
     def step(self, closure: Callable):
-        if closure is None:
-            raise ValueError("CGB needs a closure that re-evaluates the loss")
+        x, f, g = self._start_step(closure)
         group = self.param_groups[0]
         st = self._state
-        x = self._get_x()
-        f, g = self._evaluate(closure)
         gnorm = float(torch.linalg.vector_norm(g))
         if gnorm == 0:
             self.stalled = True
@@ -469,11 +472,8 @@ class OSS(_LineSearchOptimizer):
 
     @torch.no_grad()
     def step(self, closure: Callable):
-        if closure is None:
-            raise ValueError("OSS needs a closure that re-evaluates the loss")
+        x, f, g = self._start_step(closure)
         st = self._state
-        x = self._get_x()
-        f, g = self._evaluate(closure)
         if not bool(torch.any(g != 0)):
             self.stalled = True
             return torch.tensor(f)
@@ -537,12 +537,9 @@ class GDX(_FlatOptimizer):
 
     @torch.no_grad()
     def step(self, closure: Callable):
-        if closure is None:
-            raise ValueError("GDX needs a closure that re-evaluates the loss")
+        x, f, g = self._start_step(closure)
         group = self.param_groups[0]
         st = self._state
-        x = self._get_x()
-        f, g = self._evaluate(closure)
         lr, mc = group["lr"], group["mc"]
         dx = st.get("dx")
         dx = -lr * g if dx is None else mc * dx - (1.0 - mc) * lr * g

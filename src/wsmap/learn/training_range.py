@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from ..io import check_record
+
 __all__ = [
     "RANGE_RTOL",
     "RANGE_ATOL",
@@ -117,12 +119,7 @@ class TrainingRange:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> TrainingRange:
         """Inverse of :meth:`to_dict` (``fixed`` is checked against ``low``/``high``)."""
-        if not isinstance(d, dict):
-            raise ValueError(f"a training range must be a dict; got {type(d).__name__}")
-        known = {"low", "high", "names", "samples", "fixed"}
-        unknown = sorted(set(d) - known)
-        if unknown:
-            raise ValueError(f"unknown training range keys {unknown}; known: {sorted(known)}")
+        check_record(d, {"low", "high", "names", "samples", "fixed"}, "a training range", "training range")
         if "low" not in d or "high" not in d:
             raise ValueError("a training range needs 'low' and 'high'")
         for k in ("low", "high"):

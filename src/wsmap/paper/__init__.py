@@ -10,5 +10,35 @@
   ``save``, ``figures`` and ``Metrics`` schema, registered with its place in the run order and the
   parts it reads; the notebooks call them;
 * :mod:`.pipeline` — the papermill runner of the notebooks (``wsmap paper run``), in the parts' order;
-* :mod:`.full` — the paper's scale, part by part and resumable (``wsmap paper full``).
+* :mod:`.full` — the paper's scale, part by part and resumable (``wsmap paper full``);
+* :mod:`.dataset`, :mod:`.notebook` — one dataset, one notebook as one DVC stage (both end in
+  :func:`run_stage`).
 """
+
+from __future__ import annotations
+
+import signal
+import sys
+from collections.abc import Callable
+
+
+def _terminate(signum, frame):
+    # dvc stops a stage with SIGTERM: unwind as for Ctrl-C, so that the stage cleans up as it does
+    # then (no temporary file left in place, the last good executed notebook restored)
+    raise KeyboardInterrupt
+
+
+def run_stage(work: Callable[[], object], errors: tuple[type[BaseException], ...], interrupted: str) -> int:
+    """Run ``work()`` as a DVC stage's command and return its exit status: 0 when it returns, 2 with
+    one line ``wsmap: error: ...`` on stderr for one of ``errors`` (bad input: no traceback), 130
+    with the line ``interrupted`` on Ctrl-C or SIGTERM."""
+    signal.signal(signal.SIGTERM, _terminate)
+    try:
+        work()
+    except errors as e:
+        print(f"wsmap: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(interrupted, file=sys.stderr)
+        return 130
+    return 0

@@ -11,10 +11,10 @@ file is the one ``wsmap data build NAME --samples N --test-samples M --out FILE 
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 
 from ..datasets import build_dataset_files
+from . import run_stage
 from .specs import dataset_spec
 
 
@@ -28,11 +28,6 @@ def _count(text: str) -> int:
     return value
 
 
-def _terminate(signum, frame):
-    # dvc stops a stage with SIGTERM: unwind as for Ctrl-C so no temporary file is left in place
-    raise KeyboardInterrupt
-
-
 def main(argv=None) -> int:
     """Build the training file and its test file; 0 on success, 2 for bad input, 130 interrupted."""
     ap = argparse.ArgumentParser(prog="python -m wsmap.paper.dataset", description=__doc__.splitlines()[0])
@@ -41,17 +36,9 @@ def main(argv=None) -> int:
     ap.add_argument("--test-samples", type=_count, required=True, help="arms of the test file (NAME.test.npz)")
     ap.add_argument("--out", required=True, help="the training file (.npz)")
     args = ap.parse_args(argv)
-    signal.signal(signal.SIGTERM, _terminate)
-    try:
-        build_dataset_files(dataset_spec(args.name), args.out, samples=args.samples,
-                            test_samples=args.test_samples, progress=False)
-    except (ValueError, OSError) as e:
-        print(f"wsmap: error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("wsmap: interrupted; no output was written", file=sys.stderr)
-        return 130
-    return 0
+    return run_stage(lambda: build_dataset_files(dataset_spec(args.name), args.out, samples=args.samples,
+                                                 test_samples=args.test_samples, progress=False),
+                     (ValueError, OSError), "wsmap: interrupted; no output was written")
 
 
 if __name__ == "__main__":

@@ -19,7 +19,8 @@ picks ``m`` of them. Networks run in float32; labels are bool on disk and float3
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -28,9 +29,12 @@ import torch
 from ..metrics import score_maps
 from ..datasets import Dataset
 from ..learn import MLPConfig, SubspaceMLP
+from ..learn.device import resolve_device
 from ..learn.training import TrainConfig, TrainResult, train_mlp_sessions
+from .specs import load_pair
 
-__all__ = ["model_config", "fit", "fit_blocks", "stack_sessions", "evaluate", "node_slice"]
+__all__ = ["model_config", "fit", "fit_blocks", "stack_sessions", "evaluate", "node_slice", "training_data",
+           "paper_train_config", "timed", "log_training"]
 
 
 def node_slice(nodes, n_nodes: int) -> slice:
@@ -46,6 +50,44 @@ def node_slice(nodes, n_nodes: int) -> slice:
     if step != 1 or not 0 <= start < stop <= n_nodes or (nodes.stop is not None and nodes.stop > n_nodes):
         raise ValueError(f"node slice {nodes} is not a non-empty contiguous range within the {n_nodes} nodes")
     return slice(start, stop)
+
+
+def training_data(cfg, data_dir):
+    """What §6.1 and §6.2 train and test on, from their params section ``cfg``: ``(device, threads,
+    train_all, train, test)``, the device ``cfg["device"]`` resolved before any work (cuda without a
+    GPU fails here), torch's thread count, the dataset pair ``cfg["dataset"]`` in ``data_dir`` and
+    ``train`` its first ``cfg["train_samples"]`` training arms."""
+    device = resolve_device(cfg["device"], f"{cfg.source} device")
+    threads = torch.get_num_threads()
+    train_all, test = load_pair(cfg["dataset"], data_dir)
+    return device, threads, train_all, train_all.head(cfg["train_samples"]), test
+
+
+def paper_train_config(cfg, device) -> TrainConfig:
+    """The paper's training (Rprop on the MSE, §6) with ``cfg``'s ``max_epochs``, ``max_fail`` and
+    ``seed``, on ``device``."""
+    return TrainConfig(optimizer="rprop", loss="mse", max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"],
+                       seed=cfg["seed"], device=device)
+
+
+def timed(train: Callable[[], Any]) -> tuple[Any, float]:
+    """``(train(), wall-clock seconds it took)``: the training time a part reports over all sessions."""
+    t0 = time.perf_counter()
+    value = train()
+    return value, time.perf_counter() - t0
+
+
+def log_training(results: Sequence[TrainResult], labels: Sequence[str], total_seconds: float, what: str,
+                 log: Callable[[str], Any]) -> list[float]:
+    """Log one line per training run (its label, epochs, why it stopped, best epoch, validation MSE,
+    seconds) and one for all ``what`` together; returns the seconds each run took (the last time of
+    its history)."""
+    seconds = [float(r.history.time[-1]) for r in results]
+    for label, r, s in zip(labels, results, seconds):
+        log(f"{label}: {r.stop_epoch} epochs ({r.stop_reason}), best epoch {r.best_epoch}, "
+            f"val MSE {r.best_val_loss:.5f}, {s:.1f} s")
+    log(f"all {what}: {total_seconds:.1f} s")
+    return seconds
 
 
 def model_config(ds: Dataset, nodes=None, hidden: Sequence[int] = (125, 100, 100, 125), **kwargs) -> MLPConfig:

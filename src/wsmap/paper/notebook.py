@@ -14,15 +14,17 @@ traceback), 130 when interrupted.
 from __future__ import annotations
 
 import os
-import signal
 import sys
 
+from . import run_stage
 from .pipeline import NotebookError, check_notebook, run_notebook
 
 
-def _terminate(signum, frame):
-    # dvc stops a stage with SIGTERM: unwind as for Ctrl-C so the last good executed copy is restored
-    raise KeyboardInterrupt
+def _run(names: list[str]) -> None:
+    for name in names:  # every name checked before anything runs
+        check_notebook(name)
+    for name in names:
+        run_notebook(name)
 
 
 def main(argv=None) -> int:
@@ -35,19 +37,7 @@ def main(argv=None) -> int:
     # one process, two cores: keep torch and BLAS from oversubscribing inside the kernel
     os.environ.setdefault("OMP_NUM_THREADS", "2")
     os.environ.setdefault("MPLBACKEND", "Agg")
-    signal.signal(signal.SIGTERM, _terminate)
-    try:
-        for name in names:  # every name checked before anything runs
-            check_notebook(name)
-        for name in names:
-            run_notebook(name)
-    except (ValueError, NotebookError) as e:
-        print(f"wsmap: error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("wsmap: interrupted", file=sys.stderr)
-        return 130
-    return 0
+    return run_stage(lambda: _run(names), (ValueError, NotebookError), "wsmap: interrupted")
 
 
 if __name__ == "__main__":

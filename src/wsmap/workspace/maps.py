@@ -163,9 +163,10 @@ def _exact(arms, T):
     return cf.reachable(_per_node(arms), T)
 
 
-def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress, space):
+def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress, space, return_method):
     """Shared driver: positions (N, 3) or (1, 3), rpy (3,) or (N, 3); ``space`` (N, 3) the nodes whose
-    neighbours start the numerical search; returns ((arms..., N) bool, the method used)."""
+    neighbours start the numerical search; returns (arms..., N) bool (and the method used, with
+    ``return_method``)."""
     if not isinstance(arms, (DHRobot, SerialChain)):
         raise TypeError(f"arms must be a DHRobot or a SerialChain, got {type(arms).__name__}")
     method = resolve_method(arms, method)
@@ -175,7 +176,7 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
     batch = arms.batch_shape
     B = int(np.prod(batch, dtype=np.int64))
     _check_fits(B * N, f"a map of {B} arms x {N} nodes")
-    solver, settings = ("", {}) if method == "exact" else _numerical_settings(ik)
+    solver, settings = ("", {}) if method == "exact" else _numerical_settings(ik or {})
     if solver == "paper" and not isinstance(arms, DHRobot):
         raise ValueError("the paper's solver (ikine_LM) is for DHRobot arms; use solver 'search'")
     nb = node_neighbours(space) if solver == "search" else None
@@ -197,7 +198,8 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
         out[s : s + per_chunk] = np.broadcast_to(res, (out[s : s + per_chunk].shape[0], N))
         if progress is not None:
             progress(out[s : s + per_chunk].size)
-    return out.reshape(batch + (N,)), method
+    out = out.reshape(batch + (N,))
+    return (out, method) if return_method else out
 
 
 def _check_nodes(name, nodes):
@@ -209,18 +211,9 @@ def _check_nodes(name, nodes):
     return nodes
 
 
-def constant_orientation_map(
-    arms,
-    nodes,
-    rpy=(0.0, 0.0, 0.0),
-    method: str = "auto",
-    convention: str = "paper",
-    *,
-    ik: dict | None = None,
-    chunk_elements: int = 1 << 21,
-    progress=None,
-    return_method: bool = False,
-):
+def constant_orientation_map(arms, nodes, rpy=(0.0, 0.0, 0.0), method: str = "auto", convention: str = "paper", *,
+                             ik: dict | None = None, chunk_elements: int = 1 << 21, progress=None,
+                             return_method: bool = False):
     """Constant-orientation workspace ("R3"): which positions are reachable at orientation ``rpy``.
 
     Parameters
@@ -247,22 +240,12 @@ def constant_orientation_map(
     """
     nodes = _check_nodes("nodes", nodes)
     rpy = _triple("rpy", rpy)
-    out, used = _map(arms, nodes, rpy, convention, method, ik or {}, chunk_elements, progress, nodes)
-    return (out, used) if return_method else out
+    return _map(arms, nodes, rpy, convention, method, ik, chunk_elements, progress, nodes, return_method)
 
 
-def orientation_map(
-    arms,
-    angle_nodes,
-    point=(0.5, 0.5, 0.5),
-    method: str = "auto",
-    convention: str = "paper",
-    *,
-    ik: dict | None = None,
-    chunk_elements: int = 1 << 21,
-    progress=None,
-    return_method: bool = False,
-):
+def orientation_map(arms, angle_nodes, point=(0.5, 0.5, 0.5), method: str = "auto", convention: str = "paper", *,
+                    ik: dict | None = None, chunk_elements: int = 1 << 21, progress=None,
+                    return_method: bool = False):
     """Orientation workspace ("SO3"): which orientations are reachable at the point ``point`` (m).
 
     ``angle_nodes`` (N, 3) are angles (r1, r2, r3) in radians, e.g. from :func:`angle_grid`.
@@ -272,9 +255,8 @@ def orientation_map(
     """
     angle_nodes = _check_nodes("angle nodes", angle_nodes)
     point = _triple("point", point)
-    out, used = _map(arms, point[None, :], angle_nodes, convention, method, ik or {}, chunk_elements, progress,
-                     angle_nodes)
-    return (out, used) if return_method else out
+    return _map(arms, point[None, :], angle_nodes, convention, method, ik, chunk_elements, progress, angle_nodes,
+                return_method)
 
 
 def default_grid(scope: str) -> tuple[float, float, float]:

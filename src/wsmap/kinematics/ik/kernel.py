@@ -89,17 +89,20 @@ def arm_arrays(chain: SerialChain) -> dict:
     )
 
 
+def unsolved(count: int, n: int):
+    """The answers of ``count`` targets before any start has run (the arrays every solver fills):
+    ``q`` (count, n) NaN, ``ok`` False, ``iterations`` 0, ``residual`` inf, ``start`` -1."""
+    return (np.full((count, n), np.nan), np.zeros(count, dtype=bool), np.zeros(count, dtype=np.int64),
+            np.full(count, np.inf), np.full(count, -1, dtype=np.int64))
+
+
 def run_compiled(mode, aa: dict, arm, T, keys, qexp, nexp, k_first, k_last, ilimit, rlimit, tol, lam, confirm_tol,
                  gtol=0.0, free_pass=True):
     """Run :func:`wsmap.kinematics.lm_compiled.run_targets` on targets ``T`` (M, 4, 4) of arms
     ``arm`` (M,) (indices into ``aa``, from :func:`arm_arrays`). Returns ``q`` (M, n), ``ok``,
     ``iterations``, ``residual``, ``start`` (M,)."""
     M, n = len(T), aa["axes"].shape[0]
-    q = np.full((M, n), np.nan)
-    ok = np.zeros(M, dtype=bool)
-    it = np.zeros(M, dtype=np.int64)
-    res = np.full(M, np.inf)
-    start = np.full(M, -1, dtype=np.int64)
+    q, ok, it, res, start = unsolved(M, n)
     if M:
         Rt = np.ascontiguousarray(T[:, :3, :3], dtype=np.float64)
         pt = np.ascontiguousarray(T[:, :3, 3], dtype=np.float64)

@@ -21,10 +21,10 @@ import numpy as np
 from ..chain import PRISMATIC, SerialChain, as_chain
 from ..dh import DHRobot
 from ..transforms import check_rigid
-from .kernel import mix, pose_keys, start_box
+from .kernel import mix, pose_keys, start_box, unsolved
 from .reach_filter import reach_filter
-from .search import (DEFAULT_ILIMIT, DEFAULT_RLIMIT, DEFAULT_STARTS, FK_CONFIRM_TOL, _check_count, _check_settings,
-                     _limited)
+from .search import (DEFAULT_ILIMIT, DEFAULT_RLIMIT, DEFAULT_STARTS, FK_CONFIRM_TOL, _broadcast_targets,
+                     _check_search, _limited, _solution)
 from .solution import IKSolution, failure_reasons
 
 __all__ = ["ikine_search_reference", "ikine_LM_reference"]
@@ -472,23 +472,12 @@ def ikine_search_reference(robot, T, *, starts: int = DEFAULT_STARTS, seed=0, q0
     pre-filter and result; no ``position_only``), one start at a time on the targets not yet solved."""
     chain = _limited(as_chain(robot), joint_limits)
     T = check_rigid("target poses", T)
-    starts = _check_count("starts", starts, 1)
-    ilimit = _check_count("ilimit", ilimit, 0)
-    rlimit = _check_count("rlimit", rlimit, 0)
-    seed, q0 = _check_settings(chain, tol, lam, confirm_tol, seed, q0)
+    starts, ilimit, rlimit, seed, q0 = _check_search(chain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0)
     n = chain.n
     batch = chain.batch_shape
-    shape = np.broadcast_shapes(T.shape[:-2], batch, q0.shape[:-1])
-    count = int(np.prod(shape, dtype=np.int64))
-    Tf = np.broadcast_to(T, shape + (4, 4)).reshape(-1, 4, 4)
-    Q0 = np.broadcast_to(q0, shape + (n,)).reshape(-1, n)
-    arm_of = np.broadcast_to(np.arange(int(np.prod(batch, dtype=np.int64))).reshape(batch), shape).reshape(-1)
+    shape, count, Tf, Q0, arm_of = _broadcast_targets(chain, T, q0)
 
-    q_out = np.full((count, n), np.nan)
-    ok_out = np.zeros(count, dtype=bool)
-    it_out = np.zeros(count, dtype=np.int64)
-    res_out = np.full(count, np.inf)
-    start_out = np.full(count, -1, dtype=np.int64)
+    q_out, ok_out, it_out, res_out, start_out = unsolved(count, n)
     possible = reach_filter(chain, np.broadcast_to(T, shape + (4, 4)), confirm_tol).reshape(-1)
     todo = np.flatnonzero(possible)
     arm = _Arm(chain, arm_of[todo] if batch else None)
@@ -515,9 +504,7 @@ def ikine_search_reference(robot, T, *, starts: int = DEFAULT_STARTS, seed=0, q0
         ok_out[tg[ok]] = True
         start_out[tg[ok]] = k
         live = live[~ok]
-    return IKSolution(q_out.reshape(shape + (n,)), ok_out.reshape(shape), it_out.reshape(shape),
-                      res_out.reshape(shape), failure_reasons(ok_out, out_of_reach=~possible).reshape(shape),
-                      start_out.reshape(shape))
+    return _solution(shape, q_out, ok_out, it_out, res_out, start_out, possible)
 
 
 def ikine_LM_reference(robot: DHRobot, T, q0=None, *, ilimit: int = 500, rlimit: int = 100, tol: float = 1e-10,

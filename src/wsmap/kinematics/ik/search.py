@@ -59,7 +59,7 @@ import numpy as np
 
 from ..chain import PRISMATIC, SerialChain, flatten_arms
 from ..transforms import check_rigid
-from .kernel import arm_arrays, pose_keys, run_compiled
+from .kernel import arm_arrays, pose_keys, run_compiled, unsolved
 from .memo import Memo, as_chain_memo, chain_key
 from .reach_filter import position_filter, reach_filter
 from .solution import IKSolution, failure_reasons
@@ -116,6 +116,36 @@ def _check_settings(chain: SerialChain, tol, lam, confirm_tol, seed, q0):
     seed = _check_seed(seed)
     q0 = np.zeros(chain.n) if q0 is None else chain._check_q(q0)
     return seed, q0
+
+
+def _check_search(chain: SerialChain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0):
+    """The arguments :func:`ikine_search` and its numpy reference check alike: ``starts >= 1``,
+    ``ilimit``, ``rlimit >= 0`` and :func:`_check_settings`'s; returns ``(starts, ilimit, rlimit,
+    seed, q0)`` checked."""
+    starts = _check_count("starts", starts, 1)
+    ilimit = _check_count("ilimit", ilimit, 0)
+    rlimit = _check_count("rlimit", rlimit, 0)
+    return (starts, ilimit, rlimit) + _check_settings(chain, tol, lam, confirm_tol, seed, q0)
+
+
+def _broadcast_targets(chain: SerialChain, T: np.ndarray, q0: np.ndarray):
+    """Targets ``T`` (..., 4, 4), the arms of ``chain`` (batch shape ``(...)``) and starts ``q0``
+    (..., n) broadcast together and flattened: ``(shape, count, Tf (count, 4, 4), Q0 (count, n),
+    arm_of (count,))``, ``arm_of`` the index of each target's arm in the flattened batch."""
+    n, batch = chain.n, chain.batch_shape
+    shape = np.broadcast_shapes(T.shape[:-2], batch, q0.shape[:-1])
+    count = int(np.prod(shape, dtype=np.int64))
+    Tf = np.broadcast_to(T, shape + (4, 4)).reshape(-1, 4, 4)
+    Q0 = np.broadcast_to(q0, shape + (n,)).reshape(-1, n)
+    arm_of = np.broadcast_to(np.arange(int(np.prod(batch, dtype=np.int64))).reshape(batch), shape).reshape(-1)
+    return shape, count, Tf, Q0, arm_of
+
+
+def _solution(shape: tuple, q, ok, it, res, start, possible) -> IKSolution:
+    """The flat answers of a search (``count`` targets) as an :class:`IKSolution` of batch shape
+    ``shape``; ``possible`` (count,) False where the pre-filter ruled the target out of reach."""
+    return IKSolution(q.reshape(shape + q.shape[-1:]), ok.reshape(shape), it.reshape(shape), res.reshape(shape),
+                      failure_reasons(ok, out_of_reach=~possible).reshape(shape), start.reshape(shape))
 
 
 def _limited(chain: SerialChain, joint_limits: bool) -> SerialChain:
@@ -185,25 +215,12 @@ def ikine_search(
     """
     chain = _limited(as_chain_memo(robot), joint_limits)
     T = check_rigid("target poses", T)
-    starts = _check_count("starts", starts, 1)
-    ilimit = _check_count("ilimit", ilimit, 0)
-    rlimit = _check_count("rlimit", rlimit, 0)
+    starts, ilimit, rlimit, seed, q0 = _check_search(chain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0)
     chunk = _check_count("chunk", chunk, 1)
-    seed, q0 = _check_settings(chain, tol, lam, confirm_tol, seed, q0)
-    n = chain.n
-    batch = chain.batch_shape
-    shape = np.broadcast_shapes(T.shape[:-2], batch, q0.shape[:-1])
-    count = int(np.prod(shape, dtype=np.int64))
-    Tf = np.broadcast_to(T, shape + (4, 4)).reshape(-1, 4, 4)
-    Q0 = np.broadcast_to(q0, shape + (n,)).reshape(-1, n)
-    B = int(np.prod(batch, dtype=np.int64))
-    arm_of = np.broadcast_to(np.arange(B).reshape(batch), shape).reshape(-1)
+    shape, count, Tf, Q0, arm_of = _broadcast_targets(chain, T, q0)
+    B = int(np.prod(chain.batch_shape, dtype=np.int64))
 
-    q_out = np.full((count, n), np.nan)
-    ok_out = np.zeros(count, dtype=bool)
-    it_out = np.zeros(count, dtype=np.int64)
-    res_out = np.full(count, np.inf)
-    start_out = np.full(count, -1, dtype=np.int64)
+    q_out, ok_out, it_out, res_out, start_out = unsolved(count, chain.n)
     if position_only:
         pb = position_filter(chain, np.broadcast_to(T, shape + (4, 4))[..., :3, 3].reshape(-1, 3), confirm_tol)
         possible = np.broadcast_to(pb, (count,)) if pb.ndim == 1 else None
@@ -223,9 +240,7 @@ def ikine_search(
         q_out[todo], ok_out[todo], it_out[todo], res_out[todo], start_out[todo] = q, ok, it, res, st
         if progress is not None:
             progress(min(s0 + chunk, count) - s0)
-    return IKSolution(q_out.reshape(shape + (n,)), ok_out.reshape(shape), it_out.reshape(shape),
-                      res_out.reshape(shape), failure_reasons(ok_out, out_of_reach=~possible).reshape(shape),
-                      start_out.reshape(shape))
+    return _solution(shape, q_out, ok_out, it_out, res_out, start_out, possible)
 
 
 # --------------------------------------------------------------------------- maps: starts from neighbours

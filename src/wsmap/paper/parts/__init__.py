@@ -27,7 +27,10 @@ import importlib
 import pkgutil
 from dataclasses import dataclass
 
-__all__ = ["Part", "register", "registry", "part", "order", "reads", "metric_keys", "check_metrics", "save_figure"]
+from ...io import write_json, write_table
+
+__all__ = ["Part", "register", "registry", "part", "order", "reads", "metric_keys", "check_metrics", "save_tables",
+           "save_figure"]
 
 
 @dataclass(frozen=True)
@@ -114,16 +117,28 @@ def metric_keys(schema: type) -> tuple[str, ...]:
     return tuple(schema.__annotations__)
 
 
-def check_metrics(metrics: dict, schema: type, what: str) -> dict:
-    """``metrics`` unchanged when its keys are exactly the schema's; else a ``ValueError`` naming the
-    keys missing and the keys the schema does not know (``what``: whose metrics)."""
+def check_metrics(metrics: dict, schema: type, what: str, *, beside=None,
+                  other: str = "have keys not in the schema") -> dict:
+    """``metrics`` unchanged when it holds the schema's keys and no other key, or only others for
+    which ``beside(key, value)`` is true (the parts with one entry per table cell or method); else a
+    ``ValueError`` naming the keys missing and, after ``other``, the keys not allowed (``what``:
+    whose metrics)."""
     keys = metric_keys(schema)
     missing = [k for k in keys if k not in metrics]
-    unknown = [k for k in metrics if k not in keys]
+    unknown = [k for k, v in metrics.items() if k not in keys and not (beside is not None and beside(k, v))]
     if missing or unknown:
-        problems = ([f"lack {missing}"] if missing else []) + ([f"have keys not in the schema {unknown}"] if unknown else [])
+        problems = ([f"lack {missing}"] if missing else []) + ([f"{other} {unknown}"] if unknown else [])
         raise ValueError(f"{what}: metrics {'; '.join(problems)}")
     return metrics
+
+
+def save_tables(out, name: str, table, runs, shown, metrics: dict, whole=()) -> None:
+    """A table part's files: ``tables/<name>``, ``<name>_runs`` and ``<name>_display`` (.csv and .md;
+    ``whole``: the columns written as whole numbers) and ``results/<name>.json``."""
+    write_table(table, out.tables / name, whole=whole)
+    write_table(runs, out.tables / f"{name}_runs", whole=whole)
+    write_table(shown, out.tables / f"{name}_display", whole=whole)
+    write_json(metrics, out.results / f"{name}.json")
 
 
 def save_figure(fig, path):

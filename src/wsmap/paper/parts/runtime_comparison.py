@@ -25,6 +25,7 @@ from ...paths import Outputs
 from .. import runtime
 from ..published import RUNTIME_SECONDS
 from . import Part, register, save_figure
+from . import check_metrics as check_schema
 
 
 class Metrics(TypedDict):
@@ -51,13 +52,9 @@ PART = Part("runtime_comparison", "Run time of the SL model against the classica
 def check_metrics(metrics: Mapping) -> dict:
     """``metrics`` unchanged when it holds :class:`Metrics`' keys and, beside them, only methods of
     :data:`wsmap.paper.runtime.METHODS` (and their ``_std``); else a ``ValueError``."""
-    fixed = tuple(Metrics.__annotations__)
     methods = set(runtime.METHODS) | {f"{m}_std" for m in runtime.METHODS}
-    missing = [k for k in fixed if k not in metrics]
-    unknown = [k for k in metrics if k not in fixed and k not in methods]
-    if missing or unknown:
-        raise ValueError(f"{PART.name}: metrics lack {missing}, have unknown keys {unknown}")
-    return dict(metrics)
+    return dict(check_schema(metrics, Metrics, PART.name, other="have unknown keys",
+                             beside=lambda key, value: key in methods))
 
 
 @dataclass

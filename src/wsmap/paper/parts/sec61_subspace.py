@@ -13,7 +13,6 @@ resumable step) summarise the sessions with the same :func:`summarise` into :cla
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,14 +25,12 @@ from ... import viz
 from ... import workspace
 from ...datasets import Dataset, spec_nodes
 from ...io import write_json, write_table
-from ...learn.device import resolve_device
 from ...learn.files import save as save_model
 from ...learn.training import TrainConfig
 from ...metrics import Sweep, per_sample_error, session_curves, threshold_sweep
 from ...paths import Outputs
 from .. import fitting
 from ..published import SEC61
-from ..specs import load_pair
 from . import Part, check_metrics, register, save_figure
 
 
@@ -145,12 +142,7 @@ class Result:
 
 def run(cfg: Mapping, out: Outputs, *, log: Callable[[str], Any] = print) -> Result:
     """Train and score the sessions of params section ``cfg`` on ``out.data``'s dataset."""
-    import torch
-
-    device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
-    threads = torch.get_num_threads()
-    train_all, test = load_pair(cfg["dataset"], out.data)
-    train = train_all.head(cfg["train_samples"])
+    device, threads, train_all, train, test = fitting.training_data(cfg, out.data)
     spec = train.spec
     block = workspace.block_slice(4)
     if spec.select != (block.start, block.stop):
@@ -158,16 +150,10 @@ def run(cfg: Mapping, out: Outputs, *, log: Callable[[str], Any] = print) -> Res
                          f"selects {spec.select}")
     log(f"training on {len(train)} of {len(train_all)} arms, testing on {len(test)}; "
         f"{train.n_nodes} nodes {spec.select}; torch threads {threads}; device {device}")
-    train_config = TrainConfig(optimizer="rprop", loss="mse", max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"],
-                               seed=cfg["seed"], device=device)
-    t0 = time.perf_counter()
-    results = fitting.fit(train, train_config, sessions=cfg["sessions"], hidden=cfg["hidden"])
-    t_fit = time.perf_counter() - t0
-    seconds = [float(r.history.time[-1]) for r in results]
-    for i, r in enumerate(results):
-        log(f"session {i}: {r.stop_epoch} epochs ({r.stop_reason}), best epoch {r.best_epoch}, "
-            f"val MSE {r.best_val_loss:.5f}, {seconds[i]:.1f} s")
-    log(f"all sessions: {t_fit:.1f} s")
+    train_config = fitting.paper_train_config(cfg, device)
+    results, t_fit = fitting.timed(lambda: fitting.fit(train, train_config, sessions=cfg["sessions"],
+                                                       hidden=cfg["hidden"]))
+    seconds = fitting.log_training(results, [f"session {i}" for i in range(len(results))], t_fit, "sessions", log)
 
     evals = [fitting.evaluate(r.model, test, threshold=cfg["threshold"]) for r in results]
     per_session = pd.DataFrame({

@@ -25,7 +25,6 @@ from ... import robots, viz, workspace
 from ...datasets import Dataset, DatasetSpec, features_for, grid_axes, labels_for
 from ...io import write_json, write_table
 from ...kinematics import arm_batch
-from ...learn.device import resolve_device
 from ...learn.files import save as save_model
 from ...learn.training import TrainConfig
 from ...metrics import PRF, error_histogram, precision_recall_f
@@ -34,7 +33,6 @@ from ...timing import time_call
 from ...views import iso_mesh
 from .. import fitting
 from ..published import SEC62
-from ..specs import load_pair
 from . import Part, check_metrics, register, save_figure
 
 
@@ -159,13 +157,9 @@ def _times(fn, repeats):
 
 def run(cfg: Mapping, out: Outputs, *, log: Callable[[str], Any] = print) -> Result:
     """Train the 7 blocks of params section ``cfg``, score them, time them, map the PUMA560."""
-    import torch
     import trimesh
 
-    device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
-    threads = torch.get_num_threads()
-    train_all, test = load_pair(cfg["dataset"], out.data)
-    train = train_all.head(cfg["train_samples"])
+    device, threads, train_all, train, test = fitting.training_data(cfg, out.data)
     spec = train.spec
     blocks = [workspace.block_slice(k) for k in range(workspace.N_BLOCKS)]
     z_axis = grid_axes(spec)[2]
@@ -174,16 +168,10 @@ def run(cfg: Mapping, out: Outputs, *, log: Callable[[str], Any] = print) -> Res
     log(f"training on {len(train)} of {len(train_all)} arms, testing on {len(test)}; grid {spec.grid_shape}, "
         f"{len(blocks)} blocks of {workspace.BLOCK_NODES} nodes; torch threads {threads}; device {device}")
 
-    train_config = TrainConfig(optimizer="rprop", loss="mse", max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"],
-                               seed=cfg["seed"], device=device)
-    t0 = time.perf_counter()
-    model, results = fitting.fit_blocks(train, train_config, blocks, hidden=cfg["hidden"])
-    t_fit = time.perf_counter() - t0
-    seconds = [float(r.history.time[-1]) for r in results]
-    for k, r in enumerate(results):
-        log(f"{names[k]} (z {z_ranges[k]}): {r.stop_epoch} epochs ({r.stop_reason}), best {r.best_epoch}, "
-            f"val MSE {r.best_val_loss:.5f}, {seconds[k]:.1f} s")
-    log(f"all blocks: {t_fit:.1f} s")
+    train_config = fitting.paper_train_config(cfg, device)
+    (model, results), t_fit = fitting.timed(lambda: fitting.fit_blocks(train, train_config, blocks,
+                                                                       hidden=cfg["hidden"]))
+    seconds = fitting.log_training(results, [f"{n} (z {z})" for n, z in zip(names, z_ranges)], t_fit, "blocks", log)
     if model.n_subspaces != len(blocks):
         raise RuntimeError(f"the stacked model has {model.n_subspaces} subspaces, not {len(blocks)}")
 

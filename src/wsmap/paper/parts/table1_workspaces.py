@@ -17,12 +17,12 @@ from typing import TypedDict
 import numpy as np
 import pandas as pd
 
-from ...io import jsonable, plus_minus, write_json, write_table
+from ...io import jsonable, plus_minus
 from ...learn.device import resolve_device
 from ...learn.training import TrainConfig
 from ...paths import Outputs
 from .. import tables
-from . import Part, check_metrics, register, save_figure
+from . import Part, check_metrics, register, save_figure, save_tables
 
 
 class Metrics(TypedDict):
@@ -101,10 +101,7 @@ def run(cfg: Mapping, out: Outputs) -> Result:
 
 def save(result: Result, out: Outputs) -> None:
     """The metrics file and the three tables (summary, per run, as shown)."""
-    write_table(result.table, out.tables / "table1_workspaces", whole=tables.COUNT_COLUMNS)
-    write_table(result.runs, out.tables / "table1_workspaces_runs", whole=tables.COUNT_COLUMNS)
-    write_table(result.shown(), out.tables / "table1_workspaces_display", whole=tables.COUNT_COLUMNS)
-    write_json(result.metrics, out.results / "table1_workspaces.json")
+    save_tables(out, PART.name, result.table, result.runs, result.shown(), result.metrics, tables.COUNT_COLUMNS)
 
 
 def figures(result: Result, out: Outputs) -> list[Path]:

@@ -16,14 +16,15 @@ from typing import TypedDict
 import numpy as np
 import pandas as pd
 
-from ...io import jsonable, plus_minus, write_json, write_table
+from ...io import jsonable, plus_minus
 from ...learn.device import resolve_device
 from ...learn.training import TrainConfig
 from ...paths import Outputs
 from .. import tables
 from ..published import PAPER_TABLE2
 from ..specs import load_pair
-from . import Part, register, save_figure
+from . import Part, register, save_figure, save_tables
+from . import check_metrics as check_schema
 
 #: The keys of each cell ``<optimizer>_<loss>`` of the metrics (:class:`Metrics`).
 CELL_KEYS = ("f_mean", "f_std", "f_sample_mean", "f_sample_std", "precision", "recall", "epochs", "seconds",
@@ -53,12 +54,8 @@ PART = Part("table2_optimisers", "Table 2: optimisers and losses", 50, outputs=(
 def check_metrics(metrics: Mapping) -> dict:
     """``metrics`` unchanged when it holds :class:`Metrics`' keys and, beside them, cells of exactly
     :data:`CELL_KEYS`; else a ``ValueError``."""
-    fixed = tuple(Metrics.__annotations__)
-    missing = [k for k in fixed if k not in metrics]
-    bad = [k for k, v in metrics.items() if k not in fixed and not (isinstance(v, dict) and tuple(v) == CELL_KEYS)]
-    if missing or bad:
-        raise ValueError(f"{PART.name}: metrics lack {missing} or have cells not of {CELL_KEYS}: {bad}")
-    return dict(metrics)
+    return dict(check_schema(metrics, Metrics, PART.name, other=f"have cells not of {CELL_KEYS}:",
+                             beside=lambda key, value: isinstance(value, dict) and tuple(value) == CELL_KEYS))
 
 
 @dataclass
@@ -116,10 +113,7 @@ def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
 
 
 def save(result: Result, out: Outputs) -> None:
-    write_table(result.summary, out.tables / "table2_optimisers", whole=tables.COUNT_COLUMNS)
-    write_table(result.runs, out.tables / "table2_optimisers_runs", whole=tables.COUNT_COLUMNS)
-    write_table(result.shown(), out.tables / "table2_optimisers_display", whole=tables.COUNT_COLUMNS)
-    write_json(result.metrics, out.results / "table2_optimisers.json")
+    save_tables(out, PART.name, result.summary, result.runs, result.shown(), result.metrics, tables.COUNT_COLUMNS)
 
 
 def figures(result: Result, out: Outputs) -> list[Path]:

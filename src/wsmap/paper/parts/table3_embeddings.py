@@ -19,13 +19,13 @@ from typing import TypedDict
 import numpy as np
 import pandas as pd
 
-from ...io import jsonable, plus_minus, write_json, write_table
+from ...io import jsonable, plus_minus
 from ...learn.device import resolve_device
 from ...learn.training import TrainConfig
 from ...paths import Outputs
 from .. import tables
 from ..specs import load_pair
-from . import Part, register, save_figure
+from . import Part, register, save_figure, save_tables
 
 #: The keys of each (model embedding, test set) cell of the metrics.
 CELL_KEYS = ("precision", "recall", "f", "precision_sample_mean", "precision_sample_std", "recall_sample_mean",
@@ -136,10 +136,7 @@ def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
 
 
 def save(result: Result, out: Outputs) -> None:
-    write_table(result.summary, out.tables / "table3_embeddings", whole=tables.COUNT_COLUMNS)
-    write_table(result.runs, out.tables / "table3_embeddings_runs", whole=tables.COUNT_COLUMNS)
-    write_table(result.shown(), out.tables / "table3_embeddings_display", whole=tables.COUNT_COLUMNS)
-    write_json(result.metrics, out.results / "table3_embeddings.json")
+    save_tables(out, PART.name, result.summary, result.runs, result.shown(), result.metrics, tables.COUNT_COLUMNS)
 
 
 def figures(result: Result, out: Outputs) -> list[Path]:

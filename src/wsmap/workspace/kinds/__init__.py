@@ -13,8 +13,9 @@ Kinds (in the order they register, the order of ``--kind``'s choices):
 * :mod:`.manipulability` — the best Yoshikawa manipulability at a fixed orientation (float, m³).
 
 A new kind is one new module here (its glue: a ``compute(robot, grid, request)`` that calls the
-library function, and ``register(MapKind(...))`` at its end), its name added to the import line
-below, and its tests; the computing function itself lives with the maps (:mod:`wsmap.workspace.maps`,
+library function, and ``register(MapKind(...))`` at its end; a kind like the paper's maps or one over
+a set of orientations builds its record with :func:`~.registry.paper_map_kind` or
+:func:`~.registry.orientation_set_kind`), its name added to the import line below, and its tests; the computing function itself lives with the maps (:mod:`wsmap.workspace.maps`,
 :mod:`wsmap.workspace.reach`).
 """
 

@@ -7,18 +7,8 @@ grid's nodes; or a trained network, ``method="model"``); for a batch of arms as 
 
 from __future__ import annotations
 
-from ..maps import constant_orientation_map, grid_map
-from .registry import MapKind, register
+from ..maps import constant_orientation_map
+from .registry import paper_map_kind, register
 
-
-def _compute(robot, grid, request):
-    return grid_map(robot, grid, rpy=request.rpy, method=request.method, convention=request.convention,
-                    model=request.model, allow_extrapolation=request.allow_extrapolation, ik=request.ik,
-                    progress=request.progress)
-
-
-KIND = register(MapKind(
-    name="constant", scope="R3", value_type=bool, compute=_compute, function=constant_orientation_map,
-    description="positions at a fixed orientation (--rpy; the paper's R3)",
-    inputs=("rpy", "convention"), methods=("exact", "numerical", "model"), paper_solver=True, batch=True,
-))
+KIND = register(paper_map_kind("constant", "R3", "rpy", constant_orientation_map,
+                               "positions at a fixed orientation (--rpy; the paper's R3)"))

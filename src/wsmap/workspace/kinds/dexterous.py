@@ -7,19 +7,8 @@ index's search defaults (:data:`wsmap.workspace.reach.INDEX_SETTINGS`).
 
 from __future__ import annotations
 
-from ..grids import cartesian_grid
-from ..reach import INDEX_SETTINGS, dexterous_map
-from .registry import MapKind, register
+from ..reach import dexterous_map
+from .registry import orientation_set_kind, register
 
-
-def _compute(robot, grid, request):
-    nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
-    return dexterous_map(robot, nodes, request.orientations, method=request.method, ik=request.search,
-                         seed=request.seed)
-
-
-KIND = register(MapKind(
-    name="dexterous", scope="R3", value_type=bool, compute=_compute, function=dexterous_map,
-    description="reachable at every one of --orientations", noun="dexterous", inputs=("orientations",),
-    search_settings=INDEX_SETTINGS, convention="standard",
-))
+KIND = register(orientation_set_kind("dexterous", bool, dexterous_map, "reachable at every one of --orientations",
+                                     noun="dexterous"))

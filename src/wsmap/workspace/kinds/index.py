@@ -7,20 +7,10 @@ Computed by :func:`wsmap.workspace.reachability_index`, with its own search defa
 
 from __future__ import annotations
 
-from ..grids import cartesian_grid
-from ..reach import INDEX_SETTINGS, reachability_index
-from .registry import MapKind, register
+from ..reach import reachability_index
+from .registry import orientation_set_kind, register
 
-
-def _compute(robot, grid, request):
-    nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
-    return reachability_index(robot, nodes, request.orientations, method=request.method, ik=request.search,
-                              seed=request.seed)
-
-
-KIND = register(MapKind(
-    name="index", scope="R3", value_type=float, compute=_compute, function=reachability_index,
-    description="the fraction of --orientations reachable at each position",
-    label="reachability index", inputs=("orientations",), search_settings=INDEX_SETTINGS, convention="standard",
-    levels=lambda values: (0.25, 0.5, 0.75), value_range=(0.0, 1.0),
+KIND = register(orientation_set_kind(
+    "index", float, reachability_index, "the fraction of --orientations reachable at each position",
+    label="reachability index", levels=lambda values: (0.25, 0.5, 0.75), value_range=(0.0, 1.0),
 ))

@@ -10,14 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..grids import cartesian_grid
 from ..reach import manipulability_map
-from .registry import MapKind, register
+from .registry import MapKind, grid_positions, register
 
 
 def _compute(robot, grid, request):
-    nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
-    return manipulability_map(robot, nodes, request.rpy, convention=request.convention, method=request.method,
+    return manipulability_map(robot, grid_positions(grid), request.rpy, convention=request.convention, method=request.method,
                               ik=request.search, seed=request.seed)
 
 

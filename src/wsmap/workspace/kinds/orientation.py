@@ -7,18 +7,8 @@ nodes; or a trained network, ``method="model"``); for a batch of arms as well as
 
 from __future__ import annotations
 
-from ..maps import grid_map, orientation_map
-from .registry import MapKind, register
+from ..maps import orientation_map
+from .registry import paper_map_kind, register
 
-
-def _compute(robot, grid, request):
-    return grid_map(robot, grid, point=request.point, method=request.method, convention=request.convention,
-                    model=request.model, allow_extrapolation=request.allow_extrapolation, ik=request.ik,
-                    progress=request.progress)
-
-
-KIND = register(MapKind(
-    name="orientation", scope="SO3", value_type=bool, compute=_compute, function=orientation_map,
-    description="orientations at a fixed point (--point; the paper's SO3)",
-    inputs=("point", "convention"), methods=("exact", "numerical", "model"), paper_solver=True, batch=True,
-))
+KIND = register(paper_map_kind("orientation", "SO3", "point", orientation_map,
+                               "orientations at a fixed point (--point; the paper's SO3)"))

@@ -6,14 +6,12 @@ is no closed form of its own, so ``method="exact"`` computes it numerically too)
 
 from __future__ import annotations
 
-from ..grids import cartesian_grid
 from ..reach import position_map
-from .registry import MapKind, register
+from .registry import MapKind, grid_positions, register
 
 
 def _compute(robot, grid, request):
-    nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
-    return position_map(robot, nodes, ik=request.search, seed=request.seed)
+    return position_map(robot, grid_positions(grid), ik=request.search, seed=request.seed)
 
 
 KIND = register(MapKind(

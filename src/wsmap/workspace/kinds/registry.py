@@ -19,10 +19,13 @@ from types import MappingProxyType
 
 import numpy as np
 
-from ..maps import CONVENTIONS, MAP_SETTINGS, SCOPES
+from ..grids import cartesian_grid
+from ..maps import CONVENTIONS, MAP_SETTINGS, SCOPES, grid_map
+from ..reach import INDEX_SETTINGS
 
 __all__ = ["INPUTS", "METHODS", "MapKind", "MapRequest", "register", "unregister", "get_kind", "kinds",
-           "kind_names", "default_kind", "kinds_taking"]
+           "kind_names", "default_kind", "kinds_taking", "grid_positions", "paper_map_kind",
+           "orientation_set_kind"]
 
 #: What a kind may read besides the arm and the grid: ``"rpy"`` the fixed orientation (rad,
 #: ``R = Rx·Ry·Rz``), ``"point"`` the fixed point (m), ``"orientations"`` a set of orientations
@@ -161,6 +164,42 @@ class MapKind:
             return (f"{int((values > 0).sum())} of {values.size} nodes reachable, "
                     f"mean {self.label} {values.mean():.3f}")
         return f"{int(values.sum())} of {values.size} nodes {self.noun}"
+
+
+def grid_positions(grid: Mapping) -> np.ndarray:
+    """The nodes ``(N, 3)`` (m, x fastest) of an R3 grid spec (:func:`wsmap.workspace.grid_spec`)."""
+    return cartesian_grid(grid["lo"], grid["hi"], grid["step"])
+
+
+def paper_map_kind(name: str, scope: str, fixed: str, function: Callable, description: str) -> MapKind:
+    """The record of one of the paper's maps (bool per node, computed by :func:`wsmap.workspace.grid_map`
+    for a batch of arms; every method, the paper's one-start LM, the caller's convention) of ``scope``
+    at the request's ``fixed`` input (``"rpy"`` for R3, ``"point"`` for SO3); ``function`` the map
+    function ``grid_map`` calls on the grid's nodes."""
+
+    def compute(robot, grid, request):
+        return grid_map(robot, grid, method=request.method, convention=request.convention, model=request.model,
+                        allow_extrapolation=request.allow_extrapolation, ik=request.ik, progress=request.progress,
+                        **{fixed: getattr(request, fixed)})
+
+    return MapKind(name=name, scope=scope, value_type=bool, compute=compute, function=function,
+                   description=description, inputs=(fixed, "convention"), methods=METHODS, paper_solver=True,
+                   batch=True)
+
+
+def orientation_set_kind(name: str, value_type: type, function: Callable, description: str, **fields) -> MapKind:
+    """The record of a kind over the request's set of orientations at each position of an R3 grid
+    (``T = transl(p)·R_k``, the standard convention; the index's search defaults
+    :data:`wsmap.workspace.reach.INDEX_SETTINGS`), computed by ``function(robot, nodes, orientations,
+    method=, ik=, seed=)``; ``fields`` the rest of its :class:`MapKind` (label, levels, ...)."""
+
+    def compute(robot, grid, request):
+        return function(robot, grid_positions(grid), request.orientations, method=request.method,
+                        ik=request.search, seed=request.seed)
+
+    return MapKind(name=name, scope="R3", value_type=value_type, compute=compute, function=function,
+                   description=description, inputs=("orientations",), search_settings=INDEX_SETTINGS,
+                   convention="standard", **fields)
 
 
 _REGISTRY: dict[str, MapKind] = {}

@@ -466,6 +466,19 @@ def _inside(x, j, P, limited):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _wrist_joint(x, j, P, mapped, limited, ok, full, q, i, k0):
+    """Wrist joint ``j`` (θ5 or θ6, shared by the two elbow branches ``k0``, ``k0 + 1`` of target
+    ``i``) from its canonical angle ``x``: written to ``q`` when ``full``; returns ``ok`` and the
+    joint inside the limits (:func:`_joint`, :func:`_inside`)."""
+    x = _joint(x, j, P, mapped)
+    ok = ok and _inside(x, j, P, limited)
+    if full:
+        q[i, k0, j] = x
+        q[i, k0 + 1, j] = x
+    return ok
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _rigid_bad(T, t, tol):
     """Target ``t`` fails a quick rigidity test (NaN fails): :func:`check_rigid`'s conditions
     (``RᵀR = I``, ``a = n × o``, the bottom row) at a quarter of its tolerance, so what passes here
@@ -685,17 +698,9 @@ def _branches(A, P, mapped, limited, atol, full, q, valid, i):
             if not full and not ok:
                 continue
             if need5:
-                x = _joint(t5, 4, P, mapped)
-                ok = ok and _inside(x, 4, P, limited)
-                if full:
-                    q[i, k0, 4] = x
-                    q[i, k0 + 1, 4] = x
+                ok = _wrist_joint(t5, 4, P, mapped, limited, ok, full, q, i, k0)
             if need6:
-                x = _joint(th6, 5, P, mapped)
-                ok = ok and _inside(x, 5, P, limited)
-                if full:
-                    q[i, k0, 5] = x
-                    q[i, k0 + 1, 5] = x
+                ok = _wrist_joint(th6, 5, P, mapped, limited, ok, full, q, i, k0)
             if not full and (not ok or not need_elbow):
                 if ok:
                     return True
