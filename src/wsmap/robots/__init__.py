@@ -32,53 +32,10 @@ from .registry import NAMED, ROBOTS, SOURCES, ArmTable, from_name, load, registe
 # Importing the arms registers them, in the order of ROBOTS (the paper's puma560 first).
 from . import arms  # noqa: E402, F401, I001
 from .arms.puma560 import PUMA560_QLIM_DEG, puma560  # noqa: E402
-from .families import (  # noqa: E402
-    ARBITRARY_6DOF,
-    FAMILIES,
-    PANDA7,
-    PUMA560,
-    SPHERICAL_WRIST,
-    ArmFamily,
-    DHFamily,
-    FamilyRangeWarning,
-    ScaledFamily,
-    arm_family,
-    family_arm,
-    family_params,
-    sample_arbitrary_6dof,
-    sample_family,
-    sample_spherical_wrist,
-    spherical_wrist,
-)
+from . import families  # noqa: E402
+from .families import *  # noqa: E402, F401, F403 -- the families' public names, listed once in families.__all__
 
 __all__ = [
-    "PUMA560_QLIM_DEG",
-    "puma560",
-    "spherical_wrist",
-    "ArmTable",
-    "NAMED",
-    "ROBOTS",
-    "SOURCES",
-    "register",
-    "register_constructor",
-    "load",
-    "from_name",
-    "from_dh",
-    "from_urdf",
-    "URDFError",
-    "ArmFamily",
-    "DHFamily",
-    "ScaledFamily",
-    "FamilyRangeWarning",
-    "SPHERICAL_WRIST",
-    "ARBITRARY_6DOF",
-    "PUMA560",
-    "PANDA7",
-    "FAMILIES",
-    "arm_family",
-    "family_arm",
-    "sample_family",
-    "family_params",
-    "sample_spherical_wrist",
-    "sample_arbitrary_6dof",
+    "PUMA560_QLIM_DEG", "puma560", "ArmTable", "NAMED", "ROBOTS", "SOURCES", "register", "register_constructor",
+    "load", "from_name", "from_dh", "from_urdf", "URDFError", *families.__all__,
 ]
