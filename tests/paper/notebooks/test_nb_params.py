@@ -45,9 +45,30 @@ def _sections(name):
     return {f: paths.load_params(name, paths.ROOT / f) for f in PARAMS_FILES}
 
 
+def _shared_readers() -> dict[str, set[str]]:
+    """The functions of :mod:`wsmap.paper.fitting` that take a section as ``cfg``: name -> the keys
+    each reads (a part that passes its ``cfg`` to one reads those keys too)."""
+    tree = ast.parse((paths.ROOT / "src" / "wsmap" / "paper" / "fitting.py").read_text())
+    return {f.name: {m.group(2) for m in CFG_KEY.finditer(ast.unparse(f))}
+            for f in tree.body if isinstance(f, ast.FunctionDef) and any(a.arg == "cfg" for a in f.args.args)}
+
+
+def _passed_on(src: str) -> set[str]:
+    """The keys read by the shared functions that ``src`` calls with ``cfg`` (``fitting.f(cfg, ...)``)."""
+    readers = _shared_readers()
+    keys = set()
+    for node in ast.walk(ast.parse(src)):
+        if isinstance(node, ast.Call) and any(isinstance(a, ast.Name) and a.id == "cfg" for a in node.args):
+            fn = node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", None)
+            keys |= readers.get(fn, set())
+    return keys
+
+
 def _read_keys(name):
-    """The keys the notebook and its part read (``cfg[...]``; a part reads nothing else of it)."""
-    return {m.group(2) for src in (_source(name), _part_source(name)) for m in CFG_KEY.finditer(src)}
+    """The keys the notebook and its part read (``cfg[...]``, directly or through a shared function of
+    :mod:`wsmap.paper.fitting` they pass ``cfg`` to; a part reads nothing else of it)."""
+    direct = {m.group(2) for src in (_source(name), _part_source(name)) for m in CFG_KEY.finditer(src)}
+    return direct | _passed_on(_part_source(name))
 
 
 @pytest.mark.parametrize("name", _notebooks())
