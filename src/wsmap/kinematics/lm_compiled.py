@@ -668,6 +668,48 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
 
 
 @njit(cache=True, parallel=True, error_model="numpy", fastmath={"contract", "reassoc"})
+def _run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
+                 Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
+                 ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
+    """The compiled batch behind :func:`run_targets` (called through it: see "Cache" in the module notes)."""
+    M = Rt.shape[0]
+    n = axes.shape[0]
+    ntask = (M + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK
+    arrs = (Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi)
+    settings = (ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass)
+    outs = (q_out, ok_out, it_out, res_out, start_out)
+    for task in prange(ntask):
+        # six joints (most industrial arms): a build with the joint count a constant
+        if n == 6:
+            _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, 6)
+        else:
+            _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n)
+
+
+# the separately compiled callees of _run_targets, callees before callers (the order of a fresh compile)
+_CALLEES = ("_sincos", "_mix", "_spacing", "_project1", "_stationary", "_random_start", "_confirm", "_lm", "_task")
+_callees_bound = False
+
+
+def _bind_callees() -> None:
+    """Load the cached builds of :data:`_CALLEES`, callees first, before :func:`_run_targets` is loaded
+    (see "Cache" in the module notes); signatures from each cache index, for this CPU only."""
+    global _callees_bound
+    if _callees_bound:
+        return
+    _callees_bound = True
+    if _run_targets.overloads:
+        return  # compiled (or loaded) already in this process: its calls are bound
+    magic = _run_targets.targetctx.codegen().magic_tuple()
+    for name in _CALLEES:
+        dispatcher = globals()[name]
+        index = dispatcher._cache._cache_file._load_index()  # {} where empty or stale
+        for key in index:
+            sig, key_magic = key[0], key[1]
+            if key_magic == magic:
+                dispatcher.compile(sig)
+
+
 def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                 Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
                 ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
@@ -686,18 +728,10 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
     ``it_out`` counts iterations as the Appendix's loop does (success is tested at the top of the
     next iteration; see :func:`wsmap.kinematics.ik.lm_reference.ikine_LM_reference`).
     """
-    M = Rt.shape[0]
-    n = axes.shape[0]
-    ntask = (M + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK
-    arrs = (Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi)
-    settings = (ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass)
-    outs = (q_out, ok_out, it_out, res_out, start_out)
-    for task in prange(ntask):
-        # six joints (most industrial arms): a build with the joint count a constant
-        if n == 6:
-            _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, 6)
-        else:
-            _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n)
+    _bind_callees()
+    _run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
+                 Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
+                 ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out)
 
 
 # --------------------------------------------------------------------------- helpers of the search
