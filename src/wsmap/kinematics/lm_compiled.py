@@ -34,6 +34,19 @@ the compiler may reorder and vectorise; no assumption about NaN or infinity, whi
 about 15 % faster here than strict IEEE order, and the comparison with the numpy reference in
 ``tests/test_lm_compiled.py`` holds (same successes and starts on the test grids).
 
+Cache: a process that loads the kernel from numba's disk cache runs the bits of the process that
+compiled it (``tests/kinematics/test_lm_compiled_cache.py``). That needs :func:`run_targets` to be a
+Python function around the compiled :func:`_run_targets`. Why: numba links a copy of every separately
+compiled callee (:func:`_task`, :func:`_confirm`, ...) into its caller's code and optimises that copy
+again with the caller (with ``reassoc`` a second pass may reorder sums), and the loader binds a call
+to the first definition of its symbol that it loaded. A fresh compile loads each callee before its
+caller, so the calls bind to the callees as compiled alone; a cache load of :func:`_run_targets` alone
+bound them to its own re-optimised copies, and a 7-joint arm's search (the generic build; the
+six-joint build came out the same) then differed by ~1e-9 in ``q``, in iteration counts and, for
+unreachable targets, in the best end point. So :func:`_bind_callees` first loads the cached callees,
+callees before callers, as a fresh compile would: the fresh compile's results, in every process
+(~0.1 s more on the first call; the same speed after).
+
 Threads: :func:`set_threads` (default: ``WSMAP_THREADS`` or every core numba sees). Targets go to
 threads in chunks of :data:`TARGETS_PER_TASK` handed out dynamically, so the slow unreachable ones do
 not pile up on one thread. Results never depend on the thread count (each target is independent).
@@ -686,7 +699,8 @@ def _run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
             _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n)
 
 
-# the separately compiled callees of _run_targets, callees before callers (the order of a fresh compile)
+# every separately compiled function that _run_targets reaches, callees before callers (the order of a
+# fresh compile); a new one must join the list, or a cached process may again run other bits
 _CALLEES = ("_sincos", "_mix", "_spacing", "_project1", "_stationary", "_random_start", "_confirm", "_lm", "_task")
 _callees_bound = False
 
@@ -700,14 +714,14 @@ def _bind_callees() -> None:
     _callees_bound = True
     if _run_targets.overloads:
         return  # compiled (or loaded) already in this process: its calls are bound
-    magic = _run_targets.targetctx.codegen().magic_tuple()
+    codegen = _run_targets.targetctx.codegen()
     for name in _CALLEES:
-        dispatcher = globals()[name]
-        index = dispatcher._cache._cache_file._load_index()  # {} where empty or stale
+        cache = globals()[name]._cache
+        index = cache._cache_file._load_index()  # {} where the cache is empty or stale
         for key in index:
-            sig, key_magic = key[0], key[1]
-            if key_magic == magic:
-                dispatcher.compile(sig)
+            # only entries this process would load itself (this CPU, this bytecode): a cache hit, no compile
+            if cache._index_key(key[0], codegen) == key:
+                globals()[name].compile(key[0])
 
 
 def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
@@ -718,8 +732,8 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
     ``MODE_SEARCH``: the explicit starts ``qexp[i, :nexp[i]]`` (S, n) in order, then the random starts
     ``k_first .. k_last - 1`` (hashed from ``keys[i]``), until one succeeds; per start a constrained
     run and, where it failed and the limits changed it, a free run whose solution counts if it is
-    inside the limits (unless ``free_pass`` is False); a success is confirmed by forward kinematics. ``start_out``: the position of
-    the succeeding start in that order (explicit first), -1 where none did. Where none did, ``q_out``
+    inside the limits (unless ``free_pass`` is False); a success is confirmed by forward kinematics.
+    ``start_out``: the position of the succeeding start in that order (explicit first), -1 where none did. Where none did, ``q_out``
     is the constrained end point of the start with the smallest residual.
 
     ``MODE_POSITION``: as ``MODE_SEARCH`` with the position error alone (the tool's orientation free).
