@@ -32,7 +32,7 @@ changes), once: they are cached on disk.
 Floating point: compiled with ``fastmath={"contract", "reassoc"}`` (fused multiply-adds, and sums
 the compiler may reorder and vectorise; no assumption about NaN or infinity, which the limits use):
 about 15 % faster here than strict IEEE order, and the comparison with the numpy reference in
-``tests/test_lm_compiled.py`` holds (same successes and starts on the test grids).
+``tests/kinematics/test_lm_compiled.py`` holds (same successes and starts on the test grids).
 
 Cache: a process that loads the kernel from numba's disk cache runs the bits of the process that
 compiled it (``tests/kinematics/test_lm_compiled_cache.py``). That needs :func:`run_targets` to be a
@@ -124,7 +124,7 @@ _INV_PIO2 = 6.36619772367581382433e-01
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _sincos(x):
-    """``(sin x, cos x)`` within 2 ulp of libm (``tests/test_lm_compiled.py``), inlined where it is
+    """``(sin x, cos x)`` within 2 ulp of libm (``tests/kinematics/test_lm_compiled.py``), inlined where it is
     called: ``x`` reduced by the nearest multiple of pi/2 in three parts (Cody–Waite; the products
     exact for ``|x| < 2**20``), then the minimax polynomials of fdlibm's ``k_sin.c`` and ``k_cos.c``
     on [-pi/4, pi/4] and the quadrant's swap and signs; libm itself beyond ``|x| = 1e5`` and for
@@ -707,7 +707,9 @@ _callees_bound = False
 
 def _bind_callees() -> None:
     """Load the cached builds of :data:`_CALLEES`, callees first, before :func:`_run_targets` is loaded
-    (see "Cache" in the module notes); signatures from each cache index, for this CPU only."""
+    (see "Cache" in the module notes); signatures from each cache index, for this CPU only. Reads the
+    index through numba's private cache classes (``_cache``, ``_load_index``, ``_index_key``: numba
+    0.68); where numba renames them this fails loudly, in the cache test too."""
     global _callees_bound
     if _callees_bound:
         return
@@ -733,8 +735,8 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
     ``k_first .. k_last - 1`` (hashed from ``keys[i]``), until one succeeds; per start a constrained
     run and, where it failed and the limits changed it, a free run whose solution counts if it is
     inside the limits (unless ``free_pass`` is False); a success is confirmed by forward kinematics.
-    ``start_out``: the position of the succeeding start in that order (explicit first), -1 where none did. Where none did, ``q_out``
-    is the constrained end point of the start with the smallest residual.
+    ``start_out``: the position of the succeeding start in that order (explicit first), -1 where none did.
+    Where none did, ``q_out`` is the constrained end point of the start with the smallest residual.
 
     ``MODE_POSITION``: as ``MODE_SEARCH`` with the position error alone (the tool's orientation free).
 
