@@ -32,7 +32,20 @@ changes), once: they are cached on disk.
 Floating point: compiled with ``fastmath={"contract", "reassoc"}`` (fused multiply-adds, and sums
 the compiler may reorder and vectorise; no assumption about NaN or infinity, which the limits use):
 about 15 % faster here than strict IEEE order, and the comparison with the numpy reference in
-``tests/test_lm_compiled.py`` holds (same successes and starts on the test grids).
+``tests/kinematics/test_lm_compiled.py`` holds (same successes and starts on the test grids).
+
+Cache: a process that loads the kernel from numba's disk cache runs the bits of the process that
+compiled it (``tests/kinematics/test_lm_compiled_cache.py``). That needs :func:`run_targets` to be a
+Python function around the compiled :func:`_run_targets`. Why: numba links a copy of every separately
+compiled callee (:func:`_task`, :func:`_confirm`, ...) into its caller's code and optimises that copy
+again with the caller (with ``reassoc`` a second pass may reorder sums), and the loader binds a call
+to the first definition of its symbol that it loaded. A fresh compile loads each callee before its
+caller, so the calls bind to the callees as compiled alone; a cache load of :func:`_run_targets` alone
+bound them to its own re-optimised copies, and a 7-joint arm's search (the generic build; the
+six-joint build came out the same) then differed by ~1e-9 in ``q``, in iteration counts and, for
+unreachable targets, in the best end point. So :func:`_bind_callees` first loads the cached callees,
+callees before callers, as a fresh compile would: the fresh compile's results, in every process
+(~0.1 s more on the first call; the same speed after).
 
 Threads: :func:`set_threads` (default: ``WSMAP_THREADS`` or every core numba sees). Targets go to
 threads in chunks of :data:`TARGETS_PER_TASK` handed out dynamically, so the slow unreachable ones do
@@ -111,7 +124,7 @@ _INV_PIO2 = 6.36619772367581382433e-01
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _sincos(x):
-    """``(sin x, cos x)`` within 2 ulp of libm (``tests/test_lm_compiled.py``), inlined where it is
+    """``(sin x, cos x)`` within 2 ulp of libm (``tests/kinematics/test_lm_compiled.py``), inlined where it is
     called: ``x`` reduced by the nearest multiple of pi/2 in three parts (Cody–Waite; the products
     exact for ``|x| < 2**20``), then the minimax polynomials of fdlibm's ``k_sin.c`` and ``k_cos.c``
     on [-pi/4, pi/4] and the quadrant's swap and signs; libm itself beyond ``|x| = 1e5`` and for
@@ -668,24 +681,10 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
 
 
 @njit(cache=True, parallel=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
-                Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
-                ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
-    """Solve every target ``i`` (M of them) for arm ``arm[i]``; results written into the ``*_out`` arrays.
-
-    ``MODE_SEARCH``: the explicit starts ``qexp[i, :nexp[i]]`` (S, n) in order, then the random starts
-    ``k_first .. k_last - 1`` (hashed from ``keys[i]``), until one succeeds; per start a constrained
-    run and, where it failed and the limits changed it, a free run whose solution counts if it is
-    inside the limits (unless ``free_pass`` is False); a success is confirmed by forward kinematics. ``start_out``: the position of
-    the succeeding start in that order (explicit first), -1 where none did. Where none did, ``q_out``
-    is the constrained end point of the start with the smallest residual.
-
-    ``MODE_POSITION``: as ``MODE_SEARCH`` with the position error alone (the tool's orientation free).
-
-    ``MODE_PAPER``: one run from ``qexp[i, 0]`` with the paper's error, no limits, no confirmation;
-    ``it_out`` counts iterations as the Appendix's loop does (success is tested at the top of the
-    next iteration; see :func:`wsmap.kinematics.ik.lm_reference.ikine_LM_reference`).
-    """
+def _run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
+                 Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
+                 ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
+    """The compiled batch behind :func:`run_targets` (called through it: see "Cache" in the module notes)."""
     M = Rt.shape[0]
     n = axes.shape[0]
     ntask = (M + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK
@@ -698,6 +697,57 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
             _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, 6)
         else:
             _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n)
+
+
+# every separately compiled function that _run_targets reaches, callees before callers (the order of a
+# fresh compile); a new one must join the list, or a cached process may again run other bits
+_CALLEES = ("_sincos", "_mix", "_spacing", "_project1", "_stationary", "_random_start", "_confirm", "_lm", "_task")
+_callees_bound = False
+
+
+def _bind_callees() -> None:
+    """Load the cached builds of :data:`_CALLEES`, callees first, before :func:`_run_targets` is loaded
+    (see "Cache" in the module notes); signatures from each cache index, for this CPU only. Reads the
+    index through numba's private cache classes (``_cache``, ``_load_index``, ``_index_key``: numba
+    0.68); where numba renames them this fails loudly, in the cache test too."""
+    global _callees_bound
+    if _callees_bound:
+        return
+    _callees_bound = True
+    if _run_targets.overloads:
+        return  # compiled (or loaded) already in this process: its calls are bound
+    codegen = _run_targets.targetctx.codegen()
+    for name in _CALLEES:
+        cache = globals()[name]._cache
+        index = cache._cache_file._load_index()  # {} where the cache is empty or stale
+        for key in index:
+            # only entries this process would load itself (this CPU, this bytecode): a cache hit, no compile
+            if cache._index_key(key[0], codegen) == key:
+                globals()[name].compile(key[0])
+
+
+def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
+                Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
+                ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
+    """Solve every target ``i`` (M of them) for arm ``arm[i]``; results written into the ``*_out`` arrays.
+
+    ``MODE_SEARCH``: the explicit starts ``qexp[i, :nexp[i]]`` (S, n) in order, then the random starts
+    ``k_first .. k_last - 1`` (hashed from ``keys[i]``), until one succeeds; per start a constrained
+    run and, where it failed and the limits changed it, a free run whose solution counts if it is
+    inside the limits (unless ``free_pass`` is False); a success is confirmed by forward kinematics.
+    ``start_out``: the position of the succeeding start in that order (explicit first), -1 where none did.
+    Where none did, ``q_out`` is the constrained end point of the start with the smallest residual.
+
+    ``MODE_POSITION``: as ``MODE_SEARCH`` with the position error alone (the tool's orientation free).
+
+    ``MODE_PAPER``: one run from ``qexp[i, 0]`` with the paper's error, no limits, no confirmation;
+    ``it_out`` counts iterations as the Appendix's loop does (success is tested at the top of the
+    next iteration; see :func:`wsmap.kinematics.ik.lm_reference.ikine_LM_reference`).
+    """
+    _bind_callees()
+    _run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
+                 Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
+                 ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out)
 
 
 # --------------------------------------------------------------------------- helpers of the search

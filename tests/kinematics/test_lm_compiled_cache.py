@@ -1,0 +1,54 @@
+"""A process that loads the compiled LM kernel from numba's disk cache gives the same bits as the process
+that compiled it (see "Cache" in :mod:`wsmap.kinematics.lm_compiled`): a 7-joint arm's search once
+differed by ~1e-9 in ``q`` and in iteration counts."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SRC = Path(__file__).resolve().parents[2] / "src"
+
+# a Panda search (7 joints: the generic build) and a UR5e one (6: the fixed six-joint build), a third of
+# the targets pushed out of reach so that the random starts and the failure paths run too
+SCRIPT = r"""
+import sys
+import numpy as np
+import wsmap
+from wsmap.kinematics import ikine_search
+out = {}
+for name in ("panda", "ur5e"):
+    arm = wsmap.load(name)
+    q = np.random.default_rng(0).uniform(-1.5, 1.5, size=(120, arm.n))
+    T = np.array(arm.fkine(q))
+    T[::3, :3, 3] *= 1.3
+    sol = ikine_search(arm, T, starts=6, seed=1)
+    out[name + "_q"] = sol.q
+    out[name + "_it"] = sol.iterations
+    out[name + "_ok"] = sol.success
+    out[name + "_res"] = sol.residual
+np.savez(sys.argv[1], **out)
+"""
+
+
+def _run(cache_dir, out, threads):
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir), NUMBA_NUM_THREADS=str(threads),
+               WSMAP_THREADS=str(threads), PYTHONPATH=str(SRC) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    subprocess.run([sys.executable, "-c", SCRIPT, str(out)], env=env, check=True, timeout=600)
+    return np.load(out)
+
+
+@pytest.mark.slow
+def test_cached_kernel_gives_the_bits_of_a_fresh_compile(tmp_path):
+    cache = tmp_path / "numba_cache"
+    fresh = _run(cache, tmp_path / "fresh.npz", 1)  # compiles, and writes the cache
+    assert any(cache.rglob("*.nbc")), "the first run wrote no numba cache"
+    cached = _run(cache, tmp_path / "cached.npz", 2)  # loads it (threads must not matter either)
+    for name in ("panda", "ur5e"):
+        assert fresh[name + "_ok"].any() and not fresh[name + "_ok"].all()
+        for field in ("q", "it", "ok", "res"):
+            a, b = fresh[f"{name}_{field}"], cached[f"{name}_{field}"]
+            assert a.tobytes() == b.tobytes(), f"{name} {field}: the cached kernel differs from the fresh one"
