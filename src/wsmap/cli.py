@@ -89,6 +89,26 @@ positive_int = _int_at_least(1)
 non_negative_int = _int_at_least(0)
 
 
+def seed_int(text: str) -> int:
+    """An argparse type: a seed of numpy's generators, an integer in [0, 2**64)."""
+    value = non_negative_int(text)
+    if value >= 2**64:
+        raise argparse.ArgumentTypeError(f"must be below 2**64 = {2**64} (numpy's seed range), got {value}")
+    return value
+
+
+def tolerance(text: str) -> float:
+    """An argparse type: an IK tolerance (m and rad), at least :data:`wsmap.kinematics.MIN_TOL`."""
+    from .kinematics.ik.solution import MIN_TOL
+
+    value = positive_float(text)
+    if value < MIN_TOL:
+        raise argparse.ArgumentTypeError(
+            f"must be at least {MIN_TOL:g}: float64 forward kinematics is only exact to about 1e-16 per metre, "
+            f"so no pose ever meets a smaller tolerance and the map would be empty, got {text!r}")
+    return value
+
+
 def positive_float(text: str) -> float:
     value = number(text)
     if value <= 0:
@@ -122,6 +142,8 @@ def _robot_from_args(args):
         raise ValueError(f"give one arm: {' and '.join(given)} were both given")
     if args.ee is not None and args.urdf is None:
         raise ValueError("--ee names the end link of a --urdf arm")
+    if args.base is not None and args.urdf is None:
+        raise ValueError("--base names the first link of a --urdf arm")
     if (args.mdh or args.offset is not None) and not any(x is not None for x in dh):
         raise ValueError("--mdh and --offset describe DH columns (--d/--a/--alpha)")
     if any(x is not None for x in dh):
@@ -137,7 +159,7 @@ def _robot_from_args(args):
     if args.urdf is not None:
         if not Path(args.urdf).is_file():
             raise ValueError(f"--urdf {args.urdf!r}: no such file")
-        robot = robots.from_urdf(args.urdf, ee_link=args.ee)
+        robot = robots.from_urdf(args.urdf, ee_link=args.ee, base_link=args.base)
         if args.joint_limits is False:
             robot = robot.replace(qlim=None)
     else:
@@ -172,6 +194,7 @@ def _arm_arguments(m):
     g.add_argument("--robot", help="a named arm (`wsmap robots` lists them; default puma560 when no other arm is given)")
     g.add_argument("--urdf", metavar="FILE", help="the arm as a URDF file (meshes are never read)")
     g.add_argument("--ee", metavar="LINK", help="--urdf: the end link (default: the chain's only leaf)")
+    g.add_argument("--base", metavar="LINK", help="--urdf: the first link of the chain (default: the URDF's root)")
     g.add_argument("--d", type=number, nargs="+", help="DH link offsets d_1..d_n in metres")
     g.add_argument("--a", type=number, nargs="+", help="DH link lengths a_1..a_n in metres")
     g.add_argument("--alpha", type=number, nargs="+", help="DH twists alpha_1..alpha_n in radians (pi expressions allowed)")
@@ -224,7 +247,7 @@ def _map_parser(sub):
     g.add_argument("--retry", type=non_negative_int,
                    help="numerical: random IK starts for unsolved nodes next to solved ones, once the "
                         "neighbours' solutions are spent (default: wsmap.workspace.MAP_SETTINGS)")
-    g.add_argument("--seed", type=non_negative_int, default=0, help="numerical: seed of the random starts")
+    g.add_argument("--seed", type=seed_int, default=0, help="numerical: seed of the random starts")
     g.add_argument("--paper-lm", action="store_true",
                    help="numerical: the paper's one-start Levenberg-Marquardt from q = 0 instead of the multi-start "
                         "search (misses reachable nodes; for comparison with the paper)")
@@ -233,13 +256,15 @@ def _map_parser(sub):
     g.add_argument("--model", help="trained model file for --method model")
     g.add_argument("--allow-extrapolation", action="store_true",
                    help="--method model: predict for arms outside the range the model was trained on (with a warning)")
-    g.add_argument("--tol", type=positive_float, default=1e-10, help="numerical IK tolerance on the pose error norm")
+    g.add_argument("--tol", type=tolerance, default=1e-10,
+                   help="numerical IK tolerance on the pose error norm (m and rad; at least 1e-14)")
     g.add_argument("--ilimit", type=positive_int, help="numerical IK iteration limit per start (default: the solver's)")
     g.add_argument("--rlimit", type=positive_int,
                    help="numerical IK limit on consecutive rejected steps per start (default: the solver's)")
     g = m.add_argument_group("output")
     g.add_argument("--out", required=True, help="output .npz file (map, nodes, grid, settings)")
-    g.add_argument("--png", help="also draw the map's z-slices to this PNG (a colour bar for index/manipulability)")
+    g.add_argument("--png", help="also draw the map's z-slices to this PNG (a colour bar for index/manipulability; "
+                                 "another suffix such as .pdf or .svg picks that format)")
     g.add_argument("--html", help="also write an interactive 3-D view (standalone HTML, plotly.js inline)")
     g.add_argument("--ply", help="also write the reachable nodes as a coloured point cloud (.ply)")
     g.add_argument("--glb", help="also write iso-surfaces of the map as a glTF scene (.glb)")
@@ -251,17 +276,15 @@ def _run_map(args) -> int:
     """``wsmap map``: what the kind needs, checked, then its ``compute`` (the kinds' registry,
     :mod:`wsmap.workspace.kinds`, says what each kind reads, computes and how its values read)."""
     from . import workspace as ws
-    from .io import atomic_paths, check_output_path
+    from .io import atomic_paths, check_outputs
     from .kinematics import closed_form_for
     from .workspace.kinds import MapRequest, default_kind, get_kind, kinds, kinds_taking
 
     # every check before any work
-    out = check_output_path(args.out, "--out")
-    extra = {flag: check_output_path(v, flag) for flag, v in (("--png", args.png), ("--html", args.html),
-                                                              ("--ply", args.ply), ("--glb", args.glb)) if v}
-    names = [os.path.abspath(out)] + [os.path.abspath(v) for v in extra.values()]
-    if len(set(names)) != len(names):
-        raise ValueError("two of --out, --png, --html, --ply and --glb name the same file")
+    extra = check_outputs({"--out": args.out, "--png": args.png, "--html": args.html, "--ply": args.ply,
+                           "--glb": args.glb}, inputs={"--urdf": args.urdf, "--model": args.model})
+    out = extra.pop("--out")
+    png_format = _figure_format(extra["--png"]) if "--png" in extra else None
     kind = get_kind(args.kind) if args.kind else default_kind(args.scope or "R3")
     if args.scope is not None and kind.scope != args.scope:
         raise ValueError(f"--scope {args.scope} does not go with --kind {kind.name} (a {kind.scope} map)")
@@ -269,6 +292,11 @@ def _run_map(args) -> int:
     if args.orientations is not None and "orientations" not in kind.inputs:
         users = " and ".join(k.name for k in kinds_taking("orientations"))
         raise ValueError(f"--orientations is used by --kind {users} (kind is {kind.name!r})")
+    from .workspace.orientations import MAX_ORIENTATIONS
+
+    if args.orientations is not None and args.orientations > MAX_ORIENTATIONS:
+        raise ValueError(f"--orientations must be at most {MAX_ORIENTATIONS} (neighbouring orientations are then "
+                         f"3.6° apart, and each is one more IK solve per node), got {args.orientations}")
     if args.method == "model":
         if "model" not in kind.methods:
             predicted = " or ".join(k.name for k in kinds() if "model" in k.methods)
@@ -348,34 +376,65 @@ def _run_map(args) -> int:
         else:
             fig = plot_slices(flat, grid["shape"], grid["lo"], grid["step"], labels=labels, title=title)
     values = np.asarray(flat, dtype=np.float64)
-    paths = [out] + list(extra.values())
+    paths = [out] + ([extra["--png"]] if fig is not None else [])
     try:
-        # all files or none: a failing one leaves every existing output untouched
+        # the map and its slices (which can always be drawn) together, or neither
         with atomic_paths(paths) as tmps:
             ws.save_map(tmps[0], flat, grid, settings, orientations=R)
-            for flag, tmp in zip(extra, tmps[1:]):
-                if flag == "--png":
-                    fig.savefig(tmp, dpi=120, bbox_inches="tight")
-                elif flag == "--html":
-                    from .views import save_html
-
-                    save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map")
-                elif flag == "--ply":
-                    from .views import save_ply
-
-                    save_ply(tmp, values, grid, label=kind.label)
-                else:
-                    from .views import save_glb
-
-                    save_glb(tmp, values, grid, levels=kind.levels(values))
+            if fig is not None:
+                fig.savefig(tmps[1], dpi=120, bbox_inches="tight", format=png_format)
     finally:
         if fig is not None:
             import matplotlib.pyplot as plt
 
             plt.close(fig)
+    views = {flag: path for flag, path in extra.items() if flag != "--png"}
+    if views:
+        # after the map is safe: an hour's map is not lost because a view has nothing to draw
+        _write_views(views, values, grid, kind, robot, out)
+        paths += list(views.values())
     if not args.quiet:
         print(f"{summary}; {method} {kind.name} map ({how}) in {seconds:.3f} s -> {', '.join(map(str, paths))}")
     return 0
+
+
+def _figure_format(path: Path) -> str:
+    """The matplotlib format of ``--png PATH``: its suffix (``.png``, ``.pdf``, ``.svg``, ...), PNG when it
+    has none (the temporary file's suffix must not choose it); an unknown suffix is a ``ValueError``."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    suffix = path.suffix[1:].lower()
+    if not suffix:
+        return "png"
+    formats = FigureCanvasBase.get_supported_filetypes()
+    if suffix not in formats:
+        raise ValueError(f"--png {str(path)!r}: matplotlib cannot write {path.suffix!r} files; give a name ending in "
+                         f"one of {', '.join('.' + f for f in sorted(formats))} (or no suffix for PNG)")
+    return suffix
+
+
+def _write_views(views: dict, values, grid, kind, robot, out) -> None:
+    """The 3-D views of ``wsmap map`` (``{flag: path}`` of --html, --ply, --glb), all or none, once the
+    map is written to ``out``; a map with nothing to draw is a ``ValueError`` naming the flags."""
+    from .io import atomic_paths
+    from .views import save_glb, save_html, save_ply
+
+    flags = " and ".join(views)
+    if not np.any(values > 0):
+        raise ValueError(f"{flags}: nothing to draw, no node of the map is reachable (its values are all 0); the "
+                         f"map was written to {out}, the view{'s' if len(views) > 1 else ''} not")
+    flag = None
+    try:
+        with atomic_paths(list(views.values())) as tmps:
+            for flag, tmp in zip(views, tmps):
+                if flag == "--html":
+                    save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map")
+                elif flag == "--ply":
+                    save_ply(tmp, values, grid, label=kind.label)
+                else:
+                    save_glb(tmp, values, grid, levels=kind.levels(values))
+    except ValueError as e:
+        raise ValueError(f"{flag} {str(views[flag])!r}: {e}; the map was written to {out}, no view was") from None
 
 
 # ------------------------------------------------------------------------------------ wsmap place
@@ -385,7 +444,8 @@ def _place_parser(sub):
         help="where to put an arm's base so that it reaches a set of target poses",
         description="Rank candidate base poses on the floor (x, y, heading) by the fraction of the target "
                     "poses they reach; every reached target has a joint solution that forward kinematics confirms.",
-        epilog="Targets file (CSV, world frame, one pose per row, a header line allowed): 6 columns x y z r1 r2 r3 "
+        epilog="Targets file (CSV, world frame, one pose per row, cells separated by commas, semicolons, tabs or "
+               "spaces, a header line allowed): 6 columns x y z r1 r2 r3 "
                "(metres; radians, R = Rx(r1) Ry(r2) Rz(r3), T = transl(x, y, z) R) or 16 columns (the 4x4 "
                "matrix, row by row).",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
@@ -407,25 +467,50 @@ def _place_parser(sub):
 
 
 def _read_targets(path):
-    """Target poses (M, 4, 4) from a CSV file of 6 or 16 columns (see ``wsmap place --help``)."""
+    """Target poses (M, 4, 4) from a CSV file of 6 or 16 columns (see ``wsmap place --help``).
+
+    Cells are separated by commas, semicolons, tabs or spaces; a UTF-8 byte-order mark (as Excel
+    writes) is skipped; ``#`` lines and blank lines are comments. Only the first row may be a
+    header, and only when none of its cells is a number: a row with a typo is an error naming its
+    line and cell, never dropped.
+    """
+    import re
+
     from .workspace import target_poses
+    from .workspace.placement import MAX_TARGETS
 
     p = Path(path)
     if not p.is_file():
         raise ValueError(f"--targets {path!r}: no such file")
-    rows = []
-    with open(p) as f:
-        for k, line in enumerate(f, 1):
-            text = line.strip()
-            if not text or text.startswith("#"):
-                continue
-            cells = [c for c in text.replace(";", ",").replace("\t", ",").split(",") if c.strip() != ""]
+    raw = p.read_bytes()
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise ValueError(f"--targets {path}: not a text file (byte {e.start} is not UTF-8); give a CSV of numbers") from None
+    if "\x00" in text:
+        raise ValueError(f"--targets {path}: not a text file (it holds NUL bytes); give a CSV of numbers")
+    rows, header_allowed = [], True
+    for k, line in enumerate(text.splitlines(), 1):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        cells = [c for c in re.split(r"[,;\t ]+", line) if c]
+        values, bad = [], []
+        for c in cells:
             try:
-                rows.append([float(c) for c in cells])
+                values.append(float(c))
             except ValueError:
-                if rows:
-                    raise ValueError(f"--targets {path}: line {k} is not numbers: {text[:60]!r}") from None
-                continue  # a header line
+                bad.append(c)
+        if bad and header_allowed and len(bad) == len(cells):
+            header_allowed = False  # a header line: no number in it
+            continue
+        header_allowed = False
+        if bad:
+            raise ValueError(f"--targets {path}: line {k}, cell {cells.index(bad[0]) + 1} is not a number: {bad[0]!r}")
+        rows.append(values)
+        if len(rows) > MAX_TARGETS:
+            raise ValueError(f"--targets {path}: more than {MAX_TARGETS} poses (each target is one map over every "
+                             "candidate base, 1 to 10 s on one core); split the file")
     if not rows:
         raise ValueError(f"--targets {path}: no poses in the file")
     widths = {len(r) for r in rows}
@@ -442,9 +527,9 @@ def _read_targets(path):
 
 def _run_place(args) -> int:
     from . import workspace as ws
-    from .io import atomic_path, check_output_path
+    from .io import atomic_path, check_outputs
 
-    out = check_output_path(args.out, "--out") if args.out else None
+    out = check_outputs({"--out": args.out}, inputs={"--targets": args.targets, "--urdf": args.urdf}).get("--out")
     for name in ("x", "y"):
         lo, hi = getattr(args, name)
         if lo > hi:
@@ -453,7 +538,7 @@ def _run_place(args) -> int:
     robot = _robot_from_args(args)
     t0 = time.perf_counter()
     pl = ws.base_placement(robot, T, x=args.x, y=args.y, step=args.step, yaws=args.yaws, z0=args.z0,
-                           method=args.method)
+                           method=args.method, progress=not args.quiet)
     seconds = time.perf_counter() - t0
     if out is not None:
         with atomic_path(out, suffix=".csv") as tmp:

@@ -22,6 +22,7 @@ import numpy as np
 __all__ = [
     "OutputPathError",
     "check_output_path",
+    "check_outputs",
     "atomic_path",
     "atomic_paths",
     "jsonable",
@@ -39,11 +40,13 @@ class OutputPathError(ValueError):
 
 
 def check_output_path(path, what: str = "output") -> Path:
-    """``path`` as a ``Path`` after checking, without writing anything, that a file can be put there.
+    """``path`` as a ``Path`` after checking, leaving nothing behind, that a file can be put there.
 
     Refused (:class:`OutputPathError`, naming ``what`` and the path): an empty path, an existing
-    directory, a path whose nearest existing folder is not a folder or is not writable. Missing
-    folders are fine: :func:`atomic_path` creates them when the run has succeeded.
+    directory, a path whose nearest existing folder is not a folder or is not writable — tested by
+    creating and removing a temporary file there, since ``os.access`` says yes to root on a
+    read-only folder. Missing folders are fine: :func:`atomic_path` creates them when the run has
+    succeeded. Several outputs of one run: :func:`check_outputs`.
     """
     if path is None or str(path).strip() == "":
         raise OutputPathError(f"{what} path is empty")
@@ -59,7 +62,57 @@ def check_output_path(path, what: str = "output") -> Path:
         raise OutputPathError(f"{what} path {str(path)!r}: {str(parent)!r} is not a directory")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OutputPathError(f"{what} path {str(path)!r}: no permission to write in {str(parent)!r}")
+    _probe_writable(parent, what, path)
     return p
+
+
+def _probe_writable(folder: Path, what: str, path) -> None:
+    """Create (and remove) a temporary file in ``folder``: the one test of writability that root,
+    read-only mounts, quotas and ACLs cannot fool (``os.access`` says yes to root everywhere)."""
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".wsmap-probe-", dir=folder)
+    except OSError as e:
+        raise OutputPathError(f"{what} path {str(path)!r}: no permission to write in {str(folder)!r} "
+                              f"({e.strerror or e})") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` are one file: the same real path (symbolic links resolved), or two
+    existing names of one inode (hard links)."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist (yet)
+        return False
+
+
+def check_outputs(outputs: Mapping[str, Any], inputs: Mapping[str, Any] | None = None) -> dict[str, Path]:
+    """The outputs of one run checked together before any work: ``{option: Path}`` for every
+    ``outputs`` entry that is not ``None`` (``option`` names it in messages, e.g. ``"--out"``).
+
+    Each is checked by :func:`check_output_path` (writable, by really creating a file in its folder);
+    no two may be the same file (compared after resolving symbolic links, and by inode for hard
+    links), and none may be one of the run's ``inputs`` (``{option: path}``, ``None`` skipped), which
+    the run would otherwise replace. Each problem is an :class:`OutputPathError` naming the options.
+    """
+    out = {what: check_output_path(p, what) for what, p in outputs.items() if p is not None}
+    names = list(out)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            if _same_file(out[a], out[b]):
+                raise OutputPathError(f"{a} {str(out[a])!r} and {b} {str(out[b])!r} are the same file; give each "
+                                      "output its own")
+    for what, p in (inputs or {}).items():
+        if p is None:
+            continue
+        for a, q in out.items():
+            if _same_file(q, Path(p)):
+                raise OutputPathError(f"{a} {str(q)!r} is the input {what} {str(p)!r}: writing it would replace "
+                                      "the input; give another output path")
+    return out
 
 
 def _mode_for_new_files() -> int:
@@ -91,7 +144,7 @@ def atomic_paths(paths: Sequence, suffixes: Sequence[str | None] | None = None):
     """
     paths = [Path(p) for p in paths]
     suffixes = list(suffixes) if suffixes is not None else [None] * len(paths)
-    if len(set(map(os.path.abspath, paths))) != len(paths):
+    if len(set(map(os.path.realpath, paths))) != len(paths):
         raise OutputPathError(f"two outputs of one run share a path: {[str(p) for p in paths]}")
     tmps: list[Path] = []
     try:

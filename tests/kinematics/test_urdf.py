@@ -16,7 +16,7 @@ import pytest
 from frames import hom, inv, max_err_up_to_tool
 from wsmap import robots
 from wsmap.kinematics import rotx, roty, rotz
-from wsmap.kinematics.urdf import URDFError, from_urdf
+from wsmap.kinematics.urdf import URDFError, URDFWarning, from_urdf
 
 rtb = pytest.importorskip("roboticstoolbox")
 rtbdata = pytest.importorskip("rtbdata")
@@ -160,14 +160,20 @@ def test_side_branches_are_ignored_off_the_chain():
     (two_link(extra='<limit lower="nan" upper="1" effort="1" velocity="1"/>'), {},
      "URDF text: joint 'j2' has a NaN limit lower='nan'"),
     (two_link(extra=""), {}, "URDF text: revolute joint 'j2' has no <limit lower=... upper=...>"),
-    (two_link(type="prismatic", extra='<limit upper="1" effort="1" velocity="1"/>'), {},
-     "URDF text: joint 'j2' has a <limit> without 'lower'"),
+    (two_link(extra='<limit lower="-1" upper="1" velocity="1"/>'), {},
+     "URDF text: joint 'j2' has a <limit> without 'effort' (the URDF specification requires effort and velocity "
+     "on every <limit>)"),
+    (two_link(type="prismatic", extra='<limit lower="0" upper="1" effort="1"/>'), {},
+     "URDF text: joint 'j2' has a <limit> without 'velocity' (the URDF specification requires effort and velocity "
+     "on every <limit>)"),
+    (two_link().replace('<robot name="r">', "<robot>"), {},
+     "URDF text: the <robot> element has no name (the URDF specification requires one)"),
     (robot(link("a"), link("b"), link("c"), joint("j1", "a", "b"), joint("j2", "a", "c")), {},
      "URDF text: the tree branches below 'a', so give ee_link; the candidate end links are: b, c"),
     (robot(link("a"), link("b"), joint("j", "a", "b", type="fixed", extra="")), {},
      "URDF text: no movable joint between 'a' and 'b'"),
     (robot(link("a"), link("b"), link("c"), joint("j", "a", "b")), {},
-     "URDF text is not one tree: it has several root links (a, c); give base_link"),
+     "URDF text is not one tree: it has several root links (a, c); give base_link (wsmap map/place: --base LINK)"),
 ])
 def test_bad_urdf_is_a_clear_error(urdf, kwargs, message):
     with pytest.raises(URDFError, match=f"^{re.escape(message)}$"):
@@ -239,3 +245,55 @@ def test_what_only_yourdfpy_trips_on_is_still_a_urdf_error():
                  joint("k", "a", "c", extra='<limit lower="0" upper="1" effort="lots" velocity="1"/>'))
     with pytest.raises(URDFError, match=r"^URDF text: yourdfpy cannot read it: ValueError: "):
         from_urdf(urdf, ee_link="b")
+
+
+# ------------------------------------------------------------------------------ the specification's defaults
+def test_a_limit_without_lower_and_upper_is_zero_as_the_spec_and_pinocchio_read_it():
+    pin = pytest.importorskip("pinocchio")
+    urdf = two_link(extra='<limit effort="1" velocity="1"/>')
+    with pytest.warns(URDFWarning, match=r"^URDF text: joint 'j2' has a <limit> without lower and upper: read as 0 "
+                                         r"\(the URDF specification's default\), limits \[0, 0\] so it cannot move$"):
+        arm = from_urdf(urdf)
+    model = pin.buildModelFromXML(urdf)
+    np.testing.assert_array_equal(arm.qlim[1], [model.lowerPositionLimit[1], model.upperPositionLimit[1]])
+    np.testing.assert_array_equal(arm.qlim[1], [0.0, 0.0])
+
+
+def test_a_limit_without_lower_reads_it_as_zero_with_a_warning():
+    with pytest.warns(URDFWarning, match=r"without lower: read as 0 .* limits \[0, 1\]$"):
+        arm = from_urdf(two_link(type="prismatic", extra='<limit upper="1" effort="1" velocity="1"/>'))
+    np.testing.assert_array_equal(arm.qlim[1], [0.0, 1.0])
+    with pytest.raises(URDFError, match=r"^URDF text: joint 'j2' has lower limit 0.0 above its upper limit -1.0$"):
+        with pytest.warns(URDFWarning):
+            from_urdf(two_link(extra='<limit upper="-1" effort="1" velocity="1"/>'))
+
+
+def test_a_namespace_on_robot_reads_as_the_same_chain():
+    plain = two_link(xyz="0.1 0.2 0.3", rpy="0.1 0.2 0.3")
+    spaced = plain.replace('<robot name="r">', '<robot name="r" xmlns="http://www.ros.org/urdf">')
+    a, b = from_urdf(plain), from_urdf(spaced)
+    np.testing.assert_array_equal(a.fixed, b.fixed)
+    np.testing.assert_array_equal(a.qlim, b.qlim)
+    assert b.links == a.links
+
+
+def test_a_file_whose_name_holds_a_less_than_sign_is_read_as_a_file(tmp_path):
+    f = tmp_path / "arm<v2>.urdf"
+    f.write_text(two_link())
+    arm = from_urdf(str(f))
+    assert arm.n == 2 and arm.source == str(f)
+
+
+def test_the_loop_check_is_linear_in_the_links(monkeypatch):
+    # a chain of 1000 fixed links: the old check walked every link to the root (n²/2 parent look-ups)
+    n = 1000
+    parts = [link(f"l{i}") for i in range(n + 1)] + [joint("j0", "l0", "l1")]
+    parts += [joint(f"j{i}", f"l{i}", f"l{i + 1}", type="fixed", extra="") for i in range(1, n)]
+    from wsmap.kinematics import urdf as urdf_module
+
+    calls = []
+    real = urdf_module._Tree._parent
+    monkeypatch.setattr(urdf_module._Tree, "_parent", lambda self, link: calls.append(1) or real(self, link))
+    arm = from_urdf(robot(*parts))
+    assert arm.n == 1 and arm.links[-1] == f"l{n}"
+    assert len(calls) <= 3 * n

@@ -6,11 +6,16 @@
   leaf, if the tree does not branch) become the chain; side branches (a gripper's fingers, a
   ``base`` or ``tool0`` frame beside the path) are ignored;
 * fixed joints are folded into the neighbouring fixed transforms; revolute joints carry their
-  ``<limit>``; continuous joints are unlimited (``±inf``); prismatic joints carry their stroke;
+  ``<limit>``; continuous joints are unlimited (``±inf``); prismatic joints carry their stroke; a
+  ``<limit>`` without ``lower`` or ``upper`` reads it as 0, the specification's default (as
+  urdfdom and Pinocchio do), with a :class:`URDFWarning` (without both the joint cannot move);
+* elements in an XML namespace (``<robot xmlns="...">``) are read by their local names, as
+  urdfdom reads them;
 * a mimic, floating or planar joint on the path is refused (:class:`URDFError`, naming it), as
   are: text that is not XML, a link that does not exist, no path from base to end, a loop (a link
   with two parents, or a cycle), a NaN or infinite number in an origin, an axis or a limit,
-  limits with ``lower > upper``, and unexpanded xacro;
+  limits with ``lower > upper``, a ``<limit>`` on the chain without the ``effort`` or ``velocity``
+  the specification requires, a ``<robot>`` without a name, and unexpanded xacro;
 * meshes are never loaded, so a URDF whose meshes are missing reads the same.
 
 The transforms come from yourdfpy's joint objects (origins with ``rpy``:
@@ -31,7 +36,7 @@ import numpy as np
 
 from .chain import PRISMATIC, REVOLUTE, SerialChain
 
-__all__ = ["URDFError", "from_urdf"]
+__all__ = ["URDFError", "URDFWarning", "from_urdf"]
 
 #: Joint types of the URDF specification.
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
@@ -42,12 +47,17 @@ class URDFError(ValueError):
     """A URDF that cannot be read as a serial chain; the message names what is wrong."""
 
 
+class URDFWarning(UserWarning):
+    """A URDF read as the specification says, but probably not as its author meant (a joint whose
+    ``<limit>`` lacks ``lower``/``upper``, read as 0)."""
+
+
 # ---------------------------------------------------------------------------------------- reading
 def _read(source) -> tuple[bytes, str, str | None]:
     """``(data, label, path)``: the XML bytes, a label for messages, and the file path (or None)."""
     if isinstance(source, bytes):
         return source, "URDF text", None
-    if isinstance(source, str) and "<" in source:  # XML text (no file name has a "<")
+    if isinstance(source, str) and "<" in source and not os.path.isfile(source):  # XML text, not a file named "a<b"
         return source.encode("utf-8"), "URDF text", None
     if not isinstance(source, (str, os.PathLike)):
         raise TypeError(f"URDF source must be a path or the URDF's XML text, got {type(source).__name__}")
@@ -73,6 +83,11 @@ def _parse_xml(data: bytes, label: str) -> ET.Element:
         if isinstance(el.tag, str) and el.tag.startswith("{") and "xacro" in el.tag.split("}")[0]:
             raise URDFError(f"{label} contains xacro (<xacro:{_local(el.tag)}>): expand it to plain URDF first "
                             "(e.g. with the xacro tool)")
+    if not root.get("name"):
+        raise URDFError(f"{label}: the <robot> element has no name (the URDF specification requires one)")
+    for el in root.iter():  # a namespace (xmlns="..." on <robot>) is not part of URDF: read local names
+        if isinstance(el.tag, str) and el.tag.startswith("{"):
+            el.tag = _local(el.tag)
     return root
 
 
@@ -92,7 +107,7 @@ def _numbers(label: str, what: str, text: str | None, default: str) -> np.ndarra
 def _limit_value(label: str, jname: str, limit: ET.Element, key: str) -> float:
     text = limit.get(key)
     if text is None:
-        raise URDFError(f"{label}: joint {jname!r} has a <limit> without {key!r}")
+        return 0.0  # the specification's default; from_urdf warns
     try:
         v = float(text)
     except ValueError:
@@ -119,9 +134,10 @@ class _Tree:
     def __init__(self, root: ET.Element, label: str):
         self.label = label
         self.links: list[str] = []
+        known: set[str] = set()
         for el in root.findall("link"):
-            self.links.append(_new_name(el, "link", self.links, label))
-        known = set(self.links)
+            self.links.append(_new_name(el, "link", known, label))
+            known.add(self.links[-1])
         self.joints: dict[str, ET.Element] = {}
         self.parent_joint: dict[str, str] = {}  # child link -> joint
         self.children: dict[str, list[str]] = {name: [] for name in self.links}  # link -> joints
@@ -153,15 +169,22 @@ class _Tree:
             self.joints[name] = el
             self.parent_joint[child] = name
             self.children[ends["parent"]].append(name)
-        # a cycle: following parents from some link never reaches a root
+        # a cycle: following parents from some link never reaches a root. Each link has at most one
+        # parent, so one walk per link that stops at a link already known to reach a root visits
+        # every link once: linear (a chain of 5000 fixed links is 5000 steps, not 5000² list scans).
+        parent = {child: self._parent(child) for child in self.parent_joint}
+        rooted: set[str] = set()
         for start in self.links:
-            seen, link = [start], start
-            while link in self.parent_joint:
-                link = self._parent(link)
-                if link in seen:
-                    cycle = seen[seen.index(link):] + [link]
+            path, on_path, link = [], set(), start
+            while link not in rooted and link in parent:
+                if link in on_path:
+                    cycle = path[path.index(link):] + [link]
                     raise URDFError(f"{label}: the joints form a loop: {' -> '.join(reversed(cycle))}")
-                seen.append(link)
+                path.append(link)
+                on_path.add(link)
+                link = parent[link]
+            rooted.update(path)
+            rooted.add(link)
 
     def _parent(self, link: str) -> str:
         return self.joints[self.parent_joint[link]].find("parent").get("link")
@@ -179,7 +202,7 @@ class _Tree:
             raise URDFError(f"{self.label} has no links")
         if len(roots) > 1:
             raise URDFError(f"{self.label} is not one tree: it has several root links ({', '.join(roots)}); "
-                            "give base_link")
+                            "give base_link (wsmap map/place: --base LINK)")
         return roots[0]
 
     def leaves_below(self, base: str) -> list[str]:
@@ -247,6 +270,8 @@ def from_urdf(source, ee_link: str | None = None, base_link: str | None = None,
     """
     data, label, path = _read(source)
     root = _parse_xml(data, label)
+    if b"xmlns" in data:  # yourdfpy finds no <link> in a namespace: give it the local names
+        data = ET.tostring(root)
     tree = _Tree(root, label)
     if base_link is None:
         base_link = tree.root()
@@ -287,6 +312,18 @@ def from_urdf(source, ee_link: str | None = None, base_link: str | None = None,
                 raise URDFError(f"{label}: {jtype} joint {jname!r} has no <limit lower=... upper=...>")
             lo = _limit_value(label, jname, limit, "lower")
             hi = _limit_value(label, jname, limit, "upper")
+            for key in ("effort", "velocity"):
+                if limit.get(key) is None:  # urdfdom (ROS, Pinocchio) refuses the file too
+                    raise URDFError(f"{label}: joint {jname!r} has a <limit> without {key!r} (the URDF "
+                                    "specification requires effort and velocity on every <limit>)")
+            missing = [k for k in ("lower", "upper") if limit.get(k) is None]
+            if missing:
+                import warnings
+
+                still = (" so it cannot move" if lo == hi else "")
+                warnings.warn(f"{label}: joint {jname!r} has a <limit> without {' and '.join(missing)}: read as 0 "
+                              f"(the URDF specification's default), limits [{lo:g}, {hi:g}]{still}",
+                              URDFWarning, stacklevel=2)
             if lo > hi:
                 raise URDFError(f"{label}: joint {jname!r} has lower limit {lo} above its upper limit {hi}")
             if jtype == "prismatic" and not (np.isfinite(lo) and np.isfinite(hi)):

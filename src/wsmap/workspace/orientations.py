@@ -11,7 +11,7 @@ import numpy as np
 
 from ..kinematics.transforms import as_real_array
 
-__all__ = ["orientation_samples", "approach_orientations", "check_rotations", "rotation_angle", "continuation_order"]
+__all__ = ["MAX_ORIENTATIONS", "orientation_samples", "approach_orientations", "check_rotations", "rotation_angle", "continuation_order"]
 
 # Super-Fibonacci spirals (Alexa, "Super-Fibonacci Spirals: Fast, Low-Discrepancy Sampling of SO(3)",
 # CVPR 2022): the two irrational steps, sqrt(2) and the root psi of psi^4 = psi + 4
@@ -19,9 +19,18 @@ _PHI = np.sqrt(2.0)
 _PSI = 1.533751168755204288118041
 
 
-def _check_count(name, k):
+#: The most orientations a set may have: 100000 super-Fibonacci orientations lie a median 3.6° from
+#: their nearest neighbour (22.8° at 1000, 7.6° at 20000), finer than any map needs, and every
+#: orientation is one more IK solve per node; more is refused before anything is allocated.
+MAX_ORIENTATIONS = 100_000
+
+
+def _check_count(name, k, maximum: int | None = None):
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k <= 0:
         raise ValueError(f"{name} must be a positive integer, got {k!r}")
+    if maximum is not None and k > maximum:
+        raise ValueError(f"{name} must be at most {maximum} (neighbouring orientations are then 3.6° apart, and each "
+                         f"one is another IK solve per node), got {k}")
     return int(k)
 
 
@@ -45,11 +54,12 @@ def orientation_samples(k: int, seed: int | None = 0) -> np.ndarray:
 
     Quaternion ``i`` of the spiral (``s = i + 1/2``) is ``(√(s/k) sin α, √(s/k) cos α, √(1 − s/k) sin β,
     √(1 − s/k) cos β)`` with ``α = 2π s/√2``, ``β = 2π s/ψ``: a low-discrepancy set on the unit
-    quaternions, so its rotations cover SO(3) evenly with no clusters, for any ``k``. ``seed``: the
+    quaternions, so its rotations cover SO(3) evenly with no clusters, for any ``k`` up to
+    :data:`MAX_ORIENTATIONS` (more is a ``ValueError``). ``seed``: the
     whole set is turned by one random rotation drawn from ``numpy.random.default_rng(seed)`` (every
     seed gives an equally even set; ``None``: the spiral as it is).
     """
-    k = _check_count("k (the number of orientations)", k)
+    k = _check_count("k (the number of orientations)", k, MAX_ORIENTATIONS)
     s = np.arange(k) + 0.5
     r, R = np.sqrt(s / k), np.sqrt(1.0 - s / k)
     a, b = 2 * np.pi * s / _PHI, 2 * np.pi * s / _PSI

@@ -17,10 +17,19 @@ import numpy as np
 
 from ..kinematics import DHRobot, SerialChain, as_chain, check_rigid, map_search, require_closed_form
 from ..kinematics.ik.search import MAP_SETTINGS
-from .grids import _triple, node_neighbours
+from .grids import _check_fits, _triple, node_neighbours
 from .maps import _exact, resolve_method
 
-__all__ = ["Placement", "base_placement", "floor_poses"]
+__all__ = ["Placement", "base_placement", "floor_poses", "MAX_TARGETS", "MAX_YAWS", "MAX_CANDIDATES"]
+
+#: The most target poses one placement takes: each target is one map over every candidate base
+#: (3528 candidates by default: about 1 to 10 s per target on one core), so 100000 are already days.
+MAX_TARGETS = 100_000
+#: The most base headings: 3600 are 0.1° apart, finer than any base is put down.
+MAX_YAWS = 3600
+#: The most candidate bases (positions x headings): each holds a 4x4 pose, its inverse and a joint
+#: solution per target; 10**7 are 400 times the default region (21 x 21 positions x 8 headings).
+MAX_CANDIDATES = 10**7
 
 
 @dataclass
@@ -72,7 +81,8 @@ def floor_poses(x, y, yaw, z0: float = 0.0) -> np.ndarray:
 
 
 def base_placement(robot, targets, x=(-1.0, 1.0), y=(-1.0, 1.0), *, step: float = 0.1, yaws: int = 8,
-                   z0: float = 0.0, method: str = "auto", ik: dict | None = None, seed: int = 0) -> Placement:
+                   z0: float = 0.0, method: str = "auto", ik: dict | None = None, seed: int = 0,
+                   progress: bool = False) -> Placement:
     """Rank candidate base poses on the floor by the fraction of ``targets`` they reach.
 
     Parameters
@@ -83,10 +93,13 @@ def base_placement(robot, targets, x=(-1.0, 1.0), y=(-1.0, 1.0), *, step: float 
     yaws : number of base headings, ``2π j / yaws``
     z0 : height of the floor plane the base stands on (m)
     method, ik, seed : as :func:`wsmap.workspace.constant_orientation_map` (``ik`` for the numerical search)
+    progress : a progress bar over the targets (on stderr)
 
     Returns a :class:`Placement`, best first (ties: nearer the middle of the region first, then the
     grid order). Bad input (a range with lo > hi, ``step`` <= 0, ``yaws`` < 1, targets that are not
-    rigid transforms) is a ``ValueError`` before any work.
+    rigid transforms) is a ``ValueError`` before any work, as are sizes beyond the bounds
+    (:data:`MAX_TARGETS` targets, :data:`MAX_YAWS` headings, :data:`MAX_CANDIDATES` candidate bases)
+    and a ``MemoryError`` a problem whose solutions would not fit in half the memory available.
     """
     if not isinstance(robot, (DHRobot, SerialChain)):
         raise TypeError(f"robot must be a DHRobot or a SerialChain, got {type(robot).__name__}")
@@ -102,8 +115,23 @@ def base_placement(robot, targets, x=(-1.0, 1.0), y=(-1.0, 1.0), *, step: float 
         raise ValueError(f"step must be positive and finite, got {step!r}")
     if isinstance(yaws, bool) or not isinstance(yaws, (int, np.integer)) or yaws < 1:
         raise ValueError(f"yaws must be a positive integer (the number of base headings), got {yaws!r}")
+    if yaws > MAX_YAWS:
+        raise ValueError(f"yaws must be at most {MAX_YAWS} (headings 0.1° apart; finer ones only multiply the work), "
+                         f"got {yaws}")
+    if len(T) > MAX_TARGETS:
+        raise ValueError(f"at most {MAX_TARGETS} targets (each is one map over every candidate base, 1 to 10 s on "
+                         f"one core), got {len(T)}")
     z0 = float(_triple("z0", z0)[0])
     method = resolve_method(robot, method)
+    with np.errstate(over="ignore"):  # counted in floating point: a 1e-300 step must not wrap an integer
+        counts = [np.floor((r[1] - r[0]) / step + 0.5) + 1.0 for r in (xr, yr)]
+        total = float(counts[0] * counts[1] * yaws)
+    if not total <= MAX_CANDIDATES:
+        raise ValueError(f"a region of {counts[0]:.3g} x {counts[1]:.3g} positions x {yaws} headings is {total:.3g} "
+                         f"candidate bases, more than {MAX_CANDIDATES:.0e} (each holds a pose and a solution per "
+                         "target); use a larger step or a smaller region")
+    _check_fits(int(total) * (len(T) * (8 * robot.n + 1) + 512),
+                f"{int(total)} candidate bases x {len(T)} targets")
 
     xs = np.arange(xr[0], xr[1] + step * 0.5, step)
     ys = np.arange(yr[0], yr[1] + step * 0.5, step)
@@ -125,7 +153,9 @@ def base_placement(robot, targets, x=(-1.0, 1.0), y=(-1.0, 1.0), *, step: float 
     settings = {**MAP_SETTINGS, **(ik or {})}
     for key in ("solver", "chunk", "progress"):
         settings.pop(key, None)
-    for m in range(M):
+    from tqdm.auto import tqdm
+
+    for m in tqdm(range(M), unit="target", desc="base placement", disable=not progress, leave=False):
         Tm = Binv @ T[m]  # (C, 4, 4): the target in each candidate's base frame
         if method == "exact":
             reached[:, m] = _exact(robot, Tm)

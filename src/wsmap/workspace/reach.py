@@ -79,6 +79,9 @@ def position_map(robot, nodes, *, samples: int = 20000, seed: int = 0, ik: dict 
 
         q = chain.random_q(int(samples), np.random.default_rng(seed))
         tip = chain.fkine(q)[:, :3, 3]
+        # a tool beyond float64's range (an origin at 1e308) has no finite tip: no start from it
+        finite = np.all(np.isfinite(tip), axis=1)
+        q, tip = q[finite], tip[finite]
         d, node = cKDTree(nodes).query(tip)
         # per node, the sample nearest to it
         order = np.lexsort((d, node))
@@ -106,8 +109,10 @@ def reachability_index(robot, nodes, orientations, *, method: str = "auto", retu
     nodes = _check_nodes("nodes", nodes)
     R = check_rotations("orientations", orientations)
     N, K = len(nodes), len(R)
-    _check_fits(N * K * 8, f"an index of {N} nodes x {K} orientations")
     method = resolve_method(robot, method)
+    # the bits, and numerically every node's solution at every orientation (the continuation's starts)
+    per = 1 + (0 if method == "exact" else 8 * robot.n)
+    _check_fits(N * K * per, f"an index of {N} nodes x {K} orientations")
     bits = np.zeros((N, K), dtype=bool)
     if method == "exact":
         block = max(1, (1 << 20) // max(N, 1))

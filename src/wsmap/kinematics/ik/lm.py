@@ -14,7 +14,7 @@ from ..dh import DHRobot
 from ..lm_compiled import MODE_PAPER
 from ..transforms import check_rigid
 from .kernel import arm_arrays, run_compiled
-from .solution import IKSolution, failure_reasons
+from .solution import MIN_TOL, IKSolution, failure_reasons
 
 __all__ = ["ikine_LM"]
 
@@ -80,6 +80,9 @@ def ikine_LM(
             raise ValueError(f"{label} must be a non-negative integer, got {v!r}")
     if not (tol > 0 and np.isfinite(tol)):
         raise ValueError(f"tol must be positive and finite, got {tol!r}")
+    if tol < MIN_TOL:
+        raise ValueError(f"tol must be at least {MIN_TOL:g} (float64 forward kinematics is exact to about 1e-16 per "
+                         f"metre, so no pose meets a smaller one), got {tol!r}")
     if not (lam > 0 and np.isfinite(lam)):
         raise ValueError(f"lam must be positive and finite, got {lam!r}")
     n = robot.n

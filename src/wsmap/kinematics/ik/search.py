@@ -62,7 +62,7 @@ from ..transforms import check_rigid
 from .kernel import arm_arrays, pose_keys, run_compiled, unsolved
 from .memo import Memo, as_chain_memo, chain_key
 from .reach_filter import position_filter, reach_filter
-from .solution import IKSolution, failure_reasons
+from .solution import MIN_TOL, IKSolution, failure_reasons
 
 __all__ = ["MAP_SETTINGS", "map_search", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DEFAULT_STARTS", "FK_CONFIRM_TOL",
            "ikine_search"]
@@ -100,7 +100,7 @@ def _check_seed(seed):
     if seed is None:
         return int(np.random.default_rng().integers(0, 2**63))
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
-        raise ValueError(f"seed must be a non-negative integer (or None for a random one), got {seed!r}")
+        raise ValueError(f"seed must be a non-negative integer below 2**64 (or None for a random one), got {seed!r}")
     return int(seed)
 
 
@@ -111,6 +111,9 @@ def _check_settings(chain: SerialChain, tol, lam, confirm_tol, seed, q0):
     for label, v in (("tol", tol), ("lam", lam), ("confirm_tol", confirm_tol)):
         if isinstance(v, bool) or not (np.isscalar(v) and np.isreal(v) and v > 0 and np.isfinite(v)):
             raise ValueError(f"{label} must be positive and finite, got {v!r}")
+    if tol < MIN_TOL:
+        raise ValueError(f"tol must be at least {MIN_TOL:g} (float64 forward kinematics is exact to about 1e-16 per "
+                         f"metre, so no pose meets a smaller one), got {tol!r}")
     if confirm_tol < tol:
         raise ValueError(f"confirm_tol ({confirm_tol}) must be at least tol ({tol})")
     seed = _check_seed(seed)

@@ -13,7 +13,13 @@ from enum import IntEnum
 
 import numpy as np
 
-__all__ = ["IKReason", "IKSolution"]
+__all__ = ["IKReason", "IKSolution", "MIN_TOL"]
+
+#: The smallest tolerance on the pose error norm (m and rad) a numerical solver accepts. Float64
+#: forward kinematics is exact to about 1e-16 per metre of reach, so a smaller tolerance is never
+#: met: with ``tol=1e-16`` the Panda's 0.25 m constant map finds 106 of its 122 reachable nodes, with
+#: ``3e-17`` none, silently. 1e-14 leaves a hundredfold margin for arms of a few metres.
+MIN_TOL = 1e-14
 
 
 class IKReason(IntEnum):
