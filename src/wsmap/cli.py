@@ -486,7 +486,8 @@ def _read_targets(path):
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as e:
-        raise ValueError(f"--targets {path}: not a text file (byte {e.start} is not UTF-8); give a CSV of numbers") from None
+        raise ValueError(f"--targets {path}: not a text file (byte {e.start} is not UTF-8); give a CSV of "
+                         "numbers") from None
     if "\x00" in text:
         raise ValueError(f"--targets {path}: not a text file (it holds NUL bytes); give a CSV of numbers")
     rows, header_allowed = [], True

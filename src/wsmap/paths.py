@@ -31,8 +31,20 @@ def load_params(section: str | None = None, path: Path | str | None = None) -> d
     path = Path(path) if path is not None else PARAMS
     if not path.is_file():
         raise ValueError(f"no parameters file at {path}")
-    with open(path) as f:
-        params = yaml.safe_load(f) or {}
+    raw = path.read_bytes()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{path} is not a text file (byte {e.start} is not UTF-8); a parameters file is "
+                         "YAML") from None
+    try:
+        params = yaml.safe_load(text) or {}
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        raise ValueError(f"{path} is not valid YAML{where}: {problem}") from None
+    _check_size(params, path)
     if not isinstance(params, dict):
         raise ValueError(f"{path} must hold a mapping of sections, got {type(params).__name__}")
     if section is None:
@@ -40,6 +52,27 @@ def load_params(section: str | None = None, path: Path | str | None = None) -> d
     if section not in params:
         raise ValueError(f"{path} has no section {section!r}; sections: {', '.join(params)}")
     return params[section]
+
+
+#: The most values a parameters file may hold once its YAML aliases are expanded (params.full.yaml
+#: holds about a hundred): a few lines of nested aliases (an "alias bomb") expand to billions.
+MAX_PARAMS_VALUES = 100_000
+
+
+def _check_size(params, path) -> None:
+    """``ValueError`` when ``params`` holds more than :data:`MAX_PARAMS_VALUES` values, each alias
+    counted as often as it is used (a recursive alias, too, stops the count)."""
+    stack, count = [params], 0
+    while stack:
+        v = stack.pop()
+        count += 1
+        if count > MAX_PARAMS_VALUES:
+            raise ValueError(f"{path} holds more than {MAX_PARAMS_VALUES} values once its YAML aliases (*name) are "
+                             "expanded: an alias bomb, or not a parameters file")
+        if isinstance(v, dict):
+            stack.extend(v.values())
+        elif isinstance(v, list):
+            stack.extend(v)
 
 
 class Params(dict):

@@ -104,6 +104,20 @@ _READ_CHUNK = 1 << 24
 CONNECT_TIMEOUT = 5.0
 #: Seconds to wait for a scheduler without workers to get its first one.
 WORKER_TIMEOUT = 60.0
+#: The longest ``connect_timeout``: a scheduler that has not answered in an hour will not (and Dask
+#: retries a connection until its timeout, so 1e308 s would retry forever).
+MAX_CONNECT_TIMEOUT = 3600.0
+#: A local cluster has at most this many worker processes per core of the machine: each is one
+#: single-threaded process, so beyond the cores they only share them and multiply the memory.
+WORKERS_PER_CORE = 4
+
+
+def _cores() -> int:
+    """The cores this process may run on (its affinity where the OS has one)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
 
 
 class DatasetError(ValueError):
@@ -251,7 +265,12 @@ def _is_client(x) -> bool:
 def _check_cluster(workers, scheduler, connect_timeout):
     """Checked ``(workers, scheduler, connect_timeout)`` of a build (see the module notes)."""
     if workers is not None:
-        workers = _int("workers", workers, 1, 4096)
+        workers = _int("workers", workers, 1)
+        cores = _cores()
+        if workers > WORKERS_PER_CORE * cores:
+            raise ValueError(f"workers must be at most {WORKERS_PER_CORE * cores} ({WORKERS_PER_CORE} per core of the "
+                             f"{cores} here): each is a single-threaded process, so more than the cores only share "
+                             f"them; got {workers}")
     if scheduler is not None:
         if isinstance(scheduler, str):
             scheduler = scheduler.strip()
@@ -269,7 +288,33 @@ def _check_cluster(workers, scheduler, connect_timeout):
         raise ValueError(f"connect_timeout must be a positive number of seconds, got {connect_timeout!r}") from None
     if not (connect_timeout > 0 and math.isfinite(connect_timeout)):
         raise ValueError(f"connect_timeout must be a positive number of seconds, got {connect_timeout!r}")
+    if connect_timeout > MAX_CONNECT_TIMEOUT:
+        raise ValueError(f"connect_timeout must be at most {MAX_CONNECT_TIMEOUT:g} s (a scheduler that has not "
+                         f"answered in an hour will not), got {connect_timeout:g}")
     return workers, scheduler, connect_timeout
+
+
+def _connect(scheduler: str, timeout: float):
+    """A :class:`distributed.Client` of the scheduler at ``scheduler``, or the exception of the try.
+
+    A Client whose address is bad (``tcp://``, ``http://x``, ``tcp://[::1``) raises from inside its
+    constructor and is left half built; its ``__del__`` then prints a ``TimeoutError`` traceback
+    seconds later. So the Client that failed to start is found and closed here.
+    """
+    from distributed import Client
+
+    class _ClosingClient(Client):
+        def start(self, **kwargs):
+            try:
+                return super().start(**kwargs)
+            except BaseException:
+                try:
+                    self.close(timeout=1)
+                except Exception:  # noqa: BLE001 - closing what never opened; the first error is the one to tell
+                    pass
+                raise
+
+    return _ClosingClient(scheduler, timeout=timeout, set_as_default=False)
 
 
 @contextmanager
@@ -289,8 +334,13 @@ def _dask_client(workers, scheduler, connect_timeout):
         raise ImportError(f"building on Dask needs dask[distributed] ({e})") from None
     if scheduler is not None:
         try:
-            client = Client(scheduler, timeout=connect_timeout, set_as_default=False)
-        except (OSError, TimeoutError, ValueError) as e:
+            client = _connect(scheduler, connect_timeout)
+        except (ValueError, TypeError, ImportError) as e:  # Dask's own words on an address it cannot use
+            raise SchedulerError(
+                f"{scheduler!r} is not a Dask scheduler address this machine can use ({e}); give one such as "
+                "'tcp://head:8786'; nothing was written"
+            ) from None
+        except (OSError, TimeoutError) as e:
             raise SchedulerError(
                 f"no Dask scheduler answered at {scheduler!r} within {connect_timeout:g} s ({e}); start one with "
                 f"`dask scheduler` and workers with `dask worker {scheduler}`, or check the address; nothing was "

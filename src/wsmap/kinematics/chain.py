@@ -253,7 +253,10 @@ class SerialChain(ArmBatch):
         lo = np.where(np.isfinite(self.limits[..., 0]), self.limits[..., 0], -np.pi)
         hi = np.where(np.isfinite(self.limits[..., 1]), self.limits[..., 1], np.pi)
         u = rng.random((count,) + np.broadcast_shapes(lo.shape, self.batch_shape + (self.n,)))
-        return lo + u * (hi - lo)
+        with np.errstate(over="ignore", invalid="ignore"):
+            q = lo + u * (hi - lo)
+        # limits of ±1e308 overflow hi - lo: the same uniform draw as a convex combination there
+        return np.where(np.isfinite(q), q, lo * (1.0 - u) + hi * u)
 
 
 def from_dh(d, a, alpha, offset=None, qlim=None, modified: bool = False, prismatic=None, base=None, tool=None,
@@ -275,6 +278,8 @@ def from_dh(d, a, alpha, offset=None, qlim=None, modified: bool = False, prismat
         check_finite(f"DH column {k}", x)
     if len({d.shape[-1], a.shape[-1], alpha.shape[-1]}) != 1:
         raise ValueError(f"DH columns disagree on the number of joints: d {d.shape}, a {a.shape}, alpha {alpha.shape}")
+    if d.shape[-1] == 0:
+        raise ValueError("DH columns are empty: an arm needs at least one joint (one entry of d, a and alpha each)")
     try:
         shape = np.broadcast_shapes(d.shape, a.shape, alpha.shape)
     except ValueError:

@@ -189,16 +189,36 @@ def settings_hash(settings: dict) -> str:
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
+def _whole(where: str, key: str, value, minimum: int = 0) -> int:
+    """``value`` (a parameter ``key`` of ``where``) as an int: a whole number of at least ``minimum``,
+    else a ``ValueError`` naming the file, section and key (``int("many")`` names none of them)."""
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        shown = repr(value) if len(repr(value)) <= 60 else f"a {type(value).__name__}"
+        raise ValueError(f"{where}: {key} must be a whole number of at least {minimum}, got {shown}")
+    return value
+
+
 def _dataset_settings(names: Sequence[str], sizes: dict) -> dict[str, dict]:
     from ..datasets.spec import scaled
     from .specs import paper_spec
 
     out = {}
+    if not isinstance(sizes, dict):
+        raise ValueError(f"the params file's datasets section must be a mapping of datasets, got "
+                         f"{type(sizes).__name__}")
     for name in names:
-        if name not in sizes:
+        if not isinstance(name, str) or name not in sizes:
             raise ValueError(f"the params file's datasets section has no {name!r}")
         item = sizes[name]
-        n, m = int(item["samples"]), int(item["test_samples"])
+        where = f"the params file's datasets section, dataset {name!r}"
+        if not isinstance(item, dict):
+            raise ValueError(f"{where} must be a mapping with samples and test_samples, got {type(item).__name__}")
+        for key in ("samples", "test_samples"):
+            if key not in item:
+                raise ValueError(f"{where} has no {key!r} (it needs samples and test_samples)")
+        n, m = _whole(where, "samples", item["samples"], 1), _whole(where, "test_samples", item["test_samples"], 1)
         out[name] = {"samples": n, "test_samples": m, "spec": scaled(paper_spec(name), n).to_dict()}
     return out
 
@@ -223,11 +243,14 @@ def plan(params_file=None, *, device: str | None = None) -> list[Part]:
             return device, "--device"
         return cfg["device"], f"{cfg.source} device"
 
-    def train_config(optimizer, loss, max_epochs, max_fail, seed) -> dict:
-        d = TrainConfig(optimizer=optimizer, loss=loss, max_epochs=int(max_epochs), max_fail=int(max_fail),
-                        seed=int(seed)).to_dict()
+    def train_config(optimizer, loss, max_epochs, max_fail, seed, where="the params file") -> dict:
+        d = TrainConfig(optimizer=optimizer, loss=loss, max_epochs=_whole(where, "max_epochs", max_epochs, 1),
+                        max_fail=_whole(where, "max_fail", max_fail, 1), seed=_whole(where, "seed", seed)).to_dict()
         d.pop("device")
         return d
+
+    def sessions(cfg) -> list[str]:
+        return [f"session_{k}" for k in range(_whole(cfg.source, "sessions", cfg["sessions"], 1))]
 
     def make(name, kind, cfg, steps, datasets, values, tc, title, analysis=None):
         data = _dataset_settings(datasets, sizes)
@@ -242,29 +265,32 @@ def plan(params_file=None, *, device: str | None = None) -> list[Part]:
     c = section("sec61_subspace")
     values = {k: c[k] for k in ("dataset", "train_samples", "sessions", "max_epochs", "max_fail", "hidden", "seed",
                                 "threshold")}
-    parts.append(make("sec61_subspace", "sec61", c, [f"session_{k}" for k in range(int(c["sessions"]))],
-                      [c["dataset"]], values, train_config("rprop", "mse", c["max_epochs"], c["max_fail"], c["seed"]),
+    parts.append(make("sec61_subspace", "sec61", c, sessions(c),
+                      [c["dataset"]], values,
+                      train_config("rprop", "mse", c["max_epochs"], c["max_fail"], c["seed"], c.source),
                       "§6.1: block-5 subspace, Rprop + MSE sessions",
-                      analysis={"sweep_points": int(c["sweep_points"])}))
+                      analysis={"sweep_points": _whole(c.source, "sweep_points", c["sweep_points"], 2)}))
     c = section("sec62_puma560")
     values = {k: c[k] for k in ("dataset", "train_samples", "max_epochs", "max_fail", "hidden", "seed", "threshold")}
     parts.append(make("sec62_puma560", "sec62", c, [f"block_{k + 1}" for k in range(N_BLOCKS)], [c["dataset"]],
-                      values, train_config("rprop", "mse", c["max_epochs"], c["max_fail"], c["seed"]),
+                      values, train_config("rprop", "mse", c["max_epochs"], c["max_fail"], c["seed"], c.source),
                       "§6.2: 7 block subspaces, stacked; PUMA560"))
     c = section("table1_workspaces")
     for name in c["datasets"]:
-        max_epochs = int(tables.per_dataset(c["max_epochs"], name))
+        max_epochs = _whole(f"{c.source}, dataset {name!r}", "max_epochs",
+                            tables.per_dataset(c["max_epochs"], name), 1)
         values = {"dataset": name, "train_samples": tables.per_dataset(c["train_samples"], name), "sessions": c["sessions"],
                   "max_epochs": max_epochs, "max_fail": c["max_fail"], "hidden": c["hidden"], "seed": c["seed"],
                   "optimizer": c["optimizer"], "loss": c["loss"], "threshold": 0.5}
-        parts.append(make(name, "table1", c, [f"session_{k}" for k in range(int(c["sessions"]))], [name], values,
-                          train_config(c["optimizer"], c["loss"], max_epochs, c["max_fail"], c["seed"]),
+        parts.append(make(name, "table1", c, sessions(c), [name], values,
+                          train_config(c["optimizer"], c["loss"], max_epochs, c["max_fail"], c["seed"], c.source),
                           f"Table 1 row {name}"))
     c = section("table2_optimisers")
     values = {k: c[k] for k in ("dataset", "train_samples", "sessions", "max_epochs", "max_fail", "hidden", "seed")}
     values.update(optimizer="rprop", loss="mse", threshold=0.5)
-    parts.append(make("table2_rprop_mse", "table2", c, [f"session_{k}" for k in range(int(c["sessions"]))],
-                      [c["dataset"]], values, train_config("rprop", "mse", c["max_epochs"], c["max_fail"], c["seed"]),
+    parts.append(make("table2_rprop_mse", "table2", c, sessions(c),
+                      [c["dataset"]], values,
+                      train_config("rprop", "mse", c["max_epochs"], c["max_fail"], c["seed"], c.source),
                       "Table 2: Rprop + MSE cell"))
     c = section("table3_embeddings")
     embeddings = dict(c["embeddings"])
@@ -273,9 +299,9 @@ def plan(params_file=None, *, device: str | None = None) -> list[Part]:
                   "train_samples": tables.per_dataset(c["train_samples"], emb), "sessions": c["sessions"],
                   "max_epochs": c["max_epochs"], "max_fail": c["max_fail"], "hidden": c["hidden"], "seed": c["seed"],
                   "optimizer": c["optimizer"], "loss": c["loss"], "threshold": 0.5}
-        parts.append(make(f"table3_{emb}", "table3", c, [f"session_{k}" for k in range(int(c["sessions"]))],
+        parts.append(make(f"table3_{emb}", "table3", c, sessions(c),
                           list(embeddings.values()), values,
-                          train_config(c["optimizer"], c["loss"], c["max_epochs"], c["max_fail"], c["seed"]),
+                          train_config(c["optimizer"], c["loss"], c["max_epochs"], c["max_fail"], c["seed"], c.source),
                           f"Table 3: {emb} model on the three test sets"))
     names = [p.name for p in parts]
     if len(set(names)) != len(names):

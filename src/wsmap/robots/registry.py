@@ -187,14 +187,18 @@ def load(name: str, joint_limits: bool | None = None) -> DHRobot | SerialChain:
     ``ur5e``, ``ur10e``, ``gen3``: :class:`SerialChain`).
 
     ``joint_limits`` ``None`` is the arm's default: the manufacturer's limits for a real arm, none
-    for ``puma560`` (as the paper). ``True``/``False`` attach or drop them. The robot has ``.n``,
+    for ``puma560`` (as the paper). ``True``/``False`` attach or drop them (anything else is a
+    ``ValueError``: ``"no"`` would read as true). The robot has ``.n``,
     ``.qlim`` (``(n, 2)`` rad, ``±inf`` for a continuous joint, ``None`` when unlimited) and
     ``.fkine(q)`` (base → flange). An unknown name is a ``ValueError`` listing the known ones.
     """
     key = str(name).lower()
     if key not in ROBOTS:
         raise ValueError(f"unknown robot {name!r}; known robots: {', '.join(ROBOTS)}")
-    return ROBOTS[key](joint_limits=joint_limits)
+    if joint_limits is not None and not isinstance(joint_limits, (bool, np.bool_)):
+        # a string such as "no" is truthy: it would turn the limits on
+        raise ValueError(f"joint_limits must be True, False or None (the arm's default), got {joint_limits!r}")
+    return ROBOTS[key](joint_limits=None if joint_limits is None else bool(joint_limits))
 
 
 def from_name(name: str, joint_limits: bool | None = None) -> DHRobot | SerialChain:

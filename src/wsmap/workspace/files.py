@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import atomic_path
-from .grids import cartesian_grid
+from .grids import cartesian_grid, grid_counts
 from .kinds import get_kind
 
 __all__ = ["save_map", "load_map", "MapFileError"]
@@ -74,7 +74,10 @@ def load_map(path):
 
     A missing file is ``FileNotFoundError``; anything else unreadable is :class:`MapFileError`, as is
     a file whose ``settings["kind"]`` is not a registered kind (:mod:`wsmap.workspace.kinds`) or whose
-    map's value type or grid's scope is not its kind's.
+    map's value type or grid's scope is not its kind's, and one that disagrees with itself: a grid
+    that is not a valid grid or does not have the map's number of nodes, nodes that are not the
+    grid's, a float map with NaN or infinite values or values outside its kind's range (an index
+    outside [0, 1], a negative manipulability).
     """
     path = Path(path)
     if not path.is_file():
@@ -82,15 +85,26 @@ def load_map(path):
             raise MapFileError(f"{path} is not a file")
         raise FileNotFoundError(f"no map file at {path}")
     try:
-        with np.load(path, allow_pickle=False) as z:
+        z = np.load(path, allow_pickle=False)
+        if not isinstance(z, np.lib.npyio.NpzFile):
+            raise MapFileError(f"{path} is a single numpy array (.npy), not a wsmap map file (.npz, written by "
+                               "save_map)")
+        with z:
             flat, nodes = z["map"], z["nodes"]
             grid, settings = json.loads(str(z["grid"])), json.loads(str(z["settings"]))
+            for name, entry in (("grid", grid), ("settings", settings)):
+                if not isinstance(entry, dict):
+                    raise MapFileError(f"{path} is not a wsmap map file: its {name} is a JSON "
+                                       f"{type(entry).__name__}, not an object")
             if "orientations" in z.files:
                 settings["orientations"] = z["orientations"]
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as e:
+    except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile, EOFError) as e:
+        if isinstance(e, MapFileError):
+            raise
         raise MapFileError(f"{path} is not a readable wsmap map file ({type(e).__name__}: {e})") from None
     if flat.dtype not in (np.dtype(bool), np.dtype(np.float64)) or flat.ndim != 1 or nodes.shape != (flat.shape[0], 3):
         raise MapFileError(f"{path} is not a wsmap map file: map {flat.shape} {flat.dtype}, nodes {nodes.shape}")
+    _check_grid(path, flat, nodes, grid)
     try:
         problem = _kind_mismatch(settings, flat.dtype, grid.get("scope"))
     except ValueError as e:
@@ -98,4 +112,38 @@ def load_map(path):
                            "load)") from None
     if problem:
         raise MapFileError(f"{path} is not a consistent wsmap map file: {problem}")
+    if flat.dtype != bool:
+        if not np.all(np.isfinite(flat)):
+            raise MapFileError(f"{path} is not a consistent wsmap map file: its map holds "
+                               f"{int((~np.isfinite(flat)).sum())} NaN or infinite values")
+        if settings.get("kind") is not None:
+            kind = get_kind(settings["kind"])
+            lo, hi = kind.value_range
+            if (lo is not None and flat.min(initial=lo) < lo) or (hi is not None and flat.max(initial=hi) > hi):
+                raise MapFileError(f"{path} is not a consistent wsmap map file: a {kind.name!r} map lies in "
+                                   f"[{'' if lo is None else lo}, {'' if hi is None else hi}], this one in "
+                                   f"[{flat.min():g}, {flat.max():g}]")
     return flat, nodes, grid, settings
+
+
+def _check_grid(path, flat, nodes, grid) -> None:
+    """The grid record of a map file read back: a grid (:func:`wsmap.workspace.grid_spec`) of as many
+    nodes as the map, whose nodes are the file's (a ``MapFileError`` naming the disagreement)."""
+    what = f"{path} is not a consistent wsmap map file"
+    missing = [k for k in ("scope", "lo", "hi", "step", "shape") if k not in grid]
+    if missing:
+        raise MapFileError(f"{what}: its grid lacks {', '.join(missing)}")
+    try:
+        counts = grid_counts(grid["lo"], grid["hi"], grid["step"])
+    except (TypeError, ValueError) as e:
+        raise MapFileError(f"{what}: its grid is not a grid ({e})") from None
+    if not isinstance(grid["shape"], list) or [int(c) for c in counts] != grid["shape"]:
+        raise MapFileError(f"{what}: its grid's shape {grid['shape']!r} is not the {list(counts)} of its lo, hi, step")
+    if int(np.prod(counts)) != flat.shape[0]:
+        raise MapFileError(f"{what}: its grid has {int(np.prod(counts))} nodes, its map {flat.shape[0]}")
+    expected = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
+    scale = max(1.0, float(np.abs(expected).max(initial=0.0)))
+    if not np.allclose(nodes, expected, rtol=0.0, atol=1e-9 * scale):
+        bad = int(np.argmax(np.any(~np.isclose(nodes, expected, rtol=0.0, atol=1e-9 * scale), axis=1)))
+        raise MapFileError(f"{what}: its nodes are not its grid's (node {bad} is {nodes[bad].tolist()}, the grid's "
+                           f"{expected[bad].tolist()})")

@@ -23,6 +23,7 @@ import numpy as np
 from ..kinematics import DHRobot, SerialChain, closed_form_for, ikine_LM, require_closed_form, rpy2r
 from ..kinematics.chain import flatten_arms
 from ..kinematics.ik.search import DEFAULT_STARTS, MAP_SETTINGS, ikine_search, map_search
+from ..kinematics.transforms import as_real_array
 from .grids import _check_fits, _triple, cartesian_grid, grid_axes, node_neighbours
 
 __all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP_SETTINGS", "target_poses",
@@ -203,7 +204,7 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
 
 
 def _check_nodes(name, nodes):
-    nodes = np.asarray(nodes, dtype=np.float64)
+    nodes = as_real_array(name, nodes)  # complex nodes are refused, not cast (numpy drops the imaginary part)
     if nodes.ndim != 2 or nodes.shape[1] != 3:
         raise ValueError(f"{name} must have shape (N, 3), got {nodes.shape}")
     if not np.all(np.isfinite(nodes)):

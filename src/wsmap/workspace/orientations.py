@@ -11,7 +11,8 @@ import numpy as np
 
 from ..kinematics.transforms import as_real_array
 
-__all__ = ["MAX_ORIENTATIONS", "orientation_samples", "approach_orientations", "check_rotations", "rotation_angle", "continuation_order"]
+__all__ = ["MAX_ORIENTATIONS", "orientation_samples", "approach_orientations", "check_rotations", "rotation_angle",
+           "continuation_order"]
 
 # Super-Fibonacci spirals (Alexa, "Super-Fibonacci Spirals: Fast, Low-Discrepancy Sampling of SO(3)",
 # CVPR 2022): the two irrational steps, sqrt(2) and the root psi of psi^4 = psi + 4

@@ -20,9 +20,16 @@ def _compute(robot, grid, request):
 
 
 def _levels(values):
-    # the quartiles of the reachable nodes' values: the map's scale depends on the arm's size (m³)
+    # the quartiles of the reachable nodes' values: the map's scale depends on the arm's size (m³).
+    # Only distinct levels some node lies above (one reachable node, or many of one value, have
+    # equal quartiles): half the largest value when none is left; none for a map with no reach.
     values = np.asarray(values, dtype=np.float64)
-    return tuple(np.quantile(values[values > 0], [0.25, 0.5, 0.75]))
+    reached = values[values > 0]
+    if reached.size == 0:
+        return ()
+    top = float(reached.max())
+    levels = tuple(float(v) for v in np.unique(np.quantile(reached, [0.25, 0.5, 0.75])) if v < top)
+    return levels or (top / 2,)
 
 
 KIND = register(MapKind(
