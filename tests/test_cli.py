@@ -294,3 +294,242 @@ def test_robots_lists_every_named_arm_with_its_source(capsys):
     out = capsys.readouterr().out.splitlines()
     assert [line.split()[0] for line in out] == list(robots.ROBOTS)
     assert all(";" in line for line in out)
+
+
+# ------------------------------------------------------------------ issue 29: a new user's bad and edge inputs
+def _one_line_error(code, err, *parts):
+    assert code == 2, err
+    assert err.startswith("wsmap: error: ") or err.startswith("wsmap map: error: ") or \
+        err.startswith("wsmap place: error: "), err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    for p in parts:
+        assert p in err, err
+
+
+_URDF = """<?xml version="1.0"?>
+<robot name="r3"><link name="a"/><link name="b"/><link name="c"/><link name="d"/><link name="t"/>
+<joint name="j1" type="revolute"><parent link="a"/><child link="b"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/>
+<limit lower="LO" upper="HI" effort="1" velocity="1"/></joint>
+<joint name="j2" type="revolute"><parent link="b"/><child link="c"/><origin xyz="0 0 0.3"/><axis xyz="0 1 0"/>
+<limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+<joint name="j3" type="revolute"><parent link="c"/><child link="d"/><origin xyz="0.3 0 0"/><axis xyz="0 1 0"/>
+<limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+<joint name="tool" type="fixed"><parent link="d"/><child link="t"/><origin xyz="TOOL 0 0"/></joint>
+</robot>"""
+
+
+def _urdf(tmp_path, lo="-3", hi="3", tool="0.3", name="arm.urdf"):
+    path = tmp_path / name
+    path.write_text(_URDF.replace("LO", lo).replace("HI", hi).replace("TOOL", tool))
+    return path
+
+
+@pytest.mark.parametrize("flag", ["--out", "--png", "--html"])
+def test_an_output_that_is_the_input_urdf_is_refused_and_the_urdf_kept(tmp_path, capsys, flag):
+    urdf = _urdf(tmp_path)
+    before = urdf.read_bytes()
+    argv = ["map", "--urdf", str(urdf), "--kind", "reach", "--step", "0.5", "--quiet", "--out", str(tmp_path / "m.npz")]
+    argv += [flag, str(urdf)] if flag != "--out" else []
+    if flag == "--out":
+        argv[-1] = str(urdf)
+    code, err = run(argv, capsys)
+    _one_line_error(code, err, f"{flag} {str(urdf)!r} is the input --urdf")
+    assert urdf.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["arm.urdf"]
+
+
+def test_two_outputs_that_are_one_file_through_a_symlink_are_refused(tmp_path, capsys):
+    (tmp_path / "real").mkdir()
+    (tmp_path / "alias").symlink_to(tmp_path / "real")
+    code, err = run(["map", "--step", "0.5", "--quiet", "--out", str(tmp_path / "real" / "m.npz"),
+                     "--html", str(tmp_path / "alias" / "m.npz")], capsys)
+    _one_line_error(code, err, "are the same file")
+    assert list((tmp_path / "real").iterdir()) == []
+
+
+def test_an_unwritable_folder_is_found_by_writing_there_even_as_root(tmp_path, capsys):
+    import tempfile
+
+    try:  # /sys refuses new files to root too
+        fd, probe = tempfile.mkstemp(dir="/sys")
+    except OSError:
+        pass
+    else:  # pragma: no cover
+        os.close(fd)
+        os.unlink(probe)
+        pytest.skip("/sys is writable here")
+    code, err = run(["map", "--step", "0.5", "--quiet", "--out", str(tmp_path / "m.npz"), "--png", "/sys/m.png"],
+                    capsys)
+    _one_line_error(code, err, "--png path '/sys/m.png': no permission to write in '/sys'")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_png_without_a_suffix_is_a_png_and_an_unknown_suffix_is_refused_before_the_work(tmp_path, capsys):
+    png = tmp_path / "slices"
+    assert cli.main(["map", "--step", "0.5", "--quiet", "--out", str(tmp_path / "m.npz"), "--png", str(png)]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    code, err = run(["map", "--step", "0.5", "--quiet", "--out", str(tmp_path / "n.npz"), "--png",
+                     str(tmp_path / "s.xyz")], capsys)
+    _one_line_error(code, err, "matplotlib cannot write '.xyz' files", ".png", ".svg")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.npz", "slices"]
+
+
+def test_a_map_with_nothing_reachable_keeps_its_npz_and_says_the_views_have_nothing_to_draw(tmp_path, capsys):
+    out = tmp_path / "m.npz"
+    views = [tmp_path / "m.glb", tmp_path / "m.html", tmp_path / "m.ply"]
+    code, err = run(["map", "--kind", "manipulability", "--lo", "5", "--hi", "5.2", "--step", "0.1", "--quiet",
+                     "--out", str(out), "--glb", str(views[0]), "--html", str(views[1]), "--ply", str(views[2])],
+                    capsys)
+    _one_line_error(code, err, "--html and --ply and --glb: nothing to draw",
+                    f"the map was written to {out}, without the views")
+    flat = ws.load_map(out)[0]
+    assert flat.shape == (27,) and not flat.any()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.npz"]
+
+
+def test_one_reachable_node_draws_an_iso_surface(tmp_path):
+    import trimesh
+
+    glb = tmp_path / "m.glb"
+    assert cli.main(["map", "--kind", "manipulability", "--lo", "0.6", "0", "0", "--hi", "0.62", "0", "0.01",
+                     "--step", "0.1", "--quiet", "--out", str(tmp_path / "m.npz"), "--glb", str(glb)]) == 0
+    flat = ws.load_map(tmp_path / "m.npz")[0]
+    assert flat.shape == (1,) and flat[0] > 0
+    assert len(trimesh.load(glb).geometry) == 1
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--tol", "1e-300"], "argument --tol: must be at least 1e-14"),
+    (["--seed", str(2**70)], f"argument --seed: must be below 2**64 = {2**64}"),
+    (["--kind", "index", "--orientations", "10000000"], "--orientations must be at most 100000"),
+])
+def test_values_beyond_what_the_work_can_use_are_refused(tmp_path, capsys, argv, message):
+    try:
+        code, err = run(["map", *argv, "--method", "numerical", "--step", "0.5", "--quiet",
+                         "--out", str(tmp_path / "m.npz")], capsys)
+    except SystemExit as e:  # argparse
+        code, err = e.code, capsys.readouterr().err
+    _one_line_error(code, err, message)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_urdf_with_two_roots_names_the_option_that_picks_the_base(tmp_path, capsys):
+    urdf = tmp_path / "two.urdf"
+    urdf.write_text(_URDF.replace("LO", "-3").replace("HI", "3").replace("TOOL", "0.3")
+                    .replace('<link name="t"/>', '<link name="t"/><link name="world"/>'))
+    code, err = run(["map", "--urdf", str(urdf), "--kind", "reach", "--step", "0.5", "--quiet",
+                     "--out", str(tmp_path / "m.npz")], capsys)
+    _one_line_error(code, err, "several root links (a, world); give base_link (wsmap map/place: --base LINK)")
+    assert cli.main(["map", "--urdf", str(urdf), "--base", "a", "--kind", "reach", "--step", "0.5", "--quiet",
+                     "--out", str(tmp_path / "m.npz")]) == 0
+    code, err = run(["map", "--robot", "ur5e", "--base", "a", "--quiet", "--out", str(tmp_path / "n.npz")], capsys)
+    _one_line_error(code, err, "--base names the first link of a --urdf arm")
+
+
+def test_a_tool_origin_at_1e308_maps_nothing_reachable_without_a_traceback(tmp_path, capsys):
+    urdf = _urdf(tmp_path, tool="1e308")
+    code, err = run(["map", "--urdf", str(urdf), "--kind", "reach", "--step", "0.5", "--quiet",
+                     "--out", str(tmp_path / "m.npz")], capsys)
+    assert code == 0 and "Traceback" not in err, err
+    assert not ws.load_map(tmp_path / "m.npz")[0].any()
+
+
+def test_limits_of_1e308_map_like_a_joint_without_limits(tmp_path, capsys):
+    wide, turn = _urdf(tmp_path, "-1e308", "1e308", name="wide.urdf"), _urdf(tmp_path, "-3.1416", "3.1416")
+    for urdf in (wide, turn):
+        assert cli.main(["map", "--urdf", str(urdf), "--kind", "reach", "--step", "0.25", "--quiet",
+                         "--out", str(urdf.with_suffix(".npz"))]) == 0
+    a, b = ws.load_map(wide.with_suffix(".npz"))[0], ws.load_map(turn.with_suffix(".npz"))[0]
+    assert a.sum() > 0 and a.sum() == b.sum()
+
+
+# ------------------------------------------------------------------ wsmap place: the targets file and the sizes
+def _place(tmp_path, capsys, text, *extra):
+    targets = tmp_path / "t.csv"
+    targets.write_bytes(text if isinstance(text, bytes) else text.encode())
+    argv = ["place", "--robot", "puma560", "--targets", str(targets), "--step", "1", "--yaws", "1", "--quiet",
+            "--out", str(tmp_path / "r.csv"), *extra]
+    try:
+        code, err = run(argv, capsys)
+    except SystemExit as e:
+        code, err = e.code, capsys.readouterr().err
+    return code, err, tmp_path / "r.csv"
+
+
+def _ranked_targets(csv):
+    return csv.read_text().splitlines()[0].count("target_")
+
+
+@pytest.mark.parametrize("text", [
+    "0.5,0,0.3,0,0,0\n0.4,0,0.3,0,0,0\n",
+    "\ufeffx,y,z,r1,r2,r3\n0.5,0,0.3,0,0,0\n0.4,0,0.3,0,0,0\n",  # Excel's UTF-8 byte-order mark
+    "\ufeff0.5,0,0.3,0,0,0\n0.4,0,0.3,0,0,0\n",
+    "0.5 0 0.3 0 0 0\n0.4  0  0.3 0 0 0\n",  # space-separated
+    "0.5;0;0.3;0;0;0\n0.4\t0\t0.3\t0\t0\t0\n",
+])
+def test_every_target_row_is_read(tmp_path, capsys, text):
+    code, err, out = _place(tmp_path, capsys, text)
+    assert code == 0, err
+    assert _ranked_targets(out) == 2
+
+
+@pytest.mark.parametrize("text, message", [
+    ("0.5,0,O.3,0,0,0\n0.5,0,0.3,0,0,0\n", "line 1, cell 3 is not a number: 'O.3'"),
+    ("x,y,z,r1,r2,r3\n0.5,0,O.3,0,0,0\n0.5,0,0.3,0,0,0\n", "line 2, cell 3 is not a number: 'O.3'"),
+    (b"\x89PNG\r\n\x1a\n\x00\x00\xff\xfe", "not a text file (byte 0 is not UTF-8)"),
+    (b"0.5,0,0.3,0,0,0\x00\n", "not a text file (it holds NUL bytes)"),
+])
+def test_a_bad_targets_file_is_named_not_dropped(tmp_path, capsys, text, message):
+    code, err, out = _place(tmp_path, capsys, text)
+    _one_line_error(code, err, f"--targets {tmp_path / 't.csv'}: {message}")
+    assert not out.exists()
+
+
+def test_place_refuses_its_input_as_output_and_sizes_beyond_the_bounds(tmp_path, capsys):
+    targets = tmp_path / "t.csv"
+    targets.write_text("0.5,0,0.3,0,0,0\n")
+    code, err = run(["place", "--targets", str(targets), "--out", str(targets), "--quiet"], capsys)
+    _one_line_error(code, err, f"--out {str(targets)!r} is the input --targets")
+    assert targets.read_text() == "0.5,0,0.3,0,0,0\n"
+    for extra, message in ((["--yaws", str(2**40)], "yaws must be at most 3600"),
+                           (["--x", "-1e200", "1e200"], "candidate bases, more than 1e+07")):
+        code, err = run(["place", "--targets", str(targets), "--quiet", *extra], capsys)
+        _one_line_error(code, err, message)
+    assert [p.name for p in tmp_path.iterdir()] == ["t.csv"]
+
+
+# ------------------------------------------------------------------ wsmap data build: the cluster
+@pytest.mark.parametrize("argv, message", [
+    (["--workers", "100000"], "workers must be at most"),
+    (["--scheduler", "tcp://127.0.0.1:1", "--connect-timeout", "1e308"], "connect_timeout must be at most 3600 s"),
+])
+def test_cluster_settings_beyond_the_machine_are_refused(tmp_path, capsys, argv, message):
+    code, err = run(["data", "build", "sec61", "--samples", "2", "--out", str(tmp_path / "d.npz"), "--quiet", *argv],
+                    capsys)
+    _one_line_error(code, err, message)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_bad_scheduler_address_is_one_line_and_nothing_after_it(tmp_path):
+    p = subprocess.run([sys.executable, "-m", "wsmap", "data", "build", "sec61", "--samples", "2", "--quiet",
+                        "--out", str(tmp_path / "d.npz"), "--scheduler", "tcp://", "--connect-timeout", "1"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2
+    assert p.stderr.startswith("wsmap: error: 'tcp://' is not a Dask scheduler address"), p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1, p.stderr  # no "Exception ignored in: Client.__del__"
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------ wsmap paper: the parameters file
+@pytest.mark.parametrize("text, message", [
+    ("datasets:\n  a: [1, 2\n", "is not valid YAML at line 3, column 1: expected ',' or ']'"),
+    (b"\x7fELF\x02\x01\x01\x00\xff\xfe", "is not a text file (byte 8 is not UTF-8)"),
+    ("a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\nb: &b [" + ", ".join(["*a"] * 10) + "]\nc: &c [" +
+     ", ".join(["*b"] * 10) + "]\nd: &d [" + ", ".join(["*c"] * 10) + "]\ne: [" + ", ".join(["*d"] * 10) + "]\n",
+     "holds more than 100000 values once its YAML aliases (*name) are expanded"),
+])
+@pytest.mark.parametrize("command", [["paper", "run", "sec61_subspace"], ["paper", "full", "--list"]])
+def test_a_bad_parameters_file_is_one_line_naming_it(tmp_path, capsys, text, message, command):
+    params = tmp_path / "p.yaml"
+    params.write_bytes(text if isinstance(text, bytes) else text.encode())
+    code, err = run([*command, "--params", str(params)], capsys)
+    _one_line_error(code, err, f"{params} {message}")

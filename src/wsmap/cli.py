@@ -422,7 +422,7 @@ def _write_views(views: dict, values, grid, kind, robot, out) -> None:
     flags = " and ".join(views)
     if not np.any(values > 0):
         raise ValueError(f"{flags}: nothing to draw, no node of the map is reachable (its values are all 0); the "
-                         f"map was written to {out}, the view{'s' if len(views) > 1 else ''} not")
+                         f"map was written to {out}, without the view{'s' if len(views) > 1 else ''}")
     flag = None
     try:
         with atomic_paths(list(views.values())) as tmps:
@@ -434,7 +434,7 @@ def _write_views(views: dict, values, grid, kind, robot, out) -> None:
                 else:
                     save_glb(tmp, values, grid, levels=kind.levels(values))
     except ValueError as e:
-        raise ValueError(f"{flag} {str(views[flag])!r}: {e}; the map was written to {out}, no view was") from None
+        raise ValueError(f"{flag} {str(views[flag])!r}: {e}; the map was written to {out}, without the views") from None
 
 
 # ------------------------------------------------------------------------------------ wsmap place

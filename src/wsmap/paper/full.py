@@ -200,19 +200,19 @@ def _whole(where: str, key: str, value, minimum: int = 0) -> int:
     return value
 
 
-def _dataset_settings(names: Sequence[str], sizes: dict) -> dict[str, dict]:
+def _dataset_settings(names: Sequence[str], sizes: dict, source: str = "the params file") -> dict[str, dict]:
     from ..datasets.spec import scaled
     from .specs import paper_spec
 
     out = {}
     if not isinstance(sizes, dict):
-        raise ValueError(f"the params file's datasets section must be a mapping of datasets, got "
+        raise ValueError(f"{source} section 'datasets' must be a mapping of datasets, got "
                          f"{type(sizes).__name__}")
     for name in names:
         if not isinstance(name, str) or name not in sizes:
-            raise ValueError(f"the params file's datasets section has no {name!r}")
+            raise ValueError(f"{source} section 'datasets' has no {name!r}")
         item = sizes[name]
-        where = f"the params file's datasets section, dataset {name!r}"
+        where = f"{source} section 'datasets', dataset {name!r}"
         if not isinstance(item, dict):
             raise ValueError(f"{where} must be a mapping with samples and test_samples, got {type(item).__name__}")
         for key in ("samples", "test_samples"):
@@ -253,7 +253,7 @@ def plan(params_file=None, *, device: str | None = None) -> list[Part]:
         return [f"session_{k}" for k in range(_whole(cfg.source, "sessions", cfg["sessions"], 1))]
 
     def make(name, kind, cfg, steps, datasets, values, tc, title, analysis=None):
-        data = _dataset_settings(datasets, sizes)
+        data = _dataset_settings(datasets, sizes, params_file.name)
         settings = {"runner_version": RUNNER_VERSION, "part": name, "kind": kind, "section": values,
                     "train_config": tc, "datasets": data}
         d, what = dev(cfg)

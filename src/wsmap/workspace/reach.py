@@ -79,10 +79,11 @@ def position_map(robot, nodes, *, samples: int = 20000, seed: int = 0, ik: dict 
 
         q = chain.random_q(int(samples), np.random.default_rng(seed))
         tip = chain.fkine(q)[:, :3, 3]
-        # a tool beyond float64's range (an origin at 1e308) has no finite tip: no start from it
-        finite = np.all(np.isfinite(tip), axis=1)
-        q, tip = q[finite], tip[finite]
         d, node = cKDTree(nodes).query(tip)
+        # a tip whose distance overflows (a tool origin at 1e308) has no nearest node: cKDTree says
+        # node N for it; no start comes from such a sample
+        near = node < N
+        q, d, node = q[near], d[near], node[near]
         # per node, the sample nearest to it
         order = np.lexsort((d, node))
         first = np.ones(order.size, dtype=bool)

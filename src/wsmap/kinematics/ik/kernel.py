@@ -69,7 +69,7 @@ def arm_arrays(chain: SerialChain) -> dict:
     lim = np.broadcast_to(chain.limits, batch + (n, 2)).reshape(B, n, 2)
     lo, hi = np.ascontiguousarray(lim[..., 0]), np.ascontiguousarray(lim[..., 1])
     pris = np.array([k == PRISMATIC for k in chain.kinds])
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore", over="ignore"):  # limits of ±1e308 overflow hi - lo to inf: unclipped
         clipped = np.where(~pris, (hi - lo) < _TWO_PI, True) & (np.isfinite(lo) | np.isfinite(hi))
     blo, bhi = start_box(lim)
     Rf = np.ascontiguousarray(F[:, :, :3, :3])
