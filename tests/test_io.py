@@ -105,3 +105,57 @@ def test_sigterm_leaves_no_temporary_file_and_no_new_output(tmp_path):
     assert p.returncode == 130, err
     assert "interrupted" in err and "Traceback" not in err
     assert os.listdir(tmp_path) == []
+
+
+# ------------------------------------------------------------------ check_outputs: real files, not inputs, writable
+def test_check_outputs_compares_real_files_and_refuses_an_input(tmp_path):
+    from wsmap.io import OutputPathError, check_outputs
+
+    (tmp_path / "real").mkdir()
+    (tmp_path / "alias").symlink_to(tmp_path / "real")
+    with pytest.raises(OutputPathError, match=r"^--out '.*real/m.npz' and --html '.*alias/m.npz' are the same file"):
+        check_outputs({"--out": tmp_path / "real" / "m.npz", "--html": tmp_path / "alias" / "m.npz"})
+    (tmp_path / "a.npz").write_text("x")
+    os.link(tmp_path / "a.npz", tmp_path / "b.npz")  # two names of one inode
+    with pytest.raises(OutputPathError, match="are the same file"):
+        check_outputs({"--out": tmp_path / "a.npz", "--png": tmp_path / "b.npz"})
+    arm = tmp_path / "arm.urdf"
+    arm.write_text("<robot/>")
+    with pytest.raises(OutputPathError, match=r"^--out '.*arm.urdf' is the input --urdf '.*arm.urdf': writing it"):
+        check_outputs({"--out": tmp_path / "alias" / ".." / "arm.urdf"}, inputs={"--urdf": arm, "--model": None})
+    got = check_outputs({"--out": tmp_path / "m.npz", "--png": None, "--html": tmp_path / "new" / "m.html"},
+                        inputs={"--urdf": arm})
+    assert got == {"--out": tmp_path / "m.npz", "--html": tmp_path / "new" / "m.html"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npz", "alias", "arm.urdf", "b.npz", "real"]
+
+
+def test_writability_is_tested_by_writing_not_by_os_access(tmp_path, monkeypatch):
+    from wsmap import io
+    from wsmap.io import OutputPathError, check_output_path
+
+    # root passes os.access on a read-only folder: only creating a file tells
+    monkeypatch.setattr(io.os, "access", lambda *a, **k: True)
+    real = io.tempfile.mkstemp
+
+    def refuse(*a, dir=None, **k):
+        if str(dir) == str(tmp_path / "ro"):
+            raise PermissionError(13, "Permission denied")
+        return real(*a, dir=dir, **k)
+
+    (tmp_path / "ro").mkdir()
+    monkeypatch.setattr(io.tempfile, "mkstemp", refuse)
+    with pytest.raises(OutputPathError, match=r"^--out path '.*ro/m.npz': no permission to write in '.*ro' "
+                                              r"\(Permission denied\)$"):
+        check_output_path(tmp_path / "ro" / "m.npz", "--out")
+    assert check_output_path(tmp_path / "m.npz", "--out") == tmp_path / "m.npz"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ro"]  # the probe is removed
+
+
+def test_atomic_paths_refuses_two_names_of_one_file(tmp_path):
+    from wsmap.io import OutputPathError, atomic_paths
+
+    (tmp_path / "real").mkdir()
+    (tmp_path / "alias").symlink_to(tmp_path / "real")
+    with pytest.raises(OutputPathError, match="share a path"):
+        with atomic_paths([tmp_path / "real" / "m.npz", tmp_path / "alias" / "m.npz"]):
+            pass

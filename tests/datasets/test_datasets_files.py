@@ -384,3 +384,30 @@ def test_load_dataset_files_checks_the_pair(tmp_path):
         datasets.load_dataset_files(tmp_path / "a.npz", tmp_path / "b.test.npz")
     with pytest.raises(datasets.DatasetError, match="is not a training set"):
         datasets.load_dataset_files(tmp_path / "a.test.npz", tmp_path / "b.test.npz")
+
+
+# --------------------------------------------------------------------------- the Dask cluster (issue 29)
+def test_cluster_sizes_and_timeouts_are_bounded(tmp_path):
+    spec = small("table1_r3_step05", 2)
+    cores = store._cores()
+    with pytest.raises(ValueError, match=rf"^workers must be at most {4 * cores} \(4 per core of the {cores} here\)"):
+        datasets.build_dataset(spec, tmp_path / "d.npz", workers=4 * cores + 1, progress=False)
+    with pytest.raises(ValueError, match=r"^connect_timeout must be at most 3600 s .* got 1e\+308$"):
+        datasets.build_dataset(spec, tmp_path / "d.npz", scheduler="tcp://127.0.0.1:1", connect_timeout=1e308)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_bad_scheduler_address_is_named_and_its_half_built_client_closed(tmp_path, monkeypatch):
+    import gc
+    import sys
+
+    spec = small("table1_r3_step05", 2)
+    unraisable = []
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
+    for address in ("tcp://", "http://x", "tcp://[::1", "inproc://nothing"):
+        with pytest.raises(datasets.SchedulerError,
+                           match=rf"^{re.escape(repr(address))} is not a Dask scheduler address this machine can use"):
+            datasets.build_dataset(spec, tmp_path / "d.npz", scheduler=address, connect_timeout=1, progress=False)
+    gc.collect()  # a Client left half built would print "Exception ignored in: Client.__del__" here
+    assert unraisable == []
+    assert list(tmp_path.iterdir()) == []

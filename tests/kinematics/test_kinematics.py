@@ -183,3 +183,15 @@ def test_samplers_follow_the_paper_distribution():
     arb = robots.sample_arbitrary_6dof(100, seed=12)
     assert not kinematics.is_spherical_wrist(arb).any()
     assert arb.alpha.min() >= 0 and arb.alpha.max() <= 0.5
+
+
+def test_random_q_inside_limits_of_1e308_is_finite_and_uniform():
+    arm = robots.load("panda")
+    wide = arm.replace(qlim=np.tile([-1e308, 1e308], (arm.n, 1)))
+    q = wide.random_q(2000, np.random.default_rng(0))
+    assert np.all(np.isfinite(q)) and wide.within_limits(q).all()
+    assert abs(np.mean(q > 0) - 0.5) < 0.05  # both halves of the range
+    # ordinary limits draw the very same numbers as before (lo + u (hi - lo))
+    u = np.random.default_rng(1).random((5, arm.n))
+    lo, hi = arm.qlim[:, 0], arm.qlim[:, 1]
+    np.testing.assert_array_equal(arm.random_q(5, np.random.default_rng(1)), lo + u * (hi - lo))

@@ -272,6 +272,8 @@ def test_non_rigid_targets_are_refused(bad, why):
     (dict(seed=-1), "seed must be a non-negative integer"),
     (dict(tol=0.0), "tol must be positive"),
     (dict(tol=1e-5), "confirm_tol .* must be at least tol"),
+    (dict(tol=1e-300), r"^tol must be at least 1e-14 \(float64 forward kinematics is exact to about 1e-16 per metre"),
+    (dict(seed=2**64), r"^seed must be a non-negative integer below 2\*\*64"),
     (dict(q0=np.zeros(5)), "last dimension of 6"),
 ])
 def test_bad_settings(kw, message):
@@ -389,3 +391,16 @@ def test_reach_filters_are_sound_about_thefirst_axis_point():
     reach = ws.constant_orientation_map(panda, nodes, (PI, 0, 0), method="numerical", convention="standard")
     assert not (reach & ~candidates).any()
     assert candidates.sum() < 0.4 * len(nodes) and candidates.sum() < 1.6 * reach.sum()
+
+
+def test_tolerances_below_what_float64_reaches_are_refused_everywhere():
+    from wsmap.kinematics import map_search
+    from wsmap.kinematics.ik.solution import MIN_TOL
+
+    T = robots.puma560().fkine(np.full(6, 0.3))
+    with pytest.raises(ValueError, match=r"^tol must be at least 1e-14"):
+        ikine_LM(robots.puma560(), T, tol=1e-300)
+    with pytest.raises(ValueError, match=r"^tol must be at least 1e-14"):
+        map_search(as_chain(robots.puma560()), T[None], np.full((1, 0), -1), tol=MIN_TOL / 2)
+    # the floor itself still solves: 1e-14 is a hundredfold above float64's rounding
+    assert ikine_search(robots.puma560(), T, tol=MIN_TOL).success

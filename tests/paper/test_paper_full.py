@@ -8,6 +8,7 @@ steps that had finished. Also the listing, and bad input (exit 2, one line, noth
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -329,3 +330,52 @@ def test_module_entry_point_lists(tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     assert r.stdout.splitlines()[1].startswith("sec61_subspace")
+
+
+# --------------------------------------------------------------------------- the params file's own errors (issue 29)
+def _edited(tmp_path, edit) -> Path:
+    params = yaml.safe_load(SMOKE.read_text())
+    edit(params)
+    path = tmp_path / "params.edited.yaml"
+    path.write_text(yaml.safe_dump(params))
+    return path
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda p: p["datasets"]["sec61"].pop("samples"),
+     "params.edited.yaml section 'datasets', dataset 'sec61' has no 'samples' (it needs samples and test_samples)"),
+    (lambda p: p["datasets"]["sec61"].update(samples="lots"),
+     "params.edited.yaml section 'datasets', dataset 'sec61': samples must be a whole number of at least 1, "
+     "got 'lots'"),
+    (lambda p: p["datasets"].update(sec61=[1, 2]),
+     "params.edited.yaml section 'datasets', dataset 'sec61' must be a mapping with samples and test_samples, "
+     "got list"),
+    (lambda p: p["sec61_subspace"].update(sessions="many"),
+     "params.edited.yaml section 'sec61_subspace': sessions must be a whole number of at least 1, got 'many'"),
+    (lambda p: p["table2_optimisers"].update(max_epochs=[1, 2]),
+     "params.edited.yaml section 'table2_optimisers': max_epochs must be a whole number of at least 1, got [1, 2]"),
+])
+def test_a_bad_value_in_the_params_file_names_file_section_and_key(tmp_path, capsys, edit, message):
+    params = _edited(tmp_path, edit)
+    with pytest.raises(ValueError) as e:
+        full.plan(params)
+    assert str(e.value) == message
+    code, _, err = _run(["paper", "full", "--list", *_args(tmp_path / "out", tmp_path / "data", params)], capsys)
+    assert code == 2 and err == f"wsmap: error: {message}\n"
+
+
+@pytest.mark.parametrize("text, message", [
+    ("a: [1, 2\n", r"is not valid YAML at line 2, column 1: expected ',' or '\]', but got '<stream end>'$"),
+    ("a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\nb: &b [" + ", ".join(["*a"] * 10) + "]\nc: &c ["
+     + ", ".join(["*b"] * 10) + "]\nd: &d [" + ", ".join(["*c"] * 10) + "]\ne: [" + ", ".join(["*d"] * 10) + "]\n",
+     r"holds more than 100000 values once its YAML aliases \(\*name\) are expanded"),
+    ("a: &a [*a]\n", r"holds more than 100000 values"),  # a recursive alias
+])
+def test_a_params_file_that_is_not_yaml_or_an_alias_bomb_is_named(tmp_path, text, message):
+    path = tmp_path / "p.yaml"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=f"^{re.escape(str(path))} {message}"):
+        paths.load_params(path=path)
+    path.write_bytes(b"\x00\xff\xfe binary")
+    with pytest.raises(ValueError, match=f"^{re.escape(str(path))} is not a text file \\(byte 1 is not UTF-8\\)"):
+        paths.load_params(path=path)

@@ -147,3 +147,17 @@ def test_a_constructor_without_a_source_is_refused(registered):
     with pytest.raises(ValueError, match=r"^robot 'other' has no source: name the document its numbers come from$"):
         registry.register_constructor("other", robots.puma560, "")
     assert "other" not in robots.ROBOTS
+
+
+# ------------------------------------------------------------------ issue 29: inputs that built the wrong arm
+def test_an_empty_dh_table_is_refused():
+    with pytest.raises(ValueError, match=r"^DH columns are empty: an arm needs at least one joint"):
+        robots.from_dh([], [], [])
+
+
+@pytest.mark.parametrize("value", ["no", "False", 0, 1, "yes"])
+def test_joint_limits_takes_only_booleans(value):
+    with pytest.raises(ValueError, match=r"^joint_limits must be True, False or None \(the arm's default\), got "):
+        robots.load("ur5e", joint_limits=value)
+    assert robots.load("ur5e", joint_limits=np.False_).qlim is None
+    assert robots.load("ur5e", joint_limits=False).qlim is None and robots.load("ur5e").qlim is not None

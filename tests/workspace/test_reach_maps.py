@@ -199,3 +199,21 @@ def test_placement_targets_must_be_rigid():
     T = rotx(0.3)
     with pytest.raises(ValueError, match=r"targets must have shape"):
         ws.base_placement(robots.load("ur5e"), T[:3])
+
+
+# ------------------------------------------------------------------ issue 29: edge inputs
+def test_complex_nodes_are_refused_not_cast():
+    arm = robots.load("panda")
+    with pytest.raises(ValueError, match=r"^nodes must be real numbers, got complex values$"):
+        ws.position_map(arm, np.array([[0.5 + 1j, 0.0, 0.3]]))
+    with pytest.raises(ValueError, match=r"^nodes must be real numbers, got complex values$"):
+        ws.manipulability_map(arm, np.array([[0.5, 0.0, 0.3 + 0j]]))
+
+
+def test_a_tool_beyond_float64_range_reaches_nothing_without_an_index_error():
+    arm = from_dh([0.3, 0.0, 0.0], [0.0, 0.3, 0.3], [np.pi / 2, 0.0, 0.0])  # a shoulder and an elbow: a solid shell
+    far = arm.replace(tool=np.array([[1.0, 0, 0, 1e308], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]))
+    nodes = ws.cartesian_grid(-0.5, 0.5, 0.5)
+    with np.errstate(over="ignore", invalid="ignore"):
+        assert not ws.position_map(far, nodes, samples=200).any()
+    assert ws.position_map(arm, nodes, samples=200).any()
