@@ -60,7 +60,7 @@ def test_bad_kind_arguments_are_one_line_errors_and_write_nothing(tmp_path, caps
 def test_same_output_twice_is_refused(tmp_path, capsys):
     out = tmp_path / "x.npz"
     code, _, err = run(["map", "--robot", "ur5e", "--out", str(out), "--html", str(out)], capsys)
-    assert code == 2 and "name the same file" in err
+    assert code == 2 and "are the same file" in err
 
 
 def _targets_csv(path, T):
@@ -97,7 +97,7 @@ def test_place_finds_the_base_the_targets_came_from(tmp_path, capsys):
 @pytest.mark.parametrize("content, message", [
     ("", "no poses in the file"),
     ("1,2,3\n", "every row needs 6 values"),
-    ("x,y,z,a,b,c\n0,0,0.5,0,0,0\nfoo,1,2,3,4,5\n", "line 3 is not numbers"),
+    ("x,y,z,a,b,c\n0,0,0.5,0,0,0\nfoo,1,2,3,4,5\n", "line 3, cell 1 is not a number: 'foo'"),
     ("0,0,0.5,0,0,nan\n", "NaN or infinite"),
     (",".join(["1"] * 16) + "\n", "targets is not a rigid transform"),
 ])

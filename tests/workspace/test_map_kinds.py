@@ -173,3 +173,15 @@ def test_map_files_check_the_kind_before_writing_and_when_loading(tmp_path, dist
     # no kind recorded: as before, any bool or float map
     ws.save_map(tmp_path / "d.npz", np.arange(27.0), grid, {})
     np.testing.assert_array_equal(ws.load_map(tmp_path / "d.npz")[0], np.arange(27.0))
+
+
+@pytest.mark.parametrize("values, levels", [
+    ([0.0, 0.2, 0.0], (0.1,)),  # one reachable node: half its value (its quartiles are all 0.2)
+    ([0.3, 0.3, 0.3, 0.0], (0.15,)),  # many of one value
+    ([0.0, 0.0], ()),  # nothing reachable: no level (and no IndexError)
+    ([0.1, 0.2, 0.3, 0.4, 0.5], (0.2, 0.3, 0.4)),  # the quartiles of the reachable nodes
+])
+def test_manipulability_levels_are_distinct_and_below_the_largest_value(values, levels):
+    got = kinds.get_kind("manipulability").levels(np.array(values))
+    np.testing.assert_allclose(got, levels, rtol=1e-12)
+    assert len(set(got)) == len(got) and all(v < max(values) for v in got)

@@ -183,10 +183,20 @@ def test_targets_from_a_known_base_are_placed_back_there(name):
     (dict(y=(0.0, np.nan)), "y must be a finite"),
     (dict(yaws=0), "yaws must be a positive integer"),
     (dict(step=0.0), "step must be positive"),
+    (dict(yaws=2**40), r"^yaws must be at most 3600 \(headings 0.1° apart"),
+    (dict(x=(-1e200, 1e200)), r"^a region of 2e\+201 x 21 positions x 8 headings is 3.36e\+203 candidate bases, more "
+                              r"than 1e\+07"),
+    (dict(step=1e-4), r"^a region of 2e\+04 x 2e\+04 positions x 8 headings is 3.2e\+09 candidate bases"),
 ])
 def test_bad_placement_regions_are_refused(kw, message):
     with pytest.raises(ValueError, match=message):
         ws.base_placement(robots.load("ur5e"), np.eye(4), **kw)
+
+
+def test_placement_refuses_more_targets_than_it_can_map():
+    T = np.broadcast_to(np.eye(4), (ws.placement.MAX_TARGETS + 1, 4, 4))
+    with pytest.raises(ValueError, match=r"^at most 100000 targets \(each is one map over every candidate base"):
+        ws.base_placement(robots.load("ur5e"), T)
 
 
 def test_placement_targets_must_be_rigid():
@@ -217,3 +227,16 @@ def test_a_tool_beyond_float64_range_reaches_nothing_without_an_index_error():
     with np.errstate(over="ignore", invalid="ignore"):
         assert not ws.position_map(far, nodes, samples=200).any()
     assert ws.position_map(arm, nodes, samples=200).any()
+
+
+def test_placement_refuses_candidates_x_targets_beyond_the_memory():
+    T = np.broadcast_to(np.eye(4), (1000, 4, 4))
+    with pytest.raises(MemoryError, match=r"^8016008 candidate bases x 1000 targets needs .* GiB, more than half"):
+        ws.base_placement(robots.load("ur5e"), T, x=(-0.5, 0.5), y=(-0.5, 0.5), step=0.001)
+
+
+def test_orientation_sets_are_bounded():
+    assert ws.orientation_samples(ws.orientations.MAX_ORIENTATIONS, seed=None).shape == (100_000, 3, 3)
+    with pytest.raises(ValueError, match=r"^k \(the number of orientations\) must be at most 100000 \(neighbouring "
+                                         r"orientations are then 3.6° apart"):
+        ws.orientation_samples(10**10)
