@@ -583,11 +583,11 @@ def _data_parser(sub):
                    help="build only the spec's independent test set (of --samples arms, default 1000) into --out")
     b.add_argument("--workers", type=positive_int,
                    help="compute the labels on a Dask LocalCluster of this many worker processes (one thread "
-                        "each); default: in this process")
+                        "each; at most 4 per core); default: in this process")
     b.add_argument("--scheduler", metavar="ADDRESS",
                    help="compute the labels on the Dask cluster of this scheduler (e.g. tcp://head:8786)")
     b.add_argument("--connect-timeout", type=positive_float, default=5.0,
-                   help="seconds to wait for --scheduler to answer")
+                   help="seconds to wait for --scheduler to answer (at most 3600)")
     b.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     b.set_defaults(run=_run_data_build)
     ls = dsub.add_parser("list", help="list the catalogue's datasets (the paper's and the extensions)")

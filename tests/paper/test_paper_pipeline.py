@@ -198,3 +198,18 @@ def test_no_import_circle_among_the_paper_modules_and_the_cli():
 
     circles = sorted(m for m in mods if m in reach(m))
     assert not circles, f"import circles through {circles}: " + "; ".join(f"{m} -> {sorted(graph[m])}" for m in circles)
+
+
+def test_building_the_datasets_checks_every_entry_before_the_first_build(tmp_path):
+    import yaml
+
+    from wsmap import paths as project_paths
+    from wsmap.paper import pipeline
+
+    params = yaml.safe_load((project_paths.ROOT / "params.smoke.yaml").read_text())
+    params["datasets"]["panda7_tooldown"].pop("samples")  # the last entry: the first ones would be built before
+    path = tmp_path / "p.yaml"
+    path.write_text(yaml.safe_dump(params))
+    with pytest.raises(ValueError, match=r"^p.yaml section 'datasets', dataset 'panda7_tooldown' has no 'samples'"):
+        next(pipeline.build_datasets(path, tmp_path / "data"))
+    assert not (tmp_path / "data").exists()

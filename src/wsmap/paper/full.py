@@ -101,6 +101,7 @@ __all__ = [
     "RUNNER_VERSION",
     "CPU_GFLOPS",
     "Part",
+    "dataset_sizes",
     "plan",
     "select",
     "settings_hash",
@@ -200,14 +201,13 @@ def _whole(where: str, key: str, value, minimum: int = 0) -> int:
     return value
 
 
-def _dataset_settings(names: Sequence[str], sizes: dict, source: str = "the params file") -> dict[str, dict]:
-    from ..datasets.spec import scaled
-    from .specs import paper_spec
-
-    out = {}
+def dataset_sizes(names: Sequence[str], sizes, source: str = "the params file") -> dict[str, dict]:
+    """``{name: {"samples": n, "test_samples": m}}`` for ``names`` from a params file's ``datasets``
+    section ``sizes``, checked: a mapping per dataset with whole ``samples`` and ``test_samples`` of at
+    least 1 (``source`` names the file in the ``ValueError``)."""
     if not isinstance(sizes, dict):
-        raise ValueError(f"{source} section 'datasets' must be a mapping of datasets, got "
-                         f"{type(sizes).__name__}")
+        raise ValueError(f"{source} section 'datasets' must be a mapping of datasets, got {type(sizes).__name__}")
+    out = {}
     for name in names:
         if not isinstance(name, str) or name not in sizes:
             raise ValueError(f"{source} section 'datasets' has no {name!r}")
@@ -218,9 +218,16 @@ def _dataset_settings(names: Sequence[str], sizes: dict, source: str = "the para
         for key in ("samples", "test_samples"):
             if key not in item:
                 raise ValueError(f"{where} has no {key!r} (it needs samples and test_samples)")
-        n, m = _whole(where, "samples", item["samples"], 1), _whole(where, "test_samples", item["test_samples"], 1)
-        out[name] = {"samples": n, "test_samples": m, "spec": scaled(paper_spec(name), n).to_dict()}
+        out[name] = {key: _whole(where, key, item[key], 1) for key in ("samples", "test_samples")}
     return out
+
+
+def _dataset_settings(names: Sequence[str], sizes: dict, source: str = "the params file") -> dict[str, dict]:
+    from ..datasets.spec import scaled
+    from .specs import paper_spec
+
+    return {name: {**s, "spec": scaled(paper_spec(name), s["samples"]).to_dict()}
+            for name, s in dataset_sizes(names, sizes, source).items()}
 
 
 def plan(params_file=None, *, device: str | None = None) -> list[Part]:

@@ -88,9 +88,14 @@ def build_datasets(params_file, data_dir, *, rebuild: bool = False):
     """Build every dataset (and its test set) of the params file's ``datasets`` section into
     ``data_dir``, skipping pairs already there unless ``rebuild``; yields ``(name, seconds)`` for
     each one built, as it is built (the dvc stages ``datasets@NAME`` do the same one by one)."""
+    from .full import dataset_sizes
     from .specs import build_pair, dataset_paths
 
-    for name, item in paths.load_params("datasets", params_file).items():
+    sizes = paths.load_params("datasets", params_file)
+    # every entry checked (a mapping of whole samples and test_samples) before the first is built
+    sizes = dataset_sizes(list(sizes) if isinstance(sizes, dict) else [], sizes,
+                          Path(params_file or paths.PARAMS).name)
+    for name, item in sizes.items():
         if not rebuild and all(p.exists() for p in dataset_paths(name, data_dir)):
             continue
         t0 = time.perf_counter()
