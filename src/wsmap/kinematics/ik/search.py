@@ -68,7 +68,7 @@ __all__ = ["MAP_SETTINGS", "map_search", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DE
            "ikine_search"]
 
 _ARM_ARRAYS = Memo()
-# targets per call of the border search (bounds its (C, K + 1, n) array of starts)
+# targets per call of the border search (bounds its (C, K, n) array of starts)
 _BORDER_CHUNK = 1 << 16
 
 #: Starts per target of :func:`ikine_search`, the maps' numerical path and ``reachable``. Measured
@@ -298,8 +298,8 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     border_starts : the starts of :func:`ikine_search` (``q0``, then its random starts ``1 ..
         border_starts - 1``, with its per-start settings :data:`DEFAULT_ILIMIT`,
         :data:`DEFAULT_RLIMIT`, no stationary-point test, both passes) that every node still
-        unsolved next to a solved node gets once, after all of its solved neighbours' solutions;
-        0 turns the border search off
+        unsolved next to a solved node gets once, after the solutions of its solved neighbours
+        that the waves did not try; 0 turns the border search off
     progress : called once with the number of targets when done
 
     Per arm, in passes: (1) every node: ``q0`` then ``starts`` random starts (the first ones of
@@ -307,7 +307,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     neighbour whose solution it has not tried takes up to ``seeds`` of them, in neighbour order, as
     starts, until a wave solves nothing new; (3) the nodes left take ``retry`` more random starts,
     and (2) again; (4) the border search: every node still unsolved next to a solved node, and not
-    border-searched before, tries all its solved neighbours' solutions and then the ``border_starts``
+    border-searched before, tries its solved neighbours' solutions not tried yet and then the ``border_starts``
     starts of :func:`ikine_search` (with ``seed`` and ``q0``, the same starts that search draws for
     the node's pose), then (2) again, until no new node borders a solved one. So a node next to a
     solved node is reached whenever :func:`ikine_search` with ``border_starts`` starts reaches it,
@@ -369,8 +369,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     res = np.full(M, np.inf)
     start = np.full(M, -1, dtype=np.int64)
 
-    def run(idx, qexp, nexp, k_first, k_last, seeded, per_start=settings, free=None, n_seeded=None):
-        # n_seeded (per target): how many of the explicit starts are neighbours' solutions (before q0)
+    def run(idx, qexp, nexp, k_first, k_last, seeded, per_start=settings, free=None):
         if not idx.size:
             return 0
         free = (not seeded or seed_free_pass) if free is None else free
@@ -385,10 +384,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
             start[idx[okk]] = -2
         else:
             # positions in the run's order (explicit q0 first) → random-start index k
-            st_k = np.where(st[okk] < nexp[okk], 0, st[okk] - nexp[okk] + k_first)
-            if n_seeded is not None:
-                st_k = np.where(st[okk] < n_seeded[okk], -2, st_k)
-            start[idx[okk]] = st_k
+            start[idx[okk]] = np.where(st[okk] < nexp[okk], 0, st[okk] - nexp[okk] + k_first)
         return int(okk.sum())
 
     K = nb.shape[1]
@@ -435,9 +431,10 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
 
     def border_search(count):
         # what ikine_search does for one pose, at every unsolved node next to a solved one, once
-        # each: its starts (q0, then its random starts 1 .. count-1 from the same keys) and its
-        # per-start settings, after the solved neighbours' solutions; then the waves carry what it
-        # finds, and the nodes that newly border a solved node get it too
+        # each: its starts (q0, then its random starts 1 .. count-1 from the same keys) with its
+        # per-start settings, after the solved neighbours' solutions that the waves have not tried
+        # yet; then the waves carry what it finds, and the nodes that newly border a solved node
+        # get it too
         per_start = (DEFAULT_ILIMIT, DEFAULT_RLIMIT, tol, lam, confirm_tol, 0.0)
         searched = np.zeros(M, dtype=bool)
         while True:
@@ -445,20 +442,25 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
             if not cand.size:
                 return
             searched[cand] = True
-            # chunks bound the (C, K + 1, n) starts
+            # chunks bound the (C, K, n) starts
             for c0 in range(0, cand.size, _BORDER_CHUNK):
                 idx = cand[c0 : c0 + _BORDER_CHUNK]
                 nbn = nb[node_of[idx]]
                 nbt = arm_of[idx][:, None] * N + np.where(nbn >= 0, nbn, 0)
-                use = (nbn >= 0) & ok[nbt]
-                n_seeded = use.sum(axis=1)
-                qexp = np.empty((idx.size, K + 1, n))
-                slot = np.cumsum(use, axis=1) - 1
-                r, c = np.nonzero(use)
-                qexp[r, slot[r, c]] = q[nbt[r, c]]
-                qexp[np.arange(idx.size), n_seeded] = q0
-                run(idx, qexp, (n_seeded + 1).astype(np.int64), 1, count, False, per_start=per_start, free=True,
-                    n_seeded=n_seeded)
+                use = (nbn >= 0) & ok[nbt] & ~tried[idx]
+                tried[idx] |= use
+                count_nb = use.sum(axis=1)
+                has = count_nb > 0
+                if has.any():
+                    sel, use_s, nbt_s = idx[has], use[has], nbt[has]
+                    qexp = np.zeros((sel.size, K, n))
+                    slot = np.cumsum(use_s, axis=1) - 1
+                    r, c = np.nonzero(use_s)
+                    qexp[r, slot[r, c]] = q[nbt_s[r, c]]
+                    run(sel, qexp, count_nb[has].astype(np.int64), 0, 0, True)
+                idx = idx[~ok[idx]]
+                run(idx, np.broadcast_to(q0, (idx.size, 1, n)), np.ones(idx.size, dtype=np.int64), 1, count, False,
+                    per_start=per_start, free=True)
             waves()
 
     first = np.flatnonzero(possible)
