@@ -39,6 +39,7 @@ import numpy as np
 
 from ...arms import ArmBatch
 from ...chain import PRISMATIC, as_chain
+from ...chain import flatten_arms as _flat_arms
 from ...dh import _angle_in_range
 from ...transforms import check_rigid
 from ..geometry import joint_lines
@@ -172,7 +173,7 @@ def ikine_spherical_wrist_offset(robot, T, atol: float = 1e-9) -> IKSolution:
     (..., 8): confirmed and, where the robot has limits, inside them up to multiples of 2·pi;
     ``reason`` ``OUT_OF_REACH`` where the branch does not reach the pose, ``OUTSIDE_LIMITS`` where
     it does outside the limits; ``iterations`` 0; ``residual`` the largest entry of
-    ``|fkine(q) − T|``.
+    ``|fkine(q) − T|`` (``inf`` for a branch whose cosines are out of range, not evaluated).
     """
     require_spherical_wrist_offset(robot, atol)
     chain, _, _, w, p, M, W = _geometry(robot, atol)
@@ -198,7 +199,8 @@ def ikine_spherical_wrist_offset(robot, T, atol: float = 1e-9) -> IKSolution:
         h = _dot(w2, W - p2) - _dot(w2, p1 - p2)
         rho = np.hypot(A, B)
         free1 = rho < 1e-12  # the wrist centre on axis 1: q1 free, 0 and pi taken
-        cos_s = np.clip(np.where(free1, 1.0, (h - C) / np.where(free1, 1.0, rho)), -1.0, 1.0)
+        cos_raw = np.where(free1, 1.0, (h - C) / np.where(free1, 1.0, rho))
+        cos_s = np.clip(cos_raw, -1.0, 1.0)
         base = np.where(free1, np.pi / 2, np.arctan2(B, A))  # free: q1 = pi and 0
         ds = np.where(free1, np.pi / 2, np.arccos(cos_s))
         q1 = np.stack([base + ds, base - ds], axis=-1)  # (..., 2 shoulder)
@@ -215,7 +217,8 @@ def ikine_spherical_wrist_offset(robot, T, atol: float = 1e-9) -> IKSolution:
         nu, nv = np.linalg.norm(u, axis=-1), np.linalg.norm(vv, axis=-1)
         den = 2.0 * nu * nv
         deg3 = den < 1e-12
-        cphi = np.clip(np.where(deg3, 1.0, (nu * nu + nv * nv - delta2) / np.where(deg3, 1.0, den)), -1.0, 1.0)
+        cphi_raw = np.where(deg3, 1.0, (nu * nu + nv * nv - delta2) / np.where(deg3, 1.0, den))
+        cphi = np.clip(cphi_raw, -1.0, 1.0)
         phi = np.arccos(cphi)
         alpha_u = np.arctan2(_dot(W2, np.cross(vv, u)), _dot(vv, u))
         theta = np.stack([phi - alpha_u, -phi - alpha_u], axis=-1)  # (..., 2 sh, 2 el), about w2
@@ -261,9 +264,24 @@ def ikine_spherical_wrist_offset(robot, T, atol: float = 1e-9) -> IKSolution:
     q = np.mod(q + np.pi, 2 * np.pi) - np.pi
     q = np.where(q <= -np.pi, q + 2 * np.pi, q)
 
-    # the confirmation: the chain's own forward kinematics, branches first (the arm batch stays last)
-    Tq = chain.fkine(np.moveaxis(q, -2, 0))
-    err = np.moveaxis(np.abs(Tq - T).max(axis=(-2, -1)), 0, -1)
+    # candidates: branches whose cosines and subproblem-2 radius are in range up to rounding (a
+    # margin far above it: a pose out of reach by more fails the confirmation anyway)
+    with np.errstate(invalid="ignore"):
+        slack = 1e-6
+        # (..., shoulder, wrist, elbow): the shoulder and elbow cosines per shoulder, γ² per (shoulder, elbow)
+        cand = ((np.abs(cos_raw) <= 1.0 + slack)[..., None] & (np.abs(cphi_raw) <= 1.0 + slack))[..., :, None, None] \
+            & (g2 >= -slack)[..., :, None, :]
+    cand = np.broadcast_to(cand, shape + (2, 2, 2)).reshape(shape + (8,))
+    # the confirmation: the chain's own forward kinematics of the candidates
+    err = np.full(shape + (8,), np.inf)
+    if cand.any():
+        arm_index = np.broadcast_to(np.arange(max(1, int(np.prod(chain.batch_shape, dtype=np.int64))))
+                                    .reshape(chain.batch_shape or ()), shape)
+        idx = np.nonzero(cand)
+        flat = chain if not chain.batch_shape else _flat_arms(chain)
+        sel = flat if not chain.batch_shape else flat[arm_index[idx[:-1]]]
+        Tq = sel.fkine(q[idx])
+        err[idx] = np.abs(Tq - T[idx[:-1]]).max(axis=(-2, -1))
     reach = err <= atol
     valid = reach
     if chain.qlim is not None:
