@@ -49,7 +49,8 @@ ARMS = [
     ("xArm6", "pb:xarm/xarm6_robot.urdf", None, None),
     ("KUKA iiwa 7", "pb:kuka_iiwa/model.urdf", None, None),
     ("Panda (PyBullet)", "pb:franka_panda/panda.urdf", None, "panda_grasptarget"),
-    ("ABB IRB 140", "abb_irb140/urdf/irb140.urdf", "base_link", "tool0"),
+    # (rtbdata's irb140.urdf is another arm, 1.49 m forearm and a 2 cm wrist offset; its xacro is the IRB 140)
+    ("ABB IRB 140", "abb_irb140/urdf/irb140.xacro", "base_link", "tool0"),
     ("KUKA KR 16-2", "kuka_description/kuka_kr16/urdf/kr16_2.urdf", "base_link", "tool0"),
     ("KUKA KR 120", "kuka_description/kuka_kr120/urdf/kr120r2500pro.urdf", "base_link", "tool0"),
     ("KUKA KR 210", "kuka_description/kuka_kr210/urdf/kr210l150.urdf", "base_link", "tool0"),
@@ -64,6 +65,8 @@ ARMS = [
     ("Jaco2 7-DOF", "kinova_description/urdf/j2s7s300_standalone.xacro", "root", "j2s7s300_end_effector"),
     ("Mico", "kinova_description/urdf/m1n6s300_standalone.xacro", "root", "m1n6s300_end_effector"),
 ]
+#: ROS package names whose folder in rtbdata is named otherwise
+PACKAGES = {"abb_irb140_support": "abb_irb140"}
 QUICK = ["YuMi right arm", "Panda (PyBullet)", "KUKA iiwa 7", "ABB IRB 140", "Jaco2 7-DOF"]
 ORIENTATIONS = {"R=I": (0.0, 0.0, 0.0), "tool down": (math.pi, 0.0, 0.0)}
 
@@ -86,7 +89,7 @@ def urdf_text(source: str) -> str:
     import xacro.substitution_args as sa
 
     # $(find pkg): the package folders of rtbdata (no ROS installation, no network)
-    sa._eval_find = lambda pkg: os.path.join(rx, pkg)
+    sa._eval_find = lambda pkg: os.path.join(rx, PACKAGES.get(pkg, pkg))
     return xacro.process_file(path).toxml()
 
 

@@ -33,6 +33,7 @@ UR10 = ("ur_description/urdf/ur10_robot.urdf.xacro", "base_link", "tool0")
 UR3 = ("ur_description/urdf/ur3_robot.urdf.xacro", "base_link", "tool0")
 KR16 = ("kuka_description/kuka_kr16/urdf/kr16_2.urdf", "base_link", "tool0")
 KR210 = ("kuka_description/kuka_kr210/urdf/kr210l150.urdf", "base_link", "tool0")
+IRB140 = ("abb_irb140/urdf/irb140.xacro", "base_link", "tool0")
 PUMA = ("puma560_description/urdf/puma560_robot.urdf", None, None)
 PANDA = ("franka_description/robots/panda_arm.urdf.xacro", None, None)
 TWO_PI = 2 * np.pi
@@ -46,7 +47,8 @@ def urdf_text(rel: str) -> str:
     xacro = pytest.importorskip("xacro")
     import xacro.substitution_args as sa
 
-    sa._eval_find = lambda pkg: os.path.join(XACRO, pkg)  # $(find pkg): rtbdata's folders, no ROS
+    # $(find pkg): rtbdata's folders, no ROS
+    sa._eval_find = lambda pkg: os.path.join(XACRO, {"abb_irb140_support": "abb_irb140"}.get(pkg, pkg))
     return xacro.process_file(path).toxml()
 
 
@@ -150,7 +152,7 @@ def test_ur_urdf_closed_form_map_equals_the_numerical_map():
 
 
 # ------------------------------------------------------------------------- spherical wrist, offset
-@pytest.mark.parametrize("spec", [KR16, KR210, PUMA])
+@pytest.mark.parametrize("spec", [KR16, KR210, IRB140, PUMA])
 def test_offset_spherical_wrist_urdfs_agree_with_eaik(spec):
     chain = load(spec)
     assert is_spherical_wrist_offset(chain) and closed_form_for(chain).name == "spherical_wrist_offset"
