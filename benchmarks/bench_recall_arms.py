@@ -23,7 +23,7 @@ seconds with and without the border search) and the worst arm; ``--json PATH`` w
 
     # quick (5 arms, 11³ nodes, a couple of minutes single-threaded)
     NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/bench_recall_arms.py --quick
-    # full (every arm of ARMS, 21³ nodes)
+    # full (every arm of ARMS, 15³ nodes: about 8 minutes; --nodes 21 for the paper's density, about 20)
     NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/bench_recall_arms.py
 """
 
@@ -216,11 +216,30 @@ def warm_up():
     ikine_search(arm, T, starts=2)
 
 
+def panda_map_times(repeats: int = 3) -> dict:
+    """Seconds of the default numerical tool-down map of the named Panda (``wsmap.load("panda")``,
+    the paper's grid, ``grid_map(..., rpy=(pi, 0, 0), method="numerical")``) without and with the
+    border search, alternating, best of ``repeats``; and the reachable counts."""
+    from wsmap import load
+
+    arm, grid = load("panda"), ws.grid_spec("R3")
+    out = {"before": [], "after": []}
+    counts = {}
+    for _ in range(repeats):
+        for label, ik in (("before", {"border_starts": 0}), ("after", {})):
+            t0 = time.perf_counter()
+            m = ws.grid_map(arm, grid, rpy=(math.pi, 0.0, 0.0), method="numerical", ik=ik)
+            out[label].append(time.perf_counter() - t0)
+            counts[label] = int(m.sum())
+    return {"seconds_before": min(out["before"]), "seconds_after": min(out["after"]),
+            "reachable_before": counts["before"], "reachable_after": counts["after"], "nodes": int(m.size)}
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--quick", action="store_true", help=f"only {', '.join(QUICK)}; 11 nodes per axis")
     p.add_argument("--arms", nargs="+", help="arm names of ARMS (default: all, or the quick ones)")
-    p.add_argument("--nodes", type=int, help="nodes per axis (default 21, 11 with --quick)")
+    p.add_argument("--nodes", type=int, help="nodes per axis (default 15, 11 with --quick)")
     p.add_argument("--ref-starts", type=int, default=128)
     p.add_argument("--json", help="write the results here")
     args = p.parse_args(argv)
@@ -230,7 +249,7 @@ def main(argv=None):
         p.error(f"unknown arms {unknown}; known: {[a[0] for a in ARMS]}")
     if args.ref_starts < 128:
         p.error("--ref-starts must be at least 128")
-    nodes = args.nodes or (11 if args.quick else 21)
+    nodes = args.nodes or (11 if args.quick else 15)
     rows = []
     warm_up()
     t0 = time.perf_counter()
@@ -253,12 +272,17 @@ def main(argv=None):
           f"{worst['reachable']}); false positives in all: {sum(r['false_positives'] for r in rows)}; "
           f"largest FK difference from Pinocchio {fk:.1e}; map time {sum(r['seconds'] for r in rows):.1f} s "
           f"(before {sum(r['seconds_before'] for r in rows):.1f} s)")
+    pm = panda_map_times()
+    print(f"\nDefault Panda tool-down map (wsmap.load('panda'), {pm['nodes']} nodes, numerical), best of 3: "
+          f"{pm['seconds_before']:.2f} s without the border search, {pm['seconds_after']:.2f} s with it "
+          f"({pm['seconds_after'] / pm['seconds_before']:.1f}x); reachable {pm['reachable_before']} -> "
+          f"{pm['reachable_after']}")
     if args.json:
         meta = {"python": platform.python_version(), "numpy": np.__version__, "machine": platform.machine(),
                 "cpus": os.cpu_count(), "nodes_per_axis": nodes, "ref_starts": args.ref_starts,
                 "map_settings": MAP_SETTINGS}
         with open(args.json, "w") as f:
-            json.dump({"meta": meta, "rows": rows}, f, indent=1)
+            json.dump({"meta": meta, "rows": rows, "panda_tool_down_map": pm}, f, indent=1)
 
 
 if __name__ == "__main__":
