@@ -105,16 +105,18 @@ class PinFK:
         links = list(chain.links)
         ee = ee_link or links[-1]
         keep = []
+        body = pin.FrameType.BODY  # a link may share its name with a joint (Gen3 lite's END_EFFECTOR)
         for link in links[:-1]:
-            keep.append(full.frames[full.getFrameId(link)].parentJoint)
+            keep.append(full.frames[full.getFrameId(link, body)].parentJoint)
         lock = [j for j in range(1, full.njoints) if j not in keep]
-        self.model = pin.buildReducedModel(full, lock, pin.neutral(full))
+        # (nothing to lock: the full model; buildReducedModel trips over Gen3 lite's shared frame names)
+        self.model = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
         self.data = self.model.createData()
         names = [full.names[j] for j in keep]
         self.joints = [self.model.getJointId(nm) for nm in names]
-        self.ee = self.model.getFrameId(ee)
+        self.ee = self.model.getFrameId(ee, body)
         root = base_link or full.frames[1].name
-        self.base = self.model.getFrameId(root)
+        self.base = self.model.getFrameId(root, body) if base_link else self.model.getFrameId(root)
 
     def __call__(self, q: np.ndarray) -> np.ndarray:
         """Tool poses (..., 4, 4) in the base link's frame for ``q`` (..., n)."""
