@@ -269,9 +269,12 @@ def main(argv=None):
               f"{r['false_positives']} | {r['recall_before']:.4f} | {r['missed_before']} | {r['seconds']:.1f} | "
               f"{r['seconds_before']:.1f} |")
     worst = min(rows, key=lambda r: r["recall"])
+    worst_before = min(rows, key=lambda r: r["recall_before"])
     fk = max(r["fk_vs_pinocchio"] for r in rows)
     print(f"\nWorst: {worst['arm']}, {worst['orientation']}: recall {worst['recall']:.4f} ({worst['missed']} of "
-          f"{worst['reachable']}); false positives in all: {sum(r['false_positives'] for r in rows)}; "
+          f"{worst['reachable']}); without the border search: {worst_before['arm']}, {worst_before['orientation']}: "
+          f"{worst_before['recall_before']:.4f} ({worst_before['missed_before']} of {worst_before['reachable']}); "
+          f"false positives in all: {sum(r['false_positives'] for r in rows)}; "
           f"largest FK difference from Pinocchio {fk:.1e}; map time {sum(r['seconds'] for r in rows):.1f} s "
           f"(before {sum(r['seconds_before'] for r in rows):.1f} s)")
     pm = panda_map_times()

@@ -31,6 +31,7 @@ XACRO = os.path.join(os.path.dirname(rtbdata.__file__), "xacro")
 
 UR10 = ("ur_description/urdf/ur10_robot.urdf.xacro", "base_link", "tool0")
 UR3 = ("ur_description/urdf/ur3_robot.urdf.xacro", "base_link", "tool0")
+UR5 = ("ur_description/urdf/ur5_joint_limited_robot.urdf.xacro", "base_link", "tool0")
 KR16 = ("kuka_description/kuka_kr16/urdf/kr16_2.urdf", "base_link", "tool0")
 KR210 = ("kuka_description/kuka_kr210/urdf/kr210l150.urdf", "base_link", "tool0")
 IRB140 = ("abb_irb140/urdf/irb140.xacro", "base_link", "tool0")
@@ -125,7 +126,7 @@ def test_dh_equivalent_of_a_batch_and_prismatic_refusal():
 
 
 # ------------------------------------------------------------------------------------------ UR URDFs
-@pytest.mark.parametrize("spec", [UR10, UR3])
+@pytest.mark.parametrize("spec", [UR10, UR3, UR5])
 def test_ros_ur_urdfs_go_through_the_ur_closed_form(spec):
     chain = load(spec)
     assert is_ur_type(chain) and closed_form_for(chain).name == "ur"
