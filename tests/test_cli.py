@@ -80,7 +80,8 @@ def test_numerical_so3_map(tmp_path):
         (["--step", "1e-300"], "use a coarser step"),
         (["--step", "0.1", "0.1"], "--step takes one value or three"),
         (["--lo", "2", "--hi", "1"], "lo must not exceed hi"),
-        (["--d", "0", "0", "0.15", "0.43", "0", "0", "--a", "0", "0.43", "0.02", "0", "0", "0",
+        # (d5 = 0.1: no spherical wrist, twists of 1 rad: not the UR type)
+        (["--d", "0", "0", "0.15", "0.43", "0.1", "0", "--a", "0", "0.43", "0.02", "0", "0", "0",
           "--alpha", "1", "0", "-1", "1", "-1", "0", "--method", "exact"], "has no closed form for custom"),
         (["--d", "0", "--a", "0", "0", "--alpha", "0"], "DH columns disagree"),
         # argparse-level errors: one line too

@@ -343,9 +343,21 @@ def test_refusals_of_kinds_axes_and_forms():
     with pytest.raises(ValueError, match=r"joint 2: axis \(0, 1, 0\)"):
         require_ur_type(ur.replace(axes=axes))
     fixed = ur.fixed.copy()
-    fixed[3, 1, 3] = 0.01  # a sideways offset after joint 3: not Tz·Tx·Rx
+    c, s = np.cos(0.01), np.sin(0.01)
+    fixed[3, :3, :3] = fixed[3, :3, :3] @ np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])  # joint 4 tilted
     with pytest.raises(ValueError, match=r"joint 3: the fixed transform after it is not of the form"):
         require_ur_type(ur.replace(fixed=fixed))
+
+
+def test_a_sideways_offset_is_still_the_ur_geometry():
+    # a sideways offset after joint 3 is not Tz·Tx·Rx as written, but joint 4 stays parallel to 2 and
+    # 3: the arm is of the UR type, recognised on its standard-DH equivalent
+    ur = _ur("ur5e")
+    fixed = ur.fixed.copy()
+    fixed[3, 1, 3] = 0.01
+    arm = ur.replace(fixed=fixed)
+    assert not closed_form_ur._structure(arm, 1e-9)[0] and is_ur_type(arm)
+    _check_round_trip(arm, np.random.default_rng(3).uniform(-np.pi, np.pi, (50, 6)))
 
 
 def test_batch_refusal_names_the_arm():
@@ -667,7 +679,7 @@ def test_the_fast_structure_check_decides_as_the_worded_one():
     k = rng.integers(1, 6, B)
     fixed[rows, k] = fixed[rows, k] @ Ry
     arms = arms.replace(fixed=fixed)
-    ok = is_ur_type(arms)
+    ok = closed_form_ur._structure(arms, 1e-9)[0]  # on the numbers as given (is_ur_type also tries the geometry)
     _, ok_words, _ = closed_form_ur._explain(arms, 1e-9)
     np.testing.assert_array_equal(ok, ok_words)
     assert 0.05 < ok.mean() < 0.95

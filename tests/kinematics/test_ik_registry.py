@@ -29,7 +29,7 @@ PI = np.pi
 
 
 def test_the_closed_forms_are_discovered_in_name_order():
-    assert [cf.name for cf in closed_forms()] == ["spherical_wrist", "ur"]
+    assert [cf.name for cf in closed_forms()] == ["spherical_wrist", "spherical_wrist_offset", "ur"]
 
 
 def test_closed_form_for_named_arms():
@@ -39,19 +39,24 @@ def test_closed_form_for_named_arms():
     assert closed_form_for(robots.load("ur5e")).name == "ur"
     assert closed_form_for(robots.load("panda")) is None
     assert closed_form_for(robots.sample_arbitrary_6dof(3, seed=0)) is None
-    # the spherical-wrist family is given by DH numbers: the same arm as a chain has no closed form
-    assert closed_form_for(as_chain(robots.puma560())) is None
+    # the spherical-wrist DH family is given by DH numbers: the same arm as a chain is recognised by
+    # its geometry, by the closed form with a shoulder offset
+    assert closed_form_for(as_chain(robots.puma560())).name == "spherical_wrist_offset"
     assert closed_form_for("puma560") is None
     # a batch is recognised only when every arm is
     mixed = robots.sample_spherical_wrist(3, seed=1)
     d = np.array(mixed.d)
-    d[1, 1] = 0.2  # d2 != 0: outside the family
-    assert closed_form_for(DHRobot(d, mixed.a, mixed.alpha)) is None
+    d[1, 1] = 0.2  # d2 != 0: outside the DH family, a lateral offset of the geometric one
+    assert closed_form_for(DHRobot(d, mixed.a, mixed.alpha)).name == "spherical_wrist_offset"
+    alpha = np.array(mixed.alpha)
+    alpha[1, 1] = 0.3  # axes 2 and 3 not parallel: outside every family
+    assert closed_form_for(DHRobot(mixed.d, mixed.a, alpha)) is None
 
 
 def test_require_closed_form_names_the_closed_forms():
     with pytest.raises(ValueError, match=r"method 'exact' has no closed form for panda \(closed forms: the "
-                                         r"spherical-wrist DH family and the UR family\); use method 'numerical'"):
+                                         r"spherical-wrist DH family, the spherical-wrist family with a shoulder offset and the UR "
+                                         r"family\); use method 'numerical'"):
         require_closed_form(robots.load("panda"))
     assert require_closed_form(robots.load("ur5e")).name == "ur"
 
@@ -102,8 +107,8 @@ def test_a_closed_form_registered_from_outside_is_used_by_the_maps():
         assert 0 < m.sum() < len(nodes)
         with pytest.raises(ValueError, match="'planar_2r' is already registered"):
             register(_planar_closed_form())
-        with pytest.raises(ValueError, match="closed forms: the spherical-wrist DH family, the UR family and "
-                                             "planar 2R arms"):
+        with pytest.raises(ValueError, match="closed forms: the spherical-wrist DH family, the spherical-wrist "
+                                             "family with a shoulder offset, the UR family and planar 2R arms"):
             require_closed_form(robots.load("panda"))
     finally:
         registry.unregister("planar_2r")

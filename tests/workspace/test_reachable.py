@@ -119,7 +119,7 @@ def test_paper_solver_is_the_papers_one_start_lm():
 
 def test_exact_method_needs_the_closed_form_family():
     nodes = ws.cartesian_grid(-1, 1, 0.5)
-    with pytest.raises(ValueError, match="method 'exact' has no closed form for puma560"):
-        ws.constant_orientation_map(as_chain(robots.puma560()), nodes, method="exact")
+    with pytest.raises(ValueError, match="method 'exact' has no closed form for panda"):
+        ws.constant_orientation_map(robots.load("panda"), nodes, method="exact")
     with pytest.raises(TypeError, match="arms must be a DHRobot or a SerialChain"):
         ws.constant_orientation_map("puma560", nodes, method="numerical")

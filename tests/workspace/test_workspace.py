@@ -142,8 +142,8 @@ def test_bad_map_arguments(grid21):
         ws.constant_orientation_map(puma, grid21, convention="zyx")
     with pytest.raises(ValueError, match=r"nodes must have shape \(N, 3\)"):
         ws.constant_orientation_map(puma, grid21[:, :2])
-    with pytest.raises(ValueError, match="method 'exact' has no closed form .* spherical-wrist DH family and the UR "
-                                         "family"):
+    with pytest.raises(ValueError, match="method 'exact' has no closed form .* spherical-wrist DH family, the "
+                                         "spherical-wrist family with a shoulder offset and the UR family"):
         ws.constant_orientation_map(robots.sample_arbitrary_6dof(2, seed=0), grid21, method="exact")
     with pytest.raises(TypeError, match="arms must be a DHRobot"):
         ws.constant_orientation_map(np.zeros((3, 6)), grid21)

@@ -7,8 +7,10 @@ Every solver returns one answer type, :class:`~.solution.IKSolution` (``q``, ``s
 * :mod:`.registry` — the closed-form extension point: :class:`ClosedForm`, :func:`register`,
   :func:`closed_form_for` (which closed form solves an arm, or None), the shared branch numbering;
 * :mod:`.closed_forms` — one module per closed form, each registering itself
-  (:mod:`.closed_forms.spherical_wrist`, :mod:`.closed_forms.ur`); a new closed form is a new
-  module there;
+  (:mod:`.closed_forms.spherical_wrist`, :mod:`.closed_forms.spherical_wrist_offset`,
+  :mod:`.closed_forms.ur`); a new closed form is a new module there;
+* :mod:`.geometry` — an arm's joint axes as lines in the base frame at ``q = 0`` and its
+  standard-DH equivalent, whatever frames describe it (how closed forms recognise a URDF);
 * :mod:`.lm` — :func:`ikine_LM`, the paper's one-start LM (DH arms);
 * :mod:`.search` — :func:`ikine_search` and :func:`map_search`, the multi-start reachability search
   with joint limits inside it, every success confirmed by forward kinematics;

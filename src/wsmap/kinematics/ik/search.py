@@ -68,6 +68,8 @@ __all__ = ["MAP_SETTINGS", "map_search", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DE
            "ikine_search"]
 
 _ARM_ARRAYS = Memo()
+# targets per call of the border search (bounds its (C, K, n) array of starts)
+_BORDER_CHUNK = 1 << 16
 
 #: Starts per target of :func:`ikine_search`, the maps' numerical path and ``reachable``. Measured
 #: with ``benchmarks/bench_recall.py`` (21³ grid; PUMA560 with and without limits against the closed
@@ -255,8 +257,12 @@ def ikine_search(
 #: cut the iterations spent on unreachable nodes by about half without a missed node; a neighbour's
 #: solution is not rerun without the limits (the Panda index: 13 % less time, the same recall); a
 #: hole in a solved region gets 16 retries (the iiwa14 from its URDF, tool down, missed 3 of 1768
-#: nodes near its axis with 4).
-MAP_SETTINGS = dict(starts=0, seeds=2, retry=4, hole_retry=16, ilimit=60, rlimit=10, gtol=1e-4, seed_free_pass=False)
+#: nodes near its axis with 4). Last, every unsolved node that borders a solved one gets the search of
+#: :func:`ikine_search` (``border_starts`` = :data:`DEFAULT_STARTS` starts, its iteration settings), after the
+#: solutions of its solved neighbours: recall at the edge of the reachable region by construction, not by
+#: tuning (YuMi's right arm, tool down, missed 5 of 2826 border nodes without it; ``docs/recall.md``).
+MAP_SETTINGS = dict(starts=0, seeds=2, retry=4, hole_retry=16, ilimit=60, rlimit=10, gtol=1e-4, seed_free_pass=False,
+                    border_starts=DEFAULT_STARTS)
 
 
 def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], seeds: int = MAP_SETTINGS["seeds"],
@@ -264,7 +270,8 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
                ilimit: int = MAP_SETTINGS["ilimit"], rlimit: int = MAP_SETTINGS["rlimit"], lam: float = 0.1,
                joint_limits: bool = True, confirm_tol: float = FK_CONFIRM_TOL, gtol: float = MAP_SETTINGS["gtol"],
                q_init=None, position_only: bool = False, seed_free_pass: bool = MAP_SETTINGS["seed_free_pass"],
-               hole_retry: int = MAP_SETTINGS["hole_retry"], progress=None) -> IKSolution:
+               hole_retry: int = MAP_SETTINGS["hole_retry"], border_starts: int = MAP_SETTINGS["border_starts"],
+               progress=None) -> IKSolution:
     """Reachability of a map's nodes, each start of :func:`ikine_search`'s iteration, with starts taken
     from neighbouring nodes' solutions (continuation): the solution at a node is an excellent start
     at the next one, and an unreachable node costs a few failed starts instead of dozens.
@@ -291,15 +298,25 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
         confirmation on the position alone)
     seed_free_pass : whether a neighbour's solution that fails inside the limits is also run
         without them (the second pass of :func:`ikine_search`'s starts)
+    border_starts : the starts of :func:`ikine_search` (``q0``, then its random starts ``1 ..
+        border_starts - 1``, with its per-start settings :data:`DEFAULT_ILIMIT`,
+        :data:`DEFAULT_RLIMIT`, no stationary-point test, both passes) that every node still
+        unsolved next to a solved node gets once, after the solutions of its solved neighbours
+        that the waves did not try; 0 turns the border search off
     progress : called once with the number of targets when done
 
     Per arm, in passes: (1) every node: ``q0`` then ``starts`` random starts (the first ones of
     :func:`ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
     neighbour whose solution it has not tried takes up to ``seeds`` of them, in neighbour order, as
     starts, until a wave solves nothing new; (3) the nodes left take ``retry`` more random starts,
-    and (2) again. Every success is confirmed by forward kinematics inside the limits, so ``True``
-    is never wrong; recall is measured in ``benchmarks/bench_fast_maps.py``. Deterministic; does not
-    depend on the thread count.
+    and (2) again; (4) the border search: every node still unsolved next to a solved node, and not
+    border-searched before, tries its solved neighbours' solutions not tried yet and then the ``border_starts``
+    starts of :func:`ikine_search` (with ``seed`` and ``q0``, the same starts that search draws for
+    the node's pose), then (2) again, until no new node borders a solved one. So a node next to a
+    solved node is reached whenever :func:`ikine_search` with ``border_starts`` starts reaches it,
+    whatever the waves did before. Every success is confirmed by forward kinematics inside the
+    limits, so ``True`` is never wrong; recall is measured in ``benchmarks/bench_fast_maps.py`` and
+    ``benchmarks/bench_recall_arms.py``. Deterministic; does not depend on the thread count.
 
     Returns an :class:`~wsmap.kinematics.ik.solution.IKSolution` of shape ``(B, N)`` (``(N,)`` for one
     arm), its fields as :func:`ikine_search`'s; ``start`` is the random start's index ``k``
@@ -319,6 +336,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     seeds = _check_count("seeds", seeds, 0)
     retry = _check_count("retry", retry, 0)
     hole_retry = _check_count("hole_retry", hole_retry, 0)
+    border_starts = _check_count("border_starts", border_starts, 0)
     ilimit = _check_count("ilimit", ilimit, 0)
     rlimit = _check_count("rlimit", rlimit, 0)
     seed, q0 = _check_settings(chain, tol, lam, confirm_tol, seed, q0)
@@ -354,11 +372,12 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     res = np.full(M, np.inf)
     start = np.full(M, -1, dtype=np.int64)
 
-    def run(idx, qexp, nexp, k_first, k_last, seeded):
+    def run(idx, qexp, nexp, k_first, k_last, seeded, per_start=settings, free=None):
         if not idx.size:
             return 0
+        free = (not seeded or seed_free_pass) if free is None else free
         qq, okk, it, rr, st = run_compiled(mode, aa, arm_of[idx], T[node_of[idx]], keys_node[node_of[idx]], qexp, nexp,
-                                           k_first, k_last, *settings, free_pass=not seeded or seed_free_pass)
+                                           k_first, k_last, *per_start, free_pass=free)
         its[idx] += it
         better = okk | (~ok[idx] & (rr < res[idx]))
         q[idx[better]] = qq[better]
@@ -402,6 +421,51 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
             run(cand, qexp, count, 0, 0, True)
             fresh = ok & ~before
 
+    valid_nb = nb >= 0
+    slot_nb = np.where(valid_nb, nb, 0)
+
+    def solved_neighbours():
+        # solved neighbours per target, one neighbour slot at a time: (B, N) arrays, never (B·N, K)
+        ok_bn = ok.reshape(B, N)
+        count = np.zeros((B, N), dtype=np.int32)
+        for k in range(K):
+            count += ok_bn[:, slot_nb[:, k]] & valid_nb[:, k]
+        return count.reshape(-1)
+
+    def border_search(count):
+        # what ikine_search does for one pose, at every unsolved node next to a solved one, once
+        # each: its starts (q0, then its random starts 1 .. count-1 from the same keys) with its
+        # per-start settings, after the solved neighbours' solutions that the waves have not tried
+        # yet; then the waves carry what it finds, and the nodes that newly border a solved node
+        # get it too
+        per_start = (DEFAULT_ILIMIT, DEFAULT_RLIMIT, tol, lam, confirm_tol, 0.0)
+        searched = np.zeros(M, dtype=bool)
+        while True:
+            cand = np.flatnonzero(~ok & possible & ~searched & (solved_neighbours() > 0))
+            if not cand.size:
+                return
+            searched[cand] = True
+            # chunks bound the (C, K, n) starts
+            for c0 in range(0, cand.size, _BORDER_CHUNK):
+                idx = cand[c0 : c0 + _BORDER_CHUNK]
+                nbn = nb[node_of[idx]]
+                nbt = arm_of[idx][:, None] * N + np.where(nbn >= 0, nbn, 0)
+                use = (nbn >= 0) & ok[nbt] & ~tried[idx]
+                tried[idx] |= use
+                count_nb = use.sum(axis=1)
+                has = count_nb > 0
+                if has.any():
+                    sel, use_s, nbt_s = idx[has], use[has], nbt[has]
+                    qexp = np.zeros((sel.size, K, n))
+                    slot = np.cumsum(use_s, axis=1) - 1
+                    r, c = np.nonzero(use_s)
+                    qexp[r, slot[r, c]] = q[nbt_s[r, c]]
+                    run(sel, qexp, count_nb[has].astype(np.int64), 0, 0, True)
+                idx = idx[~ok[idx]]
+                run(idx, np.broadcast_to(q0, (idx.size, 1, n)), np.ones(idx.size, dtype=np.int64), 1, count, False,
+                    per_start=per_start, free=True)
+            waves()
+
     first = np.flatnonzero(possible)
     if q_init is None:
         run(first, np.broadcast_to(q0, (first.size, 1, n)), np.ones(first.size, dtype=np.int64), 1, 1 + starts, False)
@@ -435,6 +499,8 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
             run(idx, np.zeros((idx.size, 1, n)), np.zeros(idx.size, dtype=np.int64), 1 + starts, 1 + starts + count,
                 False)
         waves()
+    if border_starts and K:
+        border_search(border_starts)
     if progress is not None:
         progress(M)
     shape = (N,) if not batch else batch + (N,)

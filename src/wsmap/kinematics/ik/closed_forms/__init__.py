@@ -4,7 +4,14 @@
 closed form is one new module in this folder and nothing else.
 
 * :mod:`.spherical_wrist` — the paper's spherical-wrist DH family (PUMA-type geometry);
-* :mod:`.ur` — the UR family (three parallel axes, Universal Robots' geometry).
+* :mod:`.spherical_wrist_offset` — spherical-wrist arms with a shoulder offset (axes 2 ∥ 3, the
+  KUKA KR series, ABB IRB 140, PUMA's URDF), recognised and solved on the joint axes' geometry;
+* :mod:`.ur` — the UR family (three parallel axes, Universal Robots' geometry), also recognised
+  from any description through its standard-DH equivalent (:mod:`wsmap.kinematics.ik.geometry`).
+
+Modules are imported in name order, which is the order :func:`~wsmap.kinematics.ik.registry.closed_form_for`
+asks them in: the paper's DH family is answered by :mod:`.spherical_wrist` before the more general
+:mod:`.spherical_wrist_offset`.
 """
 
 import importlib

@@ -53,6 +53,7 @@ from ...arms import ArmBatch
 from ...chain import PRISMATIC, SerialChain, as_chain
 from ...lm_compiled import threads_for
 from ...transforms import as_real_array, check_rigid
+from ..geometry import dh_equivalent
 from ..registry import ClosedForm, register
 from ..solution import IKReason, IKSolution
 
@@ -191,6 +192,25 @@ def _explain(robot, atol: float):
     return chain, ok, why
 
 
+def _canonical(robot, atol: float):
+    """``(chain, ok, values)``: the robot's chain with :func:`_structure`'s answer where every arm
+    passes as described, else its standard-DH equivalent (:func:`~wsmap.kinematics.ik.geometry.dh_equivalent`,
+    from the joint axes in the base frame at the zero pose, so that a URDF whose joints turn about
+    ``y`` is recognised) with :func:`_structure`'s answer on it. ``values`` None where no arm passes."""
+    chain = as_chain(robot)
+    ok, values = _structure(chain, atol)
+    if chain.n != 6 or np.all(ok):
+        return chain, ok, values
+    eq, same = dh_equivalent(chain)
+    if eq is None:
+        return chain, ok, values
+    ok_eq, values_eq = _structure(eq, atol)
+    ok_eq = ok_eq & same
+    if not ok_eq.any():
+        return chain, ok, values
+    return eq, ok_eq, values_eq
+
+
 def is_ur_type(robot, atol: float = 1e-9) -> np.ndarray:
     """True for each arm of the batch (shape ``robot.batch_shape``) that :func:`ikine_ur` solves.
 
@@ -198,10 +218,14 @@ def is_ur_type(robot, atol: float = 1e-9) -> np.ndarray:
     matrix entries, metres and radians): 6 revolute joints about ``±z`` of their frames, the fixed
     transforms after joints 1..5 of the form ``Tz(d)·Tx(a)·Rx(alpha)`` with ``alpha`` ±pi/2, 0, 0,
     ±pi/2, ±pi/2 and ``a4 = a5 = 0``. Base, ``F_0``, ``F_6`` and tool are free (see the module doc).
+    An arm described otherwise (a URDF's joints about ``y``, frames anywhere on the axes) is tested
+    on its standard-DH equivalent, computed from the joint axes in the base frame at the zero pose
+    (:func:`wsmap.kinematics.ik.geometry.dh_equivalent`): the family is recognised from the arm's
+    geometry, whatever frames describe it.
     """
     if not isinstance(robot, ArmBatch):
         return np.zeros((), dtype=bool)
-    return _structure(as_chain(robot), atol)[0]
+    return _canonical(robot, atol)[1]
 
 
 def _raise_not_ur(robot, atol):
@@ -235,10 +259,9 @@ def ur_parameters(robot, atol: float = 1e-9) -> URParameters:
     ``flange = Tz(−d6) · F_6 · chain.tool`` with ``d6 = F_6[2, 3]``, the translation of ``F_6``
     along joint 6 (it commutes with joint 6, so any split is exact).
     """
-    chain = as_chain(robot)
-    ok, values = _structure(chain, atol)
+    chain, ok, values = _canonical(robot, atol)
     if not np.all(ok):
-        _raise_not_ur(chain, atol)
+        _raise_not_ur(robot, atol)
     F, d, a, alpha = values
     # mirrored twists at joints 1, 4, 5: a half turn on that joint and the next (module doc)
     flip = (alpha[..., _FLIP_JOINTS] * UR_ALPHA[_FLIP_JOINTS] < 0).astype(float)  # (..., 3): f1, f4, f5
