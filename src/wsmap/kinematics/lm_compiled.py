@@ -699,36 +699,619 @@ def _run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
             _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n)
 
 
-# every separately compiled function that _run_targets reaches, callees before callers (the order of a
-# fresh compile); a new one must join the list, or a cached process may again run other bits
-_CALLEES = ("_sincos", "_mix", "_spacing", "_project1", "_stationary", "_random_start", "_confirm", "_lm", "_task")
-_callees_bound = False
+# --------------------------------------------------------------------------- the lane kernel (SIMD over targets)
+#: Targets solved side by side, one per SIMD lane: every per-target quantity is an array with the lane
+#: as its last axis, and the loops over lanes (a constant trip count) are what LLVM vectorises (8
+#: doubles: one AVX-512 register, two AVX2 ones).
+LANES = 8
+#: Targets per task of the lane kernel: a task keeps its lanes busy by handing each lane the task's
+#: next target when its own one is done, so a task needs a few times more targets than lanes.
+LANE_TARGETS_PER_TASK = 64
 
 
-def _bind_callees() -> None:
-    """Load the cached builds of :data:`_CALLEES`, callees first, before :func:`_run_targets` is loaded
-    (see "Cache" in the module notes); signatures from each cache index, for this CPU only. Reads the
-    index through numba's private cache classes (``_cache``, ``_load_index``, ``_index_key``: numba
-    0.68); where numba renames them this fails loudly, in the cache test too."""
-    global _callees_bound
-    if _callees_bound:
+@njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _sincos_lanes(x, sv, cv):
+    """:func:`_sincos` on every lane of ``x`` (LANES,), into ``sv``, ``cv``: the same reduction and
+    polynomials, the quadrant by selects (no branch, so the loop vectorises); libm for the rare
+    ``|x| >= 1e5`` lanes in a second loop. Only ``contract``, as :func:`_sincos`."""
+    big = False
+    for l in range(LANES):
+        xv = x[l]
+        k = (xv * _INV_PIO2 + 6755399441055744.0) - 6755399441055744.0
+        r = ((xv - k * _PIO2_1) - k * _PIO2_2) - k * _PIO2_3
+        z = r * r
+        s = r + r * z * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03 + z * (
+            -1.98412698298579493134e-04 + z * (2.75573137070700676789e-06 + z * (
+                -2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))))
+        c = 1.0 - 0.5 * z + z * z * (4.16666666666666019037e-02 + z * (-1.38888888888741095749e-03 + z * (
+            2.48015872894767294178e-05 + z * (-2.75573143513906633035e-07 + z * (
+                2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))))
+        # k is a whole number below 2**20 here: its quadrant from k - 4·floor(k / 4), in floats
+        m = k - 4.0 * math.floor(k * 0.25)
+        odd = m == 1.0 or m == 3.0
+        s1 = c if odd else s
+        c1 = s if odd else c
+        sv[l] = -s1 if m >= 2.0 else s1
+        cv[l] = -c1 if m == 1.0 or m == 2.0 else c1
+        big = big or not abs(xv) < 1e5
+    if big:
+        for l in range(LANES):
+            if not abs(x[l]) < 1e5:
+                sv[l] = math.sin(x[l])
+                cv[l] = math.cos(x[l])
+
+
+@njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
+def _fk_lanes(qt, RfL, tfL, kinds, offL, axes, pris, zax, R, p, w, o, x, sv, cv, T33, n):
+    """:func:`_fk` on every lane: ``qt`` (n, L); the lanes' arms ``RfL`` (n+1, 3, 3, L), ``tfL``
+    (n+1, 3, L), ``offL`` (n, L); ``kinds`` (n+1,) the most general fixed-rotation kind over the lanes
+    (a more general product gives the same values: it only adds exact zeros and ones). Out: ``R``
+    (3, 3, L), ``p`` (3, L), ``w``, ``o`` (n, 3, L)."""
+    for r in range(3):
+        for c in range(3):
+            for l in range(LANES):
+                R[r, c, l] = RfL[0, r, c, l]
+        for l in range(LANES):
+            p[r, l] = tfL[0, r, l]
+    for i in range(n):
+        a0, a1, a2 = axes[i, 0], axes[i, 1], axes[i, 2]
+        for l in range(LANES):
+            x[l] = qt[i, l] + offL[i, l]
+        for r in range(3):
+            for l in range(LANES):
+                o[i, r, l] = p[r, l]
+            if zax[i]:
+                for l in range(LANES):
+                    w[i, r, l] = R[r, 2, l] * a2
+            else:
+                for l in range(LANES):
+                    w[i, r, l] = R[r, 0, l] * a0 + R[r, 1, l] * a1 + R[r, 2, l] * a2
+        if pris[i]:
+            for r in range(3):
+                for l in range(LANES):
+                    p[r, l] = p[r, l] + w[i, r, l] * x[l]
+        elif zax[i]:
+            _sincos_lanes(x, sv, cv)
+            for r in range(3):
+                for l in range(LANES):
+                    si = sv[l] * a2
+                    r0 = R[r, 0, l] * cv[l] + R[r, 1, l] * si
+                    r1 = R[r, 1, l] * cv[l] - R[r, 0, l] * si
+                    R[r, 0, l] = r0
+                    R[r, 1, l] = r1
+        else:
+            _sincos_lanes(x, sv, cv)
+            K = ((0.0, -a2, a1), (a2, 0.0, -a0), (-a1, a0, 0.0))
+            for r in range(3):
+                for m in range(3):
+                    k2 = K[r][0] * K[0][m] + K[r][1] * K[1][m] + K[r][2] * K[2][m]
+                    for l in range(LANES):
+                        T33[r, m, l] = (1.0 if r == m else 0.0) + K[r][m] * sv[l] + k2 * (1.0 - cv[l])
+            for r in range(3):
+                for l in range(LANES):
+                    v0 = R[r, 0, l] * T33[0, 0, l] + R[r, 1, l] * T33[1, 0, l] + R[r, 2, l] * T33[2, 0, l]
+                    v1 = R[r, 0, l] * T33[0, 1, l] + R[r, 1, l] * T33[1, 1, l] + R[r, 2, l] * T33[2, 1, l]
+                    v2 = R[r, 0, l] * T33[0, 2, l] + R[r, 1, l] * T33[1, 2, l] + R[r, 2, l] * T33[2, 2, l]
+                    R[r, 0, l] = v0
+                    R[r, 1, l] = v1
+                    R[r, 2, l] = v2
+        for r in range(3):
+            for l in range(LANES):
+                p[r, l] = p[r, l] + (R[r, 0, l] * tfL[i + 1, 0, l] + R[r, 1, l] * tfL[i + 1, 1, l]
+                                     + R[r, 2, l] * tfL[i + 1, 2, l])
+        kind = kinds[i + 1]
+        if kind == 1:
+            for r in range(3):
+                for l in range(LANES):
+                    c1, s1 = RfL[i + 1, 1, 1, l], RfL[i + 1, 2, 1, l]
+                    c2, s2 = RfL[i + 1, 1, 2, l], RfL[i + 1, 2, 2, l]
+                    v1 = R[r, 1, l] * c1 + R[r, 2, l] * s1
+                    v2 = R[r, 1, l] * c2 + R[r, 2, l] * s2
+                    R[r, 1, l] = v1
+                    R[r, 2, l] = v2
+        elif kind == 2:
+            for r in range(3):
+                for l in range(LANES):
+                    v0 = (R[r, 0, l] * RfL[i + 1, 0, 0, l] + R[r, 1, l] * RfL[i + 1, 1, 0, l]
+                          + R[r, 2, l] * RfL[i + 1, 2, 0, l])
+                    v1 = (R[r, 0, l] * RfL[i + 1, 0, 1, l] + R[r, 1, l] * RfL[i + 1, 1, 1, l]
+                          + R[r, 2, l] * RfL[i + 1, 2, 1, l])
+                    v2 = (R[r, 0, l] * RfL[i + 1, 0, 2, l] + R[r, 1, l] * RfL[i + 1, 1, 2, l]
+                          + R[r, 2, l] * RfL[i + 1, 2, 2, l])
+                    R[r, 0, l] = v0
+                    R[r, 1, l] = v1
+                    R[r, 2, l] = v2
+
+
+@njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
+def _pose_error_lanes(R, p, RtL, ptL, e, nn, sn, cs, rows):
+    """:func:`_pose_error` (the rotation-vector error) on every lane: ``e`` (6, L) and ``nn`` (L,) |e|;
+    ``sn``, ``cs`` (L,) scratch. The products vectorise; ``atan2`` and the half-turn case run lane by
+    lane."""
+    for r in range(3):
+        for l in range(LANES):
+            e[r, l] = ptL[r, l] - p[r, l]
+    if rows == 3:
+        for l in range(LANES):
+            e[3, l] = 0.0
+            e[4, l] = 0.0
+            e[5, l] = 0.0
+            nn[l] = math.sqrt(e[0, l] * e[0, l] + e[1, l] * e[1, l] + e[2, l] * e[2, l])
         return
-    _callees_bound = True
-    if _run_targets.overloads:
+    for r in range(3):
+        a = (r + 1) % 3
+        bb = (r + 2) % 3
+        for l in range(LANES):
+            acc = R[a, 0, l] * RtL[bb, 0, l] - R[bb, 0, l] * RtL[a, 0, l]
+            acc = acc + (R[a, 1, l] * RtL[bb, 1, l] - R[bb, 1, l] * RtL[a, 1, l])
+            acc = acc + (R[a, 2, l] * RtL[bb, 2, l] - R[bb, 2, l] * RtL[a, 2, l])
+            e[3 + r, l] = 0.5 * acc
+    for l in range(LANES):
+        tr = R[0, 0, l] * RtL[0, 0, l]
+        for a in range(3):
+            for bb in range(3):
+                if a or bb:
+                    tr = tr + R[a, bb, l] * RtL[a, bb, l]
+        sn[l] = math.sqrt(e[3, l] * e[3, l] + e[4, l] * e[4, l] + e[5, l] * e[5, l])
+        cs[l] = 0.5 * (tr - 1.0)
+    for l in range(LANES):
+        theta = math.atan2(sn[l], cs[l])
+        if sn[l] > 1e-9:
+            scale = theta / sn[l]
+            for r in range(3):
+                e[3 + r, l] *= scale
+        elif cs[l] < 0.0:
+            jmax = 0
+            best = -np.inf
+            for j in range(3):
+                d = 0.5 * (RtL[j, 0, l] * R[j, 0, l] + RtL[j, 1, l] * R[j, 1, l] + RtL[j, 2, l] * R[j, 2, l] + 1.0)
+                if d > best:
+                    best = d
+                    jmax = j
+            den = math.sqrt(max(best, 1e-300))
+            for i in range(3):
+                s_ij = 0.5 * (RtL[i, 0, l] * R[jmax, 0, l] + RtL[i, 1, l] * R[jmax, 1, l]
+                              + RtL[i, 2, l] * R[jmax, 2, l] + (1.0 if i == jmax else 0.0))
+                e[3 + i, l] = s_ij / den * theta
+    for l in range(LANES):
+        sq = e[0, l] * e[0, l]
+        for r in range(1, 6):
+            sq = sq + e[r, l] * e[r, l]
+        nn[l] = math.sqrt(sq)
+
+
+@njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
+def _normal_equations_lanes(p, w, o, pris, e, J, A, g, rows, n):
+    """:func:`_normal_equations` on every lane: ``J`` (6, n, L), ``A`` (n, n, L), ``g`` (n, L)."""
+    for j in range(n):
+        if pris[j]:
+            for r in range(3):
+                for l in range(LANES):
+                    J[r, j, l] = w[j, r, l]
+                    J[3 + r, j, l] = 0.0
+        else:
+            for l in range(LANES):
+                d0, d1, d2 = p[0, l] - o[j, 0, l], p[1, l] - o[j, 1, l], p[2, l] - o[j, 2, l]
+                J[0, j, l] = w[j, 1, l] * d2 - w[j, 2, l] * d1
+                J[1, j, l] = w[j, 2, l] * d0 - w[j, 0, l] * d2
+                J[2, j, l] = w[j, 0, l] * d1 - w[j, 1, l] * d0
+            for r in range(3):
+                for l in range(LANES):
+                    J[3 + r, j, l] = w[j, r, l]
+    for j in range(n):
+        for m in range(j, n):
+            for l in range(LANES):
+                s = J[0, j, l] * J[0, m, l]
+                for r in range(1, rows):
+                    s = s + J[r, j, l] * J[r, m, l]
+                A[j, m, l] = s
+                A[m, j, l] = s
+        for l in range(LANES):
+            s = J[0, j, l] * e[0, l]
+            for r in range(1, rows):
+                s = s + J[r, j, l] * e[r, l]
+            g[j, l] = s
+
+
+@njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
+def _solve_lanes(A, g, l2, held, any_held, H, x, n):
+    """:func:`_solve` on every lane: ``x`` (n, L) ← ``(A + λ² I)⁻¹ g`` with ``l2`` (L,) = λ² and
+    ``held`` (n, L) the joints held at a limit (identity row and column, zero step)."""
+    for i in range(n):
+        for k in range(n):
+            for l in range(LANES):
+                H[i, k, l] = A[i, k, l]
+        for l in range(LANES):
+            H[i, n, l] = g[i, l]
+            H[i, i, l] = H[i, i, l] + l2[l]
+    if any_held:
+        for i in range(n):
+            for k in range(n):
+                for l in range(LANES):
+                    if held[i, l] or held[k, l]:
+                        H[i, k, l] = 0.0
+            for l in range(LANES):
+                if held[i, l]:
+                    H[i, i, l] = 1.0
+                    H[i, n, l] = 0.0
+    for j in range(n):
+        for k in range(j + 1, n + 1):
+            for l in range(LANES):
+                H[j, k, l] = H[j, k, l] / H[j, j, l]
+        for i in range(j + 1, n):
+            for k in range(j + 1, n + 1):
+                for l in range(LANES):
+                    H[i, k, l] = H[i, k, l] - H[i, j, l] * H[j, k, l]
+    for i in range(n):
+        for l in range(LANES):
+            x[i, l] = H[i, n, l]
+    for j in range(n - 1, 0, -1):
+        for i in range(j):
+            for l in range(LANES):
+                x[i, l] = x[i, l] - H[i, j, l] * x[j, l]
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
+def _task_lanes(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n):
+    """The targets of task ``task`` (:data:`LANE_TARGETS_PER_TASK` of them), ``MODE_SEARCH`` or
+    ``MODE_POSITION``, the search of :func:`_task` run on :data:`LANES` targets at once.
+
+    Each lane runs one LM run of one start of one target; the evaluation (forward kinematics, error,
+    normal equations) and the solve run on every lane together, the bookkeeping (acceptance, λ, the
+    termination tests, the limits) lane by lane. A lane whose run ends takes, as :func:`_task` would,
+    the free pass, the next start or the task's next target: the same runs in the same order per
+    target, the same arithmetic per lane, so the answers are :func:`_task`'s up to the rounding of
+    the reordered sums (``tests/kinematics/test_lm_compiled.py`` compares them)."""
+    Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi = arrs
+    ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass = settings
+    q_out, ok_out, it_out, res_out, start_out = outs
+    L = LANES
+    M = Rt.shape[0]
+    rows = 3 if mode == MODE_POSITION else 6
+    first = task * LANE_TARGETS_PER_TASK
+    last = min(M, first + LANE_TARGETS_PER_TASK)
+    # the lanes' arms and targets, copied in when a lane takes a target
+    RfL = np.zeros((n + 1, 3, 3, L))
+    tfL = np.zeros((n + 1, 3, L))
+    offL = np.zeros((n, L))
+    RtL = np.zeros((3, 3, L))
+    ptL = np.zeros((3, L))
+    kindL = np.zeros((n + 1, L), dtype=np.int64)
+    kinds = np.zeros(n + 1, dtype=np.int64)
+    # the evaluation at the trial point, and the accepted point's state
+    R = np.empty((3, 3, L))
+    p = np.empty((3, L))
+    w = np.empty((n, 3, L))
+    o = np.empty((n, 3, L))
+    x = np.empty(L)
+    sv = np.empty(L)
+    cv = np.empty(L)
+    T33 = np.empty((3, 3, L))
+    en = np.empty((6, L))
+    nn = np.empty(L)
+    sn = np.empty(L)
+    cs = np.empty(L)
+    J = np.empty((6, n, L))
+    An = np.empty((n, n, L))
+    gn = np.empty((n, L))
+    A = np.zeros((n, n, L))
+    g = np.zeros((n, L))
+    H = np.empty((n, n + 1, L))
+    dq = np.empty((n, L))
+    l2 = np.zeros(L)
+    held = np.zeros((n, L), dtype=np.bool_)
+    q = np.zeros((n, L))
+    qt = np.zeros((n, L))
+    qs = np.zeros((n, L))
+    better = np.zeros(L, dtype=np.bool_)
+    # per lane: its target (-1: idle), start, pass, and the LM run's state
+    tgt = np.full(L, -1, dtype=np.int64)
+    s_l = np.zeros(L, dtype=np.int64)
+    pss_l = np.zeros(L, dtype=np.int64)
+    ntry_l = np.zeros(L, dtype=np.int64)
+    passes_l = np.zeros(L, dtype=np.int64)
+    limrun = np.zeros(L, dtype=np.bool_)
+    total_l = np.zeros(L, dtype=np.int64)
+    best_l = np.full(L, np.inf)
+    lam_l = np.zeros(L)
+    na_l = np.full(L, np.inf)
+    rej_l = np.zeros(L, dtype=np.int64)
+    it_l = np.zeros(L, dtype=np.int64)
+    start_l = np.zeros(L, dtype=np.bool_)
+    touched_l = np.zeros(L, dtype=np.bool_)
+    solve_l = np.zeros(L, dtype=np.bool_)
+    qv = np.empty(n)
+    M4 = np.empty((4, 4))
+    N4 = np.empty((4, 4))
+    P4 = np.empty((4, 4))
+    nxt = first
+    active = 0
+    for l in range(L):
+        if nxt < last:
+            tgt[l] = nxt
+            nxt += 1
+            active += 1
+            s_l[l] = -1  # "before the first start": the lane's set-up below takes start 0
+    # set-up of a lane: its target's arm and pose (a new target), its next start or pass, a fresh run
+    pending = np.ones(L, dtype=np.bool_)
+    for l in range(L):
+        pending[l] = tgt[l] >= 0
+    while active > 0:
+        # -- lane by lane: lanes waiting for a new run get one (the loop of _task over starts and passes)
+        refit = False
+        for l in range(L):
+            while pending[l]:
+                pending[l] = False
+                i = tgt[l]
+                b = arm[i]
+                if s_l[l] < 0:  # a new target
+                    refit = True
+                    for k in range(n + 1):
+                        for r in range(3):
+                            for c in range(3):
+                                RfL[k, r, c, l] = Rf[b, k, r, c]
+                            tfL[k, r, l] = tf[b, k, r]
+                        kindL[k, l] = rkind[b, k]
+                    for j in range(n):
+                        offL[j, l] = off[b, j]
+                    for r in range(3):
+                        for c in range(3):
+                            RtL[r, c, l] = Rt[i, r, c]
+                        ptL[r, l] = pt[i, r]
+                    total_l[l] = 0
+                    best_l[l] = np.inf
+                    ntry_l[l] = nexp[i] + max(0, k_last - k_first)
+                    passes_l[l] = 2 if limited_arm[b] and free_pass else 1
+                    s_l[l] = 0
+                    pss_l[l] = 0
+                    if ntry_l[l] == 0:
+                        ok_out[i] = False
+                        it_out[i] = 0
+                        res_out[i] = np.inf
+                        start_out[i] = -1
+                        if nxt < last:
+                            tgt[l] = nxt
+                            nxt += 1
+                            s_l[l] = -1
+                            pending[l] = True
+                        else:
+                            tgt[l] = -1
+                            active -= 1
+                        continue
+                if pss_l[l] == 0:
+                    s = s_l[l]
+                    if s < nexp[i]:
+                        for j in range(n):
+                            qs[j, l] = qexp[i, s, j]
+                    else:
+                        _random_start(keys[i], k_first + s - nexp[i], b, blo, bhi, qv)
+                        for j in range(n):
+                            qs[j, l] = qv[j]
+                limrun[l] = limited_arm[b] and pss_l[l] == 0
+                touched = False
+                for j in range(n):
+                    v = qs[j, l]
+                    if limrun[l]:
+                        v2 = _project1(v, clo[b, j], chi[b, j], not pris[j])
+                        if v2 != v:
+                            touched = True
+                        v = v2
+                    qt[j, l] = v
+                touched_l[l] = touched
+                lam_l[l] = lam0
+                rej_l[l] = 0
+                it_l[l] = 0
+                na_l[l] = np.inf
+                start_l[l] = True
+        if active == 0:
+            break
+        if refit:
+            for k in range(n + 1):
+                kk = 0
+                for l in range(L):
+                    if tgt[l] >= 0 and kindL[k, l] > kk:
+                        kk = kindL[k, l]
+                kinds[k] = kk
+        # -- every lane: evaluate the trial points
+        _fk_lanes(qt, RfL, tfL, kinds, offL, axes, pris, zax, R, p, w, o, x, sv, cv, T33, n)
+        _pose_error_lanes(R, p, RtL, ptL, en, nn, sn, cs, rows)
+        _normal_equations_lanes(p, w, o, pris, en, J, An, gn, rows, n)
+        for l in range(L):
+            better[l] = start_l[l] or nn[l] < na_l[l]
+        for j in range(n):
+            for l in range(L):
+                if better[l]:
+                    q[j, l] = qt[j, l]
+                    g[j, l] = gn[j, l]
+            for m in range(n):
+                for l in range(L):
+                    if better[l]:
+                        A[j, m, l] = An[j, m, l]
+        # -- lane by lane: acceptance, λ, the termination tests (as _lm), and the end of a run (as _task)
+        any_held = False
+        for l in range(L):
+            solve_l[l] = False
+            i = tgt[l]
+            if i < 0:
+                continue
+            b = arm[i]
+            code = 0
+            if better[l]:
+                na_l[l] = nn[l]
+            na = na_l[l]
+            if start_l[l]:
+                start_l[l] = False
+                if na <= tol:
+                    code = _AT_START
+                elif ilimit == 0:
+                    code = _ILIMIT
+            else:
+                it_l[l] += 1
+                if better[l]:
+                    lam_l[l] = lam_l[l] * 0.5
+                    rej_l[l] = 0
+                else:
+                    lam_l[l] = lam_l[l] * 2.0
+                    rej_l[l] += 1
+                if better[l] and na <= tol:
+                    code = _SUCCESS
+                elif better[l] and gtol > 0.0:
+                    g2 = g[0, l] * g[0, l]
+                    tr = A[0, 0, l]
+                    for j in range(1, n):
+                        g2 = g2 + g[j, l] * g[j, l]
+                        tr = tr + A[j, j, l]
+                    if math.sqrt(g2) <= gtol * math.sqrt(tr) * na:
+                        code = _STATIONARY
+                if code == 0:
+                    if rej_l[l] > rlimit:
+                        code = _REJECTIONS
+                    elif it_l[l] >= ilimit:
+                        code = _ILIMIT
+                    elif rej_l[l] > 0:
+                        mu = lam_l[l] * lam_l[l]
+                        g2 = g[0, l] * g[0, l]
+                        trace = A[0, 0, l]
+                        for j in range(1, n):
+                            g2 = g2 + g[j, l] * g[j, l]
+                            trace = trace + A[j, j, l]
+                        slack = (trace / mu + 64.0 * n * _EPS) * math.sqrt(g2)
+                        stuck = True
+                        for j in range(n):
+                            if not ((abs(g[j, l]) + slack) / mu <= 0.125 * _spacing(q[j, l])):
+                                stuck = False
+                                break
+                        if stuck:
+                            code = _STAGNATED
+            if code == 0:
+                # the next trial step: which joints the limits hold, then the solve (every lane at once)
+                solve_l[l] = True
+                l2[l] = lam_l[l] * lam_l[l]
+                if limrun[l]:
+                    for j in range(n):
+                        hj = clipped[b, j] and ((q[j, l] <= clo[b, j] and g[j, l] < 0.0)
+                                                or (q[j, l] >= chi[b, j] and g[j, l] > 0.0))
+                        held[j, l] = hj
+                        if hj:
+                            touched_l[l] = True
+                            any_held = True
+                else:
+                    for j in range(n):
+                        held[j, l] = False
+                continue
+            # the run ended: as _task after its _lm call
+            total_l[l] += it_l[l]
+            for j in range(n):
+                v = _project1(q[j, l], lo[b, j], hi[b, j], not pris[j])
+                if unlimited[b, j]:
+                    v = np.mod(v + np.pi, _TWO_PI) - np.pi
+                qv[j] = v
+            conv = code == _SUCCESS or code == _AT_START
+            if pss_l[l] == 0 and na < best_l[l]:
+                best_l[l] = na
+                for j in range(n):
+                    q_out[i, j] = qv[j]
+            done = False
+            if conv and _confirm(qv, b, Rt[i], pt[i], confirm_tol, rows, Rf, tf, off, axes, pris, lo, hi,
+                                 M4, N4, P4, n):
+                for j in range(n):
+                    q_out[i, j] = qv[j]
+                ok_out[i] = True
+                res_out[i] = na
+                start_out[i] = s_l[l]
+                done = True
+            elif touched_l[l] and pss_l[l] + 1 < passes_l[l]:
+                pss_l[l] += 1
+                pending[l] = True
+            else:
+                s_l[l] += 1
+                pss_l[l] = 0
+                if s_l[l] < ntry_l[l]:
+                    pending[l] = True
+                else:
+                    ok_out[i] = False
+                    res_out[i] = best_l[l]
+                    start_out[i] = -1
+                    done = True
+            if done:
+                it_out[i] = total_l[l]
+                if nxt < last:
+                    tgt[l] = nxt
+                    nxt += 1
+                    s_l[l] = -1
+                    pending[l] = True
+                else:
+                    tgt[l] = -1
+                    active -= 1
+        # -- every lane: the trial steps (lanes that start a run keep their start)
+        _solve_lanes(A, g, l2, held, any_held, H, dq, n)
+        for l in range(L):
+            if solve_l[l]:
+                i = tgt[l]
+                b = arm[i]
+                touched = touched_l[l]
+                for j in range(n):
+                    v = q[j, l] + dq[j, l]
+                    if limrun[l]:
+                        v2 = _project1(v, clo[b, j], chi[b, j], not pris[j])
+                        if v2 != v:
+                            touched = True
+                        v = v2
+                    qt[j, l] = v
+                touched_l[l] = touched
+
+
+@njit(cache=True, parallel=True, error_model="numpy", fastmath={"contract", "reassoc"})
+def _run_lanes(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
+               Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
+               ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
+    """The lane kernel's batch behind :func:`run_targets` (``MODE_SEARCH``, ``MODE_POSITION``)."""
+    M = Rt.shape[0]
+    n = axes.shape[0]
+    ntask = (M + LANE_TARGETS_PER_TASK - 1) // LANE_TARGETS_PER_TASK
+    arrs = (Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi)
+    settings = (ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass)
+    outs = (q_out, ok_out, it_out, res_out, start_out)
+    for task in prange(ntask):
+        _task_lanes(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n)
+
+
+# every separately compiled function that each batch reaches, callees before callers (the order of a
+# fresh compile); a new one must join its list, or a cached process may again run other bits
+_CALLEES = ("_sincos", "_mix", "_spacing", "_project1", "_stationary", "_random_start", "_confirm", "_lm", "_task")
+_LANE_CALLEES = ("_sincos_lanes", "_mix", "_spacing", "_project1", "_random_start", "_confirm", "_task_lanes")
+_bound: set = set()
+
+
+def _bind_callees(batch=None, callees=_CALLEES) -> None:
+    """Load the cached builds of ``callees``, callees first, before ``batch`` (a compiled batch,
+    :func:`_run_targets` or :func:`_run_lanes`) is loaded (see "Cache" in the module notes); signatures
+    from each cache index, for this CPU only. Reads the index through numba's private cache classes
+    (``_cache``, ``_load_index``, ``_index_key``: numba 0.68); where numba renames them this fails
+    loudly, in the cache test too."""
+    batch = _run_targets if batch is None else batch
+    if batch.py_func.__name__ in _bound:
+        return
+    _bound.add(batch.py_func.__name__)
+    if batch.overloads:
         return  # compiled (or loaded) already in this process: its calls are bound
-    codegen = _run_targets.targetctx.codegen()
-    for name in _CALLEES:
-        cache = globals()[name]._cache
+    codegen = batch.targetctx.codegen()
+    for name in callees:
+        dispatcher = globals()[name]
+        if dispatcher.overloads:
+            continue  # bound already (a callee the other batch shares)
+        cache = dispatcher._cache
         index = cache._cache_file._load_index()  # {} where the cache is empty or stale
         for key in index:
             # only entries this process would load itself (this CPU, this bytecode): a cache hit, no compile
             if cache._index_key(key[0], codegen) == key:
-                globals()[name].compile(key[0])
+                dispatcher.compile(key[0])
 
 
 def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                 Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
-                ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
+                ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out,
+                lanes=True):
     """Solve every target ``i`` (M of them) for arm ``arm[i]``; results written into the ``*_out`` arrays.
 
     ``MODE_SEARCH``: the explicit starts ``qexp[i, :nexp[i]]`` (S, n) in order, then the random starts
@@ -743,7 +1326,17 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
     ``MODE_PAPER``: one run from ``qexp[i, 0]`` with the paper's error, no limits, no confirmation;
     ``it_out`` counts iterations as the Appendix's loop does (success is tested at the top of the
     next iteration; see :func:`wsmap.kinematics.ik.lm_reference.ikine_LM_reference`).
+
+    ``lanes``: the search modes run on the lane kernel (:func:`_task_lanes`, :data:`LANES` targets at
+    once), the default; False runs them on the scalar kernel (:func:`_task`, one target at a time), the
+    reference the tests compare it with. ``MODE_PAPER`` always runs on the scalar kernel.
     """
+    if lanes and mode != MODE_PAPER:
+        _bind_callees(_run_lanes, _LANE_CALLEES)
+        _run_lanes(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
+                   Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
+                   ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out)
+        return
     _bind_callees()
     _run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                  Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
