@@ -97,11 +97,10 @@ def unsolved(count: int, n: int):
 
 
 def run_compiled(mode, aa: dict, arm, T, keys, qexp, nexp, k_first, k_last, ilimit, rlimit, tol, lam, confirm_tol,
-                 gtol=0.0, free_pass=True, lanes=True):
+                 gtol=0.0, free_pass=True):
     """Run :func:`wsmap.kinematics.lm_compiled.run_targets` on targets ``T`` (M, 4, 4) of arms
     ``arm`` (M,) (indices into ``aa``, from :func:`arm_arrays`). Returns ``q`` (M, n), ``ok``,
-    ``iterations``, ``residual``, ``start`` (M,). ``lanes``: the lane kernel (SIMD over targets, the
-    default) or, False, the scalar one (the reference; see :func:`~wsmap.kinematics.lm_compiled.run_targets`)."""
+    ``iterations``, ``residual``, ``start`` (M,)."""
     M, n = len(T), aa["axes"].shape[0]
     q, ok, it, res, start = unsolved(M, n)
     if M:
@@ -114,5 +113,5 @@ def run_compiled(mode, aa: dict, arm, T, keys, qexp, nexp, k_first, k_last, ilim
                 int(k_first), int(k_last), aa["Rf"], aa["tf"], aa["rkind"], aa["off"], aa["axes"], aa["pris"], aa["zax"],
                 aa["lo"], aa["hi"], aa["clo"], aa["chi"], aa["clipped"], aa["limited"], aa["unlimited"], aa["blo"],
                 aa["bhi"], int(ilimit), int(rlimit), float(tol), float(lam), float(gtol), float(confirm_tol),
-                bool(free_pass), q, ok, it, res, start, lanes=bool(lanes))
+                bool(free_pass), q, ok, it, res, start)
     return q, ok, it, res, start
