@@ -305,7 +305,9 @@ def main(argv=None):
     from wsmap import robots
     from wsmap.kinematics import lm_compiled
 
-    lm_compiled.ensure_compiled(notify=lambda line: print(line, file=sys.stderr))
+    from wsmap.kinematics.ik.warmup import ensure_compiled
+
+    ensure_compiled(notify=lambda line: print(line, file=sys.stderr))
     panda = robots.load("panda")
     rng = np.random.default_rng(5)
     lim = np.array(panda.limits)

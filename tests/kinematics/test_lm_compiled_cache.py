@@ -19,9 +19,10 @@ import sys
 import numpy as np
 import wsmap
 from wsmap.kinematics import ikine_search, lm_compiled
+from wsmap.kinematics.ik.warmup import ensure_compiled
 notices = []
 need = lm_compiled.needs_compile()
-lm_compiled.ensure_compiled(notify=notices.append)
+ensure_compiled(notify=notices.append)
 out = {"need_before": need, "need_after": lm_compiled.needs_compile(), "notices": np.array(notices, dtype=str)}
 for name in ("panda", "ur5e"):
     arm = wsmap.load(name)
@@ -87,8 +88,9 @@ def test_the_kernels_cache_where_cache_dir_said_at_import_and_numba_keeps_its_se
 
 def test_ensure_compiled_is_silent_once_compiled():
     from wsmap.kinematics import lm_compiled
+    from wsmap.kinematics.ik.warmup import ensure_compiled
 
-    lm_compiled.ensure_compiled()  # compiles or loads, whichever this machine needs
+    ensure_compiled()  # compiles or loads, whichever this machine needs
     notices = []
-    assert lm_compiled.ensure_compiled(notify=notices.append) == 0.0 and notices == []
+    assert ensure_compiled(notify=notices.append) == 0.0 and notices == []
     assert not lm_compiled.needs_compile()

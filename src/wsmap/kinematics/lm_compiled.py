@@ -55,8 +55,9 @@ Where the cache lives: ``NUMBA_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/wsmap/
 cannot be written. A user directory, so that an install into a read-only site-packages still
 caches: numba's locator is chosen when a function is decorated, so this module points
 ``numba.config.CACHE_DIR`` there while its own functions are decorated and puts it back after
-(other numba code in the process keeps numba's default). :func:`ensure_compiled` tells whether the
-first call will compile (the cache index says) and, if so, announces and does it.
+(other numba code in the process keeps numba's default). :func:`needs_compile` tells whether the
+first call will compile (the cache index says); :func:`wsmap.kinematics.ik.warmup.ensure_compiled`
+announces and does it (it runs searches: the IK layer, which this module does not import).
 
 Threads: :func:`set_threads` (default: ``WSMAP_THREADS`` or every core numba sees). A batch is a
 plain compiled loop over tasks that releases the GIL (``nogil``); :func:`_spread` runs it on this
@@ -81,7 +82,8 @@ import numpy as np
 from numba import njit
 
 __all__ = ["MODE_SEARCH", "MODE_PAPER", "MODE_POSITION", "TARGETS_PER_TASK", "set_threads", "threads", "threads_for",
-           "run_targets", "pose_keys", "orbit_test", "cache_dir", "needs_compile", "ensure_compiled"]
+           "run_targets", "pose_keys", "orbit_test", "cache_dir", "needs_compile", "estimate", "builds_for",
+           "record_compile_seconds"]
 
 
 def cache_dir() -> str:
@@ -919,12 +921,11 @@ def needs_compile(joints=(6, 7)) -> bool:
     """Whether the first numerical map of this process on arms of each joint count in ``joints``
     (an int or a sequence: 6 takes the six-joint build, any other count the generic one) will
     compile a kernel: one of them, or of their callees, is not cached for this CPU and this source."""
-    joints = (joints,) if isinstance(joints, (int, np.integer)) else tuple(joints)
-    names = _HELPERS + _CALLEES + tuple(_build(int(n)).py_func.__name__ for n in joints)
+    names = _HELPERS + _CALLEES + tuple(b.py_func.__name__ for b in builds_for(joints))
     return not all(_loadable(globals()[name]) for name in names)
 
 
-def _estimate() -> int:
+def estimate() -> int:
     """The notice's estimate (s): the last cold compile measured here, else :data:`COLD_COMPILE_SECONDS`."""
     try:
         with open(os.path.join(cache_dir(), _ESTIMATE_FILE)) as f:
@@ -933,46 +934,22 @@ def _estimate() -> int:
         return COLD_COMPILE_SECONDS
 
 
-def ensure_compiled(notify=None, joints=(6, 7)) -> float:
-    """Compile the IK kernels for arms of the joint counts ``joints`` now if the first map would
-    (:func:`needs_compile`), and say so first: ``notify`` (a callable taking one line; None: silent)
-    gets "compiling the IK kernels once, about N s; cached in DIR". The compile is a one-pose search
-    of the PUMA560 (six joints) and of the Panda (seven: the generic build) as each count needs
-    (every kernel, the types every caller passes), and the PUMA560's wrist-orbit pre-filter. Returns
-    the seconds it took (0.0 where everything was cached: loading is left to the first call)."""
-    joints = (joints,) if isinstance(joints, (int, np.integer)) else tuple(joints)
-    if not needs_compile(joints):
-        return 0.0
-    import time
-
-    builds = {_build(int(n)) for n in joints}
-    if notify is not None:
-        notify(f"compiling the IK kernels once, about {_estimate() * len(builds)} s; cached in {cache_dir()}")
-    from .. import robots
-    from .chain import as_chain
-    from .ik.reach_filter import reach_filter
-    from .ik.search import ikine_search
-
-    t0 = time.perf_counter()
-    puma = robots.load("puma560")
-    T = np.asarray(puma.fkine(np.linspace(-0.5, 0.5, puma.n)))[None]
-    if _run_targets6 in builds:
-        ikine_search(puma, T, starts=2, seed=0)
-    else:
-        reach_filter(as_chain(puma), T, 1e-6)  # the wrist-orbit test alone
-    if _run_targets in builds:
-        panda = robots.load("panda")
-        ikine_search(panda, np.asarray(panda.fkine(np.linspace(-0.5, 0.5, panda.n)))[None], starts=2, seed=0)
-    seconds = time.perf_counter() - t0
+def record_compile_seconds(seconds: float) -> None:
+    """Keep ``seconds`` (one build's cold compile, measured here) as the next notice's estimate."""
     try:
         from ..io import atomic_path
 
         with atomic_path(os.path.join(cache_dir(), _ESTIMATE_FILE)) as tmp:
             with open(tmp, "w") as f:
-                f.write(f"{seconds / len(builds):.1f}\n")  # per build: a notice multiplies by its builds
+                f.write(f"{seconds:.1f}\n")
     except OSError:
         pass  # a read-only cache: the estimate stays the default
-    return seconds
+
+
+def builds_for(joints) -> set:
+    """The compiled batches that arms of the joint counts ``joints`` (an int or a sequence) run on."""
+    joints = (joints,) if isinstance(joints, (int, np.integer)) else tuple(joints)
+    return {_build(int(n)) for n in joints}
 
 
 numba.config.CACHE_DIR = _NUMBA_CACHE_DIR_BEFORE
