@@ -329,6 +329,10 @@ def _run_map(args) -> int:
     K = args.orientations or 50
     R = ws.orientation_samples(K, seed=args.seed) if "orientations" in kind.inputs else None
 
+    if method == "numerical":  # a first run says why it is silent: a one-line notice, only if it compiles
+        from .kinematics.ik.warmup import ensure_compiled
+        ensure_compiled(notify=lambda line: print(f"wsmap: {line}", file=sys.stderr, flush=True),
+                                    joints=robot.n)
     t0 = time.perf_counter()
     ik = {k: v for k, v in dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit).items() if v is not None}
     if method == "numerical":

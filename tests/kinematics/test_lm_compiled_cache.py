@@ -18,8 +18,12 @@ SCRIPT = r"""
 import sys
 import numpy as np
 import wsmap
-from wsmap.kinematics import ikine_search
-out = {}
+from wsmap.kinematics import ikine_search, lm_compiled
+from wsmap.kinematics.ik.warmup import ensure_compiled
+notices = []
+need = lm_compiled.needs_compile()
+ensure_compiled(notify=notices.append)
+out = {"need_before": need, "need_after": lm_compiled.needs_compile(), "notices": np.array(notices, dtype=str)}
 for name in ("panda", "ur5e"):
     arm = wsmap.load(name)
     q = np.random.default_rng(0).uniform(-1.5, 1.5, size=(120, arm.n))
@@ -47,8 +51,46 @@ def test_cached_kernel_gives_the_bits_of_a_fresh_compile(tmp_path):
     fresh = _run(cache, tmp_path / "fresh.npz", 1)  # compiles, and writes the cache
     assert any(cache.rglob("*.nbc")), "the first run wrote no numba cache"
     cached = _run(cache, tmp_path / "cached.npz", 2)  # loads it (threads must not matter either)
+    # the first-run notice: once, in the process that compiles, naming the cache; none once cached
+    assert fresh["need_before"] and not fresh["need_after"] and not cached["need_before"]
+    assert len(fresh["notices"]) == 1 and len(cached["notices"]) == 0
+    assert fresh["notices"][0].startswith("compiling the IK kernels once, about ")
+    assert fresh["notices"][0].endswith(f"s; cached in {cache}")
     for name in ("panda", "ur5e"):
         assert fresh[name + "_ok"].any() and not fresh[name + "_ok"].all()
         for field in ("q", "it", "ok", "res"):
             a, b = fresh[f"{name}_{field}"], cached[f"{name}_{field}"]
             assert a.tobytes() == b.tobytes(), f"{name} {field}: the cached kernel differs from the fresh one"
+
+
+def test_the_cache_lives_in_a_user_directory(monkeypatch, tmp_path):
+    from wsmap.kinematics import lm_compiled
+
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert lm_compiled.cache_dir() == os.path.join(str(tmp_path), "wsmap", "numba")
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    assert lm_compiled.cache_dir() == os.path.join(os.path.expanduser("~"), ".cache", "wsmap", "numba")
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "nb"))
+    assert lm_compiled.cache_dir() == str(tmp_path / "nb")
+
+
+def test_the_kernels_cache_where_cache_dir_said_at_import_and_numba_keeps_its_setting():
+    import numba
+
+    from wsmap.kinematics import lm_compiled
+
+    where = lm_compiled._run_targets._cache._cache_path
+    # the directory cache_dir() named when the module was imported (numba's own place if unwritable)
+    assert where.startswith(lm_compiled.cache_dir()) or "__pycache__" in where
+    assert numba.config.CACHE_DIR == os.environ.get("NUMBA_CACHE_DIR", "")
+
+
+def test_ensure_compiled_is_silent_once_compiled():
+    from wsmap.kinematics import lm_compiled
+    from wsmap.kinematics.ik.warmup import ensure_compiled
+
+    ensure_compiled()  # compiles or loads, whichever this machine needs
+    notices = []
+    assert ensure_compiled(notify=notices.append) == 0.0 and notices == []
+    assert not lm_compiled.needs_compile()

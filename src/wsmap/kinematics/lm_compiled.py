@@ -21,13 +21,16 @@ are ``z``.
 
 Speed (``benchmarks/bench_fast_maps.py``, kernel rate): the forward kinematics takes its sines and
 cosines from :func:`_sincos` (no libm call: a third of the forward kinematics' time went to libm),
-and the joint count is a compile-time constant for six-joint arms (``run_targets`` passes the
-literal 6 to :func:`_task`, numba compiles that build apart and LLVM unrolls the loops over joints:
-the 6 x 6 solve a third faster); other arms take the generic build. The per-iteration functions
-are inlined into :func:`_lm` by numba (``inline="always"``), not called with their dozen array
-arguments: a fifth faster again. :func:`_lm` evaluates the start and every trial step at one
-call site, so each is inlined once; compiling both builds takes about 50 s (16 s before these
-changes), once: they are cached on disk.
+and the joint count is a compile-time constant for six-joint arms (:func:`_run_targets6` passes
+the literal 6 to :func:`_task`, numba compiles that build apart and LLVM unrolls the loops over
+joints: the 6 x 6 solve a third faster); other arms take the generic build, :func:`_run_targets`.
+Each build is its own compiled function, compiled on first use: a session of seven-joint arms
+never compiles the six-joint build. The per-iteration functions are inlined into :func:`_lm` by
+numba (``inline="always"``), not called with their dozen array arguments: a fifth faster again
+(and most of the compile time: without it a build compiles in 17 s of CPU instead of 23 s, but
+the Panda's single-start IK runs about 1.5x slower). :func:`_lm` evaluates the start and every
+trial step at one call site, so each is inlined once. A build compiles once (docs/performance.md,
+"Compile time"): the builds are cached on disk.
 
 Floating point: compiled with ``fastmath={"contract", "reassoc"}`` (fused multiply-adds, and sums
 the compiler may reorder and vectorise; no assumption about NaN or infinity, which the limits use):
@@ -36,7 +39,7 @@ about 15 % faster here than strict IEEE order, and the comparison with the numpy
 
 Cache: a process that loads the kernel from numba's disk cache runs the bits of the process that
 compiled it (``tests/kinematics/test_lm_compiled_cache.py``). That needs :func:`run_targets` to be a
-Python function around the compiled :func:`_run_targets`. Why: numba links a copy of every separately
+Python function around the compiled batches (:func:`_run_targets`, :func:`_run_targets6`). Why: numba links a copy of every separately
 compiled callee (:func:`_task`, :func:`_confirm`, ...) into its caller's code and optimises that copy
 again with the caller (with ``reassoc`` a second pass may reorder sums), and the loader binds a call
 to the first definition of its symbol that it loaded. A fresh compile loads each callee before its
@@ -47,23 +50,54 @@ unreachable targets, in the best end point. So :func:`_bind_callees` first loads
 callees before callers, as a fresh compile would: the fresh compile's results, in every process
 (~0.1 s more on the first call; the same speed after).
 
-Threads: :func:`set_threads` (default: ``WSMAP_THREADS`` or every core numba sees). Targets go to
-threads in chunks of :data:`TARGETS_PER_TASK` handed out dynamically, so the slow unreachable ones do
-not pile up on one thread. Results never depend on the thread count (each target is independent).
+Where the cache lives: ``NUMBA_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/wsmap/numba`` (default
+``~/.cache/wsmap/numba``), :func:`cache_dir`; numba's own choice (beside the sources) where that
+cannot be written. A user directory, so that an install into a read-only site-packages still
+caches: numba's locator is chosen when a function is decorated, so this module points
+``numba.config.CACHE_DIR`` there while its own functions are decorated and puts it back after
+(other numba code in the process keeps numba's default). :func:`needs_compile` tells whether the
+first call will compile (the cache index says); :func:`wsmap.kinematics.ik.warmup.ensure_compiled`
+announces and does it (it runs searches: the IK layer, which this module does not import).
+
+Threads: :func:`set_threads` (default: ``WSMAP_THREADS`` or every core numba sees). A batch is a
+plain compiled loop over tasks that releases the GIL (``nogil``); :func:`_spread` runs it on this
+thread and on pool threads, each taking :data:`TASKS_PER_GRAB` tasks of :data:`TARGETS_PER_TASK`
+targets at a time from a shared counter, so the slow unreachable ones do not pile up on one thread.
+Not numba's ``prange``: a parallel loop compiled :func:`_task` twice more (the outlined loop body),
+a third of a build's compile time. Calls too small for a second thread run on this one
+(:func:`threads_for`). Results never depend on the thread count (each target is independent).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 
 import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 __all__ = ["MODE_SEARCH", "MODE_PAPER", "MODE_POSITION", "TARGETS_PER_TASK", "set_threads", "threads", "threads_for",
-           "run_targets", "pose_keys", "orbit_test"]
+           "run_targets", "pose_keys", "orbit_test", "cache_dir", "needs_compile", "estimate", "builds_for",
+           "record_compile_seconds"]
+
+
+def cache_dir() -> str:
+    """Where numba caches the compiled kernels: ``NUMBA_CACHE_DIR`` if set, else
+    ``$XDG_CACHE_HOME/wsmap/numba`` (``~/.cache/wsmap/numba`` where ``XDG_CACHE_HOME`` is unset)."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return os.environ["NUMBA_CACHE_DIR"]
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "wsmap", "numba")
+
+
+# this module's functions cache in cache_dir(); put back at the end of the module (see the notes)
+_NUMBA_CACHE_DIR_BEFORE = numba.config.CACHE_DIR
+numba.config.CACHE_DIR = cache_dir()
 
 MODE_SEARCH = 0  # rotation-vector error, limits inside the iteration, FK confirmation, multi-start
 MODE_PAPER = 1  # Corke's tr2delta error, no limits in the iteration, one start (the paper's)
@@ -680,50 +714,99 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
             start_out[i] = -1
 
 
-@njit(cache=True, parallel=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "reassoc"})
+def _run_targets(t0, t1, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                  Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
                  ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
-    """The compiled batch behind :func:`run_targets` (called through it: see "Cache" in the module notes)."""
-    M = Rt.shape[0]
+    """Tasks ``t0 .. t1 - 1`` of the batch behind :func:`run_targets`, any joint count (the generic
+    build); releases the GIL (see "Threads" and "Cache" in the module notes)."""
     n = axes.shape[0]
-    ntask = (M + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK
     arrs = (Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi)
     settings = (ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass)
     outs = (q_out, ok_out, it_out, res_out, start_out)
-    for task in prange(ntask):
-        # six joints (most industrial arms): a build with the joint count a constant
-        if n == 6:
-            _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, 6)
-        else:
-            _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n)
+    for task in range(t0, t1):
+        _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n)
 
 
-# every separately compiled function that _run_targets reaches, callees before callers (the order of a
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "reassoc"})
+def _run_targets6(t0, t1, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
+                  Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
+                  ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
+    """:func:`_run_targets` for six-joint arms: the joint count the literal 6 (the loops over joints
+    unroll), a build of its own, compiled on first use."""
+    arrs = (Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi)
+    settings = (ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass)
+    outs = (q_out, ok_out, it_out, res_out, start_out)
+    for task in range(t0, t1):
+        _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, 6)
+
+
+def _build(n: int):
+    """The compiled batch for ``n``-joint arms: :func:`_run_targets6` for six, else :func:`_run_targets`."""
+    return _run_targets6 if n == 6 else _run_targets
+
+
+#: Tasks a thread takes at a time from the shared counter of :func:`_spread`.
+TASKS_PER_GRAB = 4
+_pool = None
+_pool_lock = threading.Lock()
+
+
+def _spread(ntask: int, run) -> None:
+    """``run(a, b)`` (a compiled batch that releases the GIL) over tasks ``0 .. ntask - 1`` on
+    :func:`threads` threads, this one and pool threads, each taking :data:`TASKS_PER_GRAB` tasks at a
+    time from a shared counter, so the slow unreachable targets do not pile up on one thread."""
+    global _pool
+    want = min(numba.get_num_threads(), (ntask + TASKS_PER_GRAB - 1) // TASKS_PER_GRAB)
+    if want <= 1:
+        run(0, ntask)
+        return
+    with _pool_lock:
+        if _pool is None:
+            _pool = ThreadPoolExecutor(max(1, numba.config.NUMBA_NUM_THREADS - 1), thread_name_prefix="wsmap-ik")
+    grabs = itertools.count()  # next() on it is atomic under the GIL
+
+    def work():
+        while True:
+            a = next(grabs) * TASKS_PER_GRAB
+            if a >= ntask:
+                return
+            run(a, min(ntask, a + TASKS_PER_GRAB))
+
+    futures = [_pool.submit(work) for _ in range(want - 1)]
+    work()
+    for f in futures:
+        f.result()
+
+
+# every separately compiled function that a batch reaches, callees before callers (the order of a
 # fresh compile); a new one must join the list, or a cached process may again run other bits
 _CALLEES = ("_sincos", "_mix", "_spacing", "_project1", "_stationary", "_random_start", "_confirm", "_lm", "_task")
-_callees_bound = False
+_bound: set = set()
 
 
-def _bind_callees() -> None:
-    """Load the cached builds of :data:`_CALLEES`, callees first, before :func:`_run_targets` is loaded
-    (see "Cache" in the module notes); signatures from each cache index, for this CPU only. Reads the
-    index through numba's private cache classes (``_cache``, ``_load_index``, ``_index_key``: numba
-    0.68); where numba renames them this fails loudly, in the cache test too."""
-    global _callees_bound
-    if _callees_bound:
+def _bind_callees(batch=None) -> None:
+    """Load the cached builds of :data:`_CALLEES`, callees first, before ``batch`` (a compiled batch:
+    :func:`_run_targets`, :func:`_run_targets6`) is loaded (see "Cache" in the module notes);
+    signatures from each cache index, for this CPU only. Reads the index through numba's private
+    cache classes (``_cache``, ``_load_index``, ``_index_key``: numba 0.68); where numba renames them
+    this fails loudly, in the cache test too."""
+    batch = _run_targets if batch is None else batch
+    name = batch.py_func.__name__
+    if name in _bound:
         return
-    _callees_bound = True
-    if _run_targets.overloads:
+    _bound.add(name)
+    if batch.overloads:
         return  # compiled (or loaded) already in this process: its calls are bound
-    codegen = _run_targets.targetctx.codegen()
-    for name in _CALLEES:
-        cache = globals()[name]._cache
+    codegen = batch.targetctx.codegen()
+    for callee in _CALLEES:
+        dispatcher = globals()[callee]
+        cache = dispatcher._cache
         index = cache._cache_file._load_index()  # {} where the cache is empty or stale
         for key in index:
             # only entries this process would load itself (this CPU, this bytecode): a cache hit, no compile
-            if cache._index_key(key[0], codegen) == key:
-                globals()[name].compile(key[0])
+            if cache._index_key(key[0], codegen) == key and key[0] not in dispatcher.overloads:
+                dispatcher.compile(key[0])
 
 
 def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
@@ -744,10 +827,12 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
     ``it_out`` counts iterations as the Appendix's loop does (success is tested at the top of the
     next iteration; see :func:`wsmap.kinematics.ik.lm_reference.ikine_LM_reference`).
     """
-    _bind_callees()
-    _run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
-                 Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
-                 ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out)
+    batch = _build(axes.shape[0])
+    _bind_callees(batch)
+    args = (mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
+            Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
+            ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out)
+    _spread((Rt.shape[0] + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK, lambda a, b: batch(a, b, *args))
 
 
 # --------------------------------------------------------------------------- helpers of the search
@@ -809,3 +894,62 @@ def orbit_test(a, e0, c, r, u, w, p):
                     best = max(best, math.cos(th + psi), math.cos(-th + psi))
         out[k] = math.isfinite(best) and D - 2.0 * rp * rc * best <= r[k] * r[k]
     return out
+
+
+# --------------------------------------------------------------------------- the first call
+#: Seconds a cold compile of one build of the kernels took on the development machine (2 shared
+#: cores; see docs/performance.md, "Compile time"); the notice's estimate until this machine has
+#: measured its own.
+COLD_COMPILE_SECONDS = 25
+_ESTIMATE_FILE = "wsmap_compile_seconds.txt"
+
+# what a numerical map calls besides a batch (the batch's own callees: _CALLEES)
+_HELPERS = ("pose_keys", "orbit_test")
+
+
+def _loadable(dispatcher) -> bool:
+    """Whether ``dispatcher`` is compiled in this process or has a cache entry this process can load
+    (this CPU, this source), read from numba's cache index as :func:`_bind_callees` does."""
+    if dispatcher.overloads:
+        return True
+    cache = dispatcher._cache
+    codegen = dispatcher.targetctx.codegen()
+    return any(cache._index_key(key[0], codegen) == key for key in cache._cache_file._load_index())
+
+
+def needs_compile(joints=(6, 7)) -> bool:
+    """Whether the first numerical map of this process on arms of each joint count in ``joints``
+    (an int or a sequence: 6 takes the six-joint build, any other count the generic one) will
+    compile a kernel: one of them, or of their callees, is not cached for this CPU and this source."""
+    names = _HELPERS + _CALLEES + tuple(b.py_func.__name__ for b in builds_for(joints))
+    return not all(_loadable(globals()[name]) for name in names)
+
+
+def estimate() -> int:
+    """The notice's estimate (s): the last cold compile measured here, else :data:`COLD_COMPILE_SECONDS`."""
+    try:
+        with open(os.path.join(cache_dir(), _ESTIMATE_FILE)) as f:
+            return max(1, round(float(f.read())))
+    except (OSError, ValueError):
+        return COLD_COMPILE_SECONDS
+
+
+def record_compile_seconds(seconds: float) -> None:
+    """Keep ``seconds`` (one build's cold compile, measured here) as the next notice's estimate."""
+    try:
+        from ..io import atomic_path
+
+        with atomic_path(os.path.join(cache_dir(), _ESTIMATE_FILE)) as tmp:
+            with open(tmp, "w") as f:
+                f.write(f"{seconds:.1f}\n")
+    except OSError:
+        pass  # a read-only cache: the estimate stays the default
+
+
+def builds_for(joints) -> set:
+    """The compiled batches that arms of the joint counts ``joints`` (an int or a sequence) run on."""
+    joints = (joints,) if isinstance(joints, (int, np.integer)) else tuple(joints)
+    return {_build(int(n)) for n in joints}
+
+
+numba.config.CACHE_DIR = _NUMBA_CACHE_DIR_BEFORE

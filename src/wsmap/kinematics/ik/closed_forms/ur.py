@@ -46,12 +46,13 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import numba
 import numpy as np
 from numba import njit, prange
 
 from ...arms import ArmBatch
 from ...chain import PRISMATIC, SerialChain, as_chain
-from ...lm_compiled import threads_for
+from ...lm_compiled import cache_dir, threads_for
 from ...transforms import as_real_array, check_rigid
 from ..geometry import dh_equivalent
 from ..registry import ClosedForm, register
@@ -59,6 +60,11 @@ from ..solution import IKReason, IKSolution
 
 __all__ = ["UR_ALPHA", "URParameters", "ur_parameters", "is_ur_type", "require_ur_type", "ikine_ur",
            "ur_reachable"]
+
+# the compiled branches cache beside the IK kernels, in a user directory (see lm_compiled's "Where the
+# cache lives"); numba's setting put back at the end of the module
+_NUMBA_CACHE_DIR_BEFORE = numba.config.CACHE_DIR
+numba.config.CACHE_DIR = cache_dir()
 
 #: UR's twists ``alpha`` (rad) of joints 1..6 (standard DH); joint 6's twist is part of the flange.
 UR_ALPHA = np.array([np.pi / 2, 0.0, 0.0, np.pi / 2, -np.pi / 2, 0.0])
@@ -785,3 +791,6 @@ def _run(T, tix, arm, par, mapped, limited, base_mode, Binv, flange_mode, Finv, 
 
 register(ClosedForm(name="ur", description="the UR family", recognise=is_ur_type, require=require_ur_type,
                     solve=ikine_ur, reachable=ur_reachable))
+
+
+numba.config.CACHE_DIR = _NUMBA_CACHE_DIR_BEFORE

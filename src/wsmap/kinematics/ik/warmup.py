@@ -1,0 +1,47 @@
+"""The first call of the compiled IK kernels: compiled now, with a one-line notice, rather than during
+the first map in silence (:func:`ensure_compiled`, called by ``wsmap map`` before it maps)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ... import robots
+from .. import lm_compiled
+from ..chain import as_chain
+from .reach_filter import reach_filter
+from .search import ikine_search
+
+__all__ = ["ensure_compiled"]
+
+
+def ensure_compiled(notify=None, joints=(6, 7)) -> float:
+    """Compile the IK kernels for arms of the joint counts ``joints`` (an int or a sequence: 6 takes
+    the six-joint build, any other count the generic one) now if the first map would
+    (:func:`wsmap.kinematics.lm_compiled.needs_compile`: numba's cache index says), and say so first:
+    ``notify`` (a callable taking one line; None: silent) gets "compiling the IK kernels once, about
+    N s; cached in DIR", N the last cold compile measured here per build (or
+    :data:`~wsmap.kinematics.lm_compiled.COLD_COMPILE_SECONDS`). The compile is a one-pose search of
+    the PUMA560 (six joints) and of the Panda (seven: the generic build) as the counts need (every
+    kernel, the types every caller passes), and the PUMA560's wrist-orbit pre-filter. Returns the
+    seconds it took (0.0 where everything was cached: loading is left to the first call)."""
+    if not lm_compiled.needs_compile(joints):
+        return 0.0
+    builds = lm_compiled.builds_for(joints)
+    if notify is not None:
+        notify(f"compiling the IK kernels once, about {lm_compiled.estimate() * len(builds)} s; "
+               f"cached in {lm_compiled.cache_dir()}")
+    t0 = time.perf_counter()
+    puma = robots.load("puma560")
+    T = np.asarray(puma.fkine(np.linspace(-0.5, 0.5, puma.n)))[None]
+    if lm_compiled.builds_for(6) <= builds:
+        ikine_search(puma, T, starts=2, seed=0)
+    else:
+        reach_filter(as_chain(puma), T, 1e-6)  # the wrist-orbit test alone
+    if lm_compiled.builds_for(7) <= builds:
+        panda = robots.load("panda")
+        ikine_search(panda, np.asarray(panda.fkine(np.linspace(-0.5, 0.5, panda.n)))[None], starts=2, seed=0)
+    seconds = time.perf_counter() - t0
+    lm_compiled.record_compile_seconds(seconds / len(builds))
+    return seconds
