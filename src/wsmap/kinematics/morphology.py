@@ -63,9 +63,10 @@ class MorphologyError(ValueError):
 
 
 def _wrap(x):
-    """Angles wrapped to ``(-pi, pi]`` (elementwise)."""
+    """Angles wrapped to ``(-pi, pi]`` (elementwise); within 1e-9 of -pi is pi (a half turn computed
+    from rounded frames lands on either side of -pi; the description must not depend on which)."""
     w = np.mod(np.asarray(x, dtype=np.float64) + np.pi, 2 * np.pi) - np.pi
-    return np.where(w <= -np.pi, np.pi, w)
+    return np.where(w <= -np.pi + 1e-9, np.pi, w)
 
 
 def mdh_transform(a, alpha, d, theta) -> np.ndarray:
@@ -172,9 +173,9 @@ class Morphology:
         lim[: self.n] = self.limits
         width = lim[:, 1] - lim[:, 0]
         full = width >= 2 * np.pi
-        centre = np.where(full, 0.0, 0.5 * (lim[:, 0] + lim[:, 1]))
+        finite = np.where(full[:, None], 0.0, lim)
+        centre = _wrap(0.5 * (finite[:, 0] + finite[:, 1]))
         half = np.where(full, np.pi, 0.5 * width)
-        centre = np.where(full, 0.0, _wrap(centre))
         per_joint = np.stack([rows[:, 0], np.sin(rows[:, 1]), np.cos(rows[:, 1]), rows[:, 2],
                               np.sin(rows[:, 3]), np.cos(rows[:, 3]), np.sin(centre), np.cos(centre), half],
                              axis=1)

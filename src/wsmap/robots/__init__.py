@@ -33,6 +33,7 @@ from .registry import NAMED, ROBOTS, SOURCES, ArmTable, from_name, load, registe
 from . import arms  # noqa: E402, F401, I001
 from .arms.puma560 import PUMA560_QLIM_DEG, puma560  # noqa: E402
 from . import families  # noqa: E402
+from . import morph  # noqa: E402, F401 -- registers the morph6 and morph7 families
 from .families import *  # noqa: E402, F401, F403 -- the families' public names, listed once in families.__all__
 
 __all__ = [
