@@ -290,6 +290,9 @@ def describe(robot, name: str | None = None) -> Morphology:
             raise MorphologyError(f"{label}: frames {i} -> {i + 1} are not a modified-DH step (error {err:.2e})")
     rows[:, 1] = _wrap(rows[:, 1])
     rows[:, 3] = _wrap(rows[:, 3])
+    # rounding leaves ±1e-17 where a length or angle is zero: zero, so that the description's
+    # signs and zeros do not depend on the order the arm's transforms were multiplied in
+    rows[np.abs(rows) < 1e-12] = 0.0
     mount = F[0]
     tool = _inv(F[n]) @ T0
     qlim = np.array(chain.limits, dtype=np.float64)

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import io
 import math
+import time
 import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -55,7 +56,8 @@ from .training import TrainConfig, TrainResult, train
 from .training_range import ExtrapolationError, ExtrapolationWarning
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "MorphModelConfig", "MorphMapModel", "morph_features", "fit_morph_model",
-           "predict_morph_map", "save_morph_model", "load_morph_model", "nearest_arm_maps", "TOOL_DOWN"]
+           "predict_morph_map", "save_morph_model", "load_morph_model", "nearest_arm_maps", "TOOL_DOWN", "morph_spec",
+           "build_morph_shards"]
 
 FORMAT = "wsmap.morph_model"
 FORMAT_VERSION = 1
@@ -70,7 +72,7 @@ class MorphModelConfig:
 
     encoder: tuple[int, ...] = (256, 256)
     latent: int = 128
-    decoder: tuple[int, ...] = (128, 128, 128)
+    decoder: tuple[int, ...] = (128, 128)
     frequencies: int = 4
 
     def __post_init__(self):
@@ -233,6 +235,62 @@ def predict_morph_map(model: MorphMapModel, robot, nodes, *, rpy=None, conventio
         X = torch.as_tensor(x[None], dtype=torch.float32)
         logits = model.logits_at(X, torch.as_tensor(nodes, dtype=torch.float32))[0]
     return (logits > logit_threshold).numpy()
+
+
+# --------------------------------------------------------------------------------------------- experience
+def morph_spec(n_joints: int, samples: int, seed: int = 0, step: float = 0.1, box: float = 1.5):
+    """The dataset spec of ``samples`` arms of ``morph<n_joints>``: the tool-down map
+    (:data:`TOOL_DOWN`, ``"standard"`` convention) on ``[-box, box]³`` at ``step`` (m), labelled by
+    the numerical map search; ``seed`` picks the streams (one seed per shard)."""
+    from ..datasets import DatasetSpec
+
+    if n_joints not in (6, 7):
+        raise ValueError(f"the morph families have 6 or 7 joints, got {n_joints!r}")
+    return DatasetSpec(f"morph{n_joints}_s{seed}", family=f"morph{n_joints}", method="numerical", fixed=TOOL_DOWN,
+                       convention="standard", lo=-box, hi=box, step=step, samples=samples, seed=seed)
+
+
+def build_morph_shards(out_dir, n_joints: int, shards: int, arms_per_shard: int, *, step: float = 0.1,
+                       box: float = 1.5, first_seed: int = 0, test_samples: int | None = None, progress: bool = False,
+                       workers: int | None = None, scheduler=None) -> tuple[list, list[float]]:
+    """Build (or reuse) ``shards`` dataset files of ``arms_per_shard`` arms each, shard ``k`` the
+    spec :func:`morph_spec` with seed ``first_seed + k`` (independent streams), in ``out_dir``.
+
+    Resumable: a shard whose file is there and holds exactly its spec is loaded, not rebuilt, so a
+    run that stopped goes on at the first missing shard (each file is written atomically by
+    :func:`wsmap.datasets.build_dataset_files`, in chunks, on Dask with ``workers`` / ``scheduler``).
+    ``test_samples``: shard 0 also gets its independent test set (``NAME.test.npz``).
+
+    Returns ``(datasets, seconds)``: the loaded :class:`~wsmap.datasets.Dataset` of every shard in
+    order (with shard 0's test set last when asked for) and the build time of each shard (0.0 for
+    a shard that was there)."""
+    from ..datasets import DatasetError, build_dataset_files, load_dataset, test_path_for, test_spec
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    loaded, seconds = [], []
+    test = None
+    for k in range(shards):
+        spec = morph_spec(n_joints, arms_per_shard, first_seed + k, step, box)
+        path = out_dir / f"{spec.name}_{arms_per_shard}_{step:g}.npz"
+        want_test = test_samples is not None and k == 0
+        tspec = test_spec(spec, test_samples) if want_test else None
+        try:
+            ds = load_dataset(path, expect_spec=spec)
+            ts = load_dataset(test_path_for(path), expect_spec=tspec) if want_test else None
+            seconds.append(0.0)
+        except (FileNotFoundError, DatasetError):
+            t0 = time.perf_counter()
+            build_dataset_files(spec, path, test_samples=test_samples if want_test else None, progress=progress,
+                                workers=workers, scheduler=scheduler)
+            seconds.append(time.perf_counter() - t0)
+            ds = load_dataset(path, expect_spec=spec)
+            ts = load_dataset(test_path_for(path), expect_spec=tspec) if want_test else None
+        loaded.append(ds)
+        test = ts if want_test else test
+    if test is not None:
+        loaded.append(test)
+    return loaded, seconds
 
 
 # --------------------------------------------------------------------------------------------- training
