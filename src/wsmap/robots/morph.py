@@ -24,8 +24,9 @@ theta_i)`` of a modified-DH table (row 1: ``a_0 = alpha_0 = 0``, ``d_1 ~ U(0, 0.
 * every length (and the tool's offset) is scaled by ``min(1, R / L)``, ``R ~ U(0.5, 1.8)`` and ``L``
   the arm's length bound ``sum_i sqrt(a_i² + d_i²) + |t|``, so no arm is much longer than a UR10e
   (1.78 m by the same bound);
-* the arm is drawn again while its canonical description is outside the family's range (below)
-  or while it lies within :data:`HOLD_OUT_RADIUS` of a held-out arm
+* the arm is drawn again while its canonical description is outside the family's range (below),
+  while its length bound is under 0.4 m (an arm that reaches a few grid nodes at most; the
+  smallest real arms here have 0.9 m), or while it lies within :data:`HOLD_OUT_RADIUS` of a held-out arm
   (:data:`HELD_OUT`: the six named arms), in :func:`~wsmap.kinematics.morphology.morphology_distance`.
 
 The table is then described canonically (:func:`~wsmap.kinematics.morphology.describe`): the
@@ -71,6 +72,8 @@ _MAX_D1 = 0.45
 _MIN_RANGE = 2.8
 _MAX_TOOL = 0.3
 _MAX_BOUND = 1.8
+#: the least length bound of a drawn arm (m): below it the arm reaches a few grid nodes at most
+_MIN_BOUND = 0.4
 
 
 def _rotvec_to_matrix(r) -> np.ndarray:
@@ -101,6 +104,13 @@ def _matrix_to_rotvec(R) -> np.ndarray:
         j = int(np.flatnonzero(np.abs(k) > 1e-6)[0])
         return th * (k if k[j] > 0 else -k)
     return th * v / np.linalg.norm(v)
+
+
+def _length_bound(p: np.ndarray, n: int) -> float:
+    """``sum_i sqrt(a_i² + d_i²) + |tool translation|`` (m) of one arm's parameters: no point of the
+    arm is farther than that from its base origin."""
+    per = p[: 6 * n].reshape(n, 6)
+    return float(np.sqrt(per[:, 0] ** 2 + per[:, 2] ** 2).sum() + np.linalg.norm(p[6 * n: 6 * n + 3]))
 
 
 def morph_params(m: Morphology) -> np.ndarray:
@@ -196,7 +206,7 @@ class MorphFamily(ArmFamily):
             arm = from_dh(d, a, alpha, offset=theta, qlim=qlim, modified=True, flange=tool)
             p = morph_params(describe(arm))
             # the canonical rows can leave the range (offsets of coincident axes add up): drawn again
-            if not self.problems(p) and morphology_distance(morphology_of(p).features(), self._held).min() > HOLD_OUT_RADIUS:
+            if _length_bound(p, self.n_joints) >= _MIN_BOUND and not self.problems(p) and morphology_distance(morphology_of(p).features(), self._held).min() > HOLD_OUT_RADIUS:
                 return p
 
     def draw(self, count: int, seed=None) -> np.ndarray:
@@ -225,7 +235,7 @@ class MorphFamily(ArmFamily):
         t = p[6 * n: 6 * n + 3]
         if np.linalg.norm(t) > _MAX_TOOL + 1e-12:
             out.append(f"the tool is {np.linalg.norm(t):.3g} m from the last axis' frame, more than {_MAX_TOOL} m")
-        bound = np.sqrt(per[:, 0] ** 2 + per[:, 2] ** 2).sum() + np.linalg.norm(t)
+        bound = _length_bound(p, n)
         if bound > _MAX_BOUND + 1e-9:
             out.append(f"the length bound sum(sqrt(a² + d²)) + |tool| is {bound:.3g} m, more than {_MAX_BOUND} m")
         return out
