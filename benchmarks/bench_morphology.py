@@ -97,7 +97,8 @@ def main() -> int:
     train_s = time.perf_counter() - t0
     epochs = len(result.history.epoch) - 1
     print(f"trained on {sum(len(d) for d in train_sets)} arms x {len(nodes)} nodes: {epochs} epochs in "
-          f"{train_s:.0f} s (best epoch {result.best_epoch}, stop: {result.stop_reason})", flush=True)
+          f"{train_s:.0f} s (best epoch {result.best_epoch}, stop: {result.stop_reason}); threshold "
+          f"{model.threshold} (best F on the validation arms)", flush=True)
     if args.save:
         mm.save_morph_model(model, args.save)
 
@@ -109,7 +110,7 @@ def main() -> int:
     with torch.no_grad():
         logits = model.logits_at(torch.as_tensor(test_X, dtype=torch.float32),
                                  torch.as_tensor(nodes, dtype=torch.float32)).numpy()
-    pred = logits > 0
+    pred = logits > np.log(model.threshold / (1 - model.threshold))
     nn_pred, nn_dist = mm.nearest_arm_maps(train_X, train_Y, test_X)
     rows = [("held-out random arms", len(test_Y), _score(pred, test_Y), _score(nn_pred, test_Y),
              float(np.median(nn_dist)), float(test_Y.mean()))]
