@@ -16,7 +16,9 @@ Where things are:
   table of the manufacturer's numbers with its source, ending with its registration. A new named
   arm is one new module there (and its name on the import line of ``arms/__init__.py``) plus its
   tests in ``tests/robots/``;
-* :mod:`.families` — the families of arms and their samplers.
+* :mod:`.families` — the families of arms and their samplers;
+* :mod:`.morph` — the ``morph6`` / ``morph7`` families (random 6R / 7R arms over the range of real
+  arms, the named arms held out), registered into :data:`FAMILIES` on import.
 
 Every named arm has its base at the manufacturer's base (mounting flange) frame and its end at the
 tool flange (no gripper), its joint zero and signs as the manufacturer's controller, and its joint
