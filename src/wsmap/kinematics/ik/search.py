@@ -288,7 +288,9 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
         confirmation on the position alone)
     seed_free_pass : whether a neighbour's solution that fails inside the limits is also run
         without them (the second pass of :func:`ikine_search`'s starts)
-    progress : called once with the number of targets when done
+    progress : called with the number of targets settled as the search goes (those the reach filter
+        rules out at once, those solved after each pass and wave, the rest at the end); the numbers
+        add up to the number of targets
 
     Per arm, in passes: (1) every node: ``q0`` then ``starts`` random starts (the first ones of
     :func:`ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
@@ -351,6 +353,15 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     res = np.full(M, np.inf)
     start = np.full(M, -1, dtype=np.int64)
 
+    reported = [0]
+
+    def report(count):
+        if progress is not None and count:
+            reported[0] += count
+            progress(count)
+
+    report(int(M - possible.sum()))
+
     def run(idx, qexp, nexp, k_first, k_last, seeded):
         if not idx.size:
             return 0
@@ -361,6 +372,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
         q[idx[better]] = qq[better]
         res[idx[better]] = rr[better]
         ok[idx] |= okk
+        report(int(okk.sum()))
         if seeded:
             start[idx[okk]] = -2
         else:
@@ -432,8 +444,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
             run(idx, np.zeros((idx.size, 1, n)), np.zeros(idx.size, dtype=np.int64), 1 + starts, 1 + starts + count,
                 False)
         waves()
-    if progress is not None:
-        progress(M)
+    report(M - reported[0])
     shape = (N,) if not batch else batch + (N,)
     return IKSolution(q.reshape(shape + (n,)), ok.reshape(shape), its.reshape(shape), res.reshape(shape),
                       failure_reasons(ok, out_of_reach=~possible).reshape(shape), start.reshape(shape))
