@@ -25,6 +25,7 @@ EXTRAS = {
     "dask": "cluster",
     "torch": "learn",
     "pandas": "learn",
+    "cma": "learn",
     "h5py": "h5",
     "coal": "collision",
     "mujoco": "mjcf",

@@ -296,16 +296,15 @@ def _run_map(args) -> int:
     if args.out is None and not given:
         raise ValueError(f"nothing to write: give --out FILE.npz and/or {', '.join(_OUTPUTS)}")
     out = check_output_path(args.out, "--out") if args.out is not None else None
-    if out is not None and out.suffix != ".npz":
-        raise ValueError(f"--out {args.out!r}: a map file is .npz (numpy writes that format whatever the name)")
-    extra = {}
-    for flag, path in given.items():
-        extra[flag] = check_output_path(path, flag)
-        if extra[flag].suffix.lower() != _OUTPUTS[flag][1]:
-            raise ValueError(f"{flag} {path!r}: the file name must end in {_OUTPUTS[flag][1]}")
+    extra = {flag: check_output_path(path, flag) for flag, path in given.items()}
     names = ([os.path.abspath(out)] if out is not None else []) + [os.path.abspath(v) for v in extra.values()]
     if len(set(names)) != len(names):
         raise ValueError(f"two of --out, {', '.join(_OUTPUTS)} name the same file")
+    if out is not None and out.suffix != ".npz":
+        raise ValueError(f"--out {args.out!r}: a map file is .npz (numpy writes that format whatever the name)")
+    for flag, path in extra.items():
+        if path.suffix.lower() != _OUTPUTS[flag][1]:
+            raise ValueError(f"{flag} {str(path)!r}: the file name must end in {_OUTPUTS[flag][1]}")
     kind = get_kind(args.kind) if args.kind else default_kind(args.scope or "R3")
     if args.scope is not None and kind.scope != args.scope:
         raise ValueError(f"--scope {args.scope} does not go with --kind {kind.name} (a {kind.scope} map)")
