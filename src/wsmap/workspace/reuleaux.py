@@ -216,7 +216,8 @@ class ReuleauxMap:
                                     f"{spheres.shape} and {rows.shape}")
         try:
             return cls(spheres=spheres[:, :3], ri=spheres[:, 3], pose_spheres=rows[:, :3], poses=rows[:, 3:],
-                       resolution=float(np.ravel(attr)[0]))
+                       # the float32 attribute's shortest decimal (0.08, not 0.0799999982): the grid's step
+                       resolution=float(str(np.float32(np.ravel(attr)[0]))))
         except ValueError as e:
             raise ReuleauxFileError(f"{path}: {e}") from None
 
