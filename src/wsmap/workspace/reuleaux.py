@@ -20,9 +20,9 @@ around the centre, each orientation pointing at the centre; wsmap's pose positio
 itself (the pose IK was solved for), so a pose's position equals its sphere's. The index is
 ``100·mean`` of the node's bits, in float64 (Reuleaux computes it in float32 before storing it as
 float64; the two agree to ~1e-5 %). Other map kinds: ``dexterous`` exports the same spheres and
-poses with the dexterous nodes only being those at 100 %; ``constant`` exports its one orientation
-(``K = 1``, standard convention); ``reach``, ``orientation`` and ``manipulability`` are not
-reachability over a set of orientations and do not export (:attr:`MapKind.poses`).
+poses (its nodes are those at 100 %); ``constant`` exports its one orientation (``K = 1``, standard
+convention); ``reach``, ``orientation`` and ``manipulability`` are not reachability over a set of
+orientations and do not export (:attr:`wsmap.workspace.kinds.MapKind.poses`). ``docs/reuleaux.md``.
 
 Needs h5py (``pip install 'wsmap[h5]'``).
 """
