@@ -5,6 +5,8 @@ Examples::
 
     wsmap map --robot puma560 --out puma560.npz --png puma560_slices.png
     wsmap map --robot panda --kind index --orientations 50 --step 0.05 --out panda_index.npz --html panda.html
+    wsmap map --robot ur5e --kind index --step 0.05 --h5 ur5e_reachability.h5   # Reuleaux (ROS)
+    wsmap map --robot panda --rpy pi 0 0 --png panda_tooldown.png -q              # a picture alone
     wsmap place --robot ur5e --targets poses.csv --x -1 1 --y -1 1 --out ranking.csv
     wsmap map --d 0 0 0.15 0.43 0 0 --a 0 0.43 0.02 0 0 0 \\
               --alpha pi/2 0 -pi/2 pi/2 -pi/2 0 --method numerical --out mine.npz
@@ -213,7 +215,7 @@ def _map_parser(sub):
         "map",
         help="compute the workspace map of an arm on a grid",
         description="Compute a workspace map of an arm (one value per grid node: a bit or a number, as --kind "
-                    "says) and write it as .npz.",
+                    "says) and write it: a .npz map file, pictures and views, a Reuleaux .h5 for ROS.",
         epilog="Node order: x fastest, then y, then z (flat index i + nx*j + nx*ny*k).",
         formatter_class=_Help,
     )
@@ -264,7 +266,6 @@ def _map_parser(sub):
     g.add_argument("--ilimit", type=positive_int, help="numerical IK iteration limit per start (default: the solver's)")
     g.add_argument("--rlimit", type=positive_int,
                    help="numerical IK limit on consecutive rejected steps per start (default: the solver's)")
-    g = m.add_argument_group("output")
     g = m.add_argument_group("output (at least one)")
     g.add_argument("--out", metavar="FILE.npz", help="the map as .npz (map, nodes, grid, settings; wsmap.load_map)")
     g.add_argument("--png", metavar="FILE.png",
