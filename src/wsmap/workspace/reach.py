@@ -106,9 +106,10 @@ def reachability_index(robot, nodes, orientations, *, method: str = "auto", retu
     an order where each is near one solved before (:func:`continuation_order`), every node starting
     from its own solution there, then from its neighbours' (``ik`` overrides the search settings).
 
-    ``progress``: ``True`` (a bar on stderr of the node-orientation pairs settled, orientation after
-    orientation; numerically the nodes out of reach at any orientation count once the reach map is
-    done) or a callable ``progress(n)`` (:mod:`wsmap._progress`).
+    ``progress``: ``True`` (a bar on stderr of the poses settled) or a callable ``progress(n)``
+    (:mod:`wsmap._progress`): the ``N x K`` node-orientation pairs, orientation after orientation;
+    numerically the ``N`` position-only targets of the reach map come first (``N x (K + 1)`` in all),
+    and the pairs of the nodes it finds out of reach count as soon as it is done.
     """
     robot = _check_arm(robot)
     nodes = _check_nodes("nodes", nodes)
@@ -117,8 +118,9 @@ def reachability_index(robot, nodes, orientations, *, method: str = "auto", retu
     _check_fits(N * K * 8, f"an index of {N} nodes x {K} orientations")
     method = resolve_method(robot, method)
     check_progress(progress)
-    with progress_bar(progress, N * K, unit="pose", desc=f"{method} index") as update:
-        bits = _index_bits(robot, nodes, R, method, ik, seed, update or (lambda n: None))
+    total = N * K + (N if method == "numerical" else 0)
+    with progress_bar(progress, total, unit="pose", desc=f"{method} index") as update:
+        bits = _index_bits(robot, nodes, R, method, ik, seed, update)
     index = bits.mean(axis=1)
     return (index, bits) if return_bits else index
 
@@ -127,6 +129,7 @@ def _index_bits(robot, nodes, R, method, ik, seed, update):
     """The bool ``(N, K)`` of :func:`reachability_index`, ``update(n)`` called as pairs are settled."""
     N, K = len(nodes), len(R)
     bits = np.zeros((N, K), dtype=bool)
+    update = update or (lambda n: None)
     if method == "exact":
         # blocks of orientations: ~1e6 poses per closed-form call, and about 20 updates of the bar
         block = max(1, min((1 << 20) // max(N, 1), -(-K // 20)))
@@ -141,7 +144,7 @@ def _index_bits(robot, nodes, R, method, ik, seed, update):
     else:
         chain = as_chain(robot)
         settings = _search_settings(ik, INDEX_SETTINGS)
-        reach = position_map(chain, nodes, ik=ik, seed=seed)
+        reach = position_map(chain, nodes, ik=ik, seed=seed, progress=update)
         idx = np.flatnonzero(reach)
         update((N - idx.size) * K)
         if idx.size:
