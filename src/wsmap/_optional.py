@@ -10,10 +10,9 @@ the map was computed.
 from __future__ import annotations
 
 import importlib
-import importlib.util
 from types import ModuleType
 
-__all__ = ["EXTRAS", "MissingDependency", "require", "available"]
+__all__ = ["EXTRAS", "MissingDependency", "require"]
 
 #: The extra of ``pip install wsmap[EXTRA]`` that brings each optional module (import name -> extra).
 EXTRAS = {
@@ -41,14 +40,6 @@ class MissingDependency(ImportError, ValueError):
     bad input (one line, exit 2) and library callers may catch either."""
 
 
-def available(module: str) -> bool:
-    """Whether ``module`` (an import name, e.g. ``"plotly"``) can be imported, without importing it."""
-    try:
-        return importlib.util.find_spec(module) is not None
-    except (ImportError, ValueError):
-        return False
-
-
 def require(module: str, *, extra: str | None = None, why: str | None = None) -> ModuleType:
     """Import and return the optional ``module``; :class:`MissingDependency` naming the extra otherwise.
 
@@ -69,5 +60,5 @@ def require(module: str, *, extra: str | None = None, why: str | None = None) ->
         how = f"pip install 'wsmap[{extra}]'" if extra else f"pip install {dist}"
         inner = getattr(e, "name", None)
         # a dependency of the module missing (a partial install) is named too: the extra brings it
-        detail = "" if inner in (None, top, module) else f" (its dependency {inner} is missing)"
-        raise MissingDependency(f"{why or module} needs {dist}, which is not installed{detail}: {how}") from None
+        what = "which is not installed" if inner in (None, top, module) else f"whose dependency {inner} is not installed"
+        raise MissingDependency(f"{why or module} needs {dist}, {what}: {how}") from None
