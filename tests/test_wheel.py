@@ -10,8 +10,9 @@ venv's site-packages, nothing else. A dependency that pyproject.toml forgets is 
 the venv (``import wsmap`` fails, as it did for numba), a lower bound the lock does not meet fails
 the version check, and ``pip check`` checks the staged set for consistency.
 
-Slow (the compiled kernels are compiled afresh for the installed files: about a minute, once for
-both maps through a shared ``NUMBA_CACHE_DIR``); part of ``make test``.
+Slow: the compiled kernels are compiled afresh for the installed files, once for both maps (one
+venv, a shared ``NUMBA_CACHE_DIR``): about 70 s of CPU (3 min of wall time on two loaded cores);
+part of ``make test``.
 """
 
 from __future__ import annotations

@@ -181,3 +181,14 @@ def test_cli_h5_writes_the_index_and_refuses_kinds_that_do_not_export(tmp_path, 
         assert f"which the {kind} map is not" in capsys.readouterr().err and not bad.exists()
     assert cli.main(["map", "--robot", "puma560", "--convention", "paper", "--h5", str(tmp_path / "p.h5")]) == 2
     assert "standard convention" in capsys.readouterr().err
+
+
+def test_the_constant_map_exports_its_one_orientation(tmp_path):
+    h5, out = tmp_path / "puma.h5", tmp_path / "puma.npz"
+    assert cli.main(["map", "--robot", "puma560", "--step", "0.25", "--rpy", "pi", "0", "0", "--h5", str(h5),
+                     "--out", str(out), "-q"]) == 0
+    flat, nodes, grid, _ = ws.load_map(out)
+    m = load_reuleaux(h5)
+    np.testing.assert_allclose(m.spheres, nodes[flat])
+    assert np.all(m.ri == 100.0) and len(m.poses) == flat.sum()
+    np.testing.assert_allclose(m.orientations(), Rotation.from_euler("x", np.pi).as_matrix()[None], atol=1e-6)
