@@ -131,3 +131,12 @@ def test_paper_commands_need_a_checkout(monkeypatch, tmp_path, capsys):
         assert cli.main(argv) == 2
         err = capsys.readouterr().err
         assert "needs a checkout of the wsmap repository (dvc.yaml and notebooks/" in err, argv
+
+
+def test_dask_missing_is_named_before_any_work(monkeypatch, tmp_path, capsys):
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    out = tmp_path / "d.npz"
+    assert cli.main(["data", "build", "sec61", "--samples", "10", "--workers", "2", "--out", str(out), "-q"]) == 2
+    assert capsys.readouterr().err == ("wsmap: error: building on Dask (workers or a scheduler) needs "
+                                       "dask[distributed], which is not installed: pip install 'wsmap[cluster]'\n")
+    assert not list(tmp_path.iterdir())
