@@ -60,5 +60,6 @@ def require(module: str, *, extra: str | None = None, why: str | None = None) ->
         how = f"pip install 'wsmap[{extra}]'" if extra else f"pip install {dist}"
         inner = getattr(e, "name", None)
         # a dependency of the module missing (a partial install) is named too: the extra brings it
-        what = "which is not installed" if inner in (None, top, module) else f"whose dependency {inner} is not installed"
+        what = ("which is not installed" if inner in (None, top, module)
+                else f"whose dependency {inner} is not installed")
         raise MissingDependency(f"{why or module} needs {dist}, {what}: {how}") from None
