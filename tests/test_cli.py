@@ -27,7 +27,7 @@ def test_map_command_writes_the_exact_map(tmp_path):
     expected = ws.constant_orientation_map(robots.puma560(), ws.cartesian_grid(-1, 1, 0.1))
     np.testing.assert_array_equal(flat, expected)
     assert grid["shape"] == [21, 21, 21] and nodes.shape == (9261, 3)
-    assert settings["method"] == "exact" and settings["convention"] == "paper"
+    assert settings["method"] == "exact" and settings["convention"] == "standard"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["puma.npz", "puma.png"]
 

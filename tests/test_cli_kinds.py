@@ -39,7 +39,8 @@ def test_map_kinds_write_the_library_result_with_their_settings(tmp_path, capsys
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--kind", "reach", "--orientations", "5"], "--orientations is used by --kind index and dexterous"),
+    (["--kind", "reach", "--orientations", "5"],
+     "--kind reach does not read --orientations (it is read by --kind index/dexterous)"),
     (["--kind", "index", "--scope", "SO3"], "--scope SO3 does not go with --kind index"),
     (["--kind", "index", "--method", "model", "--model", "x.pt"], "--method model predicts the paper's maps"),
     (["--kind", "index", "--paper-lm"], "--paper-lm is the paper's solver of its own maps"),

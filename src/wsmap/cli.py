@@ -5,6 +5,8 @@ Examples::
 
     wsmap map --robot puma560 --out puma560.npz --png puma560_slices.png
     wsmap map --robot panda --kind index --orientations 50 --step 0.05 --out panda_index.npz --html panda.html
+    wsmap map --robot ur5e --kind index --step 0.05 --h5 ur5e_reachability.h5   # Reuleaux (ROS)
+    wsmap map --robot panda --rpy pi 0 0 --png panda_tooldown.png -q              # a picture alone
     wsmap place --robot ur5e --targets poses.csv --x -1 1 --y -1 1 --out ranking.csv
     wsmap map --d 0 0 0.15 0.43 0 0 --a 0 0.43 0.02 0 0 0 \\
               --alpha pi/2 0 -pi/2 pi/2 -pi/2 0 --method numerical --out mine.npz
@@ -123,6 +125,29 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
+class _Help(argparse.ArgumentDefaultsHelpFormatter):
+    """Help lines with ``(default: X)`` only where X says something: not for ``None`` (the help line
+    says what happens then), not for a flag's ``False``, not where the line already names a default."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if action.default is None or action.default is False or "default" in text:
+            return text
+        return super()._get_help_string(action)
+
+
+#: The options that feed a kind's inputs (:data:`wsmap.workspace.kinds.INPUTS`): given with a kind that
+#: does not read them, they are refused instead of ignored.
+_INPUT_FLAGS = {"rpy": "--rpy", "point": "--point", "orientations": "--orientations", "convention": "--convention"}
+#: The output options of ``wsmap map`` besides --out, the optional modules each one needs, and the suffix.
+_OUTPUTS = {"--png": ((), ".png"), "--html": (("plotly",), ".html"), "--ply": ((), ".ply"),
+            "--glb": (("trimesh", "skimage"), ".glb"), "--h5": (("h5py",), ".h5")}
+
+
+def _quiet_argument(p, what="no progress bar or summary"):
+    p.add_argument("-q", "--quiet", action="store_true", help=what)
+
+
 # ------------------------------------------------------------------------------------- wsmap map
 def _robot_from_args(args):
     """The arm of ``wsmap map``: a named arm, a URDF file, or DH columns (standard or modified)."""
@@ -213,9 +238,9 @@ def _map_parser(sub):
         "map",
         help="compute the workspace map of an arm on a grid",
         description="Compute a workspace map of an arm (one value per grid node: a bit or a number, as --kind "
-                    "says) and write it as .npz.",
+                    "says) and write it: a .npz map file, pictures and views, a Reuleaux .h5 for ROS.",
         epilog="Node order: x fastest, then y, then z (flat index i + nx*j + nx*ny*k).",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=_Help,
     )
     _arm_arguments(m)
     g = m.add_argument_group("kind and scope")
@@ -231,10 +256,12 @@ def _map_parser(sub):
     g.add_argument("--lo", type=number, nargs="+", help="grid start, one value or three (default -1 m for R3, 0 rad for SO3)")
     g.add_argument("--hi", type=number, nargs="+", help="grid end, inclusive (default 1 m for R3, 2*pi for SO3)")
     g.add_argument("--step", type=number, nargs="+", help="grid step (default 0.1 m for R3, pi/10 for SO3)")
-    g.add_argument("--rpy", type=number, nargs=3, default=[0.0, 0.0, 0.0], metavar=("R1", "R2", "R3"),
-                   help="R3 scope: fixed orientation, R = Rx(r1) Ry(r2) Rz(r3), radians")
-    g.add_argument("--point", type=number, nargs=3, default=[0.5, 0.5, 0.5], metavar=("X", "Y", "Z"),
-                   help="SO3 scope: fixed point in metres")
+    g.add_argument("--rpy", type=number, nargs=3, metavar=("R1", "R2", "R3"),
+                   help=f"--kind {'/'.join(k.name for k in kinds_taking('rpy'))}: fixed orientation, "
+                        "R = Rx(r1) Ry(r2) Rz(r3), radians (default 0 0 0)")
+    g.add_argument("--point", type=number, nargs=3, metavar=("X", "Y", "Z"),
+                   help=f"--kind {'/'.join(k.name for k in kinds_taking('point'))}: fixed point in metres "
+                        "(default 0.5 0.5 0.5)")
     g = m.add_argument_group("method")
     g.add_argument("--method", choices=["auto", "exact", "numerical", "model"], default="auto",
                    help="auto: exact where a closed form exists, else numerical; exact: closed form (the "
@@ -251,8 +278,10 @@ def _map_parser(sub):
     g.add_argument("--paper-lm", action="store_true",
                    help="numerical: the paper's one-start Levenberg-Marquardt from q = 0 instead of the multi-start "
                         "search (misses reachable nodes; for comparison with the paper)")
-    g.add_argument("--convention", choices=["paper", "standard"], default="paper",
-                   help="paper: T = R·transl(p), tests R·p (the authors' code); standard: T = transl(p)·R")
+    g.add_argument("--convention", choices=["standard", "paper"],
+                   help=f"--kind {'/'.join(k.name for k in kinds_taking('convention'))}: standard: T = transl(p)·R "
+                        "(default; the tool at p with orientation R); paper: T = R·transl(p), tests R·p (the "
+                        "authors' code, the paper's maps)")
     g.add_argument("--model", help="trained model file for --method model")
     g.add_argument("--allow-extrapolation", action="store_true",
                    help="--method model: predict for arms outside the range the model was trained on (with a warning)")
@@ -261,14 +290,19 @@ def _map_parser(sub):
     g.add_argument("--ilimit", type=positive_int, help="numerical IK iteration limit per start (default: the solver's)")
     g.add_argument("--rlimit", type=positive_int,
                    help="numerical IK limit on consecutive rejected steps per start (default: the solver's)")
-    g = m.add_argument_group("output")
-    g.add_argument("--out", required=True, help="output .npz file (map, nodes, grid, settings)")
-    g.add_argument("--png", help="also draw the map's z-slices to this PNG (a colour bar for index/manipulability; "
-                                 "another suffix such as .pdf or .svg picks that format)")
-    g.add_argument("--html", help="also write an interactive 3-D view (standalone HTML, plotly.js inline)")
-    g.add_argument("--ply", help="also write the reachable nodes as a coloured point cloud (.ply)")
-    g.add_argument("--glb", help="also write iso-surfaces of the map as a glTF scene (.glb)")
-    g.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+    g = m.add_argument_group("output (at least one)")
+    g.add_argument("--out", metavar="FILE.npz", help="the map as .npz (map, nodes, grid, settings; wsmap.load_map)")
+    g.add_argument("--png", metavar="FILE.png",
+                   help="the map's z-slices as a PNG (a colour bar for index/manipulability)")
+    g.add_argument("--html", metavar="FILE.html",
+                   help="an interactive 3-D view (standalone HTML, plotly.js inline; needs wsmap[views])")
+    g.add_argument("--ply", metavar="FILE.ply", help="the reachable nodes as a coloured point cloud")
+    g.add_argument("--glb", metavar="FILE.glb", help="iso-surfaces of the map as a glTF scene (needs wsmap[views])")
+    g.add_argument("--h5", metavar="FILE.h5",
+                   help=f"a Reuleaux reachability map for ROS (HDF5; --kind "
+                        f"{'/'.join(k.name for k in kinds() if k.poses is not None)}; needs wsmap[h5]; "
+                        "see docs/reuleaux.md)")
+    _quiet_argument(g)
     m.set_defaults(run=_run_map)
 
 
@@ -281,17 +315,33 @@ def _run_map(args) -> int:
     from .workspace.kinds import MapRequest, default_kind, get_kind, kinds, kinds_taking
 
     # every check before any work
-    extra = check_outputs({"--out": args.out, "--png": args.png, "--html": args.html, "--ply": args.ply,
-                           "--glb": args.glb}, inputs={"--urdf": args.urdf, "--model": args.model})
-    out = extra.pop("--out")
-    png_format = _figure_format(extra["--png"]) if "--png" in extra else None
+    from ._optional import require
+
+    given = {flag: getattr(args, flag[2:]) for flag in _OUTPUTS if getattr(args, flag[2:])}
+    if args.out is None and not given:
+        raise ValueError(f"nothing to write: give --out FILE.npz and/or {', '.join(_OUTPUTS)}")
+    extra = check_outputs({"--out": args.out, **given}, inputs={"--urdf": args.urdf, "--model": args.model})
+    out = extra.pop("--out", None)
+    if out is not None and out.suffix != ".npz":
+        raise ValueError(f"--out {args.out!r}: a map file is .npz (numpy writes that format whatever the name)")
+    for flag, path in extra.items():
+        if path.suffix.lower() != _OUTPUTS[flag][1]:
+            raise ValueError(f"{flag} {str(path)!r}: the file name must end in {_OUTPUTS[flag][1]}")
     kind = get_kind(args.kind) if args.kind else default_kind(args.scope or "R3")
     if args.scope is not None and kind.scope != args.scope:
         raise ValueError(f"--scope {args.scope} does not go with --kind {kind.name} (a {kind.scope} map)")
     scope = kind.scope
-    if args.orientations is not None and "orientations" not in kind.inputs:
-        users = " and ".join(k.name for k in kinds_taking("orientations"))
-        raise ValueError(f"--orientations is used by --kind {users} (kind is {kind.name!r})")
+    for name, flag in _INPUT_FLAGS.items():  # the registry says what each kind reads
+        if getattr(args, name) is not None and name not in kind.inputs:
+            users = "/".join(k.name for k in kinds_taking(name)) or "no kind"
+            raise ValueError(f"--kind {kind.name} does not read {flag} (it is read by --kind {users})")
+    if "--h5" in extra and kind.poses is None:
+        takers = "/".join(k.name for k in kinds() if k.poses is not None)
+        raise ValueError(f"--h5 writes reachability over orientations (--kind {takers}), which the {kind.name} map "
+                         "is not")
+    for flag in extra:
+        for module in _OUTPUTS[flag][0]:
+            require(module, why=flag)
     from .workspace.orientations import MAX_ORIENTATIONS
 
     if args.orientations is not None and args.orientations > MAX_ORIENTATIONS:
@@ -305,6 +355,7 @@ def _run_map(args) -> int:
             raise ValueError("--method model needs a model file (--model PATH)")
         if not Path(args.model).is_file():
             raise ValueError(f"--model {args.model!r}: no such file")
+        require("torch", why="--method model")
         from . import learn  # noqa: F401 -- registers the "model" map method of wsmap.workspace.grid_map
     elif args.model:
         raise ValueError(f"--model is only used with --method model (method is {args.method!r})")
@@ -343,11 +394,18 @@ def _run_map(args) -> int:
             ik.update({**kind.search_settings, **{k: v for k, v in dict(
                 tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit, starts=args.starts, retry=args.retry).items()
                 if v is not None}}, seed=args.seed)
-    convention = kind.convention or args.convention
-    request = MapRequest(method=method, convention=convention, rpy=tuple(args.rpy), point=tuple(args.point),
+    convention = kind.convention or args.convention or "standard"
+    rpy = (0.0, 0.0, 0.0) if args.rpy is None else tuple(args.rpy)
+    point = (0.5, 0.5, 0.5) if args.point is None else tuple(args.point)
+    request = MapRequest(method=method, convention=convention, rpy=rpy, point=point,
                          orientations=R, ik=ik, seed=args.seed, model=args.model,
                          allow_extrapolation=args.allow_extrapolation, progress=not args.quiet)
-    flat = kind.compute(robot, grid, request)
+    if "--h5" in extra:
+        if convention != "standard":
+            raise ValueError("--h5 writes poses T = transl(p)·R, the standard convention; drop --convention paper")
+        flat, bits, R_h5 = kind.poses(robot, grid, request)  # the map and its poses in one computation
+    else:
+        flat = kind.compute(robot, grid, request)
     seconds = time.perf_counter() - t0
     how = {"exact": "closed form", "model": f"network {args.model}",
            "numerical": ("the paper's LM, one start at q = 0" if args.paper_lm else
@@ -362,7 +420,7 @@ def _run_map(args) -> int:
         "kind": kind.name, "robot": robot.name, "source": getattr(robot, "source", None), "urdf": args.urdf,
         "ee": args.ee, "n": robot.n, "qlim": None if robot.qlim is None else np.asarray(robot.qlim).tolist(),
         "method": method, "how": how, "convention": convention,
-        "rpy": list(args.rpy), "point": list(args.point), "model": args.model, "ik": ik, "seconds": seconds,
+        "rpy": list(rpy), "point": list(point), "model": args.model, "ik": ik, "seconds": seconds,
     }
     if hasattr(robot, "d"):  # a DH arm: its table
         settings.update(d=robot.d.tolist(), a=robot.a.tolist(), alpha=robot.alpha.tolist())
@@ -380,13 +438,29 @@ def _run_map(args) -> int:
         else:
             fig = plot_slices(flat, grid["shape"], grid["lo"], grid["step"], labels=labels, title=title)
     values = np.asarray(flat, dtype=np.float64)
-    paths = [out] + ([extra["--png"]] if fig is not None else [])
+    paths = ([out] if out is not None else []) + list(extra.values())
     try:
         # the map and its slices (which can always be drawn) together, or neither
         with atomic_paths(paths) as tmps:
-            ws.save_map(tmps[0], flat, grid, settings, orientations=R)
-            if fig is not None:
-                fig.savefig(tmps[1], dpi=120, bbox_inches="tight", format=png_format)
+            if out is not None:
+                ws.save_map(tmps[0], flat, grid, settings, orientations=R)
+            for flag, tmp in zip(extra, tmps[len(tmps) - len(extra):]):
+                if flag == "--h5":
+                    ws.save_reuleaux(tmp, grid, bits, R_h5)
+                elif flag == "--png":
+                    fig.savefig(tmp, dpi=120, bbox_inches="tight")
+                elif flag == "--html":
+                    from .views import save_html
+
+                    save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map")
+                elif flag == "--ply":
+                    from .views import save_ply
+
+                    save_ply(tmp, values, grid, label=kind.label)
+                else:
+                    from .views import save_glb
+
+                    save_glb(tmp, values, grid, levels=kind.levels(values))
     finally:
         if fig is not None:
             import matplotlib.pyplot as plt
@@ -452,7 +526,7 @@ def _place_parser(sub):
                "spaces, a header line allowed): 6 columns x y z r1 r2 r3 "
                "(metres; radians, R = Rx(r1) Ry(r2) Rz(r3), T = transl(x, y, z) R) or 16 columns (the 4x4 "
                "matrix, row by row).",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=_Help,
     )
     _arm_arguments(m)
     g = m.add_argument_group("placement")
@@ -466,7 +540,7 @@ def _place_parser(sub):
                    help="auto: the closed form where the arm has one, else the numerical search")
     g.add_argument("--top", type=positive_int, default=5, help="candidates to print")
     g.add_argument("--out", help="write the ranking (every candidate) to this CSV file")
-    g.add_argument("--quiet", action="store_true", help="no table")
+    _quiet_argument(g, "no table")
     m.set_defaults(run=_run_place)
 
 
@@ -577,7 +651,7 @@ def _data_parser(sub):
                                     "processes, --scheduler ADDRESS uses a running cluster (`dask scheduler` and "
                                     "`dask worker ADDRESS` on its machines). The files are byte-identical either "
                                     "way.",
-                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                        formatter_class=_Help)
     b.add_argument("name", help="a dataset of the catalogue (see `wsmap data list`)")
     b.add_argument("--out", required=True, help="output file (.npz)")
     b.add_argument("--samples", type=positive_int, help="number of arms (the first N of the spec's streams; default the paper's)")
@@ -592,7 +666,7 @@ def _data_parser(sub):
                    help="compute the labels on the Dask cluster of this scheduler (e.g. tcp://head:8786)")
     b.add_argument("--connect-timeout", type=positive_float, default=5.0,
                    help="seconds to wait for --scheduler to answer (at most 3600)")
-    b.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+    _quiet_argument(b)
     b.set_defaults(run=_run_data_build)
     ls = dsub.add_parser("list", help="list the catalogue's datasets (the paper's and the extensions)")
     ls.set_defaults(run=_run_data_list)
@@ -678,7 +752,7 @@ def _paper_parser(sub):
                                    "--all runs everything without DVC.")
     psub = p.add_subparsers(dest="paper_command", required=True, metavar="{run,list,full}", parser_class=_Parser)
     r = psub.add_parser("run", help="run notebooks (stages) by name, or all of them",
-                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                        formatter_class=_Help)
     r.add_argument("notebooks", nargs="*", help="notebook names (without .ipynb)")
     r.add_argument("--all", action="store_true",
                    help="build the datasets the root lacks, then run every notebook in order (no DVC)")
@@ -697,7 +771,7 @@ def _paper_parser(sub):
                     "interrupted part resumes at its next step (session or block). See wsmap.paper.full.",
         epilog="Examples: wsmap paper full --list; wsmap paper full table1; wsmap paper full sec61_subspace "
                "--device cuda; wsmap paper full --estimate.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+        formatter_class=_Help)
     f.add_argument("parts", nargs="*", metavar="PART",
                    help="parts to run: names, shell patterns (table1_*) or groups (sec61, sec62, table1, table2, "
                         "table3); none: all, in order")
@@ -716,6 +790,7 @@ def _run_paper(args) -> int:
     from . import paths
     from .paper import pipeline
 
+    paths.require_checkout()
     if args.all and args.notebooks:
         raise ValueError("give notebook names or --all, not both")
     if not args.all and not args.notebooks:
@@ -741,8 +816,10 @@ def _run_paper(args) -> int:
 
 
 def _run_paper_full(args) -> int:
+    from . import paths
     from .paper import full
 
+    paths.require_checkout("wsmap paper full")
     if args.list and args.estimate:
         raise ValueError("give --list or --estimate, not both")
     params = Path(args.params) if args.params else None
@@ -763,8 +840,10 @@ def _run_paper_full(args) -> int:
 
 
 def _run_paper_list(args) -> int:
+    from . import paths
     from .paper import pipeline
 
+    paths.require_checkout("wsmap paper list")
     for name in pipeline.order():
         print(name)
     return 0
@@ -772,7 +851,10 @@ def _run_paper_list(args) -> int:
 
 # ------------------------------------------------------------------------------------------ main
 def _parser():
+    from ._version import __version__
+
     p = _Parser(prog="wsmap", description="Manipulator workspace maps, classical and learned.")
+    p.add_argument("--version", action="version", version=f"wsmap {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="{map,place,robots,data,paper}",
                            parser_class=_Parser)
     _map_parser(sub)

@@ -672,7 +672,9 @@ def design_by_cmaes(family, tasks, *, rpy=None, convention=None, verify=None, bo
     (``method="cmaes"``).
     """
     fam, tasks, check, lo, hi = _search_setup(family, tasks, verify, rpy, convention, bounds, max_calls, max_seconds)
-    import cma  # after the checks: bad input fails without the import
+    from ._optional import require
+
+    cma = require("cma", why="design_by_cmaes")  # after the checks: bad input fails without the import
 
     s = _Search("cmaes", fam, tasks, check, lo, hi, penalty, target_length, max_calls, max_seconds)
     opts = {"bounds": [0.0, 1.0], "verbose": -9, "verb_log": 0, "verb_disp": 0,

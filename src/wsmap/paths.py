@@ -21,6 +21,17 @@ EXECUTED = RESULTS / "notebooks"
 PAPER = (ROOT / ".." / "shared" / "paper").resolve()
 
 
+def require_checkout(what: str = "wsmap paper") -> Path:
+    """The project root, or a ``ValueError`` saying that ``what`` needs a checkout of the repository
+    (``dvc.yaml`` and ``notebooks/`` at the root): an installed package (``pip install wsmap``) has
+    the library but not the paper's notebooks, parameters and data."""
+    if not ((ROOT / "dvc.yaml").is_file() and NOTEBOOKS.is_dir()):
+        raise ValueError(f"{what} reproduces the paper and needs a checkout of the wsmap repository (dvc.yaml and "
+                         f"notebooks/ at its root); {ROOT} is not one: run it inside the checkout, or set "
+                         "WSMAP_ROOT to it")
+    return ROOT
+
+
 def load_params(section: str | None = None, path: Path | str | None = None) -> dict:
     """The pipeline's parameters (``params.yaml`` unless ``path``), or one section of them.
 

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._optional import require
 from .io import atomic_path, check_output_path
 from .workspace.grids import grid_counts, map_to_volume
 
@@ -167,14 +168,14 @@ def _node_coords(shape, lo, step) -> np.ndarray:
 
 
 def _empty_mesh():
-    import trimesh
+    trimesh = require("trimesh", why="a 3-D mesh")
 
     return trimesh.Trimesh(vertices=np.zeros((0, 3)), faces=np.zeros((0, 3), dtype=np.int64), process=False)
 
 
 def _iso(v: np.ndarray, shape, lo, step, level: float):
-    import trimesh
-    from skimage.measure import marching_cubes
+    trimesh = require("trimesh", why="an iso-surface")
+    marching_cubes = require("skimage.measure", extra="views", why="an iso-surface").marching_cubes
 
     vmin, vmax = float(v.min()), float(v.max())
     if not vmax > level:
@@ -232,6 +233,8 @@ def save_glb(path, values, grid, levels=(0.25, 0.5, 0.75), colormap="viridis", *
     no level that any node is above (nothing to draw), an unknown colormap, a bad path.
     Written atomically. Returns the path.
     """
+    require("trimesh", why="a .glb view")
+    require("skimage", why="a .glb view")
     import trimesh
     from trimesh.visual import TextureVisuals
     from trimesh.visual.material import PBRMaterial
@@ -336,7 +339,7 @@ def figure_3d(values, grid, *, kind: str = "points", title: str | None = None, l
     ``ValueError``: a bad map or grid, an unknown ``kind``, no node above ``threshold`` (points)
     or above any level (iso), no levels.
     """
-    import plotly.graph_objects as go
+    go = require("plotly.graph_objects", extra="views", why="a 3-D view")
 
     scope, shape, lo, step = _grid_parts(grid)
     v = _values(values, shape)

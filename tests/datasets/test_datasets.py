@@ -118,6 +118,7 @@ lo: 0
 hi: 6.283185307179586
 step: 0.3141592653589793
 fixed: [0.5, 0.5, 0.5]
+convention: paper
 tol: 1e-10
 samples: 15000
 seed: 108

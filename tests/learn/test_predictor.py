@@ -1,5 +1,6 @@
 """The model as a stand-in for the classical algorithm: map_spec, predict_maps, files, the CLI."""
 
+import re
 import subprocess
 import sys
 
@@ -13,7 +14,7 @@ from wsmap.kinematics import DHRobot
 from wsmap.learn.files import load, payload_checksum, save
 from wsmap.learn.mapspec import make_map_spec
 from wsmap.learn.network import MLPConfig, SubspaceMLP
-from wsmap.learn.predictor import predict_maps_from_file
+from wsmap.learn.predictor import check_model_grid, predict_maps_from_file
 from wsmap.learn.training import TrainConfig, split_indices, train
 from wsmap.paper.specs import PAPER_SPECS
 from wsmap.workspace.maps import register_map_predictor
@@ -148,12 +149,16 @@ def test_node_slice_and_selected_spec(puma_map):
 def test_so3_spec_matches_orientation_map():
     spec = PAPER_SPECS["table1_so3_pi3"]  # 7³ = 343 angle nodes at the point (0.5, 0.5, 0.5)
     arms, _ = datasets.draw_samples(datasets.scaled(spec, 50))
-    maps = ws.orientation_map(arms, datasets.grid_nodes(spec), spec.fixed)
+    maps = ws.orientation_map(arms, datasets.grid_nodes(spec), spec.fixed, convention=spec.convention)
     k = int(np.flatnonzero((maps.sum(1) > 0) & (maps.sum(1) < 343))[0])  # an arm reaching some orientations
     arm, truth = arms[k], maps[k]
     model = pattern_model(truth, spec.n_features).set_map_spec(spec).set_training_range(datasets.features_for(arms, spec))
     np.testing.assert_array_equal(model.predict_maps(arm), truth)
     np.testing.assert_array_equal(model.map_nodes(), ws.angle_grid(0, 2 * np.pi, np.pi / 3))
+    # an SO3 map's poses differ between the conventions (R·p against p): the other one is refused
+    check_model_grid(model, convention="paper")
+    with pytest.raises(ValueError, match=re.escape("convention standard (model: paper)")):
+        check_model_grid(model, convention="standard")
 
 
 def test_random_orientation_spec_needs_fixed():
@@ -297,7 +302,6 @@ def test_cli_model_map_equals_predict_maps(tmp_path, block_model, puma_map):
     [
         (["--step", "0.5"], "maps a different grid: step [0.5, 0.5, 0.5] (model: [0.1, 0.1, 0.1])"),
         (["--scope", "SO3"], "maps a different grid: scope SO3 (model: R3)"),
-        (["--convention", "standard"], "convention standard (model: paper)"),
         (["--rpy", "0", "0", "pi/2"], "trained at the fixed orientation"),
         (["--joint-limits"], "joint limits"),
     ],

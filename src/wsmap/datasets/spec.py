@@ -235,7 +235,7 @@ class DatasetSpec:
     step: float | tuple = 0.1
     select: tuple[int, int] | None = None
     fixed: tuple[float, float, float] | str = (0.0, 0.0, 0.0)
-    convention: str = "paper"
+    convention: str = "standard"
     method: str = "exact"
     tol: float = 1e-10
     ilimit: int = 500

@@ -282,6 +282,10 @@ def _check_cluster(workers, scheduler, connect_timeout):
         if workers is not None:
             raise ValueError("workers sizes the local Dask cluster a build starts; a scheduler's cluster has its own "
                              "workers: give one or the other")
+    if workers is not None or isinstance(scheduler, str):
+        from .._optional import require
+
+        require("distributed", why="building on Dask (workers or a scheduler)")  # before any work
     try:
         connect_timeout = float(connect_timeout)
     except (TypeError, ValueError):
@@ -328,10 +332,10 @@ def _dask_client(workers, scheduler, connect_timeout):
     if scheduler is not None and not isinstance(scheduler, str):
         yield scheduler
         return
-    try:
-        from distributed import Client, LocalCluster
-    except ImportError as e:  # pragma: no cover - a dependency of wsmap's environment
-        raise ImportError(f"building on Dask needs dask[distributed] ({e})") from None
+    from .._optional import require
+
+    distributed = require("distributed", why="building on Dask (workers or a scheduler)")
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
     if scheduler is not None:
         try:
             client = _connect(scheduler, connect_timeout)

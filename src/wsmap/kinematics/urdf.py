@@ -229,7 +229,9 @@ class _Tree:
 
 # ---------------------------------------------------------------------------------------- the chain
 def _load_yourdfpy(data: bytes, path: str | None, label: str):
-    import yourdfpy
+    from .._optional import require
+
+    yourdfpy = require("yourdfpy", why="a URDF arm")
 
     # yourdfpy logs (and recovers from) what it finds odd; the XML has been checked already
     level = logging.getLogger("yourdfpy").level

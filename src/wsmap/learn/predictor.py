@@ -63,18 +63,29 @@ def predict_maps(model: SubspaceMLP, arms, fixed=None, *, threshold: float | Non
                               allow_extrapolation=allow_extrapolation)
 
 
+def _conventions_agree(spec) -> bool:
+    """Whether both pose conventions give the model's poses: an R3 map at the identity orientation."""
+    if spec.scope != "R3" or isinstance(spec.fixed, str):
+        return False
+    from ..kinematics import rpy2r
+
+    return bool(np.allclose(rpy2r(np.asarray(spec.fixed, dtype=np.float64)), np.eye(3), rtol=0, atol=1e-12))
+
+
 def check_model_grid(model: SubspaceMLP, *, grid: dict | None = None, convention: str | None = None,
                      whole_grid: bool = False, what: str = "the model") -> None:
     """Raise ``ValueError`` unless ``model`` has a ``map_spec`` whose grid is ``grid`` (a dict with
     ``scope``, ``lo``, ``hi``, ``step``, optionally ``shape``; every difference is named), whose pose
-    convention is ``convention``, and, with ``whole_grid``, which covers every node of its grid."""
+    convention is ``convention`` (or one that gives the same poses: an R3 model at R = I, where
+    ``transl(p)·R`` and ``R·transl(p)`` agree), and, with ``whole_grid``, which covers every node of its
+    grid."""
     if model.map_spec is None:
         raise ValueError(f"{what} has no map_spec (what grid and nodes it maps): set one with "
                          "model.set_map_spec(dataset_spec, ...) before saving it")
     plan = model._map_plan
     spec = plan.spec
     problems = grid_mismatch(spec, grid) if grid is not None else []
-    if convention is not None and convention != spec.convention:
+    if convention is not None and convention != spec.convention and not _conventions_agree(spec):
         problems.append(f"convention {convention} (model: {spec.convention})")
     if problems:
         nx, ny, nz = spec.grid_shape

@@ -67,7 +67,8 @@ def grid_spec(step: float, lo: float = -1.0, hi: float = 1.0, rpy=(0.0, 0.0, 0.0
     feature layout the network of that grid is fed."""
     from ..datasets import DatasetSpec
 
-    return DatasetSpec(f"runtime_step{step:g}", scope="R3", lo=lo, hi=hi, step=step, fixed=tuple(rpy))
+    return DatasetSpec(f"runtime_step{step:g}", scope="R3", lo=lo, hi=hi, step=step, fixed=tuple(rpy),
+                       convention="paper")
 
 
 def paper_network(n_features: int, n_nodes: int, seed: int = 0, device=None):
@@ -174,7 +175,7 @@ def runtime_comparison(
     for step in steps:
         nodes = workspace.cartesian_grid(lo, hi, step)
         N = len(nodes)
-        exact = workspace.constant_orientation_map(robot, nodes, rpy, method="exact")
+        exact = workspace.constant_orientation_map(robot, nodes, rpy, method="exact", convention="paper")
         paper_classical, paper_network_s = RUNTIME_SECONDS.get(N, (math.nan, math.nan))
 
         def add(method, timing, timed_nodes, extrapolated=False, agreement=math.nan):
@@ -214,7 +215,7 @@ def runtime_comparison(
             def batched():
                 # the paper's one-start LM, not the library's multi-start search
                 out["map"] = workspace.constant_orientation_map(robot, nodes, rpy, method="numerical",
-                                                         ik={**ik, "solver": "paper"})
+                                                         convention="paper", ik={**ik, "solver": "paper"})
 
             say(f"{N} nodes: batched LM x {classical_repeats} repeats")
             t = time_call(batched, classical_repeats, classical_warmup)
@@ -222,8 +223,8 @@ def runtime_comparison(
 
         if "classical_exact" in methods:
             say(f"{N} nodes: exact x {repeats} repeats")
-            t = time_call(lambda: workspace.constant_orientation_map(robot, nodes, rpy, method="exact"), repeats,
-                          warmup)
+            t = time_call(lambda: workspace.constant_orientation_map(robot, nodes, rpy, method="exact",
+                                                                     convention="paper"), repeats, warmup)
             add("classical_exact", t, N, agreement=1.0)
 
         if "network" in methods or "network_end_to_end" in methods:

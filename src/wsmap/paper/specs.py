@@ -50,8 +50,8 @@ TABLE3_RPY = (0.312, 5.6719, 5.936)
 def _paper_specs() -> dict[str, DatasetSpec]:
     block5 = (ws.block_slice(4).start, ws.block_slice(4).stop)  # 0-based [5292, 6615)
     crop = (ws.CROP_3087.start, ws.CROP_3087.stop)  # 0-based [5292, 8379)
-    r3 = dict(family="spherical_wrist", scope="R3", lo=-1.0, hi=1.0, fixed=(0.0, 0.0, 0.0))
-    so3 = dict(family="spherical_wrist", scope="SO3", lo=0.0, hi=2 * math.pi)
+    r3 = dict(family="spherical_wrist", scope="R3", lo=-1.0, hi=1.0, fixed=(0.0, 0.0, 0.0), convention="paper")
+    so3 = dict(family="spherical_wrist", scope="SO3", lo=0.0, hi=2 * math.pi, convention="paper")
     specs = [
         # section 6.1: the block-5 subspace, 1e5 arms
         DatasetSpec("sec61", **r3, step=0.1, select=block5, samples=100_000, seed=61),

@@ -10,7 +10,7 @@
 * :mod:`.kinds` — the registry of map kinds (one module per kind: what a node holds, what the kind
   reads, the function above that computes it, how its values read), which ``wsmap map --kind``,
   the map files and the views ask;
-* :mod:`.files` — the ``.npz`` map file.
+* :mod:`.files` — the ``.npz`` map file; :mod:`.reuleaux` — Reuleaux's HDF5 reachability maps (ROS).
 """
 
 from . import kinds
@@ -49,6 +49,7 @@ from .maps import (
 
 from .orientations import approach_orientations, check_rotations, continuation_order, orientation_samples
 from .placement import Placement, base_placement, floor_poses
+from .reuleaux import ReuleauxMap, load_reuleaux, save_reuleaux
 from .reach import (
     dexterous_map,
     manipulability_map,
@@ -66,5 +67,5 @@ __all__ = [
     "MAP_SETTINGS", "SCOPES", "SOLVERS", "node_neighbours", "reachable", "resolve_method",
     "angle_grid", "available_memory", "block_slice", "cartesian_grid", "constant_orientation_map", "default_grid",
     "grid_axes", "grid_counts", "grid_map", "grid_spec", "load_map", "map_to_volume", "orientation_map", "save_map",
-    "target_poses", "volume_to_map", "kinds",
+    "target_poses", "volume_to_map", "kinds", "ReuleauxMap", "load_reuleaux", "save_reuleaux",
 ]

@@ -6,9 +6,10 @@ workspace, "R3") or orientations at a fixed point (the orientation workspace, "S
 
 Pose conventions:
 
+* ``"standard"`` (the default everywhere, the robotics convention): ``T = transl(p) · R``, the tool
+  at position ``p`` with orientation ``R``;
 * ``"paper"``: ``T = Rx(r1)·Ry(r2)·Rz(r3) · transl(p)`` (the authors' code): the position tested is
-  ``R·p``, not ``p``;
-* ``"standard"``: ``T = transl(p) · R``.
+  ``R·p``, not ``p``; the paper's pipeline (:mod:`wsmap.paper`, its dataset specs) passes it explicitly.
 
 They agree when ``R = I``.
 """
@@ -16,7 +17,6 @@ They agree when ``R = I``.
 from __future__ import annotations
 
 import math
-import sys
 
 import numpy as np
 
@@ -24,6 +24,7 @@ from ..kinematics import DHRobot, SerialChain, closed_form_for, ikine_LM, requir
 from ..kinematics.chain import flatten_arms
 from ..kinematics.ik.search import DEFAULT_STARTS, MAP_SETTINGS, ikine_search, map_search
 from ..kinematics.transforms import as_real_array
+from .._progress import check_progress, progress_bar
 from .grids import _check_fits, _triple, cartesian_grid, grid_axes, node_neighbours
 
 __all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP_SETTINGS", "target_poses",
@@ -61,10 +62,10 @@ def _check_choice(name, value, choices):
         raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
 
 
-def target_poses(positions, rpy, convention: str = "paper") -> np.ndarray:
+def target_poses(positions, rpy, convention: str = "standard") -> np.ndarray:
     """Target poses ``(..., 4, 4)`` from positions ``(..., 3)`` (m) and angles ``(..., 3)`` (rad).
 
-    ``"paper"``: ``Rx Ry Rz · transl(p)`` (position ``R·p``); ``"standard"``: ``transl(p) · R``.
+    ``"standard"`` (default): ``transl(p) · R``; ``"paper"``: ``Rx Ry Rz · transl(p)`` (position ``R·p``).
     """
     _check_choice("convention", convention, CONVENTIONS)
     positions = np.asarray(positions, dtype=np.float64)
@@ -184,6 +185,20 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
     flat = arms if batch == () else flatten_arms(arms)
     out = np.empty((max(B, 1), N), dtype=bool)
     per_chunk = max(1, chunk_elements // max(N, 1))
+    with progress_bar(progress, max(B, 1) * N, desc=f"{method} map") as update:
+        if update is not None and method == "numerical":
+            # the solvers report as they go: per chunk of targets, the neighbour search per pass and wave
+            settings["progress"] = update
+            if solver != "search":
+                settings.setdefault("chunk", 2048)
+        _map_chunks(flat, batch, B, N, T, nb, method, solver, settings, per_chunk, out,
+                    update if method == "exact" else None)
+    out = out.reshape(batch + (N,))
+    return (out, method) if return_method else out
+
+
+def _map_chunks(flat, batch, B, N, T, nb, method, solver, settings, per_chunk, out, update):
+    """Fill ``out`` (max(B, 1), N) chunk of arms by chunk of arms (``update(n)`` after each)."""
     for s in range(0, max(B, 1), per_chunk):
         sub = flat if batch == () else flat[s : s + per_chunk]
         if method == "exact":
@@ -197,10 +212,8 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
         else:
             res = ikine_search(sub, T[:, None], **settings).success.T  # (N, arms) -> (arms, N)
         out[s : s + per_chunk] = np.broadcast_to(res, (out[s : s + per_chunk].shape[0], N))
-        if progress is not None:
-            progress(out[s : s + per_chunk].size)
-    out = out.reshape(batch + (N,))
-    return (out, method) if return_method else out
+        if update is not None:
+            update(out[s : s + per_chunk].size)
 
 
 def _check_nodes(name, nodes):
@@ -212,7 +225,7 @@ def _check_nodes(name, nodes):
     return nodes
 
 
-def constant_orientation_map(arms, nodes, rpy=(0.0, 0.0, 0.0), method: str = "auto", convention: str = "paper", *,
+def constant_orientation_map(arms, nodes, rpy=(0.0, 0.0, 0.0), method: str = "auto", convention: str = "standard", *,
                              ik: dict | None = None, chunk_elements: int = 1 << 21, progress=None,
                              return_method: bool = False):
     """Constant-orientation workspace ("R3"): which positions are reachable at orientation ``rpy``.
@@ -231,7 +244,9 @@ def constant_orientation_map(arms, nodes, rpy=(0.0, 0.0, 0.0), method: str = "au
         node alone with :func:`reachable`'s search (``starts`` default :data:`DEFAULT_STARTS`);
         ``{"solver": "paper"}`` is the paper's one-start LM from q0 = 0 (``ikine_LM``; DH arms;
         ``q0``, ``tol``, ``ilimit``, ``rlimit``, ``lam``, ``chunk``), as the paper's pipeline runs it
-    convention : ``"paper"`` or ``"standard"`` (see the module docstring)
+    convention : ``"standard"`` (default, ``T = transl(p)·R``) or ``"paper"`` (see the module docstring)
+    progress : ``True`` for a bar on stderr of the nodes settled (arms x nodes), or a callable
+        ``progress(n)`` (:mod:`wsmap._progress`); numerically it moves as the search solves nodes
     return_method : also return the method used (``"exact"`` or ``"numerical"``)
 
     Returns
@@ -244,7 +259,7 @@ def constant_orientation_map(arms, nodes, rpy=(0.0, 0.0, 0.0), method: str = "au
     return _map(arms, nodes, rpy, convention, method, ik, chunk_elements, progress, nodes, return_method)
 
 
-def orientation_map(arms, angle_nodes, point=(0.5, 0.5, 0.5), method: str = "auto", convention: str = "paper", *,
+def orientation_map(arms, angle_nodes, point=(0.5, 0.5, 0.5), method: str = "auto", convention: str = "standard", *,
                     ik: dict | None = None, chunk_elements: int = 1 << 21, progress=None,
                     return_method: bool = False):
     """Orientation workspace ("SO3"): which orientations are reachable at the point ``point`` (m).
@@ -280,8 +295,8 @@ def grid_spec(scope="R3", lo=None, hi=None, step=None) -> dict:
 
 
 def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), method="auto",
-             convention="paper", model=None, allow_extrapolation: bool = False, ik=None,
-             progress: bool = False, return_method: bool = False):
+             convention="standard", model=None, allow_extrapolation: bool = False, ik=None,
+             progress=False, return_method: bool = False):
     """One call from an arm to its map on a whole grid (from :func:`grid_spec`): bool ``(N,)`` in node order.
 
     ``grid["scope"]`` is ``"R3"`` (positions at orientation ``rpy``) or ``"SO3"`` (orientations at
@@ -293,7 +308,11 @@ def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), m
     (R3) or point (SO3) are the ones asked for and which covers every node of the grid; otherwise
     ``ValueError`` says what differs, and arms outside the model's training range are refused unless
     ``allow_extrapolation``.
+
+    ``progress``: ``True`` shows a bar on stderr of the nodes settled (numerically: as the search
+    solves them, wave after wave), or a callable ``progress(n)`` (:mod:`wsmap._progress`).
     """
+    check_progress(progress)
     nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
     scope = grid["scope"]
     _check_choice("scope", scope, SCOPES)
@@ -311,21 +330,8 @@ def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), m
         return (flat, "model") if return_method else flat
     method = resolve_method(robot, method)
     ik = dict(ik or {})
-    bar = None
-    if progress and method == "numerical":
-        # the per-node solvers report per chunk; the neighbour search once, at the end
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(nodes), unit="node", desc="numerical IK", file=sys.stderr)
-        if ik.get("solver", "search") != "search":
-            ik.setdefault("chunk", 2048)
-        ik["progress"] = bar.update
-    try:
-        if scope == "R3":
-            return constant_orientation_map(robot, nodes, rpy, method=method, convention=convention, ik=ik,
-                                            return_method=return_method)
-        return orientation_map(robot, nodes, point, method=method, convention=convention, ik=ik,
-                               return_method=return_method)
-    finally:
-        if bar is not None:
-            bar.close()
+    if scope == "R3":
+        return constant_orientation_map(robot, nodes, rpy, method=method, convention=convention, ik=ik,
+                                        progress=progress, return_method=return_method)
+    return orientation_map(robot, nodes, point, method=method, convention=convention, ik=ik, progress=progress,
+                           return_method=return_method)

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..kinematics import DHRobot, SerialChain, as_chain, map_search, require_closed_form, require_spherical_wrist
 from ..kinematics.ik.search import MAP_SETTINGS
+from .._progress import check_progress, progress_bar
 from .grids import _check_fits, node_neighbours
 from .maps import _check_choice, _check_nodes, _exact, _search_settings, resolve_method, target_poses
 from .orientations import check_rotations, continuation_order
@@ -58,17 +59,19 @@ def _subset_neighbours(nb, keep):
 
 
 def position_map(robot, nodes, *, samples: int = 20000, seed: int = 0, ik: dict | None = None,
-                 return_q: bool = False):
+                 return_q: bool = False, progress=False):
     """Reach at any orientation: bool ``(N,)``, the tool origin can be put at node ``p`` (m, base frame).
 
     Forward-kinematics sampling finds starts (``samples`` configurations drawn inside the limits;
     each node starts from the sampled configuration whose tool lies nearest to it), then the search
     on the position alone settles every node (:func:`wsmap.kinematics.map_search` with
     ``position_only``; ``ik`` overrides its settings). Every ``True`` has a confirmed solution;
-    ``return_q`` also returns them ``(N, n)`` (NaN where unreachable).
+    ``return_q`` also returns them ``(N, n)`` (NaN where unreachable). ``progress``: ``True`` (a bar
+    on stderr of the nodes settled) or a callable ``progress(n)`` (:mod:`wsmap._progress`).
     """
     robot = _check_arm(robot)
     nodes = _check_nodes("nodes", nodes)
+    check_progress(progress)
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
         raise ValueError(f"samples must be a non-negative integer, got {samples!r}")
     chain = as_chain(robot)
@@ -90,13 +93,14 @@ def position_map(robot, nodes, *, samples: int = 20000, seed: int = 0, ik: dict 
         first[1:] = node[order][1:] != node[order][:-1]
         q_init[node[order][first]] = q[order][first]
     T = target_poses(nodes, (0.0, 0.0, 0.0), "standard")
-    res = map_search(chain, T, node_neighbours(nodes), q_init=q_init, position_only=True, seed=seed,
-                     **_search_settings(ik))
+    with progress_bar(progress, N, desc="reach map") as update:
+        res = map_search(chain, T, node_neighbours(nodes), q_init=q_init, position_only=True, seed=seed,
+                         progress=update, **_search_settings(ik))
     return (res.success, np.where(res.success[:, None], res.q, np.nan)) if return_q else res.success
 
 
 def reachability_index(robot, nodes, orientations, *, method: str = "auto", return_bits: bool = False,
-                       ik: dict | None = None, seed: int = 0):
+                       ik: dict | None = None, seed: int = 0, progress=False):
     """The reachability index: float ``(N,)`` in [0, 1], the fraction of ``orientations`` (K, 3, 3)
     reachable at each node (``T = transl(p)·R_k``); ``return_bits`` also returns the bool ``(N, K)``.
 
@@ -105,6 +109,11 @@ def reachability_index(robot, nodes, orientations, *, method: str = "auto", retu
     (:func:`position_map`) are 0 without more work; the orientations are solved one after another in
     an order where each is near one solved before (:func:`continuation_order`), every node starting
     from its own solution there, then from its neighbours' (``ik`` overrides the search settings).
+
+    ``progress``: ``True`` (a bar on stderr of the poses settled) or a callable ``progress(n)``
+    (:mod:`wsmap._progress`): the ``N x K`` node-orientation pairs, orientation after orientation;
+    numerically the ``N`` position-only targets of the reach map come first (``N x (K + 1)`` in all),
+    and the pairs of the nodes it finds out of reach count as soon as it is done.
     """
     robot = _check_arm(robot)
     nodes = _check_nodes("nodes", nodes)
@@ -114,9 +123,22 @@ def reachability_index(robot, nodes, orientations, *, method: str = "auto", retu
     # the bits, and numerically every node's solution at every orientation (the continuation's starts)
     per = 1 + (0 if method == "exact" else 8 * robot.n)
     _check_fits(N * K * per, f"an index of {N} nodes x {K} orientations")
+    check_progress(progress)
+    total = N * K + (N if method == "numerical" else 0)
+    with progress_bar(progress, total, unit="pose", desc=f"{method} index") as update:
+        bits = _index_bits(robot, nodes, R, method, ik, seed, update)
+    index = bits.mean(axis=1)
+    return (index, bits) if return_bits else index
+
+
+def _index_bits(robot, nodes, R, method, ik, seed, update):
+    """The bool ``(N, K)`` of :func:`reachability_index`, ``update(n)`` called as pairs are settled."""
+    N, K = len(nodes), len(R)
     bits = np.zeros((N, K), dtype=bool)
+    update = update or (lambda n: None)
     if method == "exact":
-        block = max(1, (1 << 20) // max(N, 1))
+        # blocks of orientations: ~1e6 poses per closed-form call, and about 20 updates of the bar
+        block = max(1, min((1 << 20) // max(N, 1), -(-K // 20)))
         for k0 in range(0, K, block):
             Rk = R[k0 : k0 + block]
             T = np.zeros((len(Rk), N, 4, 4))
@@ -124,11 +146,13 @@ def reachability_index(robot, nodes, orientations, *, method: str = "auto", retu
             T[..., :3, 3] = nodes[None]
             T[..., 3, 3] = 1.0
             bits[:, k0 : k0 + block] = _exact(robot, T.reshape(-1, 4, 4)).reshape(len(Rk), N).T
+            update(len(Rk) * N)
     else:
         chain = as_chain(robot)
         settings = _search_settings(ik, INDEX_SETTINGS)
-        reach = position_map(chain, nodes, ik=ik, seed=seed)
+        reach = position_map(chain, nodes, ik=ik, seed=seed, progress=update)
         idx = np.flatnonzero(reach)
+        update((N - idx.size) * K)
         if idx.size:
             nb = _subset_neighbours(node_neighbours(nodes), reach)
             sol = np.full((K, idx.size, chain.n), np.nan)
@@ -139,8 +163,8 @@ def reachability_index(robot, nodes, orientations, *, method: str = "auto", retu
                 res = map_search(chain, T, nb, q_init=None if par < 0 else sol[par], seed=seed, **settings)
                 bits[idx, k] = res.success
                 sol[k][res.success] = res.q[res.success]
-    index = bits.mean(axis=1)
-    return (index, bits) if return_bits else index
+                update(idx.size)
+    return bits
 
 
 def dexterous_map(robot, nodes, orientations, **kw) -> np.ndarray:
@@ -158,7 +182,7 @@ def yoshikawa(J) -> np.ndarray:
 
 
 def manipulability_map(robot, nodes, rpy=(0.0, 0.0, 0.0), *, convention: str = "standard", method: str = "auto",
-                       ik: dict | None = None, seed: int = 0) -> np.ndarray:
+                       ik: dict | None = None, seed: int = 0, progress=False) -> np.ndarray:
     """Manipulability map: float ``(N,)``, the largest Yoshikawa manipulability ``√det(J Jᵀ)`` over
     the IK solutions found for the pose at each node (orientation ``rpy``, ``R = Rx·Ry·Rz``; pose
     convention as :func:`wsmap.workspace.target_poses`), 0 where unreachable.
@@ -171,13 +195,20 @@ def manipulability_map(robot, nodes, rpy=(0.0, 0.0, 0.0), *, convention: str = "
     takes one entry from each row, three position rows (m/rad) and three rotation rows (rad/rad),
     so the value is in m³ (per rad³ of joint motion) with lengths in metres. (For n ≠ 6 joints the
     rows' units do not factor out so simply.) A batch of spherical-wrist arms:
-    :func:`manipulability_maps`.
+    :func:`manipulability_maps`. ``progress``: ``True`` (a bar on stderr of the nodes settled) or a
+    callable ``progress(n)`` (:mod:`wsmap._progress`).
     """
     robot = _check_arm(robot)
     nodes = _check_nodes("nodes", nodes)
     _check_choice("convention", convention, ("paper", "standard"))
     method = resolve_method(robot, method)
+    check_progress(progress)
     T = target_poses(nodes, rpy, convention)
+    with progress_bar(progress, len(nodes), desc=f"{method} manipulability") as update:
+        return _manipulability(robot, nodes, T, method, ik, seed, update)
+
+
+def _manipulability(robot, nodes, T, method, ik, seed, update):
     out = np.zeros(len(nodes))
     if method == "exact":
         sol = require_closed_form(robot).solve(robot, T)
@@ -186,9 +217,11 @@ def manipulability_map(robot, nodes, rpy=(0.0, 0.0, 0.0), *, convention: str = "
         if rows.size:
             w = yoshikawa(robot.jacob0(q[rows]))  # (R, 8)
             out[rows] = np.where(valid[rows], w, 0.0).max(axis=1)
+        if update is not None:
+            update(len(nodes))
         return out
     chain = as_chain(robot)
-    res = map_search(chain, T, node_neighbours(nodes), seed=seed, **_search_settings(ik))
+    res = map_search(chain, T, node_neighbours(nodes), seed=seed, progress=update, **_search_settings(ik))
     if res.success.any():
         out[res.success] = yoshikawa(chain.jacob0(res.q[res.success]))
     return out

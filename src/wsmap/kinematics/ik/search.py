@@ -303,7 +303,9 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
         :data:`DEFAULT_RLIMIT`, no stationary-point test, both passes) that every node still
         unsolved next to a solved node gets once, after the solutions of its solved neighbours
         that the waves did not try; 0 turns the border search off
-    progress : called once with the number of targets when done
+    progress : called with the number of targets settled as the search goes (those the reach filter
+        rules out at once, those solved after each pass and wave, the rest at the end); the numbers
+        add up to the number of targets
 
     Per arm, in passes: (1) every node: ``q0`` then ``starts`` random starts (the first ones of
     :func:`ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
@@ -372,6 +374,15 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     res = np.full(M, np.inf)
     start = np.full(M, -1, dtype=np.int64)
 
+    reported = [0]
+
+    def report(count):
+        if progress is not None and count:
+            reported[0] += count
+            progress(count)
+
+    report(int(M - possible.sum()))
+
     def run(idx, qexp, nexp, k_first, k_last, seeded, per_start=settings, free=None):
         if not idx.size:
             return 0
@@ -383,6 +394,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
         q[idx[better]] = qq[better]
         res[idx[better]] = rr[better]
         ok[idx] |= okk
+        report(int(okk.sum()))
         if seeded:
             start[idx[okk]] = -2
         else:
@@ -501,8 +513,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
         waves()
     if border_starts and K:
         border_search(border_starts)
-    if progress is not None:
-        progress(M)
+    report(M - reported[0])
     shape = (N,) if not batch else batch + (N,)
     return IKSolution(q.reshape(shape + (n,)), ok.reshape(shape), its.reshape(shape), res.reshape(shape),
                       failure_reasons(ok, out_of_reach=~possible).reshape(shape), start.reshape(shape))

@@ -86,17 +86,17 @@ def run(cfg: Mapping, out: Outputs | None = None, *, log=print) -> Result:
     nodes = workspace.cartesian_grid(cfg["lo"], cfg["hi"], cfg["step"])
     puma = robots.puma560()
     log(f"{len(nodes)} nodes, grid shape {shape}")
-    exact = workspace.constant_orientation_map(puma, nodes, cfg["rpy"], method="exact")
+    exact = workspace.constant_orientation_map(puma, nodes, cfg["rpy"], method="exact", convention="paper")
     mesh = iso_mesh(exact, {"lo": cfg["lo"], "step": cfg["step"], "shape": shape}, 0.5)
     log(f"mesh: {len(mesh.vertices)} vertices, watertight={mesh.is_watertight}, volume={mesh.volume:.3f} m^3")
 
     t0 = time.perf_counter()
     # the paper's one-start LM (ikine_LM from q0 = 0); the default numerical path is the multi-start search
     numerical = workspace.constant_orientation_map(puma, nodes, cfg["rpy"], method="numerical",
-                                                   ik={"solver": "paper"})
+                                                   convention="paper", ik={"solver": "paper"})
     t_num = time.perf_counter() - t0
     t0 = time.perf_counter()
-    workspace.constant_orientation_map(puma, nodes, cfg["rpy"], method="exact")
+    workspace.constant_orientation_map(puma, nodes, cfg["rpy"], method="exact", convention="paper")
     t_exact = time.perf_counter() - t0
     fn = int(np.sum(exact & ~numerical))
     fp = int(np.sum(numerical & ~exact))

@@ -17,6 +17,10 @@ library function, and ``register(MapKind(...))`` at its end; a kind like the pap
 a set of orientations builds its record with :func:`~.registry.paper_map_kind` or
 :func:`~.registry.orientation_set_kind`), its name added to the import line below, and its tests; the computing function itself lives with the maps (:mod:`wsmap.workspace.maps`,
 :mod:`wsmap.workspace.reach`).
+
+What a kind reads (:attr:`MapKind.inputs`) is what ``wsmap map`` accepts with it: an option feeding an
+input the kind does not read is refused. A kind with :attr:`MapKind.poses` (reachability at each of a
+set of orientations) can be written as a Reuleaux HDF5 map (``--h5``, :mod:`wsmap.workspace.reuleaux`).
 """
 
 from .registry import (

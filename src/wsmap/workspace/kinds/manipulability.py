@@ -16,7 +16,7 @@ from .registry import MapKind, grid_positions, register
 
 def _compute(robot, grid, request):
     return manipulability_map(robot, grid_positions(grid), request.rpy, convention=request.convention, method=request.method,
-                              ik=request.search, seed=request.seed)
+                              ik=request.search, seed=request.seed, progress=request.progress)
 
 
 def _levels(values):

@@ -11,7 +11,7 @@ from .registry import MapKind, grid_positions, register
 
 
 def _compute(robot, grid, request):
-    return position_map(robot, grid_positions(grid), ik=request.search, seed=request.seed)
+    return position_map(robot, grid_positions(grid), ik=request.search, seed=request.seed, progress=request.progress)
 
 
 KIND = register(MapKind(

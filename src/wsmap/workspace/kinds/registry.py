@@ -21,7 +21,8 @@ import numpy as np
 
 from ..grids import cartesian_grid
 from ..maps import CONVENTIONS, MAP_SETTINGS, SCOPES, grid_map
-from ..reach import INDEX_SETTINGS
+from ...kinematics import rpy2r
+from ..reach import INDEX_SETTINGS, reachability_index
 
 __all__ = ["INPUTS", "METHODS", "MapKind", "MapRequest", "register", "unregister", "get_kind", "kinds",
            "kind_names", "default_kind", "kinds_taking", "grid_positions", "paper_map_kind",
@@ -45,7 +46,7 @@ class MapRequest:
     Attributes:
         method: ``"exact"``, ``"numerical"`` or ``"model"`` (``"auto"`` lets the kind's function
             choose, :func:`wsmap.workspace.resolve_method`).
-        convention: the pose convention, ``"paper"`` or ``"standard"`` (a kind with a fixed
+        convention: the pose convention, ``"standard"`` (default) or ``"paper"`` (a kind with a fixed
             :attr:`MapKind.convention` is always given that one).
         rpy: the fixed orientation ``(r1, r2, r3)`` in radians, ``R = Rx(r1)·Ry(r2)·Rz(r3)``.
         point: the fixed point ``(x, y, z)`` in metres.
@@ -55,11 +56,12 @@ class MapRequest:
         seed: the seed of random IK starts and of the orientation set.
         model: a trained model file (``method="model"``); ``allow_extrapolation`` as
             :func:`wsmap.workspace.grid_map`.
-        progress: show a progress bar where the computation has one.
+        progress: ``True`` for a progress bar on stderr, or a callable ``progress(n)``
+            (:mod:`wsmap._progress`); every kind's function takes it.
     """
 
     method: str = "auto"
-    convention: str = "paper"
+    convention: str = "standard"
     rpy: tuple = (0.0, 0.0, 0.0)
     point: tuple = (0.5, 0.5, 0.5)
     orientations: np.ndarray | None = None
@@ -67,7 +69,7 @@ class MapRequest:
     seed: int = 0
     model: str | None = None
     allow_extrapolation: bool = False
-    progress: bool = False
+    progress: object = False
 
     @property
     def search(self) -> dict:
@@ -106,6 +108,11 @@ class MapKind:
             (``"convention"`` in :attr:`inputs`).
         levels: ``levels(values) -> tuple`` of iso-surface levels of a map (``.glb`` views).
         value_range: ``(lo, hi)`` colour range of float maps; ``None`` for an end means the map's own.
+        poses: ``poses(robot, grid, request) -> (values (N,), bits (N, K) bool, R (K, 3, 3))``: the
+            map together with the reachability of every node at each of the ``K`` orientations it
+            tested (``T = transl(p)·R_k``), one computation; what a Reuleaux HDF5 file stores
+            (:func:`wsmap.workspace.save_reuleaux`, ``wsmap map --h5``). ``None``: the kind's values
+            are not reachability at a set of orientations, so it does not export.
     """
 
     name: str
@@ -124,6 +131,7 @@ class MapKind:
     convention: str | None = None
     levels: Callable = _boolean_levels
     value_range: tuple = (None, None)
+    poses: Callable | None = None
 
     def __post_init__(self):
         where = f"map kind {self.name!r}"
@@ -149,6 +157,8 @@ class MapKind:
         for attr in ("compute", "function", "levels"):
             if not callable(getattr(self, attr)):
                 raise ValueError(f"{where}: {attr} must be callable")
+        if self.poses is not None and (not callable(self.poses) or self.scope != "R3"):
+            raise ValueError(f"{where}: poses must be None or a callable of an R3 kind")
         object.__setattr__(self, "search_settings", MappingProxyType(dict(self.search_settings)))
 
     @property
@@ -182,24 +192,44 @@ def paper_map_kind(name: str, scope: str, fixed: str, function: Callable, descri
                         allow_extrapolation=request.allow_extrapolation, ik=request.ik, progress=request.progress,
                         **{fixed: getattr(request, fixed)})
 
+    def poses(robot, grid, request):
+        # one orientation: the map is its own column of bits; a pose is T = transl(p)·R only in the
+        # standard convention (the paper's tests R·p, which is not the node)
+        if request.convention != "standard":
+            raise ValueError(f"the {name} map's poses are T = transl(p)·R only in the standard convention, "
+                             f"not {request.convention!r}")
+        if robot.batch_shape != ():
+            raise ValueError(f"poses of the {name} map are for one arm, got a batch of shape {robot.batch_shape}")
+        values = compute(robot, grid, request)
+        return values, np.asarray(values, dtype=bool)[:, None], rpy2r(np.asarray(request.rpy, dtype=float))[None]
+
     return MapKind(name=name, scope=scope, value_type=bool, compute=compute, function=function,
                    description=description, inputs=(fixed, "convention"), methods=METHODS, paper_solver=True,
-                   batch=True)
+                   batch=True, poses=poses if scope == "R3" else None)
 
 
-def orientation_set_kind(name: str, value_type: type, function: Callable, description: str, **fields) -> MapKind:
+def orientation_set_kind(name: str, value_type: type, function: Callable, description: str,
+                         from_bits: Callable, **fields) -> MapKind:
     """The record of a kind over the request's set of orientations at each position of an R3 grid
     (``T = transl(p)·R_k``, the standard convention; the index's search defaults
     :data:`wsmap.workspace.reach.INDEX_SETTINGS`), computed by ``function(robot, nodes, orientations,
-    method=, ik=, seed=)``; ``fields`` the rest of its :class:`MapKind` (label, levels, ...)."""
+    method=, ik=, seed=, progress=)``; ``from_bits(bits (N, K)) -> (N,)`` the same values from
+    :func:`wsmap.workspace.reachability_index`'s bits (its :attr:`MapKind.poses`); ``fields`` the rest
+    of its :class:`MapKind` (label, levels, ...)."""
 
     def compute(robot, grid, request):
         return function(robot, grid_positions(grid), request.orientations, method=request.method,
-                        ik=request.search, seed=request.seed)
+                        ik=request.search, seed=request.seed, progress=request.progress)
+
+    def poses(robot, grid, request):
+        _, bits = reachability_index(robot, grid_positions(grid), request.orientations, method=request.method,
+                                     ik=request.search, seed=request.seed, progress=request.progress,
+                                     return_bits=True)
+        return from_bits(bits), bits, np.asarray(request.orientations, dtype=np.float64)
 
     return MapKind(name=name, scope="R3", value_type=value_type, compute=compute, function=function,
                    description=description, inputs=("orientations",), search_settings=INDEX_SETTINGS,
-                   convention="standard", **fields)
+                   convention="standard", poses=poses, **fields)
 
 
 _REGISTRY: dict[str, MapKind] = {}
