@@ -88,7 +88,7 @@ class Result:
 
 def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
     """The panda7 model, the manipulability model and the design studies of params section ``cfg``
-    (the datasets in ``out.data``; ``improved_model``'s model in ``out.models``)."""
+    (the datasets in ``out.data``; ``improved_model``'s model in ``out.inputs.models``)."""
     import torch
 
     device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work
@@ -148,7 +148,7 @@ def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
     # verified by the classical map, against CMA-ES and random search on the classical map
     dc = cfg["design"]
     studies = {}
-    sw_model, _ = load_model(out.models / dc["sw_model"])
+    sw_model, _ = load_model(out.inputs.models / dc["sw_model"])  # another stage's output
     for fam, mdl, box in (("spherical_wrist", sw_model, dc["sw_box"]), ("panda7", model, dc["panda7_box"])):
         tasks = design.box_tasks(box["centre"], box["size"])
         rows, results = design.compare_designs(fam, tasks, mdl, max_calls=dc["max_calls"],
