@@ -36,6 +36,9 @@ figures = part.figures(result, out)
 # %%
 result.volumes
 
+# %%
+Image(filename=str(out.figures / f"real_arms_index_{cfg['show_3d']}.png"))
+
 # %% [markdown]
 # ## A 3-D view
 #
@@ -46,7 +49,9 @@ result.volumes
 Image(filename=str(out.figures / f"real_arms_index_{cfg['show_3d']}_3d.png"))
 
 # %%
-part.figure_3d_of_shown(result).show(renderer="notebook_connected")
+# plotly.js goes into the notebook itself ("notebook", not "notebook_connected": no network needed);
+# the sliders under the scene set the threshold and a cut plane through the z-layers
+part.figure_3d_of_shown(result).show(renderer="notebook")
 
 # %% [markdown]
 # ## Manipulability of the PUMA560

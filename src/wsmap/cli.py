@@ -362,7 +362,10 @@ def _run_map(args) -> int:
                 elif flag == "--html":
                     from .views import save_html
 
-                    save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map")
+                    # a float map gets a threshold slider; every map a cut plane through its z-layers
+                    save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map",
+                              thresholds=np.linspace(0.0, 0.9, 10) * values.max() if kind.value_type is float
+                              else None, cut_plane=True)
                 elif flag == "--ply":
                     from .views import save_ply
 

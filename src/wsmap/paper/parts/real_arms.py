@@ -44,6 +44,10 @@ PART = Part("real_arms", "The maps roboticists use, for real arms", 90, outputs=
     "figures/real_arms_puma560_manipulability_3d.png"))
 
 
+#: The interactive view's threshold slider: the nodes whose index is above each (0: every reached node).
+VIEW_THRESHOLDS = tuple(round(0.1 * i, 1) for i in range(10))
+
+
 @dataclass
 class Result:
     metrics: Metrics
@@ -139,7 +143,8 @@ def save(result: Result, out: Outputs) -> None:
     html_dir = out.results / "real_arms_html"
     html_dir.mkdir(parents=True, exist_ok=True)
     save_html(html_dir / f"{show}_index.html", index, grid, kind="points", label="reachability index",
-              title=f"{show}: reachability index")
+              title=f"{show}: reachability index over {cfg['orientations']} orientations", thresholds=VIEW_THRESHOLDS,
+              cut_plane=True)
     write_table(result.volumes, out.tables / "real_arms_volumes")
     write_table(result.placement, out.tables / "real_arms_placement")
     write_json(result.metrics, out.results / "real_arms.json")
@@ -149,7 +154,9 @@ def figure_3d_of_shown(result: Result):
     """The interactive plotly view of ``show_3d``'s index (the notebook shows it)."""
     show = result.cfg["show_3d"]
     index, grid = result.index_maps[show]
-    return figure_3d(index, grid, kind="points", label="reachability index", title=f"{show}: reachability index")
+    return figure_3d(index, grid, kind="points", label="reachability index",
+                     title=f"{show}: reachability index over {result.cfg['orientations']} orientations",
+                     thresholds=VIEW_THRESHOLDS, cut_plane=True)
 
 
 def figures(result: Result, out: Outputs) -> list[Path]:
