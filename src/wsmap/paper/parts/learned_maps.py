@@ -204,8 +204,10 @@ def figures(result: Result, out: Outputs) -> list[Path]:
     paths.append(save_figure(fig, out.figures / "learned_maps_panda7_curve.png"))
 
     fig = viz.plot_slices(s["predicted"], spec.grid_shape, spec.lo, spec.step, compare=s["labelled"],
-                          title=f"held-out arm {s['arm']} (scales {np.round(s['scales'], 3).tolist()}): model (first) "
-                                f"vs labels (second), F {s['f']:.4f}")
+                          names=("model only (false positive)", "labels only (missed)", "both"),
+                          title=f"panda7 held-out arm {s['arm']}: tool-down map, standard convention T = transl(p)·R\n"
+                                f"the map model against its labels, F {s['f']:.4f} "
+                                f"(scales {np.round(s['scales'], 3).tolist()})")
     paths.append(save_figure(fig, out.figures / "learned_maps_panda7_slices.png"))
     grid = workspace.grid_spec(spec.scope, spec.lo, spec.hi, spec.step)
     ax = viz.render_mesh(iso_mesh(s["predicted"], grid, 0.5),
