@@ -32,6 +32,10 @@ import numpy as np
 
 from .io import atomic_path, check_output_path
 from .workspace.grids import grid_counts, map_to_volume
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Any, ArrayLike, PathLike, Sequence
 
 __all__ = ["GLTF_FROM_GRID", "iso_mesh", "save_glb", "save_ply", "figure_3d", "save_html", "axis_titles"]
 
@@ -153,7 +157,7 @@ def _rgba(values, lo: float, hi: float, cmap, alpha: float = 1.0) -> np.ndarray:
     return np.round(255 * rgba).astype(np.uint8)
 
 
-def axis_titles(grid) -> tuple[str, str, str]:
+def axis_titles(grid: Mapping[str, Any]) -> tuple[str, str, str]:
     """Axis titles with units of a grid: ``("x (m)", "y (m)", "z (m)")`` for R3, ``("r1 (rad)", ...)`` for SO3."""
     names, unit = _AXES[_grid_parts(grid)[0]]
     return tuple(f"{n} ({unit})" for n in names)
@@ -196,7 +200,7 @@ def _iso(v: np.ndarray, shape, lo, step, level: float):
 # --------------------------------------------------------------------------------------------
 
 
-def iso_mesh(values, grid, level):
+def iso_mesh(values: ArrayLike, grid: Mapping[str, Any], level: float) -> Any:
     """Iso-surface of a map at ``level`` as a ``trimesh.Trimesh`` (marching cubes).
 
     Args:
@@ -217,8 +221,9 @@ def iso_mesh(values, grid, level):
     return _iso(v, shape, lo, step, _number("level", level))
 
 
-def save_glb(path, values, grid, levels=(0.25, 0.5, 0.75), colormap="viridis", *, opacity: float = 0.45,
-             vmin=None, vmax=None) -> Path:
+def save_glb(path: PathLike, values: ArrayLike, grid: Mapping[str, Any],
+             levels: float | Sequence[float] = (0.25, 0.5, 0.75), colormap: str = "viridis", *, opacity: float = 0.45,
+             vmin: float | None = None, vmax: float | None = None) -> Path:
     """Write a glTF binary scene (``.glb``) of the map's iso-surfaces, one per level.
 
     Each non-empty :func:`iso_mesh` becomes one geometry (and node) named ``"level <value>"``, with a
@@ -264,8 +269,9 @@ def save_glb(path, values, grid, levels=(0.25, 0.5, 0.75), colormap="viridis", *
     return path
 
 
-def save_ply(path, values, grid, threshold=0.0, colormap="viridis", *, vmin=None, vmax=None,
-             label: str = "value") -> Path:
+def save_ply(path: PathLike, values: ArrayLike, grid: Mapping[str, Any], threshold: float = 0.0,
+             colormap: str = "viridis", *, vmin: float | None = None, vmax: float | None = None, label: str = "value"
+            ) -> Path:
     """Write the nodes whose value is above ``threshold`` as a coloured point cloud (binary ``.ply``).
 
     One vertex per such node, in node order: ``x, y, z`` (float32, the grid's frame and units,
@@ -315,9 +321,11 @@ def save_ply(path, values, grid, threshold=0.0, colormap="viridis", *, vmin=None
 # --------------------------------------------------------------------------------------------
 
 
-def figure_3d(values, grid, *, kind: str = "points", title: str | None = None, label: str = "reachability index",
-              threshold: float = 0.0, levels=(0.25, 0.5, 0.75), colormap: str = "Viridis", vmin=None, vmax=None,
-              marker_size: float = 3.0, opacity: float | None = None, thresholds=None, cut_plane: bool = False):
+def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points", title: str | None = None,
+              label: str = "reachability index", threshold: float = 0.0,
+              levels: float | Sequence[float] = (0.25, 0.5, 0.75), colormap: str = "Viridis",
+              vmin: float | None = None, vmax: float | None = None, marker_size: float = 3.0,
+              opacity: float | None = None, thresholds: Sequence[float] | None = None, cut_plane: bool = False) -> Any:
     """An interactive plotly ``Figure`` of a map (notebooks: display it; files: :func:`save_html`).
 
     Args:
@@ -429,7 +437,7 @@ def figure_3d(values, grid, *, kind: str = "points", title: str | None = None, l
     return fig
 
 
-def save_html(path, values, grid, **kw) -> Path:
+def save_html(path: PathLike, values: ArrayLike, grid: Mapping[str, Any], **kw) -> Path:
     """Write :func:`figure_3d` ``(values, grid, **kw)`` as one standalone HTML file.
 
     plotly.js is embedded (``include_plotlyjs=True``, about 5 MB): the file opens in a browser

@@ -29,6 +29,10 @@ import numpy as np
 from .io import atomic_path
 from .metrics import OUTCOME_NAMES, outcomes, session_mean_std
 from .workspace.grids import map_to_volume
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Any, ArrayLike, Axes, Figure, PathLike
 
 __all__ = [
     "OUTCOME_COLORS", "plot_mean_band", "plot_training_curves", "plot_sample_errors", "plot_sections",
@@ -59,8 +63,9 @@ def _plt():
 # --------------------------------------------------------------------------------------------
 
 
-def plot_mean_band(curves, *, epochs=None, ax=None, label: str = "mean", color: str = "#1f4e79",
-                   logy: bool = True, ylabel: str = "", title: str | None = None, show_sessions: bool = True):
+def plot_mean_band(curves: ArrayLike, *, epochs: ArrayLike | None = None, ax: Axes | None = None, label: str = "mean",
+                   color: str = "#1f4e79",
+                   logy: bool = True, ylabel: str = "", title: str | None = None, show_sessions: bool = True) -> Figure:
     """Mean ± sigma over sessions (rows of ``curves``, NaN = session stopped) per epoch.
 
     With ``logy``, where ``mean − sigma <= 0`` the band's lower edge is the lowest session's
@@ -99,8 +104,8 @@ def plot_mean_band(curves, *, epochs=None, ax=None, label: str = "mean", color: 
     return fig
 
 
-def plot_training_curves(histories: Sequence, labels: Sequence[str], *, best_epochs=None,
-                         title: str | None = None):
+def plot_training_curves(histories: Sequence, labels: Sequence[str], *, best_epochs: Sequence[int] | None = None,
+                         title: str | None = None) -> Figure:
     """Training (solid) and validation (dashed) loss per epoch of several single-session
     histories (e.g. the 7 block subspaces), log y; a dot marks each best (restored) epoch."""
     plt = _plt()
@@ -132,7 +137,7 @@ def plot_training_curves(histories: Sequence, labels: Sequence[str], *, best_epo
 # --------------------------------------------------------------------------------------------
 
 
-def plot_sample_errors(errors, *, title: str | None = None):
+def plot_sample_errors(errors: ArrayLike, *, title: str | None = None) -> Figure:
     """Per-sample error (:func:`wsmap.metrics.per_sample_error`) of a test set: left, the error of every sample
     in test-set order with its mean and mean ± sigma; right, their histogram. Returns the Figure."""
     plt = _plt()
@@ -157,8 +162,9 @@ def plot_sample_errors(errors, *, title: str | None = None):
     return fig
 
 
-def plot_sections(pred, truth, shape, *, layer: int, lo=-1.0, step=0.1, z_value: float | None = None,
-                  titles: Sequence[str] | None = None, ncols: int = 5, title: str | None = None):
+def plot_sections(pred: ArrayLike, truth: ArrayLike, shape: Sequence[int], *, layer: int, lo: float | ArrayLike = -1.0,
+                  step: float | ArrayLike = 0.1, z_value: float | None = None, titles: Sequence[str] | None = None,
+                  ncols: int = 5, title: str | None = None) -> Figure:
     """One panel per sample: z-layer ``layer`` of its predicted map against the exact one,
     coloured by outcome (TP/FP/FN/TN, :func:`wsmap.metrics.outcomes`, :data:`OUTCOME_COLORS`).
 
@@ -200,7 +206,7 @@ def plot_sections(pred, truth, shape, *, layer: int, lo=-1.0, step=0.1, z_value:
     return fig
 
 
-def plot_threshold_sweep(sweep, *, mark: float | None = 0.5, title: str | None = None):
+def plot_threshold_sweep(sweep: Any, *, mark: float | None = 0.5, title: str | None = None) -> Figure:
     """Precision, recall and F of a :class:`wsmap.metrics.Sweep` against the threshold; the best
     threshold and ``mark`` (the paper's 0.5) are marked."""
     plt = _plt()
@@ -225,7 +231,8 @@ def plot_threshold_sweep(sweep, *, mark: float | None = 0.5, title: str | None =
     return fig
 
 
-def plot_error_histograms(hists: Sequence, labels: Sequence[str], *, ncols: int = 4, title: str | None = None):
+def plot_error_histograms(hists: Sequence, labels: Sequence[str], *, ncols: int = 4, title: str | None = None
+                         ) -> Figure:
     """One panel per :class:`wsmap.metrics.ErrorHistogram` (errors = truth − output), bars split
     into truly reachable and unreachable nodes, log-scaled counts (most errors are near 0)."""
     plt = _plt()
@@ -265,7 +272,7 @@ def plot_error_histograms(hists: Sequence, labels: Sequence[str], *, ncols: int 
 # --------------------------------------------------------------------------------------------
 
 
-def plot_runtimes(groups: dict[str, dict[str, np.ndarray]], *, unit: str = "ms", title: str | None = None):
+def plot_runtimes(groups: dict[str, dict[str, np.ndarray]], *, unit: str = "ms", title: str | None = None) -> Figure:
     """Bars of mean ± sigma run time, one panel per group (e.g. ``{"one arm": {"block 1":
     times, ...}, "1000 arms": {...}}``), one bar per model inside a group."""
     plt = _plt()
@@ -293,7 +300,8 @@ def plot_runtimes(groups: dict[str, dict[str, np.ndarray]], *, unit: str = "ms",
 # --------------------------------------------------------------------------------------------
 
 
-def plot_meshes(meshes: Sequence, titles: Sequence[str], *, lim: float = 1.0, colors=None, suptitle=None):
+def plot_meshes(meshes: Sequence, titles: Sequence[str], *, lim: float = 1.0, colors: Sequence[str] | None = None,
+                suptitle: str | None = None) -> Figure:
     """Meshes (e.g. :func:`wsmap.views.iso_mesh`) rendered side by side (:func:`render_mesh`, no
     OpenGL); a ``None`` or empty mesh gets an empty panel that says so."""
     plt = _plt()
@@ -314,7 +322,7 @@ def plot_meshes(meshes: Sequence, titles: Sequence[str], *, lim: float = 1.0, co
     return fig
 
 
-def export_mesh(mesh, path) -> Path:
+def export_mesh(mesh: Any, path: PathLike) -> Path:
     """Write a ``trimesh.Trimesh`` atomically; the format comes from the suffix (``.stl``,
     ``.glb``, ``.ply``, ``.obj``). Returns the path."""
     path = Path(path)
@@ -421,10 +429,10 @@ def _cell_extent(ax_x, ax_y, step):
     return [ax_x[0] - step[0] / 2, ax_x[-1] + step[0] / 2, ax_y[0] - step[1] / 2, ax_y[-1] + step[1] / 2]
 
 
-def plot_slices(flat_map, shape, lo=-1.0, step=0.1, *, compare=None, title: str | None = None,
-                ncols: int | None = None, labels: Sequence[str] = ("x", "y", "z"),
-                names: Sequence[str] = ("first only", "second only", "both"), max_panels: int = 24,
-                metadata: dict | None = None):
+def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike = -1.0, step: float | ArrayLike = 0.1,
+                *, compare: ArrayLike | None = None, title: str | None = None, ncols: int | None = None,
+                labels: Sequence[str] = ("x", "y", "z"), names: Sequence[str] = ("first only", "second only", "both"),
+                max_panels: int = 24, metadata: dict | None = None) -> Figure:
     """The z-layers of a BINARY map side by side, in the grid's units. Returns a matplotlib Figure.
 
     Args:
@@ -481,10 +489,10 @@ def plot_slices(flat_map, shape, lo=-1.0, step=0.1, *, compare=None, title: str 
     return fig
 
 
-def plot_value_slices(values, shape, lo, step, *, label: str, vmin: float | None = None, vmax: float | None = None,
-                      title: str | None = None, ncols: int | None = None, labels: Sequence[str] = ("x", "y", "z"),
-                      cmap: str = "viridis", max_panels: int = 24, unreachable: float | None = 0.0,
-                      metadata: dict | None = None):
+def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | ArrayLike, step: float | ArrayLike, *,
+                      label: str, vmin: float | None = None, vmax: float | None = None, title: str | None = None,
+                      ncols: int | None = None, labels: Sequence[str] = ("x", "y", "z"), cmap: str = "viridis",
+                      max_panels: int = 24, unreachable: float | None = 0.0, metadata: dict | None = None) -> Figure:
     """The z-layers of a FLOAT map (e.g. a reachability index in [0, 1], a manipulability map >= 0)
     side by side in the grid's units, coloured by value, with one colour bar shared by every panel.
     Returns the Figure.
@@ -573,7 +581,7 @@ def _angle_text(x: float) -> str:
 CONVENTION_TEXT = {"paper": "paper convention T = R·transl(p)", "standard": "standard convention T = transl(p)·R"}
 
 
-def map_title(arm: str, kind, *, rpy: Sequence[float] | None = None, point: Sequence[float] | None = None,
+def map_title(arm: str, kind: Any, *, rpy: Sequence[float] | None = None, point: Sequence[float] | None = None,
               convention: str | None = None, orientations: int | None = None, summary: str | None = None) -> str:
     """A map picture's short title: the arm, the kind, its orientation (or point) and its pose convention,
     and on a second line ``summary`` (e.g. ``"1883 of 9261 nodes reachable (numerical)"``).
@@ -617,7 +625,8 @@ def png_metadata(settings: dict, *, title: str | None = None) -> dict[str, str]:
     return meta
 
 
-def plot_voxels(flat_map, shape, lo=-1.0, step=0.1, *, ax=None, color="#1f4e79", title=None):
+def plot_voxels(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike = -1.0, step: float | ArrayLike = 0.1, *,
+                ax: Axes | None = None, color: str = "#1f4e79", title: str | None = None) -> Axes:
     """Reachable nodes as a 3-D scatter (one point per node). Returns the Axes."""
     import matplotlib.pyplot as plt
 
@@ -636,7 +645,8 @@ def plot_voxels(flat_map, shape, lo=-1.0, step=0.1, *, ax=None, color="#1f4e79",
     return ax
 
 
-def render_mesh(mesh, *, ax=None, color="#1f4e79", title=None, elev=25, azim=-60, lim=1.0):
+def render_mesh(mesh: Any, *, ax: Axes | None = None, color: str = "#1f4e79", title: str | None = None,
+                elev: float = 25, azim: float = -60, lim: float = 1.0) -> Axes:
     """Draw a triangle mesh with matplotlib (headless, no OpenGL). Returns the Axes."""
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
@@ -662,7 +672,7 @@ def render_mesh(mesh, *, ax=None, color="#1f4e79", title=None, elev=25, azim=-60
     return ax
 
 
-def save_figure(fig, path, dpi: int = 120, *, metadata: dict | None = None) -> None:
+def save_figure(fig: Figure, path: PathLike, dpi: int = 120, *, metadata: dict | None = None) -> None:
     """Save a matplotlib figure atomically (PNG unless the suffix says otherwise) and close it.
 
     ``metadata`` (and the ``wsmap_metadata`` the map drawings attach, e.g. :func:`png_metadata`)
