@@ -98,7 +98,8 @@ def plot_mean_band(curves: ArrayLike, *, epochs: ArrayLike | None = None, ax: Ax
     ax.set_xlabel("epoch")
     ax.set_ylabel(ylabel)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    # beside the axes, not on the curves (figures are saved with bbox_inches="tight")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     if title:
         ax.set_title(title)
     return fig
@@ -126,7 +127,7 @@ def plot_training_curves(histories: Sequence, labels: Sequence[str], *, best_epo
     ax.set_xlabel("epoch")
     ax.set_ylabel("MSE (solid: training, dashed: validation)")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8, ncol=2)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     if title:
         ax.set_title(title)
     return fig
@@ -151,7 +152,7 @@ def plot_sample_errors(errors: ArrayLike, *, title: str | None = None) -> Figure
     a1.set_xlabel("test sample")
     a1.set_ylabel("nodes predicted wrongly (%)")
     a1.grid(True, alpha=0.3)
-    a1.legend(fontsize=8)
+    a1.legend(fontsize=8, loc="upper right", framealpha=0.9)
     a2.hist(e, bins=30, color="#1f4e79")
     a2.set_xlabel("nodes predicted wrongly (%)")
     a2.set_ylabel("test samples")
@@ -225,7 +226,7 @@ def plot_threshold_sweep(sweep: Any, *, mark: float | None = 0.5, title: str | N
     ax.set_ylabel("pooled value on the test set")
     ax.set_ylim(0, 1.02)
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, loc="lower center")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     if title:
         ax.set_title(title)
     return fig
