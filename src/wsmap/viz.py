@@ -188,22 +188,20 @@ def plot_sections(pred: ArrayLike, truth: ArrayLike, shape: Sequence[int], *, la
     if not 0 <= layer < vol.shape[1]:
         raise ValueError(f"layer {layer} is outside the {vol.shape[1]} z-layers")
     n = vol.shape[0]
-    nx, ny = int(shape[0]), int(shape[1])
-    lo = np.broadcast_to(np.asarray(lo, dtype=float), (3,))
-    step = np.broadcast_to(np.asarray(step, dtype=float), (3,))
-    extent = [lo[0], lo[0] + step[0] * (nx - 1), lo[1], lo[1] + step[1] * (ny - 1)]
+    ax_x, ax_y, _ = _axes_of(shape, lo, step)
+    extent = _cell_extent(ax_x, ax_y, step)
     cmap = ListedColormap(list(OUTCOME_COLORS))
-    fig, axes = _panel_grid(plt, n, ncols, (1.75, 1.85), (0.0, 0.6))
+    fig, axes = _slice_grid(plt, n, ncols, extent, ("x", "y", "z"), "m", panel=2.0)
     for i, ax in enumerate(axes):
         ax.imshow(vol[i, layer], origin="lower", cmap=cmap, vmin=0, vmax=3, extent=extent,
                   interpolation="nearest")
         if titles is not None:
-            ax.set_title(titles[i], fontsize=7)
-    fig.legend(handles=[Patch(color=c, label=l) for c, l in zip(OUTCOME_COLORS[1:], OUTCOME_NAMES[1:])],
-               loc="lower center", ncol=3, fontsize=8)
+            ax.set_title(titles[i], fontsize=8)
+    fig.legend(handles=[Patch(facecolor=OUTCOME_COLORS[k], label=OUTCOME_NAMES[k], edgecolor="0.6")
+                        for k in (1, 2, 3, 0)],
+               loc="outside lower center", ncol=4, fontsize=9, frameon=False)
     if title or z_value is not None:
-        fig.suptitle((title or "") + (f" (z = {z_value:.2f} m)" if z_value is not None else ""), fontsize=10)
-    fig.tight_layout(rect=(0, 0.05, 1, 1))
+        fig.suptitle((title or "") + (f" (z = {z_value:.2f} m)" if z_value is not None else ""), fontsize=11)
     return fig
 
 
@@ -338,23 +336,6 @@ def export_mesh(mesh: Any, path: PathLike) -> Path:
 # --------------------------------------------------------------------------------------------
 # Maps
 # --------------------------------------------------------------------------------------------
-
-
-def _panel_grid(plt, count: int, ncols: int, panel: tuple[float, float], extra: tuple[float, float]):
-    """A figure of ``count`` panels in rows of at most ``ncols``, each ``panel`` (w, h) inches plus
-    ``extra`` (w, h) for the figure: ``(fig, axes)`` with the ``count`` panels' axes in order, every
-    panel without ticks and the spare cells of the last row switched off."""
-    ncols = max(1, min(int(ncols), count))
-    nrows = int(math.ceil(count / ncols))
-    fig, grid = plt.subplots(nrows, ncols, figsize=(panel[0] * ncols + extra[0], panel[1] * nrows + extra[1]),
-                             squeeze=False)
-    axes = list(grid.flat)
-    for k, ax in enumerate(axes):
-        ax.set_xticks([])
-        ax.set_yticks([])
-        if k >= count:
-            ax.axis("off")
-    return fig, axes[:count]
 
 
 def _axes_of(shape, lo, step):
