@@ -49,9 +49,10 @@ Image(filename=str(out.figures / f"real_arms_index_{cfg['show_3d']}.png"))
 Image(filename=str(out.figures / f"real_arms_index_{cfg['show_3d']}_3d.png"))
 
 # %%
-# plotly.js goes into the notebook itself ("notebook", not "notebook_connected": no network needed);
-# the sliders under the scene set the threshold and a cut plane through the z-layers
-part.figure_3d_of_shown(result).show(renderer="notebook")
+# the figure's data as plotly's MIME type: JupyterLab's plotly extension draws it without a network
+# (notebook_connected would fetch plotly.js from a CDN), and the executed copy stays data only, without
+# the 5 MB of plotly.js; the sliders under the scene set the threshold and a cut plane through the z-layers
+part.figure_3d_of_shown(result).show(renderer="plotly_mimetype")
 
 # %% [markdown]
 # ## Manipulability of the PUMA560
