@@ -2,13 +2,15 @@
 #   make paper   create .venv from environment.lock, install wsmap, run `dvc repro`
 #   make test    create .venv from environment.lock, install wsmap, run the tests on two workers
 #                (CI runs this; tests/conftest.py says how the work is split)
+#   make docs    the documentation site (mkdocs build --strict) into site/ (CI runs this after the tests)
+#   make lab     JupyterLab on notebooks/
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: env paper test smoke bench lock clean-env
+.PHONY: env paper test smoke bench docs lab lock clean-env
 
 $(STAMP): environment.lock pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -28,6 +30,16 @@ test: $(STAMP)
 # only the papermill smoke runs of the notebooks (tests marked `smoke`; `-m "not smoke"` for the rest)
 smoke: $(STAMP)
 	$(BIN)/python -m pytest -q -m smoke
+
+# The documentation site (mkdocs.yml; the API reference from the docstrings) into site/; warnings are errors
+docs: $(STAMP)
+	$(BIN)/mkdocs build --strict --quiet
+	@echo "site/index.html"
+
+# JupyterLab on the notebooks: opened by hand, a notebook writes into scratch/<notebook>/ (git-ignored),
+# not over the committed figures/, tables/, results/ and models/ (wsmap.paths.notebook_outputs)
+lab: $(STAMP)
+	$(BIN)/jupyter lab --notebook-dir=notebooks
 
 # Speed measurements (minutes; never part of the tests). JSON results land in bench/.
 bench: $(STAMP)

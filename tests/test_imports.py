@@ -2,7 +2,8 @@
 
 The graph is read from the source, not from what an interpreter happened to load: every import
 statement of every module under ``src/wsmap`` counts, at module level or inside a function
-(a function-level import is a circle waiting for the day someone moves it to the top). An edge
+(a function-level import is a circle waiting for the day someone moves it to the top), except
+those under ``if TYPE_CHECKING:``, which never run (the names of annotations, ``wsmap._typing``). An edge
 ``A -> B`` means that running ``A``'s imports runs ``B``:
 
 * ``import a.b.c`` and ``from a.b.c import name``: ``a.b.c`` and its packages ``a.b`` (their
@@ -67,7 +68,11 @@ def import_graph(src: Path, top: str = "wsmap") -> dict[str, set[str]]:
             if explicit or target not in running:
                 targets.add(target)
 
-        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        tree = ast.parse(path.read_text(), filename=str(path))
+        for node in ast.walk(tree):  # ``if TYPE_CHECKING:`` never runs: the names of annotations only
+            if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
+                node.body = []
+        for node in ast.walk(tree):
             if isinstance(node, ast.Import):
                 for alias in node.names:
                     if alias.name.split(".")[0] == top:

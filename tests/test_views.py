@@ -288,3 +288,36 @@ def test_html_renders_a_webgl_scene_in_headless_chromium(small, tmp_path):
     sizes = [(int(w), int(h)) for w, h in re.findall(r'<canvas width="(\d+)" height="(\d+)"', dom)]
     assert sizes and all(w > 100 and h > 100 for w, h in sizes), re.findall(r"<canvas[^>]*>", dom)
     assert "reachability index" in dom  # the colour bar (SVG) was drawn after the scene
+
+
+# --------------------------------------------------------------------------------------------
+# figure_3d: threshold slider and cut plane
+# --------------------------------------------------------------------------------------------
+
+
+def test_threshold_slider_shows_one_trace_at_a_time(sphere):
+    grid, nodes, values = sphere
+    fig = figure_3d(values, grid, thresholds=[0.5, 0.0, 0.25, 2.0])  # sorted; 2.0 lies above the map: dropped
+    assert [len(t.x) for t in fig.data] == [(values > t).sum() for t in (0.0, 0.25, 0.5)]
+    assert [t.visible for t in fig.data] == [True, False, False]
+    (slider,) = fig.layout.sliders
+    assert [s.label for s in slider.steps] == ["0", "0.25", "0.5"]
+    assert [s.args[0]["visible"] for s in slider.steps] == [[True, False, False], [False, True, False],
+                                                            [False, False, True]]
+    assert slider.currentvalue.prefix == "reachability index > "
+    with pytest.raises(ValueError, match="thresholds must be a non-empty sequence of numbers"):
+        figure_3d(values, grid, thresholds=[])
+
+
+def test_cut_plane_ends_the_z_range_at_each_layer(sphere):
+    grid, _, values = sphere
+    fig = figure_3d(values, grid, cut_plane=True)
+    (slider,) = fig.layout.sliders
+    assert len(slider.steps) == 21 and slider.active == 20
+    assert slider.steps[0].args[0]["scene.zaxis.range"] == pytest.approx([-1.05, -0.95])
+    assert slider.steps[12].label == "0.20"
+    assert slider.steps[12].args[0]["scene.zaxis.range"] == pytest.approx([-1.05, 0.25])
+    # the scene keeps the whole grid's box while the z range shrinks
+    assert fig.layout.scene.aspectmode == "manual"
+    assert fig.layout.scene.xaxis.range == pytest.approx((-1.05, 1.05))
+    assert slider.currentvalue.prefix == "z (m) ≤ "

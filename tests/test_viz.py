@@ -137,3 +137,95 @@ def test_arm_batch():
     assert x.shape == (1, 84)
     labels = datasets.labels_for(batch, spec)
     assert labels.shape == (1, 9261) and labels.any()
+
+
+# --------------------------------------------------------------------------------------------
+# Map slices a roboticist reads: metres, units, a legend, no empty panels, settings in the PNG
+# --------------------------------------------------------------------------------------------
+
+
+def _ball_map():
+    """A ball of radius 0.35 m about (0, 0, 0.2) on [-1, 1]³ at 0.1 m: reachable in z-layers 0.0 .. 0.5 only."""
+    from wsmap.workspace import cartesian_grid
+
+    nodes = cartesian_grid(-1.0, 1.0, 0.1)
+    return np.linalg.norm(nodes - [0.0, 0.0, 0.2], axis=1) <= 0.35, nodes
+
+
+def test_slices_drop_empty_layers_and_read_in_metres():
+    import matplotlib.pyplot as plt
+
+    reach, nodes = _ball_map()
+    fig = viz.plot_slices(reach, (21, 21, 21), -1.0, 0.1, title="ball")
+    panels = [ax for ax in fig.axes if ax.images]
+    zs = sorted({round(z, 2) for z in nodes[reach, 2]})
+    assert zs == [-0.1, 0.0, 0.1, 0.2, 0.3, 0.4, 0.5]
+    assert [ax.get_title() for ax in panels] == [f"z = {z:.2f} m" for z in zs]
+    # every cell is centred on its node: the image spans the grid plus half a step each side
+    assert np.allclose(panels[0].images[0].get_extent(), [-1.05, 1.05, -1.05, 1.05])
+    assert {ax.get_xlabel() for ax in panels if ax.get_xlabel()} == {"x (m)"}
+    assert {ax.get_ylabel() for ax in panels if ax.get_ylabel()} == {"y (m)"}
+    (legend,) = fig.legends
+    assert [t.get_text() for t in legend.get_texts()] == ["reachable", "unreachable"]
+    assert legend.get_title().get_text() == "14 empty z-layers left out"
+    # the layer z = 0.2 m holds the ball's equator: 11 x 11 nodes within 0.35 m of its centre... in the picture
+    (mid,) = [ax for ax in panels if ax.get_title() == "z = 0.20 m"]
+    assert mid.images[0].get_array().sum() == reach[np.isclose(nodes[:, 2], 0.2)].sum()
+    plt.close(fig)
+
+
+def test_slices_thin_a_long_stack_and_keep_its_ends():
+    import matplotlib.pyplot as plt
+
+    reach = np.ones(5 * 5 * 30, dtype=bool)
+    fig = viz.plot_slices(reach, (5, 5, 30), 0.0, 0.05, max_panels=8)
+    titles = [ax.get_title() for ax in fig.axes if ax.images]
+    assert len(titles) == 8 and titles[0] == "z = 0.00 m" and titles[-1] == "z = 1.45 m"
+    assert fig.legends[0].get_title().get_text() == "8 of 30 non-empty z-layers shown, evenly spaced"
+    plt.close(fig)
+    with pytest.raises(ValueError, match="max_panels must be at least 1, got 0"):
+        viz.plot_slices(reach, (5, 5, 30), max_panels=0)
+
+
+def test_value_slices_grey_out_unreachable_nodes_apart_from_the_scale():
+    import matplotlib.pyplot as plt
+
+    reach, nodes = _ball_map()
+    values = np.where(reach, 0.5 + 0.5 * (nodes[:, 0] > 0), 0.0)
+    fig = viz.plot_value_slices(values, (21, 21, 21), -1.0, 0.1, label="reachability index", vmin=0, vmax=1)
+    panels = [ax for ax in fig.axes if ax.images]
+    assert len(panels) == 7
+    image = panels[3].images[0].get_array()
+    assert image.mask.sum() == (~reach[np.isclose(nodes[:, 2], 0.2)]).sum()  # the unreachable cells
+    (legend,) = fig.legends
+    assert [t.get_text() for t in legend.get_texts()] == ["unreachable (0)"]
+    plt.close(fig)
+
+
+def test_map_title_names_arm_kind_orientation_and_convention():
+    from wsmap.workspace.kinds import get_kind
+
+    assert viz.map_title("panda", get_kind("constant"), rpy=(math.pi, 0, -math.pi / 2), convention="standard",
+                         summary="1883 of 9261 nodes reachable") == (
+        "panda: constant map, rpy (π, 0, -π/2) rad, standard convention T = transl(p)·R\n"
+        "1883 of 9261 nodes reachable")
+    # the index fixes its own convention and reads the orientations, not rpy
+    assert viz.map_title("ur5e", get_kind("index"), rpy=(1, 2, 3), convention="paper", orientations=50) == (
+        "ur5e: reachability index over 50 orientations, standard convention T = transl(p)·R")
+    assert viz.map_title("puma560", get_kind("orientation"), point=(0.5, 0.5, 0.5)) == (
+        "puma560: orientation map, at (0.5, 0.5, 0.5) m")
+
+
+def test_png_keeps_the_settings_in_its_metadata(tmp_path):
+    from PIL import Image
+
+    reach, _ = _ball_map()
+    settings = {"robot": "ball", "rpy": np.array([np.pi, 0.0, 0.0]), "ik": {"tol": 1e-10}}
+    fig = viz.plot_slices(reach, (21, 21, 21), -1.0, 0.1, title="ball\n7 layers",
+                          metadata=viz.png_metadata(settings, title="ball\n7 layers"))
+    path = tmp_path / "ball.png"
+    save_figure(fig, path)
+    text = Image.open(path).text
+    assert text["Title"] == "ball — 7 layers"
+    assert json.loads(text["Description"]) == {"ik": {"tol": 1e-10}, "robot": "ball", "rpy": [math.pi, 0.0, 0.0]}
+    assert text["Software"].startswith("wsmap ")

@@ -45,15 +45,21 @@ def module_name(path: Path) -> str:
 
 
 def wsmap_imports(source: str, module: str | None) -> set[str]:
-    """Every ``wsmap`` module an import anywhere in ``source`` names (function bodies included),
-    with the packages above each (importing ``a.b.c`` runs ``a`` and ``a.b`` first).
+    """Every ``wsmap`` module an import anywhere in ``source`` names (function bodies included, ``if
+    TYPE_CHECKING:`` blocks not), with the packages above each (importing ``a.b.c`` runs ``a`` and
+    ``a.b`` first).
 
     ``module`` is the dotted name of the module ``source`` belongs to (for relative imports);
     ``from pkg import name`` counts ``pkg.name`` when that is a module.
     """
     found = set()
     is_pkg = module is not None and module_file(module) is not None and module_file(module).name == "__init__.py"
-    for node in ast.walk(ast.parse(source)):
+    tree = ast.parse(source)
+    # ``if TYPE_CHECKING:`` blocks never run (they name the types of annotations, wsmap._typing): not deps
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
+            node.body = []
+    for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             found |= {a.name for a in node.names if a.name.split(".")[0] == "wsmap"}
         elif isinstance(node, ast.ImportFrom):

@@ -10,7 +10,7 @@
 
 # %% parameters
 params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
-output_root = None
+output_root = None  # papermill/DVC pass the project root; None: scratch/<notebook>/ (opened by hand)
 
 # %%
 from IPython.display import Image
@@ -18,7 +18,7 @@ from IPython.display import Image
 from wsmap import paths
 from wsmap.paper.parts import classical_workspace as part
 
-out = paths.Outputs(output_root).make()
+out = paths.notebook_outputs("classical_workspace", output_root)
 cfg = paths.notebook_params("classical_workspace", params_file)
 result = part.run(cfg, out)
 part.save(result, out)

@@ -20,7 +20,7 @@
 
 # %% parameters
 params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
-output_root = None
+output_root = None  # papermill/DVC pass the project root; None: scratch/<notebook>/ (opened by hand)
 
 # %%
 from IPython.display import Image
@@ -29,7 +29,7 @@ from wsmap import paths
 from wsmap.paper.parts import improved_model as part
 
 cfg = paths.notebook_params("improved_model", params_file)
-out = paths.Outputs(output_root).make()
+out = paths.notebook_outputs("improved_model", output_root)
 
 # %% [markdown]
 # ## Training, accuracy on the held-out arms and on the PUMA560, speed of one map

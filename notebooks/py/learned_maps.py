@@ -14,7 +14,7 @@
 
 # %% parameters
 params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
-output_root = None
+output_root = None  # papermill/DVC pass the project root; None: scratch/<notebook>/ (opened by hand)
 
 # %%
 from IPython.display import Image
@@ -23,7 +23,7 @@ from wsmap import paths
 from wsmap.paper.parts import learned_maps as part
 
 cfg = paths.notebook_params("learned_maps", params_file)
-out = paths.Outputs(output_root).make()
+out = paths.notebook_outputs("learned_maps", output_root)
 
 # %% [markdown]
 # ## The panda7 map model, the manipulability model and the design studies

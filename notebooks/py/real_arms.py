@@ -13,7 +13,7 @@
 
 # %% parameters
 params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
-output_root = None
+output_root = None  # papermill/DVC pass the project root; None: scratch/<notebook>/ (opened by hand)
 
 # %%
 from IPython.display import Image
@@ -21,7 +21,7 @@ from IPython.display import Image
 from wsmap import paths
 from wsmap.paper.parts import real_arms as part
 
-out = paths.Outputs(output_root).make()
+out = paths.notebook_outputs("real_arms", output_root)
 cfg = paths.notebook_params("real_arms", params_file)
 result = part.run(cfg, out)
 part.save(result, out)
@@ -36,6 +36,9 @@ figures = part.figures(result, out)
 # %%
 result.volumes
 
+# %%
+Image(filename=str(out.figures / f"real_arms_index_{cfg['show_3d']}.png"))
+
 # %% [markdown]
 # ## A 3-D view
 #
@@ -46,7 +49,10 @@ result.volumes
 Image(filename=str(out.figures / f"real_arms_index_{cfg['show_3d']}_3d.png"))
 
 # %%
-part.figure_3d_of_shown(result).show(renderer="notebook_connected")
+# the figure's data as plotly's MIME type: JupyterLab's plotly extension draws it without a network
+# (notebook_connected would fetch plotly.js from a CDN), and the executed copy stays data only, without
+# the 5 MB of plotly.js; the sliders under the scene set the threshold and a cut plane through the z-layers
+part.figure_3d_of_shown(result).show(renderer="plotly_mimetype")
 
 # %% [markdown]
 # ## Manipulability of the PUMA560

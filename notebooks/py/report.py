@@ -9,7 +9,7 @@
 
 # %% parameters
 params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
-output_root = None
+output_root = None  # papermill/DVC pass the project root; None: scratch/<notebook>/ (opened by hand)
 
 # %%
 from IPython.display import Image
@@ -18,7 +18,7 @@ from wsmap import paths
 from wsmap.paper.parts import report as part
 
 cfg = paths.notebook_params("report", params_file)
-out = paths.Outputs(output_root).make()
+out = paths.notebook_outputs("report", output_root)
 result = part.run(cfg, out)
 figures = part.figures(result, out)
 print(f"{len(result.metrics)} metrics files, {len(result.table)} comparisons, {len(result.missing)} missing")

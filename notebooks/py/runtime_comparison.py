@@ -25,7 +25,7 @@
 
 # %% parameters
 params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
-output_root = None
+output_root = None  # papermill/DVC pass the project root; None: scratch/<notebook>/ (opened by hand)
 
 # %%
 from IPython.display import Image
@@ -33,7 +33,7 @@ from IPython.display import Image
 from wsmap import paths
 from wsmap.paper.parts import runtime_comparison as part
 
-out = paths.Outputs(output_root).make()
+out = paths.notebook_outputs("runtime_comparison", output_root)
 cfg = paths.notebook_params("runtime_comparison", params_file)
 cfg
 

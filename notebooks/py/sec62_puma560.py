@@ -28,7 +28,7 @@
 
 # %% parameters
 params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
-output_root = None
+output_root = None  # papermill/DVC pass the project root; None: scratch/<notebook>/ (opened by hand)
 
 # %%
 from IPython.display import Image
@@ -36,7 +36,7 @@ from IPython.display import Image
 from wsmap import paths
 from wsmap.paper.parts import sec62_puma560 as part
 
-out = paths.Outputs(output_root).make()
+out = paths.notebook_outputs("sec62_puma560", output_root)
 cfg = paths.notebook_params("sec62_puma560", params_file)
 
 # %% [markdown]

@@ -20,7 +20,7 @@
 
 # %% parameters
 params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
-output_root = None
+output_root = None  # papermill/DVC pass the project root; None: scratch/<notebook>/ (opened by hand)
 
 # %%
 from IPython.display import Image
@@ -28,7 +28,7 @@ from IPython.display import Image
 from wsmap import paths
 from wsmap.paper.parts import table1_workspaces as part
 
-out = paths.Outputs(output_root).make()
+out = paths.notebook_outputs("table1_workspaces", output_root)
 cfg = paths.notebook_params("table1_workspaces", params_file)
 cfg
 

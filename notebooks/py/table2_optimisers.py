@@ -31,7 +31,7 @@
 
 # %% parameters
 params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
-output_root = None
+output_root = None  # papermill/DVC pass the project root; None: scratch/<notebook>/ (opened by hand)
 
 # %%
 from IPython.display import Image
@@ -39,7 +39,7 @@ from IPython.display import Image
 from wsmap import paths
 from wsmap.paper.parts import table2_optimisers as part
 
-out = paths.Outputs(output_root).make()
+out = paths.notebook_outputs("table2_optimisers", output_root)
 cfg = paths.notebook_params("table2_optimisers", params_file)
 cfg
 

@@ -21,7 +21,7 @@
 
 # %% parameters
 params_file = None  # papermill passes the chosen params file; None: params.yaml (a notebook opened by hand)
-output_root = None
+output_root = None  # papermill/DVC pass the project root; None: scratch/<notebook>/ (opened by hand)
 
 # %%
 from IPython.display import Image
@@ -29,7 +29,7 @@ from IPython.display import Image
 from wsmap import paths
 from wsmap.paper.parts import table3_embeddings as part
 
-out = paths.Outputs(output_root).make()
+out = paths.notebook_outputs("table3_embeddings", output_root)
 cfg = paths.notebook_params("table3_embeddings", params_file)
 cfg
 

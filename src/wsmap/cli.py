@@ -427,16 +427,19 @@ def _run_map(args) -> int:
     summary = kind.summary(flat)
     fig = None
     if "--png" in extra:
-        from .viz import plot_slices, plot_value_slices
+        from .viz import map_title, plot_slices, plot_value_slices, png_metadata
 
         labels = ("x", "y", "z") if scope == "R3" else ("r1", "r2", "r3")
-        title = f"{robot.name or 'arm'} ({kind.name}): {summary} ({method}: {how})"
+        # a short title a reader can take in; every setting goes into the PNG's metadata (and the map file)
+        title = map_title(robot.name or "arm", kind, rpy=args.rpy, point=args.point, convention=convention,
+                          orientations=K if R is not None else None, summary=f"{summary} ({method})")
+        meta = png_metadata({**settings, "grid": grid}, title=title)
         if kind.value_type is float:
             vmin, vmax = kind.value_range
             fig = plot_value_slices(flat, grid["shape"], grid["lo"], grid["step"], label=kind.label, title=title,
-                                    labels=labels, vmin=vmin, vmax=vmax)
+                                    labels=labels, vmin=vmin, vmax=vmax, metadata=meta)
         else:
-            fig = plot_slices(flat, grid["shape"], grid["lo"], grid["step"], labels=labels, title=title)
+            fig = plot_slices(flat, grid["shape"], grid["lo"], grid["step"], labels=labels, title=title, metadata=meta)
     values = np.asarray(flat, dtype=np.float64)
     paths = ([out] if out is not None else []) + list(extra.values())
     try:
@@ -448,11 +451,14 @@ def _run_map(args) -> int:
                 if flag == "--h5":
                     ws.save_reuleaux(tmp, grid, bits, R_h5)
                 elif flag == "--png":
-                    fig.savefig(tmp, dpi=120, bbox_inches="tight")
+                    fig.savefig(tmp, dpi=120, bbox_inches="tight", metadata=fig.wsmap_metadata)
                 elif flag == "--html":
                     from .views import save_html
 
-                    save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map")
+                    # a float map gets a threshold slider; every map a cut plane through its z-layers
+                    save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map",
+                              thresholds=np.linspace(0.0, 0.9, 10) * values.max() if kind.value_type is float
+                              else None, cut_plane=True)
                 elif flag == "--ply":
                     from .views import save_ply
 

@@ -18,6 +18,8 @@ TABLES = ROOT / "tables"
 RESULTS = ROOT / "results"
 NOTEBOOKS = ROOT / "notebooks"
 EXECUTED = RESULTS / "notebooks"
+#: Where a notebook opened by hand writes (git-ignored): never over the committed results.
+SCRATCH = ROOT / "scratch"
 PAPER = (ROOT / ".." / "shared" / "paper").resolve()
 
 
@@ -120,11 +122,18 @@ class Outputs:
     """The folders a pipeline run writes to, under one root (the project root by default).
 
     Smoke runs pass a temporary root so that they never overwrite the committed results.
+    ``inputs``: the root whose ``data/``, ``models/``, ``results/`` and ``tables/`` hold what this
+    run READS (the datasets, other stages' models and metrics; :attr:`inputs` is an ``Outputs`` of
+    it); by default ``root`` itself, as a pipeline run reads what it wrote. A notebook opened by
+    hand writes into :data:`SCRATCH` and reads the project's (:func:`notebook_outputs`).
     """
 
-    def __init__(self, root: Path | str | None = None):
+    def __init__(self, root: Path | str | None = None, inputs: Path | str | None = None):
         self.root = Path(root).resolve() if root else ROOT
-        self.data = self.root / "data"
+        read = Path(inputs).resolve() if inputs else self.root
+        self.inputs = self if read == self.root else Outputs(read)
+        # datasets are only ever read by a run (the dataset stages write them): they come from inputs
+        self.data = read / "data"
         self.models = self.root / "models"
         self.figures = self.root / "figures"
         self.tables = self.root / "tables"
@@ -132,9 +141,29 @@ class Outputs:
         self.executed = self.results / "notebooks"
 
     def make(self) -> "Outputs":
-        for p in (self.data, self.models, self.figures, self.tables, self.results, self.executed):
+        """Create the folders (the datasets' too when this root is also the one read from)."""
+        made = (self.models, self.figures, self.tables, self.results, self.executed)
+        for p in (*made, self.data) if self.inputs is self else made:
             p.mkdir(parents=True, exist_ok=True)
         return self
 
     def __repr__(self):
-        return f"Outputs(root={str(self.root)!r})"
+        extra = "" if self.inputs is self else f", inputs={str(self.inputs.root)!r}"
+        return f"Outputs(root={str(self.root)!r}{extra})"
+
+
+def notebook_outputs(name: str, output_root: Path | str | None = None, *, log=print) -> Outputs:
+    """Where notebook ``name`` writes, made: ``output_root`` when it is given (papermill and DVC
+    always pass one: the project root, or a temporary root for the smoke runs), else, for a
+    notebook opened by hand, ``scratch/<name>/`` (git-ignored), reading its inputs (datasets, other
+    stages' models and metrics) from the project root, so that the committed ``figures/``,
+    ``tables/``, ``results/`` and ``models/`` stay as the pipeline wrote them. Set ``output_root =
+    paths.ROOT`` in the parameters cell to update the committed results from a notebook. ``log``
+    receives one line saying where the files go.
+    """
+    if output_root is not None:
+        return Outputs(output_root).make()
+    out = Outputs(SCRATCH / name, inputs=ROOT).make()
+    log(f"{name}: opened by hand, writing into {out.root} (reading data, models and results from {ROOT}); "
+        "set output_root = paths.ROOT in the parameters cell to update the committed results")
+    return out

@@ -33,6 +33,10 @@ import numpy as np
 from ._optional import require
 from .io import atomic_path, check_output_path
 from .workspace.grids import grid_counts, map_to_volume
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Any, ArrayLike, PathLike, Sequence
 
 __all__ = ["GLTF_FROM_GRID", "iso_mesh", "save_glb", "save_ply", "figure_3d", "save_html", "axis_titles"]
 
@@ -154,7 +158,7 @@ def _rgba(values, lo: float, hi: float, cmap, alpha: float = 1.0) -> np.ndarray:
     return np.round(255 * rgba).astype(np.uint8)
 
 
-def axis_titles(grid) -> tuple[str, str, str]:
+def axis_titles(grid: Mapping[str, Any]) -> tuple[str, str, str]:
     """Axis titles with units of a grid: ``("x (m)", "y (m)", "z (m)")`` for R3, ``("r1 (rad)", ...)`` for SO3."""
     names, unit = _AXES[_grid_parts(grid)[0]]
     return tuple(f"{n} ({unit})" for n in names)
@@ -197,7 +201,7 @@ def _iso(v: np.ndarray, shape, lo, step, level: float):
 # --------------------------------------------------------------------------------------------
 
 
-def iso_mesh(values, grid, level):
+def iso_mesh(values: ArrayLike, grid: Mapping[str, Any], level: float) -> Any:
     """Iso-surface of a map at ``level`` as a ``trimesh.Trimesh`` (marching cubes).
 
     Args:
@@ -218,8 +222,9 @@ def iso_mesh(values, grid, level):
     return _iso(v, shape, lo, step, _number("level", level))
 
 
-def save_glb(path, values, grid, levels=(0.25, 0.5, 0.75), colormap="viridis", *, opacity: float = 0.45,
-             vmin=None, vmax=None) -> Path:
+def save_glb(path: PathLike, values: ArrayLike, grid: Mapping[str, Any],
+             levels: float | Sequence[float] = (0.25, 0.5, 0.75), colormap: str = "viridis", *, opacity: float = 0.45,
+             vmin: float | None = None, vmax: float | None = None) -> Path:
     """Write a glTF binary scene (``.glb``) of the map's iso-surfaces, one per level.
 
     Each non-empty :func:`iso_mesh` becomes one geometry (and node) named ``"level <value>"``, with a
@@ -267,8 +272,9 @@ def save_glb(path, values, grid, levels=(0.25, 0.5, 0.75), colormap="viridis", *
     return path
 
 
-def save_ply(path, values, grid, threshold=0.0, colormap="viridis", *, vmin=None, vmax=None,
-             label: str = "value") -> Path:
+def save_ply(path: PathLike, values: ArrayLike, grid: Mapping[str, Any], threshold: float = 0.0,
+             colormap: str = "viridis", *, vmin: float | None = None, vmax: float | None = None, label: str = "value"
+            ) -> Path:
     """Write the nodes whose value is above ``threshold`` as a coloured point cloud (binary ``.ply``).
 
     One vertex per such node, in node order: ``x, y, z`` (float32, the grid's frame and units,
@@ -318,9 +324,11 @@ def save_ply(path, values, grid, threshold=0.0, colormap="viridis", *, vmin=None
 # --------------------------------------------------------------------------------------------
 
 
-def figure_3d(values, grid, *, kind: str = "points", title: str | None = None, label: str = "reachability index",
-              threshold: float = 0.0, levels=(0.25, 0.5, 0.75), colormap: str = "Viridis", vmin=None, vmax=None,
-              marker_size: float = 3.0, opacity: float | None = None):
+def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points", title: str | None = None,
+              label: str = "reachability index", threshold: float = 0.0,
+              levels: float | Sequence[float] = (0.25, 0.5, 0.75), colormap: str = "Viridis",
+              vmin: float | None = None, vmax: float | None = None, marker_size: float = 3.0,
+              opacity: float | None = None, thresholds: Sequence[float] | None = None, cut_plane: bool = False) -> Any:
     """An interactive plotly ``Figure`` of a map (notebooks: display it; files: :func:`save_html`).
 
     Args:
@@ -331,6 +339,13 @@ def figure_3d(values, grid, *, kind: str = "points", title: str | None = None, l
         title: the figure's title; ``label``: the colour bar's title (what the value is, with units).
         colormap: a plotly colour scale name; ``vmin``/``vmax``: its range (default: the map's).
         marker_size: points' size in pixels; ``opacity``: the traces' (default 0.8 points, 0.35 iso).
+        thresholds: points only: several thresholds (e.g. ``np.linspace(0, 0.9, 10)`` for an index
+            map), one trace each (the nodes above it), and a slider "value >" under the scene
+            that shows one at a time (the lowest first; ``threshold`` is then not used).
+        cut_plane: a second slider, "z ≤" (the grid's third axis): the scene's third axis range
+            ends at the chosen layer, and plotly hides what lies beyond it, so that the inside
+            of the map shows; the scene then keeps the whole grid's proportions and x/y ranges
+            (``aspectmode="manual"``).
 
     All traces share ``layout.coloraxis`` (one colour bar titled ``label``). The scene's axes are
     titled with their units (``x (m)``, ... for R3; ``r1 (rad)``, ... for SO3) and keep the grid's
@@ -352,17 +367,30 @@ def figure_3d(values, grid, *, kind: str = "points", title: str | None = None, l
     names, unit = _AXES[scope]
     hover = (f"{names[0]} = %{{x:.3f}} {unit}<br>{names[1]} = %{{y:.3f}} {unit}<br>"
              f"{names[2]} = %{{z:.3f}} {unit}<br>{label} = ")
+    steps = []
     if kind == "points":
-        threshold = _number("threshold", threshold)
-        keep = np.flatnonzero(v > threshold)
-        if keep.size == 0:
-            raise ValueError(f"no node is above the threshold {threshold:g} (the map lies in "
-                             f"[{v.min():g}, {v.max():g}]): no point to draw")
-        traces = [go.Scatter3d(
-            x=xyz[keep, 0], y=xyz[keep, 1], z=xyz[keep, 2], mode="markers", name=label,
-            marker=dict(size=float(marker_size), color=v[keep], coloraxis="coloraxis"),
-            opacity=0.8 if opacity is None else float(opacity),
-            hovertemplate=hover + "%{marker.color:.4g}<extra></extra>")]
+        if thresholds is None:
+            ts = [_number("threshold", threshold)]
+        else:
+            if isinstance(thresholds, (str, bytes)) or np.ndim(thresholds) != 1 or len(thresholds) == 0:
+                raise ValueError(f"thresholds must be a non-empty sequence of numbers, got {thresholds!r}")
+            ts = sorted(set(_number("every threshold", t) for t in thresholds))
+            ts = [t for t in ts if v.max() > t] or ts[:1]  # a threshold above the whole map shows nothing
+        traces = []
+        for t in ts:
+            keep = np.flatnonzero(v > t)
+            if keep.size == 0:
+                raise ValueError(f"no node is above the threshold {t:g} (the map lies in "
+                                 f"[{v.min():g}, {v.max():g}]): no point to draw")
+            traces.append(go.Scatter3d(
+                x=xyz[keep, 0], y=xyz[keep, 1], z=xyz[keep, 2], mode="markers",
+                name=label if thresholds is None else f"{label} > {t:g}", visible=not traces,
+                marker=dict(size=float(marker_size), color=v[keep], coloraxis="coloraxis"),
+                opacity=0.8 if opacity is None else float(opacity),
+                hovertemplate=hover + "%{marker.color:.4g}<extra></extra>"))
+        if thresholds is not None:
+            steps = [dict(method="restyle", label=f"{t:g}", args=[{"visible": [j == i for j in range(len(ts))]}])
+                     for i, t in enumerate(ts)]
     else:
         lv = _levels(levels)
         # plotly's volume traces take the nodes of an 'ij' meshgrid (x slowest): transpose
@@ -379,6 +407,19 @@ def figure_3d(values, grid, *, kind: str = "points", title: str | None = None, l
                              "no surface to draw")
     fig = go.Figure(data=traces)
     titles = [f"{n} ({unit})" for n in names]
+    sliders = []
+    if steps:
+        sliders.append(dict(active=0, steps=steps, currentvalue=dict(prefix=f"{label} > "), pad=dict(t=10, b=10),
+                            x=0.05, len=0.9, y=0.0, yanchor="top"))
+    if cut_plane:
+        # half a step beyond the outer nodes so that the ends of the range do not clip them
+        half = 0.5 * step
+        ranges = [[float(lo[i] - half[i]), float(lo[i] + step[i] * (shape[i] - 1) + half[i])] for i in range(3)]
+        layers = lo[2] + step[2] * np.arange(shape[2])
+        cuts = [dict(method="relayout", label=f"{z:.2f}",
+                     args=[{"scene.zaxis.range": [ranges[2][0], float(z + half[2])]}]) for z in layers]
+        sliders.append(dict(active=len(cuts) - 1, steps=cuts, currentvalue=dict(prefix=f"{names[2]} ({unit}) ≤ "),
+                            pad=dict(t=10, b=10), x=0.05, len=0.9, y=-0.12 if steps else 0.0, yanchor="top"))
     fig.update_layout(
         title=title,
         coloraxis=dict(colorscale=colormap, cmin=cl, cmax=ch, colorbar=dict(title=dict(text=label))),
@@ -387,10 +428,19 @@ def figure_3d(values, grid, *, kind: str = "points", title: str | None = None, l
         margin=dict(l=0, r=0, t=40 if title else 10, b=0),
         legend=dict(x=0, y=1),
     )
+    if sliders:
+        fig.update_layout(sliders=sliders, margin=dict(b=60 * len(sliders) + 20))
+    if cut_plane:
+        extent = np.array([r[1] - r[0] for r in ranges])
+        ratio = extent / extent.max()
+        fig.update_layout(scene=dict(
+            aspectmode="manual", aspectratio=dict(x=float(ratio[0]), y=float(ratio[1]), z=float(ratio[2])),
+            xaxis=dict(range=ranges[0], autorange=False), yaxis=dict(range=ranges[1], autorange=False),
+            zaxis=dict(range=ranges[2], autorange=False)))
     return fig
 
 
-def save_html(path, values, grid, **kw) -> Path:
+def save_html(path: PathLike, values: ArrayLike, grid: Mapping[str, Any], **kw) -> Path:
     """Write :func:`figure_3d` ``(values, grid, **kw)`` as one standalone HTML file.
 
     plotly.js is embedded (``include_plotlyjs=True``, about 5 MB): the file opens in a browser

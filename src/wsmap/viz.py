@@ -29,11 +29,16 @@ import numpy as np
 from .io import atomic_path
 from .metrics import OUTCOME_NAMES, outcomes, session_mean_std
 from .workspace.grids import map_to_volume
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Any, ArrayLike, Axes, Figure, PathLike
 
 __all__ = [
     "OUTCOME_COLORS", "plot_mean_band", "plot_training_curves", "plot_sample_errors", "plot_sections",
     "plot_threshold_sweep", "plot_error_histograms", "plot_runtimes", "plot_meshes", "export_mesh", "plot_slices",
-    "plot_voxels", "save_figure", "render_mesh", "plot_value_slices",
+    "plot_voxels", "save_figure", "render_mesh", "plot_value_slices", "map_title", "png_metadata", "MAP_COLORS",
+    "COMPARE_COLORS", "CONVENTION_TEXT",
 ]
 
 #: The colours of :func:`wsmap.metrics.outcomes` codes 0..3 (:data:`wsmap.metrics.OUTCOME_NAMES`).
@@ -58,8 +63,9 @@ def _plt():
 # --------------------------------------------------------------------------------------------
 
 
-def plot_mean_band(curves, *, epochs=None, ax=None, label: str = "mean", color: str = "#1f4e79",
-                   logy: bool = True, ylabel: str = "", title: str | None = None, show_sessions: bool = True):
+def plot_mean_band(curves: ArrayLike, *, epochs: ArrayLike | None = None, ax: Axes | None = None, label: str = "mean",
+                   color: str = "#1f4e79",
+                   logy: bool = True, ylabel: str = "", title: str | None = None, show_sessions: bool = True) -> Figure:
     """Mean ± sigma over sessions (rows of ``curves``, NaN = session stopped) per epoch.
 
     With ``logy``, where ``mean − sigma <= 0`` the band's lower edge is the lowest session's
@@ -92,14 +98,15 @@ def plot_mean_band(curves, *, epochs=None, ax=None, label: str = "mean", color: 
     ax.set_xlabel("epoch")
     ax.set_ylabel(ylabel)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    # beside the axes, not on the curves (figures are saved with bbox_inches="tight")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     if title:
         ax.set_title(title)
     return fig
 
 
-def plot_training_curves(histories: Sequence, labels: Sequence[str], *, best_epochs=None,
-                         title: str | None = None):
+def plot_training_curves(histories: Sequence, labels: Sequence[str], *, best_epochs: Sequence[int] | None = None,
+                         title: str | None = None) -> Figure:
     """Training (solid) and validation (dashed) loss per epoch of several single-session
     histories (e.g. the 7 block subspaces), log y; a dot marks each best (restored) epoch."""
     plt = _plt()
@@ -120,7 +127,7 @@ def plot_training_curves(histories: Sequence, labels: Sequence[str], *, best_epo
     ax.set_xlabel("epoch")
     ax.set_ylabel("MSE (solid: training, dashed: validation)")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8, ncol=2)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     if title:
         ax.set_title(title)
     return fig
@@ -131,7 +138,7 @@ def plot_training_curves(histories: Sequence, labels: Sequence[str], *, best_epo
 # --------------------------------------------------------------------------------------------
 
 
-def plot_sample_errors(errors, *, title: str | None = None):
+def plot_sample_errors(errors: ArrayLike, *, title: str | None = None) -> Figure:
     """Per-sample error (:func:`wsmap.metrics.per_sample_error`) of a test set: left, the error of every sample
     in test-set order with its mean and mean ± sigma; right, their histogram. Returns the Figure."""
     plt = _plt()
@@ -145,7 +152,7 @@ def plot_sample_errors(errors, *, title: str | None = None):
     a1.set_xlabel("test sample")
     a1.set_ylabel("nodes predicted wrongly (%)")
     a1.grid(True, alpha=0.3)
-    a1.legend(fontsize=8)
+    a1.legend(fontsize=8, loc="upper right", framealpha=0.9)
     a2.hist(e, bins=30, color="#1f4e79")
     a2.set_xlabel("nodes predicted wrongly (%)")
     a2.set_ylabel("test samples")
@@ -156,8 +163,9 @@ def plot_sample_errors(errors, *, title: str | None = None):
     return fig
 
 
-def plot_sections(pred, truth, shape, *, layer: int, lo=-1.0, step=0.1, z_value: float | None = None,
-                  titles: Sequence[str] | None = None, ncols: int = 5, title: str | None = None):
+def plot_sections(pred: ArrayLike, truth: ArrayLike, shape: Sequence[int], *, layer: int, lo: float | ArrayLike = -1.0,
+                  step: float | ArrayLike = 0.1, z_value: float | None = None, titles: Sequence[str] | None = None,
+                  ncols: int = 5, title: str | None = None) -> Figure:
     """One panel per sample: z-layer ``layer`` of its predicted map against the exact one,
     coloured by outcome (TP/FP/FN/TN, :func:`wsmap.metrics.outcomes`, :data:`OUTCOME_COLORS`).
 
@@ -180,26 +188,24 @@ def plot_sections(pred, truth, shape, *, layer: int, lo=-1.0, step=0.1, z_value:
     if not 0 <= layer < vol.shape[1]:
         raise ValueError(f"layer {layer} is outside the {vol.shape[1]} z-layers")
     n = vol.shape[0]
-    nx, ny = int(shape[0]), int(shape[1])
-    lo = np.broadcast_to(np.asarray(lo, dtype=float), (3,))
-    step = np.broadcast_to(np.asarray(step, dtype=float), (3,))
-    extent = [lo[0], lo[0] + step[0] * (nx - 1), lo[1], lo[1] + step[1] * (ny - 1)]
+    ax_x, ax_y, _ = _axes_of(shape, lo, step)
+    extent = _cell_extent(ax_x, ax_y, step)
     cmap = ListedColormap(list(OUTCOME_COLORS))
-    fig, axes = _panel_grid(plt, n, ncols, (1.75, 1.85), (0.0, 0.6))
+    fig, axes = _slice_grid(plt, n, ncols, extent, ("x", "y", "z"), "m", panel=2.0)
     for i, ax in enumerate(axes):
         ax.imshow(vol[i, layer], origin="lower", cmap=cmap, vmin=0, vmax=3, extent=extent,
                   interpolation="nearest")
         if titles is not None:
-            ax.set_title(titles[i], fontsize=7)
-    fig.legend(handles=[Patch(color=c, label=l) for c, l in zip(OUTCOME_COLORS[1:], OUTCOME_NAMES[1:])],
-               loc="lower center", ncol=3, fontsize=8)
+            ax.set_title(titles[i], fontsize=8)
+    fig.legend(handles=[Patch(facecolor=OUTCOME_COLORS[k], label=OUTCOME_NAMES[k], edgecolor="0.6")
+                        for k in (1, 2, 3, 0)],
+               loc="outside lower center", ncol=4, fontsize=9, frameon=False)
     if title or z_value is not None:
-        fig.suptitle((title or "") + (f" (z = {z_value:.2f} m)" if z_value is not None else ""), fontsize=10)
-    fig.tight_layout(rect=(0, 0.05, 1, 1))
+        fig.suptitle((title or "") + (f" (z = {z_value:.2f} m)" if z_value is not None else ""), fontsize=11)
     return fig
 
 
-def plot_threshold_sweep(sweep, *, mark: float | None = 0.5, title: str | None = None):
+def plot_threshold_sweep(sweep: Any, *, mark: float | None = 0.5, title: str | None = None) -> Figure:
     """Precision, recall and F of a :class:`wsmap.metrics.Sweep` against the threshold; the best
     threshold and ``mark`` (the paper's 0.5) are marked."""
     plt = _plt()
@@ -218,13 +224,14 @@ def plot_threshold_sweep(sweep, *, mark: float | None = 0.5, title: str | None =
     ax.set_ylabel("pooled value on the test set")
     ax.set_ylim(0, 1.02)
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, loc="lower center")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     if title:
         ax.set_title(title)
     return fig
 
 
-def plot_error_histograms(hists: Sequence, labels: Sequence[str], *, ncols: int = 4, title: str | None = None):
+def plot_error_histograms(hists: Sequence, labels: Sequence[str], *, ncols: int = 4, title: str | None = None
+                         ) -> Figure:
     """One panel per :class:`wsmap.metrics.ErrorHistogram` (errors = truth − output), bars split
     into truly reachable and unreachable nodes, log-scaled counts (most errors are near 0)."""
     plt = _plt()
@@ -264,7 +271,7 @@ def plot_error_histograms(hists: Sequence, labels: Sequence[str], *, ncols: int 
 # --------------------------------------------------------------------------------------------
 
 
-def plot_runtimes(groups: dict[str, dict[str, np.ndarray]], *, unit: str = "ms", title: str | None = None):
+def plot_runtimes(groups: dict[str, dict[str, np.ndarray]], *, unit: str = "ms", title: str | None = None) -> Figure:
     """Bars of mean ± sigma run time, one panel per group (e.g. ``{"one arm": {"block 1":
     times, ...}, "1000 arms": {...}}``), one bar per model inside a group."""
     plt = _plt()
@@ -292,7 +299,8 @@ def plot_runtimes(groups: dict[str, dict[str, np.ndarray]], *, unit: str = "ms",
 # --------------------------------------------------------------------------------------------
 
 
-def plot_meshes(meshes: Sequence, titles: Sequence[str], *, lim: float = 1.0, colors=None, suptitle=None):
+def plot_meshes(meshes: Sequence, titles: Sequence[str], *, lim: float = 1.0, colors: Sequence[str] | None = None,
+                suptitle: str | None = None) -> Figure:
     """Meshes (e.g. :func:`wsmap.views.iso_mesh`) rendered side by side (:func:`render_mesh`, no
     OpenGL); a ``None`` or empty mesh gets an empty panel that says so."""
     plt = _plt()
@@ -313,7 +321,7 @@ def plot_meshes(meshes: Sequence, titles: Sequence[str], *, lim: float = 1.0, co
     return fig
 
 
-def export_mesh(mesh, path) -> Path:
+def export_mesh(mesh: Any, path: PathLike) -> Path:
     """Write a ``trimesh.Trimesh`` atomically; the format comes from the suffix (``.stl``,
     ``.glb``, ``.ply``, ``.obj``). Returns the path."""
     path = Path(path)
@@ -330,84 +338,165 @@ def export_mesh(mesh, path) -> Path:
 # --------------------------------------------------------------------------------------------
 
 
-def _panel_grid(plt, count: int, ncols: int, panel: tuple[float, float], extra: tuple[float, float]):
-    """A figure of ``count`` panels in rows of at most ``ncols``, each ``panel`` (w, h) inches plus
-    ``extra`` (w, h) for the figure: ``(fig, axes)`` with the ``count`` panels' axes in order, every
-    panel without ticks and the spare cells of the last row switched off."""
-    ncols = max(1, min(int(ncols), count))
-    nrows = int(math.ceil(count / ncols))
-    fig, grid = plt.subplots(nrows, ncols, figsize=(panel[0] * ncols + extra[0], panel[1] * nrows + extra[1]),
-                             squeeze=False)
-    axes = list(grid.flat)
-    for k, ax in enumerate(axes):
-        ax.set_xticks([])
-        ax.set_yticks([])
-        if k >= count:
-            ax.axis("off")
-    return fig, axes[:count]
-
-
 def _axes_of(shape, lo, step):
     lo = np.broadcast_to(np.asarray(lo, dtype=float), (3,))
     step = np.broadcast_to(np.asarray(step, dtype=float), (3,))
     return [lo[i] + step[i] * np.arange(int(shape[i])) for i in range(3)]
 
 
-def plot_slices(flat_map, shape, lo=-1.0, step=0.1, *, compare=None, title=None, ncols=7, labels=("x", "y", "z")):
-    """One panel per z-layer: reachable nodes dark. Returns a matplotlib Figure.
+#: Colours of a binary map's slices: unreachable (light), reachable (dark).
+MAP_COLORS = ("#f4f4f4", "#1f4e79")
+#: Colours of two maps compared: in neither, first only, second only, both.
+COMPARE_COLORS = ("#f4f4f4", "#d62728", "#ff9f1c", "#1f4e79")
 
-    With ``compare`` (a second map of the same shape, e.g. exact labels against a prediction) the
-    panels colour agreement (reachable in both), only-in-``flat_map`` and only-in-``compare``.
+
+def _units_of(labels: Sequence[str]) -> str:
+    # the grid's axis names say its scope: x, y, z are metres (R3), anything else radians (SO3)
+    return "m" if tuple(labels) == ("x", "y", "z") else "rad"
+
+
+def _layers_shown(occupied: np.ndarray, max_panels: int) -> tuple[np.ndarray, str]:
+    """The z-layers to draw and a note on what was left out: layers with nothing to see are dropped
+    (all of them but the middle one when the whole map is empty), and more than ``max_panels``
+    layers are thinned to evenly spaced ones, the first and last non-empty layer kept."""
+    nz = occupied.size
+    keep = np.flatnonzero(occupied)
+    notes = []
+    if keep.size == 0:
+        keep = np.array([nz // 2])
+        notes.append("nothing reachable in any z-layer")
+    elif keep.size < nz:
+        notes.append(f"{nz - keep.size} empty z-layer{'s' if nz - keep.size > 1 else ''} left out")
+    if keep.size > max_panels:
+        pick = np.unique(np.round(np.linspace(0, keep.size - 1, max_panels)).astype(int))
+        notes.append(f"{pick.size} of {keep.size} non-empty z-layers shown, evenly spaced")
+        keep = keep[pick]
+    return keep, "; ".join(notes)
+
+
+def _slice_grid(plt, count: int, ncols: int | None, extent, labels, units: str, panel: float = 2.3):
+    """``(fig, axes)``: ``count`` map panels of ``panel`` inches in rows of ``ncols`` (default: at
+    most 6), sharing metre (or radian) ticks, the axis names on the outer panels only, in a
+    constrained layout so that the colour bar, the legend and the titles never sit on the data."""
+    if ncols:
+        ncols = max(1, min(int(ncols), count))
+    else:  # rows of at most 6, as even as they go (13 panels: 5, 5, 3 rather than 6, 6, 1)
+        ncols = int(math.ceil(count / math.ceil(count / 6)))
+    nrows = int(math.ceil(count / ncols))
+    fig, grid = plt.subplots(nrows, ncols, figsize=(panel * ncols + 1.2, panel * nrows + 1.3), squeeze=False,
+                             sharex=True, sharey=True, layout="constrained")
+    axes = list(grid.flat)
+    for k, ax in enumerate(axes):
+        if k >= count:
+            ax.axis("off")
+            continue
+        ax.set_xlim(extent[0], extent[1])
+        ax.set_ylim(extent[2], extent[3])
+        ax.set_aspect("equal")
+        ax.tick_params(labelsize=8)
+        col = k % ncols
+        # the panel below this one is off (a short last row): this one shows the x ticks
+        last_in_column = k + ncols >= count
+        if last_in_column:
+            ax.set_xlabel(f"{labels[0]} ({units})", fontsize=9)
+            ax.xaxis.set_tick_params(labelbottom=True)
+        if col == 0:
+            ax.set_ylabel(f"{labels[1]} ({units})", fontsize=9)
+    return fig, axes[:count]
+
+
+def _cell_extent(ax_x, ax_y, step):
+    # imshow's extent is the outer edge of the cells: each node is the centre of its cell
+    step = np.broadcast_to(np.asarray(step, dtype=float), (3,))
+    return [ax_x[0] - step[0] / 2, ax_x[-1] + step[0] / 2, ax_y[0] - step[1] / 2, ax_y[-1] + step[1] / 2]
+
+
+def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike = -1.0, step: float | ArrayLike = 0.1,
+                *, compare: ArrayLike | None = None, title: str | None = None, ncols: int | None = None,
+                labels: Sequence[str] = ("x", "y", "z"), names: Sequence[str] = ("first only", "second only", "both"),
+                max_panels: int = 24, metadata: dict | None = None) -> Figure:
+    """The z-layers of a BINARY map side by side, in the grid's units. Returns a matplotlib Figure.
+
+    Args:
+        flat_map: bool ``(nx*ny*nz,)`` in node order (first coordinate fastest).
+        shape: ``(nx, ny, nz)``; ``lo``, ``step``: the grid's origin and spacing (scalars or 3-tuples;
+            metres for an R3 grid, radians for SO3), which place every cell: ticks in those units,
+            each panel titled with its layer's value (``z = 0.30 m``).
+        compare: a second map of the same shape (e.g. exact labels against a prediction): the cells
+            are coloured in ``names`` order as ``flat_map`` only, ``compare`` only, both
+            (:data:`COMPARE_COLORS`); without it reachable against unreachable (:data:`MAP_COLORS`).
+            A legend below the panels says which colour is which.
+        title: the figure's title, short (arm, kind, orientation, convention); the rest of the
+            settings belong in ``metadata``.
+        ncols: panels per row (default up to 6); ``labels``: the axes' names (``("r1", "r2", "r3")``
+            for SO3 maps: radians).
+        max_panels: at most this many panels: z-layers with no reachable node are left out and a
+            longer stack is thinned to evenly spaced layers (the legend's title says what was left out).
+        metadata: text stored in the PNG by :func:`save_figure` (``{"Description": ...}``).
+
+    ``ValueError`` for a map or ``compare`` that does not fit ``shape``, or ``max_panels < 1``.
     """
-    import matplotlib.pyplot as plt
+    plt = _plt()
     from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
 
-    vol = map_to_volume(np.asarray(flat_map, dtype=bool), shape)
+    if int(max_panels) < 1:
+        raise ValueError(f"max_panels must be at least 1, got {max_panels}")
+    vol = map_to_volume(np.asarray(flat_map, dtype=bool), shape)  # (nz, ny, nx)
     ax_x, ax_y, ax_z = _axes_of(shape, lo, step)
-    nz = vol.shape[0]
-    fig, axes = _panel_grid(plt, nz, ncols, (1.9, 2.0), (0.0, 0.4))
+    units = _units_of(labels)
     if compare is None:
         img = vol.astype(int)
-        cmap = ListedColormap(["#f4f4f4", "#1f4e79"])
-        vmax = 1
+        colors, vmax = MAP_COLORS, 1
+        handles = [Patch(facecolor=MAP_COLORS[1], label="reachable"),
+                   Patch(facecolor=MAP_COLORS[0], edgecolor="0.6", label="unreachable")]
     else:
         other = map_to_volume(np.asarray(compare, dtype=bool), shape)
         img = vol * 1 + other * 2  # 0 none, 1 map only, 2 compare only, 3 both
-        cmap = ListedColormap(["#f4f4f4", "#d62728", "#ff9f1c", "#1f4e79"])
-        vmax = 3
-    extent = [ax_x[0], ax_x[-1], ax_y[0], ax_y[-1]]
-    for k, ax in enumerate(axes):
+        colors, vmax = COMPARE_COLORS, 3
+        handles = [Patch(facecolor=c, label=n) for c, n in zip(COMPARE_COLORS[1:], names)]
+        handles.append(Patch(facecolor=COMPARE_COLORS[0], edgecolor="0.6", label="neither"))
+    layers, note = _layers_shown(img.reshape(img.shape[0], -1).any(axis=1), int(max_panels))
+    extent = _cell_extent(ax_x, ax_y, step)
+    fig, axes = _slice_grid(plt, layers.size, ncols, extent, labels, units)
+    cmap = ListedColormap(list(colors))
+    for k, ax in zip(layers, axes):
         ax.imshow(img[k], origin="lower", cmap=cmap, vmin=0, vmax=vmax, extent=extent, interpolation="nearest")
-        ax.set_title(f"{labels[2]} = {ax_z[k]:.2f}", fontsize=8)
-    if compare is not None:
-        from matplotlib.patches import Patch
-
-        fig.legend(
-            handles=[Patch(color=c, label=l) for c, l in zip(cmap.colors[1:], ["first only", "second only", "both"])],
-            loc="lower center",
-            ncol=3,
-            fontsize=8,
-        )
+        ax.set_title(f"{labels[2]} = {ax_z[k]:.2f} {units}", fontsize=9)
+    fig.legend(handles=handles, loc="outside lower center", ncol=len(handles), fontsize=9, frameon=False,
+               title=note or None, title_fontsize=8)
     if title:
-        fig.suptitle(title)
-    fig.tight_layout(rect=(0, 0.04 if compare is not None else 0, 1, 1))
+        fig.suptitle(title, fontsize=11)
+    fig.wsmap_metadata = dict(metadata or {})
     return fig
 
 
-def plot_value_slices(values, shape, lo, step, *, label, vmin=None, vmax=None, title=None, ncols=7,
-                      labels=("x", "y", "z"), cmap="viridis"):
-    """One panel per z-layer of a FLOAT map (e.g. a reachability index in [0, 1], a manipulability
-    map >= 0), coloured by value, with one colour bar shared by every panel. Returns the Figure.
+def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | ArrayLike, step: float | ArrayLike, *,
+                      label: str, vmin: float | None = None, vmax: float | None = None, title: str | None = None,
+                      ncols: int | None = None, labels: Sequence[str] = ("x", "y", "z"), cmap: str = "viridis",
+                      max_panels: int = 24, unreachable: float | None = 0.0, metadata: dict | None = None) -> Figure:
+    """The z-layers of a FLOAT map (e.g. a reachability index in [0, 1], a manipulability map >= 0)
+    side by side in the grid's units, coloured by value, with one colour bar shared by every panel.
+    Returns the Figure.
 
     Args:
         values: the map, ``(nx*ny*nz,)`` finite numbers in node order (first coordinate fastest).
         shape: ``(nx, ny, nz)``; ``lo``, ``step``: the grid's origin and spacing (scalars or
-            3-tuples; metres for R3 maps, radians for SO3), for the panels' extents and titles.
+            3-tuples; metres for R3 maps, radians for SO3): ticks in those units, each panel titled
+            with its layer's value (``z = 0.30 m``).
         label: the colour bar's label: what the value is, with its units (``"manipulability (m³)"``).
         vmin, vmax: the colour range (default: the map's minimum and maximum), the same in every panel.
         labels: the axes' names (``("r1", "r2", "r3")`` for SO3 maps); ``cmap``: a matplotlib colormap.
+        max_panels: at most this many panels: layers with no value above ``vmin`` (nothing reachable)
+            are left out and a longer stack is thinned to evenly spaced layers (a note under the
+            panels says what was left out).
+        unreachable: nodes of exactly this value (default 0: where an index or a manipulability
+            map is unreachable) are drawn light grey, apart from the colour scale, with a legend entry
+            "unreachable"; ``None`` colours them by value too.
+        title: short; ``metadata``: text stored in the PNG by :func:`save_figure`.
 
-    ``ValueError`` for a map that does not fit ``shape``, has NaN or infinite values, or ``vmax < vmin``.
+    ``ValueError`` for a map that does not fit ``shape``, has NaN or infinite values, ``vmax < vmin``
+    or ``max_panels < 1``.
     """
     plt = _plt()
     v = np.asarray(values)
@@ -419,29 +508,107 @@ def plot_value_slices(values, shape, lo, step, *, label, vmin=None, vmax=None, t
     bad = ~np.isfinite(v)
     if bad.any():
         raise ValueError(f"values contain {int(bad.sum())} NaN or infinite values (first at node {int(np.argmax(bad))})")
+    if int(max_panels) < 1:
+        raise ValueError(f"max_panels must be at least 1, got {max_panels}")
     vol = map_to_volume(v, shape)
     lo_c = float(v.min()) if vmin is None else float(vmin)
     hi_c = float(v.max()) if vmax is None else float(vmax)
     if not (math.isfinite(lo_c) and math.isfinite(hi_c)) or hi_c < lo_c:
         raise ValueError(f"the colour range must be finite with vmin <= vmax, got vmin={lo_c}, vmax={hi_c}")
     ax_x, ax_y, ax_z = _axes_of(shape, lo, step)
-    nz = vol.shape[0]
-    fig, axes = _panel_grid(plt, nz, ncols, (1.9, 2.0), (0.9, 0.4))
-    extent = [ax_x[0], ax_x[-1], ax_y[0], ax_y[-1]]
+    units = _units_of(labels)
+    layers, note = _layers_shown((vol > lo_c).reshape(vol.shape[0], -1).any(axis=1), int(max_panels))
+    extent = _cell_extent(ax_x, ax_y, step)
+    fig, axes = _slice_grid(plt, layers.size, ncols, extent, labels, units)
+    import matplotlib
+    from matplotlib.patches import Patch
+
+    colours = matplotlib.colormaps[cmap] if isinstance(cmap, str) else cmap
+    # "unreachable" is not a value on the scale: masked cells take the grey of the binary maps
+    colours = colours.with_extremes(bad=MAP_COLORS[0])
+    shown = np.ma.masked_equal(vol, unreachable) if unreachable is not None else vol
     image = None
-    for k, ax in enumerate(axes):
-        image = ax.imshow(vol[k], origin="lower", cmap=cmap, vmin=lo_c, vmax=hi_c, extent=extent,
+    for k, ax in zip(layers, axes):
+        image = ax.imshow(shown[k], origin="lower", cmap=colours, vmin=lo_c, vmax=hi_c, extent=extent,
                           interpolation="nearest")
-        ax.set_title(f"{labels[2]} = {ax_z[k]:.2f}", fontsize=8)
+        ax.set_title(f"{labels[2]} = {ax_z[k]:.2f} {units}", fontsize=9)
+    cbar = fig.colorbar(image, ax=axes, shrink=0.9 if len(axes) > 6 else 1.0, aspect=30)
+    cbar.set_label(label)
+    if unreachable is not None or note:
+        handles = [Patch(facecolor=MAP_COLORS[0], edgecolor="0.6", label=f"unreachable ({unreachable:g})")] \
+            if unreachable is not None else []
+        fig.legend(handles=handles, loc="outside lower center", fontsize=9, frameon=False, title=note or None,
+                   title_fontsize=8)
     if title:
-        fig.suptitle(title)
-    fig.tight_layout(rect=(0, 0, 0.9, 1))
-    cax = fig.add_axes((0.92, 0.12, 0.018, 0.76))
-    fig.colorbar(image, cax=cax).set_label(label)
+        fig.suptitle(title, fontsize=11)
+    fig.wsmap_metadata = dict(metadata or {})
     return fig
 
 
-def plot_voxels(flat_map, shape, lo=-1.0, step=0.1, *, ax=None, color="#1f4e79", title=None):
+def _angle_text(x: float) -> str:
+    """An angle in radians as a reader writes it: a multiple of π/12 as ``π/2``, ``-3π/4``; else 3 decimals."""
+    k = x / (math.pi / 12)
+    if abs(k - round(k)) > 1e-9:
+        return f"{x:.3f}"
+    num, den = int(round(k)), 12
+    if num == 0:
+        return "0"
+    g = math.gcd(abs(num), den)
+    num, den = num // g, den // g
+    head = {1: "π", -1: "-π"}.get(num, f"{num}π")
+    return head if den == 1 else f"{head}/{den}"
+
+
+#: How each pose convention reads (:data:`wsmap.workspace.CONVENTIONS`).
+CONVENTION_TEXT = {"paper": "paper convention T = R·transl(p)", "standard": "standard convention T = transl(p)·R"}
+
+
+def map_title(arm: str, kind: Any, *, rpy: Sequence[float] | None = None, point: Sequence[float] | None = None,
+              convention: str | None = None, orientations: int | None = None, summary: str | None = None) -> str:
+    """A map picture's short title: the arm, the kind, its orientation (or point) and its pose convention,
+    and on a second line ``summary`` (e.g. ``"1883 of 9261 nodes reachable (numerical)"``).
+
+    Args:
+        arm: the arm's name; ``kind``: its :class:`wsmap.workspace.kinds.MapKind` (what it reads
+            decides what the title names: ``rpy`` in rad as ``R = Rx·Ry·Rz``, ``point`` in m, the
+            number of ``orientations``).
+        convention: ``"paper"`` or ``"standard"``; the kind's own convention wins where it fixes one.
+
+    >>> from wsmap.workspace.kinds import get_kind
+    >>> map_title("panda", get_kind("constant"), rpy=(math.pi, 0, 0), convention="standard")
+    'panda: constant map, rpy (π, 0, 0) rad, standard convention T = transl(p)·R'
+    """
+    # a float kind says what its value is (its label); a binary one is named by its kind
+    head = f"{arm}: {kind.label if kind.value_type is float else kind.name + ' map'}"
+    if "orientations" in kind.inputs and orientations is not None:
+        head += f" over {int(orientations)} orientations"
+    parts = [head]
+    if "rpy" in kind.inputs and rpy is not None:
+        parts.append("rpy (" + ", ".join(_angle_text(float(a)) for a in rpy) + ") rad")
+    if "point" in kind.inputs and point is not None:
+        parts.append("at (" + ", ".join(f"{float(c):g}" for c in point) + ") m")
+    conv = kind.convention or convention
+    if conv is not None:
+        parts.append(CONVENTION_TEXT.get(conv, f"{conv} convention"))
+    return ", ".join(parts) + (f"\n{summary}" if summary else "")
+
+
+def png_metadata(settings: dict, *, title: str | None = None) -> dict[str, str]:
+    """PNG text chunks of a map picture: ``Title``, ``Software`` (wsmap and its version) and
+    ``Description``, the map's settings as JSON (what the map file records; :func:`wsmap.io.jsonable`)."""
+    import json
+
+    from ._version import __version__
+    from .io import jsonable
+
+    meta = {"Software": f"wsmap {__version__}", "Description": json.dumps(jsonable(settings), sort_keys=True)}
+    if title:
+        meta["Title"] = title.replace("\n", " — ")
+    return meta
+
+
+def plot_voxels(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike = -1.0, step: float | ArrayLike = 0.1, *,
+                ax: Axes | None = None, color: str = "#1f4e79", title: str | None = None) -> Axes:
     """Reachable nodes as a 3-D scatter (one point per node). Returns the Axes."""
     import matplotlib.pyplot as plt
 
@@ -460,7 +627,8 @@ def plot_voxels(flat_map, shape, lo=-1.0, step=0.1, *, ax=None, color="#1f4e79",
     return ax
 
 
-def render_mesh(mesh, *, ax=None, color="#1f4e79", title=None, elev=25, azim=-60, lim=1.0):
+def render_mesh(mesh: Any, *, ax: Axes | None = None, color: str = "#1f4e79", title: str | None = None,
+                elev: float = 25, azim: float = -60, lim: float = 1.0) -> Axes:
     """Draw a triangle mesh with matplotlib (headless, no OpenGL). Returns the Axes."""
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
@@ -486,10 +654,18 @@ def render_mesh(mesh, *, ax=None, color="#1f4e79", title=None, elev=25, azim=-60
     return ax
 
 
-def save_figure(fig, path, dpi: int = 120) -> None:
-    """Save a matplotlib figure atomically (PNG unless the suffix says otherwise) and close it."""
+def save_figure(fig: Figure, path: PathLike, dpi: int = 120, *, metadata: dict | None = None) -> None:
+    """Save a matplotlib figure atomically (PNG unless the suffix says otherwise) and close it.
+
+    ``metadata`` (and the ``wsmap_metadata`` the map drawings attach, e.g. :func:`png_metadata`)
+    goes into a PNG's text chunks (``tEXt``: ``Title``, ``Description``, ...; read back with
+    ``PIL.Image.open(path).text``); other formats are written without it.
+    """
     import matplotlib.pyplot as plt
 
+    meta = {**getattr(fig, "wsmap_metadata", {}), **(metadata or {})}
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, bbox_inches="tight")
+        fmt = Path(path).suffix.lstrip(".").lower() or "png"
+        fig.savefig(tmp, dpi=dpi, bbox_inches="tight", format=fmt,
+                    metadata={str(k): str(v) for k, v in meta.items()} if meta and fmt == "png" else None)
     plt.close(fig)

@@ -217,3 +217,29 @@ def test_the_report_reads_every_part_of_the_runner():
     from wsmap.paper import full
 
     assert report.FULL_PARTS == [p.name for p in full.plan(paths.ROOT / "params.full.yaml")]
+
+
+def test_reproduction_figure_rows_read_as_the_paper_names_them():
+    from wsmap.paper.parts import report as part
+
+    assert part._bar_label("Table 1", "F-measure, table1_r3_step05") == "Table 1: R3, δ 0.5 (125 nodes)"
+    assert part._bar_label("Table 1", "F-measure, table1_so3_pi10") == "Table 1: SO3, δ π/10 (9261 nodes)"
+    assert part._bar_label("Section 6.1", "F-measure, block 5, mean over sessions") == (
+        "Section 6.1: block 5, mean over sessions")
+    assert part._bar_label("Table 2", "Rprop + MSE, F mean") == "Table 2: Rprop + MSE"
+
+
+def test_reproduction_table_carries_the_paper_scale_column(tmp_path):
+    """The committed results (results/*.json, results/full/*.json) read through the report's schema."""
+    from wsmap.paper.parts import report as part
+
+    out = paths.Outputs(tmp_path, inputs=paths.ROOT).make()
+    result = part.run(paths.notebook_params("report"), out)
+    table = result.table.set_index("source")
+    full = report.load_full(paths.RESULTS / "full")
+    row = table.loc["results/table1_workspaces.json: f.table1_r3_full"]
+    assert row["paper_scale"] == full["table1_r3_full"]["metrics"]["f"] and row["paper_scale_note"] == ""
+    assert table.loc["results/improved_model.json: f", "paper_scale_note"] == "—"
+    (png,) = part.figures(result, out)
+    assert png == tmp_path.resolve() / "figures" / "reproduction_vs_paper.png" and png.stat().st_size > 5000
+    assert not (tmp_path / "results" / "REPORT.md").exists()

@@ -27,6 +27,10 @@ from .features import spec_nodes
 from .labels import _pair_poses, _solve, labels_for, possibly_reachable
 from .sampling import _audit_rng, _draw_arms, _draw_fixed
 from .spec import MAX_SAMPLES, MAX_STARTS, N_JOINTS, DatasetSpec, _check_spec, _int
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Sequence
 
 __all__ = ["starts_study", "starts_recall", "audit_labels", "audit_table", "distinct_specs"]
 
@@ -43,7 +47,7 @@ def _counts(counts) -> list[int]:
 def starts_study(
     spec: DatasetSpec,
     n_arms: int = 200,
-    counts=(1, 2, 3, 5, 9, 17),
+    counts: Sequence[int] = (1, 2, 3, 5, 9, 17),
     seed: int = 0,
     chunk: int = 8,
     progress: bool = True,
@@ -119,7 +123,8 @@ def starts_study(
     return rows
 
 
-def starts_recall(spec: DatasetSpec, n_poses: int = 2000, counts=(1, 2, 3, 5, 9, 17), seed: int = 0) -> list[dict]:
+def starts_recall(spec: DatasetSpec, n_poses: int = 2000, counts: Sequence[int] = (1, 2, 3, 5, 9, 17), seed: int = 0
+                 ) -> list[dict]:
     """Recall of multi-start LM on poses known to be reachable (forward kinematics of random q).
 
     ``n_poses`` arms of ``spec``'s family (the paper's study: Table 3's arbitrary 6-DOF arms), one
@@ -210,7 +215,7 @@ def audit_labels(spec: DatasetSpec, n_arms: int = 50, seed: int = 0, *, ik: dict
     )
 
 
-def distinct_specs(specs) -> list[DatasetSpec]:
+def distinct_specs(specs: Sequence[DatasetSpec]) -> list[DatasetSpec]:
     """``specs`` less those that differ from an earlier one only in name, sample count, seed,
     stream or LM settings: the ones whose grid, nodes, orientation and convention are new."""
     seen, unique = set(), []
@@ -223,7 +228,7 @@ def distinct_specs(specs) -> list[DatasetSpec]:
     return unique
 
 
-def audit_table(specs, n_arms: int = 50, seed: int = 0, progress: bool = False) -> list[dict]:
+def audit_table(specs: Sequence[DatasetSpec], n_arms: int = 50, seed: int = 0, progress: bool = False) -> list[dict]:
     """:func:`audit_labels` for each of ``specs`` (DatasetSpecs; the paper's choice is
     ``wsmap.paper.specs.audit_specs()``); a list of row dicts (``pandas.DataFrame(rows)`` to
     tabulate)."""

@@ -36,6 +36,10 @@ from .. import robots
 from .. import workspace as ws
 from ..kinematics import DHRobot, SerialChain
 from .spec import N_DH, N_JOINTS, DatasetSpec, _check_spec, float64_array, require_finite
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike
 
 __all__ = [
     "grid_axes",
@@ -138,7 +142,7 @@ def _check_arms(arms) -> DHRobot:
     return arms
 
 
-def scales_for(arms, spec: DatasetSpec) -> np.ndarray:
+def scales_for(arms: Arm, spec: DatasetSpec) -> np.ndarray:
     """The scale factors ``(count, n)`` of a chain family's arms: ``arms`` is the scales themselves
     (``(count, n)``, checked as :func:`wsmap.robots.family_arm` checks them) or a
     :class:`~wsmap.kinematics.SerialChain` batch ``(count,)`` of the family (scales read back with
@@ -157,7 +161,7 @@ def scales_for(arms, spec: DatasetSpec) -> np.ndarray:
     return s
 
 
-def features_for(arms, spec: DatasetSpec, fixed=None) -> np.ndarray:
+def features_for(arms: Arm, spec: DatasetSpec, fixed: ArrayLike | None = None) -> np.ndarray:
     """The feature matrix ``(count, spec.n_features)`` float64 of a batch of arms for ``spec``.
 
     ``arms`` is a batch ``(count,)`` of 6-joint arms (any DH values: a model trained on ``spec``
@@ -193,7 +197,7 @@ def _feature_matrix(X) -> np.ndarray:
     return require_finite(X, "features contain NaN or infinite values")
 
 
-def arms_from_features(X, spec: DatasetSpec | None = None) -> DHRobot | SerialChain:
+def arms_from_features(X: ArrayLike, spec: DatasetSpec | None = None) -> DHRobot | SerialChain:
     """The arms ``(count,)`` whose DH columns are the first 18 feature columns; for a ``spec`` of a
     chain family, the family's arms (:func:`wsmap.robots.family_arm`) of the scale columns."""
     X = _feature_matrix(X)
@@ -207,7 +211,7 @@ def arms_from_features(X, spec: DatasetSpec | None = None) -> DHRobot | SerialCh
     return DHRobot(X[:, 0:6], X[:, 6:12], X[:, 12:18])
 
 
-def fixed_from_features(X, spec: DatasetSpec) -> np.ndarray:
+def fixed_from_features(X: ArrayLike, spec: DatasetSpec) -> np.ndarray:
     """The orientation / point columns ``(count, 3)`` of a feature matrix."""
     _check_spec(spec)
     X = _feature_matrix(X)

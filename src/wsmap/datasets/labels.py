@@ -33,6 +33,10 @@ from ..kinematics import DHRobot, SerialChain, ikine_LM, require_closed_form
 from .features import _check_arms, _fixed_rows, scales_for, spec_nodes
 from .sampling import start_configurations
 from .spec import METHODS, N_JOINTS, DatasetSpec, _check_spec, _choice, float64_array, require_finite
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike
 
 __all__ = ["possibly_reachable", "labels_for"]
 
@@ -47,7 +51,7 @@ def _pair_poses(spec: DatasetSpec, nodes, fixed, b_idx, n_idx) -> np.ndarray:
     return ws.target_poses(fixed[b_idx], nodes[n_idx], spec.convention)
 
 
-def possibly_reachable(arms: DHRobot, T, margin: float = 1e-8) -> np.ndarray:
+def possibly_reachable(arms: DHRobot, T: ArrayLike, margin: float = 1e-8) -> np.ndarray:
     """A sound necessary condition for the flange pose ``T`` to be reachable (any 6R arm, no limits).
 
     ``arms`` and ``T`` ``(..., 4, 4)`` broadcast. ``False`` means provably unreachable: every
@@ -180,11 +184,11 @@ def _chain_family_labels(arms, spec: DatasetSpec, fx, nodes) -> np.ndarray:
 def labels_for(
     arms: DHRobot,
     spec: DatasetSpec,
-    fixed=None,
+    fixed: ArrayLike | None = None,
     *,
     method: str | None = None,
-    q0=None,
-    nodes=None,
+    q0: ArrayLike | None = None,
+    nodes: ArrayLike | None = None,
     prefilter: bool = True,
 ) -> np.ndarray:
     """Labels ``(count, n_nodes)`` bool of a batch of arms for ``spec``, in node order.

@@ -38,6 +38,10 @@ from __future__ import annotations
 import numpy as np
 
 from .spec import MAX_SAMPLES, MAX_STARTS, N_JOINTS, STREAMS, DatasetSpec, _check_spec, _int, float64_array, require_finite
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike, NDArray
 
 __all__ = ["draw_samples", "draw_scales", "start_configurations", "uniform_rotations", "rotation_to_rpy"]
 
@@ -57,7 +61,7 @@ def _audit_rng(seed: int, audit: str, quantity: str) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=key))
 
 
-def uniform_rotations(count: int, rng) -> np.ndarray:
+def uniform_rotations(count: int, rng: np.random.Generator) -> np.ndarray:
     """``count`` rotation matrices ``(count, 3, 3)`` uniform on SO(3) (normalised Gaussian quaternions).
 
     ``rng`` is a ``numpy.random.Generator`` or anything ``numpy.random.default_rng`` takes (a seed).
@@ -77,7 +81,7 @@ def uniform_rotations(count: int, rng) -> np.ndarray:
     ).reshape(count, 3, 3)
 
 
-def rotation_to_rpy(R) -> np.ndarray:
+def rotation_to_rpy(R: ArrayLike) -> np.ndarray:
     """Angles ``(..., 3)`` in ``[0, 2·pi)`` with ``R = Rx(r1)·Ry(r2)·Rz(r3)`` (``R`` of shape ``(..., 3, 3)``).
 
     ``r2 = asin(R[0,2])`` lies in ``[-pi/2, pi/2]`` before wrapping; at ``cos(r2) = 0`` (measure
@@ -107,7 +111,7 @@ def _draw_fixed(spec: DatasetSpec, count: int, rng) -> np.ndarray:
     return rng.uniform(-2 * spec.beta, 2 * spec.beta, size=(count, 3))
 
 
-def draw_samples(spec: DatasetSpec, count: int | None = None):
+def draw_samples(spec: DatasetSpec, count: int | None = None) -> tuple[Arm, NDArray[np.float64]]:
     """The first ``count`` (default ``spec.samples``) arms ``(count,)`` and their fixed
     orientation / point ``(count, 3)`` from the spec's streams. The arms are a
     :class:`~wsmap.kinematics.DHRobot` batch, or for a chain family a

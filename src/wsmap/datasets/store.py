@@ -73,6 +73,10 @@ from .features import feature_names, features_for
 from .labels import labels_for
 from .sampling import _draw_fixed, _rng, draw_samples, draw_scales, start_configurations
 from .spec import DatasetSpec, _check_spec, _int, scaled, test_spec
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Any, ArrayLike, PathLike
 
 __all__ = [
     "FORMAT",
@@ -388,8 +392,9 @@ def _write_all(jobs, chunk, progress, workers=None, scheduler=None, connect_time
                 raise (OSError(e.errno, message) if e.errno is not None else OSError(message)) from None
 
 
-def build_dataset(spec: DatasetSpec, path, chunk: int | None = None, progress: bool = True, *,
-                  workers: int | None = None, scheduler=None, connect_timeout: float = CONNECT_TIMEOUT) -> Path:
+def build_dataset(spec: DatasetSpec, path: PathLike, chunk: int | None = None, progress: bool = True, *,
+                  workers: int | None = None, scheduler: Any | None = None, connect_timeout: float = CONNECT_TIMEOUT
+                 ) -> Path:
     """Generate ``spec``'s dataset into ``path`` (see the module docstring for the format).
 
     Arms are labelled ``chunk`` at a time (default: about 2 million node evaluations per chunk
@@ -412,7 +417,7 @@ def build_dataset(spec: DatasetSpec, path, chunk: int | None = None, progress: b
     return path
 
 
-def test_path_for(path) -> Path:
+def test_path_for(path: PathLike) -> Path:
     """Where the test set of the training file ``path`` goes: ``NAME.npz`` → ``NAME.test.npz``."""
     path = Path(path)
     return path.with_name(path.name.removesuffix(".npz") + ".test.npz")
@@ -431,18 +436,18 @@ def _same_file(a: Path, b: Path) -> bool:
 
 
 def build_dataset_files(
-    spec,
-    out,
+    spec: DatasetSpec,
+    out: PathLike,
     *,
     samples: int | None = None,
     test_samples: int | None = None,
-    test_out=None,
+    test_out: PathLike | None = None,
     test_only: bool = False,
     catalogue: Mapping[str, DatasetSpec] | None = None,
     chunk: int | None = None,
     progress: bool = True,
     workers: int | None = None,
-    scheduler=None,
+    scheduler: Any | None = None,
     connect_timeout: float = CONNECT_TIMEOUT,
 ) -> list[Path]:
     """Build a training file and/or its independent test file, all or nothing.
@@ -538,7 +543,7 @@ class Dataset:
     def labels(self) -> np.ndarray:
         return self.label_rows(slice(None))
 
-    def label_rows(self, idx) -> np.ndarray:
+    def label_rows(self, idx: ArrayLike) -> np.ndarray:
         n = self.header["labels_shape"][1]
         # unpackbits gives 0/1 bytes: viewing them as bool avoids a second 1-byte-per-label copy
         return np.unpackbits(self.labels_packed[idx], axis=-1, count=n).view(bool)
@@ -700,7 +705,7 @@ def _read(path: Path, fh) -> Dataset:
     return Dataset(spec=spec, features=X, labels_packed=P, header=header, path=path)
 
 
-def load_dataset(path, expect_spec: DatasetSpec | None = None) -> Dataset:
+def load_dataset(path: PathLike, expect_spec: DatasetSpec | None = None) -> Dataset:
     """Read a dataset written by :func:`build_dataset`, checking it (see the module docstring).
 
     Raises ``FileNotFoundError`` for a missing file, ``OSError`` when the file cannot be opened
@@ -734,7 +739,7 @@ def load_dataset(path, expect_spec: DatasetSpec | None = None) -> Dataset:
     return ds
 
 
-def load_dataset_files(train_path, test_path=None) -> tuple[Dataset, Dataset]:
+def load_dataset_files(train_path: PathLike, test_path: PathLike | None = None) -> tuple[Dataset, Dataset]:
     """A training set and its test set (default :func:`test_path_for` ``(train_path)``), checked:
     the test set must be the training spec's test stream (same family, grid, orientation and
     labels; :func:`~wsmap.datasets.test_spec`)."""

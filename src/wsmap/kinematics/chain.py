@@ -27,6 +27,10 @@ import numpy as np
 from .arms import ArmBatch
 from .dh import DHRobot
 from .transforms import as_real_array, check_finite, check_rigid
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike
 
 __all__ = ["SerialChain", "from_dh", "as_chain", "flatten_arms", "REVOLUTE", "PRISMATIC"]
 
@@ -103,7 +107,8 @@ class SerialChain(ArmBatch):
         Names of the frames after ``F_0 .. F_n`` (URDF link names), for messages.
     """
 
-    def __init__(self, fixed, axes, kinds: Sequence[str], offset=None, qlim=None, base=None, tool=None,
+    def __init__(self, fixed: ArrayLike, axes: ArrayLike, kinds: Sequence[str], offset: ArrayLike | None = None,
+                 qlim: ArrayLike | None = None, base: ArrayLike | None = None, tool: ArrayLike | None = None,
                  name: str | None = None, source: str | None = None, links: Sequence[str] | None = None):
         fixed = as_real_array("fixed transforms", fixed)
         kinds = tuple(kinds)
@@ -205,7 +210,7 @@ class SerialChain(ArmBatch):
                 f"qlim={'yes' if self.qlim is not None else 'no'})")
 
     # ---------------------------------------------------------------- kinematics
-    def joint_frames(self, q) -> tuple[np.ndarray, np.ndarray]:
+    def joint_frames(self, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Frames of every joint (before its motion) and the flange, in the world frame.
 
         Returns ``(frames, T)``: ``frames`` ``(..., n, 4, 4)`` (joint ``i``'s axis is
@@ -225,11 +230,11 @@ class SerialChain(ArmBatch):
             T = T @ self.tool
         return frames, T
 
-    def fkine(self, q) -> np.ndarray:
+    def fkine(self, q: ArrayLike) -> np.ndarray:
         """Forward kinematics: tool pose in the world (base) frame, ``(..., 4, 4)``; ``q`` is ``(..., n)``."""
         return self.joint_frames(q)[1]
 
-    def jacob0(self, q) -> np.ndarray:
+    def jacob0(self, q: ArrayLike) -> np.ndarray:
         """Geometric Jacobian of the tool point in the world frame, ``(..., 6, n)``: rows ``[v; omega]``."""
         frames, T = self.joint_frames(q)
         w = np.einsum("...ij,...j->...i", frames[..., :3, :3], self.axes)  # (..., n, 3) world axes
@@ -240,7 +245,7 @@ class SerialChain(ArmBatch):
         Jw = np.where(prismatic[:, None], 0.0, w)
         return np.swapaxes(np.concatenate([Jv, Jw], axis=-1), -1, -2)
 
-    def within_limits(self, q, atol: float = 1e-9) -> np.ndarray:
+    def within_limits(self, q: ArrayLike, atol: float = 1e-9) -> np.ndarray:
         """True where every joint lies inside its limits (to ``atol``); ``q.shape[:-1]`` broadcast."""
         q = self._check_q(q)
         if self.qlim is None:
@@ -259,8 +264,10 @@ class SerialChain(ArmBatch):
         return np.where(np.isfinite(q), q, lo * (1.0 - u) + hi * u)
 
 
-def from_dh(d, a, alpha, offset=None, qlim=None, modified: bool = False, prismatic=None, base=None, tool=None,
-            flange=None, name: str | None = None, source: str | None = None) -> SerialChain:
+def from_dh(d: ArrayLike, a: ArrayLike, alpha: ArrayLike, offset: ArrayLike | None = None,
+            qlim: ArrayLike | None = None, modified: bool = False, prismatic: ArrayLike | None = None,
+            base: ArrayLike | None = None, tool: ArrayLike | None = None, flange: ArrayLike | None = None,
+            name: str | None = None, source: str | None = None) -> SerialChain:
     """A chain from a DH table (columns ``(..., n)``, metres and radians; batch dimensions allowed).
 
     Standard (distal) DH, as Corke's toolbox and the paper: link ``i`` is
@@ -320,7 +327,7 @@ def from_dh(d, a, alpha, offset=None, qlim=None, modified: bool = False, prismat
                        base=base, tool=tool, name=name, source=source)
 
 
-def as_chain(robot) -> SerialChain:
+def as_chain(robot: Arm) -> SerialChain:
     """``robot`` as a :class:`SerialChain`: a chain is returned as is, a :class:`DHRobot` converted
     with :func:`from_dh` (standard DH, same limits and tool); anything else is a ``TypeError``."""
     if isinstance(robot, SerialChain):

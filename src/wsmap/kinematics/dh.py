@@ -18,6 +18,10 @@ import numpy as np
 
 from .arms import ArmBatch
 from .transforms import as_real_array, check_finite, check_rigid
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike
 
 __all__ = ["DHRobot", "arm_batch"]
 
@@ -39,7 +43,8 @@ class DHRobot(ArmBatch):
     name : str, optional
     """
 
-    def __init__(self, d, a, alpha, qlim=None, tool=None, name: str | None = None):
+    def __init__(self, d: ArrayLike, a: ArrayLike, alpha: ArrayLike, qlim: ArrayLike | None = None,
+                 tool: ArrayLike | None = None, name: str | None = None):
         d, a, alpha = (as_real_array(f"DH column {k}", x) for k, x in (("d", d), ("a", a), ("alpha", alpha)))
         for label, x in (("d", d), ("a", a), ("alpha", alpha)):
             if x.ndim == 0:
@@ -97,22 +102,22 @@ class DHRobot(ArmBatch):
         return f"DHRobot({name}n={self.n}, batch_shape={self.batch_shape}, qlim={'yes' if self.qlim is not None else 'no'})"
 
     # ---------------------------------------------------------------- kinematics
-    def link_frames(self, q) -> np.ndarray:
+    def link_frames(self, q: ArrayLike) -> np.ndarray:
         """Frames of every link: ``(..., n + 1, 4, 4)``; index 0 is the base, n the flange (no tool)."""
         q = self._check_q(q)
         return _link_frames(self.d, self.a, self.alpha, q)
 
-    def fkine(self, q) -> np.ndarray:
+    def fkine(self, q: ArrayLike) -> np.ndarray:
         """Forward kinematics: tool pose in the base frame, shape ``(..., 4, 4)``."""
         T = self.link_frames(q)[..., -1, :, :]
         return T @ self.tool if self.tool is not None else T
 
-    def jacob0(self, q) -> np.ndarray:
+    def jacob0(self, q: ArrayLike) -> np.ndarray:
         """Geometric Jacobian in the base frame, shape ``(..., 6, n)``: rows ``[v; omega]``."""
         q = self._check_q(q)
         return _jacob0(self.d, self.a, self.alpha, q, self.tool)[0]
 
-    def within_limits(self, q) -> np.ndarray:
+    def within_limits(self, q: ArrayLike) -> np.ndarray:
         """True where every joint angle, up to a multiple of 2·pi, lies inside its limits.
 
         Without limits every configuration is within them. Shape: ``q.shape[:-1]`` broadcast with

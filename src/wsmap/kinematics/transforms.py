@@ -7,11 +7,15 @@ gives ``(..., 3, 3)``. Homogeneous transforms are ``(..., 4, 4)`` with bottom ro
 from __future__ import annotations
 
 import numpy as np
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike, NDArray
 
 __all__ = ["rotx", "roty", "rotz", "rpy2r", "transl", "pose_error", "check_finite", "check_rigid"]
 
 
-def rotx(theta):
+def rotx(theta: float | ArrayLike) -> NDArray[np.float64]:
     """Rotation about x by ``theta`` (rad); shape ``theta.shape + (3, 3)``."""
     theta = np.asarray(theta, dtype=np.float64)
     c, s = np.cos(theta), np.sin(theta)
@@ -19,7 +23,7 @@ def rotx(theta):
     return np.stack([o, z, z, z, c, -s, z, s, c], axis=-1).reshape(theta.shape + (3, 3))
 
 
-def roty(theta):
+def roty(theta: float | ArrayLike) -> NDArray[np.float64]:
     """Rotation about y by ``theta`` (rad); shape ``theta.shape + (3, 3)``."""
     theta = np.asarray(theta, dtype=np.float64)
     c, s = np.cos(theta), np.sin(theta)
@@ -27,7 +31,7 @@ def roty(theta):
     return np.stack([c, z, s, z, o, z, -s, z, c], axis=-1).reshape(theta.shape + (3, 3))
 
 
-def rotz(theta):
+def rotz(theta: float | ArrayLike) -> NDArray[np.float64]:
     """Rotation about z by ``theta`` (rad); shape ``theta.shape + (3, 3)``."""
     theta = np.asarray(theta, dtype=np.float64)
     c, s = np.cos(theta), np.sin(theta)
@@ -35,7 +39,7 @@ def rotz(theta):
     return np.stack([c, -s, z, s, c, z, z, z, o], axis=-1).reshape(theta.shape + (3, 3))
 
 
-def rpy2r(rpy):
+def rpy2r(rpy: ArrayLike) -> NDArray[np.float64]:
     """The paper's orientation angles ``(r1, r2, r3)`` → ``Rx(r1) · Ry(r2) · Rz(r3)``.
 
     ``rpy`` has shape ``(..., 3)`` (rad); the result has shape ``(..., 3, 3)``.
@@ -46,7 +50,7 @@ def rpy2r(rpy):
     return rotx(rpy[..., 0]) @ roty(rpy[..., 1]) @ rotz(rpy[..., 2])
 
 
-def transl(p):
+def transl(p: ArrayLike) -> NDArray[np.float64]:
     """Pure translation: ``p`` of shape ``(..., 3)`` → homogeneous transform ``(..., 4, 4)``."""
     p = np.asarray(p, dtype=np.float64)
     T = np.zeros(p.shape[:-1] + (4, 4))
@@ -75,7 +79,7 @@ def as_real_array(name, x) -> np.ndarray:
         raise ValueError(f"{name} must be real numbers: {exc}") from None
 
 
-def check_rigid(name, T, atol: float = 1e-6) -> np.ndarray:
+def check_rigid(name: str, T: ArrayLike, atol: float = 1e-6) -> np.ndarray:
     """``T`` as float64 ``(..., 4, 4)`` after checking that every entry is a rigid transform.
 
     A rigid transform has a rotation block ``R`` with ``RᵀR = I`` and ``det R = +1`` (each to
@@ -113,7 +117,7 @@ def check_rigid(name, T, atol: float = 1e-6) -> np.ndarray:
     return T
 
 
-def pose_error(T_current, T_target) -> np.ndarray:
+def pose_error(T_current: ArrayLike, T_target: ArrayLike) -> np.ndarray:
     """Differential motion from ``T_current`` to ``T_target`` in the base frame, ``(..., 6)``.
 
     Translation difference, then ``0.5 · Σ_k c_k × t_k`` over the rotation columns (Corke's

@@ -35,6 +35,10 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from .chain import PRISMATIC, REVOLUTE, SerialChain
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import PathLike
 
 __all__ = ["URDFError", "URDFWarning", "from_urdf"]
 
@@ -246,7 +250,7 @@ def _load_yourdfpy(data: bytes, path: str | None, label: str):
         logging.getLogger("yourdfpy").setLevel(level)
 
 
-def from_urdf(source, ee_link: str | None = None, base_link: str | None = None,
+def from_urdf(source: PathLike, ee_link: str | None = None, base_link: str | None = None,
               name: str | None = None) -> SerialChain:
     """The serial chain of a URDF from ``base_link`` to ``ee_link``.
 

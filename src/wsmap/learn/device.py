@@ -39,7 +39,7 @@ class DeviceUnavailableError(ValueError):
     """The ``device`` setting asks for a GPU that this machine (or this torch build) does not have."""
 
 
-def check_device_name(name, what: str = "device") -> str:
+def check_device_name(name: str, what: str = "device") -> str:
     """The canonical spelling of a ``device`` setting (``"auto"``, ``"cpu"``, ``"cuda"`` or
     ``"cuda:N"``), checking only the name, not whether the device exists. ``what`` names the
     setting in the error (e.g. ``"params.yaml section 'sec61_subspace' device"``).
@@ -59,7 +59,7 @@ def check_device_name(name, what: str = "device") -> str:
     raise ValueError(f"unknown {what} {name!r}; choose one of auto, cpu, cuda (or cuda:N for GPU N)")
 
 
-def resolve_device(name="auto", what: str = "device") -> torch.device:
+def resolve_device(name: str = "auto", what: str = "device") -> torch.device:
     """The ``torch.device`` a ``device`` setting means on this machine (module docstring).
 
     ``auto`` is ``cuda`` if ``torch.cuda.is_available()`` else ``cpu``; ``cuda`` / ``cuda:N``

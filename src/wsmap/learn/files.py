@@ -57,6 +57,10 @@ from ..io import atomic_path
 from .mapspec import spec_feature_names
 from .network import MLPConfig, SubspaceMLP, training_range_of
 from .training_range import TrainingRange
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import PathLike
 
 __all__ = [
     "FORMAT",
@@ -191,8 +195,8 @@ def _check_output_path(path) -> Path:
     return p
 
 
-def save(model: SubspaceMLP, path, *, dataset_spec: dict | None = None, train_config: dict | None = None,
-         extra: dict | None = None, training_data=None) -> Path:
+def save(model: SubspaceMLP, path: PathLike, *, dataset_spec: dict | None = None, train_config: dict | None = None,
+         extra: dict | None = None, training_data: Any | None = None) -> Path:
     """Write ``model`` and its provenance to ``path`` atomically (module docstring); returns the path.
 
     Args:
@@ -277,7 +281,7 @@ def _read(path, fail) -> bytes:
     return data
 
 
-def load(path, *, map_location: str | torch.device = "cpu",
+def load(path: PathLike, *, map_location: str | torch.device = "cpu",
          allow_unverified: bool = False) -> tuple[SubspaceMLP, dict[str, Any]]:
     """Read a file written by :func:`save` -> ``(model, meta)``.
 

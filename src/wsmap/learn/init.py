@@ -20,6 +20,10 @@ import math
 import numpy as np
 import torch
 from torch import nn
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike
 
 __all__ = ["nguyen_widrow_", "matlab_rands_", "torch_default_"]
 
@@ -117,8 +121,8 @@ def _as_weight_bias(linear_or_weight, bias, fn_name: str):
     return weight, bias, [(weight[k].T, bias[k]) for k in range(weight.shape[0])]
 
 
-def nguyen_widrow_(linear_or_weight, bias: torch.Tensor | None = None, input_range=None, *,
-                   active_range: tuple[float, float] = (-2.0, 2.0),
+def nguyen_widrow_(linear_or_weight: torch.nn.Module | torch.Tensor, bias: torch.Tensor | None = None,
+                   input_range: ArrayLike | None = None, *, active_range: tuple[float, float] = (-2.0, 2.0),
                    generator: torch.Generator | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """Nguyen–Widrow initialisation in place, as MATLAB's ``initnw`` (``calcnw``) for a tanh layer.
 
@@ -162,7 +166,7 @@ def nguyen_widrow_(linear_or_weight, bias: torch.Tensor | None = None, input_ran
     return weight, bias
 
 
-def matlab_rands_(linear_or_weight, bias: torch.Tensor | None = None, *,
+def matlab_rands_(linear_or_weight: torch.nn.Module | torch.Tensor, bias: torch.Tensor | None = None, *,
                   generator: torch.Generator | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """MATLAB ``rands`` in place: weights and biases uniform on ``[-1, 1]``.
 
@@ -178,7 +182,7 @@ def matlab_rands_(linear_or_weight, bias: torch.Tensor | None = None, *,
     return weight, bias
 
 
-def torch_default_(linear_or_weight, bias: torch.Tensor | None = None, *,
+def torch_default_(linear_or_weight: torch.nn.Module | torch.Tensor, bias: torch.Tensor | None = None, *,
                    generator: torch.Generator | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """PyTorch's ``nn.Linear`` default in place: weights and biases ``U(-1/sqrt(N), 1/sqrt(N))``.
 

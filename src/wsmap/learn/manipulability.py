@@ -60,6 +60,10 @@ from .files import ModelFileError, load, save
 from .network import MLPConfig, SubspaceMLP
 from .training import TrainConfig, TrainResult, split_indices, train
 from .training_range import TrainingRange
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike, PathLike
 
 __all__ = [
     "PARAM_NAMES",
@@ -119,7 +123,7 @@ def _arm_params(arms: DHRobot) -> np.ndarray:
     return SPHERICAL_WRIST.params_of(arms)
 
 
-def manipulability_params(arms_or_params) -> tuple[np.ndarray, bool]:
+def manipulability_params(arms_or_params: Arm | ArrayLike) -> tuple[np.ndarray, bool]:
     """``(params (B, 4) float64, single)``: the four free parameters ``(d3, d4, a2, a3)`` (m) of
     arms (a spherical-wrist :class:`~wsmap.kinematics.DHRobot`, one arm or a batch of any shape,
     flattened) or of a parameter array ``(4,)`` / ``(B, 4)``; ``single`` says the input was one arm.
@@ -153,7 +157,7 @@ def _arms_of(params: np.ndarray) -> DHRobot:
     return spherical_wrist(a2=params[:, 2], a3=params[:, 3], d3=params[:, 0], d4=params[:, 1])
 
 
-def manipulability_targets(arms_or_params) -> np.ndarray:
+def manipulability_targets(arms_or_params: Arm | ArrayLike) -> np.ndarray:
     """Exact manipulability maps (m³) on the ``sec61`` grid: float64 ``(B, 9261)`` (``(9261,)`` for
     one arm or a ``(4,)`` parameter vector); inputs as :func:`manipulability_params` (any values:
     the closed form holds outside the sampled range too)."""
@@ -165,7 +169,8 @@ def manipulability_targets(arms_or_params) -> np.ndarray:
     return out[0] if single else out
 
 
-def manipulability_dataset(count: int, seed=None, *, beta: float = FAMILY_RANGE[1]) -> tuple[np.ndarray, np.ndarray]:
+def manipulability_dataset(count: int, seed: int | None = None, *, beta: float = FAMILY_RANGE[1]
+                          ) -> tuple[np.ndarray, np.ndarray]:
     """``count`` arms of the family (:func:`wsmap.robots.sample_spherical_wrist` with ``seed`` and
     ``beta``) -> ``(params, targets)``: float64 ``(count, 4)`` ``(d3, d4, a2, a3)`` in m and float32
     ``(count, 9261)`` exact manipulability maps in m³ (:func:`manipulability_targets`).
@@ -223,14 +228,14 @@ class ManipulabilityModel:
         if self.grid != GRID_SPEC:
             raise ValueError(f"manipulability models map the {GRID_SPEC!r} grid; got {self.grid!r}")
 
-    def encode(self, maps) -> np.ndarray:
+    def encode(self, maps: ArrayLike) -> np.ndarray:
         """Maps (m³) -> network targets (float32)."""
         # float32 throughout: a training set of 4000 maps is 148 MB as float32, twice that as float64
         m = np.asarray(maps, dtype=np.float32)
         y = np.sqrt(np.maximum(m, np.float32(0.0))) if self.target == "sqrt" else m
         return (y / np.float32(self.scale)).astype(np.float32, copy=False)
 
-    def decode(self, outputs) -> np.ndarray:
+    def decode(self, outputs: torch.Tensor) -> np.ndarray:
         """Network outputs -> maps (m³), clipped at 0; float32."""
         y = np.maximum(np.asarray(outputs, dtype=np.float32) * np.float32(self.scale), 0.0)
         return y * y if self.target == "sqrt" else y
@@ -304,7 +309,7 @@ def _check_pair(params, targets) -> tuple[np.ndarray, np.ndarray]:
     return p, y
 
 
-def train_manipulability_model(params, targets, config: ManipulabilityTrainConfig | None = None
+def train_manipulability_model(params: ArrayLike, targets: ArrayLike, config: ManipulabilityTrainConfig | None = None
                                ) -> tuple[ManipulabilityModel, TrainResult]:
     """Train a :class:`ManipulabilityModel` on ``params`` ``(B, 4)`` (m) and exact ``targets``
     ``(B, 9261)`` (m³, :func:`manipulability_dataset`) -> ``(model, train_result)``.
@@ -337,8 +342,8 @@ def train_manipulability_model(params, targets, config: ManipulabilityTrainConfi
     return model, result
 
 
-def predict_manipulability(model: ManipulabilityModel, arms_or_params, *, allow_extrapolation: bool = False,
-                           batch_size: int | None = 4096) -> np.ndarray:
+def predict_manipulability(model: ManipulabilityModel, arms_or_params: Arm | ArrayLike, *,
+                           allow_extrapolation: bool = False, batch_size: int | None = 4096) -> np.ndarray:
     """Predicted manipulability maps (m³) on the ``sec61`` grid: float32 ``(B, 9261)``, or
     ``(9261,)`` for one arm or one ``(4,)`` parameter vector; nodes in the grid's order, 0 or more.
 
@@ -364,7 +369,7 @@ def predict_manipulability(model: ManipulabilityModel, arms_or_params, *, allow_
     return maps[0] if single else maps
 
 
-def regression_metrics(pred, true) -> dict[str, float | int]:
+def regression_metrics(pred: ArrayLike, true: ArrayLike) -> dict[str, float | int]:
     """Errors of predicted maps against exact ones (same shape, e.g. ``(B, 9261)``, m³).
 
     Returns a dict: ``r2`` = 1 − SSE/SST pooled over every value (SST about the pooled mean; NaN
@@ -406,7 +411,8 @@ def regression_metrics(pred, true) -> dict[str, float | int]:
 # --------------------------------------------------------------------------------------------
 
 
-def save_manipulability_model(model: ManipulabilityModel, path, *, train_config=None):
+def save_manipulability_model(model: ManipulabilityModel, path: PathLike, *, train_config: TrainConfig | None = None
+                             ) -> PathLike:
     """Write ``model`` to ``path`` with :func:`wsmap.learn.save` (checksummed; the target transform,
     scale and grid in ``extra``, the parameters' training range with names); returns the path."""
     if not isinstance(model, ManipulabilityModel):
@@ -414,7 +420,8 @@ def save_manipulability_model(model: ManipulabilityModel, path, *, train_config=
     return save(model.network, path, train_config=train_config, extra=model.extra())
 
 
-def load_manipulability_model(path, *, map_location="cpu") -> tuple[ManipulabilityModel, dict[str, Any]]:
+def load_manipulability_model(path: PathLike, *, map_location: str = "cpu"
+                             ) -> tuple[ManipulabilityModel, dict[str, Any]]:
     """Read a file of :func:`save_manipulability_model` -> ``(model, meta)`` (``meta`` as
     :func:`wsmap.learn.load`). A model file of another kind raises
     :class:`~wsmap.learn.files.ModelFileError`."""

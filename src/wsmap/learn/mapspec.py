@@ -30,6 +30,10 @@ from ..datasets.features import feature_names, features_for, node_slice
 from ..datasets.spec import DatasetSpec, float64_array, require_finite
 from ..io import check_record
 from ..kinematics import DHRobot
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike, Dataset
 
 __all__ = [
     "make_map_spec",
@@ -85,8 +89,8 @@ class MapPlan:
     template: np.ndarray | None = None
 
 
-def make_map_spec(dataset, *, nodes=None, assemble: bool = False, subspace: int | None = None,
-                  threshold: float = 0.5) -> dict[str, Any]:
+def make_map_spec(dataset: Dataset, *, nodes: ArrayLike | None = None, assemble: bool = False,
+                  subspace: int | None = None, threshold: float = 0.5) -> dict[str, Any]:
     """A ``map_spec`` dict (module docstring), before checking it against a model.
 
     Args:

@@ -72,6 +72,10 @@ from .mapspec import (
     map_plan,
 )
 from .training_range import TrainingRange, check_no_range
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike, Dataset
 
 __all__ = [
     "ACTIVATIONS",
@@ -201,7 +205,7 @@ def _n_features(features) -> int:
     return int(shape[-1])
 
 
-def check_features(model: SubspaceMLP | MLPConfig, features) -> None:
+def check_features(model: SubspaceMLP | MLPConfig, features: ArrayLike) -> None:
     """Raise ``ValueError("model expects 84 features, got 83")`` unless the last axis of
     ``features`` has ``config.n_inputs`` entries (the stored feature layout)."""
     config = model if isinstance(model, MLPConfig) else model.config
@@ -225,7 +229,7 @@ class SubspaceMLP(nn.Module):
     Shapes: ``n`` samples, ``f = config.n_inputs`` stored features, ``m = config.n_outputs``.
     """
 
-    def __init__(self, config: MLPConfig, *, input_range=None, seeds: Sequence[int] | None = None,
+    def __init__(self, config: MLPConfig, *, input_range: ArrayLike | None = None, seeds: Sequence[int] | None = None,
                  _init: bool = True):
         super().__init__()
         if not isinstance(config, MLPConfig):
@@ -273,7 +277,7 @@ class SubspaceMLP(nn.Module):
             raise ValueError(f"need one seed per subspace: {S} subspaces, got {len(seeds)} seeds")
         return [torch.Generator().manual_seed(s) for s in seeds]
 
-    def reset_parameters(self, input_range=None, seeds: Sequence[int] | None = None) -> None:
+    def reset_parameters(self, input_range: ArrayLike | None = None, seeds: Sequence[int] | None = None) -> None:
         """Initialise every subspace per ``config.init`` (module docstring).
 
         ``input_range``: ``(n_network_inputs, 2)`` rows ``[min, max]`` of the first layer's
@@ -332,7 +336,7 @@ class SubspaceMLP(nn.Module):
                              f"(stored features) columns; got {f}")
         return t
 
-    def set_input_stats(self, mean, std) -> None:
+    def set_input_stats(self, mean: ArrayLike, std: ArrayLike) -> None:
         """Store the standardisation ``z = (x - mean) / std`` of the first layer's inputs.
 
         ``mean``, ``std``: ``(f,)`` (all subspaces) or ``(S, f)``, with ``f`` either the stored
@@ -367,7 +371,7 @@ class SubspaceMLP(nn.Module):
         std = np.where(std > 0, std, 1.0)
         return mean, std
 
-    def network_inputs(self, x, key: int | None = None) -> torch.Tensor:
+    def network_inputs(self, x: torch.Tensor, key: int | None = None) -> torch.Tensor:
         """The first layer's inputs: ``x`` (stored layout) after column selection and scaling.
 
         ``key=None``: ``(S, n, f_net)`` (``(n, f_net)`` copies per subspace stats); an int key:
@@ -385,7 +389,7 @@ class SubspaceMLP(nn.Module):
             return (x - self.input_mean.unsqueeze(1)) / self.input_std.unsqueeze(1)
         return (x - self.input_mean[k]) / self.input_std[k]
 
-    def configure(self, x, *, seeds: Sequence[int] | None = None) -> SubspaceMLP:
+    def configure(self, x: torch.Tensor, *, seeds: Sequence[int] | None = None) -> SubspaceMLP:
         """Set up from training features ``x`` ``(n, n_inputs)``, as MATLAB's ``configure`` +
         ``init``: with ``"standardize"`` set the input stats from ``x`` (:meth:`input_stats_from`,
         same for all subspaces), then re-initialise with the first layer's input range taken as
@@ -453,7 +457,7 @@ class SubspaceMLP(nn.Module):
                     hidden.append(h)
         return h
 
-    def hidden_outputs(self, x, key: int = 0) -> list[torch.Tensor]:
+    def hidden_outputs(self, x: torch.Tensor, key: int = 0) -> list[torch.Tensor]:
         """The outputs of every hidden layer of subspace ``key`` for features ``x`` (stored
         layout, ``(n, f)``): a list of ``(n, h_j)`` tensors, no gradient."""
         x = self._as_tensor(x)
@@ -464,7 +468,7 @@ class SubspaceMLP(nn.Module):
             self._run_one(x, self._check_key(key), hidden)
         return hidden
 
-    def forward(self, x, key=None) -> torch.Tensor:
+    def forward(self, x: torch.Tensor, key: str | None = None) -> torch.Tensor:
         """Raw outputs.
 
         Args:
@@ -508,7 +512,7 @@ class SubspaceMLP(nn.Module):
         # Concatenate the groups and undo the grouping permutation (autograd-friendly).
         return torch.cat(parts)[torch.argsort(torch.cat(order))]
 
-    def assemble(self, x) -> torch.Tensor:
+    def assemble(self, x: torch.Tensor) -> torch.Tensor:
         """All S subspaces on the same ``x`` ``(n, f)``, concatenated along the node axis:
         ``(n, S*m)``, subspace 0's ``m`` nodes first (section 6.2: 7 block models of 1323 nodes
         give the 9261-node map in node order)."""
@@ -529,7 +533,8 @@ class SubspaceMLP(nn.Module):
         outs = [fn(x[..., i:i + batch_size, :]) for i in range(0, n, batch_size)]
         return torch.cat(outs, dim=-2) if outs else fn(x)
 
-    def score(self, x, key=None, *, assemble: bool = False, batch_size: int | None = None) -> torch.Tensor:
+    def score(self, x: torch.Tensor, key: str | None = None, *, assemble: bool = False, batch_size: int | None = None
+             ) -> torch.Tensor:
         """The thresholded quantity, without gradients: the raw output (``output_kind
         "linear"``) or ``sigmoid(raw)`` (``"logit"``). Shapes as :meth:`forward`, or as
         :meth:`assemble` with ``assemble=True``. ``batch_size``: samples per pass (memory).
@@ -555,7 +560,7 @@ class SubspaceMLP(nn.Module):
 
             return self._batched(run, x, batch_size)
 
-    def predict(self, x, threshold: float = 0.5, key=None, *, assemble: bool = False,
+    def predict(self, x: torch.Tensor, threshold: float = 0.5, key: str | None = None, *, assemble: bool = False,
                 batch_size: int | None = None) -> torch.Tensor:
         """Binary map(s): ``score > threshold`` (bool tensor; shapes as :meth:`score`).
 
@@ -585,8 +590,8 @@ class SubspaceMLP(nn.Module):
         else:
             self._map_spec, self._map_plan = map_plan(self.config, value)
 
-    def set_map_spec(self, dataset, *, nodes=None, assemble: bool = False, subspace: int | None = None,
-                     threshold: float = 0.5) -> SubspaceMLP:
+    def set_map_spec(self, dataset: Dataset, *, nodes: ArrayLike | None = None, assemble: bool = False,
+                     subspace: int | None = None, threshold: float = 0.5) -> SubspaceMLP:
         """Say what the model maps (arguments as :func:`make_map_spec`); returns ``self``.
 
         Examples: a model trained on all nodes of ``spec``: ``set_map_spec(spec)``; one block
@@ -610,7 +615,7 @@ class SubspaceMLP(nn.Module):
         plan = self._require_plan()
         return grid_nodes(plan.spec)[plan.nodes]
 
-    def map_features(self, arms, fixed=None) -> np.ndarray:
+    def map_features(self, arms: Arm | ArrayLike, fixed: ArrayLike | None = None) -> np.ndarray:
         """Features ``(B, n_inputs)`` float64 of ``arms`` (a :class:`~wsmap.kinematics.DHRobot`, one
         arm or a batch of any shape, flattened to ``B`` arms) for the map's dataset spec, with the
         checks of :meth:`predict_maps` except the training range
@@ -643,14 +648,14 @@ class SubspaceMLP(nn.Module):
                                  f"{self.config.n_inputs}")
         self._training_range = value
 
-    def set_training_range(self, data) -> SubspaceMLP:
+    def set_training_range(self, data: ArrayLike | Dataset | Any) -> SubspaceMLP:
         """Record the training range from ``data``: training features ``(n, n_inputs)`` (numpy or
         torch), an object with such ``.features`` (a :class:`wsmap.datasets.Dataset`), or a
         :class:`~wsmap.learn.training_range.TrainingRange`. Returns ``self``."""
         self.training_range = training_range_of(data)
         return self
 
-    def check_training_range(self, features, *, allow_extrapolation: bool = False) -> None:
+    def check_training_range(self, features: ArrayLike, *, allow_extrapolation: bool = False) -> None:
         """Refuse feature rows ``(n, n_inputs)`` outside :attr:`training_range`
         (:class:`~wsmap.learn.training_range.ExtrapolationError`, a ``ValueError`` naming the
         parameter, the value and the trained range), or warn
@@ -670,7 +675,7 @@ class SubspaceMLP(nn.Module):
             what = f"the model (trained on dataset {self._map_plan.spec.name!r})"
         rng.check(features, names=names, allow_extrapolation=allow_extrapolation, what=what)
 
-    def predict_maps(self, arms, fixed=None, threshold: float | None = None,
+    def predict_maps(self, arms: Arm | ArrayLike, fixed: ArrayLike | None = None, threshold: float | None = None,
                      batch_size: int | None = None, *, allow_extrapolation: bool = False) -> np.ndarray:
         """Binary workspace maps of ``arms`` predicted by the network, in node order.
 
@@ -768,7 +773,7 @@ class SubspaceMLP(nn.Module):
         return out
 
 
-def unit_saturation(model: SubspaceMLP, x, key: int = 0, *, level: float = 0.99,
+def unit_saturation(model: SubspaceMLP, x: ArrayLike | torch.Tensor, key: int = 0, *, level: float = 0.99,
                     share: float = 0.95) -> list[dict[str, Any]]:
     """How saturated the tanh units of subspace ``key`` are on features ``x`` ``(n, f)``.
 

@@ -280,13 +280,13 @@ class SCG(_FlatOptimizer):
     to 1e-3) is a reasonable override.
     """
 
-    def __init__(self, params, sigma: float = 5e-5, lambd: float = 5e-7):
+    def __init__(self, params: Iterable[torch.Tensor], sigma: float = 5e-5, lambd: float = 5e-7):
         if not sigma > 0 or not lambd > 0:
             raise ValueError("sigma and lambd must be positive")
         super().__init__(params, {"sigma": sigma, "lambd": lambd})
 
     @torch.no_grad()
-    def step(self, closure: Callable):
+    def step(self, closure: Callable) -> torch.Tensor:
         x, f, g = self._start_step(closure)
         group = self.param_groups[0]
         st = self._state
@@ -389,14 +389,14 @@ class CGB(_LineSearchOptimizer):
     decrease (MATLAB then stops with "Minimum step size reached").
     """
 
-    def __init__(self, params, delta: float = 0.01, **search):
+    def __init__(self, params: Iterable[torch.Tensor], delta: float = 0.01, **search):
         unknown = set(search) - set(_SEARCH_DEFAULTS)
         if unknown:
             raise TypeError(f"unknown line-search options {sorted(unknown)}; known: {sorted(_SEARCH_DEFAULTS)}")
         super().__init__(params, {"delta": delta, **_SEARCH_DEFAULTS, **search})
 
     @torch.no_grad()
-    def step(self, closure: Callable):
+    def step(self, closure: Callable) -> torch.Tensor:
         x, f, g = self._start_step(closure)
         group = self.param_groups[0]
         st = self._state
@@ -464,14 +464,14 @@ class OSS(_LineSearchOptimizer):
     ``min_step = 1e-6``, ``max_iter = 100``. :attr:`stalled` is set when a search finds no decrease.
     """
 
-    def __init__(self, params, **search):
+    def __init__(self, params: Iterable[torch.Tensor], **search):
         unknown = set(search) - set(_SEARCH_DEFAULTS)
         if unknown:
             raise TypeError(f"unknown line-search options {sorted(unknown)}; known: {sorted(_SEARCH_DEFAULTS)}")
         super().__init__(params, {**_SEARCH_DEFAULTS, **search})
 
     @torch.no_grad()
-    def step(self, closure: Callable):
+    def step(self, closure: Callable) -> torch.Tensor:
         x, f, g = self._start_step(closure)
         st = self._state
         if not bool(torch.any(g != 0)):
@@ -525,7 +525,7 @@ class GDX(_FlatOptimizer):
     (current point, trial point).
     """
 
-    def __init__(self, params, lr: float = 0.01, lr_inc: float = 1.05, lr_dec: float = 0.7,
+    def __init__(self, params: Iterable[torch.Tensor], lr: float = 0.01, lr_inc: float = 1.05, lr_dec: float = 0.7,
                  max_perf_inc: float = 1.04, mc: float = 0.9):
         if not lr > 0 or lr_inc < 1 or not 0 < lr_dec <= 1 or max_perf_inc < 1 or not 0 <= mc <= 1:
             raise ValueError("need lr > 0, lr_inc >= 1, 0 < lr_dec <= 1, max_perf_inc >= 1, 0 <= mc <= 1")
@@ -536,7 +536,7 @@ class GDX(_FlatOptimizer):
         self.rejected = False
 
     @torch.no_grad()
-    def step(self, closure: Callable):
+    def step(self, closure: Callable) -> torch.Tensor:
         x, f, g = self._start_step(closure)
         group = self.param_groups[0]
         st = self._state

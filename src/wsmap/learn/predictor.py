@@ -19,6 +19,10 @@ from .device import resolve_device
 from .files import load
 from .mapspec import grid_mismatch
 from .network import SubspaceMLP
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike, PathLike
 
 __all__ = ["predict_maps", "predict_maps_from_file", "check_model_grid", "MODEL_FORMATS", "register_model_format"]
 
@@ -45,8 +49,8 @@ def _format_tag(path) -> str | None:
     return payload.get("format") if isinstance(payload, dict) else None
 
 
-def predict_maps(model: SubspaceMLP, arms, fixed=None, *, threshold: float | None = None,
-                 batch_size: int | None = None, allow_extrapolation: bool = False,
+def predict_maps(model: SubspaceMLP, arms: Arm | ArrayLike, fixed: ArrayLike | None = None, *,
+                 threshold: float | None = None, batch_size: int | None = None, allow_extrapolation: bool = False,
                  device: str | torch.device | None = None) -> np.ndarray:
     """``model.predict_maps(arms, fixed, ...)``: see :meth:`wsmap.learn.network.SubspaceMLP.predict_maps`.
 
@@ -97,12 +101,11 @@ def check_model_grid(model: SubspaceMLP, *, grid: dict | None = None, convention
                          "block models assembled)")
 
 
-def predict_maps_from_file(path, arms, fixed=None, *, threshold: float | None = None,
-                           batch_size: int | None = None, grid: dict | None = None,
-                           convention: str | None = None, whole_grid: bool = False,
-                           allow_extrapolation: bool = False,
-                           map_location: str | torch.device = "cpu",
-                           device: str | torch.device | None = None) -> np.ndarray:
+def predict_maps_from_file(path: PathLike, arms: Arm | ArrayLike, fixed: ArrayLike | None = None, *,
+                           threshold: float | None = None, batch_size: int | None = None, grid: dict | None = None,
+                           convention: str | None = None, whole_grid: bool = False, allow_extrapolation: bool = False,
+                           map_location: str | torch.device = "cpu", device: str | torch.device | None = None
+                          ) -> np.ndarray:
     """:meth:`~wsmap.learn.network.SubspaceMLP.predict_maps` of the model saved at ``path``.
 
     Args:

@@ -81,6 +81,10 @@ from torch.nn.utils import parameters_to_vector
 
 from .device import check_device_name, resolve_device
 from .optim import ALIASES, ELEMENTWISE, OPTIMIZERS, canonical_name, make_optimizer
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike, SubspaceMLP, pd
 
 __all__ = [
     "LOSSES",
@@ -278,7 +282,7 @@ def _validation_update(crit: np.ndarray, best_crit: np.ndarray, fails: np.ndarra
     return improved
 
 
-def validation_stop(val_loss, max_fail: int) -> dict[str, Any]:
+def validation_stop(val_loss: Sequence[float], max_fail: int) -> dict[str, Any]:
     """Where MATLAB's validation stopping rule with ``max_fail`` would have ended a recorded run.
 
     Replays :func:`train`'s rule (:func:`_validation_update`) over a history's per-epoch
@@ -452,7 +456,7 @@ class History:
     def to_dict(self) -> dict[str, list]:
         return {k: list(getattr(self, k)) for k in ("epoch", *self._VALUES, "time")}
 
-    def to_frame(self):
+    def to_frame(self) -> pd.DataFrame:
         """A pandas DataFrame, one row per epoch (per epoch and session for a stacked run)."""
         import pandas as pd
 
@@ -625,7 +629,7 @@ def _check_finite(name: str, a, chunk: int = 4096) -> None:
                              "training on them would stop at once with loss NaN")
 
 
-def train(model: nn.Module, X, Y, config: TrainConfig | None = None,
+def train(model: nn.Module, X: ArrayLike | torch.Tensor, Y: ArrayLike | torch.Tensor, config: TrainConfig | None = None,
           split: Split | Sequence[Split] | None = None) -> TrainResult:
     """Train ``model`` on ``(X, Y)`` with early stopping, full batch or in minibatches
     (``config.batch_size``); see the module docstring.
@@ -889,8 +893,9 @@ def train(model: nn.Module, X, Y, config: TrainConfig | None = None,
                        split=splits * S if len(splits) == 1 else splits, config=config, n_sessions=S)
 
 
-def train_sessions(model_factory: Callable[[list[int]], nn.Module], X, Y, config: TrainConfig | None = None,
-                   sessions: int = 10, *, stacked: bool = False) -> list[TrainResult]:
+def train_sessions(model_factory: Callable[[list[int]], nn.Module], X: ArrayLike | torch.Tensor,
+                   Y: ArrayLike | torch.Tensor, config: TrainConfig | None = None, sessions: int = 10, *,
+                   stacked: bool = False) -> list[TrainResult]:
     """Independent training sessions (the paper: 10), session ``s`` with seed ``config.seed + s``.
 
     The seed of a session fixes its initial weights (the global torch RNG is seeded with it before
@@ -939,8 +944,9 @@ def train_sessions(model_factory: Callable[[list[int]], nn.Module], X, Y, config
     return results
 
 
-def train_mlp_sessions(mlp, X, Y, config: TrainConfig | None = None, sessions: int = 1, *,
-                       stacked: bool = False) -> list[TrainResult]:
+def train_mlp_sessions(mlp: SubspaceMLP, X: ArrayLike | torch.Tensor, Y: ArrayLike | torch.Tensor,
+                       config: TrainConfig | None = None, sessions: int = 1, *, stacked: bool = False
+                      ) -> list[TrainResult]:
     """:func:`train_sessions` of :class:`~wsmap.learn.network.SubspaceMLP` models with
     architecture ``mlp`` (an :class:`~wsmap.learn.network.MLPConfig`; ``n_subspaces`` is ignored),
     each session's network configured on that session's training split

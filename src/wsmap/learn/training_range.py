@@ -29,6 +29,10 @@ from typing import Any
 import numpy as np
 
 from ..io import check_record
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike
 
 __all__ = [
     "RANGE_RTOL",
@@ -70,7 +74,7 @@ class TrainingRange:
 
     __slots__ = ("_low", "_high", "_names", "_samples")
 
-    def __init__(self, low, high, names: Sequence[str] | None = None, samples: int | None = None):
+    def __init__(self, low: ArrayLike, high: ArrayLike, names: Sequence[str] | None = None, samples: int | None = None):
         try:
             low, high = np.array(low, dtype=np.float64), np.array(high, dtype=np.float64)
         except (TypeError, ValueError):
@@ -202,7 +206,7 @@ class TrainingRange:
 
     # ------------------------------------------------------------------ the check
 
-    def outside(self, features) -> np.ndarray:
+    def outside(self, features: ArrayLike) -> np.ndarray:
         """Bool ``(n, f)``: where ``features`` lie outside the range by more than the tolerance
         (non-finite values count as outside)."""
         x = np.asarray(features, dtype=np.float64)
@@ -212,7 +216,8 @@ class TrainingRange:
         tol = self.tolerance()
         return ~((x >= self._low - tol) & (x <= self._high + tol))
 
-    def describe_violations(self, features, names: Sequence[str] | None = None, limit: int = 4) -> str | None:
+    def describe_violations(self, features: ArrayLike, names: Sequence[str] | None = None, limit: int = 4
+                           ) -> str | None:
         """A sentence naming up to ``limit`` features (first offending arm of each) outside the range,
         or ``None`` when every value is inside."""
         x = np.asarray(features, dtype=np.float64)
@@ -236,7 +241,7 @@ class TrainingRange:
         arms = f"{n_arms} of {x.shape[0]} arms are" if x.shape[0] > 1 else "the arm is"
         return f"{arms} outside its training range: " + "; ".join(parts) + more
 
-    def check(self, features, *, names: Sequence[str] | None = None, allow_extrapolation: bool = False,
+    def check(self, features: ArrayLike, *, names: Sequence[str] | None = None, allow_extrapolation: bool = False,
               what: str = "the model") -> None:
         """Raise :class:`ExtrapolationError` if any row of ``features`` ``(n, f)`` lies outside the
         range (beyond :meth:`tolerance`); with ``allow_extrapolation`` warn

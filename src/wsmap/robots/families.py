@@ -28,6 +28,10 @@ from ..kinematics import SPHERICAL_WRIST_ALPHA, DHRobot, SerialChain
 from .arms.panda import PANDA
 from .arms.puma560 import puma560
 from .registry import ArmTable
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike
 
 __all__ = [
     "spherical_wrist",
@@ -49,7 +53,8 @@ __all__ = [
 ]
 
 
-def spherical_wrist(a2, a3, d3, d4, d1=0.0, qlim=None, name=None) -> DHRobot:
+def spherical_wrist(a2: float, a3: float, d3: float, d4: float, d1: float = 0.0, qlim: ArrayLike | None = None,
+                    name: str | None = None) -> DHRobot:
     """A 6-DOF arm of the paper's spherical-wrist family (metres).
 
     The DH table (standard DH) is ``d = [d1, 0, d3, d4, 0, 0]``, ``a = [0, a2, a3, 0, 0, 0]``,
@@ -159,7 +164,7 @@ class ArmFamily:
             raise ValueError(f"{self._value}{self.params[idx[-1]]} is {float(s[idx])!r}: {self._values} must be "
                              "finite")
 
-    def check_params(self, params, allow_extrapolation: bool = False, stacklevel: int = 2) -> np.ndarray:
+    def check_params(self, params: ArrayLike, allow_extrapolation: bool = False, stacklevel: int = 2) -> np.ndarray:
         """``params`` as a float64 array ``(..., n_params)``, checked: numbers of that shape, valid
         values, and inside ``[low, high]`` -- outside it a ``ValueError``, or with
         ``allow_extrapolation`` a :class:`FamilyRangeWarning` (``stacklevel`` as
@@ -193,23 +198,23 @@ class ArmFamily:
                           FamilyRangeWarning, stacklevel=stacklevel)
         return s
 
-    def draw(self, count: int, seed=None) -> np.ndarray:
+    def draw(self, count: int, seed: int | None = None) -> np.ndarray:
         """The parameters ``(count, n_params)`` of ``count`` random arms: one uniform ``U(low, high)``
         array from ``seed`` (an int, ``None`` or a ``numpy.random.Generator``), so the first ``k``
         arms of a seed are the arms of ``count = k``."""
         count = _check_count(count)
         return _rng(seed).uniform(self.low, self.high, size=(count, self.n_params))
 
-    def sample(self, count: int, seed=None) -> tuple[DHRobot | SerialChain, np.ndarray]:
+    def sample(self, count: int, seed: int | None = None) -> tuple[DHRobot | SerialChain, np.ndarray]:
         """``count`` random arms: ``(arms, params)``, batch ``(count,)``, ``params`` from :meth:`draw`."""
         params = self.draw(count, seed)
         return self.arms(params), params
 
-    def arms(self, params, *, allow_extrapolation: bool = False, stacklevel: int = 2):
+    def arms(self, params: ArrayLike, *, allow_extrapolation: bool = False, stacklevel: int = 2) -> Arm:
         """The arms of ``params`` ``(..., n_params)``: a batch of shape ``(...)``."""
         raise NotImplementedError
 
-    def params_of(self, arms) -> np.ndarray:
+    def params_of(self, arms: Arm) -> np.ndarray:
         """The parameters ``(..., n_params)`` of arms of the family (read back from them); arms that
         are not of the family are a ``ValueError`` (``TypeError`` for another kind of robot)."""
         raise NotImplementedError
@@ -227,7 +232,7 @@ class DHFamily(ArmFamily):
     a: tuple = (0.0,) * 6
     alpha: tuple = (0.0,) * 6
 
-    def arms(self, params, *, allow_extrapolation: bool = False, stacklevel: int = 2) -> DHRobot:
+    def arms(self, params: ArrayLike, *, allow_extrapolation: bool = False, stacklevel: int = 2) -> DHRobot:
         p = self.check_params(params, allow_extrapolation, stacklevel + 1)
         shape = p.shape[:-1]
         table = {k: np.broadcast_to(np.asarray(getattr(self, k), dtype=np.float64), shape + (6,)).copy()
@@ -287,7 +292,7 @@ class ScaledFamily(ArmFamily):
             raise ValueError(f"scale of {self.params[idx[-1]]} is {float(s[idx])!r}: scales must be positive "
                              "and finite")
 
-    def arms(self, params, *, allow_extrapolation: bool = False, joint_limits: bool = True,
+    def arms(self, params: ArrayLike, *, allow_extrapolation: bool = False, joint_limits: bool = True,
              stacklevel: int = 2) -> SerialChain:
         """The arms of ``params`` (scales) ``(..., n_params)``: a :class:`SerialChain` of batch
         shape ``(...)`` (see :func:`family_arm`)."""
@@ -367,7 +372,7 @@ def arm_family(name: str) -> ArmFamily:
     return FAMILIES[name]
 
 
-def family_arm(name: str, params, *, allow_extrapolation: bool = False) -> DHRobot | SerialChain:
+def family_arm(name: str, params: ArrayLike, *, allow_extrapolation: bool = False) -> DHRobot | SerialChain:
     """A batch of arms of the family ``name`` from their parameters.
 
     Parameters
@@ -397,7 +402,7 @@ def family_arm(name: str, params, *, allow_extrapolation: bool = False) -> DHRob
     return arm_family(name).arms(params, allow_extrapolation=allow_extrapolation, stacklevel=3)
 
 
-def sample_family(name: str, count: int, seed=None) -> tuple[DHRobot | SerialChain, np.ndarray]:
+def sample_family(name: str, count: int, seed: int | None = None) -> tuple[DHRobot | SerialChain, np.ndarray]:
     """``count`` random arms of the family ``name``: ``(arms, params)``.
 
     ``params`` ``(count, n_params)`` are independent ``U(low, high)`` draws (one uniform array from
@@ -407,7 +412,7 @@ def sample_family(name: str, count: int, seed=None) -> tuple[DHRobot | SerialCha
     return arm_family(name).sample(count, seed)
 
 
-def family_params(name: str, arms) -> np.ndarray:
+def family_params(name: str, arms: Arm) -> np.ndarray:
     """The parameters ``(..., n_params)`` of arms of the family ``name`` (built by :func:`family_arm`),
     read back from the arms; arms of another kind are a ``ValueError``."""
     return arm_family(name).params_of(arms)
@@ -420,7 +425,7 @@ def _check_beta(beta) -> float:
     return float(beta)
 
 
-def sample_spherical_wrist(count: int, seed=None, beta: float = 0.5) -> DHRobot:
+def sample_spherical_wrist(count: int, seed: int | None = None, beta: float = 0.5) -> DHRobot:
     """``count`` arms of :data:`SPHERICAL_WRIST` with d3, d4, a2, a3 ~ U(0, beta), independent.
 
     The draw order per arm is (d3, d4, a2, a3): one ``(count, 4)`` uniform array.
@@ -428,7 +433,7 @@ def sample_spherical_wrist(count: int, seed=None, beta: float = 0.5) -> DHRobot:
     return SPHERICAL_WRIST.with_range(high=_check_beta(beta)).sample(count, seed)[0]
 
 
-def sample_arbitrary_6dof(count: int, seed=None, beta: float = 0.5) -> DHRobot:
+def sample_arbitrary_6dof(count: int, seed: int | None = None, beta: float = 0.5) -> DHRobot:
     """``count`` arms of :data:`ARBITRARY_6DOF` (Table 3): every d_i, a_i, alpha_i ~ U(0, beta) (m, rad).
 
     The draw is one ``(count, 18)`` uniform array: d_1..d_6, a_1..a_6, alpha_1..alpha_6.

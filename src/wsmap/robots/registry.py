@@ -16,6 +16,10 @@ import numpy as np
 
 from ..kinematics import DHRobot, SerialChain
 from ..kinematics.chain import from_dh
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Any, ArrayLike, Callable, Sequence
 
 __all__ = ["ArmTable", "NAMED", "ROBOTS", "SOURCES", "register", "register_constructor", "load", "from_name"]
 
@@ -98,7 +102,7 @@ class ArmTable:
         lim = np.array([(-np.inf, np.inf) if x is None else x for x in self.limits], dtype=np.float64)
         return np.deg2rad(lim) if self.limit_unit == "deg" else lim
 
-    def row_transform(self, row) -> np.ndarray:
+    def row_transform(self, row: Sequence[float]) -> np.ndarray:
         """The 4x4 transform of one fixed DH row ``(d, a, alpha, theta)`` in this table's convention."""
         d, a, alpha, theta = (float(x) for x in row)
         ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
@@ -108,7 +112,8 @@ class ArmTable:
         Tz[2, 3], Tx[0, 3] = d, a
         return Rz @ Tz @ Tx @ Rx if self.convention == "standard" else Rx @ Tx @ Rz @ Tz
 
-    def chain(self, joint_limits: bool = True, *, d=None, a=None, name: str | None = None) -> SerialChain:
+    def chain(self, joint_limits: bool = True, *, d: ArrayLike | None = None, a: ArrayLike | None = None,
+              name: str | None = None) -> SerialChain:
         """The arm as a :class:`SerialChain` (base frame → tool flange).
 
         ``d`` and ``a`` (``(..., n)``, metres) replace the table's columns of those names (a batch
@@ -138,7 +143,7 @@ ROBOTS: dict = {}
 SOURCES: dict[str, str] = {}
 
 
-def register_constructor(name: str, constructor, source: str) -> None:
+def register_constructor(name: str, constructor: Callable[..., Any], source: str) -> None:
     """Make ``load(name)`` call ``constructor(joint_limits=...)`` (``None``: the arm's default).
 
     For an arm that is not an :class:`ArmTable` (the paper's ``puma560``); a table registers with

@@ -20,6 +20,10 @@ import numpy as np
 from ..io import atomic_path
 from .grids import cartesian_grid, grid_counts
 from .kinds import get_kind
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Any, ArrayLike, NDArray, PathLike
 
 __all__ = ["save_map", "load_map", "MapFileError"]
 
@@ -42,7 +46,8 @@ def _kind_mismatch(settings: dict, dtype, scope) -> str | None:
     return None
 
 
-def save_map(path, flat_map, grid: dict, settings: dict, orientations=None) -> Path:
+def save_map(path: PathLike, flat_map: ArrayLike, grid: dict, settings: dict, orientations: ArrayLike | None = None
+            ) -> Path:
     """Write a map as ``.npz`` atomically (see the module notes); a bool map stays bool, any other is
     stored as float64 (finite values only). ``orientations`` (K, 3, 3): the set a map over
     orientations was made with. ``settings["kind"]``, if given, must be a registered kind whose value
@@ -68,7 +73,7 @@ def save_map(path, flat_map, grid: dict, settings: dict, orientations=None) -> P
     return Path(path)
 
 
-def load_map(path):
+def load_map(path: PathLike) -> tuple[NDArray[Any], NDArray[np.float64], dict[str, Any], dict[str, Any]]:
     """Read a map written by :func:`save_map`: ``(map, nodes, grid, settings)``; a map over
     orientations has its set in ``settings["orientations"]`` ((K, 3, 3) array).
 

@@ -13,6 +13,10 @@ import os
 import numpy as np
 
 from ..kinematics.transforms import as_real_array
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike, Sequence
 
 __all__ = ["grid_counts", "grid_axes", "cartesian_grid", "angle_grid", "map_to_volume", "volume_to_map", "BLOCK_NODES",
            "N_BLOCKS", "block_slice", "CROP_3087", "available_memory", "MAX_NODES", "node_neighbours"]
@@ -58,7 +62,8 @@ def _triple(name, x):
     return x
 
 
-def grid_counts(lo, hi, step, max_nodes: int = MAX_NODES, what: str = "this tool handles") -> tuple[int, int, int]:
+def grid_counts(lo: float | ArrayLike, hi: float | ArrayLike, step: float | ArrayLike, max_nodes: int = MAX_NODES,
+                what: str = "this tool handles") -> tuple[int, int, int]:
     """Nodes along each axis of the grid ``lo + k·step <= hi``, without allocating anything.
 
     ``lo``, ``hi`` and ``step`` are scalars or 3-tuples. Refused (``ValueError``): non-finite or
@@ -83,7 +88,7 @@ def grid_counts(lo, hi, step, max_nodes: int = MAX_NODES, what: str = "this tool
     return tuple(int(c) for c in counts)
 
 
-def grid_axes(lo, hi, step) -> list[np.ndarray]:
+def grid_axes(lo: float | ArrayLike, hi: float | ArrayLike, step: float | ArrayLike) -> list[np.ndarray]:
     """The node values along each axis: ``lo + k·step`` for every ``k`` with the value ``<= hi``.
 
     ``lo``, ``hi`` and ``step`` are scalars or 3-tuples. Counting is exact up to rounding:
@@ -102,12 +107,14 @@ def _nodes(axes) -> np.ndarray:
     return np.stack([xx.ravel(), yy.ravel(), zz.ravel()], axis=-1)
 
 
-def cartesian_grid(lo=-1.0, hi=1.0, step=0.1) -> np.ndarray:
+def cartesian_grid(lo: float | ArrayLike = -1.0, hi: float | ArrayLike = 1.0, step: float | ArrayLike = 0.1
+                  ) -> np.ndarray:
     """Positions ``(N, 3)`` in metres on a regular grid, in the paper's node order (x fastest)."""
     return _nodes(grid_axes(lo, hi, step))
 
 
-def angle_grid(lo=0.0, hi=2 * np.pi, step=np.pi / 10) -> np.ndarray:
+def angle_grid(lo: float | ArrayLike = 0.0, hi: float | ArrayLike = 2 * np.pi, step: float | ArrayLike = np.pi / 10
+              ) -> np.ndarray:
     """Orientation angles ``(N, 3)`` (r1, r2, r3) in radians, in the paper's node order (r1 fastest)."""
     return _nodes(grid_axes(lo, hi, step))
 
@@ -115,7 +122,7 @@ def angle_grid(lo=0.0, hi=2 * np.pi, step=np.pi / 10) -> np.ndarray:
 # --------------------------------------------------------------------------- poses
 
 # --------------------------------------------------------------------------- layout helpers
-def map_to_volume(flat, shape) -> np.ndarray:
+def map_to_volume(flat: ArrayLike, shape: Sequence[int]) -> np.ndarray:
     """Flat map ``(..., nx*ny*nz)`` → volume ``(..., nz, ny, nx)``; ``shape`` is ``(nx, ny, nz)``."""
     flat = np.asarray(flat)
     nx, ny, nz = (int(s) for s in shape)
@@ -124,7 +131,7 @@ def map_to_volume(flat, shape) -> np.ndarray:
     return flat.reshape(flat.shape[:-1] + (nz, ny, nx))
 
 
-def volume_to_map(volume) -> np.ndarray:
+def volume_to_map(volume: ArrayLike) -> np.ndarray:
     """Volume ``(..., nz, ny, nx)`` → flat map ``(..., nx*ny*nz)`` in node order."""
     volume = np.asarray(volume)
     if volume.ndim < 3:
@@ -143,7 +150,7 @@ def block_slice(block: int) -> slice:
 
 
 
-def node_neighbours(nodes, k: int = 18, radius: float = 1.5) -> np.ndarray:
+def node_neighbours(nodes: ArrayLike, k: int = 18, radius: float = 1.5) -> np.ndarray:
     """Each node's neighbours: ``(N, k)`` int indices of the ``k`` nearest other nodes within
     ``radius`` times the typical spacing, nearest first, ``-1`` where fewer (on a whole grid with the
     defaults: one column per offset, 6 face then 12 edge neighbours, ``-1`` off the grid).

@@ -26,6 +26,10 @@ from ..kinematics.ik.search import DEFAULT_STARTS, MAP_SETTINGS, ikine_search, m
 from ..kinematics.transforms import as_real_array
 from .._progress import check_progress, progress_bar
 from .grids import _check_fits, _triple, cartesian_grid, grid_axes, node_neighbours
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Any, Arm, ArrayLike, Mapping, NDArray, PathLike
 
 __all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP_SETTINGS", "target_poses",
            "reachable", "resolve_method", "constant_orientation_map", "orientation_map",
@@ -62,7 +66,7 @@ def _check_choice(name, value, choices):
         raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
 
 
-def target_poses(positions, rpy, convention: str = "standard") -> np.ndarray:
+def target_poses(positions: ArrayLike, rpy: ArrayLike, convention: str = "standard") -> np.ndarray:
     """Target poses ``(..., 4, 4)`` from positions ``(..., 3)`` (m) and angles ``(..., 3)`` (rad).
 
     ``"standard"`` (default): ``transl(p) · R``; ``"paper"``: ``Rx Ry Rz · transl(p)`` (position ``R·p``).
@@ -89,7 +93,7 @@ def target_poses(positions, rpy, convention: str = "standard") -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- reachability of poses
-def reachable(robot, T, *, starts: int = DEFAULT_STARTS, seed=0, **settings) -> np.ndarray:
+def reachable(robot: Arm, T: ArrayLike, *, starts: int = DEFAULT_STARTS, seed: int = 0, **settings) -> np.ndarray:
     """Whether the arm reaches each pose: bool with the broadcast batch shape of ``T`` and the arms.
 
     Parameters
@@ -145,7 +149,7 @@ def _search_settings(ik, base=MAP_SETTINGS, drop=("solver", "chunk", "progress")
     return settings
 
 
-def resolve_method(robot, method: str = "auto") -> str:
+def resolve_method(robot: Arm, method: str = "auto") -> str:
     """``"exact"`` or ``"numerical"``: ``auto`` picks the closed form where a registered closed form
     solves the arm (:func:`wsmap.kinematics.closed_form_for`), else numerical IK. ``exact`` for an
     arm without a closed form is a ``ValueError`` that says so."""
@@ -225,9 +229,10 @@ def _check_nodes(name, nodes):
     return nodes
 
 
-def constant_orientation_map(arms, nodes, rpy=(0.0, 0.0, 0.0), method: str = "auto", convention: str = "standard", *,
-                             ik: dict | None = None, chunk_elements: int = 1 << 21, progress=None,
-                             return_method: bool = False):
+def constant_orientation_map(arms: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0, 0.0, 0.0), method: str = "auto",
+                             convention: str = "standard", *, ik: dict | None = None, chunk_elements: int = 1 << 21,
+                             progress: bool | None = None, return_method: bool = False
+                            ) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], str]:
     """Constant-orientation workspace ("R3"): which positions are reachable at orientation ``rpy``.
 
     Parameters
@@ -259,9 +264,10 @@ def constant_orientation_map(arms, nodes, rpy=(0.0, 0.0, 0.0), method: str = "au
     return _map(arms, nodes, rpy, convention, method, ik, chunk_elements, progress, nodes, return_method)
 
 
-def orientation_map(arms, angle_nodes, point=(0.5, 0.5, 0.5), method: str = "auto", convention: str = "standard", *,
-                    ik: dict | None = None, chunk_elements: int = 1 << 21, progress=None,
-                    return_method: bool = False):
+def orientation_map(arms: Arm, angle_nodes: ArrayLike, point: ArrayLike = (0.5, 0.5, 0.5), method: str = "auto",
+                    convention: str = "standard", *, ik: dict | None = None, chunk_elements: int = 1 << 21,
+                    progress: bool | None = None, return_method: bool = False
+                   ) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], str]:
     """Orientation workspace ("SO3"): which orientations are reachable at the point ``point`` (m).
 
     ``angle_nodes`` (N, 3) are angles (r1, r2, r3) in radians, e.g. from :func:`angle_grid`.
@@ -281,7 +287,8 @@ def default_grid(scope: str) -> tuple[float, float, float]:
     return (-1.0, 1.0, 0.1) if scope == "R3" else (0.0, 2 * math.pi, math.pi / 10)
 
 
-def grid_spec(scope="R3", lo=None, hi=None, step=None) -> dict:
+def grid_spec(scope: str = "R3", lo: float | ArrayLike | None = None, hi: float | ArrayLike | None = None,
+              step: float | ArrayLike | None = None) -> dict:
     """A grid description ``{"scope", "lo", "hi", "step", "shape"}`` (3-lists; ``shape`` is nx, ny, nz).
 
     Missing bounds take the paper's defaults (:func:`default_grid`). Checked (finite, ``lo <= hi``,
@@ -294,9 +301,10 @@ def grid_spec(scope="R3", lo=None, hi=None, step=None) -> dict:
             "step": _triple("step", step).tolist(), "shape": [len(a) for a in axes]}
 
 
-def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), method="auto",
-             convention="standard", model=None, allow_extrapolation: bool = False, ik=None,
-             progress=False, return_method: bool = False):
+def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point: ArrayLike = (0.5, 0.5, 0.5),
+             method: str = "auto", convention: str = "standard", model: PathLike | None = None,
+             allow_extrapolation: bool = False, ik: Mapping[str, Any] | None = None, progress: bool = False,
+             return_method: bool = False) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], str]:
     """One call from an arm to its map on a whole grid (from :func:`grid_spec`): bool ``(N,)`` in node order.
 
     ``grid["scope"]`` is ``"R3"`` (positions at orientation ``rpy``) or ``"SO3"`` (orientations at

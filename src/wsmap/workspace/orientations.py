@@ -10,6 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..kinematics.transforms import as_real_array
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike
 
 __all__ = ["MAX_ORIENTATIONS", "orientation_samples", "approach_orientations", "check_rotations", "rotation_angle",
            "continuation_order"]
@@ -102,7 +106,7 @@ def approach_orientations(directions: int, rolls: int = 1) -> np.ndarray:
     return (base[:, None] @ Rz[None]).reshape(-1, 3, 3)
 
 
-def check_rotations(name: str, R, atol: float = 1e-6) -> np.ndarray:
+def check_rotations(name: str, R: ArrayLike, atol: float = 1e-6) -> np.ndarray:
     """``R`` as float64 ``(K, 3, 3)`` (one ``(3, 3)`` becomes ``K = 1``) after checking that it is a
     non-empty set of rotations: ``RᵀR = I`` and ``det R = +1`` to ``atol``. Anything else is a
     ``ValueError`` naming ``name`` and the first offending index."""
@@ -133,7 +137,7 @@ def rotation_angle(Ra, Rb) -> np.ndarray:
     return np.arctan2(np.linalg.norm(v, axis=-1), cos)
 
 
-def continuation_order(R) -> np.ndarray:
+def continuation_order(R: ArrayLike) -> np.ndarray:
     """An order of the orientations ``R`` (K, 3, 3) in which each is close to one before it:
     greedy nearest neighbour from the first. Returns ``(order (K,), parent (K,))``, ``parent[i]``
     the earlier orientation (in the set's indexing) nearest to ``order[i]`` (-1 for the first)."""

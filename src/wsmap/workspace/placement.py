@@ -19,6 +19,10 @@ from ..kinematics import DHRobot, SerialChain, as_chain, check_rigid, map_search
 from ..kinematics.ik.search import MAP_SETTINGS
 from .grids import _check_fits, _triple, node_neighbours
 from .maps import _exact, resolve_method
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike
 
 __all__ = ["Placement", "base_placement", "floor_poses", "MAX_TARGETS", "MAX_YAWS", "MAX_CANDIDATES"]
 
@@ -69,7 +73,7 @@ def _range(name, r):
     return r
 
 
-def floor_poses(x, y, yaw, z0: float = 0.0) -> np.ndarray:
+def floor_poses(x: ArrayLike, y: ArrayLike, yaw: ArrayLike, z0: float = 0.0) -> np.ndarray:
     """Base poses ``transl(x, y, z0)·Rz(yaw)`` (broadcast) as ``(..., 4, 4)``."""
     x, y, yaw = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float), np.asarray(yaw, float))
     B = np.zeros(x.shape + (4, 4))
@@ -80,8 +84,9 @@ def floor_poses(x, y, yaw, z0: float = 0.0) -> np.ndarray:
     return B
 
 
-def base_placement(robot, targets, x=(-1.0, 1.0), y=(-1.0, 1.0), *, step: float = 0.1, yaws: int = 8,
-                   z0: float = 0.0, method: str = "auto", ik: dict | None = None, seed: int = 0,
+def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.0, 1.0),
+                   y: tuple[float, float] = (-1.0, 1.0), *, step: float = 0.1, yaws: int = 8, z0: float = 0.0,
+                   method: str = "auto", ik: dict | None = None, seed: int = 0,
                    progress: bool = False) -> Placement:
     """Rank candidate base poses on the floor by the fraction of ``targets`` they reach.
 

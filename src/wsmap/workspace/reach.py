@@ -31,6 +31,10 @@ from .._progress import check_progress, progress_bar
 from .grids import _check_fits, node_neighbours
 from .maps import _check_choice, _check_nodes, _exact, _search_settings, resolve_method, target_poses
 from .orientations import check_rotations, continuation_order
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike, NDArray
 
 __all__ = ["INDEX_SETTINGS", "position_map", "reachability_index", "dexterous_map", "manipulability_map",
            "manipulability_maps", "yoshikawa"]
@@ -58,8 +62,8 @@ def _subset_neighbours(nb, keep):
     return np.where(sub >= 0, new[sub], -1)
 
 
-def position_map(robot, nodes, *, samples: int = 20000, seed: int = 0, ik: dict | None = None,
-                 return_q: bool = False, progress=False):
+def position_map(robot: Arm, nodes: ArrayLike, *, samples: int = 20000, seed: int = 0, ik: dict | None = None,
+                 return_q: bool = False, progress: bool = False) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], NDArray[np.float64]]:
     """Reach at any orientation: bool ``(N,)``, the tool origin can be put at node ``p`` (m, base frame).
 
     Forward-kinematics sampling finds starts (``samples`` configurations drawn inside the limits;
@@ -99,8 +103,9 @@ def position_map(robot, nodes, *, samples: int = 20000, seed: int = 0, ik: dict 
     return (res.success, np.where(res.success[:, None], res.q, np.nan)) if return_q else res.success
 
 
-def reachability_index(robot, nodes, orientations, *, method: str = "auto", return_bits: bool = False,
-                       ik: dict | None = None, seed: int = 0, progress=False):
+def reachability_index(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, *, method: str = "auto",
+                       return_bits: bool = False, ik: dict | None = None, seed: int = 0, progress: bool = False
+                      ) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """The reachability index: float ``(N,)`` in [0, 1], the fraction of ``orientations`` (K, 3, 3)
     reachable at each node (``T = transl(p)·R_k``); ``return_bits`` also returns the bool ``(N, K)``.
 
@@ -167,22 +172,22 @@ def _index_bits(robot, nodes, R, method, ik, seed, update):
     return bits
 
 
-def dexterous_map(robot, nodes, orientations, **kw) -> np.ndarray:
+def dexterous_map(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, **kw) -> np.ndarray:
     """The dexterous workspace for a set of orientations: bool ``(N,)``, every one of ``orientations``
     is reachable at the node (:func:`reachability_index` ``== 1``; same keywords)."""
     _, bits = reachability_index(robot, nodes, orientations, return_bits=True, **kw)
     return bits.all(axis=1)
 
 
-def yoshikawa(J) -> np.ndarray:
+def yoshikawa(J: ArrayLike) -> np.ndarray:
     """Yoshikawa's manipulability ``√det(J Jᵀ)`` of Jacobians ``(..., 6, n)`` (0 where singular)."""
     J = np.asarray(J, dtype=np.float64)
     d = np.linalg.det(J @ np.swapaxes(J, -1, -2))
     return np.sqrt(np.maximum(d, 0.0))
 
 
-def manipulability_map(robot, nodes, rpy=(0.0, 0.0, 0.0), *, convention: str = "standard", method: str = "auto",
-                       ik: dict | None = None, seed: int = 0, progress=False) -> np.ndarray:
+def manipulability_map(robot: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0, 0.0, 0.0), *, convention: str = "standard",
+                       method: str = "auto", ik: dict | None = None, seed: int = 0, progress: bool = False) -> np.ndarray:
     """Manipulability map: float ``(N,)``, the largest Yoshikawa manipulability ``√det(J Jᵀ)`` over
     the IK solutions found for the pose at each node (orientation ``rpy``, ``R = Rx·Ry·Rz``; pose
     convention as :func:`wsmap.workspace.target_poses`), 0 where unreachable.
@@ -272,7 +277,7 @@ def _manipulability_block(d, a, T, atol):
     return np.where(reach_sh & reach_el, arm_det * best, 0.0)
 
 
-def manipulability_maps(arms, nodes, rpy=(0.0, 0.0, 0.0), *, convention: str = "standard",
+def manipulability_maps(arms: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0, 0.0, 0.0), *, convention: str = "standard",
                         atol: float = 1e-9) -> np.ndarray:
     """Exact manipulability maps of a batch of spherical-wrist arms: float64 ``arms.batch_shape + (N,)``.
 

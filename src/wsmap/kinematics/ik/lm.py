@@ -15,14 +15,18 @@ from ..lm_compiled import MODE_PAPER
 from ..transforms import check_rigid
 from .kernel import arm_arrays, run_compiled
 from .solution import MIN_TOL, IKSolution, failure_reasons
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike
 
 __all__ = ["ikine_LM"]
 
 
 def ikine_LM(
-    robot,
-    T,
-    q0=None,
+    robot: Arm,
+    T: ArrayLike,
+    q0: ArrayLike | None = None,
     *,
     ilimit: int = 500,
     rlimit: int = 100,
@@ -30,7 +34,7 @@ def ikine_LM(
     lam: float = 0.1,
     check_limits: bool = False,
     chunk: int = 65536,
-    progress=None,
+    progress: bool | None = None,
 ) -> IKSolution:
     """Levenberg–Marquardt inverse kinematics (the paper's Appendix), vectorised over targets.
 

@@ -27,6 +27,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..arms import ArmBatch
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm
 
 __all__ = ["SHOULDER", "WRIST", "ELBOW", "ClosedForm", "register", "unregister", "closed_forms", "closed_form_for",
            "require_closed_form"]
@@ -83,7 +87,7 @@ def closed_forms() -> tuple[ClosedForm, ...]:
     return tuple(_REGISTRY.values())
 
 
-def closed_form_for(robot) -> ClosedForm | None:
+def closed_form_for(robot: Arm) -> ClosedForm | None:
     """The registered closed form that recognises every arm of ``robot`` (the first in registration
     order, should two), or None; None for anything that is not an arm (a :class:`DHRobot` or a
     :class:`SerialChain`)."""
@@ -100,7 +104,7 @@ def _names() -> str:
     return " and ".join(words) if len(words) <= 2 else ", ".join(words[:-1]) + " and " + words[-1]
 
 
-def require_closed_form(robot, what: str = "method 'exact'") -> ClosedForm:
+def require_closed_form(robot: Arm, what: str = "method 'exact'") -> ClosedForm:
     """:func:`closed_form_for`, or a ``ValueError`` saying that ``what`` has no closed form for the
     arm, which closed forms there are, and to use method 'numerical'."""
     cf = closed_form_for(robot)

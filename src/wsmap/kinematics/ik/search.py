@@ -63,6 +63,10 @@ from .kernel import arm_arrays, pose_keys, run_compiled, unsolved
 from .memo import Memo, as_chain_memo, chain_key
 from .reach_filter import position_filter, reach_filter
 from .solution import MIN_TOL, IKSolution, failure_reasons
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike
 
 __all__ = ["MAP_SETTINGS", "map_search", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DEFAULT_STARTS", "FK_CONFIRM_TOL",
            "ikine_search"]
@@ -166,12 +170,12 @@ def _limited(chain: SerialChain, joint_limits: bool) -> SerialChain:
 
 
 def ikine_search(
-    robot,
-    T,
+    robot: Arm,
+    T: ArrayLike,
     *,
     starts: int = DEFAULT_STARTS,
-    seed=0,
-    q0=None,
+    seed: int = 0,
+    q0: ArrayLike | None = None,
     tol: float = 1e-10,
     ilimit: int = DEFAULT_ILIMIT,
     rlimit: int = DEFAULT_RLIMIT,
@@ -179,7 +183,7 @@ def ikine_search(
     joint_limits: bool = True,
     confirm_tol: float = FK_CONFIRM_TOL,
     chunk: int = 16384,
-    progress=None,
+    progress: bool | None = None,
     position_only: bool = False,
 ) -> IKSolution:
     """Multi-start Levenberg–Marquardt reachability search with joint limits (see the module notes).
@@ -265,13 +269,15 @@ MAP_SETTINGS = dict(starts=0, seeds=2, retry=4, hole_retry=16, ilimit=60, rlimit
                     border_starts=DEFAULT_STARTS)
 
 
-def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], seeds: int = MAP_SETTINGS["seeds"],
-               retry: int = MAP_SETTINGS["retry"], seed=0, q0=None, tol: float = 1e-10,
-               ilimit: int = MAP_SETTINGS["ilimit"], rlimit: int = MAP_SETTINGS["rlimit"], lam: float = 0.1,
-               joint_limits: bool = True, confirm_tol: float = FK_CONFIRM_TOL, gtol: float = MAP_SETTINGS["gtol"],
-               q_init=None, position_only: bool = False, seed_free_pass: bool = MAP_SETTINGS["seed_free_pass"],
-               hole_retry: int = MAP_SETTINGS["hole_retry"], border_starts: int = MAP_SETTINGS["border_starts"],
-               progress=None) -> IKSolution:
+def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int = MAP_SETTINGS["starts"],
+               seeds: int = MAP_SETTINGS["seeds"], retry: int = MAP_SETTINGS["retry"], seed: int = 0,
+               q0: ArrayLike | None = None, tol: float = 1e-10, ilimit: int = MAP_SETTINGS["ilimit"],
+               rlimit: int = MAP_SETTINGS["rlimit"], lam: float = 0.1, joint_limits: bool = True,
+               confirm_tol: float = FK_CONFIRM_TOL, gtol: float = MAP_SETTINGS["gtol"],
+               q_init: ArrayLike | None = None, position_only: bool = False,
+               seed_free_pass: bool = MAP_SETTINGS["seed_free_pass"], hole_retry: int = MAP_SETTINGS["hole_retry"],
+               border_starts: int = MAP_SETTINGS["border_starts"],
+               progress: bool | None = None) -> IKSolution:
     """Reachability of a map's nodes, each start of :func:`ikine_search`'s iteration, with starts taken
     from neighbouring nodes' solutions (continuation): the solution at a node is an excellent start
     at the next one, and an unreachable node costs a few failed starts instead of dozens.

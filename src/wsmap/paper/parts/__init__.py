@@ -28,6 +28,10 @@ import pkgutil
 from dataclasses import dataclass
 
 from ...io import write_json, write_table
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Any, Callable, Figure, Outputs, Path, PathLike, Sequence, pd
 
 __all__ = ["Part", "register", "registry", "part", "order", "reads", "metric_keys", "check_metrics", "save_tables",
            "save_figure"]
@@ -117,7 +121,7 @@ def metric_keys(schema: type) -> tuple[str, ...]:
     return tuple(schema.__annotations__)
 
 
-def check_metrics(metrics: dict, schema: type, what: str, *, beside=None,
+def check_metrics(metrics: dict, schema: type, what: str, *, beside: Callable[[str, Any], bool] | None = None,
                   other: str = "have keys not in the schema") -> dict:
     """``metrics`` unchanged when it holds the schema's keys and no other key, or only others for
     which ``beside(key, value)`` is true (the parts with one entry per table cell or method); else a
@@ -132,7 +136,8 @@ def check_metrics(metrics: dict, schema: type, what: str, *, beside=None,
     return metrics
 
 
-def save_tables(out, name: str, table, runs, shown, metrics: dict, whole=()) -> None:
+def save_tables(out: Outputs, name: str, table: pd.DataFrame, runs: pd.DataFrame, shown: pd.DataFrame, metrics: dict,
+                whole: Sequence[str] = ()) -> None:
     """A table part's files: ``tables/<name>``, ``<name>_runs`` and ``<name>_display`` (.csv and .md;
     ``whole``: the columns written as whole numbers) and ``results/<name>.json``."""
     write_table(table, out.tables / name, whole=whole)
@@ -141,7 +146,7 @@ def save_tables(out, name: str, table, runs, shown, metrics: dict, whole=()) -> 
     write_json(metrics, out.results / f"{name}.json")
 
 
-def save_figure(fig, path):
+def save_figure(fig: Figure, path: PathLike) -> Path:
     """:func:`wsmap.viz.save_figure` (the figure written, then closed), returning ``path`` so that
     ``figures`` can list what it wrote."""
     from ... import viz

@@ -23,6 +23,7 @@ from ...datasets import audit_table
 from ...io import atomic_path, write_json
 from ...paths import Outputs
 from ...views import iso_mesh
+from ...workspace.kinds import get_kind
 from ..specs import audit_specs
 from . import Part, check_metrics, register, save_figure
 
@@ -167,19 +168,27 @@ def figures(result: Result, out: Outputs) -> list[Path]:
     """Slices and surface of the exact map, exact against numerical, the two conventions."""
     r, cfg = result, result.cfg
     m = r.metrics
-    paths = [save_figure(viz.plot_slices(r.exact, r.shape, cfg["lo"], cfg["step"],
-                                         title=f"PUMA560, R = I: {r.exact.sum()} of {r.exact.size} nodes reachable"),
+    constant = get_kind("constant")
+    title = viz.map_title("PUMA560", constant, rpy=cfg["rpy"], convention="paper",
+                          summary=f"{r.exact.sum()} of {r.exact.size} nodes reachable (exact, closed form)")
+    paths = [save_figure(viz.plot_slices(r.exact, r.shape, cfg["lo"], cfg["step"], title=title),
                          out.figures / "puma560_workspace_slices.png")]
     ax = viz.render_mesh(r.mesh, title="PUMA560 constant-orientation workspace (exact)",
                          lim=max(abs(cfg["lo"]), abs(cfg["hi"])))
     paths.append(save_figure(ax.figure, out.figures / "puma560_workspace_exact.png"))
     fig = viz.plot_slices(r.exact, r.shape, cfg["lo"], cfg["step"], compare=r.numerical,
-                          title=f"exact (first) vs numerical LM (second): agreement {m['exact_numerical_agreement']:.4f}, "
-                                f"{m['numerical_false_negatives']} missed, {m['numerical_false_positives']} extra")
+                          names=("exact only (the LM missed it)", "the LM only", "both"),
+                          title=viz.map_title("PUMA560", constant, rpy=cfg["rpy"], convention="paper",
+                                              summary=f"exact against the paper's one-start LM: agreement "
+                                                      f"{m['exact_numerical_agreement']:.4f}, "
+                                                      f"{m['numerical_false_negatives']} missed, "
+                                                      f"{m['numerical_false_positives']} extra"))
     paths.append(save_figure(fig, out.figures / "puma560_exact_vs_numerical.png"))
     fig = viz.plot_slices(r.paper_convention, r.shape, cfg["lo"], cfg["step"], compare=r.standard_convention,
-                          title=f"rpy = {cfg['rotated_rpy']}: paper convention (first) vs standard (second), "
-                                f"{m['conventions_differ_fraction_rotated']:.1%} of nodes differ")
+                          names=("T = R·transl(p) only (paper)", "T = transl(p)·R only (standard)", "both"),
+                          title=viz.map_title("PUMA560", constant, rpy=cfg["rotated_rpy"],
+                                              summary=f"the two pose conventions: "
+                                                      f"{m['conventions_differ_fraction_rotated']:.1%} of nodes differ"))
     paths.append(save_figure(fig, out.figures / "puma560_conventions.png"))
     return paths
 

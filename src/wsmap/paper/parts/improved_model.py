@@ -151,7 +151,9 @@ def figures(result: Result, out: Outputs) -> list[Path]:
     ax.set_title("Improved model: training curve")
     paths = [save_figure(fig, out.figures / "improved_model_training.png")]
     fig = viz.plot_slices(result.predicted, spec.grid_shape, spec.lo, spec.step, compare=result.exact,
-                          title=f"PUMA560: improved model (first) vs exact (second), F {result.puma.f:.4f}")
+                          names=("predicted only (false positive)", "exact only (missed)", "both"),
+                          title=f"PUMA560: constant map, R = I, paper convention T = R·transl(p)\n"
+                                f"the improved model against the exact map, F {result.puma.f:.4f}")
     paths.append(save_figure(fig, out.figures / "puma560_workspace_improved.png"))
     return paths
 

@@ -88,7 +88,7 @@ class Result:
 
 def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
     """The panda7 model, the manipulability model and the design studies of params section ``cfg``
-    (the datasets in ``out.data``; ``improved_model``'s model in ``out.models``)."""
+    (the datasets in ``out.data``; ``improved_model``'s model in ``out.inputs.models``)."""
     import torch
 
     device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work
@@ -148,7 +148,7 @@ def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
     # verified by the classical map, against CMA-ES and random search on the classical map
     dc = cfg["design"]
     studies = {}
-    sw_model, _ = load_model(out.models / dc["sw_model"])
+    sw_model, _ = load_model(out.inputs.models / dc["sw_model"])  # another stage's output
     for fam, mdl, box in (("spherical_wrist", sw_model, dc["sw_box"]), ("panda7", model, dc["panda7_box"])):
         tasks = design.box_tasks(box["centre"], box["size"])
         rows, results = design.compare_designs(fam, tasks, mdl, max_calls=dc["max_calls"],
@@ -204,8 +204,10 @@ def figures(result: Result, out: Outputs) -> list[Path]:
     paths.append(save_figure(fig, out.figures / "learned_maps_panda7_curve.png"))
 
     fig = viz.plot_slices(s["predicted"], spec.grid_shape, spec.lo, spec.step, compare=s["labelled"],
-                          title=f"held-out arm {s['arm']} (scales {np.round(s['scales'], 3).tolist()}): model (first) "
-                                f"vs labels (second), F {s['f']:.4f}")
+                          names=("model only (false positive)", "labels only (missed)", "both"),
+                          title=f"panda7 held-out arm {s['arm']}: tool-down map, standard convention T = transl(p)·R\n"
+                                f"the map model against its labels, F {s['f']:.4f} "
+                                f"(scales {np.round(s['scales'], 3).tolist()})")
     paths.append(save_figure(fig, out.figures / "learned_maps_panda7_slices.png"))
     grid = workspace.grid_spec(spec.scope, spec.lo, spec.hi, spec.step)
     ax = viz.render_mesh(iso_mesh(s["predicted"], grid, 0.5),

@@ -21,6 +21,7 @@ from ... import robots, viz, workspace
 from ...io import write_json, write_table
 from ...paths import Outputs
 from ...views import figure_3d, iso_mesh, save_glb, save_html, save_ply
+from ...workspace.kinds import get_kind
 from . import Part, check_metrics, register, save_figure
 
 
@@ -41,6 +42,10 @@ PART = Part("real_arms", "The maps roboticists use, for real arms", 90, outputs=
     *(f"figures/real_arms_index_{a}.png" for a in ("puma560", "panda", "iiwa14", "ur5e", "ur10e", "gen3")),
     "figures/real_arms_index_panda_3d.png", "figures/real_arms_puma560_manipulability.png",
     "figures/real_arms_puma560_manipulability_3d.png"))
+
+
+#: The interactive view's threshold slider: the nodes whose index is above each (0: every reached node).
+VIEW_THRESHOLDS = tuple(round(0.1 * i, 1) for i in range(10))
 
 
 @dataclass
@@ -138,7 +143,8 @@ def save(result: Result, out: Outputs) -> None:
     html_dir = out.results / "real_arms_html"
     html_dir.mkdir(parents=True, exist_ok=True)
     save_html(html_dir / f"{show}_index.html", index, grid, kind="points", label="reachability index",
-              title=f"{show}: reachability index")
+              title=f"{show}: reachability index over {cfg['orientations']} orientations", thresholds=VIEW_THRESHOLDS,
+              cut_plane=True)
     write_table(result.volumes, out.tables / "real_arms_volumes")
     write_table(result.placement, out.tables / "real_arms_placement")
     write_json(result.metrics, out.results / "real_arms.json")
@@ -148,7 +154,9 @@ def figure_3d_of_shown(result: Result):
     """The interactive plotly view of ``show_3d``'s index (the notebook shows it)."""
     show = result.cfg["show_3d"]
     index, grid = result.index_maps[show]
-    return figure_3d(index, grid, kind="points", label="reachability index", title=f"{show}: reachability index")
+    return figure_3d(index, grid, kind="points", label="reachability index",
+                     title=f"{show}: reachability index over {result.cfg['orientations']} orientations",
+                     thresholds=VIEW_THRESHOLDS, cut_plane=True)
 
 
 def figures(result: Result, out: Outputs) -> list[Path]:
@@ -157,9 +165,11 @@ def figures(result: Result, out: Outputs) -> list[Path]:
     paths = []
     for name, (index, grid) in result.index_maps.items():
         method = result.volumes.set_index("arm").loc[name, "method"]
+        title = viz.map_title(name, get_kind("index"), orientations=k, summary=f"{method}, grid step {cfg['step']} m")
         fig = viz.plot_value_slices(index, grid["shape"], grid["lo"], grid["step"], label="reachability index",
-                                    vmin=0, vmax=1, title=f"{name}: reachability index over {k} orientations "
-                                                          f"({method}), step {cfg['step']} m")
+                                    vmin=0, vmax=1, title=title, metadata=viz.png_metadata(
+                                        {"arm": name, "kind": "index", "method": method, "orientations": k,
+                                         "orientation_seed": cfg["seed"], "grid": grid}, title=title))
         paths.append(save_figure(fig, out.figures / f"real_arms_index_{name}.png"))
     show = cfg["show_3d"]
     index, grid = result.index_maps[show]
@@ -168,8 +178,12 @@ def figures(result: Result, out: Outputs) -> list[Path]:
                          lim=cfg["half_width"][show])
     paths.append(save_figure(ax.figure, out.figures / f"real_arms_index_{show}_3d.png"))
     manip, mgrid = result.manipulability, result.manipulability_grid
-    fig = viz.plot_value_slices(manip, mgrid["shape"], mgrid["lo"], mgrid["step"], label="manipulability √det(J Jᵀ)",
-                                title="PUMA560 manipulability (exact, best of 8 branches)")
+    title = viz.map_title("puma560", get_kind("manipulability"), rpy=cfg["manipulability_rpy"], convention="standard",
+                          summary="exact: the largest of the 8 closed-form branches, 0 where unreachable")
+    fig = viz.plot_value_slices(manip, mgrid["shape"], mgrid["lo"], mgrid["step"],
+                                label=get_kind("manipulability").label, title=title, metadata=viz.png_metadata(
+                                    {"arm": "puma560", "kind": "manipulability", "method": "exact",
+                                     "rpy": cfg["manipulability_rpy"], "grid": mgrid}, title=title))
     paths.append(save_figure(fig, out.figures / "real_arms_puma560_manipulability.png"))
     ax = viz.render_mesh(iso_mesh(manip, mgrid, _levels(manip)[0]), title="PUMA560: manipulability above its median",
                          lim=cfg["half_width"]["puma560"])

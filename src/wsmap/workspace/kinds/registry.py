@@ -23,6 +23,10 @@ from ..grids import cartesian_grid
 from ..maps import CONVENTIONS, MAP_SETTINGS, SCOPES, grid_map
 from ...kinematics import rpy2r
 from ..reach import INDEX_SETTINGS, reachability_index
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike
 
 __all__ = ["INPUTS", "METHODS", "MapKind", "MapRequest", "register", "unregister", "get_kind", "kinds",
            "kind_names", "default_kind", "kinds_taking", "grid_positions", "paper_map_kind",
@@ -77,7 +81,7 @@ class MapRequest:
         return {k: v for k, v in self.ik.items() if k not in ("seed", "solver")}
 
 
-def _boolean_levels(values) -> tuple[float, ...]:
+def _boolean_levels(values: ArrayLike) -> tuple[float, ...]:
     return (0.5,)
 
 
@@ -166,7 +170,7 @@ class MapKind:
         """The map file's dtype of this kind: bool or float64."""
         return np.dtype(bool) if self.value_type is bool else np.dtype(np.float64)
 
-    def summary(self, values) -> str:
+    def summary(self, values: ArrayLike) -> str:
         """One line on a computed map ``values`` (N,): how many nodes are reachable (and the mean value
         of a float map)."""
         values = np.asarray(values)
@@ -255,7 +259,7 @@ def unregister(name: str) -> MapKind:
     return kind
 
 
-def get_kind(name) -> MapKind:
+def get_kind(name: str) -> MapKind:
     """The registered kind ``name``; ``ValueError`` naming the known kinds otherwise."""
     kind = _REGISTRY.get(name) if isinstance(name, str) else None
     if kind is None:

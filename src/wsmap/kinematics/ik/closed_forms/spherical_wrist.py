@@ -14,6 +14,10 @@ from ...dh import DHRobot, _angle_in_range, _link_frames
 from ...transforms import check_rigid
 from ..registry import ClosedForm, register
 from ..solution import IKReason, IKSolution
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike
 
 __all__ = ["SPHERICAL_WRIST_ALPHA", "is_spherical_wrist", "require_spherical_wrist", "wrist_centre_reachable",
            "ikine_spherical_wrist", "spherical_wrist_reachable"]
@@ -30,7 +34,7 @@ _FREE_D = np.array([True, False, True, True, False, False])
 _FREE_A = np.array([False, True, True, False, False, False])
 
 
-def is_spherical_wrist(robot, atol: float = 1e-9) -> np.ndarray:
+def is_spherical_wrist(robot: Arm, atol: float = 1e-9) -> np.ndarray:
     """True for each arm of the batch that belongs to the spherical-wrist family (a :class:`DHRobot`
     without a tool); all False for any other robot."""
     if not isinstance(robot, DHRobot):
@@ -43,7 +47,7 @@ def is_spherical_wrist(robot, atol: float = 1e-9) -> np.ndarray:
     return ok
 
 
-def require_spherical_wrist(robot) -> None:
+def require_spherical_wrist(robot: Arm) -> None:
     """Raise ``ValueError`` naming the first arm outside the closed-form family."""
     ok = is_spherical_wrist(robot)
     if not np.all(ok):
@@ -59,7 +63,7 @@ def require_spherical_wrist(robot) -> None:
         raise ValueError(f"method 'exact' needs arms of the spherical-wrist family: {why}; use method 'numerical'")
 
 
-def wrist_centre_reachable(robot: DHRobot, p, atol: float = 1e-12) -> np.ndarray:
+def wrist_centre_reachable(robot: DHRobot, p: ArrayLike, atol: float = 1e-12) -> np.ndarray:
     """Closed-form reachability of wrist-centre positions for unlimited spherical-wrist arms.
 
     With unlimited joints and a spherical wrist every orientation is reachable wherever the wrist
@@ -82,7 +86,7 @@ def wrist_centre_reachable(robot: DHRobot, p, atol: float = 1e-12) -> np.ndarray
     return (r2 >= d3 * d3 - atol) & (rho2 >= lo - atol) & (rho2 <= hi + atol)
 
 
-def ikine_spherical_wrist(robot: DHRobot, T, atol: float = 1e-9) -> IKSolution:
+def ikine_spherical_wrist(robot: DHRobot, T: ArrayLike, atol: float = 1e-9) -> IKSolution:
     """All 8 closed-form solutions for spherical-wrist arms.
 
     Parameters
@@ -179,7 +183,7 @@ def ikine_spherical_wrist(robot: DHRobot, T, atol: float = 1e-9) -> IKSolution:
                       residual=np.full(valid.shape, np.nan), reason=reason.astype(np.int8))
 
 
-def spherical_wrist_reachable(robot: DHRobot, T) -> np.ndarray:
+def spherical_wrist_reachable(robot: DHRobot, T: ArrayLike) -> np.ndarray:
     """Some branch of :func:`ikine_spherical_wrist` succeeds: bool, ``T.shape[:-2]`` broadcast with
     the robot's batch shape. Without joint limits every orientation is reachable wherever the wrist
     centre is, so only the position is tested (:func:`wrist_centre_reachable`)."""

@@ -57,6 +57,10 @@ from ...transforms import as_real_array, check_rigid
 from ..geometry import dh_equivalent
 from ..registry import ClosedForm, register
 from ..solution import IKReason, IKSolution
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm, ArrayLike
 
 __all__ = ["UR_ALPHA", "URParameters", "ur_parameters", "is_ur_type", "require_ur_type", "ikine_ur",
            "ur_reachable"]
@@ -217,7 +221,7 @@ def _canonical(robot, atol: float):
     return eq, ok_eq, values_eq
 
 
-def is_ur_type(robot, atol: float = 1e-9) -> np.ndarray:
+def is_ur_type(robot: Arm, atol: float = 1e-9) -> np.ndarray:
     """True for each arm of the batch (shape ``robot.batch_shape``) that :func:`ikine_ur` solves.
 
     ``robot``: a :class:`SerialChain` or :class:`DHRobot`. The test is on the numbers (``atol`` on
@@ -242,7 +246,7 @@ def _raise_not_ur(robot, atol):
     raise ValueError(f"not an arm of the UR type (three parallel axes): {arm}{why(idx)}")
 
 
-def require_ur_type(robot, atol: float = 1e-9) -> None:
+def require_ur_type(robot: Arm, atol: float = 1e-9) -> None:
     """Raise ``ValueError`` naming the first arm and joint that differ from the UR type."""
     if not np.all(is_ur_type(robot, atol)):
         _raise_not_ur(robot, atol)
@@ -257,7 +261,7 @@ def _rigid_inverse(T):
     return out
 
 
-def ur_parameters(robot, atol: float = 1e-9) -> URParameters:
+def ur_parameters(robot: Arm, atol: float = 1e-9) -> URParameters:
     """The canonical UR numbers of a UR-type arm (see :class:`URParameters`); ``ValueError`` otherwise.
 
     ``robot``: a :class:`SerialChain` (e.g. ``wsmap.robots.load("ur5e")``) or :class:`DHRobot`, one
@@ -288,7 +292,7 @@ def ur_parameters(robot, atol: float = 1e-9) -> URParameters:
                         base=base, flange=flange, qlim=qlim)
 
 
-def ikine_ur(robot, T, atol: float = 1e-9) -> IKSolution:
+def ikine_ur(robot: Arm, T: ArrayLike, atol: float = 1e-9) -> IKSolution:
     """All 8 closed-form solutions of a UR-type arm (shoulder × wrist × elbow).
 
     Parameters
@@ -351,7 +355,7 @@ def _front(robot, T, atol):
     return prm, T
 
 
-def ur_reachable(robot, T, atol: float = 1e-9) -> np.ndarray:
+def ur_reachable(robot: Arm, T: ArrayLike, atol: float = 1e-9) -> np.ndarray:
     """True where some branch of :func:`ikine_ur` succeeds: bool, shape ``T.shape[:-2]`` broadcast
     with the robot's batch shape.
 
