@@ -79,9 +79,9 @@ def test_sampling_is_deterministic_in_range_and_a_prefix():
 
 def test_refusals_name_the_problem():
     with pytest.raises(ValueError, match=re.escape("unknown arm family 'panda8'; known families: spherical_wrist, "
-                                                   "arbitrary_6dof, puma560, panda7")):
+                                                   "arbitrary_6dof, puma560, panda7, morph6, morph7")):
         robots.family_arm("panda8", np.ones(6))
-    with pytest.raises(ValueError, match="known families: spherical_wrist, arbitrary_6dof, puma560, panda7"):
+    with pytest.raises(ValueError, match="known families: spherical_wrist, arbitrary_6dof, puma560, panda7, morph6, morph7"):
         robots.sample_family("ur", 3, seed=0)
     bad = np.ones((2, 6))
     bad[1, 4] = 1.35
@@ -130,9 +130,9 @@ def test_one_list_of_families_used_everywhere():
     from wsmap import design
     from wsmap.learn import manipulability
 
-    assert list(robots.FAMILIES) == ["spherical_wrist", "arbitrary_6dof", "puma560", "panda7"]
-    assert datasets.FAMILIES == tuple(robots.FAMILIES) and datasets.CHAIN_FAMILIES == ("panda7",)
-    assert [f.exact for f in robots.FAMILIES.values()] == [True, False, True, False]
+    assert list(robots.FAMILIES) == ["spherical_wrist", "arbitrary_6dof", "puma560", "panda7", "morph6", "morph7"]
+    assert datasets.FAMILIES == tuple(robots.FAMILIES) and datasets.CHAIN_FAMILIES == ("panda7", "morph6", "morph7")
+    assert [f.exact for f in robots.FAMILIES.values()] == [True, False, True, False, False, False]
     for name, fam in design.DESIGN_FAMILIES.items():
         assert fam.family is robots.FAMILIES[name] and sorted(fam.params) == sorted(fam.family.params)
     assert design.DESIGN_FAMILIES["spherical_wrist"].method == "exact"

@@ -100,7 +100,8 @@ def feature_names(spec: DatasetSpec) -> list[str]:
     _check_spec(spec)
     nx, ny, nz = spec.grid_shape
     if spec.is_chain_family:
-        names = [f"scale_{p}" for p in robots.arm_family(spec.family).params]
+        family = robots.arm_family(spec.family)
+        names = [f"{family.feature_prefix}{p}" for p in family.params]
     else:
         names = [f"{k}_{i}" for k in ("d", "a", "alpha") for i in range(1, N_JOINTS + 1)]
     for ax, n in (("x", nx), ("y", ny), ("z", nz)):

@@ -55,7 +55,7 @@ FAMILIES = tuple(robots.FAMILIES)
 #: Families whose arms are :class:`~wsmap.kinematics.SerialChain` batches built from scale
 #: factors (:class:`wsmap.robots.ScaledFamily`): their features are the scales, their labels the
 #: numerical map search (:mod:`wsmap.datasets.labels`).
-CHAIN_FAMILIES = tuple(name for name, family in robots.FAMILIES.items() if family.scaled)
+CHAIN_FAMILIES = tuple(name for name, family in robots.FAMILIES.items() if family.chain)
 #: The default R3 grid bounds of a chain family (metres), ``lo = -hi``: ``[-1.2, 1.2]³`` holds the
 #: Panda's reach (0.855 m) and nearly all of the scaled arms' tool-down workspace.
 CHAIN_FAMILY_GRID = 1.2
@@ -254,7 +254,7 @@ class DatasetSpec:
                            ("method", METHODS), ("stream", STREAMS)):
             set_(k, _choice(k, getattr(self, k), choices))
         family = robots.arm_family(self.family)
-        if self.method == "exact" and not family.exact and not family.scaled:  # (scaled: _check_chain_family)
+        if self.method == "exact" and not family.exact and not family.chain:  # (chain: _check_chain_family)
             raise ValueError(
                 "method 'exact' needs arms of the spherical-wrist family (closed form); "
                 f"family {self.family!r} needs method 'numerical'"
@@ -263,10 +263,10 @@ class DatasetSpec:
         if beta <= 0:
             raise ValueError(f"beta must be positive, got {self.beta!r}")
         set_("beta", beta)
-        chain = family.scaled
+        chain = family.chain
         if chain:
             self._check_chain_family()
-        half = CHAIN_FAMILY_GRID if chain else 2.0 * beta
+        half = (family.grid or CHAIN_FAMILY_GRID) if chain else 2.0 * beta
         if self.lo is None:
             set_("lo", -half if self.scope == "R3" else 0.0)
         if self.hi is None:
@@ -351,7 +351,7 @@ class DatasetSpec:
     def arm_family(self) -> robots.ArmFamily:
         """The spec's :class:`wsmap.robots.ArmFamily`; a DH family's range is ``[0, beta]``."""
         family = robots.arm_family(self.family)
-        return family if family.scaled else family.with_range(high=self.beta)
+        return family if family.chain else family.with_range(high=self.beta)
 
     # ---------------------------------------------------------------- derived sizes
     @cached_property

@@ -23,6 +23,8 @@ module                 contents
                        checksum (:class:`ModelFileError`)
 ``device``             :func:`resolve_device`: the ``device`` setting (``auto``, ``cpu``,
                        ``cuda``) as a ``torch.device``, with a clear error without a GPU
+``morph_model``        one implicit map model for every 6/7R arm, f(morphology, point) -> logit:
+                       :func:`~.morph_model.fit_morph_model`, files, the nearest-arm baseline
 ``manipulability``     the spherical-wrist family's manipulability map (m³) learned from
                        ``(d3, d4, a2, a3)``: :func:`manipulability_dataset`,
                        :func:`train_manipulability_model`, :func:`predict_manipulability`,
@@ -110,6 +112,7 @@ from .manipulability import (
     train_manipulability_model,
 )
 from .training_range import ExtrapolationError, ExtrapolationWarning, TrainingRange
+from . import morph_model  # noqa: E402 -- registers the morphology model's file format with method="model"
 
 __all__ = [
     # network

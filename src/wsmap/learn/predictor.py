@@ -20,7 +20,29 @@ from .files import load
 from .mapspec import grid_mismatch
 from .network import SubspaceMLP
 
-__all__ = ["predict_maps", "predict_maps_from_file", "check_model_grid"]
+__all__ = ["predict_maps", "predict_maps_from_file", "check_model_grid", "MODEL_FORMATS", "register_model_format"]
+
+#: Model files of other kinds than :mod:`wsmap.learn.files`' (their format tag -> the function
+#: ``method="model"`` of :func:`wsmap.workspace.grid_map` calls for such a file, with the arguments
+#: of ``_whole_grid_map`` below); e.g. ``"wsmap.morph_model"`` (:mod:`wsmap.learn.morph_model`).
+MODEL_FORMATS: dict = {}
+
+
+def register_model_format(tag: str, predict) -> None:
+    """Make ``method="model"`` answer a model file whose format tag is ``tag`` with ``predict``."""
+    if not callable(predict):
+        raise TypeError(f"the predictor of model format {tag!r} must be callable, got {type(predict).__name__}")
+    MODEL_FORMATS[tag] = predict
+
+
+def _format_tag(path) -> str | None:
+    """The format tag of the torch file at ``path``; ``None`` when it has none or is unreadable
+    (:func:`wsmap.learn.files.load` then says what is wrong with it)."""
+    try:
+        payload = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception:  # noqa: BLE001 -- any unreadable file: files.load names the problem
+        return None
+    return payload.get("format") if isinstance(payload, dict) else None
 
 
 def predict_maps(model: SubspaceMLP, arms, fixed=None, *, threshold: float | None = None,
@@ -109,7 +131,11 @@ def predict_maps_from_file(path, arms, fixed=None, *, threshold: float | None = 
 
 def _whole_grid_map(path, robot, fixed, *, grid: dict, convention: str, allow_extrapolation: bool) -> np.ndarray:
     """``method="model"`` of :func:`wsmap.workspace.grid_map`: the map ``(N,)`` of one arm on the whole
-    grid ``grid`` from the model file at ``path`` (:func:`predict_maps_from_file` with ``whole_grid``)."""
+    grid ``grid`` from the model file at ``path`` (:func:`predict_maps_from_file` with ``whole_grid``),
+    or from the predictor of its format (:data:`MODEL_FORMATS`)."""
+    other = MODEL_FORMATS.get(_format_tag(path))
+    if other is not None:
+        return other(path, robot, fixed, grid=grid, convention=convention, allow_extrapolation=allow_extrapolation)
     return predict_maps_from_file(path, robot, fixed, grid=grid, convention=convention, whole_grid=True,
                                   allow_extrapolation=allow_extrapolation)
 

@@ -16,7 +16,9 @@ Where things are:
   table of the manufacturer's numbers with its source, ending with its registration. A new named
   arm is one new module there (and its name on the import line of ``arms/__init__.py``) plus its
   tests in ``tests/robots/``;
-* :mod:`.families` — the families of arms and their samplers.
+* :mod:`.families` — the families of arms and their samplers;
+* :mod:`.morph` — the ``morph6`` / ``morph7`` families (random 6R / 7R arms over the range of real
+  arms, the named arms held out), registered into :data:`FAMILIES` on import.
 
 Every named arm has its base at the manufacturer's base (mounting flange) frame and its end at the
 tool flange (no gripper), its joint zero and signs as the manufacturer's controller, and its joint
@@ -33,6 +35,7 @@ from .registry import NAMED, ROBOTS, SOURCES, ArmTable, from_name, load, registe
 from . import arms  # noqa: E402, F401, I001
 from .arms.puma560 import PUMA560_QLIM_DEG, puma560  # noqa: E402
 from . import families  # noqa: E402
+from . import morph  # noqa: E402, F401 -- registers the morph6 and morph7 families
 from .families import *  # noqa: E402, F401, F403 -- the families' public names, listed once in families.__all__
 
 __all__ = [

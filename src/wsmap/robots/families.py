@@ -115,6 +115,13 @@ class ArmFamily:
 
     #: whether the parameters are scale factors of a named arm's lengths (:class:`ScaledFamily`)
     scaled: ClassVar[bool] = False
+    #: whether the arms are :class:`~wsmap.kinematics.SerialChain` batches whose dataset features
+    #: are the parameters themselves, labelled by the map search (:data:`wsmap.datasets.CHAIN_FAMILIES`)
+    chain: ClassVar[bool] = False
+    #: what a dataset's feature names put before each parameter's name
+    feature_prefix: ClassVar[str] = ""
+    #: the half-width (m) of a chain family's default R3 grid; ``None``: the datasets' default
+    grid: ClassVar[float | None] = None
     #: how an error message names the parameter values
     _values: ClassVar[str] = "parameters"
     _value: ClassVar[str] = ""
@@ -258,6 +265,8 @@ class ScaledFamily(ArmFamily):
     table: ArmTable | None = None
 
     scaled: ClassVar[bool] = True
+    chain: ClassVar[bool] = True
+    feature_prefix: ClassVar[str] = "scale_"
     _values: ClassVar[str] = "scales"
     _value: ClassVar[str] = "scale of "
 

@@ -1,0 +1,455 @@
+"""One map model for every arm: an implicit network ``f(morphology, point) -> logit``.
+
+The arm enters as its morphology features (:meth:`wsmap.kinematics.morphology.Morphology.features`:
+73 numbers, every arm padded to 7 joints), the point as its position in metres (base frame) with
+a few Fourier features; the orientation (tool-down, ``R = Rx(pi)``, ``"standard"`` convention
+``T = transl(p)·R``, as the ``morph6`` / ``morph7`` datasets) is fixed per model. A point is
+reachable where ``sigmoid(logit) > 0.5``. Because the network is queried at points, a model maps
+any grid inside the box it was trained on (``[-1.5, 1.5]³`` m), whatever its step.
+
+Architecture (:class:`MorphModelConfig`): an encoder MLP (standardised features -> latent vector,
+SiLU), a decoder MLP on ``[latent, point features]`` (SiLU), one logit. The decoder's first layer
+is split into its latent and point parts, so a map of ``P`` points of one arm costs one encoder
+pass plus ``P`` decoder passes.
+
+Training (:func:`fit_morph_model`): the project's :func:`wsmap.learn.training.train` -- Adam on
+binary cross-entropy over minibatches of arms (each arm with all its labelled nodes), a cosine
+learning-rate schedule, the epoch of lowest validation loss kept. Float32.
+
+What a model refuses (:class:`~wsmap.learn.training_range.ExtrapolationError`, or a warning with
+``allow_extrapolation=True``): an arm outside the range of the families it was trained on
+(:meth:`wsmap.robots.morph.MorphFamily.problems`: lengths, joint ranges, tool, or a joint count
+it has not seen), and points outside its box. A robot that has no morphology (a prismatic joint,
+more than 7 joints) is a :class:`~wsmap.kinematics.morphology.MorphologyError`; an orientation
+or convention other than the model's a ``ValueError``.
+
+Files (:func:`save_morph_model`, :func:`load_morph_model`): the format of :mod:`wsmap.learn.files`
+(a ``torch.save`` dict of plain content and a SHA-256 checksum over it) with the format tag
+:data:`FORMAT`; a file of another kind (a family map model) is a
+:class:`~wsmap.learn.files.ModelFileError` naming what it is. :func:`nearest_arm_maps` is the
+baseline a model must beat: the map of the nearest training arm in
+:func:`~wsmap.kinematics.morphology.morphology_distance`.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import time
+import warnings
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+
+from .._version import __version__
+from ..io import atomic_path
+from ..kinematics.morphology import N_FEATURES, describe, morphology_distance
+from ..robots import FAMILIES
+from ..robots.morph import MorphFamily, morph_params, morphology_of
+from .files import ModelFileError, _plain, payload_checksum
+from .predictor import register_model_format
+from .training import TrainConfig, TrainResult, train
+from .training_range import ExtrapolationError, ExtrapolationWarning
+
+__all__ = ["FORMAT", "FORMAT_VERSION", "MorphModelConfig", "MorphMapModel", "morph_features", "fit_morph_model",
+           "predict_morph_map", "save_morph_model", "load_morph_model", "nearest_arm_maps", "TOOL_DOWN", "morph_spec",
+           "build_morph_shards"]
+
+FORMAT = "wsmap.morph_model"
+FORMAT_VERSION = 1
+#: The orientation of the morph datasets and models: tool down, ``R = Rx(pi)`` (rad).
+TOOL_DOWN = (math.pi, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class MorphModelConfig:
+    """The network's shape: encoder widths, latent size, decoder widths, Fourier frequencies of the
+    point (``sin/cos(2^k·pi·p/box)``, ``k < frequencies``)."""
+
+    encoder: tuple[int, ...] = (256, 256)
+    latent: int = 128
+    decoder: tuple[int, ...] = (128, 128)
+    frequencies: int = 4
+
+    def __post_init__(self):
+        for name in ("encoder", "decoder"):
+            v = tuple(getattr(self, name))
+            if not v or any(isinstance(h, bool) or not isinstance(h, (int, np.integer)) or h < 1 for h in v):
+                raise ValueError(f"MorphModelConfig.{name} must be a non-empty list of positive integers, got {v!r}")
+            object.__setattr__(self, name, tuple(int(h) for h in v))
+        for name in ("latent", "frequencies"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (1 if name == "latent" else 0):
+                raise ValueError(f"MorphModelConfig.{name} must be a {'positive' if name == 'latent' else 'non-negative'} "
+                                 f"integer, got {v!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+
+class MorphMapModel(nn.Module):
+    """``f(features, point) -> logit`` (module notes).
+
+    ``forward(X)`` takes raw morphology features ``(B, N_FEATURES)`` and returns the logits
+    ``(B, N)`` at the model's training nodes (``nodes``, ``(N, 3)`` m): what
+    :func:`~wsmap.learn.training.train` fits. :meth:`logits_at` queries any points.
+
+    Attributes (besides the weights): ``box`` the half-width (m) of the cube it was trained in;
+    ``rpy``, ``convention`` the fixed orientation and the pose convention of its labels;
+    ``families`` the names of the arm families it was trained on.
+    """
+
+    def __init__(self, config: MorphModelConfig | None = None, nodes=None, *, box: float = 1.5,
+                 rpy=TOOL_DOWN, convention: str = "standard", families=("morph6", "morph7")):
+        super().__init__()
+        self.config = config = config or MorphModelConfig()
+        self.box = float(box)
+        self.rpy = tuple(float(x) for x in rpy)
+        self.convention = str(convention)
+        self.families = tuple(families)
+        #: the probability above which a node is reachable (:func:`fit_morph_model` picks it on the
+        #: validation arms)
+        self.threshold = 0.5
+        layers, width = [], N_FEATURES
+        for h in config.encoder:
+            layers += [nn.Linear(width, h), nn.SiLU()]
+            width = h
+        layers.append(nn.Linear(width, config.latent))
+        self.encoder = nn.Sequential(*layers)
+        n_point = 3 + 6 * config.frequencies
+        first = config.decoder[0]
+        self.dec_latent = nn.Linear(config.latent, first)
+        self.dec_point = nn.Linear(n_point, first, bias=False)
+        rest, width = [], first
+        for h in config.decoder[1:]:
+            rest += [nn.SiLU(), nn.Linear(width, h)]
+            width = h
+        rest += [nn.SiLU(), nn.Linear(width, 1)]
+        self.decoder = nn.Sequential(*rest)
+        self.register_buffer("feature_mean", torch.zeros(N_FEATURES))
+        self.register_buffer("feature_std", torch.ones(N_FEATURES))
+        nodes = np.zeros((0, 3)) if nodes is None else np.asarray(nodes, dtype=np.float64)
+        self.register_buffer("nodes", torch.as_tensor(nodes, dtype=torch.float32))
+
+    def standardise_on(self, X) -> MorphMapModel:
+        """Set the input standardisation from training features ``(n, N_FEATURES)`` (constant
+        columns keep a unit scale)."""
+        X = torch.as_tensor(np.asarray(X), dtype=torch.float64)
+        std = X.std(dim=0)
+        self.feature_mean.copy_(X.mean(dim=0).to(self.feature_mean.dtype))
+        self.feature_std.copy_(torch.where(std > 1e-8, std, torch.ones_like(std)).to(self.feature_std.dtype))
+        return self
+
+    def point_features(self, points: torch.Tensor) -> torch.Tensor:
+        """``(P, 3 + 6 F)``: the point over the box, and its sines and cosines at F octaves."""
+        u = points / self.box
+        parts = [u]
+        for k in range(self.config.frequencies):
+            w = (2.0 ** k) * math.pi * u
+            parts += [torch.sin(w), torch.cos(w)]
+        return torch.cat(parts, dim=-1)
+
+    def encode(self, X: torch.Tensor) -> torch.Tensor:
+        return self.encoder((X - self.feature_mean) / self.feature_std)
+
+    def logits_at(self, X: torch.Tensor, points: torch.Tensor, chunk: int = 1 << 15) -> torch.Tensor:
+        """Logits ``(B, P)`` of arms ``X`` ``(B, N_FEATURES)`` at points ``(P, 3)`` (m)."""
+        z = self.dec_latent(self.encode(X))  # (B, H)
+        out = []
+        for s in range(0, points.shape[0], chunk):
+            hp = self.dec_point(self.point_features(points[s:s + chunk]))  # (P, H)
+            out.append(self.decoder(z[:, None, :] + hp[None, :, :])[..., 0])
+        return torch.cat(out, dim=1) if out else z.new_zeros((X.shape[0], 0))
+
+    def forward(self, X: torch.Tensor) -> torch.Tensor:
+        return self.logits_at(X, self.nodes)
+
+
+# --------------------------------------------------------------------------------------------- inputs
+def _family_of(n: int, families) -> MorphFamily | None:
+    for name in families:
+        f = FAMILIES.get(name)
+        if isinstance(f, MorphFamily) and f.n_joints == n:
+            return f
+    return None
+
+
+def morph_features(arms) -> np.ndarray:
+    """Morphology features ``(B, N_FEATURES)`` of a list of arms (each a chain, a DH robot or the
+    parameters of a morph family)."""
+    rows = []
+    for arm in arms:
+        if isinstance(arm, np.ndarray):
+            rows.append(morphology_of(arm).features())
+        else:
+            rows.append(describe(arm).features())
+    return np.stack(rows) if rows else np.zeros((0, N_FEATURES))
+
+
+def _check_arm(model: MorphMapModel, robot, allow_extrapolation: bool) -> np.ndarray:
+    """The features ``(N_FEATURES,)`` of ``robot``, refused (or warned about) outside the training range."""
+    m = describe(robot)  # MorphologyError: prismatic, < 6 or > 7 joints, a batch
+    label = m.name or "the arm"
+    problems = []
+    family = _family_of(m.n, model.families)
+    if family is None:
+        problems.append(f"it has {m.n} joints; the model was trained on {', '.join(model.families)} only")
+    elif np.abs(m.mount - np.eye(4)).max() > 1e-9:
+        problems.append("its first joint axis is not the base z axis")
+    else:
+        problems += family.problems(morph_params(m))
+    if problems:
+        what = f"{label} is outside the model's training range ({', '.join(model.families)}): {problems[0]}"
+        if not allow_extrapolation:
+            raise ExtrapolationError(f"{what}; pass allow_extrapolation=True (--allow-extrapolation) to predict anyway")
+        warnings.warn(f"{what}; predicted anyway (allow_extrapolation=True)", ExtrapolationWarning, stacklevel=3)
+    return m.features()
+
+
+def predict_morph_map(model: MorphMapModel, robot, nodes, *, rpy=None, convention: str | None = None,
+                      threshold: float | None = None, allow_extrapolation: bool = False) -> np.ndarray:
+    """The predicted map bool ``(N,)`` of one arm at ``nodes`` ``(N, 3)`` (m, base frame): nodes
+    whose probability exceeds ``threshold`` (``None``: the model's, :attr:`MorphMapModel.threshold`).
+
+    ``rpy`` and ``convention`` (``None``: the model's) must be the model's; nodes outside its
+    box and arms outside its training range are an :class:`ExtrapolationError` unless
+    ``allow_extrapolation`` (then an :class:`ExtrapolationWarning`)."""
+    if rpy is not None and not np.allclose(np.asarray(rpy, dtype=np.float64), model.rpy, atol=1e-9):
+        raise ValueError(f"the morphology model maps orientation rpy = {list(model.rpy)} (tool down), not "
+                         f"{[float(x) for x in np.ravel(np.asarray(rpy, dtype=float))]}")
+    if convention is not None and convention != model.convention:
+        raise ValueError(f"the morphology model's labels use convention {model.convention!r}, not {convention!r}")
+    nodes = np.asarray(nodes, dtype=np.float64)
+    if nodes.ndim != 2 or nodes.shape[1] != 3 or not np.all(np.isfinite(nodes)):
+        raise ValueError(f"nodes must be finite positions of shape (N, 3), got shape {nodes.shape}")
+    x = _check_arm(model, robot, allow_extrapolation)
+    outside = np.abs(nodes).max(axis=1) > model.box + 1e-9
+    if outside.any():
+        what = (f"{int(outside.sum())} of the {len(nodes)} nodes lie outside the model's box "
+                f"[-{model.box}, {model.box}]³ m")
+        if not allow_extrapolation:
+            raise ExtrapolationError(f"{what}; pass allow_extrapolation=True (--allow-extrapolation) to predict anyway")
+        warnings.warn(f"{what}; predicted anyway (allow_extrapolation=True)", ExtrapolationWarning, stacklevel=2)
+    threshold = model.threshold if threshold is None else float(threshold)
+    if not 0.0 < threshold < 1.0:
+        raise ValueError(f"threshold must lie in (0, 1), got {threshold!r}")
+    logit_threshold = math.log(threshold / (1.0 - threshold))
+    with torch.no_grad():
+        X = torch.as_tensor(x[None], dtype=torch.float32)
+        logits = model.logits_at(X, torch.as_tensor(nodes, dtype=torch.float32))[0]
+    return (logits > logit_threshold).numpy()
+
+
+# --------------------------------------------------------------------------------------------- experience
+def morph_spec(n_joints: int, samples: int, seed: int = 0, step: float = 0.1, box: float = 1.5):
+    """The dataset spec of ``samples`` arms of ``morph<n_joints>``: the tool-down map
+    (:data:`TOOL_DOWN`, ``"standard"`` convention) on ``[-box, box]³`` at ``step`` (m), labelled by
+    the numerical map search; ``seed`` picks the streams (one seed per shard)."""
+    from ..datasets import DatasetSpec
+
+    if n_joints not in (6, 7):
+        raise ValueError(f"the morph families have 6 or 7 joints, got {n_joints!r}")
+    return DatasetSpec(f"morph{n_joints}_s{seed}", family=f"morph{n_joints}", method="numerical", fixed=TOOL_DOWN,
+                       convention="standard", lo=-box, hi=box, step=step, samples=samples, seed=seed)
+
+
+def build_morph_shards(out_dir, n_joints: int, shards: int, arms_per_shard: int, *, step: float = 0.1,
+                       box: float = 1.5, first_seed: int = 0, test_samples: int | None = None, progress: bool = False,
+                       workers: int | None = None, scheduler=None) -> tuple[list, list[float]]:
+    """Build (or reuse) ``shards`` dataset files of ``arms_per_shard`` arms each, shard ``k`` the
+    spec :func:`morph_spec` with seed ``first_seed + k`` (independent streams), in ``out_dir``.
+
+    Resumable: a shard whose file is there and holds exactly its spec is loaded, not rebuilt, so a
+    run that stopped goes on at the first missing shard (each file is written atomically by
+    :func:`wsmap.datasets.build_dataset_files`, in chunks, on Dask with ``workers`` / ``scheduler``).
+    ``test_samples``: shard 0 also gets its independent test set (``NAME.test.npz``).
+
+    Returns ``(datasets, seconds)``: the loaded :class:`~wsmap.datasets.Dataset` of every shard in
+    order (with shard 0's test set last when asked for) and the build time of each shard (0.0 for
+    a shard that was there)."""
+    from ..datasets import DatasetError, build_dataset_files, load_dataset, test_path_for, test_spec
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    loaded, seconds = [], []
+    test = None
+    for k in range(shards):
+        spec = morph_spec(n_joints, arms_per_shard, first_seed + k, step, box)
+        path = out_dir / f"{spec.name}_{arms_per_shard}_{step:g}.npz"
+        want_test = test_samples is not None and k == 0
+        tspec = test_spec(spec, test_samples) if want_test else None
+        try:
+            ds = load_dataset(path, expect_spec=spec)
+            ts = load_dataset(test_path_for(path), expect_spec=tspec) if want_test else None
+            seconds.append(0.0)
+        except (FileNotFoundError, DatasetError):
+            t0 = time.perf_counter()
+            build_dataset_files(spec, path, test_samples=test_samples if want_test else None, progress=progress,
+                                workers=workers, scheduler=scheduler)
+            seconds.append(time.perf_counter() - t0)
+            ds = load_dataset(path, expect_spec=spec)
+            ts = load_dataset(test_path_for(path), expect_spec=tspec) if want_test else None
+        loaded.append(ds)
+        test = ts if want_test else test
+    if test is not None:
+        loaded.append(test)
+    return loaded, seconds
+
+
+# --------------------------------------------------------------------------------------------- training
+def fit_morph_model(datasets, config: MorphModelConfig | None = None, train_config: TrainConfig | None = None,
+                    seed: int = 0) -> tuple[MorphMapModel, TrainResult]:
+    """Train a :class:`MorphMapModel` on datasets of the morph families (:class:`wsmap.datasets.Dataset`
+    of one grid, R3, fixed orientation); returns the model (eval mode) and the training result.
+
+    ``train_config`` defaults to Adam (lr 1e-3), binary cross-entropy, 8 arms per step, cosine
+    decay over 30 epochs, 5 % of the arms for validation, no test split (the caller's held-out
+    arms are the test). The model's threshold is then the probability (0.05 to 0.95 by 0.05) of the
+    best pooled F on the validation arms (0.5 without any): reachable nodes are a few per cent of
+    the box, and the cross-entropy optimum leans to "unreachable"."""
+    datasets = list(datasets)
+    if not datasets:
+        raise ValueError("fit_morph_model needs at least one dataset")
+    from ..datasets import spec_nodes
+
+    first = datasets[0].spec
+    X, Y = [], []
+    for ds in datasets:
+        s = ds.spec
+        if not isinstance(FAMILIES.get(s.family), MorphFamily):
+            raise ValueError(f"dataset {s.name!r} is of family {s.family!r}, not a morph family (morph6, morph7)")
+        for k in ("scope", "lo", "hi", "step", "select", "fixed", "convention"):
+            if getattr(s, k) != getattr(first, k):
+                raise ValueError(f"datasets {first.name!r} and {s.name!r} differ in {k}: one model maps one grid")
+        k = s.n_arm_features
+        X.append(morph_features(list(ds.features[:, :k])))
+        Y.append(ds.labels)
+    X, Y = np.concatenate(X), np.concatenate(Y).astype(np.float32)
+    torch.manual_seed(seed)
+    hi = first.hi if isinstance(first.hi, float) else max(first.hi)
+    model = MorphMapModel(config, spec_nodes(first), box=float(hi), rpy=first.fixed, convention=first.convention,
+                          families=tuple(sorted({ds.spec.family for ds in datasets})))
+    model.standardise_on(X)
+    tc = train_config or TrainConfig(optimizer="adam", optimizer_kwargs={"lr": 1e-3}, loss="crossentropy",
+                                     batch_size=8, lr_decay="cosine", max_epochs=30, max_fail=1000,
+                                     fractions=(0.95, 0.05, 0.0), seed=seed)
+    result = train(model, X.astype(np.float32), Y, tc)
+    model.eval()
+    model.threshold = _best_threshold(model, X[result.split.val], Y[result.split.val])
+    model.train_config = tc
+    model.dataset_specs = [ds.spec.to_dict() for ds in datasets]
+    return model, result
+
+
+def _best_threshold(model: MorphMapModel, X: np.ndarray, Y: np.ndarray) -> float:
+    if len(X) == 0:
+        return 0.5
+    with torch.no_grad():
+        prob = torch.sigmoid(model(torch.as_tensor(X, dtype=torch.float32))).numpy()
+    truth = Y > 0.5
+    best, best_f = 0.5, -1.0
+    for t in np.round(np.arange(0.05, 0.951, 0.05), 2):
+        pred = prob > t
+        tp = np.sum(pred & truth)
+        f = 2 * tp / max(1, pred.sum() + truth.sum())
+        if f > best_f:
+            best, best_f = float(t), f
+    return best
+
+
+# --------------------------------------------------------------------------------------------- baseline
+def nearest_arm_maps(train_features, train_labels, query_features) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest-neighbour baseline: for each query arm ``(Q, N_FEATURES)`` the labels ``(Q, N)``
+    of the training arm nearest in :func:`~wsmap.kinematics.morphology.morphology_distance`, and
+    that distance ``(Q,)`` (m)."""
+    F = np.asarray(train_features, dtype=np.float64)
+    Q = np.asarray(query_features, dtype=np.float64)
+    d = morphology_distance(Q[:, None, :], F[None, :, :])
+    idx = d.argmin(axis=1)
+    return np.asarray(train_labels)[idx], d[np.arange(len(Q)), idx]
+
+
+# --------------------------------------------------------------------------------------------- files
+def save_morph_model(model: MorphMapModel, path, *, extra: dict | None = None) -> Path:
+    """Write ``model`` to ``path`` atomically (format :data:`FORMAT`, with a checksum); returns the path."""
+    if not isinstance(model, MorphMapModel):
+        raise TypeError(f"save_morph_model needs a MorphMapModel; got {type(model).__name__}")
+    p = Path(path)
+    if p.is_dir():
+        raise ModelFileError(f"cannot save model {path}: it is a directory")
+    payload = {
+        "format": FORMAT, "version": FORMAT_VERSION, "wsmap_version": __version__,
+        "config": model.config.to_dict(),
+        "state_dict": {k: v.detach().cpu().clone() for k, v in model.state_dict().items()},
+        "box": model.box, "threshold": model.threshold, "rpy": list(model.rpy), "convention": model.convention, "families": list(model.families),
+        "dataset_specs": _plain(getattr(model, "dataset_specs", None), "dataset_specs"),
+        "train_config": _plain(getattr(model, "train_config", None), "train_config"),
+        "extra": _plain(extra, "extra"),
+    }
+    payload["checksum"] = payload_checksum(payload)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(p) as tmp:
+        torch.save(payload, tmp)
+    return p
+
+
+def load_morph_model(path) -> tuple[MorphMapModel, dict[str, Any]]:
+    """Read a file of :func:`save_morph_model` -> ``(model, meta)`` (eval mode, on the CPU).
+
+    A missing, corrupt or tampered file, and a model file of another kind, are a
+    :class:`~wsmap.learn.files.ModelFileError` ``"cannot load model <path>: <problem>"``."""
+    def fail(problem, cause=None):
+        raise ModelFileError(f"cannot load model {path}: {problem}") from cause
+
+    p = Path(path)
+    if not p.is_file():
+        fail("no such file")
+    data = p.read_bytes()
+    if not data.startswith(b"PK\x03\x04"):
+        fail("not a wsmap model file (not a torch zip archive)")
+    try:
+        payload = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
+    except Exception as e:  # a truncated zip, flipped bits
+        fail("not a readable torch file (truncated or corrupt)", e)
+    if not isinstance(payload, dict) or "format" not in payload:
+        fail("not a wsmap model file (no format tag)")
+    if payload["format"] != FORMAT:
+        fail(f"it is a {payload['format']!r} file (a family map model), not a morphology model ({FORMAT!r})")
+    if payload.get("version") != FORMAT_VERSION:
+        fail(f"format version {payload.get('version')!r} is not supported (this wsmap reads {FORMAT_VERSION})")
+    if payload_checksum(payload) != payload.get("checksum"):
+        fail("checksum mismatch: the file is corrupt (its content differs from what was saved)")
+    try:
+        config = MorphModelConfig(**payload["config"])
+        state = payload["state_dict"]
+        model = MorphMapModel(config, np.zeros(tuple(state["nodes"].shape)), box=payload["box"], rpy=payload["rpy"],
+                              convention=payload["convention"], families=payload["families"])
+        model.load_state_dict(state)
+        model.threshold = float(payload["threshold"])
+    except (KeyError, TypeError, ValueError, RuntimeError) as e:
+        fail(f"invalid content ({e})", e)
+    model.eval()
+    meta = {k: payload.get(k) for k in ("format", "version", "wsmap_version", "dataset_specs", "train_config", "extra",
+                                        "checksum")}
+    meta["path"] = str(path)
+    return model, meta
+
+
+def _whole_grid_map(path, robot, fixed, *, grid: dict, convention: str, allow_extrapolation: bool) -> np.ndarray:
+    """``method="model"`` of :func:`wsmap.workspace.grid_map` for a morphology model file: the map
+    ``(N,)`` of one arm on ``grid`` (R3 only; any step inside the model's box)."""
+    from ..workspace import cartesian_grid
+
+    if grid["scope"] != "R3":
+        raise ValueError(f"a morphology model maps positions (scope R3), not {grid['scope']}")
+    model, _ = load_morph_model(path)
+    nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
+    return predict_morph_map(model, robot, nodes, rpy=fixed, convention=convention,
+                             allow_extrapolation=allow_extrapolation)
+
+
+register_model_format(FORMAT, _whole_grid_map)
