@@ -36,18 +36,17 @@ import time
 
 import numpy as np
 
+from wsmap.timing import time_call
+
 PI = np.pi
 GOALS = {"raw_ik_ratio_rtb": 3.0, "map_seconds_2_threads": 0.1, "index_seconds": 15.0}
 
 
 def best_of(fn, repeats):
-    out = fn()  # warm-up: compile or load the kernels
-    best = np.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
+    """``(best seconds of repeats calls, the answer)``, after one warm-up call (compile or load the
+    kernels) whose answer is the one returned."""
+    out = fn()
+    return min(time_call(fn, repeats, warmup=0).values), out
 
 
 def poses(nodes, R):
