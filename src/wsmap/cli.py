@@ -279,6 +279,7 @@ def _run_map(args) -> int:
     from .io import atomic_paths, check_outputs
     from .kinematics import closed_form_for
     from .workspace.kinds import MapRequest, default_kind, get_kind, kinds, kinds_taking
+    from .workspace.orientations import MAX_ORIENTATIONS
 
     # every check before any work
     extra = check_outputs({"--out": args.out, "--png": args.png, "--html": args.html, "--ply": args.ply,
@@ -292,8 +293,6 @@ def _run_map(args) -> int:
     if args.orientations is not None and "orientations" not in kind.inputs:
         users = " and ".join(k.name for k in kinds_taking("orientations"))
         raise ValueError(f"--orientations is used by --kind {users} (kind is {kind.name!r})")
-    from .workspace.orientations import MAX_ORIENTATIONS
-
     if args.orientations is not None and args.orientations > MAX_ORIENTATIONS:
         raise ValueError(f"--orientations must be at most {MAX_ORIENTATIONS} (neighbouring orientations are then "
                          f"3.6° apart, and each is one more IK solve per node), got {args.orientations}")
