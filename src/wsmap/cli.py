@@ -313,6 +313,7 @@ def _run_map(args) -> int:
     from .io import atomic_paths, check_outputs
     from .kinematics import closed_form_for
     from .workspace.kinds import MapRequest, default_kind, get_kind, kinds, kinds_taking
+    from .workspace.orientations import MAX_ORIENTATIONS
 
     # every check before any work
     from ._optional import require
@@ -342,8 +343,6 @@ def _run_map(args) -> int:
     for flag in extra:
         for module in _OUTPUTS[flag][0]:
             require(module, why=flag)
-    from .workspace.orientations import MAX_ORIENTATIONS
-
     if args.orientations is not None and args.orientations > MAX_ORIENTATIONS:
         raise ValueError(f"--orientations must be at most {MAX_ORIENTATIONS} (neighbouring orientations are then "
                          f"3.6° apart, and each is one more IK solve per node), got {args.orientations}")

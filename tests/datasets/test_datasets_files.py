@@ -355,8 +355,13 @@ def test_os_errors_name_the_users_path(tmp_path, monkeypatch):
     assert _listing(tmp_path) == []
     monkeypatch.undo()
 
-    # permission denied creating the temporary file (simulated: root may write anywhere)
+    # permission denied creating the temporary file (simulated: root may write anywhere), after the
+    # output check's probe file passed (a folder that turns read-only during the run)
+    real_mkstemp = wio.tempfile.mkstemp
+
     def denied(*a, dir=None, **k):
+        if k.get("prefix", "").startswith(".wsmap-probe-"):
+            return real_mkstemp(*a, dir=dir, **k)
         raise PermissionError(13, "Permission denied", os.path.join(dir, ".t.npz.abc123.npz"))
 
     monkeypatch.setattr(wio.tempfile, "mkstemp", denied)

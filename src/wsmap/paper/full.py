@@ -96,12 +96,13 @@ from typing import Any
 from .. import paths
 from . import fitting, tables
 from .parts import check_metrics, sec61_subspace, sec62_puma560
+from .specs import dataset_sizes
+from .specs import whole_param as _whole
 
 __all__ = [
     "RUNNER_VERSION",
     "CPU_GFLOPS",
     "Part",
-    "dataset_sizes",
     "plan",
     "select",
     "settings_hash",
@@ -188,38 +189,6 @@ def settings_hash(settings: dict) -> str:
 
     text = json.dumps(jsonable(settings), sort_keys=True, separators=(",", ":"), allow_nan=False)
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
-
-
-def _whole(where: str, key: str, value, minimum: int = 0) -> int:
-    """``value`` (a parameter ``key`` of ``where``) as an int: a whole number of at least ``minimum``,
-    else a ``ValueError`` naming the file, section and key (``int("many")`` names none of them)."""
-    if isinstance(value, float) and value.is_integer():
-        value = int(value)
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        shown = repr(value) if len(repr(value)) <= 60 else f"a {type(value).__name__}"
-        raise ValueError(f"{where}: {key} must be a whole number of at least {minimum}, got {shown}")
-    return value
-
-
-def dataset_sizes(names: Sequence[str], sizes, source: str = "the params file") -> dict[str, dict]:
-    """``{name: {"samples": n, "test_samples": m}}`` for ``names`` from a params file's ``datasets``
-    section ``sizes``, checked: a mapping per dataset with whole ``samples`` and ``test_samples`` of at
-    least 1 (``source`` names the file in the ``ValueError``)."""
-    if not isinstance(sizes, dict):
-        raise ValueError(f"{source} section 'datasets' must be a mapping of datasets, got {type(sizes).__name__}")
-    out = {}
-    for name in names:
-        if not isinstance(name, str) or name not in sizes:
-            raise ValueError(f"{source} section 'datasets' has no {name!r}")
-        item = sizes[name]
-        where = f"{source} section 'datasets', dataset {name!r}"
-        if not isinstance(item, dict):
-            raise ValueError(f"{where} must be a mapping with samples and test_samples, got {type(item).__name__}")
-        for key in ("samples", "test_samples"):
-            if key not in item:
-                raise ValueError(f"{where} has no {key!r} (it needs samples and test_samples)")
-        out[name] = {key: _whole(where, key, item[key], 1) for key in ("samples", "test_samples")}
-    return out
 
 
 def _dataset_settings(names: Sequence[str], sizes: dict, source: str = "the params file") -> dict[str, dict]:

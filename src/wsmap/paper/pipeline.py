@@ -88,8 +88,7 @@ def build_datasets(params_file, data_dir, *, rebuild: bool = False):
     """Build every dataset (and its test set) of the params file's ``datasets`` section into
     ``data_dir``, skipping pairs already there unless ``rebuild``; yields ``(name, seconds)`` for
     each one built, as it is built (the dvc stages ``datasets@NAME`` do the same one by one)."""
-    from .full import dataset_sizes
-    from .specs import build_pair, dataset_paths
+    from .specs import build_pair, dataset_paths, dataset_sizes
 
     sizes = paths.load_params("datasets", params_file)
     # every entry checked (a mapping of whole samples and test_samples) before the first is built

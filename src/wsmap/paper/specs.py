@@ -41,6 +41,8 @@ __all__ = [
     "dataset_paths",
     "build_pair",
     "load_pair",
+    "dataset_sizes",
+    "whole_param",
 ]
 
 #: Table 3's "no subspace" orientation (r1, r2, r3), radians.
@@ -177,3 +179,35 @@ def load_pair(name: str, data_dir):
     """The training and test sets of ``name`` built by :func:`build_pair`, checked: the test set
     must be the training spec's test stream (same family, grid, orientation and labels)."""
     return load_dataset_files(*dataset_paths(name, data_dir))
+
+
+def whole_param(where: str, key: str, value, minimum: int = 0) -> int:
+    """``value`` (a parameter ``key`` of ``where``) as an int: a whole number of at least ``minimum``,
+    else a ``ValueError`` naming the file, section and key (``int("many")`` names none of them)."""
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        shown = repr(value) if len(repr(value)) <= 60 else f"a {type(value).__name__}"
+        raise ValueError(f"{where}: {key} must be a whole number of at least {minimum}, got {shown}")
+    return value
+
+
+def dataset_sizes(names: Sequence[str], sizes, source: str = "the params file") -> dict[str, dict]:
+    """``{name: {"samples": n, "test_samples": m}}`` for ``names`` from a params file's ``datasets``
+    section ``sizes``, checked: a mapping per dataset with whole ``samples`` and ``test_samples`` of at
+    least 1 (``source`` names the file in the ``ValueError``)."""
+    if not isinstance(sizes, dict):
+        raise ValueError(f"{source} section 'datasets' must be a mapping of datasets, got {type(sizes).__name__}")
+    out = {}
+    for name in names:
+        if not isinstance(name, str) or name not in sizes:
+            raise ValueError(f"{source} section 'datasets' has no {name!r}")
+        item = sizes[name]
+        where = f"{source} section 'datasets', dataset {name!r}"
+        if not isinstance(item, dict):
+            raise ValueError(f"{where} must be a mapping with samples and test_samples, got {type(item).__name__}")
+        for key in ("samples", "test_samples"):
+            if key not in item:
+                raise ValueError(f"{where} has no {key!r} (it needs samples and test_samples)")
+        out[name] = {key: whole_param(where, key, item[key], 1) for key in ("samples", "test_samples")}
+    return out
