@@ -75,6 +75,13 @@ def wsmap_imports(source: str, module: str | None) -> set[str]:
                 continue
             found.add(target)
             found |= {f"{target}.{a.name}" for a in node.names if module_file(f"{target}.{a.name}")}
+    # a plug-in package that imports every module of its folder when it is imported (a module-level
+    # ``for ... in pkgutil.iter_modules(__path__)``, the closed forms' registry) loads each of them,
+    # though no import names it; a loop inside a function (paper.parts.registry) runs only when called
+    if is_pkg and any(isinstance(n, ast.For) and "iter_modules(__path__)" in ast.unparse(n.iter) for n in tree.body):
+        folder = module_file(module).parent
+        found |= {f"{module}.{p.stem}" for p in folder.glob("*.py") if p.name != "__init__.py"}
+        found |= {f"{module}.{p.parent.name}" for p in folder.glob("*/__init__.py")}
     return {".".join(m.split(".")[:i]) for m in found for i in range(1, len(m.split(".")) + 1)}
 
 

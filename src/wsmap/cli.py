@@ -440,38 +440,24 @@ def _run_map(args) -> int:
         else:
             fig = plot_slices(flat, grid["shape"], grid["lo"], grid["step"], labels=labels, title=title, metadata=meta)
     values = np.asarray(flat, dtype=np.float64)
-    paths = ([out] if out is not None else []) + list(extra.values())
+    views = {flag: path for flag, path in extra.items() if flag in ("--html", "--ply", "--glb")}
+    first = {flag: path for flag, path in extra.items() if flag not in views}
+    paths = ([out] if out is not None else []) + list(first.values())
     try:
-        # the map and its slices (which can always be drawn) together, or neither
+        # the map, its slices and its Reuleaux file (which can always be written) together, or none
         with atomic_paths(paths) as tmps:
             if out is not None:
                 ws.save_map(tmps[0], flat, grid, settings, orientations=R)
-            for flag, tmp in zip(extra, tmps[len(tmps) - len(extra):]):
+            for flag, tmp in zip(first, tmps[len(tmps) - len(first):]):
                 if flag == "--h5":
                     ws.save_reuleaux(tmp, grid, bits, R_h5)
-                elif flag == "--png":
-                    fig.savefig(tmp, dpi=120, bbox_inches="tight", metadata=fig.wsmap_metadata)
-                elif flag == "--html":
-                    from .views import save_html
-
-                    # a float map gets a threshold slider; every map a cut plane through its z-layers
-                    save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map",
-                              thresholds=np.linspace(0.0, 0.9, 10) * values.max() if kind.value_type is float
-                              else None, cut_plane=True)
-                elif flag == "--ply":
-                    from .views import save_ply
-
-                    save_ply(tmp, values, grid, label=kind.label)
                 else:
-                    from .views import save_glb
-
-                    save_glb(tmp, values, grid, levels=kind.levels(values))
+                    fig.savefig(tmp, format="png", dpi=120, bbox_inches="tight", metadata=fig.wsmap_metadata)
     finally:
         if fig is not None:
             import matplotlib.pyplot as plt
 
             plt.close(fig)
-    views = {flag: path for flag, path in extra.items() if flag != "--png"}
     if views:
         # after the map is safe: an hour's map is not lost because a view has nothing to draw
         _write_views(views, values, grid, kind, robot, out)
@@ -481,21 +467,6 @@ def _run_map(args) -> int:
     return 0
 
 
-def _figure_format(path: Path) -> str:
-    """The matplotlib format of ``--png PATH``: its suffix (``.png``, ``.pdf``, ``.svg``, ...), PNG when it
-    has none (the temporary file's suffix must not choose it); an unknown suffix is a ``ValueError``."""
-    from matplotlib.backend_bases import FigureCanvasBase
-
-    suffix = path.suffix[1:].lower()
-    if not suffix:
-        return "png"
-    formats = FigureCanvasBase.get_supported_filetypes()
-    if suffix not in formats:
-        raise ValueError(f"--png {str(path)!r}: matplotlib cannot write {path.suffix!r} files; give a name ending in "
-                         f"one of {', '.join('.' + f for f in sorted(formats))} (or no suffix for PNG)")
-    return suffix
-
-
 def _write_views(views: dict, values, grid, kind, robot, out) -> None:
     """The 3-D views of ``wsmap map`` (``{flag: path}`` of --html, --ply, --glb), all or none, once the
     map is written to ``out``; a map with nothing to draw is a ``ValueError`` naming the flags."""
@@ -503,21 +474,25 @@ def _write_views(views: dict, values, grid, kind, robot, out) -> None:
     from .views import save_glb, save_html, save_ply
 
     flags = " and ".join(views)
+    kept = (f"the map was written to {out}, without the view{'s' if len(views) > 1 else ''}" if out is not None
+            else "no file was written (give --out FILE.npz to keep the map)")
     if not np.any(values > 0):
-        raise ValueError(f"{flags}: nothing to draw, no node of the map is reachable (its values are all 0); the "
-                         f"map was written to {out}, without the view{'s' if len(views) > 1 else ''}")
+        raise ValueError(f"{flags}: nothing to draw, no node of the map is reachable (its values are all 0); {kept}")
     flag = None
     try:
         with atomic_paths(list(views.values())) as tmps:
             for flag, tmp in zip(views, tmps):
                 if flag == "--html":
-                    save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map")
+                    # a float map gets a threshold slider; every map a cut plane through its z-layers
+                    save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map",
+                              thresholds=np.linspace(0.0, 0.9, 10) * values.max() if kind.value_type is float
+                              else None, cut_plane=True)
                 elif flag == "--ply":
                     save_ply(tmp, values, grid, label=kind.label)
                 else:
                     save_glb(tmp, values, grid, levels=kind.levels(values))
     except ValueError as e:
-        raise ValueError(f"{flag} {str(views[flag])!r}: {e}; the map was written to {out}, without the views") from None
+        raise ValueError(f"{flag} {str(views[flag])!r}: {e}; {kept}") from None
 
 
 # ------------------------------------------------------------------------------------ wsmap place

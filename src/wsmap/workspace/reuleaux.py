@@ -32,6 +32,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -39,6 +40,9 @@ from .._optional import require
 from ..io import atomic_path, check_output_path
 from .grids import cartesian_grid, grid_axes
 from .orientations import check_rotations
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike, PathLike
 
 __all__ = ["ReuleauxMap", "save_reuleaux", "load_reuleaux", "REULEAUX_SPHERES", "REULEAUX_POSES"]
 
@@ -105,7 +109,7 @@ class ReuleauxMap:
 
     # ------------------------------------------------------------------ from and to wsmap maps
     @classmethod
-    def from_map(cls, grid: Mapping, bits, orientations) -> "ReuleauxMap":
+    def from_map(cls, grid: Mapping, bits: ArrayLike, orientations: ArrayLike) -> "ReuleauxMap":
         """The Reuleaux map of a reachability index: ``grid`` an R3 grid spec
         (:func:`wsmap.workspace.grid_spec`, one step on every axis: Reuleaux has one resolution),
         ``bits`` bool ``(N, K)`` in its node order (x fastest), whether orientation ``k`` of
@@ -142,7 +146,8 @@ class ReuleauxMap:
                 keep.append(q[i])
         return np.asarray(keep).reshape(-1, 4)
 
-    def to_map(self, grid: Mapping | None = None, orientations=None, tol: float = 1e-5):
+    def to_map(self, grid: Mapping | None = None, orientations: ArrayLike | None = None,
+               tol: float = 1e-5) -> tuple[np.ndarray, dict, np.ndarray, np.ndarray]:
         """A wsmap map of the file: ``(index (N,), grid, bits (N, K), orientations (K, 3, 3))``.
 
         ``index`` is the file's ``ri / 100`` at its spheres and 0 at the other nodes (float64 in
@@ -174,7 +179,7 @@ class ReuleauxMap:
         return index, dict(grid), bits, R
 
     # ------------------------------------------------------------------ the file
-    def save(self, path) -> Path:
+    def save(self, path: PathLike) -> Path:
         """Write the map to ``path`` (``.h5``) in Reuleaux's layout (module docstring), atomically."""
         path = check_output_path(path, "Reuleaux map")
         if path.suffix != ".h5":
@@ -193,7 +198,7 @@ class ReuleauxMap:
         return path
 
     @classmethod
-    def load(cls, path) -> "ReuleauxMap":
+    def load(cls, path: PathLike) -> "ReuleauxMap":
         """Read a Reuleaux reachability file (:class:`ReuleauxFileError` naming what is missing)."""
         p = Path(path)
         if not p.is_file():
@@ -245,7 +250,7 @@ def _node_index(grid: Mapping, points: np.ndarray, what: str) -> np.ndarray:
     return ijk[:, 0] + shape[0] * (ijk[:, 1] + shape[1] * ijk[:, 2])
 
 
-def save_reuleaux(path, grid: Mapping, bits, orientations) -> Path:
+def save_reuleaux(path: PathLike, grid: Mapping, bits: ArrayLike, orientations: ArrayLike) -> Path:
     """Write a reachability index as a Reuleaux reachability map (``.h5``; module docstring).
 
     Args:
@@ -263,7 +268,7 @@ def save_reuleaux(path, grid: Mapping, bits, orientations) -> Path:
     return ReuleauxMap.from_map(grid, bits, orientations).save(path)
 
 
-def load_reuleaux(path) -> ReuleauxMap:
+def load_reuleaux(path: PathLike) -> ReuleauxMap:
     """Read a Reuleaux reachability map (any writer's: Reuleaux's ``map_creator`` or
     :func:`save_reuleaux`); :meth:`ReuleauxMap.to_map` turns it into a wsmap map."""
     return ReuleauxMap.load(path)
