@@ -21,7 +21,7 @@ import sys
 import numpy as np
 
 from ..kinematics import DHRobot, SerialChain, closed_form_for, ikine_LM, require_closed_form, rpy2r
-from ..kinematics.chain import flatten_arms
+from ..kinematics.chain import as_chain, flatten_arms
 from ..kinematics.ik.search import DEFAULT_STARTS, MAP_SETTINGS, ikine_search, map_search
 from .grids import _check_fits, _triple, cartesian_grid, grid_axes, node_neighbours
 
@@ -87,7 +87,8 @@ def target_poses(positions, rpy, convention: str = "paper") -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- reachability of poses
-def reachable(robot, T, *, starts: int = DEFAULT_STARTS, seed=0, **settings) -> np.ndarray:
+def reachable(robot, T, *, starts: int = DEFAULT_STARTS, seed=0, collision=None, collision_rounds: int = 4,
+              return_q: bool = False, **settings):
     """Whether the arm reaches each pose: bool with the broadcast batch shape of ``T`` and the arms.
 
     Parameters
@@ -106,8 +107,70 @@ def reachable(robot, T, *, starts: int = DEFAULT_STARTS, seed=0, **settings) -> 
     kinematics confirms the solution (within 1e-6 m and rad), so ``True`` comes with a solution;
     ``False`` means no start found one (recall measured against exact references in
     ``benchmarks/bench_recall.py``: >= 0.999 with the default starts, no false positive).
+
+    ``collision`` (one arm): a configuration predicate, ``collision(q)`` with ``q`` ``(M, n)`` → bool
+    ``(M,)`` True where acceptable, e.g. a :class:`wsmap.collision.CollisionChecker`; a pose then
+    counts only with an accepted solution, and a pose whose solutions were refused is searched
+    again ``collision_rounds`` times with other random starts (``seed`` moved on per round).
+    ``return_q`` also returns the solutions ``(..., n)`` (NaN where unreachable).
     """
-    return ikine_search(robot, T, starts=starts, seed=seed, **settings).success
+    valid = _predicate(robot, collision)
+    if valid is None:
+        res = ikine_search(robot, T, starts=starts, seed=seed, **settings)
+        return (res.success, np.where(res.success[..., None], res.q, np.nan)) if return_q else res.success
+    ok, q = _search_free(robot, np.asarray(T, dtype=np.float64), valid, starts, seed, collision_rounds, settings)
+    return (ok, q) if return_q else ok
+
+
+def _predicate(arms, collision):
+    """``collision`` checked as a configuration predicate of ``arms`` (one arm), or None. A
+    :class:`wsmap.collision.CollisionChecker` of another arm (other joint frames) is refused."""
+    if collision is None:
+        return None
+    if not callable(collision):
+        raise TypeError(f"collision must be a configuration predicate (e.g. a wsmap.collision.CollisionChecker), "
+                        f"got {type(collision).__name__}")
+    if arms.batch_shape != ():
+        raise ValueError(f"collision= checks one arm's configurations, got a batch of arms {arms.batch_shape}")
+    chain = getattr(getattr(collision, "model", None), "chain", None)
+    if chain is not None:
+        mine = as_chain(arms)
+        if chain.n != mine.n:
+            raise ValueError(f"the collision model has {chain.n} joints, the arm {mine.n}")
+        q = mine.random_q(3, np.random.default_rng(0))
+        if not np.allclose(chain.joint_frames(q)[0], mine.joint_frames(q)[0], atol=1e-9):
+            raise ValueError("the collision model belongs to another arm: its joint frames differ from the arm's")
+    return collision
+
+
+def _search_free(robot, T, valid, starts, seed, rounds, settings):
+    """:func:`ikine_search` keeping only solutions ``valid`` accepts: ``(ok, q)`` of ``T.shape[:-2]``;
+    refused poses are searched again with other seeds, ``rounds`` times."""
+    res = ikine_search(robot, T, starts=starts, seed=seed, **settings)
+    shape = res.success.shape
+    ok = res.success.reshape(-1).copy()
+    q = res.q.reshape(-1, res.q.shape[-1]).copy()
+    Tf = np.broadcast_to(T, shape + (4, 4)).reshape(-1, 4, 4)
+    settings = {k: v for k, v in settings.items() if k not in ("q0", "progress")}
+    left = np.zeros(ok.shape, dtype=bool)
+    if ok.any():
+        idx = np.flatnonzero(ok)
+        ok[idx] = np.asarray(valid(q[idx]), dtype=bool)
+        left[idx] = ~ok[idx]
+    for r in range(1, int(rounds) + 1):
+        idx = np.flatnonzero(left)
+        if not idx.size:
+            break
+        again = ikine_search(robot, Tf[idx], starts=starts, seed=None if seed is None else int(seed) + 7919 * r,
+                             **settings)
+        good = again.success.copy()
+        if good.any():
+            good[good] = np.asarray(valid(again.q[good]), dtype=bool)
+        ok[idx[good]] = True
+        q[idx[good]] = again.q[good]
+        left[idx[good]] = False
+    q[~ok] = np.nan
+    return ok.reshape(shape), q.reshape(shape + (q.shape[-1],))
 
 
 # --------------------------------------------------------------------------- maps
@@ -155,20 +218,36 @@ def resolve_method(robot, method: str = "auto") -> str:
     return method
 
 
-def _exact(arms, T):
-    """Closed-form reachability of poses ``T`` (N, 4, 4) for arms (batch ``(B,)`` or one): (..., N)."""
+def _exact(arms, T, valid=None, return_q=False):
+    """Closed-form reachability of poses ``T`` (N, 4, 4) for arms (batch ``(B,)`` or one): (..., N).
+
+    ``valid`` (a configuration predicate, one arm): a pose counts only with a branch it accepts;
+    every branch is tried. ``return_q`` also returns a valid branch's ``q`` ``(..., N, n)`` (the
+    first accepted, NaN where none)."""
     cf = require_closed_form(arms)
-    if arms.batch_shape == () and not isinstance(arms, DHRobot):
-        return cf.reachable(arms, T)
-    return cf.reachable(_per_node(arms), T)
+    robot = arms if arms.batch_shape == () and not isinstance(arms, DHRobot) else _per_node(arms)
+    if valid is None and not return_q:
+        return cf.reachable(robot, T)
+    sol = cf.solve(robot, T)
+    ok = np.array(sol.success, dtype=bool)
+    q = sol.q
+    if valid is not None and ok.any():
+        ok[ok] = np.asarray(valid(q[ok]), dtype=bool)
+    reach = ok.any(axis=-1)
+    if not return_q:
+        return reach
+    first = np.take_along_axis(q, ok.argmax(axis=-1)[..., None, None], axis=-2)[..., 0, :]
+    return reach, np.where(reach[..., None], first, np.nan)
 
 
-def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress, space, return_method):
+def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress, space, return_method,
+         collision=None, return_q=False):
     """Shared driver: positions (N, 3) or (1, 3), rpy (3,) or (N, 3); ``space`` (N, 3) the nodes whose
-    neighbours start the numerical search; returns (arms..., N) bool (and the method used, with
-    ``return_method``)."""
+    neighbours start the numerical search; returns (arms..., N) bool (then the solutions
+    (arms..., N, n) with ``return_q``, and the method used, with ``return_method``)."""
     if not isinstance(arms, (DHRobot, SerialChain)):
         raise TypeError(f"arms must be a DHRobot or a SerialChain, got {type(arms).__name__}")
+    valid = _predicate(arms, collision)
     method = resolve_method(arms, method)
     _check_choice("convention", convention, CONVENTIONS)
     T = target_poses(positions, rpy, convention)  # (N, 4, 4)
@@ -179,27 +258,49 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
     solver, settings = ("", {}) if method == "exact" else _numerical_settings(ik or {})
     if solver == "paper" and not isinstance(arms, DHRobot):
         raise ValueError("the paper's solver (ikine_LM) is for DHRobot arms; use solver 'search'")
+    if solver == "paper" and valid is not None:
+        raise ValueError("the paper's solver has one start and cannot look for another solution; collision= "
+                         "needs solver 'search' or 'independent'")
     nb = node_neighbours(space) if solver == "search" else None
     flat = arms if batch == () else flatten_arms(arms)
     out = np.empty((max(B, 1), N), dtype=bool)
+    q_out = np.full((max(B, 1), N, arms.n), np.nan) if return_q else None
     per_chunk = max(1, chunk_elements // max(N, 1))
     for s in range(0, max(B, 1), per_chunk):
         sub = flat if batch == () else flat[s : s + per_chunk]
+        qq = None
         if method == "exact":
-            res = _exact(sub, T)
+            res = _exact(sub, T, valid, return_q)
+            if return_q:
+                res, qq = res
         elif solver == "paper":
-            res = ikine_LM(_per_node(sub), T, check_limits=sub.qlim is not None, **settings).success
+            sol = ikine_LM(_per_node(sub), T, check_limits=sub.qlim is not None, **settings)
+            res, qq = sol.success, sol.q
         elif solver == "search":
-            res = map_search(sub, T, nb, **settings).success  # (N,) or (arms, N)
+            sol = map_search(sub, T, nb, accept=valid, **settings)  # (N,) or (arms, N)
+            res, qq = sol.success, sol.q
+        elif valid is not None:  # one arm (checked by _predicate)
+            search = {k: v for k, v in settings.items() if k not in ("starts", "seed")}
+            res, qq = _search_free(sub, T, valid, settings.get("starts", DEFAULT_STARTS), settings.get("seed", 0),
+                                   4, search)
         elif batch == ():
-            res = ikine_search(sub, T, **settings).success  # (N,)
+            sol = ikine_search(sub, T, **settings)  # (N,)
+            res, qq = sol.success, sol.q
         else:
-            res = ikine_search(sub, T[:, None], **settings).success.T  # (N, arms) -> (arms, N)
-        out[s : s + per_chunk] = np.broadcast_to(res, (out[s : s + per_chunk].shape[0], N))
+            sol = ikine_search(sub, T[:, None], **settings)  # (N, arms) -> (arms, N)
+            res, qq = sol.success.T, np.swapaxes(sol.q, 0, 1)
+        rows = out[s : s + per_chunk].shape[0]
+        out[s : s + per_chunk] = np.broadcast_to(res, (rows, N))
+        if return_q:
+            q_out[s : s + per_chunk] = np.where(out[s : s + per_chunk, :, None],
+                                                np.broadcast_to(qq, (rows, N, arms.n)), np.nan)
         if progress is not None:
             progress(out[s : s + per_chunk].size)
     out = out.reshape(batch + (N,))
-    return (out, method) if return_method else out
+    result = (out,) if not return_q else (out, q_out.reshape(batch + (N, arms.n)))
+    if return_method:
+        result += (method,)
+    return result if len(result) > 1 else out
 
 
 def _check_nodes(name, nodes):
@@ -213,7 +314,7 @@ def _check_nodes(name, nodes):
 
 def constant_orientation_map(arms, nodes, rpy=(0.0, 0.0, 0.0), method: str = "auto", convention: str = "paper", *,
                              ik: dict | None = None, chunk_elements: int = 1 << 21, progress=None,
-                             return_method: bool = False):
+                             return_method: bool = False, collision=None, return_q: bool = False):
     """Constant-orientation workspace ("R3"): which positions are reachable at orientation ``rpy``.
 
     Parameters
@@ -232,31 +333,39 @@ def constant_orientation_map(arms, nodes, rpy=(0.0, 0.0, 0.0), method: str = "au
         ``q0``, ``tol``, ``ilimit``, ``rlimit``, ``lam``, ``chunk``), as the paper's pipeline runs it
     convention : ``"paper"`` or ``"standard"`` (see the module docstring)
     return_method : also return the method used (``"exact"`` or ``"numerical"``)
+    collision : optional configuration predicate for one arm (``collision(q)``, ``q`` ``(M, n)`` →
+        bool ``(M,)``, True where acceptable), e.g. a :class:`wsmap.collision.CollisionChecker`: a
+        node counts only with a collision-free solution. The closed forms try every branch; the
+        search keeps looking where its solutions are refused (neighbours' free solutions, retries,
+        ``accept_retry`` more starts: :func:`wsmap.kinematics.ik.search.map_search`)
+    return_q : also return each node's solution ``(..., N, n)`` (NaN where unreachable), so
+        anyone can check it (forward kinematics, limits, collisions)
 
     Returns
     -------
-    bool array ``(..., N)`` in node order (and the method, with ``return_method``). Joint limits are
-    honoured when the arms carry them.
+    bool array ``(..., N)`` in node order (then the solutions, with ``return_q``, and the method, with
+    ``return_method``). Joint limits are honoured when the arms carry them.
     """
     nodes = _check_nodes("nodes", nodes)
     rpy = _triple("rpy", rpy)
-    return _map(arms, nodes, rpy, convention, method, ik, chunk_elements, progress, nodes, return_method)
+    return _map(arms, nodes, rpy, convention, method, ik, chunk_elements, progress, nodes, return_method,
+                collision, return_q)
 
 
 def orientation_map(arms, angle_nodes, point=(0.5, 0.5, 0.5), method: str = "auto", convention: str = "paper", *,
                     ik: dict | None = None, chunk_elements: int = 1 << 21, progress=None,
-                    return_method: bool = False):
+                    return_method: bool = False, collision=None, return_q: bool = False):
     """Orientation workspace ("SO3"): which orientations are reachable at the point ``point`` (m).
 
     ``angle_nodes`` (N, 3) are angles (r1, r2, r3) in radians, e.g. from :func:`angle_grid`.
     Under the paper convention the position tested is ``R·point``, so the map is really a test of
     positions on the sphere of radius ``|point|``. Other arguments as
-    :func:`constant_orientation_map`; returns bool ``(..., N)``.
+    :func:`constant_orientation_map` (``collision``, ``return_q`` too); returns bool ``(..., N)``.
     """
     angle_nodes = _check_nodes("angle nodes", angle_nodes)
     point = _triple("point", point)
     return _map(arms, point[None, :], angle_nodes, convention, method, ik, chunk_elements, progress, angle_nodes,
-                return_method)
+                return_method, collision, return_q)
 
 
 def default_grid(scope: str) -> tuple[float, float, float]:
@@ -280,7 +389,7 @@ def grid_spec(scope="R3", lo=None, hi=None, step=None) -> dict:
 
 def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), method="auto",
              convention="paper", model=None, allow_extrapolation: bool = False, ik=None,
-             progress: bool = False, return_method: bool = False):
+             progress: bool = False, return_method: bool = False, collision=None):
     """One call from an arm to its map on a whole grid (from :func:`grid_spec`): bool ``(N,)`` in node order.
 
     ``grid["scope"]`` is ``"R3"`` (positions at orientation ``rpy``) or ``"SO3"`` (orientations at
@@ -291,12 +400,14 @@ def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), m
     the method in :data:`MAP_PREDICTORS`) whose grid, pose convention and fixed orientation
     (R3) or point (SO3) are the ones asked for and which covers every node of the grid; otherwise
     ``ValueError`` says what differs, and arms outside the model's training range are refused unless
-    ``allow_extrapolation``.
+    ``allow_extrapolation``. ``collision`` as :func:`constant_orientation_map` (not with ``"model"``).
     """
     nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
     scope = grid["scope"]
     _check_choice("scope", scope, SCOPES)
     if method == "model":
+        if collision is not None:
+            raise ValueError("method 'model' predicts the chain's map; collision= needs method exact or numerical")
         if model is None:
             raise ValueError("method 'model' needs a model file (--model PATH)")
         if "model" not in MAP_PREDICTORS:
@@ -322,9 +433,9 @@ def grid_map(robot, grid: dict, *, rpy=(0.0, 0.0, 0.0), point=(0.5, 0.5, 0.5), m
     try:
         if scope == "R3":
             return constant_orientation_map(robot, nodes, rpy, method=method, convention=convention, ik=ik,
-                                            return_method=return_method)
+                                            return_method=return_method, collision=collision)
         return orientation_map(robot, nodes, point, method=method, convention=convention, ik=ik,
-                               return_method=return_method)
+                               return_method=return_method, collision=collision)
     finally:
         if bar is not None:
             bar.close()

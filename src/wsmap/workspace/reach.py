@@ -28,7 +28,7 @@ import numpy as np
 from ..kinematics import DHRobot, SerialChain, as_chain, map_search, require_closed_form, require_spherical_wrist
 from ..kinematics.ik.search import MAP_SETTINGS
 from .grids import _check_fits, node_neighbours
-from .maps import _check_choice, _check_nodes, _exact, _search_settings, resolve_method, target_poses
+from .maps import _check_choice, _check_nodes, _exact, _predicate, _search_settings, resolve_method, target_poses
 from .orientations import check_rotations, continuation_order
 
 __all__ = ["INDEX_SETTINGS", "position_map", "reachability_index", "dexterous_map", "manipulability_map",
@@ -92,7 +92,7 @@ def position_map(robot, nodes, *, samples: int = 20000, seed: int = 0, ik: dict 
 
 
 def reachability_index(robot, nodes, orientations, *, method: str = "auto", return_bits: bool = False,
-                       ik: dict | None = None, seed: int = 0):
+                       ik: dict | None = None, seed: int = 0, collision=None, return_q: bool = False):
     """The reachability index: float ``(N,)`` in [0, 1], the fraction of ``orientations`` (K, 3, 3)
     reachable at each node (``T = transl(p)·R_k``); ``return_bits`` also returns the bool ``(N, K)``.
 
@@ -101,6 +101,12 @@ def reachability_index(robot, nodes, orientations, *, method: str = "auto", retu
     (:func:`position_map`) are 0 without more work; the orientations are solved one after another in
     an order where each is near one solved before (:func:`continuation_order`), every node starting
     from its own solution there, then from its neighbours' (``ik`` overrides the search settings).
+
+    ``collision``: a configuration predicate (e.g. :class:`wsmap.collision.CollisionChecker`), as
+    :func:`wsmap.workspace.constant_orientation_map`: a pose counts only with a collision-free
+    solution (every closed-form branch tried; the search keeps looking). The position pre-filter
+    stays the chain's (a collision-free pose has a position the chain reaches). ``return_q``
+    also returns the solutions ``(N, K, n)`` (NaN where a pose is not reached), after the bits.
     """
     robot = _check_arm(robot)
     nodes = _check_nodes("nodes", nodes)
@@ -108,7 +114,9 @@ def reachability_index(robot, nodes, orientations, *, method: str = "auto", retu
     N, K = len(nodes), len(R)
     _check_fits(N * K * 8, f"an index of {N} nodes x {K} orientations")
     method = resolve_method(robot, method)
+    valid = _predicate(robot, collision)
     bits = np.zeros((N, K), dtype=bool)
+    qs = np.full((N, K, robot.n), np.nan) if return_q else None
     if method == "exact":
         block = max(1, (1 << 20) // max(N, 1))
         for k0 in range(0, K, block):
@@ -117,7 +125,13 @@ def reachability_index(robot, nodes, orientations, *, method: str = "auto", retu
             T[..., :3, :3] = Rk[:, None]
             T[..., :3, 3] = nodes[None]
             T[..., 3, 3] = 1.0
-            bits[:, k0 : k0 + block] = _exact(robot, T.reshape(-1, 4, 4)).reshape(len(Rk), N).T
+            if valid is None and not return_q:
+                bits[:, k0 : k0 + block] = _exact(robot, T.reshape(-1, 4, 4)).reshape(len(Rk), N).T
+            else:
+                b, qb = _exact(robot, T.reshape(-1, 4, 4), valid, True)
+                bits[:, k0 : k0 + block] = b.reshape(len(Rk), N).T
+                if return_q:
+                    qs[:, k0 : k0 + block] = np.swapaxes(qb.reshape(len(Rk), N, -1), 0, 1)
     else:
         chain = as_chain(robot)
         settings = _search_settings(ik, INDEX_SETTINGS)
@@ -130,17 +144,21 @@ def reachability_index(robot, nodes, orientations, *, method: str = "auto", retu
             for k, par in zip(order, parent):
                 T = np.zeros((idx.size, 4, 4))
                 T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = R[k], nodes[idx], 1.0
-                res = map_search(chain, T, nb, q_init=None if par < 0 else sol[par], seed=seed, **settings)
+                res = map_search(chain, T, nb, q_init=None if par < 0 else sol[par], seed=seed, accept=valid,
+                                 **settings)
                 bits[idx, k] = res.success
                 sol[k][res.success] = res.q[res.success]
+            if return_q:
+                qs[idx] = np.swapaxes(sol, 0, 1)
     index = bits.mean(axis=1)
-    return (index, bits) if return_bits else index
+    out = (index,) + ((bits,) if return_bits else ()) + ((qs,) if return_q else ())
+    return out if len(out) > 1 else index
 
 
 def dexterous_map(robot, nodes, orientations, **kw) -> np.ndarray:
     """The dexterous workspace for a set of orientations: bool ``(N,)``, every one of ``orientations``
-    is reachable at the node (:func:`reachability_index` ``== 1``; same keywords)."""
-    _, bits = reachability_index(robot, nodes, orientations, return_bits=True, **kw)
+    is reachable at the node (:func:`reachability_index` ``== 1``; same keywords but ``return_q``)."""
+    _, bits = reachability_index(robot, nodes, orientations, return_bits=True, **kw)[:2]
     return bits.all(axis=1)
 
 

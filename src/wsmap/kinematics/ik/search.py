@@ -261,7 +261,8 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
                ilimit: int = MAP_SETTINGS["ilimit"], rlimit: int = MAP_SETTINGS["rlimit"], lam: float = 0.1,
                joint_limits: bool = True, confirm_tol: float = FK_CONFIRM_TOL, gtol: float = MAP_SETTINGS["gtol"],
                q_init=None, position_only: bool = False, seed_free_pass: bool = MAP_SETTINGS["seed_free_pass"],
-               hole_retry: int = MAP_SETTINGS["hole_retry"], progress=None) -> IKSolution:
+               hole_retry: int = MAP_SETTINGS["hole_retry"], progress=None, accept=None,
+               accept_retry: int = 16) -> IKSolution:
     """Reachability of a map's nodes, each start of :func:`ikine_search`'s iteration, with starts taken
     from neighbouring nodes' solutions (continuation): the solution at a node is an excellent start
     at the next one, and an unreachable node costs a few failed starts instead of dozens.
@@ -289,6 +290,11 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     seed_free_pass : whether a neighbour's solution that fails inside the limits is also run
         without them (the second pass of :func:`ikine_search`'s starts)
     progress : called once with the number of targets when done
+    accept : optional configuration predicate, ``accept(q)`` with ``q`` ``(M, n)`` → bool ``(M,)``
+        (e.g. collision-free, :class:`wsmap.collision.CollisionChecker`); a converged solution it
+        rejects does not count, and its node keeps looking: neighbours' accepted solutions in the
+        waves, the retries, then ``accept_retry`` more random starts (in rounds of 4, each round
+        followed by waves) for the nodes whose solutions were all rejected
 
     Per arm, in passes: (1) every node: ``q0`` then ``starts`` random starts (the first ones of
     :func:`ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
@@ -316,6 +322,9 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
     seeds = _check_count("seeds", seeds, 0)
     retry = _check_count("retry", retry, 0)
     hole_retry = _check_count("hole_retry", hole_retry, 0)
+    accept_retry = _check_count("accept_retry", accept_retry, 0)
+    if accept is not None and not callable(accept):
+        raise TypeError(f"accept must be a configuration predicate (callable), got {type(accept).__name__}")
     ilimit = _check_count("ilimit", ilimit, 0)
     rlimit = _check_count("rlimit", rlimit, 0)
     seed, q0 = _check_settings(chain, tol, lam, confirm_tol, seed, q0)
@@ -356,6 +365,12 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
             return 0
         qq, okk, it, rr, st = run_compiled(mode, aa, arm_of[idx], T[node_of[idx]], keys_node[node_of[idx]], qexp, nexp,
                                            k_first, k_last, *settings, free_pass=not seeded or seed_free_pass)
+        if accept is not None and okk.any():
+            hit = np.flatnonzero(okk)
+            yes = np.asarray(accept(qq[hit]), dtype=bool)
+            rejected[idx[hit[~yes]]] = True
+            okk = okk.copy()
+            okk[hit[~yes]] = False
         its[idx] += it
         better = okk | (~ok[idx] & (rr < res[idx]))
         q[idx[better]] = qq[better]
@@ -368,6 +383,7 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
             start[idx[okk]] = np.where(st[okk] < nexp[okk], 0, st[okk] - nexp[okk] + k_first)
         return int(okk.sum())
 
+    rejected = np.zeros(M, dtype=bool)  # a converged solution was refused by ``accept``
     K = nb.shape[1]
     tried = np.zeros((M, K), dtype=bool)
 
@@ -432,6 +448,17 @@ def map_search(robot, T, neighbours, *, starts: int = MAP_SETTINGS["starts"], se
             run(idx, np.zeros((idx.size, 1, n)), np.zeros(idx.size, dtype=np.int64), 1 + starts, 1 + starts + count,
                 False)
         waves()
+    if accept is not None and accept_retry:
+        # a node whose every solution so far was refused is reachable by the chain: other random
+        # starts find other solutions (branches, the self-motion of a redundant arm)
+        k0 = 1 + starts + max(retry, hole_retry)
+        for r0 in range(0, int(accept_retry), 4):
+            idx = np.flatnonzero(rejected & ~ok)
+            if not idx.size:
+                break
+            w = min(4, int(accept_retry) - r0)
+            run(idx, np.zeros((idx.size, 1, n)), np.zeros(idx.size, dtype=np.int64), k0 + r0, k0 + r0 + w, False)
+            waves()
     if progress is not None:
         progress(M)
     shape = (N,) if not batch else batch + (N,)
