@@ -149,6 +149,45 @@ def _robot_from_args(args):
     return robot
 
 
+def _collision_from_args(args, robot, kind):
+    """The :class:`wsmap.collision.CollisionChecker` of ``wsmap map``, or None: every file read and
+    checked (scene, meshes, link names of --allow) before the map is computed."""
+    wanted = args.collision or args.scene is not None or args.link_radius is not None
+    if not wanted:
+        for flag, v in (("--allow", args.allow), ("--acm-samples", args.acm_samples)):
+            if v is not None:
+                raise ValueError(f"{flag} is used with --collision or --scene")
+        return None
+    if not kind.collision:
+        from .workspace.kinds import kinds
+
+        takers = ", ".join(k.name for k in kinds() if k.collision)
+        raise ValueError(f"--collision/--scene are used by --kind {takers} (kind is {kind.name!r})")
+    if args.method == "model":
+        raise ValueError("--method model predicts the chain's map; --collision/--scene need method exact or numerical")
+    if args.paper_lm:
+        raise ValueError("--paper-lm has one start and cannot look for another solution; drop it for --collision")
+    from . import collision as col
+
+    scene = col.load_scene(args.scene) if args.scene is not None else None
+    dh = any(x is not None for x in (args.d, args.a, args.alpha))
+    if args.link_radius is not None:
+        r = args.link_radius
+        if len(r) not in (1, robot.n + 1):
+            raise ValueError(f"--link-radius takes one radius or one per body (0..{robot.n}: {robot.n + 1}), got {len(r)}")
+        model = col.capsules_along_links(robot, r[0] if len(r) == 1 else r, floor=not dh and args.urdf is None)
+    elif args.urdf is not None:
+        model = col.from_urdf_collision(args.urdf, ee_link=args.ee)
+        model.chain = robot  # the same URDF chain, with the limits the command line chose
+    elif dh:
+        raise ValueError("DH columns carry no collision geometry: give --link-radius R (capsules along the links)")
+    else:
+        model = col.arm_model(args.robot or "puma560", robot)
+    samples = col.DEFAULT_SAMPLES if args.acm_samples is None else args.acm_samples
+    model.acm = col.build_acm(model, samples=samples, seed=args.seed, disable=[tuple(p) for p in (args.allow or [])])
+    return col.CollisionChecker(model, scene)
+
+
 def _method_for(robot, method: str) -> str:
     """``auto``: the closed form where the arm belongs to a closed-form family, else numerical IK."""
     if method == "model":
@@ -237,6 +276,19 @@ def _map_parser(sub):
     g.add_argument("--ilimit", type=positive_int, help="numerical IK iteration limit per start (default: the solver's)")
     g.add_argument("--rlimit", type=positive_int,
                    help="numerical IK limit on consecutive rejected steps per start (default: the solver's)")
+    g = m.add_argument_group("collision (docs/collision.md)")
+    g.add_argument("--collision", action="store_true",
+                   help="count a node only with a collision-free solution: self-collision from the arm's own geometry "
+                        "(--urdf: its <collision> elements; --robot: its capsule model; DH columns: --link-radius), "
+                        "and the floor for a named arm")
+    g.add_argument("--scene", metavar="FILE", help="obstacles (YAML or JSON: floor, boxes, cylinders, spheres, "
+                                                  "meshes); implies --collision")
+    g.add_argument("--link-radius", type=positive_float, nargs="+", metavar="R",
+                   help="capsules of these radii (m; one, or one per body 0..n) along the links; implies --collision")
+    g.add_argument("--allow", nargs=2, action="append", metavar=("LINK", "LINK"),
+                   help="never check this link pair (repeatable), besides the allowed-collision matrix's")
+    g.add_argument("--acm-samples", type=non_negative_int, default=None,
+                   help="random configurations of the matrix's 'never in collision' test (default 10000)")
     g = m.add_argument_group("output")
     g.add_argument("--out", required=True, help="output .npz file (map, nodes, grid, settings)")
     g.add_argument("--png", help="also draw the map's z-slices to this PNG (a colour bar for index/manipulability)")
@@ -297,6 +349,7 @@ def _run_map(args) -> int:
             raise ValueError(f"{flag} is used by the numerical method (method is {method!r})")
     if args.paper_lm and (args.starts is not None or args.retry is not None):
         raise ValueError("--paper-lm is the paper's one-start LM; it takes no --starts or --retry")
+    checker = _collision_from_args(args, robot, kind)
     limited = robot.qlim is not None
     K = args.orientations or 50
     R = ws.orientation_samples(K, seed=args.seed) if "orientations" in kind.inputs else None
@@ -314,7 +367,7 @@ def _run_map(args) -> int:
     convention = kind.convention or args.convention
     request = MapRequest(method=method, convention=convention, rpy=tuple(args.rpy), point=tuple(args.point),
                          orientations=R, ik=ik, seed=args.seed, model=args.model,
-                         allow_extrapolation=args.allow_extrapolation, progress=not args.quiet)
+                         allow_extrapolation=args.allow_extrapolation, progress=not args.quiet, collision=checker)
     flat = kind.compute(robot, grid, request)
     seconds = time.perf_counter() - t0
     how = {"exact": "closed form", "model": f"network {args.model}",
@@ -326,12 +379,22 @@ def _run_map(args) -> int:
     how += f", joint limits {'on' if limited else 'off'}"
     if R is not None:
         how += f", {K} orientations (super-Fibonacci, seed {args.seed})"
+    if checker is not None:
+        st = checker.stats
+        how += (f", collision-free ({len(checker.pairs)} link pairs, {len(checker.scene.obstacles)} obstacles"
+                f"{', floor' if checker.scene.floor is not None else ''}; {st.configurations} configurations "
+                f"checked, {st.fast_fraction:.0%} by the spheres alone)")
     settings = {
         "kind": kind.name, "robot": robot.name, "source": getattr(robot, "source", None), "urdf": args.urdf,
         "ee": args.ee, "n": robot.n, "qlim": None if robot.qlim is None else np.asarray(robot.qlim).tolist(),
         "method": method, "how": how, "convention": convention,
         "rpy": list(args.rpy), "point": list(args.point), "model": args.model, "ik": ik, "seconds": seconds,
     }
+    if checker is not None:
+        settings["collision"] = {**checker.describe(), "scene_file": args.scene,
+                                 "stats": {"configurations": checker.stats.configurations,
+                                           "decided_fast": checker.stats.decided_fast,
+                                           "exact_tests": checker.stats.exact_tests}}
     if hasattr(robot, "d"):  # a DH arm: its table
         settings.update(d=robot.d.tolist(), a=robot.a.tolist(), alpha=robot.alpha.tolist())
     summary = kind.summary(flat)

@@ -56,6 +56,9 @@ class MapRequest:
         model: a trained model file (``method="model"``); ``allow_extrapolation`` as
             :func:`wsmap.workspace.grid_map`.
         progress: show a progress bar where the computation has one.
+        collision: a configuration predicate (e.g. :class:`wsmap.collision.CollisionChecker`) for
+            kinds that take one (:attr:`MapKind.collision`): a node counts only with a
+            collision-free solution; ``None``: the chain's map.
     """
 
     method: str = "auto"
@@ -68,6 +71,7 @@ class MapRequest:
     model: str | None = None
     allow_extrapolation: bool = False
     progress: bool = False
+    collision: object = None
 
     @property
     def search(self) -> dict:
@@ -106,6 +110,8 @@ class MapKind:
             (``"convention"`` in :attr:`inputs`).
         levels: ``levels(values) -> tuple`` of iso-surface levels of a map (``.glb`` views).
         value_range: ``(lo, hi)`` colour range of float maps; ``None`` for an end means the map's own.
+        collision: the kind's ``compute`` honours :attr:`MapRequest.collision` (self-collision and
+            obstacles, ``wsmap map --collision/--scene``).
     """
 
     name: str
@@ -124,6 +130,7 @@ class MapKind:
     convention: str | None = None
     levels: Callable = _boolean_levels
     value_range: tuple = (None, None)
+    collision: bool = False
 
     def __post_init__(self):
         where = f"map kind {self.name!r}"
@@ -180,11 +187,11 @@ def paper_map_kind(name: str, scope: str, fixed: str, function: Callable, descri
     def compute(robot, grid, request):
         return grid_map(robot, grid, method=request.method, convention=request.convention, model=request.model,
                         allow_extrapolation=request.allow_extrapolation, ik=request.ik, progress=request.progress,
-                        **{fixed: getattr(request, fixed)})
+                        collision=request.collision, **{fixed: getattr(request, fixed)})
 
     return MapKind(name=name, scope=scope, value_type=bool, compute=compute, function=function,
                    description=description, inputs=(fixed, "convention"), methods=METHODS, paper_solver=True,
-                   batch=True)
+                   batch=True, collision=True)
 
 
 def orientation_set_kind(name: str, value_type: type, function: Callable, description: str, **fields) -> MapKind:
@@ -195,11 +202,11 @@ def orientation_set_kind(name: str, value_type: type, function: Callable, descri
 
     def compute(robot, grid, request):
         return function(robot, grid_positions(grid), request.orientations, method=request.method,
-                        ik=request.search, seed=request.seed)
+                        ik=request.search, seed=request.seed, collision=request.collision)
 
     return MapKind(name=name, scope="R3", value_type=value_type, compute=compute, function=function,
                    description=description, inputs=("orientations",), search_settings=INDEX_SETTINGS,
-                   convention="standard", **fields)
+                   convention="standard", collision=True, **fields)
 
 
 _REGISTRY: dict[str, MapKind] = {}
