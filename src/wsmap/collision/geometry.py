@@ -198,7 +198,7 @@ def read_mesh(path: str, label: str, scale=(1.0, 1.0, 1.0)) -> tuple[np.ndarray,
     v = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64)
     f = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64)
     if len(v) < 4 or len(f) == 0:
-        raise CollisionError(f"{label}: collision mesh {path!r} has no triangles (is it a mesh?)")
+        raise CollisionError(f"{label}: collision mesh {path!r} is not a mesh: no triangles in it")
     if not np.all(np.isfinite(v)):
         raise CollisionError(f"{label}: collision mesh {path!r} has NaN or infinite vertices")
     return v * np.asarray(scale, dtype=np.float64), f
@@ -312,9 +312,16 @@ def from_urdf_collision(source, ee_link: str | None = None, base_link: str | Non
     joint at 0 (clipped into its limits). Meshes are read now (a missing, empty or unreadable file
     is a :class:`CollisionError` naming it); a URDF without any collision element is one too.
     """
-    chain = from_urdf(source, ee_link=ee_link, base_link=base_link, name=name)
     data, label, path = _read(source)
     root = _parse_xml(data, label)
+    # the chain from the URDF without its collision elements: what yourdfpy does not know (a
+    # <capsule>) or refuses is this module's to report, with the file named
+    bare = ET.fromstring(data)
+    for el in bare.findall("link"):
+        for col in el.findall("collision"):
+            el.remove(col)
+    chain = from_urdf(ET.tostring(bare), ee_link=ee_link, base_link=base_link, name=name)
+    chain = chain.replace(source=path if path is not None else "URDF text")
     tree = _Tree(root, label)
     base = base_link or tree.root()
     ee = chain.links[-1]
