@@ -91,12 +91,15 @@ class Shape:
 
 @dataclass(frozen=True, eq=False)
 class Link:
-    """A named set of shapes riding on body ``body`` of the chain (0 = the base)."""
+    """A named set of shapes riding on body ``body`` of the chain (0 = the base); ``frame`` (4, 4)
+    is the link's own frame (a URDF link's) in the body's frame, the shapes' origins are in the
+    body's frame already."""
 
     name: str
     body: int
     shapes: tuple
     parent: str | None = None  # the nearest link with geometry above it in the tree (adjacency)
+    frame: np.ndarray = field(default_factory=lambda: np.eye(4))  # the link's own frame in its body's
 
 
 @dataclass(eq=False)
@@ -339,7 +342,7 @@ def from_urdf_collision(source, ee_link: str | None = None, base_link: str | Non
         shapes = _urdf_shapes(link_els[parent], label, urdf_dir)
         if shapes:
             links.append(Link(parent, body, tuple(Shape(s.kind, s.size, Tp @ s.origin, s.vertices, s.faces, s.source)
-                                                  for s in shapes), parent=above))
+                                                  for s in shapes), parent=above, frame=Tp))
             above = parent
         for jname in reversed(tree.children[parent]):
             el = tree.joints[jname]
