@@ -58,6 +58,7 @@ def _pose(xyz):
 def test_a_configuration_folded_into_itself_is_caught():
     # UR5e with the elbow folded shut: the forearm lies on the upper arm
     model = arm_model("ur5e")
+    model.acm = build_acm(model, samples=500)
     chk = CollisionChecker(model, Scene())
     folded = np.array([0.0, -np.pi / 2, np.deg2rad(175), 0.0, 0.0, 0.0])
     assert not chk(folded[None])[0]
@@ -91,6 +92,11 @@ def test_the_matrix_disables_rigid_adjacent_default_and_never_pairs():
 def test_the_matrix_refuses_unknown_links(disable, message):
     with pytest.raises(CollisionError, match=message):
         build_acm(arm_model("panda"), samples=0, disable=disable)
+
+
+def test_a_checker_needs_a_matrix():
+    with pytest.raises(ValueError, match="no allowed-collision matrix"):
+        CollisionChecker(arm_model("panda"))
 
 
 def test_a_named_arm_without_a_model_is_refused():

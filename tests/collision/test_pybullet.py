@@ -52,7 +52,7 @@ def test_collisions_agree_with_pybullet_on_a_random_sample(urdf, ee):
         assert len(movable) == model.chain.n
         q = model.chain.random_q(150, np.random.default_rng(7))
         fast = chk(q)
-        pairs = model.matrix.enabled_pairs()
+        pairs = model.acm.enabled_pairs()
         agree = near = colliding = 0
         for c in range(len(q)):
             for j, x in zip(movable, q[c]):

@@ -12,7 +12,7 @@ Built as MoveIt's setup assistant builds it (:func:`build_acm`): a pair is disab
 * ``"user"``: the caller disabled it (``disable=``).
 
 Every other pair is checked. The matrix is stored with the model
-(:attr:`wsmap.collision.CollisionModel.matrix`) and written into map files (:meth:`ACM.describe`).
+(``CollisionModel.acm``) and written into map files (:meth:`ACM.describe`).
 """
 
 from __future__ import annotations

@@ -226,8 +226,8 @@ class CollisionChecker:
     Parameters
     ----------
     model : CollisionModel
-        The arm's geometry; its allowed-collision matrix (:attr:`CollisionModel.matrix`, or ``acm``)
-        says which link pairs count.
+        The arm's geometry; its allowed-collision matrix (``model.acm``, or ``acm``; see
+        :func:`wsmap.collision.acm.build_acm`) says which link pairs count.
     scene : Scene, optional
         Obstacles (:mod:`wsmap.collision.scene`); default: the floor ``z = 0`` when the model stands
         on it (``model.floor``), else nothing.
@@ -239,7 +239,8 @@ class CollisionChecker:
     given to every map (``collision=``).
     """
 
-    def __init__(self, model: CollisionModel, scene: Scene | None = None, *, acm=None, self_collision: bool = True):
+    def __init__(self, model: CollisionModel, scene: Scene | None = None, *, acm=None, self_collision: bool = True,
+                 pairs=None):
         if not isinstance(model, CollisionModel):
             raise TypeError(f"model must be a CollisionModel, got {type(model).__name__}")
         if scene is None:
@@ -248,10 +249,13 @@ class CollisionChecker:
             raise TypeError(f"scene must be a Scene, got {type(scene).__name__}")
         self.model = model
         self.scene = scene
-        self.acm = model.matrix if acm is None else acm
+        self.acm = model.acm if acm is None else acm
+        if self.acm is None and pairs is None and self_collision:
+            raise ValueError("the collision model has no allowed-collision matrix: model.acm = "
+                             "wsmap.collision.build_acm(model) first (or wsmap.collision.checker_for)")
         self.self_collision = bool(self_collision)
         self.layer = _Layer(model, scene)
-        self._set_pairs(self.acm.enabled_pairs() if self_collision else [])
+        self._set_pairs(pairs if pairs is not None else self.acm.enabled_pairs() if self_collision else [])
         self.stats = CheckStats()
         # a moving link that touches an obstacle (the floor) at the default configuration stands
         # on it, as the base does (a turntable on the floor): that pair is allowed, as the
@@ -288,7 +292,7 @@ class CollisionChecker:
         names = self.model.names
         obs = [o.name for o in self.scene.obstacles] + (["floor"] if self.scene.floor is not None else [])
         standing = [[names[self.moving[m]], obs[k]] for m, k in zip(*np.nonzero(self.scene_allowed))]
-        return {"geometry": self.model.describe(), "acm": self.acm.describe(),
+        return {"geometry": self.model.describe(), "acm": None if self.acm is None else self.acm.describe(),
                 "scene": {**self.scene.describe(), "allowed": standing}, "self_collision": self.self_collision}
 
     # -------------------------------------------------------------------------------- fast layer
@@ -413,10 +417,7 @@ def exact_pairs(model: CollisionModel, pairs, q) -> np.ndarray:
     """Whether each link pair ``pairs`` ``(P, 2)`` (link indices) collides, by coal, for each
     configuration ``q`` ``(C, n)``: bool ``(C, P)``; the spheres skip pairs that are surely apart.
     The allowed-collision matrix is built with it (:func:`wsmap.collision.acm.build_acm`)."""
-    from .acm import ACM
-
-    chk = CollisionChecker(model, Scene(), acm=ACM(model.names, {}, samples=0, seed=0), self_collision=False)
-    chk._set_pairs(pairs)
+    chk = CollisionChecker(model, Scene(), pairs=np.asarray(pairs, dtype=np.int64).reshape(-1, 2))
     q = chk._q(q)
     out = np.zeros((len(q), len(chk.pairs)), dtype=bool)
     for s0 in range(0, len(q), 2048):

@@ -106,8 +106,9 @@ class Link:
 class CollisionModel:
     """The collision geometry of one arm: ``chain`` and its ``links`` (each a :class:`Link`).
 
-    ``acm`` is the allowed-collision matrix (:class:`wsmap.collision.acm.ACM`), built by
-    :func:`wsmap.collision.acm.build_acm` when first asked (:attr:`matrix`); ``floor`` whether the
+    ``acm`` is the allowed-collision matrix (:class:`wsmap.collision.acm.ACM`, from
+    :func:`wsmap.collision.acm.build_acm`; :func:`wsmap.collision.checker_for` builds it when
+    missing); ``floor`` whether the
     arm stands on the floor ``z = 0`` of the world (the default scene of a named arm has it);
     ``source`` where the geometry comes from.
     """
@@ -143,15 +144,6 @@ class CollisionModel:
         if name not in self._names:
             raise CollisionError(f"unknown collision link {name!r}; the links are: {', '.join(self.names)}")
         return self._names[name]
-
-    @property
-    def matrix(self):
-        """The allowed-collision matrix (built with the default settings when first asked)."""
-        if self.acm is None:
-            from .acm import build_acm
-
-            self.acm = build_acm(self)
-        return self.acm
 
     def shape_poses(self, q) -> tuple[np.ndarray, np.ndarray]:
         """World poses of every shape: ``(poses (..., S, 4, 4), link_of (S,))`` for ``q`` ``(..., n)``."""
