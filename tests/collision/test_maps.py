@@ -105,3 +105,29 @@ def test_wrong_uses_are_refused():
                                  collision=lambda q: np.ones(len(q), bool))
     with pytest.raises(TypeError, match="predicate"):
         constant_orientation_map(load("ur5e"), NODES, collision="yes")
+
+
+@pytest.mark.parametrize("name", ["ur5e", "panda"])
+def test_base_placement_counts_collision_free_solutions(name):
+    from wsmap.workspace import base_placement
+
+    robot, chk = load(name), _checker(name)
+    targets = target_poses(np.array([[0.3, 0.0, 0.05], [0.5, 0.2, 0.3], [0.2, -0.4, 0.1]]), DOWN, "standard")
+    kw = dict(x=(-0.6, 0.6), y=(-0.6, 0.6), step=0.3, yaws=4)
+    free = base_placement(robot, targets, collision=chk, **kw)
+    chain = base_placement(robot, targets, **kw)
+    assert free.score.max() <= chain.score.max() and (free.reached.sum() <= chain.reached.sum())
+    got = np.isfinite(free.q[:, 0])
+    assert got.sum() == free.reached[0].sum() and chk.exact(free.q[got]).all()
+    np.testing.assert_allclose(free.poses[0] @ robot.fkine(free.q[got]), targets[got], atol=1e-6)
+
+
+def test_base_placement_refuses_world_frame_obstacles():
+    from wsmap.workspace import base_placement
+
+    model = arm_model("ur5e")
+    model.acm = build_acm(model, samples=200)
+    world = Scene(0.0, (Obstacle("wall", Shape("box", (0.1, 2, 2), _at([1, 0, 1])), frame="world"),))
+    with pytest.raises(ValueError, match="world-frame obstacles"):
+        base_placement(load("ur5e"), target_poses(np.array([[0.3, 0, 0.3]]), DOWN, "standard"),
+                       collision=CollisionChecker(model, world))
