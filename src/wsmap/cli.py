@@ -116,12 +116,22 @@ def _robot_from_args(args):
         return np.deg2rad(q.reshape(-1, 2))
 
     dh = [args.d, args.a, args.alpha]
-    given = [name for name, v in (("--robot", args.robot), ("--urdf", args.urdf),
+    mjcf = getattr(args, "mjcf", None)
+    given = [name for name, v in (("--robot", args.robot), ("--urdf", args.urdf), ("--mjcf", mjcf),
                                   ("the DH columns", any(x is not None for x in dh) or None)) if v is not None]
     if len(given) > 1:
         raise ValueError(f"give one arm: {' and '.join(given)} were both given")
-    if args.ee is not None and args.urdf is None:
-        raise ValueError("--ee names the end link of a --urdf arm")
+    if args.ee is not None and args.urdf is None and mjcf is None:
+        raise ValueError("--ee names the end link of a --urdf arm (or the site of a --mjcf arm)")
+    if mjcf is not None:
+        if args.ee is None:
+            raise ValueError("--mjcf needs the tool's site or body: --ee NAME")
+        robot = robots.from_mjcf(mjcf, args.ee)
+        if args.joint_limits is False:
+            robot = robot.replace(qlim=None)
+        if args.qlim_deg is not None and args.joint_limits is not False:
+            robot = robot.replace(qlim=limits(robot.n))
+        return robot
     if (args.mdh or args.offset is not None) and not any(x is not None for x in dh):
         raise ValueError("--mdh and --offset describe DH columns (--d/--a/--alpha)")
     if any(x is not None for x in dh):
@@ -179,6 +189,11 @@ def _collision_from_args(args, robot, kind):
     elif args.urdf is not None:
         model = col.from_urdf_collision(args.urdf, ee_link=args.ee)
         model.chain = robot  # the same URDF chain, with the limits the command line chose
+    elif getattr(args, "mjcf", None) is not None:
+        from .collision.mjcf import from_mjcf_collision
+
+        model = from_mjcf_collision(args.mjcf, args.ee)
+        model.chain = robot
     elif dh:
         raise ValueError("DH columns carry no collision geometry: give --link-radius R (capsules along the links)")
     else:
@@ -210,7 +225,9 @@ def _arm_arguments(m):
     g = m.add_argument_group("arm")
     g.add_argument("--robot", help="a named arm (`wsmap robots` lists them; default puma560 when no other arm is given)")
     g.add_argument("--urdf", metavar="FILE", help="the arm as a URDF file (meshes are never read)")
-    g.add_argument("--ee", metavar="LINK", help="--urdf: the end link (default: the chain's only leaf)")
+    g.add_argument("--mjcf", metavar="FILE", help="the arm as an MJCF (MuJoCo) file, to the site or body --ee")
+    g.add_argument("--ee", metavar="LINK", help="--urdf: the end link (default: the chain's only leaf); "
+                                               "--mjcf: the tool's site or body (required)")
     g.add_argument("--d", type=number, nargs="+", help="DH link offsets d_1..d_n in metres")
     g.add_argument("--a", type=number, nargs="+", help="DH link lengths a_1..a_n in metres")
     g.add_argument("--alpha", type=number, nargs="+", help="DH twists alpha_1..alpha_n in radians (pi expressions allowed)")
@@ -386,6 +403,7 @@ def _run_map(args) -> int:
                 f"checked, {st.fast_fraction:.0%} by the spheres alone)")
     settings = {
         "kind": kind.name, "robot": robot.name, "source": getattr(robot, "source", None), "urdf": args.urdf,
+        "mjcf": getattr(args, "mjcf", None),
         "ee": args.ee, "n": robot.n, "qlim": None if robot.qlim is None else np.asarray(robot.qlim).tolist(),
         "method": method, "how": how, "convention": convention,
         "rpy": list(args.rpy), "point": list(args.point), "model": args.model, "ik": ik, "seconds": seconds,

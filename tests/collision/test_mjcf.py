@@ -5,8 +5,8 @@ import pytest
 
 mujoco = pytest.importorskip("mujoco")
 
-from wsmap.collision import CollisionError, exact_pairs  # noqa: E402
-from wsmap.collision.mjcf import from_mjcf, from_mjcf_collision  # noqa: E402
+from wsmap.collision import exact_pairs  # noqa: E402
+from wsmap.collision.mjcf import MJCFError, from_mjcf, from_mjcf_collision  # noqa: E402
 
 ARM = """<mujoco model="arm3">
   <compiler angle="radian"/>
@@ -91,11 +91,27 @@ def test_geoms_and_contacts_agree_with_mujoco(arm):
 
 
 def test_bad_mjcf_input_is_one_line(tmp_path, arm):
-    with pytest.raises(CollisionError, match="no site or body 'hand'"):
+    with pytest.raises(MJCFError, match="no site or body 'hand'"):
         from_mjcf(arm, "hand")
-    with pytest.raises(CollisionError, match="no such MJCF file"):
+    with pytest.raises(MJCFError, match="no such MJCF file"):
         from_mjcf(tmp_path / "none.xml", "tool")
     (tmp_path / "bad.xml").write_text("<mujoco><worldbody><body><geom type='cone'/></body></worldbody></mujoco>")
-    with pytest.raises(CollisionError, match="mujoco cannot read it") as e:
+    with pytest.raises(MJCFError, match="mujoco cannot read it") as e:
         from_mjcf(tmp_path / "bad.xml", "tool")
     assert "\n" not in str(e.value)
+
+
+def test_the_command_line_maps_an_mjcf_arm_with_its_geoms(arm, tmp_path, capsys):
+    from wsmap import cli
+    from wsmap import workspace as ws
+
+    out = tmp_path / "m.npz"
+    argv = ["map", "--mjcf", str(arm), "--ee", "tool", "--step", "0.25", "--out", str(out), "--quiet"]
+    assert cli.main(argv) == 0
+    chain_map = ws.load_map(out)[0]
+    assert cli.main(argv + ["--collision", "--acm-samples", "300"]) == 0
+    free, _, _, settings = ws.load_map(out)
+    assert settings["mjcf"] == str(arm) and settings["collision"]["geometry"]["links"][0]["name"] == "base"
+    assert not (free & ~chain_map).any()
+    assert cli.main(["map", "--mjcf", str(arm), "--out", str(out)]) == 2
+    assert "--mjcf needs the tool's site or body" in capsys.readouterr().err

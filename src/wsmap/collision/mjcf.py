@@ -1,12 +1,7 @@
-"""MJCF (MuJoCo's format) as a second source of chains and collision geometry, parsed by the
-``mujoco`` package (its compiled model: frames, joint anchors and axes, meshes as MuJoCo reads them).
-
-:func:`from_mjcf` is the serial chain from the world body to a site or a body (the tool frame);
-:func:`from_mjcf_collision` adds its collision geoms (those with a non-zero ``contype`` or
-``conaffinity``: spheres, capsules, cylinders, boxes, meshes as convex hulls). Hinge joints are
-revolute, slide joints prismatic; a joint's coordinate is measured from its ``ref`` (``qpos0``), as
-MuJoCo's ``qpos``; limits from ``range`` where ``limited``. Geoms of bodies hanging off the chain
-ride with their parent at ``qpos0``; geoms of the world body (a floor plane) are not the arm's.
+"""MJCF collision geoms (:mod:`wsmap.kinematics.mjcf` reads the chain): the geoms with a non-zero
+``contype`` or ``conaffinity`` of the chain's bodies — spheres, capsules, cylinders, boxes, meshes
+(MuJoCo's compiled vertices, tested as convex hulls, as MuJoCo does). Geoms of bodies hanging off
+the chain ride with their parent at ``qpos0``; the world body's (a floor plane) are not the arm's.
 """
 
 from __future__ import annotations
@@ -15,105 +10,10 @@ import os
 
 import numpy as np
 
-from ..kinematics.chain import PRISMATIC, REVOLUTE, SerialChain
+from ..kinematics.mjcf import MJCFError, _chain_parts, _load, _pose, from_mjcf
 from .geometry import CollisionError, CollisionModel, Link, Shape
 
-__all__ = ["from_mjcf", "from_mjcf_collision"]
-
-
-def _load(path):
-    import mujoco
-
-    path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise CollisionError(f"no such MJCF file: {path!r}")
-    try:
-        return mujoco.MjModel.from_xml_path(path)
-    except Exception as exc:  # mujoco's own message names the element
-        msg = " ".join(str(exc).split())
-        raise CollisionError(f"MJCF file {path!r}: mujoco cannot read it: {msg}") from None
-
-
-def _pose(pos, quat) -> np.ndarray:
-    w, x, y, z = quat / np.linalg.norm(quat)
-    T = np.eye(4)
-    T[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                 [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                 [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
-    T[:3, 3] = pos
-    return T
-
-
-def _trans(p) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, 3] = p
-    return T
-
-
-def _chain_parts(m, path: str, site_or_body: str):
-    """The chain and, per MuJoCo body on or below the path, ``(chain body, pose in its frame)``."""
-    import mujoco
-
-    sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site_or_body)
-    bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, site_or_body)
-    if sid < 0 and bid < 0:
-        sites = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_SITE, i) for i in range(m.nsite)]
-        raise CollisionError(f"MJCF file {path!r} has no site or body {site_or_body!r}; sites: "
-                             f"{', '.join(s for s in sites if s) or 'none'}")
-    end = int(m.site_bodyid[sid]) if sid >= 0 else bid
-    tool = _pose(m.site_pos[sid], m.site_quat[sid]) if sid >= 0 else np.eye(4)
-    bodies = []
-    b = end
-    while b != 0:
-        bodies.append(b)
-        b = int(m.body_parentid[b])
-    bodies.reverse()
-    fixed, axes, kinds, offset, qlim, T = [], [], [], [], [], np.eye(4)
-    place = {0: (0, np.eye(4))}
-    for b in bodies:
-        T = T @ _pose(m.body_pos[b], m.body_quat[b])
-        for j in range(int(m.body_jntadr[b]), int(m.body_jntadr[b] + m.body_jntnum[b])):
-            jt = int(m.jnt_type[j])
-            if jt not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
-                name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)
-                raise CollisionError(f"MJCF file {path!r}: joint {name!r} on the chain is a ball or free joint; "
-                                     "a serial chain has hinge and slide joints")
-            a = m.jnt_pos[j]
-            fixed.append(T @ _trans(a))
-            T = _trans(-a)
-            axes.append(np.array(m.jnt_axis[j], dtype=np.float64))
-            kinds.append(REVOLUTE if jt == int(mujoco.mjtJoint.mjJNT_HINGE) else PRISMATIC)
-            offset.append(-float(m.qpos0[m.jnt_qposadr[j]]))
-            lim = m.jnt_range[j] if m.jnt_limited[j] else (-np.inf, np.inf)
-            qlim.append((float(lim[0]), float(lim[1])))
-        place[b] = (len(kinds), T.copy())
-    if not kinds:
-        raise CollisionError(f"MJCF file {path!r}: no hinge or slide joint between the world and {site_or_body!r}")
-    fixed.append(T @ tool)
-    name = os.path.splitext(os.path.basename(path))[0]
-    chain = SerialChain(np.stack(fixed), np.stack(axes), kinds, offset=np.array(offset), qlim=np.array(qlim),
-                        name=name, source=path)
-    # bodies off the path: with their parent, joints at qpos0 (a fixed pose)
-    for b in range(1, m.nbody):
-        if b in place:
-            continue
-        chainb = [b]
-        while int(m.body_parentid[chainb[-1]]) not in place:
-            chainb.append(int(m.body_parentid[chainb[-1]]))
-        for c in reversed(chainb):
-            k, Tp = place[int(m.body_parentid[c])]
-            place[c] = (k, Tp @ _pose(m.body_pos[c], m.body_quat[c]))
-    return chain, place
-
-
-def from_mjcf(path, site_or_body: str) -> SerialChain:
-    """The serial chain of an MJCF file from the world body to the site or body ``site_or_body``
-    (its frame is the tool frame): fixed transforms from the bodies' ``pos``/``quat`` and the
-    joints' anchors, axes as MuJoCo has them (body frame), ``offset = -ref``, ``qlim`` from
-    ``range``. Errors (no such file, not MJCF, an unknown site, a ball joint) are a
-    :class:`~wsmap.collision.geometry.CollisionError` naming the file."""
-    m = _load(path)
-    return _chain_parts(m, os.fspath(path), site_or_body)[0]
+__all__ = ["from_mjcf", "from_mjcf_collision", "MJCFError"]
 
 
 def from_mjcf_collision(path, site_or_body: str, *, floor: bool = False) -> CollisionModel:
