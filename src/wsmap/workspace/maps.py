@@ -232,7 +232,14 @@ def _exact(arms, T, valid=None, return_q=False):
     ok = np.array(sol.success, dtype=bool)
     q = sol.q
     if valid is not None and ok.any():
-        ok[ok] = np.asarray(valid(q[ok]), dtype=bool)
+        # branch by branch, only where no earlier branch was accepted: a pose needs one free branch
+        found = np.zeros(ok.shape[:-1], dtype=bool)
+        for b in range(ok.shape[-1]):
+            ask = ok[..., b] & ~found
+            if ask.any():
+                ok[..., b][ask] = np.asarray(valid(q[..., b, :][ask]), dtype=bool)
+            found |= ok[..., b]
+        ok &= np.cumsum(ok, axis=-1) == 1  # the first accepted branch (later ones were not asked)
     reach = ok.any(axis=-1)
     if not return_q:
         return reach
