@@ -58,9 +58,9 @@ def test_body_frames_end_where_the_chain_ends():
         np.testing.assert_allclose(B[:, :-1] @ chain.fixed[:-1], chain.joint_frames(q)[0], atol=1e-12)
 
 
-def test_meshes_are_read_through_trimesh_stl_obj_ply(tmp_path):
+def test_meshes_are_read_through_trimesh_stl_obj_ply_dae(tmp_path):
     box = trimesh.creation.box((0.1, 0.2, 0.3))
-    for ext in ("stl", "obj", "ply"):
+    for ext in ("stl", "obj", "ply", "dae"):
         box.export(tmp_path / f"hand.{ext}")
         m = from_urdf_collision(write(tmp_path, f'<mesh filename="hand.{ext}" scale="2 1 1"/>'), ee_link="flange")
         v = m.links[-1].shapes[0].vertices
