@@ -280,6 +280,7 @@ class CollisionChecker:
             pid.append(np.full(A.size, p))
         cat = (lambda x: np.concatenate(x) if x else np.zeros(0, dtype=np.int64))
         self._sa, self._sb, self._pid = cat(sa), cat(sb), cat(pid)
+        self._first = np.searchsorted(self._pid, np.arange(len(self.pairs)))  # every pair has spheres
         self.moving = np.flatnonzero([lk.body > 0 for lk in self.model.links])
 
     @property
@@ -307,10 +308,8 @@ class CollisionChecker:
         if len(self._sa):
             d = np.linalg.norm(c[:, self._sa] - c[:, self._sb], axis=-1)
             hit = d <= r[self._sa] + r[self._sb] + 1e-12
-            # any over each pair's sphere pairs: a sum by pair index
-            counts = np.zeros((C, len(self.pairs)), dtype=np.int64)
-            np.add.at(counts, (np.arange(C)[:, None], self._pid[None, :]), hit)
-            pair = counts > 0
+            # any over each pair's sphere pairs (contiguous, in pair order)
+            pair = np.logical_or.reduceat(hit, self._first, axis=1)
         obs = self.scene.obstacles
         nob = len(obs) + (self.scene.floor is not None)
         scene = np.zeros((C, len(self.moving), nob), dtype=bool)
