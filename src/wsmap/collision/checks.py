@@ -5,7 +5,11 @@ of hpp-fcl) whether two shapes intersect: boxes, cylinders, spheres and capsules
 primitives, meshes as their convex hulls (:mod:`wsmap.collision.geometry`), the floor as the
 half-space ``z <= floor``. Touching counts as a collision.
 
-**The fast layer**: every shape is enclosed in a few spheres (:func:`bounding_spheres`; each
+**Capsules in numpy**: a pair of links made of capsules and spheres only (the named arms' models),
+and such a link against the floor, is decided exactly by segment distances
+(:func:`segment_distance`), vectorised over configurations; coal agrees (tests).
+
+**The fast layer**: every other shape is enclosed in a few spheres (:func:`bounding_spheres`; each
 sphere contains its piece of the shape, together they contain all of it), carried by the shape's
 body. For a batch of configurations the sphere centres are one array product, and a link pair
 (or a link and an obstacle) whose spheres are all apart is free without asking coal. The exact
@@ -148,6 +152,27 @@ class CheckStats:
         return self.decided_fast / self.configurations if self.configurations else float("nan")
 
 
+def segment_distance(p0, p1, q0, q1) -> np.ndarray:
+    """Distance between the segments ``p0``-``p1`` and ``q0``-``q1`` (arrays ``(..., 3)``, m):
+    Ericson's closest points of two segments (Real-Time Collision Detection, 5.1.9), vectorised,
+    a point (zero-length segment) included."""
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a = np.einsum("...i,...i", d1, d1)
+    e = np.einsum("...i,...i", d2, d2)
+    f = np.einsum("...i,...i", d2, r)
+    c = np.einsum("...i,...i", d1, r)
+    b = np.einsum("...i,...i", d1, d2)
+    eps = 1e-18
+    denom = a * e - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(denom > eps * np.maximum(a * e, eps), np.clip((b * f - c * e) / denom, 0.0, 1.0), 0.0)
+        t = np.where(e > eps, (b * s + f) / e, 0.0)
+        s = np.where(t < 0.0, np.where(a > eps, np.clip(-c / a, 0.0, 1.0), 0.0),
+                     np.where(t > 1.0, np.where(a > eps, np.clip((b - c) / a, 0.0, 1.0), 0.0), s))
+    t = np.clip(t, 0.0, 1.0)
+    return np.linalg.norm(p0 + s[..., None] * d1 - q0 - t[..., None] * d2, axis=-1)
+
+
 class _Layer:
     """Spheres and coal geometries of a model's links (body frame) and of a scene (world frame)."""
 
@@ -156,6 +181,7 @@ class _Layer:
         cs, rs, body, link, shape_of = [], [], [], [], []
         self.geoms, self.shape_body, self.shape_origin, self.shape_link = [], [], [], []
         self.link_shapes: list[list[int]] = []
+        self.caps: dict[int, tuple] = {}  # shape -> (p0, p1, radius) in the body frame: exact tests in numpy
         for li, lk in enumerate(model.links):
             ids = []
             for s in lk.shapes:
@@ -165,6 +191,10 @@ class _Layer:
                 self.shape_body.append(lk.body)
                 self.shape_origin.append(s.origin)
                 self.shape_link.append(li)
+                if s.kind in ("capsule", "sphere"):
+                    half = s.size[1] / 2 if s.kind == "capsule" else 0.0
+                    ends = s.origin[:3, :3] @ np.array([[0, 0, -half], [0, 0, half]]).T + s.origin[:3, 3:4]
+                    self.caps[si] = (ends[:, 0], ends[:, 1], s.size[0])
                 c, r = bounding_spheres(s)
                 cs.append(c @ s.origin[:3, :3].T + s.origin[:3, 3])
                 rs.append(r)
@@ -172,6 +202,7 @@ class _Layer:
                 link += [li] * len(r)
                 shape_of += [si] * len(r)
             self.link_shapes.append(ids)
+        self.analytic = np.array([all(si in self.caps for si in ids) for ids in self.link_shapes], dtype=bool)
         self.centres = np.concatenate(cs)  # (S, 3) body frame
         self.radii = np.concatenate(rs)
         self.sphere_body = np.array(body, dtype=np.int64)
@@ -272,15 +303,27 @@ class CollisionChecker:
         """The link pairs checked, ``(P, 2)`` link indices, and their sphere pairs."""
         self.pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
         L = self.layer
+        cat = (lambda x: np.concatenate(x) if x else np.zeros(0, dtype=np.int64))
+        # pairs of capsules and spheres only are decided exactly in numpy (segment distances);
+        # the others by the spheres, then coal
+        an = np.array([L.analytic[i] and L.analytic[j] for i, j in self.pairs], dtype=bool).reshape(-1)
+        self._an, self._non = np.flatnonzero(an), np.flatnonzero(~an)
         sa, sb, pid = [], [], []
-        for p, (i, j) in enumerate(self.pairs):
+        for p, (i, j) in enumerate(self.pairs[self._non]):
             A, Bm = np.meshgrid(np.flatnonzero(L.sphere_link == i), np.flatnonzero(L.sphere_link == j), indexing="ij")
             sa.append(A.ravel())
             sb.append(Bm.ravel())
             pid.append(np.full(A.size, p))
-        cat = (lambda x: np.concatenate(x) if x else np.zeros(0, dtype=np.int64))
         self._sa, self._sb, self._pid = cat(sa), cat(sb), cat(pid)
-        self._first = np.searchsorted(self._pid, np.arange(len(self.pairs)))  # every pair has spheres
+        self._first = np.searchsorted(self._pid, np.arange(len(self._non)))  # every pair has spheres
+        ca, cb, cid = [], [], []
+        for p, (i, j) in enumerate(self.pairs[self._an]):
+            A, Bm = np.meshgrid(L.link_shapes[i], L.link_shapes[j], indexing="ij")
+            ca.append(A.ravel())
+            cb.append(Bm.ravel())
+            cid.append(np.full(A.size, p))
+        self._ca, self._cb, cid = cat(ca), cat(cb), cat(cid)
+        self._cfirst = np.searchsorted(cid, np.arange(len(self._an)))
         self.moving = np.flatnonzero([lk.body > 0 for lk in self.model.links])
 
     @property
@@ -309,7 +352,7 @@ class CollisionChecker:
             d = np.linalg.norm(c[:, self._sa] - c[:, self._sb], axis=-1)
             hit = d <= r[self._sa] + r[self._sb] + 1e-12
             # any over each pair's sphere pairs (contiguous, in pair order)
-            pair = np.logical_or.reduceat(hit, self._first, axis=1)
+            pair[:, self._non] = np.logical_or.reduceat(hit, self._first, axis=1)
         obs = self.scene.obstacles
         nob = len(obs) + (self.scene.floor is not None)
         scene = np.zeros((C, len(self.moving), nob), dtype=bool)
@@ -324,9 +367,45 @@ class CollisionChecker:
                         m = np.linalg.norm(cs[:, :, None] - oc[None, None], axis=-1) <= rs[:, None] + orad + 1e-12
                         m = m.any(axis=-1)
                     scene[:, mi, k] = m.any(axis=-1)
-                if self.scene.floor is not None:
+                if self.scene.floor is not None and not L.analytic[li]:
                     scene[:, mi, -1] = np.any(cs[..., 2] - rs <= self.scene.floor + 1e-12, axis=-1)
         return pair, scene & ~self.scene_allowed
+
+    def _analytic(self, B, per_pair: bool = False) -> np.ndarray:
+        """``(C,)`` True where a capsule pair (or a capsule link and the floor) collides, exactly;
+        ``per_pair``: ``(C, P)`` for the checked pairs instead (False for the others), no floor."""
+        L = self.layer
+        C = B.shape[0]
+        out = np.zeros(C, dtype=bool)
+        pairs = np.zeros((C, len(self.pairs)), dtype=bool)
+        if not L.caps:
+            return pairs if per_pair else out
+        ids = np.array(sorted(L.caps))
+        where = {si: k for k, si in enumerate(ids)}
+        body = L.shape_body[ids]
+        p0 = np.stack([L.caps[si][0] for si in ids])
+        p1 = np.stack([L.caps[si][1] for si in ids])
+        rad = np.array([L.caps[si][2] for si in ids])
+        Bk = B[:, body]  # (C, K, 4, 4); one advanced index, so the axes stay in place
+        R, t = Bk[..., :3, :3], Bk[..., :3, 3]
+        w0 = (R @ p0[:, :, None])[..., 0] + t  # (C, K, 3) world ends
+        w1 = (R @ p1[:, :, None])[..., 0] + t
+        if len(self._ca):
+            a = np.array([where[x] for x in self._ca])
+            b = np.array([where[x] for x in self._cb])
+            d = segment_distance(w0[:, a], w1[:, a], w0[:, b], w1[:, b])
+            pairs[:, self._an] = np.logical_or.reduceat(d <= rad[a] + rad[b], self._cfirst, axis=1)
+            out |= pairs.any(axis=1)
+        if per_pair:
+            return pairs
+        if self.scene.floor is not None:
+            nob = self.scene_allowed.shape[1]
+            for mi, li in enumerate(self.moving):
+                if L.analytic[li] and not self.scene_allowed[mi, nob - 1]:
+                    k = np.array([where[x] for x in L.link_shapes[li]])
+                    low = np.minimum(w0[:, k, 2], w1[:, k, 2]) - rad[k]
+                    out |= (low <= self.scene.floor).any(axis=1)
+        return out
 
     # -------------------------------------------------------------------------------- exact
     def _pair_collides(self, B, i, j) -> bool:
@@ -368,8 +447,10 @@ class CollisionChecker:
         free = np.ones(len(q), dtype=bool)
         for s0 in range(0, len(q), 2048):
             B = body_frames(self.model.chain, q[s0 : s0 + 2048])
+            hit = self._analytic(B)
+            free[s0 : s0 + len(B)] = ~hit
             pair, scene = self._maybe(B)
-            need = pair.any(axis=1) | scene.any(axis=(1, 2))
+            need = ~hit & (pair.any(axis=1) | scene.any(axis=(1, 2)))
             self.stats.decided_fast += int((~need).sum())
             te = time.perf_counter()
             for c in np.flatnonzero(need):
@@ -422,6 +503,7 @@ def exact_pairs(model: CollisionModel, pairs, q) -> np.ndarray:
     for s0 in range(0, len(q), 2048):
         B = body_frames(model.chain, q[s0 : s0 + 2048])
         maybe, _ = chk._maybe(B)
+        out[s0 : s0 + len(B)] = chk._analytic(B, per_pair=True)
         for c, p in zip(*np.nonzero(maybe)):
             out[s0 + c, p] = chk._pair_collides(B[c], *chk.pairs[p])
     return out
