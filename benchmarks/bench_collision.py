@@ -1,6 +1,7 @@
 """Collision-free maps, side by side in one run: the tool-down map (``T = transl(p)·Rx(pi)``) on the
 21³ grid (``cartesian_grid(-1, 1, 0.1)``) of the Panda, the iiwa 14 and the UR5e (their capsule
-models, :mod:`wsmap.collision.named`) with self-collision and the floor, against the chain's map.
+models, :mod:`wsmap.collision.named`) and of pybullet_data's Panda URDF (collision meshes, hand), with
+self-collision and the floor, against the chain's map.
 
 Per arm:
 
@@ -14,7 +15,8 @@ Per arm:
   seeded) and keeps any collision-free solution (goal >= 0.995); for the UR5e also against its
   closed form, every branch checked (the map it computes by default);
 * the exact check's cost per configuration (coal on every enabled pair and the floor) and the
-  fraction of the configurations the checker saw that the spheres decided alone.
+  fraction of the configurations the checker decided without coal (the spheres; capsule pairs
+  in numpy).
 
     NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_collision.py
 """
@@ -61,7 +63,9 @@ def timed(f, repeats=2):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--arms", nargs="+", default=["panda", "iiwa14", "ur5e"])
+    ap.add_argument("--arms", nargs="+", default=["panda", "iiwa14", "ur5e", "panda-urdf"],
+                    help="named arms (capsule models) and 'panda-urdf': pybullet_data's Panda URDF with its "
+                         "collision meshes and hand (the tool at panda_hand)")
     ap.add_argument("--starts", type=int, default=64)
     ap.add_argument("--step", type=float, default=0.1)
     args = ap.parse_args(argv)
@@ -69,8 +73,19 @@ def main(argv=None):
     T = target_poses(nodes, DOWN, "standard")
     print(f"tool-down map, {len(nodes)} nodes, self-collision + floor; reference {args.starts} starts per node")
     for name in args.arms:
-        robot = load(name)
-        model = arm_model(name)
+        if name == "panda-urdf":
+            import os
+
+            import pybullet_data
+
+            from wsmap.collision import from_urdf_collision
+
+            model = from_urdf_collision(os.path.join(pybullet_data.getDataPath(), "franka_panda", "panda.urdf"),
+                                        ee_link="panda_hand", floor=True)
+            robot = model.chain
+        else:
+            robot = load(name)
+            model = arm_model(name)
         t_acm, model.acm = timed(lambda: build_acm(model), 1)
         chk = CollisionChecker(model)
         constant_orientation_map(robot, nodes, DOWN, convention="standard")  # warm-up: numba, caches
@@ -96,7 +111,7 @@ def main(argv=None):
               f"FK error {fk:.1e}; within limits {bool(robot.within_limits(q[m1]).all())}")
         print(f"  reference ({args.starts} starts, {t_ref:.1f} s): {int(ref.sum())} nodes; recall {recall:.4f} "
               f"(goal >= 0.995); map nodes the reference missed {int((m1 & ~ref).sum())}")
-        print(f"  checker: {st.configurations} configurations, {fast:.1%} decided by the spheres alone, "
+        print(f"  checker: {st.configurations} configurations, {fast:.1%} decided without coal (spheres, capsules), "
               f"{st.exact_tests} coal tests, {st.seconds:.2f} s in the checker ({st.exact_seconds:.2f} s exact)")
         print(f"  exact check (coal, every pair and the floor): {per_config * 1e3:.3f} ms per configuration")
         if name == "ur5e":
