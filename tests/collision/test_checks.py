@@ -130,3 +130,15 @@ def test_capsule_pairs_decided_in_numpy_agree_with_coal():
     coal_only = np.array([[chk._pair_collides(B[c], i, j) for i, j in pairs] for c in range(len(q))])
     np.testing.assert_array_equal(ours, coal_only)
     assert ours.any()
+
+
+def test_checker_for_builds_capsules_for_a_dh_arm_with_link_radii():
+    from wsmap.collision import checker_for
+    from wsmap.robots import puma560
+
+    chk = checker_for(load("ur5e"), link_radius=0.05, samples=2000)
+    assert chk.n == 6 and len(chk.pairs) > 0 and chk.scene.empty
+    folded = np.array([[0.0, -np.pi / 2, np.deg2rad(178), 0.0, 0.0, 0.0]])  # the forearm on the upper arm
+    assert not chk(folded)[0] and chk(np.array([[0.0, -np.pi / 2, 0.0, -np.pi / 2, 0.0, 0.0]]))[0]
+    with pytest.raises(CollisionError, match="has no collision model"):
+        checker_for(puma560())

@@ -28,11 +28,20 @@ __all__ = ["ACM", "DEFAULT_SAMPLES", "REASONS", "build_acm", "CheckStats", "Coll
            "Obstacle", "Scene", "load_scene", "scene_from_dict", "checker_for"]
 
 
-def checker_for(robot_name_or_model, scene=None, **acm_settings) -> CollisionChecker:
-    """A :class:`CollisionChecker` for a named arm (its capsule model) or a :class:`CollisionModel`,
-    with ``scene`` (default: the model's floor) and the matrix built with ``acm_settings``
-    (:func:`build_acm`: ``samples``, ``seed``, ``disable``)."""
-    model = robot_name_or_model if isinstance(robot_name_or_model, CollisionModel) else arm_model(robot_name_or_model)
+def checker_for(robot_name_or_model, scene=None, *, link_radius=None, **acm_settings) -> CollisionChecker:
+    """A :class:`CollisionChecker` for a named arm (its capsule model), a :class:`CollisionModel`, or
+    any arm with ``link_radius`` (m; one or one per body: capsules along its links,
+    :func:`capsules_along_links`), with ``scene`` (default: the model's floor) and the matrix built
+    with ``acm_settings`` (:func:`build_acm`: ``samples``, ``seed``, ``disable``)."""
+    if link_radius is not None:
+        model = capsules_along_links(robot_name_or_model, link_radius)
+    elif isinstance(robot_name_or_model, CollisionModel):
+        model = robot_name_or_model
+    elif isinstance(robot_name_or_model, str):
+        model = arm_model(robot_name_or_model)
+    else:
+        raise CollisionError(f"{getattr(robot_name_or_model, 'name', None) or 'this arm'} has no collision model: "
+                             "give a named arm, a CollisionModel, or link_radius=")
     if acm_settings or model.acm is None:
         model.acm = build_acm(model, **acm_settings)
     return CollisionChecker(model, scene)
