@@ -168,14 +168,14 @@ def _collision_from_args(args, robot, kind):
             if v is not None:
                 raise ValueError(f"{flag} is used with --collision or --scene")
         return None
-    if not kind.collision:
+    if kind is not None and not kind.collision:
         from .workspace.kinds import kinds
 
         takers = ", ".join(k.name for k in kinds() if k.collision)
         raise ValueError(f"--collision/--scene are used by --kind {takers} (kind is {kind.name!r})")
     if args.method == "model":
         raise ValueError("--method model predicts the chain's map; --collision/--scene need method exact or numerical")
-    if args.paper_lm:
+    if getattr(args, "paper_lm", False):
         raise ValueError("--paper-lm has one start and cannot look for another solution; drop it for --collision")
     from . import collision as col
 
@@ -199,7 +199,8 @@ def _collision_from_args(args, robot, kind):
     else:
         model = col.arm_model(args.robot or "puma560", robot)
     samples = col.DEFAULT_SAMPLES if args.acm_samples is None else args.acm_samples
-    model.acm = col.build_acm(model, samples=samples, seed=args.seed, disable=[tuple(p) for p in (args.allow or [])])
+    model.acm = col.build_acm(model, samples=samples, seed=getattr(args, "seed", 0),
+                              disable=[tuple(p) for p in (args.allow or [])])
     return col.CollisionChecker(model, scene)
 
 
@@ -237,6 +238,22 @@ def _arm_arguments(m):
                    help="honour the arm's joint limits (default: on for real arms and URDFs, off for puma560 as in the paper)")
     g.add_argument("--qlim-deg", type=number, nargs="+", metavar="DEG",
                    help="joint limits in degrees: lo_1 hi_1 lo_2 hi_2 ... (overrides --joint-limits)")
+
+
+def _collision_arguments(m):
+    g = m.add_argument_group("collision (docs/collision.md)")
+    g.add_argument("--collision", action="store_true",
+                   help="count a node only with a collision-free solution: self-collision from the arm's own geometry "
+                        "(--urdf: its <collision> elements; --robot: its capsule model; DH columns: --link-radius), "
+                        "and the floor for a named arm")
+    g.add_argument("--scene", metavar="FILE", help="obstacles (YAML or JSON: floor, boxes, cylinders, spheres, "
+                                                  "meshes); implies --collision")
+    g.add_argument("--link-radius", type=positive_float, nargs="+", metavar="R",
+                   help="capsules of these radii (m; one, or one per body 0..n) along the links; implies --collision")
+    g.add_argument("--allow", nargs=2, action="append", metavar=("LINK", "LINK"),
+                   help="never check this link pair (repeatable), besides the allowed-collision matrix's")
+    g.add_argument("--acm-samples", type=non_negative_int, default=None,
+                   help="random configurations of the matrix's 'never in collision' test (default 10000)")
 
 
 def _map_parser(sub):
@@ -293,19 +310,7 @@ def _map_parser(sub):
     g.add_argument("--ilimit", type=positive_int, help="numerical IK iteration limit per start (default: the solver's)")
     g.add_argument("--rlimit", type=positive_int,
                    help="numerical IK limit on consecutive rejected steps per start (default: the solver's)")
-    g = m.add_argument_group("collision (docs/collision.md)")
-    g.add_argument("--collision", action="store_true",
-                   help="count a node only with a collision-free solution: self-collision from the arm's own geometry "
-                        "(--urdf: its <collision> elements; --robot: its capsule model; DH columns: --link-radius), "
-                        "and the floor for a named arm")
-    g.add_argument("--scene", metavar="FILE", help="obstacles (YAML or JSON: floor, boxes, cylinders, spheres, "
-                                                  "meshes); implies --collision")
-    g.add_argument("--link-radius", type=positive_float, nargs="+", metavar="R",
-                   help="capsules of these radii (m; one, or one per body 0..n) along the links; implies --collision")
-    g.add_argument("--allow", nargs=2, action="append", metavar=("LINK", "LINK"),
-                   help="never check this link pair (repeatable), besides the allowed-collision matrix's")
-    g.add_argument("--acm-samples", type=non_negative_int, default=None,
-                   help="random configurations of the matrix's 'never in collision' test (default 10000)")
+    _collision_arguments(m)
     g = m.add_argument_group("output")
     g.add_argument("--out", required=True, help="output .npz file (map, nodes, grid, settings)")
     g.add_argument("--png", help="also draw the map's z-slices to this PNG (a colour bar for index/manipulability)")
@@ -472,6 +477,7 @@ def _place_parser(sub):
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     _arm_arguments(m)
+    _collision_arguments(m)
     g = m.add_argument_group("placement")
     g.add_argument("--targets", required=True, metavar="CSV", help="the target poses (see below)")
     g.add_argument("--x", type=number, nargs=2, default=[-1.0, 1.0], metavar=("LO", "HI"), help="base x range (m)")
@@ -532,9 +538,10 @@ def _run_place(args) -> int:
             raise ValueError(f"--{name}: lo ({lo}) is above hi ({hi})")
     T = _read_targets(args.targets)
     robot = _robot_from_args(args)
+    checker = _collision_from_args(args, robot, None)
     t0 = time.perf_counter()
     pl = ws.base_placement(robot, T, x=args.x, y=args.y, step=args.step, yaws=args.yaws, z0=args.z0,
-                           method=args.method)
+                           method=args.method, collision=checker)
     seconds = time.perf_counter() - t0
     if out is not None:
         with atomic_path(out, suffix=".csv") as tmp:
@@ -544,7 +551,8 @@ def _run_place(args) -> int:
                     f.write(f"{r + 1},{pl.x[r]:.6f},{pl.y[r]:.6f},{pl.yaw[r]:.6f},{pl.score[r]:.6f},"
                             + ",".join(str(int(b)) for b in pl.reached[r]) + "\n")
     if not args.quiet:
-        print(f"{robot.name or 'arm'}: {len(pl.score)} candidate bases x {len(T)} targets ({pl.method}) in "
+        free = "" if checker is None else ", collision-free"
+        print(f"{robot.name or 'arm'}: {len(pl.score)} candidate bases x {len(T)} targets ({pl.method}{free}) in "
               f"{seconds:.2f} s")
         print("rank  x (m)    y (m)    yaw (deg)  reached")
         for r in range(min(args.top, len(pl.score))):

@@ -73,3 +73,14 @@ def test_bad_collision_input_exits_2_with_one_line_and_writes_nothing(tmp_path, 
     err = capsys.readouterr().err
     assert code == 2 and message in err and err.count("\n") == 1 and err.startswith("wsmap: error: ")
     assert not (tmp_path / "o.npz").exists()
+
+
+def test_place_takes_the_collision_options(tmp_path, capsys):
+    (tmp_path / "t.csv").write_text("x,y,z,r1,r2,r3\n0.3,0,0.05,3.14159265,0,0\n0.5,0.2,0.3,3.14159265,0,0\n")
+    argv = ["place", "--robot", "ur5e", "--targets", str(tmp_path / "t.csv"), "--x", "-0.6", "0.6", "--y", "-0.6",
+            "0.6", "--step", "0.3", "--yaws", "4", "--acm-samples", "300"]
+    assert cli.main(argv + ["--collision"]) == 0
+    assert "collision-free" in capsys.readouterr().out
+    (tmp_path / "w.yaml").write_text("frame: world\nobstacles:\n  - {shape: sphere, radius: 0.1, xyz: [1, 1, 1]}\n")
+    assert cli.main(argv + ["--scene", str(tmp_path / "w.yaml")]) == 2
+    assert "world-frame obstacles" in capsys.readouterr().err
