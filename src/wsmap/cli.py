@@ -184,7 +184,8 @@ def _collision_from_args(args, robot, kind):
     if args.link_radius is not None:
         r = args.link_radius
         if len(r) not in (1, robot.n + 1):
-            raise ValueError(f"--link-radius takes one radius or one per body (0..{robot.n}: {robot.n + 1}), got {len(r)}")
+            raise ValueError(f"--link-radius takes one radius or one per body (0..{robot.n}: {robot.n + 1}), "
+                             f"got {len(r)}")
         model = col.capsules_along_links(robot, r[0] if len(r) == 1 else r, floor=not dh and args.urdf is None)
     elif args.urdf is not None:
         model = col.from_urdf_collision(args.urdf, ee_link=args.ee)

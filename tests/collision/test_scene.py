@@ -39,7 +39,8 @@ def test_an_obstacle_in_the_base_frame_moves_with_the_base(tmp_path):
     moved = arm_model("ur5e", model.chain.replace(base=base))
     moved.acm = model.acm
     assert not CollisionChecker(moved, load_scene(tmp_path / "s.yaml"))(up)[0]  # base frame: moves along
-    (tmp_path / "w.yaml").write_text("frame: world\nobstacles:\n  - {shape: sphere, radius: 0.1, xyz: [0, -0.233, 1.15]}\n")
+    (tmp_path / "w.yaml").write_text("frame: world\nobstacles:\n"
+                                     "  - {shape: sphere, radius: 0.1, xyz: [0, -0.233, 1.15]}\n")
     assert CollisionChecker(moved, load_scene(tmp_path / "w.yaml"))(up)[0]  # world frame: stays
 
 

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..kinematics.chain import PRISMATIC, SerialChain, _motion, as_chain
-from ..kinematics.urdf import URDFError, _parse_xml, _read, _Tree, from_urdf
+from ..kinematics.urdf import _parse_xml, _read, _Tree, from_urdf
 
 __all__ = ["SHAPES", "CollisionError", "Shape", "Link", "CollisionModel", "body_frames", "from_urdf_collision",
            "capsule_model", "capsules_along_links", "read_mesh"]
@@ -129,7 +129,8 @@ class CollisionModel:
             raise CollisionError(f"collision links must have distinct names, got {names}")
         for link in self.links:
             if not 0 <= link.body <= self.chain.n:
-                raise CollisionError(f"link {link.name!r} rides on body {link.body}; the chain has bodies 0..{self.chain.n}")
+                raise CollisionError(f"link {link.name!r} rides on body {link.body}; "
+                                     f"the chain has bodies 0..{self.chain.n}")
             if not link.shapes:
                 raise CollisionError(f"link {link.name!r} has no shapes")
         self.links = tuple(self.links)

@@ -55,7 +55,8 @@ class Obstacle:
 
     def __post_init__(self):
         if self.frame not in FRAMES:
-            raise CollisionError(f"obstacle {self.name!r}: frame must be one of {', '.join(FRAMES)}, got {self.frame!r}")
+            raise CollisionError(f"obstacle {self.name!r}: frame must be one of {', '.join(FRAMES)}, "
+                                 f"got {self.frame!r}")
 
     def pose(self, base: np.ndarray | None) -> np.ndarray:
         """The obstacle's world pose (4, 4), ``base`` the arm's base transform (or None)."""
