@@ -131,3 +131,23 @@ def test_base_placement_refuses_world_frame_obstacles():
     with pytest.raises(ValueError, match="world-frame obstacles"):
         base_placement(load("ur5e"), target_poses(np.array([[0.3, 0, 0.3]]), DOWN, "standard"),
                        collision=CollisionChecker(model, world))
+
+
+def test_the_orientation_map_and_the_index_kind_take_the_checker(tmp_path):
+    from wsmap import cli
+    from wsmap import workspace as ws
+    from wsmap.workspace import angle_grid, orientation_map
+
+    robot, chk = load("ur5e"), _checker("ur5e")
+    angles = angle_grid(0, 2 * np.pi, np.pi / 3)
+    free, q = orientation_map(robot, angles, (0.3, 0.2, 0.1), collision=chk, return_q=True)
+    assert not (free & ~orientation_map(robot, angles, (0.3, 0.2, 0.1))).any() and chk.exact(q[free]).all()
+    out = tmp_path / "i.npz"
+    argv = ["map", "--robot", "panda", "--kind", "index", "--orientations", "6", "--step", "0.4", "--out", str(out),
+            "--quiet"]
+    assert cli.main(argv) == 0
+    chain_index = ws.load_map(out)[0]
+    assert cli.main(argv + ["--collision", "--acm-samples", "500"]) == 0
+    free_index, _, _, settings = ws.load_map(out)
+    assert (free_index <= chain_index + 1e-12).all() and free_index.sum() < chain_index.sum()
+    assert settings["collision"]["scene"]["floor"] == 0.0
