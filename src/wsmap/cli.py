@@ -253,8 +253,8 @@ def _collision_arguments(m):
                    help="capsules of these radii (m; one, or one per body 0..n) along the links; implies --collision")
     g.add_argument("--allow", nargs=2, action="append", metavar=("LINK", "LINK"),
                    help="never check this link pair (repeatable), besides the allowed-collision matrix's")
-    g.add_argument("--acm-samples", type=non_negative_int, default=None,
-                   help="random configurations of the matrix's 'never in collision' test (default 10000)")
+    g.add_argument("--acm-samples", type=non_negative_int, default=None, metavar="N",
+                   help="random configurations of the matrix's 'never in collision' test (10000 when not given)")
 
 
 def _map_parser(sub):
