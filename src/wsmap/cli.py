@@ -161,14 +161,24 @@ def _robot_from_args(args):
         return np.deg2rad(q.reshape(-1, 2))
 
     dh = [args.d, args.a, args.alpha]
-    given = [name for name, v in (("--robot", args.robot), ("--urdf", args.urdf),
+    mjcf = getattr(args, "mjcf", None)
+    given = [name for name, v in (("--robot", args.robot), ("--urdf", args.urdf), ("--mjcf", mjcf),
                                   ("the DH columns", any(x is not None for x in dh) or None)) if v is not None]
     if len(given) > 1:
         raise ValueError(f"give one arm: {' and '.join(given)} were both given")
-    if args.ee is not None and args.urdf is None:
-        raise ValueError("--ee names the end link of a --urdf arm")
+    if args.ee is not None and args.urdf is None and mjcf is None:
+        raise ValueError("--ee names the end link of a --urdf arm (or the site of a --mjcf arm)")
     if args.base is not None and args.urdf is None:
         raise ValueError("--base names the first link of a --urdf arm")
+    if mjcf is not None:
+        if args.ee is None:
+            raise ValueError("--mjcf needs the tool's site or body: --ee NAME")
+        robot = robots.from_mjcf(mjcf, args.ee)
+        if args.joint_limits is False:
+            robot = robot.replace(qlim=None)
+        if args.qlim_deg is not None and args.joint_limits is not False:
+            robot = robot.replace(qlim=limits(robot.n))
+        return robot
     if (args.mdh or args.offset is not None) and not any(x is not None for x in dh):
         raise ValueError("--mdh and --offset describe DH columns (--d/--a/--alpha)")
     if any(x is not None for x in dh):
@@ -196,6 +206,52 @@ def _robot_from_args(args):
     return robot
 
 
+def _collision_from_args(args, robot, kind):
+    """The :class:`wsmap.collision.CollisionChecker` of ``wsmap map``, or None: every file read and
+    checked (scene, meshes, link names of --allow) before the map is computed."""
+    wanted = args.collision or args.scene is not None or args.link_radius is not None
+    if not wanted:
+        for flag, v in (("--allow", args.allow), ("--acm-samples", args.acm_samples)):
+            if v is not None:
+                raise ValueError(f"{flag} is used with --collision or --scene")
+        return None
+    if kind is not None and not kind.collision:
+        from .workspace.kinds import kinds
+
+        takers = ", ".join(k.name for k in kinds() if k.collision)
+        raise ValueError(f"--collision/--scene are used by --kind {takers} (kind is {kind.name!r})")
+    if args.method == "model":
+        raise ValueError("--method model predicts the chain's map; --collision/--scene need method exact or numerical")
+    if getattr(args, "paper_lm", False):
+        raise ValueError("--paper-lm has one start and cannot look for another solution; drop it for --collision")
+    from . import collision as col
+
+    scene = col.load_scene(args.scene) if args.scene is not None else None
+    dh = any(x is not None for x in (args.d, args.a, args.alpha))
+    if args.link_radius is not None:
+        r = args.link_radius
+        if len(r) not in (1, robot.n + 1):
+            raise ValueError(f"--link-radius takes one radius or one per body (0..{robot.n}: {robot.n + 1}), "
+                             f"got {len(r)}")
+        model = col.capsules_along_links(robot, r[0] if len(r) == 1 else r, floor=not dh and args.urdf is None)
+    elif args.urdf is not None:
+        model = col.from_urdf_collision(args.urdf, ee_link=args.ee, base_link=args.base)
+        model.chain = robot  # the same URDF chain, with the limits the command line chose
+    elif getattr(args, "mjcf", None) is not None:
+        from .collision.mjcf import from_mjcf_collision
+
+        model = from_mjcf_collision(args.mjcf, args.ee)
+        model.chain = robot
+    elif dh:
+        raise ValueError("DH columns carry no collision geometry: give --link-radius R (capsules along the links)")
+    else:
+        model = col.arm_model(args.robot or "puma560", robot)
+    samples = col.DEFAULT_SAMPLES if args.acm_samples is None else args.acm_samples
+    model.acm = col.build_acm(model, samples=samples, seed=getattr(args, "seed", 0),
+                              disable=[tuple(p) for p in (args.allow or [])])
+    return col.CollisionChecker(model, scene)
+
+
 def _method_for(robot, method: str) -> str:
     """``auto``: the closed form where the arm belongs to a closed-form family, else numerical IK."""
     if method == "model":
@@ -218,7 +274,9 @@ def _arm_arguments(m):
     g = m.add_argument_group("arm")
     g.add_argument("--robot", help="a named arm (`wsmap robots` lists them; default puma560 when no other arm is given)")
     g.add_argument("--urdf", metavar="FILE", help="the arm as a URDF file (meshes are never read)")
-    g.add_argument("--ee", metavar="LINK", help="--urdf: the end link (default: the chain's only leaf)")
+    g.add_argument("--mjcf", metavar="FILE", help="the arm as an MJCF (MuJoCo) file, to the site or body --ee")
+    g.add_argument("--ee", metavar="LINK", help="--urdf: the end link (default: the chain's only leaf); "
+                                               "--mjcf: the tool's site or body (required)")
     g.add_argument("--base", metavar="LINK", help="--urdf: the first link of the chain (default: the URDF's root)")
     g.add_argument("--d", type=number, nargs="+", help="DH link offsets d_1..d_n in metres")
     g.add_argument("--a", type=number, nargs="+", help="DH link lengths a_1..a_n in metres")
@@ -229,6 +287,22 @@ def _arm_arguments(m):
                    help="honour the arm's joint limits (default: on for real arms and URDFs, off for puma560 as in the paper)")
     g.add_argument("--qlim-deg", type=number, nargs="+", metavar="DEG",
                    help="joint limits in degrees: lo_1 hi_1 lo_2 hi_2 ... (overrides --joint-limits)")
+
+
+def _collision_arguments(m):
+    g = m.add_argument_group("collision (docs/collision.md)")
+    g.add_argument("--collision", action="store_true",
+                   help="count a node only with a collision-free solution: self-collision from the arm's own geometry "
+                        "(--urdf: its <collision> elements; --robot: its capsule model; DH columns: --link-radius), "
+                        "and the floor for a named arm")
+    g.add_argument("--scene", metavar="FILE", help="obstacles (YAML or JSON: floor, boxes, cylinders, spheres, "
+                                                  "meshes); implies --collision")
+    g.add_argument("--link-radius", type=positive_float, nargs="+", metavar="R",
+                   help="capsules of these radii (m; one, or one per body 0..n) along the links; implies --collision")
+    g.add_argument("--allow", nargs=2, action="append", metavar=("LINK", "LINK"),
+                   help="never check this link pair (repeatable), besides the allowed-collision matrix's")
+    g.add_argument("--acm-samples", type=non_negative_int, default=None, metavar="N",
+                   help="random configurations of the matrix's 'never in collision' test (10000 when not given)")
 
 
 def _map_parser(sub):
@@ -290,6 +364,7 @@ def _map_parser(sub):
     g.add_argument("--ilimit", type=positive_int, help="numerical IK iteration limit per start (default: the solver's)")
     g.add_argument("--rlimit", type=positive_int,
                    help="numerical IK limit on consecutive rejected steps per start (default: the solver's)")
+    _collision_arguments(m)
     g = m.add_argument_group("output (at least one)")
     g.add_argument("--out", metavar="FILE.npz", help="the map as .npz (map, nodes, grid, settings; wsmap.load_map)")
     g.add_argument("--png", metavar="FILE.png",
@@ -321,7 +396,8 @@ def _run_map(args) -> int:
     given = {flag: getattr(args, flag[2:]) for flag in _OUTPUTS if getattr(args, flag[2:])}
     if args.out is None and not given:
         raise ValueError(f"nothing to write: give --out FILE.npz and/or {', '.join(_OUTPUTS)}")
-    extra = check_outputs({"--out": args.out, **given}, inputs={"--urdf": args.urdf, "--model": args.model})
+    extra = check_outputs({"--out": args.out, **given}, inputs={"--urdf": args.urdf, "--mjcf": args.mjcf,
+                                                                "--model": args.model, "--scene": args.scene})
     out = extra.pop("--out", None)
     if out is not None and out.suffix != ".npz":
         raise ValueError(f"--out {args.out!r}: a map file is .npz (numpy writes that format whatever the name)")
@@ -375,14 +451,14 @@ def _run_map(args) -> int:
             raise ValueError(f"{flag} is used by the numerical method (method is {method!r})")
     if args.paper_lm and (args.starts is not None or args.retry is not None):
         raise ValueError("--paper-lm is the paper's one-start LM; it takes no --starts or --retry")
+    checker = _collision_from_args(args, robot, kind)
     limited = robot.qlim is not None
     K = args.orientations or 50
     R = ws.orientation_samples(K, seed=args.seed) if "orientations" in kind.inputs else None
 
     if method == "numerical":  # a first run says why it is silent: a one-line notice, only if it compiles
         from .kinematics.ik.warmup import ensure_compiled
-        ensure_compiled(notify=lambda line: print(f"wsmap: {line}", file=sys.stderr, flush=True),
-                                    joints=robot.n)
+        ensure_compiled(notify=lambda line: print(f"wsmap: {line}", file=sys.stderr, flush=True), joints=robot.n)
     t0 = time.perf_counter()
     ik = {k: v for k, v in dict(tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit).items() if v is not None}
     if method == "numerical":
@@ -398,7 +474,7 @@ def _run_map(args) -> int:
     point = (0.5, 0.5, 0.5) if args.point is None else tuple(args.point)
     request = MapRequest(method=method, convention=convention, rpy=rpy, point=point,
                          orientations=R, ik=ik, seed=args.seed, model=args.model,
-                         allow_extrapolation=args.allow_extrapolation, progress=not args.quiet)
+                         allow_extrapolation=args.allow_extrapolation, progress=not args.quiet, collision=checker)
     if "--h5" in extra:
         if convention != "standard":
             raise ValueError("--h5 writes poses T = transl(p)·R, the standard convention; drop --convention paper")
@@ -415,12 +491,23 @@ def _run_map(args) -> int:
     how += f", joint limits {'on' if limited else 'off'}"
     if R is not None:
         how += f", {K} orientations (super-Fibonacci, seed {args.seed})"
+    if checker is not None:
+        st = checker.stats
+        how += (f", collision-free ({len(checker.pairs)} link pairs, {len(checker.scene.obstacles)} obstacles"
+                f"{', floor' if checker.scene.floor is not None else ''}; {st.configurations} configurations "
+                f"checked, {st.fast_fraction:.0%} by the spheres alone)")
     settings = {
         "kind": kind.name, "robot": robot.name, "source": getattr(robot, "source", None), "urdf": args.urdf,
+        "mjcf": getattr(args, "mjcf", None),
         "ee": args.ee, "n": robot.n, "qlim": None if robot.qlim is None else np.asarray(robot.qlim).tolist(),
         "method": method, "how": how, "convention": convention,
         "rpy": list(rpy), "point": list(point), "model": args.model, "ik": ik, "seconds": seconds,
     }
+    if checker is not None:
+        settings["collision"] = {**checker.describe(), "scene_file": args.scene,
+                                 "stats": {"configurations": checker.stats.configurations,
+                                           "decided_fast": checker.stats.decided_fast,
+                                           "exact_tests": checker.stats.exact_tests}}
     if hasattr(robot, "d"):  # a DH arm: its table
         settings.update(d=robot.d.tolist(), a=robot.a.tolist(), alpha=robot.alpha.tolist())
     summary = kind.summary(flat)
@@ -509,6 +596,7 @@ def _place_parser(sub):
         formatter_class=_Help,
     )
     _arm_arguments(m)
+    _collision_arguments(m)
     g = m.add_argument_group("placement")
     g.add_argument("--targets", required=True, metavar="CSV", help="the target poses (see below)")
     g.add_argument("--x", type=number, nargs=2, default=[-1.0, 1.0], metavar=("LO", "HI"), help="base x range (m)")
@@ -588,16 +676,18 @@ def _run_place(args) -> int:
     from . import workspace as ws
     from .io import atomic_path, check_outputs
 
-    out = check_outputs({"--out": args.out}, inputs={"--targets": args.targets, "--urdf": args.urdf}).get("--out")
+    out = check_outputs({"--out": args.out}, inputs={"--targets": args.targets, "--urdf": args.urdf,
+                                                     "--mjcf": args.mjcf, "--scene": args.scene}).get("--out")
     for name in ("x", "y"):
         lo, hi = getattr(args, name)
         if lo > hi:
             raise ValueError(f"--{name}: lo ({lo}) is above hi ({hi})")
     T = _read_targets(args.targets)
     robot = _robot_from_args(args)
+    checker = _collision_from_args(args, robot, None)
     t0 = time.perf_counter()
     pl = ws.base_placement(robot, T, x=args.x, y=args.y, step=args.step, yaws=args.yaws, z0=args.z0,
-                           method=args.method, progress=not args.quiet)
+                           method=args.method, progress=not args.quiet, collision=checker)
     seconds = time.perf_counter() - t0
     if out is not None:
         with atomic_path(out, suffix=".csv") as tmp:
@@ -607,7 +697,8 @@ def _run_place(args) -> int:
                     f.write(f"{r + 1},{pl.x[r]:.6f},{pl.y[r]:.6f},{pl.yaw[r]:.6f},{pl.score[r]:.6f},"
                             + ",".join(str(int(b)) for b in pl.reached[r]) + "\n")
     if not args.quiet:
-        print(f"{robot.name or 'arm'}: {len(pl.score)} candidate bases x {len(T)} targets ({pl.method}) in "
+        free = "" if checker is None else ", collision-free"
+        print(f"{robot.name or 'arm'}: {len(pl.score)} candidate bases x {len(T)} targets ({pl.method}{free}) in "
               f"{seconds:.2f} s")
         print("rank  x (m)    y (m)    yaw (deg)  reached")
         for r in range(min(args.top, len(pl.score))):

@@ -4,7 +4,8 @@
   :class:`~wsmap.kinematics.DHRobot`) and real arms from their manufacturers' published kinematics
   (:class:`~wsmap.kinematics.SerialChain`), each one :class:`ArmTable` in :data:`NAMED` with the
   document it comes from (:data:`SOURCES`);
-* :func:`from_dh` (standard or modified DH) and :func:`from_urdf` — any other serial arm;
+* :func:`from_dh` (standard or modified DH), :func:`from_urdf` and :func:`from_mjcf` (MuJoCo) — any
+  other serial arm;
 * :func:`puma560` and :func:`spherical_wrist` — the paper's arms from their DH lengths;
 * :class:`ArmFamily` and :data:`FAMILIES` — the families of random arms (:mod:`.families`).
 
@@ -28,6 +29,7 @@ limits in radians (``±inf`` for a continuous joint; ``qlim`` is ``None`` when n
 from __future__ import annotations
 
 from ..kinematics.chain import from_dh
+from ..kinematics.mjcf import MJCFError, from_mjcf
 from ..kinematics.urdf import URDFError, from_urdf
 from .registry import NAMED, ROBOTS, SOURCES, ArmTable, from_name, load, register, register_constructor
 
@@ -40,5 +42,5 @@ from .families import *  # noqa: E402, F401, F403 -- the families' public names,
 
 __all__ = [
     "PUMA560_QLIM_DEG", "puma560", "ArmTable", "NAMED", "ROBOTS", "SOURCES", "register", "register_constructor",
-    "load", "from_name", "from_dh", "from_urdf", "URDFError", *families.__all__,
+    "load", "from_name", "from_dh", "from_urdf", "URDFError", "from_mjcf", "MJCFError", *families.__all__,
 ]

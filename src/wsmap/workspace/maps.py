@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from ..kinematics import DHRobot, SerialChain, closed_form_for, ikine_LM, require_closed_form, rpy2r
-from ..kinematics.chain import flatten_arms
+from ..kinematics.chain import as_chain, flatten_arms
 from ..kinematics.ik.search import DEFAULT_STARTS, MAP_SETTINGS, ikine_search, map_search
 from ..kinematics.transforms import as_real_array
 from .._progress import check_progress, progress_bar
@@ -29,7 +29,7 @@ from .grids import _check_fits, _triple, cartesian_grid, grid_axes, node_neighbo
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Any, Arm, ArrayLike, Mapping, NDArray, PathLike
+    from wsmap._typing import Any, Arm, ArrayLike, Callable, Mapping, NDArray, PathLike
 
 __all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP_SETTINGS", "target_poses",
            "reachable", "resolve_method", "constant_orientation_map", "orientation_map",
@@ -93,7 +93,9 @@ def target_poses(positions: ArrayLike, rpy: ArrayLike, convention: str = "standa
 
 
 # --------------------------------------------------------------------------- reachability of poses
-def reachable(robot: Arm, T: ArrayLike, *, starts: int = DEFAULT_STARTS, seed: int = 0, **settings) -> np.ndarray:
+def reachable(robot: Arm, T: ArrayLike, *, starts: int = DEFAULT_STARTS, seed: int = 0,
+              collision: Callable | None = None, collision_rounds: int = 4, return_q: bool = False,
+              **settings) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], NDArray[np.float64]]:
     """Whether the arm reaches each pose: bool with the broadcast batch shape of ``T`` and the arms.
 
     Parameters
@@ -112,8 +114,70 @@ def reachable(robot: Arm, T: ArrayLike, *, starts: int = DEFAULT_STARTS, seed: i
     kinematics confirms the solution (within 1e-6 m and rad), so ``True`` comes with a solution;
     ``False`` means no start found one (recall measured against exact references in
     ``benchmarks/bench_recall.py``: >= 0.999 with the default starts, no false positive).
+
+    ``collision`` (one arm): a configuration predicate, ``collision(q)`` with ``q`` ``(M, n)`` → bool
+    ``(M,)`` True where acceptable, e.g. a :class:`wsmap.collision.CollisionChecker`; a pose then
+    counts only with an accepted solution, and a pose whose solutions were refused is searched
+    again ``collision_rounds`` times with other random starts (``seed`` moved on per round).
+    ``return_q`` also returns the solutions ``(..., n)`` (NaN where unreachable).
     """
-    return ikine_search(robot, T, starts=starts, seed=seed, **settings).success
+    valid = _predicate(robot, collision)
+    if valid is None:
+        res = ikine_search(robot, T, starts=starts, seed=seed, **settings)
+        return (res.success, np.where(res.success[..., None], res.q, np.nan)) if return_q else res.success
+    ok, q = _search_free(robot, np.asarray(T, dtype=np.float64), valid, starts, seed, collision_rounds, settings)
+    return (ok, q) if return_q else ok
+
+
+def _predicate(arms, collision):
+    """``collision`` checked as a configuration predicate of ``arms`` (one arm), or None. A
+    :class:`wsmap.collision.CollisionChecker` of another arm (other joint frames) is refused."""
+    if collision is None:
+        return None
+    if not callable(collision):
+        raise TypeError(f"collision must be a configuration predicate (e.g. a wsmap.collision.CollisionChecker), "
+                        f"got {type(collision).__name__}")
+    if arms.batch_shape != ():
+        raise ValueError(f"collision= checks one arm's configurations, got a batch of arms {arms.batch_shape}")
+    chain = getattr(getattr(collision, "model", None), "chain", None)
+    if chain is not None:
+        mine = as_chain(arms)
+        if chain.n != mine.n:
+            raise ValueError(f"the collision model has {chain.n} joints, the arm {mine.n}")
+        q = mine.random_q(3, np.random.default_rng(0))
+        if not np.allclose(chain.joint_frames(q)[0], mine.joint_frames(q)[0], atol=1e-9):
+            raise ValueError("the collision model belongs to another arm: its joint frames differ from the arm's")
+    return collision
+
+
+def _search_free(robot, T, valid, starts, seed, rounds, settings):
+    """:func:`ikine_search` keeping only solutions ``valid`` accepts: ``(ok, q)`` of ``T.shape[:-2]``;
+    refused poses are searched again with other seeds, ``rounds`` times."""
+    res = ikine_search(robot, T, starts=starts, seed=seed, **settings)
+    shape = res.success.shape
+    ok = res.success.reshape(-1).copy()
+    q = res.q.reshape(-1, res.q.shape[-1]).copy()
+    Tf = np.broadcast_to(T, shape + (4, 4)).reshape(-1, 4, 4)
+    settings = {k: v for k, v in settings.items() if k not in ("q0", "progress")}
+    left = np.zeros(ok.shape, dtype=bool)
+    if ok.any():
+        idx = np.flatnonzero(ok)
+        ok[idx] = np.asarray(valid(q[idx]), dtype=bool)
+        left[idx] = ~ok[idx]
+    for r in range(1, int(rounds) + 1):
+        idx = np.flatnonzero(left)
+        if not idx.size:
+            break
+        again = ikine_search(robot, Tf[idx], starts=starts, seed=None if seed is None else int(seed) + 7919 * r,
+                             **settings)
+        good = again.success.copy()
+        if good.any():
+            good[good] = np.asarray(valid(again.q[good]), dtype=bool)
+        ok[idx[good]] = True
+        q[idx[good]] = again.q[good]
+        left[idx[good]] = False
+    q[~ok] = np.nan
+    return ok.reshape(shape), q.reshape(shape + (q.shape[-1],))
 
 
 # --------------------------------------------------------------------------- maps
@@ -161,20 +225,43 @@ def resolve_method(robot: Arm, method: str = "auto") -> str:
     return method
 
 
-def _exact(arms, T):
-    """Closed-form reachability of poses ``T`` (N, 4, 4) for arms (batch ``(B,)`` or one): (..., N)."""
+def _exact(arms, T, valid=None, return_q=False):
+    """Closed-form reachability of poses ``T`` (N, 4, 4) for arms (batch ``(B,)`` or one): (..., N).
+
+    ``valid`` (a configuration predicate, one arm): a pose counts only with a branch it accepts;
+    every branch is tried. ``return_q`` also returns a valid branch's ``q`` ``(..., N, n)`` (the
+    first accepted, NaN where none)."""
     cf = require_closed_form(arms)
-    if arms.batch_shape == () and not isinstance(arms, DHRobot):
-        return cf.reachable(arms, T)
-    return cf.reachable(_per_node(arms), T)
+    robot = arms if arms.batch_shape == () and not isinstance(arms, DHRobot) else _per_node(arms)
+    if valid is None and not return_q:
+        return cf.reachable(robot, T)
+    sol = cf.solve(robot, T)
+    ok = np.array(sol.success, dtype=bool)
+    q = sol.q
+    if valid is not None and ok.any():
+        # branch by branch, only where no earlier branch was accepted: a pose needs one free branch
+        found = np.zeros(ok.shape[:-1], dtype=bool)
+        for b in range(ok.shape[-1]):
+            ask = ok[..., b] & ~found
+            if ask.any():
+                ok[..., b][ask] = np.asarray(valid(q[..., b, :][ask]), dtype=bool)
+            found |= ok[..., b]
+        ok &= np.cumsum(ok, axis=-1) == 1  # the first accepted branch (later ones were not asked)
+    reach = ok.any(axis=-1)
+    if not return_q:
+        return reach
+    first = np.take_along_axis(q, ok.argmax(axis=-1)[..., None, None], axis=-2)[..., 0, :]
+    return reach, np.where(reach[..., None], first, np.nan)
 
 
-def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress, space, return_method):
+def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress, space, return_method,
+         collision=None, return_q=False):
     """Shared driver: positions (N, 3) or (1, 3), rpy (3,) or (N, 3); ``space`` (N, 3) the nodes whose
-    neighbours start the numerical search; returns (arms..., N) bool (and the method used, with
-    ``return_method``)."""
+    neighbours start the numerical search; returns (arms..., N) bool (then the solutions
+    (arms..., N, n) with ``return_q``, and the method used, with ``return_method``)."""
     if not isinstance(arms, (DHRobot, SerialChain)):
         raise TypeError(f"arms must be a DHRobot or a SerialChain, got {type(arms).__name__}")
+    valid = _predicate(arms, collision)
     method = resolve_method(arms, method)
     _check_choice("convention", convention, CONVENTIONS)
     T = target_poses(positions, rpy, convention)  # (N, 4, 4)
@@ -185,9 +272,13 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
     solver, settings = ("", {}) if method == "exact" else _numerical_settings(ik or {})
     if solver == "paper" and not isinstance(arms, DHRobot):
         raise ValueError("the paper's solver (ikine_LM) is for DHRobot arms; use solver 'search'")
+    if solver == "paper" and valid is not None:
+        raise ValueError("the paper's solver has one start and cannot look for another solution; collision= "
+                         "needs solver 'search' or 'independent'")
     nb = node_neighbours(space) if solver == "search" else None
     flat = arms if batch == () else flatten_arms(arms)
     out = np.empty((max(B, 1), N), dtype=bool)
+    q_out = np.full((max(B, 1), N, arms.n), np.nan) if return_q else None
     per_chunk = max(1, chunk_elements // max(N, 1))
     with progress_bar(progress, max(B, 1) * N, desc=f"{method} map") as update:
         if update is not None and method == "numerical":
@@ -195,27 +286,47 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
             settings["progress"] = update
             if solver != "search":
                 settings.setdefault("chunk", 2048)
-        _map_chunks(flat, batch, B, N, T, nb, method, solver, settings, per_chunk, out,
+        _map_chunks(flat, batch, B, N, T, nb, method, solver, settings, per_chunk, out, q_out, valid,
                     update if method == "exact" else None)
     out = out.reshape(batch + (N,))
-    return (out, method) if return_method else out
+    result = (out,) if not return_q else (out, q_out.reshape(batch + (N, arms.n)))
+    if return_method:
+        result += (method,)
+    return result if len(result) > 1 else out
 
 
-def _map_chunks(flat, batch, B, N, T, nb, method, solver, settings, per_chunk, out, update):
-    """Fill ``out`` (max(B, 1), N) chunk of arms by chunk of arms (``update(n)`` after each)."""
+def _map_chunks(flat, batch, B, N, T, nb, method, solver, settings, per_chunk, out, q_out, valid, update):
+    """Fill ``out`` (max(B, 1), N) and, unless ``None``, ``q_out`` (max(B, 1), N, n) chunk of arms by
+    chunk of arms (``update(n)`` after each); ``valid`` the configuration predicate or ``None``."""
+    return_q = q_out is not None
     for s in range(0, max(B, 1), per_chunk):
         sub = flat if batch == () else flat[s : s + per_chunk]
+        qq = None
         if method == "exact":
-            res = _exact(sub, T)
+            res = _exact(sub, T, valid, return_q)
+            if return_q:
+                res, qq = res
         elif solver == "paper":
-            res = ikine_LM(_per_node(sub), T, check_limits=sub.qlim is not None, **settings).success
+            sol = ikine_LM(_per_node(sub), T, check_limits=sub.qlim is not None, **settings)
+            res, qq = sol.success, sol.q
         elif solver == "search":
-            res = map_search(sub, T, nb, **settings).success  # (N,) or (arms, N)
+            sol = map_search(sub, T, nb, accept=valid, **settings)  # (N,) or (arms, N)
+            res, qq = sol.success, sol.q
+        elif valid is not None:  # one arm (checked by _predicate)
+            search = {k: v for k, v in settings.items() if k not in ("starts", "seed")}
+            res, qq = _search_free(sub, T, valid, settings.get("starts", DEFAULT_STARTS), settings.get("seed", 0),
+                                   4, search)
         elif batch == ():
-            res = ikine_search(sub, T, **settings).success  # (N,)
+            sol = ikine_search(sub, T, **settings)  # (N,)
+            res, qq = sol.success, sol.q
         else:
-            res = ikine_search(sub, T[:, None], **settings).success.T  # (N, arms) -> (arms, N)
-        out[s : s + per_chunk] = np.broadcast_to(res, (out[s : s + per_chunk].shape[0], N))
+            sol = ikine_search(sub, T[:, None], **settings)  # (N, arms) -> (arms, N)
+            res, qq = sol.success.T, np.swapaxes(sol.q, 0, 1)
+        rows = out[s : s + per_chunk].shape[0]
+        out[s : s + per_chunk] = np.broadcast_to(res, (rows, N))
+        if q_out is not None:
+            q_out[s : s + per_chunk] = np.where(out[s : s + per_chunk, :, None],
+                                                np.broadcast_to(qq, (rows, N, q_out.shape[-1])), np.nan)
         if update is not None:
             update(out[s : s + per_chunk].size)
 
@@ -231,8 +342,9 @@ def _check_nodes(name, nodes):
 
 def constant_orientation_map(arms: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0, 0.0, 0.0), method: str = "auto",
                              convention: str = "standard", *, ik: dict | None = None, chunk_elements: int = 1 << 21,
-                             progress: bool | None = None, return_method: bool = False
-                            ) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], str]:
+                             progress: bool | None = None, return_method: bool = False,
+                             collision: Callable | None = None, return_q: bool = False
+                            ) -> NDArray[np.bool_] | tuple:
     """Constant-orientation workspace ("R3"): which positions are reachable at orientation ``rpy``.
 
     Parameters
@@ -253,32 +365,41 @@ def constant_orientation_map(arms: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0,
     progress : ``True`` for a bar on stderr of the nodes settled (arms x nodes), or a callable
         ``progress(n)`` (:mod:`wsmap._progress`); numerically it moves as the search solves nodes
     return_method : also return the method used (``"exact"`` or ``"numerical"``)
+    collision : optional configuration predicate for one arm (``collision(q)``, ``q`` ``(M, n)`` →
+        bool ``(M,)``, True where acceptable), e.g. a :class:`wsmap.collision.CollisionChecker`: a
+        node counts only with a collision-free solution. The closed forms try every branch; the
+        search keeps looking where its solutions are refused (neighbours' free solutions, retries,
+        ``accept_retry`` more starts: :func:`wsmap.kinematics.ik.search.map_search`)
+    return_q : also return each node's solution ``(..., N, n)`` (NaN where unreachable), so
+        anyone can check it (forward kinematics, limits, collisions)
 
     Returns
     -------
-    bool array ``(..., N)`` in node order (and the method, with ``return_method``). Joint limits are
-    honoured when the arms carry them.
+    bool array ``(..., N)`` in node order (then the solutions, with ``return_q``, and the method, with
+    ``return_method``). Joint limits are honoured when the arms carry them.
     """
     nodes = _check_nodes("nodes", nodes)
     rpy = _triple("rpy", rpy)
-    return _map(arms, nodes, rpy, convention, method, ik, chunk_elements, progress, nodes, return_method)
+    return _map(arms, nodes, rpy, convention, method, ik, chunk_elements, progress, nodes, return_method,
+                collision, return_q)
 
 
 def orientation_map(arms: Arm, angle_nodes: ArrayLike, point: ArrayLike = (0.5, 0.5, 0.5), method: str = "auto",
                     convention: str = "standard", *, ik: dict | None = None, chunk_elements: int = 1 << 21,
-                    progress: bool | None = None, return_method: bool = False
-                   ) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], str]:
+                    progress: bool | None = None, return_method: bool = False,
+                    collision: Callable | None = None, return_q: bool = False
+                   ) -> NDArray[np.bool_] | tuple:
     """Orientation workspace ("SO3"): which orientations are reachable at the point ``point`` (m).
 
     ``angle_nodes`` (N, 3) are angles (r1, r2, r3) in radians, e.g. from :func:`angle_grid`.
     Under the paper convention the position tested is ``R·point``, so the map is really a test of
     positions on the sphere of radius ``|point|``. Other arguments as
-    :func:`constant_orientation_map`; returns bool ``(..., N)``.
+    :func:`constant_orientation_map` (``collision``, ``return_q`` too); returns bool ``(..., N)``.
     """
     angle_nodes = _check_nodes("angle nodes", angle_nodes)
     point = _triple("point", point)
     return _map(arms, point[None, :], angle_nodes, convention, method, ik, chunk_elements, progress, angle_nodes,
-                return_method)
+                return_method, collision, return_q)
 
 
 def default_grid(scope: str) -> tuple[float, float, float]:
@@ -304,7 +425,8 @@ def grid_spec(scope: str = "R3", lo: float | ArrayLike | None = None, hi: float 
 def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point: ArrayLike = (0.5, 0.5, 0.5),
              method: str = "auto", convention: str = "standard", model: PathLike | None = None,
              allow_extrapolation: bool = False, ik: Mapping[str, Any] | None = None, progress: bool = False,
-             return_method: bool = False) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], str]:
+             return_method: bool = False, collision: Callable | None = None
+             ) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], str]:
     """One call from an arm to its map on a whole grid (from :func:`grid_spec`): bool ``(N,)`` in node order.
 
     ``grid["scope"]`` is ``"R3"`` (positions at orientation ``rpy``) or ``"SO3"`` (orientations at
@@ -315,7 +437,7 @@ def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point:
     the method in :data:`MAP_PREDICTORS`) whose grid, pose convention and fixed orientation
     (R3) or point (SO3) are the ones asked for and which covers every node of the grid; otherwise
     ``ValueError`` says what differs, and arms outside the model's training range are refused unless
-    ``allow_extrapolation``.
+    ``allow_extrapolation``. ``collision`` as :func:`constant_orientation_map` (not with ``"model"``).
 
     ``progress``: ``True`` shows a bar on stderr of the nodes settled (numerically: as the search
     solves them, wave after wave), or a callable ``progress(n)`` (:mod:`wsmap._progress`).
@@ -325,6 +447,8 @@ def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point:
     scope = grid["scope"]
     _check_choice("scope", scope, SCOPES)
     if method == "model":
+        if collision is not None:
+            raise ValueError("method 'model' predicts the chain's map; collision= needs method exact or numerical")
         if model is None:
             raise ValueError("method 'model' needs a model file (--model PATH)")
         if "model" not in MAP_PREDICTORS:
@@ -340,6 +464,6 @@ def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point:
     ik = dict(ik or {})
     if scope == "R3":
         return constant_orientation_map(robot, nodes, rpy, method=method, convention=convention, ik=ik,
-                                        progress=progress, return_method=return_method)
+                                        progress=progress, return_method=return_method, collision=collision)
     return orientation_map(robot, nodes, point, method=method, convention=convention, ik=ik, progress=progress,
-                           return_method=return_method)
+                           return_method=return_method, collision=collision)

@@ -15,14 +15,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kinematics import DHRobot, SerialChain, as_chain, check_rigid, map_search, require_closed_form
+from ..kinematics import DHRobot, SerialChain, as_chain, check_rigid, map_search
 from ..kinematics.ik.search import MAP_SETTINGS
 from .grids import _check_fits, _triple, node_neighbours
-from .maps import _exact, resolve_method
+from .maps import _exact, _predicate, resolve_method
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike
+    from wsmap._typing import Arm, ArrayLike, Callable
 
 __all__ = ["Placement", "base_placement", "floor_poses", "MAX_TARGETS", "MAX_YAWS", "MAX_CANDIDATES"]
 
@@ -87,7 +87,7 @@ def floor_poses(x: ArrayLike, y: ArrayLike, yaw: ArrayLike, z0: float = 0.0) -> 
 def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.0, 1.0),
                    y: tuple[float, float] = (-1.0, 1.0), *, step: float = 0.1, yaws: int = 8, z0: float = 0.0,
                    method: str = "auto", ik: dict | None = None, seed: int = 0,
-                   progress: bool = False) -> Placement:
+                   progress: bool = False, collision: Callable | None = None) -> Placement:
     """Rank candidate base poses on the floor by the fraction of ``targets`` they reach.
 
     Parameters
@@ -99,6 +99,11 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
     z0 : height of the floor plane the base stands on (m)
     method, ik, seed : as :func:`wsmap.workspace.constant_orientation_map` (``ik`` for the numerical search)
     progress : a progress bar over the targets (on stderr)
+    collision : a configuration predicate, as :func:`wsmap.workspace.constant_orientation_map`: a
+        target counts only with a collision-free solution. It must not depend on the candidate base:
+        a :class:`wsmap.collision.CollisionChecker` with self-collision, the floor the base stands
+        on and obstacles in the base frame (carried with the base); one with obstacles in the
+        world frame is refused
 
     Returns a :class:`Placement`, best first (ties: nearer the middle of the region first, then the
     grid order). Bad input (a range with lo > hi, ``step`` <= 0, ``yaws`` < 1, targets that are not
@@ -137,6 +142,11 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
                          "target); use a larger step or a smaller region")
     _check_fits(int(total) * (len(T) * (8 * robot.n + 1) + 512),
                 f"{int(total)} candidate bases x {len(T)} targets")
+    valid = _predicate(robot, collision)
+    scene = getattr(collision, "scene", None)
+    if scene is not None and any(ob.frame == "world" for ob in scene.obstacles):
+        raise ValueError("base placement moves the base under world-frame obstacles; give the obstacles in the "
+                         "base frame (they move with each candidate) or check the chosen base afterwards")
 
     xs = np.arange(xr[0], xr[1] + step * 0.5, step)
     ys = np.arange(yr[0], yr[1] + step * 0.5, step)
@@ -163,9 +173,9 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
     for m in tqdm(range(M), unit="target", desc="base placement", disable=not progress, leave=False):
         Tm = Binv @ T[m]  # (C, 4, 4): the target in each candidate's base frame
         if method == "exact":
-            reached[:, m] = _exact(robot, Tm)
+            reached[:, m] = _exact(robot, Tm, valid)
         else:
-            res = map_search(chain, Tm, nb, seed=seed, **settings)
+            res = map_search(chain, Tm, nb, seed=seed, accept=valid, **settings)
             reached[:, m] = res.success
             qsol[:, m] = res.q
     score = reached.mean(axis=1)
@@ -174,10 +184,7 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
     best = order[0]
     if method == "exact":
         # the solutions of the best base from the closed form, for its reached targets
-        sol = require_closed_form(robot).solve(robot, Binv[best] @ T)
-        q8, valid = sol.q, sol.success
-        pick = valid.argmax(axis=1)
-        q_best = np.where(valid.any(axis=1)[:, None], q8[np.arange(M), pick], np.nan)
+        _, q_best = _exact(robot, Binv[best] @ T, valid, True)
     else:
         q_best = qsol[best]
     return Placement(poses=B[order], x=cx[order], y=cy[order], yaw=cyaw[order], score=score[order],

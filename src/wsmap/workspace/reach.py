@@ -29,12 +29,12 @@ from ..kinematics import DHRobot, SerialChain, as_chain, map_search, require_clo
 from ..kinematics.ik.search import MAP_SETTINGS
 from .._progress import check_progress, progress_bar
 from .grids import _check_fits, node_neighbours
-from .maps import _check_choice, _check_nodes, _exact, _search_settings, resolve_method, target_poses
+from .maps import _check_choice, _check_nodes, _exact, _predicate, _search_settings, resolve_method, target_poses
 from .orientations import check_rotations, continuation_order
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike, NDArray
+    from wsmap._typing import Arm, ArrayLike, Callable, NDArray
 
 __all__ = ["INDEX_SETTINGS", "position_map", "reachability_index", "dexterous_map", "manipulability_map",
            "manipulability_maps", "yoshikawa"]
@@ -104,8 +104,9 @@ def position_map(robot: Arm, nodes: ArrayLike, *, samples: int = 20000, seed: in
 
 
 def reachability_index(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, *, method: str = "auto",
-                       return_bits: bool = False, ik: dict | None = None, seed: int = 0, progress: bool = False
-                      ) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.bool_]]:
+                       return_bits: bool = False, ik: dict | None = None, seed: int = 0,
+                       progress: bool | Callable[[int], object] = False, collision: Callable | None = None,
+                       return_q: bool = False) -> NDArray[np.float64] | tuple[NDArray, ...]:
     """The reachability index: float ``(N,)`` in [0, 1], the fraction of ``orientations`` (K, 3, 3)
     reachable at each node (``T = transl(p)·R_k``); ``return_bits`` also returns the bool ``(N, K)``.
 
@@ -119,6 +120,12 @@ def reachability_index(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, *,
     (:mod:`wsmap._progress`): the ``N x K`` node-orientation pairs, orientation after orientation;
     numerically the ``N`` position-only targets of the reach map come first (``N x (K + 1)`` in all),
     and the pairs of the nodes it finds out of reach count as soon as it is done.
+
+    ``collision``: a configuration predicate (e.g. :class:`wsmap.collision.CollisionChecker`), as
+    :func:`wsmap.workspace.constant_orientation_map`: a pose counts only with a collision-free
+    solution (every closed-form branch tried; the search keeps looking). The position pre-filter
+    stays the chain's (a collision-free pose has a position the chain reaches). ``return_q``
+    also returns the solutions ``(N, K, n)`` (NaN where a pose is not reached), after the bits.
     """
     robot = _check_arm(robot)
     nodes = _check_nodes("nodes", nodes)
@@ -126,20 +133,24 @@ def reachability_index(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, *,
     N, K = len(nodes), len(R)
     method = resolve_method(robot, method)
     # the bits, and numerically every node's solution at every orientation (the continuation's starts)
-    per = 1 + (0 if method == "exact" else 8 * robot.n)
+    per = 1 + (0 if method == "exact" else 8 * robot.n) + (8 * robot.n if return_q else 0)
     _check_fits(N * K * per, f"an index of {N} nodes x {K} orientations")
     check_progress(progress)
+    valid = _predicate(robot, collision)
     total = N * K + (N if method == "numerical" else 0)
     with progress_bar(progress, total, unit="pose", desc=f"{method} index") as update:
-        bits = _index_bits(robot, nodes, R, method, ik, seed, update)
+        bits, qs = _index_bits(robot, nodes, R, method, ik, seed, update, valid, return_q)
     index = bits.mean(axis=1)
-    return (index, bits) if return_bits else index
+    out = (index,) + ((bits,) if return_bits else ()) + ((qs,) if return_q else ())
+    return out if len(out) > 1 else index
 
 
-def _index_bits(robot, nodes, R, method, ik, seed, update):
-    """The bool ``(N, K)`` of :func:`reachability_index`, ``update(n)`` called as pairs are settled."""
+def _index_bits(robot, nodes, R, method, ik, seed, update, valid, return_q):
+    """The bool ``(N, K)`` of :func:`reachability_index` and its solutions ``(N, K, n)`` (``None``
+    unless ``return_q``), ``update(n)`` called as pairs are settled."""
     N, K = len(nodes), len(R)
     bits = np.zeros((N, K), dtype=bool)
+    qs = np.full((N, K, robot.n), np.nan) if return_q else None
     update = update or (lambda n: None)
     if method == "exact":
         # blocks of orientations: ~1e6 poses per closed-form call, and about 20 updates of the bar
@@ -150,7 +161,13 @@ def _index_bits(robot, nodes, R, method, ik, seed, update):
             T[..., :3, :3] = Rk[:, None]
             T[..., :3, 3] = nodes[None]
             T[..., 3, 3] = 1.0
-            bits[:, k0 : k0 + block] = _exact(robot, T.reshape(-1, 4, 4)).reshape(len(Rk), N).T
+            if valid is None and not return_q:
+                bits[:, k0 : k0 + block] = _exact(robot, T.reshape(-1, 4, 4)).reshape(len(Rk), N).T
+            else:
+                b, qb = _exact(robot, T.reshape(-1, 4, 4), valid, True)
+                bits[:, k0 : k0 + block] = b.reshape(len(Rk), N).T
+                if return_q:
+                    qs[:, k0 : k0 + block] = np.swapaxes(qb.reshape(len(Rk), N, -1), 0, 1)
             update(len(Rk) * N)
     else:
         chain = as_chain(robot)
@@ -165,17 +182,20 @@ def _index_bits(robot, nodes, R, method, ik, seed, update):
             for k, par in zip(order, parent):
                 T = np.zeros((idx.size, 4, 4))
                 T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = R[k], nodes[idx], 1.0
-                res = map_search(chain, T, nb, q_init=None if par < 0 else sol[par], seed=seed, **settings)
+                res = map_search(chain, T, nb, q_init=None if par < 0 else sol[par], seed=seed, accept=valid,
+                                 **settings)
                 bits[idx, k] = res.success
                 sol[k][res.success] = res.q[res.success]
                 update(idx.size)
-    return bits
+            if return_q:
+                qs[idx] = np.swapaxes(sol, 0, 1)
+    return bits, qs
 
 
 def dexterous_map(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, **kw) -> np.ndarray:
     """The dexterous workspace for a set of orientations: bool ``(N,)``, every one of ``orientations``
-    is reachable at the node (:func:`reachability_index` ``== 1``; same keywords)."""
-    _, bits = reachability_index(robot, nodes, orientations, return_bits=True, **kw)
+    is reachable at the node (:func:`reachability_index` ``== 1``; same keywords but ``return_q``)."""
+    _, bits = reachability_index(robot, nodes, orientations, return_bits=True, **kw)[:2]
     return bits.all(axis=1)
 
 

@@ -66,7 +66,7 @@ from .solution import MIN_TOL, IKSolution, failure_reasons
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike
+    from wsmap._typing import Arm, ArrayLike, Callable
 
 __all__ = ["MAP_SETTINGS", "map_search", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DEFAULT_STARTS", "FK_CONFIRM_TOL",
            "ikine_search"]
@@ -277,7 +277,8 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
                q_init: ArrayLike | None = None, position_only: bool = False,
                seed_free_pass: bool = MAP_SETTINGS["seed_free_pass"], hole_retry: int = MAP_SETTINGS["hole_retry"],
                border_starts: int = MAP_SETTINGS["border_starts"],
-               progress: bool | None = None) -> IKSolution:
+               progress: Callable[[int], object] | None = None,
+               accept: Callable[[np.ndarray], np.ndarray] | None = None, accept_retry: int = 16) -> IKSolution:
     """Reachability of a map's nodes, each start of :func:`ikine_search`'s iteration, with starts taken
     from neighbouring nodes' solutions (continuation): the solution at a node is an excellent start
     at the next one, and an unreachable node costs a few failed starts instead of dozens.
@@ -312,6 +313,11 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
     progress : called with the number of targets settled as the search goes (those the reach filter
         rules out at once, those solved after each pass and wave, the rest at the end); the numbers
         add up to the number of targets
+    accept : optional configuration predicate, ``accept(q)`` with ``q`` ``(M, n)`` → bool ``(M,)``
+        (e.g. collision-free, :class:`wsmap.collision.CollisionChecker`); a converged solution it
+        rejects does not count, and its node keeps looking: neighbours' accepted solutions in the
+        waves, the retries, then ``accept_retry`` more random starts (in rounds of 4, each round
+        followed by waves) for the nodes whose solutions were all rejected, and the border search
 
     Per arm, in passes: (1) every node: ``q0`` then ``starts`` random starts (the first ones of
     :func:`ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
@@ -345,6 +351,9 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
     retry = _check_count("retry", retry, 0)
     hole_retry = _check_count("hole_retry", hole_retry, 0)
     border_starts = _check_count("border_starts", border_starts, 0)
+    accept_retry = _check_count("accept_retry", accept_retry, 0)
+    if accept is not None and not callable(accept):
+        raise TypeError(f"accept must be a configuration predicate (callable), got {type(accept).__name__}")
     ilimit = _check_count("ilimit", ilimit, 0)
     rlimit = _check_count("rlimit", rlimit, 0)
     seed, q0 = _check_settings(chain, tol, lam, confirm_tol, seed, q0)
@@ -395,6 +404,12 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
         free = (not seeded or seed_free_pass) if free is None else free
         qq, okk, it, rr, st = run_compiled(mode, aa, arm_of[idx], T[node_of[idx]], keys_node[node_of[idx]], qexp, nexp,
                                            k_first, k_last, *per_start, free_pass=free)
+        if accept is not None and okk.any():
+            hit = np.flatnonzero(okk)
+            yes = np.asarray(accept(qq[hit]), dtype=bool)
+            rejected[idx[hit[~yes]]] = True
+            okk = okk.copy()
+            okk[hit[~yes]] = False
         its[idx] += it
         better = okk | (~ok[idx] & (rr < res[idx]))
         q[idx[better]] = qq[better]
@@ -408,6 +423,7 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
             start[idx[okk]] = np.where(st[okk] < nexp[okk], 0, st[okk] - nexp[okk] + k_first)
         return int(okk.sum())
 
+    rejected = np.zeros(M, dtype=bool)  # a converged solution was refused by ``accept``
     K = nb.shape[1]
     tried = np.zeros((M, K), dtype=bool)
 
@@ -517,6 +533,17 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
             run(idx, np.zeros((idx.size, 1, n)), np.zeros(idx.size, dtype=np.int64), 1 + starts, 1 + starts + count,
                 False)
         waves()
+    if accept is not None and accept_retry:
+        # a node whose every solution so far was refused is reachable by the chain: other random
+        # starts find other solutions (branches, the self-motion of a redundant arm)
+        k0 = 1 + starts + max(retry, hole_retry)
+        for r0 in range(0, int(accept_retry), 4):
+            idx = np.flatnonzero(rejected & ~ok)
+            if not idx.size:
+                break
+            w = min(4, int(accept_retry) - r0)
+            run(idx, np.zeros((idx.size, 1, n)), np.zeros(idx.size, dtype=np.int64), k0 + r0, k0 + r0 + w, False)
+            waves()
     if border_starts and K:
         border_search(border_starts)
     report(M - reported[0])

@@ -62,6 +62,9 @@ class MapRequest:
             :func:`wsmap.workspace.grid_map`.
         progress: ``True`` for a progress bar on stderr, or a callable ``progress(n)``
             (:mod:`wsmap._progress`); every kind's function takes it.
+        collision: a configuration predicate (e.g. :class:`wsmap.collision.CollisionChecker`) for
+            kinds that take one (:attr:`MapKind.collision`): a node counts only with a
+            collision-free solution; ``None``: the chain's map.
     """
 
     method: str = "auto"
@@ -74,6 +77,7 @@ class MapRequest:
     model: str | None = None
     allow_extrapolation: bool = False
     progress: object = False
+    collision: object = None
 
     @property
     def search(self) -> dict:
@@ -117,6 +121,8 @@ class MapKind:
             tested (``T = transl(p)·R_k``), one computation; what a Reuleaux HDF5 file stores
             (:func:`wsmap.workspace.save_reuleaux`, ``wsmap map --h5``). ``None``: the kind's values
             are not reachability at a set of orientations, so it does not export.
+        collision: the kind's ``compute`` honours :attr:`MapRequest.collision` (self-collision and
+            obstacles, ``wsmap map --collision/--scene``).
     """
 
     name: str
@@ -136,6 +142,7 @@ class MapKind:
     levels: Callable = _boolean_levels
     value_range: tuple = (None, None)
     poses: Callable | None = None
+    collision: bool = False
 
     def __post_init__(self):
         where = f"map kind {self.name!r}"
@@ -194,7 +201,7 @@ def paper_map_kind(name: str, scope: str, fixed: str, function: Callable, descri
     def compute(robot, grid, request):
         return grid_map(robot, grid, method=request.method, convention=request.convention, model=request.model,
                         allow_extrapolation=request.allow_extrapolation, ik=request.ik, progress=request.progress,
-                        **{fixed: getattr(request, fixed)})
+                        collision=request.collision, **{fixed: getattr(request, fixed)})
 
     def poses(robot, grid, request):
         # one orientation: the map is its own column of bits; a pose is T = transl(p)·R only in the
@@ -209,7 +216,7 @@ def paper_map_kind(name: str, scope: str, fixed: str, function: Callable, descri
 
     return MapKind(name=name, scope=scope, value_type=bool, compute=compute, function=function,
                    description=description, inputs=(fixed, "convention"), methods=METHODS, paper_solver=True,
-                   batch=True, poses=poses if scope == "R3" else None)
+                   batch=True, poses=poses if scope == "R3" else None, collision=True)
 
 
 def orientation_set_kind(name: str, value_type: type, function: Callable, description: str,
@@ -223,17 +230,17 @@ def orientation_set_kind(name: str, value_type: type, function: Callable, descri
 
     def compute(robot, grid, request):
         return function(robot, grid_positions(grid), request.orientations, method=request.method,
-                        ik=request.search, seed=request.seed, progress=request.progress)
+                        ik=request.search, seed=request.seed, progress=request.progress, collision=request.collision)
 
     def poses(robot, grid, request):
         _, bits = reachability_index(robot, grid_positions(grid), request.orientations, method=request.method,
                                      ik=request.search, seed=request.seed, progress=request.progress,
-                                     return_bits=True)
+                                     collision=request.collision, return_bits=True)
         return from_bits(bits), bits, np.asarray(request.orientations, dtype=np.float64)
 
     return MapKind(name=name, scope="R3", value_type=value_type, compute=compute, function=function,
                    description=description, inputs=("orientations",), search_settings=INDEX_SETTINGS,
-                   convention="standard", poses=poses, **fields)
+                   convention="standard", poses=poses, collision=True, **fields)
 
 
 _REGISTRY: dict[str, MapKind] = {}

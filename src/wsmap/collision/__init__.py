@@ -1,0 +1,47 @@
+"""Maps a robot can use: self-collision and obstacles from the arm's own collision geometry.
+
+* :mod:`.geometry` — the collision model of an arm: shapes on the bodies of its chain, from a
+  URDF's ``<collision>`` elements (:func:`from_urdf_collision`), capsules (:func:`capsule_model`,
+  :func:`capsules_along_links` for a DH arm with link radii);
+* :mod:`.named` — capsule models of the named arms (:func:`arm_model`: panda, ur5e, iiwa14);
+* :mod:`.acm` — the allowed-collision matrix (:func:`build_acm`, as MoveIt's setup assistant);
+* :mod:`.scene` — obstacles: the floor, boxes, cylinders, spheres, meshes (:class:`Scene`,
+  :func:`load_scene` from YAML/JSON);
+* :mod:`.checks` — :class:`CollisionChecker`, a configuration predicate (a batch of ``q`` → bool
+  free): spheres first, coal's exact test where they say "maybe".
+
+The maps take the checker as ``collision=`` (:func:`wsmap.workspace.constant_orientation_map`,
+:func:`wsmap.reachable`, :func:`wsmap.workspace.reachability_index`): a node counts only with a
+joint solution inside the limits, confirmed by forward kinematics and collision-free.
+"""
+
+from .acm import ACM, DEFAULT_SAMPLES, REASONS, build_acm
+from .checks import CheckStats, CollisionChecker, bounding_spheres, exact_pairs
+from .geometry import (SHAPES, CollisionError, CollisionModel, Link, Shape, body_frames, capsule_model,
+                       capsules_along_links, from_urdf_collision, read_mesh)
+from .named import ARM_MODELS, arm_model
+from .scene import Obstacle, Scene, load_scene, scene_from_dict
+
+__all__ = ["ACM", "DEFAULT_SAMPLES", "REASONS", "build_acm", "CheckStats", "CollisionChecker", "bounding_spheres",
+           "exact_pairs", "SHAPES", "CollisionError", "CollisionModel", "Link", "Shape", "body_frames",
+           "capsule_model", "capsules_along_links", "from_urdf_collision", "read_mesh", "ARM_MODELS", "arm_model",
+           "Obstacle", "Scene", "load_scene", "scene_from_dict", "checker_for"]
+
+
+def checker_for(robot_name_or_model, scene=None, *, link_radius=None, **acm_settings) -> CollisionChecker:
+    """A :class:`CollisionChecker` for a named arm (its capsule model), a :class:`CollisionModel`, or
+    any arm with ``link_radius`` (m; one or one per body: capsules along its links,
+    :func:`capsules_along_links`), with ``scene`` (default: the model's floor) and the matrix built
+    with ``acm_settings`` (:func:`build_acm`: ``samples``, ``seed``, ``disable``)."""
+    if link_radius is not None:
+        model = capsules_along_links(robot_name_or_model, link_radius)
+    elif isinstance(robot_name_or_model, CollisionModel):
+        model = robot_name_or_model
+    elif isinstance(robot_name_or_model, str):
+        model = arm_model(robot_name_or_model)
+    else:
+        raise CollisionError(f"{getattr(robot_name_or_model, 'name', None) or 'this arm'} has no collision model: "
+                             "give a named arm, a CollisionModel, or link_radius=")
+    if acm_settings or model.acm is None:
+        model.acm = build_acm(model, **acm_settings)
+    return CollisionChecker(model, scene)

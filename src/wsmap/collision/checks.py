@@ -1,0 +1,509 @@
+"""Collision checks of configurations: a fast conservative layer of spheres, then coal's exact test.
+
+**The exact check** (:func:`exact_pairs`, :meth:`CollisionChecker.exact`) asks coal (the successor
+of hpp-fcl) whether two shapes intersect: boxes, cylinders, spheres and capsules as coal's
+primitives, meshes as their convex hulls (:mod:`wsmap.collision.geometry`), the floor as the
+half-space ``z <= floor``. Touching counts as a collision.
+
+**Capsules in numpy**: a pair of links made of capsules and spheres only (the named arms' models),
+and such a link against the floor, is decided exactly by segment distances
+(:func:`segment_distance`), vectorised over configurations; coal agrees (tests).
+
+**The fast layer**: every other shape is enclosed in a few spheres (:func:`bounding_spheres`; each
+sphere contains its piece of the shape, together they contain all of it), carried by the shape's
+body. For a batch of configurations the sphere centres are one array product, and a link pair
+(or a link and an obstacle) whose spheres are all apart is free without asking coal. The exact
+check decides only the pairs the spheres call "maybe".
+
+**Guarantee**: a configuration :class:`CollisionChecker` calls free is free for the exact check
+on every pair it checks (enabled by the allowed-collision matrix, and moving links against the
+scene): the spheres contain the shapes, so apart spheres mean apart shapes, and every other pair
+goes to coal. The tests check this on random samples against :meth:`CollisionChecker.exact`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import CollisionModel, Shape, body_frames
+from .scene import Scene
+
+__all__ = ["bounding_spheres", "coal_shape", "exact_pairs", "CollisionChecker", "CheckStats"]
+
+
+# ------------------------------------------------------------------------------------ sphere layer
+def _hull_slab_points(hull_v, edges, axis, lo, hi):
+    """Points whose convex hull is the part of a convex polytope (vertices ``hull_v``, edges
+    ``edges``) between the planes ``axis·x = lo`` and ``hi``: its vertices there and its edges'
+    crossings of the two planes."""
+    s = hull_v @ axis
+    pts = [hull_v[(s >= lo) & (s <= hi)]]
+    a, b = s[edges[:, 0]], s[edges[:, 1]]
+    for plane in (lo, hi):
+        cross = (a - plane) * (b - plane) < 0
+        if cross.any():
+            t = (plane - a[cross]) / (b[cross] - a[cross])
+            va, vb = hull_v[edges[cross, 0]], hull_v[edges[cross, 1]]
+            pts.append(va + t[:, None] * (vb - va))
+    return np.concatenate(pts)
+
+
+def bounding_spheres(shape: Shape, max_spheres: int = 6) -> tuple[np.ndarray, np.ndarray]:
+    """``(centres (m, 3), radii (m,))`` in the shape's own frame (m), whose union contains the shape
+    (its convex hull for a mesh): the shape is cut along its longest axis into ``m <= max_spheres``
+    pieces, each enclosed by one sphere."""
+    k, size = shape.kind, shape.size
+    if k == "sphere":
+        return np.zeros((1, 3)), np.array([size[0]])
+    if k == "box":
+        dims = np.array(size)
+        a = int(np.argmax(dims))
+        rest = np.delete(dims, a)
+        m = int(np.clip(np.ceil(dims[a] / max(rest.max(), 1e-9)), 1, max_spheres))
+        piece = dims.copy()
+        piece[a] = dims[a] / m
+        c = np.zeros((m, 3))
+        c[:, a] = -dims[a] / 2 + piece[a] * (np.arange(m) + 0.5)
+        return c, np.full(m, 0.5 * np.linalg.norm(piece))
+    if k == "cylinder":
+        r, L = size
+        m = int(np.clip(np.ceil(L / (2 * r)), 1, max_spheres))
+        c = np.zeros((m, 3))
+        c[:, 2] = -L / 2 + L / m * (np.arange(m) + 0.5)
+        return c, np.full(m, np.hypot(r, L / (2 * m)))
+    if k == "capsule":
+        r, L = size
+        m = int(np.clip(np.ceil(L / r), 1, max_spheres - 1)) if L > 0 else 0
+        # spheres on the segment, spacing s: a point within r of the segment is within
+        # hypot(r, s/2) of the nearest centre
+        c = np.zeros((m + 1, 3))
+        c[:, 2] = np.linspace(-L / 2, L / 2, m + 1)
+        return c, np.full(m + 1, np.hypot(r, L / (2 * m)) if m else r)
+    import trimesh
+
+    hull = trimesh.Trimesh(shape.vertices, shape.faces, process=False).convex_hull
+    v, edges = np.asarray(hull.vertices), np.asarray(hull.edges_unique)
+    centred = v - v.mean(axis=0)
+    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
+    axis = vt[0]
+    s = v @ axis
+    lo, hi = s.min(), s.max()
+    width = 2 * np.sqrt(np.max(np.sum((centred - np.outer(centred @ axis, axis)) ** 2, axis=1)))
+    m = int(np.clip(np.ceil((hi - lo) / max(width, 1e-9)), 1, max_spheres))
+    cuts = np.linspace(lo, hi, m + 1)
+    centres, radii = [], []
+    for i in range(m):
+        p = _hull_slab_points(v, edges, axis, cuts[i], cuts[i + 1])
+        c = (p.min(axis=0) + p.max(axis=0)) / 2
+        centres.append(c)
+        radii.append(np.sqrt(np.max(np.sum((p - c) ** 2, axis=1))) * (1 + 1e-9) + 1e-12)
+    return np.array(centres), np.array(radii)
+
+
+# ------------------------------------------------------------------------------------ coal
+def coal_shape(shape: Shape):
+    """The coal collision geometry of ``shape`` (a mesh as its convex hull)."""
+    import coal
+
+    k, s = shape.kind, shape.size
+    if k == "box":
+        return coal.Box(*s)
+    if k == "cylinder":
+        return coal.Cylinder(s[0], s[1])
+    if k == "sphere":
+        return coal.Sphere(s[0])
+    if k == "capsule":
+        return coal.Capsule(s[0], s[1])
+    pts = coal.StdVec_Vec3s()
+    pts.extend([np.ascontiguousarray(p, dtype=np.float64) for p in shape.vertices])
+    return coal.Convex.convexHull(pts, False, None)
+
+
+def _tf(T):
+    import coal
+
+    return coal.Transform3s(np.ascontiguousarray(T[:3, :3]), np.ascontiguousarray(T[:3, 3]))
+
+
+def _collide(g1, T1, g2, T2) -> bool:
+    import coal
+
+    req = coal.CollisionRequest()
+    res = coal.CollisionResult()
+    return coal.collide(g1, _tf(T1), g2, _tf(T2), req, res) > 0
+
+
+@dataclass
+class CheckStats:
+    """What a checker has done: configurations checked, those decided by the spheres alone, exact
+    pair tests (coal calls) and the seconds spent in them."""
+
+    configurations: int = 0
+    decided_fast: int = 0
+    exact_tests: int = 0
+    exact_seconds: float = 0.0
+    seconds: float = 0.0
+
+    @property
+    def fast_fraction(self) -> float:
+        return self.decided_fast / self.configurations if self.configurations else float("nan")
+
+
+def segment_distance(p0, p1, q0, q1) -> np.ndarray:
+    """Distance between the segments ``p0``-``p1`` and ``q0``-``q1`` (arrays ``(..., 3)``, m):
+    Ericson's closest points of two segments (Real-Time Collision Detection, 5.1.9), vectorised,
+    a point (zero-length segment) included."""
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a = np.einsum("...i,...i", d1, d1)
+    e = np.einsum("...i,...i", d2, d2)
+    f = np.einsum("...i,...i", d2, r)
+    c = np.einsum("...i,...i", d1, r)
+    b = np.einsum("...i,...i", d1, d2)
+    eps = 1e-18
+    denom = a * e - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(denom > eps * np.maximum(a * e, eps), np.clip((b * f - c * e) / denom, 0.0, 1.0), 0.0)
+        t = np.where(e > eps, (b * s + f) / e, 0.0)
+        s = np.where(t < 0.0, np.where(a > eps, np.clip(-c / a, 0.0, 1.0), 0.0),
+                     np.where(t > 1.0, np.where(a > eps, np.clip((b - c) / a, 0.0, 1.0), 0.0), s))
+    t = np.clip(t, 0.0, 1.0)
+    return np.linalg.norm(p0 + s[..., None] * d1 - q0 - t[..., None] * d2, axis=-1)
+
+
+class _Layer:
+    """Spheres and coal geometries of a model's links (body frame) and of a scene (world frame)."""
+
+    def __init__(self, model: CollisionModel, scene: Scene | None):
+        self.model = model
+        cs, rs, body, link, shape_of = [], [], [], [], []
+        self.geoms, self.shape_body, self.shape_origin, self.shape_link = [], [], [], []
+        self.link_shapes: list[list[int]] = []
+        self.caps: dict[int, tuple] = {}  # shape -> (p0, p1, radius) in the body frame: exact tests in numpy
+        for li, lk in enumerate(model.links):
+            ids = []
+            for s in lk.shapes:
+                si = len(self.geoms)
+                ids.append(si)
+                self.geoms.append(coal_shape(s))
+                self.shape_body.append(lk.body)
+                self.shape_origin.append(s.origin)
+                self.shape_link.append(li)
+                if s.kind in ("capsule", "sphere"):
+                    half = s.size[1] / 2 if s.kind == "capsule" else 0.0
+                    ends = s.origin[:3, :3] @ np.array([[0, 0, -half], [0, 0, half]]).T + s.origin[:3, 3:4]
+                    self.caps[si] = (ends[:, 0], ends[:, 1], s.size[0])
+                c, r = bounding_spheres(s)
+                cs.append(c @ s.origin[:3, :3].T + s.origin[:3, 3])
+                rs.append(r)
+                body += [lk.body] * len(r)
+                link += [li] * len(r)
+                shape_of += [si] * len(r)
+            self.link_shapes.append(ids)
+        self.analytic = np.array([all(si in self.caps for si in ids) for ids in self.link_shapes], dtype=bool)
+        self.centres = np.concatenate(cs)  # (S, 3) body frame
+        self.radii = np.concatenate(rs)
+        self.sphere_body = np.array(body, dtype=np.int64)
+        self.sphere_link = np.array(link, dtype=np.int64)
+        self.shape_body = np.array(self.shape_body, dtype=np.int64)
+        self.shape_origin = np.stack(self.shape_origin)
+        base = model.chain.base
+        self.scene = scene or Scene()
+        self.obs_geoms, self.obs_pose, self.obs_spheres = [], [], []
+        for ob in self.scene.obstacles:
+            P = ob.pose(base)
+            self.obs_geoms.append(coal_shape(ob.shape))
+            self.obs_pose.append(P)
+            c, r = bounding_spheres(ob.shape)
+            self.obs_spheres.append((c @ P[:3, :3].T + P[:3, 3], r))
+        if self.scene.floor is not None:
+            import coal
+
+            self.floor_geom = coal.Halfspace(np.array([0.0, 0.0, 1.0]), float(self.scene.floor))
+
+    def world_spheres(self, B):
+        """Sphere centres ``(C, S, 3)`` in the world for body frames ``B`` ``(C, n + 1, 4, 4)``."""
+        Bs = B[:, self.sphere_body]
+        return (Bs[..., :3, :3] @ self.centres[:, :, None])[..., 0] + Bs[..., :3, 3]
+
+    def shape_pose(self, B, si):
+        return B[self.shape_body[si]] @ self.shape_origin[si]
+
+
+def _obstacle_maybe(kind, size, P, centres, radii):
+    """``(C, S)`` bool: the sphere may touch an obstacle of ``kind``/``size`` at pose ``P``: the exact
+    point-to-solid distance for a box, a cylinder and a sphere, compared with the radius."""
+    local = (centres - P[:3, 3]) @ P[:3, :3]
+    if kind == "box":
+        d = np.linalg.norm(np.maximum(np.abs(local) - np.array(size) / 2, 0.0), axis=-1)
+    elif kind == "cylinder":
+        rr = np.maximum(np.hypot(local[..., 0], local[..., 1]) - size[0], 0.0)
+        d = np.hypot(rr, np.maximum(np.abs(local[..., 2]) - size[1] / 2, 0.0))
+    elif kind == "sphere":
+        d = np.maximum(np.linalg.norm(local, axis=-1) - size[0], 0.0)
+    elif kind == "capsule":
+        z = np.clip(local[..., 2], -size[1] / 2, size[1] / 2)
+        d = np.maximum(np.linalg.norm(local - np.stack([0 * z, 0 * z, z], -1), axis=-1) - size[0], 0.0)
+    else:
+        return None
+    return d <= radii + 1e-12
+
+
+class CollisionChecker:
+    """Which configurations of an arm are collision-free: a configuration predicate.
+
+    Parameters
+    ----------
+    model : CollisionModel
+        The arm's geometry; its allowed-collision matrix (``model.acm``, or ``acm``; see
+        :func:`wsmap.collision.acm.build_acm`) says which link pairs count.
+    scene : Scene, optional
+        Obstacles (:mod:`wsmap.collision.scene`); default: the floor ``z = 0`` when the model stands
+        on it (``model.floor``), else nothing.
+    self_collision : bool
+        Check the enabled link pairs (default); False checks the scene alone.
+
+    ``checker(q)`` with ``q`` ``(C, n)`` (rad / m) returns bool ``(C,)``, True where collision-free
+    (the guarantee in the module notes); :attr:`stats` counts the work. The same instance can be
+    given to every map (``collision=``).
+    """
+
+    def __init__(self, model: CollisionModel, scene: Scene | None = None, *, acm=None, self_collision: bool = True,
+                 pairs=None):
+        if not isinstance(model, CollisionModel):
+            raise TypeError(f"model must be a CollisionModel, got {type(model).__name__}")
+        if scene is None:
+            scene = Scene(floor=0.0) if model.floor else Scene()
+        if not isinstance(scene, Scene):
+            raise TypeError(f"scene must be a Scene, got {type(scene).__name__}")
+        self.model = model
+        self.scene = scene
+        self.acm = model.acm if acm is None else acm
+        if self.acm is None and pairs is None and self_collision:
+            raise ValueError("the collision model has no allowed-collision matrix: model.acm = "
+                             "wsmap.collision.build_acm(model) first (or wsmap.collision.checker_for)")
+        self.self_collision = bool(self_collision)
+        self.layer = _Layer(model, scene)
+        self._set_pairs(pairs if pairs is not None else self.acm.enabled_pairs() if self_collision else [])
+        self.stats = CheckStats()
+        # a moving link that touches an obstacle (the floor) at the default configuration stands
+        # on it, as the base does (a turntable on the floor): that pair is allowed, as the
+        # matrix's "default" pairs (MoveIt's matrix covers world objects the same way)
+        chain = model.chain
+        q0 = np.clip(np.zeros(chain.n), chain.limits[:, 0], chain.limits[:, 1])
+        B0 = body_frames(chain, q0[None])[0]
+        nob = len(scene.obstacles) + (scene.floor is not None)
+        self.scene_allowed = np.array([[self._scene_collides(B0, li, k) for k in range(nob)] for li in self.moving],
+                                      dtype=bool).reshape(len(self.moving), nob)
+        self.stats = CheckStats()
+
+    def _set_pairs(self, pairs):
+        """The link pairs checked, ``(P, 2)`` link indices, and their sphere pairs."""
+        self.pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+        L = self.layer
+        cat = (lambda x: np.concatenate(x) if x else np.zeros(0, dtype=np.int64))
+        # pairs of capsules and spheres only are decided exactly in numpy (segment distances);
+        # the others by the spheres, then coal
+        an = np.array([L.analytic[i] and L.analytic[j] for i, j in self.pairs], dtype=bool).reshape(-1)
+        self._an, self._non = np.flatnonzero(an), np.flatnonzero(~an)
+        sa, sb, pid = [], [], []
+        for p, (i, j) in enumerate(self.pairs[self._non]):
+            A, Bm = np.meshgrid(np.flatnonzero(L.sphere_link == i), np.flatnonzero(L.sphere_link == j), indexing="ij")
+            sa.append(A.ravel())
+            sb.append(Bm.ravel())
+            pid.append(np.full(A.size, p))
+        self._sa, self._sb, self._pid = cat(sa), cat(sb), cat(pid)
+        self._first = np.searchsorted(self._pid, np.arange(len(self._non)))  # every pair has spheres
+        ca, cb, cid = [], [], []
+        for p, (i, j) in enumerate(self.pairs[self._an]):
+            A, Bm = np.meshgrid(L.link_shapes[i], L.link_shapes[j], indexing="ij")
+            ca.append(A.ravel())
+            cb.append(Bm.ravel())
+            cid.append(np.full(A.size, p))
+        self._ca, self._cb, cid = cat(ca), cat(cb), cat(cid)
+        self._cfirst = np.searchsorted(cid, np.arange(len(self._an)))
+        self.moving = np.flatnonzero([lk.body > 0 for lk in self.model.links])
+
+    @property
+    def n(self) -> int:
+        return self.model.chain.n
+
+    def describe(self) -> dict:
+        """A JSON-able record for map files: the geometry, the matrix, the scene (with the links
+        allowed to touch an obstacle, those touching it at the default configuration)."""
+        names = self.model.names
+        obs = [o.name for o in self.scene.obstacles] + (["floor"] if self.scene.floor is not None else [])
+        standing = [[names[self.moving[m]], obs[k]] for m, k in zip(*np.nonzero(self.scene_allowed))]
+        return {"geometry": self.model.describe(), "acm": None if self.acm is None else self.acm.describe(),
+                "scene": {**self.scene.describe(), "allowed": standing}, "self_collision": self.self_collision}
+
+    # -------------------------------------------------------------------------------- fast layer
+    def _maybe(self, B):
+        """``(C, P)`` maybe per enabled link pair and ``(C, L_moving, O)`` per link and obstacle
+        (the floor last), from the spheres."""
+        L = self.layer
+        c = L.world_spheres(B)
+        r = L.radii
+        C = c.shape[0]
+        pair = np.zeros((C, len(self.pairs)), dtype=bool)
+        if len(self._sa):
+            d = np.linalg.norm(c[:, self._sa] - c[:, self._sb], axis=-1)
+            hit = d <= r[self._sa] + r[self._sb] + 1e-12
+            # any over each pair's sphere pairs (contiguous, in pair order)
+            pair[:, self._non] = np.logical_or.reduceat(hit, self._first, axis=1)
+        obs = self.scene.obstacles
+        nob = len(obs) + (self.scene.floor is not None)
+        scene = np.zeros((C, len(self.moving), nob), dtype=bool)
+        if nob:
+            for mi, li in enumerate(self.moving):
+                s = np.flatnonzero(L.sphere_link == li)
+                cs, rs = c[:, s], r[s]
+                for k, ob in enumerate(obs):
+                    m = _obstacle_maybe(ob.shape.kind, ob.shape.size, L.obs_pose[k], cs, rs)
+                    if m is None:  # a mesh: its own spheres
+                        oc, orad = L.obs_spheres[k]
+                        m = np.linalg.norm(cs[:, :, None] - oc[None, None], axis=-1) <= rs[:, None] + orad + 1e-12
+                        m = m.any(axis=-1)
+                    scene[:, mi, k] = m.any(axis=-1)
+                if self.scene.floor is not None and not L.analytic[li]:
+                    scene[:, mi, -1] = np.any(cs[..., 2] - rs <= self.scene.floor + 1e-12, axis=-1)
+        return pair, scene & ~self.scene_allowed
+
+    def _analytic(self, B, per_pair: bool = False) -> np.ndarray:
+        """``(C,)`` True where a capsule pair (or a capsule link and the floor) collides, exactly;
+        ``per_pair``: ``(C, P)`` for the checked pairs instead (False for the others), no floor."""
+        L = self.layer
+        C = B.shape[0]
+        out = np.zeros(C, dtype=bool)
+        pairs = np.zeros((C, len(self.pairs)), dtype=bool)
+        if not L.caps:
+            return pairs if per_pair else out
+        ids = np.array(sorted(L.caps))
+        where = {si: k for k, si in enumerate(ids)}
+        body = L.shape_body[ids]
+        p0 = np.stack([L.caps[si][0] for si in ids])
+        p1 = np.stack([L.caps[si][1] for si in ids])
+        rad = np.array([L.caps[si][2] for si in ids])
+        Bk = B[:, body]  # (C, K, 4, 4); one advanced index, so the axes stay in place
+        R, t = Bk[..., :3, :3], Bk[..., :3, 3]
+        w0 = (R @ p0[:, :, None])[..., 0] + t  # (C, K, 3) world ends
+        w1 = (R @ p1[:, :, None])[..., 0] + t
+        if len(self._ca):
+            a = np.array([where[x] for x in self._ca])
+            b = np.array([where[x] for x in self._cb])
+            d = segment_distance(w0[:, a], w1[:, a], w0[:, b], w1[:, b])
+            pairs[:, self._an] = np.logical_or.reduceat(d <= rad[a] + rad[b], self._cfirst, axis=1)
+            out |= pairs.any(axis=1)
+        if per_pair:
+            return pairs
+        if self.scene.floor is not None:
+            nob = self.scene_allowed.shape[1]
+            for mi, li in enumerate(self.moving):
+                if L.analytic[li] and not self.scene_allowed[mi, nob - 1]:
+                    k = np.array([where[x] for x in L.link_shapes[li]])
+                    low = np.minimum(w0[:, k, 2], w1[:, k, 2]) - rad[k]
+                    out |= (low <= self.scene.floor).any(axis=1)
+        return out
+
+    # -------------------------------------------------------------------------------- exact
+    def _pair_collides(self, B, i, j) -> bool:
+        L = self.layer
+        for si in L.link_shapes[i]:
+            Ti = L.shape_pose(B, si)
+            for sj in L.link_shapes[j]:
+                self.stats.exact_tests += 1
+                if _collide(L.geoms[si], Ti, L.geoms[sj], L.shape_pose(B, sj)):
+                    return True
+        return False
+
+    def _scene_collides(self, B, li, k) -> bool:
+        L = self.layer
+        floor = k == len(self.scene.obstacles)
+        for si in L.link_shapes[li]:
+            self.stats.exact_tests += 1
+            Ti = L.shape_pose(B, si)
+            if floor:
+                hit = _collide(L.geoms[si], Ti, L.floor_geom, np.eye(4))
+            else:
+                hit = _collide(L.geoms[si], Ti, L.obs_geoms[k], L.obs_pose[k])
+            if hit:
+                return True
+        return False
+
+    def _q(self, q) -> np.ndarray:
+        q = np.asarray(q, dtype=np.float64)
+        if q.ndim != 2 or q.shape[1] != self.n:
+            raise ValueError(f"configurations must have shape (C, {self.n}), got {q.shape}")
+        if not np.all(np.isfinite(q)):
+            raise ValueError("configurations contain NaN or infinite values")
+        return q
+
+    def __call__(self, q) -> np.ndarray:
+        """Collision-free, bool ``(C,)``, for configurations ``q`` ``(C, n)``: spheres, then coal."""
+        t0 = time.perf_counter()
+        q = self._q(q)
+        free = np.ones(len(q), dtype=bool)
+        for s0 in range(0, len(q), 2048):
+            B = body_frames(self.model.chain, q[s0 : s0 + 2048])
+            hit = self._analytic(B)
+            free[s0 : s0 + len(B)] = ~hit
+            pair, scene = self._maybe(B)
+            need = ~hit & (pair.any(axis=1) | scene.any(axis=(1, 2)))
+            self.stats.decided_fast += int((~need).sum())
+            te = time.perf_counter()
+            for c in np.flatnonzero(need):
+                hit = any(self._pair_collides(B[c], *self.pairs[p]) for p in np.flatnonzero(pair[c]))
+                if not hit:
+                    mi, k = np.nonzero(scene[c])
+                    hit = any(self._scene_collides(B[c], self.moving[a], b) for a, b in zip(mi, k))
+                free[s0 + c] = not hit
+            self.stats.exact_seconds += time.perf_counter() - te
+        self.stats.configurations += len(q)
+        self.stats.seconds += time.perf_counter() - t0
+        return free
+
+    free = __call__
+
+    def exact(self, q) -> np.ndarray:
+        """Collision-free by coal alone (every enabled pair and scene pair, no spheres): bool ``(C,)``;
+        the reference the fast layer is tested against."""
+        q = self._q(q)
+        B = body_frames(self.model.chain, q)
+        nob = len(self.scene.obstacles) + (self.scene.floor is not None)
+        out = np.ones(len(q), dtype=bool)
+        for c in range(len(q)):
+            hit = any(self._pair_collides(B[c], i, j) for i, j in self.pairs)
+            if not hit:
+                hit = any(self._scene_collides(B[c], li, k) for m, li in enumerate(self.moving) for k in range(nob)
+                          if not self.scene_allowed[m, k])
+            out[c] = not hit
+        return out
+
+    def colliding(self, q) -> list[tuple[str, str]]:
+        """The colliding pairs of one configuration ``q`` ``(n,)`` by coal alone: link names, an
+        obstacle's name or ``"floor"`` for the scene."""
+        B = body_frames(self.model.chain, self._q(np.asarray(q, dtype=np.float64)[None]))[0]
+        names = self.model.names
+        out = [(names[i], names[j]) for i, j in self.pairs if self._pair_collides(B, i, j)]
+        obs = [o.name for o in self.scene.obstacles] + (["floor"] if self.scene.floor is not None else [])
+        out += [(names[li], obs[k]) for m, li in enumerate(self.moving) for k in range(len(obs))
+                if not self.scene_allowed[m, k] and self._scene_collides(B, li, k)]
+        return out
+
+
+def exact_pairs(model: CollisionModel, pairs, q) -> np.ndarray:
+    """Whether each link pair ``pairs`` ``(P, 2)`` (link indices) collides, by coal, for each
+    configuration ``q`` ``(C, n)``: bool ``(C, P)``; the spheres skip pairs that are surely apart.
+    The allowed-collision matrix is built with it (:func:`wsmap.collision.acm.build_acm`)."""
+    chk = CollisionChecker(model, Scene(), pairs=np.asarray(pairs, dtype=np.int64).reshape(-1, 2))
+    q = chk._q(q)
+    out = np.zeros((len(q), len(chk.pairs)), dtype=bool)
+    for s0 in range(0, len(q), 2048):
+        B = body_frames(model.chain, q[s0 : s0 + 2048])
+        maybe, _ = chk._maybe(B)
+        out[s0 : s0 + len(B)] = chk._analytic(B, per_pair=True)
+        for c, p in zip(*np.nonzero(maybe)):
+            out[s0 + c, p] = chk._pair_collides(B[c], *chk.pairs[p])
+    return out

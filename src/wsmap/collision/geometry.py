@@ -1,0 +1,427 @@
+"""Collision geometry of an arm: shapes attached to the rigid bodies of its serial chain.
+
+A chain of ``n`` joints (:class:`wsmap.kinematics.SerialChain`) has ``n + 1`` rigid *bodies*: body
+0 is the base (it never moves), body ``k`` moves with joint ``k``. Body ``k``'s frame, in the world,
+is ``B_k(q) = base · F_0 · M_1(q_1) · F_1 ··· M_k(q_k)`` (the chain's notation): for a chain read
+from a URDF it is the URDF frame of the child link of the ``k``-th movable joint, body 0's the
+base link's. A *link* of the model is a named set of shapes, each with its pose in its body's
+frame; several links can ride on one body (a URDF link fixed to another, a hand on the flange).
+
+Shapes (metres; each centred on its own frame, axis ``z`` for a cylinder and a capsule, as URDF):
+
+* ``box``: ``size = (x, y, z)`` full edge lengths;
+* ``cylinder``, ``capsule``: ``size = (radius, length)`` (the capsule's length between the centres
+  of its two end spheres, as URDF's ``<capsule>`` and coal);
+* ``sphere``: ``size = (radius,)``;
+* ``mesh``: ``vertices`` ``(V, 3)`` (scaled, in the shape's frame) and ``faces``; the exact checks
+  use its convex hull (as PyBullet and MuJoCo do), which contains the mesh, so a configuration
+  free for the hull is free for the mesh.
+
+Sources: :func:`from_urdf_collision` (the URDF's ``<collision>`` elements, meshes read by trimesh:
+STL, OBJ, DAE, PLY), :func:`capsule_model` (capsules given per body, e.g. a named arm's model
+from its dimension drawing, :mod:`wsmap.collision.named`) and :func:`capsules_along_links` (a DH
+arm with link radii).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..kinematics.chain import PRISMATIC, SerialChain, _motion, as_chain
+from ..kinematics.urdf import _parse_xml, _read, _Tree, from_urdf
+
+__all__ = ["SHAPES", "CollisionError", "Shape", "Link", "CollisionModel", "body_frames", "from_urdf_collision",
+           "capsule_model", "capsules_along_links", "read_mesh"]
+
+#: Shape kinds (see the module notes).
+SHAPES = ("box", "cylinder", "sphere", "capsule", "mesh")
+_SIZES = {"box": 3, "cylinder": 2, "sphere": 1, "capsule": 2, "mesh": 0}
+
+
+class CollisionError(ValueError):
+    """Collision geometry, an allowed-collision matrix or a scene that cannot be used; the message
+    names the file (or the object) and what is wrong."""
+
+
+@dataclass(frozen=True, eq=False)
+class Shape:
+    """One collision shape: ``kind`` of :data:`SHAPES`, ``size`` (metres, see the module notes),
+    ``origin`` (4, 4) its pose in its body's frame, ``vertices``/``faces`` for a mesh, ``source``
+    (the mesh file, or ``""``)."""
+
+    kind: str
+    size: tuple
+    origin: np.ndarray
+    vertices: np.ndarray | None = None
+    faces: np.ndarray | None = None
+    source: str = ""
+
+    def __post_init__(self):
+        if self.kind not in SHAPES:
+            raise CollisionError(f"unknown shape {self.kind!r}; shapes are {', '.join(SHAPES)}")
+        size = tuple(float(x) for x in self.size)
+        if len(size) != _SIZES[self.kind]:
+            raise CollisionError(f"a {self.kind} has {_SIZES[self.kind]} size numbers, got {len(size)}")
+        if not all(math.isfinite(x) for x in size):
+            raise CollisionError(f"a {self.kind} has a NaN or infinite size: {size}")
+        if any(x < 0 for x in size) or (self.kind != "capsule" and any(x <= 0 for x in size)) or (
+                self.kind == "capsule" and size[0] <= 0):
+            raise CollisionError(f"a {self.kind} needs positive dimensions, got {size}")
+        object.__setattr__(self, "size", size)
+        object.__setattr__(self, "origin", np.asarray(self.origin, dtype=np.float64).reshape(4, 4))
+        if self.kind == "mesh":
+            v = np.asarray(self.vertices, dtype=np.float64)
+            if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4 or not np.all(np.isfinite(v)):
+                raise CollisionError(f"mesh {self.source or ''}: needs at least 4 finite vertices (V, 3)")
+            object.__setattr__(self, "vertices", v)
+
+    def describe(self) -> dict:
+        """A JSON-able record (map files): kind, size, origin (4x4 list), mesh file."""
+        d = {"kind": self.kind, "size": list(self.size), "origin": self.origin.round(12).tolist()}
+        if self.kind == "mesh":
+            d.update(file=self.source, vertices=int(len(self.vertices)))
+        return d
+
+
+@dataclass(frozen=True, eq=False)
+class Link:
+    """A named set of shapes riding on body ``body`` of the chain (0 = the base); ``frame`` (4, 4)
+    is the link's own frame (a URDF link's) in the body's frame, the shapes' origins are in the
+    body's frame already."""
+
+    name: str
+    body: int
+    shapes: tuple
+    parent: str | None = None  # the nearest link with geometry above it in the tree (adjacency)
+    frame: np.ndarray = field(default_factory=lambda: np.eye(4))  # the link's own frame in its body's
+
+
+@dataclass(eq=False)
+class CollisionModel:
+    """The collision geometry of one arm: ``chain`` and its ``links`` (each a :class:`Link`).
+
+    ``acm`` is the allowed-collision matrix (:class:`wsmap.collision.acm.ACM`, from
+    :func:`wsmap.collision.acm.build_acm`; :func:`wsmap.collision.checker_for` builds it when
+    missing); ``floor`` whether the
+    arm stands on the floor ``z = 0`` of the world (the default scene of a named arm has it);
+    ``source`` where the geometry comes from.
+    """
+
+    chain: SerialChain
+    links: tuple
+    source: str = ""
+    floor: bool = False
+    acm: object = None
+    _names: dict = field(default_factory=dict, repr=False)
+
+    def __post_init__(self):
+        self.chain = as_chain(self.chain)
+        if self.chain.batch_shape != ():
+            raise CollisionError("a collision model belongs to one arm, not a batch")
+        names = [link.name for link in self.links]
+        if len(set(names)) != len(names):
+            raise CollisionError(f"collision links must have distinct names, got {names}")
+        for link in self.links:
+            if not 0 <= link.body <= self.chain.n:
+                raise CollisionError(f"link {link.name!r} rides on body {link.body}; "
+                                     f"the chain has bodies 0..{self.chain.n}")
+            if not link.shapes:
+                raise CollisionError(f"link {link.name!r} has no shapes")
+        self.links = tuple(self.links)
+        self._names = {link.name: i for i, link in enumerate(self.links)}
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(link.name for link in self.links)
+
+    def index(self, name: str) -> int:
+        """The position of link ``name``; a :class:`CollisionError` listing the links if unknown."""
+        if name not in self._names:
+            raise CollisionError(f"unknown collision link {name!r}; the links are: {', '.join(self.names)}")
+        return self._names[name]
+
+    def shape_poses(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """World poses of every shape: ``(poses (..., S, 4, 4), link_of (S,))`` for ``q`` ``(..., n)``."""
+        B = body_frames(self.chain, q)
+        bodies = np.array([link.body for link in self.links for _ in link.shapes], dtype=np.int64)
+        origins = np.stack([s.origin for link in self.links for s in link.shapes])
+        link_of = np.array([i for i, link in enumerate(self.links) for _ in link.shapes], dtype=np.int64)
+        return B[..., bodies, :, :] @ origins, link_of
+
+    def describe(self) -> dict:
+        """A JSON-able record of the geometry (map files): source, links with body and shapes."""
+        return {"source": self.source, "floor": self.floor,
+                "links": [{"name": lk.name, "body": lk.body, "shapes": [s.describe() for s in lk.shapes]}
+                          for lk in self.links]}
+
+
+def body_frames(chain: SerialChain, q) -> np.ndarray:
+    """World frames of the chain's bodies, ``(..., n + 1, 4, 4)``: ``B_0 = base`` (the chain's base
+    transform or the identity), ``B_k = B_{k-1} · F_{k-1} · M_k(q_k + offset_k)``."""
+    q = chain._check_q(q)
+    x = q + chain.offset
+    shape = np.broadcast_shapes(x.shape[:-1], chain.batch_shape)
+    out = np.empty(shape + (chain.n + 1, 4, 4))
+    T = np.broadcast_to(np.eye(4) if chain.base is None else chain.base, shape + (4, 4))
+    out[..., 0, :, :] = T
+    for i in range(chain.n):  # a loop over joints, not over configurations
+        T = T @ chain.fixed[..., i, :, :] @ _motion(chain.kinds[i], chain.axes[i], x[..., i])
+        out[..., i + 1, :, :] = T
+    return out
+
+
+# ------------------------------------------------------------------------------------------- meshes
+def read_mesh(path: str, label: str, scale=(1.0, 1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
+    """``(vertices (V, 3), faces (F, 3))`` of a mesh file (STL, OBJ, DAE, PLY, ... through trimesh),
+    scaled; a missing, empty or unreadable file is a :class:`CollisionError` naming it."""
+    import trimesh
+
+    if not os.path.isfile(path):
+        raise CollisionError(f"{label}: collision mesh {path!r}: no such file")
+    if os.path.getsize(path) == 0:
+        raise CollisionError(f"{label}: collision mesh {path!r} is empty")
+    try:
+        mesh = trimesh.load(path, force="mesh", process=False)
+    except Exception as exc:
+        raise CollisionError(f"{label}: collision mesh {path!r} is not a mesh trimesh can read "
+                             f"({type(exc).__name__}: {exc})") from None
+    v = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64)
+    f = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64)
+    if len(v) < 4 or len(f) == 0:
+        raise CollisionError(f"{label}: collision mesh {path!r} is not a mesh: no triangles in it")
+    if not np.all(np.isfinite(v)):
+        raise CollisionError(f"{label}: collision mesh {path!r} has NaN or infinite vertices")
+    return v * np.asarray(scale, dtype=np.float64), f
+
+
+def _resolve_mesh(filename: str, urdf_dir: str | None) -> str:
+    """A URDF mesh reference as a path: absolute, ``file://``, ``package://NAME/rest`` (looked for
+    beside the URDF and in the folders above it, with and without ``NAME``) or relative to the URDF."""
+    if filename.startswith("file://"):
+        filename = filename[len("file://"):]
+    base = urdf_dir or os.getcwd()
+    if filename.startswith("package://"):
+        pkg, _, rest = filename[len("package://"):].partition("/")
+        d = os.path.abspath(base)
+        while True:
+            for cand in (os.path.join(d, pkg, rest), os.path.join(d, rest)):
+                if os.path.isfile(cand):
+                    return cand
+            if os.path.dirname(d) == d:
+                return os.path.join(base, rest)
+            d = os.path.dirname(d)
+    return filename if os.path.isabs(filename) else os.path.join(base, filename)
+
+
+def _origin(el: ET.Element | None, label: str, what: str) -> np.ndarray:
+    T = np.eye(4)
+    if el is None:
+        return T
+    vals = []
+    for key in ("xyz", "rpy"):
+        text = el.get(key, "0 0 0")
+        try:
+            v = np.array([float(x) for x in text.split()])
+        except ValueError:
+            v = np.zeros(0)
+        if v.shape != (3,) or not np.all(np.isfinite(v)):
+            raise CollisionError(f"{label}: {what} <origin {key}={text!r}> is not three finite numbers")
+        vals.append(v)
+    T[:3, :3] = _rpy_urdf(vals[1])
+    T[:3, 3] = vals[0]
+    return T
+
+
+def _rpy_urdf(rpy) -> np.ndarray:
+    """URDF's fixed-axis roll-pitch-yaw: ``R = Rz(yaw)·Ry(pitch)·Rx(roll)``."""
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def _floats(label, what, text, count) -> tuple:
+    try:
+        v = tuple(float(x) for x in (text or "").split())
+    except ValueError:
+        raise CollisionError(f"{label}: {what} is not numbers: {text!r}") from None
+    if len(v) != count:
+        raise CollisionError(f"{label}: {what} needs {count} numbers, got {text!r}")
+    if not all(math.isfinite(x) for x in v):
+        raise CollisionError(f"{label}: {what} contains NaN or infinity: {text!r}")
+    return v
+
+
+def _urdf_shapes(link_el: ET.Element, label: str, urdf_dir: str | None) -> list[Shape]:
+    name = link_el.get("name")
+    shapes = []
+    for col in link_el.findall("collision"):
+        what = f"link {name!r} <collision>"
+        origin = _origin(col.find("origin"), label, what)
+        geom = col.find("geometry")
+        kids = [] if geom is None else [g for g in geom if isinstance(g.tag, str)]
+        if len(kids) != 1:
+            raise CollisionError(f"{label}: {what} needs one shape inside <geometry>")
+        g = kids[0]
+        tag = g.tag
+        try:
+            if tag == "box":
+                shapes.append(Shape("box", _floats(label, f"{what} <box size>", g.get("size"), 3), origin))
+            elif tag in ("cylinder", "capsule"):
+                r = _floats(label, f"{what} <{tag} radius>", g.get("radius"), 1)[0]
+                L = _floats(label, f"{what} <{tag} length>", g.get("length"), 1)[0]
+                shapes.append(Shape(tag, (r, L), origin))
+            elif tag == "sphere":
+                shapes.append(Shape("sphere", _floats(label, f"{what} <sphere radius>", g.get("radius"), 1), origin))
+            elif tag == "mesh":
+                fn = g.get("filename")
+                if not fn:
+                    raise CollisionError(f"{label}: {what} <mesh> has no filename")
+                scale = _floats(label, f"{what} <mesh scale>", g.get("scale"), 3) if g.get("scale") else (1, 1, 1)
+                path = _resolve_mesh(fn, urdf_dir)
+                v, f = read_mesh(path, f"{label}, {what}", scale)
+                shapes.append(Shape("mesh", (), origin, v, f, source=path))
+            else:
+                raise CollisionError(f"{label}: {what} has an unknown shape <{tag}>; shapes are box, cylinder, "
+                                     "sphere, capsule, mesh")
+        except CollisionError as exc:
+            if str(exc).startswith(label):
+                raise
+            raise CollisionError(f"{label}: {what}: {exc}") from None
+    return shapes
+
+
+def from_urdf_collision(source, ee_link: str | None = None, base_link: str | None = None,
+                        name: str | None = None, *, floor: bool = False) -> CollisionModel:
+    """The collision model of a URDF's chain (:func:`wsmap.kinematics.from_urdf`, same arguments).
+
+    Every link below ``base_link`` with ``<collision>`` elements becomes a :class:`Link`: a link of
+    the chain rides on its body; a link fixed to one (a flange, a hand) on its parent's; a link
+    hanging from a joint off the chain (a gripper's fingers) rides on its parent's body with that
+    joint at 0 (clipped into its limits). Meshes are read now (a missing, empty or unreadable file
+    is a :class:`CollisionError` naming it); a URDF without any collision element is one too.
+    """
+    data, label, path = _read(source)
+    root = _parse_xml(data, label)
+    # the chain from the URDF without its collision elements: what yourdfpy does not know (a
+    # <capsule>) or refuses is this module's to report, with the file named
+    bare = ET.fromstring(data)
+    for el in bare.findall("link"):
+        for col in el.findall("collision"):
+            el.remove(col)
+    chain = from_urdf(ET.tostring(bare), ee_link=ee_link, base_link=base_link, name=name)
+    chain = chain.replace(source=path if path is not None else "URDF text")
+    tree = _Tree(root, label)
+    base = base_link or tree.root()
+    ee = chain.links[-1]
+    on_path = tree.path(base, ee)
+    movable = [j for j in on_path if tree.joints[j].get("type") != "fixed"]
+    link_els = {el.get("name"): el for el in root.findall("link")}
+    urdf_dir = os.path.dirname(os.path.abspath(path)) if path else None
+    # (body, pose in body frame, nearest ancestor with geometry) per link, walking down from base
+    place = {base: (0, np.eye(4), None)}
+    links: list[Link] = []
+    stack = [base]
+    while stack:
+        parent = stack.pop()
+        body, Tp, above = place[parent]
+        shapes = _urdf_shapes(link_els[parent], label, urdf_dir)
+        if shapes:
+            links.append(Link(parent, body, tuple(Shape(s.kind, s.size, Tp @ s.origin, s.vertices, s.faces, s.source)
+                                                  for s in shapes), parent=above, frame=Tp))
+            above = parent
+        for jname in reversed(tree.children[parent]):
+            el = tree.joints[jname]
+            child = tree._child(jname)
+            origin = _origin(el.find("origin"), label, f"joint {jname!r}")
+            if jname in movable:
+                place[child] = (movable.index(jname) + 1, np.eye(4), above)
+            else:
+                M = np.eye(4)
+                jtype = el.get("type")
+                if jtype in ("revolute", "prismatic", "continuous"):
+                    a = el.find("axis")
+                    axis = np.array([float(x) for x in (a.get("xyz") if a is not None else "1 0 0").split()])
+                    lim = el.find("limit")
+                    x0 = 0.0
+                    if lim is not None and jtype != "continuous":
+                        lo, hi = float(lim.get("lower", "0")), float(lim.get("upper", "0"))
+                        x0 = min(max(0.0, lo), hi)
+                    if x0 != 0.0 and np.linalg.norm(axis) > 0:
+                        M = _motion(PRISMATIC if jtype == "prismatic" else "R", axis / np.linalg.norm(axis),
+                                    np.array(x0))
+                place[child] = (body, Tp @ origin @ M, above)
+            stack.append(child)
+    if not links:
+        raise CollisionError(f"{label} has no <collision> elements below {base!r}")
+    return CollisionModel(chain, tuple(links), source=path or "URDF text", floor=floor)
+
+
+# ------------------------------------------------------------------------------------------- capsules
+def _segment_capsule(p0, p1, radius) -> Shape:
+    """A capsule of ``radius`` from ``p0`` to ``p1`` (body frame): its frame at the midpoint, ``z``
+    along the segment."""
+    p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
+    d = p1 - p0
+    L = float(np.linalg.norm(d))
+    T = np.eye(4)
+    T[:3, 3] = (p0 + p1) / 2
+    if L > 1e-12:
+        z = d / L
+        x = np.cross(z, [1.0, 0, 0]) if abs(z[0]) < 0.9 else np.cross(z, [0, 1.0, 0])
+        x /= np.linalg.norm(x)
+        T[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
+    return Shape("capsule", (radius, L), T)
+
+
+def capsule_model(robot, capsules: Sequence, *, names: Sequence[str] | None = None, source: str = "",
+                  floor: bool = False) -> CollisionModel:
+    """A model of capsules: ``capsules`` is a sequence of ``(body, p0, p1, radius)`` (``p0``, ``p1``
+    the segment's ends in body ``body``'s frame, m; ``radius`` m), several allowed per body; the
+    links are the bodies that have capsules, named ``names[body]`` (default ``"link{body}"``)."""
+    chain = as_chain(robot)
+    per: dict[int, list[Shape]] = {}
+    for item in capsules:
+        body, p0, p1, r = item
+        if not isinstance(body, (int, np.integer)) or not 0 <= body <= chain.n:
+            raise CollisionError(f"capsule body must be an integer in 0..{chain.n}, got {body!r}")
+        per.setdefault(int(body), []).append(_segment_capsule(p0, p1, float(r)))
+    if names is not None and len(names) != chain.n + 1:
+        raise CollisionError(f"names must name the {chain.n + 1} bodies, got {len(names)}")
+    label = (lambda k: names[k]) if names is not None else (lambda k: f"link{k}")
+    links, above = [], None
+    for k in sorted(per):
+        links.append(Link(label(k), k, tuple(per[k]), parent=above))
+        above = label(k)
+    return CollisionModel(chain, tuple(links), source=source, floor=floor)
+
+
+def capsules_along_links(robot, link_radius, *, floor: bool = False, source: str = "") -> CollisionModel:
+    """Capsules along the links of a DH (or any) chain: body ``k`` (0..n) gets capsules of radius
+    ``link_radius[k]`` (one number for all) from its frame's origin along ``z`` to ``F_k``'s ``z``
+    offset, then to ``F_k``'s origin (the next joint): the DH ``d`` then ``a`` of the link; a body
+    whose link has no length gets a sphere (a capsule of length 0) at its origin."""
+    chain = as_chain(robot)
+    r = np.broadcast_to(np.asarray(link_radius, dtype=np.float64), (chain.n + 1,))
+    if not np.all(np.isfinite(r)) or np.any(r <= 0):
+        raise CollisionError(f"link_radius must be positive and finite, got {np.asarray(link_radius).tolist()}")
+    caps = []
+    for k in range(chain.n + 1):
+        e = chain.fixed[k, :3, 3]
+        c = np.array([0.0, 0.0, e[2]])
+        pts = [np.zeros(3)] + [p for p in (c, e) if np.linalg.norm(p) > 1e-9]
+        if len(pts) == 3 and np.linalg.norm(pts[2] - pts[1]) < 1e-9:
+            pts = pts[:2]
+        if len(pts) == 1:
+            caps.append((k, pts[0], pts[0], float(r[k])))
+        for a, b in zip(pts[:-1], pts[1:]):
+            caps.append((k, a, b, float(r[k])))
+    return capsule_model(chain, caps, source=source or f"capsules along the links, radii {r.tolist()} m",
+                         floor=floor)

@@ -1,0 +1,216 @@
+"""Obstacles around an arm: a floor plane, boxes, cylinders, spheres, capsules and meshes.
+
+A :class:`Scene` is in the world frame of the arm's chain (the chain's ``base`` transform places the
+arm in it; the identity when it has none): the floor is the half-space ``z <= floor`` (metres), and
+each :class:`Obstacle` has a shape (:class:`wsmap.collision.geometry.Shape`, its ``origin`` the
+obstacle's pose) in the ``"world"`` frame or the arm's ``"base"`` frame (moved with the base).
+
+Only moving bodies are checked against a scene: body 0 (the base and links fixed to it) stands where
+the user put it, on the floor or on a table, and touching what it stands on is not a collision.
+
+A scene file (:func:`load_scene`) is YAML or JSON::
+
+    frame: base            # default frame of the obstacles: base (default) or world
+    floor: true            # true (z = 0), false, or a height in metres
+    obstacles:
+      - {name: table, shape: box, size: [1.0, 0.8, 0.04], xyz: [0.6, 0, -0.02]}
+      - {shape: cylinder, radius: 0.05, length: 0.6, xyz: [0.4, 0.4, 0.3], rpy: [0, 0, 0]}
+      - {shape: sphere, radius: 0.1, xyz: [0.5, -0.3, 0.5], frame: world}
+      - {shape: mesh, file: bowl.stl, scale: 1.0, xyz: [0.5, 0, 0.1]}
+
+``xyz`` (m) and ``rpy`` (rad, URDF's fixed-axis roll-pitch-yaw) place an obstacle; a mesh file
+is read relative to the scene file. Anything else (an unknown shape or key, a NaN or negative size,
+a file that is not YAML/JSON) is a :class:`~wsmap.collision.geometry.CollisionError` naming the
+file and the problem, before any work.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import CollisionError, Shape, _rpy_urdf, read_mesh
+
+__all__ = ["FRAMES", "Obstacle", "Scene", "load_scene", "scene_from_dict"]
+
+FRAMES = ("base", "world")
+_SHAPE_KEYS = {"box": ("size",), "cylinder": ("radius", "length"), "capsule": ("radius", "length"),
+               "sphere": ("radius",), "mesh": ("file", "scale")}
+_COMMON = ("name", "shape", "xyz", "rpy", "frame")
+
+
+@dataclass(frozen=True, eq=False)
+class Obstacle:
+    """One obstacle: ``shape`` (its ``origin`` the pose in ``frame``), ``frame`` ``"base"`` or
+    ``"world"``, ``name`` for messages and map files."""
+
+    name: str
+    shape: Shape
+    frame: str = "base"
+
+    def __post_init__(self):
+        if self.frame not in FRAMES:
+            raise CollisionError(f"obstacle {self.name!r}: frame must be one of {', '.join(FRAMES)}, "
+                                 f"got {self.frame!r}")
+
+    def pose(self, base: np.ndarray | None) -> np.ndarray:
+        """The obstacle's world pose (4, 4), ``base`` the arm's base transform (or None)."""
+        if self.frame == "base" and base is not None:
+            return base @ self.shape.origin
+        return self.shape.origin
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """The floor height ``floor`` (m, world ``z``; ``None``: no floor) and ``obstacles``."""
+
+    floor: float | None = None
+    obstacles: tuple = ()
+
+    def __post_init__(self):
+        if self.floor is not None and (isinstance(self.floor, bool) or not math.isfinite(float(self.floor))):
+            raise CollisionError(f"the floor height must be a finite number of metres or None, got {self.floor!r}")
+        object.__setattr__(self, "obstacles", tuple(self.obstacles))
+        for ob in self.obstacles:
+            if not isinstance(ob, Obstacle):
+                raise CollisionError(f"scene obstacles must be Obstacle records, got {type(ob).__name__}")
+
+    @property
+    def empty(self) -> bool:
+        return self.floor is None and not self.obstacles
+
+    def describe(self) -> dict:
+        """A JSON-able record (map files)."""
+        return {"floor": self.floor, "obstacles": [{"name": o.name, "frame": o.frame, **o.shape.describe()}
+                                                   for o in self.obstacles]}
+
+
+def _vector(label, what, value, count=3) -> np.ndarray:
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and count == 1:
+        value = [value]
+    if not isinstance(value, Sequence) or isinstance(value, str) or len(value) != count or not all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) for x in value):
+        raise CollisionError(f"{label}: {what} must be {count} numbers, got {value!r}")
+    v = np.array(value, dtype=np.float64)
+    if not np.all(np.isfinite(v)):
+        raise CollisionError(f"{label}: {what} contains NaN or infinity: {value!r}")
+    return v
+
+
+def _size(label, what, value) -> float:
+    v = _vector(label, what, value, 1)[0]
+    if v <= 0:
+        raise CollisionError(f"{label}: {what} must be positive, got {value!r}")
+    return float(v)
+
+
+def _obstacle(item, i: int, label: str, frame: str, folder: str | None) -> Obstacle:
+    where = f"{label}: obstacle {i + 1}"
+    if not isinstance(item, Mapping):
+        raise CollisionError(f"{where} must be a mapping with a 'shape', got {type(item).__name__}")
+    kind = item.get("shape")
+    if kind not in _SHAPE_KEYS:
+        raise CollisionError(f"{where} has unknown shape {kind!r}; shapes are {', '.join(_SHAPE_KEYS)}")
+    unknown = sorted(set(item) - set(_COMMON) - set(_SHAPE_KEYS[kind]))
+    if unknown:
+        raise CollisionError(f"{where} ({kind}) has unknown keys {', '.join(map(str, unknown))}; a {kind} takes "
+                             f"{', '.join(_COMMON + _SHAPE_KEYS[kind])}")
+    name = str(item.get("name", f"{kind}{i + 1}"))
+    where = f"{label}: obstacle {name!r}"
+    T = np.eye(4)
+    T[:3, 3] = _vector(label, f"obstacle {name!r} xyz", item.get("xyz", [0, 0, 0]))
+    T[:3, :3] = _rpy_urdf(_vector(label, f"obstacle {name!r} rpy", item.get("rpy", [0, 0, 0])))
+    if kind == "box":
+        if "size" not in item:
+            raise CollisionError(f"{where}: a box needs size: [x, y, z]")
+        size = _vector(label, f"obstacle {name!r} size", item["size"])
+        if np.any(size <= 0):
+            raise CollisionError(f"{where}: box size must be positive, got {item['size']!r}")
+        shape = Shape("box", tuple(size), T)
+    elif kind == "sphere":
+        shape = Shape("sphere", (_size(label, f"obstacle {name!r} radius", item.get("radius")),), T)
+    elif kind in ("cylinder", "capsule"):
+        r = _size(label, f"obstacle {name!r} radius", item.get("radius"))
+        length = _vector(label, f"obstacle {name!r} length", item.get("length"), 1)[0]
+        if length <= 0 if kind == "cylinder" else length < 0:
+            raise CollisionError(f"{where}: length must be {'positive' if kind == 'cylinder' else '>= 0'}, "
+                                 f"got {item.get('length')!r}")
+        shape = Shape(kind, (r, float(length)), T)
+    else:
+        fn = item.get("file")
+        if not isinstance(fn, str) or not fn:
+            raise CollisionError(f"{where}: a mesh needs file: PATH")
+        scale = item.get("scale", 1.0)
+        scale = _vector(label, f"obstacle {name!r} scale", [scale] * 3 if isinstance(scale, (int, float))
+                        and not isinstance(scale, bool) else scale)
+        if np.any(scale <= 0):
+            raise CollisionError(f"{where}: mesh scale must be positive, got {item.get('scale')!r}")
+        path = fn if os.path.isabs(fn) or folder is None else os.path.join(folder, fn)
+        v, f = read_mesh(path, where, scale)
+        shape = Shape("mesh", (), T, v, f, source=path)
+    return Obstacle(name, shape, item.get("frame", frame))
+
+
+def scene_from_dict(d, label: str = "scene", folder: str | None = None) -> Scene:
+    """A :class:`Scene` from the mapping of a scene file (module notes); ``label`` names it in
+    messages, ``folder`` is where relative mesh files are."""
+    if not isinstance(d, Mapping):
+        raise CollisionError(f"{label} must be a mapping (frame, floor, obstacles), got {type(d).__name__}")
+    unknown = sorted(set(d) - {"frame", "floor", "obstacles"})
+    if unknown:
+        raise CollisionError(f"{label} has unknown keys {', '.join(map(str, unknown))}; a scene has frame, floor, "
+                             "obstacles")
+    frame = d.get("frame", "base")
+    if frame not in FRAMES:
+        raise CollisionError(f"{label}: frame must be one of {', '.join(FRAMES)}, got {frame!r}")
+    floor = d.get("floor", False)
+    if floor is True:
+        floor = 0.0
+    elif floor is False or floor is None:
+        floor = None
+    elif isinstance(floor, (int, float)) and math.isfinite(floor):
+        floor = float(floor)
+    else:
+        raise CollisionError(f"{label}: floor must be true, false or a finite height in metres, got {floor!r}")
+    obstacles = d.get("obstacles", []) or []
+    if not isinstance(obstacles, Sequence) or isinstance(obstacles, str):
+        raise CollisionError(f"{label}: obstacles must be a list, got {type(obstacles).__name__}")
+    for item in obstacles:
+        if isinstance(item, Mapping) and item.get("frame", frame) not in FRAMES:
+            raise CollisionError(f"{label}: obstacle frame must be one of {', '.join(FRAMES)}, "
+                                 f"got {item.get('frame')!r}")
+    return Scene(floor, tuple(_obstacle(item, i, label, frame, folder) for i, item in enumerate(obstacles)))
+
+
+def load_scene(path) -> Scene:
+    """Read a scene file (YAML or JSON, module notes); every problem is a one-line
+    :class:`~wsmap.collision.geometry.CollisionError` naming the file."""
+    path = os.fspath(path)
+    label = f"scene file {path!r}"
+    if not os.path.isfile(path):
+        raise CollisionError(f"{label}: no such file")
+    with open(path, "rb") as f:
+        raw = f.read()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise CollisionError(f"{label} is not YAML or JSON text (not UTF-8)") from None
+    try:
+        d = json.loads(text)
+    except ValueError:
+        import yaml
+
+        try:
+            d = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            where = getattr(exc, "problem_mark", None)
+            at = f" at line {where.line + 1}" if where is not None else ""
+            raise CollisionError(f"{label} is not YAML or JSON{at}: {getattr(exc, 'problem', exc)}") from None
+    if d is None:
+        raise CollisionError(f"{label} is empty")
+    return scene_from_dict(d, label, os.path.dirname(os.path.abspath(path)))

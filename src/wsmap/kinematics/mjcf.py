@@ -1,0 +1,118 @@
+"""MJCF (MuJoCo's format) as a second source of serial chains, parsed by the ``mujoco`` package
+(its compiled model: body frames, joint anchors and axes, angles in radians whatever the file's
+``<compiler angle>``).
+
+:func:`from_mjcf` is the chain from the world body to a site or a body (the tool frame). Hinge joints
+are revolute, slide joints prismatic; a joint's coordinate is MuJoCo's ``qpos`` (measured from the
+joint's ``ref``, ``qpos0``); limits from ``range`` where ``limited``. The collision geoms:
+:func:`wsmap.collision.mjcf.from_mjcf_collision`.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .chain import PRISMATIC, REVOLUTE, SerialChain
+
+__all__ = ["MJCFError", "from_mjcf"]
+
+
+class MJCFError(ValueError):
+    """An MJCF file that cannot be read as a serial chain; the message names the file and why."""
+
+
+def _load(path):
+    import mujoco
+
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise MJCFError(f"no such MJCF file: {path!r}")
+    try:
+        return mujoco.MjModel.from_xml_path(path)
+    except Exception as exc:  # mujoco's own message names the element
+        msg = " ".join(str(exc).split())
+        raise MJCFError(f"MJCF file {path!r}: mujoco cannot read it: {msg}") from None
+
+
+def _pose(pos, quat) -> np.ndarray:
+    w, x, y, z = quat / np.linalg.norm(quat)
+    T = np.eye(4)
+    T[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                 [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                 [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    T[:3, 3] = pos
+    return T
+
+
+def _trans(p) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, 3] = p
+    return T
+
+
+def _chain_parts(m, path: str, site_or_body: str):
+    """The chain and, per MuJoCo body on or below the path, ``(chain body, pose in its frame)``."""
+    import mujoco
+
+    sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site_or_body)
+    bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, site_or_body)
+    if sid < 0 and bid < 0:
+        sites = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_SITE, i) for i in range(m.nsite)]
+        raise MJCFError(f"MJCF file {path!r} has no site or body {site_or_body!r}; sites: "
+                             f"{', '.join(s for s in sites if s) or 'none'}")
+    end = int(m.site_bodyid[sid]) if sid >= 0 else bid
+    tool = _pose(m.site_pos[sid], m.site_quat[sid]) if sid >= 0 else np.eye(4)
+    bodies = []
+    b = end
+    while b != 0:
+        bodies.append(b)
+        b = int(m.body_parentid[b])
+    bodies.reverse()
+    fixed, axes, kinds, offset, qlim, T = [], [], [], [], [], np.eye(4)
+    place = {0: (0, np.eye(4))}
+    for b in bodies:
+        T = T @ _pose(m.body_pos[b], m.body_quat[b])
+        for j in range(int(m.body_jntadr[b]), int(m.body_jntadr[b] + m.body_jntnum[b])):
+            jt = int(m.jnt_type[j])
+            if jt not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+                name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)
+                raise MJCFError(f"MJCF file {path!r}: joint {name!r} on the chain is a ball or free joint; "
+                                     "a serial chain has hinge and slide joints")
+            a = m.jnt_pos[j]
+            fixed.append(T @ _trans(a))
+            T = _trans(-a)
+            axes.append(np.array(m.jnt_axis[j], dtype=np.float64))
+            kinds.append(REVOLUTE if jt == int(mujoco.mjtJoint.mjJNT_HINGE) else PRISMATIC)
+            offset.append(-float(m.qpos0[m.jnt_qposadr[j]]))
+            lim = m.jnt_range[j] if m.jnt_limited[j] else (-np.inf, np.inf)
+            qlim.append((float(lim[0]), float(lim[1])))
+        place[b] = (len(kinds), T.copy())
+    if not kinds:
+        raise MJCFError(f"MJCF file {path!r}: no hinge or slide joint between the world and {site_or_body!r}")
+    fixed.append(T @ tool)
+    name = os.path.splitext(os.path.basename(path))[0]
+    chain = SerialChain(np.stack(fixed), np.stack(axes), kinds, offset=np.array(offset), qlim=np.array(qlim),
+                        name=name, source=path)
+    # bodies off the path: with their parent, joints at qpos0 (a fixed pose)
+    for b in range(1, m.nbody):
+        if b in place:
+            continue
+        chainb = [b]
+        while int(m.body_parentid[chainb[-1]]) not in place:
+            chainb.append(int(m.body_parentid[chainb[-1]]))
+        for c in reversed(chainb):
+            k, Tp = place[int(m.body_parentid[c])]
+            place[c] = (k, Tp @ _pose(m.body_pos[c], m.body_quat[c]))
+    return chain, place
+
+
+def from_mjcf(path, site_or_body: str) -> SerialChain:
+    """The serial chain of an MJCF file from the world body to the site or body ``site_or_body``
+    (its frame is the tool frame): fixed transforms from the bodies' ``pos``/``quat`` and the
+    joints' anchors, axes as MuJoCo has them (body frame), ``offset = -ref``, ``qlim`` from
+    ``range``. Errors (no such file, not MJCF, an unknown site, a ball joint) are an
+    :class:`MJCFError` naming the file."""
+    m = _load(path)
+    return _chain_parts(m, os.fspath(path), site_or_body)[0]
