@@ -63,7 +63,7 @@ def test_bad_collision_input_exits_2_with_one_line_and_writes_nothing(tmp_path, 
             (tmp_path / "hand.stl").write_bytes(b"")
             text = ('<robot name="r"><link name="b"/><link name="h"><collision><geometry><mesh filename="hand.stl"/>'
                     '</geometry></collision></link><joint name="j" type="revolute"><parent link="b"/><child link="h"/>'
-                    '<axis xyz="0 0 1"/><limit lower="-1" upper="1"/></joint></robot>')
+                    '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>')
         (tmp_path / name).write_text(text)
     argv = ["map", *[x.format(d=tmp_path) for x in extra], "--out", str(tmp_path / "o.npz")]
     if "--robot" not in argv and "--urdf" not in argv:

@@ -15,9 +15,9 @@ URDF = """<robot name="two">
   <link name="flange"/>
   <link name="hand"><collision><geometry>{HAND}</geometry></collision></link>
   <joint name="j1" type="revolute"><parent link="base"/><child link="upper"/><origin xyz="0 0 0.1" rpy="1.5707963 0 0"/>
-    <axis xyz="0 0 1"/><limit lower="-3" upper="3"/></joint>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
   <joint name="j2" type="revolute"><parent link="upper"/><child link="fore"/><origin xyz="0.4 0 0"/>
-    <axis xyz="0 0 1"/><limit lower="-3" upper="3"/></joint>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
   <joint name="f" type="fixed"><parent link="fore"/><child link="flange"/><origin xyz="0.3 0 0" rpy="0 0 0.3"/></joint>
   <joint name="h" type="fixed"><parent link="flange"/><child link="hand"/><origin xyz="0.02 0 0"/></joint>
 </robot>"""

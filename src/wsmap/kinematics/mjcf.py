@@ -15,6 +15,10 @@ import os
 import numpy as np
 
 from .chain import PRISMATIC, REVOLUTE, SerialChain
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import PathLike
 
 __all__ = ["MJCFError", "from_mjcf"]
 
@@ -108,7 +112,7 @@ def _chain_parts(m, path: str, site_or_body: str):
     return chain, place
 
 
-def from_mjcf(path, site_or_body: str) -> SerialChain:
+def from_mjcf(path: PathLike, site_or_body: str) -> SerialChain:
     """The serial chain of an MJCF file from the world body to the site or body ``site_or_body``
     (its frame is the tool frame): fixed transforms from the bodies' ``pos``/``quat`` and the
     joints' anchors, axes as MuJoCo has them (body frame), ``offset = -ref``, ``qlim`` from
