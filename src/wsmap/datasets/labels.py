@@ -17,7 +17,8 @@ A chain family (``panda7``, :data:`wsmap.datasets.spec.CHAIN_FAMILIES`) is label
 numerical path: :func:`wsmap.workspace.constant_orientation_map` (R3) or
 :func:`wsmap.workspace.orientation_map` (SO3) with ``method="numerical"`` and the spec's
 convention, i.e. :func:`wsmap.kinematics.ik.search.map_search` with its defaults
-(:data:`~wsmap.kinematics.ik.search.MAP_SETTINGS`, seed 0): the search with the joint limits inside
+(:data:`~wsmap.kinematics.ik.search.MAP_SETTINGS`, seed 0) but for the border search
+(:data:`LABEL_SEARCH`: ``border_starts=0``): the search with the joint limits inside
 it, each node started from its neighbours' solutions, every success confirmed by forward
 kinematics inside the limits (so ``True`` is never wrong). An arm's labels do not depend on the
 other arms of its batch, nor on the thread count.
@@ -42,6 +43,13 @@ __all__ = ["possibly_reachable", "labels_for"]
 
 #: position and rotation-matrix tolerance of the forward-kinematics check of every LM success
 FK_CHECK_TOL = 1e-6
+
+#: What the chain families' labels change in the map search's defaults: no border search. It makes a
+#: map about five times slower (measured on panda7_tooldown: 4 s an arm on a loaded core against
+#: 0.8 s) for the last few border nodes: these labels had a measured recall of 0.9997 without it
+#: (docs/recall.md), far below the models' error, and 20000 arms are a 5-hour job with it. Every
+#: positive label is still a confirmed solution; the labels are those the committed models learned.
+LABEL_SEARCH = {"border_starts": 0}
 
 
 def _pair_poses(spec: DatasetSpec, nodes, fixed, b_idx, n_idx) -> np.ndarray:
@@ -175,9 +183,11 @@ def _chain_family_labels(arms, spec: DatasetSpec, fx, nodes) -> np.ndarray:
         idx = np.flatnonzero(inverse.reshape(-1) == k)
         sub = arms if idx.size == count else arms[idx]
         if spec.scope == "R3":
-            out[idx] = ws.constant_orientation_map(sub, nodes, row, method="numerical", convention=spec.convention)
+            out[idx] = ws.constant_orientation_map(sub, nodes, row, method="numerical", convention=spec.convention,
+                                                   ik=LABEL_SEARCH)
         else:
-            out[idx] = ws.orientation_map(sub, nodes, row, method="numerical", convention=spec.convention)
+            out[idx] = ws.orientation_map(sub, nodes, row, method="numerical", convention=spec.convention,
+                                          ik=LABEL_SEARCH)
     return out
 
 
