@@ -22,6 +22,8 @@ A scene file (:func:`load_scene`) is YAML or JSON::
 is read relative to the scene file. Anything else (an unknown shape or key, a NaN or negative size,
 a file that is not YAML/JSON) is a :class:`~wsmap.collision.geometry.CollisionError` naming the
 file and the problem, before any work.
+
+A file ending in ``.urdf`` is read as the URDF of a work cell (:mod:`wsmap.collision.cell`).
 """
 
 from __future__ import annotations
@@ -187,11 +189,20 @@ def scene_from_dict(d, label: str = "scene", folder: str | None = None) -> Scene
     return Scene(floor, tuple(_obstacle(item, i, label, frame, folder) for i, item in enumerate(obstacles)))
 
 
-def load_scene(path) -> Scene:
-    """Read a scene file (YAML or JSON, module notes); every problem is a one-line
+def load_scene(path, mount: str | None = None) -> Scene:
+    """Read a scene file: YAML or JSON (module notes), or, by its suffix ``.urdf``, the URDF of a
+    work cell (:func:`wsmap.collision.cell.scene_from_urdf`; ``mount`` is the cell's link the arm's
+    base is attached to, which puts the obstacles in the base frame). Every problem is a one-line
     :class:`~wsmap.collision.geometry.CollisionError` naming the file."""
     path = os.fspath(path)
+    from .cell import CELL_SUFFIXES, scene_from_urdf
+
+    if path.lower().endswith(CELL_SUFFIXES):
+        return scene_from_urdf(path, mount)
     label = f"scene file {path!r}"
+    if mount is not None:
+        raise CollisionError(f"{label}: a mount link ({mount!r}) is for a work-cell URDF (.urdf); a YAML/JSON scene "
+                             "gives each obstacle's frame (base or world)")
     if not os.path.isfile(path):
         raise CollisionError(f"{label}: no such file")
     with open(path, "rb") as f:
