@@ -787,7 +787,8 @@ def _run_data_list(args) -> int:
 
     for name, s in DATASET_SPECS.items():
         print(f"{name:22s} {s.family:16s} {s.scope} nodes={s.n_nodes:5d} features={s.n_features:3d} "
-              f"samples={s.samples} fixed={s.fixed} method={s.method}")
+              f"samples={s.samples} fixed={s.fixed} method={s.method}"
+              + ("" if s.collision is None else " collision-free"))
     return 0
 
 
