@@ -39,15 +39,13 @@ import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
+from ..collision import DEFAULT_SAMPLES, CollisionChecker
+from ..kinematics import SerialChain
+from ..robots import ArmFamily
+
 __all__ = ["LabelCollision", "label_collision"]
 
 _KEYS = ("model", "link_radius", "scene", "self_collision", "acm_samples", "acm_seed")
-
-
-def _default_samples() -> int:
-    from ..collision import DEFAULT_SAMPLES
-
-    return DEFAULT_SAMPLES
 
 
 @dataclass(frozen=True)
@@ -75,7 +73,7 @@ class LabelCollision:
     link_radius: float | tuple | None = None
     scene: str | None = None
     self_collision: bool = True
-    acm_samples: int = 10000
+    acm_samples: int = DEFAULT_SAMPLES
     acm_seed: int = 0
 
     def scene_dict(self) -> dict | None:
@@ -89,7 +87,7 @@ class LabelCollision:
                 "scene": self.scene_dict(), "self_collision": self.self_collision,
                 "acm_samples": self.acm_samples, "acm_seed": self.acm_seed}
 
-    def checker(self, arm):
+    def checker(self, arm: SerialChain) -> CollisionChecker:
         """The :class:`~wsmap.collision.CollisionChecker` of one arm (a :class:`SerialChain` of the
         spec's family, batch ``()``): its capsules, its allowed-collision matrix, the scene."""
         from .. import collision as col
@@ -149,7 +147,7 @@ def _scene(value) -> str:
         raise _err(f"scene must hold plain numbers, strings and lists ({exc})") from None
 
 
-def label_collision(value, family) -> LabelCollision | None:
+def label_collision(value: Mapping | LabelCollision | None, family: ArmFamily) -> LabelCollision | None:
     """``value`` (None, a mapping of :class:`LabelCollision`'s keys, or a LabelCollision) checked
     for the spec's ``family`` (a :class:`wsmap.robots.ArmFamily`): a chain family only, ``model``
     its named arm's, every key known, numbers valid; a ``ValueError`` naming the key otherwise."""
@@ -186,5 +184,5 @@ def label_collision(value, family) -> LabelCollision | None:
     scene = value.get("scene")
     return LabelCollision(model=model, link_radius=radius, scene=None if scene is None else _scene(scene),
                           self_collision=self_collision,
-                          acm_samples=_count("acm_samples", value.get("acm_samples", _default_samples())),
+                          acm_samples=_count("acm_samples", value.get("acm_samples", DEFAULT_SAMPLES)),
                           acm_seed=_count("acm_seed", value.get("acm_seed", 0)))
