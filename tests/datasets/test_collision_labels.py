@@ -140,6 +140,7 @@ def test_two_builds_are_byte_identical(tmp_path):
     ({"model": "panda", "scene": {"obstacles": [{"shape": "box", "size": [1, -1, 1]}]}}, "must be positive"),
     ({"model": "panda", "scene": {"walls": 1}}, "unknown keys walls"),
     ({"model": "panda", "scene": [1]}, "scene must be a mapping"),
+    ({"model": "panda", "scene": {"obstacles": 5}}, "obstacles must be a list"),
     ({"model": "panda", "self_collision": "yes"}, "self_collision must be true or false"),
     ({"model": "panda", "acm_samples": -1}, "acm_samples must be a whole number of at least 0"),
     ({"model": "panda", "acm_seed": 1.5}, "acm_seed must be a whole number"),

@@ -133,14 +133,15 @@ def _scene(value) -> str:
 
     if not isinstance(value, Mapping):
         raise _err(f"scene must be a mapping (floor, frame, obstacles), got {type(value).__name__}")
-    for ob in value.get("obstacles", None) or ():
+    obstacles = value.get("obstacles")
+    for ob in obstacles if isinstance(obstacles, Sequence) and not isinstance(obstacles, str) else ():
         if isinstance(ob, Mapping) and ob.get("shape") == "mesh":
             raise _err("scene obstacles of a dataset spec are primitives (box, cylinder, capsule, sphere): a mesh "
                        "file is not part of the spec's text, so its identity would not cover it")
     try:
         scene_from_dict(value, "collision scene")
     except CollisionError as exc:
-        raise _err(str(exc).removeprefix("collision scene").lstrip(": ")) from None
+        raise _err("scene: " + str(exc).removeprefix("collision scene").lstrip(": ")) from None
     try:
         return json.dumps(value, sort_keys=True, separators=(",", ":"), allow_nan=False)
     except (TypeError, ValueError) as exc:
