@@ -155,3 +155,11 @@ def test_bad_collision_settings_are_errors_naming_the_key(collision, message):
 def test_collision_labels_are_for_chain_families():
     with pytest.raises(ValueError, match="collision labels are for the chain families.*'spherical_wrist'"):
         DatasetSpec("sw", collision={"link_radius": 0.05})
+
+
+def test_a_model_with_fixed_capsule_coordinates_is_refused_for_a_scaled_family(monkeypatch):
+    import wsmap.collision.named as named
+
+    monkeypatch.setattr(named, "ALONG_LINKS", ("iiwa14",))  # as if the Panda's capsules were fixed numbers
+    with pytest.raises(ValueError, match="capsule model of 'panda' has fixed coordinates.*give link_radius"):
+        SMALL.replace(collision={"model": "panda"})

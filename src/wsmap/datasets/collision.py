@@ -164,7 +164,7 @@ def label_collision(value: Mapping | LabelCollision | None, family: ArmFamily) -
     if not family.chain:
         raise ValueError(f"collision labels are for the chain families (the map search with the arms' joint limits); "
                          f"family {family.name!r} is labelled by the paper's solvers, which know no collision")
-    from ..collision import ARM_MODELS
+    from ..collision.named import ALONG_LINKS, ARM_MODELS
 
     model, radius = value.get("model"), value.get("link_radius")
     if (model is None) == (radius is None):
@@ -177,6 +177,9 @@ def label_collision(value: Mapping | LabelCollision | None, family: ArmFamily) -
                        "(or give link_radius)")
         if model not in ARM_MODELS:
             raise _err(f"no capsule model for {model!r} (named arms with one: {', '.join(ARM_MODELS)}); give link_radius")
+        if model not in ALONG_LINKS:
+            raise _err(f"the capsule model of {model!r} has fixed coordinates, not capsules along the links: it does "
+                       "not follow the family's scaled arms; give link_radius")
     else:
         radius = _radius(radius, family.table.n + 1)
     self_collision = value.get("self_collision", True)
