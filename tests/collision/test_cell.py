@@ -182,6 +182,24 @@ def _coal_hits(model, obstacles, q):
     return out
 
 
+def _coal_self_hits(model, pairs, q):
+    """``(C,)`` bool: some link pair of ``pairs`` (link indices) touches at ``q[c]``, by coal directly."""
+    import coal
+
+    poses, link_of = model.shape_poses(q)
+    geoms = [_coal_geometry(s) for lk in model.links for s in lk.shapes]
+    tf = (lambda T: coal.Transform3s(np.ascontiguousarray(T[:3, :3]), np.ascontiguousarray(T[:3, 3])))
+    out = np.zeros(len(q), dtype=bool)
+    for c in range(len(q)):
+        for i, j in pairs:
+            for a in np.flatnonzero(link_of == i):
+                for b in np.flatnonzero(link_of == j):
+                    if coal.collide(geoms[a], tf(poses[c, a]), geoms[b], tf(poses[c, b]), coal.CollisionRequest(),
+                                    coal.CollisionResult()):
+                        out[c] = True
+    return out
+
+
 def test_a_cell_removes_nodes_and_every_returned_solution_is_free_for_coal(tmp_path):
     path = _write_cell(tmp_path)
     robot = _mounted_panda()
@@ -202,6 +220,10 @@ def test_a_cell_removes_nodes_and_every_returned_solution_is_free_for_coal(tmp_p
     assert standing[moving].sum() == 1 and standing[np.flatnonzero(moving)[0], 0]  # link 1 on the pedestal
     hits = _coal_hits(model, scene.obstacles, q[free])
     assert not (hits[:, moving] & ~standing[moving]).any()
+    assert not _coal_self_hits(model, chk.pairs, q[free]).any()  # and the pairs the matrix checks
+    rand = robot.random_q(200, np.random.default_rng(0))  # (the helper catches what it should)
+    self_hit = _coal_self_hits(model, chk.pairs, rand)
+    assert self_hit.any() and np.array_equal(self_hit, ~CollisionChecker(model, Scene()).exact(rand))
     # and the chain's own solutions of the nodes the cell took did hit the cell, mostly
     _, q_alone = constant_orientation_map(robot, nodes, DOWN, convention="standard", collision=_checker(robot, Scene()),
                                           return_q=True)
