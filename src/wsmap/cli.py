@@ -211,7 +211,7 @@ def _collision_from_args(args, robot, kind):
     checked (scene, meshes, link names of --allow) before the map is computed."""
     wanted = args.collision or args.scene is not None or args.link_radius is not None
     if not wanted:
-        for flag, v in (("--allow", args.allow), ("--acm-samples", args.acm_samples)):
+        for flag, v in (("--allow", args.allow), ("--acm-samples", args.acm_samples), ("--mount", args.mount)):
             if v is not None:
                 raise ValueError(f"{flag} is used with --collision or --scene")
         return None
@@ -226,7 +226,9 @@ def _collision_from_args(args, robot, kind):
         raise ValueError("--paper-lm has one start and cannot look for another solution; drop it for --collision")
     from . import collision as col
 
-    scene = col.load_scene(args.scene) if args.scene is not None else None
+    if args.mount is not None and args.scene is None:
+        raise ValueError("--mount names a link of a work-cell URDF given with --scene CELL.urdf")
+    scene = col.load_scene(args.scene, args.mount) if args.scene is not None else None
     dh = any(x is not None for x in (args.d, args.a, args.alpha))
     if args.link_radius is not None:
         r = args.link_radius
@@ -296,7 +298,11 @@ def _collision_arguments(m):
                         "(--urdf: its <collision> elements; --robot: its capsule model; DH columns: --link-radius), "
                         "and the floor for a named arm")
     g.add_argument("--scene", metavar="FILE", help="obstacles (YAML or JSON: floor, boxes, cylinders, spheres, "
-                                                  "meshes); implies --collision")
+                                                  "meshes; or a work cell's URDF, FILE.urdf: its fixed links' "
+                                                  "<collision> elements); implies --collision")
+    g.add_argument("--mount", metavar="LINK", help="--scene CELL.urdf: the cell's link the arm's base is attached to "
+                                                   "(obstacles in the base frame); default: the cell's root is the "
+                                                   "world frame")
     g.add_argument("--link-radius", type=positive_float, nargs="+", metavar="R",
                    help="capsules of these radii (m; one, or one per body 0..n) along the links; implies --collision")
     g.add_argument("--allow", nargs=2, action="append", metavar=("LINK", "LINK"),
@@ -504,7 +510,7 @@ def _run_map(args) -> int:
         "rpy": list(rpy), "point": list(point), "model": args.model, "ik": ik, "seconds": seconds,
     }
     if checker is not None:
-        settings["collision"] = {**checker.describe(), "scene_file": args.scene,
+        settings["collision"] = {**checker.describe(), "scene_file": args.scene, "mount": args.mount,
                                  "stats": {"configurations": checker.stats.configurations,
                                            "decided_fast": checker.stats.decided_fast,
                                            "exact_tests": checker.stats.exact_tests}}
@@ -781,7 +787,8 @@ def _run_data_list(args) -> int:
 
     for name, s in DATASET_SPECS.items():
         print(f"{name:22s} {s.family:16s} {s.scope} nodes={s.n_nodes:5d} features={s.n_features:3d} "
-              f"samples={s.samples} fixed={s.fixed} method={s.method}")
+              f"samples={s.samples} fixed={s.fixed} method={s.method}"
+              + ("" if s.collision is None else " collision-free"))
     return 0
 
 

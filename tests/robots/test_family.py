@@ -184,7 +184,7 @@ def test_dh_families_are_the_paper_samplers_and_read_back():
 def test_panda7_tooldown_spec():
     s = PANDA7_TOOLDOWN
     assert dataset_spec("panda7_tooldown") is s and "panda7_tooldown" in DATASET_SPECS
-    assert "panda7_tooldown" not in PAPER_SPECS and set(EXTENSION_SPECS) == {"panda7_tooldown"}
+    assert "panda7_tooldown" not in PAPER_SPECS and set(EXTENSION_SPECS) == {"panda7_tooldown", "panda7_tooldown_free"}
     assert (s.family, s.scope, s.convention, s.method, s.fixed) == ("panda7", "R3", "standard", "numerical",
                                                                      (np.pi, 0.0, 0.0))
     assert s.grid_shape == (25, 25, 25) and s.n_nodes == 15625 and s.n_features == 6 + 75 + 3

@@ -6,7 +6,9 @@
 * :mod:`.named` — capsule models of the named arms (:func:`arm_model`: panda, ur5e, iiwa14);
 * :mod:`.acm` — the allowed-collision matrix (:func:`build_acm`, as MoveIt's setup assistant);
 * :mod:`.scene` — obstacles: the floor, boxes, cylinders, spheres, meshes (:class:`Scene`,
-  :func:`load_scene` from YAML/JSON);
+  :func:`load_scene` from YAML/JSON), and those of a work cell's URDF (:func:`scene_from_urdf`:
+  fixed links with ``<collision>`` elements, in the world frame or the frame of the link the arm
+  is mounted on; :func:`load_scene` by the suffix ``.urdf``);
 * :mod:`.checks` — :class:`CollisionChecker`, a configuration predicate (a batch of ``q`` → bool
   free): spheres first, coal's exact test where they say "maybe".
 
@@ -20,12 +22,12 @@ from .checks import CheckStats, CollisionChecker, bounding_spheres, exact_pairs
 from .geometry import (SHAPES, CollisionError, CollisionModel, Link, Shape, body_frames, capsule_model,
                        capsules_along_links, from_urdf_collision, read_mesh)
 from .named import ARM_MODELS, arm_model
-from .scene import Obstacle, Scene, load_scene, scene_from_dict
+from .scene import Obstacle, Scene, load_scene, scene_from_dict, scene_from_urdf
 
 __all__ = ["ACM", "DEFAULT_SAMPLES", "REASONS", "build_acm", "CheckStats", "CollisionChecker", "bounding_spheres",
            "exact_pairs", "SHAPES", "CollisionError", "CollisionModel", "Link", "Shape", "body_frames",
            "capsule_model", "capsules_along_links", "from_urdf_collision", "read_mesh", "ARM_MODELS", "arm_model",
-           "Obstacle", "Scene", "load_scene", "scene_from_dict", "checker_for"]
+           "Obstacle", "Scene", "load_scene", "scene_from_dict", "scene_from_urdf", "checker_for"]
 
 
 def checker_for(robot_name_or_model, scene=None, *, link_radius=None, **acm_settings) -> CollisionChecker:

@@ -19,7 +19,7 @@ from __future__ import annotations
 from ..robots import load
 from .geometry import CollisionError, CollisionModel, capsule_model, capsules_along_links
 
-__all__ = ["ARM_MODELS", "arm_model"]
+__all__ = ["ARM_MODELS", "ALONG_LINKS", "arm_model"]
 
 
 def _panda(chain) -> CollisionModel:
@@ -68,11 +68,17 @@ def _ur5e(chain) -> CollisionModel:
 
 #: Named arm -> the builder of its capsule model from its chain.
 ARM_MODELS = {"panda": _panda, "ur5e": _ur5e, "iiwa14": _iiwa14}
+#: The models built along the links of the chain they are given (:func:`capsules_along_links`):
+#: on an arm with scaled lengths (a family of :mod:`wsmap.robots.families`) the capsules follow the
+#: scaled links. The UR5e's capsules are fixed coordinates and do not.
+ALONG_LINKS = ("panda", "iiwa14")
 
 
 def arm_model(name: str, robot=None) -> CollisionModel:
     """The capsule model of the named arm ``name`` (:data:`ARM_MODELS`), on ``robot`` (default
-    ``wsmap.load(name)``; its limits may differ, its kinematics must be the named arm's). An arm
+    ``wsmap.load(name)``; its limits may differ, its kinematics must be the named arm's, or for the
+    models of :data:`ALONG_LINKS` the named arm's table with other lengths, whose links the capsules
+    then follow). An arm
     without a model is a :class:`CollisionError` listing those that have one."""
     key = str(name).lower()
     if key not in ARM_MODELS:

@@ -15,6 +15,8 @@ Where things are:
   :func:`start_configurations`;
 * :mod:`.labels` -- :func:`labels_for` (exact closed form, or multi-start LM) and the
   :func:`possibly_reachable` pre-filter;
+* :mod:`.collision` -- collision-free labels of a chain family (the spec's ``collision`` field,
+  :class:`LabelCollision`);
 * :mod:`.store` -- the file format, :func:`build_dataset`, :func:`build_dataset_files` (training
   and test file, all or nothing; in this process or on Dask: ``workers=``, ``scheduler=``),
   :func:`load_dataset` (checked), :class:`Dataset`;
@@ -32,6 +34,7 @@ Example::
     train.features.shape, train.labels.shape                          # (100, 36), (100, 125)
 """
 
+from .collision import LabelCollision, label_collision
 from .audit import audit_labels, audit_table, distinct_specs, starts_recall, starts_study
 from .features import (
     arms_from_features,
@@ -84,7 +87,7 @@ __all__ = [
     # spec
     "FAMILIES", "CHAIN_FAMILIES", "CHAIN_FAMILY_GRID", "SCOPES", "STREAMS", "CONVENTIONS", "METHODS", "DEFAULT_STARTS",
     "MAX_GRID_NODES", "MAX_SAMPLES", "MAX_STARTS", "MAX_LM_ITERATIONS", "MAX_TOL",
-    "DatasetSpec", "test_spec", "scaled",
+    "DatasetSpec", "test_spec", "scaled", "LabelCollision", "label_collision",
     # features
     "grid_axes", "grid_nodes", "spec_nodes", "node_slice", "feature_names", "feature_slices",
     "features_for", "scales_for", "arms_from_features", "fixed_from_features",

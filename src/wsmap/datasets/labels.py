@@ -21,7 +21,10 @@ convention, i.e. :func:`wsmap.kinematics.ik.search.map_search` with its defaults
 (:data:`LABEL_SEARCH`: ``border_starts=0``): the search with the joint limits inside
 it, each node started from its neighbours' solutions, every success confirmed by forward
 kinematics inside the limits (so ``True`` is never wrong). An arm's labels do not depend on the
-other arms of its batch, nor on the thread count.
+other arms of its batch, nor on the thread count. With the spec's ``collision`` settings
+(:mod:`wsmap.datasets.collision`) each arm is mapped with ``collision=`` its own
+:class:`~wsmap.collision.CollisionChecker`: ``True`` then also means a collision-free solution was
+found (the search keeps looking when its first solutions collide).
 """
 
 from __future__ import annotations
@@ -177,6 +180,14 @@ def _chain_family_labels(arms, spec: DatasetSpec, fx, nodes) -> np.ndarray:
     count = arms.batch_shape[0]
     out = np.empty((count, len(nodes)), dtype=bool)
     if count == 0:
+        return out
+    if spec.collision is not None:
+        # a checker belongs to one arm (its capsules follow the arm's links, its matrix is its own),
+        # and the maps take one arm's predicate: arm by arm
+        mapper = ws.constant_orientation_map if spec.scope == "R3" else ws.orientation_map
+        for b in range(count):
+            out[b] = mapper(arms[b], nodes, fx[b], method="numerical", convention=spec.convention,
+                            collision=spec.collision.checker(arms[b]))
         return out
     rows, inverse = np.unique(fx, axis=0, return_inverse=True)
     for k, row in enumerate(rows):

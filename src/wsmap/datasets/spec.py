@@ -3,7 +3,8 @@
 A :class:`DatasetSpec` names the arms (``family``, ``beta``), the grid and the labelled nodes
 (``scope``, ``lo``, ``hi``, ``step``, ``select``), the fixed orientation or point (``fixed``), how
 labels are computed (``method``, ``convention`` and the LM settings), and the random streams
-(``seed``, ``stream``, ``samples``). It round-trips through YAML / JSON (:meth:`DatasetSpec.to_dict`,
+(``seed``, ``stream``, ``samples``), and, for a chain family, whether the labels are collision-free
+(``collision``, :mod:`wsmap.datasets.collision`). It round-trips through YAML / JSON (:meth:`DatasetSpec.to_dict`,
 :meth:`DatasetSpec.from_dict`), so ``params.yaml`` and every dataset file can hold it.
 
 Every field is checked when a spec is made: a bad value is a ``ValueError`` naming the field,
@@ -27,6 +28,7 @@ import numpy as np
 
 from .. import robots
 from .. import workspace as ws
+from .collision import LabelCollision, label_collision
 
 __all__ = [
     "FAMILIES",
@@ -225,6 +227,13 @@ class DatasetSpec:
         Upper bound of the uniform DH draws (m, and rad for arbitrary twists); the paper's 0.5.
     stream : ``"train"`` | ``"test"``
         Which independent stream of ``seed`` the samples come from (:func:`test_spec`).
+    collision : None or mapping
+        Chain families only: collision-free labels (:mod:`wsmap.datasets.collision`): ``model``
+        (the family's named arm's capsule model, scaled with each arm) or ``link_radius``, an
+        optional ``scene`` mapping (default: the floor ``z = 0``), ``self_collision``,
+        ``acm_samples``, ``acm_seed``; kept as a :class:`~wsmap.datasets.collision.LabelCollision`.
+        ``None`` (default): the chain's map. Part of the spec's identity (:meth:`to_dict` holds it
+        when set), so a file built with other settings is refused.
     """
 
     name: str
@@ -245,6 +254,7 @@ class DatasetSpec:
     seed: int = 0
     beta: float = 0.5
     stream: str = "train"
+    collision: LabelCollision | None = None
 
     def __post_init__(self):
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen dataclass)
@@ -266,6 +276,7 @@ class DatasetSpec:
         chain = family.chain
         if chain:
             self._check_chain_family()
+        set_("collision", label_collision(self.collision, family))
         half = (family.grid or CHAIN_FAMILY_GRID) if chain else 2.0 * beta
         if self.lo is None:
             set_("lo", -half if self.scope == "R3" else 0.0)
@@ -393,6 +404,11 @@ class DatasetSpec:
             out[f.name] = v
         if out["select"] is None:
             out["select"] = "all"
+        # absent when not set: the files of specs without it keep their bytes
+        if self.collision is None:
+            del out["collision"]
+        else:
+            out["collision"] = self.collision.to_dict()
         return out
 
     @classmethod
