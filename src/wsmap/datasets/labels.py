@@ -186,7 +186,7 @@ def _chain_family_labels(arms, spec: DatasetSpec, fx, nodes) -> np.ndarray:
         # and the maps take one arm's predicate: arm by arm
         mapper = ws.constant_orientation_map if spec.scope == "R3" else ws.orientation_map
         for b in range(count):
-            out[b] = mapper(arms[b], nodes, fx[b], method="numerical", convention=spec.convention,
+            out[b] = mapper(arms[b], nodes, fx[b], method="numerical", convention=spec.convention, ik=LABEL_SEARCH,
                             collision=spec.collision.checker(arms[b]))
         return out
     rows, inverse = np.unique(fx, axis=0, return_inverse=True)
