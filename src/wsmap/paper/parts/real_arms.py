@@ -265,13 +265,14 @@ def collision_placement(spec: Mapping, *, log=print) -> dict:
            for way, p in runs.items()}
 
     def best(p):
-        return [float(p.x[0]), float(p.y[0]), float(np.degrees(p.yaw[0])), float(p.score[0])]
+        return [round(float(p.x[0]), 9) + 0.0, round(float(p.y[0]), 9) + 0.0, float(np.degrees(p.yaw[0])),
+                float(p.score[0])]
 
     ch, fr = runs["chain"], runs["free"]
     chain_free = key["free"][(round(ch.x[0], 9), round(ch.y[0], 9), round(ch.yaw[0], 9))]
     changed = not (np.isclose(ch.x[0], fr.x[0]) and np.isclose(ch.y[0], fr.y[0]) and np.isclose(ch.yaw[0], fr.yaw[0]))
     other = {"chain": "free", "free": "chain"}
-    rows = [{"ranking": way, "rank": r + 1, "x_m": float(p.x[r]), "y_m": float(p.y[r]),
+    rows = [{"ranking": way, "rank": r + 1, "x_m": round(float(p.x[r]), 9) + 0.0, "y_m": round(float(p.y[r]), 9) + 0.0,
              "yaw_deg": float(np.degrees(p.yaw[r])), "score": float(p.score[r]),
              f"score_{other[way]}": float(key[other[way]][(round(p.x[r], 9), round(p.y[r], 9), round(p.yaw[r], 9))]),
              "seconds": seconds[way]}
