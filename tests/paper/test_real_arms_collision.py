@@ -127,7 +127,9 @@ def test_collision_placement_summary_of_the_smoke_params():
     t = out["table"]
     assert list(t["ranking"].unique()) == ["chain", "free"]
     # the chain's score of a base is never below its collision-aware score
-    assert (t.loc[t["ranking"] == "free", "score_chain"] >= t.loc[t["ranking"] == "free", "score"]).all()
+    assert (t["score_chain"] >= t["score_free"]).all()
+    assert t.loc[t["ranking"] == "chain", "score_chain"].iloc[0] == 1.0
+    assert t.loc[t["ranking"] == "chain", "score_free"].iloc[0] == m["chain_best_free_score"]
     sc = out["scores"]
     assert sc["chain"].shape == sc["free"].shape == (len(sc["y"]), len(sc["x"]))
     assert np.all(sc["free"] <= sc["chain"]) and sc["chain"].max() == 1.0

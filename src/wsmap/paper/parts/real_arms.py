@@ -244,7 +244,7 @@ def collision_placement(spec: Mapping, *, log=print) -> dict:
     (standard convention), candidates on ``x`` × ``y`` (m) at ``step`` with ``yaws`` headings, ranked
     twice: by the chain alone and collision-aware (self-collision, the floor and the table, checked
     from each candidate base). Returns ``metrics`` (:class:`CollisionPlacement`), ``table`` (the
-    ``top`` bases of each ranking, with the other ranking's score of the same base) and ``scores``
+    ``top`` bases of each ranking, each with both rankings' scores ``score_chain``, ``score_free``) and ``scores``
     (``chain``/``free``: the best score over the headings at each position, ``(ny, nx)``, and the
     positions ``x`` (nx,), ``y`` (ny,), m)."""
     from ...collision import CollisionChecker, Scene, arm_model, build_acm
@@ -271,10 +271,9 @@ def collision_placement(spec: Mapping, *, log=print) -> dict:
     ch, fr = runs["chain"], runs["free"]
     chain_free = key["free"][(round(ch.x[0], 9), round(ch.y[0], 9), round(ch.yaw[0], 9))]
     changed = not (np.isclose(ch.x[0], fr.x[0]) and np.isclose(ch.y[0], fr.y[0]) and np.isclose(ch.yaw[0], fr.yaw[0]))
-    other = {"chain": "free", "free": "chain"}
     rows = [{"ranking": way, "rank": r + 1, "x_m": round(float(p.x[r]), 9) + 0.0, "y_m": round(float(p.y[r]), 9) + 0.0,
-             "yaw_deg": float(np.degrees(p.yaw[r])), "score": float(p.score[r]),
-             f"score_{other[way]}": float(key[other[way]][(round(p.x[r], 9), round(p.y[r], 9), round(p.yaw[r], 9))]),
+             "yaw_deg": float(np.degrees(p.yaw[r])),
+             **{f"score_{w}": float(key[w][(round(p.x[r], 9), round(p.y[r], 9), round(p.yaw[r], 9))]) for w in runs},
              "seconds": seconds[way]}
             for way, p in runs.items() for r in range(min(spec["top"], len(p.score)))]
     xs = np.unique(np.round(ch.x, 9))
@@ -395,7 +394,8 @@ def collision_figure(result: Result):
     c = result.cfg["collision"]
     tx, tz = c["table"]["xyz"][0], c["table"]["xyz"][2]
     sx, sz = c["table"]["size"][0], c["table"]["size"][2]
-    fig, axes = plt.subplots(len(cm), 6, figsize=(17, 2.9 * len(cm)), squeeze=False, sharey="row")
+    fig, axes = plt.subplots(len(cm), 6, figsize=(17, 3.3 * len(cm) + 0.8), squeeze=False, sharey="row",
+                             layout="constrained")
     red = ListedColormap(["#d62728"])
     im = None
     for r, (name, m) in enumerate(cm.items()):
@@ -425,10 +425,10 @@ def collision_figure(result: Result):
                     ax.set_ylabel("z (m)", fontsize=8)
                 ax.tick_params(labelsize=7)
     if im is not None:
-        fig.colorbar(im, ax=axes[:, 3:].ravel().tolist(), shrink=0.8, label="reachability index")
+        fig.colorbar(im, ax=axes[:, -1].tolist(), shrink=0.8, label="reachability index")
     fig.legend(handles=[Patch(color="#1f4e79", label="tool down reachable"),
                         Patch(color="#d62728", label="removed by collisions (the chain reaches it)"),
-                        Patch(color="#eeeeee", label="unreachable")], loc="lower center", ncol=3, fontsize=8)
+                        Patch(color="#eeeeee", label="unreachable")], loc="outside lower center", ncol=3, fontsize=8)
     fig.suptitle(f"What collisions remove: section y = 0 m, grid step {c['step']} m, capsule models, "
                  f"table (outlined) in the base frame", fontsize=10)
     return fig
