@@ -140,3 +140,26 @@ def test_the_table_of_params_is_checked():
         real_arms.table_obstacle({"size": [0.8, -1.0, 0.3], "xyz": [0.7, 0, 0.15]}, "base")
     with pytest.raises(CollisionError, match="params real_arms table"):
         real_arms.table_obstacle({"size": [0.8, 1.0, 0.3], "xyz": [0.7, float("nan"), 0.15]}, "base")
+
+
+def test_closed_form_placement_around_a_world_table():
+    # the UR5e's closed form: every branch is asked from its candidate base; the best base's
+    # solutions are free with the table moved into its frame, and the table costs some candidates
+    model = arm_model("ur5e")
+    model.acm = build_acm(model, samples=1000)
+    spec = SMOKE["placement"]
+    table = real_arms.table_obstacle(spec["table"], "world")
+    robot = load("ur5e")
+    targets = np.stack([target_poses(p, spec["rpy"], "standard") for p in spec["positions"]])
+    kw = dict(x=(-0.8, 0.8), y=(-0.8, 0.8), step=0.2, yaws=4)
+    free = base_placement(robot, targets, collision=CollisionChecker(model, Scene(0.0, (table,))), **kw)
+    floor_only = base_placement(robot, targets, collision=CollisionChecker(model, Scene(0.0)), **kw)
+    assert free.method == "exact" and free.score[0] > 0
+    assert free.reached.sum() < floor_only.reached.sum()
+    got = np.isfinite(free.q[:, 0])
+    assert got.sum() == free.reached[0].sum()
+    np.testing.assert_allclose(free.poses[0] @ robot.fkine(free.q[got]), targets[got], atol=1e-9)
+    moved = Shape("box", table.shape.size, np.linalg.inv(free.poses[0]) @ table.shape.origin)
+    there = CollisionChecker(model, Scene(0.0, (Obstacle("table", moved, frame="base"),)))
+    there.scene_allowed[:, 0] = False
+    assert there.exact(free.q[got]).all()
