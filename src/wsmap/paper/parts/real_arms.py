@@ -195,8 +195,10 @@ def collision_volumes(arms, step: float, half_width: Mapping, orientations: np.n
     Returns the rows (per arm, kind ``tooldown``/``index`` and way: ``nodes`` reached,
     ``volume_m3`` = nodes · step³ (the index: nodes with index > 0), ``lost_m3`` and ``lost_pct``
     against the chain, ``index_volume_m3`` = Σ index · step³ (the tool-down map: its volume) and
-    ``index_lost_pct``, ``volume_above_floor_m3`` (nodes with z > 0) and ``lost_above_floor_pct``
-    (what self-collision and the table take, the floor's cut left aside), ``seconds``) and the maps (arm -> ``grid``, ``tooldown``/``index``: way ->
+    ``index_lost_pct``, ``volume_above_floor_m3`` (nodes with z > 0; the z = 0 layer counts with
+    the floor) and ``lost_above_floor_pct`` (the share of those lost: mostly what self-collision and
+    the table take, the floor's cut of the lower half left aside; an arm reaching a node just above
+    the floor can still dip into it), ``seconds``) and the maps (arm -> ``grid``, ``tooldown``/``index``: way ->
     the map in node order)."""
     rows, maps = [], {}
     cell = step ** 3
@@ -206,7 +208,7 @@ def collision_volumes(arms, step: float, half_width: Mapping, orientations: np.n
         grid = workspace.grid_spec("R3", -h, h, step)
         nodes = workspace.cartesian_grid(grid["lo"], grid["hi"], grid["step"])
         ways = _checkers(name, table)
-        above = nodes[:, 2] > 0.0
+        above = nodes[:, 2] > 1e-9  # a grid's z = 0 layer lies at ±1e-16: it counts with the floor
         maps[name] = {"grid": grid, "tooldown": {}, "index": {}}
         for kind in ("tooldown", "index"):
             base = None
