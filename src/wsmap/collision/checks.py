@@ -25,12 +25,16 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..kinematics.transforms import check_rigid
 from .geometry import CollisionModel, Shape, body_frames
 from .scene import Scene
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike
 
 __all__ = ["bounding_spheres", "coal_shape", "exact_pairs", "CollisionChecker", "CheckStats"]
 
@@ -447,7 +451,7 @@ class CollisionChecker:
         """Collision-free, bool ``(C,)``, for configurations ``q`` ``(C, n)``: spheres, then coal."""
         return self._free(self._q(q))
 
-    def at_bases(self, q, bases) -> np.ndarray:
+    def at_bases(self, q: ArrayLike, bases: ArrayLike) -> np.ndarray:
         """Collision-free, bool ``(C,)``, for configurations ``q`` ``(C, n)`` of an arm whose base
         stands at a pose of its own for each: ``bases`` ``(C, 4, 4)`` (or one ``(4, 4)``), the world
         pose of the frame the chain's forward kinematics is expressed in (metres). Base placement
