@@ -24,7 +24,8 @@ Per arm:
 grid: the cube of half-width 1.2 m, 49³ nodes; super-Fibonacci orientations, seed 0) with
 self-collision, the floor and a table (a solid box in the base frame, params.yaml's
 ``real_arms.collision.table``), against the same index of the chain alone, side by side (goal
-<= 3 minutes on this machine), each once (``--index-step``, ``--index-orientations`` to change it):
+<= 3 minutes on this machine), each once (``--index-step``, ``--index-orientations`` to change it;
+``--index-border-starts 0``: both without the map search's border search):
 
     NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_collision.py --index
 """
@@ -73,8 +74,9 @@ def timed(f, repeats=2):
 TABLE = {"size": [0.8, 1.2, 0.3], "xyz": [0.75, 0.0, 0.15]}
 
 
-def bench_index(step, k, half_width=1.2):
-    """The Panda's index with and without collisions, timed once each (after a small warm-up)."""
+def bench_index(step, k, half_width=1.2, ik=None):
+    """The Panda's index with and without collisions, timed once each (after a small warm-up);
+    ``ik``: search settings for both (e.g. ``{"border_starts": 0}``)."""
     from wsmap.collision import CollisionChecker, Scene, scene_from_dict
     from wsmap.workspace import orientation_samples, reachability_index
 
@@ -91,12 +93,13 @@ def bench_index(step, k, half_width=1.2):
     reachability_index(robot, warm, R[:4], collision=chk)
     print(f"Panda reachability index, {len(nodes)} nodes ({step} m) x {k} orientations; self-collision, the floor "
           f"and a table {TABLE} (base frame); matrix {t_acm:.2f} s; {len(chk.pairs)} enabled link pairs")
-    t0, i0 = timed(lambda: reachability_index(robot, nodes, R), 1)
+    print(f"  search settings: {ik or 'the defaults (MAP_SETTINGS)'}")
+    t0, i0 = timed(lambda: reachability_index(robot, nodes, R, ik=ik), 1)
     print(f"  chain alone      {t0:7.1f} s   reached {int((i0 > 0).sum())} nodes, sum of the index {i0.sum():.0f}",
           flush=True)
     chk.stats.__init__()
     t1, (i1, bits, q) = timed(lambda: reachability_index(robot, nodes, R, collision=chk, return_bits=True,
-                                                        return_q=True), 1)
+                                                        return_q=True, ik=ik), 1)
     st = chk.stats
     print(f"  collision-free   {t1:7.1f} s   reached {int((i1 > 0).sum())} nodes, sum of the index {i1.sum():.0f}; "
           f"ratio {t1 / t0:.2f}; goal <= 180 s: {'met' if t1 <= 180 else 'missed'}")
@@ -124,9 +127,12 @@ def main(argv=None):
                     help="the Panda's reachability index with self-collision and a table against the chain's, instead")
     ap.add_argument("--index-step", type=float, default=0.05)
     ap.add_argument("--index-orientations", type=int, default=50)
+    ap.add_argument("--index-border-starts", type=int, default=None,
+                    help="the map search's border_starts for both indexes (default: MAP_SETTINGS', 32)")
     args = ap.parse_args(argv)
     if args.index:
-        return bench_index(args.index_step, args.index_orientations)
+        ik = None if args.index_border_starts is None else {"border_starts": args.index_border_starts}
+        return bench_index(args.index_step, args.index_orientations, ik=ik)
     nodes = cartesian_grid(-1, 1, args.step)
     T = target_poses(nodes, DOWN, "standard")
     print(f"tool-down map, {len(nodes)} nodes, self-collision + floor; reference {args.starts} starts per node")
