@@ -19,6 +19,15 @@ Per arm:
   in numpy).
 
     NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_collision.py
+
+``--index``: instead, the Panda's reachability index at 5 cm x 50 orientations (the real_arms
+grid: the cube of half-width 1.2 m, 49³ nodes; super-Fibonacci orientations, seed 0) with
+self-collision, the floor and a table (a solid box in the base frame, params.yaml's
+``real_arms.collision.table``), against the same index of the chain alone, side by side (goal
+<= 3 minutes on this machine), each once (``--index-step``, ``--index-orientations`` to change it;
+``--index-border-starts 0``: both without the map search's border search):
+
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_collision.py --index
 """
 
 from __future__ import annotations
@@ -61,6 +70,52 @@ def timed(f, repeats=2):
     return best, out
 
 
+#: params.yaml's real_arms.collision.table: size (m) and centre (m) in the base frame; top at 0.3 m
+TABLE = {"size": [0.8, 1.2, 0.3], "xyz": [0.75, 0.0, 0.15]}
+
+
+def bench_index(step, k, half_width=1.2, ik=None):
+    """The Panda's index with and without collisions, timed once each (after a small warm-up);
+    ``ik``: search settings for both (e.g. ``{"border_starts": 0}``)."""
+    from wsmap.collision import CollisionChecker, Scene, scene_from_dict
+    from wsmap.workspace import orientation_samples, reachability_index
+
+    robot = load("panda")
+    nodes = cartesian_grid(-half_width, half_width, step)
+    R = orientation_samples(k, seed=0)
+    model = arm_model("panda")
+    t_acm, model.acm = timed(lambda: build_acm(model), 1)
+    table = scene_from_dict({"frame": "base", "floor": True,
+                             "obstacles": [{"name": "table", "shape": "box", **TABLE}]})
+    chk = CollisionChecker(model, table)
+    warm = cartesian_grid(-0.6, 0.6, 0.3)
+    reachability_index(robot, warm, R[:4])  # numba compiled, caches filled
+    reachability_index(robot, warm, R[:4], collision=chk)
+    print(f"Panda reachability index, {len(nodes)} nodes ({step} m) x {k} orientations; self-collision, the floor "
+          f"and a table {TABLE} (base frame); matrix {t_acm:.2f} s; {len(chk.pairs)} enabled link pairs")
+    print(f"  search settings: {ik or 'the defaults (MAP_SETTINGS)'}")
+    t0, i0 = timed(lambda: reachability_index(robot, nodes, R, ik=ik), 1)
+    print(f"  chain alone      {t0:7.1f} s   reached {int((i0 > 0).sum())} nodes, sum of the index {i0.sum():.0f}",
+          flush=True)
+    chk.stats.__init__()
+    t1, (i1, bits, q) = timed(lambda: reachability_index(robot, nodes, R, collision=chk, return_bits=True,
+                                                        return_q=True, ik=ik), 1)
+    st = chk.stats
+    print(f"  collision-free   {t1:7.1f} s   reached {int((i1 > 0).sum())} nodes, sum of the index {i1.sum():.0f}; "
+          f"ratio {t1 / t0:.2f}; goal <= 180 s: {'met' if t1 <= 180 else 'missed'}")
+    print(f"  volume lost: {(1 - (i1 > 0).sum() / max((i0 > 0).sum(), 1)):.1%} of the reached nodes, "
+          f"{(1 - i1.sum() / max(i0.sum(), 1)):.1%} of the index-weighted volume")
+    print(f"  checker: {st.configurations} configurations, {st.fast_fraction:.1%} decided without coal, "
+          f"{st.exact_tests} coal tests, {st.seconds:.1f} s in the checker ({st.exact_seconds:.1f} s exact)")
+    # every returned solution of a sample of the positive poses: free by coal alone
+    rng = np.random.default_rng(0)
+    pos = np.argwhere(bits)
+    sample = pos[rng.choice(len(pos), min(2000, len(pos)), replace=False)]
+    qs = q[sample[:, 0], sample[:, 1]]
+    print(f"  {len(sample)} returned solutions sampled: colliding by coal alone {int((~chk.exact(qs)).sum())} "
+          f"(goal 0); inside the limits {bool(robot.within_limits(qs).all())}")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--arms", nargs="+", default=["panda", "iiwa14", "ur5e", "panda-urdf"],
@@ -68,7 +123,16 @@ def main(argv=None):
                          "collision meshes and hand (the tool at panda_hand)")
     ap.add_argument("--starts", type=int, default=64)
     ap.add_argument("--step", type=float, default=0.1)
+    ap.add_argument("--index", action="store_true",
+                    help="the Panda's reachability index with self-collision and a table against the chain's, instead")
+    ap.add_argument("--index-step", type=float, default=0.05)
+    ap.add_argument("--index-orientations", type=int, default=50)
+    ap.add_argument("--index-border-starts", type=int, default=None,
+                    help="the map search's border_starts for both indexes (default: MAP_SETTINGS', 32)")
     args = ap.parse_args(argv)
+    if args.index:
+        ik = None if args.index_border_starts is None else {"border_starts": args.index_border_starts}
+        return bench_index(args.index_step, args.index_orientations, ik=ik)
     nodes = cartesian_grid(-1, 1, args.step)
     T = target_poses(nodes, DOWN, "standard")
     print(f"tool-down map, {len(nodes)} nodes, self-collision + floor; reference {args.starts} starts per node")

@@ -80,6 +80,11 @@ def test_place_takes_the_collision_options(tmp_path, capsys):
             "0.6", "--step", "0.3", "--yaws", "4", "--acm-samples", "300"]
     assert cli.main(argv + ["--collision"]) == 0
     assert "collision-free" in capsys.readouterr().out
+    # world-frame obstacles: each candidate base is checked where it stands
     (tmp_path / "w.yaml").write_text("frame: world\nobstacles:\n  - {shape: sphere, radius: 0.1, xyz: [1, 1, 1]}\n")
-    assert cli.main(argv + ["--scene", str(tmp_path / "w.yaml")]) == 2
-    assert "world-frame obstacles" in capsys.readouterr().err
+    assert cli.main(argv + ["--scene", str(tmp_path / "w.yaml")]) == 0
+    capsys.readouterr()
+    (tmp_path / "m.yaml").write_text("frame: world\nobstacles:\n  - {shape: sphere, radius: 0.1, xyz: [1, 1, 1]}\n"
+                                     "  - {shape: sphere, radius: 0.1, xyz: [1, 1, 1], frame: base}\n")
+    assert cli.main(argv + ["--scene", str(tmp_path / "m.yaml")]) == 2
+    assert "not both in one scene" in capsys.readouterr().err

@@ -122,15 +122,35 @@ def test_base_placement_counts_collision_free_solutions(name):
     np.testing.assert_allclose(free.poses[0] @ robot.fkine(free.q[got]), targets[got], atol=1e-6)
 
 
-def test_base_placement_refuses_world_frame_obstacles():
+def test_base_placement_refuses_world_and_base_frame_obstacles_together():
     from wsmap.workspace import base_placement
 
     model = arm_model("ur5e")
     model.acm = build_acm(model, samples=200)
-    world = Scene(0.0, (Obstacle("wall", Shape("box", (0.1, 2, 2), _at([1, 0, 1])), frame="world"),))
-    with pytest.raises(ValueError, match="world-frame obstacles"):
+    both = Scene(0.0, (Obstacle("wall", Shape("box", (0.1, 2, 2), _at([1, 0, 1])), frame="world"),
+                       Obstacle("post", Shape("box", (0.1, 0.1, 1), _at([0.5, 0, 0.5])), frame="base")))
+    with pytest.raises(ValueError, match="world-frame or base-frame obstacles, not both"):
         base_placement(load("ur5e"), target_poses(np.array([[0.3, 0, 0.3]]), DOWN, "standard"),
-                       collision=CollisionChecker(model, world))
+                       collision=CollisionChecker(model, both))
+
+
+class _SceneOnly:
+    """A predicate that is no CollisionChecker but carries a world-frame scene."""
+
+    def __init__(self, scene):
+        self.scene = scene
+
+    def __call__(self, q):
+        return np.ones(len(q), dtype=bool)
+
+
+def test_base_placement_refuses_world_frame_obstacles_without_a_checker():
+    from wsmap.workspace import base_placement
+
+    world = Scene(0.0, (Obstacle("wall", Shape("box", (0.1, 2, 2), _at([1, 0, 1])), frame="world"),))
+    with pytest.raises(ValueError, match="give a wsmap.collision.CollisionChecker"):
+        base_placement(load("ur5e"), target_poses(np.array([[0.3, 0, 0.3]]), DOWN, "standard"),
+                       collision=_SceneOnly(world))
 
 
 def test_the_orientation_map_and_the_index_kind_take_the_checker(tmp_path):

@@ -25,11 +25,16 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..kinematics.transforms import check_rigid
 from .geometry import CollisionModel, Shape, body_frames
 from .scene import Scene
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import ArrayLike
 
 __all__ = ["bounding_spheres", "coal_shape", "exact_pairs", "CollisionChecker", "CheckStats"]
 
@@ -340,9 +345,10 @@ class CollisionChecker:
                 "scene": {**self.scene.describe(), "allowed": standing}, "self_collision": self.self_collision}
 
     # -------------------------------------------------------------------------------- fast layer
-    def _maybe(self, B):
+    def _maybe(self, B, allowed=None):
         """``(C, P)`` maybe per enabled link pair and ``(C, L_moving, O)`` per link and obstacle
-        (the floor last), from the spheres."""
+        (the floor last), from the spheres; ``allowed`` (default :attr:`scene_allowed`) the link and
+        obstacle pairs not checked."""
         L = self.layer
         c = L.world_spheres(B)
         r = L.radii
@@ -369,9 +375,9 @@ class CollisionChecker:
                     scene[:, mi, k] = m.any(axis=-1)
                 if self.scene.floor is not None and not L.analytic[li]:
                     scene[:, mi, -1] = np.any(cs[..., 2] - rs <= self.scene.floor + 1e-12, axis=-1)
-        return pair, scene & ~self.scene_allowed
+        return pair, scene & ~(self.scene_allowed if allowed is None else allowed)
 
-    def _analytic(self, B, per_pair: bool = False) -> np.ndarray:
+    def _analytic(self, B, per_pair: bool = False, allowed=None) -> np.ndarray:
         """``(C,)`` True where a capsule pair (or a capsule link and the floor) collides, exactly;
         ``per_pair``: ``(C, P)`` for the checked pairs instead (False for the others), no floor."""
         L = self.layer
@@ -399,9 +405,10 @@ class CollisionChecker:
         if per_pair:
             return pairs
         if self.scene.floor is not None:
-            nob = self.scene_allowed.shape[1]
+            allowed = self.scene_allowed if allowed is None else allowed
+            nob = allowed.shape[1]
             for mi, li in enumerate(self.moving):
-                if L.analytic[li] and not self.scene_allowed[mi, nob - 1]:
+                if L.analytic[li] and not allowed[mi, nob - 1]:
                     k = np.array([where[x] for x in L.link_shapes[li]])
                     low = np.minimum(w0[:, k, 2], w1[:, k, 2]) - rad[k]
                     out |= (low <= self.scene.floor).any(axis=1)
@@ -442,14 +449,39 @@ class CollisionChecker:
 
     def __call__(self, q) -> np.ndarray:
         """Collision-free, bool ``(C,)``, for configurations ``q`` ``(C, n)``: spheres, then coal."""
-        t0 = time.perf_counter()
+        return self._free(self._q(q))
+
+    def at_bases(self, q: ArrayLike, bases: ArrayLike) -> np.ndarray:
+        """Collision-free, bool ``(C,)``, for configurations ``q`` ``(C, n)`` of an arm whose base
+        stands at a pose of its own for each: ``bases`` ``(C, 4, 4)`` (or one ``(4, 4)``), the world
+        pose of the frame the chain's forward kinematics is expressed in (metres). Base placement
+        asks this: each candidate base sees the scene's world-frame obstacles (a table) from
+        elsewhere. The bases stand on the floor (``z`` of the frame at the floor height, turned
+        about ``z`` only): the floor is then the same for all of them. World-frame obstacles are
+        checked against every moving link (none stands on them: a candidate's default pose means
+        nothing to a table elsewhere); base-frame obstacles are refused (they would move with each
+        base: check them with ``checker(q)``). The same guarantee as ``checker(q)``."""
         q = self._q(q)
+        bases = check_rigid("bases", bases)
+        bases = np.broadcast_to(bases, (len(q), 4, 4)) if bases.ndim == 2 else bases
+        if bases.shape != (len(q), 4, 4):
+            raise ValueError(f"bases must have shape ({len(q)}, 4, 4) or (4, 4), got {bases.shape}")
+        if any(ob.frame == "base" for ob in self.scene.obstacles):
+            raise ValueError("at_bases takes world-frame obstacles only (base-frame ones move with each base)")
+        allowed = self.scene_allowed.copy()
+        allowed[:, :len(self.scene.obstacles)] = False
+        return self._free(q, bases, allowed)
+
+    def _free(self, q, bases=None, allowed=None) -> np.ndarray:
+        t0 = time.perf_counter()
         free = np.ones(len(q), dtype=bool)
         for s0 in range(0, len(q), 2048):
             B = body_frames(self.model.chain, q[s0 : s0 + 2048])
-            hit = self._analytic(B)
+            if bases is not None:
+                B = bases[s0 : s0 + len(B), None] @ B
+            hit = self._analytic(B, allowed=allowed)
             free[s0 : s0 + len(B)] = ~hit
-            pair, scene = self._maybe(B)
+            pair, scene = self._maybe(B, allowed)
             need = ~hit & (pair.any(axis=1) | scene.any(axis=(1, 2)))
             self.stats.decided_fast += int((~need).sum())
             te = time.perf_counter()

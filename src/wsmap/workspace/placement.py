@@ -84,6 +84,16 @@ def floor_poses(x: ArrayLike, y: ArrayLike, yaw: ArrayLike, z0: float = 0.0) -> 
     return B
 
 
+def _from_its_base(robot, checker, target):
+    """The predicate of solutions ``q`` ``(C, n)`` of one world ``target`` (4, 4) from candidate
+    bases: each checked at the base it reaches the target from, ``target·fkine(q)⁻¹`` (the
+    candidate's pose to the solver's tolerance, about 1e-9 m), with the scene's world obstacles."""
+    def valid(q):
+        q = np.asarray(q, dtype=np.float64)
+        return checker.at_bases(q, target @ np.linalg.inv(robot.fkine(q)))
+    return valid
+
+
 def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.0, 1.0),
                    y: tuple[float, float] = (-1.0, 1.0), *, step: float = 0.1, yaws: int = 8, z0: float = 0.0,
                    method: str = "auto", ik: dict | None = None, seed: int = 0,
@@ -100,10 +110,13 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
     method, ik, seed : as :func:`wsmap.workspace.constant_orientation_map` (``ik`` for the numerical search)
     progress : a progress bar over the targets (on stderr)
     collision : a configuration predicate, as :func:`wsmap.workspace.constant_orientation_map`: a
-        target counts only with a collision-free solution. It must not depend on the candidate base:
-        a :class:`wsmap.collision.CollisionChecker` with self-collision, the floor the base stands
-        on and obstacles in the base frame (carried with the base); one with obstacles in the
-        world frame is refused
+        target counts only with a collision-free solution. A plain predicate must not depend on the
+        candidate base (self-collision, the floor the base stands on, obstacles in the base frame,
+        carried with the base). A :class:`wsmap.collision.CollisionChecker` whose scene has
+        obstacles in the world frame (a table the targets lie on) checks each solution against
+        them from its own candidate base (:meth:`~wsmap.collision.CollisionChecker.at_bases`; the
+        base is ``T_m·fkine(q)⁻¹``, the pose the solution was found for); such a scene must then
+        have no base-frame obstacles
 
     Returns a :class:`Placement`, best first (ties: nearer the middle of the region first, then the
     grid order). Bad input (a range with lo > hi, ``step`` <= 0, ``yaws`` < 1, targets that are not
@@ -144,9 +157,12 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
                 f"{int(total)} candidate bases x {len(T)} targets")
     valid = _predicate(robot, collision)
     scene = getattr(collision, "scene", None)
-    if scene is not None and any(ob.frame == "world" for ob in scene.obstacles):
-        raise ValueError("base placement moves the base under world-frame obstacles; give the obstacles in the "
-                         "base frame (they move with each candidate) or check the chosen base afterwards")
+    world = scene is not None and any(ob.frame == "world" for ob in scene.obstacles)
+    if world and not callable(getattr(collision, "at_bases", None)):
+        raise ValueError("base placement moves the base under world-frame obstacles: give a "
+                         "wsmap.collision.CollisionChecker (it checks each candidate base) or base-frame obstacles")
+    if world and any(ob.frame == "base" for ob in scene.obstacles):
+        raise ValueError("base placement takes world-frame or base-frame obstacles, not both in one scene")
 
     xs = np.arange(xr[0], xr[1] + step * 0.5, step)
     ys = np.arange(yr[0], yr[1] + step * 0.5, step)
@@ -172,6 +188,8 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
 
     for m in tqdm(range(M), unit="target", desc="base placement", disable=not progress, leave=False):
         Tm = Binv @ T[m]  # (C, 4, 4): the target in each candidate's base frame
+        if world:
+            valid = _from_its_base(robot, collision, T[m])
         if method == "exact":
             reached[:, m] = _exact(robot, Tm, valid)
         else:
@@ -184,6 +202,8 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
     best = order[0]
     if method == "exact":
         # the solutions of the best base from the closed form, for its reached targets
+        if world:
+            valid = (lambda q: collision.at_bases(q, B[best])) if collision is not None else None
         _, q_best = _exact(robot, Binv[best] @ T, valid, True)
     else:
         q_best = qsol[best]

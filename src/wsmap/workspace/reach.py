@@ -49,8 +49,12 @@ def _check_arm(robot):
 
 
 #: The index's search: the maps' settings with 2 retries instead of 4 (Panda, 10 cm, 50 orientations:
-#: recall 0.9991 against 64 independent starts per pose on a sample, 25 % less time than 4 retries).
-INDEX_SETTINGS = {**MAP_SETTINGS, "retry": 2}
+#: recall 0.9991 against 64 independent starts per pose on a sample, 25 % less time than 4 retries),
+#: and no border search at each orientation: the continuation over the orientations already starts
+#: every node from its own solution at a nearby orientation, so the border search found 3 of 5.9
+#: million poses more on the Panda at 5 cm x 50 orientations, for 11 times the time (946 s against
+#: 82 s, benchmarks/bench_collision.py --index, docs/collision.md). The reach pre-filter keeps it.
+INDEX_SETTINGS = {**MAP_SETTINGS, "retry": 2, "border_starts": 0}
 
 
 def _subset_neighbours(nb, keep):

@@ -25,5 +25,11 @@ def test_real_arms_smoke(tmp_path):
     assert set(place["arm"]) == set(cfg["placement"]["arms"])
     for name in cfg["arms"]:
         assert (tmp_path / "figures" / f"real_arms_index_{name}.png").stat().st_size > 5_000
+    coll = pd.read_csv(tmp_path / "tables" / "real_arms_collision.csv")
+    assert set(coll["arm"]) == set(cfg["collision"]["arms"]) and set(coll["way"]) == {"chain", "self_floor", "table"}
+    assert (coll.loc[coll["way"] == "chain", "lost_m3"] == 0).all() and (coll["lost_m3"] >= 0).all()
+    assert metrics["collision_placement"]["best_changed"]
+    for name in ("collision", "collision_placement"):
+        assert (tmp_path / "figures" / f"real_arms_{name}.png").stat().st_size > 5_000
     html = (tmp_path / "results" / "real_arms_html" / f"{cfg['show_3d']}_index.html").read_text()
     assert "<script" in html and "<script src=\"http" not in html  # plotly.js inline: opens offline
