@@ -39,8 +39,8 @@ fixed joints' ``<origin>`` from the root down); a collision element's pose is
 
 * ``mount=None`` (default): the cell's root link *is* the world frame of the arm's chain, and the
   obstacles are ``"world"`` obstacles: they stay where they are when the arm's base moves (the
-  chain's ``base`` transform places the arm in the cell; :func:`wsmap.base_placement` refuses them,
-  since it moves the base under them);
+  chain's ``base`` transform places the arm in the cell; :func:`wsmap.base_placement` checks each
+  candidate base's solutions against them where they stand);
 * ``mount="LINK"``: the arm's base is bolted to that link of the cell (its frame is the arm's base
   frame, body 0 of the chain), and the obstacles are ``"base"`` obstacles at
   ``T_mount⁻¹ · T_link · origin``: they move with the base (a map in the base frame, a base
