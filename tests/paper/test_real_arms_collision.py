@@ -163,3 +163,23 @@ def test_closed_form_placement_around_a_world_table():
     there = CollisionChecker(model, Scene(0.0, (Obstacle("table", moved, frame="base"),)))
     there.scene_allowed[:, 0] = False
     assert there.exact(free.q[got]).all()
+
+
+def test_the_inline_3d_view_on_every_second_node_keeps_each_node_where_it_was():
+    from types import SimpleNamespace
+
+    from wsmap import workspace
+    from wsmap.paper.parts import real_arms
+
+    grid = workspace.grid_spec("R3", [-0.5, -0.4, -0.3], [0.5, 0.4, 0.3], 0.1)
+    nodes = workspace.cartesian_grid(grid["lo"], grid["hi"], grid["step"])
+    index = np.linspace(0, 1, len(nodes))
+    result = SimpleNamespace(cfg={"show_3d": "arm", "orientations": 4}, index_maps={"arm": (index, grid)})
+    nx, ny, nz = grid["shape"]
+    keep = np.arange(len(nodes)).reshape(nz, ny, nx)[::2, ::2, ::2].ravel()
+    fig = real_arms.figure_3d_of_shown(result, stride=2)
+    full = real_arms.figure_3d_of_shown(result)
+    xs = np.concatenate([np.asarray(t.x, dtype=float) for t in fig.data if t.x is not None])
+    assert set(np.round(xs, 9)) <= set(np.round(nodes[keep, 0], 9)) and len(fig.data) == len(full.data)
+    with pytest.raises(ValueError, match="stride must be a positive integer, got 0"):
+        real_arms.figure_3d_of_shown(result, stride=0)

@@ -332,10 +332,20 @@ def save(result: Result, out: Outputs) -> None:
     write_json(result.metrics, out.results / "real_arms.json")
 
 
-def figure_3d_of_shown(result: Result):
-    """The interactive plotly view of ``show_3d``'s index (the notebook shows it)."""
+def figure_3d_of_shown(result: Result, stride: int = 1):
+    """The interactive plotly view of ``show_3d``'s index (the notebook shows it), on every
+    ``stride``-th node along each axis (the grid's step times ``stride``, the same first node)."""
     show = result.cfg["show_3d"]
     index, grid = result.index_maps[show]
+    if isinstance(stride, bool) or not isinstance(stride, int) or stride < 1:
+        raise ValueError(f"stride must be a positive integer, got {stride!r}")
+    if stride > 1:
+        nx, ny, nz = grid["shape"]  # node order: x fastest
+        index = np.asarray(index).reshape(nz, ny, nx)[::stride, ::stride, ::stride].ravel()
+        shape = [len(range(0, n, stride)) for n in (nx, ny, nz)]
+        step = [s * stride for s in grid["step"]]
+        hi = [lo + (n - 1) * st for lo, n, st in zip(grid["lo"], shape, step)]
+        grid = {**grid, "step": step, "shape": shape, "hi": hi}
     return figure_3d(index, grid, kind="points", label="reachability index",
                      title=f"{show}: reachability index over {result.cfg['orientations']} orientations",
                      thresholds=VIEW_THRESHOLDS, cut_plane=True)
