@@ -122,6 +122,38 @@ def test_changed_settings_rerun_the_part(tmp_path, data_dir, capsys):
     assert result["settings"]["datasets"]["table1_r3_step1"]["samples"] == 310
 
 
+def test_more_sessions_reuse_the_sessions_already_run(tmp_path, data_dir, capsys):
+    """Session k trains with seed + k whatever the number of sessions: raising ``sessions`` (one
+    dataset's, ``{default: 1, name: 3}``) runs only the new ones, also where a finished result is
+    all that is left of the earlier run (its step files gone), and gives what a run in one go gives."""
+    import shutil
+
+    out = tmp_path / "out"
+    assert _run(["paper", "full", "table1_r3_step1", *_args(out, data_dir)], capsys)[0] == 0
+    first = json.loads((out / "table1_r3_step1.json").read_text())
+    shutil.rmtree(out / "steps")  # a result from before the step files, as results/full/ had
+    more = _changed_params(tmp_path, "table1_workspaces", sessions={"default": 1, "table1_r3_step1": 3})
+    by = {p.name: p for p in full.plan(more)}
+    part = by["table1_r3_step1"]
+    assert part.steps == ["session_0", "session_1", "session_2"] and by["table1_r3_step05"].steps == ["session_0"]
+    assert part.hash != first["settings_hash"] and part.step_hash == full.step_hash(first["settings"])
+    assert full.part_state(part, out)["steps_done"] == 1
+    code, stdout, err = _run(["paper", "full", "table1_r3_step1", *_args(out, data_dir, more)], capsys)
+    assert code == 0, err
+    assert "session_0: done earlier" in stdout and stdout.count("running") == 2
+    grown = json.loads((out / "table1_r3_step1.json").read_text())
+    assert grown["metrics"]["sessions"] == 3 and [r["seed"] for r in grown["metrics"]["runs"]] == [0, 1, 2]
+    assert grown["metrics"]["runs"][0] == first["metrics"]["runs"][0]
+    assert json.loads((out / "steps" / "table1_r3_step1" / "session_0.json").read_text())["step_hash"] == part.step_hash
+    fresh = full.run_part(part, tmp_path / "fresh", data_dir, log=lambda s: None)
+    assert [r["f"] for r in grown["metrics"]["runs"]] == [r["f"] for r in fresh["metrics"]["runs"]]
+    assert grown["metrics"]["f_session_std"] == pytest.approx(np.std([r["f"] for r in fresh["metrics"]["runs"]],
+                                                                      ddof=1))
+    # another setting than the number of sessions is not reused
+    other = _changed_params(tmp_path, "table1_workspaces", sessions=3, max_epochs=3)
+    assert full.part_state(full.select(full.plan(other), ["table1_r3_step1"])[0], out)["steps_done"] == 0
+
+
 def test_a_crashed_run_leaves_no_partial_file_and_resumes(tmp_path, data_dir, monkeypatch, capsys):
     out = tmp_path / "out"
     part = full.select(full.plan(SMOKE), ["table2_rprop_mse"])[0]

@@ -121,6 +121,24 @@ def test_the_paper_scale_column_is_filled_from_a_part_file(tmp_path):
     assert "| table1_r3_step1 | measured | 4 min | 2026-12-01T20:18:11+00:00 | cpu | box, 2 CPUs, torch 2.x |" in text
 
 
+def test_a_row_of_several_sessions_gets_its_spread_and_the_reading_nearest_the_paper(tmp_path):
+    runs = [{"session": k, "seed": k, "f": f, "f_sample_mean": m, "best_val_loss": v}
+            for k, (f, m, v) in enumerate([(0.90, 0.97, 0.03), (0.98, 0.99, 0.02), (0.94, 0.98, 0.01)])]
+    _part(tmp_path, "table1_so3_pi10", {"f": 0.94, "runs": runs})
+    _part(tmp_path, "table1_r3_step1", {"f": 0.99, "runs": runs[:1]})  # one session: no row
+    (row,) = report.session_rows(report.load_full(tmp_path / "full"))
+    assert row["row"] == "table1_so3_pi10" and row["sessions"] == 3
+    assert row["F per session (seed)"] == "0.9000 (0), 0.9800 (1), 0.9400 (2)"
+    assert row["F mean ± σ"] == "0.9400 ± 0.0400"
+    assert (row["F lowest"], row["F highest"], row["F of the lowest-validation-loss session"]) == (0.90, 0.98, 0.94)
+    assert row["per-arm F mean (mean over sessions)"] == pytest.approx(0.98)
+    assert row["per-arm F mean, best session"] == 0.99
+    assert row["paper"] == "0.9920 ± 0.03"  # Table 1: F 0.992 ± 0.03 at pi/10
+    assert row["reading nearest the paper"] == "per-arm F mean, best session (0.9900)"
+    text = report.write_report(tmp_path).read_text()
+    assert "## Table 1 at the paper's scale, session by session" in text and "0.9400 ± 0.0400" in text
+
+
 def test_the_paper_scale_column_says_not_run_yet_without_the_part(tmp_path):
     rows = report.comparison_rows({"sec61_subspace": {"f_mean": 0.95}}, report.load_full(tmp_path / "full"))
     row = _row(rows, "results/sec61_subspace.json: f_mean")

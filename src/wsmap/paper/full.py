@@ -177,6 +177,13 @@ class Part:
         return settings_hash(self.settings)
 
     @property
+    def step_hash(self) -> str:
+        """The hash a finished step is matched by: the settings without the number of sessions
+        (session ``k`` trains with seed ``seed + k`` whatever their number), so that raising
+        ``sessions`` reuses the sessions already run."""
+        return step_hash(self.settings)
+
+    @property
     def train_config(self):
         from ..learn.training import TrainConfig
 
@@ -189,6 +196,12 @@ def settings_hash(settings: dict) -> str:
 
     text = json.dumps(jsonable(settings), sort_keys=True, separators=(",", ":"), allow_nan=False)
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
+
+
+def step_hash(settings: dict) -> str:
+    """:func:`settings_hash` of ``settings`` without ``section.sessions`` (see :attr:`Part.step_hash`)."""
+    section = {k: v for k, v in settings.get("section", {}).items() if k != "sessions"}
+    return settings_hash({**settings, "section": section})
 
 
 def _dataset_settings(names: Sequence[str], sizes: dict, source: str = "the params file") -> dict[str, dict]:
@@ -225,8 +238,9 @@ def plan(params_file=None, *, device: str | None = None) -> list[Part]:
         d.pop("device")
         return d
 
-    def sessions(cfg) -> list[str]:
-        return [f"session_{k}" for k in range(_whole(cfg.source, "sessions", cfg["sessions"], 1))]
+    def sessions(cfg, n=None) -> list[str]:
+        n = cfg["sessions"] if n is None else n
+        return [f"session_{k}" for k in range(_whole(cfg.source, "sessions", n, 1))]
 
     def make(name, kind, cfg, steps, datasets, values, tc, title, analysis=None):
         data = _dataset_settings(datasets, sizes, params_file.name)
@@ -255,10 +269,11 @@ def plan(params_file=None, *, device: str | None = None) -> list[Part]:
     for name in c["datasets"]:
         max_epochs = _whole(f"{c.source}, dataset {name!r}", "max_epochs",
                             tables.per_dataset(c["max_epochs"], name), 1)
-        values = {"dataset": name, "train_samples": tables.per_dataset(c["train_samples"], name), "sessions": c["sessions"],
+        n_sessions = _whole(f"{c.source}, dataset {name!r}", "sessions", tables.per_dataset(c["sessions"], name), 1)
+        values = {"dataset": name, "train_samples": tables.per_dataset(c["train_samples"], name), "sessions": n_sessions,
                   "max_epochs": max_epochs, "max_fail": c["max_fail"], "hidden": c["hidden"], "seed": c["seed"],
                   "optimizer": c["optimizer"], "loss": c["loss"], "threshold": 0.5}
-        parts.append(make(name, "table1", c, sessions(c), [name], values,
+        parts.append(make(name, "table1", c, sessions(c, n_sessions), [name], values,
                           train_config(c["optimizer"], c["loss"], max_epochs, c["max_fail"], c["seed"], c.source),
                           f"Table 1 row {name}"))
     c = section("table2_optimisers")
@@ -338,15 +353,50 @@ def _read_json(path: Path) -> dict | None:
 _FINALIZE_LOADS_MODELS = {"sec61", "sec62"}
 
 
+# the columns _finalize adds to the steps' score rows (a step's rows are without them)
+_FINALIZE_COLUMNS = {"table1": ("dataset",), "table2": ("optimizer", "loss"), "table3": ("embedding",)}
+
+
+def _step_matches(data: dict, part: Part) -> bool:
+    # step files before step_hash carry only the hash of their part's settings
+    return data.get("step_hash", data.get("settings_hash")) in (part.step_hash, part.hash)
+
+
 def _done_step(out: Path, part: Part, step: str) -> dict | None:
-    """A finished step's record, or None. The step files are committed and the models are not, so
-    on a fresh checkout a step whose model the part's finalisation needs counts as not done."""
+    """A finished step's record, or None: its step file, else its record in a finished result of
+    the same settings but another number of sessions (:attr:`Part.step_hash`). The step files are
+    committed and the models are not, so on a fresh checkout a step whose model the part's
+    finalisation needs counts as not done."""
     data = _read_json(_step_file(out, part, step))
-    if data is None or data.get("settings_hash") != part.hash or data.get("step") != step:
+    if data is None or data.get("step") != step or not _step_matches(data, part):
+        data = _step_from_result(out, part, step)
+    if data is None:
         return None
     if part.kind in _FINALIZE_LOADS_MODELS and not _model_file(out, part, step).is_file():
         return None
     return data
+
+
+def _step_from_result(out: Path, part: Part, step: str) -> dict | None:
+    """Step ``step`` (``session_<k>``) rebuilt from the part's finished ``<part>.json`` and its
+    history when that result's settings differ from ``part``'s in the number of sessions only: its
+    score rows, timings and training record, as its step file held them."""
+    result = _read_json(_part_file(out, part))
+    if (result is None or part.kind == "sec62" or not isinstance(result.get("settings"), dict)
+            or step_hash(result["settings"]) != part.step_hash or not step.startswith("session_")):
+        return None
+    k = int(step.split("_")[1])
+    added = _FINALIZE_COLUMNS.get(part.kind, ())
+    rows = [{c: v for c, v in r.items() if c not in added}
+            for r in result.get("metrics", {}).get("runs", []) if r.get("session") == k]
+    entry = next((s for s in result.get("steps", []) if s.get("step") == step), None)
+    history = (_read_json(_history_file(out, part)) or {})
+    if not rows or entry is None or history.get("settings_hash") != result.get("settings_hash"):
+        return None
+    return {"part": part.name, "step": step, "settings_hash": result["settings_hash"], "step_hash": part.step_hash,
+            "seconds": entry["seconds"], "finished": entry["finished"], "device": entry["device"],
+            "metrics": {"rows": rows}, "history": history.get("steps", {}).get(step, {}), "timings": entry["timings"],
+            "from_result": True}
 
 
 def _is_done(result: dict | None, part: Part) -> bool:
@@ -647,13 +697,17 @@ def run_part(part: Part, out=None, data_dir=None, *, log: Log = print) -> dict:
     for step in part.steps:
         done = _done_step(out, part, step)
         if done is not None:
+            if done.pop("from_result", False):  # its own file from now on: the result is about to be replaced
+                with atomic_path(_step_file(out, part, step)) as tmp:
+                    Path(tmp).write_text(json.dumps(jsonable(done), allow_nan=False) + "\n")
             log(f"  {step}: done earlier ({_fmt_seconds(done.get('seconds'))}), reused")
         else:
             log(f"  {step}: running ...")
             t0 = time.perf_counter()
             result = _STEP[part.kind](part, step, data, out)
             seconds = time.perf_counter() - t0
-            done = {"part": part.name, "step": step, "settings_hash": part.hash, "seconds": seconds,
+            done = {"part": part.name, "step": step, "settings_hash": part.hash, "step_hash": part.step_hash,
+                    "seconds": seconds,
                     "finished": _now(), "device": str(device), **result}
             with atomic_path(_step_file(out, part, step)) as tmp:
                 Path(tmp).write_text(json.dumps(jsonable(done), allow_nan=False) + "\n")

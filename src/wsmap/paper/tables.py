@@ -207,12 +207,12 @@ def per_dataset(value, name: str, default=None):
 
 
 def table1(data_dir, names: Sequence[str] = TABLE1_DATASETS, *, config: TrainConfig | None = None,
-           train_samples=None, max_epochs=None, sessions: int = 1, hidden: Sequence[int] = PAPER_HIDDEN,
+           train_samples=None, max_epochs=None, sessions=1, hidden: Sequence[int] = PAPER_HIDDEN,
            log: Log = print) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Table 1: one model per workspace dataset in ``data_dir`` (:func:`wsmap.paper.specs.load_pair`).
 
-    ``train_samples`` and ``max_epochs`` are one value or a mapping dataset -> value (key
-    ``"default"`` for the rest); ``max_epochs`` overrides ``config.max_epochs``.
+    ``train_samples``, ``max_epochs`` and ``sessions`` are one value or a mapping dataset -> value
+    (key ``"default"`` for the rest); ``max_epochs`` overrides ``config.max_epochs``.
 
     Returns ``(table, runs)``: ``runs`` from :func:`fit_and_score` (column ``dataset``); ``table``
     one row per dataset: workspace, delta, nodes, train samples, epochs, seconds, pooled precision,
@@ -226,7 +226,8 @@ def table1(data_dir, names: Sequence[str] = TABLE1_DATASETS, *, config: TrainCon
         cfg = config.replace(max_epochs=int(per_dataset(max_epochs, name, config.max_epochs)))
         n = per_dataset(train_samples, name)
         t0 = time.perf_counter()
-        runs = fit_and_score(train, {name: test}, cfg, sessions=sessions, hidden=hidden, train_samples=n)
+        runs = fit_and_score(train, {name: test}, cfg, sessions=int(per_dataset(sessions, name, 1)), hidden=hidden,
+                             train_samples=n)
         runs.insert(0, "dataset", name)
         frames.append(runs)
         _log(log, f"{name}: {train.n_nodes} nodes, {int(runs.train_samples.iloc[0])} arms, "
