@@ -111,6 +111,33 @@ def test_nearest_arm_baseline_finds_the_arm_itself(trained):
     assert maps.shape == (1, 343) and dist[0] > HOLD_OUT_RADIUS
 
 
+def test_fk_labels_are_each_arms_sampled_map_inside_its_search_labels(trained):
+    """The FK-only experience: row i is arm i's fk_sampled_maps (seeded by (seed, i), whatever the
+    other arms), and trains a model as the labels would (``labels=``), shapes checked."""
+    sets = trained[2]
+    ds = sets[0]
+    y = mm.fk_labels(ds, samples=20_000, angle_tol=0.5, seed=1)
+    assert y.shape == ds.labels.shape and y.dtype == bool and y.any()
+    fam = wsmap.robots.FAMILIES[ds.spec.family]
+    arm = fam.arms(ds.features[3, :ds.spec.n_arm_features])
+    seed = int(np.random.SeedSequence([1, 3]).generate_state(1)[0])
+    one = ws.fk_sampled_maps(arm, ds.spec.lo, ds.spec.hi, ds.spec.step, ds.spec.fixed, convention="standard",
+                             samples=20_000, angle_tol=0.5, seed=seed)
+    assert np.array_equal(y[3], one)
+    # on this 0.5 m grid a cell's sample lies up to 0.25 m from its node: the cells overlap the
+    # search labels without being inside them (tests/workspace/test_sampled_maps.py measures 0.2 m)
+    assert np.sum(y & ds.labels) > 0
+    tc = learn.TrainConfig(optimizer="adam", optimizer_kwargs={"lr": 3e-3}, loss="crossentropy", batch_size=4,
+                           max_epochs=2, max_fail=1000, fractions=(0.9, 0.1, 0.0))
+    small = mm.MorphModelConfig(encoder=(8,), latent=4, decoder=(8,))
+    model, _ = mm.fit_morph_model(sets[:1], small, tc, labels=[y])
+    assert model.nodes.shape == (343, 3)
+    with pytest.raises(ValueError, match="labels: one array per dataset, got 2 for 1 datasets"):
+        mm.fit_morph_model(sets[:1], small, tc, labels=[y, y])
+    with pytest.raises(ValueError, match=r"labels for dataset .* must have shape \(6, 343\), got \(6, 3\)"):
+        mm.fit_morph_model(sets[:1], small, tc, labels=[y[:, :3]])
+
+
 def test_cli_map_of_a_urdf_arm_and_its_refusals(trained, tmp_path, capsys):
     model, _, _, path = trained
     out = tmp_path / "iiwa.npz"

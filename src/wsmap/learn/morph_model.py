@@ -56,7 +56,7 @@ from .training import TrainConfig, TrainResult, train
 from .training_range import ExtrapolationError, ExtrapolationWarning
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "MorphModelConfig", "MorphMapModel", "morph_features", "fit_morph_model",
-           "predict_morph_map", "save_morph_model", "load_morph_model", "nearest_arm_maps", "TOOL_DOWN", "morph_spec",
+           "predict_morph_map", "save_morph_model", "load_morph_model", "nearest_arm_maps", "fk_labels", "TOOL_DOWN", "morph_spec",
            "build_morph_shards"]
 
 FORMAT = "wsmap.morph_model"
@@ -302,7 +302,7 @@ def build_morph_shards(out_dir, n_joints: int, shards: int, arms_per_shard: int,
 
 # --------------------------------------------------------------------------------------------- training
 def fit_morph_model(datasets, config: MorphModelConfig | None = None, train_config: TrainConfig | None = None,
-                    seed: int = 0) -> tuple[MorphMapModel, TrainResult]:
+                    seed: int = 0, labels=None) -> tuple[MorphMapModel, TrainResult]:
     """Train a :class:`MorphMapModel` on datasets of the morph families (:class:`wsmap.datasets.Dataset`
     of one grid, R3, fixed orientation); returns the model (eval mode) and the training result.
 
@@ -310,15 +310,26 @@ def fit_morph_model(datasets, config: MorphModelConfig | None = None, train_conf
     decay over 30 epochs, 5 % of the arms for validation, no test split (the caller's held-out
     arms are the test). The model's threshold is then the probability (0.05 to 0.95 by 0.05) of the
     best pooled F on the validation arms (0.5 without any): reachable nodes are a few per cent of
-    the box, and the cross-entropy optimum leans to "unreachable"."""
+    the box, and the cross-entropy optimum leans to "unreachable".
+
+    ``labels``: one bool array ``(samples, nodes)`` per dataset to train on instead of its own
+    labels, for the same arms (the forward-kinematics-only baseline, :func:`fk_labels`)."""
     datasets = list(datasets)
     if not datasets:
         raise ValueError("fit_morph_model needs at least one dataset")
+    if labels is not None:
+        labels = list(labels)
+        if len(labels) != len(datasets):
+            raise ValueError(f"labels: one array per dataset, got {len(labels)} for {len(datasets)} datasets")
+        for ds, y in zip(datasets, labels):
+            if np.shape(y) != (len(ds.features), ds.spec.n_nodes):
+                raise ValueError(f"labels for dataset {ds.spec.name!r} must have shape "
+                                 f"{(len(ds.features), ds.spec.n_nodes)}, got {np.shape(y)}")
     from ..datasets import spec_nodes
 
     first = datasets[0].spec
     X, Y = [], []
-    for ds in datasets:
+    for i, ds in enumerate(datasets):
         s = ds.spec
         if not isinstance(FAMILIES.get(s.family), MorphFamily):
             raise ValueError(f"dataset {s.name!r} is of family {s.family!r}, not a morph family (morph6, morph7)")
@@ -327,7 +338,7 @@ def fit_morph_model(datasets, config: MorphModelConfig | None = None, train_conf
                 raise ValueError(f"datasets {first.name!r} and {s.name!r} differ in {k}: one model maps one grid")
         k = s.n_arm_features
         X.append(morph_features(list(ds.features[:, :k])))
-        Y.append(ds.labels)
+        Y.append(ds.labels if labels is None else np.asarray(labels[i], dtype=bool))
     X, Y = np.concatenate(X), np.concatenate(Y).astype(np.float32)
     torch.manual_seed(seed)
     hi = first.hi if isinstance(first.hi, float) else max(first.hi)
@@ -361,7 +372,29 @@ def _best_threshold(model: MorphMapModel, X: np.ndarray, Y: np.ndarray) -> float
     return best
 
 
-# --------------------------------------------------------------------------------------------- baseline
+# --------------------------------------------------------------------------------------------- baselines
+def fk_labels(dataset, *, samples: int = 200_000, angle_tol: float = 0.4, seed: int = 0) -> np.ndarray:
+    """The labels ``(arms, nodes)`` bool of every arm of a morph-family ``dataset`` on its grid from
+    forward kinematics alone (:func:`wsmap.workspace.fk_sampled_maps`: ``samples`` configurations per
+    arm, rotations within ``angle_tol`` rad of the dataset's orientation): the experience of a
+    RAM-like model, trained with ``fit_morph_model(..., labels=...)`` and scored against the
+    dataset's own (map-search) labels. Arm ``i`` draws from seed ``(seed, i)``: a row does not
+    depend on the other arms."""
+    from ..workspace import fk_sampled_maps
+
+    s = dataset.spec
+    fam = FAMILIES.get(s.family)
+    if not isinstance(fam, MorphFamily):
+        raise ValueError(f"dataset {s.name!r} is of family {s.family!r}, not a morph family (morph6, morph7)")
+    params = np.asarray(dataset.features[:, :s.n_arm_features], dtype=np.float64)
+    out = np.zeros((len(params), s.n_nodes), dtype=bool)
+    for i in range(len(params)):
+        arm = fam.arms(params[i], allow_extrapolation=True)
+        out[i] = fk_sampled_maps(arm, s.lo, s.hi, s.step, s.fixed, convention=s.convention, samples=samples,
+                                 angle_tol=angle_tol, seed=int(np.random.SeedSequence([int(seed), i]).generate_state(1)[0]))
+    return out
+
+
 def nearest_arm_maps(train_features, train_labels, query_features) -> tuple[np.ndarray, np.ndarray]:
     """The nearest-neighbour baseline: for each query arm ``(Q, N_FEATURES)`` the labels ``(Q, N)``
     of the training arm nearest in :func:`~wsmap.kinematics.morphology.morphology_distance`, and

@@ -50,6 +50,7 @@ from .maps import (
 from .orientations import approach_orientations, check_rotations, continuation_order, orientation_samples
 from .placement import Placement, base_placement, floor_poses
 from .reuleaux import ReuleauxMap, load_reuleaux, save_reuleaux
+from .sampled import fk_sampled_maps, orientation_share
 from .reach import (
     dexterous_map,
     manipulability_map,
@@ -68,4 +69,5 @@ __all__ = [
     "angle_grid", "available_memory", "block_slice", "cartesian_grid", "constant_orientation_map", "default_grid",
     "grid_axes", "grid_counts", "grid_map", "grid_spec", "load_map", "map_to_volume", "orientation_map", "save_map",
     "target_poses", "volume_to_map", "kinds", "ReuleauxMap", "load_reuleaux", "save_reuleaux",
+    "fk_sampled_maps", "orientation_share",
 ]
