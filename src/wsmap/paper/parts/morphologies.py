@@ -1,0 +1,261 @@
+"""One network for every arm: workspace maps of arms it has never seen (beyond the paper, issue 28).
+
+The experience: arms of the ``morph6`` and ``morph7`` families (:mod:`wsmap.robots.morph`: every
+serial 6R/7R arm in the range of industrial and collaborative arms, the named arms held out), their
+tool-down map (``R = Rx(pi)``, ``T = transl(p)·R``) on ``[-1.5, 1.5]³`` at ``step`` labelled by the
+numerical map search, built in resumable shards (:func:`wsmap.learn.morph_model.build_morph_shards`,
+on a local Dask cluster with ``workers``). The model: the implicit network ``f(morphology, point)``
+of :mod:`wsmap.learn.morph_model`. Beside it, on the same held-out arms:
+
+* ``fk_model``: the same network trained on labels from forward kinematics alone
+  (:func:`~wsmap.learn.morph_model.fk_labels`: no inverse kinematics, as RAM's experience);
+* ``nearest_arm``: the map-search map of the training arm nearest in the description space;
+* ``fk_sampled``: the held-out arm's own forward-kinematics-sampled map (no learning: what
+  sampling that arm directly gives for the same number of samples).
+
+Held out: the random arms of shard 0's test streams (never trained on) and the six named arms
+(labelled here by the same map search; no training arm within
+:data:`~wsmap.robots.morph.HOLD_OUT_RADIUS` of them, checked). Then one 3-D map of ``time_step``
+by the model against the classical map of the same arm, side by side.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TypedDict
+
+import numpy as np
+import pandas as pd
+import torch
+
+from ... import robots, viz, workspace
+from ...io import write_json, write_table
+from ...kinematics.morphology import describe, morphology_distance
+from ...learn import TrainConfig
+from ...learn import morph_model as mm
+from ...learn.training_range import ExtrapolationWarning
+from ...metrics import score_maps
+from ...paths import Outputs
+from ...robots.morph import HELD_OUT, HOLD_OUT_RADIUS, MORPH_GRID
+from . import Part, check_metrics, register, save_figure
+
+#: The methods scored on the held-out arms, in the tables' order.
+METHODS = ("model", "fk_model", "nearest_arm", "fk_sampled")
+
+
+class Metrics(TypedDict):
+    """``results/morphologies.json``."""
+
+    step: float  #: label grid step (m) on [-1.5, 1.5]³
+    nodes: int  #: nodes of the label grid
+    train_arms: dict  #: family -> training arms
+    test_arms: dict  #: family -> held-out random arms
+    label_seconds: float  #: map-search labels of every training and held-out random arm (s)
+    arms_per_second: float  #: of those labels
+    fk_label_seconds: float  #: forward-kinematics labels of the training arms (s)
+    fk: dict  #: samples, angle_tol (rad) of the forward-kinematics labels
+    train: dict  #: per model: epochs, seconds, threshold
+    pooled: dict  #: method -> F, precision, recall, per-arm F mean over the held-out random arms
+    named: dict  #: arm -> method -> F, precision, recall; and its distance to the nearest training arm (m)
+    hold_out: dict  #: the least distance (m) from a training arm to a named arm, and the radius kept clear
+    speed: list  #: one 3-D map of an arm by the model against the classical map (s, speed-up)
+    device: str
+
+
+PART = Part("morphologies", "One network for every arm: maps of arms it has never seen", 105, outputs=(
+    "data/morph", "models/morph.pt", "models/morph_fk.pt", "results/morphologies.json",
+    "tables/morphologies_arms.csv", "tables/morphologies_arms.md",
+    "tables/morphologies_speed.csv", "tables/morphologies_speed.md",
+    "figures/morphologies_f.png", "figures/morphologies_slices.png"))
+
+
+@dataclass
+class Result:
+    metrics: Metrics
+    model: Any
+    fk_model: Any
+    arms: pd.DataFrame  #: one row per (arm group, method): F, precision, recall
+    speed: pd.DataFrame
+    shown: dict  #: the named arm shown: name, labels and each method's map, grid shape
+
+
+def _scores(pred, truth) -> dict[str, float]:
+    s = score_maps(np.atleast_2d(pred), np.atleast_2d(truth))
+    return {"f": float(s["f"]), "precision": float(s["precision"]), "recall": float(s["recall"]),
+            "f_mean": float(s["f_mean"])}
+
+
+def _predict(model, features) -> np.ndarray:
+    """Maps ``(B, N)`` of arms by their features, at the model's nodes and threshold."""
+    with torch.no_grad():
+        prob = torch.sigmoid(model(torch.as_tensor(features, dtype=torch.float32))).numpy()
+    return prob > model.threshold
+
+
+def _train_config(t: Mapping, seed: int) -> TrainConfig:
+    return TrainConfig(optimizer="adam", optimizer_kwargs={"lr": float(t["lr"])}, loss="crossentropy",
+                       batch_size=int(t["batch_size"]), lr_decay="cosine", max_epochs=int(t["epochs"]), max_fail=1000,
+                       fractions=(0.95, 0.05, 0.0), seed=seed)
+
+
+def run(cfg: Mapping, out: Outputs) -> Result:
+    """Build (or reuse) the experience, train the model and the FK-only model, score every method on
+    the held-out arms, time one map (module notes). ``cfg``: the ``morphologies`` params section."""
+    torch.set_num_threads(int(cfg["threads"]))
+    step, seed = float(cfg["step"]), int(cfg["seed"])
+    model_cfg = mm.MorphModelConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in cfg["model"].items()})
+    fk = {"samples": int(cfg["fk"]["samples"]), "angle_tol": float(cfg["fk"]["angle_tol"])}
+    data_dir = Path(out.root) / "data" / "morph"
+    train_sets, test_sets = [], []
+    t0 = time.perf_counter()
+    for n in (6, 7):
+        built, _ = mm.build_morph_shards(data_dir, n, int(cfg["shards"]), int(cfg["arms_per_shard"]), step=step,
+                                         box=MORPH_GRID, first_seed=seed, test_samples=int(cfg["test_arms"]),
+                                         workers=cfg["workers"])
+        train_sets += built[:-1]
+        test_sets.append(built[-1])
+    label_s = time.perf_counter() - t0
+    n_labelled = sum(len(d.features) for d in (*train_sets, *test_sets))
+    t0 = time.perf_counter()
+    fk_train = [mm.fk_labels(d, seed=seed, **fk) for d in train_sets]
+    fk_label_s = time.perf_counter() - t0
+
+    trained = {}
+    for name, labels in (("model", None), ("fk_model", fk_train)):
+        t0 = time.perf_counter()
+        model, res = mm.fit_morph_model(train_sets, model_cfg, _train_config(cfg["train"], seed), seed=seed,
+                                        labels=labels)
+        trained[name] = (model, {"epochs": int(res.stop_epoch), "seconds": time.perf_counter() - t0,
+                                 "threshold": float(model.threshold)})
+    model, fk_model = trained["model"][0], trained["fk_model"][0]
+
+    spec = train_sets[0].spec
+    nodes = workspace.cartesian_grid(spec.lo, spec.hi, spec.step)
+    train_F = np.concatenate([mm.morph_features(list(d.features[:, :d.spec.n_arm_features])) for d in train_sets])
+    train_Y = np.concatenate([d.labels for d in train_sets])
+    test_F = np.concatenate([mm.morph_features(list(d.features[:, :d.spec.n_arm_features])) for d in test_sets])
+    test_Y = np.concatenate([d.labels for d in test_sets])
+    test_fk = np.concatenate([mm.fk_labels(d, seed=seed + 1, **fk) for d in test_sets])
+    nearest, _ = mm.nearest_arm_maps(train_F, train_Y, test_F)
+    preds = {"model": _predict(model, test_F), "fk_model": _predict(fk_model, test_F), "nearest_arm": nearest,
+             "fk_sampled": test_fk}
+    pooled = {m: _scores(preds[m], test_Y) for m in METHODS}
+    rows = [{"arms": f"held-out random ({len(test_Y)})", **{"method": m, **pooled[m]}} for m in METHODS]
+
+    named, shown = {}, None
+    least = math.inf
+    for i, name in enumerate(HELD_OUT):
+        arm = robots.load(name)
+        f = describe(arm).features()
+        d = morphology_distance(train_F, f[None]).min()
+        least = min(least, float(d))
+        truth = workspace.constant_orientation_map(arm, nodes, mm.TOOL_DOWN, convention="standard")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ExtrapolationWarning)  # recorded below as in_range
+            p = {m: mm.predict_morph_map(mdl, arm, nodes, allow_extrapolation=True)
+                 for m, mdl in (("model", model), ("fk_model", fk_model))}
+        p["nearest_arm"] = mm.nearest_arm_maps(train_F, train_Y, f[None])[0][0]
+        p["fk_sampled"] = workspace.fk_sampled_maps(arm, spec.lo, spec.hi, spec.step, mm.TOOL_DOWN, seed=seed + 2,
+                                                    **fk)
+        named[name] = {"distance": float(d), "reachable_nodes": int(truth.sum()),
+                       **{m: _scores(p[m], truth) for m in METHODS}}
+        rows += [{"arms": name, "method": m, **named[name][m]} for m in METHODS]
+        if name == cfg["show"]:
+            shown = {"name": name, "truth": truth, "maps": p, "shape": spec.grid_shape, "lo": spec.lo,
+                     "step": spec.step}
+    if least <= HOLD_OUT_RADIUS:
+        raise RuntimeError(f"a training arm lies {least:.3f} m from a named arm, inside the hold-out radius "
+                           f"{HOLD_OUT_RADIUS} m")
+
+    speed = _speed(model, cfg, test_sets)
+    metrics: Metrics = {
+        "step": step, "nodes": int(len(nodes)),
+        "train_arms": {f"morph{n}": sum(len(d.features) for d in train_sets if d.spec.family == f"morph{n}")
+                       for n in (6, 7)},
+        "test_arms": {d.spec.family: int(len(d.features)) for d in test_sets},
+        "label_seconds": label_s, "arms_per_second": n_labelled / label_s if label_s > 0 else math.nan,
+        "fk_label_seconds": fk_label_s, "fk": fk,
+        "train": {k: v[1] for k, v in trained.items()},
+        "pooled": pooled, "named": named,
+        "hold_out": {"least_distance": least, "radius": HOLD_OUT_RADIUS},
+        "speed": speed.to_dict("records"), "device": "cpu",
+    }
+    check_metrics(metrics, Metrics, "morphologies")
+    return Result(metrics, model, fk_model, pd.DataFrame(rows), speed, shown)
+
+
+def _speed(model, cfg: Mapping, test_sets) -> pd.DataFrame:
+    """One map of ``time_step`` on ``[-1.5, 1.5]³`` by the model (best of ``timing_repeats``) and by the
+    classical numerical map (one call, after an untimed call on a small grid), for a held-out
+    ``morph7`` arm and each of ``speed_arms``."""
+    step = float(cfg["time_step"])
+    nodes = workspace.cartesian_grid(-MORPH_GRID, MORPH_GRID, step)
+    small = workspace.cartesian_grid(-MORPH_GRID, MORPH_GRID, 0.5)
+    d7 = next(d for d in test_sets if d.spec.family == "morph7")
+    arms = [("held-out morph7 arm", robots.FAMILIES["morph7"].arms(d7.features[0, :d7.spec.n_arm_features]))]
+    arms += [(name, robots.load(name)) for name in cfg["speed_arms"]]
+    rows = []
+    for label, arm in arms:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ExtrapolationWarning)
+            mm.predict_morph_map(model, arm, small, allow_extrapolation=True)
+            times = []
+            for _ in range(int(cfg["timing_repeats"])):
+                t0 = time.perf_counter()
+                mm.predict_morph_map(model, arm, nodes, allow_extrapolation=True)
+                times.append(time.perf_counter() - t0)
+        workspace.constant_orientation_map(arm, small, mm.TOOL_DOWN, convention="standard")
+        t0 = time.perf_counter()
+        workspace.constant_orientation_map(arm, nodes, mm.TOOL_DOWN, convention="standard")
+        classical = time.perf_counter() - t0
+        rows.append({"arm": label, "nodes": int(len(nodes)), "model_ms": 1e3 * min(times), "classical_s": classical,
+                     "speedup": classical / min(times)})
+    return pd.DataFrame(rows)
+
+
+def save(result: Result, out: Outputs) -> None:
+    """Both models, the per-arm and speed tables, the metrics file."""
+    mm.save_morph_model(result.model, out.models / "morph.pt", extra={"pooled_f": result.metrics["pooled"]["model"]["f"]})
+    mm.save_morph_model(result.fk_model, out.models / "morph_fk.pt",
+                        extra={"labels": "forward kinematics only", **result.metrics["fk"]})
+    write_table(result.arms, out.tables / "morphologies_arms")
+    write_table(result.speed, out.tables / "morphologies_speed")
+    write_json(result.metrics, out.results / "morphologies.json")
+
+
+def figures(result: Result, out: Outputs) -> list[Path]:
+    """F by method for the held-out random arms and each named arm; the shown arm's slices."""
+    import matplotlib.pyplot as plt
+
+    t = result.arms
+    groups = list(dict.fromkeys(t.arms))
+    fig, ax = plt.subplots(figsize=(9, 3.6))
+    width = 0.8 / len(METHODS)
+    for k, m in enumerate(METHODS):
+        f = [float(t[(t.arms == g) & (t.method == m)].f.iloc[0]) for g in groups]
+        ax.bar(np.arange(len(groups)) + (k - (len(METHODS) - 1) / 2) * width, f, width, label=m)
+    ax.set_xticks(np.arange(len(groups)), groups, rotation=20, ha="right")
+    ax.set_ylabel("F (map-search labels)")
+    ax.set_ylim(0, 1)
+    ax.set_title(f"tool-down maps of arms never trained on, {result.metrics['step']:g} m grid")
+    ax.legend(fontsize=8, ncol=len(METHODS))
+    ax.grid(True, axis="y", alpha=0.3)
+    fig.tight_layout()
+    paths = [save_figure(fig, out.figures / "morphologies_f.png")]
+    s = result.shown
+    if s is not None:
+        f = result.metrics["named"][s["name"]]["model"]["f"]
+        fig = viz.plot_slices(s["maps"]["model"], s["shape"], s["lo"], s["step"], compare=s["truth"],
+                              names=("model only (false positive)", "labels only (missed)", "both"),
+                              title=f"{s['name']} (never trained on): the morphology model's tool-down map against the "
+                                    f"map search, F {f:.3f}")
+        paths.append(save_figure(fig, out.figures / "morphologies_slices.png"))
+    return paths
+
+
+register(PART)
