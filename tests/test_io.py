@@ -163,3 +163,18 @@ def test_atomic_paths_refuses_two_names_of_one_file(tmp_path):
     with pytest.raises(OutputPathError, match="share a path"):
         with atomic_paths([tmp_path / "real" / "m.npz", tmp_path / "alias" / "m.npz"]):
             pass
+
+
+def test_read_text_names_a_binary_file_and_drops_a_bom_when_asked(tmp_path):
+    from wsmap.io import read_text
+
+    p = tmp_path / "f.txt"
+    p.write_bytes("\ufeffx,y\n".encode("utf-8"))
+    assert read_text(p, "f is", "hint", encoding="utf-8-sig") == "x,y\n"
+    assert read_text(p, "f is", "hint").startswith("\ufeff")
+    p.write_bytes(b"ab\xff")
+    with pytest.raises(ValueError, match=r"^f is not a text file \(byte 2 is not UTF-8\); give text$"):
+        read_text(p, "f is", "give text")
+    p.write_bytes(b"a\x00b")
+    with pytest.raises(ValueError, match=r"^--x f: not a text file \(it holds NUL bytes\); give text$"):
+        read_text(p, "--x f:", "give text")

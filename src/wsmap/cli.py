@@ -628,20 +628,14 @@ def _read_targets(path):
     """
     import re
 
+    from .io import read_text
     from .workspace import target_poses
     from .workspace.placement import MAX_TARGETS
 
     p = Path(path)
     if not p.is_file():
         raise ValueError(f"--targets {path!r}: no such file")
-    raw = p.read_bytes()
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        raise ValueError(f"--targets {path}: not a text file (byte {e.start} is not UTF-8); give a CSV of "
-                         "numbers") from None
-    if "\x00" in text:
-        raise ValueError(f"--targets {path}: not a text file (it holds NUL bytes); give a CSV of numbers")
+    text = read_text(p, f"--targets {path}:", "give a CSV of numbers", encoding="utf-8-sig")
     rows, header_allowed = [], True
     for k, line in enumerate(text.splitlines(), 1):
         line = line.strip()

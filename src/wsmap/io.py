@@ -32,6 +32,7 @@ __all__ = [
     "plus_minus",
     "markdown_table",
     "write_table",
+    "read_text",
 ]
 
 
@@ -331,3 +332,19 @@ def read_json(path) -> Any:
     """JSON from ``path`` (``FileNotFoundError`` if missing)."""
     with open(path) as f:
         return json.load(f)
+
+
+def read_text(path, subject: str, hint: str, *, encoding: str = "utf-8") -> str:
+    """The text of the file at ``path`` (``encoding``; ``"utf-8-sig"`` also drops a byte-order mark
+    as Excel writes it). A file that is not text is a ``ValueError`` naming it:
+    ``"<subject> not a text file (byte N is not UTF-8); <hint>"``, or ``"(it holds NUL bytes)"``
+    where it decodes but holds NUL bytes (a binary file that happens to be valid UTF-8).
+    ``subject`` starts the message in the caller's style: ``"--targets t.csv:"``, ``"params.yaml is"``."""
+    raw = Path(path).read_bytes()
+    try:
+        text = raw.decode(encoding)
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{subject} not a text file (byte {e.start} is not UTF-8); {hint}") from None
+    if "\x00" in text:
+        raise ValueError(f"{subject} not a text file (it holds NUL bytes); {hint}")
+    return text

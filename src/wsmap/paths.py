@@ -44,12 +44,9 @@ def load_params(section: str | None = None, path: Path | str | None = None) -> d
     path = Path(path) if path is not None else PARAMS
     if not path.is_file():
         raise ValueError(f"no parameters file at {path}")
-    raw = path.read_bytes()
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise ValueError(f"{path} is not a text file (byte {e.start} is not UTF-8); a parameters file is "
-                         "YAML") from None
+    from .io import read_text
+
+    text = read_text(path, f"{path} is", "a parameters file is YAML")
     try:
         params = yaml.safe_load(text) or {}
     except yaml.YAMLError as e:
