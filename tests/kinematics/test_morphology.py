@@ -78,6 +78,27 @@ def test_urdf_arm_round_trip_is_the_same_arm(label):
     assert np.abs(m.mdh - named.mdh).max() < 1e-3
 
 
+def test_nearly_parallel_axes_of_a_rounded_file_are_taken_as_parallel():
+    """A UR5e whose parallel joints 2-4 are 1e-5 rad apart (as a URDF's rounded rpy leaves them):
+    described as the nearest exact arm, its residual says how far, and the rebuilt chain is within
+    about that much of the arm; the Kinova Gen3 6-DOF URDF (rpy 3.1416) is such an arm. Exact arms
+    keep a residual of rounding."""
+    ur = wsmap.load("ur5e")
+    assert describe(ur).residual < 1e-12
+    c = as_chain(ur)
+    axes = c.axes.copy()
+    axes[2] += 1e-5 * np.array([1.0, 1.0, 0.0])  # joint 3 (in its frame, z) tilted off joints 2 and 4
+    bent = c.replace(axes=axes, name="bent ur5e")
+    m = describe(bent)
+    assert 1e-6 < m.residual < 1e-4
+    assert _fk_error(bent, m.chain(), 6) < 1e-4
+    assert np.abs(m.mdh[:, 2]).max() < 1.0  # no common normal kilometres down the axis
+    gen3_6 = os.path.join(XACRO, "kortex_description/arms/gen3/6dof/urdf/GEN3-6DOF_NO-VISION_URDF_ARM_V01.urdf")
+    arm = from_urdf(open(gen3_6).read(), name="gen3 6-DOF")
+    m = describe(arm)
+    assert m.n == 6 and m.residual < 1e-4 and _fk_error(arm, m.chain(), 6) < 1e-4
+
+
 @pytest.mark.parametrize("n, seed", [(6, 0), (6, 1), (7, 2), (7, 3)])
 def test_arbitrary_chain_round_trip_and_canonical_form(n, seed):
     arm = _random_chain(n, seed)

@@ -56,6 +56,10 @@ __all__ = ["Morphology", "MorphologyError", "describe", "JOINTS", "FEATURE_NAMES
 JOINTS = (6, 7)
 #: Geometric tolerance (m, and rad-equivalent) below which two axes are parallel or intersect.
 _EPS = 1e-9
+#: Axes closer than this to parallel (rad) are taken as parallel, and a joint step may then differ
+#: from its DH row by up to this much: URDF files round their numbers (``rpy="3.1416"`` for pi),
+#: which leaves axes that should be parallel 1e-5 rad apart and their common normal kilometres away.
+SNAP = 1e-4
 
 
 class MorphologyError(ValueError):
@@ -112,6 +116,10 @@ class Morphology:
         tool: ``(4, 4)`` frame n → tool (the flange and any tool on it).
         signs: ``(n,)`` +1 or -1: the description's joint coordinate is ``signs * q``.
         name: the arm's name, for messages.
+        residual: the largest difference between a joint step of the arm and its DH row (m, and
+            entries of rotation matrices): rounding for an exact DH arm; up to :data:`SNAP` where
+            nearly parallel axes were taken as parallel (the description is then of the nearest
+            exact arm, and :meth:`chain` differs from the arm by about that much).
     """
 
     mdh: np.ndarray
@@ -120,6 +128,7 @@ class Morphology:
     tool: np.ndarray
     signs: np.ndarray | None = None
     name: str | None = None
+    residual: float = 0.0
 
     def __post_init__(self):
         mdh = np.array(self.mdh, dtype=np.float64)
@@ -247,7 +256,7 @@ def describe(robot, name: str | None = None) -> Morphology:
         if i + 1 < n:
             zi, zj, oi, oj = z[i], z[i + 1], o[i], o[i + 1]
             c = np.cross(zi, zj)
-            if np.linalg.norm(c) > _EPS:
+            if np.linalg.norm(c) > SNAP:
                 # closest points of the two lines oi + t zi, oj + s zj
                 w = oi - oj
                 b = np.dot(zi, zj)
@@ -278,6 +287,7 @@ def describe(robot, name: str | None = None) -> Morphology:
             tt = np.dot(rel, xi)
             foot = origin_i + tt * xi
     rows = np.empty((n, 4))
+    residual = 0.0
     for i in range(n):
         rel = _inv(F[i]) @ F[i + 1]
         R, t = rel[:3, :3], rel[:3, 3]
@@ -286,7 +296,9 @@ def describe(robot, name: str | None = None) -> Morphology:
         d = -np.sin(alpha) * t[1] + np.cos(alpha) * t[2]
         rows[i] = (t[0], alpha, d, theta)
         err = np.abs(mdh_transform(t[0], alpha, d, theta) - rel).max()
-        if err > 1e-9:  # the frames are built to make this a DH step; anything else is a bug here
+        residual = max(residual, float(err))
+        # the frames are built to make this a DH step (to SNAP where axes were snapped parallel)
+        if err > SNAP:
             raise MorphologyError(f"{label}: frames {i} -> {i + 1} are not a modified-DH step (error {err:.2e})")
     rows[:, 1] = _wrap(rows[:, 1])
     rows[:, 3] = _wrap(rows[:, 3])
@@ -296,4 +308,5 @@ def describe(robot, name: str | None = None) -> Morphology:
     mount = F[0]
     tool = _inv(F[n]) @ T0
     qlim = np.array(chain.limits, dtype=np.float64)
-    return Morphology(mdh=rows, qlim=qlim, mount=mount, tool=tool, signs=signs, name=name or chain.name)
+    return Morphology(mdh=rows, qlim=qlim, mount=mount, tool=tool, signs=signs, name=name or chain.name,
+                      residual=residual)
