@@ -47,7 +47,7 @@ from torch import nn
 
 from .._version import __version__
 from ..io import atomic_path
-from ..kinematics.morphology import N_FEATURES, describe, morphology_distance
+from ..kinematics.morphology import N_FEATURES, SNAP, describe, morphology_distance
 from ..robots import FAMILIES
 from ..robots.morph import MorphFamily, morph_params, morphology_of
 from .files import ModelFileError, _plain, payload_checksum
@@ -198,7 +198,7 @@ def _check_arm(model: MorphMapModel, robot, allow_extrapolation: bool) -> np.nda
     family = _family_of(m.n, model.families)
     if family is None:
         problems.append(f"it has {m.n} joints; the model was trained on {', '.join(model.families)} only")
-    elif np.abs(m.mount - np.eye(4)).max() > 1e-9:
+    elif np.abs(m.mount - np.eye(4)).max() > SNAP:  # a file's rounded numbers tilt it by ~1e-5
         problems.append("its first joint axis is not the base z axis")
     else:
         problems += family.problems(morph_params(m))
