@@ -41,6 +41,14 @@ def test_committed_params_differ_from_full_scale_only_in_scale():
     device = [r for r in rows if r["parameter"] == "device"]
     assert all((r["committed"], r["paper scale"]) == ("cpu", "auto") for r in device)
     rows = [r for r in rows if r["parameter"] != "device"]
+    # the morphology study's headline: more arms, a finer grid, more samples and epochs, a cluster
+    morph = {r["parameter"] for r in rows if r["stage"] == "morphologies"}
+    assert morph <= {"step", "shards", "arms_per_shard", "test_arms", "fk.samples", "train.epochs",
+                     "timing_repeats", "workers"}, morph
+    rows = [r for r in rows if r["stage"] != "morphologies"]
+    # one Table 1 row runs more sessions: written per row, the others keep one
+    assert {"stage": "table1_workspaces", "parameter": "sessions.table1_so3_pi10", "committed": 1,
+            "paper scale": 5} in rows
     scale = ("samples", "sessions", "epochs", "audit_arms", "per_node_sample", "repeats")
     assert rows and all(any(w in r["parameter"] for w in scale) for r in rows), rows
     assert all(r["committed"] <= r["paper scale"] for r in rows)

@@ -280,6 +280,21 @@ def _leaves(d: Any, prefix: str = "") -> dict[str, Any]:
     return {prefix: d}
 
 
+def _aligned(a: Any, b: Any) -> tuple[Any, Any]:
+    """``a`` and ``b`` with a value given once on one side and per key (a mapping, ``default`` for
+    the rest) on the other written per key on both: ``sessions: 1`` against ``{default: 1,
+    table1_so3_pi10: 5}`` differs in ``sessions.table1_so3_pi10`` only."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        pairs = {k: _aligned(a.get(k), b.get(k)) if k in a and k in b else (a.get(k), b.get(k))
+                 for k in dict.fromkeys([*a, *b])}
+        return ({k: v[0] for k, v in pairs.items() if k in a}, {k: v[1] for k, v in pairs.items() if k in b})
+    if isinstance(b, dict) and not isinstance(a, (dict, list)) and a is not None:
+        return {k: a for k in b}, b
+    if isinstance(a, dict) and not isinstance(b, (dict, list)) and b is not None:
+        return a, {k: b for k in a}
+    return a, b
+
+
 def reductions(committed: dict[str, Any], full: dict[str, Any]) -> list[dict[str, Any]]:
     """Every parameter whose committed value (``params.yaml``) differs from the paper-scale one
     (``params.full.yaml``), as rows ``{stage, parameter, committed, paper scale}``; nested
@@ -287,7 +302,8 @@ def reductions(committed: dict[str, Any], full: dict[str, Any]) -> list[dict[str
     present in only one of the two files is listed with ``None`` on the other side."""
     rows = []
     for stage in dict.fromkeys([*committed, *full]):
-        c, f = _leaves(committed.get(stage, {})), _leaves(full.get(stage, {}))
+        c, f = _aligned(committed.get(stage, {}), full.get(stage, {}))
+        c, f = _leaves(c), _leaves(f)
         for key in dict.fromkeys([*c, *f]):
             if c.get(key) != f.get(key):
                 rows.append({"stage": stage, "parameter": key, "committed": c.get(key), "paper scale": f.get(key)})

@@ -21,6 +21,7 @@ is the baseline those labels are measured against (:mod:`wsmap.learn.morph_model
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -29,6 +30,9 @@ from ..kinematics.chain import as_chain
 from ..kinematics.transforms import rpy2r
 from .grids import grid_counts
 from .maps import CONVENTIONS
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap._typing import Arm
 
 __all__ = ["fk_sampled_maps", "orientation_share"]
 
@@ -46,7 +50,7 @@ def _positive_int(name: str, value) -> int:
     return int(value)
 
 
-def fk_sampled_maps(robot, lo: float | ArrayLike, hi: float | ArrayLike, step: float | ArrayLike, rpy: ArrayLike, *,
+def fk_sampled_maps(robot: Arm, lo: float | ArrayLike, hi: float | ArrayLike, step: float | ArrayLike, rpy: ArrayLike, *,
                     convention: str = "standard", samples: int = 1_000_000, angle_tol: float = 0.4, seed: int = 0,
                     chunk: int = 4096) -> NDArray[np.bool_]:
     """The constant-orientation map of ``robot`` (one arm or a batch of arms sharing joint types:
