@@ -163,10 +163,19 @@ DESIGN_FAMILIES: dict[str, DesignFamily] = {
 }
 
 
+#: What a design space must have besides :class:`DesignFamily` itself (e.g.
+#: :class:`wsmap.morph_design.MorphDesignSpace`, arms of any twist pattern): ``name``, ``params``,
+#: ``n_params``, ``low``, ``high``, ``total_length(params)`` (numpy and torch) and
+#: ``classical(params, tasks, rpy, convention)``.
+DESIGN_SPACE_ATTRIBUTES = ("name", "params", "n_params", "low", "high", "total_length", "classical")
+
+
 def design_family(family) -> DesignFamily:
-    """``family`` (a name or a :class:`DesignFamily`) as a :class:`DesignFamily`; an unknown name is
-    a ``ValueError`` listing the known ones."""
-    if isinstance(family, DesignFamily):
+    """``family`` (a name, a :class:`DesignFamily` or another design space with
+    :data:`DESIGN_SPACE_ATTRIBUTES`) as a design space; an unknown name is a ``ValueError``
+    listing the known ones."""
+    if isinstance(family, DesignFamily) or (not isinstance(family, str)
+                                            and all(hasattr(family, a) for a in DESIGN_SPACE_ATTRIBUTES)):
         return family
     if not isinstance(family, str) or family not in DESIGN_FAMILIES:
         raise ValueError(f"unknown design family {family!r}; known families: {', '.join(DESIGN_FAMILIES)}")
@@ -462,9 +471,9 @@ def _rng(seed):
 
 # ------------------------------------------------------------------------------------------ gradient
 def design_by_gradient(family, tasks, model, *, rpy=None, convention=None, verify=None, bounds=None,
-                       starts: int = 8, steps: int = 500, lr: float = 0.1, margin: float | None = None,
+                       starts: int | np.ndarray = 8, steps: int = 500, lr: float = 0.1, margin: float | None = None,
                        margin_step: float | None = None, max_rounds: int = 6, rho: float = 0.1,
-                       dual_every: int = 10, seed=0) -> DesignResult:
+                       dual_every: int = 10, verify_top: int | None = None, seed=0) -> DesignResult:
     """Shortest design covering ``tasks``, by augmented-Lagrangian gradient descent through ``model``.
 
     Problem: minimise ``total_length(params)`` over the box ``bounds`` subject to
@@ -472,7 +481,8 @@ def design_by_gradient(family, tasks, model, *, rpy=None, convention=None, verif
 
     Method: the parameters are mapped to ``u in [0, 1]^n`` (so one learning rate suits every
     parameter); from ``starts`` starting points at once (the upper corner, where the arm is
-    largest, the centre, then uniform draws from ``seed``), Adam minimises
+    largest, the centre, then uniform draws from ``seed``; or the rows of an array ``(k, n)`` of
+    starting designs inside ``bounds``), Adam minimises
     ``L/L_max + sum_i psi(m - margin_i)`` with the augmented-Lagrangian term
     ``psi(c) = (max(0, lam + rho c)^2 - lam^2) / (2 rho)``; every ``dual_every`` steps
     ``lam <- max(0, lam + rho c)`` and ``rho`` doubles (to at most 1e3) when the worst violation
@@ -481,8 +491,10 @@ def design_by_gradient(family, tasks, model, *, rpy=None, convention=None, verif
     spherical-wrist model: a small ``rho`` keeps the penalty soft where the logits are steep;
     several starts because the feasible set is not convex -- e.g. a3 and d4 add up in the length
     but in quadrature in the reach, so the shortest designs lie on corners of the box.) At the
-    end of a round the final design of every start is checked with the classical map; if some
-    are verified the shortest is returned; otherwise each start's margin rises by
+    end of a round the final design of every start is checked with the classical map (with
+    ``verify_top``: only the ``verify_top`` shortest finals whose surrogate margins are all
+    positive, the rest costing no classical call); if some are verified the shortest is returned;
+    otherwise each start's margin rises by
     ``margin_step`` and its descent continues (multipliers kept), for at most ``max_rounds``
     rounds.
 
@@ -514,15 +526,29 @@ def design_by_gradient(family, tasks, model, *, rpy=None, convention=None, verif
     if bounds is None and getattr(surrogate, "bounds", None) is not None:
         bounds = surrogate.bounds
     lo, hi = _bounds(fam, bounds)
+    start_rows = None
+    if isinstance(starts, (np.ndarray, list, tuple)):
+        start_rows = np.array(starts, dtype=np.float64)
+        if start_rows.ndim != 2 or start_rows.shape[1] != fam.n_params or len(start_rows) < 1:
+            raise ValueError(f"starts must be a positive integer or designs (k, {fam.n_params}), "
+                             f"got shape {start_rows.shape}")
+        if not np.all(np.isfinite(start_rows)) or np.any(start_rows < lo - 1e-12) or np.any(start_rows > hi + 1e-12):
+            raise ValueError("every start design must be finite and inside the bounds")
+        starts = len(start_rows)
     for name, v in (("starts", starts), ("steps", steps), ("max_rounds", max_rounds), ("dual_every", dual_every)):
         if isinstance(v, bool) or int(v) != v or v < 1:
             raise ValueError(f"{name} must be a positive integer, got {v!r}")
+    if verify_top is not None and (isinstance(verify_top, bool) or int(verify_top) != verify_top or verify_top < 1):
+        raise ValueError(f"verify_top must be None or a positive integer, got {verify_top!r}")
     m0 = float(getattr(surrogate, "default_margin", 0.0) if margin is None else margin)
     step_m = float(max(m0, 0.05) if margin_step is None else margin_step)
     rng = _rng(seed)
-    u0 = [np.ones(fam.n_params), np.full(fam.n_params, 0.5)] + [rng.uniform(size=fam.n_params)
-                                                                 for _ in range(max(starts - 2, 0))]
-    u = torch.tensor(np.array(u0[:starts]), dtype=torch.float64, requires_grad=True)
+    if start_rows is not None:
+        u0 = list((start_rows - lo) / (hi - lo))
+    else:
+        u0 = [np.ones(fam.n_params), np.full(fam.n_params, 0.5)] + [rng.uniform(size=fam.n_params)
+                                                                     for _ in range(max(starts - 2, 0))]
+    u = torch.tensor(np.clip(np.array(u0[:starts]), 0.0, 1.0), dtype=torch.float64, requires_grad=True)
     k = u.shape[0]
     lo_t, span_t = torch.as_tensor(lo), torch.as_tensor(hi - lo)
     l_max = float(fam.total_length(hi))
@@ -561,16 +587,28 @@ def design_by_gradient(family, tasks, model, *, rpy=None, convention=None, verif
                     worst_prev = worst
         with torch.no_grad():
             final = (lo_t + span_t * u).numpy().copy()
-        covered = check(final)
-        ok = covered.all(-1)
         lengths = fam.total_length(final)
+        if verify_top is None:
+            rows = np.arange(k)
+        else:  # the shortest finals the surrogate says cover every task
+            with torch.no_grad():
+                predicted = (surrogate(torch.as_tensor(final)) > 0).numpy()
+            evals += k
+            cand = np.flatnonzero(predicted.all(-1))
+            rows = cand[np.argsort(lengths[cand], kind="stable")][: int(verify_top)]
+        covered = check(final[rows]) if len(rows) else np.zeros((0, len(tasks)), dtype=bool)
+        ok = covered.all(-1)
         if ok.any():
-            i = int(np.flatnonzero(ok)[np.argmin(lengths[ok])])
-            best = (i, final[i], covered[i], True)
+            j = int(np.flatnonzero(ok)[np.argmin(lengths[rows][ok])])
+            best = (int(rows[j]), final[rows[j]], covered[j], True)
             break
         # none verified: ask every start for more margin and go on from where it is
-        i = int(np.lexsort((lengths, -covered.sum(-1)))[0])  # most covered, then shortest
-        best = (i, final[i], covered[i], False)
+        if len(rows):
+            j = int(np.lexsort((lengths[rows], -covered.sum(-1)))[0])  # most covered, then shortest
+            best = (int(rows[j]), final[rows[j]], covered[j], False)
+        else:  # nothing predicted covering: the most covered by the surrogate, checked
+            i = int(np.lexsort((lengths, -predicted.sum(-1)))[0])
+            best = (i, final[i], check(final[i:i + 1])[0], False)
         margins = margins + step_m
         worst_prev = torch.full((k,), math.inf, dtype=torch.float64)
     i, p, cov, verified = best
