@@ -55,6 +55,20 @@ Image(filename=str(out.figures / "morphologies_slices.png"))
 # %%
 result.speed
 
+# %% [markdown]
+# ## Design across morphologies
+#
+# The shortest 6R arm of any twist pattern (0, +90 or -90 degrees between consecutive axes) whose
+# tool-down map covers a box of task positions: gradient descent through the model against CMA-ES
+# and random search on the classical map, every answer verified by the classical map
+# (`wsmap.morph_design`).
+
+# %%
+result.design
+
+# %%
+{m: a["dh_modified"] for m, a in result.metrics["design"]["answers"].items()}
+
 # %%
 {k: result.metrics[k] for k in ("train_arms", "test_arms", "nodes", "label_seconds", "arms_per_second",
                                  "fk_label_seconds", "train", "hold_out")}

@@ -16,6 +16,7 @@ The library (what a roboticist imports)::
 * :mod:`wsmap.learn` — networks, initialisation, optimisers, training, the map predictor, model files;
 * :mod:`wsmap.design` — the shortest arm of a family whose map covers task positions: gradient
   descent through a map model against CMA-ES and random search on the classical map;
+  :mod:`wsmap.morph_design` the same across twist patterns, through the morphology model;
 * :mod:`wsmap.metrics` — precision, recall, F of maps, threshold sweeps, per-node outcomes;
 * :mod:`wsmap.viz` — drawing only; :mod:`wsmap.views` — 3-D views and exchange files; :mod:`wsmap.io` — atomic writes, tables, JSON; :mod:`wsmap.paths`.
 

@@ -272,45 +272,77 @@ class MorphSurrogate:
         return self.model.logits_at(X, self._points).to(torch.float64) - self.raw_threshold
 
 
-def _starts(space: MorphDesignSpace, patterns, per_pattern: int, seed) -> np.ndarray:
-    """Start designs: for every pattern the centre of the length box, then uniform draws."""
+def _screen(surrogate: MorphSurrogate, patterns: np.ndarray, draws: int, keep: int, per_pattern: int, margin: float,
+            seed) -> np.ndarray:
+    """Start designs ``(keep * per_pattern, n_params)`` from a surrogate screen of every pattern.
+
+    Each pattern gets ``draws`` uniform length draws (one batch through the model, no gradient).
+    A pattern ranks by the shortest draw the model says covers every task with ``margin``, the
+    patterns with none after those by their best worst-task margin; the ``keep`` best patterns
+    start from their ``per_pattern`` best draws (the shortest covering ones first)."""
+    space = surrogate.space
     rng = np.random.default_rng(seed)
     m = space.n_free
     lo, hi = space.low[:2 * m], space.high[:2 * m]
-    rows = []
-    for s in range(per_pattern):
-        lengths = (lo + hi) / 2 if s == 0 else rng.uniform(lo, hi, size=(len(patterns), 2 * m))
-        lengths = np.broadcast_to(lengths, (len(patterns), 2 * m))
-        rows.append(np.concatenate([lengths, space.codes(patterns)], axis=1))
-    return np.concatenate(rows)
+    P = len(patterns)
+    lengths = rng.uniform(lo, hi, size=(P, draws, 2 * m))
+    designs = np.concatenate([lengths, np.broadcast_to(space.codes(patterns)[:, None, :], (P, draws, m))], axis=-1)
+    flat = designs.reshape(P * draws, -1)
+    worst = np.empty(len(flat))
+    with torch.no_grad():
+        for s in range(0, len(flat), 4096):
+            worst[s:s + 4096] = surrogate(torch.as_tensor(flat[s:s + 4096])).min(-1).values.numpy()
+    worst = worst.reshape(P, draws)
+    total = space.total_length(flat).reshape(P, draws)
+    covers = worst >= margin
+    # per draw: covering draws by length first, then the rest by margin
+    order = np.lexsort((np.where(covers, total, -worst), ~covers), axis=-1)
+    best = order[:, 0]
+    rank = np.lexsort((np.where(covers[np.arange(P), best], total[np.arange(P), best], -worst[np.arange(P), best]),
+                       ~covers[np.arange(P), best]))
+    kept = rank[:keep]
+    return np.concatenate([designs[kept, order[kept, j]] for j in range(min(per_pattern, draws))])
 
 
 def design_across_morphologies(model, tasks, space: MorphDesignSpace | None = None, *, patterns=None,
-                               starts_per_pattern: int = 2, steps: int = 300, lr: float = 0.05,
-                               max_rounds: int = 4, verify_top: int = 16, seed=0, **gradient) -> DesignResult:
+                               screen: int = 64, keep: int = 64, starts_per_pattern: int = 2, steps: int = 300,
+                               lr: float = 0.05, max_rounds: int = 4, verify_top: int = 16, seed=0,
+                               **gradient) -> DesignResult:
     """The shortest arm of any twist pattern whose tool-down map covers ``tasks``, by gradient descent
-    through the morphology model over every pattern at once, verified by the classical map.
+    through the morphology model, verified by the classical map.
 
-    Every pattern of ``patterns`` (twist indices ``(P, n - 1)``; default all of the space's, 243 for
-    6 joints) gets ``starts_per_pattern`` starts (the centre of the length box, then uniform draws
-    from ``seed``); :func:`wsmap.design.design_by_gradient` descends all of them in one batch (the
+    First a screen through the model (:func:`_screen`): ``screen`` random length draws for every
+    pattern of ``patterns`` (twist indices ``(P, n - 1)``; default all of the space's, 243 for 6
+    joints) in one batch; the ``keep`` most promising patterns go on with ``starts_per_pattern``
+    starts each. :func:`wsmap.design.design_by_gradient` descends all of them in one batch (the
     twist codes get no gradient and stay put) and, each round, verifies the ``verify_top``
     shortest designs the model says cover every task, until one is verified (at most
     ``max_rounds`` rounds, each asking more margin). ``gradient``: more keyword arguments of
     :func:`~wsmap.design.design_by_gradient`. Returns its :class:`~wsmap.design.DesignResult`
     (``params``: the lengths, then the twist codes; :meth:`MorphDesignSpace.tables` gives the
-    design's DH table)."""
+    design's DH table; ``surrogate_evals`` counts the screen too, ``wall_time`` includes it)."""
+    import time
+
+    t0 = time.perf_counter()
     space = MorphDesignSpace() if space is None else space
     surrogate = MorphSurrogate(model, space, tasks)
     pats = space.patterns() if patterns is None else np.array(patterns, dtype=np.int64)
     if pats.ndim != 2 or pats.shape[1] != space.n_free or len(pats) < 1 or pats.min() < 0 or pats.max() >= len(TWISTS):
         raise ValueError(f"patterns must be twist indices (P, {space.n_free}) in 0..{len(TWISTS) - 1}, got "
                          f"shape {pats.shape}")
-    if isinstance(starts_per_pattern, bool) or int(starts_per_pattern) != starts_per_pattern or starts_per_pattern < 1:
-        raise ValueError(f"starts_per_pattern must be a positive integer, got {starts_per_pattern!r}")
-    return design_by_gradient(space, surrogate.tasks, surrogate,
-                              starts=_starts(space, pats, int(starts_per_pattern), seed), steps=steps, lr=lr,
-                              max_rounds=max_rounds, verify_top=verify_top, seed=seed, **gradient)
+    for name, v in (("screen", screen), ("keep", keep), ("starts_per_pattern", starts_per_pattern)):
+        if isinstance(v, bool) or int(v) != v or v < 1:
+            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+    margin = float(gradient.get("margin") or surrogate.default_margin)
+    starts = _screen(surrogate, pats, int(screen), int(keep), int(starts_per_pattern), margin, seed)
+    screened = time.perf_counter() - t0
+    r = design_by_gradient(space, surrogate.tasks, surrogate, starts=starts, steps=steps, lr=lr, max_rounds=max_rounds,
+                           verify_top=verify_top, seed=seed, **gradient)
+    r.surrogate_evals += len(pats) * int(screen)
+    r.wall_time += screened
+    if r.time_to_verified is not None:
+        r.time_to_verified += screened
+    return r
 
 
 def compare_morph_designs(model, tasks, space: MorphDesignSpace | None = None, *,

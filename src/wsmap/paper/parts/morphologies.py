@@ -16,7 +16,10 @@ of :mod:`wsmap.learn.morph_model`. Beside it, on the same held-out arms:
 Held out: the random arms of shard 0's test streams (never trained on) and the six named arms
 (labelled here by the same map search; no training arm within
 :data:`~wsmap.robots.morph.HOLD_OUT_RADIUS` of them, checked). Then one 3-D map of ``time_step``
-by the model against the classical map of the same arm, side by side.
+by the model against the classical map of the same arm, side by side. Last, design across
+morphologies (:mod:`wsmap.morph_design`): the shortest 6R arm of any twist pattern whose
+tool-down map covers a box of task positions, by gradient through the model against CMA-ES and
+random search on the classical map (params ``design``), every answer verified by the classical map.
 """
 
 from __future__ import annotations
@@ -64,6 +67,7 @@ class Metrics(TypedDict):
     named: dict  #: arm -> method -> F, precision, recall; and its distance to the nearest training arm (m)
     hold_out: dict  #: the least distance (m) from a training arm to a named arm, and the radius kept clear
     speed: list  #: one 3-D map of an arm by the model against the classical map (s, speed-up)
+    design: dict  #: tasks (m), and per method: time, classical calls, total length (m), verified, DH table
     device: str
 
 
@@ -71,6 +75,7 @@ PART = Part("morphologies", "One network for every arm: maps of arms it has neve
     "data/morph", "models/morph.pt", "models/morph_fk.pt", "results/morphologies.json",
     "tables/morphologies_arms.csv", "tables/morphologies_arms.md",
     "tables/morphologies_speed.csv", "tables/morphologies_speed.md",
+    "tables/morphologies_design.csv", "tables/morphologies_design.md",
     "figures/morphologies_f.png", "figures/morphologies_slices.png"))
 
 
@@ -81,6 +86,7 @@ class Result:
     fk_model: Any
     arms: pd.DataFrame  #: one row per (arm group, method): F, precision, recall
     speed: pd.DataFrame
+    design: pd.DataFrame  #: one row per design method (:func:`wsmap.design.format_design_table`'s columns)
     shown: dict  #: the named arm shown: name, labels and each method's map, grid shape
 
 
@@ -173,6 +179,7 @@ def run(cfg: Mapping, out: Outputs) -> Result:
                            f"{HOLD_OUT_RADIUS} m")
 
     speed = _speed(model, cfg, test_sets)
+    design_rows, design_out = _design(model, cfg["design"], seed)
     metrics: Metrics = {
         "step": step, "nodes": int(len(nodes)),
         "train_arms": {f"morph{n}": sum(len(d.features) for d in train_sets if d.spec.family == f"morph{n}")
@@ -183,10 +190,31 @@ def run(cfg: Mapping, out: Outputs) -> Result:
         "train": {k: v[1] for k, v in trained.items()},
         "pooled": pooled, "named": named,
         "hold_out": {"least_distance": least, "radius": HOLD_OUT_RADIUS},
-        "speed": speed.to_dict("records"), "device": "cpu",
+        "speed": speed.to_dict("records"), "design": design_out, "device": "cpu",
     }
     check_metrics(metrics, Metrics, "morphologies")
-    return Result(metrics, model, fk_model, pd.DataFrame(rows), speed, shown)
+    return Result(metrics, model, fk_model, pd.DataFrame(rows), speed, pd.DataFrame(design_rows), shown)
+
+
+def _design(model, d: Mapping, seed: int) -> tuple[list[dict], dict]:
+    """The design study (:func:`wsmap.morph_design.compare_morph_designs`) on the box of tasks of
+    params ``design``: rows of the table and the record of each method's answer."""
+    from ... import morph_design as md
+    from ...design import box_tasks
+
+    tasks = box_tasks(d["centre"], float(d["size"]))
+    space = md.MorphDesignSpace()
+    rows, results = md.compare_morph_designs(
+        model, tasks, space, length_tol=float(d["length_tol"]), max_calls=int(d["max_calls"]),
+        max_seconds=float(d["max_seconds"]), seed=seed,
+        gradient={"screen": int(d["screen"]), "keep": int(d["keep"]), "starts_per_pattern": int(d["starts"]),
+                  "steps": int(d["steps"]), "verify_top": int(d["verify_top"])})
+    for r in rows:
+        r.pop("params")
+        r.pop("family")
+    answers = {m: {"total_length_m": r.total_length, "verified": r.verified,
+                   "dh_modified": space.tables(r.params)[0].tolist()} for m, r in results.items()}
+    return rows, {"tasks": tasks.tolist(), "rows": rows, "answers": answers}
 
 
 def _speed(model, cfg: Mapping, test_sets) -> pd.DataFrame:
@@ -225,6 +253,7 @@ def save(result: Result, out: Outputs) -> None:
                         extra={"labels": "forward kinematics only", **result.metrics["fk"]})
     write_table(result.arms, out.tables / "morphologies_arms")
     write_table(result.speed, out.tables / "morphologies_speed")
+    write_table(result.design, out.tables / "morphologies_design")
     write_json(result.metrics, out.results / "morphologies.json")
 
 
