@@ -748,7 +748,7 @@ def design_by_random_search(family, tasks, *, rpy=None, convention=None, verify=
 def compare_designs(family, tasks, model, *, methods: Sequence[str] = ("gradient", "cmaes", "random"),
                     rpy=None, convention=None, length_tol: float = 0.02, max_calls: int = 3000,
                     max_seconds: float | None = 120.0, gradient: dict | None = None, seed=0,
-                    warm_up: bool = True) -> tuple[list[dict], dict[str, DesignResult]]:
+                    warm_up: bool = True, gradient_search=None) -> tuple[list[dict], dict[str, DesignResult]]:
     """Gradient descent through ``model`` against gradient-free searches on the classical map, in one run.
 
     The surrogate is built first (tasks outside the model's grid: ``ValueError`` before any work);
@@ -762,7 +762,10 @@ def compare_designs(family, tasks, model, *, methods: Sequence[str] = ("gradient
         family, tasks, model, rpy, convention: as :func:`design_by_gradient`.
         methods: any of ``"gradient"``, ``"cmaes"``, ``"random"``, in run order (the gradient first
             when given: the others' goal).
-        gradient: more keyword arguments of :func:`design_by_gradient`.
+        gradient: more keyword arguments of :func:`design_by_gradient` (or of ``gradient_search``).
+        gradient_search: the gradient method to run instead of :func:`design_by_gradient`,
+            ``gradient_search(seed=..., **gradient) -> DesignResult`` (e.g. the screened search of
+            :func:`wsmap.morph_design.design_across_morphologies`).
 
     Returns:
         ``(rows, results)``: one row per method (:meth:`DesignResult.row`: method, family, time to
@@ -785,8 +788,11 @@ def compare_designs(family, tasks, model, *, methods: Sequence[str] = ("gradient
     order = sorted(methods, key=lambda m: m != "gradient")
     for m in order:
         if m == "gradient":
-            r = design_by_gradient(fam, tasks, surrogate, rpy=rpy, convention=convention, bounds=bounds, seed=seed,
-                                   **(gradient or {}))
+            if gradient_search is not None:
+                r = gradient_search(seed=seed, **(gradient or {}))
+            else:
+                r = design_by_gradient(fam, tasks, surrogate, rpy=rpy, convention=convention, bounds=bounds,
+                                       seed=seed, **(gradient or {}))
             target = r.total_length * (1 + length_tol) if r.verified else None
             r.target_length = target
             r.time_to_target = r.time_to_verified

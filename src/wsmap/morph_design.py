@@ -37,6 +37,7 @@ Conventions
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Sequence
@@ -46,7 +47,7 @@ import numpy as np
 import torch
 
 from . import workspace as ws
-from .design import DesignResult, check_tasks, design_by_cmaes, design_by_gradient, design_by_random_search
+from .design import DesignResult, check_tasks, compare_designs, design_by_gradient
 from .kinematics import from_dh
 from .kinematics.morphology import N_FEATURES, describe
 
@@ -356,27 +357,9 @@ def compare_morph_designs(model, tasks, space: MorphDesignSpace | None = None, *
     (a code is rounded to its twist). With ``warm_up`` one classical call is made first, untimed.
     Returns ``(rows, results)`` as :func:`~wsmap.design.compare_designs`."""
     space = MorphDesignSpace() if space is None else space
-    tasks = check_tasks(tasks)
-    known = ("gradient", "cmaes", "random")
-    for mth in methods:
-        if mth not in known:
-            raise ValueError(f"unknown design method {mth!r}; choose from {', '.join(known)}")
-    MorphSurrogate(model, space, tasks)  # bad model or tasks: before any work
-    if warm_up:
-        space.classical(((space.low + space.high) / 2)[None], tasks)
-    results: dict[str, DesignResult] = {}
-    target = None
-    order = sorted(methods, key=lambda mth: mth != "gradient")
-    for mth in order:
-        if mth == "gradient":
-            r = design_across_morphologies(model, tasks, space, seed=seed, **(gradient or {}))
-            target = r.total_length * (1 + length_tol) if r.verified else None
-            r.target_length, r.time_to_target = target, r.time_to_verified
-        elif mth == "cmaes":
-            r = design_by_cmaes(space, tasks, target_length=target, max_calls=max_calls, max_seconds=max_seconds,
-                                seed=seed)
-        else:
-            r = design_by_random_search(space, tasks, target_length=target, max_calls=max_calls,
-                                        max_seconds=max_seconds, seed=seed)
-        results[mth] = r
-    return [results[mth].row() for mth in order], results
+    surrogate = MorphSurrogate(model, space, tasks)  # bad model or tasks: before any work
+    return compare_designs(space, surrogate.tasks, surrogate, methods=methods, length_tol=length_tol,
+                           max_calls=max_calls, max_seconds=max_seconds, gradient=gradient, seed=seed,
+                           warm_up=warm_up,
+                           gradient_search=functools.partial(design_across_morphologies, model, surrogate.tasks,
+                                                             space))
