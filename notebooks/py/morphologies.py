@@ -40,6 +40,13 @@ result.arms.pivot(index="arms", columns="method", values="f")
 # %%
 result.arms
 
+# %% [markdown]
+# A named arm that belongs to a family also gets that family's own map model, trained here on the
+# same grid (`family_model`; the Panda is `panda7` at scale 1):
+
+# %%
+result.metrics["family"]
+
 # %%
 Image(filename=str(out.figures / "morphologies_f.png"))
 

@@ -32,7 +32,17 @@ def test_morphologies_smoke(out):
     assert metrics["hold_out"]["least_distance"] > HOLD_OUT_RADIUS
     assert all(metrics["train"][m]["epochs"] == cfg["train"]["epochs"] for m in ("model", "fk_model"))
     arms = pd.read_csv(out.tables / "morphologies_arms.csv")
-    assert len(arms) == (1 + len(HELD_OUT)) * len(part.METHODS)
+    assert len(arms) == (1 + len(HELD_OUT)) * len(part.METHODS) + len(cfg["family"])
+    # the family baseline: the panda7 model on the Panda, its row in the table
+    fam = metrics["family"]["panda"]
+    assert fam["family"] == "panda7" and fam["train_arms"] == cfg["family"]["panda"]["samples"]
+    row = arms[(arms.arms == "panda") & (arms.method == "family_model")]
+    assert len(row) == 1 and np.isclose(row.f.iloc[0], fam["f"], equal_nan=True)
+    # the design study: every method's answer, verified or not, and its DH table
+    design = pd.read_csv(out.tables / "morphologies_design.csv")
+    assert list(design.method) == ["gradient", "cmaes", "random"]
+    for m, a in metrics["design"]["answers"].items():
+        assert np.shape(a["dh_modified"]) == (6, 4) and a["total_length_m"] > 0, m
     assert list(pd.read_csv(out.tables / "morphologies_speed.csv").arm) == ["held-out morph7 arm", *cfg["speed_arms"]]
     # the saved model maps a named arm by itself, as the table scored it
     model, meta = mm.load_morph_model(out.models / "morph.pt")

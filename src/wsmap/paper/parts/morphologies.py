@@ -11,7 +11,10 @@ of :mod:`wsmap.learn.morph_model`. Beside it, on the same held-out arms:
   (:func:`~wsmap.learn.morph_model.fk_labels`: no inverse kinematics, as RAM's experience);
 * ``nearest_arm``: the map-search map of the training arm nearest in the description space;
 * ``fk_sampled``: the held-out arm's own forward-kinematics-sampled map (no learning: what
-  sampling that arm directly gives for the same number of samples).
+  sampling that arm directly gives for the same number of samples);
+* ``family_model``, for a named arm that belongs to a family (params ``family``: the Panda is
+  ``panda7`` at scale 1): that family's map model (:func:`wsmap.learn.family.fit_map_model`, the
+  ``learned_maps`` recipe) trained here on the same grid, orientation and label search.
 
 Held out: the random arms of shard 0's test streams (never trained on) and the six named arms
 (labelled here by the same map search; no training arm within
@@ -68,6 +71,7 @@ class Metrics(TypedDict):
     hold_out: dict  #: the least distance (m) from a training arm to a named arm, and the radius kept clear
     speed: list  #: one 3-D map of an arm by the model against the classical map (s, speed-up)
     design: dict  #: tasks (m), and per method: time, classical calls, total length (m), verified, DH table
+    family: dict  #: named arm -> its family, training arms, seconds, and the family model's F, precision, recall
     device: str
 
 
@@ -178,6 +182,11 @@ def run(cfg: Mapping, out: Outputs) -> Result:
         raise RuntimeError(f"a training arm lies {least:.3f} m from a named arm, inside the hold-out radius "
                            f"{HOLD_OUT_RADIUS} m")
 
+    family = {}
+    for name, fcfg in cfg["family"].items():
+        family[name] = _family_model(name, fcfg, spec, data_dir, seed, nodes)
+        rows.append({"arms": name, "method": "family_model",
+                     **{k: family[name][k] for k in ("f", "precision", "recall", "f_mean")}})
     speed = _speed(model, cfg, test_sets)
     design_rows, design_out = _design(model, cfg["design"], seed)
     metrics: Metrics = {
@@ -190,10 +199,41 @@ def run(cfg: Mapping, out: Outputs) -> Result:
         "train": {k: v[1] for k, v in trained.items()},
         "pooled": pooled, "named": named,
         "hold_out": {"least_distance": least, "radius": HOLD_OUT_RADIUS},
-        "speed": speed.to_dict("records"), "design": design_out, "device": "cpu",
+        "speed": speed.to_dict("records"), "design": design_out, "family": family, "device": "cpu",
     }
     check_metrics(metrics, Metrics, "morphologies")
     return Result(metrics, model, fk_model, pd.DataFrame(rows), speed, pd.DataFrame(design_rows), shown)
+
+
+def _family_model(name: str, f: Mapping, spec, data_dir: Path, seed: int, nodes) -> dict:
+    """The family baseline of named arm ``name``: a map model of family ``f["family"]`` (``f["samples"]``
+    arms on the stage's grid, tool down, labelled by the numerical map search; built once into
+    ``data_dir``) trained with ``f["recipe"]``, scored on the arm's map-search map."""
+    from ...datasets import DatasetError, DatasetSpec, build_dataset_files, load_dataset
+    from ...learn import family as learn_family
+
+    fam = robots.FAMILIES[f["family"]]
+    arm = robots.load(name)
+    fspec = DatasetSpec(f"{f['family']}_morphgrid", family=f["family"], method="numerical", fixed=mm.TOOL_DOWN,
+                        convention="standard", lo=spec.lo, hi=spec.hi, step=spec.step, samples=int(f["samples"]),
+                        seed=seed)
+    path = data_dir / f"{fspec.name}_{fspec.samples}_{spec.step:g}.npz"
+    t0 = time.perf_counter()
+    try:
+        ds = load_dataset(path, expect_spec=fspec)
+    except (FileNotFoundError, DatasetError):  # not built yet, or built with other settings: build it
+        build_dataset_files(fspec, path)
+        ds = load_dataset(path, expect_spec=fspec)
+    label_s = time.perf_counter() - t0
+    recipe = learn_family.MapRecipe.from_dict({**f["recipe"], "device": "cpu"})
+    t0 = time.perf_counter()
+    model, result = learn_family.fit_map_model(ds, recipe)
+    train_s = time.perf_counter() - t0
+    params = fam.params_of(arm)  # the arm as a member of its family (a ValueError if it is not one)
+    pred = model.predict_maps(np.asarray(params, dtype=np.float64)[None])[0]
+    truth = workspace.constant_orientation_map(arm, nodes, mm.TOOL_DOWN, convention="standard")
+    return {"family": f["family"], "train_arms": int(len(ds)), "label_seconds": label_s, "train_seconds": train_s,
+            "epochs": int(result.stop_epoch), **_scores(pred, truth)}
 
 
 def _design(model, d: Mapping, seed: int) -> tuple[list[dict], dict]:
