@@ -539,3 +539,23 @@ def test_mlp_sessions_configure_each_model_on_its_own_training_split():
         # ranges and stats), so Rprop, elementwise, trains them alike
         torch.testing.assert_close(one.model.input_mean[0], both.model.input_mean[s])
         np.testing.assert_allclose(one.history.loss, both.history.loss, rtol=1e-5)
+
+
+def test_crossentropy_pos_weight_known_values_and_refusals():
+    import math as _m
+
+    from wsmap.learn.training import TrainConfig, make_loss
+
+    out = torch.zeros(2, 2)
+    t = torch.tensor([[1.0, 0.0], [1.0, 1.0]])
+    # at logit 0 every term is log 2; a positive's term is weighted: (3 w + 1) / 4 log 2
+    assert float(make_loss("crossentropy", 20)(out, t)) == pytest.approx((3 * 20 + 1) / 4 * _m.log(2))
+    assert float(make_loss("crossentropy", None)(out, t)) == pytest.approx(_m.log(2))
+    with pytest.raises(ValueError, match="pos_weight must be a positive number or None, got -1"):
+        make_loss("crossentropy", -1)
+    with pytest.raises(ValueError, match="pos_weight weighs the positive targets of crossentropy, not of loss 'mse'"):
+        TrainConfig(loss="mse", pos_weight=2.0)
+    # left out of to_dict when unset: the settings hashes of runs made before it stay the same
+    assert "pos_weight" not in TrainConfig().to_dict()
+    tc = TrainConfig(optimizer="adam", loss="crossentropy", batch_size=4, pos_weight=5)
+    assert TrainConfig.from_dict(tc.to_dict()) == tc and tc.to_dict()["pos_weight"] == 5.0

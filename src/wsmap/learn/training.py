@@ -174,7 +174,7 @@ def _bce_logits(out, t):
 LOSSES = {"mse": _mse, "crossentropy": _bce_logits, "mae": _mae}
 
 
-def make_loss(name: str) -> Loss:
+def make_loss(name: str, pos_weight: float | None = None) -> Loss:
     """The loss called ``name``: ``"mse"``, ``"crossentropy"`` or ``"mae"``.
 
     * ``mse``: mean squared error over every sample and output (MATLAB ``mse``; the paper's loss).
@@ -186,12 +186,30 @@ def make_loss(name: str) -> Loss:
       ``z > 0`` (``p > 0.5``), not where ``z > 0.5``: apply ``torch.sigmoid`` before the paper's
       0.5 threshold.
 
-    Unknown names raise ``ValueError``.
+    ``pos_weight`` (``crossentropy`` only): the weight of a positive target's term,
+    ``−w·t·log p − (1 − t)·log(1 − p)`` (torch's ``pos_weight``), for maps whose reachable nodes
+    are a few per cent of the grid; ``None`` is 1.
+
+    Unknown names, and ``pos_weight`` that is not a positive number or is given to another loss,
+    raise ``ValueError``.
     """
     key = str(name).strip().lower()
     if key not in LOSSES:
         raise ValueError(f"unknown loss {name!r}; known: {', '.join(sorted(LOSSES))}")
-    return Loss(key, LOSSES[key])
+    if pos_weight is None:
+        return Loss(key, LOSSES[key])
+    if isinstance(pos_weight, bool) or not isinstance(pos_weight, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(pos_weight) or pos_weight <= 0:
+        raise ValueError(f"pos_weight must be a positive number or None, got {pos_weight!r}")
+    if key != "crossentropy":
+        raise ValueError(f"pos_weight weighs the positive targets of crossentropy, not of loss {key!r}")
+    w = float(pos_weight)
+
+    def weighted(out, t):
+        weight = torch.as_tensor(w, dtype=out.dtype, device=out.device)
+        return F.binary_cross_entropy_with_logits(out, t, pos_weight=weight, reduction="none").mean(dim=(-2, -1))
+
+    return Loss(key, weighted)
 
 
 # --------------------------------------------------------------------------------------------
@@ -333,6 +351,9 @@ class TrainConfig:
             ``oss``, ``gdx`` or a MATLAB name), or ``adam`` (:data:`MINIBATCH_OPTIMIZERS`);
             ``optimizer_kwargs`` override its defaults (e.g. ``{"lr": 1e-3}`` for Adam).
         loss: ``mse``, ``crossentropy`` or ``mae`` (:func:`make_loss`).
+        pos_weight: ``crossentropy`` only: the weight of positive targets (:func:`make_loss`);
+            ``None`` (default) is 1, and is left out of :meth:`to_dict` so that settings hashed
+            before this option existed keep their hash.
         max_epochs: optimiser steps at most (MATLAB ``epochs``; the paper's section 6.1: 1000).
         max_fail: consecutive validation failures that stop training (MATLAB ``max_fail``,
             default 6; the paper's section 6.2 used 100).
@@ -370,12 +391,15 @@ class TrainConfig:
     batch_size: int | None = None
     lr_decay: str | None = None
     device: str | None = None
+    pos_weight: float | None = None
 
     def __post_init__(self):
         key = optimizer_name(self.optimizer)  # fail early on a bad name
         if self.device is not None:
             self.device = check_device_name(self.device, "TrainConfig.device")
-        make_loss(self.loss)
+        make_loss(self.loss, self.pos_weight)
+        if self.pos_weight is not None:
+            self.pos_weight = float(self.pos_weight)
         self.fractions = tuple(float(f) for f in self.fractions)
         if self.max_epochs < 0 or self.max_fail < 1:
             raise ValueError("need max_epochs >= 0 and max_fail >= 1")
@@ -402,6 +426,8 @@ class TrainConfig:
     def to_dict(self) -> dict[str, Any]:
         """Plain dict (JSON/YAML friendly: tuples become lists)."""
         d = dataclasses.asdict(self)
+        if d["pos_weight"] is None:
+            del d["pos_weight"]
         d["fractions"] = list(self.fractions)
         d["optimizer_kwargs"] = {k: list(v) if isinstance(v, tuple) else v for k, v in self.optimizer_kwargs.items()}
         return d
@@ -731,7 +757,7 @@ def train(model: nn.Module, X: ArrayLike | torch.Tensor, Y: ArrayLike | torch.Te
     has_val = len(splits[0].val) > 0
     track_test = config.track_test and len(splits[0].test) > 0
     x_te, y_te = data(2) if track_test else (None, None)  # the test split is big: gather only if used
-    loss_fn = make_loss(config.loss)
+    loss_fn = make_loss(config.loss, config.pos_weight)
     objective = None if minibatch else _Objective(model, params, x_tr, y_tr, loss_fn, S)
     optimizer = _build_optimizer(config.optimizer, params, dict(config.optimizer_kwargs))
     n_train = x_tr.shape[-2]

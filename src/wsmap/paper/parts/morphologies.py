@@ -110,7 +110,7 @@ def _predict(model, features) -> np.ndarray:
 def _train_config(t: Mapping, seed: int) -> TrainConfig:
     return TrainConfig(optimizer="adam", optimizer_kwargs={"lr": float(t["lr"])}, loss="crossentropy",
                        batch_size=int(t["batch_size"]), lr_decay="cosine", max_epochs=int(t["epochs"]), max_fail=1000,
-                       fractions=(0.95, 0.05, 0.0), seed=seed)
+                       fractions=(0.95, 0.05, 0.0), seed=seed, pos_weight=t.get("pos_weight"))
 
 
 def run(cfg: Mapping, out: Outputs) -> Result:
