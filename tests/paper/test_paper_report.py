@@ -44,7 +44,7 @@ def test_committed_params_differ_from_full_scale_only_in_scale():
     # the morphology study's headline: more arms, a finer grid, more samples and epochs, a cluster
     morph = {r["parameter"] for r in rows if r["stage"] == "morphologies"}
     assert morph <= {"step", "shards", "arms_per_shard", "test_arms", "fk.samples", "train.epochs",
-                     "timing_repeats", "workers"}, morph
+                     "timing_repeats", "workers", "family.panda.samples"}, morph
     rows = [r for r in rows if r["stage"] != "morphologies"]
     # one Table 1 row runs more sessions: written per row, the others keep one
     assert {"stage": "table1_workspaces", "parameter": "sessions.table1_so3_pi10", "committed": 1,
