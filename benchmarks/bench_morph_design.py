@@ -21,12 +21,20 @@ the same tasks and their total link lengths (``sum |a| + |d|`` of their modified
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import time
 
 import numpy as np
+
+
+def _check(arm, tasks):
+    """Per task: reachable() at tool down with 128 starts of another seed than the verification's."""
+    import wsmap
+
+    T = np.stack([wsmap.transl(p) for p in tasks])
+    T[:, :3, :3] = wsmap.rpy2r((math.pi, 0, 0))
+    return wsmap.reachable(arm, T, starts=128, seed=11)
 
 
 def _named_lengths(tasks):
@@ -39,9 +47,7 @@ def _named_lengths(tasks):
         if arm.n != 6:
             continue
         m = describe(arm)
-        T = np.stack([wsmap.transl(p) for p in tasks])
-        T[:, :3, :3] = wsmap.rpy2r((math.pi, 0, 0))
-        ok = wsmap.reachable(arm, T, starts=128, seed=11)
+        ok = _check(arm, tasks)
         rows.append({"arm": name, "covered": f"{int(ok.sum())}/{len(ok)}",
                      "total_length_m": float(np.abs(m.mdh[:, 0]).sum() + np.abs(m.mdh[:, 2]).sum()
                                              + np.linalg.norm(m.tool[:3, 3]))})
@@ -70,7 +76,6 @@ def main(argv=None):
 
     import torch
 
-    import wsmap
     from wsmap import design
     from wsmap import morph_design as md
     from wsmap.learn.morph_model import load_morph_model
@@ -93,10 +98,7 @@ def main(argv=None):
     out = {"tasks": tasks.tolist(), "rows": rows, "designs": {}}
     for name, r in results.items():
         table = space.tables(r.params)[0]
-        arm = space.arms(r.params[None])[0]
-        T = np.stack([wsmap.transl(p) for p in tasks])
-        T[:, :3, :3] = wsmap.rpy2r(space.rpy)
-        again = wsmap.reachable(arm, T, starts=128, seed=11)
+        again = _check(space.arms(r.params[None])[0], tasks)
         print(f"\n{name}: total length {r.total_length:.3f} m, verified {r.verified}, 128-start check "
               f"{int(again.sum())}/{len(again)}; modified DH (a, alpha, d):")
         for i, (aa, al, d, _) in enumerate(table, 1):

@@ -29,8 +29,9 @@ def main(argv=None) -> None:
     import numpy as np
     import torch
 
-    from wsmap import learn, robots, workspace
+    from wsmap import robots, workspace
     from wsmap.learn import morph_model as mm
+    from wsmap.paper.parts import morphologies as stage
     from wsmap.learn.training_range import ExtrapolationWarning
     from wsmap.metrics import score_maps
     from wsmap.robots.morph import HELD_OUT, MORPH_GRID
@@ -56,10 +57,7 @@ def main(argv=None) -> None:
     print("| pos_weight | threshold | pooled F | P | R | " + " | ".join(HELD_OUT) + " | named mean | train s |")
     print("|---" * (7 + len(HELD_OUT)) + "|")
     for w in a.weights:
-        tc = learn.TrainConfig(optimizer="adam", optimizer_kwargs={"lr": float(t["lr"])}, loss="crossentropy",
-                               batch_size=int(t["batch_size"]), lr_decay="cosine", max_epochs=int(t["epochs"]),
-                               max_fail=1000, fractions=(0.95, 0.05, 0.0), seed=seed,
-                               pos_weight=None if w == 1 else w)
+        tc = stage._train_config({**t, "pos_weight": None if w == 1 else w}, seed)  # the stage's recipe
         t0 = time.perf_counter()
         model, _ = mm.fit_morph_model(train, model_cfg, tc, seed=seed)
         secs = time.perf_counter() - t0

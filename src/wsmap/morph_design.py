@@ -296,12 +296,11 @@ def _screen(surrogate: MorphSurrogate, patterns: np.ndarray, draws: int, keep: i
     worst = worst.reshape(P, draws)
     total = space.total_length(flat).reshape(P, draws)
     covers = worst >= margin
-    # per draw: covering draws by length first, then the rest by margin
-    order = np.lexsort((np.where(covers, total, -worst), ~covers), axis=-1)
+    key = np.where(covers, total, -worst)  # covering draws by length, the rest by margin
+    order = np.lexsort((key, ~covers), axis=-1)  # per pattern, its draws best first
     best = order[:, 0]
-    rank = np.lexsort((np.where(covers[np.arange(P), best], total[np.arange(P), best], -worst[np.arange(P), best]),
-                       ~covers[np.arange(P), best]))
-    kept = rank[:keep]
+    first = np.arange(P)
+    kept = np.lexsort((key[first, best], ~covers[first, best]))[:keep]  # patterns by their best draw
     return np.concatenate([designs[kept, order[kept, j]] for j in range(min(per_pattern, draws))])
 
 

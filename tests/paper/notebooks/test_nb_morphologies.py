@@ -58,3 +58,12 @@ def test_morphologies_smoke(out):
     for name in ("f", "slices"):
         assert (out.figures / f"morphologies_{name}.png").stat().st_size > 5_000, name
     assert (out.root / "data" / "morph").is_dir()
+
+
+def test_family_baseline_entries_are_checked_before_any_work():
+    with pytest.raises(ValueError, match=r"morphologies: family.panda.family 'panda9' is not a family; known: "):
+        part._family_members({"panda": {"family": "panda9"}}, "morphologies")
+    with pytest.raises(ValueError, match=r"morphologies: family.ur5e: the arm is not a member of 'panda7'"):
+        part._family_members({"ur5e": {"family": "panda7"}}, "morphologies")
+    members = part._family_members({"panda": {"family": "panda7"}}, "morphologies")
+    assert np.array_equal(members["panda"], np.ones(6))

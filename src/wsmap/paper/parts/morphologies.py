@@ -118,6 +118,7 @@ def run(cfg: Mapping, out: Outputs) -> Result:
     the held-out arms, time one map (module notes). ``cfg``: the ``morphologies`` params section."""
     torch.set_num_threads(int(cfg["threads"]))
     step, seed = float(cfg["step"]), int(cfg["seed"])
+    members = _family_members(cfg["family"], cfg.source)  # before any work
     model_cfg = mm.MorphModelConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in cfg["model"].items()})
     fk = {"samples": int(cfg["fk"]["samples"]), "angle_tol": float(cfg["fk"]["angle_tol"])}
     data_dir = Path(out.root) / "data" / "morph"
@@ -184,7 +185,7 @@ def run(cfg: Mapping, out: Outputs) -> Result:
 
     family = {}
     for name, fcfg in cfg["family"].items():
-        family[name] = _family_model(name, fcfg, spec, data_dir, seed, nodes)
+        family[name] = _family_model(name, fcfg, members[name], spec, data_dir, seed, nodes)
         rows.append({"arms": name, "method": "family_model",
                      **{k: family[name][k] for k in ("f", "precision", "recall", "f_mean")}})
     speed = _speed(model, cfg, test_sets)
@@ -205,14 +206,31 @@ def run(cfg: Mapping, out: Outputs) -> Result:
     return Result(metrics, model, fk_model, pd.DataFrame(rows), speed, pd.DataFrame(design_rows), shown)
 
 
-def _family_model(name: str, f: Mapping, spec, data_dir: Path, seed: int, nodes) -> dict:
-    """The family baseline of named arm ``name``: a map model of family ``f["family"]`` (``f["samples"]``
-    arms on the stage's grid, tool down, labelled by the numerical map search; built once into
-    ``data_dir``) trained with ``f["recipe"]``, scored on the arm's map-search map."""
+def _family_members(family: Mapping, where: str) -> dict[str, np.ndarray]:
+    """Each named arm of params ``family`` as a member of its family: its family parameters, checked
+    before any work (an unknown family, or an arm that is not a member, is a ``ValueError`` naming
+    the entry)."""
+    members = {}
+    for name, f in family.items():
+        fam = robots.FAMILIES.get(f["family"])
+        if fam is None:
+            raise ValueError(f"{where}: family.{name}.family {f['family']!r} is not a family; known: "
+                             f"{', '.join(robots.FAMILIES)}")
+        try:
+            members[name] = np.asarray(fam.params_of(robots.load(name)), dtype=np.float64)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"{where}: family.{name}: the arm is not a member of {f['family']!r} ({e})") from None
+    return members
+
+
+def _family_model(name: str, f: Mapping, params: np.ndarray, spec, data_dir: Path, seed: int, nodes) -> dict:
+    """The family baseline of named arm ``name`` (its family parameters ``params``): a map model of
+    family ``f["family"]`` (``f["samples"]`` arms on the stage's grid, tool down, labelled by the
+    numerical map search; built once into ``data_dir``) trained with ``f["recipe"]``, scored on the
+    arm's map-search map."""
     from ...datasets import DatasetError, DatasetSpec, build_dataset_files, load_dataset
     from ...learn import family as learn_family
 
-    fam = robots.FAMILIES[f["family"]]
     arm = robots.load(name)
     fspec = DatasetSpec(f"{f['family']}_morphgrid", family=f["family"], method="numerical", fixed=mm.TOOL_DOWN,
                         convention="standard", lo=spec.lo, hi=spec.hi, step=spec.step, samples=int(f["samples"]),
@@ -229,8 +247,7 @@ def _family_model(name: str, f: Mapping, spec, data_dir: Path, seed: int, nodes)
     t0 = time.perf_counter()
     model, result = learn_family.fit_map_model(ds, recipe)
     train_s = time.perf_counter() - t0
-    params = fam.params_of(arm)  # the arm as a member of its family (a ValueError if it is not one)
-    pred = model.predict_maps(np.asarray(params, dtype=np.float64)[None])[0]
+    pred = model.predict_maps(params[None])[0]
     truth = workspace.constant_orientation_map(arm, nodes, mm.TOOL_DOWN, convention="standard")
     return {"family": f["family"], "train_arms": int(len(ds)), "label_seconds": label_s, "train_seconds": train_s,
             "epochs": int(result.stop_epoch), **_scores(pred, truth)}
