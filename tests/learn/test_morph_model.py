@@ -12,7 +12,7 @@ import wsmap
 from wsmap import cli, datasets, learn
 from wsmap import workspace as ws
 from wsmap.kinematics import from_dh
-from wsmap.kinematics.morphology import MorphologyError, describe
+from wsmap.kinematics.morphology import MorphologyError, describe, morphology_distance
 from wsmap.learn import morph_model as mm
 from wsmap.learn.files import ModelFileError
 from wsmap.learn.training_range import ExtrapolationError, ExtrapolationWarning
@@ -160,3 +160,18 @@ def test_cli_map_of_a_urdf_arm_and_its_refusals(trained, tmp_path, capsys):
         code = cli.main(argv)
         err = capsys.readouterr().err
         assert code == 2 and err.startswith("wsmap: error: ") and message in err and err.count("\n") == 1, err
+
+
+def test_nearest_arm_baseline_in_chunks_is_the_brute_force_answer():
+    """Queries in chunks (one query at a time at the smallest ``max_numbers``) give the labels and
+    distances of the whole-array argmin."""
+    rng = np.random.default_rng(3)
+    F = rng.normal(size=(300, mm.N_FEATURES))
+    Y = rng.random((300, 17)) < 0.3
+    Q = rng.normal(size=(25, mm.N_FEATURES))
+    d = morphology_distance(Q[:, None, :], F[None, :, :])
+    want = d.argmin(axis=1)
+    for budget in (1, 300 * mm.N_FEATURES * 7, 1 << 24):
+        maps, dist = mm.nearest_arm_maps(F, Y, Q, max_numbers=budget)
+        assert np.array_equal(maps, Y[want])
+        assert np.array_equal(dist, d[np.arange(25), want])

@@ -304,7 +304,8 @@ def build_morph_shards(out_dir, n_joints: int, shards: int, arms_per_shard: int,
 def fit_morph_model(datasets, config: MorphModelConfig | None = None, train_config: TrainConfig | None = None,
                     seed: int = 0, labels=None) -> tuple[MorphMapModel, TrainResult]:
     """Train a :class:`MorphMapModel` on datasets of the morph families (:class:`wsmap.datasets.Dataset`
-    of one grid, R3, fixed orientation); returns the model (eval mode) and the training result.
+    of one grid, R3, fixed orientation); returns the model (eval mode, on the CPU whatever
+    ``train_config.device`` trained it on) and the training result.
 
     ``train_config`` defaults to Adam (lr 1e-3), binary cross-entropy, 8 arms per step, cosine
     decay over 30 epochs, 5 % of the arms for validation, no test split (the caller's held-out
@@ -351,16 +352,23 @@ def fit_morph_model(datasets, config: MorphModelConfig | None = None, train_conf
     result = train(model, X.astype(np.float32), Y, tc)
     model.eval()
     model.threshold = _best_threshold(model, X[result.split.val], Y[result.split.val])
+    # trained where ``tc.device`` says; maps are predicted from CPU tensors, and a saved model loads there
+    model.cpu()
     model.train_config = tc
     model.dataset_specs = [ds.spec.to_dict() for ds in datasets]
     return model, result
 
 
-def _best_threshold(model: MorphMapModel, X: np.ndarray, Y: np.ndarray) -> float:
+def _best_threshold(model: MorphMapModel, X: np.ndarray, Y: np.ndarray, chunk: int = 1024) -> float:
     if len(X) == 0:
         return 0.5
+    # on the device the model was trained on, ``chunk`` arms at a time (thousands of validation arms
+    # times the grid's nodes would not fit in one forward pass)
+    device = next(model.parameters()).device
     with torch.no_grad():
-        prob = torch.sigmoid(model(torch.as_tensor(X, dtype=torch.float32))).numpy()
+        prob = np.concatenate([torch.sigmoid(model(torch.as_tensor(X[i:i + chunk], dtype=torch.float32,
+                                                                   device=device))).cpu().numpy()
+                               for i in range(0, len(X), chunk)])
     truth = Y > 0.5
     best, best_f = 0.5, -1.0
     for t in np.round(np.arange(0.05, 0.951, 0.05), 2):
@@ -395,15 +403,24 @@ def fk_labels(dataset, *, samples: int = 200_000, angle_tol: float = 0.4, seed: 
     return out
 
 
-def nearest_arm_maps(train_features, train_labels, query_features) -> tuple[np.ndarray, np.ndarray]:
+def nearest_arm_maps(train_features, train_labels, query_features, *,
+                     max_numbers: int = 1 << 24) -> tuple[np.ndarray, np.ndarray]:
     """The nearest-neighbour baseline: for each query arm ``(Q, N_FEATURES)`` the labels ``(Q, N)``
     of the training arm nearest in :func:`~wsmap.kinematics.morphology.morphology_distance`, and
-    that distance ``(Q,)`` (m)."""
+    that distance ``(Q,)`` (m). ``max_numbers`` bounds the memory: queries go in chunks whose
+    ``(chunk, arms, N_FEATURES)`` differences hold about that many float64s (at least one query)."""
     F = np.asarray(train_features, dtype=np.float64)
     Q = np.asarray(query_features, dtype=np.float64)
-    d = morphology_distance(Q[:, None, :], F[None, :, :])
-    idx = d.argmin(axis=1)
-    return np.asarray(train_labels)[idx], d[np.arange(len(Q)), idx]
+    # queries in chunks: the (chunk, arms, features) difference stays near ``max_numbers`` float64s
+    # (128 MB by default) however many training arms there are (100,000 arms x 200 queries: 12 GB)
+    chunk = max(1, int(max_numbers) // max(1, F.shape[0] * F.shape[-1]))
+    idx = np.empty(len(Q), dtype=np.int64)
+    dist = np.empty(len(Q))
+    for s in range(0, len(Q), chunk):
+        d = morphology_distance(Q[s:s + chunk, None, :], F[None, :, :])
+        idx[s:s + chunk] = d.argmin(axis=1)
+        dist[s:s + chunk] = d[np.arange(len(d)), idx[s:s + chunk]]
+    return np.asarray(train_labels)[idx], dist
 
 
 # --------------------------------------------------------------------------------------------- files
