@@ -194,3 +194,201 @@ def position_filter(chain: SerialChain, p, margin):
     dist = np.linalg.norm(np.asarray(p) - centre[..., None, :], axis=-1)  # (..., N)
     reach = np.asarray(lengths - used)[..., None] * (1.0 + 1e-12) + margin + 1e-12
     return dist <= reach  # (N,) or (B, N)
+
+
+# --------------------------------------------------------------------------- the joint-limit bound
+#: Tolerance of the branch and bound of :func:`limit_bounds` (metres): each interval is wider than the
+#: exact range by at most this much, or a little more where the cell budget ran out (sound either way).
+LIMIT_BOUND_EPS = 1e-3
+#: Most cells a branch and bound keeps at once; past it, it stops with the (sound) bound it has.
+LIMIT_BOUND_CELLS = 1 << 15
+
+_LIMIT_BOUNDS = Memo()
+
+
+def _nearest_on_line(p0, a, p1, b):
+    """The point of the line ``p0 + t a`` nearest to the line ``p1 + s b`` (unit directions; metres);
+    ``p0`` where the lines are parallel."""
+    w = p0 - p1
+    ab = float(a @ b)
+    den = 1.0 - ab * ab
+    if den < 1e-12:
+        return np.array(p0, dtype=np.float64)
+    t = (ab * float(b @ w) - float(a @ w)) / den
+    return p0 + t * a
+
+
+def _limit_geometry(chain: SerialChain):
+    """The points :func:`limit_bounds` measures between, for one arm of revolute joints: ``S`` (3,),
+    the point of joint 0's axis nearest joint 1's axis (world frame, base included; no joint moves
+    it); ``w_loc`` (3,), the point of the last joint's axis nearest joint n-2's axis, in the last
+    joint's frame (no joint after n-2 moves it within that frame); the frames at ``q = 0`` (n, 4, 4)."""
+    n = chain.n
+    frames, _ = chain.joint_frames(np.zeros(n))
+    a0 = frames[0, :3, :3] @ chain.axes[0]
+    a1 = frames[1, :3, :3] @ chain.axes[1]
+    S = _nearest_on_line(frames[0, :3, 3], a0, frames[1, :3, 3], a1)
+    # joint n-2's axis in the frame of joint n-1 (before its motion; the points of its axis are the same after)
+    F = chain.fixed[n - 1]
+    Rinv = F[:3, :3].T
+    w_loc = _nearest_on_line(np.zeros(3), chain.axes[n - 1], -Rinv @ F[:3, 3], Rinv @ chain.axes[n - 2])
+    return S, w_loc, frames
+
+
+def _invariant_cells(chain, S, w_loc, dims, centre, hw, radius_w):
+    """The two invariants at cell centres and bounds of them over the cells.
+
+    ``centre``, ``hw`` (K, n) radians: the cells' centres and half-widths in joint space (``hw`` 0 off
+    ``dims``). Returns ``values``, ``lower``, ``upper`` (2, K): ``d = |W - S|`` and ``g = (W - S)·z``
+    (metres; ``W`` the point ``w_loc`` of the last axis, ``z`` its direction, world frame). The bounds
+    are second-order Taylor bounds: ``W(c + δ) = W(c) + Jδ + r`` with ``|r| <= M s² / 2``, ``s = Σ hw``,
+    ``M = radius_w`` (a second derivative of ``W`` is a double cross product with the distance of
+    ``W`` from an axis of joints 1 .. n-2, at most ``radius_w``); likewise ``z`` with ``M = 1``."""
+    n = chain.n
+    frames, _ = chain.joint_frames(centre)
+    last = frames[:, n - 1]
+    W = last[:, :3, :3] @ w_loc + last[:, :3, 3]
+    z = last[:, :3, :3] @ chain.axes[n - 1]
+    u = W - S
+    du = np.linalg.norm(u, axis=-1)
+    A = np.zeros(len(centre))  # bound of |Jδ|
+    Bz = np.zeros(len(centre))  # bound of |Kδ| (the first-order change of z)
+    uJ = np.zeros(len(centre))  # bound of |u·Jδ|
+    lin_g = np.zeros(len(centre))  # bound of the first-order change of g
+    for j in dims:
+        aj = frames[:, j, :3, :3] @ chain.axes[j]
+        Jj = np.cross(aj, W - frames[:, j, :3, 3])
+        Kj = np.cross(aj, z)
+        h = hw[:, j]
+        A += np.linalg.norm(Jj, axis=-1) * h
+        Bz += np.linalg.norm(Kj, axis=-1) * h
+        uJ += np.abs(np.einsum("ki,ki->k", u, Jj)) * h
+        lin_g += np.abs(np.einsum("ki,ki->k", u, Kj) + np.einsum("ki,ki->k", Jj, z)) * h
+    s = hw.sum(axis=-1)
+    rW = 0.5 * radius_w * s * s
+    rz = 0.5 * s * s
+    g = np.einsum("ki,ki->k", u, z)
+    rem_g = lin_g + A * Bz + rW * (1.0 + Bz + rz) + (du + A) * rz
+    # |u + Jδ|² = |u|² + 2 u·Jδ + |Jδ|², then the remainder
+    upper = np.stack([np.sqrt(du * du + 2.0 * uJ + A * A) + rW, g + rem_g])
+    lower = np.stack([np.sqrt(np.maximum(du * du - 2.0 * uJ, 0.0)) - rW, g - rem_g])
+    return np.stack([du, g]), lower, upper
+
+
+def _branch_and_bound(chain, S, w_loc, which, dims, box, radius_w, sign):
+    """A sound bound (m) of ``max`` (``sign`` 1) or ``min`` (-1) of invariant ``which`` (0: ``d``,
+    1: ``g``, :func:`_invariant_cells`) over the joint box ``box`` (n, 2) rad, splitting the joints ``dims``:
+    a cell is dropped once its bound cannot beat the best centre value by more than
+    :data:`LIMIT_BOUND_EPS`, and split in two across its widest joint otherwise."""
+    n = chain.n
+    centre = box.mean(axis=-1)[None].copy()
+    hw = np.zeros((1, n))
+    hw[0, dims] = 0.5 * (box[dims, 1] - box[dims, 0])
+    best = -np.inf
+    for _ in range(200):
+        values, lower, upper = _invariant_cells(chain, S, w_loc, dims, centre, hw, radius_w)
+        ub = upper[which] if sign > 0 else -lower[which]
+        best = max(best, float((sign * values[which]).max()))
+        keep = ub > best + LIMIT_BOUND_EPS
+        if not keep.any():
+            return sign * (best + LIMIT_BOUND_EPS)
+        centre, hw, ub = centre[keep], hw[keep], ub[keep]
+        if len(centre) > LIMIT_BOUND_CELLS or not dims:
+            break
+        j = np.argmax(hw, axis=-1)
+        rows = np.arange(len(centre))
+        hw[rows, j] *= 0.5
+        left, right = centre.copy(), centre.copy()
+        left[rows, j] -= hw[rows, j]
+        right[rows, j] += hw[rows, j]
+        centre = np.concatenate([left, right])
+        hw = np.concatenate([hw, hw])
+        ub = np.concatenate([ub, ub])
+    # out of budget: every live cell's bound (the cells dropped before are within eps of best)
+    return sign * max(best + LIMIT_BOUND_EPS, float(ub.max()))
+
+
+def _through_point(chain, frames, point):
+    """Joints ``1 ..`` whose axes, in an unbroken run from joint 1, pass through ``point`` at
+    ``q = 0``: a turn of such a joint keeps the next one through the point, so it turns
+    everything after it rigidly about the point."""
+    out = []
+    for j in range(1, chain.n):
+        a = frames[j, :3, :3] @ chain.axes[j]
+        r = point - frames[j, :3, 3]
+        if np.linalg.norm(r - (r @ a) * a) > 1e-12:
+            break
+        out.append(j)
+    return out
+
+
+def limit_bounds(chain: SerialChain):
+    """The joint-limit bound's numbers for one arm of revolute joints (memoised by content), or None
+    (a batch, a prismatic joint, fewer than 3 joints).
+
+    Two numbers of the last joint's axis are unchanged by joint 0 (they are measured from a point
+    ``S`` of its axis) and by joint n-1 (they use a point ``W`` of its axis and its direction ``z``):
+    ``d = |W - S|`` and ``g = (W - S)·z`` (metres). So they depend on joints ``1 .. n-2`` only, and
+    inside the limits each lies in an interval ``[lo, hi]``, found by a branch and bound over those
+    joints' box (:func:`_branch_and_bound`; sound, at most :data:`LIMIT_BOUND_EPS` wider than the
+    exact range where its cell budget lasts). Joints whose axes pass through ``S`` in an unbroken
+    run from joint 1 (the Panda's and the iiwa's shoulders) turn ``W - S`` and ``z`` rigidly about
+    ``S``, change neither number, and are not split. Unlike :func:`reach_filter`'s bounds these use
+    the limits (a revolute range of a turn or more, or none, counts as a full turn). ``S`` is the point
+    of joint 0's axis nearest joint 1's; ``W`` the point of the last axis nearest joint n-2's.
+
+    Returns ``dict(S (3,), w_loc (3,), lo (2,), hi (2,))``: ``S`` in the frame of the chain's
+    first fixed transform (the base left out, so the numbers do not depend on the base or the tool),
+    ``w_loc`` in the last joint's frame.
+    Building it takes 0.05-1 s per arm (once per process and arm)."""
+    if chain.batch_shape != () or chain.n < 3 or any(k == PRISMATIC for k in chain.kinds):
+        return None
+    # in the chain's own frame (no base, no tool): an arm moved around a cell keeps its numbers
+    key = content_key(chain.fixed, chain.axes, chain.kinds, np.asarray(chain.offset), chain.qlim)
+    return _LIMIT_BOUNDS.get(key, lambda: _make_limit_bounds(chain.replace(base=None, tool=None)))
+
+
+def _make_limit_bounds(chain: SerialChain):
+    n = chain.n
+    S, w_loc, frames = _limit_geometry(chain)
+    lim = np.array(chain.limits, dtype=np.float64)
+    full = ~np.isfinite(lim).all(axis=-1) | (lim[:, 1] - lim[:, 0] >= 2.0 * np.pi)
+    box = np.where(full[:, None], np.array([-np.pi, np.pi]), lim)
+    lengths = np.linalg.norm(chain.fixed[:, :3, 3], axis=-1)
+    # no W is farther than this from the origin of joint 1's frame, or any later joint's
+    radius_w = float(lengths[2:n].sum() + np.linalg.norm(w_loc)) * (1.0 + 1e-12)
+    skip = set(_through_point(chain, frames, S))
+    dims = [j for j in range(1, n - 1) if j not in skip]
+    lo = np.array([_branch_and_bound(chain, S, w_loc, k, dims, box, radius_w, -1) for k in range(2)])
+    hi = np.array([_branch_and_bound(chain, S, w_loc, k, dims, box, radius_w, 1) for k in range(2)])
+    return dict(S=S, w_loc=w_loc, lo=lo, hi=hi)
+
+
+def limit_filter(chain: SerialChain, T, margin):
+    """A sound test (...,) bool of one arm and target poses ``T`` (..., 4, 4): False where no
+    configuration inside the limits puts the tool within ``margin`` (m in position, rad in rotation
+    angle) of ``T``, because ``d`` or ``g`` of :func:`limit_bounds` lies outside its interval. All
+    True where the arm has no such bound (a batch, a prismatic joint, fewer than 3 joints)."""
+    T = np.asarray(T, dtype=np.float64)
+    b = limit_bounds(chain)
+    if b is None:
+        return np.ones(T.shape[:-2], dtype=bool)
+    n = chain.n
+    G = chain.fixed[n] if chain.tool is None else chain.fixed[n] @ chain.tool
+    # the last joint's frame is T·G⁻¹: W and z in the tool frame
+    v = G[:3, :3].T @ (b["w_loc"] - G[:3, 3])
+    zt = G[:3, :3].T @ chain.axes[n - 1]
+    if chain.base is not None:  # the targets in the chain's frame
+        Bi = np.linalg.inv(chain.base)
+        T = Bi @ T
+    R = T[..., :3, :3]
+    u = T[..., :3, 3] + R @ v - b["S"]
+    z = R @ zt
+    d = np.linalg.norm(u, axis=-1)
+    g = np.einsum("...i,...i->...", u, z)
+    # a pose within margin of T moves W by at most margin·(1 + |v|), z by margin
+    sW = margin * (1.0 + float(np.linalg.norm(v)))
+    tiny = 1e-9 * (1.0 + float(np.linalg.norm(chain.fixed[:, :3, 3], axis=-1).sum() + np.linalg.norm(v)))
+    sg = sW + margin * (d + sW) + tiny
+    return ((d <= b["hi"][0] + sW + tiny) & (d >= b["lo"][0] - sW - tiny)
+            & (g <= b["hi"][1] + sg) & (g >= b["lo"][1] - sg))

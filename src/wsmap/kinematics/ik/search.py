@@ -61,7 +61,7 @@ from ..chain import PRISMATIC, SerialChain, flatten_arms
 from ..transforms import check_rigid
 from .kernel import arm_arrays, pose_keys, run_compiled, unsolved
 from .memo import Memo, as_chain_memo, chain_key
-from .reach_filter import position_filter, reach_filter
+from .reach_filter import limit_filter, position_filter, reach_filter
 from .solution import MIN_TOL, IKSolution, failure_reasons
 from typing import TYPE_CHECKING
 
@@ -276,7 +276,7 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
                confirm_tol: float = FK_CONFIRM_TOL, gtol: float = MAP_SETTINGS["gtol"],
                q_init: ArrayLike | None = None, position_only: bool = False,
                seed_free_pass: bool = MAP_SETTINGS["seed_free_pass"], hole_retry: int = MAP_SETTINGS["hole_retry"],
-               border_starts: int = MAP_SETTINGS["border_starts"],
+               border_starts: int = MAP_SETTINGS["border_starts"], limit_bound: bool = True,
                progress: Callable[[int], object] | None = None,
                accept: Callable[[np.ndarray], np.ndarray] | None = None, accept_retry: int = 16) -> IKSolution:
     """Reachability of a map's nodes, each start of :func:`ikine_search`'s iteration, with starts taken
@@ -310,6 +310,11 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
         :data:`DEFAULT_RLIMIT`, no stationary-point test, both passes) that every node still
         unsolved next to a solved node gets once, after the solutions of its solved neighbours
         that the waves did not try; 0 turns the border search off
+    limit_bound : whether the joint-limit bound (:func:`wsmap.kinematics.ik.reach_filter.limit_filter`)
+        also rules out nodes before any start (one arm of revolute joints, a pose target): sound, so
+        it changes no success and no solution, only the time (most of it was the border search's 32
+        starts at unreachable border nodes; ``docs/recall.md``) and, at the nodes it rules out,
+        ``reason``, ``q``, ``residual`` and ``iterations``; False is the reference path
     progress : called with the number of targets settled as the search goes (those the reach filter
         rules out at once, those solved after each pass and wave, the rest at the end); the numbers
         add up to the number of targets
@@ -373,6 +378,11 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
     else:
         possible = reach_filter(flat if batch else chain, Tb if not batch else T[:, None], confirm_tol)
         possible = (possible.T if batch else possible).reshape(-1)
+        if limit_bound and not batch:
+            # the limits-aware invariants of the last axis (its first build per arm takes 0.05-1 s;
+            # an arm in a batch, e.g. the labels of a family, would pay that per arm, so only one arm)
+            idx = np.flatnonzero(possible)
+            possible[idx] = limit_filter(chain, T[idx], confirm_tol)
     mode = 2 if position_only else 0
     if q_init is not None:
         q_init = np.asarray(q_init, dtype=np.float64)
