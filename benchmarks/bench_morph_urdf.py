@@ -9,7 +9,7 @@ model would refuse (outside its families' range) is predicted anyway (``allow_ex
 and the first reason is printed: that is where the model has no business being right.
 
     NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/bench_morph_urdf.py \\
-        [--models models] [--samples 50000] [--json bench/morph_urdf.json]
+        [--models models | --files A.pt B.pt ...] [--samples 50000] [--json bench/morph_urdf.json]
 """
 
 from __future__ import annotations
@@ -29,6 +29,9 @@ sys.path.insert(0, os.path.dirname(__file__))
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--models", default="models", help="folder of morph.pt and morph_fk.pt")
+    p.add_argument("--files", nargs="+", metavar="FILE",
+                   help="score these morphology model files instead (each named by its file's stem; the first "
+                        "one's grid is the truth's), e.g. the models of bench_morph_scale.py")
     p.add_argument("--samples", type=int, default=50_000, help="FK samples of the sampled map")
     p.add_argument("--angle-tol", type=float, default=0.4, help="rad, of the sampled map")
     p.add_argument("--json", help="write the rows here")
@@ -46,8 +49,9 @@ def main(argv=None) -> int:
     from wsmap.learn.training_range import ExtrapolationWarning
     from wsmap.metrics import score_maps
 
-    models = {name: mm.load_morph_model(os.path.join(args.models, f"{name}.pt"))[0] for name in ("morph", "morph_fk")}
-    model = models["morph"]
+    files = args.files or [os.path.join(args.models, f"{name}.pt") for name in ("morph", "morph_fk")]
+    models = {os.path.splitext(os.path.basename(f))[0]: mm.load_morph_model(f)[0] for f in files}
+    model = next(iter(models.values()))
     nodes = model.nodes.numpy().astype(np.float64)
     step = float(np.diff(np.unique(nodes[:, 0]))[0])
     rows = []
@@ -63,7 +67,7 @@ def main(argv=None) -> int:
                 s = score_maps(pred[None], truth[None])
                 row.update({f"{key}_f": float(s["f"]), f"{key}_p": float(s["precision"]),
                             f"{key}_r": float(s["recall"])})
-                if key == "morph":
+                if key == next(iter(models)):
                     out = [str(w.message) for w in caught if issubclass(w.category, ExtrapolationWarning)]
                     row["in range"] = "yes" if not out else out[0].split(": ", 1)[-1].split(";")[0]
             sampled = ws.fk_sampled_maps(chain, -model.box, model.box, step, mm.TOOL_DOWN, samples=args.samples,
@@ -79,7 +83,7 @@ def main(argv=None) -> int:
         return "—" if v is None else (f"{v:.3f}" if isinstance(v, float) and math.isfinite(v) else
                                       ("none predicted" if isinstance(v, float) else str(v)))
 
-    cols = ["arm", "joints", "reachable", "morph_f", "morph_p", "morph_r", "morph_fk_f", "fk_sampled_f", "in range"]
+    cols = ["arm", "joints", "reachable", *(f"{k}_{x}" for k in models for x in "fpr"), "fk_sampled_f", "in range"]
     print("| " + " | ".join(cols) + " |")
     print("|" + "---|" * len(cols))
     for r in rows:
