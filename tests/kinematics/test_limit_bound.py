@@ -114,7 +114,7 @@ def test_what_it_rejects_is_unreachable_and_it_rejects_much():
     wide = reach_filter(chain, T, FK_CONFIRM_TOL)
     rejected = np.flatnonzero(wide & ~limit_filter(chain, T, FK_CONFIRM_TOL))
     # the Panda's elbow limit keeps its wrist within 0.81 m of the shoulder, not the links' 0.95 m
-    assert rejected.size > 600  # 693 with the bound as built
+    assert rejected.size > 600
     pick = np.random.default_rng(0).choice(rejected, 60, replace=False)
     assert not ikine_search(panda, T[pick], starts=128, seed=7).success.any()
 

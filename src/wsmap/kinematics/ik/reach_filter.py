@@ -9,9 +9,12 @@ result, only the time.
   before it can sweep it through (a ball cut by a slab carried back from the wrist joint by joint,
   then turned about joint 0; :func:`_wrist_orbit`, exact for the PUMA560 at a fixed orientation);
 * :func:`position_filter` — the tool origin farther than the links can stretch (position-only
-  search).
+  search);
+* :func:`limit_filter` — three numbers of the last joint's axis that joints 0 and n-1 do not change
+  (distances from a point of the first axis) outside the intervals the other joints reach inside
+  their limits (a branch and bound per arm, :func:`limit_bounds`); the map search's ``limit_bound``.
 
-Both measure from :func:`first_axis_point`, a point no joint moves. Lengths in metres.
+The first two measure from :func:`first_axis_point`, a point no joint moves. Lengths in metres.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from .. import lm_compiled
 from ..chain import PRISMATIC, SerialChain
 from .memo import Memo, content_key
 
-__all__ = ["reach_filter", "position_filter", "first_axis_point"]
+__all__ = ["reach_filter", "position_filter", "first_axis_point", "limit_filter", "limit_bounds"]
 
 _ORBITS = Memo()
 
@@ -200,8 +203,10 @@ def position_filter(chain: SerialChain, p, margin):
 #: Tolerance of the branch and bound of :func:`limit_bounds` (metres): each interval is wider than the
 #: exact range by at most this much, or a little more where the cell budget ran out (sound either way).
 LIMIT_BOUND_EPS = 1e-3
-#: Most cells a branch and bound keeps at once; past it, it stops with the (sound) bound it has.
-LIMIT_BOUND_CELLS = 1 << 15
+#: Cells a branch and bound evaluates at most (then it stops with the sound bound it has), and how
+#: many of the highest it splits per round.
+LIMIT_BOUND_EVALS = 1 << 16
+LIMIT_BOUND_BATCH = 1 << 10
 
 _LIMIT_BOUNDS = Memo()
 
@@ -235,15 +240,17 @@ def _limit_geometry(chain: SerialChain):
     return S, w_loc, frames
 
 
-def _invariant_cells(chain, S, w_loc, dims, centre, hw, radius_w):
-    """The two invariants at cell centres and bounds of them over the cells.
+def _invariant_cells(chain, S, a0, w_loc, dims, centre, hw, radius):
+    """The three invariants at cell centres and bounds of them over the cells.
 
     ``centre``, ``hw`` (K, n) radians: the cells' centres and half-widths in joint space (``hw`` 0 off
-    ``dims``). Returns ``values``, ``lower``, ``upper`` (2, K): ``d = |W - S|`` and ``g = (W - S)·z``
-    (metres; ``W`` the point ``w_loc`` of the last axis, ``z`` its direction, world frame). The bounds
-    are second-order Taylor bounds: ``W(c + δ) = W(c) + Jδ + r`` with ``|r| <= M s² / 2``, ``s = Σ hw``,
-    ``M = radius_w`` (a second derivative of ``W`` is a double cross product with the distance of
-    ``W`` from an axis of joints 1 .. n-2, at most ``radius_w``); likewise ``z`` with ``M = 1``."""
+    ``dims``). Returns ``values``, ``lower``, ``upper`` (3, K): ``d = |W - S|``, ``g = (W - S)·z`` and
+    ``h = (W - S)·a0`` (metres; ``W`` the point ``w_loc`` of the last axis, ``z`` its direction,
+    ``a0`` joint 0's axis, all in the chain's frame). The bounds
+    are second-order Taylor bounds: ``W(c + δ) = W(c) + Jδ + r`` with ``|r| <= Σ_ij H_ij hw_i hw_j / 2``,
+    ``H_ij = radius[max(i, j)]`` (``∂²W/∂q_i∂q_j`` is a double cross product with ``W``'s offset from
+    joint ``max(i, j)``'s axis, at most ``radius`` (n,) m, the lengths after that joint); likewise
+    ``z`` with ``H_ij = 1``, ``s = Σ hw``."""
     n = chain.n
     frames, _ = chain.joint_frames(centre)
     last = frames[:, n - 1]
@@ -255,6 +262,7 @@ def _invariant_cells(chain, S, w_loc, dims, centre, hw, radius_w):
     Bz = np.zeros(len(centre))  # bound of |Kδ| (the first-order change of z)
     uJ = np.zeros(len(centre))  # bound of |u·Jδ|
     lin_g = np.zeros(len(centre))  # bound of the first-order change of g
+    lin_h = np.zeros(len(centre))  # bound of the first-order change of h
     for j in dims:
         aj = frames[:, j, :3, :3] @ chain.axes[j]
         Jj = np.cross(aj, W - frames[:, j, :3, 3])
@@ -264,48 +272,61 @@ def _invariant_cells(chain, S, w_loc, dims, centre, hw, radius_w):
         Bz += np.linalg.norm(Kj, axis=-1) * h
         uJ += np.abs(np.einsum("ki,ki->k", u, Jj)) * h
         lin_g += np.abs(np.einsum("ki,ki->k", u, Kj) + np.einsum("ki,ki->k", Jj, z)) * h
+        lin_h += np.abs(Jj @ a0) * h
     s = hw.sum(axis=-1)
-    rW = 0.5 * radius_w * s * s
+    # Σ_ij r_max(i,j) hw_i hw_j = Σ_j r_j hw_j (hw_j + 2 Σ_{i<j} hw_i)
+    before = np.cumsum(hw, axis=-1) - hw
+    rW = 0.5 * (radius * hw * (hw + 2.0 * before)).sum(axis=-1)
     rz = 0.5 * s * s
     g = np.einsum("ki,ki->k", u, z)
     rem_g = lin_g + A * Bz + rW * (1.0 + Bz + rz) + (du + A) * rz
     # |u + Jδ|² = |u|² + 2 u·Jδ + |Jδ|², then the remainder
-    upper = np.stack([np.sqrt(du * du + 2.0 * uJ + A * A) + rW, g + rem_g])
-    lower = np.stack([np.sqrt(np.maximum(du * du - 2.0 * uJ, 0.0)) - rW, g - rem_g])
-    return np.stack([du, g]), lower, upper
+    hh = u @ a0
+    upper = np.stack([np.sqrt(du * du + 2.0 * uJ + A * A) + rW, g + rem_g, hh + lin_h + rW])
+    lower = np.stack([np.sqrt(np.maximum(du * du - 2.0 * uJ, 0.0)) - rW, g - rem_g, hh - lin_h - rW])
+    return np.stack([du, g, hh]), lower, upper
 
 
-def _branch_and_bound(chain, S, w_loc, which, dims, box, radius_w, sign):
+def _branch_and_bound(chain, S, a0, w_loc, which, dims, box, radius, sign):
     """A sound bound (m) of ``max`` (``sign`` 1) or ``min`` (-1) of invariant ``which`` (0: ``d``,
-    1: ``g``, :func:`_invariant_cells`) over the joint box ``box`` (n, 2) rad, splitting the joints ``dims``:
-    a cell is dropped once its bound cannot beat the best centre value by more than
-    :data:`LIMIT_BOUND_EPS`, and split in two across its widest joint otherwise."""
+    1: ``g``, 2: ``h``; :func:`_invariant_cells`) over the joint box ``box`` (n, 2) rad, splitting the
+    joints ``dims``, best first: each round splits the :data:`LIMIT_BOUND_BATCH` cells of the highest
+    bounds in two across the joint that moves ``W`` most; a cell is dropped once its bound cannot
+    beat the best centre value by more than :data:`LIMIT_BOUND_EPS`. It stops there, or after
+    :data:`LIMIT_BOUND_EVALS` cells, with the highest bound of the cells left (sound either way)."""
     n = chain.n
     centre = box.mean(axis=-1)[None].copy()
     hw = np.zeros((1, n))
     hw[0, dims] = 0.5 * (box[dims, 1] - box[dims, 0])
-    best = -np.inf
-    for _ in range(200):
-        values, lower, upper = _invariant_cells(chain, S, w_loc, dims, centre, hw, radius_w)
-        ub = upper[which] if sign > 0 else -lower[which]
-        best = max(best, float((sign * values[which]).max()))
+    values, lower, upper = _invariant_cells(chain, S, a0, w_loc, dims, centre, hw, radius)
+    ub = upper[which] if sign > 0 else -lower[which]
+    best = float((sign * values[which]).max())
+    evals = 1
+    while dims and evals < LIMIT_BOUND_EVALS:
         keep = ub > best + LIMIT_BOUND_EPS
-        if not keep.any():
-            return sign * (best + LIMIT_BOUND_EPS)
         centre, hw, ub = centre[keep], hw[keep], ub[keep]
-        if len(centre) > LIMIT_BOUND_CELLS or not dims:
+        if not len(ub):
             break
-        j = np.argmax(hw, axis=-1)
-        rows = np.arange(len(centre))
-        hw[rows, j] *= 0.5
-        left, right = centre.copy(), centre.copy()
-        left[rows, j] -= hw[rows, j]
-        right[rows, j] += hw[rows, j]
-        centre = np.concatenate([left, right])
-        hw = np.concatenate([hw, hw])
-        ub = np.concatenate([ub, ub])
-    # out of budget: every live cell's bound (the cells dropped before are within eps of best)
-    return sign * max(best + LIMIT_BOUND_EPS, float(ub.max()))
+        top = np.argsort(-ub)[:LIMIT_BOUND_BATCH]
+        rest = np.ones(len(ub), dtype=bool)
+        rest[top] = False
+        c, h = centre[top], hw[top].copy()
+        j = np.argmax(h * (radius + 0.1), axis=-1)
+        rows = np.arange(len(top))
+        h[rows, j] *= 0.5
+        left, right = c.copy(), c.copy()
+        left[rows, j] -= h[rows, j]
+        right[rows, j] += h[rows, j]
+        kids, kid_hw = np.concatenate([left, right]), np.concatenate([h, h])
+        values, lower, upper = _invariant_cells(chain, S, a0, w_loc, dims, kids, kid_hw, radius)
+        evals += len(kids)
+        best = max(best, float((sign * values[which]).max()))
+        kid_ub = upper[which] if sign > 0 else -lower[which]
+        centre = np.concatenate([centre[rest], kids])
+        hw = np.concatenate([hw[rest], kid_hw])
+        ub = np.concatenate([ub[rest], kid_ub])
+    # the cells dropped had bounds within eps of a best value at the time, never above the final best + eps
+    return sign * max(best + LIMIT_BOUND_EPS, float(ub.max()) if len(ub) else -np.inf)
 
 
 def _through_point(chain, frames, point):
@@ -326,21 +347,23 @@ def limit_bounds(chain: SerialChain):
     """The joint-limit bound's numbers for one arm of revolute joints (memoised by content), or None
     (a batch, a prismatic joint, fewer than 3 joints).
 
-    Two numbers of the last joint's axis are unchanged by joint 0 (they are measured from a point
-    ``S`` of its axis) and by joint n-1 (they use a point ``W`` of its axis and its direction ``z``):
-    ``d = |W - S|`` and ``g = (W - S)·z`` (metres). So they depend on joints ``1 .. n-2`` only, and
+    Three numbers of the last joint's axis are unchanged by joint 0 (they are measured from a point
+    ``S`` of its axis, along its direction ``a0``) and by joint n-1 (they use a point ``W`` of its
+    axis and its direction ``z``): ``d = |W - S|``, ``g = (W - S)·z`` and ``h = (W - S)·a0`` (metres).
+    So they depend on joints ``1 .. n-2`` only, and
     inside the limits each lies in an interval ``[lo, hi]``, found by a branch and bound over those
     joints' box (:func:`_branch_and_bound`; sound, at most :data:`LIMIT_BOUND_EPS` wider than the
     exact range where its cell budget lasts). Joints whose axes pass through ``S`` in an unbroken
     run from joint 1 (the Panda's and the iiwa's shoulders) turn ``W - S`` and ``z`` rigidly about
-    ``S``, change neither number, and are not split. Unlike :func:`reach_filter`'s bounds these use
+    ``S``, change neither ``d`` nor ``g``, and are not split for them; ``|g|, |h| <= d`` tightens
+    those two. Unlike :func:`reach_filter`'s bounds these use
     the limits (a revolute range of a turn or more, or none, counts as a full turn). ``S`` is the point
     of joint 0's axis nearest joint 1's; ``W`` the point of the last axis nearest joint n-2's.
 
-    Returns ``dict(S (3,), w_loc (3,), lo (2,), hi (2,))``: ``S`` in the frame of the chain's
-    first fixed transform (the base left out, so the numbers do not depend on the base or the tool),
-    ``w_loc`` in the last joint's frame.
-    Building it takes 0.05-1 s per arm (once per process and arm)."""
+    Returns ``dict(S (3,), w_loc (3,), lo (3,), hi (3,))`` (``d``, ``g``, ``h``): ``S`` in the
+    frame of the chain's first fixed transform (the base left out, so the numbers do not depend on
+    the base or the tool), ``w_loc`` in the last joint's frame. Building it takes 0.2-2 s per arm
+    (once per process and arm; most of it ``h``, over joints 1 .. n-2 all)."""
     if chain.batch_shape != () or chain.n < 3 or any(k == PRISMATIC for k in chain.kinds):
         return None
     # in the chain's own frame (no base, no tool): an arm moved around a cell keeps its numbers
@@ -355,19 +378,26 @@ def _make_limit_bounds(chain: SerialChain):
     full = ~np.isfinite(lim).all(axis=-1) | (lim[:, 1] - lim[:, 0] >= 2.0 * np.pi)
     box = np.where(full[:, None], np.array([-np.pi, np.pi]), lim)
     lengths = np.linalg.norm(chain.fixed[:, :3, 3], axis=-1)
-    # no W is farther than this from the origin of joint 1's frame, or any later joint's
-    radius_w = float(lengths[2:n].sum() + np.linalg.norm(w_loc)) * (1.0 + 1e-12)
+    # W is at most radius[j] from the origin of joint j's frame (the later fixed translations and w_loc)
+    radius = np.zeros(n)
+    for j in range(1, n - 1):
+        radius[j] = float(lengths[j + 1:n].sum() + np.linalg.norm(w_loc)) * (1.0 + 1e-12)
     skip = set(_through_point(chain, frames, S))
     dims = [j for j in range(1, n - 1) if j not in skip]
-    lo = np.array([_branch_and_bound(chain, S, w_loc, k, dims, box, radius_w, -1) for k in range(2)])
-    hi = np.array([_branch_and_bound(chain, S, w_loc, k, dims, box, radius_w, 1) for k in range(2)])
+    a0 = frames[0, :3, :3] @ chain.axes[0]
+    dims_h = list(range(1, n - 1))
+    lo = np.array([_branch_and_bound(chain, S, a0, w_loc, k, dims if k < 2 else dims_h, box, radius, -1) for k in range(3)])
+    hi = np.array([_branch_and_bound(chain, S, a0, w_loc, k, dims if k < 2 else dims_h, box, radius, 1) for k in range(3)])
+    # |h| <= d and |g| <= d: the tighter of the two bounds
+    lo[1:] = np.maximum(lo[1:], -hi[0])
+    hi[1:] = np.minimum(hi[1:], hi[0])
     return dict(S=S, w_loc=w_loc, lo=lo, hi=hi)
 
 
 def limit_filter(chain: SerialChain, T, margin):
     """A sound test (...,) bool of one arm and target poses ``T`` (..., 4, 4): False where no
     configuration inside the limits puts the tool within ``margin`` (m in position, rad in rotation
-    angle) of ``T``, because ``d`` or ``g`` of :func:`limit_bounds` lies outside its interval. All
+    angle) of ``T``, because ``d``, ``g`` or ``h`` of :func:`limit_bounds` lies outside its interval. All
     True where the arm has no such bound (a batch, a prismatic joint, fewer than 3 joints)."""
     T = np.asarray(T, dtype=np.float64)
     b = limit_bounds(chain)
@@ -390,5 +420,7 @@ def limit_filter(chain: SerialChain, T, margin):
     sW = margin * (1.0 + float(np.linalg.norm(v)))
     tiny = 1e-9 * (1.0 + float(np.linalg.norm(chain.fixed[:, :3, 3], axis=-1).sum() + np.linalg.norm(v)))
     sg = sW + margin * (d + sW) + tiny
-    return ((d <= b["hi"][0] + sW + tiny) & (d >= b["lo"][0] - sW - tiny)
-            & (g <= b["hi"][1] + sg) & (g >= b["lo"][1] - sg))
+    ok = ((d <= b["hi"][0] + sW + tiny) & (d >= b["lo"][0] - sW - tiny)
+          & (g <= b["hi"][1] + sg) & (g >= b["lo"][1] - sg))
+    h = u @ (chain.fixed[0, :3, :3] @ chain.axes[0])
+    return ok & (h <= b["hi"][2] + sW + tiny) & (h >= b["lo"][2] - sW - tiny)

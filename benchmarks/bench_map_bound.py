@@ -1,0 +1,132 @@
+"""The joint-limit bound of the map search (``map_search(..., limit_bound=True)``, the default) against the
+reference path without it (``limit_bound=False``), side by side in one process.
+
+Per arm, the default numerical tool-down map (``MAP_SETTINGS``, border search on, rpy (pi, 0, 0),
+"standard" convention) on the grid of ``ws.cartesian_grid(-1, 1, 0.1)`` (21³ = 9261 nodes) for the
+named arms, and on a 21³ cube around the first joint (half-width the links' length) for the URDF
+arm: on and off alternating, best of ``--repeats``; reachable counts and solutions compared (they
+must be identical: the bound is a proof of unreachability); LM iterations, which do not depend on
+the load. Also the bound's build time (once per arm and process, memoised) and the map with the
+bound on 1 and 2 kernel threads (alternating, best of ``--repeats``).
+
+    NUMBA_NUM_THREADS=2 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_map_bound.py --json bench/map_bound.json
+
+(``NUMBA_NUM_THREADS`` at least 2 for the thread rows; the on/off rows run on one thread.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+from wsmap import robots
+from wsmap import workspace as ws
+from wsmap.kinematics import as_chain, lm_compiled
+from wsmap.kinematics.ik import reach_filter
+from wsmap.kinematics.ik.search import MAP_SETTINGS, map_search
+from wsmap.kinematics.ik.solution import IKReason
+
+
+def urdf_arm():
+    """YuMi's right arm from rtbdata's URDF (the border search's test arm), or None without rtbdata."""
+    try:
+        import rtbdata
+    except ImportError:
+        return None
+    path = os.path.join(os.path.dirname(rtbdata.__file__), "xacro/yumi_description/urdf/yumi.urdf")
+    return robots.from_urdf(path, base_link="yumi_body", ee_link="yumi_link_7_r")
+
+
+def cube(chain, k=21):
+    frames, tool = chain.joint_frames(np.zeros(chain.n))
+    pts = np.concatenate([frames[:, :3, 3], tool[None, :3, 3]])
+    R = float(np.linalg.norm(np.diff(pts, axis=0), axis=-1).sum())
+    axes = [np.linspace(pts[0, i] - R, pts[0, i] + R, k) for i in range(3)]
+    return np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=-1)
+
+
+def best(fn, repeats):
+    times, out = [], None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return min(times), out
+
+
+def bench_arm(label, arm, nodes, repeats):
+    chain = as_chain(arm)
+    nb = ws.node_neighbours(nodes)
+    T = ws.target_poses(nodes, (math.pi, 0.0, 0.0), "standard")
+    reach_filter._LIMIT_BOUNDS.items.clear()
+    t0 = time.perf_counter()
+    b = reach_filter.limit_bounds(chain)
+    t_build = time.perf_counter() - t0
+    lm_compiled.set_threads(1)
+    map_search(arm, T, nb, **MAP_SETTINGS)  # warm
+    times = {True: [], False: []}
+    res = {}
+    for _ in range(repeats):
+        for on in (True, False):
+            t0 = time.perf_counter()
+            res[on] = map_search(arm, T, nb, **MAP_SETTINGS, limit_bound=on)
+            times[on].append(time.perf_counter() - t0)
+    on, off = res[True], res[False]
+    same = bool(np.array_equal(on.success, off.success) and np.array_equal(on.q[on.success], off.q[off.success]))
+    threads = {}
+    if lm_compiled.set_threads(2) >= 2:
+        t = {1: [], 2: []}
+        for _ in range(repeats):
+            for k in (1, 2):
+                lm_compiled.set_threads(k)
+                t0 = time.perf_counter()
+                map_search(arm, T, nb, **MAP_SETTINGS)
+                t[k].append(time.perf_counter() - t0)
+        threads = {"seconds_1_thread": min(t[1]), "seconds_2_threads": min(t[2])}
+    lm_compiled.set_threads(1)
+    row = dict(arm=label, nodes=len(nodes), reachable_on=int(on.success.sum()), reachable_off=int(off.success.sum()),
+               identical=same, seconds_on=min(times[True]), seconds_off=min(times[False]),
+               iterations_on=int(on.iterations.sum()), iterations_off=int(off.iterations.sum()),
+               proven_out_on=int((on.reason == IKReason.OUT_OF_REACH).sum()),
+               proven_out_off=int((off.reason == IKReason.OUT_OF_REACH).sum()),
+               bound_build_seconds=t_build, bound=None if b is None else dict(lo=b["lo"].tolist(), hi=b["hi"].tolist()),
+               **threads)
+    print(f"{label}: on {row['seconds_on']:.3f} s, off {row['seconds_off']:.3f} s "
+          f"({row['seconds_off'] / row['seconds_on']:.2f}x); iterations {row['iterations_on']:,} / "
+          f"{row['iterations_off']:,}; proven out {row['proven_out_on']} / {row['proven_out_off']}; reachable {row['reachable_on']} / {row['reachable_off']}, identical {same}; "
+          f"bound built in {t_build:.2f} s"
+          + (f"; 1 thread {threads['seconds_1_thread']:.3f} s, 2 threads {threads['seconds_2_threads']:.3f} s "
+             f"({threads['seconds_1_thread'] / threads['seconds_2_threads']:.2f}x)" if threads else ""),
+          file=sys.stderr, flush=True)
+    return row
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--json", help="write the results here")
+    args = p.parse_args(argv)
+    grid = ws.cartesian_grid(-1, 1, 0.1)
+    arms = [("Panda (wsmap.robots.load)", robots.load("panda"), grid),
+            ("iiwa14 (wsmap.robots.load)", robots.load("iiwa14"), grid)]
+    yumi = urdf_arm()
+    if yumi is not None:
+        arms.append(("YuMi right arm (rtbdata URDF)", yumi, cube(as_chain(yumi))))
+    rows = [bench_arm(label, arm, nodes, args.repeats) for label, arm, nodes in arms]
+    if not all(r["identical"] for r in rows):
+        print("MAPS DIFFER with and without the bound", file=sys.stderr)
+    if args.json:
+        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
+        with open(args.json, "w") as f:
+            json.dump(dict(load_average=os.getloadavg(), rows=rows), f, indent=1)
+    return 0 if all(r["identical"] for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
