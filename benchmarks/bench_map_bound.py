@@ -12,6 +12,9 @@ bound on 1 and 2 kernel threads (alternating, best of ``--repeats``).
     NUMBA_NUM_THREADS=2 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_map_bound.py --json bench/map_bound.json
 
 (``NUMBA_NUM_THREADS`` at least 2 for the thread rows; the on/off rows run on one thread.)
+``--index``: also the Panda's reachability index (``INDEX_SETTINGS``, ``--index-step`` 0.05 m over
+[-0.95, 0.95]³, 50 orientations), with the bound and without (``ik={"limit_bound": False}``), on one
+thread, each once (alternating ``--index-repeats`` times), its bits compared.
 """
 
 from __future__ import annotations
@@ -107,10 +110,40 @@ def bench_arm(label, arm, nodes, repeats):
     return row
 
 
+def bench_index(step, k, repeats):
+    from wsmap.workspace import orientation_samples, reachability_index
+
+    panda = robots.load("panda")
+    nodes = ws.cartesian_grid(-0.95, 0.95, step)
+    R = orientation_samples(k)
+    lm_compiled.set_threads(1)
+    reachability_index(panda, nodes[:64], R[:4])  # compiled, caches and the bound filled
+    times = {True: [], False: []}
+    bits = {}
+    for _ in range(repeats):
+        for on in (True, False):
+            t0 = time.perf_counter()
+            bits[on] = reachability_index(panda, nodes, R, return_bits=True, ik={"limit_bound": on})[1]
+            times[on].append(time.perf_counter() - t0)
+    row = dict(nodes=len(nodes), orientations=k, step=step, seconds_on=min(times[True]), seconds_off=min(times[False]),
+               reachable_poses_on=int(bits[True].sum()), reachable_poses_off=int(bits[False].sum()),
+               identical=bool(np.array_equal(bits[True], bits[False])))
+    print(f"Panda index, {step} m x {k} orientations ({len(nodes)} nodes): on {row['seconds_on']:.1f} s, off "
+          f"{row['seconds_off']:.1f} s ({row['seconds_off'] / row['seconds_on']:.2f}x); reachable poses "
+          f"{row['reachable_poses_on']} / {row['reachable_poses_off']}, identical {row['identical']}",
+          file=sys.stderr, flush=True)
+    return row
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--json", help="write the results here")
+    p.add_argument("--index", action="store_true", help="also the Panda's reachability index on and off")
+    p.add_argument("--index-step", type=float, default=0.05)
+    p.add_argument("--index-orientations", type=int, default=50)
+    p.add_argument("--index-repeats", type=int, default=1)
+    p.add_argument("--no-maps", action="store_true", help="only the index")
     args = p.parse_args(argv)
     grid = ws.cartesian_grid(-1, 1, 0.1)
     arms = [("Panda (wsmap.robots.load)", robots.load("panda"), grid),
@@ -118,7 +151,9 @@ def main(argv=None):
     yumi = urdf_arm()
     if yumi is not None:
         arms.append(("YuMi right arm (rtbdata URDF)", yumi, cube(as_chain(yumi))))
-    rows = [bench_arm(label, arm, nodes, args.repeats) for label, arm, nodes in arms]
+    rows = [] if args.no_maps else [bench_arm(label, arm, nodes, args.repeats) for label, arm, nodes in arms]
+    if args.index:
+        rows.append(dict(arm="Panda index", **bench_index(args.index_step, args.index_orientations, args.index_repeats)))
     if not all(r["identical"] for r in rows):
         print("MAPS DIFFER with and without the bound", file=sys.stderr)
     if args.json:
