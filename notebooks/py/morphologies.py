@@ -58,6 +58,9 @@ Image(filename=str(out.figures / "morphologies_slices.png"))
 
 # %% [markdown]
 # ## One 3-D map of a new arm: the model against the classical map, side by side
+#
+# `model_ms` is the map as `wsmap map --method model` makes it, coarse to fine
+# (`predict_morph_grid`); `dense_ms` the network at every node; `same_map` says the two agree.
 
 # %%
 result.speed

@@ -175,3 +175,44 @@ def test_nearest_arm_baseline_in_chunks_is_the_brute_force_answer():
         maps, dist = mm.nearest_arm_maps(F, Y, Q, max_numbers=budget)
         assert np.array_equal(maps, Y[want])
         assert np.array_equal(dist, d[np.arange(25), want])
+
+
+def test_grid_map_coarse_to_fine_is_the_dense_map_with_fewer_evaluations(trained):
+    """predict_morph_grid gives predict_morph_map's map of the same grid (named arms, random arms,
+    a grid not centred on the box) while running the decoder on fewer nodes; coarse=1 runs it on
+    every node."""
+    model = trained[0]
+    rows = []
+    hook = model.decoder.register_forward_hook(lambda m, i, o: rows.append(o.reshape(-1).shape[0]))
+    try:
+        arms = [wsmap.load(n) for n in ("ur5e", "panda", "iiwa14")]
+        arms += [MORPH6.arms(p) for p in MORPH6.draw(4, seed=5)]
+        for lo, hi, step in ((-1.5, 1.5, 0.1), ((-1.2, -0.4, 0.0), (1.3, 0.9, 1.1), 0.1)):
+            nodes = ws.cartesian_grid(lo, hi, step)
+            for arm in arms:
+                dense = mm.predict_morph_map(model, arm, nodes, allow_extrapolation=True)
+                rows.clear()
+                grid = mm.predict_morph_grid(model, arm, lo, hi, step, allow_extrapolation=True)
+                assert np.array_equal(grid, dense)
+                assert sum(rows) <= len(nodes) + 1331
+                rows.clear()
+                assert np.array_equal(mm.predict_morph_grid(model, arm, lo, hi, step, coarse=1,
+                                                            allow_extrapolation=True), dense)
+                assert rows == [len(nodes)]
+        # a tight margin on a sparse map: the decoder runs on a fraction of the nodes
+        rows.clear()
+        mm.predict_morph_grid(model, arms[0], -1.5, 1.5, 0.1, margin=0.0)
+        assert sum(rows) < 0.5 * 29791
+    finally:
+        hook.remove()
+
+
+def test_grid_map_refuses_bad_settings_before_any_work(trained):
+    model = trained[0]
+    arm = wsmap.load("ur5e")
+    with pytest.raises(ValueError, match="coarse must be a positive integer, got 0"):
+        mm.predict_morph_grid(model, arm, -1, 1, 0.1, coarse=0)
+    with pytest.raises(ValueError, match="margin must be a non-negative number of logits, got -1"):
+        mm.predict_morph_grid(model, arm, -1, 1, 0.1, margin=-1)
+    with pytest.raises(ExtrapolationError, match="outside the model's box"):
+        mm.predict_morph_grid(model, arm, -2, 2, 0.5)

@@ -275,31 +275,43 @@ def _design(model, d: Mapping, seed: int) -> tuple[list[dict], dict]:
 
 
 def _speed(model, cfg: Mapping, test_sets) -> pd.DataFrame:
-    """One map of ``time_step`` on ``[-1.5, 1.5]³`` by the model (best of ``timing_repeats``) and by the
-    classical numerical map (one call, after an untimed call on a small grid), for a held-out
-    ``morph7`` arm and each of ``speed_arms``."""
+    """One map of ``time_step`` on ``[-1.5, 1.5]³`` by the model, coarse to fine as ``wsmap map
+    --method model`` maps a grid (:func:`~wsmap.learn.morph_model.predict_morph_grid`, ``model_ms``)
+    and at every node (``dense_ms``), best of ``timing_repeats`` each, beside the classical numerical
+    map (one call, after an untimed call on a small grid), for a held-out ``morph7`` arm and each of
+    ``speed_arms``. ``same_map``: the two model maps are equal."""
     step = float(cfg["time_step"])
     nodes = workspace.cartesian_grid(-MORPH_GRID, MORPH_GRID, step)
     small = workspace.cartesian_grid(-MORPH_GRID, MORPH_GRID, 0.5)
     d7 = next(d for d in test_sets if d.spec.family == "morph7")
     arms = [("held-out morph7 arm", robots.FAMILIES["morph7"].arms(d7.features[0, :d7.spec.n_arm_features]))]
     arms += [(name, robots.load(name)) for name in cfg["speed_arms"]]
+
+    def best(f) -> float:
+        times = []
+        for _ in range(int(cfg["timing_repeats"])):
+            t0 = time.perf_counter()
+            f()
+            times.append(time.perf_counter() - t0)
+        return min(times)
+
     rows = []
     for label, arm in arms:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ExtrapolationWarning)
             mm.predict_morph_map(model, arm, small, allow_extrapolation=True)
-            times = []
-            for _ in range(int(cfg["timing_repeats"])):
-                t0 = time.perf_counter()
-                mm.predict_morph_map(model, arm, nodes, allow_extrapolation=True)
-                times.append(time.perf_counter() - t0)
+            grid = best(lambda: mm.predict_morph_grid(model, arm, -MORPH_GRID, MORPH_GRID, step,
+                                                      allow_extrapolation=True))
+            dense = best(lambda: mm.predict_morph_map(model, arm, nodes, allow_extrapolation=True))
+            same = bool(np.array_equal(mm.predict_morph_grid(model, arm, -MORPH_GRID, MORPH_GRID, step,
+                                                             allow_extrapolation=True),
+                                       mm.predict_morph_map(model, arm, nodes, allow_extrapolation=True)))
         workspace.constant_orientation_map(arm, small, mm.TOOL_DOWN, convention="standard")
         t0 = time.perf_counter()
         workspace.constant_orientation_map(arm, nodes, mm.TOOL_DOWN, convention="standard")
         classical = time.perf_counter() - t0
-        rows.append({"arm": label, "nodes": int(len(nodes)), "model_ms": 1e3 * min(times), "classical_s": classical,
-                     "speedup": classical / min(times)})
+        rows.append({"arm": label, "nodes": int(len(nodes)), "model_ms": 1e3 * grid, "dense_ms": 1e3 * dense,
+                     "same_map": same, "classical_s": classical, "speedup": classical / grid})
     return pd.DataFrame(rows)
 
 
