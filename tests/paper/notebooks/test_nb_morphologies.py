@@ -67,3 +67,22 @@ def test_family_baseline_entries_are_checked_before_any_work():
         part._family_members({"ur5e": {"family": "panda7"}}, "morphologies")
     members = part._family_members({"panda": {"family": "panda7"}}, "morphologies")
     assert np.array_equal(members["panda"], np.ones(6))
+
+
+@pytest.mark.skipif(__import__("torch").cuda.is_available(), reason="this machine has a GPU")
+def test_device_cuda_without_a_gpu_fails_before_any_work(tmp_path):
+    """The section's ``device`` is resolved first: cuda on a machine without one is an error naming
+    the setting, before a shard is labelled or a folder made."""
+    import yaml
+
+    from wsmap.learn import DeviceUnavailableError
+
+    params = yaml.safe_load(SMOKE.read_text())
+    params["morphologies"]["device"] = "cuda"
+    path = tmp_path / "params.cuda.yaml"
+    path.write_text(yaml.safe_dump(params))
+    cfg = paths.notebook_params("morphologies", path)
+    out = paths.Outputs(tmp_path / "out")
+    with pytest.raises(DeviceUnavailableError, match="section 'morphologies' device"):
+        part.run(cfg, out)
+    assert not (tmp_path / "out" / "data").exists()

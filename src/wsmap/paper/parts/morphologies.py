@@ -43,6 +43,7 @@ from ... import robots, viz, workspace
 from ...io import write_json, write_table
 from ...kinematics.morphology import describe, morphology_distance
 from ...learn import TrainConfig
+from ...learn.device import resolve_device
 from ...learn import morph_model as mm
 from ...learn.training_range import ExtrapolationWarning
 from ...metrics import score_maps
@@ -107,15 +108,16 @@ def _predict(model, features) -> np.ndarray:
     return prob > model.threshold
 
 
-def _train_config(t: Mapping, seed: int) -> TrainConfig:
+def _train_config(t: Mapping, seed: int, device: str = "cpu") -> TrainConfig:
     return TrainConfig(optimizer="adam", optimizer_kwargs={"lr": float(t["lr"])}, loss="crossentropy",
                        batch_size=int(t["batch_size"]), lr_decay="cosine", max_epochs=int(t["epochs"]), max_fail=1000,
-                       fractions=(0.95, 0.05, 0.0), seed=seed, pos_weight=t.get("pos_weight"))
+                       fractions=(0.95, 0.05, 0.0), seed=seed, pos_weight=t.get("pos_weight"), device=device)
 
 
 def run(cfg: Mapping, out: Outputs) -> Result:
     """Build (or reuse) the experience, train the model and the FK-only model, score every method on
     the held-out arms, time one map (module notes). ``cfg``: the ``morphologies`` params section."""
+    device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
     torch.set_num_threads(int(cfg["threads"]))
     step, seed = float(cfg["step"]), int(cfg["seed"])
     members = _family_members(cfg["family"], cfg.source)  # before any work
@@ -139,7 +141,8 @@ def run(cfg: Mapping, out: Outputs) -> Result:
     trained = {}
     for name, labels in (("model", None), ("fk_model", fk_train)):
         t0 = time.perf_counter()
-        model, res = mm.fit_morph_model(train_sets, model_cfg, _train_config(cfg["train"], seed), seed=seed,
+        model, res = mm.fit_morph_model(train_sets, model_cfg, _train_config(cfg["train"], seed, str(device)),
+                                        seed=seed,
                                         labels=labels)
         trained[name] = (model, {"epochs": int(res.stop_epoch), "seconds": time.perf_counter() - t0,
                                  "threshold": float(model.threshold)})
@@ -185,7 +188,7 @@ def run(cfg: Mapping, out: Outputs) -> Result:
 
     family = {}
     for name, fcfg in cfg["family"].items():
-        family[name] = _family_model(name, fcfg, members[name], spec, data_dir, seed, nodes)
+        family[name] = _family_model(name, fcfg, members[name], spec, data_dir, seed, nodes, str(device))
         rows.append({"arms": name, "method": "family_model",
                      **{k: family[name][k] for k in ("f", "precision", "recall", "f_mean")}})
     speed = _speed(model, cfg, test_sets)
@@ -200,7 +203,7 @@ def run(cfg: Mapping, out: Outputs) -> Result:
         "train": {k: v[1] for k, v in trained.items()},
         "pooled": pooled, "named": named,
         "hold_out": {"least_distance": least, "radius": HOLD_OUT_RADIUS},
-        "speed": speed.to_dict("records"), "design": design_out, "family": family, "device": "cpu",
+        "speed": speed.to_dict("records"), "design": design_out, "family": family, "device": str(device),
     }
     check_metrics(metrics, Metrics, "morphologies")
     return Result(metrics, model, fk_model, pd.DataFrame(rows), speed, pd.DataFrame(design_rows), shown)
@@ -223,7 +226,8 @@ def _family_members(family: Mapping, where: str) -> dict[str, np.ndarray]:
     return members
 
 
-def _family_model(name: str, f: Mapping, params: np.ndarray, spec, data_dir: Path, seed: int, nodes) -> dict:
+def _family_model(name: str, f: Mapping, params: np.ndarray, spec, data_dir: Path, seed: int, nodes,
+                  device: str = "cpu") -> dict:
     """The family baseline of named arm ``name`` (its family parameters ``params``): a map model of
     family ``f["family"]`` (``f["samples"]`` arms on the stage's grid, tool down, labelled by the
     numerical map search; built once into ``data_dir``) trained with ``f["recipe"]``, scored on the
@@ -243,7 +247,7 @@ def _family_model(name: str, f: Mapping, params: np.ndarray, spec, data_dir: Pat
         build_dataset_files(fspec, path)
         ds = load_dataset(path, expect_spec=fspec)
     label_s = time.perf_counter() - t0
-    recipe = learn_family.MapRecipe.from_dict({**f["recipe"], "device": "cpu"})
+    recipe = learn_family.MapRecipe.from_dict({**f["recipe"], "device": device})
     t0 = time.perf_counter()
     model, result = learn_family.fit_map_model(ds, recipe)
     train_s = time.perf_counter() - t0
