@@ -379,7 +379,7 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
         possible = reach_filter(flat if batch else chain, Tb if not batch else T[:, None], confirm_tol)
         possible = (possible.T if batch else possible).reshape(-1)
         if limit_bound and not batch:
-            # the limits-aware invariants of the last axis (its first build per arm takes 0.05-1 s;
+            # the limits-aware invariants of the last axis (its first build per arm takes 0.1-0.4 s;
             # an arm in a batch, e.g. the labels of a family, would pay that per arm, so only one arm)
             idx = np.flatnonzero(possible)
             possible[idx] = limit_filter(chain, T[idx], confirm_tol)
