@@ -314,7 +314,9 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
         also rules out nodes before any start (one arm of revolute joints, a pose target): sound, so
         it changes no success and no solution, only the time (most of it was the border search's 32
         starts at unreachable border nodes; ``docs/recall.md``) and, at the nodes it rules out,
-        ``reason``, ``q``, ``residual`` and ``iterations``; False is the reference path
+        ``reason``, ``q``, ``residual`` and ``iterations``; False is the reference path. A batch of
+        arms skips it (each arm would pay its build), so an arm alone and the same arm in a batch
+        differ there, and only there
     progress : called with the number of targets settled as the search goes (those the reach filter
         rules out at once, those solved after each pass and wave, the rest at the end); the numbers
         add up to the number of targets
