@@ -203,6 +203,12 @@ def test_grid_map_coarse_to_fine_is_the_dense_map_with_fewer_evaluations(trained
         rows.clear()
         mm.predict_morph_grid(model, arms[0], -1.5, 1.5, 0.1, margin=0.0)
         assert sum(rows) < 0.5 * 29791
+        # a margin that leaves every cell near: the coarse pass, then every node once (the dense map)
+        rows.clear()
+        nodes = ws.cartesian_grid(-1.5, 1.5, 0.1)
+        assert np.array_equal(mm.predict_morph_grid(model, arms[0], -1.5, 1.5, 0.1, margin=1e6),
+                              mm.predict_morph_map(model, arms[0], nodes))
+        assert rows[1:] == [29791, 29791] and rows[0] == 11 ** 3
     finally:
         hook.remove()
 
