@@ -16,41 +16,13 @@ from hypothesis import strategies as st
 
 from wsmap import robots
 from wsmap import workspace as ws
-from wsmap.kinematics import SerialChain, as_chain, ikine_search, map_search
+from wsmap.kinematics import as_chain, ikine_search, map_search
 from wsmap.kinematics.ik.reach_filter import limit_bounds, limit_filter, reach_filter
 from wsmap.kinematics.ik.search import FK_CONFIRM_TOL
 
+from frames import random_chain, random_rigid
+
 ARMS = ("panda", "iiwa14", "gen3", "ur5e", "puma560")
-
-
-def _rigid(rng, count, scale):
-    T = np.zeros((count, 4, 4))
-    qt = rng.normal(size=(count, 4))
-    qt /= np.linalg.norm(qt, axis=-1, keepdims=True)
-    w, x, y, z = qt.T
-    T[:, :3, :3] = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
-                             2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
-                             2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=-1).reshape(-1, 3, 3)
-    T[:, :3, 3] = rng.normal(scale=scale, size=(count, 3))
-    T[:, 3, 3] = 1.0
-    return T
-
-
-def _random_chain(rng, n):
-    """n revolute joints about random axes (some the DH form's z with exact zeros), random fixed
-    transforms, limits (some a full turn or none), base and tool."""
-    fixed = _rigid(rng, n + 1, 0.3)
-    for i in range(n + 1):
-        if rng.random() < 0.3:
-            fixed[i, :3, :3] = np.eye(3)
-        if rng.random() < 0.3:
-            fixed[i, :3, 3] = [0.0, 0.0, rng.normal(scale=0.3)]
-    axes = rng.normal(size=(n, 3))
-    axes[rng.random(n) < 0.5] = [0.0, 0.0, 1.0]
-    lim = np.sort(rng.uniform(-4, 4, size=(n, 2)), axis=1)
-    lim[rng.random(n) < 0.2] = [-np.inf, np.inf]
-    return SerialChain(fixed, axes, "R" * n, offset=rng.normal(size=n), qlim=lim,
-                       base=_rigid(rng, 1, 0.2)[0], tool=_rigid(rng, 1, 0.1)[0])
 
 
 def _perturbed(rng, T, tol):
@@ -82,7 +54,7 @@ def test_a_pose_inside_the_limits_is_never_rejected(arm, seed):
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(3, 7))
 def test_random_chains_keep_every_pose_inside_the_limits(seed, n):
     rng = np.random.default_rng(seed)
-    chain = _random_chain(rng, n)
+    chain = random_chain(rng, n, unlimited=0.2)  # a fifth of the joints without limits
     q = chain.random_q(3000, rng)
     # the limits' corners too, where the ranges' extremes sit
     q[:200] = np.where(rng.random((200, n)) < 0.5, np.nan_to_num(chain.limits[:, 0], neginf=-np.pi),
@@ -95,7 +67,7 @@ def test_random_chains_keep_every_pose_inside_the_limits(seed, n):
 def test_the_bound_does_not_depend_on_base_or_tool():
     chain = as_chain(robots.load("panda"))
     rng = np.random.default_rng(3)
-    moved = chain.replace(base=_rigid(rng, 1, 0.5)[0], tool=_rigid(rng, 1, 0.1)[0])
+    moved = chain.replace(base=random_rigid(rng, 1, 0.5)[0], tool=random_rigid(rng, 1, 0.1)[0])
     assert limit_bounds(moved) is limit_bounds(chain)
     T = moved.fkine(moved.random_q(2000, rng))
     assert limit_filter(moved, T, FK_CONFIRM_TOL).all()

@@ -10,48 +10,15 @@ import pytest
 
 from wsmap import robots
 from wsmap import workspace as ws
-from wsmap.kinematics import SerialChain, as_chain, ikine_spherical_wrist, rotx, ur_reachable
+from wsmap.kinematics import as_chain, ikine_spherical_wrist, rotx, ur_reachable
 from wsmap.kinematics.ik import memo
 from wsmap.kinematics.ik import search
 from wsmap.kinematics.ik.reach_filter import reach_filter
 from wsmap.kinematics.ik.search import FK_CONFIRM_TOL, map_search
 
+from frames import random_chain
+
 PI = math.pi
-
-
-def _rotation(rng, count=None):
-    """Random rotations (count, 3, 3) from normalised quaternions."""
-    qt = rng.normal(size=(count or 1, 4))
-    qt /= np.linalg.norm(qt, axis=-1, keepdims=True)
-    w, x, y, z = qt.T
-    R = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
-                  2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
-                  2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=-1).reshape(-1, 3, 3)
-    return R if count else R[0]
-
-
-def _rigid(rng, count, scale):
-    T = np.zeros((count, 4, 4))
-    T[:, :3, :3] = _rotation(rng, count)
-    T[:, :3, 3] = rng.normal(scale=scale, size=(count, 3))
-    T[:, 3, 3] = 1.0
-    return T
-
-
-def _random_chain(rng, n):
-    """A chain of n revolute joints about random axes, random fixed transforms, base and tool."""
-    fixed = _rigid(rng, n + 1, 0.3)
-    # some links with the exact zeros of DH tables: offsets along an axis, identity rotations
-    for i in range(n + 1):
-        if rng.random() < 0.3:
-            fixed[i, :3, :3] = np.eye(3)
-        if rng.random() < 0.3:
-            fixed[i, :3, 3] = [0.0, 0.0, rng.normal(scale=0.3)]
-    axes = rng.normal(size=(n, 3))
-    axes[rng.random(n) < 0.5] = [0.0, 0.0, 1.0]
-    lim = np.sort(rng.uniform(-4, 4, size=(n, 2)), axis=1)
-    return SerialChain(fixed, axes, "R" * n, offset=rng.normal(size=n), qlim=lim,
-                       base=_rigid(rng, 1, 0.2)[0], tool=_rigid(rng, 1, 0.1)[0])
 
 
 def _perturbed(rng, T, tol):
@@ -93,7 +60,7 @@ def test_random_dh_arms_keep_every_fk_pose():
 def test_random_chains_keep_every_fk_pose():
     rng = np.random.default_rng(4)
     for k in range(40):
-        _assert_keeps_fk_poses(_random_chain(rng, 2 + k % 6), rng, 5000)
+        _assert_keeps_fk_poses(random_chain(rng, 2 + k % 6), rng, 5000)
 
 
 def test_bound_is_tight_for_the_puma560():
