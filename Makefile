@@ -12,7 +12,8 @@ STAMP := $(VENV)/.installed
 
 .PHONY: env paper test smoke bench docs lab lock clean-env
 
-$(STAMP): environment.lock pyproject.toml
+# the compiled lane kernel is built by the editable install: a change to its sources reinstalls
+$(STAMP): environment.lock pyproject.toml CMakeLists.txt $(wildcard src/wsmap/kinematics/_lanes/*)
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet -r environment.lock
 	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .

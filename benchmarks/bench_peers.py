@@ -20,8 +20,11 @@ forward kinematics checked against wsmap's to 1e-12 before anything is timed):
    orientations, on 2 threads and on 1; Robotics Toolbox with restarts on ``--peer-sample`` of its
    poses, extrapolated. ``--quick`` leaves the index out.
 
-The thread ratios (2 threads against 1) are measured side by side here, the load average printed
-beside them: the machine is shared.
+wsmap runs on both of its kernels in every section, side by side: the lane kernel
+(``wsmap.kinematics.lm_lanes``, the default: several targets per SIMD instruction) and the scalar
+numba kernel (``lm_compiled``, its tested reference); the maps and the index's bits are compared
+between the two. The thread ratios (2 threads against 1) are measured side by side here, the load
+average printed beside them: the machine is shared.
 
     NUMBA_NUM_THREADS=2 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_peers.py --json bench/peers.json
 """
@@ -40,6 +43,8 @@ from wsmap.timing import time_call
 
 PI = np.pi
 GOALS = {"raw_ik_ratio_rtb": 3.0, "map_seconds_2_threads": 0.1, "index_seconds": 15.0}
+#: wsmap's two kernels, side by side: the lane (SIMD) kernel, the default, and the scalar numba one
+KERNELS = ("lanes", "scalar")
 
 
 def best_of(fn, repeats):
@@ -153,7 +158,7 @@ class Klampt:
 
 
 def section_raw(args, out, panda, rtb_rob, kl):
-    from wsmap.kinematics import ikine_search, lm_compiled
+    from wsmap.kinematics import ikine_search, lm_compiled, lm_lanes
 
     rng = np.random.default_rng(0)
     lim = np.array(panda.limits)
@@ -161,13 +166,15 @@ def section_raw(args, out, panda, rtb_rob, kl):
     T = np.array(panda.fkine(q))
     mid = lim.mean(axis=1)
     rows = {}
-    for threads in (1, 2):
-        lm_compiled.set_threads(threads)
-        t, sol = best_of(lambda: ikine_search(panda, T, starts=1, q0=mid), args.repeats)
-        ok = sol.success
-        assert np.allclose(np.array(panda.fkine(sol.q[ok])), T[ok], atol=1e-6), "a wsmap success FK-refuted"
-        rows[f"wsmap_{threads}"] = {"seconds": t, "solves_per_s": len(T) / t, "success": float(ok.mean()),
-                                    "iterations_mean": float(sol.iterations.mean())}
+    for kernel in KERNELS:
+        for threads in (1, 2):
+            lm_compiled.set_threads(threads)
+            with lm_lanes.use_kernel(kernel):
+                t, sol = best_of(lambda: ikine_search(panda, T, starts=1, q0=mid), args.repeats)
+            ok = sol.success
+            assert np.allclose(np.array(panda.fkine(sol.q[ok])), T[ok], atol=1e-6), "a wsmap success FK-refuted"
+            rows[f"wsmap_{kernel}_{threads}"] = {"seconds": t, "solves_per_s": len(T) / t, "success": float(ok.mean()),
+                                                 "iterations_mean": float(sol.iterations.mean())}
     lm_compiled.set_threads(2)
     if rtb_rob is not None:
         n = min(len(T), args.peer_poses)
@@ -183,10 +190,12 @@ def section_raw(args, out, panda, rtb_rob, kl):
         t = time.perf_counter() - t0
         rows["klampt"] = {"poses": n, "seconds": t, "solves_per_s": n / t, "success": float(ok.mean())}
     out["raw_ik"] = rows
-    w = rows["wsmap_1"]
+    w = rows["wsmap_lanes_1"]
     print(f"\n### 1. Raw single-start IK, {len(T)} reachable Panda poses, start at mid-limits, tol 1e-10\n")
-    print("| solver | solves/s | success | ratio (wsmap 1 thread / it) |\n|---|---:|---:|---:|")
-    for key, label in (("wsmap_1", "wsmap, 1 thread"), ("wsmap_2", "wsmap, 2 threads"),
+    print("| solver | solves/s | success | ratio (wsmap lanes, 1 thread / it) |\n|---|---:|---:|---:|")
+    for key, label in (("wsmap_lanes_1", "wsmap lane kernel, 1 thread"), ("wsmap_lanes_2", "wsmap lane kernel, 2 threads"),
+                       ("wsmap_scalar_1", "wsmap scalar kernel, 1 thread"),
+                       ("wsmap_scalar_2", "wsmap scalar kernel, 2 threads"),
                        ("rtb", "Robotics Toolbox ik_LM (C++), 1 start"), ("klampt", "klampt IKSolver, 1 start")):
         if key in rows:
             r = rows[key]
@@ -197,22 +206,32 @@ def section_raw(args, out, panda, rtb_rob, kl):
         print(f"\ngoal: >= {GOALS['raw_ik_ratio_rtb']}x Robotics Toolbox per core, success not lower: "
               f"{ratio:.2f}x, success {w['success']:.3f} against {rows['rtb']['success']:.3f}: "
               f"{'met' if ratio >= GOALS['raw_ik_ratio_rtb'] and w['success'] >= rows['rtb']['success'] else 'NOT met'}")
-    print(f"2 threads / 1 thread: {rows['wsmap_2']['solves_per_s'] / w['solves_per_s']:.2f}x")
+    for kernel in KERNELS:
+        r1, r2 = rows[f"wsmap_{kernel}_1"], rows[f"wsmap_{kernel}_2"]
+        print(f"{kernel} kernel, 2 threads / 1 thread: {r2['solves_per_s'] / r1['solves_per_s']:.2f}x")
+    print(f"lane kernel / scalar kernel, 1 thread: "
+          f"{w['solves_per_s'] / rows['wsmap_scalar_1']['solves_per_s']:.2f}x")
 
 
 def section_map(args, out, panda, rtb_rob, kl):
-    from wsmap.kinematics import ikine_search, lm_compiled, rotx
+    from wsmap.kinematics import ikine_search, lm_compiled, lm_lanes, rotx
     from wsmap.workspace import cartesian_grid, constant_orientation_map
 
     nodes = cartesian_grid(-1, 1, 0.1)
     T = poses(nodes, rotx(PI))
     rows = {}
-    for threads in (2, 1, 2):  # 2 again: a drift of the load shows as two different 2-thread rows
-        lm_compiled.set_threads(threads)
-        t, m = best_of(lambda: constant_orientation_map(panda, nodes, (PI, 0, 0), method="numerical",
-                                                        convention="standard"), args.repeats)
-        rows.setdefault(f"wsmap_{threads}", []).append(t)
+    maps = {}
+    for kernel in KERNELS:
+        for threads in (2, 1, 2):  # 2 again: a drift of the load shows as two different 2-thread rows
+            lm_compiled.set_threads(threads)
+            with lm_lanes.use_kernel(kernel):
+                t, m = best_of(lambda: constant_orientation_map(panda, nodes, (PI, 0, 0), method="numerical",
+                                                                convention="standard"), args.repeats)
+            rows.setdefault(f"wsmap_{kernel}_{threads}", []).append(t)
+            maps[kernel] = m
     lm_compiled.set_threads(2)
+    rows["same_map"] = bool(np.array_equal(maps["lanes"], maps["scalar"]))
+    m = maps["lanes"]
     ref = ikine_search(panda, T, starts=64).success
     recall = float((m & ref).sum() / ref.sum())
     rows["recall"], rows["reachable_reference"], rows["beyond_reference"] = recall, int(ref.sum()), int((m & ~ref).sum())
@@ -231,34 +250,45 @@ def section_map(args, out, panda, rtb_rob, kl):
         rows["klampt"] = {"nodes": len(sample), "seconds_extrapolated": t * len(nodes) / len(sample),
                           "recall_on_sample": float((ok & ref[sample]).sum() / max(ref[sample].sum(), 1))}
     out["tooldown_map"] = rows
-    t2, t1 = min(rows["wsmap_2"]), rows["wsmap_1"][0]
+    t2, t1 = min(rows["wsmap_lanes_2"]), rows["wsmap_lanes_1"][0]
     print(f"\n### 2. Panda tool-down map, 9261 nodes ({int(ref.sum())} reachable by 64-start search)\n")
-    print("| method | s per map | recall | ratio (peer / wsmap 2 threads) |\n|---|---:|---:|---:|")
-    print(f"| wsmap, 2 threads | {t2:.3f} (runs: {', '.join(f'{v:.3f}' for v in rows['wsmap_2'])}) | {recall:.4f} | |")
-    print(f"| wsmap, 1 thread | {t1:.3f} | {recall:.4f} | |")
+    print("| method | s per map | recall | ratio (peer / wsmap lanes, 2 threads) |\n|---|---:|---:|---:|")
+    for kernel in KERNELS:
+        r = rows[f"wsmap_{kernel}_2"]
+        print(f"| wsmap {kernel} kernel, 2 threads | {min(r):.3f} (runs: {', '.join(f'{v:.3f}' for v in r)}) | "
+              f"{recall:.4f} | |")
+        print(f"| wsmap {kernel} kernel, 1 thread | {rows[f'wsmap_{kernel}_1'][0]:.3f} | {recall:.4f} | |")
     for key, label in (("rtb", "Robotics Toolbox ik_LM, default restarts"), ("klampt", "klampt solve_global, 100 restarts")):
         if key in rows:
             r = rows[key]
             print(f"| {label} ({r['nodes']} nodes, extrapolated) | {r['seconds_extrapolated']:.1f} | "
                   f"{r['recall_on_sample']:.4f} | {r['seconds_extrapolated'] / t2:,.0f} |")
     print(f"\ngoal: <= {GOALS['map_seconds_2_threads']} s on 2 cores: {t2:.3f} s: "
-          f"{'met' if t2 <= GOALS['map_seconds_2_threads'] else 'NOT met'}; 2 threads / 1 thread: {t1 / t2:.2f}x")
+          f"{'met' if t2 <= GOALS['map_seconds_2_threads'] else 'NOT met'}; 2 threads / 1 thread: {t1 / t2:.2f}x; "
+          f"the same map on both kernels: {rows['same_map']}; scalar / lanes, 2 threads: "
+          f"{min(rows['wsmap_scalar_2']) / t2:.2f}x")
 
 
 def section_index(args, out, panda, rtb_rob):
     from wsmap import workspace as ws
-    from wsmap.kinematics import lm_compiled
+    from wsmap.kinematics import lm_compiled, lm_lanes
 
     nodes = ws.cartesian_grid(-0.95, 0.95, 0.05)
     R = ws.orientation_samples(50, seed=0)
     ws.reachability_index(panda, ws.cartesian_grid(-1, 1, 0.5), R[:2])  # warm-up
     rows = {}
-    for threads in (2, 1):
-        lm_compiled.set_threads(threads)
-        t0 = time.perf_counter()
-        idx, bits = ws.reachability_index(panda, nodes, R, return_bits=True)
-        rows[f"wsmap_{threads}"] = time.perf_counter() - t0
+    all_bits = {}
+    for kernel in KERNELS:
+        for threads in (2, 1):
+            lm_compiled.set_threads(threads)
+            with lm_lanes.use_kernel(kernel):
+                t0 = time.perf_counter()
+                idx, bits = ws.reachability_index(panda, nodes, R, return_bits=True)
+                rows[f"wsmap_{kernel}_{threads}"] = time.perf_counter() - t0
+            all_bits[kernel] = bits
     lm_compiled.set_threads(2)
+    rows["bits_differing"] = int((all_bits["lanes"] != all_bits["scalar"]).sum())
+    idx, bits = ws.reachability_index(panda, nodes, R, return_bits=True)
     rows["mean_index"] = float(idx.mean())
     if rtb_rob is not None:
         rng = np.random.default_rng(2)
@@ -272,9 +302,13 @@ def section_index(args, out, panda, rtb_rob):
         rows["rtb"] = {"poses": len(Tr), "seconds_extrapolated": t / len(Tr) * len(nodes) * 50,
                        "agreement_with_index_bits": float((ok == bits[picks, ks]).mean())}
     out["index"] = rows
-    t2, t1 = rows["wsmap_2"], rows["wsmap_1"]
+    t2, t1 = rows["wsmap_lanes_2"], rows["wsmap_lanes_1"]
     print(f"\n### 3. Panda reachability index, 5 cm ({len(nodes)} nodes) x 50 orientations\n")
-    print(f"wsmap: {t2:.1f} s on 2 threads, {t1:.1f} s on 1 (2 threads / 1: {t1 / t2:.2f}x)")
+    for kernel in KERNELS:
+        a, b = rows[f"wsmap_{kernel}_2"], rows[f"wsmap_{kernel}_1"]
+        print(f"wsmap {kernel} kernel: {a:.1f} s on 2 threads, {b:.1f} s on 1 (2 threads / 1: {b / a:.2f}x)")
+    print(f"scalar / lanes, 2 threads: {rows['wsmap_scalar_2'] / t2:.2f}x; pose bits that differ between the "
+          f"kernels: {rows['bits_differing']} of {all_bits['lanes'].size}")
     if "rtb" in rows:
         r = rows["rtb"]
         print(f"Robotics Toolbox ik_LM with restarts ({r['poses']} poses, extrapolated): "
@@ -323,7 +357,10 @@ def main(argv=None):
     except ImportError as exc:
         print(f"klampt unavailable: {exc}", file=sys.stderr)
         kl = None
+    from wsmap.kinematics import lm_lanes
+
     out = {"info": {"numba": numba.__version__, "cpus": os.cpu_count(), "threads": lm_compiled.threads(),
+                    "lane_isa": lm_lanes.isa(), "lanes": lm_lanes.LANES,
                     "load_average_at_start": os.getloadavg(), "command": " ".join(sys.argv)}}
     print(f"load average at start: {out['info']['load_average_at_start']}")
     section_raw(args, out, panda, rtb_rob, kl)

@@ -54,9 +54,9 @@ def _build_wheel(out: Path) -> Path:
     """``python -m build --wheel --no-isolation`` of a copy of the sources (the checkout stays clean)."""
     src = out / "src-copy"
     src.mkdir()
-    for name in ("pyproject.toml", "README.md"):
+    for name in ("pyproject.toml", "README.md", "CMakeLists.txt"):
         shutil.copy(ROOT / name, src / name)
-    shutil.copytree(ROOT / "src", src / "src", ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
+    shutil.copytree(ROOT / "src", src / "src", ignore=shutil.ignore_patterns("__pycache__", "*.egg-info", "*.so"))
     subprocess.run([sys.executable, "-m", "build", "--wheel", "--no-isolation", "--outdir", str(out / "dist"),
                     str(src)], check=True, capture_output=True, text=True)
     (wheel,) = (out / "dist").glob("wsmap-*.whl")
@@ -148,6 +148,10 @@ def test_the_wheel_installs_a_working_tool(tmp_path):
     where = subprocess.run([py, "-c", "import wsmap; print(wsmap.__file__)"], env=env, capture_output=True,
                            text=True, check=True).stdout
     assert str(venv) in where, f"wsmap imported from {where}, not the venv"
+    # the wheel carries the compiled lane kernel, and the search runs on it
+    kernel = subprocess.run([py, "-c", "from wsmap.kinematics import lm_lanes; print(lm_lanes.kernel())"], env=env,
+                            capture_output=True, text=True, check=True).stdout
+    assert kernel.strip() == "lanes"
     check = subprocess.run([sys.executable, "-m", "pip", "--python", py, "check"], capture_output=True, text=True)
     assert check.returncode == 0, check.stdout + check.stderr
     from wsmap import __version__

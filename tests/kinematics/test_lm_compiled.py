@@ -6,7 +6,7 @@ import pytest
 
 from wsmap import robots
 from wsmap import workspace as ws
-from wsmap.kinematics import as_chain, ikine_LM, ikine_search, ikine_spherical_wrist, lm_compiled, map_search
+from wsmap.kinematics import as_chain, ikine_LM, ikine_search, ikine_spherical_wrist, lm_compiled, lm_lanes, map_search
 from wsmap.kinematics.ik.lm_reference import ikine_LM_reference, ikine_search_reference
 from wsmap.workspace.maps import _per_node
 
@@ -32,12 +32,14 @@ def test_sincos_within_two_ulp_of_libm():
     assert np.isnan([lm_compiled._sincos(v) for v in (np.nan, np.inf, -np.inf)]).all()
 
 
+@pytest.mark.parametrize("kernel", lm_lanes.KERNELS)
 @pytest.mark.parametrize("name, lim, rpy", [("puma560", True, (0, 0, 0)), ("ur5e", None, (PI, 0, 0)),
                                             ("panda", None, (PI, 0, 0)), ("gen3", None, (0.3, -0.2, 0.5))])
-def test_compiled_search_equals_the_numpy_reference(name, lim, rpy):
+def test_compiled_search_equals_the_numpy_reference(name, lim, rpy, kernel):
     arm = robots.load(name, joint_limits=lim)
     T = ws.target_poses(ws.cartesian_grid(-1, 1, 0.25), rpy, "standard")
-    c = ikine_search(arm, T, starts=6, seed=2)
+    with lm_lanes.use_kernel(kernel):  # the lane kernel (the default) and the scalar one
+        c = ikine_search(arm, T, starts=6, seed=2)
     r = ikine_search_reference(arm, T, starts=6, seed=2)
     assert c.success.sum() > 20
     np.testing.assert_array_equal(c.success, r.success)
@@ -52,10 +54,12 @@ def test_compiled_search_equals_the_numpy_reference(name, lim, rpy):
     np.testing.assert_allclose(Tq, T[c.success], atol=1e-6)
 
 
-def test_compiled_paper_lm_equals_the_numpy_reference():
+@pytest.mark.parametrize("kernel", lm_lanes.KERNELS)
+def test_compiled_paper_lm_equals_the_numpy_reference(kernel):
     arms = robots.sample_spherical_wrist(4, seed=5)
     T = ws.target_poses(ws.cartesian_grid(-1, 1, 0.2), (0.3, 0.2, 0.1), "paper")
-    c = ikine_LM(_per_node(arms), T)
+    with lm_lanes.use_kernel(kernel):
+        c = ikine_LM(_per_node(arms), T)
     r = ikine_LM_reference(_per_node(arms), T)
     assert c.success.sum() > 100
     np.testing.assert_array_equal(c.success, r.success)
@@ -65,7 +69,9 @@ def test_compiled_paper_lm_equals_the_numpy_reference():
     q = np.array([0.1, -0.4, 0.3, 0.2, 0.5, -0.1])
     Tq = arms[0].fkine(q)
     for il in (0, 5):
-        a, b = ikine_LM(arms[0], Tq, q0=q, ilimit=il), ikine_LM_reference(arms[0], Tq, q0=q, ilimit=il)
+        with lm_lanes.use_kernel(kernel):
+            a = ikine_LM(arms[0], Tq, q0=q, ilimit=il)
+        b = ikine_LM_reference(arms[0], Tq, q0=q, ilimit=il)
         assert (a.success, a.iterations) == (b.success, b.iterations)
 
 

@@ -15,11 +15,13 @@ Inverse kinematics, :mod:`.ik` (every solver returns an :class:`IKSolution`):
   :func:`closed_form_for` (:mod:`.ik.registry`);
 * :func:`ikine_LM` — the paper's Levenberg–Marquardt (:mod:`.ik.lm`);
 * :func:`ikine_search`, :func:`map_search` — the reachability search for any arm (:mod:`.ik.search`);
-* :mod:`.lm_compiled` — the compiled (numba) LM kernel behind both numerical paths, and the thread
-  count of every compiled kernel (:func:`lm_compiled.set_threads`).
+* :mod:`.lm_lanes` — the lane (SIMD, C++) kernel that runs both numerical paths by default,
+  several targets per instruction; :mod:`.lm_compiled` — the scalar (numba) kernel, its tested
+  reference (:func:`lm_lanes.set_kernel`), and the thread count of every compiled kernel
+  (:func:`lm_compiled.set_threads`).
 """
 
-from . import lm_compiled
+from . import lm_compiled, lm_lanes
 from .chain import PRISMATIC, REVOLUTE, SerialChain, as_chain, from_dh
 from .dh import DHRobot, arm_batch
 from .ik import (

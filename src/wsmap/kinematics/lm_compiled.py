@@ -756,14 +756,10 @@ def _spread(ntask: int, run) -> None:
     """``run(a, b)`` (a compiled batch that releases the GIL) over tasks ``0 .. ntask - 1`` on
     :func:`threads` threads, this one and pool threads, each taking :data:`TASKS_PER_GRAB` tasks at a
     time from a shared counter, so the slow unreachable targets do not pile up on one thread."""
-    global _pool
     want = min(numba.get_num_threads(), (ntask + TASKS_PER_GRAB - 1) // TASKS_PER_GRAB)
     if want <= 1:
         run(0, ntask)
         return
-    with _pool_lock:
-        if _pool is None:
-            _pool = ThreadPoolExecutor(max(1, numba.config.NUMBA_NUM_THREADS - 1), thread_name_prefix="wsmap-ik")
     grabs = itertools.count()  # next() on it is atomic under the GIL
 
     def work():
@@ -773,6 +769,19 @@ def _spread(ntask: int, run) -> None:
                 return
             run(a, min(ntask, a + TASKS_PER_GRAB))
 
+    on_threads(want, work)
+
+
+def on_threads(want: int, work) -> None:
+    """``work()`` (a function that releases the GIL and shares its work out itself) on this thread
+    and ``want - 1`` pool threads; returns when every call has."""
+    global _pool
+    if want <= 1:
+        work()
+        return
+    with _pool_lock:
+        if _pool is None:
+            _pool = ThreadPoolExecutor(max(1, numba.config.NUMBA_NUM_THREADS - 1), thread_name_prefix="wsmap-ik")
     futures = [_pool.submit(work) for _ in range(want - 1)]
     work()
     for f in futures:
@@ -920,8 +929,11 @@ def _loadable(dispatcher) -> bool:
 def needs_compile(joints=(6, 7)) -> bool:
     """Whether the first numerical map of this process on arms of each joint count in ``joints``
     (an int or a sequence: 6 takes the six-joint build, any other count the generic one) will
-    compile a kernel: one of them, or of their callees, is not cached for this CPU and this source."""
-    names = _HELPERS + _CALLEES + tuple(b.py_func.__name__ for b in builds_for(joints))
+    compile a kernel: one of them, or of their callees, or the search's helpers, is not cached for
+    this CPU and this source. ``joints`` empty: the helpers alone (about a second), all that a
+    search on the lane kernel (:mod:`wsmap.kinematics.lm_lanes`) compiles."""
+    builds = builds_for(joints)
+    names = _HELPERS + ((_CALLEES + tuple(b.py_func.__name__ for b in builds)) if builds else ())
     return not all(_loadable(globals()[name]) for name in names)
 
 
@@ -947,7 +959,8 @@ def record_compile_seconds(seconds: float) -> None:
 
 
 def builds_for(joints) -> set:
-    """The compiled batches that arms of the joint counts ``joints`` (an int or a sequence) run on."""
+    """The compiled batches that arms of the joint counts ``joints`` (an int or a sequence; may be
+    empty) run on."""
     joints = (joints,) if isinstance(joints, (int, np.integer)) else tuple(joints)
     return {_build(int(n)) for n in joints}
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import lm_compiled
+from .. import lm_compiled, lm_lanes
 from ..chain import PRISMATIC, SerialChain
 
 __all__ = ["arm_arrays", "run_compiled", "pose_keys", "start_box", "mix"]
@@ -106,8 +106,9 @@ def run_compiled(mode, aa: dict, arm, T, keys, qexp, nexp, k_first, k_last, ilim
     if M:
         Rt = np.ascontiguousarray(T[:, :3, :3], dtype=np.float64)
         pt = np.ascontiguousarray(T[:, :3, 3], dtype=np.float64)
+        impl = lm_lanes if lm_lanes.runs_on_lanes(n) else lm_compiled
         with lm_compiled.threads_for(M, 64):
-            lm_compiled.run_targets(
+            impl.run_targets(
                 mode, np.ascontiguousarray(arm, dtype=np.int64), Rt, pt, np.ascontiguousarray(keys, dtype=np.uint64),
                 np.ascontiguousarray(qexp, dtype=np.float64), np.ascontiguousarray(nexp, dtype=np.int64),
                 int(k_first), int(k_last), aa["Rf"], aa["tf"], aa["rkind"], aa["off"], aa["axes"], aa["pris"], aa["zax"],

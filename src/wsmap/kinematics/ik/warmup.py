@@ -8,17 +8,32 @@ import time
 import numpy as np
 
 from ... import robots
-from .. import lm_compiled
+from .. import lm_compiled, lm_lanes
 from ..chain import as_chain
 from .reach_filter import reach_filter
 from .search import ikine_search
 
-__all__ = ["ensure_compiled"]
+__all__ = ["ensure_compiled", "needs_compile"]
+
+
+def _scalar(joints) -> tuple:
+    """Of the joint counts ``joints`` (an int or a sequence), those whose search runs on the scalar
+    (numba) kernel now: none where the lane kernel runs them (:func:`lm_lanes.runs_on_lanes`)."""
+    joints = (joints,) if isinstance(joints, (int, np.integer)) else tuple(joints)
+    return tuple(int(n) for n in joints if not lm_lanes.runs_on_lanes(int(n)))
+
+
+def needs_compile(joints=(6, 7)) -> bool:
+    """Whether the first numerical map of this process on arms of the joint counts ``joints`` will
+    compile numba code: the scalar kernel's builds where it runs them
+    (:func:`wsmap.kinematics.lm_compiled.needs_compile`), else the search's helpers alone."""
+    return lm_compiled.needs_compile(_scalar(joints))
 
 
 def ensure_compiled(notify=None, joints=(6, 7)) -> float:
     """Compile the IK kernels for arms of the joint counts ``joints`` (an int or a sequence: 6 takes
-    the six-joint build, any other count the generic one) now if the first map would
+    the six-joint build, any other count the generic one; none where the lane kernel,
+    :mod:`wsmap.kinematics.lm_lanes`, runs them: then only the search's numba helpers, silently) now if the first map would
     (:func:`wsmap.kinematics.lm_compiled.needs_compile`: numba's cache index says), and say so first:
     ``notify`` (a callable taking one line; None: silent) gets "compiling the IK kernels once, about
     N s; cached in DIR", N the last cold compile measured here per build (or
@@ -26,22 +41,25 @@ def ensure_compiled(notify=None, joints=(6, 7)) -> float:
     the PUMA560 (six joints) and of the Panda (seven: the generic build) as the counts need (every
     kernel, the types every caller passes), and the PUMA560's wrist-orbit pre-filter. Returns the
     seconds it took (0.0 where everything was cached: loading is left to the first call)."""
-    if not lm_compiled.needs_compile(joints):
+    if not needs_compile(joints):
         return 0.0
-    builds = lm_compiled.builds_for(joints)
-    if notify is not None:
+    builds = lm_compiled.builds_for(_scalar(joints))
+    # the numba batches take tens of seconds; the lane kernel is compiled at install, and the
+    # search's numba helpers alone about a second: no notice for those
+    if notify is not None and builds:
         notify(f"compiling the IK kernels once, about {lm_compiled.estimate() * len(builds)} s; "
                f"cached in {lm_compiled.cache_dir()}")
     t0 = time.perf_counter()
     puma = robots.load("puma560")
     T = np.asarray(puma.fkine(np.linspace(-0.5, 0.5, puma.n)))[None]
-    if lm_compiled.builds_for(6) <= builds:
+    if lm_compiled.builds_for(_scalar(6)) <= builds:
         ikine_search(puma, T, starts=2, seed=0)
     else:
         reach_filter(as_chain(puma), T, 1e-6)  # the wrist-orbit test alone
-    if lm_compiled.builds_for(7) <= builds:
+    if lm_compiled.builds_for(_scalar(7)) <= builds:
         panda = robots.load("panda")
         ikine_search(panda, np.asarray(panda.fkine(np.linspace(-0.5, 0.5, panda.n)))[None], starts=2, seed=0)
     seconds = time.perf_counter() - t0
-    lm_compiled.record_compile_seconds(seconds / len(builds))
+    if builds:
+        lm_compiled.record_compile_seconds(seconds / len(builds))
     return seconds

@@ -1,0 +1,754 @@
+// The LM search of wsmap.kinematics.lm_compiled (_task, _lm and their callees) over a block of
+// L targets at once: every per-target number of the iteration is an array of L lanes, so the
+// forward kinematics, the pose error, the Jacobian, the normal equations and the solve are loops
+// over lanes that the compiler turns into SIMD instructions (AVX-512 / AVX2 where the CPU has them,
+// lanesmodule.cpp picks the build at run time). What differs from lane to lane (acceptance, the
+// damping, the stopping tests, the limits, the next start, the next target) is decided lane by
+// lane, and a lane whose target is finished takes the next one, so the lanes stay full.
+//
+// Same arithmetic per target as the scalar kernel (the tests compare the two: the same successes
+// and starts, q within the tolerance); the sums are in the same order but the compiler's fused
+// multiply-adds differ, so the bits may differ in the last places. A target's answer does not
+// depend on its lane, the other targets, or the thread count: every lane runs the same operations.
+//
+// This header is compiled once per instruction set (lanes_isa.cpp, namespace WSMAP_ISA).
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+namespace wsmap_lanes {
+
+constexpr int MODE_SEARCH = 0, MODE_PAPER = 1, MODE_POSITION = 2;
+constexpr int SUCCESS = 1, REJECTIONS = 2, ILIMIT = 3, STAGNATED = 4, AT_START = 5, STATIONARY = 6;
+constexpr int MAX_JOINTS = 16;  // longer chains run on the scalar kernel
+
+// Everything one call reads and writes (numpy arrays, C order; see lm_compiled.run_targets).
+struct Args {
+    int mode;
+    int64_t M, B, n, S;  // targets, arms, joints, explicit starts per target
+    const int64_t *arm;
+    const double *Rt, *pt;
+    const uint64_t *keys;
+    const double *qexp;
+    const int64_t *nexp;
+    int64_t k_first, k_last;
+    const double *Rf, *tf;
+    const int8_t *rkind;
+    const double *off, *axes;
+    const bool *pris, *zax;
+    const double *lo, *hi, *clo, *chi;
+    const bool *clipped, *limited_arm, *unlimited;
+    const double *blo, *bhi;
+    int64_t ilimit, rlimit;
+    double tol, lam0, gtol, confirm_tol;
+    bool free_pass;
+    double *q_out;
+    bool *ok_out;
+    int64_t *it_out;
+    double *res_out;
+    int64_t *start_out;
+    int64_t *counter;  // the next target to take, shared by every thread of the call
+};
+
+}  // namespace wsmap_lanes
+
+#ifdef WSMAP_ISA
+namespace wsmap_lanes {
+namespace WSMAP_ISA {
+
+constexpr double TWO_PI = 2.0 * 3.14159265358979311600;
+constexpr double PI = 3.14159265358979311600;
+constexpr double EPS = 2.220446049250313e-16;
+constexpr double TINY = 5e-324;
+constexpr double INF = std::numeric_limits<double>::infinity();
+
+// a loop over the lanes, vectorised whatever the compiler's cost model says (-fopenmp-simd)
+#define LANES_LOOP _Pragma("omp simd") for (int l = 0; l < L; ++l)
+#define LANES_ANY for (int l = 0; l < L; ++l)
+
+// sin and cos as lm_compiled._sincos (fdlibm's kernels after a three-part Cody-Waite reduction),
+// branch-free so that a loop over lanes vectorises; |x| >= 1e5 and NaN are fixed afterwards by libm.
+static inline void sincos_poly(double x, double &sv, double &cv) {
+    const double t = x * 6.36619772367581382433e-01 + 6755399441055744.0;  // round to nearest
+    const double k = t - 6755399441055744.0;
+    int64_t q;
+    std::memcpy(&q, &t, sizeof(q));  // the low bits of t's mantissa: k modulo 2^51
+    const double r = ((x - k * 1.57079632673412561417e+00) - k * 6.07710050630396597660e-11) - k * 2.02226624871116645580e-21;
+    const double z = r * r;
+    const double s = r + r * z * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03 + z * (
+        -1.98412698298579493134e-04 + z * (2.75573137070700676789e-06 + z * (
+        -2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
+    const double c = 1.0 - 0.5 * z + z * z * (4.16666666666666019037e-02 + z * (-1.38888888888741095749e-03 + z * (
+        2.48015872894767294178e-05 + z * (-2.75573143513906633035e-07 + z * (
+        2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))));
+    double a = (q & 1) ? c : s;
+    double b = (q & 1) ? s : c;
+    sv = (q & 2) ? -a : a;
+    cv = ((q + 1) & 2) ? -b : b;
+}
+
+static inline uint64_t mix(uint64_t z) {
+    z += 0x9E3779B97F4A7C15ULL;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    return z ^ (z >> 31);
+}
+
+// numpy's float remainder (np.mod): the sign of the divisor
+static inline double npmod(double a, double b) {
+    double m = std::fmod(a, b);
+    if (m != 0.0) {
+        if ((b < 0) != (m < 0)) m += b;
+    } else {
+        m = std::copysign(0.0, b);
+    }
+    return m;
+}
+
+static inline double project1(double qj, double lo, double hi, bool revolute) {
+    if (qj >= lo && qj <= hi) return qj;
+    if (!revolute) return std::fmin(std::fmax(qj, lo), hi);
+    double s;
+    if (std::isfinite(lo)) s = lo + npmod(qj - lo, TWO_PI);
+    else s = hi - npmod(hi - qj, TWO_PI);
+    if (s > hi) s = (s - hi <= lo + TWO_PI - s) ? hi : lo;
+    return s;
+}
+
+static inline double spacing(double x) {
+    double ax = std::fabs(x);
+    if (ax == 0.0) return TINY;
+    int ex;
+    std::frexp(ax, &ex);
+    return std::fmax(std::ldexp(1.0, ex - 53), TINY);
+}
+
+// lm_compiled._confirm: forward kinematics by 4 x 4 products (another path than the lanes' own),
+// the tool within atol of the target and q inside the limits
+static bool confirm(const Args &a, const double *q, int64_t b, const double *Rt, const double *pt, int rows) {
+    const int64_t n = a.n;
+    for (int64_t j = 0; j < n; ++j)
+        if (q[j] < a.lo[b * n + j] - 1e-9 || q[j] > a.hi[b * n + j] + 1e-9) return false;
+    double M4[4][4] = {}, N4[4][4], P4[4][4];
+    const double *Rf = a.Rf + b * (n + 1) * 9, *tf = a.tf + b * (n + 1) * 3;
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) M4[r][c] = Rf[r * 3 + c];
+        M4[r][3] = tf[r];
+    }
+    M4[3][3] = 1.0;
+    for (int64_t i = 0; i < n; ++i) {
+        const double x = q[i] + a.off[b * n + i];
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c) N4[r][c] = r == c ? 1.0 : 0.0;
+        const double *u = a.axes + 3 * i;
+        if (a.pris[i]) {
+            for (int r = 0; r < 3; ++r) N4[r][3] = u[r] * x;
+        } else {
+            const double c0 = std::cos(x), s0 = std::sin(x);
+            for (int r = 0; r < 3; ++r)
+                for (int c = 0; c < 3; ++c) N4[r][c] = c0 * (r == c ? 1.0 : 0.0) + (1.0 - c0) * u[r] * u[c];
+            N4[0][1] -= s0 * u[2];
+            N4[1][0] += s0 * u[2];
+            N4[0][2] += s0 * u[1];
+            N4[2][0] -= s0 * u[1];
+            N4[1][2] -= s0 * u[0];
+            N4[2][1] += s0 * u[0];
+        }
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c)
+                P4[r][c] = M4[r][0] * N4[0][c] + M4[r][1] * N4[1][c] + M4[r][2] * N4[2][c] + M4[r][3] * N4[3][c];
+        const double *R1 = Rf + (i + 1) * 9, *t1 = tf + (i + 1) * 3;
+        for (int r = 0; r < 3; ++r) {
+            for (int c = 0; c < 3; ++c) N4[r][c] = R1[r * 3 + c];
+            N4[r][3] = t1[r];
+        }
+        for (int c = 0; c < 4; ++c) N4[3][c] = c == 3 ? 1.0 : 0.0;
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c)
+                M4[r][c] = P4[r][0] * N4[0][c] + P4[r][1] * N4[1][c] + P4[r][2] * N4[2][c] + P4[r][3] * N4[3][c];
+    }
+    const double dx = M4[0][3] - pt[0], dy = M4[1][3] - pt[1], dz = M4[2][3] - pt[2];
+    const double dp = std::sqrt(dx * dx + dy * dy + dz * dz);
+    if (rows == 3) return dp <= a.confirm_tol;
+    double v0 = 0, v1 = 0, v2 = 0, cs = 0;
+    for (int k = 0; k < 3; ++k) {
+        v0 += M4[1][k] * Rt[2 * 3 + k] - M4[2][k] * Rt[1 * 3 + k];
+        v1 += M4[2][k] * Rt[0 * 3 + k] - M4[0][k] * Rt[2 * 3 + k];
+        v2 += M4[0][k] * Rt[1 * 3 + k] - M4[1][k] * Rt[0 * 3 + k];
+        for (int r = 0; r < 3; ++r) cs += M4[r][k] * Rt[r * 3 + k];
+    }
+    const double ang = std::atan2(0.5 * std::sqrt(v0 * v0 + v1 * v1 + v2 * v2), 0.5 * (cs - 1.0));
+    return dp <= a.confirm_tol && ang <= a.confirm_tol;
+}
+
+// One block of L lanes. NM: the joint count where it is a compile-time constant (6, 7), else
+// MAX_JOINTS with the count n given at run time.
+template <int NM, int L>
+struct Block {
+    const Args &a;
+    const int n_rt, rows;
+    // the joint count: a compile-time constant where NM is the count (the loops over joints unroll)
+    static constexpr bool FIXED = NM <= 7;
+    const bool paper, rotvec;
+    const double gtol_run;
+
+    // the lanes' copies of their arms' numbers (gathered when a lane takes a target)
+    alignas(64) double Rf[NM + 1][9][L], tf[NM + 1][3][L], off[NM][L], clo[NM][L], chi[NM][L];
+    alignas(64) double Rt[9][L], pt[3][L];
+    // the iteration's state
+    alignas(64) double q[NM][L], qt[NM][L], qs[NM][L], dq[NM][L];
+    alignas(64) double R[9][L], p[3][L], w[NM][3][L], o[NM][3][L];
+    alignas(64) double e[6][L], en[6][L], J[6][NM][L], A[NM][NM][L], g[NM][L], H[NM][NM + 1][L];
+    alignas(64) double nn[L], better[L], held[NM][L], lam2[L], solving[L];
+    alignas(64) double rlo[NM][L], rhi[NM][L];  // the bounds of the lane's run: clo/chi, or +-inf in a free run
+    alignas(64) double g2[L], trA[L];
+    int8_t kind[NM + 1][L];
+    int8_t ukind[NM + 1];  // the kind shared by every lane, or 2 (the full product) where they differ
+
+    // per lane, decided lane by lane
+    int64_t tgt[L], arm[L], s[L], ntry[L], total[L], it[L], rej[L];
+    double lam[L], na[L], best[L];
+    int pss[L], passes[L];
+    bool active[L], start[L], touched[L], limited_run[L], limited[L], needs_solve[L];
+
+    Block(const Args &args)
+        : a(args), n_rt((int)args.n), rows(args.mode == MODE_POSITION ? 3 : 6),
+          paper(args.mode == MODE_PAPER), rotvec(args.mode != MODE_PAPER), gtol_run(args.mode == MODE_PAPER ? 0.0 : args.gtol) {
+        // idle lanes compute on harmless numbers
+        std::memset(Rf, 0, sizeof(Rf));
+        std::memset(tf, 0, sizeof(tf));
+        std::memset(off, 0, sizeof(off));
+        std::memset(Rt, 0, sizeof(Rt));
+        std::memset(pt, 0, sizeof(pt));
+        std::memset(q, 0, sizeof(q));
+        std::memset(qt, 0, sizeof(qt));
+        std::memset(qs, 0, sizeof(qs));
+        std::memset(kind, 0, sizeof(kind));
+        std::memset(held, 0, sizeof(held));
+        for (int j = 0; j < NM; ++j)
+            for (int l = 0; l < L; ++l) { clo[j][l] = rlo[j][l] = -INF; chi[j][l] = rhi[j][l] = INF; }
+        for (int l = 0; l < L; ++l) {
+            for (int k = 0; k <= NM; ++k) { Rf[k][0][l] = Rf[k][4][l] = Rf[k][8][l] = 1.0; }
+            Rt[0][l] = Rt[4][l] = Rt[8][l] = 1.0;
+            active[l] = false;
+            needs_solve[l] = false;
+            start[l] = false;
+            lam[l] = 1.0;
+            lam2[l] = 1.0;
+            solving[l] = 0.0;
+        }
+    }
+
+    // ------------------------------------------------------------------ lane by lane
+    bool take_target(int l) {
+        const int n = FIXED ? NM : n_rt;
+        const int64_t i = __atomic_fetch_add(a.counter, 1, __ATOMIC_RELAXED);
+        if (i >= a.M) {
+            active[l] = false;
+            return false;
+        }
+        active[l] = true;
+        tgt[l] = i;
+        const int64_t b = a.arm[i];
+        arm[l] = b;
+        for (int k = 0; k <= n; ++k) {
+            for (int m = 0; m < 9; ++m) Rf[k][m][l] = a.Rf[(b * (n + 1) + k) * 9 + m];
+            for (int m = 0; m < 3; ++m) tf[k][m][l] = a.tf[(b * (n + 1) + k) * 3 + m];
+            kind[k][l] = a.rkind[b * (n + 1) + k];
+        }
+        for (int j = 0; j < n; ++j) {
+            off[j][l] = a.off[b * n + j];
+            clo[j][l] = a.clo[b * n + j];
+            chi[j][l] = a.chi[b * n + j];
+        }
+        for (int m = 0; m < 9; ++m) Rt[m][l] = a.Rt[i * 9 + m];
+        for (int m = 0; m < 3; ++m) pt[m][l] = a.pt[i * 3 + m];
+        limited[l] = a.limited_arm[b];
+        total[l] = 0;
+        best[l] = INF;
+        s[l] = 0;
+        if (paper) {
+            ntry[l] = 1;
+            for (int j = 0; j < n; ++j) q[j][l] = a.qexp[(i * a.S) * n + j];
+            begin_run(l, false);
+            return true;
+        }
+        const int64_t extra = a.k_last - a.k_first;
+        ntry[l] = a.nexp[i] + (extra > 0 ? extra : 0);
+        if (ntry[l] == 0) {
+            finish(l, false);
+            return take_target(l);
+        }
+        begin_start(l);
+        return true;
+    }
+
+    void begin_start(int l) {
+        const int n = FIXED ? NM : n_rt;
+        const int64_t i = tgt[l], b = arm[l], k = s[l];
+        if (k < a.nexp[i]) {
+            for (int j = 0; j < n; ++j) qs[j][l] = a.qexp[(i * a.S + k) * n + j];
+        } else {
+            const uint64_t key = a.keys[i], kk = (uint64_t)(a.k_first + k - a.nexp[i]);
+            for (int j = 0; j < n; ++j) {
+                const uint64_t ctr = mix(kk * (uint64_t)(1 << 16) + (uint64_t)(j + 1));
+                const uint64_t bits = mix(key + ctr);
+                const double u = (double)(bits >> 11) * (1.0 / 9007199254740992.0);
+                qs[j][l] = a.blo[b * n + j] + u * (a.bhi[b * n + j] - a.blo[b * n + j]);
+            }
+        }
+        passes[l] = (limited[l] && a.free_pass) ? 2 : 1;
+        pss[l] = 0;
+        for (int j = 0; j < n; ++j) q[j][l] = qs[j][l];
+        begin_run(l, limited[l]);
+    }
+
+    // a new LM run from q: its first evaluation is the start
+    void begin_run(int l, bool lim) {
+        const int n = FIXED ? NM : n_rt;
+        limited_run[l] = lim;
+        for (int j = 0; j < n; ++j) {
+            qt[j][l] = q[j][l];
+            rlo[j][l] = lim ? clo[j][l] : -INF;
+            rhi[j][l] = lim ? chi[j][l] : INF;
+        }
+        lam[l] = a.lam0;
+        rej[l] = 0;
+        it[l] = 0;
+        na[l] = INF;
+        start[l] = true;
+        touched[l] = false;
+        needs_solve[l] = false;
+    }
+
+    void finish(int l, bool found) {
+        const int n = FIXED ? NM : n_rt;
+        const int64_t i = tgt[l];
+        a.ok_out[i] = found;
+        a.it_out[i] = total[l];
+        if (!found) {
+            a.res_out[i] = best[l];
+            a.start_out[i] = -1;
+        }
+    }
+
+    void end_run(int l, int code) {
+        const int n = FIXED ? NM : n_rt;
+        const int64_t i = tgt[l], b = arm[l];
+        if (paper) {
+            int64_t its;
+            if (code == AT_START) its = a.ilimit < 1 ? a.ilimit : 1;
+            else if (code == SUCCESS) its = std::min<int64_t>(it[l] + 1, a.ilimit);
+            else if (code == REJECTIONS) its = it[l];
+            else if (code == STAGNATED) its = std::min<int64_t>(it[l] + 1 + (a.rlimit - rej[l]), a.ilimit);
+            else its = a.ilimit;
+            for (int j = 0; j < n; ++j) a.q_out[i * n + j] = q[j][l];
+            const bool ok = code == SUCCESS || code == AT_START;
+            a.ok_out[i] = ok;
+            a.it_out[i] = its;
+            a.res_out[i] = na[l];
+            a.start_out[i] = ok ? 0 : -1;
+            take_target(l);
+            return;
+        }
+        total[l] += it[l];
+        double qv[MAX_JOINTS];
+        for (int j = 0; j < n; ++j) {
+            double v = project1(q[j][l], a.lo[b * n + j], a.hi[b * n + j], !a.pris[j]);
+            if (a.unlimited[b * n + j]) v = npmod(v + PI, TWO_PI) - PI;
+            qv[j] = v;
+            q[j][l] = v;
+        }
+        const bool conv = code == SUCCESS || code == AT_START;
+        if (pss[l] == 0 && na[l] < best[l]) {
+            best[l] = na[l];
+            for (int j = 0; j < n; ++j) a.q_out[i * n + j] = qv[j];
+        }
+        if (conv && confirm(a, qv, b, a.Rt + i * 9, a.pt + i * 3, rows)) {
+            for (int j = 0; j < n; ++j) a.q_out[i * n + j] = qv[j];
+            a.res_out[i] = na[l];
+            a.start_out[i] = s[l];
+            finish(l, true);
+            take_target(l);
+            return;
+        }
+        if (touched[l] && pss[l] + 1 < passes[l]) {
+            pss[l] += 1;  // the free run from the same start
+            for (int j = 0; j < n; ++j) q[j][l] = qs[j][l];
+            begin_run(l, false);
+            return;
+        }
+        s[l] += 1;
+        if (s[l] < ntry[l]) {
+            begin_start(l);
+            return;
+        }
+        finish(l, false);
+        take_target(l);
+    }
+
+    // ------------------------------------------------------------------ every lane at once
+    void fk() {
+        const int n = FIXED ? NM : n_rt;
+        for (int m = 0; m < 9; ++m) LANES_LOOP R[m][l] = Rf[0][m][l];
+        for (int r = 0; r < 3; ++r) LANES_LOOP p[r][l] = tf[0][r][l];
+        for (int i = 0; i < n; ++i) {
+            const double a0 = a.axes[3 * i], a1 = a.axes[3 * i + 1], a2 = a.axes[3 * i + 2];
+            const bool zi = a.zax[i];
+            for (int r = 0; r < 3; ++r) {
+                LANES_LOOP o[i][r][l] = p[r][l];
+                if (zi) LANES_LOOP w[i][r][l] = R[3 * r + 2][l] * a2;
+                else LANES_LOOP w[i][r][l] = R[3 * r][l] * a0 + R[3 * r + 1][l] * a1 + R[3 * r + 2][l] * a2;
+            }
+            if (a.pris[i]) {
+                for (int r = 0; r < 3; ++r) LANES_LOOP p[r][l] = p[r][l] + w[i][r][l] * (qt[i][l] + off[i][l]);
+            } else if (zi) {
+                LANES_LOOP {
+                    double si, ci;
+                    sincos_poly(qt[i][l] + off[i][l], si, ci);
+                    si = si * a2;
+                    for (int r = 0; r < 3; ++r) {
+                        const double r0 = R[3 * r][l] * ci + R[3 * r + 1][l] * si;
+                        const double r1 = R[3 * r + 1][l] * ci - R[3 * r][l] * si;
+                        R[3 * r][l] = r0;
+                        R[3 * r + 1][l] = r1;
+                    }
+                }
+            } else {
+                const double K[3][3] = {{0.0, -a2, a1}, {a2, 0.0, -a0}, {-a1, a0, 0.0}};
+                double K2[3][3];
+                for (int r = 0; r < 3; ++r)
+                    for (int m = 0; m < 3; ++m) K2[r][m] = K[r][0] * K[0][m] + K[r][1] * K[1][m] + K[r][2] * K[2][m];
+                LANES_LOOP {
+                    double sv, cv;
+                    sincos_poly(qt[i][l] + off[i][l], sv, cv);
+                    double T[3][3];
+                    for (int r = 0; r < 3; ++r)
+                        for (int m = 0; m < 3; ++m) T[r][m] = (r == m ? 1.0 : 0.0) + K[r][m] * sv + K2[r][m] * (1.0 - cv);
+                    for (int r = 0; r < 3; ++r) {
+                        const double v0 = R[3 * r][l] * T[0][0] + R[3 * r + 1][l] * T[1][0] + R[3 * r + 2][l] * T[2][0];
+                        const double v1 = R[3 * r][l] * T[0][1] + R[3 * r + 1][l] * T[1][1] + R[3 * r + 2][l] * T[2][1];
+                        const double v2 = R[3 * r][l] * T[0][2] + R[3 * r + 1][l] * T[1][2] + R[3 * r + 2][l] * T[2][2];
+                        R[3 * r][l] = v0;
+                        R[3 * r + 1][l] = v1;
+                        R[3 * r + 2][l] = v2;
+                    }
+                }
+            }
+            for (int r = 0; r < 3; ++r)
+                LANES_LOOP p[r][l] = p[r][l] + (R[3 * r][l] * tf[i + 1][0][l] + R[3 * r + 1][l] * tf[i + 1][1][l] + R[3 * r + 2][l] * tf[i + 1][2][l]);
+            const int k = ukind[i + 1];
+            if (k == 1) {
+                for (int r = 0; r < 3; ++r) {
+                    LANES_LOOP {
+                        const double v1 = R[3 * r + 1][l] * Rf[i + 1][4][l] + R[3 * r + 2][l] * Rf[i + 1][7][l];
+                        const double v2 = R[3 * r + 1][l] * Rf[i + 1][5][l] + R[3 * r + 2][l] * Rf[i + 1][8][l];
+                        R[3 * r + 1][l] = v1;
+                        R[3 * r + 2][l] = v2;
+                    }
+                }
+            } else if (k == 2) {
+                for (int r = 0; r < 3; ++r) {
+                    LANES_LOOP {
+                        const double v0 = R[3 * r][l] * Rf[i + 1][0][l] + R[3 * r + 1][l] * Rf[i + 1][3][l] + R[3 * r + 2][l] * Rf[i + 1][6][l];
+                        const double v1 = R[3 * r][l] * Rf[i + 1][1][l] + R[3 * r + 1][l] * Rf[i + 1][4][l] + R[3 * r + 2][l] * Rf[i + 1][7][l];
+                        const double v2 = R[3 * r][l] * Rf[i + 1][2][l] + R[3 * r + 1][l] * Rf[i + 1][5][l] + R[3 * r + 2][l] * Rf[i + 1][8][l];
+                        R[3 * r][l] = v0;
+                        R[3 * r + 1][l] = v1;
+                        R[3 * r + 2][l] = v2;
+                    }
+                }
+            }
+        }
+    }
+
+    // a lane with an angle beyond the polynomials' range (|x| >= 1e5, or NaN; the LM bounds keep
+    // every joint within a few turns, so in practice never): its whole chain again, sines and
+    // cosines from libm, as lm_compiled._sincos does for such an angle
+    void fix_huge_angles() {
+        const int n = FIXED ? NM : n_rt;
+        for (int l = 0; l < L; ++l) {
+            bool huge = false;
+            for (int i = 0; i < n; ++i) huge = huge || (!a.pris[i] && !(std::fabs(qt[i][l] + off[i][l]) < 1e5));
+            if (huge) redo_lane_libm(l);
+        }
+    }
+
+    void redo_lane_libm(int l) {
+        const int n = FIXED ? NM : n_rt;
+        // the chain of lane l from the start, every sine and cosine from libm
+        double Rl[9], pl[3];
+        for (int m = 0; m < 9; ++m) Rl[m] = Rf[0][m][l];
+        for (int r = 0; r < 3; ++r) pl[r] = tf[0][r][l];
+        for (int i = 0; i < n; ++i) {
+            const double a0 = a.axes[3 * i], a1 = a.axes[3 * i + 1], a2 = a.axes[3 * i + 2];
+            const double x = qt[i][l] + off[i][l];
+            for (int r = 0; r < 3; ++r) {
+                o[i][r][l] = pl[r];
+                w[i][r][l] = a.zax[i] ? Rl[3 * r + 2] * a2 : Rl[3 * r] * a0 + Rl[3 * r + 1] * a1 + Rl[3 * r + 2] * a2;
+            }
+            if (a.pris[i]) {
+                for (int r = 0; r < 3; ++r) pl[r] += w[i][r][l] * x;
+            } else {
+                const double sv = std::sin(x), cv = std::cos(x);
+                const double K[3][3] = {{0.0, -a2, a1}, {a2, 0.0, -a0}, {-a1, a0, 0.0}};
+                double T[3][3];
+                for (int r = 0; r < 3; ++r)
+                    for (int m = 0; m < 3; ++m) {
+                        const double k2 = K[r][0] * K[0][m] + K[r][1] * K[1][m] + K[r][2] * K[2][m];
+                        T[r][m] = (r == m ? 1.0 : 0.0) + K[r][m] * sv + k2 * (1.0 - cv);
+                    }
+                double Rn[9];
+                for (int r = 0; r < 3; ++r)
+                    for (int m = 0; m < 3; ++m) Rn[3 * r + m] = Rl[3 * r] * T[0][m] + Rl[3 * r + 1] * T[1][m] + Rl[3 * r + 2] * T[2][m];
+                std::memcpy(Rl, Rn, sizeof(Rl));
+            }
+            for (int r = 0; r < 3; ++r)
+                pl[r] += Rl[3 * r] * tf[i + 1][0][l] + Rl[3 * r + 1] * tf[i + 1][1][l] + Rl[3 * r + 2] * tf[i + 1][2][l];
+            double Rn[9];
+            for (int r = 0; r < 3; ++r)
+                for (int m = 0; m < 3; ++m)
+                    Rn[3 * r + m] = Rl[3 * r] * Rf[i + 1][m][l] + Rl[3 * r + 1] * Rf[i + 1][3 + m][l] + Rl[3 * r + 2] * Rf[i + 1][6 + m][l];
+            std::memcpy(Rl, Rn, sizeof(Rl));
+        }
+        for (int m = 0; m < 9; ++m) R[m][l] = Rl[m];
+        for (int r = 0; r < 3; ++r) p[r][l] = pl[r];
+    }
+
+    // nn[l] = |e| of the trial; en[.][l] the error (lm_compiled._pose_error)
+    void pose_error() {
+        const int n = FIXED ? NM : n_rt;
+        for (int r = 0; r < 3; ++r) LANES_LOOP en[r][l] = pt[r][l] - p[r][l];
+        if (rows == 3) {
+            LANES_LOOP {
+                en[3][l] = 0.0; en[4][l] = 0.0; en[5][l] = 0.0;
+                nn[l] = std::sqrt(en[0][l] * en[0][l] + en[1][l] * en[1][l] + en[2][l] * en[2][l]);
+            }
+            return;
+        }
+        for (int r = 0; r < 3; ++r) {
+            const int x = (r + 1) % 3, y = (r + 2) % 3;
+            LANES_LOOP {
+                double acc = R[3 * x][l] * Rt[3 * y][l] - R[3 * y][l] * Rt[3 * x][l];
+                acc = acc + (R[3 * x + 1][l] * Rt[3 * y + 1][l] - R[3 * y + 1][l] * Rt[3 * x + 1][l]);
+                acc = acc + (R[3 * x + 2][l] * Rt[3 * y + 2][l] - R[3 * y + 2][l] * Rt[3 * x + 2][l]);
+                en[3 + r][l] = 0.5 * acc;
+            }
+        }
+        if (rotvec) {
+            alignas(64) double sn[L], cs[L];
+            LANES_LOOP {
+                double tr = R[0][l] * Rt[0][l];
+                for (int m = 1; m < 9; ++m) tr = tr + R[m][l] * Rt[m][l];
+                sn[l] = std::sqrt(en[3][l] * en[3][l] + en[4][l] * en[4][l] + en[5][l] * en[5][l]);
+                cs[l] = 0.5 * (tr - 1.0);
+            }
+            for (int l = 0; l < L; ++l) {
+                const double theta = std::atan2(sn[l], cs[l]);
+                if (sn[l] > 1e-9) {
+                    const double scale = theta / sn[l];
+                    for (int r = 0; r < 3; ++r) en[3 + r][l] *= scale;
+                } else if (cs[l] < 0.0) {
+                    int jmax = 0;
+                    double bestd = -INF;
+                    for (int j = 0; j < 3; ++j) {
+                        const double d = 0.5 * (Rt[3 * j][l] * R[3 * j][l] + Rt[3 * j + 1][l] * R[3 * j + 1][l] + Rt[3 * j + 2][l] * R[3 * j + 2][l] + 1.0);
+                        if (d > bestd) { bestd = d; jmax = j; }
+                    }
+                    const double den = std::sqrt(std::fmax(bestd, 1e-300));
+                    for (int r = 0; r < 3; ++r) {
+                        const double sij = 0.5 * (Rt[3 * r][l] * R[3 * jmax][l] + Rt[3 * r + 1][l] * R[3 * jmax + 1][l] +
+                                                  Rt[3 * r + 2][l] * R[3 * jmax + 2][l] + (r == jmax ? 1.0 : 0.0));
+                        en[3 + r][l] = sij / den * theta;
+                    }
+                }
+            }
+        }
+        LANES_LOOP {
+            double sq = en[0][l] * en[0][l];
+            for (int r = 1; r < 6; ++r) sq = sq + en[r][l] * en[r][l];
+            nn[l] = std::sqrt(sq);
+        }
+    }
+
+    // where better[l]: e ← en, and J, A = JᵀJ, g = Jᵀe of the trial (lm_compiled._normal_equations)
+    void normal_equations() {
+        const int n = FIXED ? NM : n_rt;
+        for (int r = 0; r < 6; ++r) LANES_LOOP e[r][l] = better[l] != 0.0 ? en[r][l] : e[r][l];
+        for (int j = 0; j < n; ++j) {
+            if (a.pris[j]) {
+                for (int r = 0; r < 3; ++r) LANES_LOOP { J[r][j][l] = w[j][r][l]; J[3 + r][j][l] = 0.0; }
+            } else {
+                LANES_LOOP {
+                    const double d0 = p[0][l] - o[j][0][l], d1 = p[1][l] - o[j][1][l], d2 = p[2][l] - o[j][2][l];
+                    J[0][j][l] = w[j][1][l] * d2 - w[j][2][l] * d1;
+                    J[1][j][l] = w[j][2][l] * d0 - w[j][0][l] * d2;
+                    J[2][j][l] = w[j][0][l] * d1 - w[j][1][l] * d0;
+                    J[3][j][l] = w[j][0][l];
+                    J[4][j][l] = w[j][1][l];
+                    J[5][j][l] = w[j][2][l];
+                }
+            }
+        }
+        alignas(64) double sacc[L];
+        for (int j = 0; j < n; ++j) {
+            for (int m = j; m < n; ++m) {
+                LANES_LOOP sacc[l] = J[0][j][l] * J[0][m][l];
+                for (int r = 1; r < rows; ++r) LANES_LOOP sacc[l] = sacc[l] + J[r][j][l] * J[r][m][l];
+                LANES_LOOP {
+                    const double v = better[l] != 0.0 ? sacc[l] : A[j][m][l];
+                    A[j][m][l] = v;
+                    A[m][j][l] = v;
+                }
+            }
+            LANES_LOOP sacc[l] = J[0][j][l] * e[0][l];
+            for (int r = 1; r < rows; ++r) LANES_LOOP sacc[l] = sacc[l] + J[r][j][l] * e[r][l];
+            LANES_LOOP g[j][l] = better[l] != 0.0 ? sacc[l] : g[j][l];
+        }
+    }
+
+    // dq ← (A + λ²I)⁻¹ g, held joints fixed (lm_compiled._solve)
+    void solve(bool any_held) {
+        const int n = FIXED ? NM : n_rt;
+        for (int i = 0; i < n; ++i) {
+            for (int k = 0; k < n; ++k) LANES_LOOP H[i][k][l] = A[i][k][l];
+            LANES_LOOP { H[i][n][l] = g[i][l]; H[i][i][l] = H[i][i][l] + lam2[l]; }
+        }
+        if (any_held) {
+            for (int i = 0; i < n; ++i) {
+                for (int k = 0; k < n; ++k)
+                    LANES_LOOP H[i][k][l] = ((held[i][l] != 0.0) | (held[k][l] != 0.0)) ? (i == k ? 1.0 : 0.0) : H[i][k][l];
+                LANES_LOOP H[i][n][l] = held[i][l] != 0.0 ? 0.0 : H[i][n][l];
+            }
+        }
+        for (int j = 0; j < n; ++j) {
+            alignas(64) double inv[L];
+            LANES_LOOP inv[l] = 1.0 / H[j][j][l];
+            for (int k = j + 1; k <= n; ++k) LANES_LOOP H[j][k][l] = H[j][k][l] * inv[l];
+            for (int i = j + 1; i < n; ++i)
+                for (int k = j + 1; k <= n; ++k) LANES_LOOP H[i][k][l] = H[i][k][l] - H[i][j][l] * H[j][k][l];
+        }
+        for (int i = 0; i < n; ++i) LANES_LOOP dq[i][l] = H[i][n][l];
+        for (int j = n - 1; j > 0; --j)
+            for (int i = 0; i < j; ++i) LANES_LOOP dq[i][l] = dq[i][l] - H[i][j][l] * dq[j][l];
+    }
+
+    void shared_kinds() {
+        const int n = FIXED ? NM : n_rt;
+        for (int k = 0; k <= n; ++k) {
+            int8_t u = -1;
+            for (int l = 0; l < L; ++l) {
+                if (!active[l]) continue;
+                if (u < 0) u = kind[k][l];
+                else if (u != kind[k][l]) u = 2;
+            }
+            ukind[k] = u < 0 ? 2 : u;
+        }
+    }
+
+    // ------------------------------------------------------------------ the loop
+    void run() {
+        const int n = FIXED ? NM : n_rt;
+        for (int l = 0; l < L; ++l) take_target(l);
+        while (true) {
+            bool any = false;
+            for (int l = 0; l < L; ++l) any = any || active[l];
+            if (!any) break;
+            shared_kinds();
+            project_trials();
+            fk();
+            fix_huge_angles();
+            pose_error();
+            LANES_LOOP better[l] = (active[l] && (start[l] || nn[l] < na[l])) ? 1.0 : 0.0;
+            for (int j = 0; j < n; ++j) LANES_LOOP q[j][l] = better[l] != 0.0 ? qt[j][l] : q[j][l];
+            LANES_LOOP na[l] = better[l] != 0.0 ? nn[l] : na[l];
+            normal_equations();
+            LANES_LOOP { g2[l] = g[0][l] * g[0][l]; trA[l] = A[0][0][l]; }
+            for (int j = 1; j < n; ++j) LANES_LOOP { g2[l] = g2[l] + g[j][l] * g[j][l]; trA[l] = trA[l] + A[j][j][l]; }
+            for (int l = 0; l < L; ++l) {
+                solving[l] = 0.0;
+                if (!active[l]) continue;
+                int code = 0;
+                const bool bt = better[l] != 0.0;
+                if (start[l]) {
+                    start[l] = false;
+                    if (na[l] <= a.tol) code = AT_START;
+                    else if (a.ilimit == 0) code = ILIMIT;
+                } else {
+                    it[l] += 1;
+                    if (bt) { lam[l] *= 0.5; rej[l] = 0; }
+                    else { lam[l] *= 2.0; rej[l] += 1; }
+                    if (bt && na[l] <= a.tol) code = SUCCESS;
+                    else if (bt && gtol_run > 0.0 && std::sqrt(g2[l]) <= gtol_run * std::sqrt(trA[l]) * na[l]) code = STATIONARY;
+                    else if (rej[l] > a.rlimit) code = REJECTIONS;
+                    else if (it[l] >= a.ilimit) code = ILIMIT;
+                    else if (rej[l] > 0 && stagnated(l)) code = STAGNATED;
+                }
+                if (code) {
+                    end_run(l, code);  // a new run (start[l]) or target, or the lane goes idle
+                    continue;
+                }
+                solving[l] = 1.0;
+                lam2[l] = lam[l] * lam[l];
+            }
+            // a joint on a bound of its run that the gradient pushes outward is held for the step
+            bool any_held = false;
+            for (int j = 0; j < n; ++j) {
+                LANES_LOOP held[j][l] = (solving[l] != 0.0 && ((q[j][l] <= rlo[j][l] && g[j][l] < 0.0) ||
+                                                               (q[j][l] >= rhi[j][l] && g[j][l] > 0.0))) ? 1.0 : 0.0;
+                int h = 0;
+                LANES_ANY h |= held[j][l] != 0.0 ? 1 : 0;
+                any_held = any_held || h;
+            }
+            if (any_held)
+                for (int j = 0; j < n; ++j)
+                    for (int l = 0; l < L; ++l) touched[l] = touched[l] || held[j][l] != 0.0;
+            solve(any_held);
+            for (int j = 0; j < n; ++j) LANES_LOOP qt[j][l] = solving[l] != 0.0 ? q[j][l] + dq[j][l] : qt[j][l];
+        }
+    }
+
+    // the start and every trial step into the bounds of its run; a lane whose step they change is
+    // "touched" (its free run may find what the bounds hid)
+    void project_trials() {
+        const int n = FIXED ? NM : n_rt;
+        int out = 0;
+        for (int j = 0; j < n; ++j) LANES_ANY out |= (qt[j][l] < rlo[j][l] || qt[j][l] > rhi[j][l]) ? 1 : 0;
+        if (!out) return;
+        for (int l = 0; l < L; ++l) {
+            if (!active[l] || !limited_run[l]) continue;
+            for (int j = 0; j < n; ++j) {
+                const double v = project1(qt[j][l], rlo[j][l], rhi[j][l], !a.pris[j]);
+                if (v != qt[j][l]) touched[l] = true;
+                qt[j][l] = v;
+            }
+        }
+    }
+
+    bool stagnated(int l) const {
+        const int n = FIXED ? NM : n_rt;
+        const double mu = lam[l] * lam[l];
+        const double slack = (trA[l] / mu + 64.0 * n * EPS) * std::sqrt(g2[l]);
+        for (int j = 0; j < n; ++j)
+            if (!((std::fabs(g[j][l]) + slack) / mu <= 0.125 * spacing(q[j][l]))) return false;
+        return true;
+    }
+};
+
+template <int NM, int L>
+void run_block(const Args &a) {
+    // on the heap: a block of a 16-joint arm is ~100 kB
+    auto *blk = new Block<NM, L>(a);
+    blk->run();
+    delete blk;
+}
+
+void run(const Args &a, int lanes);
+
+}  // namespace WSMAP_ISA
+}  // namespace wsmap_lanes
+#endif

@@ -1,0 +1,118 @@
+"""The lane kernel: the LM search of :mod:`wsmap.kinematics.lm_compiled` on several targets per instruction.
+
+:mod:`wsmap.kinematics.lm_compiled` runs one target at a time; each LM iteration is a long chain of
+dependent operations (joint after joint, pivot after pivot), so most of a core's vector units and
+most of its cycles sit idle (docs/performance.md, "The limit"). The lane kernel (C++,
+``src/wsmap/kinematics/_lanes/lanes.hpp``, built into the extension ``wsmap.kinematics._lanes``)
+keeps a block of ``lanes`` targets in flight: every number of the iteration is an array over the
+block, so the forward kinematics, pose error, Jacobian, normal equations and solve are loops over
+lanes that the compiler turns into AVX-512 or AVX2 instructions (a build per instruction set, the
+widest the CPU has chosen at import, :func:`isa`). Acceptance, damping, the stopping tests, the
+limits, the confirmation and the next start are decided lane by lane, and a lane whose target is
+done takes the next one from a counter shared by every thread of the call.
+
+Same search, same arithmetic per target as the scalar kernel; the compilers fuse multiply-adds
+differently, so answers agree to rounding (``tests/kinematics/test_lm_lanes.py``: the same successes
+and starts, ``q`` within 1e-8, on named and random arms in every mode). A target's answer does not
+depend on its lane, its neighbours or the thread count.
+
+Which kernel runs: :func:`set_kernel` (``"lanes"``, the default where the extension is built, or
+``"scalar"``, the numba kernel, the tested reference), or the environment variable ``WSMAP_KERNEL``.
+Arms of more than :data:`MAX_JOINTS` joints run on the scalar kernel.
+"""
+
+from __future__ import annotations
+
+import os
+from contextlib import contextmanager
+
+import numba
+import numpy as np
+
+from . import lm_compiled
+
+try:
+    from . import _lanes
+except ImportError as exc:  # a source checkout that was never built: the scalar kernel only
+    _lanes = None
+    _IMPORT_ERROR = str(exc)
+else:
+    _IMPORT_ERROR = ""
+
+__all__ = ["KERNELS", "LANES", "MAX_JOINTS", "available", "isa", "kernel", "set_kernel", "use_kernel", "run_targets"]
+
+#: The kernels :func:`set_kernel` takes.
+KERNELS = ("lanes", "scalar")
+#: Targets in flight per thread (4, 8 or 16; ``benchmarks/bench_peers.py --lanes`` compares them).
+LANES = 8
+#: The most joints the lane kernel takes; longer chains run on the scalar kernel.
+MAX_JOINTS = 16
+_kernel = None
+
+
+def available() -> bool:
+    """Whether the extension ``wsmap.kinematics._lanes`` is built and loads."""
+    return _lanes is not None
+
+
+def isa() -> str:
+    """The instruction set of the build in use: ``"avx512"``, ``"avx2"`` or ``"base"``."""
+    if _lanes is None:
+        raise RuntimeError(f"the lane kernel is not built ({_IMPORT_ERROR}); reinstall wsmap")
+    return _lanes.best_isa()
+
+
+def set_kernel(name: str | None = None) -> str:
+    """Use kernel ``name`` (one of :data:`KERNELS`) from now on; None: ``WSMAP_KERNEL``, else
+    ``"lanes"`` where the extension is built, else ``"scalar"``. Returns the kernel set."""
+    global _kernel
+    if name is None:
+        name = os.environ.get("WSMAP_KERNEL") or ("lanes" if available() else "scalar")
+    if name not in KERNELS:
+        raise ValueError(f"kernel must be one of {', '.join(KERNELS)}, not {name!r}")
+    if name == "lanes" and not available():
+        raise RuntimeError(f"the lane kernel is not built ({_IMPORT_ERROR}); reinstall wsmap, or use 'scalar'")
+    _kernel = name
+    return name
+
+
+def kernel() -> str:
+    """The kernel in use (see :func:`set_kernel`)."""
+    return _kernel if _kernel is not None else set_kernel()
+
+
+@contextmanager
+def use_kernel(name: str):
+    """Within the block, kernel ``name``; the one before after it."""
+    before = kernel()
+    set_kernel(name)
+    try:
+        yield name
+    finally:
+        set_kernel(before)
+
+
+def runs_on_lanes(n: int) -> bool:
+    """Whether a search of ``n``-joint arms runs on the lane kernel now."""
+    return kernel() == "lanes" and 1 <= n <= MAX_JOINTS
+
+
+def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
+                Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
+                ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out,
+                lanes: int = LANES, isa: str = "auto"):
+    """:func:`wsmap.kinematics.lm_compiled.run_targets` on the lane kernel (same arguments, same
+    results to rounding), on :func:`~wsmap.kinematics.lm_compiled.threads` threads: this one and
+    pool threads, each a block of ``lanes`` targets taken one at a time from a shared counter.
+    ``isa``: ``"auto"`` (the widest build this CPU runs) or a narrower one (tests, benchmarks)."""
+    if _lanes is None:
+        raise RuntimeError(f"the lane kernel is not built ({_IMPORT_ERROR}); reinstall wsmap, or use 'scalar'")
+    M = len(arm)
+    counter = np.zeros(1, dtype=np.int64)
+    args = (mode, arm, Rt, pt, keys, qexp, nexp, int(k_first), int(k_last),
+            Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
+            int(ilimit), int(rlimit), float(tol), float(lam0), float(gtol), float(confirm_tol), bool(free_pass),
+            q_out, ok_out, it_out, res_out, start_out, counter, int(lanes), isa)
+    # a thread per block of lanes at least, so a second thread has whole blocks to work on
+    want = max(1, min(numba.get_num_threads(), M // (2 * int(lanes))))
+    lm_compiled.on_threads(want, lambda: _lanes.run_targets(*args))

@@ -1,0 +1,194 @@
+"""The lane (SIMD) kernel against the scalar numba kernel, its tested reference.
+
+The two run the same search with the same arithmetic per target; the compilers fuse multiply-adds
+differently, so the answers agree to rounding: the same successes, the same succeeding starts and
+failure reasons, ``q`` within 1e-8 where both succeed. A target's answer does not depend on its
+lane, its neighbours, the lane count or the thread count (bit for bit).
+"""
+
+import numpy as np
+import pytest
+
+from tests.frames import random_chain
+from wsmap import robots
+from wsmap import workspace as ws
+from wsmap.kinematics import as_chain, ikine_LM, ikine_search, lm_compiled, lm_lanes, map_search
+from wsmap.kinematics import from_dh
+from wsmap.kinematics.ik import kernel as ik_kernel
+from wsmap.workspace.maps import _per_node
+
+PI = np.pi
+
+
+@pytest.fixture(autouse=True)
+def _restore():
+    threads, kernel = lm_compiled.threads(), lm_lanes.kernel()
+    yield
+    lm_compiled.set_threads(threads)
+    lm_lanes.set_kernel(kernel)
+
+
+def both(fn):
+    """``fn()`` on the lane kernel and on the scalar one."""
+    with lm_lanes.use_kernel("lanes"):
+        a = fn()
+    with lm_lanes.use_kernel("scalar"):
+        b = fn()
+    return a, b
+
+
+def assert_agree(a, b, min_success=10):
+    assert a.success.sum() >= min_success
+    np.testing.assert_array_equal(a.success, b.success)
+    np.testing.assert_array_equal(a.start, b.start)
+    np.testing.assert_array_equal(a.reason, b.reason)
+    ok = a.success
+    # the same solution (angles modulo a turn: an unlimited joint may end on +pi or -pi) for nearly
+    # every target; a redundant arm's run may part ways after a rounding difference and end
+    # elsewhere on the same self-motion manifold (both confirmed by forward kinematics)
+    d = np.abs(np.angle(np.exp(1j * (a.q[ok] - b.q[ok])))).max(axis=1)
+    assert (d <= 1e-8).mean() >= 0.98, f"{(d > 1e-8).sum()} of {ok.sum()} solutions differ"
+    # the same path, iteration for iteration, for nearly every target solved (a failed run's length
+    # is chaotic: where it wanders, a rounding difference changes when it stops)
+    first = ok & (a.start == 0)
+    same = (a.iterations == b.iterations)[first].mean()
+    assert same > 0.85, f"iteration counts agree on {same:.1%} of the targets solved by the first start"
+
+
+def test_the_extension_is_built_and_the_default():
+    # CI builds the package from source: a broken C++ build must fail here, not fall back quietly
+    assert lm_lanes.available()
+    assert lm_lanes.isa() in ("avx512", "avx2", "base")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.delenv("WSMAP_KERNEL", raising=False)
+        assert lm_lanes.set_kernel() == "lanes"
+    assert lm_lanes.runs_on_lanes(7) and not lm_lanes.runs_on_lanes(lm_lanes.MAX_JOINTS + 1)
+
+
+@pytest.mark.parametrize("name, lim, rpy", [("puma560", True, (0, 0, 0)), ("puma560", False, (PI, 0, 0)),
+                                            ("ur5e", None, (PI, 0, 0)), ("panda", None, (PI, 0, 0)),
+                                            ("iiwa14", None, (0.3, -0.2, 0.5)), ("gen3", None, (0.3, -0.2, 0.5))])
+def test_search_agrees_with_the_scalar_kernel(name, lim, rpy):
+    arm = robots.load(name, joint_limits=lim)
+    T = ws.target_poses(ws.cartesian_grid(-1.2, 1.2, 0.2), rpy, "standard")
+    a, b = both(lambda: ikine_search(arm, T, starts=6, seed=3))
+    assert_agree(a, b)
+    for s in (a, b):
+        np.testing.assert_allclose(as_chain(arm).fkine(s.q[s.success]), T[s.success], atol=1e-6)
+
+
+def test_position_only_and_the_paper_lm_agree():
+    arm = robots.load("panda")
+    T = ws.target_poses(ws.cartesian_grid(-1.2, 1.2, 0.2), (0, 0, 0), "standard")
+    a, b = both(lambda: ikine_search(arm, T, starts=3, seed=1, position_only=True))
+    assert_agree(a, b)
+    # the paper's one-start LM, a batch of arms whose fixed rotations differ from arm to arm
+    arms = robots.sample_spherical_wrist(4, seed=5)
+    T = ws.target_poses(ws.cartesian_grid(-1, 1, 0.2), (0.3, 0.2, 0.1), "paper")
+    a, b = both(lambda: ikine_LM(_per_node(arms), T))
+    assert a.success.sum() > 100
+    np.testing.assert_array_equal(a.success, b.success)
+    np.testing.assert_array_equal(a.iterations[a.success], b.iterations[b.success])
+    np.testing.assert_allclose(a.q[a.success], b.q[b.success], atol=1e-9)
+
+
+def test_random_chains_prismatic_joints_and_a_batch_of_arms():
+    rng = np.random.default_rng(11)
+    # joints about arbitrary axes (Rodrigues), fixed rotations of every kind, unlimited joints
+    for n in (3, 6, 7, 9):
+        chain = random_chain(rng, n, unlimited=0.3)
+        q = chain.random_q(150, rng)
+        T = np.concatenate([np.asarray(chain.fkine(q)), ws.target_poses(rng.uniform(-1, 1, (50, 3)), (0, 0, 0),
+                                                                           "standard")])
+        a, b = both(lambda: ikine_search(chain, T, starts=4, seed=n))
+        assert_agree(a, b, min_success=100)
+    # a prismatic joint with limits
+    gantry = from_dh([0.3, 0.0, 0.2, 0.0], [0.0, 0.4, 0.0, 0.1], [PI / 2, 0.0, PI / 2, 0.0],
+                     prismatic=[False, False, True, False], qlim=[(-3, 3), (-2, 2), (0.05, 0.6), (-3, 3)])
+    q = gantry.random_q(200, rng)
+    T = np.asarray(gantry.fkine(q))
+    a, b = both(lambda: ikine_search(gantry, T, starts=4, seed=2, position_only=True))
+    assert_agree(a, b, min_success=150)
+    # a batch of arms in one call: the lanes hold different arms at once
+    arms = robots.sample_spherical_wrist(5, seed=8)
+    nodes = ws.cartesian_grid(-1, 1, 0.25)
+    T = ws.target_poses(nodes, (0.2, 0.1, 0.0), "standard")
+    a, b = both(lambda: map_search(arms, T, ws.node_neighbours(nodes)))
+    np.testing.assert_array_equal(a.success, b.success)
+    np.testing.assert_allclose(a.q[a.success], b.q[b.success], atol=1e-8)
+
+
+def test_a_huge_start_angle_takes_libms_sine():
+    # beyond |x| = 1e5 the polynomials do not hold; both kernels take libm's values there
+    arm = robots.load("puma560", joint_limits=False)
+    T = np.asarray(arm.fkine(np.array([0.3, -0.5, 0.4, 0.2, 0.6, -0.3])))[None]
+    q0 = np.full(6, 2.0e5)
+    a, b = both(lambda: ikine_search(arm, T, starts=1, q0=q0, joint_limits=False))
+    assert a.success[0] and b.success[0]
+    np.testing.assert_allclose(a.q, b.q, atol=1e-8)
+
+
+def test_answers_do_not_depend_on_lanes_threads_or_order():
+    arm = robots.load("panda")
+    T = ws.target_poses(ws.cartesian_grid(-1, 1, 0.2), (PI, 0, 0), "standard")
+    aa = ik_kernel.arm_arrays(as_chain(arm))
+    keys = ik_kernel.pose_keys(0, T)
+    M, n = len(T), arm.n
+    qexp = np.zeros((M, 1, n))
+    nexp = np.ones(M, dtype=np.int64)
+
+    def run(order, lanes, threads, isa="auto"):
+        q, ok, it, res, start = ik_kernel.unsolved(M, n)
+        args = [lm_compiled.MODE_SEARCH, np.zeros(M, dtype=np.int64), np.ascontiguousarray(T[order, :3, :3]),
+                np.ascontiguousarray(T[order, :3, 3]), keys[order], qexp, nexp, 0, 3,
+                *(aa[k] for k in ("Rf", "tf", "rkind", "off", "axes", "pris", "zax", "lo", "hi", "clo", "chi",
+                                  "clipped", "limited", "unlimited", "blo", "bhi")),
+                100, 20, 1e-10, 0.1, 1e-9, 1e-6, True, q, ok, it, res, start]
+        lm_compiled.set_threads(threads)
+        lm_lanes.run_targets(*args, lanes=lanes, isa=isa)
+        back = np.argsort(order)
+        return q[back], ok[back], it[back], res[back], start[back]
+
+    ident = np.arange(M)
+    ref = run(ident, 8, 1)
+    assert ref[1].sum() > 100
+    perm = np.random.default_rng(0).permutation(M)
+    for got in (run(perm, 8, 1), run(ident, 4, 1), run(perm, 16, 2), run(ident, 8, 2)):
+        for x, y in zip(got, ref):
+            np.testing.assert_array_equal(x, y)
+    # the narrower builds: the same search to rounding
+    for isa in ("avx2", "base"):
+        if isa == "avx2" and lm_lanes.isa() == "base":
+            continue
+        got = run(ident, 8, 1, isa)
+        np.testing.assert_array_equal(got[1], ref[1])
+        np.testing.assert_allclose(got[0][ref[1]], ref[0][ref[1]], atol=1e-8)
+
+
+def test_bad_input():
+    with pytest.raises(ValueError, match="kernel must be one of lanes, scalar, not 'fast'"):
+        lm_lanes.set_kernel("fast")
+    with pytest.raises(ValueError, match="isa must be 'auto', 'avx512', 'avx2' or 'base', not 'sse9'"):
+        lm_lanes._lanes.best_isa() and _call_with(isa="sse9")
+    with pytest.raises(ValueError, match="lanes must be 4, 8 or 16"):
+        _call_with(lanes=5)
+    with pytest.raises(ValueError, match="Rt has 9 elements, not 18"):
+        _call_with(Rt=np.zeros((1, 3, 3)))
+    with pytest.raises(ValueError, match="arm index out of range"):
+        _call_with(arm=np.array([0, 3], dtype=np.int64))
+
+
+def _call_with(**over):
+    """One call of the extension on two targets of the PUMA560, with ``over`` replacing arguments."""
+    aa = ik_kernel.arm_arrays(as_chain(robots.load("puma560")))
+    M, n = 2, 6
+    q, ok, it, res, start = ik_kernel.unsolved(M, n)
+    args = dict(mode=0, arm=np.zeros(M, dtype=np.int64), Rt=np.tile(np.eye(3), (M, 1, 1)), pt=np.zeros((M, 3)),
+                keys=np.zeros(M, dtype=np.uint64), qexp=np.zeros((M, 1, n)), nexp=np.ones(M, dtype=np.int64),
+                k_first=0, k_last=0, **{k: aa[k] for k in ("Rf", "tf", "rkind", "off", "axes", "pris", "zax", "lo",
+                                                           "hi", "clo", "chi", "clipped")},
+                limited_arm=aa["limited"], unlimited=aa["unlimited"], blo=aa["blo"], bhi=aa["bhi"], ilimit=10,
+                rlimit=5, tol=1e-10, lam0=0.1, gtol=0.0, confirm_tol=1e-6, free_pass=True, q_out=q, ok_out=ok,
+                it_out=it, res_out=res, start_out=start, counter=np.zeros(1, dtype=np.int64), lanes=8, isa="auto")
+    args.update(over)
+    lm_lanes._lanes.run_targets(*args.values())
