@@ -148,9 +148,18 @@ def _compress(files: set[Path]) -> list[str]:
     return sorted(out)
 
 
+#: Compiled extensions: the module that loads one -> the folder of its sources. A change there
+#: changes what a stage computes, though no Python import names those files.
+EXTENSIONS = {"wsmap.kinematics.lm_lanes": "src/wsmap/kinematics/_lanes"}
+
+
 def code_deps(cmd: str) -> list[str]:
-    """The ``src/...`` deps a stage running ``cmd`` must declare (sorted)."""
-    return _compress(import_closure(stage_roots(cmd)))
+    """The ``src/...`` deps a stage running ``cmd`` must declare (sorted): its import closure, and
+    the sources of the compiled extensions that closure loads."""
+    closure = import_closure(stage_roots(cmd))
+    out = set(_compress(closure))
+    out |= {folder for mod, folder in EXTENSIONS.items() if module_file(mod) in closure}
+    return sorted(out)
 
 
 def _stages(text: str) -> dict:

@@ -192,3 +192,20 @@ def _call_with(**over):
                 it_out=it, res_out=res, start_out=start, counter=np.zeros(1, dtype=np.int64), lanes=8, isa="auto")
     args.update(over)
     lm_lanes._lanes.run_targets(*args.values())
+
+
+def test_the_lanes_atan2_is_within_two_ulp_of_libm():
+    # the rotation angle of the pose error: atan2(|v|, (tr - 1) / 2), y >= 0, branch-free in the lanes
+    rng = np.random.default_rng(4)
+    y = np.concatenate([rng.uniform(0, 1.5, 20000), 10.0 ** rng.uniform(-300, 0, 2000), [0, 0, 1, 1e-12, 1, 2]])
+    x = np.concatenate([rng.uniform(-1.5, 1.5, 20000), rng.uniform(-1, 1, 2000), [1, -1, 0, -1, -1e-12, 2]])
+    ref = np.arctan2(y, x)
+    isas = ["base"] + (["avx2"] if lm_lanes.isa() in ("avx2", "avx512") else []) + (["avx512"] if lm_lanes.isa() == "avx512" else [])
+    for isa in isas:
+        out = np.empty_like(x)
+        lm_lanes._lanes.atan2(y, x, out, isa)
+        assert (np.abs(out - ref) <= 2 * np.spacing(np.abs(ref))).all(), isa
+        assert out[-6] == 0.0 and out[-5] == np.pi and out[-4] == np.pi / 2
+    out = np.empty(2)
+    lm_lanes._lanes.atan2(np.array([np.nan, 1.0]), np.array([1.0, np.nan]), out, "auto")
+    assert np.isnan(out).all()

@@ -53,6 +53,9 @@ def test_stage_depends_on_its_code_and_the_lock(name):
     assert len(closure) > 3
     missing = sorted(str(p.relative_to(ROOT)) for p in closure if not _covered(p, deps))
     assert not missing, f"stage {name} runs code it does not depend on: {missing}"
+    # the compiled lane kernel runs every IK search: its C++ sources are deps wherever it loads
+    if ROOT / "src/wsmap/kinematics/lm_lanes.py" in closure:
+        assert "src/wsmap/kinematics/_lanes" in deps, f"stage {name} runs the lane kernel without its sources as deps"
 
 
 def test_dvc_yaml_holds_the_generated_deps():

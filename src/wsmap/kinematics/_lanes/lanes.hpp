@@ -68,7 +68,8 @@ constexpr double INF = std::numeric_limits<double>::infinity();
 
 // a loop over the lanes, vectorised whatever the compiler's cost model says (-fopenmp-simd)
 #define LANES_LOOP _Pragma("omp simd") for (int l = 0; l < L; ++l)
-#define LANES_ANY for (int l = 0; l < L; ++l)
+// an OR over the lanes into the int `anyv` (vectorised as a reduction)
+#define LANES_ANY _Pragma("omp simd reduction(|:anyv)") for (int l = 0; l < L; ++l)
 
 // sin and cos as lm_compiled._sincos (fdlibm's kernels after a three-part Cody-Waite reduction),
 // branch-free so that a loop over lanes vectorises; |x| >= 1e5 and NaN are fixed afterwards by libm.
@@ -119,12 +120,44 @@ static inline double project1(double qj, double lo, double hi, bool revolute) {
     return s;
 }
 
-static inline double spacing(double x) {
-    double ax = std::fabs(x);
-    if (ax == 0.0) return TINY;
-    int ex;
-    std::frexp(ax, &ex);
-    return std::fmax(std::ldexp(1.0, ex - 53), TINY);
+// np.spacing(|x|), the gap to the next float above |x|, from the exponent bits (no libm call, so a
+// loop over lanes vectorises); below 2^-970 the smallest subnormal instead (smaller than the true
+// gap there: the stagnation test that uses it only gets stricter)
+static inline double spacing_fast(double x) {
+    uint64_t bits;
+    const double ax = std::fabs(x);
+    std::memcpy(&bits, &ax, sizeof(bits));
+    const uint64_t e = bits >> 52;  // the biased exponent
+    const uint64_t out = (e > 52 ? e - 52 : 0) << 52;
+    double v;
+    std::memcpy(&v, &out, sizeof(v));
+    return v > 0.0 ? v : TINY;
+}
+
+// atan2(y, x) for y >= 0 (the rotation angle's sine and cosine), branch-free so that a loop over
+// lanes vectorises: Cephes' reduction of atan to [-0.42, 0.66] (by pi/4 and pi/2 with their
+// low-order parts) and its rational minimax approximation; within 2 ulp of libm
+// (tests/kinematics/test_lm_lanes.py)
+static inline double atan2_pos(double y, double x) {
+    const double ax = std::fabs(x);
+    const bool swap = y > ax;
+    const double num = swap ? ax : y, den = swap ? y : ax;
+    double t = den > 0.0 ? num / den : 0.0;  // in [0, 1]
+    // atan(t): t > 0.66 reduced by pi/4
+    const bool mid = t > 0.66;
+    const double base = mid ? 7.85398163397448309616e-1 : 0.0;
+    const double lo = mid ? 0.5 * 6.123233995736765886130e-17 : 0.0;
+    t = mid ? (t - 1.0) / (t + 1.0) : t;
+    const double z = t * t;
+    const double P = (((-8.750608600031904122785e-1 * z - 1.615753718733365076637e1) * z - 7.500855792314704667340e1) * z -
+                      1.228866684490136173410e2) * z - 6.485021904942025371773e1;
+    const double Q = ((((z + 2.485846490142306297962e1) * z + 1.650270098316988542046e2) * z + 4.328810604912902668951e2) * z +
+                      4.853903996359136964868e2) * z + 1.945506571482613964425e2;
+    double r = base + (t * (z * P / Q) + lo) + t;
+    // undo the swap (pi/2 - r) and the sign of x (pi - r)
+    r = swap ? (1.57079632679489661923 - r) + 6.123233995736765886130e-17 : r;
+    r = x < 0.0 ? (3.14159265358979311600 - r) + 1.2246467991473532e-16 : r;
+    return (std::isnan(x) || std::isnan(y)) ? x + y : r;
 }
 
 // lm_compiled._confirm: forward kinematics by 4 x 4 products (another path than the lanes' own),
@@ -205,7 +238,7 @@ struct Block {
     alignas(64) double e[6][L], en[6][L], J[6][NM][L], A[NM][NM][L], g[NM][L], H[NM][NM + 1][L];
     alignas(64) double nn[L], better[L], held[NM][L], lam2[L], solving[L];
     alignas(64) double rlo[NM][L], rhi[NM][L];  // the bounds of the lane's run: clo/chi, or +-inf in a free run
-    alignas(64) double g2[L], trA[L];
+    alignas(64) double g2[L], trA[L], stuck[L];
     int8_t kind[NM + 1][L];
     int8_t ukind[NM + 1];  // the kind shared by every lane, or 2 (the full product) where they differ
 
@@ -471,6 +504,10 @@ struct Block {
     // cosines from libm, as lm_compiled._sincos does for such an angle
     void fix_huge_angles() {
         const int n = FIXED ? NM : n_rt;
+        int anyv = 0;
+        for (int i = 0; i < n; ++i)
+            if (!a.pris[i]) LANES_ANY anyv |= !(std::fabs(qt[i][l] + off[i][l]) < 1e5);
+        if (!anyv) return;
         for (int l = 0; l < L; ++l) {
             bool huge = false;
             for (int i = 0; i < n; ++i) huge = huge || (!a.pris[i] && !(std::fabs(qt[i][l] + off[i][l]) < 1e5));
@@ -547,8 +584,10 @@ struct Block {
                 sn[l] = std::sqrt(en[3][l] * en[3][l] + en[4][l] * en[4][l] + en[5][l] * en[5][l]);
                 cs[l] = 0.5 * (tr - 1.0);
             }
+            alignas(64) double th[L];
+            LANES_LOOP th[l] = atan2_pos(sn[l], cs[l]);
             for (int l = 0; l < L; ++l) {
-                const double theta = std::atan2(sn[l], cs[l]);
+                const double theta = th[l];
                 if (sn[l] > 1e-9) {
                     const double scale = theta / sn[l];
                     for (int r = 0; r < 3; ++r) en[3 + r][l] *= scale;
@@ -594,43 +633,56 @@ struct Block {
                 }
             }
         }
-        alignas(64) double sacc[L];
+        if (rows == 6) products<6>();
+        else products<3>();
+    }
+
+    // A = JᵀJ (its upper triangle: A is symmetric) and g = Jᵀe over the first ROWS rows of J,
+    // summed row after row as the scalar kernel does; kept where the trial was rejected
+    template <int ROWS>
+    void products() {
+        const int n = FIXED ? NM : n_rt;
         for (int j = 0; j < n; ++j) {
             for (int m = j; m < n; ++m) {
-                LANES_LOOP sacc[l] = J[0][j][l] * J[0][m][l];
-                for (int r = 1; r < rows; ++r) LANES_LOOP sacc[l] = sacc[l] + J[r][j][l] * J[r][m][l];
                 LANES_LOOP {
-                    const double v = better[l] != 0.0 ? sacc[l] : A[j][m][l];
-                    A[j][m][l] = v;
-                    A[m][j][l] = v;
+                    double sacc = J[0][j][l] * J[0][m][l];
+                    for (int r = 1; r < ROWS; ++r) sacc = sacc + J[r][j][l] * J[r][m][l];
+                    A[j][m][l] = better[l] != 0.0 ? sacc : A[j][m][l];
                 }
             }
-            LANES_LOOP sacc[l] = J[0][j][l] * e[0][l];
-            for (int r = 1; r < rows; ++r) LANES_LOOP sacc[l] = sacc[l] + J[r][j][l] * e[r][l];
-            LANES_LOOP g[j][l] = better[l] != 0.0 ? sacc[l] : g[j][l];
+            LANES_LOOP {
+                double sacc = J[0][j][l] * e[0][l];
+                for (int r = 1; r < ROWS; ++r) sacc = sacc + J[r][j][l] * e[r][l];
+                g[j][l] = better[l] != 0.0 ? sacc : g[j][l];
+            }
         }
     }
 
-    // dq ← (A + λ²I)⁻¹ g, held joints fixed (lm_compiled._solve)
+    // dq ← (A + λ²I)⁻¹ g, held joints fixed (lm_compiled._solve): Gaussian elimination without
+    // pivoting on the upper triangle alone (the trailing block stays symmetric; half the updates of
+    // the scalar kernel's full elimination, the same answer to rounding)
     void solve(bool any_held) {
         const int n = FIXED ? NM : n_rt;
         for (int i = 0; i < n; ++i) {
-            for (int k = 0; k < n; ++k) LANES_LOOP H[i][k][l] = A[i][k][l];
+            for (int k = i; k < n; ++k) LANES_LOOP H[i][k][l] = A[i][k][l];
             LANES_LOOP { H[i][n][l] = g[i][l]; H[i][i][l] = H[i][i][l] + lam2[l]; }
         }
         if (any_held) {
             for (int i = 0; i < n; ++i) {
-                for (int k = 0; k < n; ++k)
+                for (int k = i; k < n; ++k)
                     LANES_LOOP H[i][k][l] = ((held[i][l] != 0.0) | (held[k][l] != 0.0)) ? (i == k ? 1.0 : 0.0) : H[i][k][l];
                 LANES_LOOP H[i][n][l] = held[i][l] != 0.0 ? 0.0 : H[i][n][l];
             }
         }
+        alignas(64) double f[NM][L];
         for (int j = 0; j < n; ++j) {
+            // column j below the pivot is row j right of it (symmetry), taken before row j is scaled
+            for (int i = j + 1; i < n; ++i) LANES_LOOP f[i][l] = H[j][i][l];
             alignas(64) double inv[L];
             LANES_LOOP inv[l] = 1.0 / H[j][j][l];
             for (int k = j + 1; k <= n; ++k) LANES_LOOP H[j][k][l] = H[j][k][l] * inv[l];
             for (int i = j + 1; i < n; ++i)
-                for (int k = j + 1; k <= n; ++k) LANES_LOOP H[i][k][l] = H[i][k][l] - H[i][j][l] * H[j][k][l];
+                for (int k = i; k <= n; ++k) LANES_LOOP H[i][k][l] = H[i][k][l] - f[i][l] * H[j][k][l];
         }
         for (int i = 0; i < n; ++i) LANES_LOOP dq[i][l] = H[i][n][l];
         for (int j = n - 1; j > 0; --j)
@@ -669,6 +721,15 @@ struct Block {
             normal_equations();
             LANES_LOOP { g2[l] = g[0][l] * g[0][l]; trA[l] = A[0][0][l]; }
             for (int j = 1; j < n; ++j) LANES_LOOP { g2[l] = g2[l] + g[j][l] * g[j][l]; trA[l] = trA[l] + A[j][j][l]; }
+            // an accepted step halves λ, a rejected one doubles it (the start's evaluation is no step)
+            LANES_LOOP {
+                const bool step = active[l] & !start[l];
+                const bool bt = better[l] != 0.0;
+                it[l] += step ? 1 : 0;
+                lam[l] = step ? (bt ? lam[l] * 0.5 : lam[l] * 2.0) : lam[l];
+                rej[l] = step ? (bt ? 0 : rej[l] + 1) : rej[l];
+            }
+            stagnation();
             for (int l = 0; l < L; ++l) {
                 solving[l] = 0.0;
                 if (!active[l]) continue;
@@ -679,14 +740,11 @@ struct Block {
                     if (na[l] <= a.tol) code = AT_START;
                     else if (a.ilimit == 0) code = ILIMIT;
                 } else {
-                    it[l] += 1;
-                    if (bt) { lam[l] *= 0.5; rej[l] = 0; }
-                    else { lam[l] *= 2.0; rej[l] += 1; }
                     if (bt && na[l] <= a.tol) code = SUCCESS;
                     else if (bt && gtol_run > 0.0 && std::sqrt(g2[l]) <= gtol_run * std::sqrt(trA[l]) * na[l]) code = STATIONARY;
                     else if (rej[l] > a.rlimit) code = REJECTIONS;
                     else if (it[l] >= a.ilimit) code = ILIMIT;
-                    else if (rej[l] > 0 && stagnated(l)) code = STAGNATED;
+                    else if (rej[l] > 0 && stuck[l] != 0.0) code = STAGNATED;
                 }
                 if (code) {
                     end_run(l, code);  // a new run (start[l]) or target, or the lane goes idle
@@ -698,11 +756,11 @@ struct Block {
             // a joint on a bound of its run that the gradient pushes outward is held for the step
             bool any_held = false;
             for (int j = 0; j < n; ++j) {
-                LANES_LOOP held[j][l] = (solving[l] != 0.0 && ((q[j][l] <= rlo[j][l] && g[j][l] < 0.0) ||
-                                                               (q[j][l] >= rhi[j][l] && g[j][l] > 0.0))) ? 1.0 : 0.0;
-                int h = 0;
-                LANES_ANY h |= held[j][l] != 0.0 ? 1 : 0;
-                any_held = any_held || h;
+                LANES_LOOP held[j][l] = ((solving[l] != 0.0) & (((q[j][l] <= rlo[j][l]) & (g[j][l] < 0.0)) |
+                                                               ((q[j][l] >= rhi[j][l]) & (g[j][l] > 0.0)))) ? 1.0 : 0.0;
+                int anyv = 0;
+                LANES_ANY anyv |= held[j][l] != 0.0;
+                any_held = any_held || anyv;
             }
             if (any_held)
                 for (int j = 0; j < n; ++j)
@@ -716,9 +774,9 @@ struct Block {
     // "touched" (its free run may find what the bounds hid)
     void project_trials() {
         const int n = FIXED ? NM : n_rt;
-        int out = 0;
-        for (int j = 0; j < n; ++j) LANES_ANY out |= (qt[j][l] < rlo[j][l] || qt[j][l] > rhi[j][l]) ? 1 : 0;
-        if (!out) return;
+        int anyv = 0;
+        for (int j = 0; j < n; ++j) LANES_ANY anyv |= (qt[j][l] < rlo[j][l]) | (qt[j][l] > rhi[j][l]);
+        if (!anyv) return;
         for (int l = 0; l < L; ++l) {
             if (!active[l] || !limited_run[l]) continue;
             for (int j = 0; j < n; ++j) {
@@ -729,13 +787,21 @@ struct Block {
         }
     }
 
-    bool stagnated(int l) const {
+    // exact stagnation (lm_compiled._lm): with μ = λ², every component of the next step obeys
+    // |dq_j| <= (|g_j| + (tr A / μ)·|g|) / μ plus the solve's rounding, which only shrinks as λ
+    // doubles; below an eighth of the spacing at q_j for every joint, q + dq rounds back to q now
+    // and at every later trial. stuck[l] for every lane at once (tested where a step was rejected),
+    // the comparison multiplied through by μ > 0
+    void stagnation() {
         const int n = FIXED ? NM : n_rt;
-        const double mu = lam[l] * lam[l];
-        const double slack = (trA[l] / mu + 64.0 * n * EPS) * std::sqrt(g2[l]);
-        for (int j = 0; j < n; ++j)
-            if (!((std::fabs(g[j][l]) + slack) / mu <= 0.125 * spacing(q[j][l]))) return false;
-        return true;
+        LANES_LOOP stuck[l] = 1.0;
+        for (int j = 0; j < n; ++j) {
+            LANES_LOOP {
+                const double mu = lam[l] * lam[l];
+                const double slack = (trA[l] / mu + 64.0 * n * EPS) * std::sqrt(g2[l]);
+                stuck[l] = (std::fabs(g[j][l]) + slack <= 0.125 * spacing_fast(q[j][l]) * mu) ? stuck[l] : 0.0;
+            }
+        }
     }
 };
 
@@ -748,6 +814,7 @@ void run_block(const Args &a) {
 }
 
 void run(const Args &a, int lanes);
+void atan2_array(const double *y, const double *x, double *out, int64_t count);
 
 }  // namespace WSMAP_ISA
 }  // namespace wsmap_lanes

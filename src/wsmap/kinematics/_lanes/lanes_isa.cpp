@@ -23,5 +23,10 @@ void run(const Args &a, int lanes) {
     else run_joints<MAX_JOINTS>(a, lanes);
 }
 
+// atan2_pos over arrays, as the lanes compute it (tests)
+void atan2_array(const double *y, const double *x, double *out, int64_t count) {
+    for (int64_t i = 0; i < count; ++i) out[i] = atan2_pos(y[i], x[i]);
+}
+
 }  // namespace WSMAP_ISA
 }  // namespace wsmap_lanes

@@ -15,10 +15,10 @@ namespace nb = nanobind;
 namespace wl = wsmap_lanes;
 
 namespace wsmap_lanes {
-namespace base { void run(const Args &, int); }
+namespace base { void run(const Args &, int); void atan2_array(const double *, const double *, double *, int64_t); }
 #ifdef WSMAP_HAVE_X86
-namespace avx2 { void run(const Args &, int); }
-namespace avx512 { void run(const Args &, int); }
+namespace avx2 { void run(const Args &, int); void atan2_array(const double *, const double *, double *, int64_t); }
+namespace avx512 { void run(const Args &, int); void atan2_array(const double *, const double *, double *, int64_t); }
 #endif
 }  // namespace wsmap_lanes
 
@@ -39,16 +39,43 @@ static std::string best_isa() {
     return "base";
 }
 
-static RunFn isa_fn(const std::string &isa) {
+using Atan2Fn = void (*)(const double *, const double *, double *, int64_t);
+
+// the build `isa` names ("auto": the widest this CPU runs): 0 base, 1 avx2, 2 avx512
+static int isa_index(const std::string &isa) {
     const std::string best = best_isa();
     const std::string want = isa == "auto" ? best : isa;
-    if (want == "base") return wl::base::run;
+    if (want == "base") return 0;
+    if (want != "avx2" && want != "avx512")
+        throw std::invalid_argument("isa must be 'auto', 'avx512', 'avx2' or 'base', not '" + isa + "'");
+    if ((want == "avx2" && best == "base") || (want == "avx512" && best != "avx512"))
+        throw std::invalid_argument("this CPU cannot run the " + want + " build (it has " + best + ")");
+    return want == "avx2" ? 1 : 2;
+}
+
+static RunFn isa_fn(const std::string &isa) {
+    const int k = isa_index(isa);
 #ifdef WSMAP_HAVE_X86
-    if (want == "avx2" && (best == "avx2" || best == "avx512")) return wl::avx2::run;
-    if (want == "avx512" && best == "avx512") return wl::avx512::run;
+    if (k == 1) return wl::avx2::run;
+    if (k == 2) return wl::avx512::run;
 #endif
-    if (want == "avx2" || want == "avx512") throw std::invalid_argument("this CPU cannot run the " + want + " build (it has " + best + ")");
-    throw std::invalid_argument("isa must be 'auto', 'avx512', 'avx2' or 'base', not '" + isa + "'");
+    (void)k;
+    return wl::base::run;
+}
+
+static Atan2Fn atan2_fn(const std::string &isa) {
+    const int k = isa_index(isa);
+#ifdef WSMAP_HAVE_X86
+    if (k == 1) return wl::avx2::atan2_array;
+    if (k == 2) return wl::avx512::atan2_array;
+#endif
+    (void)k;
+    return wl::base::atan2_array;
+}
+
+static void atan2_lanes(In<double> y, In<double> x, Out<double> out, const std::string &isa) {
+    if (y.size() != x.size() || out.size() != x.size()) throw std::invalid_argument("y, x and out must have one size");
+    atan2_fn(isa)(y.data(), x.data(), out.data(), (int64_t)x.size());
 }
 
 template <class A>
@@ -95,6 +122,7 @@ NB_MODULE(_lanes, m) {
     m.def("run_targets", &run_targets,
           "lm_compiled.run_targets's arguments, then counter (1,) int64 (the next target, shared by the "
           "threads of one call), lanes (4, 8 or 16) and isa ('auto', 'avx512', 'avx2', 'base').");
+    m.def("atan2", &atan2_lanes, "out <- atan2(y, x) for y >= 0 as the lanes compute it (tests): y, x, out, isa.");
     m.def("best_isa", &best_isa, "The widest instruction set this CPU has that a build exists for.");
     m.attr("MAX_JOINTS") = wl::MAX_JOINTS;
 }
