@@ -39,6 +39,21 @@ def _modules(src: Path, top: str) -> dict[str, Path]:
     return out
 
 
+def _compiled(src: Path, top: str) -> set[str]:
+    """The compiled extension modules of ``top`` (C++ built into the package at install; their
+    sources' folders are named in ``tools/stage_deps.py``'s ``EXTENSIONS``): modules too, which
+    import nothing of the package."""
+    spec = importlib.util.spec_from_file_location("stage_deps", SRC.parent / "tools" / "stage_deps.py")
+    stage_deps = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(stage_deps)
+    out = set()
+    for folder in stage_deps.EXTENSIONS.values():
+        rel = Path(folder).relative_to("src")
+        if rel.parts[0] == top and (src / rel).is_dir():
+            out.add(".".join(rel.parts))
+    return out
+
+
 def _ancestors(name: str) -> list[str]:
     parts = name.split(".")
     return [".".join(parts[:i]) for i in range(1, len(parts))]
@@ -47,6 +62,8 @@ def _ancestors(name: str) -> list[str]:
 def import_graph(src: Path, top: str = "wsmap") -> dict[str, set[str]]:
     """``{module: modules its import statements run}`` for every module of ``top`` (module docstring)."""
     modules = _modules(src, top)
+    compiled = _compiled(src, top)
+    modules.update({name: None for name in compiled})
 
     def resolve(name: str) -> str | None:
         """``name`` or its longest prefix that is a module of the package (``None`` outside it)."""
@@ -56,6 +73,9 @@ def import_graph(src: Path, top: str = "wsmap") -> dict[str, set[str]]:
 
     graph: dict[str, set[str]] = {}
     for mod, path in modules.items():
+        if path is None:  # compiled: no import statements
+            graph[mod] = set()
+            continue
         package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
         running = set(_ancestors(mod)) | {mod}
         targets: set[str] = set()

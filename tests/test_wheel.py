@@ -60,6 +60,10 @@ def _build_wheel(out: Path) -> Path:
     subprocess.run([sys.executable, "-m", "build", "--wheel", "--no-isolation", "--outdir", str(out / "dist"),
                     str(src)], check=True, capture_output=True, text=True)
     (wheel,) = (out / "dist").glob("wsmap-*.whl")
+    with zipfile.ZipFile(wheel) as z:
+        names = z.namelist()
+    assert "wsmap/py.typed" in names  # PEP 561
+    assert any(n.startswith("wsmap/kinematics/_lanes.") and n.endswith((".so", ".pyd")) for n in names)
     return wheel
 
 
