@@ -115,6 +115,8 @@ class Klampt:
                 raise RuntimeError("klampt could not load the arm's URDF")
         self.robot = self.world.robot(0)
         names = [self.robot.link(i).getName() for i in range(self.robot.numLinks())]
+        # klampt gives a URDF robot a floating base (six virtual links before ours): the solver may
+        # move only the arm's joints, or it "reaches" every pose by moving the base
         self.dofs = [names.index(f"l{i + 1}") for i in range(chain.n)]
         self.ee = self.robot.link(self.robot.numLinks() - 1)
         self.n = chain.n
@@ -145,16 +147,24 @@ class Klampt:
 
         self.robot.setConfig(self.config(q0))
         s = ik.solver(self.objective(T))
+        s.setActiveDofs(self.dofs)
         s.setMaxIters(iters)
         s.setTolerance(tol)
-        return bool(s.solve())
+        if not s.solve():
+            return False
+        # a success counts where the arm's configuration really puts the tool on the target
+        c = self.robot.getConfig()
+        return bool(np.abs(self.fkine([c[j] for j in self.dofs]) - T).max() <= 1e-6)
 
     def solve_global(self, T, tol=1e-10, restarts=100):
         """``ik.solve_global``: random restarts until one succeeds."""
         from klampt.model import ik
 
         self.robot.setConfig(self.config(self.mid))
-        return bool(ik.solve_global(self.objective(T), iters=100, tol=tol, numRestarts=restarts))
+        if not ik.solve_global(self.objective(T), iters=100, tol=tol, activeDofs=self.dofs, numRestarts=restarts):
+            return False
+        c = self.robot.getConfig()
+        return bool(np.abs(self.fkine([c[j] for j in self.dofs]) - T).max() <= 1e-6)
 
 
 def section_raw(args, out, panda, rtb_rob, kl):
@@ -242,13 +252,15 @@ def section_map(args, out, panda, rtb_rob, kl):
         ok = np.array([rtb_rob.ik_LM(T[i], tol=1e-10, joint_limits=True)[1] for i in sample], dtype=bool)
         t = time.perf_counter() - t0
         rows["rtb"] = {"nodes": len(sample), "seconds_extrapolated": t * len(nodes) / len(sample),
-                       "recall_on_sample": float((ok & ref[sample]).sum() / max(ref[sample].sum(), 1))}
+                       "recall_on_sample": float((ok & ref[sample]).sum() / max(ref[sample].sum(), 1)),
+                       "beyond_reference_on_sample": int((ok & ~ref[sample]).sum())}
     if kl is not None:
         t0 = time.perf_counter()
         ok = np.array([kl.solve_global(T[i]) for i in sample], dtype=bool)
         t = time.perf_counter() - t0
         rows["klampt"] = {"nodes": len(sample), "seconds_extrapolated": t * len(nodes) / len(sample),
-                          "recall_on_sample": float((ok & ref[sample]).sum() / max(ref[sample].sum(), 1))}
+                          "recall_on_sample": float((ok & ref[sample]).sum() / max(ref[sample].sum(), 1)),
+                       "beyond_reference_on_sample": int((ok & ~ref[sample]).sum())}
     out["tooldown_map"] = rows
     t2, t1 = min(rows["wsmap_lanes_2"]), rows["wsmap_lanes_1"][0]
     print(f"\n### 2. Panda tool-down map, 9261 nodes ({int(ref.sum())} reachable by 64-start search)\n")
@@ -262,7 +274,9 @@ def section_map(args, out, panda, rtb_rob, kl):
         if key in rows:
             r = rows[key]
             print(f"| {label} ({r['nodes']} nodes, extrapolated) | {r['seconds_extrapolated']:.1f} | "
-                  f"{r['recall_on_sample']:.4f} | {r['seconds_extrapolated'] / t2:,.0f} |")
+                  f"{r['recall_on_sample']:.4f} | {r['seconds_extrapolated'] / t2:,.0f} |"
+                  + (f" ({r['beyond_reference_on_sample']} sampled nodes reached that the reference did not)"
+                     if r["beyond_reference_on_sample"] else ""))
     print(f"\ngoal: <= {GOALS['map_seconds_2_threads']} s on 2 cores: {t2:.3f} s: "
           f"{'met' if t2 <= GOALS['map_seconds_2_threads'] else 'NOT met'}; 2 threads / 1 thread: {t1 / t2:.2f}x; "
           f"the same map on both kernels: {rows['same_map']}; scalar / lanes, 2 threads: "
