@@ -1,0 +1,88 @@
+"""The lane kernel's builds side by side: every instruction set this CPU runs times 4, 8 and 16 lanes,
+beside the scalar numba kernel, on the raw single-start Panda IK of ``bench_peers.py`` (the same
+2000 reachable poses, one start at the middle of the limits, tol 1e-10), one thread.
+
+Each configuration is timed best of ``--repeats`` calls of ``ikine_search``, the configurations
+interleaved round by round (``--rounds``) so that a drift of the machine's load reaches all of them;
+solves per second, success rate, mean LM iterations per pose and nanoseconds per LM iteration.
+
+    NUMBA_NUM_THREADS=2 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_lanes.py --json bench/lanes.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import numpy as np
+
+from wsmap.timing import time_call
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--poses", type=int, default=2000)
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--json")
+    args = ap.parse_args(argv)
+    if min(args.poses, args.repeats, args.rounds) < 1:
+        ap.error("--poses, --repeats and --rounds must be positive")
+    if args.json:
+        from wsmap.io import check_output_path
+
+        check_output_path(args.json, "--json")
+
+    from wsmap import robots
+    from wsmap.kinematics import ikine_search, lm_compiled, lm_lanes
+
+    lm_compiled.set_threads(1)
+    panda = robots.load("panda")
+    lim = np.array(panda.limits)
+    q = np.random.default_rng(0).uniform(lim[:, 0], lim[:, 1], size=(args.poses, panda.n))
+    T = np.array(panda.fkine(q))
+    mid = lim.mean(axis=1)
+    best = lm_lanes.isa()
+    isas = ["base"] + (["avx2"] if best in ("avx2", "avx512") else []) + (["avx512"] if best == "avx512" else [])
+    configs = [("scalar", None, None)] + [("lanes", isa, lanes) for isa in isas for lanes in (4, 8, 16)]
+    run = lm_lanes.run_targets
+
+    def solve(cfg):
+        kernel, isa, lanes = cfg
+        if kernel == "lanes":
+            lm_lanes.run_targets = lambda *a: run(*a, lanes=lanes, isa=isa)
+        try:
+            with lm_lanes.use_kernel(kernel):
+                return ikine_search(panda, T, starts=1, q0=mid)
+        finally:
+            lm_lanes.run_targets = run
+
+    times = {c: [] for c in configs}
+    sols = {c: solve(c) for c in configs}  # warm-up (and the answers)
+    for _ in range(args.rounds):
+        for c in configs:
+            times[c].append(min(time_call(lambda: solve(c), args.repeats, warmup=0).values))
+    print(f"load average {os.getloadavg()}; this CPU's widest build: {best}\n")
+    print("| kernel | build | lanes | solves/s | / scalar | success | iterations per pose | ns per iteration |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|")
+    out = {"info": {"cpus": os.cpu_count(), "isa": best, "command": " ".join(sys.argv),
+                    "load_average": os.getloadavg()}, "rows": []}
+    t_scalar = min(times[configs[0]])
+    for c in configs:
+        t, sol = min(times[c]), sols[c]
+        its = float(sol.iterations.mean())
+        row = {"kernel": c[0], "isa": c[1], "lanes": c[2], "seconds": t, "solves_per_s": len(T) / t,
+               "vs_scalar": t_scalar / t, "success": float(sol.success.mean()), "iterations_mean": its,
+               "ns_per_iteration": t / (len(T) * its) * 1e9}
+        out["rows"].append(row)
+        print(f"| {c[0]} | {c[1] or 'numba'} | {c[2] or 1} | {row['solves_per_s']:,.0f} | {row['vs_scalar']:.2f} | "
+              f"{row['success']:.3f} | {its:.1f} | {row['ns_per_iteration']:.0f} |")
+    if args.json:
+        from wsmap.io import write_json
+
+        write_json(out, args.json)
+
+
+if __name__ == "__main__":
+    main()
