@@ -208,6 +208,17 @@ def test_the_installed_command_prints_no_traceback(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_bad_kernel_in_the_environment_is_one_line_before_any_work(tmp_path):
+    import os
+
+    out = tmp_path / "m.npz"
+    r = subprocess.run([sys.executable, "-m", "wsmap", "map", "--robot", "panda", "--step", "0.5", "--out", str(out)],
+                       capture_output=True, text=True, env={**os.environ, "WSMAP_KERNEL": "fast"})
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.strip().splitlines() == ["wsmap: error: WSMAP_KERNEL must be one of lanes, scalar, not 'fast'"]
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_mesh_of_puma560_is_closed():
     from wsmap.views import iso_mesh
 

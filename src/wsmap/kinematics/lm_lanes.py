@@ -66,10 +66,12 @@ def set_kernel(name: str | None = None) -> str:
     """Use kernel ``name`` (one of :data:`KERNELS`) from now on; None: ``WSMAP_KERNEL``, else
     ``"lanes"`` where the extension is built, else ``"scalar"``. Returns the kernel set."""
     global _kernel
+    what = "kernel"
     if name is None:
         name = os.environ.get("WSMAP_KERNEL") or ("lanes" if available() else "scalar")
+        what = "WSMAP_KERNEL" if os.environ.get("WSMAP_KERNEL") else what
     if name not in KERNELS:
-        raise ValueError(f"kernel must be one of {', '.join(KERNELS)}, not {name!r}")
+        raise ValueError(f"{what} must be one of {', '.join(KERNELS)}, not {name!r}")
     if name == "lanes" and not available():
         raise RuntimeError(f"the lane kernel is not built ({_IMPORT_ERROR}); reinstall wsmap, or use 'scalar'")
     _kernel = name

@@ -246,7 +246,7 @@ struct Block {
     int64_t tgt[L], arm[L], s[L], ntry[L], total[L], it[L], rej[L];
     double lam[L], na[L], best[L];
     int pss[L], passes[L];
-    bool active[L], start[L], touched[L], limited_run[L], limited[L], needs_solve[L];
+    bool active[L], start[L], touched[L], limited_run[L], limited[L];
 
     Block(const Args &args)
         : a(args), n_rt((int)args.n), rows(args.mode == MODE_POSITION ? 3 : 6),
@@ -268,7 +268,6 @@ struct Block {
             for (int k = 0; k <= NM; ++k) { Rf[k][0][l] = Rf[k][4][l] = Rf[k][8][l] = 1.0; }
             Rt[0][l] = Rt[4][l] = Rt[8][l] = 1.0;
             active[l] = false;
-            needs_solve[l] = false;
             start[l] = false;
             lam[l] = 1.0;
             lam2[l] = 1.0;
@@ -355,7 +354,6 @@ struct Block {
         na[l] = INF;
         start[l] = true;
         touched[l] = false;
-        needs_solve[l] = false;
     }
 
     void finish(int l, bool found) {

@@ -53,29 +53,25 @@ static int isa_index(const std::string &isa) {
     return want == "avx2" ? 1 : 2;
 }
 
-static RunFn isa_fn(const std::string &isa) {
-    const int k = isa_index(isa);
-#ifdef WSMAP_HAVE_X86
-    if (k == 1) return wl::avx2::run;
-    if (k == 2) return wl::avx512::run;
-#endif
-    (void)k;
-    return wl::base::run;
-}
+// the entry points of the build `isa` names
+struct Build {
+    RunFn run;
+    Atan2Fn atan2;
+};
 
-static Atan2Fn atan2_fn(const std::string &isa) {
+static Build build(const std::string &isa) {
     const int k = isa_index(isa);
 #ifdef WSMAP_HAVE_X86
-    if (k == 1) return wl::avx2::atan2_array;
-    if (k == 2) return wl::avx512::atan2_array;
+    if (k == 1) return {wl::avx2::run, wl::avx2::atan2_array};
+    if (k == 2) return {wl::avx512::run, wl::avx512::atan2_array};
 #endif
     (void)k;
-    return wl::base::atan2_array;
+    return {wl::base::run, wl::base::atan2_array};
 }
 
 static void atan2_lanes(In<double> y, In<double> x, Out<double> out, const std::string &isa) {
     if (y.size() != x.size() || out.size() != x.size()) throw std::invalid_argument("y, x and out must have one size");
-    atan2_fn(isa)(y.data(), x.data(), out.data(), (int64_t)x.size());
+    build(isa).atan2(y.data(), x.data(), out.data(), (int64_t)x.size());
 }
 
 template <class A>
@@ -106,7 +102,7 @@ static void run_targets(int mode, In<int64_t> arm, In<double> Rt, In<double> pt,
         if (arm.data()[i] < 0 || (size_t)arm.data()[i] >= B) throw std::invalid_argument("arm index out of range");
         if (nexp.data()[i] < 0 || (size_t)nexp.data()[i] > S) throw std::invalid_argument("nexp out of range");
     }
-    RunFn fn = isa_fn(isa);
+    RunFn fn = build(isa).run;
     if (lanes != 4 && lanes != 8 && lanes != 16) throw std::invalid_argument("lanes must be 4, 8 or 16");
     wl::Args a{mode, (int64_t)M, (int64_t)B, (int64_t)n, (int64_t)S, arm.data(), Rt.data(), pt.data(), keys.data(),
                qexp.data(), nexp.data(), k_first, k_last, Rf.data(), tf.data(), rkind.data(), off.data(), axes.data(),

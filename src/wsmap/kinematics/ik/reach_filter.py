@@ -363,8 +363,8 @@ def limit_bounds(chain: SerialChain):
     the limits (a revolute range of a turn or more, or none, counts as a full turn). ``S`` is the point
     of joint 0's axis nearest joint 1's; ``W`` the point of the last axis nearest joint n-2's.
 
-    Returns ``dict(S (3,), w_loc (3,), lo (3,), hi (3,))`` (``d``, ``g``, ``h``): ``S`` in the
-    frame of the chain's first fixed transform (the base left out, so the numbers do not depend on
+    Returns ``dict(S (3,), a0 (3,), w_loc (3,), lo (3,), hi (3,))`` (``d``, ``g``, ``h``): ``S`` and
+    joint 0's axis ``a0`` in the chain's frame without its base (so the numbers do not depend on
     the base or the tool), ``w_loc`` in the last joint's frame. Building it takes 0.1-0.4 s per
     arm (once per process and arm; most of it ``h``, over joints 1 .. n-2 all)."""
     if chain.batch_shape != () or chain.n < 3 or any(k == PRISMATIC for k in chain.kinds):
@@ -395,7 +395,7 @@ def _make_limit_bounds(chain: SerialChain):
     # |h| <= d and |g| <= d: the tighter of the two bounds
     lo[1:] = np.maximum(lo[1:], -hi[0])
     hi[1:] = np.minimum(hi[1:], hi[0])
-    return dict(S=S, w_loc=w_loc, lo=lo, hi=hi)
+    return dict(S=S, a0=a0, w_loc=w_loc, lo=lo, hi=hi)
 
 
 def limit_filter(chain: SerialChain, T, margin):
@@ -426,5 +426,5 @@ def limit_filter(chain: SerialChain, T, margin):
     sg = sW + margin * (d + sW) + tiny
     ok = ((d <= b["hi"][0] + sW + tiny) & (d >= b["lo"][0] - sW - tiny)
           & (g <= b["hi"][1] + sg) & (g >= b["lo"][1] - sg))
-    h = u @ (chain.fixed[0, :3, :3] @ chain.axes[0])
+    h = u @ b["a0"]
     return ok & (h <= b["hi"][2] + sW + tiny) & (h >= b["lo"][2] - sW - tiny)
