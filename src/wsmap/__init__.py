@@ -8,19 +8,19 @@ The library (what a roboticist imports)::
     reach = wsmap.constant_orientation_map(arm, nodes, rpy=(3.14159, 0, 0), convention="standard")
     index = wsmap.reachability_index(arm, nodes, wsmap.workspace.orientation_samples(50))  # (9261,) in [0, 1]
 
-* :mod:`wsmap.kinematics` — transforms, robot models (:class:`DHRobot`), forward kinematics, IK;
-* :mod:`wsmap.robots` — named arms and families of arms;
-* :mod:`wsmap.workspace` — grids, maps of every kind (one module each in :mod:`wsmap.workspace.kinds`),
+* `wsmap.kinematics` — transforms, robot models (`DHRobot`), forward kinematics, IK;
+* `wsmap.robots` — named arms and families of arms;
+* `wsmap.workspace` — grids, maps of every kind (one module each in `wsmap.workspace.kinds`),
   base placement, map files;
-* :mod:`wsmap.datasets` — experience datasets (spec, features, labels, store);
-* :mod:`wsmap.learn` — networks, initialisation, optimisers, training, the map predictor, model files;
-* :mod:`wsmap.design` — the shortest arm of a family whose map covers task positions: gradient
+* `wsmap.datasets` — experience datasets (spec, features, labels, store);
+* `wsmap.learn` — networks, initialisation, optimisers, training, the map predictor, model files;
+* `wsmap.design` — the shortest arm of a family whose map covers task positions: gradient
   descent through a map model against CMA-ES and random search on the classical map;
-  :mod:`wsmap.morph_design` the same across twist patterns, through the morphology model;
-* :mod:`wsmap.metrics` — precision, recall, F of maps, threshold sweeps, per-node outcomes;
-* :mod:`wsmap.viz` — drawing only; :mod:`wsmap.views` — 3-D views and exchange files; :mod:`wsmap.io` — atomic writes, tables, JSON; :mod:`wsmap.paths`.
+  `wsmap.morph_design` the same across twist patterns, through the morphology model;
+* `wsmap.metrics` — precision, recall, F of maps, threshold sweeps, per-node outcomes;
+* `wsmap.viz` — drawing only; `wsmap.views` — 3-D views and exchange files; `wsmap.io` — atomic writes, tables, JSON; `wsmap.paths`.
 
-The paper's reproduction lives apart, in :mod:`wsmap.paper` (its dataset specs, published numbers,
+The paper's reproduction lives apart, in `wsmap.paper` (its dataset specs, published numbers,
 experiments, run-time comparison, report and notebook runner). A reproduction and extension of
 P. Liao, "Deep Neural Network Based Subspace Learning of Robotic Manipulator Workspace Mapping".
 """

@@ -1,9 +1,9 @@
-"""Optional dependencies: one place that says which extra of ``pip install wsmap[...]`` brings a module.
+"""Optional dependencies: one place that says which extra of `pip install wsmap[...]` brings a module.
 
-The classical tool (``pip install wsmap``) needs numpy, scipy, numba, tqdm, pyyaml and matplotlib;
-everything else is an extra (``pyproject.toml``, ``docs/install.md``). A part that needs an optional
-module calls :func:`require` *before* any work, so a missing one is one line naming the extra to
-install (the command line turns it into ``wsmap: error: ...``, exit 2) instead of a traceback after
+The classical tool (`pip install wsmap`) needs numpy, scipy, numba, tqdm, pyyaml and matplotlib;
+everything else is an extra (`pyproject.toml`, `docs/install.md`). A part that needs an optional
+module calls `require` *before* any work, so a missing one is one line naming the extra to
+install (the command line turns it into `wsmap: error: ...`, exit 2) instead of a traceback after
 the map was computed.
 """
 
@@ -14,7 +14,7 @@ from types import ModuleType
 
 __all__ = ["EXTRAS", "MissingDependency", "require"]
 
-#: The extra of ``pip install wsmap[EXTRA]`` that brings each optional module (import name -> extra).
+#: The extra of `pip install wsmap[EXTRA]` that brings each optional module (import name -> extra).
 EXTRAS = {
     "yourdfpy": "urdf",
     "plotly": "views",
@@ -36,20 +36,20 @@ _DISTRIBUTIONS = {"skimage": "scikit-image", "distributed": "dask[distributed]",
 
 
 class MissingDependency(ImportError, ValueError):
-    """An optional module is not installed. A ``ValueError`` too, so the command line reports it as
+    """An optional module is not installed. A `ValueError` too, so the command line reports it as
     bad input (one line, exit 2) and library callers may catch either."""
 
 
 def require(module: str, *, extra: str | None = None, why: str | None = None) -> ModuleType:
-    """Import and return the optional ``module``; :class:`MissingDependency` naming the extra otherwise.
+    """Import and return the optional `module`; `MissingDependency` naming the extra otherwise.
 
     Args:
-        module: the import name (``"plotly"``, ``"skimage"``, ``"yourdfpy"``, ...).
-        extra: the ``pip install wsmap[EXTRA]`` that brings it (default: :data:`EXTRAS`'s entry).
-        why: what needs it, for the message (``"--html"``, ``"a URDF arm"``); default the module.
+        module: the import name (`"plotly"`, `"skimage"`, `"yourdfpy"`, ...).
+        extra: the `pip install wsmap[EXTRA]` that brings it (default: `EXTRAS`'s entry).
+        why: what needs it, for the message (`"--html"`, `"a URDF arm"`); default the module.
 
     Raises:
-        MissingDependency: ``"<why> needs <dist>, which is not installed: pip install 'wsmap[<extra>]'"``.
+        MissingDependency: `"<why> needs <dist>, which is not installed: pip install 'wsmap[<extra>]'"`.
     """
     extra = extra or EXTRAS.get(module.split(".")[0])
     try:

@@ -1,15 +1,15 @@
 """Type aliases of the public signatures: what an argument may be, for readers and type checkers.
 
-The library's modules annotate with ``from __future__ import annotations`` and import these names
-only under ``typing.TYPE_CHECKING``, so nothing here runs when the package is used; the
+The library's modules annotate with `from __future__ import annotations` and import these names
+only under `typing.TYPE_CHECKING`, so nothing here runs when the package is used; the
 documentation shows the annotations as written.
 
-* :data:`Arm` — one arm or a batch of arms: a :class:`wsmap.kinematics.DHRobot` (standard DH,
-  batched over arms) or a :class:`wsmap.kinematics.SerialChain` (any serial arm);
-* ``ArrayLike`` / ``NDArray`` — numpy's: anything ``np.asarray`` takes; an ndarray of a dtype.
+* `Arm` — one arm or a batch of arms: a `wsmap.kinematics.DHRobot` (standard DH,
+  batched over arms) or a `wsmap.kinematics.SerialChain` (any serial arm);
+* `ArrayLike` / `NDArray` — numpy's: anything `np.asarray` takes; an ndarray of a dtype.
   Shapes, units and frames are in each function's docstring (metres, radians, the arm's base frame,
   node order x fastest);
-* :data:`PathLike` — a file path, ``str`` or ``os.PathLike``.
+* `PathLike` — a file path, `str` or `os.PathLike`.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""The one command line: ``wsmap map``, ``wsmap place``, ``wsmap robots``, ``wsmap data``, ``wsmap paper``
-(also ``python -m wsmap``).
+"""The one command line: `wsmap map`, `wsmap place`, `wsmap robots`, `wsmap data`, `wsmap paper`
+(also `python -m wsmap`).
 
 Examples::
 
@@ -46,7 +46,7 @@ _OPS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, as
 
 
 def number(text: str) -> float:
-    """A finite float, or an arithmetic expression in ``pi`` (``pi/2``, ``-3*pi/4``, ``2*pi``)."""
+    """A finite float, or an arithmetic expression in `pi` (`pi/2`, `-3*pi/4`, `2*pi`)."""
 
     def ev(node):
         if isinstance(node, ast.Expression):
@@ -73,7 +73,7 @@ def number(text: str) -> float:
 
 
 def _int_at_least(minimum: int):
-    """An argparse type: an integer of at least ``minimum``."""
+    """An argparse type: an integer of at least `minimum`."""
 
     def parse(text: str) -> int:
         try:
@@ -100,7 +100,7 @@ def seed_int(text: str) -> int:
 
 
 def tolerance(text: str) -> float:
-    """An argparse type: an IK tolerance (m and rad), at least :data:`wsmap.kinematics.MIN_TOL`."""
+    """An argparse type: an IK tolerance (m and rad), at least `wsmap.kinematics.MIN_TOL`."""
     from .kinematics.ik.solution import MIN_TOL
 
     value = positive_float(text)
@@ -126,8 +126,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 class _Help(argparse.ArgumentDefaultsHelpFormatter):
-    """Help lines with ``(default: X)`` only where X says something: not for ``None`` (the help line
-    says what happens then), not for a flag's ``False``, not where the line already names a default."""
+    """Help lines with `(default: X)` only where X says something: not for `None` (the help line
+    says what happens then), not for a flag's `False`, not where the line already names a default."""
 
     def _get_help_string(self, action):
         text = action.help or ""
@@ -136,10 +136,10 @@ class _Help(argparse.ArgumentDefaultsHelpFormatter):
         return super()._get_help_string(action)
 
 
-#: The options that feed a kind's inputs (:data:`wsmap.workspace.kinds.INPUTS`): given with a kind that
+#: The options that feed a kind's inputs (`wsmap.workspace.kinds.INPUTS`): given with a kind that
 #: does not read them, they are refused instead of ignored.
 _INPUT_FLAGS = {"rpy": "--rpy", "point": "--point", "orientations": "--orientations", "convention": "--convention"}
-#: The output options of ``wsmap map`` besides --out, the optional modules each one needs, and the suffix.
+#: The output options of `wsmap map` besides --out, the optional modules each one needs, and the suffix.
 _OUTPUTS = {"--png": ((), ".png"), "--html": (("plotly",), ".html"), "--ply": ((), ".ply"),
             "--glb": (("trimesh", "skimage"), ".glb"), "--h5": (("h5py",), ".h5")}
 
@@ -150,7 +150,7 @@ def _quiet_argument(p, what="no progress bar or summary"):
 
 # ------------------------------------------------------------------------------------- wsmap map
 def _robot_from_args(args):
-    """The arm of ``wsmap map``: a named arm, a URDF file, or DH columns (standard or modified)."""
+    """The arm of `wsmap map`: a named arm, a URDF file, or DH columns (standard or modified)."""
     from . import robots
     from .kinematics import DHRobot
 
@@ -207,7 +207,7 @@ def _robot_from_args(args):
 
 
 def _collision_from_args(args, robot, kind):
-    """The :class:`wsmap.collision.CollisionChecker` of ``wsmap map``, or None: every file read and
+    """The `wsmap.collision.CollisionChecker` of `wsmap map`, or None: every file read and
     checked (scene, meshes, link names of --allow) before the map is computed."""
     wanted = args.collision or args.scene is not None or args.link_radius is not None
     if not wanted:
@@ -255,7 +255,7 @@ def _collision_from_args(args, robot, kind):
 
 
 def _method_for(robot, method: str) -> str:
-    """``auto``: the closed form where the arm belongs to a closed-form family, else numerical IK."""
+    """`auto`: the closed form where the arm belongs to a closed-form family, else numerical IK."""
     if method == "model":
         return method
     from .workspace import resolve_method
@@ -272,7 +272,7 @@ def _arg3(values, name):
 
 
 def _arm_arguments(m):
-    """The arm options shared by ``wsmap map`` and ``wsmap place``."""
+    """The arm options shared by `wsmap map` and `wsmap place`."""
     g = m.add_argument_group("arm")
     g.add_argument("--robot", help="a named arm (`wsmap robots` lists them; default puma560 when no other arm is given)")
     g.add_argument("--urdf", metavar="FILE", help="the arm as a URDF file (meshes are never read)")
@@ -388,8 +388,8 @@ def _map_parser(sub):
 
 
 def _run_map(args) -> int:
-    """``wsmap map``: what the kind needs, checked, then its ``compute`` (the kinds' registry,
-    :mod:`wsmap.workspace.kinds`, says what each kind reads, computes and how its values read)."""
+    """`wsmap map`: what the kind needs, checked, then its `compute` (the kinds' registry,
+    `wsmap.workspace.kinds`, says what each kind reads, computes and how its values read)."""
     from . import workspace as ws
     from .io import atomic_paths, check_outputs
     from .kinematics import closed_form_for
@@ -561,8 +561,8 @@ def _run_map(args) -> int:
 
 
 def _write_views(views: dict, values, grid, kind, robot, out) -> None:
-    """The 3-D views of ``wsmap map`` (``{flag: path}`` of --html, --ply, --glb), all or none, once the
-    map is written to ``out``; a map with nothing to draw is a ``ValueError`` naming the flags."""
+    """The 3-D views of `wsmap map` (`{flag: path}` of --html, --ply, --glb), all or none, once the
+    map is written to `out`; a map with nothing to draw is a `ValueError` naming the flags."""
     from .io import atomic_paths
     from .views import save_glb, save_html, save_ply
 
@@ -619,10 +619,10 @@ def _place_parser(sub):
 
 
 def _read_targets(path):
-    """Target poses (M, 4, 4) from a CSV file of 6 or 16 columns (see ``wsmap place --help``).
+    """Target poses (M, 4, 4) from a CSV file of 6 or 16 columns (see `wsmap place --help`).
 
     Cells are separated by commas, semicolons, tabs or spaces; a UTF-8 byte-order mark (as Excel
-    writes) is skipped; ``#`` lines and blank lines are comments. Only the first row may be a
+    writes) is skipped; `#` lines and blank lines are comments. Only the first row may be a
     header, and only when none of its cells is a number: a row with a typo is an error naming its
     line and cell, never dropped.
     """

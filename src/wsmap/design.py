@@ -1,35 +1,35 @@
 """Design by gradient: the shortest arm of a family whose workspace covers given task positions.
 
-Issue 14, part 5. A map model (:class:`wsmap.learn.SubspaceMLP`) is differentiable in the arm's
+Issue 14, part 5. A map model (`wsmap.learn.SubspaceMLP`) is differentiable in the arm's
 parameters, so the question "which arm of the family, with the smallest total link length, reaches
 every task position at the task orientation?" can be answered by gradient descent through the
 network, and the answer checked with the classical map at the tasks. The same question asked of
-the classical map directly needs a gradient-free search (CMA-ES, random search). :func:`compare_designs`
+the classical map directly needs a gradient-free search (CMA-ES, random search). `compare_designs`
 runs both in one process and reports the time each needs to reach a design *verified by the
 classical map*.
 
 Conventions
 -----------
-* Positions are metres in the arm's base frame (``panda7``: the mounting flange, ``panda_link0``;
+* Positions are metres in the arm's base frame (`panda7`: the mounting flange, `panda_link0`;
   spherical-wrist family: the frame of joint 1, shoulder at the origin since d1 = 0).
-* A *family* (:class:`DesignFamily`, :func:`design_family`) has ``n`` design parameters ``params``
-  with box bounds: ``panda7``'s six dimensionless scale factors (d1, d3, d5, a4, a5, a7; range
-  ``[0.7, 1.3]``), or the spherical-wrist family's lengths (a2, a3, d3, d4) in metres (range
-  ``[0, 0.5]``, the paper's ``beta``). The *total link length* is the sum of the absolute scaled
-  lengths in metres, linear in the parameters (:meth:`DesignFamily.total_length`); lengths that are
+* A *family* (`DesignFamily`, `design_family`) has `n` design parameters `params`
+  with box bounds: `panda7`'s six dimensionless scale factors (d1, d3, d5, a4, a5, a7; range
+  `[0.7, 1.3]`), or the spherical-wrist family's lengths (a2, a3, d3, d4) in metres (range
+  `[0, 0.5]`, the paper's `beta`). The *total link length* is the sum of the absolute scaled
+  lengths in metres, linear in the parameters (`DesignFamily.total_length`); lengths that are
   not design variables (the Panda's flange row, 0.107 m) are left out.
-* The task orientation is a fixed ``rpy`` (rad, ``R = Rx·Ry·Rz``) with a pose convention of
-  :mod:`wsmap.workspace.maps`. Defaults: ``panda7`` tool-down, ``rpy = (pi, 0, 0)``, ``"standard"``
-  (``T = transl(p)·R``, the ``panda7_tooldown`` dataset); spherical wrist ``(0, 0, 0)`` (the paper's
+* The task orientation is a fixed `rpy` (rad, `R = Rx·Ry·Rz`) with a pose convention of
+  `wsmap.workspace.maps`. Defaults: `panda7` tool-down, `rpy = (pi, 0, 0)`, `"standard"`
+  (`T = transl(p)·R`, the `panda7_tooldown` dataset); spherical wrist `(0, 0, 0)` (the paper's
   models; with unlimited joints and the tool point at the wrist centre its map does not depend
   on the orientation, so tool-down tasks have the same answer).
-* A *surrogate* is any callable ``params (k, n) torch.float64 -> (k, T)`` margins, positive where
-  the surrogate says the task is covered, differentiable in ``params``. :class:`MapSurrogate` makes
+* A *surrogate* is any callable `params (k, n) torch.float64 -> (k, T)` margins, positive where
+  the surrogate says the task is covered, differentiable in `params`. `MapSurrogate` makes
   one from a map model by trilinear interpolation of the model's node outputs (logits for an
-  ``output_kind "logit"`` model, raw scores for ``"linear"``) minus the model's threshold.
+  `output_kind "logit"` model, raw scores for `"linear"`) minus the model's threshold.
 * *Verification* is the classical map at the task positions
-  (:func:`wsmap.workspace.constant_orientation_map`: closed form for the spherical-wrist family,
-  the compiled numerical search for ``panda7``). ``classical_calls`` counts arms whose map at all
+  (`wsmap.workspace.constant_orientation_map`: closed form for the spherical-wrist family,
+  the compiled numerical search for `panda7`). `classical_calls` counts arms whose map at all
   tasks was computed (one arm x T tasks = 1 call), batched into as few library calls as possible.
 """
 
@@ -66,14 +66,14 @@ __all__ = [
 # ------------------------------------------------------------------------------------------ families
 @dataclass(frozen=True)
 class DesignFamily:
-    """A family of arms (:class:`wsmap.robots.ArmFamily`) seen as a design space.
+    """A family of arms (`wsmap.robots.ArmFamily`) seen as a design space.
 
     Attributes:
-        family: the arm family of :data:`wsmap.robots.FAMILIES`: its arms, parameters and range.
-        params: the ``n`` design parameters, in order: the family's parameters by name (``panda7``:
-            its own order; the spherical wrist: ``(a2, a3, d3, d4)``).
-        length_coeffs: ``(n,)`` metres per unit of each parameter: the total link length is
-            ``sum(length_coeffs * params)`` (the absolute nominal lengths for ``panda7``, ones for
+        family: the arm family of `wsmap.robots.FAMILIES`: its arms, parameters and range.
+        params: the `n` design parameters, in order: the family's parameters by name (`panda7`:
+            its own order; the spherical wrist: `(a2, a3, d3, d4)`).
+        length_coeffs: `(n,)` metres per unit of each parameter: the total link length is
+            `sum(length_coeffs * params)` (the absolute nominal lengths for `panda7`, ones for
             the spherical-wrist family whose parameters are lengths).
         rpy, convention: the default task orientation (rad) and pose convention.
     """
@@ -91,7 +91,7 @@ class DesignFamily:
 
     @property
     def name(self) -> str:
-        """``"panda7"`` or ``"spherical_wrist"`` (:data:`DESIGN_FAMILIES`)."""
+        """`"panda7"` or `"spherical_wrist"` (`DESIGN_FAMILIES`)."""
         return self.family.name
 
     @property
@@ -100,40 +100,40 @@ class DesignFamily:
 
     @property
     def low(self) -> np.ndarray:
-        """Lower bounds ``(n,)`` of the parameters: the family's range (units: see the module docstring)."""
+        """Lower bounds `(n,)` of the parameters: the family's range (units: see the module docstring)."""
         return np.full(self.n_params, self.family.low)
 
     @property
     def high(self) -> np.ndarray:
-        """Upper bounds ``(n,)`` of the parameters."""
+        """Upper bounds `(n,)` of the parameters."""
         return np.full(self.n_params, self.family.high)
 
     @property
     def method(self) -> str:
-        """The classical map's method for this family: ``"exact"`` where the family has a closed form."""
+        """The classical map's method for this family: `"exact"` where the family has a closed form."""
         return "exact" if self.family.exact else "numerical"
 
     def total_length(self, params):
-        """Total link length in metres of ``params`` ``(..., n)`` (numpy or torch): ``(...)``."""
+        """Total link length in metres of `params` `(..., n)` (numpy or torch): `(...)`."""
         if isinstance(params, torch.Tensor):
             return params @ torch.as_tensor(self.length_coeffs, dtype=params.dtype, device=params.device)
         return np.asarray(params, dtype=np.float64) @ self.length_coeffs
 
     def arms(self, params):
-        """The arms of ``params`` ``(k, n)``: a batch ``(k,)`` for the classical map."""
+        """The arms of `params` `(k, n)`: a batch `(k,)` for the classical map."""
         p = np.asarray(params, dtype=np.float64)
         order = [self.params.index(name) for name in self.family.params]
         return self.family.arms(p[..., order])
 
     def classical(self, params, tasks, rpy=None, convention=None) -> np.ndarray:
-        """The classical map of the arms ``params`` ``(k, n)`` at ``tasks`` ``(T, 3)`` (m): bool ``(k, T)``."""
+        """The classical map of the arms `params` `(k, n)` at `tasks` `(T, 3)` (m): bool `(k, T)`."""
         rpy = self.rpy if rpy is None else rpy
         convention = self.convention if convention is None else convention
         p = np.atleast_2d(np.asarray(params, dtype=np.float64))
         return ws.constant_orientation_map(self.arms(p), tasks, rpy, method=self.method, convention=convention)
 
     def model_columns(self, spec) -> list[int]:
-        """The feature columns (of :func:`wsmap.datasets.features_for`'s layout for ``spec``) that
+        """The feature columns (of `wsmap.datasets.features_for`'s layout for `spec`) that
         hold each design parameter, in parameter order: a scaled family's scale columns, else the
         DH table entries the parameters set."""
         from .datasets.features import feature_slices
@@ -145,8 +145,8 @@ class DesignFamily:
         return [columns[column].start + row for column, row in (entries[name] for name in self.params)]
 
     def feature_template(self, spec) -> np.ndarray:
-        """One feature row ``(n_features,)`` for ``spec`` (any arm of the family: the design columns
-        are overwritten by :class:`MapSurrogate`)."""
+        """One feature row `(n_features,)` for `spec` (any arm of the family: the design columns
+        are overwritten by `MapSurrogate`)."""
         from .datasets.features import features_for
 
         mid = (self.low + self.high) / 2
@@ -154,7 +154,7 @@ class DesignFamily:
         return features_for(arms, spec)[0]
 
 
-#: The design families by name. The spherical-wrist range ``[0, 0.5]`` m is the paper's (``beta``).
+#: The design families by name. The spherical-wrist range `[0, 0.5]` m is the paper's (`beta`).
 DESIGN_FAMILIES: dict[str, DesignFamily] = {
     "panda7": DesignFamily(robots.PANDA7, robots.PANDA7.params, np.abs(robots.PANDA7.nominal), (math.pi, 0.0, 0.0),
                            "standard"),
@@ -163,16 +163,16 @@ DESIGN_FAMILIES: dict[str, DesignFamily] = {
 }
 
 
-#: What a design space must have besides :class:`DesignFamily` itself (e.g.
-#: :class:`wsmap.morph_design.MorphDesignSpace`, arms of any twist pattern): ``name``, ``params``,
-#: ``n_params``, ``low``, ``high``, ``total_length(params)`` (numpy and torch) and
-#: ``classical(params, tasks, rpy, convention)``.
+#: What a design space must have besides `DesignFamily` itself (e.g.
+#: `wsmap.morph_design.MorphDesignSpace`, arms of any twist pattern): `name`, `params`,
+#: `n_params`, `low`, `high`, `total_length(params)` (numpy and torch) and
+#: `classical(params, tasks, rpy, convention)`.
 DESIGN_SPACE_ATTRIBUTES = ("name", "params", "n_params", "low", "high", "total_length", "classical")
 
 
 def design_family(family) -> DesignFamily:
-    """``family`` (a name, a :class:`DesignFamily` or another design space with
-    :data:`DESIGN_SPACE_ATTRIBUTES`) as a design space; an unknown name is a ``ValueError``
+    """`family` (a name, a `DesignFamily` or another design space with
+    `DESIGN_SPACE_ATTRIBUTES`) as a design space; an unknown name is a `ValueError`
     listing the known ones."""
     if isinstance(family, DesignFamily) or (not isinstance(family, str)
                                             and all(hasattr(family, a) for a in DESIGN_SPACE_ATTRIBUTES)):
@@ -196,10 +196,10 @@ def _bounds(fam: DesignFamily, bounds) -> tuple[np.ndarray, np.ndarray]:
 
 # ------------------------------------------------------------------------------------------ tasks
 def box_tasks(centre, size: float = 0.4) -> np.ndarray:
-    """The 20 task positions of an axis-aligned cube: 8 corners then 12 edge midpoints, ``(20, 3)`` m.
+    """The 20 task positions of an axis-aligned cube: 8 corners then 12 edge midpoints, `(20, 3)` m.
 
-    ``centre`` (3,) m in the base frame, ``size`` the edge length in m. Corners are in
-    ``itertools.product([-1, 1], repeat=3)`` order of their offsets ``±size/2``; an edge midpoint has
+    `centre` (3,) m in the base frame, `size` the edge length in m. Corners are in
+    `itertools.product([-1, 1], repeat=3)` order of their offsets `±size/2`; an edge midpoint has
     one offset 0 (x-parallel edges first, then y, then z).
     """
     c = np.asarray(centre, dtype=np.float64)
@@ -210,7 +210,7 @@ def box_tasks(centre, size: float = 0.4) -> np.ndarray:
     h = size / 2
     corners = [np.array(s, dtype=np.float64) * h for s in itertools.product((-1, 1), repeat=3)]
     edges = []
-    for axis in range(3):  # the edge parallel to ``axis``: that coordinate 0, the other two ±h
+    for axis in range(3):  # the edge parallel to `axis`: that coordinate 0, the other two ±h
         for s in itertools.product((-1, 1), repeat=2):
             e = np.insert(np.array(s, dtype=np.float64) * h, axis, 0.0)
             edges.append(e)
@@ -218,7 +218,7 @@ def box_tasks(centre, size: float = 0.4) -> np.ndarray:
 
 
 def check_tasks(tasks) -> np.ndarray:
-    """``tasks`` as a float64 array ``(T, 3)`` of finite positions (m), ``T >= 1``."""
+    """`tasks` as a float64 array `(T, 3)` of finite positions (m), `T >= 1`."""
     try:
         t = np.array(tasks, dtype=np.float64)
     except (TypeError, ValueError):
@@ -236,25 +236,25 @@ def check_tasks(tasks) -> np.ndarray:
 class MapSurrogate:
     """Differentiable task coverage from a map model: trilinear interpolation of node outputs.
 
-    ``model`` is a :class:`wsmap.learn.SubspaceMLP` with a ``map_spec`` of an R3 dataset of the
-    family (fixed orientation), e.g. ``panda7_tooldown`` or the paper's ``sec62``. For each task
-    ``p`` (m) in the grid, the margin is ``sum_c w_c (raw_c - raw_threshold)`` over the 8 nodes
-    ``c`` of the grid cell holding ``p`` (trilinear weights ``w_c``); ``raw`` is the model's raw
-    output (a logit for ``output_kind "logit"``, whose threshold is ``logit(t)``; the score for
-    ``"linear"``, threshold ``t``), so at a node the margin is positive exactly where the model
+    `model` is a `wsmap.learn.SubspaceMLP` with a `map_spec` of an R3 dataset of the
+    family (fixed orientation), e.g. `panda7_tooldown` or the paper's `sec62`. For each task
+    `p` (m) in the grid, the margin is `sum_c w_c (raw_c - raw_threshold)` over the 8 nodes
+    `c` of the grid cell holding `p` (trilinear weights `w_c`); `raw` is the model's raw
+    output (a logit for `output_kind "logit"`, whose threshold is `logit(t)`; the score for
+    `"linear"`, threshold `t`), so at a node the margin is positive exactly where the model
     predicts the node reachable, and between nodes it is linear along each axis.
 
-    Raises ``ValueError`` before any work: a task outside the grid (naming the task index, its
+    Raises `ValueError` before any work: a task outside the grid (naming the task index, its
     position and the grid's bounds) or on a cell whose nodes the model does not cover (a node-slice
     model such as the paper's block 5), a model of another family or scope, or a model trained at
     another orientation than the tasks'.
 
     Attributes:
-        bounds: ``(low, high)`` of the design parameters: the family's range intersected with the
+        bounds: `(low, high)` of the design parameters: the family's range intersected with the
             model's training range of those features (so the descent never leaves where the model
             was trained).
         default_margin: the margin asked of every task before verification (1.0 for logits, i.e.
-            ``p >= 0.73``; 0.1 for linear scores).
+            `p >= 0.73`; 0.1 for linear scores).
     """
 
     def __init__(self, model, family, tasks, *, rpy=None, convention=None):
@@ -330,7 +330,7 @@ class MapSurrogate:
             sub, col = local // m, local % m
         else:
             sub, col = np.full(len(local), ms["subspace"]), local
-        # per subspace: the output columns it gives, and where they go in ``need`` order
+        # per subspace: the output columns it gives, and where they go in `need` order
         self._groups = [(int(s), torch.as_tensor(col[sub == s]), torch.as_tensor(np.flatnonzero(sub == s)))
                         for s in np.unique(sub)]
         self._n_need = len(need)
@@ -352,17 +352,17 @@ class MapSurrogate:
         self.bounds = (blo, bhi)
 
     def features(self, params: torch.Tensor) -> torch.Tensor:
-        """Feature rows ``(k, n_features)`` (float64, differentiable) of design parameters ``(k, n)``."""
+        """Feature rows `(k, n_features)` (float64, differentiable) of design parameters `(k, n)`."""
         x = self._template.expand(params.shape[0], -1).clone()
         x[:, self._columns] = params.to(torch.float64)
         return x
 
     def node_outputs(self, params: torch.Tensor) -> torch.Tensor:
-        """The model's raw outputs at the nodes the tasks need, ``(k, n_nodes)``.
+        """The model's raw outputs at the nodes the tasks need, `(k, n_nodes)`.
 
         Only the needed columns of the output layer are computed: that layer is most of the
         network's cost (e.g. 256 x 9261 for a whole 21³ grid) and the tasks need ~160 nodes.
-        Equal to the columns of ``model.forward`` (``assemble`` for an assembled model).
+        Equal to the columns of `model.forward` (`assemble` for an assembled model).
         """
         model = self.model
         x = self.features(params)
@@ -379,7 +379,7 @@ class MapSurrogate:
         return out
 
     def __call__(self, params: torch.Tensor) -> torch.Tensor:
-        """Margins ``(k, T)`` float64 of design parameters ``(k, n)``: positive = covered."""
+        """Margins `(k, T)` float64 of design parameters `(k, n)`: positive = covered."""
         raw = self.node_outputs(params).to(torch.float64) - self.raw_threshold  # (k, n_nodes)
         return (raw[:, self._inverse] * self.weights).sum(-1)
 
@@ -390,28 +390,28 @@ class DesignResult:
     """One design search.
 
     Attributes:
-        method: ``"gradient"``, ``"cmaes"`` or ``"random"``.
-        family: the family's name; ``param_names`` its parameters.
-        params: the design ``(n,)``: ``panda7`` scale factors (dimensionless), spherical-wrist
+        method: `"gradient"`, `"cmaes"` or `"random"`.
+        family: the family's name; `param_names` its parameters.
+        params: the design `(n,)`: `panda7` scale factors (dimensionless), spherical-wrist
             lengths a2, a3, d3, d4 (m). The shortest verified design found, or (none verified) the
             candidate covering the most tasks.
         total_length: its total link length, m.
-        verified: the classical map covers every task with ``params``.
-        covered: ``(T,)`` bool, the classical map of ``params`` at the tasks.
+        verified: the classical map covers every task with `params`.
+        covered: `(T,)` bool, the classical map of `params` at the tasks.
         classical_calls: arms whose classical map at the tasks was computed.
         surrogate_evals: arms passed through the surrogate (forward + backward), 0 without one.
         wall_time: seconds of the whole search.
-        time_to_verified: seconds until the first verified design (``None``: none).
-        time_to_target: seconds until a verified design of total length ``<= target_length``
-            (``None``: not reached or no target).
-        target_length: the length goal of a gradient-free search (m), or ``None``.
-        path: ``(steps, 2)``: total length (m) and surrogate coverage (fraction of tasks with a
-            positive margin) per descent step of the start that gave ``params`` (gradient only;
-            ``(evaluations, 2)``, best-so-far length of a verified design and its classical
+        time_to_verified: seconds until the first verified design (`None`: none).
+        time_to_target: seconds until a verified design of total length `<= target_length`
+            (`None`: not reached or no target).
+        target_length: the length goal of a gradient-free search (m), or `None`.
+        path: `(steps, 2)`: total length (m) and surrogate coverage (fraction of tasks with a
+            positive margin) per descent step of the start that gave `params` (gradient only;
+            `(evaluations, 2)`, best-so-far length of a verified design and its classical
             coverage, for the gradient-free searches).
         margins: the margin asked of each start at its last round (gradient only).
         rounds: verification rounds (gradient) or generations / batches (gradient-free).
-        classical_time: seconds of ``wall_time`` spent in the classical map.
+        classical_time: seconds of `wall_time` spent in the classical map.
     """
 
     method: str
@@ -433,7 +433,7 @@ class DesignResult:
     classical_time: float = 0.0
 
     def row(self) -> dict:
-        """One row of :func:`compare_designs`'s table (plain Python values)."""
+        """One row of `compare_designs`'s table (plain Python values)."""
         return {"method": self.method, "family": self.family,
                 "time_to_verified_s": self.time_to_verified, "time_to_target_s": self.time_to_target,
                 "wall_s": self.wall_time, "classical_s": self.classical_time,
@@ -444,7 +444,7 @@ class DesignResult:
 
 
 class _Verifier:
-    """Counts and times classical calls; ``fn(params (k, n)) -> bool (k, T)``."""
+    """Counts and times classical calls; `fn(params (k, n)) -> bool (k, T)`."""
 
     def __init__(self, fn):
         self.fn, self.calls, self.seconds = fn, 0, 0.0
@@ -474,47 +474,47 @@ def design_by_gradient(family, tasks, model, *, rpy=None, convention=None, verif
                        starts: int | np.ndarray = 8, steps: int = 500, lr: float = 0.1, margin: float | None = None,
                        margin_step: float | None = None, max_rounds: int = 6, rho: float = 0.1,
                        dual_every: int = 10, verify_top: int | None = None, seed=0) -> DesignResult:
-    """Shortest design covering ``tasks``, by augmented-Lagrangian gradient descent through ``model``.
+    """Shortest design covering `tasks`, by augmented-Lagrangian gradient descent through `model`.
 
-    Problem: minimise ``total_length(params)`` over the box ``bounds`` subject to
-    ``margin_i(params) >= m`` for every task ``i`` (the surrogate's margins, ``m`` the asked margin).
+    Problem: minimise `total_length(params)` over the box `bounds` subject to
+    `margin_i(params) >= m` for every task `i` (the surrogate's margins, `m` the asked margin).
 
-    Method: the parameters are mapped to ``u in [0, 1]^n`` (so one learning rate suits every
-    parameter); from ``starts`` starting points at once (the upper corner, where the arm is
-    largest, the centre, then uniform draws from ``seed``; or the rows of an array ``(k, n)`` of
-    starting designs inside ``bounds``), Adam minimises
-    ``L/L_max + sum_i psi(m - margin_i)`` with the augmented-Lagrangian term
-    ``psi(c) = (max(0, lam + rho c)^2 - lam^2) / (2 rho)``; every ``dual_every`` steps
-    ``lam <- max(0, lam + rho c)`` and ``rho`` doubles (to at most 1e3) when the worst violation
-    has not halved. After each step ``u`` is clamped to ``[0, 1]``. The learning rate decays
-    geometrically to 1 % over a round of ``steps`` steps. (Defaults tuned on the paper's
-    spherical-wrist model: a small ``rho`` keeps the penalty soft where the logits are steep;
+    Method: the parameters are mapped to `u in [0, 1]^n` (so one learning rate suits every
+    parameter); from `starts` starting points at once (the upper corner, where the arm is
+    largest, the centre, then uniform draws from `seed`; or the rows of an array `(k, n)` of
+    starting designs inside `bounds`), Adam minimises
+    `L/L_max + sum_i psi(m - margin_i)` with the augmented-Lagrangian term
+    `psi(c) = (max(0, lam + rho c)^2 - lam^2) / (2 rho)`; every `dual_every` steps
+    `lam <- max(0, lam + rho c)` and `rho` doubles (to at most 1e3) when the worst violation
+    has not halved. After each step `u` is clamped to `[0, 1]`. The learning rate decays
+    geometrically to 1 % over a round of `steps` steps. (Defaults tuned on the paper's
+    spherical-wrist model: a small `rho` keeps the penalty soft where the logits are steep;
     several starts because the feasible set is not convex -- e.g. a3 and d4 add up in the length
     but in quadrature in the reach, so the shortest designs lie on corners of the box.) At the
     end of a round the final design of every start is checked with the classical map (with
-    ``verify_top``: only the ``verify_top`` shortest finals whose surrogate margins are all
+    `verify_top`: only the `verify_top` shortest finals whose surrogate margins are all
     positive, the rest costing no classical call); if some are verified the shortest is returned;
     otherwise each start's margin rises by
-    ``margin_step`` and its descent continues (multipliers kept), for at most ``max_rounds``
+    `margin_step` and its descent continues (multipliers kept), for at most `max_rounds`
     rounds.
 
     Args:
-        family: a name of :data:`DESIGN_FAMILIES` or a :class:`DesignFamily`.
-        tasks: positions ``(T, 3)`` m in the base frame.
-        model: a :class:`wsmap.learn.SubspaceMLP` with a ``map_spec`` (made a
-            :class:`MapSurrogate`: tasks outside its grid are a ``ValueError`` before any work), or
-            any surrogate callable ``params (k, n) float64 tensor -> margins (k, T)``,
-            differentiable, positive = covered (it may have ``bounds`` and ``default_margin``).
+        family: a name of `DESIGN_FAMILIES` or a `DesignFamily`.
+        tasks: positions `(T, 3)` m in the base frame.
+        model: a `wsmap.learn.SubspaceMLP` with a `map_spec` (made a
+            `MapSurrogate`: tasks outside its grid are a `ValueError` before any work), or
+            any surrogate callable `params (k, n) float64 tensor -> margins (k, T)`,
+            differentiable, positive = covered (it may have `bounds` and `default_margin`).
         rpy, convention: task orientation (rad) and pose convention; default the family's.
-        verify: ``params (k, n) -> bool (k, T)``; default the classical map at the tasks.
-        bounds: ``(low, high)`` of the parameters; default the surrogate's ``bounds`` if it has
+        verify: `params (k, n) -> bool (k, T)`; default the classical map at the tasks.
+        bounds: `(low, high)` of the parameters; default the surrogate's `bounds` if it has
             them, else the family's range.
-        margin: margin asked in the first round; default the surrogate's ``default_margin`` (0 if
-            it has none). ``margin_step``: the raise after a failed verification (default
-            ``max(margin, 0.05)``, in the surrogate's units).
+        margin: margin asked in the first round; default the surrogate's `default_margin` (0 if
+            it has none). `margin_step`: the raise after a failed verification (default
+            `max(margin, 0.05)`, in the surrogate's units).
 
     Returns:
-        :class:`DesignResult` with ``method="gradient"``.
+        `DesignResult` with `method="gradient"`.
     """
     t0 = time.perf_counter()
     fam = design_family(family)
@@ -644,7 +644,7 @@ class _Search:
         self.rounds = 0
 
     def evaluate(self, params: np.ndarray) -> np.ndarray:
-        """Penalised objective ``(k,)`` of designs ``(k, n)`` (m)."""
+        """Penalised objective `(k,)` of designs `(k, n)` (m)."""
         params = np.clip(params, self.lo, self.hi)
         covered = self.check(params)
         lengths = self.fam.total_length(params)
@@ -696,18 +696,18 @@ def design_by_cmaes(family, tasks, *, rpy=None, convention=None, verify=None, bo
                     target_length: float | None = None, penalty: float | None = None, sigma0: float = 0.3,
                     popsize: int | None = None, max_calls: int | None = 2000, max_seconds: float | None = None,
                     seed=0) -> DesignResult:
-    """Shortest design covering ``tasks`` by CMA-ES (the ``cma`` package) on the classical map.
+    """Shortest design covering `tasks` by CMA-ES (the `cma` package) on the classical map.
 
-    The objective of a design is ``total_length + penalty * (uncovered tasks)`` (m) from the
-    classical map at the tasks (``verify``, default the family's classical map), so every design
-    it evaluates is verified or not by construction. CMA-ES runs on ``u in [0, 1]^n`` (the box
-    ``bounds``, default the family's range, mapped affinely; ``cma``'s bound handling), from the
-    centre with step size ``sigma0``; a generation is one batched classical call. It stops when a
-    verified design of total length ``<= target_length`` (m) is found, when ``max_calls`` arms or
-    ``max_seconds`` are spent, or when CMA-ES itself stops.
+    The objective of a design is `total_length + penalty * (uncovered tasks)` (m) from the
+    classical map at the tasks (`verify`, default the family's classical map), so every design
+    it evaluates is verified or not by construction. CMA-ES runs on `u in [0, 1]^n` (the box
+    `bounds`, default the family's range, mapped affinely; `cma`'s bound handling), from the
+    centre with step size `sigma0`; a generation is one batched classical call. It stops when a
+    verified design of total length `<= target_length` (m) is found, when `max_calls` arms or
+    `max_seconds` are spent, or when CMA-ES itself stops.
 
-    ``penalty`` default: the total length at the upper bounds. Returns a :class:`DesignResult`
-    (``method="cmaes"``).
+    `penalty` default: the total length at the upper bounds. Returns a `DesignResult`
+    (`method="cmaes"`).
     """
     fam, tasks, check, lo, hi = _search_setup(family, tasks, verify, rpy, convention, bounds, max_calls, max_seconds)
     from ._optional import require
@@ -731,10 +731,10 @@ def design_by_random_search(family, tasks, *, rpy=None, convention=None, verify=
                             target_length: float | None = None, penalty: float | None = None, batch: int = 16,
                             max_calls: int | None = 2000, max_seconds: float | None = None,
                             seed=0) -> DesignResult:
-    """Shortest design covering ``tasks`` by uniform random search on the classical map.
+    """Shortest design covering `tasks` by uniform random search on the classical map.
 
-    Batches of ``batch`` designs drawn uniformly in the box (one batched classical call each);
-    stops as :func:`design_by_cmaes`. Returns a :class:`DesignResult` (``method="random"``).
+    Batches of `batch` designs drawn uniformly in the box (one batched classical call each);
+    stops as `design_by_cmaes`. Returns a `DesignResult` (`method="random"`).
     """
     fam, tasks, check, lo, hi = _search_setup(family, tasks, verify, rpy, convention, bounds, max_calls, max_seconds)
     s = _Search("random", fam, tasks, check, lo, hi, penalty, target_length, max_calls, max_seconds)
@@ -749,28 +749,28 @@ def compare_designs(family, tasks, model, *, methods: Sequence[str] = ("gradient
                     rpy=None, convention=None, length_tol: float = 0.02, max_calls: int = 3000,
                     max_seconds: float | None = 120.0, gradient: dict | None = None, seed=0,
                     warm_up: bool = True, gradient_search=None) -> tuple[list[dict], dict[str, DesignResult]]:
-    """Gradient descent through ``model`` against gradient-free searches on the classical map, in one run.
+    """Gradient descent through `model` against gradient-free searches on the classical map, in one run.
 
-    The surrogate is built first (tasks outside the model's grid: ``ValueError`` before any work);
-    with ``warm_up`` one classical map of the centre design is computed and not timed, so no
+    The surrogate is built first (tasks outside the model's grid: `ValueError` before any work);
+    with `warm_up` one classical map of the centre design is computed and not timed, so no
     method pays the compiled kernels' first-call compilation. The gradient design comes first;
-    its verified total length ``L`` sets the goal ``L * (1 + length_tol)`` of the others, which
-    stop when they reach it or after ``max_calls`` arms / ``max_seconds``. Every search uses the
+    its verified total length `L` sets the goal `L * (1 + length_tol)` of the others, which
+    stop when they reach it or after `max_calls` arms / `max_seconds`. Every search uses the
     same box (the surrogate's bounds: the family's range within the model's training range).
 
     Args:
-        family, tasks, model, rpy, convention: as :func:`design_by_gradient`.
-        methods: any of ``"gradient"``, ``"cmaes"``, ``"random"``, in run order (the gradient first
+        family, tasks, model, rpy, convention: as `design_by_gradient`.
+        methods: any of `"gradient"`, `"cmaes"`, `"random"`, in run order (the gradient first
             when given: the others' goal).
-        gradient: more keyword arguments of :func:`design_by_gradient` (or of ``gradient_search``).
-        gradient_search: the gradient method to run instead of :func:`design_by_gradient`,
-            ``gradient_search(seed=..., **gradient) -> DesignResult`` (e.g. the screened search of
-            :func:`wsmap.morph_design.design_across_morphologies`).
+        gradient: more keyword arguments of `design_by_gradient` (or of `gradient_search`).
+        gradient_search: the gradient method to run instead of `design_by_gradient`,
+            `gradient_search(seed=..., **gradient) -> DesignResult` (e.g. the screened search of
+            `wsmap.morph_design.design_across_morphologies`).
 
     Returns:
-        ``(rows, results)``: one row per method (:meth:`DesignResult.row`: method, family, time to
+        `(rows, results)`: one row per method (`DesignResult.row`: method, family, time to
         a verified design and to the length goal in s, classical calls, total length in m, covered
-        tasks, ...) and the :class:`DesignResult` of each method by name.
+        tasks, ...) and the `DesignResult` of each method by name.
     """
     fam = design_family(family)
     tasks = check_tasks(tasks)
@@ -807,7 +807,7 @@ def compare_designs(family, tasks, model, *, methods: Sequence[str] = ("gradient
 
 
 def format_design_table(rows: Sequence[dict]) -> str:
-    """The rows of :func:`compare_designs` as a Markdown table (times in s, lengths in m)."""
+    """The rows of `compare_designs` as a Markdown table (times in s, lengths in m)."""
     from .io import markdown_table
 
     cols = ["method", "family", "time_to_verified_s", "time_to_target_s", "wall_s", "classical_s", "classical_calls",

@@ -1,7 +1,7 @@
 """Writing files: atomic writes, output-path checks, the one writer of tables and of JSON (and the
-key check of a JSON record read back, :func:`check_record`).
+key check of a JSON record read back, `check_record`).
 
-Every file the project writes goes through :func:`atomic_path` (one file) or :func:`atomic_paths`
+Every file the project writes goes through `atomic_path` (one file) or `atomic_paths`
 (several outputs of one run): a reader never sees half a file, an interrupted or failed run leaves
 the files that were there before, and the outputs of one run appear together or not at all.
 """
@@ -41,13 +41,13 @@ class OutputPathError(ValueError):
 
 
 def check_output_path(path, what: str = "output") -> Path:
-    """``path`` as a ``Path`` after checking, leaving nothing behind, that a file can be put there.
+    """`path` as a `Path` after checking, leaving nothing behind, that a file can be put there.
 
-    Refused (:class:`OutputPathError`, naming ``what`` and the path): an empty path, an existing
+    Refused (`OutputPathError`, naming `what` and the path): an empty path, an existing
     directory, a path whose nearest existing folder is not a folder or is not writable — tested by
-    creating and removing a temporary file there, since ``os.access`` says yes to root on a
-    read-only folder. Missing folders are fine: :func:`atomic_path` creates them when the run has
-    succeeded. Several outputs of one run: :func:`check_outputs`.
+    creating and removing a temporary file there, since `os.access` says yes to root on a
+    read-only folder. Missing folders are fine: `atomic_path` creates them when the run has
+    succeeded. Several outputs of one run: `check_outputs`.
     """
     if path is None or str(path).strip() == "":
         raise OutputPathError(f"{what} path is empty")
@@ -68,8 +68,8 @@ def check_output_path(path, what: str = "output") -> Path:
 
 
 def _probe_writable(folder: Path, what: str, path) -> None:
-    """Create (and remove) a temporary file in ``folder``: the one test of writability that root,
-    read-only mounts, quotas and ACLs cannot fool (``os.access`` says yes to root everywhere)."""
+    """Create (and remove) a temporary file in `folder`: the one test of writability that root,
+    read-only mounts, quotas and ACLs cannot fool (`os.access` says yes to root everywhere)."""
     try:
         fd, probe = tempfile.mkstemp(prefix=".wsmap-probe-", dir=folder)
     except OSError as e:
@@ -80,7 +80,7 @@ def _probe_writable(folder: Path, what: str, path) -> None:
 
 
 def _same_file(a: Path, b: Path) -> bool:
-    """Whether ``a`` and ``b`` are one file: the same real path (symbolic links resolved), or two
+    """Whether `a` and `b` are one file: the same real path (symbolic links resolved), or two
     existing names of one inode (hard links)."""
     if os.path.realpath(a) == os.path.realpath(b):
         return True
@@ -91,13 +91,13 @@ def _same_file(a: Path, b: Path) -> bool:
 
 
 def check_outputs(outputs: Mapping[str, Any], inputs: Mapping[str, Any] | None = None) -> dict[str, Path]:
-    """The outputs of one run checked together before any work: ``{option: Path}`` for every
-    ``outputs`` entry that is not ``None`` (``option`` names it in messages, e.g. ``"--out"``).
+    """The outputs of one run checked together before any work: `{option: Path}` for every
+    `outputs` entry that is not `None` (`option` names it in messages, e.g. `"--out"`).
 
-    Each is checked by :func:`check_output_path` (writable, by really creating a file in its folder);
+    Each is checked by `check_output_path` (writable, by really creating a file in its folder);
     no two may be the same file (compared after resolving symbolic links, and by inode for hard
-    links), and none may be one of the run's ``inputs`` (``{option: path}``, ``None`` skipped), which
-    the run would otherwise replace. Each problem is an :class:`OutputPathError` naming the options.
+    links), and none may be one of the run's `inputs` (`{option: path}`, `None` skipped), which
+    the run would otherwise replace. Each problem is an `OutputPathError` naming the options.
     """
     out = {what: check_output_path(p, what) for what, p in outputs.items() if p is not None}
     names = list(out)
@@ -135,13 +135,13 @@ def _temp_beside(path: Path, suffix: str | None) -> Path:
 
 @contextmanager
 def atomic_paths(paths: Sequence, suffixes: Sequence[str | None] | None = None):
-    """Yield temporary paths beside each of ``paths``; on success each replaces its target.
+    """Yield temporary paths beside each of `paths`; on success each replaces its target.
 
-    The renames happen only after the ``with`` block finished without an exception, so a failed
+    The renames happen only after the `with` block finished without an exception, so a failed
     run leaves every target as it was (and removes the temporary files). Each temporary file keeps
-    its target's suffix (or the one in ``suffixes``) because some writers (``np.savez``,
-    ``matplotlib``) choose the format from it. The results get the mode any new file gets
-    (``0666 & ~umask``; ``mkstemp`` would leave ``0600``).
+    its target's suffix (or the one in `suffixes`) because some writers (`np.savez`,
+    `matplotlib`) choose the format from it. The results get the mode any new file gets
+    (`0666 & ~umask`; `mkstemp` would leave `0600`).
     """
     paths = [Path(p) for p in paths]
     suffixes = list(suffixes) if suffixes is not None else [None] * len(paths)
@@ -163,7 +163,7 @@ def atomic_paths(paths: Sequence, suffixes: Sequence[str | None] | None = None):
 
 
 def _replace_all(tmps: list[Path], paths: list[Path]) -> None:
-    """Rename every ``tmps[i]`` over ``paths[i]``; if one rename fails, undo the ones before it.
+    """Rename every `tmps[i]` over `paths[i]`; if one rename fails, undo the ones before it.
 
     Each existing target is first hard-linked (copied where links are not possible) to a backup
     beside it, so that a failure half way restores the files that were there.
@@ -205,9 +205,9 @@ def _replace_all(tmps: list[Path], paths: list[Path]) -> None:
 
 @contextmanager
 def atomic_path(path, suffix: str | None = None):
-    """Yield a temporary path beside ``path``; on success it replaces ``path`` in one rename.
+    """Yield a temporary path beside `path`; on success it replaces `path` in one rename.
 
-    On an exception the temporary file is removed and ``path`` is left as it was.
+    On an exception the temporary file is removed and `path` is left as it was.
     """
     with atomic_paths([path], [suffix]) as (tmp,):
         yield tmp
@@ -215,7 +215,7 @@ def atomic_path(path, suffix: str | None = None):
 
 # ----------------------------------------------------------------------------------------- JSON
 def jsonable(value):
-    """``value`` as plain JSON data: numpy arrays and scalars to Python, NaN and ±inf to ``None``
+    """`value` as plain JSON data: numpy arrays and scalars to Python, NaN and ±inf to `None`
     (strict JSON has no NaN), mapping keys to strings."""
     if isinstance(value, Mapping):
         return {str(k): jsonable(v) for k, v in value.items()}
@@ -234,9 +234,9 @@ def jsonable(value):
 
 
 def check_record(d, known, what: str, name: str) -> None:
-    """Hold a record read back (a dict from JSON) to its keys: ``ValueError`` "``what`` must be a
-    dict" when ``d`` is not one, "unknown ``name`` keys [...]; known: [...]" when it has a key not
-    in ``known`` (missing keys are the reader's to check)."""
+    """Hold a record read back (a dict from JSON) to its keys: `ValueError` "`what` must be a
+    dict" when `d` is not one, "unknown `name` keys [...]; known: [...]" when it has a key not
+    in `known` (missing keys are the reader's to check)."""
     if not isinstance(d, dict):
         raise ValueError(f"{what} must be a dict; got {type(d).__name__}")
     unknown = sorted(set(d) - set(known))
@@ -245,7 +245,7 @@ def check_record(d, known, what: str, name: str) -> None:
 
 
 def write_json(obj, path) -> Path:
-    """Write ``obj`` as indented JSON (through :func:`jsonable`) atomically; returns ``path``."""
+    """Write `obj` as indented JSON (through `jsonable`) atomically; returns `path`."""
     path = Path(path)
     text = json.dumps(jsonable(obj), indent=2, allow_nan=False) + "\n"
     with atomic_path(path) as tmp:
@@ -255,8 +255,8 @@ def write_json(obj, path) -> Path:
 
 # --------------------------------------------------------------------------------------- tables
 def format_cell(v, digits: int = 4, missing: str = "") -> str:
-    """One Markdown cell: integers as integers, floats to ``digits`` decimals (3 significant digits
-    when very large or small), NaN as "NaN", ``None``/pandas' missing values as ``missing``."""
+    """One Markdown cell: integers as integers, floats to `digits` decimals (3 significant digits
+    when very large or small), NaN as "NaN", `None`/pandas' missing values as `missing`."""
     if v is None or type(v).__name__ in ("NAType", "NaTType"):
         return missing
     if isinstance(v, (bool, np.bool_)):
@@ -273,7 +273,7 @@ def format_cell(v, digits: int = 4, missing: str = "") -> str:
 
 
 def plus_minus(mean, std, digits: int = 4) -> str:
-    """``"0.9298 ± 0.1258"``; ``"NaN"`` for an undefined mean, the mean alone for an undefined std."""
+    """`"0.9298 ± 0.1258"`; `"NaN"` for an undefined mean, the mean alone for an undefined std."""
     if mean is None or (isinstance(mean, float) and math.isnan(mean)):
         return "NaN"
     if std is None or (isinstance(std, float) and math.isnan(std)):
@@ -294,7 +294,7 @@ def markdown_table(table, columns: Sequence[str] | None = None, *, digits: int =
                    whole: Iterable[str] = ()) -> str:
     """A GitHub-Markdown table of a DataFrame (index left out) or of a list of dicts.
 
-    Cells through :func:`format_cell`; float columns named in ``whole`` are shown as integers
+    Cells through `format_cell`; float columns named in `whole` are shown as integers
     when every value is whole (e.g. epochs averaged over sessions that all ran as many).
     """
     rows, cols = _rows_and_columns(table, columns)
@@ -317,7 +317,7 @@ def markdown_table(table, columns: Sequence[str] | None = None, *, digits: int =
 
 
 def write_table(df, stem, *, digits: int = 4, whole: Iterable[str] = ()) -> tuple[Path, Path]:
-    """Write a DataFrame as ``STEM.csv`` (full precision) and ``STEM.md`` (:func:`markdown_table`),
+    """Write a DataFrame as `STEM.csv` (full precision) and `STEM.md` (`markdown_table`),
     both or neither; returns both paths."""
     stem = Path(stem)
     csv, md = stem.with_name(stem.name + ".csv"), stem.with_name(stem.name + ".md")
@@ -329,17 +329,17 @@ def write_table(df, stem, *, digits: int = 4, whole: Iterable[str] = ()) -> tupl
 
 
 def read_json(path) -> Any:
-    """JSON from ``path`` (``FileNotFoundError`` if missing)."""
+    """JSON from `path` (`FileNotFoundError` if missing)."""
     with open(path) as f:
         return json.load(f)
 
 
 def read_text(path, subject: str, hint: str, *, encoding: str = "utf-8") -> str:
-    """The text of the file at ``path`` (``encoding``; ``"utf-8-sig"`` also drops a byte-order mark
-    as Excel writes it). A file that is not text is a ``ValueError`` naming it:
-    ``"<subject> not a text file (byte N is not UTF-8); <hint>"``, or ``"(it holds NUL bytes)"``
+    """The text of the file at `path` (`encoding`; `"utf-8-sig"` also drops a byte-order mark
+    as Excel writes it). A file that is not text is a `ValueError` naming it:
+    `"<subject> not a text file (byte N is not UTF-8); <hint>"`, or `"(it holds NUL bytes)"`
     where it decodes but holds NUL bytes (a binary file that happens to be valid UTF-8).
-    ``subject`` starts the message in the caller's style: ``"--targets t.csv:"``, ``"params.yaml is"``."""
+    `subject` starts the message in the caller's style: `"--targets t.csv:"`, `"params.yaml is"`."""
     raw = Path(path).read_bytes()
     try:
         text = raw.decode(encoding)

@@ -1,27 +1,27 @@
 """Scores of binary workspace maps: confusion counts, precision / recall / F-measure, per-node
 outcomes and per-sample errors, threshold sweeps, the prediction-error histogram, and the statistics
-of training curves over sessions (what the figures of :mod:`wsmap.viz` draw).
+of training curves over sessions (what the figures of `wsmap.viz` draw).
 
 Conventions
 -----------
-* Maps are bool arrays ``(samples, nodes)`` (any shape for pooled counts), numpy or torch;
-  integer/float arrays holding only 0 and 1 are accepted as bool. ``pred`` and ``truth`` must
+* Maps are bool arrays `(samples, nodes)` (any shape for pooled counts), numpy or torch;
+  integer/float arrays holding only 0 and 1 are accepted as bool. `pred` and `truth` must
   have the same shape.
-* Positive = reachable (1). ``P = tp / (tp + fp)``, ``R = tp / (tp + fn)``,
-  ``F = 2 P R / (P + R)``.
-* ``average="micro"`` pools the counts over every sample and node (the paper's F-measure, on a
-  1000-sample test set); ``average="samples"`` computes P, R, F per sample (row) and reports
+* Positive = reachable (1). `P = tp / (tp + fp)`, `R = tp / (tp + fn)`,
+  `F = 2 P R / (P + R)`.
+* `average="micro"` pools the counts over every sample and node (the paper's F-measure, on a
+  1000-sample test set); `average="samples"` computes P, R, F per sample (row) and reports
   their mean and standard deviation over the samples where they are defined.
-* Undefined cases: precision with no predicted positive (``tp + fp == 0``) and recall with no
-  true positive (``tp + fn == 0``) are 0/0; they become ``zero_division`` -- ``"nan"`` (default;
-  the paper printed NaN), ``0`` or ``1``. F is NaN when P or R is NaN, 0 when ``P + R == 0``
-  (both defined and zero: no true positive at all, the limit of ``2tp / (2tp + fp + fn)``),
-  else ``2PR / (P + R)``. With ``zero_division=1`` an all-negative sample predicted all negative
+* Undefined cases: precision with no predicted positive (`tp + fp == 0`) and recall with no
+  true positive (`tp + fn == 0`) are 0/0; they become `zero_division` -- `"nan"` (default;
+  the paper printed NaN), `0` or `1`. F is NaN when P or R is NaN, 0 when `P + R == 0`
+  (both defined and zero: no true positive at all, the limit of `2tp / (2tp + fp + fn)`),
+  else `2PR / (P + R)`. With `zero_division=1` an all-negative sample predicted all negative
   scores P = R = F = 1.
 * Scores (raw network outputs, or sigmoid of logits) are thresholded as the models do: a node is
-  predicted reachable when ``score > threshold`` (strict; NaN scores are never positive). For
+  predicted reachable when `score > threshold` (strict; NaN scores are never positive). For
   float32 scores the thresholds are rounded to float32 first, so the comparison is exactly
-  ``torch``'s ``score > threshold`` on the float32 tensor.
+  `torch`'s `score > threshold` on the float32 tensor.
 """
 
 from __future__ import annotations
@@ -123,10 +123,10 @@ class Confusion(NamedTuple):
 
 
 def confusion(pred, truth, axis: int | tuple[int, ...] | None = None) -> Confusion:
-    """``(tp, fp, fn, tn)`` of bool maps ``pred`` vs ``truth`` (same shape).
+    """`(tp, fp, fn, tn)` of bool maps `pred` vs `truth` (same shape).
 
-    ``axis=None``: pooled over every element (Python ints). Otherwise counted along ``axis``
-    (e.g. ``axis=1`` on ``(samples, nodes)`` gives per-sample int64 arrays).
+    `axis=None`: pooled over every element (Python ints). Otherwise counted along `axis`
+    (e.g. `axis=1` on `(samples, nodes)` gives per-sample int64 arrays).
 
     Raises:
         ValueError: shapes differ (both are named), or values are not boolean / 0-1.
@@ -142,14 +142,14 @@ def confusion(pred, truth, axis: int | tuple[int, ...] | None = None) -> Confusi
 class PRF:
     """Precision, recall and F-measure.
 
-    ``average="micro"``: ``precision``, ``recall``, ``f`` from the pooled ``tp, fp, fn, tn``;
-    the ``*_std`` are NaN and ``undefined_*`` are 0 or 1 (whether the pooled value is 0/0).
+    `average="micro"`: `precision`, `recall`, `f` from the pooled `tp, fp, fn, tn`;
+    the `*_std` are NaN and `undefined_*` are 0 or 1 (whether the pooled value is 0/0).
 
-    ``average="samples"``: ``precision``, ``recall``, ``f`` are means over the samples where the
-    value is defined (not NaN; with ``zero_division`` 0 or 1 every sample is), ``*_std`` their
-    standard deviations (``ddof``), ``undefined_*`` how many samples had NaN, ``n_samples`` the
-    sample count; ``per_sample`` holds the ``(samples,)`` arrays ``precision``, ``recall``,
-    ``f``. The pooled ``tp, fp, fn, tn`` are filled in both cases.
+    `average="samples"`: `precision`, `recall`, `f` are means over the samples where the
+    value is defined (not NaN; with `zero_division` 0 or 1 every sample is), `*_std` their
+    standard deviations (`ddof`), `undefined_*` how many samples had NaN, `n_samples` the
+    sample count; `per_sample` holds the `(samples,)` arrays `precision`, `recall`,
+    `f`. The pooled `tp, fp, fn, tn` are filled in both cases.
     """
 
     precision: float
@@ -170,27 +170,27 @@ class PRF:
     per_sample: dict[str, np.ndarray] | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain dict (JSON friendly; ``per_sample`` left out, NaN stays ``float('nan')``)."""
+        """Plain dict (JSON friendly; `per_sample` left out, NaN stays `float('nan')`)."""
         d = asdict(self)
         d.pop("per_sample")
         return d
 
 
 def precision_recall_f(pred, truth, average: str = "micro", *, zero_division="nan", ddof: int = 1) -> PRF:
-    """Precision, recall and F-measure of bool maps ``pred`` vs ``truth``.
+    """Precision, recall and F-measure of bool maps `pred` vs `truth`.
 
     Args:
-        pred, truth: bool ``(samples, nodes)`` (any shape for ``"micro"``; for ``"samples"``
+        pred, truth: bool `(samples, nodes)` (any shape for `"micro"`; for `"samples"`
             the first axis is the sample and the others are pooled per sample).
-        average: ``"micro"`` (pool every sample and node: the paper's) or ``"samples"``
+        average: `"micro"` (pool every sample and node: the paper's) or `"samples"`
             (per sample, then mean and std).
-        zero_division: value of an undefined precision/recall: ``"nan"`` (default), ``0`` or
-            ``1`` (module docstring for F).
-        ddof: delta degrees of freedom of the ``"samples"`` standard deviations (default 1,
-            MATLAB's ``std``); with fewer than ``ddof + 1`` defined samples the std is NaN.
+        zero_division: value of an undefined precision/recall: `"nan"` (default), `0` or
+            `1` (module docstring for F).
+        ddof: delta degrees of freedom of the `"samples"` standard deviations (default 1,
+            MATLAB's `std`); with fewer than `ddof + 1` defined samples the std is NaN.
 
     Returns:
-        :class:`PRF`.
+        `PRF`.
     """
     fill = _zero_division_value(zero_division)
     p, t = _pair(pred, truth)
@@ -233,11 +233,11 @@ def precision_recall_f(pred, truth, average: str = "micro", *, zero_division="na
 
 
 def score_maps(pred, truth) -> dict[str, Any]:
-    """Precision, recall and F of predicted maps against labels, both bool ``(n, N)``: pooled over
-    every arm and node (``precision``, ``recall``, ``f``: the paper's F-measure) and per arm
-    (``f_mean``, ``f_std`` over arms whose F is defined; ``f_undefined`` the others;
-    ``f_per_sample``), with the confusion counts (``tp``, ``fp``, ``fn``) and the share of nodes
-    that differ (``node_error``)."""
+    """Precision, recall and F of predicted maps against labels, both bool `(n, N)`: pooled over
+    every arm and node (`precision`, `recall`, `f`: the paper's F-measure) and per arm
+    (`f_mean`, `f_std` over arms whose F is defined; `f_undefined` the others;
+    `f_per_sample`), with the confusion counts (`tp`, `fp`, `fn`) and the share of nodes
+    that differ (`node_error`)."""
     micro = precision_recall_f(pred, truth, "micro")
     per = precision_recall_f(pred, truth, "samples")
     c = confusion(pred, truth)
@@ -264,10 +264,10 @@ def _thresholds_like(thresholds, s: np.ndarray) -> np.ndarray:
 
 @dataclass
 class Sweep:
-    """Pooled (micro) P/R/F per threshold, prediction ``score > threshold``.
+    """Pooled (micro) P/R/F per threshold, prediction `score > threshold`.
 
-    Arrays ``(T,)``: ``thresholds`` (as given, float64), ``precision``, ``recall``, ``f``, and
-    the counts ``tp``, ``fp``, ``fn``, ``tn``. ``best_threshold``/``best_f``/``best_index``: the
+    Arrays `(T,)`: `thresholds` (as given, float64), `precision`, `recall`, `f`, and
+    the counts `tp`, `fp`, `fn`, `tn`. `best_threshold`/`best_f`/`best_index`: the
     threshold with the highest F (NaN F ignored; ties: the first in the given order); NaN/-1
     when every F is NaN.
     """
@@ -304,16 +304,16 @@ class Sweep:
 
 
 def threshold_sweep(scores, truth, thresholds=None, *, zero_division="nan") -> Sweep:
-    """Micro P/R/F of ``score > t`` for every threshold ``t``, vectorised.
+    """Micro P/R/F of `score > t` for every threshold `t`, vectorised.
 
     Args:
-        scores: ``(samples, nodes)`` (any shape) raw outputs or probabilities.
+        scores: `(samples, nodes)` (any shape) raw outputs or probabilities.
         truth: bool, same shape.
-        thresholds: 1-D thresholds; default ``linspace(0, 1, 101)`` (the authors swept 0..1).
-        zero_division: as in :func:`precision_recall_f`.
+        thresholds: 1-D thresholds; default `linspace(0, 1, 101)` (the authors swept 0..1).
+        zero_division: as in `precision_recall_f`.
 
     One sort of the scores per class and a binary search per threshold:
-    ``O(N log N + T log N)`` for ``N`` scores and ``T`` thresholds.
+    `O(N log N + T log N)` for `N` scores and `T` thresholds.
     """
     fill = _zero_division_value(zero_division)
     s = _scores(scores)
@@ -339,7 +339,7 @@ def threshold_sweep(scores, truth, thresholds=None, *, zero_division="nan") -> S
 
 
 def best_threshold(scores, truth, thresholds=None, *, zero_division="nan") -> tuple[float, float]:
-    """``(threshold, F)`` maximising the micro F of ``score > threshold`` (see :class:`Sweep`)."""
+    """`(threshold, F)` maximising the micro F of `score > threshold` (see `Sweep`)."""
     sw = threshold_sweep(scores, truth, thresholds, zero_division=zero_division)
     return sw.best_threshold, sw.best_f
 
@@ -351,12 +351,12 @@ def best_threshold(scores, truth, thresholds=None, *, zero_division="nan") -> tu
 
 @dataclass
 class ErrorHistogram:
-    """Histogram of ``error = truth - score`` (MATLAB ``ploterrhist``'s "Errors = Targets -
+    """Histogram of `error = truth - score` (MATLAB `ploterrhist`'s "Errors = Targets -
     Outputs").
 
-    ``edges`` ``(bins + 1,)``, ``counts`` ``(bins,)`` over all errors; ``counts_reachable`` /
-    ``counts_unreachable`` split them by the true label (they sum to ``counts``). ``n``, ``mean``,
-    ``std`` (ddof 0) of the errors; ``n_nonfinite`` errors left out (NaN/inf scores).
+    `edges` `(bins + 1,)`, `counts` `(bins,)` over all errors; `counts_reachable` /
+    `counts_unreachable` split them by the true label (they sum to `counts`). `n`, `mean`,
+    `std` (ddof 0) of the errors; `n_nonfinite` errors left out (NaN/inf scores).
     """
 
     edges: np.ndarray
@@ -380,13 +380,13 @@ class ErrorHistogram:
 
 
 def error_histogram(scores, truth, bins=20, range: tuple[float, float] | None = None) -> ErrorHistogram:
-    """Histogram of prediction errors ``truth - score`` (truth as 0/1) for the paper's
+    """Histogram of prediction errors `truth - score` (truth as 0/1) for the paper's
     "Histogram of prediction errors" figure.
 
     Args:
         scores: raw outputs (or probabilities), any shape; truth: bool, same shape.
-        bins: number of bins (default 20, as MATLAB's ``ploterrhist``) or explicit edges.
-        range: ``(lo, hi)`` of the bins; default the finite errors' min and max.
+        bins: number of bins (default 20, as MATLAB's `ploterrhist`) or explicit edges.
+        range: `(lo, hi)` of the bins; default the finite errors' min and max.
     """
     s = _scores(scores)
     t = _as_bool(truth, "truth")
@@ -412,13 +412,13 @@ def error_histogram(scores, truth, bins=20, range: tuple[float, float] | None = 
 # Per-node outcomes and per-sample errors
 # --------------------------------------------------------------------------------------------
 
-#: :func:`outcomes` codes 0..3 and their names.
+#: `outcomes` codes 0..3 and their names.
 OUTCOME_NAMES = ("true negative", "true positive", "false positive", "false negative")
 
 
 def outcomes(pred, truth) -> np.ndarray:
     """Per-element outcome codes (uint8) of a prediction against the truth (same shape, read as
-    bool): 0 true negative, 1 true positive, 2 false positive, 3 false negative (:data:`OUTCOME_NAMES`)."""
+    bool): 0 true negative, 1 true positive, 2 false positive, 3 false negative (`OUTCOME_NAMES`)."""
     p, t = _to_numpy(pred), _to_numpy(truth)
     if p.shape != t.shape:
         raise ValueError(f"prediction shape {p.shape} does not match truth shape {t.shape}")
@@ -431,9 +431,9 @@ def outcomes(pred, truth) -> np.ndarray:
 
 
 def per_sample_error(scores, truth, threshold: float = 0.5) -> np.ndarray:
-    """Fraction of each sample's nodes predicted wrongly (``score > threshold`` against the
-    truth), ``(samples,)`` float64: the error of each prediction on a test set. ``scores`` and
-    ``truth`` are ``(samples, nodes)``."""
+    """Fraction of each sample's nodes predicted wrongly (`score > threshold` against the
+    truth), `(samples,)` float64: the error of each prediction on a test set. `scores` and
+    `truth` are `(samples, nodes)`."""
     s = _to_numpy(scores)
     t = np.asarray(_to_numpy(truth), dtype=bool)
     if s.shape != t.shape or s.ndim != 2:
@@ -448,9 +448,9 @@ def per_sample_error(scores, truth, threshold: float = 0.5) -> np.ndarray:
 
 
 def session_curves(histories, key: str) -> np.ndarray:
-    """``(sessions, epochs)`` float64 matrix of ``history.<key>`` (``loss``, ``grad_norm``,
-    ``val_loss``, ``test_loss``, ``time``) of single-session histories
-    (:class:`wsmap.learn.training.History`), padded with NaN after a session that stopped early
+    """`(sessions, epochs)` float64 matrix of `history.<key>` (`loss`, `grad_norm`,
+    `val_loss`, `test_loss`, `time`) of single-session histories
+    (`wsmap.learn.training.History`), padded with NaN after a session that stopped early
     (epochs = the longest history)."""
     rows = [np.asarray(getattr(h, key), dtype=np.float64).reshape(-1) for h in histories]
     if not rows:
@@ -465,9 +465,9 @@ def session_curves(histories, key: str) -> np.ndarray:
 
 
 def session_mean_std(curves) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per epoch (column) of ``curves`` ``(sessions, epochs)`` (NaN: the session had stopped): the
+    """Per epoch (column) of `curves` `(sessions, epochs)` (NaN: the session had stopped): the
     mean, the population standard deviation (0 with one session) and the number of sessions
-    present, each ``(epochs,)``; NaN mean and deviation where no session is present."""
+    present, each `(epochs,)`; NaN mean and deviation where no session is present."""
     curves = np.atleast_2d(np.asarray(curves, dtype=np.float64))
     count = np.sum(np.isfinite(curves), axis=0)
     safe = np.where(np.isfinite(curves), curves, 0.0)

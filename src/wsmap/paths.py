@@ -1,7 +1,7 @@
 """Where the project's files live: one place, independent of the working directory.
 
-The project root is ``$WSMAP_ROOT`` when set, else the checkout that holds this package
-(``src/wsmap`` → two levels up). Notebooks and pipeline stages take every path from here.
+The project root is `$WSMAP_ROOT` when set, else the checkout that holds this package
+(`src/wsmap` → two levels up). Notebooks and pipeline stages take every path from here.
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ PAPER = (ROOT / ".." / "shared" / "paper").resolve()
 
 
 def require_checkout(what: str = "wsmap paper") -> Path:
-    """The project root, or a ``ValueError`` saying that ``what`` needs a checkout of the repository
-    (``dvc.yaml`` and ``notebooks/`` at the root): an installed package (``pip install wsmap``) has
+    """The project root, or a `ValueError` saying that `what` needs a checkout of the repository
+    (`dvc.yaml` and `notebooks/` at the root): an installed package (`pip install wsmap`) has
     the library but not the paper's notebooks, parameters and data."""
     if not ((ROOT / "dvc.yaml").is_file() and NOTEBOOKS.is_dir()):
         raise ValueError(f"{what} reproduces the paper and needs a checkout of the wsmap repository (dvc.yaml and "
@@ -35,9 +35,9 @@ def require_checkout(what: str = "wsmap paper") -> Path:
 
 
 def load_params(section: str | None = None, path: Path | str | None = None) -> dict:
-    """The pipeline's parameters (``params.yaml`` unless ``path``), or one section of them.
+    """The pipeline's parameters (`params.yaml` unless `path`), or one section of them.
 
-    A missing file or section is a ``ValueError`` naming it.
+    A missing file or section is a `ValueError` naming it.
     """
     import yaml
 
@@ -70,7 +70,7 @@ MAX_PARAMS_VALUES = 100_000
 
 
 def _check_size(params, path) -> None:
-    """``ValueError`` when ``params`` holds more than :data:`MAX_PARAMS_VALUES` values, each alias
+    """`ValueError` when `params` holds more than `MAX_PARAMS_VALUES` values, each alias
     counted as often as it is used (a recursive alias, too, stops the count)."""
     stack, count = [params], 0
     while stack:
@@ -103,10 +103,10 @@ class Params(dict):
 
 
 def notebook_params(name: str, params_file: Path | str | None = None) -> Params:
-    """The parameters of notebook ``name``: its section of ``params_file`` (default ``params.yaml``).
+    """The parameters of notebook `name`: its section of `params_file` (default `params.yaml`).
 
     The same call serves papermill (which passes the chosen file) and a notebook opened by hand in
-    JupyterLab (``params_file`` left ``None``).
+    JupyterLab (`params_file` left `None`).
     """
     path = Path(params_file) if params_file else PARAMS
     section = load_params(name, path)
@@ -119,10 +119,10 @@ class Outputs:
     """The folders a pipeline run writes to, under one root (the project root by default).
 
     Smoke runs pass a temporary root so that they never overwrite the committed results.
-    ``inputs``: the root whose ``data/``, ``models/``, ``results/`` and ``tables/`` hold what this
-    run READS (the datasets, other stages' models and metrics; :attr:`inputs` is an ``Outputs`` of
-    it); by default ``root`` itself, as a pipeline run reads what it wrote. A notebook opened by
-    hand writes into :data:`SCRATCH` and reads the project's (:func:`notebook_outputs`).
+    `inputs`: the root whose `data/`, `models/`, `results/` and `tables/` hold what this
+    run READS (the datasets, other stages' models and metrics; `inputs` is an `Outputs` of
+    it); by default `root` itself, as a pipeline run reads what it wrote. A notebook opened by
+    hand writes into `SCRATCH` and reads the project's (`notebook_outputs`).
     """
 
     def __init__(self, root: Path | str | None = None, inputs: Path | str | None = None):
@@ -150,12 +150,12 @@ class Outputs:
 
 
 def notebook_outputs(name: str, output_root: Path | str | None = None, *, log=print) -> Outputs:
-    """Where notebook ``name`` writes, made: ``output_root`` when it is given (papermill and DVC
+    """Where notebook `name` writes, made: `output_root` when it is given (papermill and DVC
     always pass one: the project root, or a temporary root for the smoke runs), else, for a
-    notebook opened by hand, ``scratch/<name>/`` (git-ignored), reading its inputs (datasets, other
-    stages' models and metrics) from the project root, so that the committed ``figures/``,
-    ``tables/``, ``results/`` and ``models/`` stay as the pipeline wrote them. Set ``output_root =
-    paths.ROOT`` in the parameters cell to update the committed results from a notebook. ``log``
+    notebook opened by hand, `scratch/<name>/` (git-ignored), reading its inputs (datasets, other
+    stages' models and metrics) from the project root, so that the committed `figures/`,
+    `tables/`, `results/` and `models/` stay as the pipeline wrote them. Set `output_root =
+    paths.ROOT` in the parameters cell to update the committed results from a notebook. `log`
     receives one line saying where the files go.
     """
     if output_root is not None:

@@ -14,8 +14,8 @@ __all__ = ["Timing", "time_call"]
 
 @dataclass(frozen=True)
 class Timing:
-    """Wall-clock seconds of repeated calls: ``mean``, ``std`` (sample std, ddof 1; 0 for one
-    value) and the individual ``values``."""
+    """Wall-clock seconds of repeated calls: `mean`, `std` (sample std, ddof 1; 0 for one
+    value) and the individual `values`."""
 
     mean: float
     std: float
@@ -38,13 +38,13 @@ class Timing:
         return min(self.values)
 
     def scaled(self, factor: float) -> "Timing":
-        """Every value multiplied by ``factor`` (extrapolation from a sample)."""
+        """Every value multiplied by `factor` (extrapolation from a sample)."""
         return Timing.from_values([x * factor for x in self.values])
 
 
 def time_call(fn: Callable[[], Any], repeats: int = 10, warmup: int = 1,
               clock: Callable[[], float] = time.perf_counter) -> Timing:
-    """Time ``repeats`` calls of ``fn()`` after ``warmup`` untimed calls; a :class:`Timing`."""
+    """Time `repeats` calls of `fn()` after `warmup` untimed calls; a `Timing`."""
     if isinstance(repeats, bool) or int(repeats) != repeats or repeats < 1:
         raise ValueError(f"repeats must be a positive integer, got {repeats!r}")
     if isinstance(warmup, bool) or int(warmup) != warmup or warmup < 0:

@@ -1,25 +1,25 @@
 """3-D views and exchange files of workspace maps: iso-surfaces, glTF scenes, point clouds, and
 interactive plotly figures (in a notebook or as standalone HTML).
 
-A map here is a flat array ``values`` of one number per node of a grid, in the paper's node order
-(first coordinate fastest, :mod:`wsmap.workspace.grids`): a boolean map (read as 0/1), a
+A map here is a flat array `values` of one number per node of a grid, in the paper's node order
+(first coordinate fastest, `wsmap.workspace.grids`): a boolean map (read as 0/1), a
 reachability index in [0, 1], a manipulability map >= 0, ... The grid is a description
-``{"scope", "lo", "hi", "step", "shape"}`` (:func:`wsmap.workspace.grid_spec`; 3-lists, ``shape``
-is ``(nx, ny, nz)``; ``hi`` and ``scope`` are optional here). Node ``(i, j, k)`` lies at
-``lo + (i, j, k) * step``: metres in the arm's base frame for an ``"R3"`` grid, radians
-``(r1, r2, r3)`` for an ``"SO3"`` grid. Every coordinate written or drawn here is such a node
+`{"scope", "lo", "hi", "step", "shape"}` (`wsmap.workspace.grid_spec`; 3-lists, `shape`
+is `(nx, ny, nz)`; `hi` and `scope` are optional here). Node `(i, j, k)` lies at
+`lo + (i, j, k) * step`: metres in the arm's base frame for an `"R3"` grid, radians
+`(r1, r2, r3)` for an `"SO3"` grid. Every coordinate written or drawn here is such a node
 coordinate (the grid's frame and units).
 
-* :func:`iso_mesh` — the iso-surface of a map at one level (``trimesh.Trimesh``);
-* :func:`save_glb` — coloured, semi-transparent iso-surfaces at several levels in one ``.glb``;
-* :func:`save_ply` — the nodes above a threshold as a coloured point cloud ``.ply`` (with the value);
-* :func:`figure_3d` / :func:`save_html` — a plotly figure (points or iso-surfaces) and a
+* `iso_mesh` — the iso-surface of a map at one level (`trimesh.Trimesh`);
+* `save_glb` — coloured, semi-transparent iso-surfaces at several levels in one `.glb`;
+* `save_ply` — the nodes above a threshold as a coloured point cloud `.ply` (with the value);
+* `figure_3d` / `save_html` — a plotly figure (points or iso-surfaces) and a
   standalone HTML file of it with plotly.js inline (opens without a network).
 
-Input is checked before anything is written (``ValueError`` that says what is wrong: a map that does
+Input is checked before anything is written (`ValueError` that says what is wrong: a map that does
 not fit the grid, NaN or infinite values, no levels, ...); files are written atomically
-(:mod:`wsmap.io`): a failed call leaves the target as it was. Flat matplotlib drawings of maps
-(z-slices) are in :mod:`wsmap.viz` (:func:`wsmap.viz.plot_value_slices` for float maps).
+(`wsmap.io`): a failed call leaves the target as it was. Flat matplotlib drawings of maps
+(z-slices) are in `wsmap.viz` (`wsmap.viz.plot_value_slices` for float maps).
 """
 
 from __future__ import annotations
@@ -40,8 +40,8 @@ if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
 
 __all__ = ["GLTF_FROM_GRID", "iso_mesh", "save_glb", "save_ply", "figure_3d", "save_html", "axis_titles"]
 
-#: Transform of every node in the ``.glb`` scenes: the grid's frame (z up) to glTF's (y up):
-#: ``(x, y, z) -> (x, z, -y)``. The meshes' own vertices stay in the grid's frame.
+#: Transform of every node in the `.glb` scenes: the grid's frame (z up) to glTF's (y up):
+#: `(x, y, z) -> (x, z, -y)`. The meshes' own vertices stay in the grid's frame.
 GLTF_FROM_GRID = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
 
 _AXES = {"R3": (("x", "y", "z"), "m"), "SO3": (("r1", "r2", "r3"), "rad")}
@@ -53,7 +53,7 @@ _AXES = {"R3": (("x", "y", "z"), "m"), "SO3": (("r1", "r2", "r3"), "rad")}
 
 
 def _grid_parts(grid) -> tuple[str, tuple[int, int, int], np.ndarray, np.ndarray]:
-    """``(scope, shape, lo, step)`` of a grid description, checked."""
+    """`(scope, shape, lo, step)` of a grid description, checked."""
     if not isinstance(grid, Mapping):
         raise ValueError(f"grid must be a dict with 'lo', 'step' and 'shape' (see wsmap.workspace.grid_spec), "
                          f"got {type(grid).__name__}")
@@ -91,7 +91,7 @@ def _grid_parts(grid) -> tuple[str, tuple[int, int, int], np.ndarray, np.ndarray
 
 
 def _values(values, shape, what: str = "values") -> np.ndarray:
-    """Flat float64 ``(N,)`` copy of a map that fits ``shape`` and is finite everywhere."""
+    """Flat float64 `(N,)` copy of a map that fits `shape` and is finite everywhere."""
     a = np.asarray(values)
     if a.dtype.kind not in "biuf":
         raise ValueError(f"{what} must be real numbers or booleans, got dtype {a.dtype}")
@@ -150,7 +150,7 @@ def _cmap(colormap):
 
 
 def _rgba(values, lo: float, hi: float, cmap, alpha: float = 1.0) -> np.ndarray:
-    """uint8 ``(n, 4)`` colours of ``values`` on ``cmap`` over ``[lo, hi]`` (mid colour when lo == hi)."""
+    """uint8 `(n, 4)` colours of `values` on `cmap` over `[lo, hi]` (mid colour when lo == hi)."""
     v = np.asarray(values, dtype=np.float64)
     t = np.full(v.shape, 0.5) if hi == lo else np.clip((v - lo) / (hi - lo), 0.0, 1.0)
     rgba = np.asarray(cmap(t), dtype=np.float64).reshape(-1, 4)
@@ -159,13 +159,13 @@ def _rgba(values, lo: float, hi: float, cmap, alpha: float = 1.0) -> np.ndarray:
 
 
 def axis_titles(grid: Mapping[str, Any]) -> tuple[str, str, str]:
-    """Axis titles with units of a grid: ``("x (m)", "y (m)", "z (m)")`` for R3, ``("r1 (rad)", ...)`` for SO3."""
+    """Axis titles with units of a grid: `("x (m)", "y (m)", "z (m)")` for R3, `("r1 (rad)", ...)` for SO3."""
     names, unit = _AXES[_grid_parts(grid)[0]]
     return tuple(f"{n} ({unit})" for n in names)
 
 
 def _node_coords(shape, lo, step) -> np.ndarray:
-    """``(N, 3)`` node coordinates in node order (x fastest)."""
+    """`(N, 3)` node coordinates in node order (x fastest)."""
     axes = [lo[i] + step[i] * np.arange(shape[i]) for i in range(3)]
     zz, yy, xx = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
     return np.stack([xx.ravel(), yy.ravel(), zz.ravel()], axis=-1)
@@ -202,20 +202,20 @@ def _iso(v: np.ndarray, shape, lo, step, level: float):
 
 
 def iso_mesh(values: ArrayLike, grid: Mapping[str, Any], level: float) -> Any:
-    """Iso-surface of a map at ``level`` as a ``trimesh.Trimesh`` (marching cubes).
+    """Iso-surface of a map at `level` as a `trimesh.Trimesh` (marching cubes).
 
     Args:
-        values: the map, ``(N,)`` numbers (or booleans) in node order, finite.
-        grid: its grid (``lo``, ``step``, ``shape``; see the module docstring).
-        level: the value of the surface (same units as ``values``).
+        values: the map, `(N,)` numbers (or booleans) in node order, finite.
+        grid: its grid (`lo`, `step`, `shape`; see the module docstring).
+        level: the value of the surface (same units as `values`).
 
     Returns:
-        The closed surface around the nodes above ``level``: vertices ``(V, 3)`` in the grid's frame
+        The closed surface around the nodes above `level`: vertices `(V, 3)` in the grid's frame
         and units (metres for R3 grids), faces wound so normals point away from the values above
-        ``level``. The volume is padded by one layer of the map's lowest value (below ``level``) so
+        `level`. The volume is padded by one layer of the map's lowest value (below `level`) so
         the surface closes where the region touches the grid's border (half way to a border node
-        of value ``2·level`` or less, nearer to it above). An empty mesh (0 vertices, 0 faces) when
-        no node is above ``level`` — including a level at or above the map's maximum.
+        of value `2·level` or less, nearer to it above). An empty mesh (0 vertices, 0 faces) when
+        no node is above `level` — including a level at or above the map's maximum.
     """
     _, shape, lo, step = _grid_parts(grid)
     v = _values(values, shape)
@@ -225,16 +225,16 @@ def iso_mesh(values: ArrayLike, grid: Mapping[str, Any], level: float) -> Any:
 def save_glb(path: PathLike, values: ArrayLike, grid: Mapping[str, Any],
              levels: float | Sequence[float] = (0.25, 0.5, 0.75), colormap: str = "viridis", *, opacity: float = 0.45,
              vmin: float | None = None, vmax: float | None = None) -> Path:
-    """Write a glTF binary scene (``.glb``) of the map's iso-surfaces, one per level.
+    """Write a glTF binary scene (`.glb`) of the map's iso-surfaces, one per level.
 
-    Each non-empty :func:`iso_mesh` becomes one geometry (and node) named ``"level <value>"``, with a
-    double-sided, semi-transparent (``opacity``, alpha blending) PBR material of the ``colormap``
-    colour of its level over ``[vmin, vmax]`` (default: the map's range). Levels that no node is
+    Each non-empty `iso_mesh` becomes one geometry (and node) named `"level <value>"`, with a
+    double-sided, semi-transparent (`opacity`, alpha blending) PBR material of the `colormap`
+    colour of its level over `[vmin, vmax]` (default: the map's range). Levels that no node is
     above are skipped. Vertices are in the grid's frame and units (metres for R3, which is glTF's unit);
-    each node carries :data:`GLTF_FROM_GRID` so viewers (y up) show the grid's z axis up.
-    ``trimesh.load(path)`` gives a ``Scene`` whose ``geometry`` are the surfaces in the grid's frame.
+    each node carries `GLTF_FROM_GRID` so viewers (y up) show the grid's z axis up.
+    `trimesh.load(path)` gives a `Scene` whose `geometry` are the surfaces in the grid's frame.
 
-    ``ValueError`` before anything is written: a bad map or grid, no levels, a non-finite level,
+    `ValueError` before anything is written: a bad map or grid, no levels, a non-finite level,
     no level that any node is above (nothing to draw), an unknown colormap, a bad path.
     Written atomically. Returns the path.
     """
@@ -275,15 +275,15 @@ def save_glb(path: PathLike, values: ArrayLike, grid: Mapping[str, Any],
 def save_ply(path: PathLike, values: ArrayLike, grid: Mapping[str, Any], threshold: float = 0.0,
              colormap: str = "viridis", *, vmin: float | None = None, vmax: float | None = None, label: str = "value"
             ) -> Path:
-    """Write the nodes whose value is above ``threshold`` as a coloured point cloud (binary ``.ply``).
+    """Write the nodes whose value is above `threshold` as a coloured point cloud (binary `.ply`).
 
-    One vertex per such node, in node order: ``x, y, z`` (float32, the grid's frame and units,
-    metres for R3), ``red, green, blue, alpha`` (uchar, the ``colormap`` colour of the value over
-    ``[vmin, vmax]``, default the map's range; alpha 255) and ``value`` (float32, the map's value,
+    One vertex per such node, in node order: `x, y, z` (float32, the grid's frame and units,
+    metres for R3), `red, green, blue, alpha` (uchar, the `colormap` colour of the value over
+    `[vmin, vmax]`, default the map's range; alpha 255) and `value` (float32, the map's value,
     a scalar field for tools such as CloudCompare). The header's comments say the units and
-    ``label``. ``trimesh.load(path)`` gives a ``PointCloud`` with ``colors``.
+    `label`. `trimesh.load(path)` gives a `PointCloud` with `colors`.
 
-    ``ValueError`` before anything is written: a bad map or grid, a non-finite threshold, no node
+    `ValueError` before anything is written: a bad map or grid, a non-finite threshold, no node
     above the threshold (nothing to write), an unknown colormap, a bad path. Written atomically.
     Returns the path.
     """
@@ -329,29 +329,29 @@ def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points
               levels: float | Sequence[float] = (0.25, 0.5, 0.75), colormap: str = "Viridis",
               vmin: float | None = None, vmax: float | None = None, marker_size: float = 3.0,
               opacity: float | None = None, thresholds: Sequence[float] | None = None, cut_plane: bool = False) -> Any:
-    """An interactive plotly ``Figure`` of a map (notebooks: display it; files: :func:`save_html`).
+    """An interactive plotly `Figure` of a map (notebooks: display it; files: `save_html`).
 
     Args:
-        values, grid: the map ``(N,)`` in node order and its grid (module docstring).
-        kind: ``"points"`` — one ``Scatter3d`` marker per node whose value is above ``threshold``
-            (node order), coloured by value; ``"iso"`` — one ``go.Isosurface`` trace per level of
-            ``levels`` that some node is above (each exactly at its level, caps off).
-        title: the figure's title; ``label``: the colour bar's title (what the value is, with units).
-        colormap: a plotly colour scale name; ``vmin``/``vmax``: its range (default: the map's).
-        marker_size: points' size in pixels; ``opacity``: the traces' (default 0.8 points, 0.35 iso).
-        thresholds: points only: several thresholds (e.g. ``np.linspace(0, 0.9, 10)`` for an index
+        values, grid: the map `(N,)` in node order and its grid (module docstring).
+        kind: `"points"` — one `Scatter3d` marker per node whose value is above `threshold`
+            (node order), coloured by value; `"iso"` — one `go.Isosurface` trace per level of
+            `levels` that some node is above (each exactly at its level, caps off).
+        title: the figure's title; `label`: the colour bar's title (what the value is, with units).
+        colormap: a plotly colour scale name; `vmin`/`vmax`: its range (default: the map's).
+        marker_size: points' size in pixels; `opacity`: the traces' (default 0.8 points, 0.35 iso).
+        thresholds: points only: several thresholds (e.g. `np.linspace(0, 0.9, 10)` for an index
             map), one trace each (the nodes above it), and a slider "value >" under the scene
-            that shows one at a time (the lowest first; ``threshold`` is then not used).
+            that shows one at a time (the lowest first; `threshold` is then not used).
         cut_plane: a second slider, "z ≤" (the grid's third axis): the scene's third axis range
             ends at the chosen layer, and plotly hides what lies beyond it, so that the inside
             of the map shows; the scene then keeps the whole grid's proportions and x/y ranges
-            (``aspectmode="manual"``).
+            (`aspectmode="manual"`).
 
-    All traces share ``layout.coloraxis`` (one colour bar titled ``label``). The scene's axes are
-    titled with their units (``x (m)``, ... for R3; ``r1 (rad)``, ... for SO3) and keep the grid's
-    proportions (``aspectmode="data"``).
+    All traces share `layout.coloraxis` (one colour bar titled `label`). The scene's axes are
+    titled with their units (`x (m)`, ... for R3; `r1 (rad)`, ... for SO3) and keep the grid's
+    proportions (`aspectmode="data"`).
 
-    ``ValueError``: a bad map or grid, an unknown ``kind``, no node above ``threshold`` (points)
+    `ValueError`: a bad map or grid, an unknown `kind`, no node above `threshold` (points)
     or above any level (iso), no levels.
     """
     go = require("plotly.graph_objects", extra="views", why="a 3-D view")
@@ -441,11 +441,11 @@ def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points
 
 
 def save_html(path: PathLike, values: ArrayLike, grid: Mapping[str, Any], **kw) -> Path:
-    """Write :func:`figure_3d` ``(values, grid, **kw)`` as one standalone HTML file.
+    """Write `figure_3d` `(values, grid, **kw)` as one standalone HTML file.
 
-    plotly.js is embedded (``include_plotlyjs=True``, about 5 MB): the file opens in a browser
-    without a network. The browser needs WebGL for the 3-D scene. ``ValueError`` (bad input, see
-    :func:`figure_3d`; bad path) before anything is written; written atomically. Returns the path.
+    plotly.js is embedded (`include_plotlyjs=True`, about 5 MB): the file opens in a browser
+    without a network. The browser needs WebGL for the 3-D scene. `ValueError` (bad input, see
+    `figure_3d`; bad path) before anything is written; written atomically. Returns the path.
     """
     path = check_output_path(path, "html")
     fig = figure_3d(values, grid, **kw)

@@ -1,21 +1,21 @@
 """Drawing only: workspace maps (z-slices, voxels, surface meshes), training curves, prediction
 errors, threshold sweeps, run-time bars, and writing figures and meshes to files.
 
-Maps are flat boolean arrays in the paper's node order; ``shape = (nx, ny, nz)`` and the grid's
-``lo``/``step`` place them in space (metres for R3 maps, radians for SO3 maps). Everything that
-draws returns a matplotlib ``Figure`` (or ``Axes``); everything that writes a file writes it
-atomically (:mod:`wsmap.io`). What is drawn is computed elsewhere: scores, outcomes, per-sample
-errors and the statistics over sessions in :mod:`wsmap.metrics`, surface meshes of maps in
-:mod:`wsmap.views` (:func:`wsmap.views.iso_mesh`).
+Maps are flat boolean arrays in the paper's node order; `shape = (nx, ny, nz)` and the grid's
+`lo`/`step` place them in space (metres for R3 maps, radians for SO3 maps). Everything that
+draws returns a matplotlib `Figure` (or `Axes`); everything that writes a file writes it
+atomically (`wsmap.io`). What is drawn is computed elsewhere: scores, outcomes, per-sample
+errors and the statistics over sessions in `wsmap.metrics`, surface meshes of maps in
+`wsmap.views` (`wsmap.views.iso_mesh`).
 
-* maps: :func:`plot_slices`, :func:`plot_value_slices` (float maps), :func:`plot_voxels`, :func:`render_mesh`,
-  :func:`plot_meshes`, :func:`export_mesh`, :func:`save_figure`;
-* curves over training sessions (:func:`wsmap.metrics.session_curves`): :func:`plot_mean_band` (the
-  paper's "Average gradient (± sigma) of 10 training sessions"), :func:`plot_training_curves`;
-* predictions against the truth: :func:`plot_sample_errors` (of :func:`wsmap.metrics.per_sample_error`),
-  :func:`plot_sections` (TP/FP/FN/TN of a z-layer for a grid of arms, :func:`wsmap.metrics.outcomes`),
-  :func:`plot_threshold_sweep`, :func:`plot_error_histograms`;
-* run time: :func:`plot_runtimes`.
+* maps: `plot_slices`, `plot_value_slices` (float maps), `plot_voxels`, `render_mesh`,
+  `plot_meshes`, `export_mesh`, `save_figure`;
+* curves over training sessions (`wsmap.metrics.session_curves`): `plot_mean_band` (the
+  paper's "Average gradient (± sigma) of 10 training sessions"), `plot_training_curves`;
+* predictions against the truth: `plot_sample_errors` (of `wsmap.metrics.per_sample_error`),
+  `plot_sections` (TP/FP/FN/TN of a z-layer for a grid of arms, `wsmap.metrics.outcomes`),
+  `plot_threshold_sweep`, `plot_error_histograms`;
+* run time: `plot_runtimes`.
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ __all__ = [
     "COMPARE_COLORS", "CONVENTION_TEXT",
 ]
 
-#: The colours of :func:`wsmap.metrics.outcomes` codes 0..3 (:data:`wsmap.metrics.OUTCOME_NAMES`).
+#: The colours of `wsmap.metrics.outcomes` codes 0..3 (`wsmap.metrics.OUTCOME_NAMES`).
 OUTCOME_COLORS = ("#f4f4f4", "#1f4e79", "#ff9f1c", "#d62728")
 
 
@@ -66,11 +66,11 @@ def _plt():
 def plot_mean_band(curves: ArrayLike, *, epochs: ArrayLike | None = None, ax: Axes | None = None, label: str = "mean",
                    color: str = "#1f4e79",
                    logy: bool = True, ylabel: str = "", title: str | None = None, show_sessions: bool = True) -> Figure:
-    """Mean ± sigma over sessions (rows of ``curves``, NaN = session stopped) per epoch.
+    """Mean ± sigma over sessions (rows of `curves`, NaN = session stopped) per epoch.
 
-    With ``logy``, where ``mean − sigma <= 0`` the band's lower edge is the lowest session's
+    With `logy`, where `mean − sigma <= 0` the band's lower edge is the lowest session's
     value at that epoch (a log axis cannot show a non-positive edge). Individual sessions are drawn thin
-    when ``show_sessions``. Returns the Figure.
+    when `show_sessions`. Returns the Figure.
     """
     plt = _plt()
     curves = np.atleast_2d(np.asarray(curves, dtype=np.float64))
@@ -139,7 +139,7 @@ def plot_training_curves(histories: Sequence, labels: Sequence[str], *, best_epo
 
 
 def plot_sample_errors(errors: ArrayLike, *, title: str | None = None) -> Figure:
-    """Per-sample error (:func:`wsmap.metrics.per_sample_error`) of a test set: left, the error of every sample
+    """Per-sample error (`wsmap.metrics.per_sample_error`) of a test set: left, the error of every sample
     in test-set order with its mean and mean ± sigma; right, their histogram. Returns the Figure."""
     plt = _plt()
     e = 100.0 * np.asarray(errors, dtype=np.float64)
@@ -166,14 +166,14 @@ def plot_sample_errors(errors: ArrayLike, *, title: str | None = None) -> Figure
 def plot_sections(pred: ArrayLike, truth: ArrayLike, shape: Sequence[int], *, layer: int, lo: float | ArrayLike = -1.0,
                   step: float | ArrayLike = 0.1, z_value: float | None = None, titles: Sequence[str] | None = None,
                   ncols: int = 5, title: str | None = None) -> Figure:
-    """One panel per sample: z-layer ``layer`` of its predicted map against the exact one,
-    coloured by outcome (TP/FP/FN/TN, :func:`wsmap.metrics.outcomes`, :data:`OUTCOME_COLORS`).
+    """One panel per sample: z-layer `layer` of its predicted map against the exact one,
+    coloured by outcome (TP/FP/FN/TN, `wsmap.metrics.outcomes`, `OUTCOME_COLORS`).
 
     Args:
-        pred, truth: bool ``(samples, nx*ny*nz)`` maps in node order (e.g. one block subspace,
-            shape ``(21, 21, 3)``).
-        shape: ``(nx, ny, nz)`` of those maps; ``layer``: index into the z-layers.
-        lo, step: the grid's x/y origin and spacing (axis extents); ``z_value``: the layer's z,
+        pred, truth: bool `(samples, nx*ny*nz)` maps in node order (e.g. one block subspace,
+            shape `(21, 21, 3)`).
+        shape: `(nx, ny, nz)` of those maps; `layer`: index into the z-layers.
+        lo, step: the grid's x/y origin and spacing (axis extents); `z_value`: the layer's z,
             for the title.
         titles: one small title per panel.
     """
@@ -206,8 +206,8 @@ def plot_sections(pred: ArrayLike, truth: ArrayLike, shape: Sequence[int], *, la
 
 
 def plot_threshold_sweep(sweep: Any, *, mark: float | None = 0.5, title: str | None = None) -> Figure:
-    """Precision, recall and F of a :class:`wsmap.metrics.Sweep` against the threshold; the best
-    threshold and ``mark`` (the paper's 0.5) are marked."""
+    """Precision, recall and F of a `wsmap.metrics.Sweep` against the threshold; the best
+    threshold and `mark` (the paper's 0.5) are marked."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.0, 4.0))
     th = np.asarray(sweep.thresholds)
@@ -232,7 +232,7 @@ def plot_threshold_sweep(sweep: Any, *, mark: float | None = 0.5, title: str | N
 
 def plot_error_histograms(hists: Sequence, labels: Sequence[str], *, ncols: int = 4, title: str | None = None
                          ) -> Figure:
-    """One panel per :class:`wsmap.metrics.ErrorHistogram` (errors = truth − output), bars split
+    """One panel per `wsmap.metrics.ErrorHistogram` (errors = truth − output), bars split
     into truly reachable and unreachable nodes, log-scaled counts (most errors are near 0)."""
     plt = _plt()
     if len(hists) != len(labels):
@@ -272,8 +272,8 @@ def plot_error_histograms(hists: Sequence, labels: Sequence[str], *, ncols: int 
 
 
 def plot_runtimes(groups: dict[str, dict[str, np.ndarray]], *, unit: str = "ms", title: str | None = None) -> Figure:
-    """Bars of mean ± sigma run time, one panel per group (e.g. ``{"one arm": {"block 1":
-    times, ...}, "1000 arms": {...}}``), one bar per model inside a group."""
+    """Bars of mean ± sigma run time, one panel per group (e.g. `{"one arm": {"block 1":
+    times, ...}, "1000 arms": {...}}`), one bar per model inside a group."""
     plt = _plt()
     scale = {"s": 1.0, "ms": 1e3, "us": 1e6}[unit]
     fig, axes = plt.subplots(1, len(groups), figsize=(5.2 * len(groups), 3.8), squeeze=False)
@@ -301,8 +301,8 @@ def plot_runtimes(groups: dict[str, dict[str, np.ndarray]], *, unit: str = "ms",
 
 def plot_meshes(meshes: Sequence, titles: Sequence[str], *, lim: float = 1.0, colors: Sequence[str] | None = None,
                 suptitle: str | None = None) -> Figure:
-    """Meshes (e.g. :func:`wsmap.views.iso_mesh`) rendered side by side (:func:`render_mesh`, no
-    OpenGL); a ``None`` or empty mesh gets an empty panel that says so."""
+    """Meshes (e.g. `wsmap.views.iso_mesh`) rendered side by side (`render_mesh`, no
+    OpenGL); a `None` or empty mesh gets an empty panel that says so."""
     plt = _plt()
     colors = colors or ["#1f4e79", "#2e7d32", "#8e44ad", "#d35400"]
     fig = plt.figure(figsize=(5.0 * len(meshes), 5.0))
@@ -322,8 +322,8 @@ def plot_meshes(meshes: Sequence, titles: Sequence[str], *, lim: float = 1.0, co
 
 
 def export_mesh(mesh: Any, path: PathLike) -> Path:
-    """Write a ``trimesh.Trimesh`` atomically; the format comes from the suffix (``.stl``,
-    ``.glb``, ``.ply``, ``.obj``). Returns the path."""
+    """Write a `trimesh.Trimesh` atomically; the format comes from the suffix (`.stl`,
+    `.glb`, `.ply`, `.obj`). Returns the path."""
     path = Path(path)
     fmt = path.suffix.lstrip(".").lower()
     if not fmt:
@@ -357,7 +357,7 @@ def _units_of(labels: Sequence[str]) -> str:
 
 def _layers_shown(occupied: np.ndarray, max_panels: int) -> tuple[np.ndarray, str]:
     """The z-layers to draw and a note on what was left out: layers with nothing to see are dropped
-    (all of them but the middle one when the whole map is empty), and more than ``max_panels``
+    (all of them but the middle one when the whole map is empty), and more than `max_panels`
     layers are thinned to evenly spaced ones, the first and last non-empty layer kept."""
     nz = occupied.size
     keep = np.flatnonzero(occupied)
@@ -375,7 +375,7 @@ def _layers_shown(occupied: np.ndarray, max_panels: int) -> tuple[np.ndarray, st
 
 
 def _slice_grid(plt, count: int, ncols: int | None, extent, labels, units: str, panel: float = 2.3):
-    """``(fig, axes)``: ``count`` map panels of ``panel`` inches in rows of ``ncols`` (default: at
+    """`(fig, axes)`: `count` map panels of `panel` inches in rows of `ncols` (default: at
     most 6), sharing metre (or radian) ticks, the axis names on the outer panels only, in a
     constrained layout so that the colour bar, the legend and the titles never sit on the data."""
     if ncols:
@@ -418,23 +418,23 @@ def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike
     """The z-layers of a BINARY map side by side, in the grid's units. Returns a matplotlib Figure.
 
     Args:
-        flat_map: bool ``(nx*ny*nz,)`` in node order (first coordinate fastest).
-        shape: ``(nx, ny, nz)``; ``lo``, ``step``: the grid's origin and spacing (scalars or 3-tuples;
+        flat_map: bool `(nx*ny*nz,)` in node order (first coordinate fastest).
+        shape: `(nx, ny, nz)`; `lo`, `step`: the grid's origin and spacing (scalars or 3-tuples;
             metres for an R3 grid, radians for SO3), which place every cell: ticks in those units,
-            each panel titled with its layer's value (``z = 0.30 m``).
+            each panel titled with its layer's value (`z = 0.30 m`).
         compare: a second map of the same shape (e.g. exact labels against a prediction): the cells
-            are coloured in ``names`` order as ``flat_map`` only, ``compare`` only, both
-            (:data:`COMPARE_COLORS`); without it reachable against unreachable (:data:`MAP_COLORS`).
+            are coloured in `names` order as `flat_map` only, `compare` only, both
+            (`COMPARE_COLORS`); without it reachable against unreachable (`MAP_COLORS`).
             A legend below the panels says which colour is which.
         title: the figure's title, short (arm, kind, orientation, convention); the rest of the
-            settings belong in ``metadata``.
-        ncols: panels per row (default up to 6); ``labels``: the axes' names (``("r1", "r2", "r3")``
+            settings belong in `metadata`.
+        ncols: panels per row (default up to 6); `labels`: the axes' names (`("r1", "r2", "r3")`
             for SO3 maps: radians).
         max_panels: at most this many panels: z-layers with no reachable node are left out and a
             longer stack is thinned to evenly spaced layers (the legend's title says what was left out).
-        metadata: text stored in the PNG by :func:`save_figure` (``{"Description": ...}``).
+        metadata: text stored in the PNG by `save_figure` (`{"Description": ...}`).
 
-    ``ValueError`` for a map or ``compare`` that does not fit ``shape``, or ``max_panels < 1``.
+    `ValueError` for a map or `compare` that does not fit `shape`, or `max_panels < 1`.
     """
     plt = _plt()
     from matplotlib.colors import ListedColormap
@@ -480,23 +480,23 @@ def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | Array
     Returns the Figure.
 
     Args:
-        values: the map, ``(nx*ny*nz,)`` finite numbers in node order (first coordinate fastest).
-        shape: ``(nx, ny, nz)``; ``lo``, ``step``: the grid's origin and spacing (scalars or
+        values: the map, `(nx*ny*nz,)` finite numbers in node order (first coordinate fastest).
+        shape: `(nx, ny, nz)`; `lo`, `step`: the grid's origin and spacing (scalars or
             3-tuples; metres for R3 maps, radians for SO3): ticks in those units, each panel titled
-            with its layer's value (``z = 0.30 m``).
-        label: the colour bar's label: what the value is, with its units (``"manipulability (m³)"``).
+            with its layer's value (`z = 0.30 m`).
+        label: the colour bar's label: what the value is, with its units (`"manipulability (m³)"`).
         vmin, vmax: the colour range (default: the map's minimum and maximum), the same in every panel.
-        labels: the axes' names (``("r1", "r2", "r3")`` for SO3 maps); ``cmap``: a matplotlib colormap.
-        max_panels: at most this many panels: layers with no value above ``vmin`` (nothing reachable)
+        labels: the axes' names (`("r1", "r2", "r3")` for SO3 maps); `cmap`: a matplotlib colormap.
+        max_panels: at most this many panels: layers with no value above `vmin` (nothing reachable)
             are left out and a longer stack is thinned to evenly spaced layers (a note under the
             panels says what was left out).
         unreachable: nodes of exactly this value (default 0: where an index or a manipulability
             map is unreachable) are drawn light grey, apart from the colour scale, with a legend entry
-            "unreachable"; ``None`` colours them by value too.
-        title: short; ``metadata``: text stored in the PNG by :func:`save_figure`.
+            "unreachable"; `None` colours them by value too.
+        title: short; `metadata`: text stored in the PNG by `save_figure`.
 
-    ``ValueError`` for a map that does not fit ``shape``, has NaN or infinite values, ``vmax < vmin``
-    or ``max_panels < 1``.
+    `ValueError` for a map that does not fit `shape`, has NaN or infinite values, `vmax < vmin`
+    or `max_panels < 1`.
     """
     plt = _plt()
     v = np.asarray(values)
@@ -546,7 +546,7 @@ def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | Array
 
 
 def _angle_text(x: float) -> str:
-    """An angle in radians as a reader writes it: a multiple of π/12 as ``π/2``, ``-3π/4``; else 3 decimals."""
+    """An angle in radians as a reader writes it: a multiple of π/12 as `π/2`, `-3π/4`; else 3 decimals."""
     k = x / (math.pi / 12)
     if abs(k - round(k)) > 1e-9:
         return f"{x:.3f}"
@@ -559,20 +559,20 @@ def _angle_text(x: float) -> str:
     return head if den == 1 else f"{head}/{den}"
 
 
-#: How each pose convention reads (:data:`wsmap.workspace.CONVENTIONS`).
+#: How each pose convention reads (`wsmap.workspace.CONVENTIONS`).
 CONVENTION_TEXT = {"paper": "paper convention T = R·transl(p)", "standard": "standard convention T = transl(p)·R"}
 
 
 def map_title(arm: str, kind: Any, *, rpy: Sequence[float] | None = None, point: Sequence[float] | None = None,
               convention: str | None = None, orientations: int | None = None, summary: str | None = None) -> str:
     """A map picture's short title: the arm, the kind, its orientation (or point) and its pose convention,
-    and on a second line ``summary`` (e.g. ``"1883 of 9261 nodes reachable (numerical)"``).
+    and on a second line `summary` (e.g. `"1883 of 9261 nodes reachable (numerical)"`).
 
     Args:
-        arm: the arm's name; ``kind``: its :class:`wsmap.workspace.kinds.MapKind` (what it reads
-            decides what the title names: ``rpy`` in rad as ``R = Rx·Ry·Rz``, ``point`` in m, the
-            number of ``orientations``).
-        convention: ``"paper"`` or ``"standard"``; the kind's own convention wins where it fixes one.
+        arm: the arm's name; `kind`: its `wsmap.workspace.kinds.MapKind` (what it reads
+            decides what the title names: `rpy` in rad as `R = Rx·Ry·Rz`, `point` in m, the
+            number of `orientations`).
+        convention: `"paper"` or `"standard"`; the kind's own convention wins where it fixes one.
 
     >>> from wsmap.workspace.kinds import get_kind
     >>> map_title("panda", get_kind("constant"), rpy=(math.pi, 0, 0), convention="standard")
@@ -594,8 +594,8 @@ def map_title(arm: str, kind: Any, *, rpy: Sequence[float] | None = None, point:
 
 
 def png_metadata(settings: dict, *, title: str | None = None) -> dict[str, str]:
-    """PNG text chunks of a map picture: ``Title``, ``Software`` (wsmap and its version) and
-    ``Description``, the map's settings as JSON (what the map file records; :func:`wsmap.io.jsonable`)."""
+    """PNG text chunks of a map picture: `Title`, `Software` (wsmap and its version) and
+    `Description`, the map's settings as JSON (what the map file records; `wsmap.io.jsonable`)."""
     import json
 
     from ._version import __version__
@@ -657,9 +657,9 @@ def render_mesh(mesh: Any, *, ax: Axes | None = None, color: str = "#1f4e79", ti
 def save_figure(fig: Figure, path: PathLike, dpi: int = 120, *, metadata: dict | None = None) -> None:
     """Save a matplotlib figure atomically (PNG unless the suffix says otherwise) and close it.
 
-    ``metadata`` (and the ``wsmap_metadata`` the map drawings attach, e.g. :func:`png_metadata`)
-    goes into a PNG's text chunks (``tEXt``: ``Title``, ``Description``, ...; read back with
-    ``PIL.Image.open(path).text``); other formats are written without it.
+    `metadata` (and the `wsmap_metadata` the map drawings attach, e.g. `png_metadata`)
+    goes into a PNG's text chunks (`tEXt`: `Title`, `Description`, ...; read back with
+    `PIL.Image.open(path).text`); other formats are written without it.
     """
     import matplotlib.pyplot as plt
 

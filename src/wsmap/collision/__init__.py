@@ -1,19 +1,19 @@
 """Maps a robot can use: self-collision and obstacles from the arm's own collision geometry.
 
-* :mod:`.geometry` — the collision model of an arm: shapes on the bodies of its chain, from a
-  URDF's ``<collision>`` elements (:func:`from_urdf_collision`), capsules (:func:`capsule_model`,
-  :func:`capsules_along_links` for a DH arm with link radii);
-* :mod:`.named` — capsule models of the named arms (:func:`arm_model`: panda, ur5e, iiwa14);
-* :mod:`.acm` — the allowed-collision matrix (:func:`build_acm`, as MoveIt's setup assistant);
-* :mod:`.scene` — obstacles: the floor, boxes, cylinders, spheres, meshes (:class:`Scene`,
-  :func:`load_scene` from YAML/JSON), and those of a work cell's URDF (:func:`scene_from_urdf`:
-  fixed links with ``<collision>`` elements, in the world frame or the frame of the link the arm
-  is mounted on; :func:`load_scene` by the suffix ``.urdf``);
-* :mod:`.checks` — :class:`CollisionChecker`, a configuration predicate (a batch of ``q`` → bool
+* `.geometry` — the collision model of an arm: shapes on the bodies of its chain, from a
+  URDF's `<collision>` elements (`from_urdf_collision`), capsules (`capsule_model`,
+  `capsules_along_links` for a DH arm with link radii);
+* `.named` — capsule models of the named arms (`arm_model`: panda, ur5e, iiwa14);
+* `.acm` — the allowed-collision matrix (`build_acm`, as MoveIt's setup assistant);
+* `.scene` — obstacles: the floor, boxes, cylinders, spheres, meshes (`Scene`,
+  `load_scene` from YAML/JSON), and those of a work cell's URDF (`scene_from_urdf`:
+  fixed links with `<collision>` elements, in the world frame or the frame of the link the arm
+  is mounted on; `load_scene` by the suffix `.urdf`);
+* `.checks` — `CollisionChecker`, a configuration predicate (a batch of `q` → bool
   free): spheres first, coal's exact test where they say "maybe".
 
-The maps take the checker as ``collision=`` (:func:`wsmap.workspace.constant_orientation_map`,
-:func:`wsmap.reachable`, :func:`wsmap.workspace.reachability_index`): a node counts only with a
+The maps take the checker as `collision=` (`wsmap.workspace.constant_orientation_map`,
+`wsmap.reachable`, `wsmap.workspace.reachability_index`): a node counts only with a
 joint solution inside the limits, confirmed by forward kinematics and collision-free.
 """
 
@@ -31,10 +31,10 @@ __all__ = ["ACM", "DEFAULT_SAMPLES", "REASONS", "build_acm", "CheckStats", "Coll
 
 
 def checker_for(robot_name_or_model, scene=None, *, link_radius=None, **acm_settings) -> CollisionChecker:
-    """A :class:`CollisionChecker` for a named arm (its capsule model), a :class:`CollisionModel`, or
-    any arm with ``link_radius`` (m; one or one per body: capsules along its links,
-    :func:`capsules_along_links`), with ``scene`` (default: the model's floor) and the matrix built
-    with ``acm_settings`` (:func:`build_acm`: ``samples``, ``seed``, ``disable``)."""
+    """A `CollisionChecker` for a named arm (its capsule model), a `CollisionModel`, or
+    any arm with `link_radius` (m; one or one per body: capsules along its links,
+    `capsules_along_links`), with `scene` (default: the model's floor) and the matrix built
+    with `acm_settings` (`build_acm`: `samples`, `seed`, `disable`)."""
     if link_radius is not None:
         model = capsules_along_links(robot_name_or_model, link_radius)
     elif isinstance(robot_name_or_model, CollisionModel):

@@ -1,18 +1,18 @@
 """The allowed-collision matrix: which link pairs of an arm are never checked, and why.
 
-Built as MoveIt's setup assistant builds it (:func:`build_acm`): a pair is disabled when its links
+Built as MoveIt's setup assistant builds it (`build_acm`): a pair is disabled when its links
 
-* ``"rigid"``: ride on the same body (their relative pose never changes);
-* ``"adjacent"``: are parent and child in the link tree (the nearest links with geometry above
+* `"rigid"`: ride on the same body (their relative pose never changes);
+* `"adjacent"`: are parent and child in the link tree (the nearest links with geometry above
   one another; they meet at their joint);
-* ``"default"``: are in contact at the default configuration (``q = 0`` clipped into the limits);
-* ``"never"``: never collide over ``samples`` random configurations drawn uniformly inside the
-  limits (seeded by ``seed``; MoveIt's default is 10000 as well). This is a sampling heuristic: a
+* `"default"`: are in contact at the default configuration (`q = 0` clipped into the limits);
+* `"never"`: never collide over `samples` random configurations drawn uniformly inside the
+  limits (seeded by `seed`; MoveIt's default is 10000 as well). This is a sampling heuristic: a
   pair that collides only in a sliver of the joint space can be missed, as in MoveIt;
-* ``"user"``: the caller disabled it (``disable=``).
+* `"user"`: the caller disabled it (`disable=`).
 
 Every other pair is checked. The matrix is stored with the model
-(``CollisionModel.acm``) and written into map files (:meth:`ACM.describe`).
+(`CollisionModel.acm`) and written into map files (`ACM.describe`).
 """
 
 from __future__ import annotations
@@ -33,8 +33,8 @@ DEFAULT_SAMPLES = 10000
 
 @dataclass(eq=False)
 class ACM:
-    """Link names ``names`` and the disabled pairs ``disabled``: ``{(a, b): reason}`` with
-    ``a < b`` link indices; ``samples`` and ``seed`` of the "never" test."""
+    """Link names `names` and the disabled pairs `disabled`: `{(a, b): reason}` with
+    `a < b` link indices; `samples` and `seed` of the "never" test."""
 
     names: tuple
     disabled: dict = field(default_factory=dict)
@@ -42,12 +42,12 @@ class ACM:
     seed: int = 0
 
     def enabled_pairs(self) -> list[tuple[int, int]]:
-        """Link index pairs ``(a, b)``, ``a < b``, that are checked."""
+        """Link index pairs `(a, b)`, `a < b`, that are checked."""
         n = len(self.names)
         return [(a, b) for a in range(n) for b in range(a + 1, n) if (a, b) not in self.disabled]
 
     def allowed(self, a: str, b: str) -> bool:
-        """Whether links ``a`` and ``b`` may touch (the pair is disabled)."""
+        """Whether links `a` and `b` may touch (the pair is disabled)."""
         i, j = sorted((self._index(a), self._index(b)))
         return (i, j) in self.disabled
 
@@ -86,9 +86,9 @@ def _user_pairs(model: CollisionModel, disable) -> list[tuple[int, int]]:
 
 def build_acm(model: CollisionModel, *, samples: int = DEFAULT_SAMPLES, seed: int = 0, disable=(),
               default_q=None) -> ACM:
-    """The allowed-collision matrix of ``model`` (module notes); ``disable`` more pairs of link
-    names (an unknown name is a :class:`CollisionError` listing the links, before any work);
-    ``default_q`` ``(n,)`` the default configuration (default ``0`` clipped into the limits)."""
+    """The allowed-collision matrix of `model` (module notes); `disable` more pairs of link
+    names (an unknown name is a `CollisionError` listing the links, before any work);
+    `default_q` `(n,)` the default configuration (default `0` clipped into the limits)."""
     from .checks import exact_pairs
 
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
@@ -134,8 +134,8 @@ def build_acm(model: CollisionModel, *, samples: int = DEFAULT_SAMPLES, seed: in
 
 
 def acm_from_record(model: CollisionModel, record: Mapping) -> ACM:
-    """An :class:`ACM` back from :meth:`ACM.describe`'s record (a map file), checked against
-    ``model``'s links."""
+    """An `ACM` back from `ACM.describe`'s record (a map file), checked against
+    `model`'s links."""
     names = tuple(record.get("links", ()))
     if names != model.names:
         raise CollisionError(f"allowed-collision matrix names links {list(names)}, the model has {list(model.names)}")

@@ -1,24 +1,24 @@
 """Collision checks of configurations: a fast conservative layer of spheres, then coal's exact test.
 
-**The exact check** (:func:`exact_pairs`, :meth:`CollisionChecker.exact`) asks coal (the successor
+**The exact check** (`exact_pairs`, `CollisionChecker.exact`) asks coal (the successor
 of hpp-fcl) whether two shapes intersect: boxes, cylinders, spheres and capsules as coal's
-primitives, meshes as their convex hulls (:mod:`wsmap.collision.geometry`), the floor as the
-half-space ``z <= floor``. Touching counts as a collision.
+primitives, meshes as their convex hulls (`wsmap.collision.geometry`), the floor as the
+half-space `z <= floor`. Touching counts as a collision.
 
 **Capsules in numpy**: a pair of links made of capsules and spheres only (the named arms' models),
 and such a link against the floor, is decided exactly by segment distances
-(:func:`segment_distance`), vectorised over configurations; coal agrees (tests).
+(`segment_distance`), vectorised over configurations; coal agrees (tests).
 
-**The fast layer**: every other shape is enclosed in a few spheres (:func:`bounding_spheres`; each
+**The fast layer**: every other shape is enclosed in a few spheres (`bounding_spheres`; each
 sphere contains its piece of the shape, together they contain all of it), carried by the shape's
 body. For a batch of configurations the sphere centres are one array product, and a link pair
 (or a link and an obstacle) whose spheres are all apart is free without asking coal. The exact
 check decides only the pairs the spheres call "maybe".
 
-**Guarantee**: a configuration :class:`CollisionChecker` calls free is free for the exact check
+**Guarantee**: a configuration `CollisionChecker` calls free is free for the exact check
 on every pair it checks (enabled by the allowed-collision matrix, and moving links against the
 scene): the spheres contain the shapes, so apart spheres mean apart shapes, and every other pair
-goes to coal. The tests check this on random samples against :meth:`CollisionChecker.exact`.
+goes to coal. The tests check this on random samples against `CollisionChecker.exact`.
 """
 
 from __future__ import annotations
@@ -41,8 +41,8 @@ __all__ = ["bounding_spheres", "coal_shape", "exact_pairs", "CollisionChecker", 
 
 # ------------------------------------------------------------------------------------ sphere layer
 def _hull_slab_points(hull_v, edges, axis, lo, hi):
-    """Points whose convex hull is the part of a convex polytope (vertices ``hull_v``, edges
-    ``edges``) between the planes ``axis·x = lo`` and ``hi``: its vertices there and its edges'
+    """Points whose convex hull is the part of a convex polytope (vertices `hull_v`, edges
+    `edges`) between the planes `axis·x = lo` and `hi`: its vertices there and its edges'
     crossings of the two planes."""
     s = hull_v @ axis
     pts = [hull_v[(s >= lo) & (s <= hi)]]
@@ -57,8 +57,8 @@ def _hull_slab_points(hull_v, edges, axis, lo, hi):
 
 
 def bounding_spheres(shape: Shape, max_spheres: int = 6) -> tuple[np.ndarray, np.ndarray]:
-    """``(centres (m, 3), radii (m,))`` in the shape's own frame (m), whose union contains the shape
-    (its convex hull for a mesh): the shape is cut along its longest axis into ``m <= max_spheres``
+    """`(centres (m, 3), radii (m,))` in the shape's own frame (m), whose union contains the shape
+    (its convex hull for a mesh): the shape is cut along its longest axis into `m <= max_spheres`
     pieces, each enclosed by one sphere."""
     k, size = shape.kind, shape.size
     if k == "sphere":
@@ -110,7 +110,7 @@ def bounding_spheres(shape: Shape, max_spheres: int = 6) -> tuple[np.ndarray, np
 
 # ------------------------------------------------------------------------------------ coal
 def coal_shape(shape: Shape):
-    """The coal collision geometry of ``shape`` (a mesh as its convex hull)."""
+    """The coal collision geometry of `shape` (a mesh as its convex hull)."""
     import coal
 
     k, s = shape.kind, shape.size
@@ -158,7 +158,7 @@ class CheckStats:
 
 
 def segment_distance(p0, p1, q0, q1) -> np.ndarray:
-    """Distance between the segments ``p0``-``p1`` and ``q0``-``q1`` (arrays ``(..., 3)``, m):
+    """Distance between the segments `p0`-`p1` and `q0`-`q1` (arrays `(..., 3)`, m):
     Ericson's closest points of two segments (Real-Time Collision Detection, 5.1.9), vectorised,
     a point (zero-length segment) included."""
     d1, d2, r = p1 - p0, q1 - q0, p0 - q0
@@ -229,7 +229,7 @@ class _Layer:
             self.floor_geom = coal.Halfspace(np.array([0.0, 0.0, 1.0]), float(self.scene.floor))
 
     def world_spheres(self, B):
-        """Sphere centres ``(C, S, 3)`` in the world for body frames ``B`` ``(C, n + 1, 4, 4)``."""
+        """Sphere centres `(C, S, 3)` in the world for body frames `B` `(C, n + 1, 4, 4)`."""
         Bs = B[:, self.sphere_body]
         return (Bs[..., :3, :3] @ self.centres[:, :, None])[..., 0] + Bs[..., :3, 3]
 
@@ -238,7 +238,7 @@ class _Layer:
 
 
 def _obstacle_maybe(kind, size, P, centres, radii):
-    """``(C, S)`` bool: the sphere may touch an obstacle of ``kind``/``size`` at pose ``P``: the exact
+    """`(C, S)` bool: the sphere may touch an obstacle of `kind`/`size` at pose `P`: the exact
     point-to-solid distance for a box, a cylinder and a sphere, compared with the radius."""
     local = (centres - P[:3, 3]) @ P[:3, :3]
     if kind == "box":
@@ -262,17 +262,17 @@ class CollisionChecker:
     Parameters
     ----------
     model : CollisionModel
-        The arm's geometry; its allowed-collision matrix (``model.acm``, or ``acm``; see
-        :func:`wsmap.collision.acm.build_acm`) says which link pairs count.
+        The arm's geometry; its allowed-collision matrix (`model.acm`, or `acm`; see
+        `wsmap.collision.acm.build_acm`) says which link pairs count.
     scene : Scene, optional
-        Obstacles (:mod:`wsmap.collision.scene`); default: the floor ``z = 0`` when the model stands
-        on it (``model.floor``), else nothing.
+        Obstacles (`wsmap.collision.scene`); default: the floor `z = 0` when the model stands
+        on it (`model.floor`), else nothing.
     self_collision : bool
         Check the enabled link pairs (default); False checks the scene alone.
 
-    ``checker(q)`` with ``q`` ``(C, n)`` (rad / m) returns bool ``(C,)``, True where collision-free
-    (the guarantee in the module notes); :attr:`stats` counts the work. The same instance can be
-    given to every map (``collision=``).
+    `checker(q)` with `q` `(C, n)` (rad / m) returns bool `(C,)`, True where collision-free
+    (the guarantee in the module notes); `stats` counts the work. The same instance can be
+    given to every map (`collision=`).
     """
 
     def __init__(self, model: CollisionModel, scene: Scene | None = None, *, acm=None, self_collision: bool = True,
@@ -305,7 +305,7 @@ class CollisionChecker:
         self.stats = CheckStats()
 
     def _set_pairs(self, pairs):
-        """The link pairs checked, ``(P, 2)`` link indices, and their sphere pairs."""
+        """The link pairs checked, `(P, 2)` link indices, and their sphere pairs."""
         self.pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
         L = self.layer
         cat = (lambda x: np.concatenate(x) if x else np.zeros(0, dtype=np.int64))
@@ -346,8 +346,8 @@ class CollisionChecker:
 
     # -------------------------------------------------------------------------------- fast layer
     def _maybe(self, B, allowed=None):
-        """``(C, P)`` maybe per enabled link pair and ``(C, L_moving, O)`` per link and obstacle
-        (the floor last), from the spheres; ``allowed`` (default :attr:`scene_allowed`) the link and
+        """`(C, P)` maybe per enabled link pair and `(C, L_moving, O)` per link and obstacle
+        (the floor last), from the spheres; `allowed` (default `scene_allowed`) the link and
         obstacle pairs not checked."""
         L = self.layer
         c = L.world_spheres(B)
@@ -378,8 +378,8 @@ class CollisionChecker:
         return pair, scene & ~(self.scene_allowed if allowed is None else allowed)
 
     def _analytic(self, B, per_pair: bool = False, allowed=None) -> np.ndarray:
-        """``(C,)`` True where a capsule pair (or a capsule link and the floor) collides, exactly;
-        ``per_pair``: ``(C, P)`` for the checked pairs instead (False for the others), no floor."""
+        """`(C,)` True where a capsule pair (or a capsule link and the floor) collides, exactly;
+        `per_pair`: `(C, P)` for the checked pairs instead (False for the others), no floor."""
         L = self.layer
         C = B.shape[0]
         out = np.zeros(C, dtype=bool)
@@ -448,19 +448,19 @@ class CollisionChecker:
         return q
 
     def __call__(self, q) -> np.ndarray:
-        """Collision-free, bool ``(C,)``, for configurations ``q`` ``(C, n)``: spheres, then coal."""
+        """Collision-free, bool `(C,)`, for configurations `q` `(C, n)`: spheres, then coal."""
         return self._free(self._q(q))
 
     def at_bases(self, q: ArrayLike, bases: ArrayLike) -> np.ndarray:
-        """Collision-free, bool ``(C,)``, for configurations ``q`` ``(C, n)`` of an arm whose base
-        stands at a pose of its own for each: ``bases`` ``(C, 4, 4)`` (or one ``(4, 4)``), the world
+        """Collision-free, bool `(C,)`, for configurations `q` `(C, n)` of an arm whose base
+        stands at a pose of its own for each: `bases` `(C, 4, 4)` (or one `(4, 4)`), the world
         pose of the frame the chain's forward kinematics is expressed in (metres). Base placement
         asks this: each candidate base sees the scene's world-frame obstacles (a table) from
-        elsewhere. The bases stand on the floor (``z`` of the frame at the floor height, turned
-        about ``z`` only): the floor is then the same for all of them. World-frame obstacles are
+        elsewhere. The bases stand on the floor (`z` of the frame at the floor height, turned
+        about `z` only): the floor is then the same for all of them. World-frame obstacles are
         checked against every moving link (none stands on them: a candidate's default pose means
         nothing to a table elsewhere); base-frame obstacles are refused (they would move with each
-        base: check them with ``checker(q)``). The same guarantee as ``checker(q)``."""
+        base: check them with `checker(q)`). The same guarantee as `checker(q)`."""
         q = self._q(q)
         bases = check_rigid("bases", bases)
         bases = np.broadcast_to(bases, (len(q), 4, 4)) if bases.ndim == 2 else bases
@@ -499,7 +499,7 @@ class CollisionChecker:
     free = __call__
 
     def exact(self, q) -> np.ndarray:
-        """Collision-free by coal alone (every enabled pair and scene pair, no spheres): bool ``(C,)``;
+        """Collision-free by coal alone (every enabled pair and scene pair, no spheres): bool `(C,)`;
         the reference the fast layer is tested against."""
         q = self._q(q)
         B = body_frames(self.model.chain, q)
@@ -514,8 +514,8 @@ class CollisionChecker:
         return out
 
     def colliding(self, q) -> list[tuple[str, str]]:
-        """The colliding pairs of one configuration ``q`` ``(n,)`` by coal alone: link names, an
-        obstacle's name or ``"floor"`` for the scene."""
+        """The colliding pairs of one configuration `q` `(n,)` by coal alone: link names, an
+        obstacle's name or `"floor"` for the scene."""
         B = body_frames(self.model.chain, self._q(np.asarray(q, dtype=np.float64)[None]))[0]
         names = self.model.names
         out = [(names[i], names[j]) for i, j in self.pairs if self._pair_collides(B, i, j)]
@@ -526,9 +526,9 @@ class CollisionChecker:
 
 
 def exact_pairs(model: CollisionModel, pairs, q) -> np.ndarray:
-    """Whether each link pair ``pairs`` ``(P, 2)`` (link indices) collides, by coal, for each
-    configuration ``q`` ``(C, n)``: bool ``(C, P)``; the spheres skip pairs that are surely apart.
-    The allowed-collision matrix is built with it (:func:`wsmap.collision.acm.build_acm`)."""
+    """Whether each link pair `pairs` `(P, 2)` (link indices) collides, by coal, for each
+    configuration `q` `(C, n)`: bool `(C, P)`; the spheres skip pairs that are surely apart.
+    The allowed-collision matrix is built with it (`wsmap.collision.acm.build_acm`)."""
     chk = CollisionChecker(model, Scene(), pairs=np.asarray(pairs, dtype=np.int64).reshape(-1, 2))
     q = chk._q(q)
     out = np.zeros((len(q), len(chk.pairs)), dtype=bool)

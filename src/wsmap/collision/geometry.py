@@ -1,25 +1,25 @@
 """Collision geometry of an arm: shapes attached to the rigid bodies of its serial chain.
 
-A chain of ``n`` joints (:class:`wsmap.kinematics.SerialChain`) has ``n + 1`` rigid *bodies*: body
-0 is the base (it never moves), body ``k`` moves with joint ``k``. Body ``k``'s frame, in the world,
-is ``B_k(q) = base · F_0 · M_1(q_1) · F_1 ··· M_k(q_k)`` (the chain's notation): for a chain read
-from a URDF it is the URDF frame of the child link of the ``k``-th movable joint, body 0's the
+A chain of `n` joints (`wsmap.kinematics.SerialChain`) has `n + 1` rigid *bodies*: body
+0 is the base (it never moves), body `k` moves with joint `k`. Body `k`'s frame, in the world,
+is `B_k(q) = base · F_0 · M_1(q_1) · F_1 ··· M_k(q_k)` (the chain's notation): for a chain read
+from a URDF it is the URDF frame of the child link of the `k`-th movable joint, body 0's the
 base link's. A *link* of the model is a named set of shapes, each with its pose in its body's
 frame; several links can ride on one body (a URDF link fixed to another, a hand on the flange).
 
-Shapes (metres; each centred on its own frame, axis ``z`` for a cylinder and a capsule, as URDF):
+Shapes (metres; each centred on its own frame, axis `z` for a cylinder and a capsule, as URDF):
 
-* ``box``: ``size = (x, y, z)`` full edge lengths;
-* ``cylinder``, ``capsule``: ``size = (radius, length)`` (the capsule's length between the centres
-  of its two end spheres, as URDF's ``<capsule>`` and coal);
-* ``sphere``: ``size = (radius,)``;
-* ``mesh``: ``vertices`` ``(V, 3)`` (scaled, in the shape's frame) and ``faces``; the exact checks
+* `box`: `size = (x, y, z)` full edge lengths;
+* `cylinder`, `capsule`: `size = (radius, length)` (the capsule's length between the centres
+  of its two end spheres, as URDF's `<capsule>` and coal);
+* `sphere`: `size = (radius,)`;
+* `mesh`: `vertices` `(V, 3)` (scaled, in the shape's frame) and `faces`; the exact checks
   use its convex hull (as PyBullet and MuJoCo do), which contains the mesh, so a configuration
   free for the hull is free for the mesh.
 
-Sources: :func:`from_urdf_collision` (the URDF's ``<collision>`` elements, meshes read by trimesh:
-STL, OBJ, DAE, PLY), :func:`capsule_model` (capsules given per body, e.g. a named arm's model
-from its dimension drawing, :mod:`wsmap.collision.named`) and :func:`capsules_along_links` (a DH
+Sources: `from_urdf_collision` (the URDF's `<collision>` elements, meshes read by trimesh:
+STL, OBJ, DAE, PLY), `capsule_model` (capsules given per body, e.g. a named arm's model
+from its dimension drawing, `wsmap.collision.named`) and `capsules_along_links` (a DH
 arm with link radii).
 """
 
@@ -51,9 +51,9 @@ class CollisionError(ValueError):
 
 @dataclass(frozen=True, eq=False)
 class Shape:
-    """One collision shape: ``kind`` of :data:`SHAPES`, ``size`` (metres, see the module notes),
-    ``origin`` (4, 4) its pose in its body's frame, ``vertices``/``faces`` for a mesh, ``source``
-    (the mesh file, or ``""``)."""
+    """One collision shape: `kind` of `SHAPES`, `size` (metres, see the module notes),
+    `origin` (4, 4) its pose in its body's frame, `vertices`/`faces` for a mesh, `source`
+    (the mesh file, or `""`)."""
 
     kind: str
     size: tuple
@@ -91,7 +91,7 @@ class Shape:
 
 @dataclass(frozen=True, eq=False)
 class Link:
-    """A named set of shapes riding on body ``body`` of the chain (0 = the base); ``frame`` (4, 4)
+    """A named set of shapes riding on body `body` of the chain (0 = the base); `frame` (4, 4)
     is the link's own frame (a URDF link's) in the body's frame, the shapes' origins are in the
     body's frame already."""
 
@@ -104,13 +104,13 @@ class Link:
 
 @dataclass(eq=False)
 class CollisionModel:
-    """The collision geometry of one arm: ``chain`` and its ``links`` (each a :class:`Link`).
+    """The collision geometry of one arm: `chain` and its `links` (each a `Link`).
 
-    ``acm`` is the allowed-collision matrix (:class:`wsmap.collision.acm.ACM`, from
-    :func:`wsmap.collision.acm.build_acm`; :func:`wsmap.collision.checker_for` builds it when
-    missing); ``floor`` whether the
-    arm stands on the floor ``z = 0`` of the world (the default scene of a named arm has it);
-    ``source`` where the geometry comes from.
+    `acm` is the allowed-collision matrix (`wsmap.collision.acm.ACM`, from
+    `wsmap.collision.acm.build_acm`; `wsmap.collision.checker_for` builds it when
+    missing); `floor` whether the
+    arm stands on the floor `z = 0` of the world (the default scene of a named arm has it);
+    `source` where the geometry comes from.
     """
 
     chain: SerialChain
@@ -141,13 +141,13 @@ class CollisionModel:
         return tuple(link.name for link in self.links)
 
     def index(self, name: str) -> int:
-        """The position of link ``name``; a :class:`CollisionError` listing the links if unknown."""
+        """The position of link `name`; a `CollisionError` listing the links if unknown."""
         if name not in self._names:
             raise CollisionError(f"unknown collision link {name!r}; the links are: {', '.join(self.names)}")
         return self._names[name]
 
     def shape_poses(self, q) -> tuple[np.ndarray, np.ndarray]:
-        """World poses of every shape: ``(poses (..., S, 4, 4), link_of (S,))`` for ``q`` ``(..., n)``."""
+        """World poses of every shape: `(poses (..., S, 4, 4), link_of (S,))` for `q` `(..., n)`."""
         B = body_frames(self.chain, q)
         bodies = np.array([link.body for link in self.links for _ in link.shapes], dtype=np.int64)
         origins = np.stack([s.origin for link in self.links for s in link.shapes])
@@ -162,8 +162,8 @@ class CollisionModel:
 
 
 def body_frames(chain: SerialChain, q) -> np.ndarray:
-    """World frames of the chain's bodies, ``(..., n + 1, 4, 4)``: ``B_0 = base`` (the chain's base
-    transform or the identity), ``B_k = B_{k-1} · F_{k-1} · M_k(q_k + offset_k)``."""
+    """World frames of the chain's bodies, `(..., n + 1, 4, 4)`: `B_0 = base` (the chain's base
+    transform or the identity), `B_k = B_{k-1} · F_{k-1} · M_k(q_k + offset_k)`."""
     q = chain._check_q(q)
     x = q + chain.offset
     shape = np.broadcast_shapes(x.shape[:-1], chain.batch_shape)
@@ -178,8 +178,8 @@ def body_frames(chain: SerialChain, q) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------------- meshes
 def read_mesh(path: str, label: str, scale=(1.0, 1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
-    """``(vertices (V, 3), faces (F, 3))`` of a mesh file (STL, OBJ, DAE, PLY, ... through trimesh),
-    scaled; a missing, empty or unreadable file is a :class:`CollisionError` naming it."""
+    """`(vertices (V, 3), faces (F, 3))` of a mesh file (STL, OBJ, DAE, PLY, ... through trimesh),
+    scaled; a missing, empty or unreadable file is a `CollisionError` naming it."""
     import trimesh
 
     if not os.path.isfile(path):
@@ -201,8 +201,8 @@ def read_mesh(path: str, label: str, scale=(1.0, 1.0, 1.0)) -> tuple[np.ndarray,
 
 
 def _resolve_mesh(filename: str, urdf_dir: str | None) -> str:
-    """A URDF mesh reference as a path: absolute, ``file://``, ``package://NAME/rest`` (looked for
-    beside the URDF and in the folders above it, with and without ``NAME``) or relative to the URDF."""
+    """A URDF mesh reference as a path: absolute, `file://`, `package://NAME/rest` (looked for
+    beside the URDF and in the folders above it, with and without `NAME`) or relative to the URDF."""
     if filename.startswith("file://"):
         filename = filename[len("file://"):]
     base = urdf_dir or os.getcwd()
@@ -239,7 +239,7 @@ def _origin(el: ET.Element | None, label: str, what: str) -> np.ndarray:
 
 
 def _rpy_urdf(rpy) -> np.ndarray:
-    """URDF's fixed-axis roll-pitch-yaw: ``R = Rz(yaw)·Ry(pitch)·Rx(roll)``."""
+    """URDF's fixed-axis roll-pitch-yaw: `R = Rz(yaw)·Ry(pitch)·Rx(roll)`."""
     r, p, y = rpy
     cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
     return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
@@ -300,13 +300,13 @@ def _urdf_shapes(link_el: ET.Element, label: str, urdf_dir: str | None) -> list[
 
 def from_urdf_collision(source, ee_link: str | None = None, base_link: str | None = None,
                         name: str | None = None, *, floor: bool = False) -> CollisionModel:
-    """The collision model of a URDF's chain (:func:`wsmap.kinematics.from_urdf`, same arguments).
+    """The collision model of a URDF's chain (`wsmap.kinematics.from_urdf`, same arguments).
 
-    Every link below ``base_link`` with ``<collision>`` elements becomes a :class:`Link`: a link of
+    Every link below `base_link` with `<collision>` elements becomes a `Link`: a link of
     the chain rides on its body; a link fixed to one (a flange, a hand) on its parent's; a link
     hanging from a joint off the chain (a gripper's fingers) rides on its parent's body with that
     joint at 0 (clipped into its limits). Meshes are read now (a missing, empty or unreadable file
-    is a :class:`CollisionError` naming it); a URDF without any collision element is one too.
+    is a `CollisionError` naming it); a URDF without any collision element is one too.
     """
     data, label, path = _read(source)
     root = _parse_xml(data, label)
@@ -366,7 +366,7 @@ def from_urdf_collision(source, ee_link: str | None = None, base_link: str | Non
 
 # ------------------------------------------------------------------------------------------- capsules
 def _segment_capsule(p0, p1, radius) -> Shape:
-    """A capsule of ``radius`` from ``p0`` to ``p1`` (body frame): its frame at the midpoint, ``z``
+    """A capsule of `radius` from `p0` to `p1` (body frame): its frame at the midpoint, `z`
     along the segment."""
     p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
     d = p1 - p0
@@ -383,9 +383,9 @@ def _segment_capsule(p0, p1, radius) -> Shape:
 
 def capsule_model(robot, capsules: Sequence, *, names: Sequence[str] | None = None, source: str = "",
                   floor: bool = False) -> CollisionModel:
-    """A model of capsules: ``capsules`` is a sequence of ``(body, p0, p1, radius)`` (``p0``, ``p1``
-    the segment's ends in body ``body``'s frame, m; ``radius`` m), several allowed per body; the
-    links are the bodies that have capsules, named ``names[body]`` (default ``"link{body}"``)."""
+    """A model of capsules: `capsules` is a sequence of `(body, p0, p1, radius)` (`p0`, `p1`
+    the segment's ends in body `body`'s frame, m; `radius` m), several allowed per body; the
+    links are the bodies that have capsules, named `names[body]` (default `"link{body}"`)."""
     chain = as_chain(robot)
     per: dict[int, list[Shape]] = {}
     for item in capsules:
@@ -404,9 +404,9 @@ def capsule_model(robot, capsules: Sequence, *, names: Sequence[str] | None = No
 
 
 def capsules_along_links(robot, link_radius, *, floor: bool = False, source: str = "") -> CollisionModel:
-    """Capsules along the links of a DH (or any) chain: body ``k`` (0..n) gets capsules of radius
-    ``link_radius[k]`` (one number for all) from its frame's origin along ``z`` to ``F_k``'s ``z``
-    offset, then to ``F_k``'s origin (the next joint): the DH ``d`` then ``a`` of the link; a body
+    """Capsules along the links of a DH (or any) chain: body `k` (0..n) gets capsules of radius
+    `link_radius[k]` (one number for all) from its frame's origin along `z` to `F_k`'s `z`
+    offset, then to `F_k`'s origin (the next joint): the DH `d` then `a` of the link; a body
     whose link has no length gets a sphere (a capsule of length 0) at its origin."""
     chain = as_chain(robot)
     r = np.broadcast_to(np.asarray(link_radius, dtype=np.float64), (chain.n + 1,))

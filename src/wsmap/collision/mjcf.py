@@ -1,7 +1,7 @@
-"""MJCF collision geoms (:mod:`wsmap.kinematics.mjcf` reads the chain): the geoms with a non-zero
-``contype`` or ``conaffinity`` of the chain's bodies — spheres, capsules, cylinders, boxes, meshes
+"""MJCF collision geoms (`wsmap.kinematics.mjcf` reads the chain): the geoms with a non-zero
+`contype` or `conaffinity` of the chain's bodies — spheres, capsules, cylinders, boxes, meshes
 (MuJoCo's compiled vertices, tested as convex hulls, as MuJoCo does). Geoms of bodies hanging off
-the chain ride with their parent at ``qpos0``; the world body's (a floor plane) are not the arm's.
+the chain ride with their parent at `qpos0`; the world body's (a floor plane) are not the arm's.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ __all__ = ["from_mjcf", "from_mjcf_collision", "MJCFError"]
 
 
 def from_mjcf_collision(path, site_or_body: str, *, floor: bool = False) -> CollisionModel:
-    """:func:`from_mjcf` and the collision geoms of its bodies as a :class:`CollisionModel` (one
+    """`from_mjcf` and the collision geoms of its bodies as a `CollisionModel` (one
     link per MuJoCo body that has collision geoms, named as the body)."""
     import mujoco
 

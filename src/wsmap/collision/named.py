@@ -1,16 +1,16 @@
-"""Capsule models of the named arms (:mod:`wsmap.robots.arms`), for self-collision and the floor.
+"""Capsule models of the named arms (`wsmap.robots.arms`), for self-collision and the floor.
 
 No URDF with collision meshes of these arms ships with a package wsmap depends on at run time
 (pybullet_data and rtb-data are test-only), so each arm gets capsules in its bodies' frames
-(:mod:`wsmap.collision.geometry`: body ``k`` moves with joint ``k``; its frame is the chain's
-frame after joint ``k``'s motion) along the links of its DH table, with radii that enclose the
+(`wsmap.collision.geometry`: body `k` moves with joint `k`; its frame is the chain's
+frame after joint `k`'s motion) along the links of its DH table, with radii that enclose the
 link housings of the manufacturer's dimension drawing; the source is beside each table. Every
-model stands on the floor ``z = 0`` of its base frame (``floor=True``: the default scene).
+model stands on the floor `z = 0` of its base frame (`floor=True`: the default scene).
 
 The radii are estimates of the housings' outer size, rounded up to 5 mm; they were not measured off
 the drawings' PDFs here and are to be checked against them (the link lengths are the DH tables'
 and exact). They are not the vendor's own collision model, so a map made with them is a map of the
-capsule arm. A closer model: :func:`wsmap.collision.from_urdf_collision` on the vendor's
+capsule arm. A closer model: `wsmap.collision.from_urdf_collision` on the vendor's
 URDF with its collision meshes.
 """
 
@@ -68,18 +68,18 @@ def _ur5e(chain) -> CollisionModel:
 
 #: Named arm -> the builder of its capsule model from its chain.
 ARM_MODELS = {"panda": _panda, "ur5e": _ur5e, "iiwa14": _iiwa14}
-#: The models built along the links of the chain they are given (:func:`capsules_along_links`):
-#: on an arm with scaled lengths (a family of :mod:`wsmap.robots.families`) the capsules follow the
+#: The models built along the links of the chain they are given (`capsules_along_links`):
+#: on an arm with scaled lengths (a family of `wsmap.robots.families`) the capsules follow the
 #: scaled links. The UR5e's capsules are fixed coordinates and do not.
 ALONG_LINKS = ("panda", "iiwa14")
 
 
 def arm_model(name: str, robot=None) -> CollisionModel:
-    """The capsule model of the named arm ``name`` (:data:`ARM_MODELS`), on ``robot`` (default
-    ``wsmap.load(name)``; its limits may differ, its kinematics must be the named arm's, or for the
-    models of :data:`ALONG_LINKS` the named arm's table with other lengths, whose links the capsules
+    """The capsule model of the named arm `name` (`ARM_MODELS`), on `robot` (default
+    `wsmap.load(name)`; its limits may differ, its kinematics must be the named arm's, or for the
+    models of `ALONG_LINKS` the named arm's table with other lengths, whose links the capsules
     then follow). An arm
-    without a model is a :class:`CollisionError` listing those that have one."""
+    without a model is a `CollisionError` listing those that have one."""
     key = str(name).lower()
     if key not in ARM_MODELS:
         raise CollisionError(f"no collision model for robot {name!r}; named arms with one: {', '.join(ARM_MODELS)} "

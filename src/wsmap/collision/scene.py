@@ -1,15 +1,15 @@
 """Obstacles around an arm: a floor plane, boxes, cylinders, spheres, capsules and meshes, from
 Python, a YAML/JSON scene file, or the URDF of a work cell.
 
-A :class:`Scene` is in the world frame of the arm's chain (the chain's ``base`` transform places the
-arm in it; the identity when it has none): the floor is the half-space ``z <= floor`` (metres), and
-each :class:`Obstacle` has a shape (:class:`wsmap.collision.geometry.Shape`, its ``origin`` the
-obstacle's pose) in the ``"world"`` frame or the arm's ``"base"`` frame (moved with the base).
+A `Scene` is in the world frame of the arm's chain (the chain's `base` transform places the
+arm in it; the identity when it has none): the floor is the half-space `z <= floor` (metres), and
+each `Obstacle` has a shape (`wsmap.collision.geometry.Shape`, its `origin` the
+obstacle's pose) in the `"world"` frame or the arm's `"base"` frame (moved with the base).
 
 Only moving bodies are checked against a scene: body 0 (the base and links fixed to it) stands where
 the user put it, on the floor or on a table, and touching what it stands on is not a collision.
 
-A scene file (:func:`load_scene`) is YAML or JSON::
+A scene file (`load_scene`) is YAML or JSON::
 
     frame: base            # default frame of the obstacles: base (default) or world
     floor: true            # true (z = 0), false, or a height in metres
@@ -19,40 +19,40 @@ A scene file (:func:`load_scene`) is YAML or JSON::
       - {shape: sphere, radius: 0.1, xyz: [0.5, -0.3, 0.5], frame: world}
       - {shape: mesh, file: bowl.stl, scale: 1.0, xyz: [0.5, 0, 0.1]}
 
-``xyz`` (m) and ``rpy`` (rad, URDF's fixed-axis roll-pitch-yaw) place an obstacle; a mesh file
+`xyz` (m) and `rpy` (rad, URDF's fixed-axis roll-pitch-yaw) place an obstacle; a mesh file
 is read relative to the scene file. Anything else (an unknown shape or key, a NaN or negative size,
-a file that is not YAML/JSON) is a :class:`~wsmap.collision.geometry.CollisionError` naming the
+a file that is not YAML/JSON) is a `CollisionError` naming the
 file and the problem, before any work.
 
-A file ending in ``.urdf`` is read as the URDF of a work cell (:func:`scene_from_urdf`, below).
+A file ending in `.urdf` is read as the URDF of a work cell (`scene_from_urdf`, below).
 
-**Work cells.** A work-cell URDF (:func:`scene_from_urdf`) is a tree of links joined by ``fixed`` joints (no arm in it: the arm comes from its
-own URDF, MJCF, DH table or name); every ``<collision>`` element of every link becomes one
-:class:`Obstacle` of a :class:`Scene`. The shapes are
-read by the same reader as an arm's collision elements (:mod:`wsmap.collision.geometry`: box,
-cylinder, sphere, capsule; meshes through trimesh, ``package://``, ``file://`` and relative paths
+**Work cells.** A work-cell URDF (`scene_from_urdf`) is a tree of links joined by `fixed` joints (no arm in it: the arm comes from its
+own URDF, MJCF, DH table or name); every `<collision>` element of every link becomes one
+`Obstacle` of a `Scene`. The shapes are
+read by the same reader as an arm's collision elements (`wsmap.collision.geometry`: box,
+cylinder, sphere, capsule; meshes through trimesh, `package://`, `file://` and relative paths
 looked up as for an arm).
 
-**Frames.** ``T_link`` is a link's pose in the frame of the cell's root link (the product of the
-fixed joints' ``<origin>`` from the root down); a collision element's pose is
-``T_link · origin``. Then
+**Frames.** `T_link` is a link's pose in the frame of the cell's root link (the product of the
+fixed joints' `<origin>` from the root down); a collision element's pose is
+`T_link · origin`. Then
 
-* ``mount=None`` (default): the cell's root link *is* the world frame of the arm's chain, and the
-  obstacles are ``"world"`` obstacles: they stay where they are when the arm's base moves (the
-  chain's ``base`` transform places the arm in the cell; :func:`wsmap.base_placement` checks each
+* `mount=None` (default): the cell's root link *is* the world frame of the arm's chain, and the
+  obstacles are `"world"` obstacles: they stay where they are when the arm's base moves (the
+  chain's `base` transform places the arm in the cell; `wsmap.base_placement` checks each
   candidate base's solutions against them where they stand);
-* ``mount="LINK"``: the arm's base is bolted to that link of the cell (its frame is the arm's base
-  frame, body 0 of the chain), and the obstacles are ``"base"`` obstacles at
-  ``T_mount⁻¹ · T_link · origin``: they move with the base (a map in the base frame, a base
+* `mount="LINK"`: the arm's base is bolted to that link of the cell (its frame is the arm's base
+  frame, body 0 of the chain), and the obstacles are `"base"` obstacles at
+  `T_mount⁻¹ · T_link · origin`: they move with the base (a map in the base frame, a base
   placement of the whole cell).
 
-The floor is not part of a cell file: ``floor`` (False, True for ``z = 0``, or a height in metres of
-the world frame) adds it, as a scene file's ``floor:`` does; a floor the arm must not go through
+The floor is not part of a cell file: `floor` (False, True for `z = 0`, or a height in metres of
+the world frame) adds it, as a scene file's `floor:` does; a floor the arm must not go through
 can also be a thin box in the cell.
 
-Bad input is a :class:`~wsmap.collision.geometry.CollisionError` naming the file, before any work:
-not a URDF, several root links, a joint that is not ``fixed`` (an arm, a conveyor), an unknown
-mount link, a cell without any ``<collision>`` element, a collision mesh that is missing, empty or
+Bad input is a `CollisionError` naming the file, before any work:
+not a URDF, several root links, a joint that is not `fixed` (an arm, a conveyor), an unknown
+mount link, a cell without any `<collision>` element, a collision mesh that is missing, empty or
 not a mesh, a shape with NaN or non-positive sizes.
 """
 
@@ -83,8 +83,8 @@ _COMMON = ("name", "shape", "xyz", "rpy", "frame")
 
 @dataclass(frozen=True, eq=False)
 class Obstacle:
-    """One obstacle: ``shape`` (its ``origin`` the pose in ``frame``), ``frame`` ``"base"`` or
-    ``"world"``, ``name`` for messages and map files."""
+    """One obstacle: `shape` (its `origin` the pose in `frame`), `frame` `"base"` or
+    `"world"`, `name` for messages and map files."""
 
     name: str
     shape: Shape
@@ -96,7 +96,7 @@ class Obstacle:
                                  f"got {self.frame!r}")
 
     def pose(self, base: np.ndarray | None) -> np.ndarray:
-        """The obstacle's world pose (4, 4), ``base`` the arm's base transform (or None)."""
+        """The obstacle's world pose (4, 4), `base` the arm's base transform (or None)."""
         if self.frame == "base" and base is not None:
             return base @ self.shape.origin
         return self.shape.origin
@@ -104,7 +104,7 @@ class Obstacle:
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """The floor height ``floor`` (m, world ``z``; ``None``: no floor) and ``obstacles``."""
+    """The floor height `floor` (m, world `z`; `None`: no floor) and `obstacles`."""
 
     floor: float | None = None
     obstacles: tuple = ()
@@ -194,8 +194,8 @@ def _obstacle(item, i: int, label: str, frame: str, folder: str | None) -> Obsta
 
 
 def scene_from_dict(d, label: str = "scene", folder: str | None = None) -> Scene:
-    """A :class:`Scene` from the mapping of a scene file (module notes); ``label`` names it in
-    messages, ``folder`` is where relative mesh files are."""
+    """A `Scene` from the mapping of a scene file (module notes); `label` names it in
+    messages, `folder` is where relative mesh files are."""
     if not isinstance(d, Mapping):
         raise CollisionError(f"{label} must be a mapping (frame, floor, obstacles), got {type(d).__name__}")
     unknown = sorted(set(d) - {"frame", "floor", "obstacles"})
@@ -225,10 +225,10 @@ def scene_from_dict(d, label: str = "scene", folder: str | None = None) -> Scene
 
 
 def load_scene(path: PathLike, mount: str | None = None) -> Scene:
-    """Read a scene file: YAML or JSON (module notes), or, by its suffix ``.urdf``, the URDF of a
-    work cell (:func:`scene_from_urdf`; ``mount`` is the cell's link the arm's
+    """Read a scene file: YAML or JSON (module notes), or, by its suffix `.urdf`, the URDF of a
+    work cell (`scene_from_urdf`; `mount` is the cell's link the arm's
     base is attached to, which puts the obstacles in the base frame). Every problem is a one-line
-    :class:`~wsmap.collision.geometry.CollisionError` naming the file."""
+    `CollisionError` naming the file."""
     path = os.fspath(path)
     if path.lower().endswith(CELL_SUFFIXES):
         return scene_from_urdf(path, mount)
@@ -261,32 +261,32 @@ def load_scene(path: PathLike, mount: str | None = None) -> Scene:
 
 
 # ------------------------------------------------------------------------------------ work cells
-#: File name endings :func:`wsmap.collision.load_scene` reads as a work-cell URDF.
+#: File name endings `wsmap.collision.load_scene` reads as a work-cell URDF.
 CELL_SUFFIXES = (".urdf",)
 
 
 def scene_from_urdf(source: PathLike, mount: str | None = None, *, floor: bool | float = False) -> Scene:
-    """The obstacles of a work-cell URDF as a :class:`Scene` (module notes, "Work cells": frames, bad input).
+    """The obstacles of a work-cell URDF as a `Scene` (module notes, "Work cells": frames, bad input).
 
     Parameters
     ----------
     source : path or str
-        The cell's URDF file (or its XML text): links joined by fixed joints, with ``<collision>``
+        The cell's URDF file (or its XML text): links joined by fixed joints, with `<collision>`
         elements.
     mount : str, optional
         The cell's link the arm's base is attached to: the obstacles are then in the arm's
-        ``"base"`` frame (they move with the base). Default: the cell's root link is the world
-        frame and the obstacles are ``"world"`` obstacles.
+        `"base"` frame (they move with the base). Default: the cell's root link is the world
+        frame and the obstacles are `"world"` obstacles.
     floor : bool or float
-        ``False`` (default): no floor; ``True``: the floor ``z = 0``; a number: the floor at that
+        `False` (default): no floor; `True`: the floor `z = 0`; a number: the floor at that
         height (m, world frame).
 
     Returns
     -------
     Scene
-        One obstacle per ``<collision>`` element, named after its link (``LINK`` when the link has
-        one collision element, else ``LINK/NAME`` with the element's ``name`` attribute or its
-        position ``1, 2, ...``), in the order of the links in the file.
+        One obstacle per `<collision>` element, named after its link (`LINK` when the link has
+        one collision element, else `LINK/NAME` with the element's `name` attribute or its
+        position `1, 2, ...`), in the order of the links in the file.
     """
     try:
         data, label, path = _read(source)

@@ -1,29 +1,29 @@
 """Experience datasets: random arms, the features the paper's networks read, and their workspace maps.
 
-A dataset is ``samples`` random arms, one row each: a feature vector (the arm's DH parameters, the
+A dataset is `samples` random arms, one row each: a feature vector (the arm's DH parameters, the
 grid's axes and the fixed orientation or point) and the labels of the grid's nodes (reachable or
-not). Everything that determines a dataset is a :class:`DatasetSpec`; the same spec always gives
+not). Everything that determines a dataset is a `DatasetSpec`; the same spec always gives
 the same, byte-identical file.
 
 Where things are:
 
-* :mod:`.spec` -- :class:`DatasetSpec` and its checks, the choices (:data:`FAMILIES`,
-  :data:`SCOPES`, ...), :func:`test_spec` (the independent test set), :func:`scaled`;
-* :mod:`.features` -- the feature and label layout: grid nodes, column names and ranges,
-  :func:`features_for` (what a trained model is asked about);
-* :mod:`.sampling` -- the random streams, uniform rotations, :func:`draw_samples`,
-  :func:`start_configurations`;
-* :mod:`.labels` -- :func:`labels_for` (exact closed form, or multi-start LM) and the
-  :func:`possibly_reachable` pre-filter;
-* :mod:`.collision` -- collision-free labels of a chain family (the spec's ``collision`` field,
-  :class:`LabelCollision`);
-* :mod:`.store` -- the file format, :func:`build_dataset`, :func:`build_dataset_files` (training
-  and test file, all or nothing; in this process or on Dask: ``workers=``, ``scheduler=``),
-  :func:`load_dataset` (checked), :class:`Dataset`;
-* :mod:`.audit` -- the IK label audits: :func:`starts_study`, :func:`starts_recall`,
-  :func:`audit_labels`, :func:`audit_table`.
+* `.spec` -- `DatasetSpec` and its checks, the choices (`FAMILIES`,
+  `SCOPES`, ...), `test_spec` (the independent test set), `scaled`;
+* `.features` -- the feature and label layout: grid nodes, column names and ranges,
+  `features_for` (what a trained model is asked about);
+* `.sampling` -- the random streams, uniform rotations, `draw_samples`,
+  `start_configurations`;
+* `.labels` -- `labels_for` (exact closed form, or multi-start LM) and the
+  `possibly_reachable` pre-filter;
+* `.collision` -- collision-free labels of a chain family (the spec's `collision` field,
+  `LabelCollision`);
+* `.store` -- the file format, `build_dataset`, `build_dataset_files` (training
+  and test file, all or nothing; in this process or on Dask: `workers=`, `scheduler=`),
+  `load_dataset` (checked), `Dataset`;
+* `.audit` -- the IK label audits: `starts_study`, `starts_recall`,
+  `audit_labels`, `audit_table`.
 
-The paper's datasets (one spec per experiment) are :data:`wsmap.paper.specs.PAPER_SPECS`.
+The paper's datasets (one spec per experiment) are `wsmap.paper.specs.PAPER_SPECS`.
 
 Example::
 

@@ -1,17 +1,17 @@
 """Audits of the IK labels: how many start configurations, and how exact the numerical path is.
 
-* :func:`starts_study` -- on a spec's grid, which start configuration first solves each node
+* `starts_study` -- on a spec's grid, which start configuration first solves each node
   (how the numerical labels change with the number of starts);
-* :func:`starts_recall` -- on poses known to be reachable (forward kinematics of random joint
+* `starts_recall` -- on poses known to be reachable (forward kinematics of random joint
   angles), the fraction multi-start LM finds; together they chose
-  :data:`wsmap.datasets.DEFAULT_STARTS`;
-* :func:`audit_labels` / :func:`audit_table` -- exact (closed-form) labels against the paper's
+  `wsmap.datasets.DEFAULT_STARTS`;
+* `audit_labels` / `audit_table` -- exact (closed-form) labels against the paper's
   one-start numerical path on spherical-wrist arms.
 
-Every audit draws its arms from its own streams of ``seed`` (:mod:`wsmap.datasets.sampling`),
+Every audit draws its arms from its own streams of `seed` (`wsmap.datasets.sampling`),
 independent of every dataset's training and test streams. The specs to audit are arguments: the
 paper's choices (Table 3's arbitrary arms for the start studies, every distinct spherical-wrist
-spec for the label audit) are in :mod:`wsmap.paper.specs`.
+spec for the label audit) are in `wsmap.paper.specs`.
 """
 
 from __future__ import annotations
@@ -54,15 +54,15 @@ def starts_study(
 ) -> list[dict]:
     """How numerical labels change with the number of IK start configurations.
 
-    Draws ``n_arms`` arms of ``spec`` (the paper's study: Table 3's arbitrary 6-DOF arms at
-    [0.312, 5.6719, 5.936], block 5, ``wsmap.paper.specs.PAPER_SPECS["table3_nosubspace"]``) from
-    an audit stream of ``seed``, runs LM (the spec's settings) from q0 = 0 and then
-    ``max(counts) - 1`` random starts (uniform in [-pi, pi)^6 per arm), each only where the earlier
-    ones failed and :func:`possibly_reachable` does not rule the node out, and records which start
-    first solved each node. Returns one row per entry of ``counts`` (total starts, q0 = 0
-    included): ``starts``, ``reachable`` (nodes), ``fraction`` (reachable / all arm-node pairs),
-    ``new`` (nodes that flipped to reachable since the previous row), ``new_fraction`` (of all
-    pairs), ``share_of_final`` (reachable / reachable at the most starts), ``seconds``
+    Draws `n_arms` arms of `spec` (the paper's study: Table 3's arbitrary 6-DOF arms at
+    [0.312, 5.6719, 5.936], block 5, `wsmap.paper.specs.PAPER_SPECS["table3_nosubspace"]`) from
+    an audit stream of `seed`, runs LM (the spec's settings) from q0 = 0 and then
+    `max(counts) - 1` random starts (uniform in [-pi, pi)^6 per arm), each only where the earlier
+    ones failed and `possibly_reachable` does not rule the node out, and records which start
+    first solved each node. Returns one row per entry of `counts` (total starts, q0 = 0
+    included): `starts`, `reachable` (nodes), `fraction` (reachable / all arm-node pairs),
+    `new` (nodes that flipped to reachable since the previous row), `new_fraction` (of all
+    pairs), `share_of_final` (reachable / reachable at the most starts), `seconds`
     (cumulative LM time, approximate: counted per start).
     """
     spec = _check_spec(spec).replace(method="numerical")
@@ -127,10 +127,10 @@ def starts_recall(spec: DatasetSpec, n_poses: int = 2000, counts: Sequence[int] 
                  ) -> list[dict]:
     """Recall of multi-start LM on poses known to be reachable (forward kinematics of random q).
 
-    ``n_poses`` arms of ``spec``'s family (the paper's study: Table 3's arbitrary 6-DOF arms), one
-    target each, ``fkine(q)`` with ``q ~ U(-pi, pi)^6``; LM (the spec's settings) from q0 = 0, then
-    random starts as in :func:`starts_study`. One row per entry of ``counts``: ``starts``,
-    ``found``, ``recall`` (found / n_poses). Complements :func:`starts_study`, whose grid nodes
+    `n_poses` arms of `spec`'s family (the paper's study: Table 3's arbitrary 6-DOF arms), one
+    target each, `fkine(q)` with `q ~ U(-pi, pi)^6`; LM (the spec's settings) from q0 = 0, then
+    random starts as in `starts_study`. One row per entry of `counts`: `starts`,
+    `found`, `recall` (found / n_poses). Complements `starts_study`, whose grid nodes
     have no ground truth for arbitrary arms.
     """
     _check_spec(spec)
@@ -158,16 +158,16 @@ def starts_recall(spec: DatasetSpec, n_poses: int = 2000, counts: Sequence[int] 
 
 
 def audit_labels(spec: DatasetSpec, n_arms: int = 50, seed: int = 0, *, ik: dict | None = None) -> dict:
-    """Exact labels against the paper's numerical path on ``n_arms`` arms of a spherical-wrist spec.
+    """Exact labels against the paper's numerical path on `n_arms` arms of a spherical-wrist spec.
 
     The numerical path is the paper's: LM with tol 1e-10, q0 = 0, one start (ilimit 500,
-    rlimit 100; ``ik`` overrides, e.g. ``dict(starts=9)``). Arms (and random orientations) come
-    from an audit stream of ``seed``, independent of the spec's training and test streams. Returns
-    a dict: ``spec``, ``scope``, ``arms``, ``nodes`` (labelled nodes per arm), ``pairs`` (arms x
-    nodes), ``exact_positives``, ``numerical_positives``, ``false_negatives`` (exact 1, numerical
-    0), ``false_positives`` (numerical 1, exact 0), ``fn_rate`` (of exact positives), ``fp_rate``
-    (of exact negatives), ``agreement`` (fraction of equal labels), ``seconds_exact``,
-    ``seconds_numerical`` (with the :func:`possibly_reachable` pre-filter, which changes no label
+    rlimit 100; `ik` overrides, e.g. `dict(starts=9)`). Arms (and random orientations) come
+    from an audit stream of `seed`, independent of the spec's training and test streams. Returns
+    a dict: `spec`, `scope`, `arms`, `nodes` (labelled nodes per arm), `pairs` (arms x
+    nodes), `exact_positives`, `numerical_positives`, `false_negatives` (exact 1, numerical
+    0), `false_positives` (numerical 1, exact 0), `fn_rate` (of exact positives), `fp_rate`
+    (of exact negatives), `agreement` (fraction of equal labels), `seconds_exact`,
+    `seconds_numerical` (with the `possibly_reachable` pre-filter, which changes no label
     but skips far nodes).
     """
     _check_spec(spec)
@@ -216,7 +216,7 @@ def audit_labels(spec: DatasetSpec, n_arms: int = 50, seed: int = 0, *, ik: dict
 
 
 def distinct_specs(specs: Sequence[DatasetSpec]) -> list[DatasetSpec]:
-    """``specs`` less those that differ from an earlier one only in name, sample count, seed,
+    """`specs` less those that differ from an earlier one only in name, sample count, seed,
     stream or LM settings: the ones whose grid, nodes, orientation and convention are new."""
     seen, unique = set(), []
     for s in specs:
@@ -229,8 +229,8 @@ def distinct_specs(specs: Sequence[DatasetSpec]) -> list[DatasetSpec]:
 
 
 def audit_table(specs: Sequence[DatasetSpec], n_arms: int = 50, seed: int = 0, progress: bool = False) -> list[dict]:
-    """:func:`audit_labels` for each of ``specs`` (DatasetSpecs; the paper's choice is
-    ``wsmap.paper.specs.audit_specs()``); a list of row dicts (``pandas.DataFrame(rows)`` to
+    """`audit_labels` for each of `specs` (DatasetSpecs; the paper's choice is
+    `wsmap.paper.specs.audit_specs()`); a list of row dicts (`pandas.DataFrame(rows)` to
     tabulate)."""
     if isinstance(specs, (str, DatasetSpec)) or not isinstance(specs, Iterable):
         raise ValueError(f"specs must be a list of DatasetSpecs, got {specs!r}")

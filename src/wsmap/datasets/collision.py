@@ -1,30 +1,30 @@
-"""Collision-aware labels: the ``collision`` field of a :class:`~wsmap.datasets.DatasetSpec`.
+"""Collision-aware labels: the `collision` field of a `DatasetSpec`.
 
-A chain family's labels (``panda7``: the numerical map search, :mod:`wsmap.datasets.labels`) can
+A chain family's labels (`panda7`: the numerical map search, `wsmap.datasets.labels`) can
 count a node only when the search finds a joint solution that is inside the limits, confirmed by
-forward kinematics **and collision-free** (:mod:`wsmap.collision`): ``collision=`` is passed to the
-map functions, one :class:`~wsmap.collision.CollisionChecker` per arm. The settings
-(:class:`LabelCollision`) are plain data in the spec (``to_dict`` / ``from_dict``, YAML), so they
+forward kinematics **and collision-free** (`wsmap.collision`): `collision=` is passed to the
+map functions, one `CollisionChecker` per arm. The settings
+(`LabelCollision`) are plain data in the spec (`to_dict` / `from_dict`, YAML), so they
 are part of the spec's identity: a dataset file records them in its header and a file built with
-other settings (or without any) is refused by :func:`wsmap.datasets.load_dataset`.
+other settings (or without any) is refused by `wsmap.datasets.load_dataset`.
 
 **Geometry of arm b.** Either
 
-* ``model``: the family's named arm's capsule model (:func:`wsmap.collision.arm_model`; for
-  ``panda7`` ``"panda"``) built on arm b's own chain: the capsules run along arm b's links (the
-  model is :func:`~wsmap.collision.capsules_along_links` of the chain it is given), so their
+* `model`: the family's named arm's capsule model (`wsmap.collision.arm_model`; for
+  `panda7` `"panda"`) built on arm b's own chain: the capsules run along arm b's links (the
+  model is `capsules_along_links` of the chain it is given), so their
   lengths follow the scaled d and a; the radii are the named arm's (the housings: the family
   scales lengths, not the motors); or
-* ``link_radius``: capsules of these radii (m; one, or one per body ``0..n``) along arm b's links.
+* `link_radius`: capsules of these radii (m; one, or one per body `0..n`) along arm b's links.
 
-**Which pairs count**: the allowed-collision matrix of arm b (:func:`wsmap.collision.build_acm`,
-``acm_samples`` random configurations seeded by ``acm_seed``): the scaled links collide in other
+**Which pairs count**: the allowed-collision matrix of arm b (`wsmap.collision.build_acm`,
+`acm_samples` random configurations seeded by `acm_seed`): the scaled links collide in other
 configurations than the Panda's, so each arm gets its own (about 0.2 s for 10000 samples).
-``self_collision=False`` checks the scene alone.
+`self_collision=False` checks the scene alone.
 
-**Scene**: ``scene`` is a scene mapping in the base frame of the arm, as a scene file holds it
-(:mod:`wsmap.collision.scene`: ``floor``, ``frame``, ``obstacles`` of primitives; meshes are refused:
-the spec's text would not say what is in the mesh file). ``None`` (default): the floor ``z = 0``
+**Scene**: `scene` is a scene mapping in the base frame of the arm, as a scene file holds it
+(`wsmap.collision.scene`: `floor`, `frame`, `obstacles` of primitives; meshes are refused:
+the spec's text would not say what is in the mesh file). `None` (default): the floor `z = 0`
 under the arm, which stands on it (the named arms' default scene).
 
 Everything is seeded (the matrix's samples, the map search's seed 0), so the same spec gives the
@@ -50,23 +50,23 @@ _KEYS = ("model", "link_radius", "scene", "self_collision", "acm_samples", "acm_
 
 @dataclass(frozen=True)
 class LabelCollision:
-    """The collision settings of a dataset's labels (module notes); made by :func:`label_collision`,
+    """The collision settings of a dataset's labels (module notes); made by `label_collision`,
     which checks them.
 
     Attributes
     ----------
     model : str or None
-        The family's named arm whose capsule model each arm gets (``"panda"`` for ``panda7``).
+        The family's named arm whose capsule model each arm gets (`"panda"` for `panda7`).
     link_radius : float, tuple of floats, or None
-        Radii (m) of capsules along each arm's links: one, or one per body ``0..n``. Exactly one of
-        ``model`` and ``link_radius`` is set.
+        Radii (m) of capsules along each arm's links: one, or one per body `0..n`. Exactly one of
+        `model` and `link_radius` is set.
     scene : str or None
-        The scene mapping as canonical JSON (sorted keys; :meth:`scene_dict` gives the mapping);
-        ``None``: the floor ``z = 0``.
+        The scene mapping as canonical JSON (sorted keys; `scene_dict` gives the mapping);
+        `None`: the floor `z = 0`.
     self_collision : bool
         Check the arm's link pairs (True) or the scene alone.
     acm_samples, acm_seed : int
-        The allowed-collision matrix's "never in collision" sampling (:func:`wsmap.collision.build_acm`).
+        The allowed-collision matrix's "never in collision" sampling (`wsmap.collision.build_acm`).
     """
 
     model: str | None = None
@@ -77,7 +77,7 @@ class LabelCollision:
     acm_seed: int = 0
 
     def scene_dict(self) -> dict | None:
-        """The scene mapping (a scene file's content), or None (the floor ``z = 0``)."""
+        """The scene mapping (a scene file's content), or None (the floor `z = 0`)."""
         return None if self.scene is None else json.loads(self.scene)
 
     def to_dict(self) -> dict:
@@ -88,8 +88,8 @@ class LabelCollision:
                 "acm_samples": self.acm_samples, "acm_seed": self.acm_seed}
 
     def checker(self, arm: SerialChain) -> CollisionChecker:
-        """The :class:`~wsmap.collision.CollisionChecker` of one arm (a :class:`SerialChain` of the
-        spec's family, batch ``()``): its capsules, its allowed-collision matrix, the scene."""
+        """The `CollisionChecker` of one arm (a `SerialChain` of the
+        spec's family, batch `()`): its capsules, its allowed-collision matrix, the scene."""
         from .. import collision as col
 
         if self.model is not None:
@@ -149,9 +149,9 @@ def _scene(value) -> str:
 
 
 def label_collision(value: Mapping | LabelCollision | None, family: ArmFamily) -> LabelCollision | None:
-    """``value`` (None, a mapping of :class:`LabelCollision`'s keys, or a LabelCollision) checked
-    for the spec's ``family`` (a :class:`wsmap.robots.ArmFamily`): a chain family only, ``model``
-    its named arm's, every key known, numbers valid; a ``ValueError`` naming the key otherwise."""
+    """`value` (None, a mapping of `LabelCollision`'s keys, or a LabelCollision) checked
+    for the spec's `family` (a `wsmap.robots.ArmFamily`): a chain family only, `model`
+    its named arm's, every key known, numbers valid; a `ValueError` naming the key otherwise."""
     if value is None:
         return None
     if isinstance(value, LabelCollision):

@@ -1,31 +1,31 @@
 """The feature and label layout: what one row of a dataset is.
 
-A dataset is ``samples`` random arms (one row each) with
+A dataset is `samples` random arms (one row each) with
 
-* **features** ``(samples, F)`` float64 in the paper's layout (Appendix, "experience generation")::
+* **features** `(samples, F)` float64 in the paper's layout (Appendix, "experience generation")::
 
       [d_1..d_6, a_1..a_6, alpha_1..alpha_6,  n_x (nx values), n_y (ny), n_z (nz),  n_i (3)]
 
-  DH columns in metres / radians; ``n_x, n_y, n_z`` the node values along each grid axis (metres
+  DH columns in metres / radians; `n_x, n_y, n_z` the node values along each grid axis (metres
   for an "R3" scope, the angles r1, r2, r3 in radians for an "SO3" scope) -- always the *whole*
   axes of the grid, also when only a slice of its nodes is labelled (so every 21³ R3 spec has
-  18 + 63 + 3 = 84 columns); ``n_i`` the fixed orientation ``(r1, r2, r3)`` in radians (R3) or
+  18 + 63 + 3 = 84 columns); `n_i` the fixed orientation `(r1, r2, r3)` in radians (R3) or
   the fixed point in metres (SO3). Columns of a fixed quantity are constant; the model sees them
   because the paper's input has them.
-  A chain family (:data:`wsmap.datasets.spec.CHAIN_FAMILIES`, e.g. ``panda7``) has its scale
+  A chain family (`wsmap.datasets.spec.CHAIN_FAMILIES`, e.g. `panda7`) has its scale
   factors in place of the 18 DH columns::
 
       [scale_d1, scale_d3, scale_d5, scale_a4, scale_a5, scale_a7,  n_x, n_y, n_z,  n_i (3)]
 
-  (dimensionless, the order of :func:`wsmap.robots.family_arm`; 6 + 75 + 3 = 84 columns on the
+  (dimensionless, the order of `wsmap.robots.family_arm`; 6 + 75 + 3 = 84 columns on the
   25³ grid).
-* **labels** ``(samples, nodes)`` bool in node order (first coordinate fastest, see
-  :mod:`wsmap.workspace`): ``True`` where inverse kinematics solves the node's target pose
-  (:mod:`wsmap.datasets.labels`).
+* **labels** `(samples, nodes)` bool in node order (first coordinate fastest, see
+  `wsmap.workspace`): `True` where inverse kinematics solves the node's target pose
+  (`wsmap.datasets.labels`).
 
-:func:`features_for` builds the feature rows of any batch of 6-joint arms (or of a chain family's
-arms or scales: what a trained model is asked about); :func:`arms_from_features` and
-:func:`fixed_from_features` read them back.
+`features_for` builds the feature rows of any batch of 6-joint arms (or of a chain family's
+arms or scales: what a trained model is asked about); `arms_from_features` and
+`fixed_from_features` read them back.
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ def grid_axes(spec: DatasetSpec) -> list[np.ndarray]:
 
 
 def grid_nodes(spec: DatasetSpec) -> np.ndarray:
-    """All nodes of the grid ``(nx·ny·nz, 3)`` in node order: positions (R3) or angles (SO3)."""
+    """All nodes of the grid `(nx·ny·nz, 3)` in node order: positions (R3) or angles (SO3)."""
     _check_spec(spec)
     make = ws.cartesian_grid if spec.scope == "R3" else ws.angle_grid
     return make(spec.lo, spec.hi, spec.step)
@@ -78,14 +78,14 @@ def node_slice(spec: DatasetSpec) -> slice:
 
 
 def spec_nodes(spec: DatasetSpec) -> np.ndarray:
-    """The labelled nodes ``(n_nodes, 3)`` in node order (label column ``j`` is row ``j``)."""
+    """The labelled nodes `(n_nodes, 3)` in node order (label column `j` is row `j`)."""
     return grid_nodes(spec)[node_slice(spec)]
 
 
 # --------------------------------------------------------------------------- features
 def feature_slices(spec: DatasetSpec) -> dict[str, slice]:
-    """Column ranges of the feature vector: ``d``, ``a``, ``alpha`` (a chain family: ``scales``),
-    ``nx``, ``ny``, ``nz``, ``fixed``."""
+    """Column ranges of the feature vector: `d`, `a`, `alpha` (a chain family: `scales`),
+    `nx`, `ny`, `nz`, `fixed`."""
     _check_spec(spec)
     nx, ny, nz = spec.grid_shape
     if spec.is_chain_family:
@@ -98,9 +98,9 @@ def feature_slices(spec: DatasetSpec) -> dict[str, slice]:
 
 
 def feature_names(spec: DatasetSpec) -> list[str]:
-    """Column names: ``d_1..d_6, a_1..a_6, alpha_1..alpha_6, n_x_1.., n_y_1.., n_z_1..`` then
-    ``r_1..r_3`` (R3: the orientation angles) or ``p_1..p_3`` (SO3: the point). 1-based, like the paper.
-    A chain family starts with ``scale_<param>`` (``scale_d1 .. scale_a7`` for ``panda7``)."""
+    """Column names: `d_1..d_6, a_1..a_6, alpha_1..alpha_6, n_x_1.., n_y_1.., n_z_1..` then
+    `r_1..r_3` (R3: the orientation angles) or `p_1..p_3` (SO3: the point). 1-based, like the paper.
+    A chain family starts with `scale_<param>` (`scale_d1 .. scale_a7` for `panda7`)."""
     _check_spec(spec)
     nx, ny, nz = spec.grid_shape
     if spec.is_chain_family:
@@ -115,7 +115,7 @@ def feature_names(spec: DatasetSpec) -> list[str]:
 
 
 def _fixed_rows(spec: DatasetSpec, count: int, fixed) -> np.ndarray:
-    """The orientation / point of each of ``count`` arms ``(count, 3)``: ``fixed`` or the spec's."""
+    """The orientation / point of each of `count` arms `(count, 3)`: `fixed` or the spec's."""
     if fixed is None:
         if spec.fixed == "random":
             raise ValueError(
@@ -143,10 +143,10 @@ def _check_arms(arms) -> DHRobot:
 
 
 def scales_for(arms: Arm, spec: DatasetSpec) -> np.ndarray:
-    """The scale factors ``(count, n)`` of a chain family's arms: ``arms`` is the scales themselves
-    (``(count, n)``, checked as :func:`wsmap.robots.family_arm` checks them) or a
-    :class:`~wsmap.kinematics.SerialChain` batch ``(count,)`` of the family (scales read back with
-    :func:`wsmap.robots.family_params`)."""
+    """The scale factors `(count, n)` of a chain family's arms: `arms` is the scales themselves
+    (`(count, n)`, checked as `wsmap.robots.family_arm` checks them) or a
+    `SerialChain` batch `(count,)` of the family (scales read back with
+    `wsmap.robots.family_params`)."""
     family = robots.arm_family(spec.family)
     if isinstance(arms, SerialChain):
         if len(arms.batch_shape) != 1:
@@ -162,13 +162,13 @@ def scales_for(arms: Arm, spec: DatasetSpec) -> np.ndarray:
 
 
 def features_for(arms: Arm, spec: DatasetSpec, fixed: ArrayLike | None = None) -> np.ndarray:
-    """The feature matrix ``(count, spec.n_features)`` float64 of a batch of arms for ``spec``.
+    """The feature matrix `(count, spec.n_features)` float64 of a batch of arms for `spec`.
 
-    ``arms`` is a batch ``(count,)`` of 6-joint arms (any DH values: a model trained on ``spec``
-    predicts their maps); for a chain family (``panda7``) the family's arms or their scale factors
-    ``(count, 6)`` (:func:`scales_for`). ``fixed`` is the orientation (R3, rad) or point (SO3,
-    m), ``(3,)`` or ``(count, 3)``; by default the spec's (required when the spec's is
-    ``"random"``). A model trained on a fixed-orientation spec has only ever seen that orientation.
+    `arms` is a batch `(count,)` of 6-joint arms (any DH values: a model trained on `spec`
+    predicts their maps); for a chain family (`panda7`) the family's arms or their scale factors
+    `(count, 6)` (`scales_for`). `fixed` is the orientation (R3, rad) or point (SO3,
+    m), `(3,)` or `(count, 3)`; by default the spec's (required when the spec's is
+    `"random"`). A model trained on a fixed-orientation spec has only ever seen that orientation.
     """
     _check_spec(spec)
     if spec.is_chain_family:
@@ -198,8 +198,8 @@ def _feature_matrix(X) -> np.ndarray:
 
 
 def arms_from_features(X: ArrayLike, spec: DatasetSpec | None = None) -> DHRobot | SerialChain:
-    """The arms ``(count,)`` whose DH columns are the first 18 feature columns; for a ``spec`` of a
-    chain family, the family's arms (:func:`wsmap.robots.family_arm`) of the scale columns."""
+    """The arms `(count,)` whose DH columns are the first 18 feature columns; for a `spec` of a
+    chain family, the family's arms (`wsmap.robots.family_arm`) of the scale columns."""
     X = _feature_matrix(X)
     if spec is not None and _check_spec(spec).is_chain_family:
         k = spec.n_arm_features
@@ -212,7 +212,7 @@ def arms_from_features(X: ArrayLike, spec: DatasetSpec | None = None) -> DHRobot
 
 
 def fixed_from_features(X: ArrayLike, spec: DatasetSpec) -> np.ndarray:
-    """The orientation / point columns ``(count, 3)`` of a feature matrix."""
+    """The orientation / point columns `(count, 3)` of a feature matrix."""
     _check_spec(spec)
     X = _feature_matrix(X)
     if X.ndim != 2 or X.shape[1] != spec.n_features:

@@ -1,29 +1,29 @@
 """Labels: which nodes of the grid each arm reaches.
 
-``method="exact"``: the closed-form test of :mod:`wsmap.workspace` (spherical-wrist family,
-unlimited joints). ``method="numerical"``: the paper's Levenberg–Marquardt (``ikine_LM``) with
-``tol``, ``ilimit``, ``rlimit``, from ``starts`` start configurations; a node is reachable when ANY
-start converges. Start 0 is ``q0 = 0`` (the paper's); starts 1.. are drawn per arm uniformly in
-``[-pi, pi)^6`` and shared by all nodes of that arm (:func:`wsmap.datasets.start_configurations`).
+`method="exact"`: the closed-form test of `wsmap.workspace` (spherical-wrist family,
+unlimited joints). `method="numerical"`: the paper's Levenberg–Marquardt (`ikine_LM`) with
+`tol`, `ilimit`, `rlimit`, from `starts` start configurations; a node is reachable when ANY
+start converges. Start 0 is `q0 = 0` (the paper's); starts 1.. are drawn per arm uniformly in
+`[-pi, pi)^6` and shared by all nodes of that arm (`wsmap.datasets.start_configurations`).
 Later starts are run only on the nodes the earlier ones did not solve (the union does not depend
-on that). See :func:`wsmap.datasets.starts_study` and :func:`wsmap.datasets.starts_recall` for how
+on that). See `wsmap.datasets.starts_study` and `wsmap.datasets.starts_recall` for how
 the default number of starts was chosen. Two things keep the numerical labels right and
-affordable without changing any of them: pairs that :func:`possibly_reachable` proves unreachable
+affordable without changing any of them: pairs that `possibly_reachable` proves unreachable
 (a sound bound on reach, height and tool tilt) are not handed to LM, and every LM success is
 confirmed by forward kinematics (the LM pose error is also zero at a half turn of the
-orientation, see ``_solve``).
+orientation, see `_solve`).
 
-A chain family (``panda7``, :data:`wsmap.datasets.spec.CHAIN_FAMILIES`) is labelled by the maps'
-numerical path: :func:`wsmap.workspace.constant_orientation_map` (R3) or
-:func:`wsmap.workspace.orientation_map` (SO3) with ``method="numerical"`` and the spec's
-convention, i.e. :func:`wsmap.kinematics.ik.search.map_search` with its defaults
-(:data:`~wsmap.kinematics.ik.search.MAP_SETTINGS`, seed 0) but for the border search
-(:data:`LABEL_SEARCH`: ``border_starts=0``): the search with the joint limits inside
+A chain family (`panda7`, `wsmap.datasets.spec.CHAIN_FAMILIES`) is labelled by the maps'
+numerical path: `wsmap.workspace.constant_orientation_map` (R3) or
+`wsmap.workspace.orientation_map` (SO3) with `method="numerical"` and the spec's
+convention, i.e. `wsmap.kinematics.ik.search.map_search` with its defaults
+(`MAP_SETTINGS`, seed 0) but for the border search
+(`LABEL_SEARCH`: `border_starts=0`): the search with the joint limits inside
 it, each node started from its neighbours' solutions, every success confirmed by forward
-kinematics inside the limits (so ``True`` is never wrong). An arm's labels do not depend on the
-other arms of its batch, nor on the thread count. With the spec's ``collision`` settings
-(:mod:`wsmap.datasets.collision`) each arm is mapped with ``collision=`` its own
-:class:`~wsmap.collision.CollisionChecker`: ``True`` then also means a collision-free solution was
+kinematics inside the limits (so `True` is never wrong). An arm's labels do not depend on the
+other arms of its batch, nor on the thread count. With the spec's `collision` settings
+(`wsmap.datasets.collision`) each arm is mapped with `collision=` its own
+`CollisionChecker`: `True` then also means a collision-free solution was
 found (the search keeps looking when its first solutions collide).
 """
 
@@ -56,28 +56,28 @@ LABEL_SEARCH = {"border_starts": 0}
 
 
 def _pair_poses(spec: DatasetSpec, nodes, fixed, b_idx, n_idx) -> np.ndarray:
-    """Target poses ``(K, 4, 4)`` of the (arm, node) pairs ``(b_idx[k], n_idx[k])``."""
+    """Target poses `(K, 4, 4)` of the (arm, node) pairs `(b_idx[k], n_idx[k])`."""
     if spec.scope == "R3":
         return ws.target_poses(nodes[n_idx], fixed[b_idx], spec.convention)
     return ws.target_poses(fixed[b_idx], nodes[n_idx], spec.convention)
 
 
 def possibly_reachable(arms: DHRobot, T: ArrayLike, margin: float = 1e-8) -> np.ndarray:
-    """A sound necessary condition for the flange pose ``T`` to be reachable (any 6R arm, no limits).
+    """A sound necessary condition for the flange pose `T` to be reachable (any 6R arm, no limits).
 
-    ``arms`` and ``T`` ``(..., 4, 4)`` broadcast. ``False`` means provably unreachable: every
-    pose the arm can reach is at least ``margin`` (m) away in position. With standard DH the flange
-    origin is ``o_6 = sum_i (d_i z_{i-1} + a_i x_i)`` with ``x_i ⊥ z_i`` and ``angle(z_i, z_{i-1}) =
-    |alpha_i|``, hence, for the target orientation ``R``:
+    `arms` and `T` `(..., 4, 4)` broadcast. `False` means provably unreachable: every
+    pose the arm can reach is at least `margin` (m) away in position. With standard DH the flange
+    origin is `o_6 = sum_i (d_i z_{i-1} + a_i x_i)` with `x_i ⊥ z_i` and `angle(z_i, z_{i-1}) =
+    |alpha_i|`, hence, for the target orientation `R`:
 
-    * the wrist point ``o_5 = p - R·Rx(-alpha_6)·(a_6, 0, d_6)`` is fixed by the target and
-      ``|o_5| <= sum_{i<=5} sqrt(a_i² + d_i²)``;
-    * ``angle(z_i, z_0) <= Θ_i = min(pi, sum_{j<=i} |alpha_j|)``, so ``z_{i-1}·ẑ ∈ [cos Θ_{i-1}, 1]``
-      and ``|x_i·ẑ| <= sin(min(pi/2, Θ_i))``, which bounds the height of ``o_5``;
-    * the tool axis ``R·ẑ`` is at most ``Θ_6`` from the base ``ẑ``.
+    * the wrist point `o_5 = p - R·Rx(-alpha_6)·(a_6, 0, d_6)` is fixed by the target and
+      `|o_5| <= sum_{i<=5} sqrt(a_i² + d_i²)`;
+    * `angle(z_i, z_0) <= Θ_i = min(pi, sum_{j<=i} |alpha_j|)`, so `z_{i-1}·ẑ ∈ [cos Θ_{i-1}, 1]`
+      and `|x_i·ẑ| <= sin(min(pi/2, Θ_i))`, which bounds the height of `o_5`;
+    * the tool axis `R·ẑ` is at most `Θ_6` from the base `ẑ`.
 
-    LM reports success only within ``tol`` of the target (the position error is part of the error
-    norm), so with ``margin >= tol`` skipping the pairs this rejects never changes a numerical
+    LM reports success only within `tol` of the target (the position error is part of the error
+    norm), so with `margin >= tol` skipping the pairs this rejects never changes a numerical
     label; for arms with small twists (Table 3's arbitrary family) it skips most unreachable pairs.
     """
     _check_arms_6(arms)
@@ -119,12 +119,12 @@ def _check_arms_6(arms) -> DHRobot:
 
 
 def _solve(robot: DHRobot, T, q0, spec: DatasetSpec) -> np.ndarray:
-    """LM success per target ``(K,)``, confirmed by forward kinematics.
+    """LM success per target `(K,)`, confirmed by forward kinematics.
 
-    ``pose_error``'s rotation part ``0.5·sum(c_k x t_k)`` is ``sin(theta)·axis``: it vanishes at a
+    `pose_error`'s rotation part `0.5·sum(c_k x t_k)` is `sin(theta)·axis`: it vanishes at a
     half turn as well as at the target, so an LM "success" could in principle be the right
     position with the orientation off by pi. The check below (position and rotation matrix within
-    :data:`FK_CHECK_TOL` of the target) makes such a success a failure; in our runs it has never
+    `FK_CHECK_TOL` of the target) makes such a success a failure; in our runs it has never
     triggered.
     """
     res = ikine_LM(robot, T, q0=q0, tol=spec.tol, ilimit=spec.ilimit, rlimit=spec.rlimit)
@@ -139,9 +139,9 @@ def _solve(robot: DHRobot, T, q0, spec: DatasetSpec) -> np.ndarray:
 
 
 def _numerical_first_start(arms, spec, nodes, fixed, q0, prefilter=True) -> np.ndarray:
-    """Index of the first start that solves each (arm, node) pair ``(B, N)``, -1 where none does.
+    """Index of the first start that solves each (arm, node) pair `(B, N)`, -1 where none does.
 
-    int16: start indices up to :data:`wsmap.datasets.spec.MAX_STARTS` fit (int8 would wrap at 128).
+    int16: start indices up to `wsmap.datasets.spec.MAX_STARTS` fit (int8 would wrap at 128).
     """
     B, N = arms.batch_shape[0], len(nodes)
     first = np.full((B, N), -1, dtype=np.int16)
@@ -174,7 +174,7 @@ def _nodes_array(nodes) -> np.ndarray:
 
 
 def _chain_family_labels(arms, spec: DatasetSpec, fx, nodes) -> np.ndarray:
-    """Labels ``(count, N)`` of a chain family's arms (a checked SerialChain batch): the numerical
+    """Labels `(count, N)` of a chain family's arms (a checked SerialChain batch): the numerical
     map, one call per distinct orientation (point); arms sharing one are mapped as one batch (the
     same labels as one by one)."""
     count = arms.batch_shape[0]
@@ -212,28 +212,28 @@ def labels_for(
     nodes: ArrayLike | None = None,
     prefilter: bool = True,
 ) -> np.ndarray:
-    """Labels ``(count, n_nodes)`` bool of a batch of arms for ``spec``, in node order.
+    """Labels `(count, n_nodes)` bool of a batch of arms for `spec`, in node order.
 
     Parameters
     ----------
-    arms : DHRobot, batch ``(count,)``
-        For a chain family (``panda7``): the family's arms (a SerialChain batch ``(count,)``,
-        :func:`wsmap.robots.family_arm`) or their scale factors ``(count, 6)``; labelled by the
-        numerical map search (see the module notes; ``method`` ``"numerical"`` only, no ``q0``,
-        no ``prefilter``).
-    fixed : ``(3,)`` or ``(count, 3)``, optional
-        Orientation (R3, rad) or point (SO3, m); default the spec's (required if ``"random"``).
-    method : ``"exact"`` | ``"numerical"``, optional
+    arms : DHRobot, batch `(count,)`
+        For a chain family (`panda7`): the family's arms (a SerialChain batch `(count,)`,
+        `wsmap.robots.family_arm`) or their scale factors `(count, 6)`; labelled by the
+        numerical map search (see the module notes; `method` `"numerical"` only, no `q0`,
+        no `prefilter`).
+    fixed : `(3,)` or `(count, 3)`, optional
+        Orientation (R3, rad) or point (SO3, m); default the spec's (required if `"random"`).
+    method : `"exact"` | `"numerical"`, optional
         Overrides the spec's (the label audit runs the numerical path on a spherical-wrist spec).
-    q0 : ``(count, S, 6)`` or ``(S, 6)``, optional
-        Start configurations for the numerical path; default ``start_configurations`` of the spec
-        for the first ``count`` arms (only right for the spec's own arms in order; pass them
-        explicitly otherwise). ``S = 1`` with zeros is the paper's single start.
-    nodes : ``(N, 3)``, optional
-        Nodes to label instead of :func:`spec_nodes` (positions for R3, angles for SO3).
+    q0 : `(count, S, 6)` or `(S, 6)`, optional
+        Start configurations for the numerical path; default `start_configurations` of the spec
+        for the first `count` arms (only right for the spec's own arms in order; pass them
+        explicitly otherwise). `S = 1` with zeros is the paper's single start.
+    nodes : `(N, 3)`, optional
+        Nodes to label instead of `spec_nodes` (positions for R3, angles for SO3).
     prefilter : bool
-        Numerical path: skip the pairs :func:`possibly_reachable` proves unreachable (same labels,
-        faster). ``False`` runs LM on every pair.
+        Numerical path: skip the pairs `possibly_reachable` proves unreachable (same labels,
+        faster). `False` runs LM on every pair.
     """
     _check_spec(spec)
     method = spec.method if method is None else _choice("method", method, METHODS)

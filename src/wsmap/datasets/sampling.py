@@ -2,35 +2,35 @@
 
 Randomness
 ----------
-Every random quantity has its own stream, ``numpy.random.SeedSequence(seed, spawn_key=(split,
-quantity))`` with ``split`` 0 for ``stream="train"`` and 1 for ``"test"`` and ``quantity`` 0 for the
+Every random quantity has its own stream, `numpy.random.SeedSequence(seed, spawn_key=(split,
+quantity))` with `split` 0 for `stream="train"` and 1 for `"test"` and `quantity` 0 for the
 arms, 1 for random orientations / points, 2 for IK start configurations. Hence
 
 * a test set never shares a stream with its training set (and continuous draws never repeat);
-* a dataset is a prefix of every larger dataset of the same spec (``scaled`` reduces the sample
+* a dataset is a prefix of every larger dataset of the same spec (`scaled` reduces the sample
   count and keeps the first arms), and the labels of an arm never depend on the chunking.
 
-The label audits (:mod:`wsmap.datasets.audit`) draw from splits 7, 8 and 9 of their own seed,
+The label audits (`wsmap.datasets.audit`) draw from splits 7, 8 and 9 of their own seed,
 independent of every training and test stream.
 
-Every family draws its arms from the arms stream as :meth:`wsmap.robots.ArmFamily.sample` does
-(one ``(count, n_params)`` uniform array; a DH family's range is ``[0, beta]``). A chain family
-(``panda7``) has no random orientation and no LM start configurations (its labels are the map
-search); :func:`draw_scales` gives its scale factors alone.
+Every family draws its arms from the arms stream as `wsmap.robots.ArmFamily.sample` does
+(one `(count, n_params)` uniform array; a DH family's range is `[0, beta]`). A chain family
+(`panda7`) has no random orientation and no LM start configurations (its labels are the map
+search); `draw_scales` gives its scale factors alone.
 
 Random orientation ("workspace" embedding of Table 3)
 ----------------------------------------------------
-``fixed="random"`` draws, per sample, a rotation uniformly (Haar measure) on SO(3): a unit
+`fixed="random"` draws, per sample, a rotation uniformly (Haar measure) on SO(3): a unit
 quaternion from four independent standard normals, normalised (Shoemake; the normal distribution
 is isotropic, so the quaternion is uniform on S³ and the rotation uniform on SO(3)). It is then
-written as the paper's angles ``R = Rx(r1)·Ry(r2)·Rz(r3)``::
+written as the paper's angles `R = Rx(r1)·Ry(r2)·Rz(r3)`::
 
     r2 = asin(R[0, 2]),   r1 = atan2(-R[1, 2], R[2, 2]),   r3 = atan2(-R[0, 1], R[0, 0])
 
-each wrapped into ``[0, 2·pi)`` (the paper's angle range; its orientation [0.312, 5.6719, 5.936]
-is written that way). The labels use ``rpy2r(r1, r2, r3)`` rebuilt from the stored angles, so a
-sample's labels follow from its features alone. For an SO3 scope ``fixed="random"`` draws the
-point uniformly in the cube ``[-2·beta, 2·beta]³`` (the paper's position range).
+each wrapped into `[0, 2·pi)` (the paper's angle range; its orientation [0.312, 5.6719, 5.936]
+is written that way). The labels use `rpy2r(r1, r2, r3)` rebuilt from the stored angles, so a
+sample's labels follow from its features alone. For an SO3 scope `fixed="random"` draws the
+point uniformly in the cube `[-2·beta, 2·beta]³` (the paper's position range).
 """
 
 from __future__ import annotations
@@ -56,15 +56,15 @@ def _rng(spec: DatasetSpec, quantity: str) -> np.random.Generator:
 
 
 def _audit_rng(seed: int, audit: str, quantity: str) -> np.random.Generator:
-    """The stream of ``quantity`` for one of the label audits, independent of every dataset stream."""
+    """The stream of `quantity` for one of the label audits, independent of every dataset stream."""
     key = (_AUDIT_SPLIT[audit], _QUANTITY[quantity])
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=key))
 
 
 def uniform_rotations(count: int, rng: np.random.Generator) -> np.ndarray:
-    """``count`` rotation matrices ``(count, 3, 3)`` uniform on SO(3) (normalised Gaussian quaternions).
+    """`count` rotation matrices `(count, 3, 3)` uniform on SO(3) (normalised Gaussian quaternions).
 
-    ``rng`` is a ``numpy.random.Generator`` or anything ``numpy.random.default_rng`` takes (a seed).
+    `rng` is a `numpy.random.Generator` or anything `numpy.random.default_rng` takes (a seed).
     """
     count = _int("count", count, 0, MAX_SAMPLES)
     rng = np.random.default_rng(rng)
@@ -82,10 +82,10 @@ def uniform_rotations(count: int, rng: np.random.Generator) -> np.ndarray:
 
 
 def rotation_to_rpy(R: ArrayLike) -> np.ndarray:
-    """Angles ``(..., 3)`` in ``[0, 2·pi)`` with ``R = Rx(r1)·Ry(r2)·Rz(r3)`` (``R`` of shape ``(..., 3, 3)``).
+    """Angles `(..., 3)` in `[0, 2·pi)` with `R = Rx(r1)·Ry(r2)·Rz(r3)` (`R` of shape `(..., 3, 3)`).
 
-    ``r2 = asin(R[0,2])`` lies in ``[-pi/2, pi/2]`` before wrapping; at ``cos(r2) = 0`` (measure
-    zero) the split between ``r1`` and ``r3`` is arbitrary.
+    `r2 = asin(R[0,2])` lies in `[-pi/2, pi/2]` before wrapping; at `cos(r2) = 0` (measure
+    zero) the split between `r1` and `r3` is arbitrary.
     """
     R = float64_array(R, f"R must be rotation matrices of shape (..., 3, 3), got {type(R).__name__}")
     if R.ndim < 2 or R.shape[-2:] != (3, 3):
@@ -112,19 +112,19 @@ def _draw_fixed(spec: DatasetSpec, count: int, rng) -> np.ndarray:
 
 
 def draw_samples(spec: DatasetSpec, count: int | None = None) -> tuple[Arm, NDArray[np.float64]]:
-    """The first ``count`` (default ``spec.samples``) arms ``(count,)`` and their fixed
-    orientation / point ``(count, 3)`` from the spec's streams. The arms are a
-    :class:`~wsmap.kinematics.DHRobot` batch, or for a chain family a
-    :class:`~wsmap.kinematics.SerialChain` batch (:func:`wsmap.robots.family_arm` of
-    :func:`draw_scales`)."""
+    """The first `count` (default `spec.samples`) arms `(count,)` and their fixed
+    orientation / point `(count, 3)` from the spec's streams. The arms are a
+    `DHRobot` batch, or for a chain family a
+    `SerialChain` batch (`wsmap.robots.family_arm` of
+    `draw_scales`)."""
     _check_spec(spec)
     count = spec.samples if count is None else _int("count", count, 1, MAX_SAMPLES)
     return _draw_arms(spec, count, _rng(spec, "arms")), _draw_fixed(spec, count, _rng(spec, "fixed"))
 
 
 def draw_scales(spec: DatasetSpec, count: int | None = None) -> np.ndarray:
-    """The scale factors ``(count, n)`` of the first ``count`` (default ``spec.samples``) arms of a
-    chain family's spec (the arms of :func:`draw_samples`); ``ValueError`` for the DH families."""
+    """The scale factors `(count, n)` of the first `count` (default `spec.samples`) arms of a
+    chain family's spec (the arms of `draw_samples`); `ValueError` for the DH families."""
     _check_spec(spec)
     if not spec.is_chain_family:
         raise ValueError(f"spec {spec.name!r} is of the DH family {spec.family!r}: its arms have no scale factors")
@@ -133,8 +133,8 @@ def draw_scales(spec: DatasetSpec, count: int | None = None) -> np.ndarray:
 
 
 def start_configurations(spec: DatasetSpec, count: int | None = None, starts: int | None = None) -> np.ndarray:
-    """IK start configurations ``(count, starts, 6)`` (rad): ``[:, 0]`` is zero (the paper's q0),
-    ``[:, 1:]`` uniform in ``[-pi, pi)`` per arm from the spec's start stream."""
+    """IK start configurations `(count, starts, 6)` (rad): `[:, 0]` is zero (the paper's q0),
+    `[:, 1:]` uniform in `[-pi, pi)` per arm from the spec's start stream."""
     _check_spec(spec)
     count = spec.samples if count is None else _int("count", count, 0, MAX_SAMPLES)
     starts = spec.starts if starts is None else _int("starts", starts, 1, MAX_STARTS)

@@ -1,18 +1,18 @@
 """The dataset spec: everything that determines a dataset, as plain data.
 
-A :class:`DatasetSpec` names the arms (``family``, ``beta``), the grid and the labelled nodes
-(``scope``, ``lo``, ``hi``, ``step``, ``select``), the fixed orientation or point (``fixed``), how
-labels are computed (``method``, ``convention`` and the LM settings), and the random streams
-(``seed``, ``stream``, ``samples``), and, for a chain family, whether the labels are collision-free
-(``collision``, :mod:`wsmap.datasets.collision`). It round-trips through YAML / JSON (:meth:`DatasetSpec.to_dict`,
-:meth:`DatasetSpec.from_dict`), so ``params.yaml`` and every dataset file can hold it.
+A `DatasetSpec` names the arms (`family`, `beta`), the grid and the labelled nodes
+(`scope`, `lo`, `hi`, `step`, `select`), the fixed orientation or point (`fixed`), how
+labels are computed (`method`, `convention` and the LM settings), and the random streams
+(`seed`, `stream`, `samples`), and, for a chain family, whether the labels are collision-free
+(`collision`, `wsmap.datasets.collision`). It round-trips through YAML / JSON (`DatasetSpec.to_dict`,
+`DatasetSpec.from_dict`), so `params.yaml` and every dataset file can hold it.
 
-Every field is checked when a spec is made: a bad value is a ``ValueError`` naming the field,
+Every field is checked when a spec is made: a bad value is a `ValueError` naming the field,
 before any work. Numbers must be real numbers (a string is accepted only when it is a plain
-numeral, because YAML reads ``1e-10`` as a string); expressions such as ``"pi/10"`` are refused:
+numeral, because YAML reads `1e-10` as a string); expressions such as `"pi/10"` are refused:
 write the value.
 
-:func:`test_spec` gives a spec's independent test set and :func:`scaled` changes its sample count
+`test_spec` gives a spec's independent test set and `scaled` changes its sample count
 (the first arms of the same streams).
 """
 
@@ -51,14 +51,14 @@ __all__ = [
     "scaled",
 ]
 
-#: Families of a dataset's arms: the names of :data:`wsmap.robots.FAMILIES` (the paper's three DH
-#: families, :class:`~wsmap.kinematics.DHRobot` arms, and the real-arm families).
+#: Families of a dataset's arms: the names of `wsmap.robots.FAMILIES` (the paper's three DH
+#: families, `DHRobot` arms, and the real-arm families).
 FAMILIES = tuple(robots.FAMILIES)
-#: Families whose arms are :class:`~wsmap.kinematics.SerialChain` batches built from scale
-#: factors (:class:`wsmap.robots.ScaledFamily`): their features are the scales, their labels the
-#: numerical map search (:mod:`wsmap.datasets.labels`).
+#: Families whose arms are `SerialChain` batches built from scale
+#: factors (`wsmap.robots.ScaledFamily`): their features are the scales, their labels the
+#: numerical map search (`wsmap.datasets.labels`).
 CHAIN_FAMILIES = tuple(name for name, family in robots.FAMILIES.items() if family.chain)
-#: The default R3 grid bounds of a chain family (metres), ``lo = -hi``: ``[-1.2, 1.2]³`` holds the
+#: The default R3 grid bounds of a chain family (metres), `lo = -hi`: `[-1.2, 1.2]³` holds the
 #: Panda's reach (0.855 m) and nearly all of the scaled arms' tool-down workspace.
 CHAIN_FAMILY_GRID = 1.2
 SCOPES = ("R3", "SO3")
@@ -68,10 +68,10 @@ CONVENTIONS = ws.CONVENTIONS
 METHODS = ("exact", "numerical")
 #: Number of IK start configurations for numerical labels (q0 = 0 plus DEFAULT_STARTS - 1 random
 #: ones). Measured (seed 0, OMP_NUM_THREADS=1, 2-core machine shared with other jobs):
-#: ``starts_recall(spec, n_poses=5000, counts=(1..9, 11, 13, 17, 25, 33))`` on Table 3's arbitrary
-#: 6-DOF arms (poses fkine(q), q ~ U(-pi, pi)^6, so reachable) and ``starts_study(spec, n_arms=320,
-#: counts=(1..9, 11, 13, 17))`` (Table 3 orientation, block 5: 423,360 arm-node pairs, 343
-#: reachable), ``spec = wsmap.paper.specs.PAPER_SPECS["table3_nosubspace"]``:
+#: `starts_recall(spec, n_poses=5000, counts=(1..9, 11, 13, 17, 25, 33))` on Table 3's arbitrary
+#: 6-DOF arms (poses fkine(q), q ~ U(-pi, pi)^6, so reachable) and `starts_study(spec, n_arms=320,
+#: counts=(1..9, 11, 13, 17))` (Table 3 orientation, block 5: 423,360 arm-node pairs, 343
+#: reachable), `spec = wsmap.paper.specs.PAPER_SPECS["table3_nosubspace"]`:
 #:
 #:   starts               1      2      3      4      5      6      7      8      9     11     13     17
 #:   recall           0.626  0.802  0.885  0.931  0.956  0.969  0.977  0.983  0.988  0.993  0.996  0.998
@@ -98,7 +98,7 @@ MAX_STARTS = 1000
 #: LM iteration and consecutive-rejection limits: 10⁶ (the paper's are 500 and 100).
 MAX_LM_ITERATIONS = 10**6
 #: LM tolerance: at most 1e-6, the tolerance of the forward-kinematics check that confirms every LM
-#: success (:mod:`wsmap.datasets.labels`); a looser LM tolerance would make converged poses fail it.
+#: success (`wsmap.datasets.labels`); a looser LM tolerance would make converged poses fail it.
 MAX_TOL = 1e-6
 
 #: Joints of every arm, and DH columns of the feature vector (d, a, alpha per joint).
@@ -140,7 +140,7 @@ def _real_or_triple(name, value):
 
 
 def _int(name, value, minimum, maximum=None) -> int:
-    """An int in ``[minimum, maximum]``; an integral float (``1e3``) is accepted, a bool is not."""
+    """An int in `[minimum, maximum]`; an integral float (`1e3`) is accepted, a bool is not."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, float, np.floating)):
         raise ValueError(f"{name} must be an integer, got {value!r}")
     if isinstance(value, (float, np.floating)) and not (math.isfinite(value) and float(value).is_integer()):
@@ -154,7 +154,7 @@ def _int(name, value, minimum, maximum=None) -> int:
 
 
 def float64_array(value, message: str) -> np.ndarray:
-    """``value`` as a float64 array; ``ValueError(message)`` (what it must be) when it is not numbers."""
+    """`value` as a float64 array; `ValueError(message)` (what it must be) when it is not numbers."""
     try:
         return np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
@@ -162,7 +162,7 @@ def float64_array(value, message: str) -> np.ndarray:
 
 
 def require_finite(x: np.ndarray, message: str) -> np.ndarray:
-    """``x`` unchanged when every value is finite; else ``ValueError(message)``."""
+    """`x` unchanged when every value is finite; else `ValueError(message)`."""
     if not np.all(np.isfinite(x)):
         raise ValueError(message)
     return x
@@ -175,64 +175,64 @@ def _choice(name, value, choices):
 
 
 def _grid_counts(lo, hi, step) -> tuple[int, int, int]:
-    """Nodes per axis, counted as :func:`wsmap.workspace.grid_axes` counts them, for a dataset grid
-    (at most :data:`MAX_GRID_NODES` nodes)."""
+    """Nodes per axis, counted as `wsmap.workspace.grid_axes` counts them, for a dataset grid
+    (at most `MAX_GRID_NODES` nodes)."""
     return ws.grid_counts(lo, hi, step, max_nodes=MAX_GRID_NODES, what="a dataset may have")
 
 
 # --------------------------------------------------------------------------- the spec
 @dataclass(frozen=True)
 class DatasetSpec:
-    """Everything that determines a dataset; plain data (``to_dict`` / ``from_dict`` via YAML).
+    """Everything that determines a dataset; plain data (`to_dict` / `from_dict` via YAML).
 
     Attributes
     ----------
     name : str
         Identifier (file names, progress bars).
-    family : ``"spherical_wrist"`` | ``"arbitrary_6dof"`` | ``"puma560"`` | ``"panda7"``
-        The arms, a family of :data:`wsmap.robots.FAMILIES` (:attr:`arm_family`): the paper's
+    family : `"spherical_wrist"` | `"arbitrary_6dof"` | `"puma560"` | `"panda7"`
+        The arms, a family of `wsmap.robots.FAMILIES` (`arm_family`): the paper's
         spherical-wrist family (d3, d4, a2, a3 ~ U(0, beta)), Table 3's arbitrary 6-DOF arms
         (every d_i, a_i, alpha_i ~ U(0, beta)), the PUMA560 (d1 = 0) in every sample (useful with
         a random orientation), or a real-arm family of
-        :data:`CHAIN_FAMILIES` (``panda7``: the Franka Panda with its six non-zero DH lengths each
-        scaled by U(0.7, 1.3), :func:`wsmap.robots.sample_family`). A chain family's features are
+        `CHAIN_FAMILIES` (`panda7`: the Franka Panda with its six non-zero DH lengths each
+        scaled by U(0.7, 1.3), `wsmap.robots.sample_family`). A chain family's features are
         its scale factors and its labels the numerical map search with its own settings
-        (:data:`wsmap.kinematics.ik.search.MAP_SETTINGS`), so it needs ``method="numerical"``, a
-        fixed orientation (or point), and ``tol``, ``ilimit``, ``rlimit``, ``starts`` and ``beta``
+        (`wsmap.kinematics.ik.search.MAP_SETTINGS`), so it needs `method="numerical"`, a
+        fixed orientation (or point), and `tol`, `ilimit`, `rlimit`, `starts` and `beta`
         left at their defaults (they set the paper's LM path and DH draws); its default R3 grid is
-        ``[-1.2, 1.2]`` m (:data:`CHAIN_FAMILY_GRID`).
-    scope : ``"R3"`` (positions at a fixed orientation) | ``"SO3"`` (orientations at a fixed point)
+        `[-1.2, 1.2]` m (`CHAIN_FAMILY_GRID`).
+    scope : `"R3"` (positions at a fixed orientation) | `"SO3"` (orientations at a fixed point)
     lo, hi, step : float or 3-tuple
-        The grid (:func:`wsmap.workspace.grid_axes`): metres for R3, radians for SO3. ``None``
-        means the paper's range, ``[-2·beta, 2·beta]`` (R3) or ``[0, 2·pi]`` (SO3). At most
-        :data:`MAX_GRID_NODES` nodes.
+        The grid (`wsmap.workspace.grid_axes`): metres for R3, radians for SO3. `None`
+        means the paper's range, `[-2·beta, 2·beta]` (R3) or `[0, 2·pi]` (SO3). At most
+        `MAX_GRID_NODES` nodes.
     select : None or (start, stop)
-        The labelled nodes: all (``None``, ``"all"`` in YAML) or the 0-based half-open slice
-        ``[start, stop)`` of the flat node order (block 5 is ``(5292, 6615)``).
-    fixed : 3-tuple or ``"random"``
-        The orientation (r1, r2, r3) in radians (R3) or the point in metres (SO3); ``"random"``
-        draws one per sample (see :mod:`wsmap.datasets.sampling`) and makes it part of the input.
-    convention : ``"paper"`` (``R·transl(p)``, tests ``R·p``) | ``"standard"`` (``transl(p)·R``)
-    method : ``"exact"`` (closed form; spherical-wrist arms only) | ``"numerical"`` (LM)
+        The labelled nodes: all (`None`, `"all"` in YAML) or the 0-based half-open slice
+        `[start, stop)` of the flat node order (block 5 is `(5292, 6615)`).
+    fixed : 3-tuple or `"random"`
+        The orientation (r1, r2, r3) in radians (R3) or the point in metres (SO3); `"random"`
+        draws one per sample (see `wsmap.datasets.sampling`) and makes it part of the input.
+    convention : `"paper"` (`R·transl(p)`, tests `R·p`) | `"standard"` (`transl(p)·R`)
+    method : `"exact"` (closed form; spherical-wrist arms only) | `"numerical"` (LM)
     tol, ilimit, rlimit, starts :
-        LM settings for ``method="numerical"``: tolerance on the pose-error norm (at most
-        :data:`MAX_TOL`), iteration limit, consecutive-rejection limit, and the number of start
+        LM settings for `method="numerical"`: tolerance on the pose-error norm (at most
+        `MAX_TOL`), iteration limit, consecutive-rejection limit, and the number of start
         configurations (q0 = 0 first, then random ones; a node is reachable when any converges).
-        Ignored by ``"exact"``.
+        Ignored by `"exact"`.
     samples : int
-        Number of arms (rows), 1 to :data:`MAX_SAMPLES`.
+        Number of arms (rows), 1 to `MAX_SAMPLES`.
     seed : int
         Root of every random stream (non-negative).
     beta : float
         Upper bound of the uniform DH draws (m, and rad for arbitrary twists); the paper's 0.5.
-    stream : ``"train"`` | ``"test"``
-        Which independent stream of ``seed`` the samples come from (:func:`test_spec`).
+    stream : `"train"` | `"test"`
+        Which independent stream of `seed` the samples come from (`test_spec`).
     collision : None or mapping
-        Chain families only: collision-free labels (:mod:`wsmap.datasets.collision`): ``model``
-        (the family's named arm's capsule model, scaled with each arm) or ``link_radius``, an
-        optional ``scene`` mapping (default: the floor ``z = 0``), ``self_collision``,
-        ``acm_samples``, ``acm_seed``; kept as a :class:`~wsmap.datasets.collision.LabelCollision`.
-        ``None`` (default): the chain's map. Part of the spec's identity (:meth:`to_dict` holds it
+        Chain families only: collision-free labels (`wsmap.datasets.collision`): `model`
+        (the family's named arm's capsule model, scaled with each arm) or `link_radius`, an
+        optional `scene` mapping (default: the floor `z = 0`), `self_collision`,
+        `acm_samples`, `acm_seed`; kept as a `LabelCollision`.
+        `None` (default): the chain's map. Part of the spec's identity (`to_dict` holds it
         when set), so a file built with other settings is refused.
     """
 
@@ -330,7 +330,7 @@ class DatasetSpec:
         set_("tol", tol)
 
     def _check_chain_family(self) -> None:
-        """The settings a chain family (:data:`CHAIN_FAMILIES`) cannot honour are refused, not ignored."""
+        """The settings a chain family (`CHAIN_FAMILIES`) cannot honour are refused, not ignored."""
         fam = self.family
         if self.method != "numerical":
             raise ValueError(f"family {fam!r} has no closed form: its labels are the numerical map search, "
@@ -355,19 +355,19 @@ class DatasetSpec:
 
     @property
     def is_chain_family(self) -> bool:
-        """Whether the arms are a real-arm family (:data:`CHAIN_FAMILIES`): scale-factor features."""
+        """Whether the arms are a real-arm family (`CHAIN_FAMILIES`): scale-factor features."""
         return self.family in CHAIN_FAMILIES
 
     @property
     def arm_family(self) -> robots.ArmFamily:
-        """The spec's :class:`wsmap.robots.ArmFamily`; a DH family's range is ``[0, beta]``."""
+        """The spec's `wsmap.robots.ArmFamily`; a DH family's range is `[0, beta]`."""
         family = robots.arm_family(self.family)
         return family if family.chain else family.with_range(high=self.beta)
 
     # ---------------------------------------------------------------- derived sizes
     @cached_property
     def grid_shape(self) -> tuple[int, int, int]:
-        """Nodes along each axis ``(nx, ny, nz)`` of the whole grid."""
+        """Nodes along each axis `(nx, ny, nz)` of the whole grid."""
         return tuple(len(a) for a in ws.grid_axes(self.lo, self.hi, self.step))
 
     @property
@@ -395,7 +395,7 @@ class DatasetSpec:
 
     # ---------------------------------------------------------------- plain data
     def to_dict(self) -> dict:
-        """Plain YAML/JSON types: floats, ints, strings, lists; ``select`` ``"all"`` or ``[start, stop]``."""
+        """Plain YAML/JSON types: floats, ints, strings, lists; `select` `"all"` or `[start, stop]`."""
         out = {}
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
@@ -422,7 +422,7 @@ class DatasetSpec:
 
     @classmethod
     def from_dict(cls, d: dict) -> "DatasetSpec":
-        """Inverse of :meth:`to_dict`; unknown keys are an error (a typo would silently use a default)."""
+        """Inverse of `to_dict`; unknown keys are an error (a typo would silently use a default)."""
         if not isinstance(d, dict):
             raise ValueError(f"a dataset spec must be a mapping, got {type(d).__name__}")
         cls._check_keys(d)
@@ -431,15 +431,15 @@ class DatasetSpec:
         return cls(**d)
 
     def replace(self, **changes) -> "DatasetSpec":
-        """A copy with ``changes``; an unknown field is a ``ValueError`` (like :meth:`from_dict`)."""
+        """A copy with `changes`; an unknown field is a `ValueError` (like `from_dict`)."""
         self._check_keys(changes)
         return dataclasses.replace(self, **changes)
 
 
 def test_spec(spec: DatasetSpec, samples: int = 1000) -> DatasetSpec:
-    """The independent test set of ``spec``: same everything, ``samples`` arms from the test stream.
+    """The independent test set of `spec`: same everything, `samples` arms from the test stream.
 
-    The test stream is a different ``SeedSequence`` spawn key of the same seed, so its arms are
+    The test stream is a different `SeedSequence` spawn key of the same seed, so its arms are
     independent of (and, being continuous draws, disjoint from) the training arms.
     """
     _check_spec(spec)
@@ -452,7 +452,7 @@ test_spec.__test__ = False  # not a pytest test, despite the name
 
 
 def scaled(spec: DatasetSpec, samples: int) -> DatasetSpec:
-    """``spec`` with fewer (or more) samples: the first ``samples`` arms of the same streams."""
+    """`spec` with fewer (or more) samples: the first `samples` arms of the same streams."""
     _check_spec(spec)
     return spec.replace(samples=samples)
 

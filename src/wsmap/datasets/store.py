@@ -2,27 +2,27 @@
 
 File format
 -----------
-A zip archive readable by ``numpy.load`` (an ``.npz``) with exactly three entries, in this order:
-``features`` (float64), ``labels_packed`` (uint8, ``np.packbits(labels, axis=1)``: nodes
-big-endian within each byte, rows padded to whole bytes with zero bits) and ``header`` (UTF-8 JSON
+A zip archive readable by `numpy.load` (an `.npz`) with exactly three entries, in this order:
+`features` (float64), `labels_packed` (uint8, `np.packbits(labels, axis=1)`: nodes
+big-endian within each byte, rows padded to whole bytes with zero bits) and `header` (UTF-8 JSON
 as uint8): the spec dict, the format name and version, the wsmap version, shapes, feature names,
-and the SHA-256 of ``features.tobytes() + labels_packed.tobytes()`` (C order, little-endian). The
-zip is written with fixed entry timestamps (``np.savez_compressed`` stamps the current time, which
+and the SHA-256 of `features.tobytes() + labels_packed.tobytes()` (C order, little-endian). The
+zip is written with fixed entry timestamps (`np.savez_compressed` stamps the current time, which
 would make rebuilds differ byte-wise), streamed chunk by chunk into a temporary file beside the
 target, and renamed over it only when complete.
 
 Reading
 -------
-:func:`load_dataset` trusts nothing in the file: every entry is read whole and checked against
+`load_dataset` trusts nothing in the file: every entry is read whole and checked against
 its zip CRC-32 before it is parsed, the header is checked field by field, the array sizes are
 compared with the header before any memory is allocated for them, and the arrays with the header's
 SHA-256. Whatever is wrong -- a flipped byte anywhere, a truncation, a foreign or tampered file --
-is a :class:`DatasetError` naming the path and the problem; a file that loads is the file that
+is a `DatasetError` naming the path and the problem; a file that loads is the file that
 was written (a flip in zip metadata that is never read leaves the data as it was).
 
 Writing
 -------
-:func:`build_dataset` writes one spec's file. :func:`build_dataset_files` is what a command line
+`build_dataset` writes one spec's file. `build_dataset_files` is what a command line
 calls: a training file and/or its independent test file, every input checked before any work and
 before any file is touched, both files written to temporary files and renamed into place only when
 both succeeded (an existing file at either path stays as it was if anything fails). OS errors name
@@ -31,22 +31,22 @@ the user's path, never a temporary file.
 Where the labels are computed
 -----------------------------
 The arms are drawn, and the features computed, in the calling process; the labels are computed
-chunk by chunk (``chunk`` arms each). By default every chunk runs in the calling process (the
-*single-process build*). With ``workers=K`` the chunks are tasks on a Dask
-:class:`distributed.LocalCluster` of ``K`` worker processes with one thread each, started for the
-build and closed after it; with ``scheduler="tcp://host:port"`` (or a :class:`distributed.Client`)
+chunk by chunk (`chunk` arms each). By default every chunk runs in the calling process (the
+*single-process build*). With `workers=K` the chunks are tasks on a Dask
+`distributed.LocalCluster` of `K` worker processes with one thread each, started for the
+build and closed after it; with `scheduler="tcp://host:port"` (or a `distributed.Client`)
 they are tasks on that cluster (its workers need this wsmap installed). Each task gets the spec
 and its chunk's inputs (a chain family's scale factors, a DH chunk's arms, orientations and LM
 starts: small arrays), sets the compiled kernels to one thread
-(:func:`wsmap.kinematics.lm_compiled.set_threads`) and returns the chunk's packed labels; at most
+(`wsmap.kinematics.lm_compiled.set_threads`) and returns the chunk's packed labels; at most
 two tasks per worker thread are in flight, and the results are written in chunk order as they
 come. A task computes exactly what the single-process build computes for its chunk (an arm's labels
 depend neither on the other arms of its chunk nor on the thread count), so the file is
 byte-identical to the single-process build's, on workers with the same wsmap, numpy and numba and
 the same kind of CPU (the compiled kernels may contract to fused multiply-adds where the CPU has
 them, which can move a borderline node). A scheduler that does not answer within
-``connect_timeout`` seconds (:data:`CONNECT_TIMEOUT`) is a :class:`SchedulerError` before any file
-is touched; so is a scheduler without a worker after :data:`WORKER_TIMEOUT` seconds.
+`connect_timeout` seconds (`CONNECT_TIMEOUT`) is a `SchedulerError` before any file
+is touched; so is a scheduler without a worker after `WORKER_TIMEOUT` seconds.
 """
 
 from __future__ import annotations
@@ -104,11 +104,11 @@ _MAX_NPY_HEADER = 1 << 16
 _READ_CHUNK = 1 << 24
 
 
-#: Seconds to wait for a Dask scheduler (``scheduler=``, ``--scheduler``) to answer.
+#: Seconds to wait for a Dask scheduler (`scheduler=`, `--scheduler`) to answer.
 CONNECT_TIMEOUT = 5.0
 #: Seconds to wait for a scheduler without workers to get its first one.
 WORKER_TIMEOUT = 60.0
-#: The longest ``connect_timeout``: a scheduler that has not answered in an hour will not (and Dask
+#: The longest `connect_timeout`: a scheduler that has not answered in an hour will not (and Dask
 #: retries a connection until its timeout, so 1e308 s would retry forever).
 MAX_CONNECT_TIMEOUT = 3600.0
 #: A local cluster has at most this many worker processes per core of the machine: each is one
@@ -133,7 +133,7 @@ class SchedulerError(ConnectionError):
 
 
 class _Corrupt(Exception):
-    """Internal: a problem found while reading; ``load_dataset`` turns it into a DatasetError."""
+    """Internal: a problem found while reading; `load_dataset` turns it into a DatasetError."""
 
 
 # --------------------------------------------------------------------------- writing
@@ -160,9 +160,9 @@ def _default_chunk(spec: DatasetSpec) -> int:
 
 
 def _draw_inputs(spec: DatasetSpec):
-    """``(X, arms, fixed, q0)``: the features and what the labels of every arm need -- ``arms`` the
+    """`(X, arms, fixed, q0)`: the features and what the labels of every arm need -- `arms` the
     DH arms, or a chain family's scale factors (the chains are built per chunk, where they are
-    labelled); ``q0`` the LM starts of the numerical DH path, else ``None``."""
+    labelled); `q0` the LM starts of the numerical DH path, else `None`."""
     if spec.is_chain_family:
         arms = draw_scales(spec)
         fixed = _draw_fixed(spec, spec.samples, _rng(spec, "fixed"))
@@ -174,9 +174,9 @@ def _draw_inputs(spec: DatasetSpec):
 
 
 def _label_chunk(spec: DatasetSpec, arms, fixed, q0, version: str | None = None) -> np.ndarray:
-    """The packed labels ``(rows, ceil(N / 8))`` uint8 of one chunk of arms (what a Dask task runs).
+    """The packed labels `(rows, ceil(N / 8))` uint8 of one chunk of arms (what a Dask task runs).
 
-    ``version`` is the builder's wsmap version: a task sets the compiled kernels to one thread and
+    `version` is the builder's wsmap version: a task sets the compiled kernels to one thread and
     refuses to run on a worker with another wsmap (its labels could differ)."""
     if version is not None:
         if version != __version__:
@@ -189,8 +189,8 @@ def _label_chunk(spec: DatasetSpec, arms, fixed, q0, version: str | None = None)
 
 
 def _dask_chunks(client, spec: DatasetSpec, inputs, chunks):
-    """The packed labels of each chunk in order, computed as tasks on ``client``'s cluster (at most
-    two per worker thread in flight); a generator, whose ``close`` cancels what is still pending."""
+    """The packed labels of each chunk in order, computed as tasks on `client`'s cluster (at most
+    two per worker thread in flight); a generator, whose `close` cancels what is still pending."""
     window = max(2, 2 * sum(client.nthreads().values()))
     pending: deque = deque()
     nxt = 0
@@ -206,7 +206,7 @@ def _dask_chunks(client, spec: DatasetSpec, inputs, chunks):
 
 
 def _write_dataset(spec: DatasetSpec, tmp: Path, chunk: int, progress: bool, client=None) -> None:
-    """Generate ``spec``'s dataset into the (temporary) file ``tmp``; labels on ``client``'s Dask
+    """Generate `spec`'s dataset into the (temporary) file `tmp`; labels on `client`'s Dask
     cluster when given, else in this process."""
     X, arms, fixed, q0 = _draw_inputs(spec)
     S, N = spec.samples, spec.n_nodes
@@ -267,7 +267,7 @@ def _is_client(x) -> bool:
 
 
 def _check_cluster(workers, scheduler, connect_timeout):
-    """Checked ``(workers, scheduler, connect_timeout)`` of a build (see the module notes)."""
+    """Checked `(workers, scheduler, connect_timeout)` of a build (see the module notes)."""
     if workers is not None:
         workers = _int("workers", workers, 1)
         cores = _cores()
@@ -303,10 +303,10 @@ def _check_cluster(workers, scheduler, connect_timeout):
 
 
 def _connect(scheduler: str, timeout: float):
-    """A :class:`distributed.Client` of the scheduler at ``scheduler``, or the exception of the try.
+    """A `distributed.Client` of the scheduler at `scheduler`, or the exception of the try.
 
-    A Client whose address is bad (``tcp://``, ``http://x``, ``tcp://[::1``) raises from inside its
-    constructor and is left half built; its ``__del__`` then prints a ``TimeoutError`` traceback
+    A Client whose address is bad (`tcp://`, `http://x`, `tcp://[::1`) raises from inside its
+    constructor and is left half built; its `__del__` then prints a `TimeoutError` traceback
     seconds later. So the Client that failed to start is found and closed here.
     """
     from distributed import Client
@@ -327,9 +327,9 @@ def _connect(scheduler: str, timeout: float):
 
 @contextmanager
 def _dask_client(workers, scheduler, connect_timeout):
-    """``None`` (single process), or a :class:`distributed.Client` of a LocalCluster of ``workers``
-    single-threaded processes (closed on exit), of the scheduler at the address ``scheduler``, or
-    ``scheduler`` itself when it is a Client (left open)."""
+    """`None` (single process), or a `distributed.Client` of a LocalCluster of `workers`
+    single-threaded processes (closed on exit), of the scheduler at the address `scheduler`, or
+    `scheduler` itself when it is a Client (left open)."""
     if workers is None and scheduler is None:
         yield None
         return
@@ -373,7 +373,7 @@ def _dask_client(workers, scheduler, connect_timeout):
 
 
 def _write_all(jobs, chunk, progress, workers=None, scheduler=None, connect_timeout=CONNECT_TIMEOUT) -> None:
-    """Write ``jobs`` (``(spec, path)`` pairs) all or nothing; OS errors name the user's path. The
+    """Write `jobs` (`(spec, path)` pairs) all or nothing; OS errors name the user's path. The
     Dask cluster (if any) is reached before any file is touched."""
     with _dask_client(workers, scheduler, connect_timeout) as client, atomic_paths([path for _, path in jobs]) as tmps:
         for (spec, path), tmp in zip(jobs, tmps):
@@ -395,18 +395,18 @@ def _write_all(jobs, chunk, progress, workers=None, scheduler=None, connect_time
 def build_dataset(spec: DatasetSpec, path: PathLike, chunk: int | None = None, progress: bool = True, *,
                   workers: int | None = None, scheduler: Any | None = None, connect_timeout: float = CONNECT_TIMEOUT
                  ) -> Path:
-    """Generate ``spec``'s dataset into ``path`` (see the module docstring for the format).
+    """Generate `spec`'s dataset into `path` (see the module docstring for the format).
 
-    Arms are labelled ``chunk`` at a time (default: about 2 million node evaluations per chunk
+    Arms are labelled `chunk` at a time (default: about 2 million node evaluations per chunk
     for exact labels, 65,536 for numerical ones), each chunk's labels bit-packed and streamed into
-    the compressed file, so memory stays bounded by the features (``samples x n_features``
+    the compressed file, so memory stays bounded by the features (`samples x n_features`
     float64) plus a few chunks. The same spec always gives a byte-identical file, whatever
-    ``chunk``, ``workers`` or ``scheduler``. ``workers`` (a LocalCluster of that many processes) or
-    ``scheduler`` (an address ``"tcp://host:port"``, or a :class:`distributed.Client`) compute the
+    `chunk`, `workers` or `scheduler`. `workers` (a LocalCluster of that many processes) or
+    `scheduler` (an address `"tcp://host:port"`, or a `distributed.Client`) compute the
     labels on Dask (module notes, "Where the labels are computed"); neither: in this process.
-    The path is checked before any work (:func:`wsmap.io.check_output_path`: not empty, not a
+    The path is checked before any work (`wsmap.io.check_output_path`: not empty, not a
     directory, in a folder that can be written or created) and the scheduler reached before any
-    file is touched (:class:`SchedulerError` after ``connect_timeout`` seconds); the file appears
+    file is touched (`SchedulerError` after `connect_timeout` seconds); the file appears
     only when complete. Returns the path.
     """
     _check_spec(spec)
@@ -418,7 +418,7 @@ def build_dataset(spec: DatasetSpec, path: PathLike, chunk: int | None = None, p
 
 
 def test_path_for(path: PathLike) -> Path:
-    """Where the test set of the training file ``path`` goes: ``NAME.npz`` → ``NAME.test.npz``."""
+    """Where the test set of the training file `path` goes: `NAME.npz` → `NAME.test.npz`."""
     path = Path(path)
     return path.with_name(path.name.removesuffix(".npz") + ".test.npz")
 
@@ -455,32 +455,32 @@ def build_dataset_files(
     Parameters
     ----------
     spec : DatasetSpec or str
-        The spec, or its name in ``catalogue`` (e.g. :data:`wsmap.paper.specs.PAPER_SPECS`).
+        The spec, or its name in `catalogue` (e.g. `wsmap.paper.specs.PAPER_SPECS`).
     out : path
-        The training file; with ``test_only`` the test file.
+        The training file; with `test_only` the test file.
     samples : int, optional
-        Arms of the file at ``out`` (the first ``samples`` of the spec's streams): the training
-        set's (default ``spec.samples``) or, with ``test_only``, the test set's (default 1000).
+        Arms of the file at `out` (the first `samples` of the spec's streams): the training
+        set's (default `spec.samples`) or, with `test_only`, the test set's (default 1000).
     test_samples : int, optional
-        Also build the independent test set (:func:`~wsmap.datasets.test_spec`) of this many arms.
-        ``None`` (the default): no test file, unless ``test_out`` is given (then 1000 arms).
+        Also build the independent test set (`test_spec`) of this many arms.
+        `None` (the default): no test file, unless `test_out` is given (then 1000 arms).
     test_out : path, optional
-        Where the test set goes; default :func:`test_path_for` ``(out)``, ``NAME.test.npz``.
+        Where the test set goes; default `test_path_for` `(out)`, `NAME.test.npz`.
     test_only : bool
-        Build only the test set, into ``out``; ``test_samples`` and ``test_out`` are then refused.
+        Build only the test set, into `out`; `test_samples` and `test_out` are then refused.
     catalogue : mapping of name to DatasetSpec, optional
-        Where a ``spec`` given by name is looked up.
+        Where a `spec` given by name is looked up.
     chunk, progress, workers, scheduler, connect_timeout :
-        As for :func:`build_dataset`: by default the labels are computed in this process;
-        ``workers=K`` on a Dask LocalCluster of ``K`` single-threaded processes,
-        ``scheduler="tcp://host:port"`` on that Dask cluster (one connection for both files).
+        As for `build_dataset`: by default the labels are computed in this process;
+        `workers=K` on a Dask LocalCluster of `K` single-threaded processes,
+        `scheduler="tcp://host:port"` on that Dask cluster (one connection for both files).
         The files are byte-identical either way.
 
     Every input is checked before any work and before any file is touched: a bad count (0,
     negative, not an integer), an unknown name, an output path that is empty, a directory, or in a
-    folder that cannot be written or created, two outputs at the same path, and both ``workers``
-    and ``scheduler`` are each a ``ValueError`` (:class:`wsmap.io.OutputPathError` for the paths)
-    naming the argument; a scheduler that does not answer is a :class:`SchedulerError`. Both files
+    folder that cannot be written or created, two outputs at the same path, and both `workers`
+    and `scheduler` are each a `ValueError` (`wsmap.io.OutputPathError` for the paths)
+    naming the argument; a scheduler that does not answer is a `SchedulerError`. Both files
     are then written to temporary files beside their targets and renamed into place only when both
     are complete; if anything fails (or the run is interrupted), no temporary file is left behind
     and an existing file at either path is untouched. Returns the written paths, training file
@@ -527,10 +527,10 @@ def build_dataset_files(
 # --------------------------------------------------------------------------- reading
 @dataclass
 class Dataset:
-    """A loaded dataset: ``features`` ``(samples, F)`` float64, ``labels`` ``(samples, nodes)`` bool.
+    """A loaded dataset: `features` `(samples, F)` float64, `labels` `(samples, nodes)` bool.
 
-    ``labels`` is unpacked from ``labels_packed`` on first access (1 byte per label: 0.9 GB for
-    1e5 x 9261); ``label_rows(idx)`` unpacks only some rows.
+    `labels` is unpacked from `labels_packed` on first access (1 byte per label: 0.9 GB for
+    1e5 x 9261); `label_rows(idx)` unpacks only some rows.
     """
 
     spec: DatasetSpec
@@ -558,7 +558,7 @@ class Dataset:
         return int(self.header["labels_shape"][1])
 
     def head(self, n: int | None) -> "Dataset":
-        """The first ``n`` samples (all when ``n`` is ``None`` or at least ``len(self)``): what a
+        """The first `n` samples (all when `n` is `None` or at least `len(self)`): what a
         reduced training run uses, the same arms a smaller build would have drawn."""
         if n is None:
             return self
@@ -596,8 +596,8 @@ def _read_entry(zf: zipfile.ZipFile, info: zipfile.ZipInfo) -> bytearray:
 
 
 def _parse_npy(buf: bytearray, name: str, shape=None, dtype=None) -> np.ndarray:
-    """The array in a whole ``.npy`` buffer (no copy: a writable view of ``buf``), checked against
-    the expected ``shape`` and ``dtype`` when given."""
+    """The array in a whole `.npy` buffer (no copy: a writable view of `buf`), checked against
+    the expected `shape` and `dtype` when given."""
     bio = io.BytesIO(buf[: min(len(buf), _MAX_NPY_HEADER + 16)])
     version = np.lib.format.read_magic(bio)
     if version == (1, 0):
@@ -650,7 +650,7 @@ def _check_header(path: Path, header) -> tuple:
 
 
 def _read(path: Path, fh) -> Dataset:
-    """The checked dataset in the open file ``fh``; raises anything on a bad file (load_dataset maps it)."""
+    """The checked dataset in the open file `fh`; raises anything on a bad file (load_dataset maps it)."""
     try:
         zf = zipfile.ZipFile(fh)
     except (zipfile.BadZipFile, EOFError, OSError) as e:
@@ -706,13 +706,13 @@ def _read(path: Path, fh) -> Dataset:
 
 
 def load_dataset(path: PathLike, expect_spec: DatasetSpec | None = None) -> Dataset:
-    """Read a dataset written by :func:`build_dataset`, checking it (see the module docstring).
+    """Read a dataset written by `build_dataset`, checking it (see the module docstring).
 
-    Raises ``FileNotFoundError`` for a missing file, ``OSError`` when the file cannot be opened
-    (permissions), and :class:`DatasetError` (a ``ValueError``) for anything wrong with its
+    Raises `FileNotFoundError` for a missing file, `OSError` when the file cannot be opened
+    (permissions), and `DatasetError` (a `ValueError`) for anything wrong with its
     contents: a directory, a truncated or foreign file, a corrupt one (any flipped byte the data
     depends on: zip CRC, deflate stream, .npy header, JSON header, SHA-256), and, when
-    ``expect_spec`` is given, a file built for another spec; every message names the path.
+    `expect_spec` is given, a file built for another spec; every message names the path.
     """
     if expect_spec is not None:
         _check_spec(expect_spec)
@@ -740,9 +740,9 @@ def load_dataset(path: PathLike, expect_spec: DatasetSpec | None = None) -> Data
 
 
 def load_dataset_files(train_path: PathLike, test_path: PathLike | None = None) -> tuple[Dataset, Dataset]:
-    """A training set and its test set (default :func:`test_path_for` ``(train_path)``), checked:
+    """A training set and its test set (default `test_path_for` `(train_path)`), checked:
     the test set must be the training spec's test stream (same family, grid, orientation and
-    labels; :func:`~wsmap.datasets.test_spec`)."""
+    labels; `test_spec`)."""
     train_path = Path(train_path)
     test_path = test_path_for(train_path) if test_path is None else Path(test_path)
     train, test = load_dataset(train_path), load_dataset(test_path)

@@ -2,23 +2,23 @@
 
 Forward kinematics (no module here imports the IK layer):
 
-* :mod:`.transforms` — rotations, homogeneous transforms, pose error, input checks;
-* :mod:`.arms` — what every arm class shares (batches, indexing, joint checks);
-* :mod:`.dh` — :class:`DHRobot`, standard-DH revolute arms batched over geometry (the paper's);
-* :mod:`.chain` — :class:`SerialChain`, any serial arm of revolute/prismatic joints (DH, modified
-  DH, URDF), :func:`as_chain`;
-* :mod:`.urdf` — chains from URDF files.
+* `.transforms` — rotations, homogeneous transforms, pose error, input checks;
+* `.arms` — what every arm class shares (batches, indexing, joint checks);
+* `.dh` — `DHRobot`, standard-DH revolute arms batched over geometry (the paper's);
+* `.chain` — `SerialChain`, any serial arm of revolute/prismatic joints (DH, modified
+  DH, URDF), `as_chain`;
+* `.urdf` — chains from URDF files.
 
-Inverse kinematics, :mod:`.ik` (every solver returns an :class:`IKSolution`):
+Inverse kinematics, `.ik` (every solver returns an `IKSolution`):
 
-* closed forms, one module each in :mod:`.ik.closed_forms`, found through
-  :func:`closed_form_for` (:mod:`.ik.registry`);
-* :func:`ikine_LM` — the paper's Levenberg–Marquardt (:mod:`.ik.lm`);
-* :func:`ikine_search`, :func:`map_search` — the reachability search for any arm (:mod:`.ik.search`);
-* :mod:`.lm_lanes` — the lane (SIMD, C++) kernel that runs both numerical paths by default,
-  several targets per instruction; :mod:`.lm_compiled` — the scalar (numba) kernel, its tested
-  reference (:func:`lm_lanes.set_kernel`), and the thread count of every compiled kernel
-  (:func:`lm_compiled.set_threads`).
+* closed forms, one module each in `.ik.closed_forms`, found through
+  `closed_form_for` (`.ik.registry`);
+* `ikine_LM` — the paper's Levenberg–Marquardt (`.ik.lm`);
+* `ikine_search`, `map_search` — the reachability search for any arm (`.ik.search`);
+* `.lm_lanes` — the lane (SIMD, C++) kernel that runs both numerical paths by default,
+  several targets per instruction; `.lm_compiled` — the scalar (numba) kernel, its tested
+  reference (`lm_lanes.set_kernel`), and the thread count of every compiled kernel
+  (`lm_compiled.set_threads`).
 """
 
 from . import lm_compiled, lm_lanes

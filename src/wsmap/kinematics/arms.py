@@ -11,9 +11,9 @@ __all__ = ["ArmBatch"]
 
 
 class ArmBatch:
-    """Mixin for robot classes with ``n`` joints and a ``batch_shape`` (``()`` for one arm).
+    """Mixin for robot classes with `n` joints and a `batch_shape` (`()` for one arm).
 
-    Subclasses define ``_select(idx)``, the arms ``idx`` of the batch (numpy indexing).
+    Subclasses define `_select(idx)`, the arms `idx` of the batch (numpy indexing).
     """
 
     n: int
@@ -34,7 +34,7 @@ class ArmBatch:
         return self._select(idx)
 
     def _check_q(self, q) -> np.ndarray:
-        """``q`` as float64 ``(..., n)``; a wrong last dimension, NaN, inf or complex is a ``ValueError``."""
+        """`q` as float64 `(..., n)`; a wrong last dimension, NaN, inf or complex is a `ValueError`."""
         q = as_real_array("joint coordinates", q)
         if q.ndim == 0 or q.shape[-1] != self.n:
             raise ValueError(f"joint coordinates must have a last dimension of {self.n}, got shape {q.shape}")

@@ -1,20 +1,20 @@
 """General serial chains: revolute and prismatic joints between fixed transforms, batched over arms.
 
-A chain of ``n`` joints is::
+A chain of `n` joints is::
 
     T(q) = base · F_0 · M_1(q_1 + offset_1) · F_1 · M_2(q_2 + offset_2) · F_2 ··· M_n(q_n + offset_n) · F_n · tool
 
-where ``F_i`` are fixed homogeneous transforms (``(..., n + 1, 4, 4)``, leading dimensions a batch
-of arms) and ``M_i(x)`` is a rotation by ``x`` (rad) about the unit axis ``axes[i]`` for a revolute
-joint or a translation by ``x`` (m) along it for a prismatic joint, both in the joint's own frame
-(the frame after ``F_{i-1}``). Standard DH, modified DH (Craig) and URDF chains all take this form
-(:func:`from_dh`, :mod:`wsmap.kinematics.urdf`).
+where `F_i` are fixed homogeneous transforms (`(..., n + 1, 4, 4)`, leading dimensions a batch
+of arms) and `M_i(x)` is a rotation by `x` (rad) about the unit axis `axes[i]` for a revolute
+joint or a translation by `x` (m) along it for a prismatic joint, both in the joint's own frame
+(the frame after `F_{i-1}`). Standard DH, modified DH (Craig) and URDF chains all take this form
+(`from_dh`, `wsmap.kinematics.urdf`).
 
-``base`` places the chain's first frame in the world (e.g. a robot on a pedestal) and ``tool`` the
-tool frame on the flange; ``fkine`` is base → tool, both default to the identity.
+`base` places the chain's first frame in the world (e.g. a robot on a pedestal) and `tool` the
+tool frame on the flange; `fkine` is base → tool, both default to the identity.
 
-Joint limits ``qlim`` are ``(..., n, 2)`` ``[lo, hi]`` in rad (revolute) or m (prismatic); an
-unlimited (continuous) revolute joint has ``[-inf, inf]``. ``qlim`` is ``None`` when every joint is
+Joint limits `qlim` are `(..., n, 2)` `[lo, hi]` in rad (revolute) or m (prismatic); an
+unlimited (continuous) revolute joint has `[-inf, inf]`. `qlim` is `None` when every joint is
 unlimited.
 """
 
@@ -65,7 +65,7 @@ def _trans(x, y, z):
 
 
 def _motion(kind: str, axis: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``(..., 4, 4)``: rotation by ``x`` about ``axis`` (Rodrigues) or translation by ``x`` along it."""
+    """`(..., 4, 4)`: rotation by `x` about `axis` (Rodrigues) or translation by `x` along it."""
     T = np.zeros(x.shape + (4, 4))
     T[..., 3, 3] = 1.0
     if kind == PRISMATIC:
@@ -90,7 +90,7 @@ class SerialChain(ArmBatch):
     Parameters
     ----------
     fixed : array_like, shape (..., n + 1, 4, 4)
-        The fixed transforms ``F_0 .. F_n`` (rigid; metres). Leading dimensions are a batch of arms.
+        The fixed transforms `F_0 .. F_n` (rigid; metres). Leading dimensions are a batch of arms.
     axes : array_like, shape (n, 3)
         Joint axes in each joint's frame (normalised here).
     kinds : sequence of "R" / "P", length n
@@ -98,13 +98,13 @@ class SerialChain(ArmBatch):
     offset : array_like, shape (..., n), optional
         Added to the joint coordinate before the motion (the manufacturer's zero against the model's).
     qlim : array_like, shape (..., n, 2), optional
-        Joint limits ``[lo, hi]``; ``±inf`` for a continuous joint. ``None``: all unlimited.
+        Joint limits `[lo, hi]`; `±inf` for a continuous joint. `None`: all unlimited.
     base, tool : array_like, shape (4, 4), optional
         World → chain and flange → tool transforms (rigid).
     name, source : str, optional
         The arm's name and where its numbers come from (a manufacturer document).
     links : sequence of str, optional
-        Names of the frames after ``F_0 .. F_n`` (URDF link names), for messages.
+        Names of the frames after `F_0 .. F_n` (URDF link names), for messages.
     """
 
     def __init__(self, fixed: ArrayLike, axes: ArrayLike, kinds: Sequence[str], offset: ArrayLike | None = None,
@@ -177,7 +177,7 @@ class SerialChain(ArmBatch):
     # ---------------------------------------------------------------- shape
     @property
     def batch_shape(self) -> tuple[int, ...]:
-        """Leading (arm) dimensions: ``()`` for one arm."""
+        """Leading (arm) dimensions: `()` for one arm."""
         shapes = [self.fixed.shape[:-3], self.offset.shape[:-1]]
         if self.qlim is not None:
             shapes.append(self.qlim.shape[:-2])
@@ -191,7 +191,7 @@ class SerialChain(ArmBatch):
         return self.replace(fixed=fixed, offset=offset, qlim=qlim)
 
     def replace(self, **changes) -> "SerialChain":
-        """A copy with some constructor arguments changed (e.g. ``qlim=None`` for no limits)."""
+        """A copy with some constructor arguments changed (e.g. `qlim=None` for no limits)."""
         kw = dict(fixed=self.fixed, axes=self.axes, kinds=self.kinds, offset=self.offset, qlim=self.qlim,
                   base=self.base, tool=self.tool, name=self.name, source=self.source, links=self.links)
         kw.update(changes)
@@ -199,7 +199,7 @@ class SerialChain(ArmBatch):
 
     @property
     def limits(self) -> np.ndarray:
-        """``(..., n, 2)`` limits with ``±inf`` for unlimited joints (never ``None``)."""
+        """`(..., n, 2)` limits with `±inf` for unlimited joints (never `None`)."""
         if self.qlim is None:
             return np.broadcast_to(np.array([-np.inf, np.inf]), (self.n, 2))
         return self.qlim
@@ -213,8 +213,8 @@ class SerialChain(ArmBatch):
     def joint_frames(self, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Frames of every joint (before its motion) and the flange, in the world frame.
 
-        Returns ``(frames, T)``: ``frames`` ``(..., n, 4, 4)`` (joint ``i``'s axis is
-        ``frames[..., i, :3, :3] @ axes[i]``), and ``T`` ``(..., 4, 4)`` the tool pose.
+        Returns `(frames, T)`: `frames` `(..., n, 4, 4)` (joint `i`'s axis is
+        `frames[..., i, :3, :3] @ axes[i]`), and `T` `(..., 4, 4)` the tool pose.
         """
         q = self._check_q(q)
         x = q + self.offset
@@ -231,11 +231,11 @@ class SerialChain(ArmBatch):
         return frames, T
 
     def fkine(self, q: ArrayLike) -> np.ndarray:
-        """Forward kinematics: tool pose in the world (base) frame, ``(..., 4, 4)``; ``q`` is ``(..., n)``."""
+        """Forward kinematics: tool pose in the world (base) frame, `(..., 4, 4)`; `q` is `(..., n)`."""
         return self.joint_frames(q)[1]
 
     def jacob0(self, q: ArrayLike) -> np.ndarray:
-        """Geometric Jacobian of the tool point in the world frame, ``(..., 6, n)``: rows ``[v; omega]``."""
+        """Geometric Jacobian of the tool point in the world frame, `(..., 6, n)`: rows `[v; omega]`."""
         frames, T = self.joint_frames(q)
         w = np.einsum("...ij,...j->...i", frames[..., :3, :3], self.axes)  # (..., n, 3) world axes
         o = frames[..., :3, 3]
@@ -246,14 +246,14 @@ class SerialChain(ArmBatch):
         return np.swapaxes(np.concatenate([Jv, Jw], axis=-1), -1, -2)
 
     def within_limits(self, q: ArrayLike, atol: float = 1e-9) -> np.ndarray:
-        """True where every joint lies inside its limits (to ``atol``); ``q.shape[:-1]`` broadcast."""
+        """True where every joint lies inside its limits (to `atol`); `q.shape[:-1]` broadcast."""
         q = self._check_q(q)
         if self.qlim is None:
             return np.ones(np.broadcast_shapes(q.shape[:-1], self.batch_shape), dtype=bool)
         return np.all((q >= self.qlim[..., 0] - atol) & (q <= self.qlim[..., 1] + atol), axis=-1)
 
     def random_q(self, count: int, rng: np.random.Generator) -> np.ndarray:
-        """``(count, ..., n)`` configurations drawn uniformly inside the limits (``[-pi, pi)`` for an
+        """`(count, ..., n)` configurations drawn uniformly inside the limits (`[-pi, pi)` for an
         unlimited joint)."""
         lo = np.where(np.isfinite(self.limits[..., 0]), self.limits[..., 0], -np.pi)
         hi = np.where(np.isfinite(self.limits[..., 1]), self.limits[..., 1], np.pi)
@@ -268,15 +268,15 @@ def from_dh(d: ArrayLike, a: ArrayLike, alpha: ArrayLike, offset: ArrayLike | No
             qlim: ArrayLike | None = None, modified: bool = False, prismatic: ArrayLike | None = None,
             base: ArrayLike | None = None, tool: ArrayLike | None = None, flange: ArrayLike | None = None,
             name: str | None = None, source: str | None = None) -> SerialChain:
-    """A chain from a DH table (columns ``(..., n)``, metres and radians; batch dimensions allowed).
+    """A chain from a DH table (columns `(..., n)`, metres and radians; batch dimensions allowed).
 
-    Standard (distal) DH, as Corke's toolbox and the paper: link ``i`` is
-    ``Rz(θ_i) Tz(d_i) Tx(a_i) Rx(α_i)``. Modified DH (Craig; Franka, Kinova): link ``i`` is
-    ``Rx(α_{i-1}) Tx(a_{i-1}) Rz(θ_i) Tz(d_i)``, so ``a`` and ``alpha`` of row ``i`` act *before* joint ``i``.
-    A revolute joint has ``θ_i = q_i + offset_i``; a prismatic joint (``prismatic[i]`` True) has
-    ``θ_i = offset_i`` fixed and moves along ``z`` from ``d_i`` by ``q_i``. ``flange`` (4, 4) is a
-    fixed transform after the last joint that belongs to the arm (e.g. Franka's ``d = 0.107`` m to the
-    flange); ``tool`` is the user's tool on it.
+    Standard (distal) DH, as Corke's toolbox and the paper: link `i` is
+    `Rz(θ_i) Tz(d_i) Tx(a_i) Rx(α_i)`. Modified DH (Craig; Franka, Kinova): link `i` is
+    `Rx(α_{i-1}) Tx(a_{i-1}) Rz(θ_i) Tz(d_i)`, so `a` and `alpha` of row `i` act *before* joint `i`.
+    A revolute joint has `θ_i = q_i + offset_i`; a prismatic joint (`prismatic[i]` True) has
+    `θ_i = offset_i` fixed and moves along `z` from `d_i` by `q_i`. `flange` (4, 4) is a
+    fixed transform after the last joint that belongs to the arm (e.g. Franka's `d = 0.107` m to the
+    flange); `tool` is the user's tool on it.
     """
     d, a, alpha = (as_real_array(f"DH column {k}", x) for k, x in (("d", d), ("a", a), ("alpha", alpha)))
     for k, x in (("d", d), ("a", a), ("alpha", alpha)):
@@ -328,8 +328,8 @@ def from_dh(d: ArrayLike, a: ArrayLike, alpha: ArrayLike, offset: ArrayLike | No
 
 
 def as_chain(robot: Arm) -> SerialChain:
-    """``robot`` as a :class:`SerialChain`: a chain is returned as is, a :class:`DHRobot` converted
-    with :func:`from_dh` (standard DH, same limits and tool); anything else is a ``TypeError``."""
+    """`robot` as a `SerialChain`: a chain is returned as is, a `DHRobot` converted
+    with `from_dh` (standard DH, same limits and tool); anything else is a `TypeError`."""
     if isinstance(robot, SerialChain):
         return robot
     if isinstance(robot, DHRobot):
@@ -338,8 +338,8 @@ def as_chain(robot: Arm) -> SerialChain:
 
 
 def flatten_arms(arms):
-    """A batch of arms (:class:`SerialChain` or :class:`DHRobot`, batch shape ``(...)``) as a flat
-    batch ``(B,)`` of the same arms, in C order."""
+    """A batch of arms (`SerialChain` or `DHRobot`, batch shape `(...)`) as a flat
+    batch `(B,)` of the same arms, in C order."""
     n = arms.n
     if isinstance(arms, SerialChain):
         b = arms.batch_shape

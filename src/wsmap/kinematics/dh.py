@@ -2,14 +2,14 @@
 
 Conventions (as in Corke's Robotics Toolbox and the paper):
 
-* link transform ``A_i = Rz(q_i) · Tz(d_i) · Tx(a_i) · Rx(alpha_i)``, ``T = A_1 ··· A_n · tool``;
+* link transform `A_i = Rz(q_i) · Tz(d_i) · Tx(a_i) · Rx(alpha_i)`, `T = A_1 ··· A_n · tool`;
 * lengths in metres, angles in radians, float64 throughout;
 * every array may carry leading batch dimensions, which broadcast against each other:
-  a ``DHRobot`` whose ``d`` has shape ``(B, 6)`` is a batch of ``B`` arms, and ``fkine(q)`` with
-  ``q`` of shape ``(N, 1, 6)`` gives poses of shape ``(N, B, 4, 4)``.
+  a `DHRobot` whose `d` has shape `(B, 6)` is a batch of `B` arms, and `fkine(q)` with
+  `q` of shape `(N, 1, 6)` gives poses of shape `(N, B, 4, 4)`.
 
-Forward kinematics and Jacobians only; inverse kinematics is :mod:`wsmap.kinematics.ik`
-(:func:`~wsmap.kinematics.ik.lm.ikine_LM` is the paper's).
+Forward kinematics and Jacobians only; inverse kinematics is `wsmap.kinematics.ik`
+(`ikine_LM` is the paper's).
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ class DHRobot(ArmBatch):
         Link offsets (m), link lengths (m) and twists (rad). Leading dimensions are a batch of
         arms and must broadcast against each other.
     qlim : array_like, shape (n, 2) or (..., n, 2), optional
-        Joint limits ``[lo, hi]`` in radians. ``None`` (the paper's setting) means unlimited.
+        Joint limits `[lo, hi]` in radians. `None` (the paper's setting) means unlimited.
     tool : array_like, shape (4, 4), optional
         Fixed transform from the last link frame to the tool frame.
     name : str, optional
@@ -83,7 +83,7 @@ class DHRobot(ArmBatch):
     # ---------------------------------------------------------------- shape and indexing
     @property
     def batch_shape(self) -> tuple[int, ...]:
-        """Leading dimensions of the DH arrays: ``()`` for one arm."""
+        """Leading dimensions of the DH arrays: `()` for one arm."""
         return self.d.shape[:-1]
 
     def _select(self, idx) -> "DHRobot":
@@ -94,7 +94,7 @@ class DHRobot(ArmBatch):
 
     @property
     def dh(self) -> np.ndarray:
-        """DH table ``(..., n, 3)`` with columns ``[d, a, alpha]``."""
+        """DH table `(..., n, 3)` with columns `[d, a, alpha]`."""
         return np.stack([self.d, self.a, self.alpha], axis=-1)
 
     def __repr__(self):
@@ -103,24 +103,24 @@ class DHRobot(ArmBatch):
 
     # ---------------------------------------------------------------- kinematics
     def link_frames(self, q: ArrayLike) -> np.ndarray:
-        """Frames of every link: ``(..., n + 1, 4, 4)``; index 0 is the base, n the flange (no tool)."""
+        """Frames of every link: `(..., n + 1, 4, 4)`; index 0 is the base, n the flange (no tool)."""
         q = self._check_q(q)
         return _link_frames(self.d, self.a, self.alpha, q)
 
     def fkine(self, q: ArrayLike) -> np.ndarray:
-        """Forward kinematics: tool pose in the base frame, shape ``(..., 4, 4)``."""
+        """Forward kinematics: tool pose in the base frame, shape `(..., 4, 4)`."""
         T = self.link_frames(q)[..., -1, :, :]
         return T @ self.tool if self.tool is not None else T
 
     def jacob0(self, q: ArrayLike) -> np.ndarray:
-        """Geometric Jacobian in the base frame, shape ``(..., 6, n)``: rows ``[v; omega]``."""
+        """Geometric Jacobian in the base frame, shape `(..., 6, n)`: rows `[v; omega]`."""
         q = self._check_q(q)
         return _jacob0(self.d, self.a, self.alpha, q, self.tool)[0]
 
     def within_limits(self, q: ArrayLike) -> np.ndarray:
         """True where every joint angle, up to a multiple of 2·pi, lies inside its limits.
 
-        Without limits every configuration is within them. Shape: ``q.shape[:-1]`` broadcast with
+        Without limits every configuration is within them. Shape: `q.shape[:-1]` broadcast with
         the limits' batch shape.
         """
         q = self._check_q(q)
@@ -130,7 +130,7 @@ class DHRobot(ArmBatch):
 
 
 def _angle_in_range(q, lo, hi):
-    """True where some ``q + 2·pi·k`` lies in ``[lo, hi]`` (elementwise, broadcasting)."""
+    """True where some `q + 2·pi·k` lies in `[lo, hi]` (elementwise, broadcasting)."""
     two_pi = 2.0 * np.pi
     # the smallest 2·pi-equivalent of q that is >= lo
     shifted = lo + np.mod(q - lo, two_pi)
@@ -139,7 +139,7 @@ def _angle_in_range(q, lo, hi):
 
 
 def _link_frames(d, a, alpha, q):
-    """All link frames, ``(..., n + 1, 4, 4)``, for broadcastable DH arrays and ``q``."""
+    """All link frames, `(..., n + 1, 4, 4)`, for broadcastable DH arrays and `q`."""
     shape = np.broadcast_shapes(d.shape, q.shape)
     n = shape[-1]
     ct, st = np.cos(q), np.sin(q)
@@ -166,7 +166,7 @@ def _link_frames(d, a, alpha, q):
 
 
 def _jacob0(d, a, alpha, q, tool):
-    """Base-frame geometric Jacobian ``(..., 6, n)`` and the tool pose ``(..., 4, 4)``."""
+    """Base-frame geometric Jacobian `(..., 6, n)` and the tool pose `(..., 4, 4)`."""
     frames = _link_frames(d, a, alpha, q)
     T = frames[..., -1, :, :]
     if tool is not None:
@@ -180,7 +180,7 @@ def _jacob0(d, a, alpha, q, tool):
 
 
 def arm_batch(arm: DHRobot) -> DHRobot:
-    """One arm (batch shape ``()``) as a batch of one, as the dataset functions take; a batch is
+    """One arm (batch shape `()`) as a batch of one, as the dataset functions take; a batch is
     returned unchanged."""
     if arm.batch_shape:
         return arm

@@ -1,11 +1,11 @@
 """Compiled (numba) Levenberg–Marquardt kernel: the paper's LM and the multi-start reachability search.
 
 One compiled loop per target, the targets spread over threads; the one implementation of the LM
-iteration behind :func:`~wsmap.kinematics.ik.search.ikine_search`,
-:func:`~wsmap.kinematics.ik.search.map_search` and :func:`~wsmap.kinematics.ik.lm.ikine_LM` (called
-through :mod:`wsmap.kinematics.ik.kernel`). :mod:`wsmap.kinematics.ik.lm_reference` is the same
+iteration behind `ikine_search`,
+`map_search` and `ikine_LM` (called
+through `wsmap.kinematics.ik.kernel`). `wsmap.kinematics.ik.lm_reference` is the same
 iteration in numpy, the reference that the tests compare it with: the same arithmetic per target,
-so answers agree up to rounding (of ``sin``/``cos``, :func:`_sincos` here and SIMD there, and of
+so answers agree up to rounding (of `sin`/`cos`, `_sincos` here and SIMD there, and of
 the sums, see below), which can, rarely, send an iteration down another path near a branch point.
 
 Why a compiled loop: a numpy kernel pays a Python-level dispatch for every small operation on a row
@@ -13,59 +13,59 @@ of targets, and the rows thin out as targets finish; per target, a compiled loop
 of a 6-joint arm (forward kinematics, pose error, Jacobian, 6 x 6 normal equations) in well under
 a microsecond, with no active-set bookkeeping and early exits that cost nothing.
 
-Layout: every arm of a batch is described by arrays with a leading arm axis ``B`` (fixed rotations
-``Rf`` (B, n+1, 3, 3) and translations ``tf`` (B, n+1, 3) with the base folded into the first and
-the tool into the last, joint offsets and limits (B, n)); each target ``i`` names its arm ``arm[i]``.
+Layout: every arm of a batch is described by arrays with a leading arm axis `B` (fixed rotations
+`Rf` (B, n+1, 3, 3) and translations `tf` (B, n+1, 3) with the base folded into the first and
+the tool into the last, joint offsets and limits (B, n)); each target `i` names its arm `arm[i]`.
 Shared by the batch: joint axes (n, 3) in the joint frames, which joints are prismatic, which axes
-are ``z``.
+are `z`.
 
-Speed (``benchmarks/bench_fast_maps.py``, kernel rate): the forward kinematics takes its sines and
-cosines from :func:`_sincos` (no libm call: a third of the forward kinematics' time went to libm),
-and the joint count is a compile-time constant for six-joint arms (:func:`_run_targets6` passes
-the literal 6 to :func:`_task`, numba compiles that build apart and LLVM unrolls the loops over
-joints: the 6 x 6 solve a third faster); other arms take the generic build, :func:`_run_targets`.
+Speed (`benchmarks/bench_fast_maps.py`, kernel rate): the forward kinematics takes its sines and
+cosines from `_sincos` (no libm call: a third of the forward kinematics' time went to libm),
+and the joint count is a compile-time constant for six-joint arms (`_run_targets6` passes
+the literal 6 to `_task`, numba compiles that build apart and LLVM unrolls the loops over
+joints: the 6 x 6 solve a third faster); other arms take the generic build, `_run_targets`.
 Each build is its own compiled function, compiled on first use: a session of seven-joint arms
-never compiles the six-joint build. The per-iteration functions are inlined into :func:`_lm` by
-numba (``inline="always"``), not called with their dozen array arguments: a fifth faster again
+never compiles the six-joint build. The per-iteration functions are inlined into `_lm` by
+numba (`inline="always"`), not called with their dozen array arguments: a fifth faster again
 (and most of the compile time: without it a build compiles in 17 s of CPU instead of 23 s, but
-the Panda's single-start IK runs about 1.5x slower). :func:`_lm` evaluates the start and every
+the Panda's single-start IK runs about 1.5x slower). `_lm` evaluates the start and every
 trial step at one call site, so each is inlined once. A build compiles once (docs/performance.md,
 "Compile time"): the builds are cached on disk.
 
-Floating point: compiled with ``fastmath={"contract", "reassoc"}`` (fused multiply-adds, and sums
+Floating point: compiled with `fastmath={"contract", "reassoc"}` (fused multiply-adds, and sums
 the compiler may reorder and vectorise; no assumption about NaN or infinity, which the limits use):
 about 15 % faster here than strict IEEE order, and the comparison with the numpy reference in
-``tests/kinematics/test_lm_compiled.py`` holds (same successes and starts on the test grids).
+`tests/kinematics/test_lm_compiled.py` holds (same successes and starts on the test grids).
 
 Cache: a process that loads the kernel from numba's disk cache runs the bits of the process that
-compiled it (``tests/kinematics/test_lm_compiled_cache.py``). That needs :func:`run_targets` to be a
-Python function around the compiled batches (:func:`_run_targets`, :func:`_run_targets6`). Why: numba links a copy of every separately
-compiled callee (:func:`_task`, :func:`_confirm`, ...) into its caller's code and optimises that copy
-again with the caller (with ``reassoc`` a second pass may reorder sums), and the loader binds a call
+compiled it (`tests/kinematics/test_lm_compiled_cache.py`). That needs `run_targets` to be a
+Python function around the compiled batches (`_run_targets`, `_run_targets6`). Why: numba links a copy of every separately
+compiled callee (`_task`, `_confirm`, ...) into its caller's code and optimises that copy
+again with the caller (with `reassoc` a second pass may reorder sums), and the loader binds a call
 to the first definition of its symbol that it loaded. A fresh compile loads each callee before its
-caller, so the calls bind to the callees as compiled alone; a cache load of :func:`_run_targets` alone
+caller, so the calls bind to the callees as compiled alone; a cache load of `_run_targets` alone
 bound them to its own re-optimised copies, and a 7-joint arm's search (the generic build; the
-six-joint build came out the same) then differed by ~1e-9 in ``q``, in iteration counts and, for
-unreachable targets, in the best end point. So :func:`_bind_callees` first loads the cached callees,
+six-joint build came out the same) then differed by ~1e-9 in `q`, in iteration counts and, for
+unreachable targets, in the best end point. So `_bind_callees` first loads the cached callees,
 callees before callers, as a fresh compile would: the fresh compile's results, in every process
 (~0.1 s more on the first call; the same speed after).
 
-Where the cache lives: ``NUMBA_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/wsmap/numba`` (default
-``~/.cache/wsmap/numba``), :func:`cache_dir`; numba's own choice (beside the sources) where that
+Where the cache lives: `NUMBA_CACHE_DIR` if set, else `$XDG_CACHE_HOME/wsmap/numba` (default
+`~/.cache/wsmap/numba`), `cache_dir`; numba's own choice (beside the sources) where that
 cannot be written. A user directory, so that an install into a read-only site-packages still
 caches: numba's locator is chosen when a function is decorated, so this module points
-``numba.config.CACHE_DIR`` there while its own functions are decorated and puts it back after
-(other numba code in the process keeps numba's default). :func:`needs_compile` tells whether the
-first call will compile (the cache index says); :func:`wsmap.kinematics.ik.warmup.ensure_compiled`
+`numba.config.CACHE_DIR` there while its own functions are decorated and puts it back after
+(other numba code in the process keeps numba's default). `needs_compile` tells whether the
+first call will compile (the cache index says); `wsmap.kinematics.ik.warmup.ensure_compiled`
 announces and does it (it runs searches: the IK layer, which this module does not import).
 
-Threads: :func:`set_threads` (default: ``WSMAP_THREADS`` or every core numba sees). A batch is a
-plain compiled loop over tasks that releases the GIL (``nogil``); :func:`_spread` runs it on this
-thread and on pool threads, each taking :data:`TASKS_PER_GRAB` tasks of :data:`TARGETS_PER_TASK`
+Threads: `set_threads` (default: `WSMAP_THREADS` or every core numba sees). A batch is a
+plain compiled loop over tasks that releases the GIL (`nogil`); `_spread` runs it on this
+thread and on pool threads, each taking `TASKS_PER_GRAB` tasks of `TARGETS_PER_TASK`
 targets at a time from a shared counter, so the slow unreachable ones do not pile up on one thread.
-Not numba's ``prange``: a parallel loop compiled :func:`_task` twice more (the outlined loop body),
+Not numba's `prange`: a parallel loop compiled `_task` twice more (the outlined loop body),
 a third of a build's compile time. Calls too small for a second thread run on this one
-(:func:`threads_for`). Results never depend on the thread count (each target is independent).
+(`threads_for`). Results never depend on the thread count (each target is independent).
 """
 
 from __future__ import annotations
@@ -87,8 +87,8 @@ __all__ = ["MODE_SEARCH", "MODE_PAPER", "MODE_POSITION", "TARGETS_PER_TASK", "se
 
 
 def cache_dir() -> str:
-    """Where numba caches the compiled kernels: ``NUMBA_CACHE_DIR`` if set, else
-    ``$XDG_CACHE_HOME/wsmap/numba`` (``~/.cache/wsmap/numba`` where ``XDG_CACHE_HOME`` is unset)."""
+    """Where numba caches the compiled kernels: `NUMBA_CACHE_DIR` if set, else
+    `$XDG_CACHE_HOME/wsmap/numba` (`~/.cache/wsmap/numba` where `XDG_CACHE_HOME` is unset)."""
     if os.environ.get("NUMBA_CACHE_DIR"):
         return os.environ["NUMBA_CACHE_DIR"]
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
@@ -115,8 +115,8 @@ _SUCCESS, _REJECTIONS, _ILIMIT, _STAGNATED, _AT_START, _STATIONARY = 1, 2, 3, 4,
 
 
 def set_threads(count: int | None = None) -> int:
-    """Threads the kernel uses from now on: ``count``, else ``WSMAP_THREADS``, else every core numba
-    sees (``NUMBA_NUM_THREADS``). Returns the number set."""
+    """Threads the kernel uses from now on: `count`, else `WSMAP_THREADS`, else every core numba
+    sees (`NUMBA_NUM_THREADS`). Returns the number set."""
     if count is None:
         env = os.environ.get("WSMAP_THREADS")
         count = int(env) if env else numba.config.NUMBA_NUM_THREADS
@@ -132,8 +132,8 @@ def threads() -> int:
 
 @contextmanager
 def threads_for(items: int, per_thread: int):
-    """Within the block, at most one thread per ``per_thread`` work items (at least one, at most
-    :func:`threads`). A parallel region costs a wake-up of every thread, and when another process
+    """Within the block, at most one thread per `per_thread` work items (at least one, at most
+    `threads`). A parallel region costs a wake-up of every thread, and when another process
     holds a core, a scheduler tick (milliseconds) waiting for it: small calls (a wave of a few
     dozen targets, a 9261-pose closed-form map) run faster on one thread."""
     n = numba.get_num_threads()
@@ -158,11 +158,11 @@ _INV_PIO2 = 6.36619772367581382433e-01
 
 @njit(cache=True, error_model="numpy", fastmath={"contract"})
 def _sincos(x):
-    """``(sin x, cos x)`` within 2 ulp of libm (``tests/kinematics/test_lm_compiled.py``), inlined where it is
-    called: ``x`` reduced by the nearest multiple of pi/2 in three parts (Cody–Waite; the products
-    exact for ``|x| < 2**20``), then the minimax polynomials of fdlibm's ``k_sin.c`` and ``k_cos.c``
-    on [-pi/4, pi/4] and the quadrant's swap and signs; libm itself beyond ``|x| = 1e5`` and for
-    NaN and infinity. Only ``contract``: reassociation would undo the reduction's ordered sums."""
+    """`(sin x, cos x)` within 2 ulp of libm (`tests/kinematics/test_lm_compiled.py`), inlined where it is
+    called: `x` reduced by the nearest multiple of pi/2 in three parts (Cody–Waite; the products
+    exact for `|x| < 2**20`), then the minimax polynomials of fdlibm's `k_sin.c` and `k_cos.c`
+    on [-pi/4, pi/4] and the quadrant's swap and signs; libm itself beyond `|x| = 1e5` and for
+    NaN and infinity. Only `contract`: reassociation would undo the reduction's ordered sums."""
     if not abs(x) < 1e5:
         return math.sin(x), math.cos(x)
     k = (x * _INV_PIO2 + 6755399441055744.0) - 6755399441055744.0  # round to nearest, no libm call
@@ -187,9 +187,9 @@ def _sincos(x):
 # --------------------------------------------------------------------------- kinematics of one target
 @njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
 def _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33, n):
-    """Tool rotation ``R`` (3, 3), position ``p`` (3,), world joint axes ``w`` (n, 3) and joint
-    origins ``o`` (n, 3) of arm ``b`` at ``q`` (n,); sums in the numpy reference's order.
-    ``rkind`` (B, n+1): each fixed rotation is 0 the identity, 1 an ``Rx(α)``, 2 any."""
+    """Tool rotation `R` (3, 3), position `p` (3,), world joint axes `w` (n, 3) and joint
+    origins `o` (n, 3) of arm `b` at `q` (n,); sums in the numpy reference's order.
+    `rkind` (B, n+1): each fixed rotation is 0 the identity, 1 an `Rx(α)`, 2 any."""
     for r in range(3):
         for c in range(3):
             R[r, c] = Rf[b, 0, r, c]
@@ -253,10 +253,10 @@ def _fk(q, b, Rf, tf, rkind, off, axes, pris, zax, R, p, w, o, T33, n):
 
 @njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
 def _pose_error(R, p, Rt, pt, e, rotvec, rows):
-    """``e`` (6,) ← ``[pt − p; v]`` and returns |e|. ``v`` is ``½ Σ_k R_k × Rt_k = sin θ·a``
-    (Corke's ``tr2delta``, the paper's) or, with ``rotvec``, the rotation vector ``θ·a`` of
-    ``Rt·Rᵀ`` (see :func:`wsmap.kinematics.ik.lm_reference._pose_error` for why); ``rows`` = 3: position
-    only (``v`` = 0)."""
+    """`e` (6,) ← `[pt − p; v]` and returns |e|. `v` is `½ Σ_k R_k × Rt_k = sin θ·a`
+    (Corke's `tr2delta`, the paper's) or, with `rotvec`, the rotation vector `θ·a` of
+    `Rt·Rᵀ` (see `wsmap.kinematics.ik.lm_reference._pose_error` for why); `rows` = 3: position
+    only (`v` = 0)."""
     for r in range(3):
         e[r] = pt[r] - p[r]
     if rows == 3:
@@ -306,8 +306,8 @@ def _pose_error(R, p, Rt, pt, e, rotvec, rows):
 
 @njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
 def _normal_equations(p, w, o, pris, e, J, A, g, rows, n):
-    """Geometric Jacobian ``J`` (6, n), then ``A = JᵀJ`` (n, n) and ``g = Jᵀe`` (n,) over its
-    first ``rows`` rows (6, or 3: position only)."""
+    """Geometric Jacobian `J` (6, n), then `A = JᵀJ` (n, n) and `g = Jᵀe` (n,) over its
+    first `rows` rows (6, or 3: position only)."""
     for j in range(n):
         if pris[j]:
             for r in range(3):
@@ -335,7 +335,7 @@ def _normal_equations(p, w, o, pris, e, J, A, g, rows, n):
 
 @njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
 def _solve(A, g, l2, held, any_held, H, x, n):
-    """``x`` ← ``(A + λ² I)⁻¹ g`` by Gaussian elimination without pivoting (symmetric positive
+    """`x` ← `(A + λ² I)⁻¹ g` by Gaussian elimination without pivoting (symmetric positive
     definite); held joints get the identity's row and column and a zero step."""
     for i in range(n):
         for k in range(n):
@@ -368,7 +368,7 @@ def _solve(A, g, l2, held, any_held, H, x, n):
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def _project1(qj, lo, hi, revolute):
-    """One joint projected onto ``[lo, hi]``: a revolute joint outside moved by a multiple of 2·pi
+    """One joint projected onto `[lo, hi]`: a revolute joint outside moved by a multiple of 2·pi
     to the equivalent closest to the range, then clipped; a prismatic joint clipped."""
     if qj >= lo and qj <= hi:
         return qj
@@ -385,7 +385,7 @@ def _project1(qj, lo, hi, revolute):
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def _spacing(x):
-    """``np.spacing(|x|)``: the gap to the next float above ``|x|``."""
+    """`np.spacing(|x|)`: the gap to the next float above `|x|`."""
     ax = abs(x)
     if ax == 0.0:
         return _TINY
@@ -395,7 +395,7 @@ def _spacing(x):
 
 @njit(cache=True, inline="always", error_model="numpy", fastmath={"contract", "reassoc"})
 def _g2_trace(A, g, n):
-    """``(gᵀg, tr A)``, summed over the joints in order (the stagnation bound and the stationary test)."""
+    """`(gᵀg, tr A)`, summed over the joints in order (the stagnation bound and the stationary test)."""
     g2 = g[0] * g[0]
     tr = A[0, 0]
     for j in range(1, n):
@@ -406,7 +406,7 @@ def _g2_trace(A, g, n):
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def _stationary(A, g, na, gtol, n):
-    """``|g| <= gtol·sqrt(tr A)·|e|``: the gradient ``g = Jᵀe`` vanishes relative to ``|J|_F·|e|``."""
+    """`|g| <= gtol·sqrt(tr A)·|e|`: the gradient `g = Jᵀe` vanishes relative to `|J|_F·|e|`."""
     g2, tr = _g2_trace(A, g, n)
     return math.sqrt(g2) <= gtol * math.sqrt(tr) * na
 
@@ -414,16 +414,16 @@ def _stationary(A, g, na, gtol, n):
 # --------------------------------------------------------------------------- one LM run
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, kin, sc, n):
-    """LM from ``q`` (n,), updated in place, towards ``(Rt, pt)``; inside the LM bounds if ``limited``.
+    """LM from `q` (n,), updated in place, towards `(Rt, pt)`; inside the LM bounds if `limited`.
 
-    ``gtol`` > 0: fail at a stationary point, an accepted step after which
-    ``|Jᵀe| <= gtol·|J|_F·|e|`` with ``|e| > tol`` (a local minimum of the error that is not a
+    `gtol` > 0: fail at a stationary point, an accepted step after which
+    `|Jᵀe| <= gtol·|J|_F·|e|` with `|e| > tol` (a local minimum of the error that is not a
     solution; 0 turns the test off, as the paper's iteration has it).
-    ``kin``: the arm arrays ``(Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped)``; ``sc``: scratch
+    `kin`: the arm arrays `(Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped)`; `sc`: scratch
     (tuples: a call with over 30 arguments compiles to a bytecode numba does not take).
 
-    ``out`` (3,) float ← iterations, consecutive rejections at the end, final |e|. Returns
-    ``(code, touched)``: the termination code and whether the limits changed a trial step.
+    `out` (3,) float ← iterations, consecutive rejections at the end, final |e|. Returns
+    `(code, touched)`: the termination code and whether the limits changed a trial step.
     """
     Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped = kin
     Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out = sc
@@ -517,9 +517,9 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
 # --------------------------------------------------------------------------- confirmation
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def _confirm(q, b, Rt, pt, atol, rows, Rf, tf, off, axes, pris, lo, hi, M4, N4, P4, n):
-    """Forward kinematics by 4 x 4 homogeneous products (another code path than :func:`_fk`) puts
-    the tool within ``atol`` of the target (m; rotation angle, rad, unless ``rows`` = 3: position
-    only), and ``q`` is inside the limits."""
+    """Forward kinematics by 4 x 4 homogeneous products (another code path than `_fk`) puts
+    the tool within `atol` of the target (m; rotation angle, rad, unless `rows` = 3: position
+    only), and `q` is inside the limits."""
     for j in range(n):
         if q[j] < lo[b, j] - 1e-9 or q[j] > hi[b, j] + 1e-9:
             return False
@@ -584,7 +584,7 @@ def _confirm(q, b, Rt, pt, atol, rows, Rf, tf, off, axes, pris, lo, hi, M4, N4, 
 # --------------------------------------------------------------------------- random starts
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def _mix(z):
-    """splitmix64's finaliser (uint64, wrapping), as :func:`wsmap.kinematics.ik.kernel.mix`."""
+    """splitmix64's finaliser (uint64, wrapping), as `wsmap.kinematics.ik.kernel.mix`."""
     z = z + np.uint64(0x9E3779B97F4A7C15)
     z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
     z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
@@ -593,7 +593,7 @@ def _mix(z):
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def _random_start(key, k, b, blo, bhi, q):
-    """Start ``k`` of the target with hash ``key``: uniform in the start box (as ``lm_reference._uniform``)."""
+    """Start `k` of the target with hash `key`: uniform in the start box (as `lm_reference._uniform`)."""
     n = q.shape[0]
     for j in range(n):
         ctr = _mix(np.uint64(k) * np.uint64(1 << 16) + np.uint64(j + 1))
@@ -605,8 +605,8 @@ def _random_start(key, k, b, blo, bhi, q):
 # --------------------------------------------------------------------------- the batch
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
 def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n):
-    """The targets of task ``task`` (see :func:`run_targets`); ``n`` the joint count, a compile-time
-    constant where :func:`run_targets` passes a literal (the loops over joints then unroll)."""
+    """The targets of task `task` (see `run_targets`); `n` the joint count, a compile-time
+    constant where `run_targets` passes a literal (the loops over joints then unroll)."""
     Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi = arrs
     ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass = settings
     q_out, ok_out, it_out, res_out, start_out = outs
@@ -718,7 +718,7 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
 def _run_targets(t0, t1, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                  Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
                  ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
-    """Tasks ``t0 .. t1 - 1`` of the batch behind :func:`run_targets`, any joint count (the generic
+    """Tasks `t0 .. t1 - 1` of the batch behind `run_targets`, any joint count (the generic
     build); releases the GIL (see "Threads" and "Cache" in the module notes)."""
     n = axes.shape[0]
     arrs = (Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi)
@@ -732,7 +732,7 @@ def _run_targets(t0, t1, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
 def _run_targets6(t0, t1, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                   Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
                   ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
-    """:func:`_run_targets` for six-joint arms: the joint count the literal 6 (the loops over joints
+    """`_run_targets` for six-joint arms: the joint count the literal 6 (the loops over joints
     unroll), a build of its own, compiled on first use."""
     arrs = (Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi)
     settings = (ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass)
@@ -742,19 +742,19 @@ def _run_targets6(t0, t1, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
 
 
 def _build(n: int):
-    """The compiled batch for ``n``-joint arms: :func:`_run_targets6` for six, else :func:`_run_targets`."""
+    """The compiled batch for `n`-joint arms: `_run_targets6` for six, else `_run_targets`."""
     return _run_targets6 if n == 6 else _run_targets
 
 
-#: Tasks a thread takes at a time from the shared counter of :func:`_spread`.
+#: Tasks a thread takes at a time from the shared counter of `_spread`.
 TASKS_PER_GRAB = 4
 _pool = None
 _pool_lock = threading.Lock()
 
 
 def _spread(ntask: int, run) -> None:
-    """``run(a, b)`` (a compiled batch that releases the GIL) over tasks ``0 .. ntask - 1`` on
-    :func:`threads` threads, this one and pool threads, each taking :data:`TASKS_PER_GRAB` tasks at a
+    """`run(a, b)` (a compiled batch that releases the GIL) over tasks `0 .. ntask - 1` on
+    `threads` threads, this one and pool threads, each taking `TASKS_PER_GRAB` tasks at a
     time from a shared counter, so the slow unreachable targets do not pile up on one thread."""
     want = min(numba.get_num_threads(), (ntask + TASKS_PER_GRAB - 1) // TASKS_PER_GRAB)
     if want <= 1:
@@ -773,8 +773,8 @@ def _spread(ntask: int, run) -> None:
 
 
 def on_threads(want: int, work) -> None:
-    """``work()`` (a function that releases the GIL and shares its work out itself) on this thread
-    and ``want - 1`` pool threads; returns when every call has."""
+    """`work()` (a function that releases the GIL and shares its work out itself) on this thread
+    and `want - 1` pool threads; returns when every call has."""
     global _pool
     if want <= 1:
         work()
@@ -795,10 +795,10 @@ _bound: set = set()
 
 
 def _bind_callees(batch=None) -> None:
-    """Load the cached builds of :data:`_CALLEES`, callees first, before ``batch`` (a compiled batch:
-    :func:`_run_targets`, :func:`_run_targets6`) is loaded (see "Cache" in the module notes);
+    """Load the cached builds of `_CALLEES`, callees first, before `batch` (a compiled batch:
+    `_run_targets`, `_run_targets6`) is loaded (see "Cache" in the module notes);
     signatures from each cache index, for this CPU only. Reads the index through numba's private
-    cache classes (``_cache``, ``_load_index``, ``_index_key``: numba 0.68); where numba renames them
+    cache classes (`_cache`, `_load_index`, `_index_key`: numba 0.68); where numba renames them
     this fails loudly, in the cache test too."""
     batch = _run_targets if batch is None else batch
     name = batch.py_func.__name__
@@ -821,20 +821,20 @@ def _bind_callees(batch=None) -> None:
 def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                 Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
                 ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
-    """Solve every target ``i`` (M of them) for arm ``arm[i]``; results written into the ``*_out`` arrays.
+    """Solve every target `i` (M of them) for arm `arm[i]`; results written into the `*_out` arrays.
 
-    ``MODE_SEARCH``: the explicit starts ``qexp[i, :nexp[i]]`` (S, n) in order, then the random starts
-    ``k_first .. k_last - 1`` (hashed from ``keys[i]``), until one succeeds; per start a constrained
+    `MODE_SEARCH`: the explicit starts `qexp[i, :nexp[i]]` (S, n) in order, then the random starts
+    `k_first .. k_last - 1` (hashed from `keys[i]`), until one succeeds; per start a constrained
     run and, where it failed and the limits changed it, a free run whose solution counts if it is
-    inside the limits (unless ``free_pass`` is False); a success is confirmed by forward kinematics.
-    ``start_out``: the position of the succeeding start in that order (explicit first), -1 where none did.
-    Where none did, ``q_out`` is the constrained end point of the start with the smallest residual.
+    inside the limits (unless `free_pass` is False); a success is confirmed by forward kinematics.
+    `start_out`: the position of the succeeding start in that order (explicit first), -1 where none did.
+    Where none did, `q_out` is the constrained end point of the start with the smallest residual.
 
-    ``MODE_POSITION``: as ``MODE_SEARCH`` with the position error alone (the tool's orientation free).
+    `MODE_POSITION`: as `MODE_SEARCH` with the position error alone (the tool's orientation free).
 
-    ``MODE_PAPER``: one run from ``qexp[i, 0]`` with the paper's error, no limits, no confirmation;
-    ``it_out`` counts iterations as the Appendix's loop does (success is tested at the top of the
-    next iteration; see :func:`wsmap.kinematics.ik.lm_reference.ikine_LM_reference`).
+    `MODE_PAPER`: one run from `qexp[i, 0]` with the paper's error, no limits, no confirmation;
+    `it_out` counts iterations as the Appendix's loop does (success is tested at the top of the
+    next iteration; see `wsmap.kinematics.ik.lm_reference.ikine_LM_reference`).
     """
     batch = _build(axes.shape[0])
     _bind_callees(batch)
@@ -847,8 +847,8 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
 # --------------------------------------------------------------------------- helpers of the search
 @njit(cache=True, error_model="numpy")
 def pose_keys(h0, words):
-    """Per target ``i``: ``h0`` mixed in turn with each of ``words[i]`` (K, W) uint64 by :func:`_mix`
-    (the loop of :func:`wsmap.kinematics.ik.kernel.pose_keys`, one pass instead of a numpy pass per
+    """Per target `i`: `h0` mixed in turn with each of `words[i]` (K, W) uint64 by `_mix`
+    (the loop of `wsmap.kinematics.ik.kernel.pose_keys`, one pass instead of a numpy pass per
     word). Returns (K,) uint64."""
     K, W = words.shape
     out = np.empty(K, dtype=np.uint64)
@@ -862,9 +862,9 @@ def pose_keys(h0, words):
 
 @njit(cache=True, error_model="numpy")
 def orbit_test(a, e0, c, r, u, w, p):
-    """The loop of :func:`wsmap.kinematics.ik.reach_filter._orbit_test` (its notes give the geometry), one
-    point per row: ``a``, ``e0`` (3,) the axis and a unit vector normal to it; ``c``, ``u``, ``p``
-    (K, 3); ``r``, ``w`` (K,), the slack already added. Returns (K,) bool."""
+    """The loop of `wsmap.kinematics.ik.reach_filter._orbit_test` (its notes give the geometry), one
+    point per row: `a`, `e0` (3,) the axis and a unit vector normal to it; `c`, `u`, `p`
+    (K, 3); `r`, `w` (K,), the slack already added. Returns (K,) bool."""
     K = p.shape[0]
     out = np.empty(K, dtype=np.bool_)
     for k in range(K):
@@ -917,8 +917,8 @@ _HELPERS = ("pose_keys", "orbit_test")
 
 
 def _loadable(dispatcher) -> bool:
-    """Whether ``dispatcher`` is compiled in this process or has a cache entry this process can load
-    (this CPU, this source), read from numba's cache index as :func:`_bind_callees` does."""
+    """Whether `dispatcher` is compiled in this process or has a cache entry this process can load
+    (this CPU, this source), read from numba's cache index as `_bind_callees` does."""
     if dispatcher.overloads:
         return True
     cache = dispatcher._cache
@@ -927,18 +927,18 @@ def _loadable(dispatcher) -> bool:
 
 
 def needs_compile(joints=(6, 7)) -> bool:
-    """Whether the first numerical map of this process on arms of each joint count in ``joints``
+    """Whether the first numerical map of this process on arms of each joint count in `joints`
     (an int or a sequence: 6 takes the six-joint build, any other count the generic one) will
     compile a kernel: one of them, or of their callees, or the search's helpers, is not cached for
-    this CPU and this source. ``joints`` empty: the helpers alone (about a second), all that a
-    search on the lane kernel (:mod:`wsmap.kinematics.lm_lanes`) compiles."""
+    this CPU and this source. `joints` empty: the helpers alone (about a second), all that a
+    search on the lane kernel (`wsmap.kinematics.lm_lanes`) compiles."""
     builds = builds_for(joints)
     names = _HELPERS + ((_CALLEES + tuple(b.py_func.__name__ for b in builds)) if builds else ())
     return not all(_loadable(globals()[name]) for name in names)
 
 
 def estimate() -> int:
-    """The notice's estimate (s): the last cold compile measured here, else :data:`COLD_COMPILE_SECONDS`."""
+    """The notice's estimate (s): the last cold compile measured here, else `COLD_COMPILE_SECONDS`."""
     try:
         with open(os.path.join(cache_dir(), _ESTIMATE_FILE)) as f:
             return max(1, round(float(f.read())))
@@ -947,7 +947,7 @@ def estimate() -> int:
 
 
 def record_compile_seconds(seconds: float) -> None:
-    """Keep ``seconds`` (one build's cold compile, measured here) as the next notice's estimate."""
+    """Keep `seconds` (one build's cold compile, measured here) as the next notice's estimate."""
     try:
         from ..io import atomic_path
 
@@ -959,7 +959,7 @@ def record_compile_seconds(seconds: float) -> None:
 
 
 def builds_for(joints) -> set:
-    """The compiled batches that arms of the joint counts ``joints`` (an int or a sequence; may be
+    """The compiled batches that arms of the joint counts `joints` (an int or a sequence; may be
     empty) run on."""
     joints = (joints,) if isinstance(joints, (int, np.integer)) else tuple(joints)
     return {_build(int(n)) for n in joints}

@@ -1,24 +1,24 @@
-"""The lane kernel: the LM search of :mod:`wsmap.kinematics.lm_compiled` on several targets per instruction.
+"""The lane kernel: the LM search of `wsmap.kinematics.lm_compiled` on several targets per instruction.
 
-:mod:`wsmap.kinematics.lm_compiled` runs one target at a time; each LM iteration is a long chain of
+`wsmap.kinematics.lm_compiled` runs one target at a time; each LM iteration is a long chain of
 dependent operations (joint after joint, pivot after pivot), so most of a core's vector units and
 most of its cycles sit idle (docs/performance.md, "The limit"). The lane kernel (C++,
-``src/wsmap/kinematics/_lanes/lanes.hpp``, built into the extension ``wsmap.kinematics._lanes``)
-keeps a block of ``lanes`` targets in flight: every number of the iteration is an array over the
+`src/wsmap/kinematics/_lanes/lanes.hpp`, built into the extension `wsmap.kinematics._lanes`)
+keeps a block of `lanes` targets in flight: every number of the iteration is an array over the
 block, so the forward kinematics, pose error, Jacobian, normal equations and solve are loops over
 lanes that the compiler turns into AVX-512 or AVX2 instructions (a build per instruction set, the
-widest the CPU has chosen at import, :func:`isa`). Acceptance, damping, the stopping tests, the
+widest the CPU has chosen at import, `isa`). Acceptance, damping, the stopping tests, the
 limits, the confirmation and the next start are decided lane by lane, and a lane whose target is
 done takes the next one from a counter shared by every thread of the call.
 
 Same search, same arithmetic per target as the scalar kernel; the compilers fuse multiply-adds
-differently, so answers agree to rounding (``tests/kinematics/test_lm_lanes.py``: the same successes
-and starts, ``q`` within 1e-8, on named and random arms in every mode). A target's answer does not
+differently, so answers agree to rounding (`tests/kinematics/test_lm_lanes.py`: the same successes
+and starts, `q` within 1e-8, on named and random arms in every mode). A target's answer does not
 depend on its lane, its neighbours or the thread count.
 
-Which kernel runs: :func:`set_kernel` (``"lanes"``, the default where the extension is built, or
-``"scalar"``, the numba kernel, the tested reference), or the environment variable ``WSMAP_KERNEL``.
-Arms of more than :data:`MAX_JOINTS` joints run on the scalar kernel.
+Which kernel runs: `set_kernel` (`"lanes"`, the default where the extension is built, or
+`"scalar"`, the numba kernel, the tested reference), or the environment variable `WSMAP_KERNEL`.
+Arms of more than `MAX_JOINTS` joints run on the scalar kernel.
 """
 
 from __future__ import annotations
@@ -41,9 +41,9 @@ else:
 
 __all__ = ["KERNELS", "LANES", "MAX_JOINTS", "available", "isa", "kernel", "set_kernel", "use_kernel", "run_targets"]
 
-#: The kernels :func:`set_kernel` takes.
+#: The kernels `set_kernel` takes.
 KERNELS = ("lanes", "scalar")
-#: Targets in flight per thread (4, 8 or 16; ``benchmarks/bench_peers.py --lanes`` compares them).
+#: Targets in flight per thread (4, 8 or 16; `benchmarks/bench_peers.py --lanes` compares them).
 LANES = 8
 #: The most joints the lane kernel takes; longer chains run on the scalar kernel.
 MAX_JOINTS = 16
@@ -51,20 +51,20 @@ _kernel = None
 
 
 def available() -> bool:
-    """Whether the extension ``wsmap.kinematics._lanes`` is built and loads."""
+    """Whether the extension `wsmap.kinematics._lanes` is built and loads."""
     return _lanes is not None
 
 
 def isa() -> str:
-    """The instruction set of the build in use: ``"avx512"``, ``"avx2"`` or ``"base"``."""
+    """The instruction set of the build in use: `"avx512"`, `"avx2"` or `"base"`."""
     if _lanes is None:
         raise RuntimeError(f"the lane kernel is not built ({_IMPORT_ERROR}); reinstall wsmap")
     return _lanes.best_isa()
 
 
 def set_kernel(name: str | None = None) -> str:
-    """Use kernel ``name`` (one of :data:`KERNELS`) from now on; None: ``WSMAP_KERNEL``, else
-    ``"lanes"`` where the extension is built, else ``"scalar"``. Returns the kernel set."""
+    """Use kernel `name` (one of `KERNELS`) from now on; None: `WSMAP_KERNEL`, else
+    `"lanes"` where the extension is built, else `"scalar"`. Returns the kernel set."""
     global _kernel
     what = "kernel"
     if name is None:
@@ -79,13 +79,13 @@ def set_kernel(name: str | None = None) -> str:
 
 
 def kernel() -> str:
-    """The kernel in use (see :func:`set_kernel`)."""
+    """The kernel in use (see `set_kernel`)."""
     return _kernel if _kernel is not None else set_kernel()
 
 
 @contextmanager
 def use_kernel(name: str):
-    """Within the block, kernel ``name``; the one before after it."""
+    """Within the block, kernel `name`; the one before after it."""
     before = kernel()
     set_kernel(name)
     try:
@@ -95,7 +95,7 @@ def use_kernel(name: str):
 
 
 def runs_on_lanes(n: int) -> bool:
-    """Whether a search of ``n``-joint arms runs on the lane kernel now."""
+    """Whether a search of `n`-joint arms runs on the lane kernel now."""
     return kernel() == "lanes" and 1 <= n <= MAX_JOINTS
 
 
@@ -103,10 +103,10 @@ def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
                 Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
                 ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out,
                 lanes: int = LANES, isa: str = "auto"):
-    """:func:`wsmap.kinematics.lm_compiled.run_targets` on the lane kernel (same arguments, same
-    results to rounding), on :func:`~wsmap.kinematics.lm_compiled.threads` threads: this one and
-    pool threads, each a block of ``lanes`` targets taken one at a time from a shared counter.
-    ``isa``: ``"auto"`` (the widest build this CPU runs) or a narrower one (tests, benchmarks)."""
+    """`wsmap.kinematics.lm_compiled.run_targets` on the lane kernel (same arguments, same
+    results to rounding), on `threads` threads: this one and
+    pool threads, each a block of `lanes` targets taken one at a time from a shared counter.
+    `isa`: `"auto"` (the widest build this CPU runs) or a narrower one (tests, benchmarks)."""
     if _lanes is None:
         raise RuntimeError(f"the lane kernel is not built ({_IMPORT_ERROR}); reinstall wsmap, or use 'scalar'")
     M = len(arm)

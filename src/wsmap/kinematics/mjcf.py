@@ -1,11 +1,11 @@
-"""MJCF (MuJoCo's format) as a second source of serial chains, parsed by the ``mujoco`` package
+"""MJCF (MuJoCo's format) as a second source of serial chains, parsed by the `mujoco` package
 (its compiled model: body frames, joint anchors and axes, angles in radians whatever the file's
-``<compiler angle>``).
+`<compiler angle>`).
 
-:func:`from_mjcf` is the chain from the world body to a site or a body (the tool frame). Hinge joints
-are revolute, slide joints prismatic; a joint's coordinate is MuJoCo's ``qpos`` (measured from the
-joint's ``ref``, ``qpos0``); limits from ``range`` where ``limited``. The collision geoms:
-:func:`wsmap.collision.mjcf.from_mjcf_collision`.
+`from_mjcf` is the chain from the world body to a site or a body (the tool frame). Hinge joints
+are revolute, slide joints prismatic; a joint's coordinate is MuJoCo's `qpos` (measured from the
+joint's `ref`, `qpos0`); limits from `range` where `limited`. The collision geoms:
+`wsmap.collision.mjcf.from_mjcf_collision`.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ def _trans(p) -> np.ndarray:
 
 
 def _chain_parts(m, path: str, site_or_body: str):
-    """The chain and, per MuJoCo body on or below the path, ``(chain body, pose in its frame)``."""
+    """The chain and, per MuJoCo body on or below the path, `(chain body, pose in its frame)`."""
     import mujoco
 
     sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site_or_body)
@@ -113,10 +113,10 @@ def _chain_parts(m, path: str, site_or_body: str):
 
 
 def from_mjcf(path: PathLike, site_or_body: str) -> SerialChain:
-    """The serial chain of an MJCF file from the world body to the site or body ``site_or_body``
-    (its frame is the tool frame): fixed transforms from the bodies' ``pos``/``quat`` and the
-    joints' anchors, axes as MuJoCo has them (body frame), ``offset = -ref``, ``qlim`` from
-    ``range``. Errors (no such file, not MJCF, an unknown site, a ball joint) are an
-    :class:`MJCFError` naming the file."""
+    """The serial chain of an MJCF file from the world body to the site or body `site_or_body`
+    (its frame is the tool frame): fixed transforms from the bodies' `pos`/`quat` and the
+    joints' anchors, axes as MuJoCo has them (body frame), `offset = -ref`, `qlim` from
+    `range`. Errors (no such file, not MJCF, an unknown site, a ball joint) are an
+    `MJCFError` naming the file."""
     m = _load(path)
     return _chain_parts(m, os.fspath(path), site_or_body)[0]

@@ -1,44 +1,44 @@
 """The morphology description: one canonical record of any serial arm of 6 or 7 revolute joints.
 
 Whatever an arm came from -- a standard or modified DH table, a named arm, a URDF -- it is a
-:class:`~wsmap.kinematics.SerialChain`, and :func:`describe` turns that chain into a
-:class:`Morphology`: per joint the modified-DH (Craig) parameters derived from the geometry of
+`SerialChain`, and `describe` turns that chain into a
+`Morphology`: per joint the modified-DH (Craig) parameters derived from the geometry of
 the joint axes at the zero pose, the joint limits, and the two rigid transforms the DH rows cannot
-hold (``mount``: the base frame to frame 0; ``tool``: frame n to the tool). :meth:`Morphology.chain`
+hold (`mount`: the base frame to frame 0; `tool`: frame n to the tool). `Morphology.chain`
 builds the chain back; its forward kinematics is the original arm's (to rounding, ~1e-15 m).
 
-Why here and not in :mod:`wsmap.robots`: the description is a function of a chain's geometry
+Why here and not in `wsmap.robots`: the description is a function of a chain's geometry
 alone (a URDF arm and a DH arm get it the same way), and the kinematics layer imports nothing of
 the named arms.
 
-Canonical form (all lengths metres, angles radians, frames at ``q = 0``, in the chain's world
-frame, i.e. after its ``base``)
+Canonical form (all lengths metres, angles radians, frames at `q = 0`, in the chain's world
+frame, i.e. after its `base`)
 -------------------------------------------------------------------------------------------------
-Joint ``i`` (1-based) has the world axis ``z_i`` through the point ``o_i``: the chain's axis with
-its sign, except that a first axis pointing down (``z_1 · ẑ < 0``, Kinova's Gen3) is turned up;
-``signs[i]`` is then -1 and the description's joint coordinate is ``-q_1`` (the limits stay the
-controller's, in ``q``; :meth:`Morphology.features` writes them in the description's coordinate).
+Joint `i` (1-based) has the world axis `z_i` through the point `o_i`: the chain's axis with
+its sign, except that a first axis pointing down (`z_1 · ẑ < 0`, Kinova's Gen3) is turned up;
+`signs[i]` is then -1 and the description's joint coordinate is `-q_1` (the limits stay the
+controller's, in `q`; `Morphology.features` writes them in the description's coordinate).
 
-* frame 0: ``z_0 = z_1``, origin the foot of the perpendicular from the world origin on axis 1,
-  ``x_0`` the world ``x`` made perpendicular to ``z_0`` (the world ``y`` if ``x`` is along it);
-  ``mount`` is the world → frame-0 transform, the identity for every arm whose first axis is the
-  world ``z`` axis (all named arms, every arm of the ``morph`` family);
-* frame ``i`` (``1 <= i < n``): ``z_i`` the axis, ``x_i`` along the common normal from axis ``i`` to
-  axis ``i+1``; where the axes intersect ``x_i = z_i × z_{i+1}`` (so ``alpha_i`` lies in (0, pi));
-  where they are parallel the normal through the origin of frame ``i``'s ``x_{i-1}`` foot point
-  (so ``d_{i+1}`` of the next row carries the offset, Craig's choice); where they coincide
-  ``x_i = x_{i-1}``;
-* frame ``n``: ``x_n = x_{n-1}``, origin on axis ``n`` at the foot of ``x_{n-1}``: its row has
-  ``d_n = 0`` and ``theta_n = 0``; everything after it is ``tool`` (the flange and any tool);
-* row ``i`` is ``(a_{i-1}, alpha_{i-1}, d_i, theta_i)`` with
-  ``T_{i-1,i}(q) = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i + q_i) Tz(d_i)``; ``a_{i-1} >= 0``; the
-  angles are wrapped to ``(-pi, pi]``; ``theta_i`` is the joint's offset (controller zero against
-  the DH zero). Row 1 has ``a_0 = alpha_0 = 0``.
+* frame 0: `z_0 = z_1`, origin the foot of the perpendicular from the world origin on axis 1,
+  `x_0` the world `x` made perpendicular to `z_0` (the world `y` if `x` is along it);
+  `mount` is the world → frame-0 transform, the identity for every arm whose first axis is the
+  world `z` axis (all named arms, every arm of the `morph` family);
+* frame `i` (`1 <= i < n`): `z_i` the axis, `x_i` along the common normal from axis `i` to
+  axis `i+1`; where the axes intersect `x_i = z_i × z_{i+1}` (so `alpha_i` lies in (0, pi));
+  where they are parallel the normal through the origin of frame `i`'s `x_{i-1}` foot point
+  (so `d_{i+1}` of the next row carries the offset, Craig's choice); where they coincide
+  `x_i = x_{i-1}`;
+* frame `n`: `x_n = x_{n-1}`, origin on axis `n` at the foot of `x_{n-1}`: its row has
+  `d_n = 0` and `theta_n = 0`; everything after it is `tool` (the flange and any tool);
+* row `i` is `(a_{i-1}, alpha_{i-1}, d_i, theta_i)` with
+  `T_{i-1,i}(q) = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i + q_i) Tz(d_i)`; `a_{i-1} >= 0`; the
+  angles are wrapped to `(-pi, pi]`; `theta_i` is the joint's offset (controller zero against
+  the DH zero). Row 1 has `a_0 = alpha_0 = 0`.
 
-Joint limits are kept as the chain has them (``(n, 2)`` rad, ``±inf`` for a continuous joint).
+Joint limits are kept as the chain has them (`(n, 2)` rad, `±inf` for a continuous joint).
 
-Padding: :meth:`Morphology.features` writes every arm as 7 joints; a 6-joint arm gets a zero 7th
-row, the limits ``[0, 0]`` (a locked joint) and the flag ``padded = 1``.
+Padding: `Morphology.features` writes every arm as 7 joints; a 6-joint arm gets a zero 7th
+row, the limits `[0, 0]` (a locked joint) and the flag `padded = 1`.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ JOINTS = (6, 7)
 #: Geometric tolerance (m, and rad-equivalent) below which two axes are parallel or intersect.
 _EPS = 1e-9
 #: Axes closer than this to parallel (rad) are taken as parallel, and a joint step may then differ
-#: from its DH row by up to this much: URDF files round their numbers (``rpy="3.1416"`` for pi),
+#: from its DH row by up to this much: URDF files round their numbers (`rpy="3.1416"` for pi),
 #: which leaves axes that should be parallel 1e-5 rad apart and their common normal kilometres away.
 SNAP = 1e-4
 
@@ -67,14 +67,14 @@ class MorphologyError(ValueError):
 
 
 def _wrap(x):
-    """Angles wrapped to ``(-pi, pi]`` (elementwise); within 1e-9 of -pi is pi (a half turn computed
+    """Angles wrapped to `(-pi, pi]` (elementwise); within 1e-9 of -pi is pi (a half turn computed
     from rounded frames lands on either side of -pi; the description must not depend on which)."""
     w = np.mod(np.asarray(x, dtype=np.float64) + np.pi, 2 * np.pi) - np.pi
     return np.where(w <= -np.pi + 1e-9, np.pi, w)
 
 
 def mdh_transform(a, alpha, d, theta) -> np.ndarray:
-    """``Rx(alpha) Tx(a) Rz(theta) Tz(d)`` as ``(..., 4, 4)`` (arguments broadcast; m, rad)."""
+    """`Rx(alpha) Tx(a) Rz(theta) Tz(d)` as `(..., 4, 4)` (arguments broadcast; m, rad)."""
     a, alpha, d, theta = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (a, alpha, d, theta)))
     ca, sa, ct, st = np.cos(alpha), np.sin(alpha), np.cos(theta), np.sin(theta)
     T = np.zeros(a.shape + (4, 4))
@@ -92,7 +92,7 @@ def _frame(x, z, origin) -> np.ndarray:
 
 
 def _unit_perp(v, z):
-    """``v`` made perpendicular to the unit ``z`` and normalised; ``None`` if ``v`` is along ``z``."""
+    """`v` made perpendicular to the unit `z` and normalised; `None` if `v` is along `z`."""
     p = v - np.dot(v, z) * z
     n = np.linalg.norm(p)
     return None if n < 1e-12 else p / n
@@ -110,16 +110,16 @@ class Morphology:
     """The canonical description of one serial arm of 6 or 7 revolute joints (see the module notes).
 
     Attributes:
-        mdh: ``(n, 4)`` rows ``(a_{i-1}, alpha_{i-1}, d_i, theta_i)`` (m, rad, rad-offset).
-        qlim: ``(n, 2)`` joint limits ``[lo, hi]`` (rad; ``±inf`` continuous).
-        mount: ``(4, 4)`` world (base) frame → frame 0.
-        tool: ``(4, 4)`` frame n → tool (the flange and any tool on it).
-        signs: ``(n,)`` +1 or -1: the description's joint coordinate is ``signs * q``.
+        mdh: `(n, 4)` rows `(a_{i-1}, alpha_{i-1}, d_i, theta_i)` (m, rad, rad-offset).
+        qlim: `(n, 2)` joint limits `[lo, hi]` (rad; `±inf` continuous).
+        mount: `(4, 4)` world (base) frame → frame 0.
+        tool: `(4, 4)` frame n → tool (the flange and any tool on it).
+        signs: `(n,)` +1 or -1: the description's joint coordinate is `signs * q`.
         name: the arm's name, for messages.
         residual: the largest difference between a joint step of the arm and its DH row (m, and
-            entries of rotation matrices): rounding for an exact DH arm; up to :data:`SNAP` where
+            entries of rotation matrices): rounding for an exact DH arm; up to `SNAP` where
             nearly parallel axes were taken as parallel (the description is then of the nearest
-            exact arm, and :meth:`chain` differs from the arm by about that much).
+            exact arm, and `chain` differs from the arm by about that much).
     """
 
     mdh: np.ndarray
@@ -153,7 +153,7 @@ class Morphology:
         return self.mdh.shape[0]
 
     def chain(self) -> SerialChain:
-        """The arm as a :class:`SerialChain` (modified DH; mount in ``F_0``, tool in ``F_n``):
+        """The arm as a `SerialChain` (modified DH; mount in `F_0`, tool in `F_n`):
         base → tool, the limits of the description."""
         a, alpha, d, theta = self.mdh.T
         arm = from_dh(d, a, alpha, offset=theta, qlim=self.qlim, modified=True, flange=self.tool, name=self.name)
@@ -166,16 +166,16 @@ class Morphology:
 
     @property
     def limits(self) -> np.ndarray:
-        """``(n, 2)`` limits in the description's joint coordinate ``signs * q`` (rad)."""
+        """`(n, 2)` limits in the description's joint coordinate `signs * q` (rad)."""
         return np.where(self.signs[:, None] > 0, self.qlim, -self.qlim[:, ::-1])
 
     def features(self) -> np.ndarray:
-        """The fixed-length vector ``(N_FEATURES,)`` a network reads (:data:`FEATURE_NAMES`), padded
-        to 7 joints. Angles as ``(sin, cos)``; limits as the centre and half-width of the range,
-        a range of a full turn or more (also ``±inf``) written as centre 0, half-width pi (the same
+        """The fixed-length vector `(N_FEATURES,)` a network reads (`FEATURE_NAMES`), padded
+        to 7 joints. Angles as `(sin, cos)`; limits as the centre and half-width of the range,
+        a range of a full turn or more (also `±inf`) written as centre 0, half-width pi (the same
         reachable set); the tool as its translation (m) and the third and first columns of its
         rotation; the mount is not a feature (it is the identity in the training distribution,
-        :func:`wsmap.robots.morph` checks it)."""
+        `wsmap.robots.morph` checks it)."""
         rows = np.zeros((7, 4))
         rows[: self.n] = self.mdh
         lim = np.zeros((7, 2))
@@ -196,11 +196,11 @@ class Morphology:
 
 _JOINT_FEATURES = ("a", "sin_alpha", "cos_alpha", "d", "sin_theta", "cos_theta", "sin_centre", "cos_centre",
                    "half_range")
-#: Names of :meth:`Morphology.features`, in order: 9 per joint (7 joints), 9 of the tool, the flag.
+#: Names of `Morphology.features`, in order: 9 per joint (7 joints), 9 of the tool, the flag.
 FEATURE_NAMES = tuple(f"{k}_{i}" for i in range(1, 8) for k in _JOINT_FEATURES) + (
     "tool_x", "tool_y", "tool_z", "tool_zx", "tool_zy", "tool_zz", "tool_xx", "tool_xy", "tool_xz", "padded")
 N_FEATURES = len(FEATURE_NAMES)
-#: Scale of each feature in :func:`morphology_distance`: lengths in metres as they are, the
+#: Scale of each feature in `morphology_distance`: lengths in metres as they are, the
 #: dimensionless (sin, cos) pairs and direction cosines times 0.2 m (a twist error of 1 rad about
 #: a 0.2 m link moves the next joint by about 0.2 m), half-ranges (rad) times 0.1 m, the flag 1 m
 #: (a 6-joint arm is never near a 7-joint one).
@@ -209,20 +209,20 @@ _FEATURE_SCALE = np.array([{"a": 1.0, "d": 1.0, "half_range": 0.1}.get(k, 0.2) f
 
 
 def morphology_distance(x, y) -> np.ndarray:
-    """The distance (m) between morphology feature vectors ``x`` ``(..., N_FEATURES)`` and ``y``
+    """The distance (m) between morphology feature vectors `x` `(..., N_FEATURES)` and `y`
     (broadcast): the Euclidean norm of the feature difference with each feature scaled as
-    :data:`_FEATURE_SCALE` says (lengths in metres, angles as 0.2 m per unit of sin/cos). Two
+    `_FEATURE_SCALE` says (lengths in metres, angles as 0.2 m per unit of sin/cos). Two
     arms at distance 0 have the same geometry, limits and tool."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
     return np.linalg.norm((x - y) * _FEATURE_SCALE, axis=-1)
 
 
 def describe(robot, name: str | None = None) -> Morphology:
-    """The canonical :class:`Morphology` of one arm (a :class:`SerialChain` or
-    :class:`~wsmap.kinematics.DHRobot`, batch shape ``()``) of 6 or 7 revolute joints.
+    """The canonical `Morphology` of one arm (a `SerialChain` or
+    `DHRobot`, batch shape `()`) of 6 or 7 revolute joints.
 
     An arm with a prismatic joint, fewer than 6 or more than 7 joints, or a batch of arms is a
-    :class:`MorphologyError` naming what is wrong.
+    `MorphologyError` naming what is wrong.
     """
     try:
         chain = as_chain(robot)

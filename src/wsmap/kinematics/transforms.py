@@ -1,7 +1,7 @@
 """Elementary rigid transforms and pose checks (float64, radians, metres).
 
-Every function takes leading batch dimensions: ``rotx(theta)`` with ``theta`` of shape ``(...)``
-gives ``(..., 3, 3)``. Homogeneous transforms are ``(..., 4, 4)`` with bottom row ``[0, 0, 0, 1]``.
+Every function takes leading batch dimensions: `rotx(theta)` with `theta` of shape `(...)`
+gives `(..., 3, 3)`. Homogeneous transforms are `(..., 4, 4)` with bottom row `[0, 0, 0, 1]`.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ __all__ = ["rotx", "roty", "rotz", "rpy2r", "transl", "pose_error", "check_finit
 
 
 def rotx(theta: float | ArrayLike) -> NDArray[np.float64]:
-    """Rotation about x by ``theta`` (rad); shape ``theta.shape + (3, 3)``."""
+    """Rotation about x by `theta` (rad); shape `theta.shape + (3, 3)`."""
     theta = np.asarray(theta, dtype=np.float64)
     c, s = np.cos(theta), np.sin(theta)
     o, z = np.ones_like(theta), np.zeros_like(theta)
@@ -24,7 +24,7 @@ def rotx(theta: float | ArrayLike) -> NDArray[np.float64]:
 
 
 def roty(theta: float | ArrayLike) -> NDArray[np.float64]:
-    """Rotation about y by ``theta`` (rad); shape ``theta.shape + (3, 3)``."""
+    """Rotation about y by `theta` (rad); shape `theta.shape + (3, 3)`."""
     theta = np.asarray(theta, dtype=np.float64)
     c, s = np.cos(theta), np.sin(theta)
     o, z = np.ones_like(theta), np.zeros_like(theta)
@@ -32,7 +32,7 @@ def roty(theta: float | ArrayLike) -> NDArray[np.float64]:
 
 
 def rotz(theta: float | ArrayLike) -> NDArray[np.float64]:
-    """Rotation about z by ``theta`` (rad); shape ``theta.shape + (3, 3)``."""
+    """Rotation about z by `theta` (rad); shape `theta.shape + (3, 3)`."""
     theta = np.asarray(theta, dtype=np.float64)
     c, s = np.cos(theta), np.sin(theta)
     o, z = np.ones_like(theta), np.zeros_like(theta)
@@ -40,9 +40,9 @@ def rotz(theta: float | ArrayLike) -> NDArray[np.float64]:
 
 
 def rpy2r(rpy: ArrayLike) -> NDArray[np.float64]:
-    """The paper's orientation angles ``(r1, r2, r3)`` → ``Rx(r1) · Ry(r2) · Rz(r3)``.
+    """The paper's orientation angles `(r1, r2, r3)` → `Rx(r1) · Ry(r2) · Rz(r3)`.
 
-    ``rpy`` has shape ``(..., 3)`` (rad); the result has shape ``(..., 3, 3)``.
+    `rpy` has shape `(..., 3)` (rad); the result has shape `(..., 3, 3)`.
     """
     rpy = np.asarray(rpy, dtype=np.float64)
     if rpy.shape[-1:] != (3,):
@@ -51,7 +51,7 @@ def rpy2r(rpy: ArrayLike) -> NDArray[np.float64]:
 
 
 def transl(p: ArrayLike) -> NDArray[np.float64]:
-    """Pure translation: ``p`` of shape ``(..., 3)`` → homogeneous transform ``(..., 4, 4)``."""
+    """Pure translation: `p` of shape `(..., 3)` → homogeneous transform `(..., 4, 4)`."""
     p = np.asarray(p, dtype=np.float64)
     T = np.zeros(p.shape[:-1] + (4, 4))
     T[..., :3, :3] = np.eye(3)
@@ -62,7 +62,7 @@ def transl(p: ArrayLike) -> NDArray[np.float64]:
 
 
 def check_finite(name, x):
-    """Raise ``ValueError`` naming ``name`` if ``x`` has a NaN or infinite entry (or is complex)."""
+    """Raise `ValueError` naming `name` if `x` has a NaN or infinite entry (or is complex)."""
     if np.iscomplexobj(x):
         raise ValueError(f"{name} must be real numbers, got complex values")
     if not np.all(np.isfinite(x)):
@@ -70,7 +70,7 @@ def check_finite(name, x):
 
 
 def as_real_array(name, x) -> np.ndarray:
-    """``x`` as a float64 array; complex or non-numeric input is a ``ValueError`` naming ``name``."""
+    """`x` as a float64 array; complex or non-numeric input is a `ValueError` naming `name`."""
     if np.iscomplexobj(x):
         raise ValueError(f"{name} must be real numbers, got complex values")
     try:
@@ -80,11 +80,11 @@ def as_real_array(name, x) -> np.ndarray:
 
 
 def check_rigid(name: str, T: ArrayLike, atol: float = 1e-6) -> np.ndarray:
-    """``T`` as float64 ``(..., 4, 4)`` after checking that every entry is a rigid transform.
+    """`T` as float64 `(..., 4, 4)` after checking that every entry is a rigid transform.
 
-    A rigid transform has a rotation block ``R`` with ``RᵀR = I`` and ``det R = +1`` (each to
-    ``atol``) and the bottom row ``[0, 0, 0, 1]``. Anything else (shear, scale, reflection, a
-    projective row) is a ``ValueError`` naming ``name`` and the first offending index.
+    A rigid transform has a rotation block `R` with `RᵀR = I` and `det R = +1` (each to
+    `atol`) and the bottom row `[0, 0, 0, 1]`. Anything else (shear, scale, reflection, a
+    projective row) is a `ValueError` naming `name` and the first offending index.
     """
     T = as_real_array(name, T)
     if T.ndim < 2 or T.shape[-2:] != (4, 4):
@@ -118,10 +118,10 @@ def check_rigid(name: str, T: ArrayLike, atol: float = 1e-6) -> np.ndarray:
 
 
 def pose_error(T_current: ArrayLike, T_target: ArrayLike) -> np.ndarray:
-    """Differential motion from ``T_current`` to ``T_target`` in the base frame, ``(..., 6)``.
+    """Differential motion from `T_current` to `T_target` in the base frame, `(..., 6)`.
 
-    Translation difference, then ``0.5 · Σ_k c_k × t_k`` over the rotation columns (Corke's
-    ``tr2delta`` for small motions); it is zero exactly when the poses are equal.
+    Translation difference, then `0.5 · Σ_k c_k × t_k` over the rotation columns (Corke's
+    `tr2delta` for small motions); it is zero exactly when the poses are equal.
     """
     dp = T_target[..., :3, 3] - T_current[..., :3, 3]
     dw = 0.5 * np.cross(T_current[..., :3, :3], T_target[..., :3, :3], axis=-2).sum(axis=-1)

@@ -1,27 +1,27 @@
 """Serial chains from URDF: the path of joints from a base link to an end link.
 
-:func:`from_urdf` reads a URDF (a file or its XML text) into a :class:`~.chain.SerialChain`:
+`from_urdf` reads a URDF (a file or its XML text) into a `SerialChain`:
 
-* the joints on the path from ``base_link`` (default: the root) to ``ee_link`` (default: the one
+* the joints on the path from `base_link` (default: the root) to `ee_link` (default: the one
   leaf, if the tree does not branch) become the chain; side branches (a gripper's fingers, a
-  ``base`` or ``tool0`` frame beside the path) are ignored;
+  `base` or `tool0` frame beside the path) are ignored;
 * fixed joints are folded into the neighbouring fixed transforms; revolute joints carry their
-  ``<limit>``; continuous joints are unlimited (``±inf``); prismatic joints carry their stroke; a
-  ``<limit>`` without ``lower`` or ``upper`` reads it as 0, the specification's default (as
-  urdfdom and Pinocchio do), with a :class:`URDFWarning` (without both the joint cannot move);
-* elements in an XML namespace (``<robot xmlns="...">``) are read by their local names, as
+  `<limit>`; continuous joints are unlimited (`±inf`); prismatic joints carry their stroke; a
+  `<limit>` without `lower` or `upper` reads it as 0, the specification's default (as
+  urdfdom and Pinocchio do), with a `URDFWarning` (without both the joint cannot move);
+* elements in an XML namespace (`<robot xmlns="...">`) are read by their local names, as
   urdfdom reads them;
-* a mimic, floating or planar joint on the path is refused (:class:`URDFError`, naming it), as
+* a mimic, floating or planar joint on the path is refused (`URDFError`, naming it), as
   are: text that is not XML, a link that does not exist, no path from base to end, a loop (a link
   with two parents, or a cycle), a NaN or infinite number in an origin, an axis or a limit,
-  limits with ``lower > upper``, a ``<limit>`` on the chain without the ``effort`` or ``velocity``
-  the specification requires, a ``<robot>`` without a name, and unexpanded xacro;
+  limits with `lower > upper`, a `<limit>` on the chain without the `effort` or `velocity`
+  the specification requires, a `<robot>` without a name, and unexpanded xacro;
 * meshes are never loaded, so a URDF whose meshes are missing reads the same.
 
-The transforms come from yourdfpy's joint objects (origins with ``rpy``:
-``R = Rz(yaw) · Ry(pitch) · Rx(roll)``, the URDF convention). yourdfpy is lax about broken files
+The transforms come from yourdfpy's joint objects (origins with `rpy`:
+`R = Rz(yaw) · Ry(pitch) · Rx(roll)`, the URDF convention). yourdfpy is lax about broken files
 (it recovers from malformed XML, accepts NaN origins and cycles, and fails on an undefined link
-with ``list.remove(x): x not in list``), so the XML is checked here first with ``xml.etree``.
+with `list.remove(x): x not in list`), so the XML is checked here first with `xml.etree`.
 """
 
 from __future__ import annotations
@@ -53,12 +53,12 @@ class URDFError(ValueError):
 
 class URDFWarning(UserWarning):
     """A URDF read as the specification says, but probably not as its author meant (a joint whose
-    ``<limit>`` lacks ``lower``/``upper``, read as 0)."""
+    `<limit>` lacks `lower`/`upper`, read as 0)."""
 
 
 # ---------------------------------------------------------------------------------------- reading
 def _read(source) -> tuple[bytes, str, str | None]:
-    """``(data, label, path)``: the XML bytes, a label for messages, and the file path (or None)."""
+    """`(data, label, path)`: the XML bytes, a label for messages, and the file path (or None)."""
     if isinstance(source, bytes):
         return source, "URDF text", None
     if isinstance(source, str) and "<" in source and not os.path.isfile(source):  # XML text, not a file named "a<b"
@@ -122,8 +122,8 @@ def _limit_value(label: str, jname: str, limit: ET.Element, key: str) -> float:
 
 
 def _new_name(el: ET.Element, tag: str, seen, label: str) -> str:
-    """The ``name`` of a ``<link>`` or ``<joint>`` element ``el``; a ``URDFError`` when it has none
-    or when ``seen`` (the names of that tag so far) holds it already."""
+    """The `name` of a `<link>` or `<joint>` element `el`; a `URDFError` when it has none
+    or when `seen` (the names of that tag so far) holds it already."""
     name = el.get("name")
     if not name:
         raise URDFError(f"{label}: a <{tag}> has no name")
@@ -220,7 +220,7 @@ class _Tree:
         return leaves
 
     def path(self, base: str, ee: str) -> list[str]:
-        """Joint names from ``base`` down to ``ee``."""
+        """Joint names from `base` down to `ee`."""
         joints, link = [], ee
         while link != base:
             if link not in self.parent_joint:
@@ -252,27 +252,27 @@ def _load_yourdfpy(data: bytes, path: str | None, label: str):
 
 def from_urdf(source: PathLike, ee_link: str | None = None, base_link: str | None = None,
               name: str | None = None) -> SerialChain:
-    """The serial chain of a URDF from ``base_link`` to ``ee_link``.
+    """The serial chain of a URDF from `base_link` to `ee_link`.
 
     Parameters
     ----------
     source : path or str
-        A URDF file, or the URDF's XML text (a string with a ``<`` in it).
+        A URDF file, or the URDF's XML text (a string with a `<` in it).
     ee_link : str, optional
-        The end link (e.g. the tool flange, ``tool0``). Default: the only leaf below ``base_link``;
-        if the tree branches there (a gripper's fingers), a :class:`URDFError` lists the leaves.
+        The end link (e.g. the tool flange, `tool0`). Default: the only leaf below `base_link`;
+        if the tree branches there (a gripper's fingers), a `URDFError` lists the leaves.
     base_link : str, optional
         The first link of the chain (default: the URDF's root link).
     name : str, optional
-        The chain's name (default: the ``<robot name>``).
+        The chain's name (default: the `<robot name>`).
 
     Returns
     -------
     SerialChain
-        ``fixed`` from the joint origins (fixed joints folded in), ``axes`` from ``<axis>`` (any
-        direction), ``qlim`` from ``<limit>`` (``±inf`` for continuous joints), ``links`` the link
-        names after each fixed transform (the child link of each movable joint, then ``ee_link``),
-        ``source`` the file path or ``"URDF text"``.
+        `fixed` from the joint origins (fixed joints folded in), `axes` from `<axis>` (any
+        direction), `qlim` from `<limit>` (`±inf` for continuous joints), `links` the link
+        names after each fixed transform (the child link of each movable joint, then `ee_link`),
+        `source` the file path or `"URDF text"`.
     """
     data, label, path = _read(source)
     root = _parse_xml(data, label)

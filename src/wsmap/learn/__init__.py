@@ -5,38 +5,38 @@ Where things are (each module's docstring has the details):
 =====================  ==========================================================================
 module                 contents
 =====================  ==========================================================================
-``network``            :class:`MLPConfig`, :class:`SubspaceMLP` (S stacked tanh MLPs: forward,
-                       score/predict, ``configure``, ``predict_maps``), :func:`check_features`
-``init``               weight initialisation: Nguyen–Widrow (MATLAB ``initnw``), MATLAB
-                       ``rands``, torch's default
-``optim``              the paper's full-batch trainers (Table 2): Rprop as the paper, SCG, CGB,
-                       OSS, GDX, and :func:`make_optimizer`
-``training``           :func:`train` with MATLAB-style early stopping, :func:`train_sessions`,
-                       :class:`TrainConfig`, losses, splits, Adam minibatches
-``mapspec``            the ``map_spec`` (which grid and nodes the outputs are): validation, arm /
+`network`            `MLPConfig`, `SubspaceMLP` (S stacked tanh MLPs: forward,
+                       score/predict, `configure`, `predict_maps`), `check_features`
+`init`               weight initialisation: Nguyen–Widrow (MATLAB `initnw`), MATLAB
+                       `rands`, torch's default
+`optim`              the paper's full-batch trainers (Table 2): Rprop as the paper, SCG, CGB,
+                       OSS, GDX, and `make_optimizer`
+`training`           `train` with MATLAB-style early stopping, `train_sessions`,
+                       `TrainConfig`, losses, splits, Adam minibatches
+`mapspec`            the `map_spec` (which grid and nodes the outputs are): validation, arm /
                        grid / threshold checks, features of arms
-``training_range``     :class:`TrainingRange`: what inputs the model was trained on; the
-                       extrapolation check (:class:`ExtrapolationError`, :class:`ExtrapolationWarning`)
-``predictor``          :func:`predict_maps_from_file` (``wsmap map --method model``),
-                       :func:`predict_maps`
-``files``              :func:`save` / :func:`load`: the model file format, with a SHA-256
-                       checksum (:class:`ModelFileError`)
-``device``             :func:`resolve_device`: the ``device`` setting (``auto``, ``cpu``,
-                       ``cuda``) as a ``torch.device``, with a clear error without a GPU
-``morph_model``        one implicit map model for every 6/7R arm, f(morphology, point) -> logit:
-                       :func:`~.morph_model.fit_morph_model`, files, the nearest-arm baseline
-``manipulability``     the spherical-wrist family's manipulability map (m³) learned from
-                       ``(d3, d4, a2, a3)``: :func:`manipulability_dataset`,
-                       :func:`train_manipulability_model`, :func:`predict_manipulability`,
-                       :func:`regression_metrics`, files
+`training_range`     `TrainingRange`: what inputs the model was trained on; the
+                       extrapolation check (`ExtrapolationError`, `ExtrapolationWarning`)
+`predictor`          `predict_maps_from_file` (`wsmap map --method model`),
+                       `predict_maps`
+`files`              `save` / `load`: the model file format, with a SHA-256
+                       checksum (`ModelFileError`)
+`device`             `resolve_device`: the `device` setting (`auto`, `cpu`,
+                       `cuda`) as a `torch.device`, with a clear error without a GPU
+`morph_model`        one implicit map model for every 6/7R arm, f(morphology, point) -> logit:
+                       `fit_morph_model`, files, the nearest-arm baseline
+`manipulability`     the spherical-wrist family's manipulability map (m³) learned from
+                       `(d3, d4, a2, a3)`: `manipulability_dataset`,
+                       `train_manipulability_model`, `predict_manipulability`,
+                       `regression_metrics`, files
 =====================  ==========================================================================
 
-Imports go one way: ``device``, ``init``, ``training_range``, ``mapspec`` and ``optim`` depend on nothing here;
-``network`` on those; ``files`` on ``network``; ``predictor`` on ``files``; ``training`` on ``optim``
-(and ``predictor`` and ``training`` on ``device``); ``manipulability`` on ``network``, ``training`` and
-``files``. ``mapspec`` reads the dataset layout from :mod:`wsmap.datasets`. The classical library
-never imports this package: ``predictor`` registers the ``"model"`` method of
-:func:`wsmap.workspace.grid_map` when it is imported.
+Imports go one way: `device`, `init`, `training_range`, `mapspec` and `optim` depend on nothing here;
+`network` on those; `files` on `network`; `predictor` on `files`; `training` on `optim`
+(and `predictor` and `training` on `device`); `manipulability` on `network`, `training` and
+`files`. `mapspec` reads the dataset layout from `wsmap.datasets`. The classical library
+never imports this package: `predictor` registers the `"model"` method of
+`wsmap.workspace.grid_map` when it is imported.
 
 A typical round trip::
 

@@ -1,25 +1,25 @@
-"""Where the networks run: the ``device`` setting (``auto``, ``cpu``, ``cuda``) as a torch device.
+"""Where the networks run: the `device` setting (`auto`, `cpu`, `cuda`) as a torch device.
 
-Every place that trains or runs a network takes one setting, ``device`` (the params files' key of
-the same name, :class:`wsmap.learn.training.TrainConfig.device`, ``runtime_comparison(device=...)``,
-``predict_maps(..., device=...)``, ``wsmap paper full --device``):
+Every place that trains or runs a network takes one setting, `device` (the params files' key of
+the same name, `wsmap.learn.training.TrainConfig.device`, `runtime_comparison(device=...)`,
+`predict_maps(..., device=...)`, `wsmap paper full --device`):
 
 ==========  =================================================================================
 value       device
 ==========  =================================================================================
-``auto``    ``cuda`` when ``torch.cuda.is_available()``, else ``cpu``
-``cpu``     the CPU (the committed pipeline's setting)
-``cuda``    the current CUDA GPU; ``cuda:N`` GPU ``N``. Without a usable GPU this is an error
-            (:class:`DeviceUnavailableError`, a ``ValueError`` naming the setting), raised by
-            :func:`resolve_device` before any work -- never a silent fall-back to the CPU
+`auto`    `cuda` when `torch.cuda.is_available()`, else `cpu`
+`cpu`     the CPU (the committed pipeline's setting)
+`cuda`    the current CUDA GPU; `cuda:N` GPU `N`. Without a usable GPU this is an error
+            (`DeviceUnavailableError`, a `ValueError` naming the setting), raised by
+            `resolve_device` before any work -- never a silent fall-back to the CPU
 ==========  =================================================================================
 
-Names are case-insensitive; a ``torch.device`` of type ``cpu`` or ``cuda`` is accepted too. Any
-other name (``gpu``, ``mps``, ``cuda:x``, ...) is a ``ValueError`` listing the accepted ones.
+Names are case-insensitive; a `torch.device` of type `cpu` or `cuda` is accepted too. Any
+other name (`gpu`, `mps`, `cuda:x`, ...) is a `ValueError` listing the accepted ones.
 
 The networks are always *built* (and initialised, from CPU random generators) on the CPU and then
-moved, so a model trained with ``device: cuda`` starts from the same weights as on the CPU; model
-files always store CPU tensors and load on the CPU (``wsmap.learn.files.load(map_location=...)``).
+moved, so a model trained with `device: cuda` starts from the same weights as on the CPU; model
+files always store CPU tensors and load on the CPU (`wsmap.learn.files.load(map_location=...)`).
 """
 
 from __future__ import annotations
@@ -30,22 +30,22 @@ import torch
 
 __all__ = ["DEVICES", "DeviceUnavailableError", "check_device_name", "resolve_device", "device_facts"]
 
-#: The accepted values of the ``device`` setting (plus ``cuda:N``).
+#: The accepted values of the `device` setting (plus `cuda:N`).
 DEVICES = ("auto", "cpu", "cuda")
 _CUDA_INDEX = re.compile(r"^cuda:(\d+)$")
 
 
 class DeviceUnavailableError(ValueError):
-    """The ``device`` setting asks for a GPU that this machine (or this torch build) does not have."""
+    """The `device` setting asks for a GPU that this machine (or this torch build) does not have."""
 
 
 def check_device_name(name: str, what: str = "device") -> str:
-    """The canonical spelling of a ``device`` setting (``"auto"``, ``"cpu"``, ``"cuda"`` or
-    ``"cuda:N"``), checking only the name, not whether the device exists. ``what`` names the
-    setting in the error (e.g. ``"params.yaml section 'sec61_subspace' device"``).
+    """The canonical spelling of a `device` setting (`"auto"`, `"cpu"`, `"cuda"` or
+    `"cuda:N"`), checking only the name, not whether the device exists. `what` names the
+    setting in the error (e.g. `"params.yaml section 'sec61_subspace' device"`).
 
     Raises:
-        ValueError: anything else (including ``None``, numbers, ``"gpu"``, ``"mps"``).
+        ValueError: anything else (including `None`, numbers, `"gpu"`, `"mps"`).
     """
     if isinstance(name, torch.device):
         if name.type not in ("cpu", "cuda"):
@@ -60,14 +60,14 @@ def check_device_name(name: str, what: str = "device") -> str:
 
 
 def resolve_device(name: str = "auto", what: str = "device") -> torch.device:
-    """The ``torch.device`` a ``device`` setting means on this machine (module docstring).
+    """The `torch.device` a `device` setting means on this machine (module docstring).
 
-    ``auto`` is ``cuda`` if ``torch.cuda.is_available()`` else ``cpu``; ``cuda`` / ``cuda:N``
-    must name a usable GPU. ``what`` names the setting in error messages.
+    `auto` is `cuda` if `torch.cuda.is_available()` else `cpu`; `cuda` / `cuda:N`
+    must name a usable GPU. `what` names the setting in error messages.
 
     Raises:
-        ValueError: an unknown name (:func:`check_device_name`).
-        DeviceUnavailableError: (a ``ValueError``) ``cuda`` without a usable CUDA GPU, or ``cuda:N``
+        ValueError: an unknown name (`check_device_name`).
+        DeviceUnavailableError: (a `ValueError`) `cuda` without a usable CUDA GPU, or `cuda:N`
             beyond the GPUs present.
     """
     key = check_device_name(name, what)
@@ -93,8 +93,8 @@ def resolve_device(name: str = "auto", what: str = "device") -> torch.device:
 
 
 def device_facts(device) -> dict:
-    """Plain facts about a resolved device, for result files: ``type``, ``name`` (the GPU's
-    name, or ``"cpu"``), and for a GPU its memory in GiB and the CUDA version of torch."""
+    """Plain facts about a resolved device, for result files: `type`, `name` (the GPU's
+    name, or `"cpu"`), and for a GPU its memory in GiB and the CUDA version of torch."""
     device = torch.device(device)
     if device.type != "cuda":
         return {"type": "cpu", "name": "cpu", "torch_threads": torch.get_num_threads()}

@@ -2,27 +2,27 @@
 
 The paper's networks map an arm's DH parameters to its binary workspace map. This module trains
 such a map model for any dataset of the catalogue -- in particular a chain family whose classical
-map is expensive (``panda7``: a 7-joint arm with joint limits and no closed form, whose numerical
+map is expensive (`panda7`: a 7-joint arm with joint limits and no closed form, whose numerical
 map takes about a second per arm) -- with the recipe that works best here (measured in
-``benchmarks/bench_panda7_model.py``):
+`benchmarks/bench_panda7_model.py`):
 
-* inputs: the feature columns that vary across the family (``panda7``: its 6 scale factors; the
+* inputs: the feature columns that vary across the family (`panda7`: its 6 scale factors; the
   grid and orientation columns are the same for every arm and carry nothing), standardised on the
   training split;
 * a tanh MLP whose last layer has one logit per node of the spec's grid, trained with Adam on
   binary cross-entropy, minibatches, a cosine learning-rate schedule over a fixed number of epochs
   (reproducible from the seed on any machine, unlike a time limit), keeping the epoch with the
   lowest validation loss;
-* a node is reachable where ``sigmoid(logit) > 0.5``.
+* a node is reachable where `sigmoid(logit) > 0.5`.
 
-:func:`fit_map_model` returns the model with its ``map_spec`` set (so
-``model.predict_maps(arms)`` gives bool maps ``(B, N)`` in the spec's node order and refuses arms
-outside the training range) and its :class:`~wsmap.learn.training.TrainResult`;
-:func:`evaluate_map_model` scores it on held-out arms (the paper's pooled F-measure and per-arm F);
-:func:`learning_curve` trains on the first ``n`` arms for several ``n`` (more data against more
+`fit_map_model` returns the model with its `map_spec` set (so
+`model.predict_maps(arms)` gives bool maps `(B, N)` in the spec's node order and refuses arms
+outside the training range) and its `TrainResult`;
+`evaluate_map_model` scores it on held-out arms (the paper's pooled F-measure and per-arm F);
+`learning_curve` trains on the first `n` arms for several `n` (more data against more
 epochs: every point has the same recipe).
 
-Shapes: a dataset has ``n`` arms of ``f`` stored features and ``N`` labelled nodes. Networks run
+Shapes: a dataset has `n` arms of `f` stored features and `N` labelled nodes. Networks run
 in float32.
 """
 
@@ -47,16 +47,16 @@ __all__ = ["MapRecipe", "varying_columns", "fit_map_model", "map_scores", "score
 
 @dataclass(frozen=True)
 class MapRecipe:
-    """How :func:`fit_map_model` trains a map model.
+    """How `fit_map_model` trains a map model.
 
     Attributes:
         hidden: hidden layer widths (tanh).
-        lr: Adam's initial learning rate (cosine-annealed to 0 over ``epochs``).
+        lr: Adam's initial learning rate (cosine-annealed to 0 over `epochs`).
         epochs: passes over the training split.
         batch_size: arms per Adam step.
         validation_fraction: share of the training arms held out to pick the best epoch.
         seed: the split and the initial weights.
-        device: ``"auto"``, ``"cpu"``, ``"cuda"`` or ``None`` (the CPU, where models are built).
+        device: `"auto"`, `"cpu"`, `"cuda"` or `None` (the CPU, where models are built).
     """
 
     hidden: tuple[int, ...] = (256, 256)
@@ -85,7 +85,7 @@ class MapRecipe:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> MapRecipe:
-        """From a params section: unknown keys are a ``ValueError`` naming them."""
+        """From a params section: unknown keys are a `ValueError` naming them."""
         names = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(d) - names)
         if unknown:
@@ -101,7 +101,7 @@ class MapRecipe:
         return d
 
     def train_config(self) -> TrainConfig:
-        """The :class:`TrainConfig` of this recipe (no early stop: the best validation epoch is kept)."""
+        """The `TrainConfig` of this recipe (no early stop: the best validation epoch is kept)."""
         v = float(self.validation_fraction)
         return TrainConfig(optimizer="adam", optimizer_kwargs={"lr": float(self.lr)}, lr_decay="cosine",
                            batch_size=int(self.batch_size), loss="crossentropy", max_epochs=int(self.epochs),
@@ -110,7 +110,7 @@ class MapRecipe:
 
 
 def varying_columns(features) -> list[int]:
-    """Indices of the feature columns ``(n, f)`` that are not the same for every row.
+    """Indices of the feature columns `(n, f)` that are not the same for every row.
 
     Peak-to-peak, not the standard deviation: the std of a constant float column can come out as
     1e-17 instead of 0."""
@@ -127,13 +127,13 @@ def _check_dataset(ds, what: str):
 
 
 def fit_map_model(train, recipe: MapRecipe | None = None) -> tuple[SubspaceMLP, TrainResult]:
-    """Train a map model on the dataset ``train`` (all its arms; hold arms out by passing
-    ``dataset.head(n)`` or another file).
+    """Train a map model on the dataset `train` (all its arms; hold arms out by passing
+    `dataset.head(n)` or another file).
 
-    Returns ``(model, result)``: the model at its best validation epoch, with its ``map_spec``
-    set to ``train.spec`` (its outputs are the spec's labelled nodes in node order) and its
-    training range the training split's features; ``result`` the
-    :class:`~wsmap.learn.training.TrainResult` (``result.history`` per epoch, ``seconds``).
+    Returns `(model, result)`: the model at its best validation epoch, with its `map_spec`
+    set to `train.spec` (its outputs are the spec's labelled nodes in node order) and its
+    training range the training split's features; `result` the
+    `TrainResult` (`result.history` per epoch, `seconds`).
     """
     _check_dataset(train, "train")
     recipe = MapRecipe() if recipe is None else recipe
@@ -156,14 +156,14 @@ def fit_map_model(train, recipe: MapRecipe | None = None) -> tuple[SubspaceMLP, 
 
 
 def map_scores(model: SubspaceMLP, features, batch_size: int = 1024) -> np.ndarray:
-    """``sigmoid`` scores (or raw outputs of a linear model) ``(n, N)`` float32 for stored feature rows."""
+    """`sigmoid` scores (or raw outputs of a linear model) `(n, N)` float32 for stored feature rows."""
     with torch.no_grad():
         return model.score(features, key=0, batch_size=batch_size).cpu().numpy()
 
 
 def evaluate_map_model(model: SubspaceMLP, test, threshold: float | None = None) -> dict[str, Any]:
-    """:func:`score_maps` of ``model`` on the held-out dataset ``test`` (same spec as the model's),
-    at ``threshold`` (``None``: the model's ``map_spec`` threshold, 0.5)."""
+    """`score_maps` of `model` on the held-out dataset `test` (same spec as the model's),
+    at `threshold` (`None`: the model's `map_spec` threshold, 0.5)."""
     _check_dataset(test, "test")
     spec = model.map_spec
     if spec is not None:
@@ -183,17 +183,17 @@ def evaluate_map_model(model: SubspaceMLP, test, threshold: float | None = None)
 
 
 def curve_row(train_arms: int, ev: dict, seconds: float, epochs: int) -> dict[str, Any]:
-    """One row of a learning curve: a model trained on ``train_arms`` arms in ``seconds``
-    (``epochs`` run), scored ``ev`` (:func:`evaluate_map_model`). For the full-size model a
-    caller already trained, beside :func:`learning_curve`'s rows."""
+    """One row of a learning curve: a model trained on `train_arms` arms in `seconds`
+    (`epochs` run), scored `ev` (`evaluate_map_model`). For the full-size model a
+    caller already trained, beside `learning_curve`'s rows."""
     return dict(train_arms=int(train_arms), f=ev["f"], precision=ev["precision"], recall=ev["recall"],
                 f_mean=ev["f_mean"], seconds=float(seconds), epochs=int(epochs))
 
 
 def learning_curve(train, test, sizes: Sequence[int], recipe: MapRecipe | None = None) -> list[dict[str, Any]]:
-    """F on ``test`` of models trained (same recipe) on the first ``n`` arms of ``train`` for each
-    ``n`` in ``sizes``: ``[{train_arms, f, precision, recall, f_mean, seconds, epochs}]`` in the
-    order given. A size above ``len(train)`` is a ``ValueError`` before any training."""
+    """F on `test` of models trained (same recipe) on the first `n` arms of `train` for each
+    `n` in `sizes`: `[{train_arms, f, precision, recall, f_mean, seconds, epochs}]` in the
+    order given. A size above `len(train)` is a `ValueError` before any training."""
     _check_dataset(train, "train")
     _check_dataset(test, "test")
     sizes = [int(n) for n in sizes]
@@ -211,17 +211,17 @@ def learning_curve(train, test, sizes: Sequence[int], recipe: MapRecipe | None =
 
 def speed_against_classical(model: SubspaceMLP, test, *, arms: int = 3, repeats: int = 200,
                             threads: int = 1) -> dict[str, Any]:
-    """Seconds per map of the model and of the classical map that labelled ``test``, side by side.
+    """Seconds per map of the model and of the classical map that labelled `test`, side by side.
 
-    The model: :meth:`~wsmap.learn.network.SubspaceMLP.predict_maps` of one held-out arm at a
-    time (``repeats`` calls after a warm-up; features, checks and thresholding included), the way
-    a user asks for one arm's map. The classical map: the labels of the first ``arms`` held-out
-    arms recomputed one arm at a time by :func:`wsmap.datasets.labels_for` (the spec's method:
-    the numerical map search for ``panda7``, at the recall the labels have) and checked equal to
-    the stored labels. Both on ``threads`` threads (torch and the compiled kernels), restored after.
+    The model: `predict_maps` of one held-out arm at a
+    time (`repeats` calls after a warm-up; features, checks and thresholding included), the way
+    a user asks for one arm's map. The classical map: the labels of the first `arms` held-out
+    arms recomputed one arm at a time by `wsmap.datasets.labels_for` (the spec's method:
+    the numerical map search for `panda7`, at the recall the labels have) and checked equal to
+    the stored labels. Both on `threads` threads (torch and the compiled kernels), restored after.
 
-    Returns ``model_s`` (mean), ``model_min_s``, ``classical_s`` (mean per arm), ``speedup``
-    (``classical_s / model_s``), ``threads``, ``arms``, ``nodes``.
+    Returns `model_s` (mean), `model_min_s`, `classical_s` (mean per arm), `speedup`
+    (`classical_s / model_s`), `threads`, `arms`, `nodes`.
     """
     from .. import timing
     from ..datasets import arms_from_features, labels_for

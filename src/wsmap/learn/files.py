@@ -1,9 +1,9 @@
-"""Model files: :func:`save` and :func:`load`, with a SHA-256 checksum over everything stored.
+"""Model files: `save` and `load`, with a SHA-256 checksum over everything stored.
 
-Format (``FORMAT_VERSION = 2``)
+Format (`FORMAT_VERSION = 2`)
 -------------------------------
-One ``torch.save`` file holding a dict of plain containers, numbers, strings and tensors (so
-:func:`load` reads it with ``torch.load(weights_only=True)``; nothing in it can run code)::
+One `torch.save` file holding a dict of plain containers, numbers, strings and tensors (so
+`load` reads it with `torch.load(weights_only=True)`; nothing in it can run code)::
 
     {"format": "wsmap.subspace_mlp", "version": 2, "wsmap_version": "0.1.0",
      "config": MLPConfig.to_dict(),
@@ -14,27 +14,27 @@ One ``torch.save`` file holding a dict of plain containers, numbers, strings and
      "dataset_spec", "train_config", "extra",   # provenance, as given to save()
      "checksum": "sha256:<64 hex digits>"}
 
-``checksum`` is the SHA-256 of a canonical encoding of every other entry (:func:`payload_checksum`:
-dict keys sorted, each value tagged with its type; floats exactly, via ``float.hex``; a tensor as
-its dtype, shape and raw bytes). :func:`load` recomputes it from what it read and refuses the file
-(:class:`ModelFileError`) when it differs, so a flipped bit anywhere in the stored content -- a
+`checksum` is the SHA-256 of a canonical encoding of every other entry (`payload_checksum`:
+dict keys sorted, each value tagged with its type; floats exactly, via `float.hex`; a tensor as
+its dtype, shape and raw bytes). `load` recomputes it from what it read and refuses the file
+(`ModelFileError`) when it differs, so a flipped bit anywhere in the stored content -- a
 weight, the config, the map spec, the training range -- is an error, never a silently different
 model. (Bits of the zip container that do not reach the content, such as record padding, can
 change without changing what loads: the model is then identical.) The file is written atomically:
 a temporary file beside the target renamed over it.
 
 Files of format version 1 (written before the checksum existed) are refused by default, with a
-message saying how to re-save them; ``load(path, allow_unverified=True)`` reads one with an
-:class:`UnverifiedModelWarning`.
+message saying how to re-save them; `load(path, allow_unverified=True)` reads one with an
+`UnverifiedModelWarning`.
 
 Errors
 ------
-:func:`load` raises :class:`ModelFileError` (a ``ValueError``) ``"cannot load model <path>:
-<problem>"`` for a missing path, a directory, an unreadable file (permissions), an empty,
+`load` raises `ModelFileError` (a `ValueError`) `"cannot load model <path>:
+<problem>"` for a missing path, a directory, an unreadable file (permissions), an empty,
 truncated or corrupt file, a file that is not a wsmap model, a checksum mismatch, an old or newer
 format, an invalid config, map spec or training range, and a state that does not match the config.
-:func:`save` raises ``TypeError`` for a model or provenance it cannot store, ``ModelFileError``
-for a path that cannot be a file (a directory, below a regular file), and ``OSError`` (naming the
+`save` raises `TypeError` for a model or provenance it cannot store, `ModelFileError`
+for a path that cannot be a file (a directory, below a regular file), and `OSError` (naming the
 path) when writing fails.
 """
 
@@ -73,7 +73,7 @@ __all__ = [
 ]
 
 FORMAT = "wsmap.subspace_mlp"
-#: 2: a checksum and the training range; 1: neither (read only with ``allow_unverified=True``).
+#: 2: a checksum and the training range; 1: neither (read only with `allow_unverified=True`).
 FORMAT_VERSION = 2
 _CHECKSUM_PREFIX = "sha256:"
 
@@ -83,7 +83,7 @@ class ModelFileError(ValueError):
 
 
 class UnverifiedModelWarning(UserWarning):
-    """A model file without a checksum (format version 1) was loaded with ``allow_unverified=True``."""
+    """A model file without a checksum (format version 1) was loaded with `allow_unverified=True`."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -92,9 +92,9 @@ class UnverifiedModelWarning(UserWarning):
 
 
 def _plain(value, where: str):
-    """``value`` as ``weights_only``-loadable content: dicts (str keys), lists, str, int, float,
+    """`value` as `weights_only`-loadable content: dicts (str keys), lists, str, int, float,
     bool, None, tensors. Tuples -> lists, numpy -> Python/lists, paths -> str, dataclasses and
-    objects with ``to_dict()`` -> dicts; anything else raises ``TypeError``."""
+    objects with `to_dict()` -> dicts; anything else raises `TypeError`."""
     if isinstance(value, np.generic):  # before the builtins: np.float64 is a float subclass
         value = value.item()
     if value is None:
@@ -126,7 +126,7 @@ def _plain(value, where: str):
 
 
 def _feed(h, value) -> None:
-    """Feed a canonical, type-tagged encoding of ``value`` to the hash ``h``."""
+    """Feed a canonical, type-tagged encoding of `value` to the hash `h`."""
     def put(tag: bytes, data: bytes) -> None:
         h.update(tag + struct.pack("<Q", len(data)) + data)
 
@@ -161,11 +161,11 @@ def _feed(h, value) -> None:
 
 
 def payload_checksum(payload: dict) -> str:
-    """``"sha256:<hex>"`` of every entry of a model-file payload except ``"checksum"``.
+    """`"sha256:<hex>"` of every entry of a model-file payload except `"checksum"`.
 
-    The encoding is canonical (sorted dict keys, type tags, lengths, floats via ``float.hex``,
+    The encoding is canonical (sorted dict keys, type tags, lengths, floats via `float.hex`,
     tensors as dtype, shape and little-endian bytes), so equal content gives equal checksums.
-    Raises ``ValueError`` for content a model file cannot hold.
+    Raises `ValueError` for content a model file cannot hold.
     """
     if not isinstance(payload, dict):
         raise ValueError(f"a model payload is a dict; got {type(payload).__name__}")
@@ -197,22 +197,22 @@ def _check_output_path(path) -> Path:
 
 def save(model: SubspaceMLP, path: PathLike, *, dataset_spec: dict | None = None, train_config: dict | None = None,
          extra: dict | None = None, training_data: Any | None = None) -> Path:
-    """Write ``model`` and its provenance to ``path`` atomically (module docstring); returns the path.
+    """Write `model` and its provenance to `path` atomically (module docstring); returns the path.
 
     Args:
-        model: a :class:`~wsmap.learn.network.SubspaceMLP`.
+        model: a `SubspaceMLP`.
         path: the file to write (folders are created).
         dataset_spec, train_config, extra: provenance: dicts, dataclasses or objects with
-            ``to_dict()`` (e.g. ``DatasetSpec``, ``TrainConfig``), stored as plain values.
+            `to_dict()` (e.g. `DatasetSpec`, `TrainConfig`), stored as plain values.
         training_data: what the model was trained on, to record its training range: training
-            features ``(n, n_inputs)``, a dataset (``.features``) or a
-            :class:`~wsmap.learn.training_range.TrainingRange`. ``None``: the model's own
-            :attr:`~wsmap.learn.network.SubspaceMLP.training_range` (set by ``configure``). A
-            model with a ``map_spec`` but no range at all is saved with a ``UserWarning``: its
-            maps will be refused unless ``allow_extrapolation=True``.
+            features `(n, n_inputs)`, a dataset (`.features`) or a
+            `TrainingRange`. `None`: the model's own
+            `training_range` (set by `configure`). A
+            model with a `map_spec` but no range at all is saved with a `UserWarning`: its
+            maps will be refused unless `allow_extrapolation=True`.
 
-    The stored range gets feature names (``d_1``, ..., ``r_3``) from the map spec's dataset or
-    ``dataset_spec`` when one has the model's feature layout.
+    The stored range gets feature names (`d_1`, ..., `r_3`) from the map spec's dataset or
+    `dataset_spec` when one has the model's feature layout.
     """
     if not isinstance(model, SubspaceMLP):
         raise TypeError(f"save needs a SubspaceMLP; got {type(model).__name__}")
@@ -283,23 +283,23 @@ def _read(path, fail) -> bytes:
 
 def load(path: PathLike, *, map_location: str | torch.device = "cpu",
          allow_unverified: bool = False) -> tuple[SubspaceMLP, dict[str, Any]]:
-    """Read a file written by :func:`save` -> ``(model, meta)``.
+    """Read a file written by `save` -> `(model, meta)`.
 
-    ``meta``: ``path`` (str), ``format``, ``version``, ``wsmap_version``, ``dataset_spec``,
-    ``train_config``, ``extra``, ``map_spec``, ``training_range`` (the stored dict, ``None`` where
-    absent), ``checksum`` (``None`` for version-1 files). The model is in eval mode and has its
-    ``map_spec`` and ``training_range`` back (``None`` where the file has none).
+    `meta`: `path` (str), `format`, `version`, `wsmap_version`, `dataset_spec`,
+    `train_config`, `extra`, `map_spec`, `training_range` (the stored dict, `None` where
+    absent), `checksum` (`None` for version-1 files). The model is in eval mode and has its
+    `map_spec` and `training_range` back (`None` where the file has none).
 
     Args:
         path: the model file.
         map_location: device for the parameters (the file is read and verified on the CPU).
         allow_unverified: read a format-1 file (no checksum) with an
-            :class:`UnverifiedModelWarning` instead of refusing it.
+            `UnverifiedModelWarning` instead of refusing it.
 
     Raises:
-        ModelFileError: (a ``ValueError``) ``"cannot load model <path>: <problem>"``; see the
+        ModelFileError: (a `ValueError`) `"cannot load model <path>: <problem>"`; see the
             module docstring.
-        TypeError: ``path`` is not a str or path.
+        TypeError: `path` is not a str or path.
     """
     def fail(problem: str, cause: BaseException | None = None):
         raise ModelFileError(f"cannot load model {path}: {problem}") from cause

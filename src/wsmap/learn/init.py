@@ -1,16 +1,16 @@
-"""Weight initialisation of the subspace networks: MATLAB's ``initnw`` (Nguyen–Widrow), ``rands``, torch's default.
+"""Weight initialisation of the subspace networks: MATLAB's `initnw` (Nguyen–Widrow), `rands`, torch's default.
 
-The paper's networks are MATLAB ``feedforwardnet``s, whose default layer initialisation is
-``initnw``: hidden (``tansig``) layers get Nguyen–Widrow weights computed from their input ranges
-(:func:`nguyen_widrow_`), the linear output layer gets ``rands`` (:func:`matlab_rands_`, uniform on
-``[-1, 1]``: ``initnw`` falls back to it for a transfer function with an unbounded active input
-range such as ``purelin``). :func:`torch_default_` is PyTorch's ``nn.Linear`` default
-(``U(-1/sqrt(fan_in), 1/sqrt(fan_in))`` for weights and biases), used by ``init="torch"``.
+The paper's networks are MATLAB `feedforwardnet`s, whose default layer initialisation is
+`initnw`: hidden (`tansig`) layers get Nguyen–Widrow weights computed from their input ranges
+(`nguyen_widrow_`), the linear output layer gets `rands` (`matlab_rands_`, uniform on
+`[-1, 1]`: `initnw` falls back to it for a transfer function with an unbounded active input
+range such as `purelin`). `torch_default_` is PyTorch's `nn.Linear` default
+(`U(-1/sqrt(fan_in), 1/sqrt(fan_in))` for weights and biases), used by `init="torch"`.
 
-Each initialiser works in place on an ``nn.Linear`` or on the stacked layout of
-:class:`wsmap.learn.network.SubspaceMLP` (weights ``(in, out)`` or ``(S, in, out)``, biases
-``(out,)`` or ``(S, out)``), draws in float64 from an optional ``torch.Generator`` and returns
-``(weight, bias)``.
+Each initialiser works in place on an `nn.Linear` or on the stacked layout of
+`wsmap.learn.network.SubspaceMLP` (weights `(in, out)` or `(S, in, out)`, biases
+`(out,)` or `(S, out)`), draws in float64 from an optional `torch.Generator` and returns
+`(weight, bias)`.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ def _to_numpy(a) -> np.ndarray:
 
 
 def _input_range_array(input_range, n_in: int) -> np.ndarray:
-    """``input_range`` as float64 ``(n_in, 2)`` rows ``[min, max]``; ``None`` -> ``[-1, 1]``."""
+    """`input_range` as float64 `(n_in, 2)` rows `[min, max]`; `None` -> `[-1, 1]`."""
     if input_range is None:
         return np.tile([-1.0, 1.0], (n_in, 1))
     pr = np.asarray(_to_numpy(input_range), dtype=np.float64)
@@ -47,14 +47,14 @@ def _input_range_array(input_range, n_in: int) -> np.ndarray:
 
 
 def _rands(shape, generator) -> torch.Tensor:
-    """MATLAB ``rands``: uniform on ``[-1, 1]``, float64."""
+    """MATLAB `rands`: uniform on `[-1, 1]`, float64."""
     return torch.rand(shape, generator=generator, dtype=torch.float64) * 2 - 1
 
 
 def _calcnw(s: int, pr: np.ndarray, active: tuple[float, float], generator) -> tuple[torch.Tensor, torch.Tensor]:
-    """MATLAB ``initnw``'s ``calcnw`` for ``s`` neurons: weights ``(s, R)`` and biases ``(s,)``, float64.
+    """MATLAB `initnw`'s `calcnw` for `s` neurons: weights `(s, R)` and biases `(s,)`, float64.
 
-    ``pr``: ``(R, 2)`` input ranges; ``active``: the transfer function's active input range.
+    `pr`: `(R, 2)` input ranges; `active`: the transfer function's active input range.
     """
     R = pr.shape[0]
     if R == 0 or s == 0:
@@ -94,10 +94,10 @@ def _calcnw(s: int, pr: np.ndarray, active: tuple[float, float], generator) -> t
 
 
 def _as_weight_bias(linear_or_weight, bias, fn_name: str):
-    """Normalise the (layer | weight, bias) arguments: list of ``(w_view (out, in), b_view (out,))``.
+    """Normalise the (layer | weight, bias) arguments: list of `(w_view (out, in), b_view (out,))`.
 
-    ``nn.Linear``: its ``weight`` ``(out, in)`` and ``bias``. A tensor: the stacked layout
-    ``(in, out)`` or ``(S, in, out)``, bias ``(out,)`` or ``(S, out)``.
+    `nn.Linear`: its `weight` `(out, in)` and `bias`. A tensor: the stacked layout
+    `(in, out)` or `(S, in, out)`, bias `(out,)` or `(S, out)`.
     """
     if isinstance(linear_or_weight, nn.Linear):
         layer = linear_or_weight
@@ -124,36 +124,36 @@ def _as_weight_bias(linear_or_weight, bias, fn_name: str):
 def nguyen_widrow_(linear_or_weight: torch.nn.Module | torch.Tensor, bias: torch.Tensor | None = None,
                    input_range: ArrayLike | None = None, *, active_range: tuple[float, float] = (-2.0, 2.0),
                    generator: torch.Generator | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-    """Nguyen–Widrow initialisation in place, as MATLAB's ``initnw`` (``calcnw``) for a tanh layer.
+    """Nguyen–Widrow initialisation in place, as MATLAB's `initnw` (`calcnw`) for a tanh layer.
 
     Args:
-        linear_or_weight: an ``nn.Linear`` (weight ``(H, N)``; its own bias unless ``bias`` is
-            given), or a weight tensor in :class:`SubspaceMLP`'s layout, ``(N, H)`` or stacked
-            ``(S, N, H)`` (each of the S slices gets its own random draw, in order).
-        bias: the bias, ``(H,)`` or ``(S, H)``; required with a weight tensor.
-        input_range: ``(N, 2)`` rows ``[min, max]`` of each input (torch or numpy), or ``(2,)``
-            for all; ``None``: ``[-1, 1]`` for every input. MATLAB uses the min/max over the
+        linear_or_weight: an `nn.Linear` (weight `(H, N)`; its own bias unless `bias` is
+            given), or a weight tensor in `SubspaceMLP`'s layout, `(N, H)` or stacked
+            `(S, N, H)` (each of the S slices gets its own random draw, in order).
+        bias: the bias, `(H,)` or `(S, H)`; required with a weight tensor.
+        input_range: `(N, 2)` rows `[min, max]` of each input (torch or numpy), or `(2,)`
+            for all; `None`: `[-1, 1]` for every input. MATLAB uses the min/max over the
             training inputs (after input processing) for the first layer and the previous
             layer's output range ([-1, 1] for tansig) for the others.
-        active_range: the net-input interval to spread the neurons over; MATLAB's ``tansig``
-            active input range is ``[-2, 2]`` (``logsig``: ``[-4, 4]``).
+        active_range: the net-input interval to spread the neurons over; MATLAB's `tansig`
+            active input range is `[-2, 2]` (`logsig`: `[-4, 4]`).
         generator: random source (default: the global torch RNG).
 
-    What is computed, for ``H`` neurons and the ``r`` inputs whose range is not a single point
-    (constant inputs get weight 0 and do not count; a non-finite range counts as ``[0, 1]``):
+    What is computed, for `H` neurons and the `r` inputs whose range is not a single point
+    (constant inputs get weight 0 and do not count; a non-finite range counts as `[0, 1]`):
 
-    1. ``beta = 0.7 * H**(1/r)``; each neuron's weight row is ``beta * u / |u|`` with ``u``
-       uniform on ``[-1, 1]^r`` (MATLAB ``randnr``); biases ``beta * linspace(-1, 1, H) *
-       sign(w[:, 0])`` (0 when ``H == 1``). This places the neurons for inputs in ``[-1, 1]``
-       and net inputs in ``[-1, 1]``.
-    2. Scale to the active range ``[lo, hi]``: ``w *= (hi - lo)/2``, ``b = b (hi - lo)/2 +
-       (hi + lo)/2``. For tanh, each row then has norm ``1.4 * H**(1/r)``.
-    3. Map each input's ``[min, max]`` onto ``[-1, 1]``: with ``s_i = 2/(max_i - min_i)`` and
-       ``c_i = 1 - max_i s_i``, ``b += w @ c`` and ``w[:, i] *= s_i``. Hence on an input at the
-       centre of its range the net input is ``b`` of step 2, and ``w[:, i] * (max_i - min_i)/2``
+    1. `beta = 0.7 * H**(1/r)`; each neuron's weight row is `beta * u / |u|` with `u`
+       uniform on `[-1, 1]^r` (MATLAB `randnr`); biases `beta * linspace(-1, 1, H) *
+       sign(w[:, 0])` (0 when `H == 1`). This places the neurons for inputs in `[-1, 1]`
+       and net inputs in `[-1, 1]`.
+    2. Scale to the active range `[lo, hi]`: `w *= (hi - lo)/2`, `b = b (hi - lo)/2 +
+       (hi + lo)/2`. For tanh, each row then has norm `1.4 * H**(1/r)`.
+    3. Map each input's `[min, max]` onto `[-1, 1]`: with `s_i = 2/(max_i - min_i)` and
+       `c_i = 1 - max_i s_i`, `b += w @ c` and `w[:, i] *= s_i`. Hence on an input at the
+       centre of its range the net input is `b` of step 2, and `w[:, i] * (max_i - min_i)/2`
        has the row norms of step 2.
 
-    Computed in float64 and copied into the tensors (any dtype). Returns ``(weight, bias)``.
+    Computed in float64 and copied into the tensors (any dtype). Returns `(weight, bias)`.
     """
     weight, bias, slices = _as_weight_bias(linear_or_weight, bias, "nguyen_widrow_")
     n_in = slices[0][0].shape[1]
@@ -168,11 +168,11 @@ def nguyen_widrow_(linear_or_weight: torch.nn.Module | torch.Tensor, bias: torch
 
 def matlab_rands_(linear_or_weight: torch.nn.Module | torch.Tensor, bias: torch.Tensor | None = None, *,
                   generator: torch.Generator | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-    """MATLAB ``rands`` in place: weights and biases uniform on ``[-1, 1]``.
+    """MATLAB `rands` in place: weights and biases uniform on `[-1, 1]`.
 
-    ``initnw`` uses this for layers whose transfer function has an unbounded active input range
-    (the linear ``purelin`` output layer). Same argument layouts as :func:`nguyen_widrow_`; per
-    slice the weights ``(H, N)`` are drawn first (MATLAB's row order), then the biases.
+    `initnw` uses this for layers whose transfer function has an unbounded active input range
+    (the linear `purelin` output layer). Same argument layouts as `nguyen_widrow_`; per
+    slice the weights `(H, N)` are drawn first (MATLAB's row order), then the biases.
     """
     weight, bias, slices = _as_weight_bias(linear_or_weight, bias, "matlab_rands_")
     with torch.no_grad():
@@ -184,10 +184,10 @@ def matlab_rands_(linear_or_weight: torch.nn.Module | torch.Tensor, bias: torch.
 
 def torch_default_(linear_or_weight: torch.nn.Module | torch.Tensor, bias: torch.Tensor | None = None, *,
                    generator: torch.Generator | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-    """PyTorch's ``nn.Linear`` default in place: weights and biases ``U(-1/sqrt(N), 1/sqrt(N))``.
+    """PyTorch's `nn.Linear` default in place: weights and biases `U(-1/sqrt(N), 1/sqrt(N))`.
 
-    (``kaiming_uniform_(a=sqrt(5))`` on the weight gives exactly that bound.) Same layouts as
-    :func:`nguyen_widrow_`.
+    (`kaiming_uniform_(a=sqrt(5))` on the weight gives exactly that bound.) Same layouts as
+    `nguyen_widrow_`.
     """
     weight, bias, slices = _as_weight_bias(linear_or_weight, bias, "torch_default_")
     with torch.no_grad():

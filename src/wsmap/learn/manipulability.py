@@ -2,46 +2,46 @@
 
 What is learned
 ---------------
-Inputs: the family's four free DH parameters in the order :func:`wsmap.robots.sample_spherical_wrist`
-draws them, :data:`PARAM_NAMES` ``= (d3, d4, a2, a3)``, metres (every other DH value is fixed:
-``d1 = 0``, the twists of :data:`wsmap.kinematics.SPHERICAL_WRIST_ALPHA`, no joint limits, no tool).
+Inputs: the family's four free DH parameters in the order `wsmap.robots.sample_spherical_wrist`
+draws them, `PARAM_NAMES` `= (d3, d4, a2, a3)`, metres (every other DH value is fixed:
+`d1 = 0`, the twists of `wsmap.kinematics.SPHERICAL_WRIST_ALPHA`, no joint limits, no tool).
 
-Outputs: the manipulability map of the map-kinds issue (:func:`wsmap.workspace.manipulability_map`):
-at each node the largest Yoshikawa manipulability ``√det(J Jᵀ)`` over the 8 closed-form IK
-branches, 0 where the pose is unreachable. ``J`` is the 6 x 6 geometric Jacobian in the base frame
-(rows ``[v; ω]``: m/rad and rad/rad), so the value is ``|det J|`` in **m³** (per rad³ of joint
-motion); over the family it lies in ``[0, ~0.3]`` m³. Targets are exact
-(:func:`wsmap.workspace.manipulability_maps`, float64, stored as float32).
+Outputs: the manipulability map of the map-kinds issue (`wsmap.workspace.manipulability_map`):
+at each node the largest Yoshikawa manipulability `√det(J Jᵀ)` over the 8 closed-form IK
+branches, 0 where the pose is unreachable. `J` is the 6 x 6 geometric Jacobian in the base frame
+(rows `[v; ω]`: m/rad and rad/rad), so the value is `|det J|` in **m³** (per rad³ of joint
+motion); over the family it lies in `[0, ~0.3]` m³. Targets are exact
+(`wsmap.workspace.manipulability_maps`, float64, stored as float32).
 
-The grid and the pose are the paper's R3 section 6.1 spec (``sec61``): nodes on ``[-1, 1]³`` m at
-0.1 m (21³ = 9261, first coordinate fastest, :func:`wsmap.workspace.cartesian_grid`), flange
-positions in the base frame, fixed orientation ``rpy = (0, 0, 0)`` under the paper's convention
-(``Rx·Ry·Rz·transl(p)``, which is ``transl(p)`` at that orientation, so the ``standard`` convention
-gives the same map). All 9261 nodes are mapped, as ``sec62`` does, not ``sec61``'s block-5 selection.
+The grid and the pose are the paper's R3 section 6.1 spec (`sec61`): nodes on `[-1, 1]³` m at
+0.1 m (21³ = 9261, first coordinate fastest, `wsmap.workspace.cartesian_grid`), flange
+positions in the base frame, fixed orientation `rpy = (0, 0, 0)` under the paper's convention
+(`Rx·Ry·Rz·transl(p)`, which is `transl(p)` at that orientation, so the `standard` convention
+gives the same map). All 9261 nodes are mapped, as `sec62` does, not `sec61`'s block-5 selection.
 
 The model
 ---------
-A :class:`ManipulabilityModel`: a :class:`~wsmap.learn.network.SubspaceMLP` (one subspace, 4
+A `ManipulabilityModel`: a `SubspaceMLP` (one subspace, 4
 standardised inputs, tanh hidden layers, 9261 linear outputs, float32) and the target transform
-it was trained on: ``"linear"`` (the map itself) or ``"sqrt"`` (its square root, which spreads the
+it was trained on: `"linear"` (the map itself) or `"sqrt"` (its square root, which spreads the
 small values near the workspace boundary), divided by one global scale (the training targets'
 standard deviation, so the MSE loss stays a multiple of the squared error in the map's own units
-for ``"linear"``). Predictions are transformed back and clipped at 0 (manipulability is never
+for `"linear"`). Predictions are transformed back and clipped at 0 (manipulability is never
 negative; the network's small negative outputs outside the workspace are noise). Training: Adam
-in minibatches, MSE, early stopping on a validation split (:func:`wsmap.learn.train`).
+in minibatches, MSE, early stopping on a validation split (`wsmap.learn.train`).
 
 Inputs outside the family are refused the way the map models refuse them
-(:mod:`wsmap.learn.training_range`): parameters outside the range the model was trained on raise
-:class:`~wsmap.learn.training_range.ExtrapolationError` (a ``ValueError``) unless
-``allow_extrapolation=True``; arms that are not of the family (other twists, ``d1 ≠ 0``, joint
-limits, a tool) and arrays of the wrong shape raise ``ValueError``.
+(`wsmap.learn.training_range`): parameters outside the range the model was trained on raise
+`ExtrapolationError` (a `ValueError`) unless
+`allow_extrapolation=True`; arms that are not of the family (other twists, `d1 ≠ 0`, joint
+limits, a tool) and arrays of the wrong shape raise `ValueError`.
 
-Measured (``benchmarks/bench_manipulability_model.py --epochs 60``, one thread): 4000 training
+Measured (`benchmarks/bench_manipulability_model.py --epochs 60`, one thread): 4000 training
 arms, the default config (60 epochs), 500 held-out arms: R² 0.9947 pooled over arms x nodes, MAE
 0.00064 m³; on the reachable nodes R² 0.9925, MAE 0.0026 m³; largest error 0.080 m³ (the earlier
 time-limited default, 150 s or 63 epochs: R² 0.9948). A map costs
 0.13 ms per arm predicted in bulk (0.3 ms for one arm) against 1.8-2.6 ms exact
-(:func:`wsmap.workspace.manipulability_maps`). ``docs/design-and-learned-maps.md`` (section "A learned manipulability map") has the runs.
+(`wsmap.workspace.manipulability_maps`). `docs/design-and-learned-maps.md` (section "A learned manipulability map") has the runs.
 """
 
 from __future__ import annotations
@@ -83,24 +83,24 @@ __all__ = [
     "load_manipulability_model",
 ]
 
-#: The family's free parameters, in the input order (metres): :data:`wsmap.robots.SPHERICAL_WRIST`'s.
+#: The family's free parameters, in the input order (metres): `wsmap.robots.SPHERICAL_WRIST`'s.
 PARAM_NAMES = SPHERICAL_WRIST.params
-#: Their range in the paper's family: each ~ U(0, 0.5) m (``sample_spherical_wrist``'s ``beta``).
+#: Their range in the paper's family: each ~ U(0, 0.5) m (`sample_spherical_wrist`'s `beta`).
 FAMILY_RANGE = (SPHERICAL_WRIST.low, SPHERICAL_WRIST.high)
 #: Target transforms: what the network's outputs are, up to the stored scale.
 MANIPULABILITY_TARGETS = ("linear", "sqrt")
-#: The ``extra["kind"]`` tag of a saved manipulability model.
+#: The `extra["kind"]` tag of a saved manipulability model.
 MANIPULABILITY_KIND = "wsmap.manipulability"
 #: The dataset spec whose grid, orientation and pose convention the maps use ...
 GRID_SPEC = "sec61"
-#: ... and those settings, as ``wsmap.paper.specs.paper_spec("sec61")`` has them (a test checks;
-#: learn does not import the paper's package): ``[lo, hi]³`` m at ``step``, ``rpy`` rad.
+#: ... and those settings, as `wsmap.paper.specs.paper_spec("sec61")` has them (a test checks;
+#: learn does not import the paper's package): `[lo, hi]³` m at `step`, `rpy` rad.
 _GRID = {"lo": -1.0, "hi": 1.0, "step": 0.1, "rpy": (0.0, 0.0, 0.0), "convention": "paper"}
 
 
 def manipulability_grid() -> dict[str, Any]:
-    """The grid and pose of the maps: ``nodes`` ``(9261, 3)`` (m, base frame, node order), ``rpy``
-    (rad), ``convention``, ``lo``, ``hi``, ``step`` (m) and ``spec`` (the paper's spec they are
+    """The grid and pose of the maps: `nodes` `(9261, 3)` (m, base frame, node order), `rpy`
+    (rad), `convention`, `lo`, `hi`, `step` (m) and `spec` (the paper's spec they are
     taken from)."""
     from ..workspace import cartesian_grid
 
@@ -124,13 +124,13 @@ def _arm_params(arms: DHRobot) -> np.ndarray:
 
 
 def manipulability_params(arms_or_params: Arm | ArrayLike) -> tuple[np.ndarray, bool]:
-    """``(params (B, 4) float64, single)``: the four free parameters ``(d3, d4, a2, a3)`` (m) of
-    arms (a spherical-wrist :class:`~wsmap.kinematics.DHRobot`, one arm or a batch of any shape,
-    flattened) or of a parameter array ``(4,)`` / ``(B, 4)``; ``single`` says the input was one arm.
+    """`(params (B, 4) float64, single)`: the four free parameters `(d3, d4, a2, a3)` (m) of
+    arms (a spherical-wrist `DHRobot`, one arm or a batch of any shape,
+    flattened) or of a parameter array `(4,)` / `(B, 4)`; `single` says the input was one arm.
 
     Raises:
         ValueError: an array of another shape or with NaN/inf; arms outside the family.
-        TypeError: neither a ``DHRobot`` nor an array of numbers.
+        TypeError: neither a `DHRobot` nor an array of numbers.
     """
     if isinstance(arms_or_params, DHRobot):
         p = _arm_params(arms_or_params)
@@ -158,8 +158,8 @@ def _arms_of(params: np.ndarray) -> DHRobot:
 
 
 def manipulability_targets(arms_or_params: Arm | ArrayLike) -> np.ndarray:
-    """Exact manipulability maps (m³) on the ``sec61`` grid: float64 ``(B, 9261)`` (``(9261,)`` for
-    one arm or a ``(4,)`` parameter vector); inputs as :func:`manipulability_params` (any values:
+    """Exact manipulability maps (m³) on the `sec61` grid: float64 `(B, 9261)` (`(9261,)` for
+    one arm or a `(4,)` parameter vector); inputs as `manipulability_params` (any values:
     the closed form holds outside the sampled range too)."""
     from ..workspace import manipulability_maps
 
@@ -171,9 +171,9 @@ def manipulability_targets(arms_or_params: Arm | ArrayLike) -> np.ndarray:
 
 def manipulability_dataset(count: int, seed: int | None = None, *, beta: float = FAMILY_RANGE[1]
                           ) -> tuple[np.ndarray, np.ndarray]:
-    """``count`` arms of the family (:func:`wsmap.robots.sample_spherical_wrist` with ``seed`` and
-    ``beta``) -> ``(params, targets)``: float64 ``(count, 4)`` ``(d3, d4, a2, a3)`` in m and float32
-    ``(count, 9261)`` exact manipulability maps in m³ (:func:`manipulability_targets`).
+    """`count` arms of the family (`wsmap.robots.sample_spherical_wrist` with `seed` and
+    `beta`) -> `(params, targets)`: float64 `(count, 4)` `(d3, d4, a2, a3)` in m and float32
+    `(count, 9261)` exact manipulability maps in m³ (`manipulability_targets`).
 
     About 3.5 ms per arm on one thread; 37 KB of targets per arm.
     """
@@ -197,15 +197,15 @@ def _check_target(target: str) -> str:
 
 @dataclass
 class ManipulabilityModel:
-    """A network predicting manipulability maps from ``(d3, d4, a2, a3)``.
+    """A network predicting manipulability maps from `(d3, d4, a2, a3)`.
 
     Attributes:
-        network: a :class:`~wsmap.learn.network.SubspaceMLP` with ``n_inputs = 4``, one subspace,
-            ``n_outputs = 9261``, linear outputs; its training range is the parameters' range.
-        target: ``"linear"`` or ``"sqrt"``: the network's output times ``scale`` is the map (m³)
+        network: a `SubspaceMLP` with `n_inputs = 4`, one subspace,
+            `n_outputs = 9261`, linear outputs; its training range is the parameters' range.
+        target: `"linear"` or `"sqrt"`: the network's output times `scale` is the map (m³)
             or its square root (m^1.5).
         scale: positive float, the global output scale.
-        grid: the spec whose grid and pose the outputs are (``"sec61"``).
+        grid: the spec whose grid and pose the outputs are (`"sec61"`).
     """
 
     network: SubspaceMLP
@@ -241,30 +241,30 @@ class ManipulabilityModel:
         return y * y if self.target == "sqrt" else y
 
     def extra(self) -> dict[str, Any]:
-        """What a model file keeps besides the network (``save(..., extra=...)``)."""
+        """What a model file keeps besides the network (`save(..., extra=...)`)."""
         return {"kind": MANIPULABILITY_KIND, "target": self.target, "scale": self.scale, "grid": self.grid,
                 "inputs": list(PARAM_NAMES), "input_unit": "m", "output_unit": "m^3"}
 
 
 @dataclass
 class ManipulabilityTrainConfig:
-    """How :func:`train_manipulability_model` trains.
+    """How `train_manipulability_model` trains.
 
     Attributes:
         hidden: tanh hidden layer widths.
-        target: ``"linear"`` or ``"sqrt"`` (:class:`ManipulabilityModel`).
-        lr: Adam's initial learning rate; ``batch_size``: arms per step.
-        max_epochs: passes over the training arms at most; ``max_fail``: validation failures in a
+        target: `"linear"` or `"sqrt"` (`ManipulabilityModel`).
+        lr: Adam's initial learning rate; `batch_size`: arms per step.
+        max_epochs: passes over the training arms at most; `max_fail`: validation failures in a
             row that stop training (the best validation epoch is kept).
-        time_limit_s: stop after this many seconds (``None``: none).
-        lr_decay: ``None``, ``"cosine"`` (over ``max_epochs``, reproducible) or ``"cosine-time"``
-            (over ``time_limit_s``; depends on the machine's speed).
+        time_limit_s: stop after this many seconds (`None`: none).
+        lr_decay: `None`, `"cosine"` (over `max_epochs`, reproducible) or `"cosine-time"`
+            (over `time_limit_s`; depends on the machine's speed).
         val_fraction: arms held out of the training parameters for early stopping.
         seed: the split and the initial weights.
 
     The default is an epoch budget (60 epochs, cosine decay over them, no time limit), so the same
-    arms and seed give the same model on any machine; a time limit (``time_limit_s`` with
-    ``"cosine-time"``) trades that for a bounded wall time.
+    arms and seed give the same model on any machine; a time limit (`time_limit_s` with
+    `"cosine-time"`) trades that for a bounded wall time.
     """
 
     hidden: tuple[int, ...] = (256, 256, 256)
@@ -311,8 +311,8 @@ def _check_pair(params, targets) -> tuple[np.ndarray, np.ndarray]:
 
 def train_manipulability_model(params: ArrayLike, targets: ArrayLike, config: ManipulabilityTrainConfig | None = None
                                ) -> tuple[ManipulabilityModel, TrainResult]:
-    """Train a :class:`ManipulabilityModel` on ``params`` ``(B, 4)`` (m) and exact ``targets``
-    ``(B, 9261)`` (m³, :func:`manipulability_dataset`) -> ``(model, train_result)``.
+    """Train a `ManipulabilityModel` on `params` `(B, 4)` (m) and exact `targets`
+    `(B, 9261)` (m³, `manipulability_dataset`) -> `(model, train_result)`.
 
     With the default [256, 256, 256] network one thread runs 18-25 epochs of 4000 arms a minute
     (measured on a shared 2-core machine), so the default 60 epochs take 2.5-3.5 minutes; the
@@ -344,20 +344,20 @@ def train_manipulability_model(params: ArrayLike, targets: ArrayLike, config: Ma
 
 def predict_manipulability(model: ManipulabilityModel, arms_or_params: Arm | ArrayLike, *,
                            allow_extrapolation: bool = False, batch_size: int | None = 4096) -> np.ndarray:
-    """Predicted manipulability maps (m³) on the ``sec61`` grid: float32 ``(B, 9261)``, or
-    ``(9261,)`` for one arm or one ``(4,)`` parameter vector; nodes in the grid's order, 0 or more.
+    """Predicted manipulability maps (m³) on the `sec61` grid: float32 `(B, 9261)`, or
+    `(9261,)` for one arm or one `(4,)` parameter vector; nodes in the grid's order, 0 or more.
 
     Args:
-        model: a :class:`ManipulabilityModel`.
-        arms_or_params: a spherical-wrist :class:`~wsmap.kinematics.DHRobot` (``d1 = 0``, no joint
-            limits, no tool; one arm or a batch, flattened) or parameters ``(B, 4)`` / ``(4,)``,
-            columns ``(d3, d4, a2, a3)`` in m.
+        model: a `ManipulabilityModel`.
+        arms_or_params: a spherical-wrist `DHRobot` (`d1 = 0`, no joint
+            limits, no tool; one arm or a batch, flattened) or parameters `(B, 4)` / `(4,)`,
+            columns `(d3, d4, a2, a3)` in m.
         allow_extrapolation: predict for parameters outside the model's training range with an
-            :class:`~wsmap.learn.training_range.ExtrapolationWarning` instead of refusing them.
+            `ExtrapolationWarning` instead of refusing them.
         batch_size: arms per forward pass (memory: 37 KB of float32 output per arm).
 
     Raises:
-        ExtrapolationError: (a ``ValueError``) parameters outside the training range.
+        ExtrapolationError: (a `ValueError`) parameters outside the training range.
         ValueError: wrong shapes, NaN/inf, arms outside the family.
     """
     if not isinstance(model, ManipulabilityModel):
@@ -370,12 +370,12 @@ def predict_manipulability(model: ManipulabilityModel, arms_or_params: Arm | Arr
 
 
 def regression_metrics(pred: ArrayLike, true: ArrayLike) -> dict[str, float | int]:
-    """Errors of predicted maps against exact ones (same shape, e.g. ``(B, 9261)``, m³).
+    """Errors of predicted maps against exact ones (same shape, e.g. `(B, 9261)`, m³).
 
-    Returns a dict: ``r2`` = 1 − SSE/SST pooled over every value (SST about the pooled mean; NaN
-    when the exact values are all equal), ``mae`` (mean absolute error, m³), ``r2_reachable`` and
-    ``mae_reachable`` over the values where the exact map is positive (reachable and not singular;
-    NaN when there are none), ``max_abs_error`` (m³), ``n_values``, ``n_reachable``.
+    Returns a dict: `r2` = 1 − SSE/SST pooled over every value (SST about the pooled mean; NaN
+    when the exact values are all equal), `mae` (mean absolute error, m³), `r2_reachable` and
+    `mae_reachable` over the values where the exact map is positive (reachable and not singular;
+    NaN when there are none), `max_abs_error` (m³), `n_values`, `n_reachable`.
 
     Raises:
         ValueError: shapes that differ, empty arrays, NaN or infinite values.
@@ -413,8 +413,8 @@ def regression_metrics(pred: ArrayLike, true: ArrayLike) -> dict[str, float | in
 
 def save_manipulability_model(model: ManipulabilityModel, path: PathLike, *, train_config: TrainConfig | None = None
                              ) -> PathLike:
-    """Write ``model`` to ``path`` with :func:`wsmap.learn.save` (checksummed; the target transform,
-    scale and grid in ``extra``, the parameters' training range with names); returns the path."""
+    """Write `model` to `path` with `wsmap.learn.save` (checksummed; the target transform,
+    scale and grid in `extra`, the parameters' training range with names); returns the path."""
     if not isinstance(model, ManipulabilityModel):
         raise TypeError(f"model must be a ManipulabilityModel; got {type(model).__name__}")
     return save(model.network, path, train_config=train_config, extra=model.extra())
@@ -422,9 +422,9 @@ def save_manipulability_model(model: ManipulabilityModel, path: PathLike, *, tra
 
 def load_manipulability_model(path: PathLike, *, map_location: str = "cpu"
                              ) -> tuple[ManipulabilityModel, dict[str, Any]]:
-    """Read a file of :func:`save_manipulability_model` -> ``(model, meta)`` (``meta`` as
-    :func:`wsmap.learn.load`). A model file of another kind raises
-    :class:`~wsmap.learn.files.ModelFileError`."""
+    """Read a file of `save_manipulability_model` -> `(model, meta)` (`meta` as
+    `wsmap.learn.load`). A model file of another kind raises
+    `ModelFileError`."""
     network, meta = load(path, map_location=map_location)
     extra = meta.get("extra") or {}
     if extra.get("kind") != MANIPULABILITY_KIND:

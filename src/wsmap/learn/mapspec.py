@@ -1,7 +1,7 @@
-"""What a model maps: the ``map_spec`` (grid, nodes, threshold), and how arms become the model's inputs.
+"""What a model maps: the `map_spec` (grid, nodes, threshold), and how arms become the model's inputs.
 
-A model that knows what it maps carries a *map description*, ``model.map_spec`` (``None`` when
-absent; set it with :meth:`wsmap.learn.network.SubspaceMLP.set_map_spec`; saved and loaded with
+A model that knows what it maps carries a *map description*, `model.map_spec` (`None` when
+absent; set it with `wsmap.learn.network.SubspaceMLP.set_map_spec`; saved and loaded with
 the model), a plain dict::
 
     {"dataset": DatasetSpec.to_dict() of the spec it was trained on (grid, scope, fixed
@@ -11,11 +11,11 @@ the model), a plain dict::
      "subspace": int | None,   # which subspace predicts when S > 1 and not assembled
      "threshold": float}       # score threshold in (0, 1) (0.5, the paper's)
 
-This module validates such a dict against a model's config (:func:`map_plan`), checks the arms,
-fixed orientation / point and grid a caller asks for (:func:`check_map_arms`,
-:func:`grid_mismatch`, :func:`check_threshold`), and builds the feature rows of arms for the spec
-(:func:`map_features`, the layout of :func:`wsmap.datasets.features_for`). It does not run networks:
-:meth:`~wsmap.learn.network.SubspaceMLP.predict_maps` and :mod:`wsmap.learn.predictor` do.
+This module validates such a dict against a model's config (`map_plan`), checks the arms,
+fixed orientation / point and grid a caller asks for (`check_map_arms`,
+`grid_mismatch`, `check_threshold`), and builds the feature rows of arms for the spec
+(`map_features`, the layout of `wsmap.datasets.features_for`). It does not run networks:
+`predict_maps` and `wsmap.learn.predictor` do.
 """
 
 from __future__ import annotations
@@ -51,9 +51,9 @@ __all__ = [
 
 
 def check_threshold(threshold, where: str = "threshold") -> float:
-    """``threshold`` as a float in the open interval (0, 1), else ``ValueError``.
+    """`threshold` as a float in the open interval (0, 1), else `ValueError`.
 
-    Scores are probabilities (``output_kind "logit"``) or regressions of 0/1 labels (``"linear"``):
+    Scores are probabilities (`output_kind "logit"`) or regressions of 0/1 labels (`"linear"`):
     a threshold at or outside 0 and 1 makes every node reachable or none, and NaN none.
     """
     if isinstance(threshold, bool) or not isinstance(threshold, (int, float, np.integer, np.floating)):
@@ -66,7 +66,7 @@ def check_threshold(threshold, where: str = "threshold") -> float:
 
 
 def check_batch_size(batch_size) -> int | None:
-    """``None`` or a positive integer, else ``ValueError``."""
+    """`None` or a positive integer, else `ValueError`."""
     if batch_size is None:
         return None
     if isinstance(batch_size, bool) or not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
@@ -76,7 +76,7 @@ def check_batch_size(batch_size) -> int | None:
 
 @dataclass(frozen=True)
 class MapPlan:
-    """A validated ``map_spec``: the parsed dataset spec and how to run the model."""
+    """A validated `map_spec`: the parsed dataset spec and how to run the model."""
 
     spec: DatasetSpec
     nodes: slice  # flat indices of the spec's grid covered by the outputs
@@ -91,19 +91,19 @@ class MapPlan:
 
 def make_map_spec(dataset: Dataset, *, nodes: ArrayLike | None = None, assemble: bool = False,
                   subspace: int | None = None, threshold: float = 0.5) -> dict[str, Any]:
-    """A ``map_spec`` dict (module docstring), before checking it against a model.
+    """A `map_spec` dict (module docstring), before checking it against a model.
 
     Args:
-        dataset: the :class:`wsmap.datasets.DatasetSpec` the model was trained on, or its ``to_dict()``.
-        nodes: ``(start, stop)`` or a slice of the spec grid's flat node order covered by the
-            model's outputs (0-based, stop exclusive; within the spec's labelled nodes). ``None``:
-            the spec's labelled nodes (:func:`wsmap.datasets.node_slice`); with ``assemble`` and a
-            node count different from the model's, ``start`` is kept and ``stop`` follows from
-            the model (see :meth:`~wsmap.learn.network.SubspaceMLP.set_map_spec`).
-        assemble: the S subspaces are consecutive node blocks of ``m`` nodes each, concatenated
+        dataset: the `wsmap.datasets.DatasetSpec` the model was trained on, or its `to_dict()`.
+        nodes: `(start, stop)` or a slice of the spec grid's flat node order covered by the
+            model's outputs (0-based, stop exclusive; within the spec's labelled nodes). `None`:
+            the spec's labelled nodes (`wsmap.datasets.node_slice`); with `assemble` and a
+            node count different from the model's, `start` is kept and `stop` follows from
+            the model (see `set_map_spec`).
+        assemble: the S subspaces are consecutive node blocks of `m` nodes each, concatenated
             in node order (section 6.2: 7 blocks of 1323 → the 9261-node map).
-        subspace: for a stacked model used without ``assemble``, the subspace that predicts.
-        threshold: score threshold (``score > threshold`` is reachable; the paper's 0.5).
+        subspace: for a stacked model used without `assemble`, the subspace that predicts.
+        threshold: score threshold (`score > threshold` is reachable; the paper's 0.5).
     """
     spec = dataset if isinstance(dataset, DatasetSpec) else DatasetSpec.from_dict(dataset)
     if isinstance(nodes, slice):
@@ -113,7 +113,7 @@ def make_map_spec(dataset: Dataset, *, nodes: ArrayLike | None = None, assemble:
 
 
 def map_plan(config, map_spec) -> tuple[dict[str, Any], MapPlan]:
-    """Validate ``map_spec`` against a model's config -> (normalised dict, plan)."""
+    """Validate `map_spec` against a model's config -> (normalised dict, plan)."""
     check_record(map_spec, {"dataset", "nodes", "assemble", "subspace", "threshold"}, "map_spec", "map_spec")
     if "dataset" not in map_spec:
         raise ValueError("map_spec needs 'dataset' (the DatasetSpec dict the model was trained on)")
@@ -181,12 +181,12 @@ def map_plan(config, map_spec) -> tuple[dict[str, Any], MapPlan]:
 
 
 def family_scales(arms, spec) -> tuple[np.ndarray, tuple[int, ...]]:
-    """The scale factors ``(B, k)`` and batch shape of the arms of a chain-family spec (``panda7``):
-    ``arms`` is a :class:`~wsmap.kinematics.SerialChain` built by :func:`wsmap.robots.family_arm`
-    (one arm or a batch of any shape) or the scales themselves ``(..., k)``. Arms of another kind
-    (a ``DHRobot``, a chain whose fixed transforms are not the family's) are refused with the
-    family's ``ValueError`` / ``TypeError``; scales outside the family's range as
-    :func:`wsmap.robots.family_arm` refuses them."""
+    """The scale factors `(B, k)` and batch shape of the arms of a chain-family spec (`panda7`):
+    `arms` is a `SerialChain` built by `wsmap.robots.family_arm`
+    (one arm or a batch of any shape) or the scales themselves `(..., k)`. Arms of another kind
+    (a `DHRobot`, a chain whose fixed transforms are not the family's) are refused with the
+    family's `ValueError` / `TypeError`; scales outside the family's range as
+    `wsmap.robots.family_arm` refuses them."""
     from ..kinematics import SerialChain
 
     family = spec.arm_family
@@ -202,14 +202,14 @@ def family_scales(arms, spec) -> tuple[np.ndarray, tuple[int, ...]]:
 
 
 def map_batch_shape(arms, spec) -> tuple[int, ...]:
-    """The batch shape of ``arms`` as :meth:`~wsmap.learn.network.SubspaceMLP.predict_maps` returns it."""
+    """The batch shape of `arms` as `predict_maps` returns it."""
     if spec.is_chain_family:
         return family_scales(arms, spec)[1]
     return tuple(arms.batch_shape)
 
 
 def check_map_arms(arms, spec) -> DHRobot:
-    """``arms`` as a 1-D batch ``(B,)`` of 6-joint arms with finite DH values, no limits, no tool."""
+    """`arms` as a 1-D batch `(B,)` of 6-joint arms with finite DH values, no limits, no tool."""
     if not isinstance(arms, DHRobot):
         raise TypeError(f"arms must be a wsmap.kinematics.DHRobot (one arm or a batch); got {type(arms).__name__}")
     if arms.n != 6:
@@ -233,12 +233,12 @@ def check_map_arms(arms, spec) -> DHRobot:
 
 
 def map_features(plan: MapPlan, arms, fixed=None) -> np.ndarray:
-    """Features ``(B, n_features)`` float64 of ``arms`` (a :class:`~wsmap.kinematics.DHRobot`, one
-    arm or a batch of any shape, flattened to ``B`` arms) for the plan's dataset spec.
+    """Features `(B, n_features)` float64 of `arms` (a `DHRobot`, one
+    arm or a batch of any shape, flattened to `B` arms) for the plan's dataset spec.
 
-    ``fixed``: the orientation (R3 specs; rad) or point (SO3 specs; m), ``(3,)`` or ``(B, 3)``;
-    ``None``: the spec's. Required for a spec with ``fixed="random"``; for a fixed spec it must
-    equal the spec's (1e-9). Raises ``ValueError`` / ``TypeError`` as :func:`check_map_arms`.
+    `fixed`: the orientation (R3 specs; rad) or point (SO3 specs; m), `(3,)` or `(B, 3)`;
+    `None`: the spec's. Required for a spec with `fixed="random"`; for a fixed spec it must
+    equal the spec's (1e-9). Raises `ValueError` / `TypeError` as `check_map_arms`.
     """
     spec = plan.spec
     if spec.is_chain_family:
@@ -272,9 +272,9 @@ _GRID_KEYS = ("scope", "lo", "hi", "step", "shape")
 
 
 def grid_mismatch(spec, grid: dict) -> list[str]:
-    """How a caller's grid (``scope``, ``lo``, ``hi``, ``step``, optionally ``shape``, as
-    :func:`wsmap.workspace.grid_spec` describes one) differs from the dataset spec's; empty when they
-    agree (1e-9 tolerance). A grid that is not such a dict raises ``ValueError``."""
+    """How a caller's grid (`scope`, `lo`, `hi`, `step`, optionally `shape`, as
+    `wsmap.workspace.grid_spec` describes one) differs from the dataset spec's; empty when they
+    agree (1e-9 tolerance). A grid that is not such a dict raises `ValueError`."""
     if not isinstance(grid, dict):
         raise ValueError(f"grid must be a dict with scope, lo, hi, step; got {type(grid).__name__}")
     unknown = sorted(set(grid) - set(_GRID_KEYS))
@@ -306,8 +306,8 @@ def grid_mismatch(spec, grid: dict) -> list[str]:
 
 
 def spec_feature_names(dataset_spec, n_features: int) -> list[str] | None:
-    """The feature names of a dataset spec (a ``DatasetSpec`` or its dict) when it has
-    ``n_features`` features; ``None`` when it is not a valid spec or has another layout."""
+    """The feature names of a dataset spec (a `DatasetSpec` or its dict) when it has
+    `n_features` features; `None` when it is not a valid spec or has another layout."""
     if dataset_spec is None:
         return None
     try:

@@ -1,34 +1,34 @@
-"""One map model for every arm: an implicit network ``f(morphology, point) -> logit``.
+"""One map model for every arm: an implicit network `f(morphology, point) -> logit`.
 
-The arm enters as its morphology features (:meth:`wsmap.kinematics.morphology.Morphology.features`:
+The arm enters as its morphology features (`wsmap.kinematics.morphology.Morphology.features`:
 73 numbers, every arm padded to 7 joints), the point as its position in metres (base frame) with
-a few Fourier features; the orientation (tool-down, ``R = Rx(pi)``, ``"standard"`` convention
-``T = transl(p)·R``, as the ``morph6`` / ``morph7`` datasets) is fixed per model. A point is
-reachable where ``sigmoid(logit) > 0.5``. Because the network is queried at points, a model maps
-any grid inside the box it was trained on (``[-1.5, 1.5]³`` m), whatever its step.
+a few Fourier features; the orientation (tool-down, `R = Rx(pi)`, `"standard"` convention
+`T = transl(p)·R`, as the `morph6` / `morph7` datasets) is fixed per model. A point is
+reachable where `sigmoid(logit) > 0.5`. Because the network is queried at points, a model maps
+any grid inside the box it was trained on (`[-1.5, 1.5]³` m), whatever its step.
 
-Architecture (:class:`MorphModelConfig`): an encoder MLP (standardised features -> latent vector,
-SiLU), a decoder MLP on ``[latent, point features]`` (SiLU), one logit. The decoder's first layer
-is split into its latent and point parts, so a map of ``P`` points of one arm costs one encoder
-pass plus ``P`` decoder passes.
+Architecture (`MorphModelConfig`): an encoder MLP (standardised features -> latent vector,
+SiLU), a decoder MLP on `[latent, point features]` (SiLU), one logit. The decoder's first layer
+is split into its latent and point parts, so a map of `P` points of one arm costs one encoder
+pass plus `P` decoder passes.
 
-Training (:func:`fit_morph_model`): the project's :func:`wsmap.learn.training.train` -- Adam on
+Training (`fit_morph_model`): the project's `wsmap.learn.training.train` -- Adam on
 binary cross-entropy over minibatches of arms (each arm with all its labelled nodes), a cosine
 learning-rate schedule, the epoch of lowest validation loss kept. Float32.
 
-What a model refuses (:class:`~wsmap.learn.training_range.ExtrapolationError`, or a warning with
-``allow_extrapolation=True``): an arm outside the range of the families it was trained on
-(:meth:`wsmap.robots.morph.MorphFamily.problems`: lengths, joint ranges, tool, or a joint count
+What a model refuses (`ExtrapolationError`, or a warning with
+`allow_extrapolation=True`): an arm outside the range of the families it was trained on
+(`wsmap.robots.morph.MorphFamily.problems`: lengths, joint ranges, tool, or a joint count
 it has not seen), and points outside its box. A robot that has no morphology (a prismatic joint,
-more than 7 joints) is a :class:`~wsmap.kinematics.morphology.MorphologyError`; an orientation
-or convention other than the model's a ``ValueError``.
+more than 7 joints) is a `MorphologyError`; an orientation
+or convention other than the model's a `ValueError`.
 
-Files (:func:`save_morph_model`, :func:`load_morph_model`): the format of :mod:`wsmap.learn.files`
-(a ``torch.save`` dict of plain content and a SHA-256 checksum over it) with the format tag
-:data:`FORMAT`; a file of another kind (a family map model) is a
-:class:`~wsmap.learn.files.ModelFileError` naming what it is. :func:`nearest_arm_maps` is the
+Files (`save_morph_model`, `load_morph_model`): the format of `wsmap.learn.files`
+(a `torch.save` dict of plain content and a SHA-256 checksum over it) with the format tag
+`FORMAT`; a file of another kind (a family map model) is a
+`ModelFileError` naming what it is. `nearest_arm_maps` is the
 baseline a model must beat: the map of the nearest training arm in
-:func:`~wsmap.kinematics.morphology.morphology_distance`.
+`morphology_distance`.
 """
 
 from __future__ import annotations
@@ -61,14 +61,14 @@ __all__ = ["FORMAT", "FORMAT_VERSION", "MorphModelConfig", "MorphMapModel", "mor
 
 FORMAT = "wsmap.morph_model"
 FORMAT_VERSION = 1
-#: The orientation of the morph datasets and models: tool down, ``R = Rx(pi)`` (rad).
+#: The orientation of the morph datasets and models: tool down, `R = Rx(pi)` (rad).
 TOOL_DOWN = (math.pi, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
 class MorphModelConfig:
     """The network's shape: encoder widths, latent size, decoder widths, Fourier frequencies of the
-    point (``sin/cos(2^k·pi·p/box)``, ``k < frequencies``)."""
+    point (`sin/cos(2^k·pi·p/box)`, `k < frequencies`)."""
 
     encoder: tuple[int, ...] = (256, 256)
     latent: int = 128
@@ -92,15 +92,15 @@ class MorphModelConfig:
 
 
 class MorphMapModel(nn.Module):
-    """``f(features, point) -> logit`` (module notes).
+    """`f(features, point) -> logit` (module notes).
 
-    ``forward(X)`` takes raw morphology features ``(B, N_FEATURES)`` and returns the logits
-    ``(B, N)`` at the model's training nodes (``nodes``, ``(N, 3)`` m): what
-    :func:`~wsmap.learn.training.train` fits. :meth:`logits_at` queries any points.
+    `forward(X)` takes raw morphology features `(B, N_FEATURES)` and returns the logits
+    `(B, N)` at the model's training nodes (`nodes`, `(N, 3)` m): what
+    `train` fits. `logits_at` queries any points.
 
-    Attributes (besides the weights): ``box`` the half-width (m) of the cube it was trained in;
-    ``rpy``, ``convention`` the fixed orientation and the pose convention of its labels;
-    ``families`` the names of the arm families it was trained on.
+    Attributes (besides the weights): `box` the half-width (m) of the cube it was trained in;
+    `rpy`, `convention` the fixed orientation and the pose convention of its labels;
+    `families` the names of the arm families it was trained on.
     """
 
     def __init__(self, config: MorphModelConfig | None = None, nodes=None, *, box: float = 1.5,
@@ -111,7 +111,7 @@ class MorphMapModel(nn.Module):
         self.rpy = tuple(float(x) for x in rpy)
         self.convention = str(convention)
         self.families = tuple(families)
-        #: the probability above which a node is reachable (:func:`fit_morph_model` picks it on the
+        #: the probability above which a node is reachable (`fit_morph_model` picks it on the
         #: validation arms)
         self.threshold = 0.5
         layers, width = [], N_FEATURES
@@ -136,7 +136,7 @@ class MorphMapModel(nn.Module):
         self.register_buffer("nodes", torch.as_tensor(nodes, dtype=torch.float32))
 
     def standardise_on(self, X) -> MorphMapModel:
-        """Set the input standardisation from training features ``(n, N_FEATURES)`` (constant
+        """Set the input standardisation from training features `(n, N_FEATURES)` (constant
         columns keep a unit scale)."""
         X = torch.as_tensor(np.asarray(X), dtype=torch.float64)
         std = X.std(dim=0)
@@ -145,7 +145,7 @@ class MorphMapModel(nn.Module):
         return self
 
     def point_features(self, points: torch.Tensor) -> torch.Tensor:
-        """``(P, 3 + 6 F)``: the point over the box, and its sines and cosines at F octaves."""
+        """`(P, 3 + 6 F)`: the point over the box, and its sines and cosines at F octaves."""
         u = points / self.box
         parts = [u]
         for k in range(self.config.frequencies):
@@ -157,7 +157,7 @@ class MorphMapModel(nn.Module):
         return self.encoder((X - self.feature_mean) / self.feature_std)
 
     def logits_at(self, X: torch.Tensor, points: torch.Tensor, chunk: int = 1 << 15) -> torch.Tensor:
-        """Logits ``(B, P)`` of arms ``X`` ``(B, N_FEATURES)`` at points ``(P, 3)`` (m)."""
+        """Logits `(B, P)` of arms `X` `(B, N_FEATURES)` at points `(P, 3)` (m)."""
         z = self.dec_latent(self.encode(X))  # (B, H)
         out = []
         for s in range(0, points.shape[0], chunk):
@@ -179,7 +179,7 @@ def _family_of(n: int, families) -> MorphFamily | None:
 
 
 def morph_features(arms) -> np.ndarray:
-    """Morphology features ``(B, N_FEATURES)`` of a list of arms (each a chain, a DH robot or the
+    """Morphology features `(B, N_FEATURES)` of a list of arms (each a chain, a DH robot or the
     parameters of a morph family)."""
     rows = []
     for arm in arms:
@@ -191,7 +191,7 @@ def morph_features(arms) -> np.ndarray:
 
 
 def _check_arm(model: MorphMapModel, robot, allow_extrapolation: bool) -> np.ndarray:
-    """The features ``(N_FEATURES,)`` of ``robot``, refused (or warned about) outside the training range."""
+    """The features `(N_FEATURES,)` of `robot`, refused (or warned about) outside the training range."""
     m = describe(robot)  # MorphologyError: prismatic, < 6 or > 7 joints, a batch
     label = m.name or "the arm"
     problems = []
@@ -211,8 +211,8 @@ def _check_arm(model: MorphMapModel, robot, allow_extrapolation: bool) -> np.nda
 
 
 def _prepared(model: MorphMapModel, robot, nodes, rpy, convention, threshold, allow_extrapolation):
-    """The checks every prediction makes before any work: ``(features (N_FEATURES,), nodes (N, 3),
-    logit threshold)``."""
+    """The checks every prediction makes before any work: `(features (N_FEATURES,), nodes (N, 3),
+    logit threshold)`."""
     if rpy is not None and not np.allclose(np.asarray(rpy, dtype=np.float64), model.rpy, atol=1e-9):
         raise ValueError(f"the morphology model maps orientation rpy = {list(model.rpy)} (tool down), not "
                          f"{[float(x) for x in np.ravel(np.asarray(rpy, dtype=float))]}")
@@ -237,13 +237,13 @@ def _prepared(model: MorphMapModel, robot, nodes, rpy, convention, threshold, al
 
 def predict_morph_map(model: MorphMapModel, robot, nodes, *, rpy=None, convention: str | None = None,
                       threshold: float | None = None, allow_extrapolation: bool = False) -> np.ndarray:
-    """The predicted map bool ``(N,)`` of one arm at ``nodes`` ``(N, 3)`` (m, base frame): nodes
-    whose probability exceeds ``threshold`` (``None``: the model's, :attr:`MorphMapModel.threshold`),
-    the network evaluated at every node (:func:`predict_morph_grid` maps a grid faster).
+    """The predicted map bool `(N,)` of one arm at `nodes` `(N, 3)` (m, base frame): nodes
+    whose probability exceeds `threshold` (`None`: the model's, `MorphMapModel.threshold`),
+    the network evaluated at every node (`predict_morph_grid` maps a grid faster).
 
-    ``rpy`` and ``convention`` (``None``: the model's) must be the model's; nodes outside its
-    box and arms outside its training range are an :class:`ExtrapolationError` unless
-    ``allow_extrapolation`` (then an :class:`ExtrapolationWarning`)."""
+    `rpy` and `convention` (`None`: the model's) must be the model's; nodes outside its
+    box and arms outside its training range are an `ExtrapolationError` unless
+    `allow_extrapolation` (then an `ExtrapolationWarning`)."""
     x, nodes, logit_threshold = _prepared(model, robot, nodes, rpy, convention, threshold, allow_extrapolation)
     with torch.no_grad():
         X = torch.as_tensor(x[None], dtype=torch.float32)
@@ -251,9 +251,9 @@ def predict_morph_map(model: MorphMapModel, robot, nodes, *, rpy=None, conventio
     return (logits > logit_threshold).numpy()
 
 
-#: :func:`predict_morph_grid`'s defaults: every ``COARSE``-th node along each axis first, and a
-#: coarse cell is refined when a corner's logit is within ``MARGIN`` of the threshold's
-#: (``benchmarks/bench_morph_map_speed.py``: with margin 6 the maps of 206 arms were already
+#: `predict_morph_grid`'s defaults: every `COARSE`-th node along each axis first, and a
+#: coarse cell is refined when a corner's logit is within `MARGIN` of the threshold's
+#: (`benchmarks/bench_morph_map_speed.py`: with margin 6 the maps of 206 arms were already
 #: identical to the dense ones; 8 keeps room)
 COARSE, MARGIN = 3, 8.0
 #: where the coarse pass leaves more than this share of the nodes to evaluate, every node is
@@ -265,19 +265,19 @@ DENSE_ABOVE = 0.5
 def predict_morph_grid(model: MorphMapModel, robot, lo, hi, step, *, rpy=None, convention: str | None = None,
                        threshold: float | None = None, allow_extrapolation: bool = False, coarse: int = COARSE,
                        margin: float = MARGIN) -> np.ndarray:
-    """The predicted map bool ``(N,)`` of one arm on the grid ``cartesian_grid(lo, hi, step)``
-    (m, base frame, x fastest), coarse to fine: what :func:`predict_morph_map` gives at those nodes,
+    """The predicted map bool `(N,)` of one arm on the grid `cartesian_grid(lo, hi, step)`
+    (m, base frame, x fastest), coarse to fine: what `predict_morph_map` gives at those nodes,
     evaluating the network at a fraction of them.
 
-    The network is evaluated first at every ``coarse``-th node along each axis (and the last), then
+    The network is evaluated first at every `coarse`-th node along each axis (and the last), then
     at the nodes of each coarse cell with a corner whose logit is at least the threshold's minus
-    ``margin``; every other node is unreachable. Reachable sets fill a few per cent of the box, so
+    `margin`; every other node is unreachable. Reachable sets fill a few per cent of the box, so
     most of the network's work goes (it is evaluated at about 16 % of the nodes of a 0.1 m grid for
     typical arms). This is a bet on the network's smoothness, not a proof: a positive node inside a
-    coarse cell whose eight corners all lie more than ``margin`` logits below the threshold would be
-    missed (none was in the benchmark). ``coarse`` = 1 (or ``margin`` = inf) evaluates every node,
-    and so does a map whose near cells hold more than :data:`DENSE_ABOVE` of the nodes.
-    The other arguments and errors are :func:`predict_morph_map`'s."""
+    coarse cell whose eight corners all lie more than `margin` logits below the threshold would be
+    missed (none was in the benchmark). `coarse` = 1 (or `margin` = inf) evaluates every node,
+    and so does a map whose near cells hold more than `DENSE_ABOVE` of the nodes.
+    The other arguments and errors are `predict_morph_map`'s."""
     from ..workspace.grids import cartesian_grid, grid_counts
 
     if isinstance(coarse, bool) or not isinstance(coarse, (int, np.integer)) or coarse < 1:
@@ -319,9 +319,9 @@ def predict_morph_grid(model: MorphMapModel, robot, lo, hi, step, *, rpy=None, c
 
 # --------------------------------------------------------------------------------------------- experience
 def morph_spec(n_joints: int, samples: int, seed: int = 0, step: float = 0.1, box: float = 1.5):
-    """The dataset spec of ``samples`` arms of ``morph<n_joints>``: the tool-down map
-    (:data:`TOOL_DOWN`, ``"standard"`` convention) on ``[-box, box]³`` at ``step`` (m), labelled by
-    the numerical map search; ``seed`` picks the streams (one seed per shard)."""
+    """The dataset spec of `samples` arms of `morph<n_joints>`: the tool-down map
+    (`TOOL_DOWN`, `"standard"` convention) on `[-box, box]³` at `step` (m), labelled by
+    the numerical map search; `seed` picks the streams (one seed per shard)."""
     from ..datasets import DatasetSpec
 
     if n_joints not in (6, 7):
@@ -333,15 +333,15 @@ def morph_spec(n_joints: int, samples: int, seed: int = 0, step: float = 0.1, bo
 def build_morph_shards(out_dir, n_joints: int, shards: int, arms_per_shard: int, *, step: float = 0.1,
                        box: float = 1.5, first_seed: int = 0, test_samples: int | None = None, progress: bool = False,
                        workers: int | None = None, scheduler=None) -> tuple[list, list[float]]:
-    """Build (or reuse) ``shards`` dataset files of ``arms_per_shard`` arms each, shard ``k`` the
-    spec :func:`morph_spec` with seed ``first_seed + k`` (independent streams), in ``out_dir``.
+    """Build (or reuse) `shards` dataset files of `arms_per_shard` arms each, shard `k` the
+    spec `morph_spec` with seed `first_seed + k` (independent streams), in `out_dir`.
 
     Resumable: a shard whose file is there and holds exactly its spec is loaded, not rebuilt, so a
     run that stopped goes on at the first missing shard (each file is written atomically by
-    :func:`wsmap.datasets.build_dataset_files`, in chunks, on Dask with ``workers`` / ``scheduler``).
-    ``test_samples``: shard 0 also gets its independent test set (``NAME.test.npz``).
+    `wsmap.datasets.build_dataset_files`, in chunks, on Dask with `workers` / `scheduler`).
+    `test_samples`: shard 0 also gets its independent test set (`NAME.test.npz`).
 
-    Returns ``(datasets, seconds)``: the loaded :class:`~wsmap.datasets.Dataset` of every shard in
+    Returns `(datasets, seconds)`: the loaded `Dataset` of every shard in
     order (with shard 0's test set last when asked for) and the build time of each shard (0.0 for
     a shard that was there)."""
     from ..datasets import DatasetError, build_dataset_files, load_dataset, test_path_for, test_spec
@@ -376,18 +376,18 @@ def build_morph_shards(out_dir, n_joints: int, shards: int, arms_per_shard: int,
 # --------------------------------------------------------------------------------------------- training
 def fit_morph_model(datasets, config: MorphModelConfig | None = None, train_config: TrainConfig | None = None,
                     seed: int = 0, labels=None) -> tuple[MorphMapModel, TrainResult]:
-    """Train a :class:`MorphMapModel` on datasets of the morph families (:class:`wsmap.datasets.Dataset`
+    """Train a `MorphMapModel` on datasets of the morph families (`wsmap.datasets.Dataset`
     of one grid, R3, fixed orientation); returns the model (eval mode, on the CPU whatever
-    ``train_config.device`` trained it on) and the training result.
+    `train_config.device` trained it on) and the training result.
 
-    ``train_config`` defaults to Adam (lr 1e-3), binary cross-entropy, 8 arms per step, cosine
+    `train_config` defaults to Adam (lr 1e-3), binary cross-entropy, 8 arms per step, cosine
     decay over 30 epochs, 5 % of the arms for validation, no test split (the caller's held-out
     arms are the test). The model's threshold is then the probability (0.05 to 0.95 by 0.05) of the
     best pooled F on the validation arms (0.5 without any): reachable nodes are a few per cent of
     the box, and the cross-entropy optimum leans to "unreachable".
 
-    ``labels``: one bool array ``(samples, nodes)`` per dataset to train on instead of its own
-    labels, for the same arms (the forward-kinematics-only baseline, :func:`fk_labels`)."""
+    `labels`: one bool array `(samples, nodes)` per dataset to train on instead of its own
+    labels, for the same arms (the forward-kinematics-only baseline, `fk_labels`)."""
     datasets = list(datasets)
     if not datasets:
         raise ValueError("fit_morph_model needs at least one dataset")
@@ -425,7 +425,7 @@ def fit_morph_model(datasets, config: MorphModelConfig | None = None, train_conf
     result = train(model, X.astype(np.float32), Y, tc)
     model.eval()
     model.threshold = _best_threshold(model, X[result.split.val], Y[result.split.val])
-    # trained where ``tc.device`` says; maps are predicted from CPU tensors, and a saved model loads there
+    # trained where `tc.device` says; maps are predicted from CPU tensors, and a saved model loads there
     model.cpu()
     model.train_config = tc
     model.dataset_specs = [ds.spec.to_dict() for ds in datasets]
@@ -435,7 +435,7 @@ def fit_morph_model(datasets, config: MorphModelConfig | None = None, train_conf
 def _best_threshold(model: MorphMapModel, X: np.ndarray, Y: np.ndarray, chunk: int = 1024) -> float:
     if len(X) == 0:
         return 0.5
-    # on the device the model was trained on, ``chunk`` arms at a time (thousands of validation arms
+    # on the device the model was trained on, `chunk` arms at a time (thousands of validation arms
     # times the grid's nodes would not fit in one forward pass)
     device = next(model.parameters()).device
     with torch.no_grad():
@@ -455,11 +455,11 @@ def _best_threshold(model: MorphMapModel, X: np.ndarray, Y: np.ndarray, chunk: i
 
 # --------------------------------------------------------------------------------------------- baselines
 def fk_labels(dataset, *, samples: int = 200_000, angle_tol: float = 0.4, seed: int = 0) -> np.ndarray:
-    """The labels ``(arms, nodes)`` bool of every arm of a morph-family ``dataset`` on its grid from
-    forward kinematics alone (:func:`wsmap.workspace.fk_sampled_maps`: ``samples`` configurations per
-    arm, rotations within ``angle_tol`` rad of the dataset's orientation): the experience of a
-    RAM-like model, trained with ``fit_morph_model(..., labels=...)`` and scored against the
-    dataset's own (map-search) labels. Arm ``i`` draws from seed ``(seed, i)``: a row does not
+    """The labels `(arms, nodes)` bool of every arm of a morph-family `dataset` on its grid from
+    forward kinematics alone (`wsmap.workspace.fk_sampled_maps`: `samples` configurations per
+    arm, rotations within `angle_tol` rad of the dataset's orientation): the experience of a
+    RAM-like model, trained with `fit_morph_model(..., labels=...)` and scored against the
+    dataset's own (map-search) labels. Arm `i` draws from seed `(seed, i)`: a row does not
     depend on the other arms."""
     from ..workspace import fk_sampled_maps
 
@@ -478,13 +478,13 @@ def fk_labels(dataset, *, samples: int = 200_000, angle_tol: float = 0.4, seed: 
 
 def nearest_arm_maps(train_features, train_labels, query_features, *,
                      max_numbers: int = 1 << 24) -> tuple[np.ndarray, np.ndarray]:
-    """The nearest-neighbour baseline: for each query arm ``(Q, N_FEATURES)`` the labels ``(Q, N)``
-    of the training arm nearest in :func:`~wsmap.kinematics.morphology.morphology_distance`, and
-    that distance ``(Q,)`` (m). ``max_numbers`` bounds the memory: queries go in chunks whose
-    ``(chunk, arms, N_FEATURES)`` differences hold about that many float64s (at least one query)."""
+    """The nearest-neighbour baseline: for each query arm `(Q, N_FEATURES)` the labels `(Q, N)`
+    of the training arm nearest in `morphology_distance`, and
+    that distance `(Q,)` (m). `max_numbers` bounds the memory: queries go in chunks whose
+    `(chunk, arms, N_FEATURES)` differences hold about that many float64s (at least one query)."""
     F = np.asarray(train_features, dtype=np.float64)
     Q = np.asarray(query_features, dtype=np.float64)
-    # queries in chunks: the (chunk, arms, features) difference stays near ``max_numbers`` float64s
+    # queries in chunks: the (chunk, arms, features) difference stays near `max_numbers` float64s
     # (128 MB by default) however many training arms there are (100,000 arms x 200 queries: 12 GB)
     chunk = max(1, int(max_numbers) // max(1, F.shape[0] * F.shape[-1]))
     idx = np.empty(len(Q), dtype=np.int64)
@@ -498,7 +498,7 @@ def nearest_arm_maps(train_features, train_labels, query_features, *,
 
 # --------------------------------------------------------------------------------------------- files
 def save_morph_model(model: MorphMapModel, path, *, extra: dict | None = None) -> Path:
-    """Write ``model`` to ``path`` atomically (format :data:`FORMAT`, with a checksum); returns the path."""
+    """Write `model` to `path` atomically (format `FORMAT`, with a checksum); returns the path."""
     if not isinstance(model, MorphMapModel):
         raise TypeError(f"save_morph_model needs a MorphMapModel; got {type(model).__name__}")
     p = Path(path)
@@ -521,10 +521,10 @@ def save_morph_model(model: MorphMapModel, path, *, extra: dict | None = None) -
 
 
 def load_morph_model(path) -> tuple[MorphMapModel, dict[str, Any]]:
-    """Read a file of :func:`save_morph_model` -> ``(model, meta)`` (eval mode, on the CPU).
+    """Read a file of `save_morph_model` -> `(model, meta)` (eval mode, on the CPU).
 
     A missing, corrupt or tampered file, and a model file of another kind, are a
-    :class:`~wsmap.learn.files.ModelFileError` ``"cannot load model <path>: <problem>"``."""
+    `ModelFileError` `"cannot load model <path>: <problem>"`."""
     def fail(problem, cause=None):
         raise ModelFileError(f"cannot load model {path}: {problem}") from cause
 
@@ -563,8 +563,8 @@ def load_morph_model(path) -> tuple[MorphMapModel, dict[str, Any]]:
 
 
 def _whole_grid_map(path, robot, fixed, *, grid: dict, convention: str, allow_extrapolation: bool) -> np.ndarray:
-    """``method="model"`` of :func:`wsmap.workspace.grid_map` for a morphology model file: the map
-    ``(N,)`` of one arm on ``grid`` (R3 only; any step inside the model's box)."""
+    """`method="model"` of `wsmap.workspace.grid_map` for a morphology model file: the map
+    `(N,)` of one arm on `grid` (R3 only; any step inside the model's box)."""
     if grid["scope"] != "R3":
         raise ValueError(f"a morphology model maps positions (scope R3), not {grid['scope']}")
     model, _ = load_morph_model(path)

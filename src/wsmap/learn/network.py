@@ -2,50 +2,50 @@
 
 The paper (section "Distinctions between Subspace Learning and Generic Feedforward Networks")
 stores the parameters of all subspaces of a model as tensors whose last index is the subspace,
-``W^{(j)}_{:,:,i}`` and ``B^{(j)}_{:,i}``, and builds the forward graph of subspace ``i`` at run
-time. :class:`SubspaceMLP` does the same with the subspace index first:
+`W^{(j)}_{:,:,i}` and `B^{(j)}_{:,i}`, and builds the forward graph of subspace `i` at run
+time. `SubspaceMLP` does the same with the subspace index first:
 
-* layer ``j``'s weights are one parameter ``(S, in_j, out_j)``, its biases ``(S, out_j)``;
-* hidden layers are ``tanh``, the output layer is linear (MATLAB ``tansig`` / ``purelin``);
-* ``forward(x)`` runs all S subspaces at once, ``forward(x, key=k)`` only subspace ``k`` and
-  ``forward(x, key=keys)`` subspace ``keys[i]`` for sample ``i`` (no loop over samples: one
+* layer `j`'s weights are one parameter `(S, in_j, out_j)`, its biases `(S, out_j)`;
+* hidden layers are `tanh`, the output layer is linear (MATLAB `tansig` / `purelin`);
+* `forward(x)` runs all S subspaces at once, `forward(x, key=k)` only subspace `k` and
+  `forward(x, key=keys)` subspace `keys[i]` for sample `i` (no loop over samples: one
   batched pass per distinct key).
 
-Every parameter has leading dimension S, so a :class:`SubspaceMLP` is a *stacked model* in the
-sense of :mod:`wsmap.learn.training`: ``train(model, X, Y)`` trains the S subspaces as independent
-sessions (exactly independent under Rprop), and ``SubspaceMLP(config, seeds=[...])`` initialises
-subspace ``s`` from ``seeds[s]`` alone, as ``train_sessions`` needs.
+Every parameter has leading dimension S, so a `SubspaceMLP` is a *stacked model* in the
+sense of `wsmap.learn.training`: `train(model, X, Y)` trains the S subspaces as independent
+sessions (exactly independent under Rprop), and `SubspaceMLP(config, seeds=[...])` initialises
+subspace `s` from `seeds[s]` alone, as `train_sessions` needs.
 
 Features and outputs
 --------------------
-Inputs are feature vectors in the stored (paper) layout, ``(n, config.n_inputs)``, float64 on
-disk; they are cast to the parameters' dtype (float32) inside :meth:`SubspaceMLP.forward`, which
-then keeps ``config.input_columns`` (all columns when ``None``) and, with
-``input_scaling="standardize"``, standardises them with the stored per-subspace mean and std
-(buffers, saved with the model). The paper feeds raw inputs (``input_scaling="none"``).
+Inputs are feature vectors in the stored (paper) layout, `(n, config.n_inputs)`, float64 on
+disk; they are cast to the parameters' dtype (float32) inside `SubspaceMLP.forward`, which
+then keeps `config.input_columns` (all columns when `None`) and, with
+`input_scaling="standardize"`, standardises them with the stored per-subspace mean and std
+(buffers, saved with the model). The paper feeds raw inputs (`input_scaling="none"`).
 
-Outputs are one raw value per node, ``(n, m)``. ``config.output_kind`` says how to read them:
-``"linear"`` (trained with MSE/MAE, the paper's) -- the raw output is the score and a node is
-reachable when it exceeds the threshold (0.5); ``"logit"`` (trained with cross-entropy on logits)
--- the score is ``sigmoid(raw)``, and ``score > t`` is ``raw > logit(t)``.
-:meth:`SubspaceMLP.score` and :meth:`SubspaceMLP.predict` use that rule; thresholds lie in (0, 1).
+Outputs are one raw value per node, `(n, m)`. `config.output_kind` says how to read them:
+`"linear"` (trained with MSE/MAE, the paper's) -- the raw output is the score and a node is
+reachable when it exceeds the threshold (0.5); `"logit"` (trained with cross-entropy on logits)
+-- the score is `sigmoid(raw)`, and `score > t` is `raw > logit(t)`.
+`SubspaceMLP.score` and `SubspaceMLP.predict` use that rule; thresholds lie in (0, 1).
 
 Initialisation
 --------------
-``config.init="nguyen-widrow"`` reproduces MATLAB's ``initnw`` (:mod:`wsmap.learn.init`): hidden
+`config.init="nguyen-widrow"` reproduces MATLAB's `initnw` (`wsmap.learn.init`): hidden
 (tanh) layers get Nguyen–Widrow weights computed from their input ranges, the linear output layer
-MATLAB's ``rands``. The first layer's input range is ``[-1, 1]`` per input unless given;
-:meth:`SubspaceMLP.configure` takes it from training data, as MATLAB's ``configure`` does.
-``config.init="torch"`` is PyTorch's ``nn.Linear`` default in every layer.
+MATLAB's `rands`. The first layer's input range is `[-1, 1]` per input unless given;
+`SubspaceMLP.configure` takes it from training data, as MATLAB's `configure` does.
+`config.init="torch"` is PyTorch's `nn.Linear` default in every layer.
 
 What the model was trained on, and what it maps
 -----------------------------------------------
-:meth:`SubspaceMLP.configure` also records the range of every stored feature over the training
-data (:attr:`SubspaceMLP.training_range`, a :class:`~wsmap.learn.training_range.TrainingRange`);
-:meth:`SubspaceMLP.set_map_spec` says which grid and nodes the outputs are
-(:mod:`wsmap.learn.mapspec`). With both, :meth:`SubspaceMLP.predict_maps` turns arms
-(:class:`wsmap.kinematics.DHRobot`) into boolean maps in node order, refusing arms outside the
-training range unless ``allow_extrapolation=True``. Files: :mod:`wsmap.learn.files`.
+`SubspaceMLP.configure` also records the range of every stored feature over the training
+data (`SubspaceMLP.training_range`, a `TrainingRange`);
+`SubspaceMLP.set_map_spec` says which grid and nodes the outputs are
+(`wsmap.learn.mapspec`). With both, `SubspaceMLP.predict_maps` turns arms
+(`wsmap.kinematics.DHRobot`) into boolean maps in node order, refusing arms outside the
+training range unless `allow_extrapolation=True`. Files: `wsmap.learn.files`.
 """
 
 from __future__ import annotations
@@ -90,8 +90,8 @@ __all__ = [
 ]
 
 #: Hidden-layer activations: name -> (function, active input range, output range). The ranges
-#: are MATLAB's for ``tansig``: Nguyen–Widrow spreads each neuron's net input over the active
-#: range ``[-2, 2]``; the next layer's inputs lie in the output range ``[-1, 1]``.
+#: are MATLAB's for `tansig`: Nguyen–Widrow spreads each neuron's net input over the active
+#: range `[-2, 2]`; the next layer's inputs lie in the output range `[-1, 1]`.
 ACTIVATIONS: dict[str, tuple[Any, tuple[float, float], tuple[float, float]]] = {
     "tanh": (torch.tanh, (-2.0, 2.0), (-1.0, 1.0)),
 }
@@ -107,22 +107,22 @@ OUTPUT_KINDS = ("linear", "logit")
 
 @dataclass
 class MLPConfig:
-    """Architecture and input/output conventions of a :class:`SubspaceMLP`.
+    """Architecture and input/output conventions of a `SubspaceMLP`.
 
     Attributes:
         n_inputs: features per sample in the stored layout the model is fed (84 for the 21³
-            grid: ``[d_1..d_6, a_1..a_6, alpha_1..alpha_6, nx, ny, nz, fixed(3)]``).
-        n_outputs: outputs (nodes) per subspace, ``m``.
-        hidden: hidden layer widths (the paper: ``[125, 100, 100, 125]``).
-        activation: hidden activation, ``"tanh"`` (MATLAB ``tansig``).
-        init: ``"nguyen-widrow"`` (MATLAB ``initnw``) or ``"torch"`` (``nn.Linear`` default).
+            grid: `[d_1..d_6, a_1..a_6, alpha_1..alpha_6, nx, ny, nz, fixed(3)]`).
+        n_outputs: outputs (nodes) per subspace, `m`.
+        hidden: hidden layer widths (the paper: `[125, 100, 100, 125]`).
+        activation: hidden activation, `"tanh"` (MATLAB `tansig`).
+        init: `"nguyen-widrow"` (MATLAB `initnw`) or `"torch"` (`nn.Linear` default).
         input_columns: indices into the stored features that feed the first layer, in that
-            order; ``None``: all ``n_inputs``.
-        input_scaling: ``"none"`` (the paper: raw inputs) or ``"standardize"`` (per-subspace mean
+            order; `None`: all `n_inputs`.
+        input_scaling: `"none"` (the paper: raw inputs) or `"standardize"` (per-subspace mean
             and std, from training data, stored as buffers).
         n_subspaces: S, parameter sets held by the model.
-        output_kind: ``"linear"`` (MSE/MAE-trained: threshold the raw output) or ``"logit"``
-            (cross-entropy-trained: threshold ``sigmoid(raw)``).
+        output_kind: `"linear"` (MSE/MAE-trained: threshold the raw output) or `"logit"`
+            (cross-entropy-trained: threshold `sigmoid(raw)`).
     """
 
     n_inputs: int
@@ -165,16 +165,16 @@ class MLPConfig:
 
     @property
     def n_network_inputs(self) -> int:
-        """Width of the first layer's input: ``len(input_columns)`` or ``n_inputs``."""
+        """Width of the first layer's input: `len(input_columns)` or `n_inputs`."""
         return self.n_inputs if self.input_columns is None else len(self.input_columns)
 
     @property
     def layer_sizes(self) -> list[int]:
-        """``[n_network_inputs, *hidden, n_outputs]``."""
+        """`[n_network_inputs, *hidden, n_outputs]`."""
         return [self.n_network_inputs, *self.hidden, self.n_outputs]
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain dict (JSON/YAML and ``weights_only`` friendly)."""
+        """Plain dict (JSON/YAML and `weights_only` friendly)."""
         d = dataclasses.asdict(self)
         d["hidden"] = list(self.hidden)
         d["input_columns"] = None if self.input_columns is None else list(self.input_columns)
@@ -182,7 +182,7 @@ class MLPConfig:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> MLPConfig:
-        """Inverse of :meth:`to_dict`; unknown or missing keys raise ``ValueError``."""
+        """Inverse of `to_dict`; unknown or missing keys raise `ValueError`."""
         if not isinstance(d, dict):
             raise ValueError(f"MLPConfig.from_dict needs a dict; got {type(d).__name__}")
         names = {f.name for f in dataclasses.fields(cls)}
@@ -206,8 +206,8 @@ def _n_features(features) -> int:
 
 
 def check_features(model: SubspaceMLP | MLPConfig, features: ArrayLike) -> None:
-    """Raise ``ValueError("model expects 84 features, got 83")`` unless the last axis of
-    ``features`` has ``config.n_inputs`` entries (the stored feature layout)."""
+    """Raise `ValueError("model expects 84 features, got 83")` unless the last axis of
+    `features` has `config.n_inputs` entries (the stored feature layout)."""
     config = model if isinstance(model, MLPConfig) else model.config
     f = _n_features(features)
     if f != config.n_inputs:
@@ -215,18 +215,18 @@ def check_features(model: SubspaceMLP | MLPConfig, features: ArrayLike) -> None:
 
 
 class SubspaceMLP(nn.Module):
-    """S tanh MLPs with identical architecture, stacked: ``weights[j]`` is ``(S, in_j, out_j)``,
-    ``biases[j]`` ``(S, out_j)``; buffers ``input_mean``/``input_std`` ``(S, n_network_inputs)``.
+    """S tanh MLPs with identical architecture, stacked: `weights[j]` is `(S, in_j, out_j)`,
+    `biases[j]` `(S, out_j)`; buffers `input_mean`/`input_std` `(S, n_network_inputs)`.
 
     Args:
-        config: :class:`MLPConfig`.
-        input_range: first-layer input ranges for Nguyen–Widrow (see :meth:`reset_parameters`).
-        seeds: one seed per subspace; subspace ``s`` is then initialised from
-            ``torch.Generator().manual_seed(seeds[s])`` alone, so a stack built with ``seeds``
-            equals the single models built with ``[seeds[s]]`` (and ``from_models`` of them).
-            ``None``: the global torch RNG, subspace 0 first.
+        config: `MLPConfig`.
+        input_range: first-layer input ranges for Nguyen–Widrow (see `reset_parameters`).
+        seeds: one seed per subspace; subspace `s` is then initialised from
+            `torch.Generator().manual_seed(seeds[s])` alone, so a stack built with `seeds`
+            equals the single models built with `[seeds[s]]` (and `from_models` of them).
+            `None`: the global torch RNG, subspace 0 first.
 
-    Shapes: ``n`` samples, ``f = config.n_inputs`` stored features, ``m = config.n_outputs``.
+    Shapes: `n` samples, `f = config.n_inputs` stored features, `m = config.n_outputs`.
     """
 
     def __init__(self, config: MLPConfig, *, input_range: ArrayLike | None = None, seeds: Sequence[int] | None = None,
@@ -278,12 +278,12 @@ class SubspaceMLP(nn.Module):
         return [torch.Generator().manual_seed(s) for s in seeds]
 
     def reset_parameters(self, input_range: ArrayLike | None = None, seeds: Sequence[int] | None = None) -> None:
-        """Initialise every subspace per ``config.init`` (module docstring).
+        """Initialise every subspace per `config.init` (module docstring).
 
-        ``input_range``: ``(n_network_inputs, 2)`` rows ``[min, max]`` of the first layer's
-        inputs as it sees them (after column selection and scaling), or ``(n_inputs, 2)`` in the
-        stored layout (the selected rows are used), or ``(2,)`` for all; ``None``: ``[-1, 1]``.
-        Hidden layers after the first see tanh outputs, range ``[-1, 1]``. Draw order: subspace
+        `input_range`: `(n_network_inputs, 2)` rows `[min, max]` of the first layer's
+        inputs as it sees them (after column selection and scaling), or `(n_inputs, 2)` in the
+        stored layout (the selected rows are used), or `(2,)` for all; `None`: `[-1, 1]`.
+        Hidden layers after the first see tanh outputs, range `[-1, 1]`. Draw order: subspace
         by subspace, layer by layer, weights then biases.
         """
         cfg = self.config
@@ -337,11 +337,11 @@ class SubspaceMLP(nn.Module):
         return t
 
     def set_input_stats(self, mean: ArrayLike, std: ArrayLike) -> None:
-        """Store the standardisation ``z = (x - mean) / std`` of the first layer's inputs.
+        """Store the standardisation `z = (x - mean) / std` of the first layer's inputs.
 
-        ``mean``, ``std``: ``(f,)`` (all subspaces) or ``(S, f)``, with ``f`` either the stored
-        feature count (the ``input_columns`` are taken) or the network input count. ``std`` must
-        be positive and finite. Only with ``config.input_scaling == "standardize"``.
+        `mean`, `std`: `(f,)` (all subspaces) or `(S, f)`, with `f` either the stored
+        feature count (the `input_columns` are taken) or the network input count. `std` must
+        be positive and finite. Only with `config.input_scaling == "standardize"`.
         """
         if self.config.input_scaling != "standardize":
             raise ValueError(f"input_scaling is {self.config.input_scaling!r}: the model does not use input stats")
@@ -356,7 +356,7 @@ class SubspaceMLP(nn.Module):
 
     @staticmethod
     def input_stats_from(x) -> tuple[np.ndarray, np.ndarray]:
-        """Mean and population std (ddof 0) per column of ``x`` ``(n, f)``, float64.
+        """Mean and population std (ddof 0) per column of `x` `(n, f)`, float64.
 
         A constant column (max == min) gets its value as mean and std 1, so it standardises to
         exactly 0 (a computed std of a constant column is rounding noise, and dividing by it
@@ -372,10 +372,10 @@ class SubspaceMLP(nn.Module):
         return mean, std
 
     def network_inputs(self, x: torch.Tensor, key: int | None = None) -> torch.Tensor:
-        """The first layer's inputs: ``x`` (stored layout) after column selection and scaling.
+        """The first layer's inputs: `x` (stored layout) after column selection and scaling.
 
-        ``key=None``: ``(S, n, f_net)`` (``(n, f_net)`` copies per subspace stats); an int key:
-        ``(n, f_net)`` for that subspace.
+        `key=None`: `(S, n, f_net)` (`(n, f_net)` copies per subspace stats); an int key:
+        `(n, f_net)` for that subspace.
         """
         x = self._as_tensor(x)
         if key is None:
@@ -390,18 +390,18 @@ class SubspaceMLP(nn.Module):
         return (x - self.input_mean[k]) / self.input_std[k]
 
     def configure(self, x: torch.Tensor, *, seeds: Sequence[int] | None = None) -> SubspaceMLP:
-        """Set up from training features ``x`` ``(n, n_inputs)``, as MATLAB's ``configure`` +
-        ``init``: with ``"standardize"`` set the input stats from ``x`` (:meth:`input_stats_from`,
+        """Set up from training features `x` `(n, n_inputs)`, as MATLAB's `configure` +
+        `init`: with `"standardize"` set the input stats from `x` (`input_stats_from`,
         same for all subspaces), then re-initialise with the first layer's input range taken as
-        the per-column min/max of the network inputs over ``x`` (constant columns get zero
-        Nguyen–Widrow weights and do not count in ``H**(1/r)``). Pass the training split (MATLAB
-        configures on everything given to ``train``; for the paper's raw inputs the min/max
-        barely differ). ``seeds`` as in the constructor (the draws restart from them, so
-        ``SubspaceMLP(c, seeds=sd).configure(x, seeds=sd)`` is reproducible).
+        the per-column min/max of the network inputs over `x` (constant columns get zero
+        Nguyen–Widrow weights and do not count in `H**(1/r)`). Pass the training split (MATLAB
+        configures on everything given to `train`; for the paper's raw inputs the min/max
+        barely differ). `seeds` as in the constructor (the draws restart from them, so
+        `SubspaceMLP(c, seeds=sd).configure(x, seeds=sd)` is reproducible).
 
-        It also records :attr:`training_range`, the min/max of every stored feature over ``x``
-        (the arms the model is trained on), which :meth:`predict_maps` checks arms against and
-        :func:`wsmap.learn.files.save` writes into the model file. Returns ``self``.
+        It also records `training_range`, the min/max of every stored feature over `x`
+        (the arms the model is trained on), which `predict_maps` checks arms against and
+        `wsmap.learn.files.save` writes into the model file. Returns `self`.
         """
         arr = np.asarray(_to_numpy(x), dtype=np.float64)
         if arr.ndim != 2 or arr.shape[0] == 0:
@@ -433,7 +433,7 @@ class SubspaceMLP(nn.Module):
         return int(key)
 
     def _run_all(self, x: torch.Tensor) -> torch.Tensor:
-        """x ``(n, f_net)`` or ``(S, n, f_net)`` -> ``(S, n, m)``."""
+        """x `(n, f_net)` or `(S, n, f_net)` -> `(S, n, m)`."""
         h = self._scale(x, None)
         act = ACTIVATIONS[self.config.activation][0]
         last = self.n_layers - 1
@@ -444,8 +444,8 @@ class SubspaceMLP(nn.Module):
         return h
 
     def _run_one(self, x: torch.Tensor, k: int, hidden: list | None = None) -> torch.Tensor:
-        """x ``(n, f_net)`` through subspace ``k`` -> ``(n, m)``; each hidden layer's outputs
-        ``(n, h_j)`` are appended to ``hidden`` when given."""
+        """x `(n, f_net)` through subspace `k` -> `(n, m)`; each hidden layer's outputs
+        `(n, h_j)` are appended to `hidden` when given."""
         h = self._scale(x, k)
         act = ACTIVATIONS[self.config.activation][0]
         last = self.n_layers - 1
@@ -458,8 +458,8 @@ class SubspaceMLP(nn.Module):
         return h
 
     def hidden_outputs(self, x: torch.Tensor, key: int = 0) -> list[torch.Tensor]:
-        """The outputs of every hidden layer of subspace ``key`` for features ``x`` (stored
-        layout, ``(n, f)``): a list of ``(n, h_j)`` tensors, no gradient."""
+        """The outputs of every hidden layer of subspace `key` for features `x` (stored
+        layout, `(n, f)`): a list of `(n, h_j)` tensors, no gradient."""
         x = self._as_tensor(x)
         if x.ndim != 2:
             raise ValueError(f"hidden_outputs needs (n, f) features; got shape {tuple(x.shape)}")
@@ -473,11 +473,11 @@ class SubspaceMLP(nn.Module):
 
         Args:
             x: features in the stored layout (torch or numpy; cast to the parameters' dtype):
-                ``(n, f)`` shared by all subspaces, or ``(S, n, f)`` one batch per subspace
-                (only with ``key=None``).
-            key: ``None``: all subspaces -> ``(S, n, m)`` (also for S = 1). An int ``k``:
-                subspace ``k`` only -> ``(n, m)``. Per-sample keys ``(n,)`` (integer tensor,
-                array or list): sample ``i`` through subspace ``key[i]`` -> ``(n, m)``, one
+                `(n, f)` shared by all subspaces, or `(S, n, f)` one batch per subspace
+                (only with `key=None`).
+            key: `None`: all subspaces -> `(S, n, m)` (also for S = 1). An int `k`:
+                subspace `k` only -> `(n, m)`. Per-sample keys `(n,)` (integer tensor,
+                array or list): sample `i` through subspace `key[i]` -> `(n, m)`, one
                 batched pass per distinct key.
 
         Raises:
@@ -513,8 +513,8 @@ class SubspaceMLP(nn.Module):
         return torch.cat(parts)[torch.argsort(torch.cat(order))]
 
     def assemble(self, x: torch.Tensor) -> torch.Tensor:
-        """All S subspaces on the same ``x`` ``(n, f)``, concatenated along the node axis:
-        ``(n, S*m)``, subspace 0's ``m`` nodes first (section 6.2: 7 block models of 1323 nodes
+        """All S subspaces on the same `x` `(n, f)`, concatenated along the node axis:
+        `(n, S*m)`, subspace 0's `m` nodes first (section 6.2: 7 block models of 1323 nodes
         give the 9261-node map in node order)."""
         x = self._as_tensor(x)
         if x.ndim != 2:
@@ -535,10 +535,10 @@ class SubspaceMLP(nn.Module):
 
     def score(self, x: torch.Tensor, key: str | None = None, *, assemble: bool = False, batch_size: int | None = None
              ) -> torch.Tensor:
-        """The thresholded quantity, without gradients: the raw output (``output_kind
-        "linear"``) or ``sigmoid(raw)`` (``"logit"``). Shapes as :meth:`forward`, or as
-        :meth:`assemble` with ``assemble=True``. ``batch_size``: samples per pass (memory).
-        Features with NaN or infinite values raise ``ValueError`` (they would give NaN scores,
+        """The thresholded quantity, without gradients: the raw output (`output_kind
+        "linear"`) or `sigmoid(raw)` (`"logit"`). Shapes as `forward`, or as
+        `assemble` with `assemble=True`. `batch_size`: samples per pass (memory).
+        Features with NaN or infinite values raise `ValueError` (they would give NaN scores,
         which no threshold counts as reachable: a silently empty map)."""
         if assemble and key is not None:
             raise ValueError("assemble runs all subspaces: give no key")
@@ -562,11 +562,11 @@ class SubspaceMLP(nn.Module):
 
     def predict(self, x: torch.Tensor, threshold: float = 0.5, key: str | None = None, *, assemble: bool = False,
                 batch_size: int | None = None) -> torch.Tensor:
-        """Binary map(s): ``score > threshold`` (bool tensor; shapes as :meth:`score`).
+        """Binary map(s): `score > threshold` (bool tensor; shapes as `score`).
 
-        ``output_kind "linear"``: raw output > threshold (the paper: 0.5). ``"logit"``:
-        ``sigmoid(raw) > threshold``, i.e. ``raw > logit(threshold)``. Use ``.numpy()`` for numpy.
-        ``threshold`` must lie in (0, 1) (``ValueError`` otherwise).
+        `output_kind "linear"`: raw output > threshold (the paper: 0.5). `"logit"`:
+        `sigmoid(raw) > threshold`, i.e. `raw > logit(threshold)`. Use `.numpy()` for numpy.
+        `threshold` must lie in (0, 1) (`ValueError` otherwise).
         """
         threshold = check_threshold(threshold)
         return self.score(x, key, assemble=assemble, batch_size=batch_size) > threshold
@@ -575,10 +575,10 @@ class SubspaceMLP(nn.Module):
 
     @property
     def map_spec(self) -> dict[str, Any] | None:
-        """What the outputs map (module docstring), a plain dict (a copy), or ``None``.
+        """What the outputs map (module docstring), a plain dict (a copy), or `None`.
 
-        Assigning a dict validates it against the model (``ValueError`` if it does not fit) and
-        stores its normalised form (``nodes`` filled in, ``threshold`` a float); ``None`` clears it.
+        Assigning a dict validates it against the model (`ValueError` if it does not fit) and
+        stores its normalised form (`nodes` filled in, `threshold` a float); `None` clears it.
         """
         return None if self._map_spec is None else {**self._map_spec, "dataset": dict(self._map_spec["dataset"]),
                                                     "nodes": list(self._map_spec["nodes"])}
@@ -592,12 +592,12 @@ class SubspaceMLP(nn.Module):
 
     def set_map_spec(self, dataset: Dataset, *, nodes: ArrayLike | None = None, assemble: bool = False,
                      subspace: int | None = None, threshold: float = 0.5) -> SubspaceMLP:
-        """Say what the model maps (arguments as :func:`make_map_spec`); returns ``self``.
+        """Say what the model maps (arguments as `make_map_spec`); returns `self`.
 
-        Examples: a model trained on all nodes of ``spec``: ``set_map_spec(spec)``; one block
-        model trained on columns ``[5292, 6615)`` of the 21³ ``sec62`` labels:
-        ``set_map_spec(sec62, nodes=(5292, 6615))``; the 7 stacked block models:
-        ``set_map_spec(sec62, assemble=True)``.
+        Examples: a model trained on all nodes of `spec`: `set_map_spec(spec)`; one block
+        model trained on columns `[5292, 6615)` of the 21³ `sec62` labels:
+        `set_map_spec(sec62, nodes=(5292, 6615))`; the 7 stacked block models:
+        `set_map_spec(sec62, assemble=True)`.
         """
         self.map_spec = make_map_spec(dataset, nodes=nodes, assemble=assemble, subspace=subspace,
                                       threshold=threshold)
@@ -610,16 +610,16 @@ class SubspaceMLP(nn.Module):
         return self._map_plan
 
     def map_nodes(self) -> np.ndarray:
-        """The nodes the maps cover ``(N, 3)`` in output order: positions in metres (R3 specs) or
-        angles in radians (SO3 specs); ``N = stop - start`` of ``map_spec["nodes"]``."""
+        """The nodes the maps cover `(N, 3)` in output order: positions in metres (R3 specs) or
+        angles in radians (SO3 specs); `N = stop - start` of `map_spec["nodes"]`."""
         plan = self._require_plan()
         return grid_nodes(plan.spec)[plan.nodes]
 
     def map_features(self, arms: Arm | ArrayLike, fixed: ArrayLike | None = None) -> np.ndarray:
-        """Features ``(B, n_inputs)`` float64 of ``arms`` (a :class:`~wsmap.kinematics.DHRobot`, one
-        arm or a batch of any shape, flattened to ``B`` arms) for the map's dataset spec, with the
-        checks of :meth:`predict_maps` except the training range
-        (:func:`wsmap.learn.mapspec.map_features`)."""
+        """Features `(B, n_inputs)` float64 of `arms` (a `DHRobot`, one
+        arm or a batch of any shape, flattened to `B` arms) for the map's dataset spec, with the
+        checks of `predict_maps` except the training range
+        (`wsmap.learn.mapspec.map_features`)."""
         X = map_features(self._require_plan(), arms, fixed)
         check_features(self, X)
         return X
@@ -629,11 +629,11 @@ class SubspaceMLP(nn.Module):
     @property
     def training_range(self) -> TrainingRange | None:
         """The range of every stored feature over the training data
-        (:class:`~wsmap.learn.training_range.TrainingRange`), or ``None`` when unknown.
+        (`TrainingRange`), or `None` when unknown.
 
-        Set by :meth:`configure` and by :func:`wsmap.learn.files.load`; assign a
-        ``TrainingRange`` (or ``None``), or use :meth:`set_training_range`. Kept by
-        :meth:`subspace`; :meth:`from_models` keeps the intersection of the models' ranges.
+        Set by `configure` and by `wsmap.learn.files.load`; assign a
+        `TrainingRange` (or `None`), or use `set_training_range`. Kept by
+        `subspace`; `from_models` keeps the intersection of the models' ranges.
         """
         return self._training_range
 
@@ -649,18 +649,18 @@ class SubspaceMLP(nn.Module):
         self._training_range = value
 
     def set_training_range(self, data: ArrayLike | Dataset | Any) -> SubspaceMLP:
-        """Record the training range from ``data``: training features ``(n, n_inputs)`` (numpy or
-        torch), an object with such ``.features`` (a :class:`wsmap.datasets.Dataset`), or a
-        :class:`~wsmap.learn.training_range.TrainingRange`. Returns ``self``."""
+        """Record the training range from `data`: training features `(n, n_inputs)` (numpy or
+        torch), an object with such `.features` (a `wsmap.datasets.Dataset`), or a
+        `TrainingRange`. Returns `self`."""
         self.training_range = training_range_of(data)
         return self
 
     def check_training_range(self, features: ArrayLike, *, allow_extrapolation: bool = False) -> None:
-        """Refuse feature rows ``(n, n_inputs)`` outside :attr:`training_range`
-        (:class:`~wsmap.learn.training_range.ExtrapolationError`, a ``ValueError`` naming the
+        """Refuse feature rows `(n, n_inputs)` outside `training_range`
+        (`ExtrapolationError`, a `ValueError` naming the
         parameter, the value and the trained range), or warn
-        (:class:`~wsmap.learn.training_range.ExtrapolationWarning`) with ``allow_extrapolation``.
-        A model without a training range refuses unless ``allow_extrapolation``."""
+        (`ExtrapolationWarning`) with `allow_extrapolation`.
+        A model without a training range refuses unless `allow_extrapolation`."""
         rng = self._training_range
         if rng is None:
             check_no_range(allow_extrapolation)
@@ -677,34 +677,34 @@ class SubspaceMLP(nn.Module):
 
     def predict_maps(self, arms: Arm | ArrayLike, fixed: ArrayLike | None = None, threshold: float | None = None,
                      batch_size: int | None = None, *, allow_extrapolation: bool = False) -> np.ndarray:
-        """Binary workspace maps of ``arms`` predicted by the network, in node order.
+        """Binary workspace maps of `arms` predicted by the network, in node order.
 
         Args:
-            arms: a :class:`~wsmap.kinematics.DHRobot` with 6 joints: one arm (batch ``()``) or a
-                batch of any shape ``(...)``; finite DH values, no joint limits, no tool.
-            fixed: the orientation (R3 specs; angles in rad) or point (SO3 specs; m), ``(3,)`` or
-                ``(B, 3)``. ``None``: the spec's. Required for a spec with ``fixed="random"``;
+            arms: a `DHRobot` with 6 joints: one arm (batch `()`) or a
+                batch of any shape `(...)`; finite DH values, no joint limits, no tool.
+            fixed: the orientation (R3 specs; angles in rad) or point (SO3 specs; m), `(3,)` or
+                `(B, 3)`. `None`: the spec's. Required for a spec with `fixed="random"`;
                 for a fixed spec it must equal the spec's (the model has seen no other).
-            threshold: score threshold in (0, 1); ``None``: ``map_spec["threshold"]``.
-            batch_size: arms per forward pass (memory); ``None``: all at once.
-            allow_extrapolation: predict for arms outside :attr:`training_range` (or with a model
-                that records none) with an :class:`~wsmap.learn.training_range.ExtrapolationWarning`
+            threshold: score threshold in (0, 1); `None`: `map_spec["threshold"]`.
+            batch_size: arms per forward pass (memory); `None`: all at once.
+            allow_extrapolation: predict for arms outside `training_range` (or with a model
+                that records none) with an `ExtrapolationWarning`
                 instead of refusing them.
 
         Returns:
-            bool ``(..., N)`` with ``N`` the covered nodes (:meth:`map_nodes`): for a model covering
-            its whole R3 grid the array ``wsmap.workspace.constant_orientation_map(arms,
-            grid_nodes, fixed, convention=...)`` would be (``orientation_map`` for SO3), a
-            single arm giving ``(N,)``. Equal to ``predict(features, threshold, key=subspace,
-            assemble=...)`` on :meth:`map_features`.
+            bool `(..., N)` with `N` the covered nodes (`map_nodes`): for a model covering
+            its whole R3 grid the array `wsmap.workspace.constant_orientation_map(arms,
+            grid_nodes, fixed, convention=...)` would be (`orientation_map` for SO3), a
+            single arm giving `(N,)`. Equal to `predict(features, threshold, key=subspace,
+            assemble=...)` on `map_features`.
 
         Raises:
-            ExtrapolationError: (a ``ValueError``) arms outside the training range, or no training
-                range, without ``allow_extrapolation``.
-            ValueError: no ``map_spec``; arms with other than 6 joints, non-finite DH values,
-                joint limits or a tool; a ``fixed`` the model was not trained at; a threshold
-                outside (0, 1); a bad ``batch_size``.
-            TypeError: ``arms`` is not a ``DHRobot``.
+            ExtrapolationError: (a `ValueError`) arms outside the training range, or no training
+                range, without `allow_extrapolation`.
+            ValueError: no `map_spec`; arms with other than 6 joints, non-finite DH values,
+                joint limits or a tool; a `fixed` the model was not trained at; a threshold
+                outside (0, 1); a bad `batch_size`.
+            TypeError: `arms` is not a `DHRobot`.
         """
         plan = self._require_plan()
         t = plan.threshold if threshold is None else check_threshold(threshold)
@@ -719,10 +719,10 @@ class SubspaceMLP(nn.Module):
     @classmethod
     def from_models(cls, models: Sequence[SubspaceMLP]) -> SubspaceMLP:
         """Stack separately trained models into one: their subspaces in order (a model with
-        ``S_i > 1`` contributes all of its). Configs must agree except ``n_subspaces``; dtype
+        `S_i > 1` contributes all of its). Configs must agree except `n_subspaces`; dtype
         and device follow the first model. Parameters and input stats are copied; the training
-        range is the intersection of the models' ranges (``None`` if one has none, or if they do
-        not overlap). The ``map_spec`` is not carried over (the stack maps something else)."""
+        range is the intersection of the models' ranges (`None` if one has none, or if they do
+        not overlap). The `map_spec` is not carried over (the stack maps something else)."""
         models = list(models)
         if not models:
             raise ValueError("from_models needs at least one model")
@@ -758,7 +758,7 @@ class SubspaceMLP(nn.Module):
         return out
 
     def subspace(self, k: int) -> SubspaceMLP:
-        """A copy of subspace ``k`` as a single-subspace model (S = 1), with the training range."""
+        """A copy of subspace `k` as a single-subspace model (S = 1), with the training range."""
         k = self._check_key(k)
         out = type(self)(self.config.replace(n_subspaces=1), _init=False)
         ref = self.weights[0]
@@ -775,14 +775,14 @@ class SubspaceMLP(nn.Module):
 
 def unit_saturation(model: SubspaceMLP, x: ArrayLike | torch.Tensor, key: int = 0, *, level: float = 0.99,
                     share: float = 0.95) -> list[dict[str, Any]]:
-    """How saturated the tanh units of subspace ``key`` are on features ``x`` ``(n, f)``.
+    """How saturated the tanh units of subspace `key` are on features `x` `(n, f)`.
 
-    A unit's output is *saturated* on a sample when ``|h| > level``; a unit is *constant* when it
-    sits saturated at one sign (``h > level``, or ``h < -level``) on at least ``share`` of the
+    A unit's output is *saturated* on a sample when `|h| > level`; a unit is *constant* when it
+    sits saturated at one sign (`h > level`, or `h < -level`) on at least `share` of the
     samples: it then passes almost nothing about the input to the next layer, and its gradient
-    (``1 - h²`` < ``1 - level²``) almost vanishes there. Returns one dict per hidden layer
-    (1-based ``layer``): ``units``, ``saturated`` (the share of unit–sample pairs saturated),
-    ``constant`` (the share of units constant) and ``active_units`` (the units not constant).
+    (`1 - h²` < `1 - level²`) almost vanishes there. Returns one dict per hidden layer
+    (1-based `layer`): `units`, `saturated` (the share of unit–sample pairs saturated),
+    `constant` (the share of units constant) and `active_units` (the units not constant).
     """
     if model.config.activation != "tanh":
         raise ValueError(f"unit_saturation reads tanh units; the model's activation is {model.config.activation!r}")
@@ -797,8 +797,8 @@ def unit_saturation(model: SubspaceMLP, x: ArrayLike | torch.Tensor, key: int = 
 
 
 def training_range_of(data) -> TrainingRange:
-    """A :class:`~wsmap.learn.training_range.TrainingRange` from training features ``(n, f)``, an
-    object with ``.features`` (a dataset), or a ``TrainingRange`` (returned as is)."""
+    """A `TrainingRange` from training features `(n, f)`, an
+    object with `.features` (a dataset), or a `TrainingRange` (returned as is)."""
     if isinstance(data, TrainingRange):
         return data
     if data is None:

@@ -1,4 +1,4 @@
-"""Full-batch trainers of the paper's Table 2, as ``torch.optim`` optimisers.
+"""Full-batch trainers of the paper's Table 2, as `torch.optim` optimisers.
 
 The paper trained its networks with MATLAB's Neural Network Toolbox. Table 2 compares five of its
 training functions; this module provides each as a torch optimiser:
@@ -6,27 +6,27 @@ training functions; this module provides each as a torch optimiser:
 ==========  ===========  =========================================================================
 name        MATLAB       algorithm
 ==========  ===========  =========================================================================
-``rprop``   ``trainrp``  resilient backpropagation (Riedmiller & Braun 1993): :func:`paper_rprop`
-``scg``     ``trainscg`` scaled conjugate gradient (Møller 1993): :class:`SCG`
-``cgb``     ``traincgb`` conjugate gradient with Powell–Beale restarts (Powell 1977): :class:`CGB`
-``oss``     ``trainoss`` one-step secant (Battiti 1992): :class:`OSS`
-``gdx``     ``traingdx`` gradient descent, momentum, adaptive learning rate: :class:`GDX`
+`rprop`   `trainrp`  resilient backpropagation (Riedmiller & Braun 1993): `paper_rprop`
+`scg`     `trainscg` scaled conjugate gradient (Møller 1993): `SCG`
+`cgb`     `traincgb` conjugate gradient with Powell–Beale restarts (Powell 1977): `CGB`
+`oss`     `trainoss` one-step secant (Battiti 1992): `OSS`
+`gdx`     `traingdx` gradient descent, momentum, adaptive learning rate: `GDX`
 ==========  ===========  =========================================================================
 
-All are *full-batch* and deterministic. Like :class:`torch.optim.LBFGS`, ``step(closure)`` takes a
+All are *full-batch* and deterministic. Like `torch.optim.LBFGS`, `step(closure)` takes a
 closure that zeroes the gradients, evaluates the loss on the whole training set, calls
-``backward()`` and returns the loss; the optimisers here may call it several times per step (line
-searches, trial points). One ``step`` is one MATLAB *epoch*.
+`backward()` and returns the loss; the optimisers here may call it several times per step (line
+searches, trial points). One `step` is one MATLAB *epoch*.
 
-:class:`SCG`, :class:`CGB`, :class:`OSS` and :class:`GDX` treat all parameters as one flat vector
-(:func:`torch.nn.utils.parameters_to_vector`); vectors are kept in the parameters' dtype (float32
+`SCG`, `CGB`, `OSS` and `GDX` treat all parameters as one flat vector
+(`torch.nn.utils.parameters_to_vector`); vectors are kept in the parameters' dtype (float32
 for the networks), scalars (dot products, step sizes) in Python floats. Every step starts by
-calling the closure at the current parameters: :func:`wsmap.learn.training.train` answers that call from
+calling the closure at the current parameters: `wsmap.learn.training.train` answers that call from
 a cache, so it costs nothing there.
 
-:func:`paper_rprop` is the only *elementwise* optimiser (each parameter's update depends only on its
-own gradient history). That is what lets :mod:`wsmap.learn.training` train several independent sessions
-stacked in one model: see :data:`ELEMENTWISE`.
+`paper_rprop` is the only *elementwise* optimiser (each parameter's update depends only on its
+own gradient history). That is what lets `wsmap.learn.training` train several independent sessions
+stacked in one model: see `ELEMENTWISE`.
 """
 
 from __future__ import annotations
@@ -58,20 +58,20 @@ RPROP_DEFAULTS = {"lr": 0.07, "etas": (0.5, 1.2), "step_sizes": (1e-6, 50.0)}
 
 def paper_rprop(params: Iterable, *, lr: float = 0.07, etas: tuple[float, float] = (0.5, 1.2),
                 step_sizes: tuple[float, float] = (1e-6, 50.0), **kwargs) -> torch.optim.Rprop:
-    """Resilient backpropagation configured as the paper (MATLAB ``trainrp``).
+    """Resilient backpropagation configured as the paper (MATLAB `trainrp`).
 
     Riedmiller & Braun, "A direct adaptive method for faster backpropagation learning: the RPROP
-    algorithm", ICNN 1993. Defaults: initial step ``lr = 0.07`` (trainrp ``delta0``), step factors
-    ``etas = (0.5, 1.2)`` (``delt_dec``, ``delt_inc``), step bounds ``step_sizes = (1e-6, 50)``
-    (``deltamax`` 50; MATLAB has no lower bound, torch needs one). Extra keyword arguments go to
-    :class:`torch.optim.Rprop`.
+    algorithm", ICNN 1993. Defaults: initial step `lr = 0.07` (trainrp `delta0`), step factors
+    `etas = (0.5, 1.2)` (`delt_dec`, `delt_inc`), step bounds `step_sizes = (1e-6, 50)`
+    (`deltamax` 50; MATLAB has no lower bound, torch needs one). Extra keyword arguments go to
+    `torch.optim.Rprop`.
 
     Difference from MATLAB: torch's Rprop is the Rprop⁻ variant that, after a gradient sign change,
     shrinks the step and *skips* that parameter's update (its stored gradient is zeroed), while
     trainrp applies the shrunken step at once in the direction of the new gradient sign. Both
     are elementwise; trajectories differ in detail, not in character.
 
-    ``step(closure)`` calls the closure once per step (one epoch).
+    `step(closure)` calls the closure once per step (one epoch).
     """
     return torch.optim.Rprop(params, lr=lr, etas=tuple(etas), step_sizes=tuple(step_sizes), **kwargs)
 
@@ -119,8 +119,8 @@ class _FlatOptimizer(Optimizer):
         return torch.cat(parts).clone()
 
     def _start_step(self, closure: Callable) -> tuple[torch.Tensor, float, torch.Tensor]:
-        """The start of every step: ``closure`` checked (these optimisers re-evaluate the loss), then
-        the flat weights ``x``, the loss ``f`` and its gradient ``g`` at ``x``."""
+        """The start of every step: `closure` checked (these optimisers re-evaluate the loss), then
+        the flat weights `x`, the loss `f` and its gradient `g` at `x`."""
         if closure is None:
             raise ValueError(f"{type(self).__name__} needs a closure that re-evaluates the loss")
         x = self._get_x()
@@ -128,9 +128,9 @@ class _FlatOptimizer(Optimizer):
         return x, f, g
 
     def _evaluate(self, closure: Callable, x: torch.Tensor | None = None) -> tuple[float, torch.Tensor]:
-        """Loss and flat gradient at ``x`` (at the current parameters when ``x`` is None).
+        """Loss and flat gradient at `x` (at the current parameters when `x` is None).
 
-        Leaves the parameters at ``x``.
+        Leaves the parameters at `x`.
         """
         if x is not None:
             self._set_x(x)
@@ -142,7 +142,7 @@ class _FlatOptimizer(Optimizer):
         """Forget the search history (directions, secant pairs, momentum).
 
         Call when the function the closure computes changes between steps (e.g. new data, or a
-        stacked session masked out by :func:`wsmap.learn.training.train`).
+        stacked session masked out by `wsmap.learn.training.train`).
         """
         self.state.clear()
         self.stalled = False
@@ -162,34 +162,34 @@ def charalambous_search(phi: Callable[[float], tuple[float, torch.Tensor]], f0: 
                         gamma: float = 0.1, scale: float = 3.0, rel_tol: float = 0.05,
                         max_step: float = 100.0, min_step: float = 1e-6, max_iter: int = 100,
                         ) -> tuple[float, float, torch.Tensor, int]:
-    """One-dimensional minimisation along ``d``, Charalambous-style interval location.
+    """One-dimensional minimisation along `d`, Charalambous-style interval location.
 
     After C. Charalambous, "Conjugate gradient algorithm for efficient training of artificial
-    neural networks", IEE Proc. G 139(3), 1992, as MATLAB's ``srchcha`` uses it: keep an interval
-    ``[a, b]`` (``a`` starts at 0), and at each iteration
+    neural networks", IEE Proc. G 139(3), 1992, as MATLAB's `srchcha` uses it: keep an interval
+    `[a, b]` (`a` starts at 0), and at each iteration
 
-    * if the slope at ``b`` is negative and ``f(b) <= f(a)``, extend: ``b ← a + scale·(b − a)``;
-    * if the slope at ``b`` is negative but ``f(b) > f(a)``, contract: ``b ← a + (b − a)/scale``;
+    * if the slope at `b` is negative and `f(b) <= f(a)`, extend: `b ← a + scale·(b − a)`;
+    * if the slope at `b` is negative but `f(b) > f(a)`, contract: `b ← a + (b − a)/scale`;
     * otherwise (a minimum is bracketed) take the minimiser of the cubic through
-      ``(a, f(a), f'(a))`` and ``(b, f(b), f'(b))``, kept inside
-      ``[a + gamma·(b − a), b − gamma·(b − a)]``;
+      `(a, f(a), f'(a))` and `(b, f(b), f'(b))`, kept inside
+      `[a + gamma·(b − a), b − gamma·(b − a)]`;
 
-    until the better end point satisfies sufficient decrease ``f ≤ f0 + c1·t·f'(0)`` *and*
-    ``|f'(t)| ≤ c2·|f'(0)|`` (strong Wolfe with c1 = 1e-3, c2 = 0.1: srchcha's ``alpha`` and
-    ``beta``), the interval is narrower than ``rel_tol·b``, ``f(a) == f(b)`` without a bracketed
-    minimum, or ``max_iter`` evaluations were spent. A non-finite ``f(b)`` contracts. Steps are capped so that
-    ``t·|d| ≤ max_step`` and the search gives up below ``t·|d| < min_step``. Differences from
-    srchcha: its tolerance is absolute (``delta/scale_tol``); here it is relative, so a search
-    that has not yet found any decrease (``a = 0``) keeps contracting instead of giving up.
+    until the better end point satisfies sufficient decrease `f ≤ f0 + c1·t·f'(0)` *and*
+    `|f'(t)| ≤ c2·|f'(0)|` (strong Wolfe with c1 = 1e-3, c2 = 0.1: srchcha's `alpha` and
+    `beta`), the interval is narrower than `rel_tol·b`, `f(a) == f(b)` without a bracketed
+    minimum, or `max_iter` evaluations were spent. A non-finite `f(b)` contracts. Steps are capped so that
+    `t·|d| ≤ max_step` and the search gives up below `t·|d| < min_step`. Differences from
+    srchcha: its tolerance is absolute (`delta/scale_tol`); here it is relative, so a search
+    that has not yet found any decrease (`a = 0`) keeps contracting instead of giving up.
 
     Args:
-        phi: ``phi(t) -> (f, g)``: loss and flat gradient at ``x0 + t·d``.
-        f0, g0: loss and gradient at ``t = 0``; ``d`` must be a descent direction (``g0·d < 0``).
-        step0: first trial step ``t``.
+        phi: `phi(t) -> (f, g)`: loss and flat gradient at `x0 + t·d`.
+        f0, g0: loss and gradient at `t = 0`; `d` must be a descent direction (`g0·d < 0`).
+        step0: first trial step `t`.
 
     Returns:
-        ``(t, f, g, evaluations)`` at the best point found; ``t = 0`` (with ``f0``, ``g0``) when
-        no point improved on the start. The caller must set the parameters to ``x0 + t·d``.
+        `(t, f, g, evaluations)` at the best point found; `t = 0` (with `f0`, `g0`) when
+        no point improved on the start. The caller must set the parameters to `x0 + t·d`.
     """
     d0 = _dot(g0, d)
     norm_d = float(torch.linalg.vector_norm(d))
@@ -243,7 +243,7 @@ def charalambous_search(phi: Callable[[float], tuple[float, torch.Tensor]], f0: 
 
 
 def _cubic_min(a: float, fa: float, da: float, b: float, fb: float, db: float) -> float:
-    """Minimiser of the cubic interpolating values and slopes at ``a < b`` (Nocedal & Wright 3.59)."""
+    """Minimiser of the cubic interpolating values and slopes at `a < b` (Nocedal & Wright 3.59)."""
     d1 = da + db - 3.0 * (fa - fb) / (a - b)
     disc = d1 * d1 - da * db
     if disc < 0:
@@ -261,22 +261,22 @@ def _cubic_min(a: float, fa: float, da: float, b: float, fb: float, db: float) -
 
 
 class SCG(_FlatOptimizer):
-    """Scaled conjugate gradient (Møller 1993; MATLAB ``trainscg``).
+    """Scaled conjugate gradient (Møller 1993; MATLAB `trainscg`).
 
     M. F. Møller, "A scaled conjugate gradient algorithm for fast supervised learning", Neural
-    Networks 6(4), 1993. No line search: the curvature along the search direction ``p`` comes from
-    a finite difference of gradients, ``s = (g(x + σ_k p) − g(x)) / σ_k`` with ``σ_k = σ/|p|``, and a
-    Levenberg–Marquardt scale ``λ`` keeps ``δ = p·s + λ|p|²`` positive. The step
-    ``α = μ/δ`` (``μ = −p·g``) is accepted when the comparison parameter
-    ``Δ = 2δ(f(x) − f(x + αp))/μ² ≥ 0``; ``λ`` shrinks ×¼ when ``Δ ≥ 0.75`` and grows by
-    ``δ(1 − Δ)/|p|²`` when ``Δ < 0.25``. Directions follow Polak–Ribière form
-    ``β = (|g⁺|² − g⁺·g)/μ`` and restart to ``−g`` every ``N`` accepted steps (``N`` = number of
+    Networks 6(4), 1993. No line search: the curvature along the search direction `p` comes from
+    a finite difference of gradients, `s = (g(x + σ_k p) − g(x)) / σ_k` with `σ_k = σ/|p|`, and a
+    Levenberg–Marquardt scale `λ` keeps `δ = p·s + λ|p|²` positive. The step
+    `α = μ/δ` (`μ = −p·g`) is accepted when the comparison parameter
+    `Δ = 2δ(f(x) − f(x + αp))/μ² ≥ 0`; `λ` shrinks ×¼ when `Δ ≥ 0.75` and grows by
+    `δ(1 − Δ)/|p|²` when `Δ < 0.25`. Directions follow Polak–Ribière form
+    `β = (|g⁺|² − g⁺·g)/μ` and restart to `−g` every `N` accepted steps (`N` = number of
     parameters; Møller's counter from 1, MATLAB's epoch counter restarts once more after its first
     step).
 
-    Defaults (trainscg): ``sigma = 5e-5``, ``lambd = 5e-7``. Closure evaluations per step: the current
+    Defaults (trainscg): `sigma = 5e-5`, `lambd = 5e-7`. Closure evaluations per step: the current
     point, the σ point (after an accepted step only) and the trial point. With float32 parameters
-    the finite difference carries only ~3 digits; λ absorbs the noise, and a larger ``sigma`` (1e-4
+    the finite difference carries only ~3 digits; λ absorbs the noise, and a larger `sigma` (1e-4
     to 1e-3) is a reasonable override.
     """
 
@@ -370,22 +370,22 @@ class _LineSearchOptimizer(_FlatOptimizer):
 
 
 class CGB(_LineSearchOptimizer):
-    """Conjugate gradient with Powell–Beale restarts (MATLAB ``traincgb``).
+    """Conjugate gradient with Powell–Beale restarts (MATLAB `traincgb`).
 
     M. J. D. Powell, "Restart procedures for the conjugate gradient method", Math. Programming 12,
-    1977. Directions ``d = −g + Z1·d_prev + Z2·d_t`` with the Hestenes–Stiefel
-    ``Z1 = g·Δg / d_prev·Δg`` and Beale's term on the direction ``d_t`` (and gradient change
-    ``Δg_t``) of the last restart, ``Z2 = g·Δg_t / d_t·Δg_t`` (0 right after a restart). A restart
-    happens when successive gradients are far from orthogonal, ``|g_prev·g| ≥ 0.2|g|²``, or after
-    ``N`` (number of parameters) steps; the direction falls back to ``−g`` when it is not
-    sufficiently downhill (``g·d̂ ≥ −0.001|g|``). Directions are normalised, and each step
-    minimises along ``d̂`` with :func:`charalambous_search` (MATLAB's default ``srchcha``), first
-    trial step ``max(delta, |2Δf/g·d̂|)`` where ``delta`` is the previous step (at least
-    ``delta = 0.01``) and ``Δf`` the last change in loss (the loss itself at the first step).
+    1977. Directions `d = −g + Z1·d_prev + Z2·d_t` with the Hestenes–Stiefel
+    `Z1 = g·Δg / d_prev·Δg` and Beale's term on the direction `d_t` (and gradient change
+    `Δg_t`) of the last restart, `Z2 = g·Δg_t / d_t·Δg_t` (0 right after a restart). A restart
+    happens when successive gradients are far from orthogonal, `|g_prev·g| ≥ 0.2|g|²`, or after
+    `N` (number of parameters) steps; the direction falls back to `−g` when it is not
+    sufficiently downhill (`g·d̂ ≥ −0.001|g|`). Directions are normalised, and each step
+    minimises along `d̂` with `charalambous_search` (MATLAB's default `srchcha`), first
+    trial step `max(delta, |2Δf/g·d̂|)` where `delta` is the previous step (at least
+    `delta = 0.01`) and `Δf` the last change in loss (the loss itself at the first step).
 
-    Defaults (traincgb): ``delta = 0.01``, ``scale_tol = 20``, ``c1 = 1e-3`` (srchcha's
-    ``alpha``), ``c2 = 0.1`` (``beta``), ``gamma = 0.1``, ``max_step = 100``, ``min_step = 1e-6``,
-    ``max_iter = 100`` evaluations per search. :attr:`stalled` is set when a search finds no
+    Defaults (traincgb): `delta = 0.01`, `scale_tol = 20`, `c1 = 1e-3` (srchcha's
+    `alpha`), `c2 = 0.1` (`beta`), `gamma = 0.1`, `max_step = 100`, `min_step = 1e-6`,
+    `max_iter = 100` evaluations per search. `stalled` is set when a search finds no
     decrease (MATLAB then stops with "Minimum step size reached").
     """
 
@@ -447,21 +447,21 @@ class CGB(_LineSearchOptimizer):
 
 
 class OSS(_LineSearchOptimizer):
-    """One-step secant (Battiti 1992; MATLAB ``trainoss``).
+    """One-step secant (Battiti 1992; MATLAB `trainoss`).
 
     R. Battiti, "First- and second-order methods for learning: between steepest descent and
     Newton's method", Neural Computation 4(2), 1992. A memoryless BFGS: with the last step
-    ``s`` and gradient change ``y``, the direction is ``d = −g + A·s + B·y`` with
-    ``B = s·g / s·y`` and ``A = −(1 + y·y/s·y)·B + y·g/s·y``; it restarts at ``−g`` every ``N``
-    (number of parameters) steps, when ``s·y = 0``, or when ``d`` is not downhill. Each step
-    minimises along ``d`` with :func:`charalambous_search`, first trial step
-    ``max(1, |2Δf/g·d|)`` (the quasi-Newton step 1, as MATLAB's ``srchbac`` starts).
+    `s` and gradient change `y`, the direction is `d = −g + A·s + B·y` with
+    `B = s·g / s·y` and `A = −(1 + y·y/s·y)·B + y·g/s·y`; it restarts at `−g` every `N`
+    (number of parameters) steps, when `s·y = 0`, or when `d` is not downhill. Each step
+    minimises along `d` with `charalambous_search`, first trial step
+    `max(1, |2Δf/g·d|)` (the quasi-Newton step 1, as MATLAB's `srchbac` starts).
 
-    Difference from MATLAB: trainoss's default search is the backtracking ``srchbac``
+    Difference from MATLAB: trainoss's default search is the backtracking `srchbac`
     (Dennis & Schnabel); this uses the Charalambous-style search with the same sufficient-decrease
-    (``c1 = 1e-3``) and slope (``c2 = 0.1``) constants, which also extends steps that are too short.
-    Defaults: ``c1 = 1e-3``, ``c2 = 0.1``, ``gamma = 0.1``, ``scale_tol = 20``, ``max_step = 100``,
-    ``min_step = 1e-6``, ``max_iter = 100``. :attr:`stalled` is set when a search finds no decrease.
+    (`c1 = 1e-3`) and slope (`c2 = 0.1`) constants, which also extends steps that are too short.
+    Defaults: `c1 = 1e-3`, `c2 = 0.1`, `gamma = 0.1`, `scale_tol = 20`, `max_step = 100`,
+    `min_step = 1e-6`, `max_iter = 100`. `stalled` is set when a search finds no decrease.
     """
 
     def __init__(self, params: Iterable[torch.Tensor], **search):
@@ -510,18 +510,18 @@ class OSS(_LineSearchOptimizer):
 
 
 class GDX(_FlatOptimizer):
-    """Gradient descent with momentum and an adaptive learning rate (MATLAB ``traingdx``).
+    """Gradient descent with momentum and an adaptive learning rate (MATLAB `traingdx`).
 
-    Each step: ``dX ← mc·dX − (1 − mc)·lr·g`` (``dX = −lr·g`` at the first step), trial point
-    ``x + dX``. If the loss there exceeds ``max_perf_inc`` times the current loss, the trial is
-    discarded, ``lr ← lr·lr_dec`` and the momentum restarts, ``dX ← −lr·g``; otherwise the trial is
-    accepted and, if the loss decreased, ``lr ← lr·lr_inc``. (Vogl et al., "Accelerating the
+    Each step: `dX ← mc·dX − (1 − mc)·lr·g` (`dX = −lr·g` at the first step), trial point
+    `x + dX`. If the loss there exceeds `max_perf_inc` times the current loss, the trial is
+    discarded, `lr ← lr·lr_dec` and the momentum restarts, `dX ← −lr·g`; otherwise the trial is
+    accepted and, if the loss decreased, `lr ← lr·lr_inc`. (Vogl et al., "Accelerating the
     convergence of the back-propagation method", Biol. Cybern. 59, 1988; Hagan, Demuth & Beale,
     *Neural Network Design*, ch. 12.)
 
-    Defaults (traingdx): ``lr = 0.01``, ``lr_inc = 1.05``, ``lr_dec = 0.7``,
-    ``max_perf_inc = 1.04``, ``mc = 0.9``. The current rate is ``param_groups[0]["lr"]``;
-    :attr:`rejected` says whether the last trial was discarded. Two closure evaluations per step
+    Defaults (traingdx): `lr = 0.01`, `lr_inc = 1.05`, `lr_dec = 0.7`,
+    `max_perf_inc = 1.04`, `mc = 0.9`. The current rate is `param_groups[0]["lr"]`;
+    `rejected` says whether the last trial was discarded. Two closure evaluations per step
     (current point, trial point).
     """
 
@@ -532,7 +532,7 @@ class GDX(_FlatOptimizer):
         super().__init__(params, {"lr": lr, "lr_inc": lr_inc, "lr_dec": lr_dec,
                                   "max_perf_inc": max_perf_inc, "mc": mc})
         #: True when the last step's trial point was discarded (a rejected step is normal for
-        #: traingdx, not a stall, so :attr:`stalled` stays False).
+        #: traingdx, not a stall, so `stalled` stays False).
         self.rejected = False
 
     @torch.no_grad()
@@ -577,7 +577,7 @@ ELEMENTWISE = frozenset({"rprop"})
 
 
 def canonical_name(name: str) -> str:
-    """``"trainrp"`` → ``"rprop"`` etc.; raise ``ValueError`` for an unknown name."""
+    """`"trainrp"` → `"rprop"` etc.; raise `ValueError` for an unknown name."""
     key = str(name).strip().lower()
     key = ALIASES.get(key, key)
     if key not in OPTIMIZERS:
@@ -588,10 +588,10 @@ def canonical_name(name: str) -> str:
 
 
 def make_optimizer(name: str, params: Iterable, **overrides) -> Optimizer:
-    """The optimiser called ``name`` (see the module table) with its defaults, or ``overrides``.
+    """The optimiser called `name` (see the module table) with its defaults, or `overrides`.
 
-    ``name`` is one of ``rprop, scg, cgb, oss, gdx`` or the MATLAB names ``trainrp, trainscg,
-    traincgb, trainoss, traingdx`` (case-insensitive). Unknown names raise ``ValueError`` listing
+    `name` is one of `rprop, scg, cgb, oss, gdx` or the MATLAB names `trainrp, trainscg,
+    traincgb, trainoss, traingdx` (case-insensitive). Unknown names raise `ValueError` listing
     the known ones.
     """
     return OPTIMIZERS[canonical_name(name)](params, **overrides)

@@ -1,53 +1,53 @@
 """Training with MATLAB-style early stopping: full batch (the paper's) or minibatches (Adam).
 
-The paper trains each network with MATLAB's ``train``: the samples are split 70/15/15 at random
-(``dividerand``), every epoch is one full-batch step of the training function on the training
+The paper trains each network with MATLAB's `train`: the samples are split 70/15/15 at random
+(`dividerand`), every epoch is one full-batch step of the training function on the training
 split, and training stops at the first of: the epoch limit, the time limit, the performance goal,
-a gradient norm below ``min_grad``, or ``max_fail`` consecutive validation failures; the network
-returned is the one of the best validation epoch. :func:`train` does the same with a torch model
-and an optimiser from :mod:`wsmap.learn.optim`; :func:`train_sessions` repeats it for independent
+a gradient norm below `min_grad`, or `max_fail` consecutive validation failures; the network
+returned is the one of the best validation epoch. `train` does the same with a torch model
+and an optimiser from `wsmap.learn.optim`; `train_sessions` repeats it for independent
 sessions (the paper: 10 sessions, different seeds, hence different initial weights and splits).
 
-Epoch numbering follows MATLAB: epoch ``e`` is the state after ``e`` optimiser steps, so the history
-of a run that hits ``max_epochs`` has ``max_epochs + 1`` rows (epoch 0 is the initial network).
+Epoch numbering follows MATLAB: epoch `e` is the state after `e` optimiser steps, so the history
+of a run that hits `max_epochs` has `max_epochs + 1` rows (epoch 0 is the initial network).
 
 Stacked sessions
 ----------------
-A *stacked* model holds ``S`` independent parameter sets and returns ``(S, n, m)`` outputs, for
-inputs ``(n, f)`` (shared) or ``(S, n, f)`` (one batch per session); every parameter has leading
-dimension ``S``. :func:`train` detects it from the output's rank and minimises the *sum over
-sessions* of each session's loss. The gradient of that sum with respect to session ``s``'s
-parameters is exactly the gradient of session ``s``'s own loss, so an *elementwise* optimiser
-(Rprop: :data:`wsmap.learn.optim.ELEMENTWISE`) moves every session as it would move alone (up to
+A *stacked* model holds `S` independent parameter sets and returns `(S, n, m)` outputs, for
+inputs `(n, f)` (shared) or `(S, n, f)` (one batch per session); every parameter has leading
+dimension `S`. `train` detects it from the output's rank and minimises the *sum over
+sessions* of each session's loss. The gradient of that sum with respect to session `s`'s
+parameters is exactly the gradient of session `s`'s own loss, so an *elementwise* optimiser
+(Rprop: `wsmap.learn.optim.ELEMENTWISE`) moves every session as it would move alone (up to
 float32 rounding of the batched products: ~1e-7 in the tests), and early stopping, best-epoch
 bookkeeping and restoring are kept per session (a stopped session is masked out of the sum, which
 freezes it under Rprop). For the other optimisers (SCG, CGB, OSS: line searches, step sizes and
 conjugate directions are computed from global dot products; GDX: one learning rate driven by the
-total loss) a stacked run is *not* equivalent to separate runs, so :func:`train_sessions` runs
-those sessions one after another. On a CPU stacking does not pay (see :func:`train_sessions`).
+total loss) a stacked run is *not* equivalent to separate runs, so `train_sessions` runs
+those sessions one after another. On a CPU stacking does not pay (see `train_sessions`).
 
 Minibatch training (the improved model)
 ---------------------------------------
-The paper's trainers are full batch. For bigger networks and datasets :class:`TrainConfig` also
-takes ``optimizer="adam"`` (:class:`torch.optim.Adam`, ``optimizer_kwargs`` such as ``lr``) with
-``batch_size`` (``None``: full batch, one step per epoch). With a ``batch_size`` an epoch is one
+The paper's trainers are full batch. For bigger networks and datasets `TrainConfig` also
+takes `optimizer="adam"` (`torch.optim.Adam`, `optimizer_kwargs` such as `lr`) with
+`batch_size` (`None`: full batch, one step per epoch). With a `batch_size` an epoch is one
 pass over the training split in minibatches of that many samples (the last one smaller), in an
-order drawn afresh each epoch from ``torch.Generator().manual_seed(config.seed)``, so a run is
+order drawn afresh each epoch from `torch.Generator().manual_seed(config.seed)`, so a run is
 reproducible from its seed. Validation, early stopping and best-epoch restoring happen once per
 epoch, exactly as in full-batch training. What differs in the record: no full-batch gradient is
-ever computed, so ``History.grad_norm`` is NaN and ``min_grad`` never stops a minibatch run, and
-``History.loss`` of epoch ``e >= 1`` is the mean of the minibatch losses of pass ``e`` (weighted by
+ever computed, so `History.grad_norm` is NaN and `min_grad` never stops a minibatch run, and
+`History.loss` of epoch `e >= 1` is the mean of the minibatch losses of pass `e` (weighted by
 batch size; the parameters move during the pass), epoch 0's the full training loss of the initial
 network. Boolean targets stay boolean on the device and are cast per batch (a 20 000 × 9261 label
-matrix is 185 MB as bool, 741 MB as float32). ``lr_decay="cosine"`` anneals Adam's learning rate
-from its initial value to 0 over ``max_epochs`` (per step), ``"cosine-time"`` over
-``time_limit_s`` (then a run depends on the machine's speed and is not bit-reproducible).
+matrix is 185 MB as bool, 741 MB as float32). `lr_decay="cosine"` anneals Adam's learning rate
+from its initial value to 0 over `max_epochs` (per step), `"cosine-time"` over
+`time_limit_s` (then a run depends on the machine's speed and is not bit-reproducible).
 
 Devices
 -------
-``TrainConfig(device=...)`` (``"auto"``, ``"cpu"``, ``"cuda"``; :mod:`wsmap.learn.device`) moves
-the model to that device when :func:`train` starts, and the training data follow the model's
-parameters, so a whole run (a stacked run of several sessions included) happens there; ``"cuda"``
+`TrainConfig(device=...)` (`"auto"`, `"cpu"`, `"cuda"`; `wsmap.learn.device`) moves
+the model to that device when `train` starts, and the training data follow the model's
+parameters, so a whole run (a stacked run of several sessions included) happens there; `"cuda"`
 without a GPU fails before any work. The model is built and initialised on the CPU (CPU random
 generators), so CPU and GPU runs start from the same weights and splits and agree to float32
 rounding. The returned model stays on the device; histories and losses are plain floats either way.
@@ -111,10 +111,10 @@ __all__ = [
 
 
 class Loss:
-    """A loss ``loss(output, target)`` averaged over the last two dimensions.
+    """A loss `loss(output, target)` averaged over the last two dimensions.
 
-    ``output``: ``(n, m)`` → a scalar; ``(S, n, m)`` (stacked sessions) → ``(S,)``, one mean per
-    session. ``target`` is ``(n, m)`` or ``(S, n, m)`` and broadcasts against ``output``.
+    `output`: `(n, m)` → a scalar; `(S, n, m)` (stacked sessions) → `(S,)`, one mean per
+    session. `target` is `(n, m)` or `(S, n, m)` and broadcasts against `output`.
     """
 
     def __init__(self, name: str, reduced: Callable[[torch.Tensor, torch.Tensor], torch.Tensor]):
@@ -129,12 +129,12 @@ class Loss:
 
 
 class _MeanSquaredError(torch.autograd.Function):
-    """Mean of ``(output − target)²`` over the last two dimensions, with a lean backward.
+    """Mean of `(output − target)²` over the last two dimensions, with a lean backward.
 
     The paper's outputs are large (a 10-session stack of 7000 samples × 1323 nodes holds 93 M
-    values). Autograd's ``(out − t).square().mean()`` allocates four such tensors (difference,
+    values). Autograd's `(out − t).square().mean()` allocates four such tensors (difference,
     square, the broadcast mean gradient, the product) and its backward runs three passes over
-    them; this keeps the difference for a one-pass backward ``2·diff/K``, which roughly halves the
+    them; this keeps the difference for a one-pass backward `2·diff/K`, which roughly halves the
     time of a stacked step on the CPU.
     """
 
@@ -175,23 +175,23 @@ LOSSES = {"mse": _mse, "crossentropy": _bce_logits, "mae": _mae}
 
 
 def make_loss(name: str, pos_weight: float | None = None) -> Loss:
-    """The loss called ``name``: ``"mse"``, ``"crossentropy"`` or ``"mae"``.
+    """The loss called `name`: `"mse"`, `"crossentropy"` or `"mae"`.
 
-    * ``mse``: mean squared error over every sample and output (MATLAB ``mse``; the paper's loss).
-    * ``mae``: mean absolute error (MATLAB ``mae``).
-    * ``crossentropy``: binary cross entropy *on logits*: the network's linear output ``z`` is read
-      as a logit, ``p = sigmoid(z)``, loss ``−t·log p − (1 − t)·log(1 − p)``, averaged. MATLAB's
-      ``crossentropy`` applied to a linear output layer takes logs of raw outputs; the logit form is
+    * `mse`: mean squared error over every sample and output (MATLAB `mse`; the paper's loss).
+    * `mae`: mean absolute error (MATLAB `mae`).
+    * `crossentropy`: binary cross entropy *on logits*: the network's linear output `z` is read
+      as a logit, `p = sigmoid(z)`, loss `−t·log p − (1 − t)·log(1 − p)`, averaged. MATLAB's
+      `crossentropy` applied to a linear output layer takes logs of raw outputs; the logit form is
       the well-defined equivalent for 0/1 labels. A model trained with it predicts 1 where
-      ``z > 0`` (``p > 0.5``), not where ``z > 0.5``: apply ``torch.sigmoid`` before the paper's
+      `z > 0` (`p > 0.5`), not where `z > 0.5`: apply `torch.sigmoid` before the paper's
       0.5 threshold.
 
-    ``pos_weight`` (``crossentropy`` only): the weight of a positive target's term,
-    ``−w·t·log p − (1 − t)·log(1 − p)`` (torch's ``pos_weight``), for maps whose reachable nodes
-    are a few per cent of the grid; ``None`` is 1.
+    `pos_weight` (`crossentropy` only): the weight of a positive target's term,
+    `−w·t·log p − (1 − t)·log(1 − p)` (torch's `pos_weight`), for maps whose reachable nodes
+    are a few per cent of the grid; `None` is 1.
 
-    Unknown names, and ``pos_weight`` that is not a positive number or is given to another loss,
-    raise ``ValueError``.
+    Unknown names, and `pos_weight` that is not a positive number or is given to another loss,
+    raise `ValueError`.
     """
     key = str(name).strip().lower()
     if key not in LOSSES:
@@ -226,11 +226,11 @@ class Split(NamedTuple):
 
 
 def split_indices(n: int, fractions: Sequence[float] = (0.7, 0.15, 0.15), seed: int | None = 0) -> Split:
-    """Random train/validation/test split of ``n`` samples, as MATLAB's ``dividerand``.
+    """Random train/validation/test split of `n` samples, as MATLAB's `dividerand`.
 
-    ``round(fractions[1]·n)`` validation and ``round(fractions[2]·n)`` test samples, the rest for
-    training, drawn by a random permutation from ``numpy.random.default_rng(seed)``. The three
-    index arrays are sorted, disjoint and together cover ``range(n)``.
+    `round(fractions[1]·n)` validation and `round(fractions[2]·n)` test samples, the rest for
+    training, drawn by a random permutation from `numpy.random.default_rng(seed)`. The three
+    index arrays are sorted, disjoint and together cover `range(n)`.
     """
     fr = np.asarray(fractions, dtype=float)
     if fr.shape != (3,) or np.any(fr < 0) or not np.isclose(fr.sum(), 1.0) or fr[0] <= 0:
@@ -248,17 +248,17 @@ def split_indices(n: int, fractions: Sequence[float] = (0.7, 0.15, 0.15), seed: 
 # Configuration and results
 # --------------------------------------------------------------------------------------------
 
-#: Optimisers built here rather than in :mod:`wsmap.learn.optim` (which holds the paper's full-batch
-#: trainers): name -> ``torch.optim`` class. Only these take minibatches (``batch_size``) and
-#: ``lr_decay``; full batch they take one step per epoch like the others.
+#: Optimisers built here rather than in `wsmap.learn.optim` (which holds the paper's full-batch
+#: trainers): name -> `torch.optim` class. Only these take minibatches (`batch_size`) and
+#: `lr_decay`; full batch they take one step per epoch like the others.
 MINIBATCH_OPTIMIZERS: dict[str, type[torch.optim.Optimizer]] = {"adam": torch.optim.Adam}
-#: Learning-rate schedules for :data:`MINIBATCH_OPTIMIZERS` (``TrainConfig.lr_decay``).
+#: Learning-rate schedules for `MINIBATCH_OPTIMIZERS` (`TrainConfig.lr_decay`).
 LR_DECAYS = ("cosine", "cosine-time")
 
 
 def optimizer_name(name: str) -> str:
-    """Canonical optimiser name: ``"adam"``, or :func:`wsmap.learn.optim.canonical_name` (``"trainrp"``
-    → ``"rprop"``, ...). Unknown names raise ``ValueError`` listing every known one."""
+    """Canonical optimiser name: `"adam"`, or `wsmap.learn.optim.canonical_name` (`"trainrp"`
+    → `"rprop"`, ...). Unknown names raise `ValueError` listing every known one."""
     key = str(name).strip().lower()
     if key in MINIBATCH_OPTIMIZERS:
         return key
@@ -277,20 +277,20 @@ def _build_optimizer(name: str, params, kwargs: dict) -> torch.optim.Optimizer:
     return make_optimizer(key, params, **kwargs)
 
 
-#: Why a run (or a session) stopped, in the order :func:`train` tests them each epoch.
+#: Why a run (or a session) stopped, in the order `train` tests them each epoch.
 STOP_REASONS = ("nonfinite", "goal", "max_epochs", "time_limit", "min_grad", "max_fail", "min_step")
 
 
 def _validation_update(crit: np.ndarray, best_crit: np.ndarray, fails: np.ndarray, active: np.ndarray,
                        first: bool, has_val: bool) -> np.ndarray:
-    """One epoch of MATLAB's validation check, in place, for ``S`` sessions at once.
+    """One epoch of MATLAB's validation check, in place, for `S` sessions at once.
 
-    ``crit`` ``(S,)``: this epoch's validation loss (the training loss without a validation
-    split); ``best_crit``, ``fails``: the sessions' best so far and consecutive failures, updated
-    for the ``active`` sessions. A strictly lower value is an improvement (failures back to 0), a
-    strictly higher one a failure, an equal one neither; ``first`` (epoch 0) always improves.
-    Returns the ``(S,)`` mask of the sessions that improved. Shared by :func:`train` and
-    :func:`validation_stop`, so that a replayed history stops where training would have.
+    `crit` `(S,)`: this epoch's validation loss (the training loss without a validation
+    split); `best_crit`, `fails`: the sessions' best so far and consecutive failures, updated
+    for the `active` sessions. A strictly lower value is an improvement (failures back to 0), a
+    strictly higher one a failure, an equal one neither; `first` (epoch 0) always improves.
+    Returns the `(S,)` mask of the sessions that improved. Shared by `train` and
+    `validation_stop`, so that a replayed history stops where training would have.
     """
     improved = active & ((crit < best_crit) | first)
     worse = active & has_val & (crit > best_crit) & ~improved
@@ -301,25 +301,25 @@ def _validation_update(crit: np.ndarray, best_crit: np.ndarray, fails: np.ndarra
 
 
 def validation_stop(val_loss: Sequence[float], max_fail: int) -> dict[str, Any]:
-    """Where MATLAB's validation stopping rule with ``max_fail`` would have ended a recorded run.
+    """Where MATLAB's validation stopping rule with `max_fail` would have ended a recorded run.
 
-    Replays :func:`train`'s rule (:func:`_validation_update`) over a history's per-epoch
-    validation losses, e.g. a run trained with a larger ``max_fail``: since every epoch up to the
-    stop is the same whatever ``max_fail`` is, the replay is what a run with this ``max_fail``
+    Replays `train`'s rule (`_validation_update`) over a history's per-epoch
+    validation losses, e.g. a run trained with a larger `max_fail`: since every epoch up to the
+    stop is the same whatever `max_fail` is, the replay is what a run with this `max_fail`
     would have recorded, without training it again.
 
     Args:
-        val_loss: ``(E + 1,)`` validation loss at epochs 0..E (``History.val_loss`` of one
+        val_loss: `(E + 1,)` validation loss at epochs 0..E (`History.val_loss` of one
             session; NaN entries after a session stopped end the replay there).
-        max_fail: consecutive failures that stop (MATLAB's default 6); ``>= 1``.
+        max_fail: consecutive failures that stop (MATLAB's default 6); `>= 1`.
 
     Returns:
-        ``stop_epoch`` (the epoch the rule stops at; the last recorded epoch when it never
-        fires), ``stopped`` (whether the rule fired), ``best_epoch`` and ``best_val_loss`` (the
+        `stop_epoch` (the epoch the rule stops at; the last recorded epoch when it never
+        fires), `stopped` (whether the rule fired), `best_epoch` and `best_val_loss` (the
         epoch whose parameters the run keeps and its validation loss).
 
     Raises:
-        ValueError: ``max_fail < 1``, an empty or non-1-D ``val_loss``, or NaN at epoch 0.
+        ValueError: `max_fail < 1`, an empty or non-1-D `val_loss`, or NaN at epoch 0.
     """
     if isinstance(max_fail, bool) or not isinstance(max_fail, numbers.Integral) or max_fail < 1:
         raise ValueError(f"max_fail must be an integer >= 1, got {max_fail!r}")
@@ -344,37 +344,37 @@ def validation_stop(val_loss: Sequence[float], max_fail: int) -> dict[str, Any]:
 
 @dataclass
 class TrainConfig:
-    """What :func:`train` needs besides the model and data.
+    """What `train` needs besides the model and data.
 
     Attributes:
-        optimizer: name for :func:`wsmap.learn.optim.make_optimizer` (``rprop``, ``scg``, ``cgb``,
-            ``oss``, ``gdx`` or a MATLAB name), or ``adam`` (:data:`MINIBATCH_OPTIMIZERS`);
-            ``optimizer_kwargs`` override its defaults (e.g. ``{"lr": 1e-3}`` for Adam).
-        loss: ``mse``, ``crossentropy`` or ``mae`` (:func:`make_loss`).
-        pos_weight: ``crossentropy`` only: the weight of positive targets (:func:`make_loss`);
-            ``None`` (default) is 1, and is left out of :meth:`to_dict` so that settings hashed
+        optimizer: name for `wsmap.learn.optim.make_optimizer` (`rprop`, `scg`, `cgb`,
+            `oss`, `gdx` or a MATLAB name), or `adam` (`MINIBATCH_OPTIMIZERS`);
+            `optimizer_kwargs` override its defaults (e.g. `{"lr": 1e-3}` for Adam).
+        loss: `mse`, `crossentropy` or `mae` (`make_loss`).
+        pos_weight: `crossentropy` only: the weight of positive targets (`make_loss`);
+            `None` (default) is 1, and is left out of `to_dict` so that settings hashed
             before this option existed keep their hash.
-        max_epochs: optimiser steps at most (MATLAB ``epochs``; the paper's section 6.1: 1000).
-        max_fail: consecutive validation failures that stop training (MATLAB ``max_fail``,
+        max_epochs: optimiser steps at most (MATLAB `epochs`; the paper's section 6.1: 1000).
+        max_fail: consecutive validation failures that stop training (MATLAB `max_fail`,
             default 6; the paper's section 6.2 used 100).
         min_grad: stop when the L2 norm of the loss gradient is at most this.
-        goal: stop when the training loss is at most this (MATLAB ``goal``, default 0).
-        time_limit_s: stop after this many seconds (``None``: no limit), per :func:`train` call.
-        seed: split seed (session ``s`` of a stacked run uses ``seed + s``); :func:`train_sessions`
+        goal: stop when the training loss is at most this (MATLAB `goal`, default 0).
+        time_limit_s: stop after this many seconds (`None`: no limit), per `train` call.
+        seed: split seed (session `s` of a stacked run uses `seed + s`); `train_sessions`
             also seeds the initial weights with it.
-        fractions: train/validation/test fractions for :func:`split_indices`.
+        fractions: train/validation/test fractions for `split_indices`.
         track_test: also record the test-split loss every epoch (costs one more forward pass).
-        batch_size: samples per step; ``None`` (default): full batch, one step per epoch. Only
-            with ``adam``; an epoch is then one shuffled pass (module docstring). A value above
+        batch_size: samples per step; `None` (default): full batch, one step per epoch. Only
+            with `adam`; an epoch is then one shuffled pass (module docstring). A value above
             the training split's size means full batch.
-        lr_decay: ``None`` (constant learning rate), ``"cosine"`` (``lr·(1 + cos(pi·t))/2`` with
-            ``t`` the fraction of ``max_epochs`` done, updated every step) or ``"cosine-time"``
-            (``t`` the fraction of ``time_limit_s`` elapsed). Only with ``adam``.
-        device: where :func:`train` runs: ``"auto"`` (the GPU when ``torch.cuda.is_available()``,
-            else the CPU), ``"cpu"``, ``"cuda"`` / ``"cuda:N"`` (an error without a GPU), or
-            ``None`` (default): wherever the model's parameters already are (the networks are
-            built on the CPU). :func:`train` moves the model there first (:mod:`wsmap.learn.device`);
-            the name is checked here, the GPU's presence when :func:`train` starts.
+        lr_decay: `None` (constant learning rate), `"cosine"` (`lr·(1 + cos(pi·t))/2` with
+            `t` the fraction of `max_epochs` done, updated every step) or `"cosine-time"`
+            (`t` the fraction of `time_limit_s` elapsed). Only with `adam`.
+        device: where `train` runs: `"auto"` (the GPU when `torch.cuda.is_available()`,
+            else the CPU), `"cpu"`, `"cuda"` / `"cuda:N"` (an error without a GPU), or
+            `None` (default): wherever the model's parameters already are (the networks are
+            built on the CPU). `train` moves the model there first (`wsmap.learn.device`);
+            the name is checked here, the GPU's presence when `train` starts.
     """
 
     optimizer: str = "rprop"
@@ -434,7 +434,7 @@ class TrainConfig:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> TrainConfig:
-        """Inverse of :meth:`to_dict`; unknown keys raise ``ValueError``."""
+        """Inverse of `to_dict`; unknown keys raise `ValueError`."""
         names = {f.name for f in dataclasses.fields(cls)}
         unknown = set(d) - names
         if unknown:
@@ -450,15 +450,15 @@ class TrainConfig:
 
 @dataclass
 class History:
-    """Per-epoch record. For a stacked run each value is a list of ``S`` (one per session; NaN
+    """Per-epoch record. For a stacked run each value is a list of `S` (one per session; NaN
     once a session has stopped).
 
     Attributes:
-        epoch: 0, 1, …; ``loss``: training loss (minibatch runs: the mean minibatch loss of the
-        epoch's pass); ``grad_norm``: L2 norm of the training-loss gradient (the session's own
-        parameters; NaN in minibatch runs); ``val_loss``: validation loss (NaN without a
-        validation split); ``test_loss``: test loss (only with ``track_test``; else empty);
-        ``time``: seconds since the start of :func:`train`.
+        epoch: 0, 1, …; `loss`: training loss (minibatch runs: the mean minibatch loss of the
+        epoch's pass); `grad_norm`: L2 norm of the training-loss gradient (the session's own
+        parameters; NaN in minibatch runs); `val_loss`: validation loss (NaN without a
+        validation split); `test_loss`: test loss (only with `track_test`; else empty);
+        `time`: seconds since the start of `train`.
     """
 
     epoch: list[int] = field(default_factory=list)
@@ -474,7 +474,7 @@ class History:
         return len(self.epoch)
 
     def session(self, s: int, length: int | None = None) -> History:
-        """The history of session ``s`` of a stacked run, first ``length`` epochs."""
+        """The history of session `s` of a stacked run, first `length` epochs."""
         n = len(self.epoch) if length is None else length
         return History(epoch=self.epoch[:n], time=self.time[:n],
                        **{k: [row[s] for row in getattr(self, k)[:n]] for k in self._VALUES})
@@ -499,24 +499,24 @@ class History:
 
 @dataclass
 class TrainResult:
-    """What :func:`train` returns.
+    """What `train` returns.
 
-    For a single model the fields are scalars; for a stacked model ``best_epoch``,
-    ``best_val_loss``, ``stop_reason``, ``stop_epoch`` and ``split`` are lists (one per session)
-    and :meth:`sessions` gives one single-session view per session.
+    For a single model the fields are scalars; for a stacked model `best_epoch`,
+    `best_val_loss`, `stop_reason`, `stop_epoch` and `split` are lists (one per session)
+    and `sessions` gives one single-session view per session.
 
     Attributes:
         model: the trained model, parameters restored to the best epoch (of every session).
-        history: :class:`History`.
+        history: `History`.
         best_epoch: epoch whose parameters were restored (best validation loss; best training loss
             without a validation split).
-        best_val_loss: validation loss at ``best_epoch`` (NaN without validation).
-        stop_reason: one of :data:`STOP_REASONS`.
+        best_val_loss: validation loss at `best_epoch` (NaN without validation).
+        stop_reason: one of `STOP_REASONS`.
         stop_epoch: last epoch evaluated.
-        split: the :class:`Split` used.
-        config: the :class:`TrainConfig`.
-        n_sessions: ``S`` for a stacked model, ``None`` otherwise.
-        session: for a view from :meth:`sessions`, which slice of the stacked ``model`` it is.
+        split: the `Split` used.
+        config: the `TrainConfig`.
+        n_sessions: `S` for a stacked model, `None` otherwise.
+        session: for a view from `sessions`, which slice of the stacked `model` it is.
     """
 
     model: nn.Module
@@ -553,7 +553,7 @@ class _Objective:
     Results are cached by parameter values (a few recent points), because the training loop
     evaluates the current point for its record and the optimiser's step re-evaluates it (and
     line searches/trial steps often end on the point the next epoch starts from). A cache hit
-    writes the stored gradient back into ``.grad``.
+    writes the stored gradient back into `.grad`.
     """
 
     _CACHE = 4
@@ -616,11 +616,11 @@ class _Objective:
 
 
 def _take(a, idx, dtype, device, per_session: bool = False) -> torch.Tensor:
-    """Rows ``idx`` of ``a`` as a tensor of ``dtype`` on ``device``.
+    """Rows `idx` of `a` as a tensor of `dtype` on `device`.
 
-    ``a`` ``(n, …)``: ``idx`` ``(k,)`` gives ``(k, …)``, ``(S, k)`` gives ``(S, k, …)``.
-    ``per_session`` (``a`` is ``(S, n, …)``): ``(S, k, …)``, session ``s`` from ``a[s]``.
-    Indexes before converting, so a big numpy ``Y`` is never copied whole.
+    `a` `(n, …)`: `idx` `(k,)` gives `(k, …)`, `(S, k)` gives `(S, k, …)`.
+    `per_session` (`a` is `(S, n, …)`): `(S, k, …)`, session `s` from `a[s]`.
+    Indexes before converting, so a big numpy `Y` is never copied whole.
     """
     torch_in = isinstance(a, torch.Tensor)
     if torch_in:
@@ -634,7 +634,7 @@ def _take(a, idx, dtype, device, per_session: bool = False) -> torch.Tensor:
 
 
 def _check_finite(name: str, a, chunk: int = 4096) -> None:
-    """``ValueError`` naming the first rows of ``a`` (numpy or torch; samples along axis -2 for 3-D
+    """`ValueError` naming the first rows of `a` (numpy or torch; samples along axis -2 for 3-D
     targets, else axis 0) with NaN or infinite values; bool and integer arrays pass. Row chunks
     keep the temporary mask small for big label matrices."""
     torch_in = isinstance(a, torch.Tensor)
@@ -657,34 +657,34 @@ def _check_finite(name: str, a, chunk: int = 4096) -> None:
 
 def train(model: nn.Module, X: ArrayLike | torch.Tensor, Y: ArrayLike | torch.Tensor, config: TrainConfig | None = None,
           split: Split | Sequence[Split] | None = None) -> TrainResult:
-    """Train ``model`` on ``(X, Y)`` with early stopping, full batch or in minibatches
-    (``config.batch_size``); see the module docstring.
+    """Train `model` on `(X, Y)` with early stopping, full batch or in minibatches
+    (`config.batch_size`); see the module docstring.
 
     Args:
-        model: maps float ``(n, f)`` inputs to raw ``(n, m)`` outputs, or a stacked model
-            (``(S, n, m)`` outputs for ``(n, f)`` or ``(S, n, f)`` inputs, every parameter with
-            leading dimension ``S``). Used as is: no dropout/batch-norm is expected.
-        X: ``(n, f)`` inputs; Y: ``(n, m)`` targets, or for a stacked model ``(S, n, m)``: one
+        model: maps float `(n, f)` inputs to raw `(n, m)` outputs, or a stacked model
+            (`(S, n, m)` outputs for `(n, f)` or `(S, n, f)` inputs, every parameter with
+            leading dimension `S`). Used as is: no dropout/batch-norm is expected.
+        X: `(n, f)` inputs; Y: `(n, m)` targets, or for a stacked model `(S, n, m)`: one
             target set per session (e.g. the paper's 7 output blocks trained as one stack). Numpy
             or torch; cast to the model's dtype and device (float32 for the networks).
-        config: :class:`TrainConfig` (default: the paper's Rprop + MSE, 1000 epochs, max_fail 6).
-        split: a :class:`Split`, or for a stacked model one split per session (equal sizes).
-            ``None``: ``split_indices(n, config.fractions, config.seed)``; for a stacked model
-            session ``s`` uses seed ``config.seed + s`` (as :func:`train_sessions` does).
+        config: `TrainConfig` (default: the paper's Rprop + MSE, 1000 epochs, max_fail 6).
+        split: a `Split`, or for a stacked model one split per session (equal sizes).
+            `None`: `split_indices(n, config.fractions, config.seed)`; for a stacked model
+            session `s` uses seed `config.seed + s` (as `train_sessions` does).
 
-    Each epoch ``e`` (parameters after ``e`` steps): evaluate training loss and gradient,
+    Each epoch `e` (parameters after `e` steps): evaluate training loss and gradient,
     validation loss, record them; update the best epoch (a strictly lower validation loss resets
     the failure count, a strictly higher one adds a failure, an equal one does neither, as
-    MATLAB); stop on the first of :data:`STOP_REASONS` (``min_step``: a line search of CGB/OSS
+    MATLAB); stop on the first of `STOP_REASONS` (`min_step`: a line search of CGB/OSS
     found no decrease); else take one optimiser step (full batch) or one shuffled pass of
-    minibatch steps (``batch_size``). At the end every session's parameters are restored to its
+    minibatch steps (`batch_size`). At the end every session's parameters are restored to its
     best epoch.
 
     Returns:
-        :class:`TrainResult`.
+        `TrainResult`.
 
     Raises:
-        ValueError: shapes that do not fit, no samples, NaN or infinite values in ``X`` or ``Y``,
+        ValueError: shapes that do not fit, no samples, NaN or infinite values in `X` or `Y`,
             bad splits, a model without trainable parameters.
     """
     config = TrainConfig() if config is None else config
@@ -922,29 +922,29 @@ def train(model: nn.Module, X: ArrayLike | torch.Tensor, Y: ArrayLike | torch.Te
 def train_sessions(model_factory: Callable[[list[int]], nn.Module], X: ArrayLike | torch.Tensor,
                    Y: ArrayLike | torch.Tensor, config: TrainConfig | None = None, sessions: int = 10, *,
                    stacked: bool = False) -> list[TrainResult]:
-    """Independent training sessions (the paper: 10), session ``s`` with seed ``config.seed + s``.
+    """Independent training sessions (the paper: 10), session `s` with seed `config.seed + s`.
 
     The seed of a session fixes its initial weights (the global torch RNG is seeded with it before
-    ``model_factory`` is called) and its split (``split_indices(n, config.fractions, seed)``).
+    `model_factory` is called) and its split (`split_indices(n, config.fractions, seed)`).
 
     Args:
-        model_factory: ``model_factory(seeds) -> model``. Sequential runs call it once per session
-            with ``[seed]``; a stacked run calls it once with all seeds and needs back a stacked
-            model with ``S = len(seeds)`` whose session ``s`` is initialised as
-            ``model_factory([seeds[s]])`` would be (so stacked and sequential runs agree).
+        model_factory: `model_factory(seeds) -> model`. Sequential runs call it once per session
+            with `[seed]`; a stacked run calls it once with all seeds and needs back a stacked
+            model with `S = len(seeds)` whose session `s` is initialised as
+            `model_factory([seeds[s]])` would be (so stacked and sequential runs agree).
         stacked: train all sessions at once in one stacked model; only for elementwise optimisers
-            (:data:`wsmap.learn.optim.ELEMENTWISE`, i.e. Rprop): with SCG/CGB/OSS/GDX a stacked run
-            couples the sessions (see the module docstring), so ``True`` raises ``ValueError``.
-            Default ``False`` (one session after another): on a 2-core CPU, 10 stacked sessions of
+            (`wsmap.learn.optim.ELEMENTWISE`, i.e. Rprop): with SCG/CGB/OSS/GDX a stacked run
+            couples the sessions (see the module docstring), so `True` raises `ValueError`.
+            Default `False` (one session after another): on a 2-core CPU, 10 stacked sessions of
             the paper's [84 → 125, 100, 100, 125 → 1323] network on 7000 samples took 3.3–4.0 s
             per epoch against 2.4–2.8 s for 10 sequential epochs (the per-session matrix products
             already keep the cores busy; the stacked run only adds memory traffic). Stacking pays
-            where one session leaves the device idle (a GPU: ``config.device``, the stacked model
+            where one session leaves the device idle (a GPU: `config.device`, the stacked model
             runs there as a whole).
 
     Returns:
-        One :class:`TrainResult` per session. In a stacked run they share the stacked ``model``
-        (each result's ``session`` says which slice is its own).
+        One `TrainResult` per session. In a stacked run they share the stacked `model`
+        (each result's `session` says which slice is its own).
     """
     config = TrainConfig() if config is None else config
     elementwise = optimizer_name(config.optimizer) in ELEMENTWISE
@@ -973,13 +973,13 @@ def train_sessions(model_factory: Callable[[list[int]], nn.Module], X: ArrayLike
 def train_mlp_sessions(mlp: SubspaceMLP, X: ArrayLike | torch.Tensor, Y: ArrayLike | torch.Tensor,
                        config: TrainConfig | None = None, sessions: int = 1, *, stacked: bool = False
                       ) -> list[TrainResult]:
-    """:func:`train_sessions` of :class:`~wsmap.learn.network.SubspaceMLP` models with
-    architecture ``mlp`` (an :class:`~wsmap.learn.network.MLPConfig`; ``n_subspaces`` is ignored),
+    """`train_sessions` of `SubspaceMLP` models with
+    architecture `mlp` (an `MLPConfig`; `n_subspaces` is ignored),
     each session's network configured on that session's training split
-    (:meth:`SubspaceMLP.configure`: Nguyen–Widrow ranges and input standardisation), as MATLAB
-    configures a network on the data handed to ``train``; the validation and test parts stay
-    unseen. A stacked run (``stacked=True``) stacks the sessions' networks as configured one by
-    one, so it starts where the sequential run does. ``X`` ``(n, f)``, ``Y`` ``(n, m)`` float32
+    (`SubspaceMLP.configure`: Nguyen–Widrow ranges and input standardisation), as MATLAB
+    configures a network on the data handed to `train`; the validation and test parts stay
+    unseen. A stacked run (`stacked=True`) stacks the sessions' networks as configured one by
+    one, so it starts where the sequential run does. `X` `(n, f)`, `Y` `(n, m)` float32
     targets."""
     from .network import SubspaceMLP
 

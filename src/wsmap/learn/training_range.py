@@ -1,23 +1,23 @@
 """What a model was trained on: the range of every input feature, and the check that refuses arms outside it.
 
-A network trained on a family of arms (the paper's: the spherical-wrist arms with ``d3, d4, a2, a3
-~ U(0, 0.5)`` m, every other DH parameter fixed) says nothing reliable about an arm outside that
-family; it still returns a map, which looks as plausible as any other. :class:`TrainingRange`
-records, per stored feature (``d_1..d_6, a_1..a_6, alpha_1..alpha_6``, the grid axes, the fixed
+A network trained on a family of arms (the paper's: the spherical-wrist arms with `d3, d4, a2, a3
+~ U(0, 0.5)` m, every other DH parameter fixed) says nothing reliable about an arm outside that
+family; it still returns a map, which looks as plausible as any other. `TrainingRange`
+records, per stored feature (`d_1..d_6, a_1..a_6, alpha_1..alpha_6`, the grid axes, the fixed
 orientation or point), the minimum and maximum over the training arms; a feature whose minimum
-equals its maximum is *fixed* in the family (e.g. ``d_1 = 0`` and every twist of the PUMA-like
-family). The record travels with the model (:attr:`wsmap.learn.network.SubspaceMLP.training_range`,
-set by :meth:`~wsmap.learn.network.SubspaceMLP.configure` from the training features) and is saved
-in the model file (:mod:`wsmap.learn.files`).
+equals its maximum is *fixed* in the family (e.g. `d_1 = 0` and every twist of the PUMA-like
+family). The record travels with the model (`wsmap.learn.network.SubspaceMLP.training_range`,
+set by `configure` from the training features) and is saved
+in the model file (`wsmap.learn.files`).
 
-:meth:`TrainingRange.check` is what ``predict_maps`` runs on the features of the arms it is asked
-to map: a value more than the tolerance ``RANGE_ATOL + RANGE_RTOL·(max − min)`` outside
-``[min, max]`` raises :class:`ExtrapolationError` (a ``ValueError``) naming the parameter, the
-arm's value and the trained range; ``allow_extrapolation=True`` lets it through with an
-:class:`ExtrapolationWarning` instead. The relative tolerance (2 % of the trained width) absorbs the
-gap between the sample minimum/maximum and the family's bounds (about ``width/n`` for ``n``
+`TrainingRange.check` is what `predict_maps` runs on the features of the arms it is asked
+to map: a value more than the tolerance `RANGE_ATOL + RANGE_RTOL·(max − min)` outside
+`[min, max]` raises `ExtrapolationError` (a `ValueError`) naming the parameter, the
+arm's value and the trained range; `allow_extrapolation=True` lets it through with an
+`ExtrapolationWarning` instead. The relative tolerance (2 % of the trained width) absorbs the
+gap between the sample minimum/maximum and the family's bounds (about `width/n` for `n`
 uniform training arms, so arms drawn from the same family pass); the absolute one (1e-6 m or rad)
-absorbs rounding of a fixed parameter (``pi/2`` typed as a float expression).
+absorbs rounding of a fixed parameter (`pi/2` typed as a float expression).
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ __all__ = [
     "ExtrapolationWarning",
 ]
 
-#: Tolerance of :meth:`TrainingRange.check`, relative to the trained width ``max - min`` ...
+#: Tolerance of `TrainingRange.check`, relative to the trained width `max - min` ...
 RANGE_RTOL = 0.02
 #: ... plus this absolute part (metres or radians), which is all a fixed feature gets.
 RANGE_ATOL = 1e-6
@@ -53,7 +53,7 @@ class ExtrapolationError(ValueError):
 
 
 class ExtrapolationWarning(UserWarning):
-    """A model was asked, with ``allow_extrapolation=True``, for maps of arms outside its training range."""
+    """A model was asked, with `allow_extrapolation=True`, for maps of arms outside its training range."""
 
 
 def _fmt(v: float) -> str:
@@ -61,15 +61,15 @@ def _fmt(v: float) -> str:
 
 
 class TrainingRange:
-    """Per-feature ``[low, high]`` of a model's training inputs (float64 ``(n_features,)`` each).
+    """Per-feature `[low, high]` of a model's training inputs (float64 `(n_features,)` each).
 
     Args:
         low, high: the minimum and maximum of each stored feature over the training arms.
-        names: optional feature names (``wsmap.datasets.feature_names(spec)``: ``d_1``, ..., ``r_3``).
-        samples: how many training rows the range was taken from (``None``: unknown).
+        names: optional feature names (`wsmap.datasets.feature_names(spec)`: `d_1`, ..., `r_3`).
+        samples: how many training rows the range was taken from (`None`: unknown).
 
-    Immutable; compare with ``==``. :meth:`to_dict` / :meth:`from_dict` give the plain form stored
-    in model files, which also lists the fixed features (``low == high``) and their values.
+    Immutable; compare with `==`. `to_dict` / `from_dict` give the plain form stored
+    in model files, which also lists the fixed features (`low == high`) and their values.
     """
 
     __slots__ = ("_low", "_high", "_names", "_samples")
@@ -102,7 +102,7 @@ class TrainingRange:
 
     @classmethod
     def from_features(cls, features, names: Sequence[str] | None = None) -> TrainingRange:
-        """The min/max per column of training features ``(n, f)`` (numpy or torch), ``n >= 1``, finite."""
+        """The min/max per column of training features `(n, f)` (numpy or torch), `n >= 1`, finite."""
         if hasattr(features, "detach"):
             features = features.detach().cpu().numpy()
         try:
@@ -122,7 +122,7 @@ class TrainingRange:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> TrainingRange:
-        """Inverse of :meth:`to_dict` (``fixed`` is checked against ``low``/``high``)."""
+        """Inverse of `to_dict` (`fixed` is checked against `low`/`high`)."""
         check_record(d, {"low", "high", "names", "samples", "fixed"}, "a training range", "training range")
         if "low" not in d or "high" not in d:
             raise ValueError("a training range needs 'low' and 'high'")
@@ -166,16 +166,16 @@ class TrainingRange:
 
     @property
     def fixed(self) -> dict[str, float]:
-        """Features that have one value in the whole training set: ``{name: value}``."""
+        """Features that have one value in the whole training set: `{name: value}`."""
         return {self.name(int(j)): float(self._low[j]) for j in np.flatnonzero(self._low == self._high)}
 
     def tolerance(self) -> np.ndarray:
-        """Per-feature tolerance of :meth:`check`: ``RANGE_ATOL + RANGE_RTOL * (high - low)``."""
+        """Per-feature tolerance of `check`: `RANGE_ATOL + RANGE_RTOL * (high - low)`."""
         return RANGE_ATOL + RANGE_RTOL * (self._high - self._low)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain form: ``low``, ``high`` (lists of floats), ``names`` (or ``None``), ``samples``,
-        ``fixed`` (``{name: value}`` of the features with ``low == high``)."""
+        """Plain form: `low`, `high` (lists of floats), `names` (or `None`), `samples`,
+        `fixed` (`{name: value}` of the features with `low == high`)."""
         return {"names": None if self._names is None else list(self._names), "low": self._low.tolist(),
                 "high": self._high.tolist(), "samples": self._samples, "fixed": self.fixed}
 
@@ -194,7 +194,7 @@ class TrainingRange:
     # ------------------------------------------------------------------ combining
 
     def intersect(self, other: TrainingRange) -> TrainingRange | None:
-        """Where both ranges hold (the domain of a stack of models); ``None`` when empty in a feature."""
+        """Where both ranges hold (the domain of a stack of models); `None` when empty in a feature."""
         if self.n_features != other.n_features:
             raise ValueError(f"training ranges of {self.n_features} and {other.n_features} features do not combine")
         low, high = np.maximum(self._low, other._low), np.minimum(self._high, other._high)
@@ -207,7 +207,7 @@ class TrainingRange:
     # ------------------------------------------------------------------ the check
 
     def outside(self, features: ArrayLike) -> np.ndarray:
-        """Bool ``(n, f)``: where ``features`` lie outside the range by more than the tolerance
+        """Bool `(n, f)`: where `features` lie outside the range by more than the tolerance
         (non-finite values count as outside)."""
         x = np.asarray(features, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != self.n_features:
@@ -218,8 +218,8 @@ class TrainingRange:
 
     def describe_violations(self, features: ArrayLike, names: Sequence[str] | None = None, limit: int = 4
                            ) -> str | None:
-        """A sentence naming up to ``limit`` features (first offending arm of each) outside the range,
-        or ``None`` when every value is inside."""
+        """A sentence naming up to `limit` features (first offending arm of each) outside the range,
+        or `None` when every value is inside."""
         x = np.asarray(features, dtype=np.float64)
         bad = self.outside(x)
         if not bad.any():
@@ -243,9 +243,9 @@ class TrainingRange:
 
     def check(self, features: ArrayLike, *, names: Sequence[str] | None = None, allow_extrapolation: bool = False,
               what: str = "the model") -> None:
-        """Raise :class:`ExtrapolationError` if any row of ``features`` ``(n, f)`` lies outside the
-        range (beyond :meth:`tolerance`); with ``allow_extrapolation`` warn
-        (:class:`ExtrapolationWarning`) instead."""
+        """Raise `ExtrapolationError` if any row of `features` `(n, f)` lies outside the
+        range (beyond `tolerance`); with `allow_extrapolation` warn
+        (`ExtrapolationWarning`) instead."""
         problem = self.describe_violations(features, names)
         if problem is None:
             return
@@ -260,7 +260,7 @@ class TrainingRange:
 
 
 def check_no_range(allow_extrapolation: bool, what: str = "the model") -> None:
-    """The rule for a model without a recorded training range: refuse unless ``allow_extrapolation``."""
+    """The rule for a model without a recorded training range: refuse unless `allow_extrapolation`."""
     message = (f"{what} records no training range (it was neither configured on training features nor saved "
                "with training_data), so it cannot tell whether an arm belongs to the family it was trained on")
     if not allow_extrapolation:

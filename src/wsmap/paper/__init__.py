@@ -1,18 +1,18 @@
 """The paper's reproduction, apart from the library: what regenerates the article's tables and figures.
 
-* :mod:`.specs` — the paper's datasets (:data:`PAPER_SPECS`) and their files;
-* :mod:`.published` — the paper's published numbers, in one place;
-* :mod:`.fitting` — train the paper's subspace models on a dataset and score them;
-* :mod:`.tables` — the experiments behind Tables 1–3;
-* :mod:`.runtime` — the run-time comparison (classical against the network);
-* :mod:`.report` — ``results/REPORT.md``, every reproduced number beside the paper's;
-* :mod:`.parts` — one module per part of the paper (per notebook and DVC stage): its ``run``,
-  ``save``, ``figures`` and ``Metrics`` schema, registered with its place in the run order and the
+* `.specs` — the paper's datasets (`PAPER_SPECS`) and their files;
+* `.published` — the paper's published numbers, in one place;
+* `.fitting` — train the paper's subspace models on a dataset and score them;
+* `.tables` — the experiments behind Tables 1–3;
+* `.runtime` — the run-time comparison (classical against the network);
+* `.report` — `results/REPORT.md`, every reproduced number beside the paper's;
+* `.parts` — one module per part of the paper (per notebook and DVC stage): its `run`,
+  `save`, `figures` and `Metrics` schema, registered with its place in the run order and the
   parts it reads; the notebooks call them;
-* :mod:`.pipeline` — the papermill runner of the notebooks (``wsmap paper run``), in the parts' order;
-* :mod:`.full` — the paper's scale, part by part and resumable (``wsmap paper full``);
-* :mod:`.dataset`, :mod:`.notebook` — one dataset, one notebook as one DVC stage (both end in
-  :func:`run_stage`).
+* `.pipeline` — the papermill runner of the notebooks (`wsmap paper run`), in the parts' order;
+* `.full` — the paper's scale, part by part and resumable (`wsmap paper full`);
+* `.dataset`, `.notebook` — one dataset, one notebook as one DVC stage (both end in
+  `run_stage`).
 """
 
 from __future__ import annotations
@@ -29,9 +29,9 @@ def _terminate(signum, frame):
 
 
 def run_stage(work: Callable[[], object], errors: tuple[type[BaseException], ...], interrupted: str) -> int:
-    """Run ``work()`` as a DVC stage's command and return its exit status: 0 when it returns, 2 with
-    one line ``wsmap: error: ...`` on stderr for one of ``errors`` (bad input: no traceback), 130
-    with the line ``interrupted`` on Ctrl-C or SIGTERM."""
+    """Run `work()` as a DVC stage's command and return its exit status: 0 when it returns, 2 with
+    one line `wsmap: error: ...` on stderr for one of `errors` (bad input: no traceback), 130
+    with the line `interrupted` on Ctrl-C or SIGTERM."""
     signal.signal(signal.SIGTERM, _terminate)
     try:
         work()

@@ -1,11 +1,11 @@
 """One dataset of the catalogue as one DVC stage:
-``python -m wsmap.paper.dataset NAME --samples N --test-samples M --out data/NAME.npz``.
+`python -m wsmap.paper.dataset NAME --samples N --test-samples M --out data/NAME.npz`.
 
-``dvc.yaml``'s ``datasets`` stages run this module rather than ``wsmap data build`` so that what a
-stage depends on is what it runs: the dataset code, the catalogue (:mod:`wsmap.paper.specs`) and
-the kinematics the labels need (``tools/stage_deps.py`` writes the deps from that closure). The
-file is the one ``wsmap data build NAME --samples N --test-samples M --out FILE --quiet`` writes
-(byte-identical; both call :func:`wsmap.datasets.build_dataset_files`).
+`dvc.yaml`'s `datasets` stages run this module rather than `wsmap data build` so that what a
+stage depends on is what it runs: the dataset code, the catalogue (`wsmap.paper.specs`) and
+the kinematics the labels need (`tools/stage_deps.py` writes the deps from that closure). The
+file is the one `wsmap data build NAME --samples N --test-samples M --out FILE --quiet` writes
+(byte-identical; both call `wsmap.datasets.build_dataset_files`).
 """
 
 from __future__ import annotations

@@ -2,19 +2,19 @@
 
 Notebooks call these so that every number they show comes from tested code:
 
-* :func:`fit` trains ``sessions`` independent models (the paper repeats 10) of one architecture on
+* `fit` trains `sessions` independent models (the paper repeats 10) of one architecture on
   one dataset, optionally on a slice of its nodes (one output subspace);
-* :func:`fit_blocks` trains one model per output block and stacks them into one
-  :class:`~wsmap.learn.SubspaceMLP` whose subspaces assemble the whole map (section 6.2);
-* :func:`evaluate` gives the pooled (micro) and per-sample precision, recall and F-measure of a
+* `fit_blocks` trains one model per output block and stacks them into one
+  `SubspaceMLP` whose subspaces assemble the whole map (section 6.2);
+* `evaluate` gives the pooled (micro) and per-sample precision, recall and F-measure of a
   model on a test set, the paper's numbers.
 
-Devices: ``train_config.device`` (:class:`~wsmap.learn.training.TrainConfig`) says where the
-sessions train; the returned models stay there, and :func:`evaluate` scores them where they are
+Devices: `train_config.device` (`TrainConfig`) says where the
+sessions train; the returned models stay there, and `evaluate` scores them where they are
 (the scores come back as numpy arrays).
 
-Shapes: a dataset has ``n`` samples (arms) of ``f`` stored features and ``N`` nodes; a node slice
-picks ``m`` of them. Networks run in float32; labels are bool on disk and float32 targets here.
+Shapes: a dataset has `n` samples (arms) of `f` stored features and `N` nodes; a node slice
+picks `m` of them. Networks run in float32; labels are bool on disk and float32 targets here.
 """
 
 from __future__ import annotations
@@ -38,8 +38,8 @@ __all__ = ["model_config", "fit", "fit_blocks", "stack_sessions", "evaluate", "n
 
 
 def node_slice(nodes, n_nodes: int) -> slice:
-    """``nodes`` as a slice of a dataset's ``n_nodes`` node columns: ``None`` (all), a slice, or a
-    ``(start, stop)`` pair (0-based, stop exclusive). Raises ``ValueError`` outside the range."""
+    """`nodes` as a slice of a dataset's `n_nodes` node columns: `None` (all), a slice, or a
+    `(start, stop)` pair (0-based, stop exclusive). Raises `ValueError` outside the range."""
     if nodes is None:
         return slice(0, n_nodes)
     if not isinstance(nodes, slice):
@@ -53,10 +53,10 @@ def node_slice(nodes, n_nodes: int) -> slice:
 
 
 def training_data(cfg, data_dir):
-    """What §6.1 and §6.2 train and test on, from their params section ``cfg``: ``(device, threads,
-    train_all, train, test)``, the device ``cfg["device"]`` resolved before any work (cuda without a
-    GPU fails here), torch's thread count, the dataset pair ``cfg["dataset"]`` in ``data_dir`` and
-    ``train`` its first ``cfg["train_samples"]`` training arms."""
+    """What §6.1 and §6.2 train and test on, from their params section `cfg`: `(device, threads,
+    train_all, train, test)`, the device `cfg["device"]` resolved before any work (cuda without a
+    GPU fails here), torch's thread count, the dataset pair `cfg["dataset"]` in `data_dir` and
+    `train` its first `cfg["train_samples"]` training arms."""
     device = resolve_device(cfg["device"], f"{cfg.source} device")
     threads = torch.get_num_threads()
     train_all, test = load_pair(cfg["dataset"], data_dir)
@@ -64,14 +64,14 @@ def training_data(cfg, data_dir):
 
 
 def paper_train_config(cfg, device) -> TrainConfig:
-    """The paper's training (Rprop on the MSE, §6) with ``cfg``'s ``max_epochs``, ``max_fail`` and
-    ``seed``, on ``device``."""
+    """The paper's training (Rprop on the MSE, §6) with `cfg`'s `max_epochs`, `max_fail` and
+    `seed`, on `device`."""
     return TrainConfig(optimizer="rprop", loss="mse", max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"],
                        seed=cfg["seed"], device=device)
 
 
 def timed(train: Callable[[], Any]) -> tuple[Any, float]:
-    """``(train(), wall-clock seconds it took)``: the training time a part reports over all sessions."""
+    """`(train(), wall-clock seconds it took)`: the training time a part reports over all sessions."""
     t0 = time.perf_counter()
     value = train()
     return value, time.perf_counter() - t0
@@ -80,7 +80,7 @@ def timed(train: Callable[[], Any]) -> tuple[Any, float]:
 def log_training(results: Sequence[TrainResult], labels: Sequence[str], total_seconds: float, what: str,
                  log: Callable[[str], Any]) -> list[float]:
     """Log one line per training run (its label, epochs, why it stopped, best epoch, validation MSE,
-    seconds) and one for all ``what`` together; returns the seconds each run took (the last time of
+    seconds) and one for all `what` together; returns the seconds each run took (the last time of
     its history)."""
     seconds = [float(r.history.time[-1]) for r in results]
     for label, r, s in zip(labels, results, seconds):
@@ -91,8 +91,8 @@ def log_training(results: Sequence[TrainResult], labels: Sequence[str], total_se
 
 
 def model_config(ds: Dataset, nodes=None, hidden: Sequence[int] = (125, 100, 100, 125), **kwargs) -> MLPConfig:
-    """The :class:`MLPConfig` for ``ds`` (its feature count in, the node slice's size out);
-    ``kwargs`` set the other fields (``input_columns``, ``input_scaling``, ``output_kind``, ...)."""
+    """The `MLPConfig` for `ds` (its feature count in, the node slice's size out);
+    `kwargs` set the other fields (`input_columns`, `input_scaling`, `output_kind`, ...)."""
     sl = node_slice(nodes, ds.header["labels_shape"][1])
     return MLPConfig(n_inputs=ds.features.shape[1], n_outputs=sl.stop - sl.start, hidden=list(hidden), **kwargs)
 
@@ -103,19 +103,19 @@ def _targets(ds: Dataset, sl: slice) -> np.ndarray:
 
 def fit(ds: Dataset, train_config: TrainConfig, *, nodes=None, sessions: int = 1,
         hidden: Sequence[int] = (125, 100, 100, 125), stacked: bool = False, **mlp) -> list[TrainResult]:
-    """Train ``sessions`` independent models on ``ds`` (session ``s``: seed ``train_config.seed + s``
-    for its split and initial weights, as :func:`wsmap.learn.training.train_mlp_sessions`).
+    """Train `sessions` independent models on `ds` (session `s`: seed `train_config.seed + s`
+    for its split and initial weights, as `wsmap.learn.training.train_mlp_sessions`).
 
     Args:
         ds: training dataset (the 70/15/15 split is drawn inside).
         train_config: optimiser, loss, epochs, early stopping.
-        nodes: node slice to learn (``None``: all nodes of ``ds``; ``(start, stop)`` 0-based).
-        hidden, mlp: architecture (:func:`model_config`); the first layer is configured
+        nodes: node slice to learn (`None`: all nodes of `ds`; `(start, stop)` 0-based).
+        hidden, mlp: architecture (`model_config`); the first layer is configured
             (Nguyen–Widrow ranges, input standardisation) on the session's training split.
-        stacked: train the sessions as one stacked model (Rprop only; see ``train_sessions``).
+        stacked: train the sessions as one stacked model (Rprop only; see `train_sessions`).
 
     Returns:
-        One :class:`TrainResult` per session; ``result.model`` is restored to its best epoch.
+        One `TrainResult` per session; `result.model` is restored to its best epoch.
     """
     sl = node_slice(nodes, ds.header["labels_shape"][1])
     return train_mlp_sessions(model_config(ds, sl, hidden, **mlp), ds.features, _targets(ds, sl), train_config,
@@ -134,10 +134,10 @@ def stack_sessions(results: Sequence[TrainResult]) -> SubspaceMLP:
 def fit_blocks(ds: Dataset, train_config: TrainConfig, blocks: Sequence, *,
                hidden: Sequence[int] = (125, 100, 100, 125), **mlp) -> tuple[SubspaceMLP, list[TrainResult]]:
     """One model per node block (section 6.2: 7 consecutive blocks of 1323 nodes), trained one
-    after another with the same config and seed, stacked into one :class:`SubspaceMLP` whose
-    subspace ``k`` predicts block ``k``; ``model.assemble(x)`` concatenates them in node order.
+    after another with the same config and seed, stacked into one `SubspaceMLP` whose
+    subspace `k` predicts block `k`; `model.assemble(x)` concatenates them in node order.
 
-    ``blocks`` are ``(start, stop)`` pairs or slices of equal size. Returns ``(model, results)``.
+    `blocks` are `(start, stop)` pairs or slices of equal size. Returns `(model, results)`.
     """
     n_nodes = ds.header["labels_shape"][1]
     slices = [node_slice(b, n_nodes) for b in blocks]
@@ -149,14 +149,14 @@ def fit_blocks(ds: Dataset, train_config: TrainConfig, blocks: Sequence, *,
 
 def evaluate(model: SubspaceMLP, test: Dataset, *, nodes=None, key: int | None = None,
              assemble: bool = False, threshold: float = 0.5, batch_size: int = 2048) -> dict[str, Any]:
-    """Precision, recall and F-measure of ``model`` on ``test`` (:func:`wsmap.metrics.score_maps`):
-    pooled over every sample and node (``precision``, ``recall``, ``f``: the paper's), per sample
-    (``f_mean``, ``f_std``, over samples whose F is defined; ``f_undefined``: samples with no
+    """Precision, recall and F-measure of `model` on `test` (`wsmap.metrics.score_maps`):
+    pooled over every sample and node (`precision`, `recall`, `f`: the paper's), per sample
+    (`f_mean`, `f_std`, over samples whose F is defined; `f_undefined`: samples with no
     positive in truth or prediction), and the confusion counts.
 
-    ``nodes`` (the truth's node slice) must match the model's outputs: one subspace (``key``) or
-    all of them concatenated (``assemble=True``). Also returns ``scores`` (float32, ``(n, m)``)
-    and ``truth`` (bool) for histograms and threshold sweeps.
+    `nodes` (the truth's node slice) must match the model's outputs: one subspace (`key`) or
+    all of them concatenated (`assemble=True`). Also returns `scores` (float32, `(n, m)`)
+    and `truth` (bool) for histograms and threshold sweeps.
     """
     n_nodes = test.header["labels_shape"][1]
     sl = node_slice(nodes, n_nodes)

@@ -1,80 +1,80 @@
-"""The paper's scale, part by part and resumable: ``wsmap paper full [PART ...] [--list] [--estimate]``.
+"""The paper's scale, part by part and resumable: `wsmap paper full [PART ...] [--list] [--estimate]`.
 
-``wsmap paper run --all --params params.full.yaml`` runs the notebooks at the paper's scale in one
+`wsmap paper run --all --params params.full.yaml` runs the notebooks at the paper's scale in one
 go (README "Scale": about 90 hours on 2 cores, all of Table 2 included). This runner cuts that work into **parts** that each end in one
 result file, so that a run can stop (a crash, Ctrl-C, a reboot) and go on where it stopped:
 
 =====================  ==========================================================================
 part                   what (settings from the params file's section, default params.full.yaml)
 =====================  ==========================================================================
-``sec61_subspace``     §6.1: ``sessions`` Rprop + MSE sessions on block 5 (1323 nodes); one step
-                       per session; F mean ± σ over the sessions (``sec61_subspace``)
-``sec62_puma560``      §6.2: the 7 block subspaces of the 21³ map, one step per block, then the
-                       stacked model on the whole map and on the PUMA560 (``sec62_puma560``)
-``table1_<dataset>``   Table 1, one row per part (``table1_workspaces``: ``table1_r3_step1``, ...)
-``table2_rprop_mse``   Table 2's Rprop + MSE cell, one step per session (``table2_optimisers``)
-``table3_<embedding>`` Table 3, one model (embedding) per part, tested on all three test sets
-                       (``table3_embeddings``: ``table3_subspace``, ``table3_workspace``,
-                       ``table3_nosubspace``)
+`sec61_subspace`     §6.1: `sessions` Rprop + MSE sessions on block 5 (1323 nodes); one step
+                       per session; F mean ± σ over the sessions (`sec61_subspace`)
+`sec62_puma560`      §6.2: the 7 block subspaces of the 21³ map, one step per block, then the
+                       stacked model on the whole map and on the PUMA560 (`sec62_puma560`)
+`table1_<dataset>`   Table 1, one row per part (`table1_workspaces`: `table1_r3_step1`, ...)
+`table2_rprop_mse`   Table 2's Rprop + MSE cell, one step per session (`table2_optimisers`)
+`table3_<embedding>` Table 3, one model (embedding) per part, tested on all three test sets
+                       (`table3_embeddings`: `table3_subspace`, `table3_workspace`,
+                       `table3_nosubspace`)
 =====================  ==========================================================================
 
-Every part trains with the package's own code (:func:`wsmap.paper.fitting.fit`, scored by
-:func:`wsmap.paper.tables.score_results` / :func:`wsmap.paper.fitting.evaluate`), summarised by
-the code the notebooks' parts use (:func:`wsmap.paper.parts.sec61_subspace.summarise`,
-:func:`wsmap.paper.parts.sec62_puma560.summarise` and ``puma560_map``, the ``tables`` summaries),
-at exactly the params file's settings; §6.1's and §6.2's ``metrics`` follow the parts'
-``PaperScaleMetrics`` schemas. The command is ``wsmap paper full`` (``python -m wsmap paper full``):
+Every part trains with the package's own code (`wsmap.paper.fitting.fit`, scored by
+`wsmap.paper.tables.score_results` / `wsmap.paper.fitting.evaluate`), summarised by
+the code the notebooks' parts use (`wsmap.paper.parts.sec61_subspace.summarise`,
+`wsmap.paper.parts.sec62_puma560.summarise` and `puma560_map`, the `tables` summaries),
+at exactly the params file's settings; §6.1's and §6.2's `metrics` follow the parts'
+`PaperScaleMetrics` schemas. The command is `wsmap paper full` (`python -m wsmap paper full`):
 this module has no entry point of its own, so that it never imports the command line. The datasets are
-built on demand at the params file's sizes (``datasets`` section) into ``data/full/`` (not a DVC
-output; git-ignored) with :func:`wsmap.paper.specs.build_pair`, and rebuilt when a file there is of
+built on demand at the params file's sizes (`datasets` section) into `data/full/` (not a DVC
+output; git-ignored) with `wsmap.paper.specs.build_pair`, and rebuilt when a file there is of
 another size or spec.
 
-Files (``--out``, default ``results/full/``)
+Files (`--out`, default `results/full/`)
 -------------------------------------------
-``<part>.json``
-    ``settings`` (everything the result depends on: the section's values, the full
-    :class:`~wsmap.learn.training.TrainConfig`, each dataset's spec and sizes), ``settings_hash``
-    (SHA-256 of their canonical JSON), ``analysis`` (not hashed: how the finished steps are
-    summarised, §6.1's ``sweep_points``; another value summarises them again without training),
-    ``metrics`` (with every session's scores, ``runs``; §6.1 also its best session's threshold sweep),
-    ``steps`` (each step's timings and a one-line summary; a §6.2 block's scores too),
-    ``timings`` (datasets, steps, finalisation), ``wall_seconds`` (all steps, also those of
-    earlier, interrupted runs, plus this run's data and finalisation), ``device``, ``machine``.
-``<part>.history.json``
+`<part>.json`
+    `settings` (everything the result depends on: the section's values, the full
+    `TrainConfig`, each dataset's spec and sizes), `settings_hash`
+    (SHA-256 of their canonical JSON), `analysis` (not hashed: how the finished steps are
+    summarised, §6.1's `sweep_points`; another value summarises them again without training),
+    `metrics` (with every session's scores, `runs`; §6.1 also its best session's threshold sweep),
+    `steps` (each step's timings and a one-line summary; a §6.2 block's scores too),
+    `timings` (datasets, steps, finalisation), `wall_seconds` (all steps, also those of
+    earlier, interrupted runs, plus this run's data and finalisation), `device`, `machine`.
+`<part>.history.json`
     every step's per-epoch training record (loss, validation loss, gradient norm, time).
-``steps/<part>/<step>.json``, ``models/<part>/<step>.pt``
+`steps/<part>/<step>.json`, `models/<part>/<step>.pt`
     a finished step (one session or block, with its scores and training record) and its model:
     what lets an interrupted part resume with its next step. The step files are small and
     committed, so a part resumes on a fresh checkout too (a long part outlives a work session);
     the models are not (git-ignored): a §6.2 block (its model goes into the stacked model) or a
     §6.1 session (the best one's model is swept) runs again without its model.
-    ``models/sec62_puma560.pt`` is the stacked 7-block model.
-``estimates.json``
-    ``--estimate``: measured seconds per epoch of each part.
+    `models/sec62_puma560.pt` is the stacked 7-block model.
+`estimates.json`
+    `--estimate`: measured seconds per epoch of each part.
 
 Resuming
 --------
-A part whose ``<part>.json`` holds the same ``settings_hash`` is skipped; a changed setting (or a
+A part whose `<part>.json` holds the same `settings_hash` is skipped; a changed setting (or a
 changed dataset size) gives another hash, and the part runs again (its old file stays until the
 new one replaces it). Within a part, finished steps with the same hash are reused. Every file is
-written atomically (:mod:`wsmap.io`): a run killed at any moment leaves the files it had finished
-and no partial one. The ``device`` setting is recorded but not hashed: a result does not depend
+written atomically (`wsmap.io`): a run killed at any moment leaves the files it had finished
+and no partial one. The `device` setting is recorded but not hashed: a result does not depend
 on where it was computed beyond float rounding, so a CPU result is not recomputed on a GPU.
-Delete ``<part>.json`` and ``steps/<part>/`` to force a rerun.
+Delete `<part>.json` and `steps/<part>/` to force a rerun.
 
 Devices
 -------
-Every section's ``device`` (``auto``: the GPU when torch sees one) or ``--device`` for all; it is
-resolved (``cuda`` without a GPU: an error) before any dataset is built or loaded.
+Every section's `device` (`auto`: the GPU when torch sees one) or `--device` for all; it is
+resolved (`cuda` without a GPU: an error) before any dataset is built or loaded.
 
 Estimates
 ---------
-``--list`` shows each part's state, steps done, and its time: measured for finished parts; for
-the others the estimate from ``estimates.json`` (``--estimate``: a few epochs of each part timed
+`--list` shows each part's state, steps done, and its time: measured for finished parts; for
+the others the estimate from `estimates.json` (`--estimate`: a few epochs of each part timed
 on random data of the part's exact shapes, on the part's device), else a rough count of floating-
-point operations at :data:`CPU_GFLOPS` (measured on the 2-core development machine). Both scale
-the epoch time by ``max_epochs × steps``: an upper bound where validation stopping ends a run
-early (§6.2's ``max_fail`` 100). Dataset builds come on top (:func:`data_estimate`).
+point operations at `CPU_GFLOPS` (measured on the 2-core development machine). Both scale
+the epoch time by `max_epochs × steps`: an upper bound where validation stopping ends a run
+early (§6.2's `max_fail` 100). Dataset builds come on top (`data_estimate`).
 """
 
 from __future__ import annotations
@@ -120,13 +120,13 @@ __all__ = [
 #: Bumped when what a part computes changes, so that old results are not taken for new ones.
 RUNNER_VERSION = 1
 #: Sustained float32 GFLOP/s of full-batch Rprop epochs on the development machine (2 cores, no
-#: GPU, nothing else running): 70-92 in ``--estimate`` runs of the paper's shapes (§6.1, Table 2,
-#: Table 1 rows). ``--list`` uses it for parts without a timed estimate; smaller networks (Table 3)
+#: GPU, nothing else running): 70-92 in `--estimate` runs of the paper's shapes (§6.1, Table 2,
+#: Table 1 rows). `--list` uses it for parts without a timed estimate; smaller networks (Table 3)
 #: run below it, a loaded machine far below.
 CPU_GFLOPS = 80.0
 #: Seconds per label of an exact (closed-form) dataset build and per arm of a numerical one
 #: (README "Scale": 1e5 arms x 9261 nodes in 12 s; the no-subspace arms: 812 s for 16 000 arms
-#: on two threads in ``wsmap paper full table3_subspace``, 2026-12-02, the machine otherwise idle).
+#: on two threads in `wsmap paper full table3_subspace`, 2026-12-02, the machine otherwise idle).
 EXACT_SECONDS_PER_LABEL = 1.3e-8
 NUMERICAL_SECONDS_PER_ARM = 0.051
 
@@ -154,9 +154,9 @@ def _now() -> str:
 class Part:
     """One resumable unit of work and everything its result depends on.
 
-    ``settings`` is hashed (:func:`settings_hash`); ``device`` is the requested setting (``auto``,
-    ``cpu``, ``cuda``) and ``device_what`` names where it came from, for error messages.
-    ``analysis``: settings of the summary drawn from the finished steps (§6.1's threshold sweep),
+    `settings` is hashed (`settings_hash`); `device` is the requested setting (`auto`,
+    `cpu`, `cuda`) and `device_what` names where it came from, for error messages.
+    `analysis`: settings of the summary drawn from the finished steps (§6.1's threshold sweep),
     not of the training: not hashed, so a change summarises the same steps again (no retraining);
     recorded in the result, and a result with other ones is not done.
     """
@@ -179,8 +179,8 @@ class Part:
     @property
     def step_hash(self) -> str:
         """The hash a finished step is matched by: the settings without the number of sessions
-        (session ``k`` trains with seed ``seed + k`` whatever their number), so that raising
-        ``sessions`` reuses the sessions already run."""
+        (session `k` trains with seed `seed + k` whatever their number), so that raising
+        `sessions` reuses the sessions already run."""
         return step_hash(self.settings)
 
     @property
@@ -191,7 +191,7 @@ class Part:
 
 
 def settings_hash(settings: dict) -> str:
-    """``sha256:<hex>`` of the canonical JSON of ``settings`` (sorted keys, no spaces)."""
+    """`sha256:<hex>` of the canonical JSON of `settings` (sorted keys, no spaces)."""
     from ..io import jsonable
 
     text = json.dumps(jsonable(settings), sort_keys=True, separators=(",", ":"), allow_nan=False)
@@ -199,7 +199,7 @@ def settings_hash(settings: dict) -> str:
 
 
 def step_hash(settings: dict) -> str:
-    """:func:`settings_hash` of ``settings`` without ``section.sessions`` (see :attr:`Part.step_hash`)."""
+    """`settings_hash` of `settings` without `section.sessions` (see `Part.step_hash`)."""
     section = {k: v for k, v in settings.get("section", {}).items() if k != "sessions"}
     return settings_hash({**settings, "section": section})
 
@@ -213,9 +213,9 @@ def _dataset_settings(names: Sequence[str], sizes: dict, source: str = "the para
 
 
 def plan(params_file=None, *, device: str | None = None) -> list[Part]:
-    """Every part of the params file (default ``params.full.yaml``), in run order.
+    """Every part of the params file (default `params.full.yaml`), in run order.
 
-    ``device``: one ``device`` setting for every part (``--device``); ``None``: each section's.
+    `device`: one `device` setting for every part (`--device`); `None`: each section's.
     Missing sections or keys are errors naming the file and section (nothing has run yet).
     """
     from ..learn.training import TrainConfig
@@ -301,10 +301,10 @@ def plan(params_file=None, *, device: str | None = None) -> list[Part]:
 
 
 def select(parts: Sequence[Part], names: Sequence[str]) -> list[Part]:
-    """The parts named by ``names`` (exact names, shell patterns such as ``table1_*``, or a group:
-    ``sec61``, ``sec62``, ``table1``, ``table2``, ``table3``), in run order; none given: all.
+    """The parts named by `names` (exact names, shell patterns such as `table1_*`, or a group:
+    `sec61`, `sec62`, `table1`, `table2`, `table3`), in run order; none given: all.
 
-    Raises ``ValueError`` (one line, listing the known parts) for a name that matches nothing.
+    Raises `ValueError` (one line, listing the known parts) for a name that matches nothing.
     """
     if not names:
         return list(parts)
@@ -364,7 +364,7 @@ def _step_matches(data: dict, part: Part) -> bool:
 
 def _done_step(out: Path, part: Part, step: str) -> dict | None:
     """A finished step's record, or None: its step file, else its record in a finished result of
-    the same settings but another number of sessions (:attr:`Part.step_hash`). The step files are
+    the same settings but another number of sessions (`Part.step_hash`). The step files are
     committed and the models are not, so on a fresh checkout a step whose model the part's
     finalisation needs counts as not done."""
     data = _read_json(_step_file(out, part, step))
@@ -378,8 +378,8 @@ def _done_step(out: Path, part: Part, step: str) -> dict | None:
 
 
 def _step_from_result(out: Path, part: Part, step: str) -> dict | None:
-    """Step ``step`` (``session_<k>``) rebuilt from the part's finished ``<part>.json`` and its
-    history when that result's settings differ from ``part``'s in the number of sessions only: its
+    """Step `step` (`session_<k>`) rebuilt from the part's finished `<part>.json` and its
+    history when that result's settings differ from `part`'s in the number of sessions only: its
     score rows, timings and training record, as its step file held them."""
     result = _read_json(_part_file(out, part))
     if (result is None or part.kind == "sec62" or not isinstance(result.get("settings"), dict)
@@ -405,9 +405,9 @@ def _is_done(result: dict | None, part: Part) -> bool:
 
 
 def part_state(part: Part, out) -> dict[str, Any]:
-    """``state``: ``done`` (a result with this part's settings hash), ``partial`` (some steps
-    done), ``stale`` (a result from other settings; no step of the current ones yet) or
-    ``pending``; ``steps_done``; ``seconds`` (measured: the result's ``wall_seconds``, or the
+    """`state`: `done` (a result with this part's settings hash), `partial` (some steps
+    done), `stale` (a result from other settings; no step of the current ones yet) or
+    `pending`; `steps_done`; `seconds` (measured: the result's `wall_seconds`, or the
     finished steps' sum)."""
     out = Path(out)
     data = _read_json(_part_file(out, part))
@@ -501,7 +501,7 @@ class _Data:
 
 
 def _relative(path: Path, out: Path) -> str:
-    """``path`` relative to the result folder ``out`` when inside it (results stay valid when moved)."""
+    """`path` relative to the result folder `out` when inside it (results stay valid when moved)."""
     try:
         return str(Path(path).resolve().relative_to(Path(out).resolve()))
     except ValueError:
@@ -529,7 +529,7 @@ def _tests(part: Part, data: _Data) -> dict:
 
 
 def _session_step(part: Part, step: str, data: _Data, out: Path) -> dict:
-    """One session (seed ``seed + k``) of a sec61/table1/table2/table3 part: train, score, save."""
+    """One session (seed `seed + k`) of a sec61/table1/table2/table3 part: train, score, save."""
 
     k = int(step.split("_")[1])
     sec = part.settings["section"]
@@ -551,7 +551,7 @@ def _session_step(part: Part, step: str, data: _Data, out: Path) -> dict:
 
 
 def _block_step(part: Part, step: str, data: _Data, out: Path) -> dict:
-    """One §6.2 block (``block_k``, 1-based): as :func:`wsmap.paper.fitting.fit_blocks` trains it."""
+    """One §6.2 block (`block_k`, 1-based): as `wsmap.paper.fitting.fit_blocks` trains it."""
     from .. import workspace
 
     k = int(step.split("_")[1]) - 1
@@ -626,8 +626,8 @@ def _finalize(part: Part, steps: dict[str, dict], data: _Data, out: Path) -> tup
 
 def _sec61_sweep(part: Part, step: str, data: _Data, out: Path):
     """The threshold sweep of §6.1's best session (lowest validation loss), as the paper's: its
-    model scored on the test set at ``sweep_points`` thresholds evenly from 0 to 1
-    (:func:`wsmap.paper.parts.sec61_subspace.sweep_of`)."""
+    model scored on the test set at `sweep_points` thresholds evenly from 0 to 1
+    (`wsmap.paper.parts.sec61_subspace.sweep_of`)."""
     from ..learn.device import resolve_device
     from ..learn.files import load
 
@@ -674,7 +674,7 @@ _STEP = {"sec61": _session_step, "table1": _session_step, "table2": _session_ste
 
 
 def run_part(part: Part, out=None, data_dir=None, *, log: Log = print) -> dict:
-    """Run ``part`` (skipped when done; finished steps reused) and write ``<out>/<part>.json``.
+    """Run `part` (skipped when done; finished steps reused) and write `<out>/<part>.json`.
 
     Returns the result dict (the file's content), or the existing one when the part was done.
     """
@@ -760,7 +760,7 @@ def _step_summary(part: Part, done: dict) -> str:
 
 def run(names: Sequence[str] = (), params_file=None, out=None, data_dir=None, *, device: str | None = None,
         log: Log = print) -> list[dict]:
-    """Run the selected parts (:func:`select`) of ``params_file`` in order. Every name, section,
+    """Run the selected parts (`select`) of `params_file` in order. Every name, section,
     key and device is checked before anything is built, loaded or written."""
     from ..io import check_output_path
     from ..learn.device import resolve_device
@@ -786,7 +786,7 @@ def _layer_macs(n_inputs: int, hidden: Sequence[int], n_outputs: int) -> int:
 
 
 def _shape(part: Part) -> dict[str, int]:
-    """Inputs, outputs, training and validation samples of one step of ``part``."""
+    """Inputs, outputs, training and validation samples of one step of `part`."""
     from ..workspace import BLOCK_NODES
     from .specs import paper_spec
 
@@ -801,8 +801,8 @@ def _shape(part: Part) -> dict[str, int]:
 
 
 def flop_estimate(part: Part, gflops: float = CPU_GFLOPS) -> float:
-    """Seconds of ``part``'s training at ``gflops``: per epoch a forward and backward pass over the
-    training split (3 x 2 x MACs) and a forward pass over the validation split, x ``max_epochs``
+    """Seconds of `part`'s training at `gflops`: per epoch a forward and backward pass over the
+    training split (3 x 2 x MACs) and a forward pass over the validation split, x `max_epochs`
     x steps."""
     s = _shape(part)
     macs = _layer_macs(s["f"], part.settings["section"]["hidden"], s["m"])
@@ -811,9 +811,9 @@ def flop_estimate(part: Part, gflops: float = CPU_GFLOPS) -> float:
 
 
 def data_estimate(part: Part, data_dir=None, counted: set | None = None) -> float:
-    """Seconds to build the part's datasets missing from ``data_dir`` (file existence only):
-    :data:`EXACT_SECONDS_PER_LABEL` per label for closed-form labels,
-    :data:`NUMERICAL_SECONDS_PER_ARM` per arm for numerical ones. ``counted``: names already
+    """Seconds to build the part's datasets missing from `data_dir` (file existence only):
+    `EXACT_SECONDS_PER_LABEL` per label for closed-form labels,
+    `NUMERICAL_SECONDS_PER_ARM` per arm for numerical ones. `counted`: names already
     counted for an earlier part (a dataset is built once for all parts); this part's are added."""
     from .specs import dataset_paths, paper_spec
 
@@ -832,13 +832,13 @@ def data_estimate(part: Part, data_dir=None, counted: set | None = None) -> floa
 
 
 def estimate_part(part: Part, epochs: int = 4) -> dict[str, Any]:
-    """Time ``epochs`` epochs of one step of ``part`` on random data of its exact shapes (features,
+    """Time `epochs` epochs of one step of `part` on random data of its exact shapes (features,
     nodes, training and validation samples, network, optimiser) on its device; no dataset needed.
 
-    Returns ``seconds_per_epoch`` (the fastest of epochs 2..``epochs``: the first step's set-up and
+    Returns `seconds_per_epoch` (the fastest of epochs 2..`epochs`: the first step's set-up and
     a GPU's warm-up left out, and on a shared machine as little of the other processes' load as
-    possible; ``seconds_per_epoch_median`` beside it, and the load average) and ``estimate_s`` =
-    that x ``max_epochs`` x steps.
+    possible; `seconds_per_epoch_median` beside it, and the load average) and `estimate_s` =
+    that x `max_epochs` x steps.
     """
     import numpy as np
     import torch
@@ -876,8 +876,8 @@ def _estimates_file(out: Path) -> Path:
 
 def estimate(names: Sequence[str] = (), params_file=None, out=None, *, device: str | None = None,
              epochs: int = 4, log: Log = print) -> dict[str, dict]:
-    """:func:`estimate_part` for every selected part that is not done; merged into
-    ``<out>/estimates.json`` (written atomically)."""
+    """`estimate_part` for every selected part that is not done; merged into
+    `<out>/estimates.json` (written atomically)."""
     from ..io import write_json
     from ..learn.device import resolve_device
 
@@ -910,11 +910,11 @@ def _fmt_seconds(s) -> str:
 
 def list_lines(params_file=None, out=None, data_dir=None, *, device: str | None = None,
                names: Sequence[str] = ()) -> list[str]:
-    """The ``--list`` table: one line per part (state, steps done, time), then the totals.
+    """The `--list` table: one line per part (state, steps done, time), then the totals.
 
-    Time: ``measured`` for a finished part (its wall time); otherwise ``timed`` (from
-    ``estimates.json``, matching settings) or ``flops`` (:func:`flop_estimate`, CPU only) for the
-    steps still to run, plus ``data`` for datasets still to build. Changes nothing on disk.
+    Time: `measured` for a finished part (its wall time); otherwise `timed` (from
+    `estimates.json`, matching settings) or `flops` (`flop_estimate`, CPU only) for the
+    steps still to run, plus `data` for datasets still to build. Changes nothing on disk.
     """
     from ..learn.device import resolve_device
 

@@ -1,10 +1,10 @@
-"""One notebook as one DVC stage: ``python -m wsmap.paper.notebook NAME``.
+"""One notebook as one DVC stage: `python -m wsmap.paper.notebook NAME`.
 
-``dvc.yaml`` runs every notebook stage through this module rather than the ``wsmap`` command line,
+`dvc.yaml` runs every notebook stage through this module rather than the `wsmap` command line,
 so that what a stage depends on is what it runs: this module, the papermill runner
-(:mod:`wsmap.paper.pipeline`) and the modules the notebook imports, and nothing that the rest of
-the command line could load (``tools/stage_deps.py`` writes each stage's deps from that closure).
-``wsmap paper run NAME`` does the same for a person, with ``--params`` and ``--root``.
+(`wsmap.paper.pipeline`) and the modules the notebook imports, and nothing that the rest of
+the command line could load (`tools/stage_deps.py` writes each stage's deps from that closure).
+`wsmap paper run NAME` does the same for a person, with `--params` and `--root`.
 
 Exit status: 0 when the notebook ran, 2 for an unknown notebook, a parameters file without its
 section, or a notebook that raised (one line naming the cell and the executed copy that holds the
@@ -28,7 +28,7 @@ def _run(names: list[str]) -> None:
 
 
 def main(argv=None) -> int:
-    """Run the notebooks named in ``argv`` with ``params.yaml`` into the project root."""
+    """Run the notebooks named in `argv` with `params.yaml` into the project root."""
     names = sys.argv[1:] if argv is None else list(argv)
     if not names or any(n.startswith("-") for n in names):
         print("usage: python -m wsmap.paper.notebook NAME [NAME ...]  (wsmap paper run --help for options)",

@@ -1,10 +1,10 @@
-"""Running the paper's notebooks (``wsmap paper run NOTEBOOK [--params FILE] [--root DIR]``).
+"""Running the paper's notebooks (`wsmap paper run NOTEBOOK [--params FILE] [--root DIR]`).
 
-Each notebook under ``notebooks/`` is one DVC stage. This runner checks that the parameters file
+Each notebook under `notebooks/` is one DVC stage. This runner checks that the parameters file
 has the notebook's section (same name as the notebook), passes the file's path to papermill (the
-notebook reads its section through :func:`wsmap.paths.notebook_params`, as it does when opened by
-hand), and writes the executed copy to ``<root>/results/notebooks/`` — never over the source
-notebook. papermill runs with the ``python3`` kernel (a saved kernel name may not exist) from the
+notebook reads its section through `wsmap.paths.notebook_params`, as it does when opened by
+hand), and writes the executed copy to `<root>/results/notebooks/` — never over the source
+notebook. papermill runs with the `python3` kernel (a saved kernel name may not exist) from the
 project root.
 """
 
@@ -20,11 +20,11 @@ from . import parts
 
 class NotebookError(RuntimeError):
     """A notebook raised while it ran: names the notebook, the cell's error, and the executed copy
-    (``<name>.failed.ipynb``) that holds its traceback."""
+    (`<name>.failed.ipynb`) that holds its traceback."""
 
 
 def check_notebook(name: str) -> Path:
-    """The source notebook of ``name``; an unknown name is a ``ValueError`` listing the known ones."""
+    """The source notebook of `name`; an unknown name is a `ValueError` listing the known ones."""
     src = paths.NOTEBOOKS / f"{name}.ipynb"
     if not src.is_file():
         known = sorted(p.stem for p in paths.NOTEBOOKS.glob("*.ipynb"))
@@ -34,12 +34,12 @@ def check_notebook(name: str) -> Path:
 
 def run_notebook(name: str, params_file=None, root=None, timeout: int | None = 3600,
                  extra: dict | None = None) -> Path:
-    """Execute ``notebooks/<name>.ipynb`` with its params section; returns the executed copy's path.
+    """Execute `notebooks/<name>.ipynb` with its params section; returns the executed copy's path.
 
-    ``timeout``: seconds any one cell may run (``None`` or 0: no limit, for the paper's scale).
+    `timeout`: seconds any one cell may run (`None` or 0: no limit, for the paper's scale).
 
-    Raises :class:`NotebookError` when a cell raises: the partly executed copy goes to
-    ``<name>.failed.ipynb`` beside it and the previous executed copy, if any, stays in place.
+    Raises `NotebookError` when a cell raises: the partly executed copy goes to
+    `<name>.failed.ipynb` beside it and the previous executed copy, if any, stays in place.
     """
     import papermill as pm
     from papermill.exceptions import PapermillExecutionError
@@ -80,14 +80,14 @@ def run_notebook(name: str, params_file=None, root=None, timeout: int | None = 3
 
 def order() -> list[str]:
     """The notebooks in run order (as dvc.yaml runs them): the parts' registry
-    (:func:`wsmap.paper.parts.order`), every part after the parts whose outputs it reads."""
+    (`wsmap.paper.parts.order`), every part after the parts whose outputs it reads."""
     return parts.order()
 
 
 def build_datasets(params_file, data_dir, *, rebuild: bool = False):
-    """Build every dataset (and its test set) of the params file's ``datasets`` section into
-    ``data_dir``, skipping pairs already there unless ``rebuild``; yields ``(name, seconds)`` for
-    each one built, as it is built (the dvc stages ``datasets@NAME`` do the same one by one)."""
+    """Build every dataset (and its test set) of the params file's `datasets` section into
+    `data_dir`, skipping pairs already there unless `rebuild`; yields `(name, seconds)` for
+    each one built, as it is built (the dvc stages `datasets@NAME` do the same one by one)."""
     from .specs import build_pair, dataset_paths, dataset_sizes
 
     sizes = paths.load_params("datasets", params_file)
@@ -103,11 +103,11 @@ def build_datasets(params_file, data_dir, *, rebuild: bool = False):
 
 
 def run_all(params_file=None, root=None, timeout: int | None = 3600) -> list[Path]:
-    """Without DVC: build every dataset of the params file's ``datasets`` section that ``root``
-    lacks, then execute every notebook in :func:`order`. For runs outside the committed
-    configuration (the paper's full scale: ``params.full.yaml``) into their own root, so that the
-    committed results stay what ``params.yaml`` produces. The wall time of every dataset and
-    notebook goes to ``<root>/results/pipeline_timings.json`` (rewritten after each step)."""
+    """Without DVC: build every dataset of the params file's `datasets` section that `root`
+    lacks, then execute every notebook in `order`. For runs outside the committed
+    configuration (the paper's full scale: `params.full.yaml`) into their own root, so that the
+    committed results stay what `params.yaml` produces. The wall time of every dataset and
+    notebook goes to `<root>/results/pipeline_timings.json` (rewritten after each step)."""
     import json
 
     from ..io import atomic_path

@@ -1,4 +1,4 @@
-"""The paper's published numbers, in one place (``../shared/paper/NOTES.md``, "Published figures").
+"""The paper's published numbers, in one place (`../shared/paper/NOTES.md`, "Published figures").
 
 Everything that compares with the paper (the table notebooks, the report, the run-time comparison,
 the benchmarks) reads these. F-measures are pooled over all test arms and nodes (micro), times in

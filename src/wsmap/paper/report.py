@@ -1,19 +1,19 @@
 """The reproduction report: every reproduced number beside the paper's, with the difference.
 
-:data:`PAPER` holds the published numbers (``../shared/paper/NOTES.md``, "Published figures to
-compare with"). :func:`comparison_rows` reads the metrics JSON files the pipeline notebooks write
-(``results/NAME.json``) and pairs each number with the paper's; :func:`write_report` turns them
-into ``results/REPORT.md``, with the departures from the paper (:data:`DEPARTURES`) and the
+`PAPER` holds the published numbers (`../shared/paper/NOTES.md`, "Published figures to
+compare with"). `comparison_rows` reads the metrics JSON files the pipeline notebooks write
+(`results/NAME.json`) and pairs each number with the paper's; `write_report` turns them
+into `results/REPORT.md`, with the departures from the paper (`DEPARTURES`) and the
 reductions of the committed parameters against the paper's scale.
 
 A number that a stage has not produced (its JSON missing, or the key absent) is reported as
 missing, never filled in.
 
-Beside the committed run, the report has the paper's own scale as measured here: ``wsmap paper
-full`` (:mod:`.full`) writes one ``results/full/<part>.json`` per part (a Table 1 row, §6.1, §6.2,
-Table 2's Rprop + MSE cell, one Table 3 embedding). :data:`PAPER_SCALE` maps each report row to
-its paper-scale counterpart (part and key in the part's ``metrics``), as :data:`COMPARISONS` maps
-it to a stage's metrics; :func:`load_full` reads the parts that exist. A part not run yet is
+Beside the committed run, the report has the paper's own scale as measured here: `wsmap paper
+full` (`.full`) writes one `results/full/<part>.json` per part (a Table 1 row, §6.1, §6.2,
+Table 2's Rprop + MSE cell, one Table 3 embedding). `PAPER_SCALE` maps each report row to
+its paper-scale counterpart (part and key in the part's `metrics`), as `COMPARISONS` maps
+it to a stage's metrics; `load_full` reads the parts that exist. A part not run yet is
 reported as "not run yet", a row without a counterpart (run time, beyond the paper) as "—".
 """
 
@@ -62,14 +62,14 @@ DEPARTURES: list[tuple[str, str]] = [
 ]
 
 
-#: What a paper-scale cell says when its part has no ``results/full/<part>.json`` yet.
+#: What a paper-scale cell says when its part has no `results/full/<part>.json` yet.
 NOT_RUN = "not run yet"
 
 
 @dataclass
 class Row:
     """One line of the report: what, ours (the committed run), the paper's, where ours comes from;
-    and the paper-scale counterpart (``wsmap paper full``): its part and key (``full_part`` None:
+    and the paper-scale counterpart (`wsmap paper full`): its part and key (`full_part` None:
     there is none), whether the part has run, its number and the part's wall time."""
 
     section: str
@@ -96,16 +96,16 @@ class Row:
 
     @property
     def full_cell(self) -> float | str | None:
-        """The "paper scale (measured)" cell: "—" (no counterpart), :data:`NOT_RUN`, the number, or
-        ``None`` (the part ran but its metrics lack the key: reported as missing)."""
+        """The "paper scale (measured)" cell: "—" (no counterpart), `NOT_RUN`, the number, or
+        `None` (the part ran but its metrics lack the key: reported as missing)."""
         if self.full_part is None:
             return "—"
         return self.full if self.full_run else NOT_RUN
 
     @property
     def wall_time_cell(self) -> str | None:
-        """The "wall time at paper scale" cell: "—", :data:`NOT_RUN`, or :func:`wall_time` of the
-        part's ``wall_seconds`` (``None`` where the part file lacks it)."""
+        """The "wall time at paper scale" cell: "—", `NOT_RUN`, or `wall_time` of the
+        part's `wall_seconds` (`None` where the part file lacks it)."""
         if self.full_part is None:
             return "—"
         if not self.full_run:
@@ -114,7 +114,7 @@ class Row:
 
 
 def wall_time(seconds) -> str:
-    """A wall time as ``wsmap paper full --list`` prints it: ``"45 s"``, ``"4 min"``, ``"3.2 h"``."""
+    """A wall time as `wsmap paper full --list` prints it: `"45 s"`, `"4 min"`, `"3.2 h"`."""
     return _fmt_seconds(seconds)
 
 
@@ -123,7 +123,7 @@ def _finite(v) -> bool:
 
 
 def lookup(metrics: dict[str, Any], key: str):
-    """``metrics[a][b]...`` for ``key = "a.b..."``; ``None`` where any part is missing."""
+    """`metrics[a][b]...` for `key = "a.b..."`; `None` where any part is missing."""
     cur: Any = metrics
     for part in key.split("."):
         if isinstance(cur, dict) and part in cur:
@@ -138,7 +138,7 @@ def lookup(metrics: dict[str, Any], key: str):
 
 
 def load_metrics(results_dir) -> dict[str, dict]:
-    """Every ``results/*.json`` (the stages' metrics) by stem; unreadable files raise ``ValueError``."""
+    """Every `results/*.json` (the stages' metrics) by stem; unreadable files raise `ValueError`."""
     out = {}
     for p in sorted(Path(results_dir).glob("*.json")):
         try:
@@ -217,8 +217,8 @@ COMPARISONS: list[tuple[str, str, str, str, str | None, str]] = [
 ]
 
 
-#: Each report row's paper-scale counterpart: (metrics file, key) as in :data:`COMPARISONS` ->
-#: (``wsmap paper full`` part, key in its ``results/full/<part>.json`` ``metrics``). Rows not listed
+#: Each report row's paper-scale counterpart: (metrics file, key) as in `COMPARISONS` ->
+#: (`wsmap paper full` part, key in its `results/full/<part>.json` `metrics`). Rows not listed
 #: have none: run time, beyond the paper.
 PAPER_SCALE: dict[tuple[str, str], tuple[str, str]] = {
     ("sec61_subspace", "f_mean"): ("sec61_subspace", "f_mean"),
@@ -235,15 +235,15 @@ PAPER_SCALE: dict[tuple[str, str], tuple[str, str]] = {
     **{("table3_embeddings", f"{emb}.{emb}.f"): (f"table3_{emb}", f"tests.{emb}.f") for emb in _TABLE3[1:]},
 }
 
-#: Every ``wsmap paper full`` part the report reads, in the runner's order (a test checks that
-#: these are all of :func:`wsmap.paper.full.plan`'s parts).
+#: Every `wsmap paper full` part the report reads, in the runner's order (a test checks that
+#: these are all of `wsmap.paper.full.plan`'s parts).
 FULL_PARTS: list[str] = list(dict.fromkeys(part for part, _ in PAPER_SCALE.values()))
 
 
 def unknown_keys() -> list[str]:
-    """The keys of :data:`COMPARISONS` that their part's metrics schema lacks
-    (:func:`wsmap.paper.parts.knows_key`), and those of :data:`PAPER_SCALE` that the §6.1 and §6.2
-    parts' paper-scale schemas lack, as ``"<file>: <key>"``; empty when the report and the parts agree."""
+    """The keys of `COMPARISONS` that their part's metrics schema lacks
+    (`wsmap.paper.parts.knows_key`), and those of `PAPER_SCALE` that the §6.1 and §6.2
+    parts' paper-scale schemas lack, as `"<file>: <key>"`; empty when the report and the parts agree."""
     from .parts import knows_key, sec61_subspace, sec62_puma560
 
     bad = [f"results/{stem}.json: {key}" for _, _, stem, key, _, _ in COMPARISONS if not knows_key(stem, key)]
@@ -254,8 +254,8 @@ def unknown_keys() -> list[str]:
 
 
 def load_full(full_dir) -> dict[str, dict]:
-    """The paper-scale results that exist, ``full_dir/<part>.json`` for each of :data:`FULL_PARTS`,
-    by part (``results/full/``; a missing directory: none); unreadable files raise ``ValueError``."""
+    """The paper-scale results that exist, `full_dir/<part>.json` for each of `FULL_PARTS`,
+    by part (`results/full/`; a missing directory: none); unreadable files raise `ValueError`."""
     out = {}
     for part in FULL_PARTS:
         p = Path(full_dir) / f"{part}.json"
@@ -281,9 +281,9 @@ def _leaves(d: Any, prefix: str = "") -> dict[str, Any]:
 
 
 def _aligned(a: Any, b: Any) -> tuple[Any, Any]:
-    """``a`` and ``b`` with a value given once on one side and per key (a mapping, ``default`` for
-    the rest) on the other written per key on both: ``sessions: 1`` against ``{default: 1,
-    table1_so3_pi10: 5}`` differs in ``sessions.table1_so3_pi10`` only."""
+    """`a` and `b` with a value given once on one side and per key (a mapping, `default` for
+    the rest) on the other written per key on both: `sessions: 1` against `{default: 1,
+    table1_so3_pi10: 5}` differs in `sessions.table1_so3_pi10` only."""
     if isinstance(a, dict) and isinstance(b, dict):
         pairs = {k: _aligned(a.get(k), b.get(k)) if k in a and k in b else (a.get(k), b.get(k))
                  for k in dict.fromkeys([*a, *b])}
@@ -296,10 +296,10 @@ def _aligned(a: Any, b: Any) -> tuple[Any, Any]:
 
 
 def reductions(committed: dict[str, Any], full: dict[str, Any]) -> list[dict[str, Any]]:
-    """Every parameter whose committed value (``params.yaml``) differs from the paper-scale one
-    (``params.full.yaml``), as rows ``{stage, parameter, committed, paper scale}``; nested
-    sections are flattened to dotted names (``train_samples.table1_r3_full``). A parameter
-    present in only one of the two files is listed with ``None`` on the other side."""
+    """Every parameter whose committed value (`params.yaml`) differs from the paper-scale one
+    (`params.full.yaml`), as rows `{stage, parameter, committed, paper scale}`; nested
+    sections are flattened to dotted names (`train_samples.table1_r3_full`). A parameter
+    present in only one of the two files is listed with `None` on the other side."""
     rows = []
     for stage in dict.fromkeys([*committed, *full]):
         c, f = _aligned(committed.get(stage, {}), full.get(stage, {}))
@@ -311,8 +311,8 @@ def reductions(committed: dict[str, Any], full: dict[str, Any]) -> list[dict[str
 
 
 def comparison_rows(metrics: dict[str, dict], full: dict[str, dict] | None = None) -> list[Row]:
-    """One :class:`Row` per entry of :data:`COMPARISONS`, ours read from ``metrics``, the paper-scale
-    number and wall time from ``full`` (:func:`load_full`; ``None``: no part has run)."""
+    """One `Row` per entry of `COMPARISONS`, ours read from `metrics`, the paper-scale
+    number and wall time from `full` (`load_full`; `None`: no part has run)."""
     full = full or {}
     rows = []
     for section, what, stem, key, paper_key, note in COMPARISONS:
@@ -328,7 +328,7 @@ def comparison_rows(metrics: dict[str, dict], full: dict[str, dict] | None = Non
 
 
 def _parts_table(full: dict[str, dict]) -> list[dict[str, Any]]:
-    """One row per part of :data:`FULL_PARTS`: measured or not, wall time, when, where."""
+    """One row per part of `FULL_PARTS`: measured or not, wall time, when, where."""
     rows = []
     for part in FULL_PARTS:
         data = full.get(part)
@@ -352,7 +352,7 @@ def session_rows(full: dict[str, dict]) -> list[dict[str, Any]]:
     every session's pooled F, their mean ± σ (ddof 1), the lowest and highest, the F of the session
     with the lowest validation loss (the one a MATLAB user keeps), the per-arm F mean (each test
     arm's map scored, then averaged) of the sessions and of the best-F session, and which of these
-    readings lies nearest the paper's single number (``reading``)."""
+    readings lies nearest the paper's single number (`reading`)."""
     from .published import PAPER_TABLE1
 
     rows = []
@@ -386,11 +386,11 @@ def session_rows(full: dict[str, dict]) -> list[dict[str, Any]]:
 
 def write_report(results_dir, path=None, *, reductions: list[dict] | None = None,
                  extra_sections: dict[str, str] | None = None, full_dir=None) -> Path:
-    """Write the report (default ``results_dir/REPORT.md``) atomically; returns its path.
+    """Write the report (default `results_dir/REPORT.md`) atomically; returns its path.
 
-    ``reductions``: rows ``{parameter, committed, paper}`` listing where the committed run is
-    smaller than the paper's; ``extra_sections``: title → Markdown appended (e.g. the label audit);
-    ``full_dir``: the paper-scale results of ``wsmap paper full`` (default ``results_dir/full``).
+    `reductions`: rows `{parameter, committed, paper}` listing where the committed run is
+    smaller than the paper's; `extra_sections`: title → Markdown appended (e.g. the label audit);
+    `full_dir`: the paper-scale results of `wsmap paper full` (default `results_dir/full`).
     """
     results_dir = Path(results_dir)
     path = Path(path) if path else results_dir / "REPORT.md"

@@ -2,29 +2,29 @@
 
 The paper's figure "Run time (± sigma) of SL model compared to the classical algorithm" times the
 PUMA560's constant-orientation map on the 27-, 125- and 9261-node grids ([-1, 1]³ m at steps 1,
-0.5 and 0.1, R = I). :func:`runtime_comparison` measures, per grid:
+0.5 and 0.1, R = I). `runtime_comparison` measures, per grid:
 
-``classical_per_node_numerical``
-    The paper's way: one :func:`wsmap.kinematics.ik.lm.ikine_LM` call per node (the Appendix's LM, tol
+`classical_per_node_numerical`
+    The paper's way: one `wsmap.kinematics.ik.lm.ikine_LM` call per node (the Appendix's LM, tol
     1e-10, q0 = 0), in a Python loop. On the large grids only a random sample of nodes is solved
     per repeat (a fresh sample each repeat) and the time is **extrapolated** to all nodes
-    (``seconds x nodes / sampled``); grids no larger than the sample are solved whole.
-``classical_batched_numerical``
-    The same LM on all nodes at once (:func:`wsmap.workspace.constant_orientation_map`,
-    ``method="numerical"``).
-``classical_exact``
-    The closed-form wrist-centre test (``method="exact"``), batched.
-``network``
-    ``model.predict`` of a freshly initialised paper network on the PUMA560's feature row
-    (:func:`wsmap.datasets.features_for`): hidden layers [125, 100, 100, 125] (tanh); 27 or 125
+    (`seconds x nodes / sampled`); grids no larger than the sample are solved whole.
+`classical_batched_numerical`
+    The same LM on all nodes at once (`wsmap.workspace.constant_orientation_map`,
+    `method="numerical"`).
+`classical_exact`
+    The closed-form wrist-centre test (`method="exact"`), batched.
+`network`
+    `model.predict` of a freshly initialised paper network on the PUMA560's feature row
+    (`wsmap.datasets.features_for`): hidden layers [125, 100, 100, 125] (tanh); 27 or 125
     outputs for the small grids, and for 9261 nodes the section-6.2 assembly of 7 block subspaces
-    of 1323 outputs (``predict(..., assemble=True)``). Inference time does not depend on the
+    of 1323 outputs (`predict(..., assemble=True)`). Inference time does not depend on the
     values of the weights, so an untrained network times the same as a trained one.
-``network_end_to_end``
-    :func:`wsmap.datasets.features_for` + ``predict``: from the arm's DH table to the map.
+`network_end_to_end`
+    `wsmap.datasets.features_for` + `predict`: from the arm's DH table to the map.
 
-Times are wall-clock (``time.perf_counter``), mean ± sigma (sample standard deviation) over
-``repeats`` calls after ``warmup`` untimed ones.
+Times are wall-clock (`time.perf_counter`), mean ± sigma (sample standard deviation) over
+`repeats` calls after `warmup` untimed ones.
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ _CLASSICAL = ("classical_per_node_numerical", "classical_batched_numerical", "cl
 
 
 def grid_spec(step: float, lo: float = -1.0, hi: float = 1.0, rpy=(0.0, 0.0, 0.0)):
-    """The R3 :class:`wsmap.datasets.DatasetSpec` of a grid (all nodes, spherical-wrist layout) whose
+    """The R3 `wsmap.datasets.DatasetSpec` of a grid (all nodes, spherical-wrist layout) whose
     feature layout the network of that grid is fed."""
     from ..datasets import DatasetSpec
 
@@ -74,12 +74,12 @@ def grid_spec(step: float, lo: float = -1.0, hi: float = 1.0, rpy=(0.0, 0.0, 0.0
 def paper_network(n_features: int, n_nodes: int, seed: int = 0, device=None):
     """A freshly initialised paper network for a grid: hidden [125, 100, 100, 125] tanh.
 
-    Grids of more than :data:`BLOCK_NODES` nodes that split into whole blocks (9261 = 7 x 1323)
+    Grids of more than `BLOCK_NODES` nodes that split into whole blocks (9261 = 7 x 1323)
     get one subspace per block, to be assembled (section 6.2); smaller grids one network with
-    ``n_nodes`` outputs. Returns ``(model, kwargs)``: the keyword arguments of ``model.predict``
-    that give one ``(n, n_nodes)`` map per feature row (``assemble=True`` or ``key=0``).
-    ``device``: ``None`` (the CPU, where it is built) or a ``device`` setting / ``torch.device``
-    (:func:`wsmap.learn.device.resolve_device`) the model is moved to.
+    `n_nodes` outputs. Returns `(model, kwargs)`: the keyword arguments of `model.predict`
+    that give one `(n, n_nodes)` map per feature row (`assemble=True` or `key=0`).
+    `device`: `None` (the CPU, where it is built) or a `device` setting / `torch.device`
+    (`wsmap.learn.device.resolve_device`) the model is moved to.
     """
     import torch
 
@@ -120,7 +120,7 @@ def runtime_comparison(
     progress: Callable[[str], None] | None = None,
     device="cpu",
 ):
-    """Run time of the classical map and of the network on each grid; a ``pandas.DataFrame``.
+    """Run time of the classical map and of the network on each grid; a `pandas.DataFrame`.
 
     Args:
         steps: grid steps (the paper's 1, 0.5, 0.1 give 27, 125 and 9261 nodes on [-1, 1]³).
@@ -132,23 +132,23 @@ def runtime_comparison(
             random sample each repeat, extrapolated to the grid); grids with at most this many
             nodes are solved whole.
         ik: LM settings (default the paper's: tol 1e-10, ilimit 500, rlimit 100, q0 = 0).
-        robot: the arm (default :func:`wsmap.robots.puma560`).
+        robot: the arm (default `wsmap.robots.puma560`).
         seed: node samples and network initialisation.
-        methods: subset of :data:`METHODS` (default all).
+        methods: subset of `METHODS` (default all).
         progress: called with a line of text before each measurement.
-        device: where the network runs: ``"cpu"`` (default), ``"cuda"`` or ``"auto"``
-            (:func:`wsmap.learn.device.resolve_device`; ``"cuda"`` without a GPU is a ``ValueError``
+        device: where the network runs: `"cpu"` (default), `"cuda"` or `"auto"`
+            (`wsmap.learn.device.resolve_device`; `"cuda"` without a GPU is a `ValueError`
             before any measurement). A timed network call includes copying its map back to the
-            host (``.cpu()``), so a GPU's asynchronous work is finished inside the timing. The
+            host (`.cpu()`), so a GPU's asynchronous work is finished inside the timing. The
             classical methods always run on the CPU.
 
     Returns:
-        One row per (grid, method): ``nodes``, ``step``, ``method``, ``label``, ``mean_s``,
-        ``std_s``, ``min_s``, ``repeats``, ``timed_nodes`` (nodes solved per timed call),
-        ``extrapolated``, ``device`` (where the method ran), ``agreement_with_exact`` (fraction
-        of the timed nodes whose label equals the exact map's; NaN for the network), ``paper_s``
+        One row per (grid, method): `nodes`, `step`, `method`, `label`, `mean_s`,
+        `std_s`, `min_s`, `repeats`, `timed_nodes` (nodes solved per timed call),
+        `extrapolated`, `device` (where the method ran), `agreement_with_exact` (fraction
+        of the timed nodes whose label equals the exact map's; NaN for the network), `paper_s`
         (the paper's classical time for the classical rows, its network time for the network
-        rows), ``speedup_vs_paper`` (``paper_s / mean_s``).
+        rows), `speedup_vs_paper` (`paper_s / mean_s`).
     """
     import pandas as pd
     import torch
@@ -254,8 +254,8 @@ def runtime_comparison(
 
 
 def metrics_from_table(df) -> dict[str, Any]:
-    """The run-time table as nested metrics: ``{method: {"27": mean_s, ...}, method + "_std":
-    {...}}`` (the keys :mod:`wsmap.paper.report` reads), plus ``speedup`` of the network over each
+    """The run-time table as nested metrics: `{method: {"27": mean_s, ...}, method + "_std":
+    {...}}` (the keys `wsmap.paper.report` reads), plus `speedup` of the network over each
     classical method per grid (classical mean / network mean)."""
     out: dict[str, Any] = {}
     for r in df.itertuples(index=False):

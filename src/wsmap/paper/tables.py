@@ -1,23 +1,23 @@
 """The grids of experiments behind the paper's Tables 1-3, as pandas DataFrames.
 
-Each table is a grid of :func:`wsmap.paper.fitting.fit` runs scored by precision, recall and
+Each table is a grid of `wsmap.paper.fitting.fit` runs scored by precision, recall and
 F-measure on independent test sets. The functions here run a grid and return tidy frames
-(one row per training session and test set) that :func:`summarize` condenses into the table
+(one row per training session and test set) that `summarize` condenses into the table
 (mean and standard deviation over sessions), with the paper's published numbers beside:
 
-* :func:`table1` -- one model per workspace (``table1_*`` datasets: R3 grids at delta 1, 0.5, 0.1
+* `table1` -- one model per workspace (`table1_*` datasets: R3 grids at delta 1, 0.5, 0.1
   and SO3 grids at pi/3, pi/8, pi/10), the paper's [125, 100, 100, 125] network, Rprop + MSE;
-* :func:`table2` -- optimiser x loss on the section 6.1 subspace (dataset ``table2``, block 5);
-* :func:`table3` -- three embeddings (``subspace``, ``workspace``, ``no subspace``), every model
+* `table2` -- optimiser x loss on the section 6.1 subspace (dataset `table2`, block 5);
+* `table3` -- three embeddings (`subspace`, `workspace`, `no subspace`), every model
   tested on every test set.
 
-The paper's tables are :data:`PAPER_TABLE1`, :data:`PAPER_TABLE2`, :data:`PAPER_TABLE3`
+The paper's tables are `PAPER_TABLE1`, `PAPER_TABLE2`, `PAPER_TABLE3`
 (transcribed from the paper's LaTeX source).
 
 Scores
 ------
-``precision``, ``recall``, ``f`` are pooled over every test sample and node (micro: the paper's
-F-measure, NOTES "Networks and training"); ``*_sample_mean`` / ``*_sample_std`` are the mean and
+`precision`, `recall`, `f` are pooled over every test sample and node (micro: the paper's
+F-measure, NOTES "Networks and training"); `*_sample_mean` / `*_sample_std` are the mean and
 standard deviation of the per-sample values over the samples where they are defined (a sample
 with no reachable node in truth and prediction has no precision, recall or F), which is the
 spread the paper's "+- sigma_f" columns of Tables 1 and 3 most likely show (a single model cannot
@@ -25,15 +25,15 @@ have a spread over sessions). Undefined pooled values are NaN (the paper printed
 
 Cross entropy
 -------------
-``loss="crossentropy"`` trains the network's linear output as a *logit* (binary cross entropy on
-``sigmoid(z)``, :func:`wsmap.learn.training.make_loss`), and the model is built with
-``output_kind="logit"`` so that it predicts a node where ``sigmoid(z) > 0.5``
-(:func:`mlp_options`). MATLAB's ``crossentropy`` on the paper's linear (``purelin``) output layer
+`loss="crossentropy"` trains the network's linear output as a *logit* (binary cross entropy on
+`sigmoid(z)`, `wsmap.learn.training.make_loss`), and the model is built with
+`output_kind="logit"` so that it predicts a node where `sigmoid(z) > 0.5`
+(`mlp_options`). MATLAB's `crossentropy` on the paper's linear (`purelin`) output layer
 takes logarithms of raw outputs that may be negative or above 1; it is not reproduced.
 
 Reduced runs
 ------------
-``train_samples`` keeps the first ``n`` arms of a training set (:meth:`wsmap.datasets.Dataset.head`:
+`train_samples` keeps the first `n` arms of a training set (`wsmap.datasets.Dataset.head`:
 exactly the arms a smaller build would have drawn); the 70/15/15 split is drawn inside them.
 """
 
@@ -87,7 +87,7 @@ TABLE3_HIDDEN = (80, 80, 80)
 
 TABLE1_DATASETS = ("table1_r3_step1", "table1_r3_step05", "table1_r3_block5", "table1_r3_crop3087",
                    "table1_r3_full", "table1_so3_pi3", "table1_so3_pi8", "table1_so3_pi10")
-#: Table 2's optimisers in the paper's row order, by their :mod:`wsmap.learn.optim` names.
+#: Table 2's optimisers in the paper's row order, by their `wsmap.learn.optim` names.
 TABLE2_OPTIMIZERS = ("cgb", "gdx", "oss", "rprop", "scg")
 TABLE2_LOSSES = ("crossentropy", "mse", "mae")
 #: Table 3's embeddings: name -> dataset.
@@ -107,7 +107,7 @@ COUNT_COLUMNS = frozenset({"epochs", "best_epoch", "sessions", "session", "seed"
                            "paper_nodes", "paper_samples", "test_samples", "tp", "fp", "fn", "positives",
                            "predicted", "f_undefined"})
 
-#: Per-session score columns of the run frames (:func:`scores`), averaged by :func:`summarize`.
+#: Per-session score columns of the run frames (`scores`), averaged by `summarize`.
 METRIC_COLUMNS = ("precision", "recall", "f", "precision_sample_mean", "precision_sample_std",
                   "recall_sample_mean", "recall_sample_std", "f_sample_mean", "f_sample_std")
 
@@ -115,15 +115,15 @@ Log = Callable[[str], Any] | None
 
 
 def mlp_options(loss: str) -> dict[str, Any]:
-    """Architecture options a loss needs: ``output_kind="logit"`` for cross entropy (see the
+    """Architecture options a loss needs: `output_kind="logit"` for cross entropy (see the
     module docstring), nothing for MSE/MAE (linear output, the paper's)."""
     return {"output_kind": "logit"} if str(loss).strip().lower() == "crossentropy" else {}
 
 
 def scores(model, test: Dataset, threshold: float = 0.5) -> dict[str, Any]:
-    """Pooled and per-sample precision, recall, F of ``model`` on ``test`` (all its nodes),
-    plus the counts: ``tp``, ``fp``, ``fn``, ``positives`` (true), ``predicted`` (positive) and
-    ``positive_rate`` (fraction of reachable nodes in the test set)."""
+    """Pooled and per-sample precision, recall, F of `model` on `test` (all its nodes),
+    plus the counts: `tp`, `fp`, `fn`, `positives` (true), `predicted` (positive) and
+    `positive_rate` (fraction of reachable nodes in the test set)."""
     ev = fitting.evaluate(model, test, threshold=threshold)
     pred = ev["scores"] > threshold
     per = precision_recall_f(pred, ev["truth"], "samples")
@@ -141,12 +141,12 @@ def scores(model, test: Dataset, threshold: float = 0.5) -> dict[str, Any]:
 def fit_and_score(train: Dataset, tests: Mapping[str, Dataset], config: TrainConfig, *, sessions: int = 1,
                   hidden: Sequence[int] = PAPER_HIDDEN, train_samples: int | None = None,
                   threshold: float = 0.5, **mlp) -> pd.DataFrame:
-    """Train ``sessions`` models on the first ``train_samples`` arms of ``train`` and score each on
-    every test set; cross entropy gets a logit output (:func:`mlp_options`) unless ``mlp`` says.
+    """Train `sessions` models on the first `train_samples` arms of `train` and score each on
+    every test set; cross entropy gets a logit output (`mlp_options`) unless `mlp` says.
 
-    Returns one row per (session, test set): ``session``, ``test``, ``train_samples`` (arms used),
-    ``nodes``, ``epochs`` (optimiser steps taken), ``best_epoch``, ``stop_reason``, ``seconds``
-    (training wall time of the session), ``final_loss`` / ``best_val_loss``, and :func:`scores`.
+    Returns one row per (session, test set): `session`, `test`, `train_samples` (arms used),
+    `nodes`, `epochs` (optimiser steps taken), `best_epoch`, `stop_reason`, `seconds`
+    (training wall time of the session), `final_loss` / `best_val_loss`, and `scores`.
     """
     ds = train.head(train_samples)
     mlp = {**mlp_options(config.loss), **mlp}
@@ -156,10 +156,10 @@ def fit_and_score(train: Dataset, tests: Mapping[str, Dataset], config: TrainCon
 
 def score_results(results: Sequence, train: Dataset, tests: Mapping[str, Dataset], threshold: float = 0.5,
                   *, first_session: int = 0) -> list[dict[str, Any]]:
-    """The rows of :func:`fit_and_score` for training results already in hand (``results`` from
-    :func:`wsmap.paper.fitting.fit` on ``train``, the arms actually used): one row per (session,
-    test set); ``session`` counts from ``first_session`` (a run that trains session ``k`` alone,
-    with seed ``seed + k``, passes ``first_session=k``)."""
+    """The rows of `fit_and_score` for training results already in hand (`results` from
+    `wsmap.paper.fitting.fit` on `train`, the arms actually used): one row per (session,
+    test set); `session` counts from `first_session` (a run that trains session `k` alone,
+    with seed `seed + k`, passes `first_session=k`)."""
     rows = []
     for s, r in enumerate(results, start=first_session):
         model = fitting.stack_sessions([r]) if r.session is not None else r.model
@@ -174,8 +174,8 @@ def score_results(results: Sequence, train: Dataset, tests: Mapping[str, Dataset
 
 
 def summarize(runs: pd.DataFrame, by: Sequence[str]) -> pd.DataFrame:
-    """Mean over sessions of every score and of epochs/seconds per group of ``by``, plus the
-    standard deviation over sessions of the pooled scores (``*_session_std``; NaN for one
+    """Mean over sessions of every score and of epochs/seconds per group of `by`, plus the
+    standard deviation over sessions of the pooled scores (`*_session_std`; NaN for one
     session) and the number of sessions. Groups keep their first-seen order."""
     by = list(by)
     agg: dict[str, Any] = {c: "mean" for c in (*METRIC_COLUMNS, "epochs", "seconds", "train_samples", "nodes")
@@ -194,8 +194,8 @@ def _log(log: Log, msg: str) -> None:
 
 
 def per_dataset(value, name: str, default=None):
-    """``value[name]`` when ``value`` is a mapping (falling back to ``value.get("default",
-    default)``), else ``value`` itself: lets a parameter be one number or one per dataset."""
+    """`value[name]` when `value` is a mapping (falling back to `value.get("default",
+    default)`), else `value` itself: lets a parameter be one number or one per dataset."""
     if isinstance(value, Mapping):
         return value.get(name, value.get("default", default))
     return default if value is None else value
@@ -209,15 +209,15 @@ def per_dataset(value, name: str, default=None):
 def table1(data_dir, names: Sequence[str] = TABLE1_DATASETS, *, config: TrainConfig | None = None,
            train_samples=None, max_epochs=None, sessions=1, hidden: Sequence[int] = PAPER_HIDDEN,
            log: Log = print) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Table 1: one model per workspace dataset in ``data_dir`` (:func:`wsmap.paper.specs.load_pair`).
+    """Table 1: one model per workspace dataset in `data_dir` (`wsmap.paper.specs.load_pair`).
 
-    ``train_samples``, ``max_epochs`` and ``sessions`` are one value or a mapping dataset -> value
-    (key ``"default"`` for the rest); ``max_epochs`` overrides ``config.max_epochs``.
+    `train_samples`, `max_epochs` and `sessions` are one value or a mapping dataset -> value
+    (key `"default"` for the rest); `max_epochs` overrides `config.max_epochs`.
 
-    Returns ``(table, runs)``: ``runs`` from :func:`fit_and_score` (column ``dataset``); ``table``
+    Returns `(table, runs)`: `runs` from `fit_and_score` (column `dataset`); `table`
     one row per dataset: workspace, delta, nodes, train samples, epochs, seconds, pooled precision,
     recall, F (means over sessions), per-sample F mean and std, the paper's F +- sigma_f and batch
-    size, and ``difference`` = F - paper F.
+    size, and `difference` = F - paper F.
     """
     config = TrainConfig() if config is None else config
     frames = []
@@ -237,8 +237,8 @@ def table1(data_dir, names: Sequence[str] = TABLE1_DATASETS, *, config: TrainCon
 
 
 def table1_summary(runs: pd.DataFrame) -> pd.DataFrame:
-    """Table 1 from the run frame of :func:`table1` (column ``dataset`` plus :func:`fit_and_score`'s):
-    one row per dataset, in first-seen order (see :func:`table1` for the columns)."""
+    """Table 1 from the run frame of `table1` (column `dataset` plus `fit_and_score`'s):
+    one row per dataset, in first-seen order (see `table1` for the columns)."""
     summary = summarize(runs, ["dataset"])
     sessions = int(summary.sessions.max()) if len(summary) else 0
     paper = pd.DataFrame([{"dataset": n, **PAPER_TABLE1[n]} for n in summary.dataset])
@@ -266,10 +266,10 @@ def table2(train: Dataset, test: Dataset, *, config: TrainConfig | None = None,
            optimizers: Sequence[str] = TABLE2_OPTIMIZERS, losses: Sequence[str] = TABLE2_LOSSES,
            sessions: int = 2, hidden: Sequence[int] = PAPER_HIDDEN, train_samples: int | None = None,
            log: Log = print) -> pd.DataFrame:
-    """Table 2's grid: every optimiser with every loss, ``sessions`` sessions each (seeds
-    ``config.seed + s``, so every cell starts from the same initial weights and split -- except
+    """Table 2's grid: every optimiser with every loss, `sessions` sessions each (seeds
+    `config.seed + s`, so every cell starts from the same initial weights and split -- except
     that cross entropy's logit output reads them differently). Returns the run frame (columns
-    ``optimizer``, ``loss`` first); :func:`table2_summary` makes the table."""
+    `optimizer`, `loss` first); `table2_summary` makes the table."""
     config = TrainConfig() if config is None else config
     frames = []
     for loss in losses:
@@ -287,9 +287,9 @@ def table2(train: Dataset, test: Dataset, *, config: TrainConfig | None = None,
 
 def table2_summary(runs: pd.DataFrame) -> pd.DataFrame:
     """One row per (optimizer, loss) in the paper's order (by loss, then optimiser): F mean and
-    standard deviation over sessions (``f_mean``, ``f_std``), the per-sample F mean and std
+    standard deviation over sessions (`f_mean`, `f_std`), the per-sample F mean and std
     (averaged over sessions), precision, recall, epochs, seconds per session, the paper's F +-
-    sigma and ``difference`` = f_mean - paper."""
+    sigma and `difference` = f_mean - paper."""
     s = summarize(runs, ["optimizer", "loss"])
     rows = []
     for _, r in s.iterrows():
@@ -312,11 +312,11 @@ def table2_summary(runs: pd.DataFrame) -> pd.DataFrame:
 def table3(pairs: Mapping[str, tuple[Dataset, Dataset]], *, config: TrainConfig | None = None,
            sessions: int = 1, hidden: Sequence[int] = TABLE3_HIDDEN, train_samples=None,
            log: Log = print) -> pd.DataFrame:
-    """Table 3's grid: one model per embedding (``pairs``: embedding -> (train, test)), each
+    """Table 3's grid: one model per embedding (`pairs`: embedding -> (train, test)), each
     tested on every embedding's test set. The datasets must share their feature layout and nodes
-    (the ``table3_*`` specs do: 84 inputs, block 5's 1323 nodes). ``train_samples``: one value or
-    a mapping embedding -> value. Returns the run frame with columns ``embedding`` (the model)
-    and ``test`` (the test set)."""
+    (the `table3_*` specs do: 84 inputs, block 5's 1323 nodes). `train_samples`: one value or
+    a mapping embedding -> value. Returns the run frame with columns `embedding` (the model)
+    and `test` (the test set)."""
     config = TrainConfig() if config is None else config
     shapes = {name: (tr.features.shape[1], tr.n_nodes, te.features.shape[1], te.n_nodes)
               for name, (tr, te) in pairs.items()}
@@ -337,7 +337,7 @@ def table3(pairs: Mapping[str, tuple[Dataset, Dataset]], *, config: TrainConfig 
 
 def table3_summary(runs: pd.DataFrame) -> pd.DataFrame:
     """One row per (model embedding, test set): pooled precision, recall, F and their per-sample
-    means and stds (averaged over sessions), with the paper's values (``paper_*``) beside."""
+    means and stds (averaged over sessions), with the paper's values (`paper_*`) beside."""
     s = summarize(runs, ["embedding", "test"])
     rows = []
     for _, r in s.iterrows():

@@ -1,29 +1,29 @@
 """Named arms and the families of arms.
 
-* :func:`load` — a named arm by name (:data:`ROBOTS`): the paper's ``puma560`` (a
-  :class:`~wsmap.kinematics.DHRobot`) and real arms from their manufacturers' published kinematics
-  (:class:`~wsmap.kinematics.SerialChain`), each one :class:`ArmTable` in :data:`NAMED` with the
-  document it comes from (:data:`SOURCES`);
-* :func:`from_dh` (standard or modified DH), :func:`from_urdf` and :func:`from_mjcf` (MuJoCo) — any
+* `load` — a named arm by name (`ROBOTS`): the paper's `puma560` (a
+  `DHRobot`) and real arms from their manufacturers' published kinematics
+  (`SerialChain`), each one `ArmTable` in `NAMED` with the
+  document it comes from (`SOURCES`);
+* `from_dh` (standard or modified DH), `from_urdf` and `from_mjcf` (MuJoCo) — any
   other serial arm;
-* :func:`puma560` and :func:`spherical_wrist` — the paper's arms from their DH lengths;
-* :class:`ArmFamily` and :data:`FAMILIES` — the families of random arms (:mod:`.families`).
+* `puma560` and `spherical_wrist` — the paper's arms from their DH lengths;
+* `ArmFamily` and `FAMILIES` — the families of random arms (`.families`).
 
 Where things are:
 
-* :mod:`.registry` — the :class:`ArmTable` record and the registry (:func:`register`,
-  :func:`register_constructor`, :func:`load`);
-* :mod:`.arms` — one module per named arm (``arms/panda.py`` is ``load("panda")``), each a short
+* `.registry` — the `ArmTable` record and the registry (`register`,
+  `register_constructor`, `load`);
+* `.arms` — one module per named arm (`arms/panda.py` is `load("panda")`), each a short
   table of the manufacturer's numbers with its source, ending with its registration. A new named
-  arm is one new module there (and its name on the import line of ``arms/__init__.py``) plus its
-  tests in ``tests/robots/``;
-* :mod:`.families` — the families of arms and their samplers;
-* :mod:`.morph` — the ``morph6`` / ``morph7`` families (random 6R / 7R arms over the range of real
-  arms, the named arms held out), registered into :data:`FAMILIES` on import.
+  arm is one new module there (and its name on the import line of `arms/__init__.py`) plus its
+  tests in `tests/robots/`;
+* `.families` — the families of arms and their samplers;
+* `.morph` — the `morph6` / `morph7` families (random 6R / 7R arms over the range of real
+  arms, the named arms held out), registered into `FAMILIES` on import.
 
 Every named arm has its base at the manufacturer's base (mounting flange) frame and its end at the
 tool flange (no gripper), its joint zero and signs as the manufacturer's controller, and its joint
-limits in radians (``±inf`` for a continuous joint; ``qlim`` is ``None`` when no joint is limited).
+limits in radians (`±inf` for a continuous joint; `qlim` is `None` when no joint is limited).
 """
 
 from __future__ import annotations

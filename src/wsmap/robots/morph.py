@@ -1,41 +1,41 @@
-"""The ``morph6`` and ``morph7`` families: random serial arms of 6 and 7 revolute joints that
+"""The `morph6` and `morph7` families: random serial arms of 6 and 7 revolute joints that
 cover the real industrial and collaborative arms, for one map model of every arm.
 
-An arm of these families is a canonical morphology (:mod:`wsmap.kinematics.morphology`) whose
-first joint axis is the base ``z`` axis (``mount`` the identity). Its parameters (the family's
-``params``, the dataset's feature columns) are, per joint ``i``, ``a_i, alpha_i, d_i, theta_i,
-lo_i, hi_i`` (the canonical modified-DH row and the limits in the description's coordinate; a
-range of a full turn or more written as ``[-pi, pi]``, which reaches the same poses), then the
-tool's translation ``tool_x, tool_y, tool_z`` (m, in frame n) and rotation vector ``tool_rx,
-tool_ry, tool_rz`` (rad): ``6 n + 6`` numbers (42 for ``morph6``, 48 for ``morph7``). Metres and
+An arm of these families is a canonical morphology (`wsmap.kinematics.morphology`) whose
+first joint axis is the base `z` axis (`mount` the identity). Its parameters (the family's
+`params`, the dataset's feature columns) are, per joint `i`, `a_i, alpha_i, d_i, theta_i,
+lo_i, hi_i` (the canonical modified-DH row and the limits in the description's coordinate; a
+range of a full turn or more written as `[-pi, pi]`, which reaches the same poses), then the
+tool's translation `tool_x, tool_y, tool_z` (m, in frame n) and rotation vector `tool_rx,
+tool_ry, tool_rz` (rad): `6 n + 6` numbers (42 for `morph6`, 48 for `morph7`). Metres and
 radians.
 
-The draw (:meth:`MorphFamily.draw`, one arm after the other from one generator, so the first
-``k`` arms of a seed are the arms of ``count = k``), per joint row ``(alpha_{i-1}, a_{i-1}, d_i,
-theta_i)`` of a modified-DH table (row 1: ``a_0 = alpha_0 = 0``, ``d_1 ~ U(0, 0.45)``):
+The draw (`MorphFamily.draw`, one arm after the other from one generator, so the first
+`k` arms of a seed are the arms of `count = k`), per joint row `(alpha_{i-1}, a_{i-1}, d_i,
+theta_i)` of a modified-DH table (row 1: `a_0 = alpha_0 = 0`, `d_1 ~ U(0, 0.45)`):
 
-* twist ``alpha``: 0 (p 0.2), +pi/2 (0.35), -pi/2 (0.35), ``U(-pi, pi)`` (0.1);
-* length ``a``: 0 (p 0.55), else ``U(0.02, 0.7)``; offset ``d``: 0 (p 0.5), else ``±U(0.02, 0.7)``;
-* offset ``theta``: 0 (p 0.5), pi (0.2), ±pi/2 (0.2), ``U(-pi, pi)`` (0.1);
-* limits: a full turn (p 0.3), else half-width ``U(1.4, pi)`` about 0 (p 0.7) or about a centre
-  ``U(-2, 2)`` (the Panda's joints 4 and 6 are such);
-* tool: ``Tz(t)`` with ``t ~ ±U(0, 0.25)`` (plus a lateral ``U(-0.1, 0.1)²`` with p 0.2), rotated by
-  ``Rz(psi)``, ``psi`` in {0, ±pi/2, pi} (p 0.7), by ``Rx(pi)·Rz(psi)`` (0.2), or uniformly (0.1);
-* every length (and the tool's offset) is scaled by ``min(1, R / L)``, ``R ~ U(0.5, 1.8)`` and ``L``
-  the arm's length bound ``sum_i sqrt(a_i² + d_i²) + |t|``, so no arm is much longer than a UR10e
+* twist `alpha`: 0 (p 0.2), +pi/2 (0.35), -pi/2 (0.35), `U(-pi, pi)` (0.1);
+* length `a`: 0 (p 0.55), else `U(0.02, 0.7)`; offset `d`: 0 (p 0.5), else `±U(0.02, 0.7)`;
+* offset `theta`: 0 (p 0.5), pi (0.2), ±pi/2 (0.2), `U(-pi, pi)` (0.1);
+* limits: a full turn (p 0.3), else half-width `U(1.4, pi)` about 0 (p 0.7) or about a centre
+  `U(-2, 2)` (the Panda's joints 4 and 6 are such);
+* tool: `Tz(t)` with `t ~ ±U(0, 0.25)` (plus a lateral `U(-0.1, 0.1)²` with p 0.2), rotated by
+  `Rz(psi)`, `psi` in {0, ±pi/2, pi} (p 0.7), by `Rx(pi)·Rz(psi)` (0.2), or uniformly (0.1);
+* every length (and the tool's offset) is scaled by `min(1, R / L)`, `R ~ U(0.5, 1.8)` and `L`
+  the arm's length bound `sum_i sqrt(a_i² + d_i²) + |t|`, so no arm is much longer than a UR10e
   (1.78 m by the same bound);
 * the arm is drawn again while its canonical description is outside the family's range (below),
   while its length bound is under 0.4 m (an arm that reaches a few grid nodes at most; the
-  smallest real arms here have 0.9 m), or while it lies within :data:`HOLD_OUT_RADIUS` of a held-out arm
-  (:data:`HELD_OUT`: the six named arms), in :func:`~wsmap.kinematics.morphology.morphology_distance`.
+  smallest real arms here have 0.9 m), or while it lies within `HOLD_OUT_RADIUS` of a held-out arm
+  (`HELD_OUT`: the six named arms), in `morphology_distance`.
 
-The table is then described canonically (:func:`~wsmap.kinematics.morphology.describe`): the
-params are the canonical description, so :meth:`MorphFamily.params_of` of
-:meth:`MorphFamily.arms` gives the params back.
+The table is then described canonically (`describe`): the
+params are the canonical description, so `MorphFamily.params_of` of
+`MorphFamily.arms` gives the params back.
 
-The family's range (:meth:`MorphFamily.check_params`: what its datasets hold and a model trained
-on them may be asked): ``0 <= a <= 0.7``, ``|d| <= 0.7``, ``d_1`` in ``[0, 0.45]``, a joint range
-of at least 2.8 rad (2·1.4), ``|tool translation| <= 0.3``, length bound at most 1.8 m.
+The family's range (`MorphFamily.check_params`: what its datasets hold and a model trained
+on them may be asked): `0 <= a <= 0.7`, `|d| <= 0.7`, `d_1` in `[0, 0.45]`, a joint range
+of at least 2.8 rad (2·1.4), `|tool translation| <= 0.3`, length bound at most 1.8 m.
 """
 
 from __future__ import annotations
@@ -57,12 +57,12 @@ __all__ = ["MorphFamily", "MORPH6", "MORPH7", "HELD_OUT", "HOLD_OUT_RADIUS", "MO
            "morphology_of", "held_out_features"]
 
 #: The named arms never drawn (and every arm a generalisation test uses): no arm of the families
-#: lies within :data:`HOLD_OUT_RADIUS` of them.
+#: lies within `HOLD_OUT_RADIUS` of them.
 HELD_OUT = ("puma560", "panda", "iiwa14", "ur5e", "ur10e", "gen3")
-#: Metres, in :func:`~wsmap.kinematics.morphology.morphology_distance` (e.g. all lengths within
+#: Metres, in `morphology_distance` (e.g. all lengths within
 #: ~4 cm and the twists, offsets, limits and tool the same).
 HOLD_OUT_RADIUS = 0.1
-#: Half-width (m) of the families' default grid, ``[-1.5, 1.5]³``.
+#: Half-width (m) of the families' default grid, `[-1.5, 1.5]³`.
 MORPH_GRID = 1.5
 
 _JOINT_PARAMS = ("a", "alpha", "d", "theta", "lo", "hi")
@@ -77,7 +77,7 @@ _MIN_BOUND = 0.4
 
 
 def _rotvec_to_matrix(r) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` of rotation vectors ``(..., 3)`` (rad; Rodrigues)."""
+    """Rotation matrices `(..., 3, 3)` of rotation vectors `(..., 3)` (rad; Rodrigues)."""
     r = np.asarray(r, dtype=np.float64)
     th = np.linalg.norm(r, axis=-1)
     k = r / np.where(th > 0, th, 1.0)[..., None]
@@ -89,7 +89,7 @@ def _rotvec_to_matrix(r) -> np.ndarray:
 
 
 def _matrix_to_rotvec(R) -> np.ndarray:
-    """The rotation vector ``(3,)`` of one rotation matrix (angle in [0, pi])."""
+    """The rotation vector `(3,)` of one rotation matrix (angle in [0, pi])."""
     v = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]]) / 2  # sin(th)·axis
     th = np.arctan2(np.linalg.norm(v), (np.trace(R) - 1) / 2)  # precise also near 0 and pi, unlike arccos
     if th < 1e-12:
@@ -107,14 +107,14 @@ def _matrix_to_rotvec(R) -> np.ndarray:
 
 
 def _length_bound(p: np.ndarray, n: int) -> float:
-    """``sum_i sqrt(a_i² + d_i²) + |tool translation|`` (m) of one arm's parameters: no point of the
+    """`sum_i sqrt(a_i² + d_i²) + |tool translation|` (m) of one arm's parameters: no point of the
     arm is farther than that from its base origin."""
     per = p[: 6 * n].reshape(n, 6)
     return float(np.sqrt(per[:, 0] ** 2 + per[:, 2] ** 2).sum() + np.linalg.norm(p[6 * n: 6 * n + 3]))
 
 
 def morph_params(m: Morphology) -> np.ndarray:
-    """The family parameters ``(6 n + 6,)`` of a canonical morphology (see the module notes)."""
+    """The family parameters `(6 n + 6,)` of a canonical morphology (see the module notes)."""
     lim = m.limits
     full = (lim[:, 1] - lim[:, 0]) >= 2 * np.pi
     lim = np.where(full[:, None], np.array([-np.pi, np.pi]), lim)
@@ -123,7 +123,7 @@ def morph_params(m: Morphology) -> np.ndarray:
 
 
 def morphology_of(params, name: str | None = None) -> Morphology:
-    """The :class:`~wsmap.kinematics.morphology.Morphology` of one arm's family parameters."""
+    """The `Morphology` of one arm's family parameters."""
     p = np.asarray(params, dtype=np.float64)
     n = (p.shape[-1] - 6) // 6
     per = p[: 6 * n].reshape(n, 6)
@@ -134,8 +134,8 @@ def morphology_of(params, name: str | None = None) -> Morphology:
 
 
 def held_out_features() -> dict[str, np.ndarray]:
-    """Morphology features (:meth:`~wsmap.kinematics.morphology.Morphology.features`) of every arm of
-    :data:`HELD_OUT`, by name."""
+    """Morphology features (`features`) of every arm of
+    `HELD_OUT`, by name."""
     return dict(_held_out())
 
 
@@ -150,10 +150,10 @@ def _held_out():
 
 @dataclass(frozen=True)
 class MorphFamily(ArmFamily):
-    """Random arms of ``n_joints`` revolute joints over the range of real arms (module notes).
+    """Random arms of `n_joints` revolute joints over the range of real arms (module notes).
 
-    ``low`` and ``high`` of :class:`~wsmap.robots.ArmFamily` are not used: every parameter has its
-    own range, checked by :meth:`check_params`."""
+    `low` and `high` of `ArmFamily` are not used: every parameter has its
+    own range, checked by `check_params`."""
 
     n_joints: int = 7
 
@@ -210,15 +210,15 @@ class MorphFamily(ArmFamily):
                 return p
 
     def draw(self, count: int, seed=None) -> np.ndarray:
-        """The parameters ``(count, 6 n + 6)`` of ``count`` random arms (module notes), from
-        ``seed`` (an int, ``None`` or a ``numpy.random.Generator``), one arm after another."""
+        """The parameters `(count, 6 n + 6)` of `count` random arms (module notes), from
+        `seed` (an int, `None` or a `numpy.random.Generator`), one arm after another."""
         count = _check_count(count)
         rng = _rng(seed)
         return np.stack([self._one(rng) for _ in range(count)])
 
     # ------------------------------------------------------------------ the range
     def problems(self, p: np.ndarray) -> list[str]:
-        """What puts one arm's parameters ``(6 n + 6,)`` outside the family's range (empty: inside)."""
+        """What puts one arm's parameters `(6 n + 6,)` outside the family's range (empty: inside)."""
         n = self.n_joints
         per = p[: 6 * n].reshape(n, 6)
         out = []
@@ -241,9 +241,9 @@ class MorphFamily(ArmFamily):
         return out
 
     def check_params(self, params, allow_extrapolation: bool = False, stacklevel: int = 2) -> np.ndarray:
-        """``params`` as float64 ``(..., 6 n + 6)``, checked: the shape, finite values, and inside
-        the family's range (module notes) -- outside it a ``ValueError`` naming the first problem,
-        or with ``allow_extrapolation`` a :class:`~wsmap.robots.FamilyRangeWarning`."""
+        """`params` as float64 `(..., 6 n + 6)`, checked: the shape, finite values, and inside
+        the family's range (module notes) -- outside it a `ValueError` naming the first problem,
+        or with `allow_extrapolation` a `FamilyRangeWarning`."""
         if not isinstance(allow_extrapolation, (bool, np.bool_)):
             raise ValueError(f"allow_extrapolation must be True or False, got {allow_extrapolation!r}")
         try:
@@ -273,8 +273,8 @@ class MorphFamily(ArmFamily):
 
     # ------------------------------------------------------------------ arms
     def arms(self, params, *, allow_extrapolation: bool = False, stacklevel: int = 2) -> SerialChain:
-        """The arms ``(...)`` of ``params`` ``(..., 6 n + 6)``: a :class:`SerialChain` batch (modified
-        DH, the tool in ``F_n``, the limits of the params)."""
+        """The arms `(...)` of `params` `(..., 6 n + 6)`: a `SerialChain` batch (modified
+        DH, the tool in `F_n`, the limits of the params)."""
         s = self.check_params(params, allow_extrapolation, stacklevel + 1)
         n = self.n_joints
         per = s[..., : 6 * n].reshape(s.shape[:-1] + (n, 6))
@@ -288,9 +288,9 @@ class MorphFamily(ArmFamily):
         return arm.replace(fixed=fixed)
 
     def params_of(self, arms, atol: float = 1e-9) -> np.ndarray:
-        """The parameters ``(B, 6 n + 6)`` of a batch ``(B,)`` of arms (or ``(6 n + 6,)`` of one arm):
-        any arm of ``n_joints`` revolute joints whose first axis is the base ``z`` axis (its canonical
-        description, :func:`morph_params`); others are a ``ValueError`` naming the problem."""
+        """The parameters `(B, 6 n + 6)` of a batch `(B,)` of arms (or `(6 n + 6,)` of one arm):
+        any arm of `n_joints` revolute joints whose first axis is the base `z` axis (its canonical
+        description, `morph_params`); others are a `ValueError` naming the problem."""
         from ..kinematics import as_chain
 
         try:

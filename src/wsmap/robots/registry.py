@@ -1,10 +1,10 @@
-"""The named arms' registry: the :class:`ArmTable` record and the lookup by name.
+"""The named arms' registry: the `ArmTable` record and the lookup by name.
 
-Each module of :mod:`wsmap.robots.arms` ends by registering its arm here: a real arm registers its
-published table with :func:`register` (``NAMED`` holds the tables), the paper's ``puma560`` (a
-:class:`~wsmap.kinematics.DHRobot`, not a table) its constructor with :func:`register_constructor`.
-:data:`ROBOTS` holds every arm's constructor and :data:`SOURCES` the document its numbers come from,
-in the order they registered; :func:`load` looks an arm up by name.
+Each module of `wsmap.robots.arms` ends by registering its arm here: a real arm registers its
+published table with `register` (`NAMED` holds the tables), the paper's `puma560` (a
+`DHRobot`, not a table) its constructor with `register_constructor`.
+`ROBOTS` holds every arm's constructor and `SOURCES` the document its numbers come from,
+in the order they registered; `load` looks an arm up by name.
 """
 
 from __future__ import annotations
@@ -35,17 +35,17 @@ def _is_number(x) -> bool:
 class ArmTable:
     """One arm's published kinematics: a DH table, its joint limits, and the document they come from.
 
-    ``rows`` are per joint ``(d, a, alpha, offset)`` (metres, radians); in the modified (Craig)
-    convention ``a`` and ``alpha`` of row ``i`` are ``a_{i-1}``, ``alpha_{i-1}`` (they act before
-    joint ``i``), as :func:`wsmap.kinematics.chain.from_dh` takes them. ``offset`` is added to the
-    joint angle (the manufacturer's zero against the DH zero). ``mount`` is a fixed DH row
-    ``(d, a, alpha, theta)`` of the same convention before joint 1 (Kinova's "base to frame 1"),
-    ``flange`` one after the last joint (Franka's flange row). ``limits`` are per joint
-    ``(lo, hi)`` in ``limit_unit`` as published, ``None`` for a continuous joint.
+    `rows` are per joint `(d, a, alpha, offset)` (metres, radians); in the modified (Craig)
+    convention `a` and `alpha` of row `i` are `a_{i-1}`, `alpha_{i-1}` (they act before
+    joint `i`), as `wsmap.kinematics.chain.from_dh` takes them. `offset` is added to the
+    joint angle (the manufacturer's zero against the DH zero). `mount` is a fixed DH row
+    `(d, a, alpha, theta)` of the same convention before joint 1 (Kinova's "base to frame 1"),
+    `flange` one after the last joint (Franka's flange row). `limits` are per joint
+    `(lo, hi)` in `limit_unit` as published, `None` for a continuous joint.
 
     A table that cannot describe an arm (no rows, a row that is not four finite numbers, limits
     that do not match the rows one per joint, an unknown convention or unit, no source) is a
-    ``ValueError`` naming the table and what is wrong, when it is made.
+    `ValueError` naming the table and what is wrong, when it is made.
     """
 
     name: str
@@ -98,12 +98,12 @@ class ArmTable:
 
     @property
     def qlim(self) -> np.ndarray:
-        """``(n, 2)`` limits in radians, ``±inf`` for continuous joints."""
+        """`(n, 2)` limits in radians, `±inf` for continuous joints."""
         lim = np.array([(-np.inf, np.inf) if x is None else x for x in self.limits], dtype=np.float64)
         return np.deg2rad(lim) if self.limit_unit == "deg" else lim
 
     def row_transform(self, row: Sequence[float]) -> np.ndarray:
-        """The 4x4 transform of one fixed DH row ``(d, a, alpha, theta)`` in this table's convention."""
+        """The 4x4 transform of one fixed DH row `(d, a, alpha, theta)` in this table's convention."""
         d, a, alpha, theta = (float(x) for x in row)
         ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
         Rz = np.array([[ct, -st, 0, 0], [st, ct, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
@@ -114,11 +114,11 @@ class ArmTable:
 
     def chain(self, joint_limits: bool = True, *, d: ArrayLike | None = None, a: ArrayLike | None = None,
               name: str | None = None) -> SerialChain:
-        """The arm as a :class:`SerialChain` (base frame → tool flange).
+        """The arm as a `SerialChain` (base frame → tool flange).
 
-        ``d`` and ``a`` (``(..., n)``, metres) replace the table's columns of those names (a batch
+        `d` and `a` (`(..., n)`, metres) replace the table's columns of those names (a batch
         of arms with the table's twists, offsets, mount, flange and limits: an arm family, see
-        :func:`wsmap.robots.family_arm`); ``name`` replaces the table's name.
+        `wsmap.robots.family_arm`); `name` replaces the table's name.
         """
         d0, a0, alpha, offset = np.array(self.rows, dtype=np.float64).T
         d = d0 if d is None else d
@@ -136,20 +136,20 @@ class ArmTable:
 
 #: The real arms' tables by name, each from its manufacturer's published kinematics.
 NAMED: dict[str, ArmTable] = {}
-#: Constructors of every named arm, ``name -> f(joint_limits=None)``, in the order they registered
-#: (:mod:`wsmap.robots.arms` imports the paper's ``puma560`` first).
+#: Constructors of every named arm, `name -> f(joint_limits=None)`, in the order they registered
+#: (`wsmap.robots.arms` imports the paper's `puma560` first).
 ROBOTS: dict = {}
-#: The document each named arm's numbers come from, ``name -> str``.
+#: The document each named arm's numbers come from, `name -> str`.
 SOURCES: dict[str, str] = {}
 
 
 def register_constructor(name: str, constructor: Callable[..., Any], source: str) -> None:
-    """Make ``load(name)`` call ``constructor(joint_limits=...)`` (``None``: the arm's default).
+    """Make `load(name)` call `constructor(joint_limits=...)` (`None`: the arm's default).
 
-    For an arm that is not an :class:`ArmTable` (the paper's ``puma560``); a table registers with
-    :func:`register`. ``source`` names the document the arm's numbers come from. A name already
-    registered, a name :func:`load` cannot find (not lower case), or an empty source is a
-    ``ValueError``; nothing is registered then.
+    For an arm that is not an `ArmTable` (the paper's `puma560`); a table registers with
+    `register`. `source` names the document the arm's numbers come from. A name already
+    registered, a name `load` cannot find (not lower case), or an empty source is a
+    `ValueError`; nothing is registered then.
     """
     if not isinstance(name, str) or not name or name != name.lower():
         raise ValueError(f"a named arm's name must be a non-empty lower-case string, got {name!r}")
@@ -173,11 +173,11 @@ def _named(table: ArmTable):
 
 
 def register(table: ArmTable) -> ArmTable:
-    """Register a real arm's published table: ``NAMED[table.name]`` and ``load(table.name)``
-    (a :class:`SerialChain` with the table's joint limits by default). Returns ``table``.
+    """Register a real arm's published table: `NAMED[table.name]` and `load(table.name)`
+    (a `SerialChain` with the table's joint limits by default). Returns `table`.
 
-    Anything but an :class:`ArmTable` is a ``TypeError``, a name already registered a
-    ``ValueError`` listing the known ones (the table itself is checked when it is made).
+    Anything but an `ArmTable` is a `TypeError`, a name already registered a
+    `ValueError` listing the known ones (the table itself is checked when it is made).
     """
     if not isinstance(table, ArmTable):
         raise TypeError(f"register() takes an ArmTable, got {type(table).__name__}")
@@ -187,15 +187,15 @@ def register(table: ArmTable) -> ArmTable:
 
 
 def load(name: str, joint_limits: bool | None = None) -> DHRobot | SerialChain:
-    """A named arm of :data:`ROBOTS` (``wsmap robots`` lists them): ``puma560`` (the paper's
-    :class:`DHRobot`, d1 = 0) and the real arms of :mod:`wsmap.robots.arms` (``panda``, ``iiwa14``,
-    ``ur5e``, ``ur10e``, ``gen3``: :class:`SerialChain`).
+    """A named arm of `ROBOTS` (`wsmap robots` lists them): `puma560` (the paper's
+    `DHRobot`, d1 = 0) and the real arms of `wsmap.robots.arms` (`panda`, `iiwa14`,
+    `ur5e`, `ur10e`, `gen3`: `SerialChain`).
 
-    ``joint_limits`` ``None`` is the arm's default: the manufacturer's limits for a real arm, none
-    for ``puma560`` (as the paper). ``True``/``False`` attach or drop them (anything else is a
-    ``ValueError``: ``"no"`` would read as true). The robot has ``.n``,
-    ``.qlim`` (``(n, 2)`` rad, ``±inf`` for a continuous joint, ``None`` when unlimited) and
-    ``.fkine(q)`` (base → flange). An unknown name is a ``ValueError`` listing the known ones.
+    `joint_limits` `None` is the arm's default: the manufacturer's limits for a real arm, none
+    for `puma560` (as the paper). `True`/`False` attach or drop them (anything else is a
+    `ValueError`: `"no"` would read as true). The robot has `.n`,
+    `.qlim` (`(n, 2)` rad, `±inf` for a continuous joint, `None` when unlimited) and
+    `.fkine(q)` (base → flange). An unknown name is a `ValueError` listing the known ones.
     """
     key = str(name).lower()
     if key not in ROBOTS:
@@ -207,5 +207,5 @@ def load(name: str, joint_limits: bool | None = None) -> DHRobot | SerialChain:
 
 
 def from_name(name: str, joint_limits: bool | None = None) -> DHRobot | SerialChain:
-    """Look up a named arm: :func:`load`."""
+    """Look up a named arm: `load`."""
     return load(name, joint_limits=joint_limits)

@@ -1,16 +1,16 @@
 """Workspace maps: grids of nodes, maps of an arm (or a batch of arms) on them, and map files.
 
-* :mod:`.grids` — grids and the layout of flat maps (node order: first coordinate fastest);
-* :mod:`.maps` — reachability of poses (:func:`reachable`), constant-orientation ("R3") and
+* `.grids` — grids and the layout of flat maps (node order: first coordinate fastest);
+* `.maps` — reachability of poses (`reachable`), constant-orientation ("R3") and
   orientation ("SO3") maps, one-call grid maps;
-* :mod:`.orientations` — orientation sets (super-Fibonacci over SO(3), approach directions x rolls);
-* :mod:`.reach` — maps over orientations: reach at any orientation, reachability index, dexterous
+* `.orientations` — orientation sets (super-Fibonacci over SO(3), approach directions x rolls);
+* `.reach` — maps over orientations: reach at any orientation, reachability index, dexterous
   workspace, manipulability;
-* :mod:`.placement` — base placement (inverse reachability);
-* :mod:`.kinds` — the registry of map kinds (one module per kind: what a node holds, what the kind
-  reads, the function above that computes it, how its values read), which ``wsmap map --kind``,
+* `.placement` — base placement (inverse reachability);
+* `.kinds` — the registry of map kinds (one module per kind: what a node holds, what the kind
+  reads, the function above that computes it, how its values read), which `wsmap map --kind`,
   the map files and the views ask;
-* :mod:`.files` — the ``.npz`` map file; :mod:`.reuleaux` — Reuleaux's HDF5 reachability maps (ROS).
+* `.files` — the `.npz` map file; `.reuleaux` — Reuleaux's HDF5 reachability maps (ROS).
 """
 
 from . import kinds

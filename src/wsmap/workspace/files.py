@@ -1,12 +1,12 @@
-"""Map files: one ``.npz`` per map with the map, its nodes, the grid, the orientation set (maps over
+"""Map files: one `.npz` per map with the map, its nodes, the grid, the orientation set (maps over
 orientations) and the settings that made it (the arm, its source and limits, the method, the kind).
 
-Arrays: ``map`` (N,) in node order — bool or float64 as the map's kind says
-(:attr:`wsmap.workspace.kinds.MapKind.value_type`; bool for the paper's maps, reach and dexterous,
-float64 for the reachability index and manipulability); ``nodes`` (N, 3) (m, or rad for an SO3 grid);
-``orientations`` (K, 3, 3) when the map was made over a set of orientations; ``grid`` and
-``settings`` as JSON strings. ``settings["kind"]``, where present, names a registered kind
-(:mod:`wsmap.workspace.kinds`): its value type and scope are checked when a map is saved and loaded.
+Arrays: `map` (N,) in node order — bool or float64 as the map's kind says
+(`wsmap.workspace.kinds.MapKind.value_type`; bool for the paper's maps, reach and dexterous,
+float64 for the reachability index and manipulability); `nodes` (N, 3) (m, or rad for an SO3 grid);
+`orientations` (K, 3, 3) when the map was made over a set of orientations; `grid` and
+`settings` as JSON strings. `settings["kind"]`, where present, names a registered kind
+(`wsmap.workspace.kinds`): its value type and scope are checked when a map is saved and loaded.
 """
 
 from __future__ import annotations
@@ -33,8 +33,8 @@ class MapFileError(ValueError):
 
 
 def _kind_mismatch(settings: dict, dtype, scope) -> str | None:
-    """What is wrong with a map of ``dtype`` on a grid of ``scope`` for ``settings["kind"]``, or None
-    (no kind recorded, or one that fits). An unknown kind is a ``ValueError`` naming the known ones."""
+    """What is wrong with a map of `dtype` on a grid of `scope` for `settings["kind"]`, or None
+    (no kind recorded, or one that fits). An unknown kind is a `ValueError` naming the known ones."""
     name = settings.get("kind")
     if name is None:
         return None
@@ -48,10 +48,10 @@ def _kind_mismatch(settings: dict, dtype, scope) -> str | None:
 
 def save_map(path: PathLike, flat_map: ArrayLike, grid: dict, settings: dict, orientations: ArrayLike | None = None
             ) -> Path:
-    """Write a map as ``.npz`` atomically (see the module notes); a bool map stays bool, any other is
-    stored as float64 (finite values only). ``orientations`` (K, 3, 3): the set a map over
-    orientations was made with. ``settings["kind"]``, if given, must be a registered kind whose value
-    type and scope the map and grid have (``ValueError`` before anything is written). Returns ``path``."""
+    """Write a map as `.npz` atomically (see the module notes); a bool map stays bool, any other is
+    stored as float64 (finite values only). `orientations` (K, 3, 3): the set a map over
+    orientations was made with. `settings["kind"]`, if given, must be a registered kind whose value
+    type and scope the map and grid have (`ValueError` before anything is written). Returns `path`."""
     nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
     flat_map = np.asarray(flat_map)
     if flat_map.dtype != bool:
@@ -74,11 +74,11 @@ def save_map(path: PathLike, flat_map: ArrayLike, grid: dict, settings: dict, or
 
 
 def load_map(path: PathLike) -> tuple[NDArray[Any], NDArray[np.float64], dict[str, Any], dict[str, Any]]:
-    """Read a map written by :func:`save_map`: ``(map, nodes, grid, settings)``; a map over
-    orientations has its set in ``settings["orientations"]`` ((K, 3, 3) array).
+    """Read a map written by `save_map`: `(map, nodes, grid, settings)`; a map over
+    orientations has its set in `settings["orientations"]` ((K, 3, 3) array).
 
-    A missing file is ``FileNotFoundError``; anything else unreadable is :class:`MapFileError`, as is
-    a file whose ``settings["kind"]`` is not a registered kind (:mod:`wsmap.workspace.kinds`) or whose
+    A missing file is `FileNotFoundError`; anything else unreadable is `MapFileError`, as is
+    a file whose `settings["kind"]` is not a registered kind (`wsmap.workspace.kinds`) or whose
     map's value type or grid's scope is not its kind's, and one that disagrees with itself: a grid
     that is not a valid grid or does not have the map's number of nodes, nodes that are not the
     grid's, a float map with NaN or infinite values or values outside its kind's range (an index
@@ -132,8 +132,8 @@ def load_map(path: PathLike) -> tuple[NDArray[Any], NDArray[np.float64], dict[st
 
 
 def _check_grid(path, flat, nodes, grid) -> None:
-    """The grid record of a map file read back: a grid (:func:`wsmap.workspace.grid_spec`) of as many
-    nodes as the map, whose nodes are the file's (a ``MapFileError`` naming the disagreement)."""
+    """The grid record of a map file read back: a grid (`wsmap.workspace.grid_spec`) of as many
+    nodes as the map, whose nodes are the file's (a `MapFileError` naming the disagreement)."""
     what = f"{path} is not a consistent wsmap map file"
     missing = [k for k in ("scope", "lo", "hi", "step", "shape") if k not in grid]
     if missing:

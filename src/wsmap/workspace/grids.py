@@ -1,8 +1,8 @@
 """Grids of nodes and the layout of flat maps.
 
 Node order (the paper's): the first coordinate varies fastest, then the second, then the third;
-the 0-based flat index of node ``(i, j, k)`` is ``i + nx*j + nx*ny*k``. A flat map therefore
-reshapes to a volume of shape ``(nz, ny, nx)`` (see :func:`map_to_volume`).
+the 0-based flat index of node `(i, j, k)` is `i + nx*j + nx*ny*k`. A flat map therefore
+reshapes to a volume of shape `(nz, ny, nx)` (see `map_to_volume`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ CROP_3087 = slice(5292, 5292 + 3087)
 MAX_NODES = 10**10
 
 def available_memory() -> int:
-    """Bytes of memory available to this process (Linux ``MemAvailable``; physical size elsewhere)."""
+    """Bytes of memory available to this process (Linux `MemAvailable`; physical size elsewhere)."""
     try:
         with open("/proc/meminfo") as f:
             for line in f:
@@ -64,10 +64,10 @@ def _triple(name, x):
 
 def grid_counts(lo: float | ArrayLike, hi: float | ArrayLike, step: float | ArrayLike, max_nodes: int = MAX_NODES,
                 what: str = "this tool handles") -> tuple[int, int, int]:
-    """Nodes along each axis of the grid ``lo + k·step <= hi``, without allocating anything.
+    """Nodes along each axis of the grid `lo + k·step <= hi`, without allocating anything.
 
-    ``lo``, ``hi`` and ``step`` are scalars or 3-tuples. Refused (``ValueError``): non-finite or
-    complex values, ``step <= 0``, ``lo > hi``, and grids of more than ``max_nodes`` nodes — checked
+    `lo`, `hi` and `step` are scalars or 3-tuples. Refused (`ValueError`): non-finite or
+    complex values, `step <= 0`, `lo > hi`, and grids of more than `max_nodes` nodes — checked
     in floating point first, because a tiny step (1e-300) overflows int64 and would wrap to 0 nodes.
     """
     lo, hi, step = _triple("lo", lo), _triple("hi", hi), _triple("step", step)
@@ -89,10 +89,10 @@ def grid_counts(lo: float | ArrayLike, hi: float | ArrayLike, step: float | Arra
 
 
 def grid_axes(lo: float | ArrayLike, hi: float | ArrayLike, step: float | ArrayLike) -> list[np.ndarray]:
-    """The node values along each axis: ``lo + k·step`` for every ``k`` with the value ``<= hi``.
+    """The node values along each axis: `lo + k·step` for every `k` with the value `<= hi`.
 
-    ``lo``, ``hi`` and ``step`` are scalars or 3-tuples. Counting is exact up to rounding:
-    ``[-1, 1]`` at 0.1 gives 21 values, ``[0, 2·pi]`` at ``pi/10`` gives 21 (:func:`grid_counts`).
+    `lo`, `hi` and `step` are scalars or 3-tuples. Counting is exact up to rounding:
+    `[-1, 1]` at 0.1 gives 21 values, `[0, 2·pi]` at `pi/10` gives 21 (`grid_counts`).
     """
     counts = grid_counts(lo, hi, step)
     lo, step = _triple("lo", lo), _triple("step", step)
@@ -109,13 +109,13 @@ def _nodes(axes) -> np.ndarray:
 
 def cartesian_grid(lo: float | ArrayLike = -1.0, hi: float | ArrayLike = 1.0, step: float | ArrayLike = 0.1
                   ) -> np.ndarray:
-    """Positions ``(N, 3)`` in metres on a regular grid, in the paper's node order (x fastest)."""
+    """Positions `(N, 3)` in metres on a regular grid, in the paper's node order (x fastest)."""
     return _nodes(grid_axes(lo, hi, step))
 
 
 def angle_grid(lo: float | ArrayLike = 0.0, hi: float | ArrayLike = 2 * np.pi, step: float | ArrayLike = np.pi / 10
               ) -> np.ndarray:
-    """Orientation angles ``(N, 3)`` (r1, r2, r3) in radians, in the paper's node order (r1 fastest)."""
+    """Orientation angles `(N, 3)` (r1, r2, r3) in radians, in the paper's node order (r1 fastest)."""
     return _nodes(grid_axes(lo, hi, step))
 
 
@@ -123,7 +123,7 @@ def angle_grid(lo: float | ArrayLike = 0.0, hi: float | ArrayLike = 2 * np.pi, s
 
 # --------------------------------------------------------------------------- layout helpers
 def map_to_volume(flat: ArrayLike, shape: Sequence[int]) -> np.ndarray:
-    """Flat map ``(..., nx*ny*nz)`` → volume ``(..., nz, ny, nx)``; ``shape`` is ``(nx, ny, nz)``."""
+    """Flat map `(..., nx*ny*nz)` → volume `(..., nz, ny, nx)`; `shape` is `(nx, ny, nz)`."""
     flat = np.asarray(flat)
     nx, ny, nz = (int(s) for s in shape)
     if flat.shape[-1] != nx * ny * nz:
@@ -132,7 +132,7 @@ def map_to_volume(flat: ArrayLike, shape: Sequence[int]) -> np.ndarray:
 
 
 def volume_to_map(volume: ArrayLike) -> np.ndarray:
-    """Volume ``(..., nz, ny, nx)`` → flat map ``(..., nx*ny*nz)`` in node order."""
+    """Volume `(..., nz, ny, nx)` → flat map `(..., nx*ny*nz)` in node order."""
     volume = np.asarray(volume)
     if volume.ndim < 3:
         raise ValueError(f"a volume needs at least 3 dimensions (nz, ny, nx), got shape {volume.shape}")
@@ -140,7 +140,7 @@ def volume_to_map(volume: ArrayLike) -> np.ndarray:
 
 
 def block_slice(block: int) -> slice:
-    """Flat-index slice of the paper's output block ``block`` (0-based, 0..6) of the 21³ map.
+    """Flat-index slice of the paper's output block `block` (0-based, 0..6) of the 21³ map.
 
     Block 4 (the paper's 1-based block 5, section 6.1) is 0-based indices 5292..6614, z in {0.2, 0.3, 0.4}.
     """
@@ -151,13 +151,13 @@ def block_slice(block: int) -> slice:
 
 
 def node_neighbours(nodes: ArrayLike, k: int = 18, radius: float = 1.5) -> np.ndarray:
-    """Each node's neighbours: ``(N, k)`` int indices of the ``k`` nearest other nodes within
-    ``radius`` times the typical spacing, nearest first, ``-1`` where fewer (on a whole grid with the
-    defaults: one column per offset, 6 face then 12 edge neighbours, ``-1`` off the grid).
+    """Each node's neighbours: `(N, k)` int indices of the `k` nearest other nodes within
+    `radius` times the typical spacing, nearest first, `-1` where fewer (on a whole grid with the
+    defaults: one column per offset, 6 face then 12 edge neighbours, `-1` off the grid).
 
     The typical spacing is the median distance from a node to its nearest neighbour, so on a cubic
-    grid of step ``h`` the defaults give the 6 face neighbours (at ``h``) then the 12 edge neighbours
-    (at ``h·√2``). Works for any node set (positions in m, or angles in rad); used by the numerical
+    grid of step `h` the defaults give the 6 face neighbours (at `h`) then the 12 edge neighbours
+    (at `h·√2`). Works for any node set (positions in m, or angles in rad); used by the numerical
     maps to start IK at a node from its neighbours' solutions.
     """
     nodes = np.asarray(nodes, dtype=np.float64)
@@ -182,7 +182,7 @@ def node_neighbours(nodes: ArrayLike, k: int = 18, radius: float = 1.5) -> np.nd
 
 
 def _grid_shape(nodes):
-    """``(nx, ny, nz)`` if ``nodes`` (N, 3) is a whole grid in node order (first coordinate
+    """`(nx, ny, nz)` if `nodes` (N, 3) is a whole grid in node order (first coordinate
     fastest, one step along each axis), else None."""
     N = len(nodes)
     if nodes.ndim != 2 or nodes.shape[1] != 3:

@@ -2,16 +2,16 @@
 
 A *scope* is a grid of nodes, either positions at a fixed orientation (the constant-orientation
 workspace, "R3") or orientations at a fixed point (the orientation workspace, "SO3"). A node is
-``True`` when inverse kinematics has a solution for the node's target pose.
+`True` when inverse kinematics has a solution for the node's target pose.
 
 Pose conventions:
 
-* ``"standard"`` (the default everywhere, the robotics convention): ``T = transl(p) · R``, the tool
-  at position ``p`` with orientation ``R``;
-* ``"paper"``: ``T = Rx(r1)·Ry(r2)·Rz(r3) · transl(p)`` (the authors' code): the position tested is
-  ``R·p``, not ``p``; the paper's pipeline (:mod:`wsmap.paper`, its dataset specs) passes it explicitly.
+* `"standard"` (the default everywhere, the robotics convention): `T = transl(p) · R`, the tool
+  at position `p` with orientation `R`;
+* `"paper"`: `T = Rx(r1)·Ry(r2)·Rz(r3) · transl(p)` (the authors' code): the position tested is
+  `R·p`, not `p`; the paper's pipeline (`wsmap.paper`, its dataset specs) passes it explicitly.
 
-They agree when ``R = I``.
+They agree when `R = I`.
 """
 
 from __future__ import annotations
@@ -35,27 +35,27 @@ __all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP
            "reachable", "resolve_method", "constant_orientation_map", "orientation_map",
            "grid_map", "MAP_PREDICTORS", "register_map_predictor"]
 
-#: ``"auto"`` is ``"exact"`` for an arm of a closed-form family, else ``"numerical"``.
+#: `"auto"` is `"exact"` for an arm of a closed-form family, else `"numerical"`.
 METHODS = ("auto", "exact", "numerical")
-#: Numerical solvers (``ik={"solver": ...}``): ``"search"`` (default) is the search with joint limits
+#: Numerical solvers (`ik={"solver": ...}`): `"search"` (default) is the search with joint limits
 #: inside it, started at each node from its neighbours' solutions as well
-#: (:func:`wsmap.kinematics.ik.search.map_search`, settings :data:`MAP_SETTINGS`); ``"independent"``
-#: solves every node on its own with :func:`wsmap.kinematics.ik.search.ikine_search` (``starts``
-#: default :data:`DEFAULT_STARTS`); ``"paper"`` is the paper's one-start LM from q0 = 0
-#: (:func:`wsmap.kinematics.ik.lm.ikine_LM`, DH arms, a converged solution outside the limits rejected
+#: (`wsmap.kinematics.ik.search.map_search`, settings `MAP_SETTINGS`); `"independent"`
+#: solves every node on its own with `wsmap.kinematics.ik.search.ikine_search` (`starts`
+#: default `DEFAULT_STARTS`); `"paper"` is the paper's one-start LM from q0 = 0
+#: (`wsmap.kinematics.ik.lm.ikine_LM`, DH arms, a converged solution outside the limits rejected
 #: afterwards), which the paper's pipeline uses.
 SOLVERS = ("search", "independent", "paper")
 CONVENTIONS = ("paper", "standard")
 SCOPES = ("R3", "SO3")
-#: Map methods of :func:`grid_map` that other packages supply, by name: ``predict(model, robot,
-#: fixed, *, grid, convention, allow_extrapolation)`` -> bool ``(N,)`` in the grid's node order.
-#: :mod:`wsmap.learn.predictor` registers ``"model"`` (a trained network, torch) when it is
+#: Map methods of `grid_map` that other packages supply, by name: `predict(model, robot,
+#: fixed, *, grid, convention, allow_extrapolation) -> bool (N,)` in the grid's node order.
+#: `wsmap.learn.predictor` registers `"model"` (a trained network, torch) when it is
 #: imported, so the classical library never imports the learned one.
 MAP_PREDICTORS: dict = {}
 
 
 def register_map_predictor(name: str, predict) -> None:
-    """Make ``method=name`` of :func:`grid_map` call ``predict`` (see :data:`MAP_PREDICTORS`)."""
+    """Make `method=name` of `grid_map` call `predict` (see `MAP_PREDICTORS`)."""
     if not callable(predict):
         raise TypeError(f"map predictor {name!r} must be callable, got {type(predict).__name__}")
     MAP_PREDICTORS[name] = predict
@@ -67,9 +67,9 @@ def _check_choice(name, value, choices):
 
 
 def target_poses(positions: ArrayLike, rpy: ArrayLike, convention: str = "standard") -> np.ndarray:
-    """Target poses ``(..., 4, 4)`` from positions ``(..., 3)`` (m) and angles ``(..., 3)`` (rad).
+    """Target poses `(..., 4, 4)` from positions `(..., 3)` (m) and angles `(..., 3)` (rad).
 
-    ``"standard"`` (default): ``transl(p) · R``; ``"paper"``: ``Rx Ry Rz · transl(p)`` (position ``R·p``).
+    `"standard"` (default): `transl(p) · R`; `"paper"`: `Rx Ry Rz · transl(p)` (position `R·p`).
     """
     _check_choice("convention", convention, CONVENTIONS)
     positions = np.asarray(positions, dtype=np.float64)
@@ -96,30 +96,30 @@ def target_poses(positions: ArrayLike, rpy: ArrayLike, convention: str = "standa
 def reachable(robot: Arm, T: ArrayLike, *, starts: int = DEFAULT_STARTS, seed: int = 0,
               collision: Callable | None = None, collision_rounds: int = 4, return_q: bool = False,
               **settings) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], NDArray[np.float64]]:
-    """Whether the arm reaches each pose: bool with the broadcast batch shape of ``T`` and the arms.
+    """Whether the arm reaches each pose: bool with the broadcast batch shape of `T` and the arms.
 
     Parameters
     ----------
-    robot : SerialChain or DHRobot, one arm or a batch (its batch shape broadcasts with ``T``'s)
+    robot : SerialChain or DHRobot, one arm or a batch (its batch shape broadcasts with `T`'s)
     T : array_like, shape (..., 4, 4)
-        Tool poses in the base (world) frame; a pose that is not a rigid transform is a ``ValueError``.
+        Tool poses in the base (world) frame; a pose that is not a rigid transform is a `ValueError`.
     starts, seed :
-        IK start configurations per pose (start 0: ``q0``, default zeros; then random ones inside
+        IK start configurations per pose (start 0: `q0`, default zeros; then random ones inside
         the limits) and the seed of the random ones.
     **settings :
-        ``q0``, ``tol``, ``ilimit``, ``rlimit``, ``lam``, ``joint_limits``, ``confirm_tol``, ``chunk``,
-        ``progress`` of :func:`wsmap.kinematics.ik.search.ikine_search`, which also returns the solutions.
+        `q0`, `tol`, `ilimit`, `rlimit`, `lam`, `joint_limits`, `confirm_tol`, `chunk`,
+        `progress` of `wsmap.kinematics.ik.search.ikine_search`, which also returns the solutions.
 
     A pose is reachable when some start converges to it inside the joint limits and forward
-    kinematics confirms the solution (within 1e-6 m and rad), so ``True`` comes with a solution;
-    ``False`` means no start found one (recall measured against exact references in
-    ``benchmarks/bench_recall.py``: >= 0.999 with the default starts, no false positive).
+    kinematics confirms the solution (within 1e-6 m and rad), so `True` comes with a solution;
+    `False` means no start found one (recall measured against exact references in
+    `benchmarks/bench_recall.py`: >= 0.999 with the default starts, no false positive).
 
-    ``collision`` (one arm): a configuration predicate, ``collision(q)`` with ``q`` ``(M, n)`` → bool
-    ``(M,)`` True where acceptable, e.g. a :class:`wsmap.collision.CollisionChecker`; a pose then
+    `collision` (one arm): a configuration predicate, `collision(q)` with `q` `(M, n)` → bool
+    `(M,)` True where acceptable, e.g. a `wsmap.collision.CollisionChecker`; a pose then
     counts only with an accepted solution, and a pose whose solutions were refused is searched
-    again ``collision_rounds`` times with other random starts (``seed`` moved on per round).
-    ``return_q`` also returns the solutions ``(..., n)`` (NaN where unreachable).
+    again `collision_rounds` times with other random starts (`seed` moved on per round).
+    `return_q` also returns the solutions `(..., n)` (NaN where unreachable).
     """
     valid = _predicate(robot, collision)
     if valid is None:
@@ -130,8 +130,8 @@ def reachable(robot: Arm, T: ArrayLike, *, starts: int = DEFAULT_STARTS, seed: i
 
 
 def _predicate(arms, collision):
-    """``collision`` checked as a configuration predicate of ``arms`` (one arm), or None. A
-    :class:`wsmap.collision.CollisionChecker` of another arm (other joint frames) is refused."""
+    """`collision` checked as a configuration predicate of `arms` (one arm), or None. A
+    `wsmap.collision.CollisionChecker` of another arm (other joint frames) is refused."""
     if collision is None:
         return None
     if not callable(collision):
@@ -151,8 +151,8 @@ def _predicate(arms, collision):
 
 
 def _search_free(robot, T, valid, starts, seed, rounds, settings):
-    """:func:`ikine_search` keeping only solutions ``valid`` accepts: ``(ok, q)`` of ``T.shape[:-2]``;
-    refused poses are searched again with other seeds, ``rounds`` times."""
+    """`ikine_search` keeping only solutions `valid` accepts: `(ok, q)` of `T.shape[:-2]`;
+    refused poses are searched again with other seeds, `rounds` times."""
     res = ikine_search(robot, T, starts=starts, seed=seed, **settings)
     shape = res.success.shape
     ok = res.success.reshape(-1).copy()
@@ -182,7 +182,7 @@ def _search_free(robot, T, valid, starts, seed, rounds, settings):
 
 # --------------------------------------------------------------------------- maps
 def _per_node(robot: DHRobot) -> DHRobot:
-    """The same arms with a node axis inserted before the joints: batch ``(..., 1)``."""
+    """The same arms with a node axis inserted before the joints: batch `(..., 1)`."""
     qlim = robot.qlim
     if qlim is not None and qlim.ndim > 2:
         qlim = qlim[..., None, :, :]
@@ -190,7 +190,7 @@ def _per_node(robot: DHRobot) -> DHRobot:
 
 
 def _numerical_settings(ik: dict) -> tuple[str, dict]:
-    """(solver, the solver's keyword arguments) from a map's ``ik`` dict."""
+    """(solver, the solver's keyword arguments) from a map's `ik` dict."""
     ik = dict(ik)
     solver = ik.pop("solver", "search")
     _check_choice("solver", solver, SOLVERS)
@@ -205,8 +205,8 @@ def _numerical_settings(ik: dict) -> tuple[str, dict]:
 
 
 def _search_settings(ik, base=MAP_SETTINGS, drop=("solver", "chunk", "progress")) -> dict:
-    """:func:`map_search`'s keyword arguments: ``base`` updated with ``ik``, without the keys in
-    ``drop`` (the other solvers' settings, or ones the caller passes itself)."""
+    """`map_search`'s keyword arguments: `base` updated with `ik`, without the keys in
+    `drop` (the other solvers' settings, or ones the caller passes itself)."""
     settings = {**base, **(ik or {})}
     for key in drop:
         settings.pop(key, None)
@@ -214,9 +214,9 @@ def _search_settings(ik, base=MAP_SETTINGS, drop=("solver", "chunk", "progress")
 
 
 def resolve_method(robot: Arm, method: str = "auto") -> str:
-    """``"exact"`` or ``"numerical"``: ``auto`` picks the closed form where a registered closed form
-    solves the arm (:func:`wsmap.kinematics.closed_form_for`), else numerical IK. ``exact`` for an
-    arm without a closed form is a ``ValueError`` that says so."""
+    """`"exact"` or `"numerical"`: `auto` picks the closed form where a registered closed form
+    solves the arm (`wsmap.kinematics.closed_form_for`), else numerical IK. `exact` for an
+    arm without a closed form is a `ValueError` that says so."""
     _check_choice("method", method, METHODS)
     if method == "auto":
         return "exact" if closed_form_for(robot) is not None else "numerical"
@@ -226,10 +226,10 @@ def resolve_method(robot: Arm, method: str = "auto") -> str:
 
 
 def _exact(arms, T, valid=None, return_q=False):
-    """Closed-form reachability of poses ``T`` (N, 4, 4) for arms (batch ``(B,)`` or one): (..., N).
+    """Closed-form reachability of poses `T` (N, 4, 4) for arms (batch `(B,)` or one): (..., N).
 
-    ``valid`` (a configuration predicate, one arm): a pose counts only with a branch it accepts;
-    every branch is tried. ``return_q`` also returns a valid branch's ``q`` ``(..., N, n)`` (the
+    `valid` (a configuration predicate, one arm): a pose counts only with a branch it accepts;
+    every branch is tried. `return_q` also returns a valid branch's `q` `(..., N, n)` (the
     first accepted, NaN where none)."""
     cf = require_closed_form(arms)
     robot = arms if arms.batch_shape == () and not isinstance(arms, DHRobot) else _per_node(arms)
@@ -256,9 +256,9 @@ def _exact(arms, T, valid=None, return_q=False):
 
 def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress, space, return_method,
          collision=None, return_q=False):
-    """Shared driver: positions (N, 3) or (1, 3), rpy (3,) or (N, 3); ``space`` (N, 3) the nodes whose
+    """Shared driver: positions (N, 3) or (1, 3), rpy (3,) or (N, 3); `space` (N, 3) the nodes whose
     neighbours start the numerical search; returns (arms..., N) bool (then the solutions
-    (arms..., N, n) with ``return_q``, and the method used, with ``return_method``)."""
+    (arms..., N, n) with `return_q`, and the method used, with `return_method`)."""
     if not isinstance(arms, (DHRobot, SerialChain)):
         raise TypeError(f"arms must be a DHRobot or a SerialChain, got {type(arms).__name__}")
     valid = _predicate(arms, collision)
@@ -296,8 +296,8 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
 
 
 def _map_chunks(flat, batch, B, N, T, nb, method, solver, settings, per_chunk, out, q_out, valid, update):
-    """Fill ``out`` (max(B, 1), N) and, unless ``None``, ``q_out`` (max(B, 1), N, n) chunk of arms by
-    chunk of arms (``update(n)`` after each); ``valid`` the configuration predicate or ``None``."""
+    """Fill `out` (max(B, 1), N) and, unless `None`, `q_out` (max(B, 1), N, n) chunk of arms by
+    chunk of arms (`update(n)` after each); `valid` the configuration predicate or `None`."""
     return_q = q_out is not None
     for s in range(0, max(B, 1), per_chunk):
         sub = flat if batch == () else flat[s : s + per_chunk]
@@ -345,38 +345,38 @@ def constant_orientation_map(arms: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0,
                              progress: bool | None = None, return_method: bool = False,
                              collision: Callable | None = None, return_q: bool = False
                             ) -> NDArray[np.bool_] | tuple:
-    """Constant-orientation workspace ("R3"): which positions are reachable at orientation ``rpy``.
+    """Constant-orientation workspace ("R3"): which positions are reachable at orientation `rpy`.
 
     Parameters
     ----------
-    arms : DHRobot or SerialChain, one arm or a batch (batch shape ``(...)``)
-    nodes : (N, 3) positions in metres, e.g. from :func:`cartesian_grid`
-    rpy : (3,) angles (r1, r2, r3) in radians, ``R = Rx(r1)·Ry(r2)·Rz(r3)``
-    method : ``"auto"`` (default: the closed form where the arms belong to a closed-form family,
-        :func:`wsmap.kinematics.closed_form_for`, else numerical), ``"exact"`` (closed form only) or
-        ``"numerical"`` (any arm). ``ik`` passes the numerical settings: by default the search
-        started from neighbouring nodes' solutions (:func:`wsmap.kinematics.ik.search.map_search`;
-        ``starts``, ``retry``, ``seeds``, ``seed``, ``q0``, ``tol``, ``ilimit``, ``rlimit``, ``gtol``,
-        ``joint_limits``; defaults :data:`MAP_SETTINGS`); ``{"solver": "independent"}`` solves each
-        node alone with :func:`reachable`'s search (``starts`` default :data:`DEFAULT_STARTS`);
-        ``{"solver": "paper"}`` is the paper's one-start LM from q0 = 0 (``ikine_LM``; DH arms;
-        ``q0``, ``tol``, ``ilimit``, ``rlimit``, ``lam``, ``chunk``), as the paper's pipeline runs it
-    convention : ``"standard"`` (default, ``T = transl(p)·R``) or ``"paper"`` (see the module docstring)
-    progress : ``True`` for a bar on stderr of the nodes settled (arms x nodes), or a callable
-        ``progress(n)`` (:mod:`wsmap._progress`); numerically it moves as the search solves nodes
-    return_method : also return the method used (``"exact"`` or ``"numerical"``)
-    collision : optional configuration predicate for one arm (``collision(q)``, ``q`` ``(M, n)`` →
-        bool ``(M,)``, True where acceptable), e.g. a :class:`wsmap.collision.CollisionChecker`: a
+    arms : DHRobot or SerialChain, one arm or a batch (batch shape `(...)`)
+    nodes : (N, 3) positions in metres, e.g. from `cartesian_grid`
+    rpy : (3,) angles (r1, r2, r3) in radians, `R = Rx(r1)·Ry(r2)·Rz(r3)`
+    method : `"auto"` (default: the closed form where the arms belong to a closed-form family,
+        `wsmap.kinematics.closed_form_for`, else numerical), `"exact"` (closed form only) or
+        `"numerical"` (any arm). `ik` passes the numerical settings: by default the search
+        started from neighbouring nodes' solutions (`wsmap.kinematics.ik.search.map_search`;
+        `starts`, `retry`, `seeds`, `seed`, `q0`, `tol`, `ilimit`, `rlimit`, `gtol`,
+        `joint_limits`; defaults `MAP_SETTINGS`); `{"solver": "independent"}` solves each
+        node alone with `reachable`'s search (`starts` default `DEFAULT_STARTS`);
+        `{"solver": "paper"}` is the paper's one-start LM from q0 = 0 (`ikine_LM`; DH arms;
+        `q0`, `tol`, `ilimit`, `rlimit`, `lam`, `chunk`), as the paper's pipeline runs it
+    convention : `"standard"` (default, `T = transl(p)·R`) or `"paper"` (see the module docstring)
+    progress : `True` for a bar on stderr of the nodes settled (arms x nodes), or a callable
+        `progress(n)` (`wsmap._progress`); numerically it moves as the search solves nodes
+    return_method : also return the method used (`"exact"` or `"numerical"`)
+    collision : optional configuration predicate for one arm (`collision(q)`, `q` `(M, n)` →
+        bool `(M,)`, True where acceptable), e.g. a `wsmap.collision.CollisionChecker`: a
         node counts only with a collision-free solution. The closed forms try every branch; the
         search keeps looking where its solutions are refused (neighbours' free solutions, retries,
-        ``accept_retry`` more starts: :func:`wsmap.kinematics.ik.search.map_search`)
-    return_q : also return each node's solution ``(..., N, n)`` (NaN where unreachable), so
+        `accept_retry` more starts: `wsmap.kinematics.ik.search.map_search`)
+    return_q : also return each node's solution `(..., N, n)` (NaN where unreachable), so
         anyone can check it (forward kinematics, limits, collisions)
 
     Returns
     -------
-    bool array ``(..., N)`` in node order (then the solutions, with ``return_q``, and the method, with
-    ``return_method``). Joint limits are honoured when the arms carry them.
+    bool array `(..., N)` in node order (then the solutions, with `return_q`, and the method, with
+    `return_method`). Joint limits are honoured when the arms carry them.
     """
     nodes = _check_nodes("nodes", nodes)
     rpy = _triple("rpy", rpy)
@@ -389,12 +389,12 @@ def orientation_map(arms: Arm, angle_nodes: ArrayLike, point: ArrayLike = (0.5, 
                     progress: bool | None = None, return_method: bool = False,
                     collision: Callable | None = None, return_q: bool = False
                    ) -> NDArray[np.bool_] | tuple:
-    """Orientation workspace ("SO3"): which orientations are reachable at the point ``point`` (m).
+    """Orientation workspace ("SO3"): which orientations are reachable at the point `point` (m).
 
-    ``angle_nodes`` (N, 3) are angles (r1, r2, r3) in radians, e.g. from :func:`angle_grid`.
-    Under the paper convention the position tested is ``R·point``, so the map is really a test of
-    positions on the sphere of radius ``|point|``. Other arguments as
-    :func:`constant_orientation_map` (``collision``, ``return_q`` too); returns bool ``(..., N)``.
+    `angle_nodes` (N, 3) are angles (r1, r2, r3) in radians, e.g. from `angle_grid`.
+    Under the paper convention the position tested is `R·point`, so the map is really a test of
+    positions on the sphere of radius `|point|`. Other arguments as
+    `constant_orientation_map` (`collision`, `return_q` too); returns bool `(..., N)`.
     """
     angle_nodes = _check_nodes("angle nodes", angle_nodes)
     point = _triple("point", point)
@@ -403,17 +403,17 @@ def orientation_map(arms: Arm, angle_nodes: ArrayLike, point: ArrayLike = (0.5, 
 
 
 def default_grid(scope: str) -> tuple[float, float, float]:
-    """The paper's grid of a scope: R3 ``[-1, 1]`` m at 0.1 m, SO3 ``[0, 2·pi]`` rad at ``pi/10``."""
+    """The paper's grid of a scope: R3 `[-1, 1]` m at 0.1 m, SO3 `[0, 2·pi]` rad at `pi/10`."""
     _check_choice("scope", scope, SCOPES)
     return (-1.0, 1.0, 0.1) if scope == "R3" else (0.0, 2 * math.pi, math.pi / 10)
 
 
 def grid_spec(scope: str = "R3", lo: float | ArrayLike | None = None, hi: float | ArrayLike | None = None,
               step: float | ArrayLike | None = None) -> dict:
-    """A grid description ``{"scope", "lo", "hi", "step", "shape"}`` (3-lists; ``shape`` is nx, ny, nz).
+    """A grid description `{"scope", "lo", "hi", "step", "shape"}` (3-lists; `shape` is nx, ny, nz).
 
-    Missing bounds take the paper's defaults (:func:`default_grid`). Checked (finite, ``lo <= hi``,
-    ``step > 0``, not too many nodes) without building the nodes.
+    Missing bounds take the paper's defaults (`default_grid`). Checked (finite, `lo <= hi`,
+    `step > 0`, not too many nodes) without building the nodes.
     """
     dlo, dhi, dstep = default_grid(scope)
     lo, hi, step = (dlo if lo is None else lo), (dhi if hi is None else hi), (dstep if step is None else step)
@@ -427,20 +427,20 @@ def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point:
              allow_extrapolation: bool = False, ik: Mapping[str, Any] | None = None, progress: bool = False,
              return_method: bool = False, collision: Callable | None = None
              ) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], str]:
-    """One call from an arm to its map on a whole grid (from :func:`grid_spec`): bool ``(N,)`` in node order.
+    """One call from an arm to its map on a whole grid (from `grid_spec`): bool `(N,)` in node order.
 
-    ``grid["scope"]`` is ``"R3"`` (positions at orientation ``rpy``) or ``"SO3"`` (orientations at
-    ``point``). ``method`` is ``"auto"`` (see :func:`resolve_method`), ``"exact"``, ``"numerical"``
-    (``ik`` passes the solver's settings) or
-    ``"model"``: ``model`` is then a path to a model file saved with a ``map_spec``
-    (:func:`wsmap.learn.predict_maps_from_file`; :mod:`wsmap.learn` must be imported, it registers
-    the method in :data:`MAP_PREDICTORS`) whose grid, pose convention and fixed orientation
+    `grid["scope"]` is `"R3"` (positions at orientation `rpy`) or `"SO3"` (orientations at
+    `point`). `method` is `"auto"` (see `resolve_method`), `"exact"`, `"numerical"`
+    (`ik` passes the solver's settings) or
+    `"model"`: `model` is then a path to a model file saved with a `map_spec`
+    (`wsmap.learn.predict_maps_from_file`; `wsmap.learn` must be imported, it registers
+    the method in `MAP_PREDICTORS`) whose grid, pose convention and fixed orientation
     (R3) or point (SO3) are the ones asked for and which covers every node of the grid; otherwise
-    ``ValueError`` says what differs, and arms outside the model's training range are refused unless
-    ``allow_extrapolation``. ``collision`` as :func:`constant_orientation_map` (not with ``"model"``).
+    `ValueError` says what differs, and arms outside the model's training range are refused unless
+    `allow_extrapolation`. `collision` as `constant_orientation_map` (not with `"model"`).
 
-    ``progress``: ``True`` shows a bar on stderr of the nodes settled (numerically: as the search
-    solves them, wave after wave), or a callable ``progress(n)`` (:mod:`wsmap._progress`).
+    `progress`: `True` shows a bar on stderr of the nodes settled (numerically: as the search
+    solves them, wave after wave), or a callable `progress(n)` (`wsmap._progress`).
     """
     check_progress(progress)
     nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])

@@ -1,7 +1,7 @@
 """Sets of orientations for reachability indices: spread over SO(3), or approach directions x rolls.
 
-Every set is a float64 array ``(K, 3, 3)`` of rotation matrices (columns: the tool frame's axes in
-the base frame). A target pose at node ``p`` with orientation ``R`` is ``T = transl(p)·R`` (the
+Every set is a float64 array `(K, 3, 3)` of rotation matrices (columns: the tool frame's axes in
+the base frame). A target pose at node `p` with orientation `R` is `T = transl(p)·R` (the
 standard convention).
 """
 
@@ -55,14 +55,14 @@ def _random_rotation(rng) -> np.ndarray:
 
 
 def orientation_samples(k: int, seed: int | None = 0) -> np.ndarray:
-    """``k`` rotations spread uniformly over SO(3): a super-Fibonacci spiral (Alexa 2022), ``(k, 3, 3)``.
+    """`k` rotations spread uniformly over SO(3): a super-Fibonacci spiral (Alexa 2022), `(k, 3, 3)`.
 
-    Quaternion ``i`` of the spiral (``s = i + 1/2``) is ``(√(s/k) sin α, √(s/k) cos α, √(1 − s/k) sin β,
-    √(1 − s/k) cos β)`` with ``α = 2π s/√2``, ``β = 2π s/ψ``: a low-discrepancy set on the unit
-    quaternions, so its rotations cover SO(3) evenly with no clusters, for any ``k`` up to
-    :data:`MAX_ORIENTATIONS` (more is a ``ValueError``). ``seed``: the
-    whole set is turned by one random rotation drawn from ``numpy.random.default_rng(seed)`` (every
-    seed gives an equally even set; ``None``: the spiral as it is).
+    Quaternion `i` of the spiral (`s = i + 1/2`) is `(√(s/k) sin α, √(s/k) cos α, √(1 − s/k) sin β,
+    √(1 − s/k) cos β)` with `α = 2π s/√2`, `β = 2π s/ψ`: a low-discrepancy set on the unit
+    quaternions, so its rotations cover SO(3) evenly with no clusters, for any `k` up to
+    `MAX_ORIENTATIONS` (more is a `ValueError`). `seed`: the
+    whole set is turned by one random rotation drawn from `numpy.random.default_rng(seed)` (every
+    seed gives an equally even set; `None`: the spiral as it is).
     """
     k = _check_count("k (the number of orientations)", k, MAX_ORIENTATIONS)
     s = np.arange(k) + 0.5
@@ -76,7 +76,7 @@ def orientation_samples(k: int, seed: int | None = 0) -> np.ndarray:
 
 
 def _fibonacci_sphere(n: int) -> np.ndarray:
-    """``n`` unit vectors spread evenly over the sphere (the golden-angle spiral), ``(n, 3)``."""
+    """`n` unit vectors spread evenly over the sphere (the golden-angle spiral), `(n, 3)`."""
     i = np.arange(n) + 0.5
     z = 1.0 - 2.0 * i / n
     phi = np.pi * (3.0 - np.sqrt(5.0)) * i
@@ -85,9 +85,9 @@ def _fibonacci_sphere(n: int) -> np.ndarray:
 
 
 def approach_orientations(directions: int, rolls: int = 1) -> np.ndarray:
-    """Orientations whose tool z axis (the approach) points along ``directions`` directions spread
-    over the sphere, each turned about that axis by ``rolls`` angles ``2π j / rolls``: ``(directions ·
-    rolls, 3, 3)``, direction-major (Reuleaux's reachability spheres use this layout).
+    """Orientations whose tool z axis (the approach) points along `directions` directions spread
+    over the sphere, each turned about that axis by `rolls` angles `2π j / rolls`: `(directions ·
+    rolls, 3, 3)`, direction-major (Reuleaux's reachability spheres use this layout).
 
     The x axis at roll 0 is the world x (or y, for approaches near ±x) made perpendicular to the approach.
     """
@@ -107,9 +107,9 @@ def approach_orientations(directions: int, rolls: int = 1) -> np.ndarray:
 
 
 def check_rotations(name: str, R: ArrayLike, atol: float = 1e-6) -> np.ndarray:
-    """``R`` as float64 ``(K, 3, 3)`` (one ``(3, 3)`` becomes ``K = 1``) after checking that it is a
-    non-empty set of rotations: ``RᵀR = I`` and ``det R = +1`` to ``atol``. Anything else is a
-    ``ValueError`` naming ``name`` and the first offending index."""
+    """`R` as float64 `(K, 3, 3)` (one `(3, 3)` becomes `K = 1`) after checking that it is a
+    non-empty set of rotations: `RᵀR = I` and `det R = +1` to `atol`. Anything else is a
+    `ValueError` naming `name` and the first offending index."""
     R = as_real_array(name, R)
     if R.shape == (3, 3):
         R = R[None]
@@ -131,16 +131,16 @@ def check_rotations(name: str, R: ArrayLike, atol: float = 1e-6) -> np.ndarray:
 
 
 def rotation_angle(Ra, Rb) -> np.ndarray:
-    """Angle (rad) of the rotation taking ``Ra`` to ``Rb`` (broadcast over leading dimensions)."""
+    """Angle (rad) of the rotation taking `Ra` to `Rb` (broadcast over leading dimensions)."""
     cos = 0.5 * (np.einsum("...ij,...ij->...", Ra, Rb) - 1.0)
     v = 0.5 * np.cross(Ra, Rb, axis=-2).sum(axis=-1)
     return np.arctan2(np.linalg.norm(v, axis=-1), cos)
 
 
 def continuation_order(R: ArrayLike) -> np.ndarray:
-    """An order of the orientations ``R`` (K, 3, 3) in which each is close to one before it:
-    greedy nearest neighbour from the first. Returns ``(order (K,), parent (K,))``, ``parent[i]``
-    the earlier orientation (in the set's indexing) nearest to ``order[i]`` (-1 for the first)."""
+    """An order of the orientations `R` (K, 3, 3) in which each is close to one before it:
+    greedy nearest neighbour from the first. Returns `(order (K,), parent (K,))`, `parent[i]`
+    the earlier orientation (in the set's indexing) nearest to `order[i]` (-1 for the first)."""
     K = len(R)
     dist = rotation_angle(R[:, None], R[None, :])
     order = [0]

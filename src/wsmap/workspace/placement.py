@@ -1,11 +1,11 @@
 """Base placement (inverse reachability): where on the floor to put an arm so that it reaches a set
 of target poses.
 
-Candidate bases stand on the plane ``z = z0`` of the world frame: ``B(x, y, yaw) = transl(x, y, z0)·
-Rz(yaw)``. A target pose ``T_m`` (world frame) is reached from ``B`` when the arm reaches
-``B⁻¹·T_m`` in its own base frame. The candidates form a grid over ``(x, y, yaw)``, on which the
+Candidate bases stand on the plane `z = z0` of the world frame: `B(x, y, yaw) = transl(x, y, z0)·
+Rz(yaw)`. A target pose `T_m` (world frame) is reached from `B` when the arm reaches
+`B⁻¹·T_m` in its own base frame. The candidates form a grid over `(x, y, yaw)`, on which the
 reachability of one target varies smoothly, so each target is solved over the whole grid by the
-neighbour-started search (:func:`wsmap.kinematics.map_search`), or by the closed form for the
+neighbour-started search (`wsmap.kinematics.map_search`), or by the closed form for the
 closed-form families; every "reached" comes with a confirmed joint solution.
 """
 
@@ -40,7 +40,7 @@ MAX_CANDIDATES = 10**7
 class Placement:
     """Candidate bases ranked best first (every field in that order).
 
-    poses : (C, 4, 4) base poses in the world frame (``transl(x, y, z0)·Rz(yaw)``)
+    poses : (C, 4, 4) base poses in the world frame (`transl(x, y, z0)·Rz(yaw)`)
     x, y, yaw : (C,) metres, metres, radians
     score : (C,) fraction of the targets reached from the base
     reached : (C, M) bool, which targets each base reaches
@@ -59,7 +59,7 @@ class Placement:
     method: str
 
     def best(self) -> dict:
-        """The best base as a dict: ``x``, ``y``, ``yaw`` (rad), ``score``, ``pose`` (4x4 list)."""
+        """The best base as a dict: `x`, `y`, `yaw` (rad), `score`, `pose` (4x4 list)."""
         return {"x": float(self.x[0]), "y": float(self.y[0]), "yaw": float(self.yaw[0]),
                 "score": float(self.score[0]), "pose": self.poses[0].tolist()}
 
@@ -74,7 +74,7 @@ def _range(name, r):
 
 
 def floor_poses(x: ArrayLike, y: ArrayLike, yaw: ArrayLike, z0: float = 0.0) -> np.ndarray:
-    """Base poses ``transl(x, y, z0)·Rz(yaw)`` (broadcast) as ``(..., 4, 4)``."""
+    """Base poses `transl(x, y, z0)·Rz(yaw)` (broadcast) as `(..., 4, 4)`."""
     x, y, yaw = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float), np.asarray(yaw, float))
     B = np.zeros(x.shape + (4, 4))
     c, s = np.cos(yaw), np.sin(yaw)
@@ -85,8 +85,8 @@ def floor_poses(x: ArrayLike, y: ArrayLike, yaw: ArrayLike, z0: float = 0.0) -> 
 
 
 def _from_its_base(robot, checker, target):
-    """The predicate of solutions ``q`` ``(C, n)`` of one world ``target`` (4, 4) from candidate
-    bases: each checked at the base it reaches the target from, ``target·fkine(q)⁻¹`` (the
+    """The predicate of solutions `q` `(C, n)` of one world `target` (4, 4) from candidate
+    bases: each checked at the base it reaches the target from, `target·fkine(q)⁻¹` (the
     candidate's pose to the solver's tolerance, about 1e-9 m), with the scene's world obstacles."""
     def valid(q):
         q = np.asarray(q, dtype=np.float64)
@@ -98,31 +98,31 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
                    y: tuple[float, float] = (-1.0, 1.0), *, step: float = 0.1, yaws: int = 8, z0: float = 0.0,
                    method: str = "auto", ik: dict | None = None, seed: int = 0,
                    progress: bool = False, collision: Callable | None = None) -> Placement:
-    """Rank candidate base poses on the floor by the fraction of ``targets`` they reach.
+    """Rank candidate base poses on the floor by the fraction of `targets` they reach.
 
     Parameters
     ----------
     robot : DHRobot or SerialChain (one arm)
     targets : (M, 4, 4) target tool poses in the world frame (rigid transforms, metres)
-    x, y : (lo, hi) ranges of the base position (m), sampled at ``step`` (both ends included)
-    yaws : number of base headings, ``2π j / yaws``
+    x, y : (lo, hi) ranges of the base position (m), sampled at `step` (both ends included)
+    yaws : number of base headings, `2π j / yaws`
     z0 : height of the floor plane the base stands on (m)
-    method, ik, seed : as :func:`wsmap.workspace.constant_orientation_map` (``ik`` for the numerical search)
+    method, ik, seed : as `wsmap.workspace.constant_orientation_map` (`ik` for the numerical search)
     progress : a progress bar over the targets (on stderr)
-    collision : a configuration predicate, as :func:`wsmap.workspace.constant_orientation_map`: a
+    collision : a configuration predicate, as `wsmap.workspace.constant_orientation_map`: a
         target counts only with a collision-free solution. A plain predicate must not depend on the
         candidate base (self-collision, the floor the base stands on, obstacles in the base frame,
-        carried with the base). A :class:`wsmap.collision.CollisionChecker` whose scene has
+        carried with the base). A `wsmap.collision.CollisionChecker` whose scene has
         obstacles in the world frame (a table the targets lie on) checks each solution against
-        them from its own candidate base (:meth:`~wsmap.collision.CollisionChecker.at_bases`; the
-        base is ``T_m·fkine(q)⁻¹``, the pose the solution was found for); such a scene must then
+        them from its own candidate base (`at_bases`; the
+        base is `T_m·fkine(q)⁻¹`, the pose the solution was found for); such a scene must then
         have no base-frame obstacles
 
-    Returns a :class:`Placement`, best first (ties: nearer the middle of the region first, then the
-    grid order). Bad input (a range with lo > hi, ``step`` <= 0, ``yaws`` < 1, targets that are not
-    rigid transforms) is a ``ValueError`` before any work, as are sizes beyond the bounds
-    (:data:`MAX_TARGETS` targets, :data:`MAX_YAWS` headings, :data:`MAX_CANDIDATES` candidate bases)
-    and a ``MemoryError`` a problem whose solutions would not fit in half the memory available.
+    Returns a `Placement`, best first (ties: nearer the middle of the region first, then the
+    grid order). Bad input (a range with lo > hi, `step` <= 0, `yaws` < 1, targets that are not
+    rigid transforms) is a `ValueError` before any work, as are sizes beyond the bounds
+    (`MAX_TARGETS` targets, `MAX_YAWS` headings, `MAX_CANDIDATES` candidate bases)
+    and a `MemoryError` a problem whose solutions would not fit in half the memory available.
     """
     if not isinstance(robot, (DHRobot, SerialChain)):
         raise TypeError(f"robot must be a DHRobot or a SerialChain, got {type(robot).__name__}")

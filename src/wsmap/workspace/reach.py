@@ -1,24 +1,24 @@
 """Maps over orientations: reach at any orientation, the reachability index, the dexterous workspace,
 and manipulability.
 
-For an arm and nodes ``p`` (N, 3) in its base frame (metres), and target poses ``T = transl(p)·R``
-(the standard convention; ``R`` the tool orientation in the base frame):
+For an arm and nodes `p` (N, 3) in its base frame (metres), and target poses `T = transl(p)·R`
+(the standard convention; `R` the tool orientation in the base frame):
 
-* :func:`position_map` — ``p`` is reachable at *some* orientation (the tool origin can be put there);
-* :func:`reachability_index` — the fraction of a set of orientations (:mod:`.orientations`) reachable
-  at ``p`` (Zacharias' capability maps, Reuleaux's reachability index);
-* :func:`dexterous_map` — every orientation of the set is reachable at ``p``;
-* :func:`manipulability_map` — Yoshikawa's manipulability ``√det(J Jᵀ)`` (``J`` the 6 x n base-frame
+* `position_map` — `p` is reachable at *some* orientation (the tool origin can be put there);
+* `reachability_index` — the fraction of a set of orientations (`.orientations`) reachable
+  at `p` (Zacharias' capability maps, Reuleaux's reachability index);
+* `dexterous_map` — every orientation of the set is reachable at `p`;
+* `manipulability_map` — Yoshikawa's manipulability `√det(J Jᵀ)` (`J` the 6 x n base-frame
   geometric Jacobian: metres per radian in the position rows, 1 in the rotation rows) at the best
-  IK solution found at ``p`` for one orientation, 0 where unreachable;
-* :func:`manipulability_maps` — the same map, exactly, for a batch of unlimited spherical-wrist
+  IK solution found at `p` for one orientation, 0 where unreachable;
+* `manipulability_maps` — the same map, exactly, for a batch of unlimited spherical-wrist
   arms at once (a factorised closed form of the same quantity, no Jacobians).
 
-Arms with a closed form (:func:`wsmap.kinematics.closed_form_for`) are mapped exactly (every
+Arms with a closed form (`wsmap.kinematics.closed_form_for`) are mapped exactly (every
 branch); other arms by the numerical search started from neighbouring nodes' solutions and, across
 orientations, from the same node's solution at the nearest orientation already solved
-(:func:`wsmap.kinematics.map_search`): ``True`` always comes with a joint solution inside the limits
-that forward kinematics confirms; recall is measured in ``benchmarks/bench_reach_maps.py``.
+(`wsmap.kinematics.map_search`): `True` always comes with a joint solution inside the limits
+that forward kinematics confirms; recall is measured in `benchmarks/bench_reach_maps.py`.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ INDEX_SETTINGS = {**MAP_SETTINGS, "retry": 2, "border_starts": 0}
 
 
 def _subset_neighbours(nb, keep):
-    """Neighbours ``nb`` (N, K) of the nodes where ``keep`` (N,), re-indexed into that subset."""
+    """Neighbours `nb` (N, K) of the nodes where `keep` (N,), re-indexed into that subset."""
     new = np.full(len(keep) + 1, -1, dtype=np.int64)
     idx = np.flatnonzero(keep)
     new[idx] = np.arange(idx.size)
@@ -68,14 +68,14 @@ def _subset_neighbours(nb, keep):
 
 def position_map(robot: Arm, nodes: ArrayLike, *, samples: int = 20000, seed: int = 0, ik: dict | None = None,
                  return_q: bool = False, progress: bool = False) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], NDArray[np.float64]]:
-    """Reach at any orientation: bool ``(N,)``, the tool origin can be put at node ``p`` (m, base frame).
+    """Reach at any orientation: bool `(N,)`, the tool origin can be put at node `p` (m, base frame).
 
-    Forward-kinematics sampling finds starts (``samples`` configurations drawn inside the limits;
+    Forward-kinematics sampling finds starts (`samples` configurations drawn inside the limits;
     each node starts from the sampled configuration whose tool lies nearest to it), then the search
-    on the position alone settles every node (:func:`wsmap.kinematics.map_search` with
-    ``position_only``; ``ik`` overrides its settings). Every ``True`` has a confirmed solution;
-    ``return_q`` also returns them ``(N, n)`` (NaN where unreachable). ``progress``: ``True`` (a bar
-    on stderr of the nodes settled) or a callable ``progress(n)`` (:mod:`wsmap._progress`).
+    on the position alone settles every node (`wsmap.kinematics.map_search` with
+    `position_only`; `ik` overrides its settings). Every `True` has a confirmed solution;
+    `return_q` also returns them `(N, n)` (NaN where unreachable). `progress`: `True` (a bar
+    on stderr of the nodes settled) or a callable `progress(n)` (`wsmap._progress`).
     """
     robot = _check_arm(robot)
     nodes = _check_nodes("nodes", nodes)
@@ -111,25 +111,25 @@ def reachability_index(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, *,
                        return_bits: bool = False, ik: dict | None = None, seed: int = 0,
                        progress: bool | Callable[[int], object] = False, collision: Callable | None = None,
                        return_q: bool = False) -> NDArray[np.float64] | tuple[NDArray, ...]:
-    """The reachability index: float ``(N,)`` in [0, 1], the fraction of ``orientations`` (K, 3, 3)
-    reachable at each node (``T = transl(p)·R_k``); ``return_bits`` also returns the bool ``(N, K)``.
+    """The reachability index: float `(N,)` in [0, 1], the fraction of `orientations` (K, 3, 3)
+    reachable at each node (`T = transl(p)·R_k`); `return_bits` also returns the bool `(N, K)`.
 
-    ``method``: ``"auto"`` (exact for a closed-form family, else numerical), ``"exact"``,
-    ``"numerical"``. Numerically: nodes where the tool cannot reach at any orientation
-    (:func:`position_map`) are 0 without more work; the orientations are solved one after another in
-    an order where each is near one solved before (:func:`continuation_order`), every node starting
-    from its own solution there, then from its neighbours' (``ik`` overrides the search settings).
+    `method`: `"auto"` (exact for a closed-form family, else numerical), `"exact"`,
+    `"numerical"`. Numerically: nodes where the tool cannot reach at any orientation
+    (`position_map`) are 0 without more work; the orientations are solved one after another in
+    an order where each is near one solved before (`continuation_order`), every node starting
+    from its own solution there, then from its neighbours' (`ik` overrides the search settings).
 
-    ``progress``: ``True`` (a bar on stderr of the poses settled) or a callable ``progress(n)``
-    (:mod:`wsmap._progress`): the ``N x K`` node-orientation pairs, orientation after orientation;
-    numerically the ``N`` position-only targets of the reach map come first (``N x (K + 1)`` in all),
+    `progress`: `True` (a bar on stderr of the poses settled) or a callable `progress(n)`
+    (`wsmap._progress`): the `N x K` node-orientation pairs, orientation after orientation;
+    numerically the `N` position-only targets of the reach map come first (`N x (K + 1)` in all),
     and the pairs of the nodes it finds out of reach count as soon as it is done.
 
-    ``collision``: a configuration predicate (e.g. :class:`wsmap.collision.CollisionChecker`), as
-    :func:`wsmap.workspace.constant_orientation_map`: a pose counts only with a collision-free
+    `collision`: a configuration predicate (e.g. `wsmap.collision.CollisionChecker`), as
+    `wsmap.workspace.constant_orientation_map`: a pose counts only with a collision-free
     solution (every closed-form branch tried; the search keeps looking). The position pre-filter
-    stays the chain's (a collision-free pose has a position the chain reaches). ``return_q``
-    also returns the solutions ``(N, K, n)`` (NaN where a pose is not reached), after the bits.
+    stays the chain's (a collision-free pose has a position the chain reaches). `return_q`
+    also returns the solutions `(N, K, n)` (NaN where a pose is not reached), after the bits.
     """
     robot = _check_arm(robot)
     nodes = _check_nodes("nodes", nodes)
@@ -150,8 +150,8 @@ def reachability_index(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, *,
 
 
 def _index_bits(robot, nodes, R, method, ik, seed, update, valid, return_q):
-    """The bool ``(N, K)`` of :func:`reachability_index` and its solutions ``(N, K, n)`` (``None``
-    unless ``return_q``), ``update(n)`` called as pairs are settled."""
+    """The bool `(N, K)` of `reachability_index` and its solutions `(N, K, n)` (`None`
+    unless `return_q`), `update(n)` called as pairs are settled."""
     N, K = len(nodes), len(R)
     bits = np.zeros((N, K), dtype=bool)
     qs = np.full((N, K, robot.n), np.nan) if return_q else None
@@ -197,14 +197,14 @@ def _index_bits(robot, nodes, R, method, ik, seed, update, valid, return_q):
 
 
 def dexterous_map(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, **kw) -> np.ndarray:
-    """The dexterous workspace for a set of orientations: bool ``(N,)``, every one of ``orientations``
-    is reachable at the node (:func:`reachability_index` ``== 1``; same keywords but ``return_q``)."""
+    """The dexterous workspace for a set of orientations: bool `(N,)`, every one of `orientations`
+    is reachable at the node (`reachability_index` `== 1`; same keywords but `return_q`)."""
     _, bits = reachability_index(robot, nodes, orientations, return_bits=True, **kw)[:2]
     return bits.all(axis=1)
 
 
 def yoshikawa(J: ArrayLike) -> np.ndarray:
-    """Yoshikawa's manipulability ``√det(J Jᵀ)`` of Jacobians ``(..., 6, n)`` (0 where singular)."""
+    """Yoshikawa's manipulability `√det(J Jᵀ)` of Jacobians `(..., 6, n)` (0 where singular)."""
     J = np.asarray(J, dtype=np.float64)
     d = np.linalg.det(J @ np.swapaxes(J, -1, -2))
     return np.sqrt(np.maximum(d, 0.0))
@@ -212,20 +212,20 @@ def yoshikawa(J: ArrayLike) -> np.ndarray:
 
 def manipulability_map(robot: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0, 0.0, 0.0), *, convention: str = "standard",
                        method: str = "auto", ik: dict | None = None, seed: int = 0, progress: bool = False) -> np.ndarray:
-    """Manipulability map: float ``(N,)``, the largest Yoshikawa manipulability ``√det(J Jᵀ)`` over
-    the IK solutions found for the pose at each node (orientation ``rpy``, ``R = Rx·Ry·Rz``; pose
-    convention as :func:`wsmap.workspace.target_poses`), 0 where unreachable.
+    """Manipulability map: float `(N,)`, the largest Yoshikawa manipulability `√det(J Jᵀ)` over
+    the IK solutions found for the pose at each node (orientation `rpy`, `R = Rx·Ry·Rz`; pose
+    convention as `wsmap.workspace.target_poses`), 0 where unreachable.
 
     Exact for the closed-form families: the largest over every valid branch (all 8). Numerical: the
     solution the map search finds at each node (one per node; a redundant arm has others along its
     self-motion, so the value is a lower bound of the node's best).
 
-    Units: for a 6-joint arm ``J`` is square and ``√det(J Jᵀ) = |det J|``; every term of ``det J``
+    Units: for a 6-joint arm `J` is square and `√det(J Jᵀ) = |det J|`; every term of `det J`
     takes one entry from each row, three position rows (m/rad) and three rotation rows (rad/rad),
     so the value is in m³ (per rad³ of joint motion) with lengths in metres. (For n ≠ 6 joints the
     rows' units do not factor out so simply.) A batch of spherical-wrist arms:
-    :func:`manipulability_maps`. ``progress``: ``True`` (a bar on stderr of the nodes settled) or a
-    callable ``progress(n)`` (:mod:`wsmap._progress`).
+    `manipulability_maps`. `progress`: `True` (a bar on stderr of the nodes settled) or a
+    callable `progress(n)` (`wsmap._progress`).
     """
     robot = _check_arm(robot)
     nodes = _check_nodes("nodes", nodes)
@@ -257,13 +257,13 @@ def _manipulability(robot, nodes, T, method, ik, seed, update):
 
 
 
-#: Arms x nodes per block of :func:`manipulability_maps`: about 20 float64 temporaries of this size stay
+#: Arms x nodes per block of `manipulability_maps`: about 20 float64 temporaries of this size stay
 #: in cache (2.3 ms per 9261-node map on one thread against 3.7 ms with blocks of 2**20).
 _MANIP_BLOCK = 1 << 16
 
 
 def _manipulability_block(d, a, T, atol):
-    """The exact map of arms ``d``, ``a`` (b, 6) at poses ``T`` (N, 4, 4): (b, N)."""
+    """The exact map of arms `d`, `a` (b, 6) at poses `T` (N, 4, 4): (b, N)."""
     p, approach = T[:, :3, 3], T[:, :3, 2]
     d1, d3, d4 = d[:, 0:1], d[:, 2:3], d[:, 3:4]
     a2, a3 = a[:, 1:2], a[:, 2:3]
@@ -303,26 +303,26 @@ def _manipulability_block(d, a, T, atol):
 
 def manipulability_maps(arms: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0, 0.0, 0.0), *, convention: str = "standard",
                         atol: float = 1e-9) -> np.ndarray:
-    """Exact manipulability maps of a batch of spherical-wrist arms: float64 ``arms.batch_shape + (N,)``.
+    """Exact manipulability maps of a batch of spherical-wrist arms: float64 `arms.batch_shape + (N,)`.
 
-    The value :func:`manipulability_map` gives each arm with ``method="exact"`` (the largest
-    Yoshikawa ``√det(J Jᵀ)`` over the 8 closed-form branches, 0 where unreachable; m³ for these
-    6-DOF arms with lengths in m, see :func:`manipulability_map`), equal to it within ~1e-15, as
+    The value `manipulability_map` gives each arm with `method="exact"` (the largest
+    Yoshikawa `√det(J Jᵀ)` over the 8 closed-form branches, 0 where unreachable; m³ for these
+    6-DOF arms with lengths in m, see `manipulability_map`), equal to it within ~1e-15, as
     array operations over arms x nodes (in cache-sized blocks of a few arms, no loop over nodes),
     about 50 times faster per arm (2-4 ms against 0.1-0.16 s for 9261 nodes on one thread): for the
-    family ``|det J|`` factorises in closed form (comments in the code), so no IK branches or
+    family `|det J|` factorises in closed form (comments in the code), so no IK branches or
     Jacobians are built.
 
     Args:
-        arms: a :class:`~wsmap.kinematics.DHRobot` of the spherical-wrist family, one arm or a
+        arms: a `DHRobot` of the spherical-wrist family, one arm or a
             batch of any shape, without joint limits (the paper ignores them) or a tool.
-        nodes: ``(N, 3)`` flange positions in the base frame, metres.
-        rpy: the fixed orientation ``R = Rx·Ry·Rz`` (rad); ``convention`` as
-            :func:`wsmap.workspace.target_poses` (the two agree at ``rpy = (0, 0, 0)``).
-        atol: the reach tolerance of :func:`wsmap.kinematics.ikine_spherical_wrist`.
+        nodes: `(N, 3)` flange positions in the base frame, metres.
+        rpy: the fixed orientation `R = Rx·Ry·Rz` (rad); `convention` as
+            `wsmap.workspace.target_poses` (the two agree at `rpy = (0, 0, 0)`).
+        atol: the reach tolerance of `wsmap.kinematics.ikine_spherical_wrist`.
 
     Raises:
-        TypeError: ``arms`` is not a ``DHRobot``.
+        TypeError: `arms` is not a `DHRobot`.
         ValueError: arms outside the family, arms with joint limits, bad nodes or convention.
     """
     if not isinstance(arms, DHRobot):

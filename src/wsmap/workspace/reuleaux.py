@@ -1,30 +1,30 @@
-"""Reachability maps in the HDF5 layout of Reuleaux (ROS ``map_creator``), for base placement and
+"""Reachability maps in the HDF5 layout of Reuleaux (ROS `map_creator`), for base placement and
 visualisation in the ROS world.
 
-The layout, as ``map_creator/src/hdf5_dataset.cpp`` (``Hdf5Dataset::saveReachMapsToDataset``) of
+The layout, as `map_creator/src/hdf5_dataset.cpp` (`Hdf5Dataset::saveReachMapsToDataset`) of
 `ros-industrial-consortium/reuleaux <https://github.com/ros-industrial-consortium/reuleaux>`_ writes
-it and ``load_reachability_map`` / ``create_inverse_reachability_map`` read it:
+it and `load_reachability_map` / `create_inverse_reachability_map` read it:
 
-* ``/Spheres/sphere_dataset``: float64 ``(S, 4)``, one row per *reachable* sphere (voxel centre):
-  ``x, y, z`` (m, robot base frame) and the reachability index ``D = 100·R/N`` (percent: ``R`` of
-  the ``N`` poses tested at the sphere are reachable). Spheres with no reachable pose are absent.
-  Its attribute ``Resolution``: float32 ``(1,)``, the distance between sphere centres (m).
-* ``/Poses/poses_dataset``: float32 ``(M, 10)``, one row per reachable pose: the sphere centre
-  ``x, y, z``, then the pose as position ``x, y, z`` and quaternion ``qx, qy, qz, qw`` (scalar last,
-  ``geometry_msgs/Pose`` order). Chunked, ``maxshape (None, 10)``, chunks of ``ceil(M/2)`` rows.
+* `/Spheres/sphere_dataset`: float64 `(S, 4)`, one row per *reachable* sphere (voxel centre):
+  `x, y, z` (m, robot base frame) and the reachability index `D = 100·R/N` (percent: `R` of
+  the `N` poses tested at the sphere are reachable). Spheres with no reachable pose are absent.
+  Its attribute `Resolution`: float32 `(1,)`, the distance between sphere centres (m).
+* `/Poses/poses_dataset`: float32 `(M, 10)`, one row per reachable pose: the sphere centre
+  `x, y, z`, then the pose as position `x, y, z` and quaternion `qx, qy, qz, qw` (scalar last,
+  `geometry_msgs/Pose` order). Chunked, `maxshape (None, 10)`, chunks of `ceil(M/2)` rows.
 
-What wsmap writes: the reachability index over a set of orientations (:func:`reachability_index`
-with ``return_bits``): a node is a sphere, each reachable orientation ``R_k`` at it a pose
-``T = transl(p)·R_k``. Reuleaux itself puts its poses on a small sphere of radius ``resolution``
+What wsmap writes: the reachability index over a set of orientations (`reachability_index`
+with `return_bits`): a node is a sphere, each reachable orientation `R_k` at it a pose
+`T = transl(p)·R_k`. Reuleaux itself puts its poses on a small sphere of radius `resolution`
 around the centre, each orientation pointing at the centre; wsmap's pose positions are the centre
 itself (the pose IK was solved for), so a pose's position equals its sphere's. The index is
-``100·mean`` of the node's bits, in float64 (Reuleaux computes it in float32 before storing it as
-float64; the two agree to ~1e-5 %). Other map kinds: ``dexterous`` exports the same spheres and
-poses (its nodes are those at 100 %); ``constant`` exports its one orientation (``K = 1``, standard
-convention); ``reach``, ``orientation`` and ``manipulability`` are not reachability over a set of
-orientations and do not export (:attr:`wsmap.workspace.kinds.MapKind.poses`). ``docs/reuleaux.md``.
+`100·mean` of the node's bits, in float64 (Reuleaux computes it in float32 before storing it as
+float64; the two agree to ~1e-5 %). Other map kinds: `dexterous` exports the same spheres and
+poses (its nodes are those at 100 %); `constant` exports its one orientation (`K = 1`, standard
+convention); `reach`, `orientation` and `manipulability` are not reachability over a set of
+orientations and do not export (`wsmap.workspace.kinds.MapKind.poses`). `docs/reuleaux.md`.
 
-Needs h5py (``pip install 'wsmap[h5]'``).
+Needs h5py (`pip install 'wsmap[h5]'`).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
 
 __all__ = ["ReuleauxMap", "save_reuleaux", "load_reuleaux", "REULEAUX_SPHERES", "REULEAUX_POSES"]
 
-#: The datasets' paths in the file (groups ``/Spheres`` and ``/Poses``).
+#: The datasets' paths in the file (groups `/Spheres` and `/Poses`).
 REULEAUX_SPHERES = "/Spheres/sphere_dataset"
 REULEAUX_POSES = "/Poses/poses_dataset"
 _RESOLUTION = "Resolution"
@@ -61,7 +61,7 @@ def _h5py(why: str):
 
 
 def _quaternions(R: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``(K, 4)`` ``(qx, qy, qz, qw)`` of rotations ``(K, 3, 3)``, ``qw >= 0``."""
+    """Unit quaternions `(K, 4)` `(qx, qy, qz, qw)` of rotations `(K, 3, 3)`, `qw >= 0`."""
     from scipy.spatial.transform import Rotation
 
     q = Rotation.from_matrix(R).as_quat()  # scalar last, as geometry_msgs
@@ -73,10 +73,10 @@ class ReuleauxMap:
     """The content of a Reuleaux reachability file, as arrays (float64; the file stores poses in float32).
 
     Attributes:
-        spheres: ``(S, 3)`` reachable sphere centres, m, robot base frame.
-        ri: ``(S,)`` their reachability index in percent, ``100·R/N``.
-        pose_spheres: ``(M, 3)`` the sphere centre of each reachable pose, m.
-        poses: ``(M, 7)`` the poses, position (m) and quaternion ``qx, qy, qz, qw`` (scalar last).
+        spheres: `(S, 3)` reachable sphere centres, m, robot base frame.
+        ri: `(S,)` their reachability index in percent, `100·R/N`.
+        pose_spheres: `(M, 3)` the sphere centre of each reachable pose, m.
+        poses: `(M, 7)` the poses, position (m) and quaternion `qx, qy, qz, qw` (scalar last).
         resolution: the distance between sphere centres, m.
     """
 
@@ -110,10 +110,10 @@ class ReuleauxMap:
     # ------------------------------------------------------------------ from and to wsmap maps
     @classmethod
     def from_map(cls, grid: Mapping, bits: ArrayLike, orientations: ArrayLike) -> "ReuleauxMap":
-        """The Reuleaux map of a reachability index: ``grid`` an R3 grid spec
-        (:func:`wsmap.workspace.grid_spec`, one step on every axis: Reuleaux has one resolution),
-        ``bits`` bool ``(N, K)`` in its node order (x fastest), whether orientation ``k`` of
-        ``orientations`` ``(K, 3, 3)`` is reachable at node ``i`` (``T = transl(p_i)·R_k``)."""
+        """The Reuleaux map of a reachability index: `grid` an R3 grid spec
+        (`wsmap.workspace.grid_spec`, one step on every axis: Reuleaux has one resolution),
+        `bits` bool `(N, K)` in its node order (x fastest), whether orientation `k` of
+        `orientations` `(K, 3, 3)` is reachable at node `i` (`T = transl(p_i)·R_k`)."""
         nodes = _grid_nodes(grid)
         R = check_rotations("orientations", orientations)
         bits = np.asarray(bits)
@@ -129,8 +129,8 @@ class ReuleauxMap:
                    poses=poses, resolution=float(step[0]))
 
     def orientations(self, tol: float = 1e-5) -> np.ndarray:
-        """The distinct orientations ``(K, 3, 3)`` of the poses (quaternions equal up to sign within
-        ``tol``, the float32 storage), in the order they first appear."""
+        """The distinct orientations `(K, 3, 3)` of the poses (quaternions equal up to sign within
+        `tol`, the float32 storage), in the order they first appear."""
         from scipy.spatial.transform import Rotation
 
         return Rotation.from_quat(self._distinct(tol)).as_matrix()
@@ -148,13 +148,13 @@ class ReuleauxMap:
 
     def to_map(self, grid: Mapping | None = None, orientations: ArrayLike | None = None,
                tol: float = 1e-5) -> tuple[np.ndarray, dict, np.ndarray, np.ndarray]:
-        """A wsmap map of the file: ``(index (N,), grid, bits (N, K), orientations (K, 3, 3))``.
+        """A wsmap map of the file: `(index (N,), grid, bits (N, K), orientations (K, 3, 3))`.
 
-        ``index`` is the file's ``ri / 100`` at its spheres and 0 at the other nodes (float64 in
-        [0, 1], :func:`wsmap.workspace.reachability_index`'s values); ``bits[i, k]``: a pose at node
-        ``i`` has orientation ``k``. ``grid`` (default: the spheres' bounding box at the file's
-        resolution) must hold every sphere on a node; ``orientations`` (default:
-        :meth:`orientations`) must hold every pose's orientation (within ``tol``)."""
+        `index` is the file's `ri / 100` at its spheres and 0 at the other nodes (float64 in
+        [0, 1], `wsmap.workspace.reachability_index`'s values); `bits[i, k]`: a pose at node
+        `i` has orientation `k`. `grid` (default: the spheres' bounding box at the file's
+        resolution) must hold every sphere on a node; `orientations` (default:
+        `orientations`) must hold every pose's orientation (within `tol`)."""
         from scipy.spatial.transform import Rotation
 
         from .maps import grid_spec
@@ -180,7 +180,7 @@ class ReuleauxMap:
 
     # ------------------------------------------------------------------ the file
     def save(self, path: PathLike) -> Path:
-        """Write the map to ``path`` (``.h5``) in Reuleaux's layout (module docstring), atomically."""
+        """Write the map to `path` (`.h5`) in Reuleaux's layout (module docstring), atomically."""
         path = check_output_path(path, "Reuleaux map")
         if path.suffix != ".h5":
             raise ValueError(f"a Reuleaux map is an .h5 file (its loader insists), got {str(path)!r}")
@@ -199,7 +199,7 @@ class ReuleauxMap:
 
     @classmethod
     def load(cls, path: PathLike) -> "ReuleauxMap":
-        """Read a Reuleaux reachability file (:class:`ReuleauxFileError` naming what is missing)."""
+        """Read a Reuleaux reachability file (`ReuleauxFileError` naming what is missing)."""
         p = Path(path)
         if not p.is_file():
             raise ReuleauxFileError(f"{path}: no such file")
@@ -237,7 +237,7 @@ def _grid_nodes(grid: Mapping) -> np.ndarray:
 
 
 def _node_index(grid: Mapping, points: np.ndarray, what: str) -> np.ndarray:
-    """Flat node indices (x fastest) of ``points`` (n, 3) on ``grid``; ``ValueError`` off the grid."""
+    """Flat node indices (x fastest) of `points` (n, 3) on `grid`; `ValueError` off the grid."""
     axes = grid_axes(grid["lo"], grid["hi"], grid["step"])
     lo = np.array([a[0] for a in axes])
     step = np.broadcast_to(np.asarray(grid["step"], dtype=np.float64), (3,))
@@ -251,17 +251,17 @@ def _node_index(grid: Mapping, points: np.ndarray, what: str) -> np.ndarray:
 
 
 def save_reuleaux(path: PathLike, grid: Mapping, bits: ArrayLike, orientations: ArrayLike) -> Path:
-    """Write a reachability index as a Reuleaux reachability map (``.h5``; module docstring).
+    """Write a reachability index as a Reuleaux reachability map (`.h5`; module docstring).
 
     Args:
-        path: the output file, ``.h5``; written atomically.
-        grid: the R3 grid spec of the map (:func:`wsmap.workspace.grid_spec`), one step on every axis.
-        bits: bool ``(N, K)``, orientation ``k`` reachable at node ``i`` (``T = transl(p_i)·R_k``):
-            ``reachability_index(..., return_bits=True)[1]``.
-        orientations: ``(K, 3, 3)`` the rotations of the columns of ``bits``.
+        path: the output file, `.h5`; written atomically.
+        grid: the R3 grid spec of the map (`wsmap.workspace.grid_spec`), one step on every axis.
+        bits: bool `(N, K)`, orientation `k` reachable at node `i` (`T = transl(p_i)·R_k`):
+            `reachability_index(..., return_bits=True)[1]`.
+        orientations: `(K, 3, 3)` the rotations of the columns of `bits`.
 
-    Returns the path. ``ValueError`` before anything is written for a bad grid, shapes or path;
-    :class:`wsmap._optional.MissingDependency` without h5py.
+    Returns the path. `ValueError` before anything is written for a bad grid, shapes or path;
+    `wsmap._optional.MissingDependency` without h5py.
     """
     check_output_path(path, "Reuleaux map")
     _h5py("a Reuleaux map (.h5)")
@@ -269,6 +269,6 @@ def save_reuleaux(path: PathLike, grid: Mapping, bits: ArrayLike, orientations: 
 
 
 def load_reuleaux(path: PathLike) -> ReuleauxMap:
-    """Read a Reuleaux reachability map (any writer's: Reuleaux's ``map_creator`` or
-    :func:`save_reuleaux`); :meth:`ReuleauxMap.to_map` turns it into a wsmap map."""
+    """Read a Reuleaux reachability map (any writer's: Reuleaux's `map_creator` or
+    `save_reuleaux`); `ReuleauxMap.to_map` turns it into a wsmap map."""
     return ReuleauxMap.load(path)

@@ -4,18 +4,18 @@ orientation, mark the grid cell each one lands in.
 This is how sampling-based reachability maps are made (RM4D's construction; the experience RAM,
 "Reachability Across Morphologies", trains its one network on): no inverse kinematics, one
 forward-kinematics pass per sample. It costs little per arm and needs no solver, but it is an
-approximation both ways against the exact map of :func:`wsmap.workspace.constant_orientation_map`:
+approximation both ways against the exact map of `wsmap.workspace.constant_orientation_map`:
 
 * a cell counts as reachable when some sample's flange lands in it (within half a step of the node
-  on every axis) with its rotation within ``angle_tol`` of the map's: positions near the border
-  that are reached only at another orientation come in (false positives, fewer as ``angle_tol``
+  on every axis) with its rotation within `angle_tol` of the map's: positions near the border
+  that are reached only at another orientation come in (false positives, fewer as `angle_tol`
   shrinks);
 * a cell no sample landed in counts as unreachable: the share of configurations that keep the tool
-  within ``angle_tol`` of one orientation is about ``(angle_tol - sin angle_tol) / pi`` (0.34 % at
-  0.4 rad), so thin parts of the map are missed unless ``samples`` is large (false negatives).
+  within `angle_tol` of one orientation is about `(angle_tol - sin angle_tol) / pi` (0.34 % at
+  0.4 rad), so thin parts of the map are missed unless `samples` is large (false negatives).
 
 The project's own labels come from the map search (exact up to the solver's tolerance); this module
-is the baseline those labels are measured against (:mod:`wsmap.learn.morph_model`).
+is the baseline those labels are measured against (`wsmap.learn.morph_model`).
 """
 
 from __future__ import annotations
@@ -38,8 +38,8 @@ __all__ = ["fk_sampled_maps", "orientation_share"]
 
 
 def orientation_share(angle_tol: float) -> float:
-    """The share of uniformly random rotations within ``angle_tol`` (rad) of a given one:
-    ``(angle_tol - sin angle_tol) / pi`` (the Haar measure of a ball in SO(3))."""
+    """The share of uniformly random rotations within `angle_tol` (rad) of a given one:
+    `(angle_tol - sin angle_tol) / pi` (the Haar measure of a ball in SO(3))."""
     t = float(angle_tol)
     return (t - math.sin(t)) / math.pi
 
@@ -53,15 +53,15 @@ def _positive_int(name: str, value) -> int:
 def fk_sampled_maps(robot: Arm, lo: float | ArrayLike, hi: float | ArrayLike, step: float | ArrayLike, rpy: ArrayLike, *,
                     convention: str = "standard", samples: int = 1_000_000, angle_tol: float = 0.4, seed: int = 0,
                     chunk: int = 4096) -> NDArray[np.bool_]:
-    """The constant-orientation map of ``robot`` (one arm or a batch of arms sharing joint types:
-    a :class:`~wsmap.kinematics.chain.SerialChain` with a batch shape) on the grid ``lo..hi`` at
-    ``step`` (m, scalars or 3-tuples; nodes in :func:`~wsmap.workspace.cartesian_grid` order) from
-    ``samples`` forward-kinematics samples per arm, uniform inside the joint limits.
+    """The constant-orientation map of `robot` (one arm or a batch of arms sharing joint types:
+    a `SerialChain` with a batch shape) on the grid `lo..hi` at
+    `step` (m, scalars or 3-tuples; nodes in `cartesian_grid` order) from
+    `samples` forward-kinematics samples per arm, uniform inside the joint limits.
 
-    A node is ``True`` where some sample's tool pose has its rotation within ``angle_tol`` (rad)
-    of ``R = rpy2r(rpy)`` and its position in the node's cell: the flange point ``t`` itself
-    (``"standard"``: ``T = transl(p)·R``) or ``R^T t`` (``"paper"``: ``T = R·transl(p)``), within
-    half a step of the node on every axis. Returns bool ``(*batch, N)``. Deterministic in ``seed``.
+    A node is `True` where some sample's tool pose has its rotation within `angle_tol` (rad)
+    of `R = rpy2r(rpy)` and its position in the node's cell: the flange point `t` itself
+    (`"standard"`: `T = transl(p)·R`) or `R^T t` (`"paper"`: `T = R·transl(p)`), within
+    half a step of the node on every axis. Returns bool `(*batch, N)`. Deterministic in `seed`.
     """
     if convention not in CONVENTIONS:
         raise ValueError(f"unknown convention {convention!r}; choose one of {', '.join(CONVENTIONS)}")

@@ -1,23 +1,23 @@
 """Inverse kinematics: closed forms, the paper's Levenberg–Marquardt, the reachability search.
 
-Every solver returns one answer type, :class:`~.solution.IKSolution` (``q``, ``success``,
-``iterations``, ``residual``, ``reason``; batched arrays).
+Every solver returns one answer type, `IKSolution` (`q`, `success`,
+`iterations`, `residual`, `reason`; batched arrays).
 
-* :mod:`.solution` — :class:`IKSolution` and :class:`IKReason`, why a target failed;
-* :mod:`.registry` — the closed-form extension point: :class:`ClosedForm`, :func:`register`,
-  :func:`closed_form_for` (which closed form solves an arm, or None), the shared branch numbering;
-* :mod:`.closed_forms` — one module per closed form, each registering itself
-  (:mod:`.closed_forms.spherical_wrist`, :mod:`.closed_forms.spherical_wrist_offset`,
-  :mod:`.closed_forms.ur`); a new closed form is a new module there;
-* :mod:`.geometry` — an arm's joint axes as lines in the base frame at ``q = 0`` and its
+* `.solution` — `IKSolution` and `IKReason`, why a target failed;
+* `.registry` — the closed-form extension point: `ClosedForm`, `register`,
+  `closed_form_for` (which closed form solves an arm, or None), the shared branch numbering;
+* `.closed_forms` — one module per closed form, each registering itself
+  (`.closed_forms.spherical_wrist`, `.closed_forms.spherical_wrist_offset`,
+  `.closed_forms.ur`); a new closed form is a new module there;
+* `.geometry` — an arm's joint axes as lines in the base frame at `q = 0` and its
   standard-DH equivalent, whatever frames describe it (how closed forms recognise a URDF);
-* :mod:`.lm` — :func:`ikine_LM`, the paper's one-start LM (DH arms);
-* :mod:`.search` — :func:`ikine_search` and :func:`map_search`, the multi-start reachability search
+* `.lm` — `ikine_LM`, the paper's one-start LM (DH arms);
+* `.search` — `ikine_search` and `map_search`, the multi-start reachability search
   with joint limits inside it, every success confirmed by forward kinematics;
-* :mod:`.reach_filter` — the search's sound pre-filters (targets proven out of reach);
-* :mod:`.kernel` — the bridge to the compiled LM kernel (:mod:`wsmap.kinematics.lm_compiled`);
-* :mod:`.memo` — content-keyed memos of what the solvers derive from an arm;
-* :mod:`.lm_reference` — the LM iteration in numpy, the reference the tests compare the kernel with.
+* `.reach_filter` — the search's sound pre-filters (targets proven out of reach);
+* `.kernel` — the bridge to the compiled LM kernel (`wsmap.kinematics.lm_compiled`);
+* `.memo` — content-keyed memos of what the solvers derive from an arm;
+* `.lm_reference` — the LM iteration in numpy, the reference the tests compare the kernel with.
 """
 
 from . import closed_forms  # noqa: F401  (imports and so registers every closed form)

@@ -1,18 +1,18 @@
 """The geometry of a serial arm, whatever frames its description uses: joint axes as lines in the
 base frame at the zero pose, and the standard-DH chain with the same kinematics.
 
-A URDF (or any :class:`~wsmap.kinematics.chain.SerialChain`) may turn its joints about ``y`` or
+A URDF (or any `SerialChain`) may turn its joints about `y` or
 any other axis of frames placed anywhere; a closed form that recognises its family by the numbers
 of a DH table would miss it. What does not depend on the description is the arm's geometry: the
-lines of the joint axes in the base (world) frame at ``q = 0`` and the tool pose there
-(:func:`joint_lines`), from which the forward kinematics is the product of exponentials
-``T(q) = exp(ξ1·q1) ··· exp(ξn·qn) · M``. :func:`dh_equivalent` rewrites that geometry as a
-standard-DH chain (fixed transforms ``Tz(d)·Tx(a)·Rx(alpha)`` between joints about ``±z``, the DH
-``θ`` at the zero pose as joint offsets, everything before joint 1 and after joint ``n`` in the
+lines of the joint axes in the base (world) frame at `q = 0` and the tool pose there
+(`joint_lines`), from which the forward kinematics is the product of exponentials
+`T(q) = exp(ξ1·q1) ··· exp(ξn·qn) · M`. `dh_equivalent` rewrites that geometry as a
+standard-DH chain (fixed transforms `Tz(d)·Tx(a)·Rx(alpha)` between joints about `±z`, the DH
+`θ` at the zero pose as joint offsets, everything before joint 1 and after joint `n` in the
 first and last fixed transforms), the same joint coordinates and limits, checked against the
 original's forward kinematics; closed forms that test DH numbers run their test on it.
 
-Units: metres and radians; frames are right-handed; shapes carry the chain's batch shape ``...``.
+Units: metres and radians; frames are right-handed; shapes carry the chain's batch shape `...`.
 """
 
 from __future__ import annotations
@@ -36,11 +36,11 @@ _EQUIVALENTS = Memo()
 
 
 def joint_lines(robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The joint axes at ``q = 0`` in the base (world) frame, and the tool pose there.
+    """The joint axes at `q = 0` in the base (world) frame, and the tool pose there.
 
-    Returns ``(w, p, M)``: ``w`` (..., n, 3) unit directions (positive ``q`` turns right-handed
-    about ``w``; a prismatic joint moves along it), ``p`` (..., n, 3) a point of each axis (the
-    origin of the joint's frame), ``M`` (..., 4, 4) the tool pose (``robot.fkine(0)``). ``...`` is
+    Returns `(w, p, M)`: `w` (..., n, 3) unit directions (positive `q` turns right-handed
+    about `w`; a prismatic joint moves along it), `p` (..., n, 3) a point of each axis (the
+    origin of the joint's frame), `M` (..., 4, 4) the tool pose (`robot.fkine(0)`). `...` is
     the robot's batch shape.
     """
     chain = as_chain(robot)
@@ -58,7 +58,7 @@ def _dot(a, b):
 
 
 def _dh_link(d, a, alpha):
-    """``Tz(d)·Tx(a)·Rx(alpha)``, (..., 4, 4)."""
+    """`Tz(d)·Tx(a)·Rx(alpha)`, (..., 4, 4)."""
     c, s = np.cos(alpha), np.sin(alpha)
     T = np.zeros(np.shape(d) + (4, 4))
     T[..., 0, 0] = 1.0
@@ -69,7 +69,7 @@ def _dh_link(d, a, alpha):
 
 
 def _frame(x, z, o):
-    """The frame with axes ``x``, ``z × x``, ``z`` and origin ``o`` (..., 4, 4)."""
+    """The frame with axes `x`, `z × x`, `z` and origin `o` (..., 4, 4)."""
     T = np.zeros(o.shape[:-1] + (4, 4))
     T[..., :3, 0], T[..., :3, 1], T[..., :3, 2], T[..., :3, 3] = x, np.cross(z, x), z, o
     T[..., 3, 3] = 1.0
@@ -86,7 +86,7 @@ def _inverse(T):
 
 
 def _any_normal(z):
-    """A unit vector perpendicular to ``z`` (..., 3): ``z × e`` with ``e`` the world axis least along ``z``."""
+    """A unit vector perpendicular to `z` (..., 3): `z × e` with `e` the world axis least along `z`."""
     e = np.zeros(z.shape)
     k = np.argmin(np.abs(z), axis=-1)
     np.put_along_axis(e, k[..., None], 1.0, axis=-1)
@@ -161,18 +161,18 @@ def _build(chain: SerialChain):
 
 
 def dh_equivalent(robot) -> tuple[SerialChain | None, np.ndarray]:
-    """The standard-DH chain with the kinematics of ``robot``, whatever frames it is described in.
+    """The standard-DH chain with the kinematics of `robot`, whatever frames it is described in.
 
-    Returns ``(chain, ok)``: ``chain`` a :class:`SerialChain` whose fixed transforms after joints
-    ``1 .. n-1`` are ``Tz(d)·Tx(a)·Rx(alpha)`` (standard DH: frame ``j`` has ``z`` along joint
-    ``j + 1``'s axis and ``x`` along the common normal of axes ``j`` and ``j + 1``), whose joints
-    turn about ``±z`` of their frames (``-z`` where an axis is anti-parallel to the one before, so
-    that parallel axes have ``alpha = 0``), with the DH angles ``θ`` at the zero pose as joint
-    offsets, the base, ``F_0`` and everything before joint 1 in ``F_0`` and the tool in ``F_n``;
-    the same joint coordinates (rad) and limits as ``robot``. Where axes are parallel, the normal
-    passes through the previous frame's origin (``d = 0``). ``ok`` (batch shape) is False for an
+    Returns `(chain, ok)`: `chain` a `SerialChain` whose fixed transforms after joints
+    `1 .. n-1` are `Tz(d)·Tx(a)·Rx(alpha)` (standard DH: frame `j` has `z` along joint
+    `j + 1`'s axis and `x` along the common normal of axes `j` and `j + 1`), whose joints
+    turn about `±z` of their frames (`-z` where an axis is anti-parallel to the one before, so
+    that parallel axes have `alpha = 0`), with the DH angles `θ` at the zero pose as joint
+    offsets, the base, `F_0` and everything before joint 1 in `F_0` and the tool in `F_n`;
+    the same joint coordinates (rad) and limits as `robot`. Where axes are parallel, the normal
+    passes through the previous frame's origin (`d = 0`). `ok` (batch shape) is False for an
     arm whose equivalent differs from it by more than 1e-9 in forward kinematics at random
-    configurations (or whose axis flips differ from the first arm's). ``(None, all False)`` for a
+    configurations (or whose axis flips differ from the first arm's). `(None, all False)` for a
     chain with a prismatic joint. Memoised by the chain's numbers; the result is shared, not to be
     changed.
     """

@@ -1,12 +1,12 @@
-"""The bridge from arms and targets to the compiled LM kernel (:mod:`wsmap.kinematics.lm_compiled`).
+"""The bridge from arms and targets to the compiled LM kernel (`wsmap.kinematics.lm_compiled`).
 
-* :func:`arm_arrays` — a chain's numbers laid out as the kernel reads them;
-* :func:`run_compiled` — one call of the kernel on a set of targets;
-* :func:`pose_keys` — the per-target keys of the random starts (counter-based hashing, so a pose
-  gets the same starts wherever it sits in a batch), and :func:`start_box`, where they are drawn.
+* `arm_arrays` — a chain's numbers laid out as the kernel reads them;
+* `run_compiled` — one call of the kernel on a set of targets;
+* `pose_keys` — the per-target keys of the random starts (counter-based hashing, so a pose
+  gets the same starts wherever it sits in a batch), and `start_box`, where they are drawn.
 
-Used by the paper's LM (:mod:`.lm`) and the search (:mod:`.search`); the numpy reference
-(:mod:`.lm_reference`) draws the same starts from :func:`mix` and :func:`start_box`.
+Used by the paper's LM (`.lm`) and the search (`.search`); the numpy reference
+(`.lm_reference`) draws the same starts from `mix` and `start_box`.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ _TWO_PI = 2.0 * np.pi
 
 
 def start_box(limits: np.ndarray):
-    """Bounds ``(lo, hi)`` (..., n) that random starts are drawn in: the limits, ``[-pi, pi)`` where unlimited."""
+    """Bounds `(lo, hi)` (..., n) that random starts are drawn in: the limits, `[-pi, pi)` where unlimited."""
     lo = np.where(np.isfinite(limits[..., 0]), limits[..., 0], -np.pi)
     hi = np.where(np.isfinite(limits[..., 1]), limits[..., 1], np.pi)
     # a half-open revolute range: one turn from its finite end
@@ -40,7 +40,7 @@ def mix(z):
 
 
 def pose_keys(seed: int, T) -> np.ndarray:
-    """A 64-bit key per target pose ``(K, 4, 4)``: the seed mixed with the bits of ``T[:3, :]``,
+    """A 64-bit key per target pose `(K, 4, 4)`: the seed mixed with the bits of `T[:3, :]`,
     so a pose gets the same random starts wherever it sits in a batch."""
     # + 0.0 turns -0.0 into 0.0, so that equal poses have equal keys
     words = np.ascontiguousarray(T[:, :3, :] + 0.0, dtype=np.float64).reshape(len(T), 12).view(np.uint64)
@@ -48,15 +48,15 @@ def pose_keys(seed: int, T) -> np.ndarray:
 
 
 def arm_arrays(chain: SerialChain) -> dict:
-    """The numbers of a chain (or a batch, flattened to ``B`` arms) as the compiled kernel reads them.
+    """The numbers of a chain (or a batch, flattened to `B` arms) as the compiled kernel reads them.
 
-    ``Rf`` (B, n+1, 3, 3) and ``tf`` (B, n+1, 3): the fixed transforms with the base folded into the
-    first and the tool into the last; ``off``, ``lo``, ``hi`` (B, n): offsets and limits (±inf where
-    unlimited); ``clo``, ``chi``, ``clipped`` (B, n): the bounds the LM projects onto (the clipped
+    `Rf` (B, n+1, 3, 3) and `tf` (B, n+1, 3): the fixed transforms with the base folded into the
+    first and the tool into the last; `off`, `lo`, `hi` (B, n): offsets and limits (±inf where
+    unlimited); `clo`, `chi`, `clipped` (B, n): the bounds the LM projects onto (the clipped
     joints: prismatic, or revolute with a range narrower than a turn; the others move freely and are
-    brought into their range by a multiple of 2·pi at the end); ``limited`` (B,): any joint clipped;
-    ``unlimited`` (B, n): revolute without limits; ``blo``, ``bhi`` (B, n): the box random starts are
-    drawn in; shared ``axes`` (n, 3), ``pris`` and ``zax`` (n,) bool.
+    brought into their range by a multiple of 2·pi at the end); `limited` (B,): any joint clipped;
+    `unlimited` (B, n): revolute without limits; `blo`, `bhi` (B, n): the box random starts are
+    drawn in; shared `axes` (n, 3), `pris` and `zax` (n,) bool.
     """
     n = chain.n
     batch = chain.batch_shape
@@ -90,17 +90,17 @@ def arm_arrays(chain: SerialChain) -> dict:
 
 
 def unsolved(count: int, n: int):
-    """The answers of ``count`` targets before any start has run (the arrays every solver fills):
-    ``q`` (count, n) NaN, ``ok`` False, ``iterations`` 0, ``residual`` inf, ``start`` -1."""
+    """The answers of `count` targets before any start has run (the arrays every solver fills):
+    `q` (count, n) NaN, `ok` False, `iterations` 0, `residual` inf, `start` -1."""
     return (np.full((count, n), np.nan), np.zeros(count, dtype=bool), np.zeros(count, dtype=np.int64),
             np.full(count, np.inf), np.full(count, -1, dtype=np.int64))
 
 
 def run_compiled(mode, aa: dict, arm, T, keys, qexp, nexp, k_first, k_last, ilimit, rlimit, tol, lam, confirm_tol,
                  gtol=0.0, free_pass=True):
-    """Run :func:`wsmap.kinematics.lm_compiled.run_targets` on targets ``T`` (M, 4, 4) of arms
-    ``arm`` (M,) (indices into ``aa``, from :func:`arm_arrays`). Returns ``q`` (M, n), ``ok``,
-    ``iterations``, ``residual``, ``start`` (M,)."""
+    """Run `wsmap.kinematics.lm_compiled.run_targets` on targets `T` (M, 4, 4) of arms
+    `arm` (M,) (indices into `aa`, from `arm_arrays`). Returns `q` (M, n), `ok`,
+    `iterations`, `residual`, `start` (M,)."""
     M, n = len(T), aa["axes"].shape[0]
     q, ok, it, res, start = unsolved(M, n)
     if M:

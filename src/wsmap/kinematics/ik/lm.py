@@ -1,7 +1,7 @@
 """The paper's Levenberg–Marquardt inverse kinematics (Appendix), batched over targets.
 
-One compiled loop per target (:mod:`wsmap.kinematics.lm_compiled`, ``MODE_PAPER``), the targets
-spread over threads; :func:`wsmap.kinematics.ik.lm_reference.ikine_LM_reference` is the same
+One compiled loop per target (`wsmap.kinematics.lm_compiled`, `MODE_PAPER`), the targets
+spread over threads; `wsmap.kinematics.ik.lm_reference.ikine_LM_reference` is the same
 iteration in numpy, the reference the tests compare it with.
 """
 
@@ -45,14 +45,14 @@ def ikine_LM(
         accept if |e(q + dq)| < |e(q)|:  q += dq, λ /= 2, rejections = 0
         else                             λ *= 2, rejections += 1, fail when rejections > rlimit
 
-    stopping with success once ``|e| <= tol`` and with failure after ``ilimit`` iterations.
-    Every target carries its own ``λ`` and counters.
+    stopping with success once `|e| <= tol` and with failure after `ilimit` iterations.
+    Every target carries its own `λ` and counters.
 
     Parameters
     ----------
     robot : DHRobot
         Its batch shape broadcasts with the targets' batch shape (the paper's arms; for a chain use
-        :func:`wsmap.kinematics.ik.search.ikine_search`).
+        `wsmap.kinematics.ik.search.ikine_search`).
     T : array_like, shape (..., 4, 4)
         Target tool poses in the base frame.
     q0 : array_like, shape (n,) or (..., n), optional
@@ -64,16 +64,16 @@ def ikine_LM(
     chunk : int
         Targets solved together; bounds memory.
     progress : callable, optional
-        Called with the number of targets finished after each chunk (e.g. ``tqdm.update``).
+        Called with the number of targets finished after each chunk (e.g. `tqdm.update`).
 
     Returns
     -------
-    :class:`~wsmap.kinematics.ik.solution.IKSolution` of the broadcast batch shape: ``q`` the last
-    accepted iterate (rad; meaningful where ``success``), ``success`` the error norm reached
-    ``tol`` (and, with ``check_limits``, ``q`` is inside the limits), ``iterations`` as the
-    Appendix's loop counts them (1 for a start already on the target), ``residual`` the final error
-    norm, ``reason`` ``OUTSIDE_LIMITS`` (converged outside the limits) or ``NO_CONVERGENCE``;
-    ``start`` None.
+    `IKSolution` of the broadcast batch shape: `q` the last
+    accepted iterate (rad; meaningful where `success`), `success` the error norm reached
+    `tol` (and, with `check_limits`, `q` is inside the limits), `iterations` as the
+    Appendix's loop counts them (1 for a start already on the target), `residual` the final error
+    norm, `reason` `OUTSIDE_LIMITS` (converged outside the limits) or `NO_CONVERGENCE`;
+    `start` None.
     """
     if not isinstance(robot, DHRobot):
         raise TypeError(f"ikine_LM takes a DHRobot (the paper's arms), got {type(robot).__name__}; "

@@ -1,16 +1,16 @@
 """The numpy reference of the LM iteration: the same iteration as the compiled kernel
-(:mod:`wsmap.kinematics.lm_compiled`), written as vectorised numpy over rows of targets.
+(`wsmap.kinematics.lm_compiled`), written as vectorised numpy over rows of targets.
 
 It is not used by the library's solvers; the tests compare the compiled kernel with it
-(:func:`ikine_search_reference` against :func:`~wsmap.kinematics.ik.search.ikine_search`,
-:func:`ikine_LM_reference` against :func:`~wsmap.kinematics.ik.lm.ikine_LM`): the same arithmetic
-per target, so answers agree up to the rounding of ``sin``/``cos`` and of sums (which can, rarely,
+(`ikine_search_reference` against `ikine_search`,
+`ikine_LM_reference` against `ikine_LM`): the same arithmetic
+per target, so answers agree up to the rounding of `sin`/`cos` and of sums (which can, rarely,
 send an iteration down another path near a branch point). The iteration and its two modes are
-described in :mod:`wsmap.kinematics.ik.search` (the search: rotation-vector error, limits inside
-the iteration, forward-kinematics confirmation, several starts) and :mod:`wsmap.kinematics.ik.lm`
-(the paper's: Corke's ``tr2delta`` error, no limits, one start).
+described in `wsmap.kinematics.ik.search` (the search: rotation-vector error, limits inside
+the iteration, forward-kinematics confirmation, several starts) and `wsmap.kinematics.ik.lm`
+(the paper's: Corke's `tr2delta` error, no limits, one start).
 
-Layout: every per-target quantity is a column (last axis) of length ``M`` (the active targets);
+Layout: every per-target quantity is a column (last axis) of length `M` (the active targets);
 finished targets leave the active set. Units: metres and radians.
 """
 
@@ -37,7 +37,7 @@ _SUCCESS, _REJECTIONS, _ILIMIT, _STAGNATED, _AT_START = 1, 2, 3, 4, 5
 
 
 def _uniform(keys, k, n: int) -> np.ndarray:
-    """``(K, n)`` uniform numbers in ``[0, 1)`` for starts ``k`` (K,) of targets with ``keys`` (K,)."""
+    """`(K, n)` uniform numbers in `[0, 1)` for starts `k` (K,) of targets with `keys` (K,)."""
     k = np.asarray(k, dtype=np.uint64).reshape(-1, 1)
     ctr = mix(k * np.uint64(1 << 16) + np.arange(1, n + 1, dtype=np.uint64)[None, :])  # (K or 1, n)
     bits = mix(keys[:, None] + ctr)
@@ -46,7 +46,7 @@ def _uniform(keys, k, n: int) -> np.ndarray:
 
 # --------------------------------------------------------------------------- projection onto the limits
 def _project(q, lo, hi, revolute):
-    """``q`` (..., n) projected onto ``[lo, hi]`` (broadcasting): a revolute joint outside is first
+    """`q` (..., n) projected onto `[lo, hi]` (broadcasting): a revolute joint outside is first
     moved by a multiple of 2·pi to the equivalent closest to the range, then clipped; a prismatic
     joint is clipped. A joint inside its range is returned unchanged (bit for bit)."""
     inside = (q >= lo) & (q <= hi)
@@ -67,8 +67,8 @@ def _project(q, lo, hi, revolute):
 class _Arm:
     """A chain's numbers laid out for the solver: one column per target where they differ per arm.
 
-    Rotations are ``(3, 3[, M])`` (row, column), translations ``(3[, M])``; the base is folded into
-    the first fixed transform and the tool into the last. ``per_target``: the arrays carry a last
+    Rotations are `(3, 3[, M])` (row, column), translations `(3[, M])`; the base is folded into
+    the first fixed transform and the tool into the last. `per_target`: the arrays carry a last
     axis of targets (a batch of arms), else they are shared.
     """
 
@@ -128,21 +128,21 @@ class _Arm:
         return arrays if self.per_target else tuple(a[:, None] for a in arrays)
 
     def bounds(self):
-        """``(lo, hi)``: the limits, as ``(n, 1)`` (shared) or ``(n, M)`` arrays."""
+        """`(lo, hi)`: the limits, as `(n, 1)` (shared) or `(n, M)` arrays."""
         return self._cols(self.lo, self.hi)
 
     def lm_bounds(self):
-        """``(lo, hi, clipped)`` that the LM projects onto, ``(n, 1)`` or ``(n, M)``."""
+        """`(lo, hi, clipped)` that the LM projects onto, `(n, 1)` or `(n, M)`."""
         return self._cols(self.clo, self.chi, self.clipped)
 
     def unlimited(self):
-        """Revolute joints without limits, ``(n, 1)`` or ``(n, M)``."""
+        """Revolute joints without limits, `(n, 1)` or `(n, M)`."""
         lo, hi = self.bounds()
         return self.revolute[:, None] & np.isinf(lo) & np.isinf(hi)
 
     def fk(self, q):
-        """Forward kinematics of ``q`` (n, W): tool rotation ``R`` (3, 3, W), position ``p`` (3, W),
-        joint axes ``w`` (n, 3, W) and joint origins ``o`` (n, 3, W) in the world frame."""
+        """Forward kinematics of `q` (n, W): tool rotation `R` (3, 3, W), position `p` (3, W),
+        joint axes `w` (n, 3, W) and joint origins `o` (n, 3, W) in the world frame."""
         n, W = q.shape
         x = q + self.offset if self.per_target else q + self.offset[:, None]
         c, s = np.cos(x), np.sin(x)
@@ -180,7 +180,7 @@ class _Arm:
         return R, p, w, o
 
     def jacobian(self, p, w, o):
-        """Geometric Jacobian (6, n, W): column j is ``[w_j × (p − o_j); w_j]`` (revolute) or ``[w_j; 0]``."""
+        """Geometric Jacobian (6, n, W): column j is `[w_j × (p − o_j); w_j]` (revolute) or `[w_j; 0]`."""
         n, _, W = w.shape
         J = np.empty((6, n, W))
         for j in range(n):
@@ -198,20 +198,20 @@ class _Arm:
 
 
 def _matmul33(A, B):
-    """``A @ B`` per target for (3, 3, W) arrays (B may be (3, 3, 1)), summed in a fixed order."""
+    """`A @ B` per target for (3, 3, W) arrays (B may be (3, 3, 1)), summed in a fixed order."""
     P = A[:, :, None, :] * B[None, :, :, :]  # (row, m, col, W)
     return P[:, 0] + P[:, 1] + P[:, 2]
 
 
 def _pose_error(R, p, Rt, pt, rotvec=True):
-    """Pose error (6, W) ``[pt − p; θ·a]`` and its norm (W,), with ``θ·a`` the rotation vector of
-    ``Rt·Rᵀ`` (the rotation from the current to the target orientation, base frame); without
-    ``rotvec``, ``sin θ·a`` (Corke's ``tr2delta``, the paper's LM).
+    """Pose error (6, W) `[pt − p; θ·a]` and its norm (W,), with `θ·a` the rotation vector of
+    `Rt·Rᵀ` (the rotation from the current to the target orientation, base frame); without
+    `rotvec`, `sin θ·a` (Corke's `tr2delta`, the paper's LM).
 
-    Corke's ``tr2delta`` (the paper's, :func:`wsmap.kinematics.pose_error`) has ``sin θ·a`` in its
+    Corke's `tr2delta` (the paper's, `wsmap.kinematics.pose_error`) has `sin θ·a` in its
     place, which vanishes at a half turn as well as at the target: from a random start, LM descends
-    into that false zero about as often as into the target. ``θ·a`` vanishes only at the target,
-    agrees with ``tr2delta`` to ``O(θ³)`` near it, and is the angular velocity that the geometric
+    into that false zero about as often as into the target. `θ·a` vanishes only at the target,
+    agrees with `tr2delta` to `O(θ³)` near it, and is the angular velocity that the geometric
     Jacobian maps joint rates to, held for unit time, that turns the tool onto the target.
     """
     W = p.shape[1]
@@ -258,7 +258,7 @@ def _pose_error(R, p, Rt, pt, rotvec=True):
 
 
 def _normal_equations(J, e):
-    """``JᵀJ`` (n, n, W) and ``Jᵀe`` (n, W), summed over the 6 rows in a fixed order."""
+    """`JᵀJ` (n, n, W) and `Jᵀe` (n, W), summed over the 6 rows in a fixed order."""
     A = J[0][:, None, :] * J[0][None, :, :]
     g = J[0] * e[0]
     for r in range(1, 6):
@@ -268,8 +268,8 @@ def _normal_equations(J, e):
 
 
 def _solve(A, g, l2, held):
-    """``(A + λ² I)⁻¹ g`` per target by Gaussian elimination without pivoting (symmetric positive
-    definite for λ > 0); joints where ``held`` (n, W) get row and column of the identity and 0."""
+    """`(A + λ² I)⁻¹ g` per target by Gaussian elimination without pivoting (symmetric positive
+    definite for λ > 0); joints where `held` (n, W) get row and column of the identity and 0."""
     n, W = g.shape
     H = np.empty((n, n + 1, W))
     H[:, :n] = A
@@ -293,12 +293,12 @@ def _solve(A, g, l2, held):
 
 # --------------------------------------------------------------------------- one start on a set of targets
 def _lm(arm: _Arm, Rt, pt, q, ilimit, rlimit, tol, lam0, constrained=True, rotvec=True):
-    """LM from ``q`` (n, M) towards the targets ``(Rt (3, 3, M), pt (3, M))``, inside the limits
-    if ``constrained`` (else ignoring them); the rotation error a rotation vector (``rotvec``, the
-    search's) or Corke's ``tr2delta`` (the paper's).
+    """LM from `q` (n, M) towards the targets `(Rt (3, 3, M), pt (3, M))`, inside the limits
+    if `constrained` (else ignoring them); the rotation error a rotation vector (`rotvec`, the
+    search's) or Corke's `tr2delta` (the paper's).
 
-    Returns ``q`` (n, M), the termination code (M,) (``_SUCCESS``, ``_AT_START`` where converged),
-    iterations (M,), consecutive rejections at the end (M,), residual (M,), and ``touched`` (M,):
+    Returns `q` (n, M), the termination code (M,) (`_SUCCESS`, `_AT_START` where converged),
+    iterations (M,), consecutive rejections at the end (M,), residual (M,), and `touched` (M,):
     the limits changed a trial step at least once (without that, the run is the unconstrained run
     from the same start, bit for bit).
     """
@@ -406,14 +406,14 @@ def _lm_run(arm, Rt, pt, q, ilimit, rlimit, tol, lam0, limited, rotvec):
 
 # --------------------------------------------------------------------------- checks
 def _rotation_angle(Ra, Rb):
-    """Angle (rad) of ``Raᵀ Rb`` for (..., 3, 3) rotations, accurate near 0 and pi."""
+    """Angle (rad) of `Raᵀ Rb` for (..., 3, 3) rotations, accurate near 0 and pi."""
     v = 0.5 * np.cross(Ra, Rb, axis=-2).sum(axis=-1)  # sin(θ)·axis
     cos = 0.5 * (np.einsum("...ij,...ij->...", Ra, Rb) - 1.0)
     return np.arctan2(np.linalg.norm(v, axis=-1), cos)
 
 
 def _confirm(chain: SerialChain, q, T, atol):
-    """``fkine(q)`` within ``atol`` of ``T`` (position m, rotation angle rad) and ``q`` inside the limits."""
+    """`fkine(q)` within `atol` of `T` (position m, rotation angle rad) and `q` inside the limits."""
     Tq = chain.fkine(q)
     dp = np.linalg.norm(Tq[..., :3, 3] - T[..., :3, 3], axis=-1)
     ang = _rotation_angle(Tq[..., :3, :3], T[..., :3, :3])
@@ -421,12 +421,12 @@ def _confirm(chain: SerialChain, q, T, atol):
 
 
 def _runs(chain, arm, Rt, pt, qs, T, arm_index, settings, confirm_tol):
-    """One start per column of ``qs`` (n, P): the constrained run, then (limited arms, where it
+    """One start per column of `qs` (n, P): the constrained run, then (limited arms, where it
     failed and the limits changed it) the free run; successes confirmed by forward kinematics.
 
-    Returns ``q`` (P, n) (the solution where ``ok``), ``ok`` (P,), iterations (P,) of both passes,
-    the residual (P,) (of the successful pass where ``ok``, else of the constrained run) and the end
-    point ``qc`` (P, n) of the constrained run.
+    Returns `q` (P, n) (the solution where `ok`), `ok` (P,), iterations (P,) of both passes,
+    the residual (P,) (of the successful pass where `ok`, else of the constrained run) and the end
+    point `qc` (P, n) of the constrained run.
     """
     ilimit, rlimit, tol, lam = settings
     P, n = qs.shape[1], qs.shape[0]
@@ -468,8 +468,8 @@ def _runs(chain, arm, Rt, pt, qs, T, arm_index, settings, confirm_tol):
 def ikine_search_reference(robot, T, *, starts: int = DEFAULT_STARTS, seed=0, q0=None, tol: float = 1e-10,
                            ilimit: int = DEFAULT_ILIMIT, rlimit: int = DEFAULT_RLIMIT, lam: float = 0.1,
                            joint_limits: bool = True, confirm_tol: float = FK_CONFIRM_TOL) -> IKSolution:
-    """:func:`wsmap.kinematics.ik.search.ikine_search` in numpy (the same arguments, checks, starts,
-    pre-filter and result; no ``position_only``), one start at a time on the targets not yet solved."""
+    """`wsmap.kinematics.ik.search.ikine_search` in numpy (the same arguments, checks, starts,
+    pre-filter and result; no `position_only`), one start at a time on the targets not yet solved."""
     chain = _limited(as_chain(robot), joint_limits)
     T = check_rigid("target poses", T)
     starts, ilimit, rlimit, seed, q0 = _check_search(chain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0)
@@ -509,9 +509,9 @@ def ikine_search_reference(robot, T, *, starts: int = DEFAULT_STARTS, seed=0, q0
 
 def ikine_LM_reference(robot: DHRobot, T, q0=None, *, ilimit: int = 500, rlimit: int = 100, tol: float = 1e-10,
                        lam: float = 0.1, check_limits: bool = False) -> IKSolution:
-    """:func:`wsmap.kinematics.ik.lm.ikine_LM` in numpy: the paper's iteration (``tr2delta`` error,
+    """`wsmap.kinematics.ik.lm.ikine_LM` in numpy: the paper's iteration (`tr2delta` error,
     no limits inside it, one start) and its iteration count (1 for a start already on the target,
-    ``it + 1`` for a success at iteration ``it``, as the Appendix's loop tests success at the top of
+    `it + 1` for a success at iteration `it`, as the Appendix's loop tests success at the top of
     the next iteration; a stagnated run counted to where its rejections would have ended it)."""
     if not isinstance(robot, DHRobot):
         raise TypeError(f"ikine_LM takes a DHRobot (the paper's arms), got {type(robot).__name__}")

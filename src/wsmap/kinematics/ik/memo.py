@@ -26,7 +26,7 @@ class Memo:
         self.items: dict = {}
 
     def get(self, key, make):
-        """The value stored under ``key``, else ``make()``, stored (the oldest entry leaves when full)."""
+        """The value stored under `key`, else `make()`, stored (the oldest entry leaves when full)."""
         if key in self.items:
             value = self.items.pop(key)
         else:
@@ -41,13 +41,13 @@ _CHAINS = Memo()
 
 
 def chain_key(chain: SerialChain):
-    """:func:`content_key` of everything that defines a chain's kinematics and limits."""
+    """`content_key` of everything that defines a chain's kinematics and limits."""
     return content_key(chain.fixed, chain.axes, chain.kinds, np.asarray(chain.offset), chain.qlim, chain.base,
                        chain.tool)
 
 
 def as_chain_memo(robot) -> SerialChain:
-    """:func:`~wsmap.kinematics.chain.as_chain`, memoised by content for a :class:`DHRobot` (its
+    """`as_chain`, memoised by content for a `DHRobot` (its
     conversion is the larger part of a small call's fixed cost); the result is shared, not to be
     changed."""
     if isinstance(robot, DHRobot):

@@ -1,20 +1,20 @@
 """Sound reach pre-filters of the numerical search: tests that prove a target out of reach before any LM.
 
 A target that fails them cannot be confirmed by any configuration, so the search
-(:mod:`wsmap.kinematics.ik.search`) marks it unreachable without running LM: they change no
+(`wsmap.kinematics.ik.search`) marks it unreachable without running LM: they change no
 result, only the time.
 
-* :func:`reach_filter` — the wrist point (the origin of the last revolute joint's frame, fixed by
+* `reach_filter` — the wrist point (the origin of the last revolute joint's frame, fixed by
   the tool pose) farther from the base than the links can stretch, or outside the set the joints
   before it can sweep it through (a ball cut by a slab carried back from the wrist joint by joint,
-  then turned about joint 0; :func:`_wrist_orbit`, exact for the PUMA560 at a fixed orientation);
-* :func:`position_filter` — the tool origin farther than the links can stretch (position-only
+  then turned about joint 0; `_wrist_orbit`, exact for the PUMA560 at a fixed orientation);
+* `position_filter` — the tool origin farther than the links can stretch (position-only
   search);
-* :func:`limit_filter` — three numbers of the last joint's axis that joints 0 and n-1 do not change
+* `limit_filter` — three numbers of the last joint's axis that joints 0 and n-1 do not change
   (distances from a point of the first axis) outside the intervals the other joints reach inside
-  their limits (a branch and bound per arm, :func:`limit_bounds`); the map search's ``limit_bound``.
+  their limits (a branch and bound per arm, `limit_bounds`); the map search's `limit_bound`.
 
-The first two measure from :func:`first_axis_point`, a point no joint moves. Lengths in metres.
+The first two measure from `first_axis_point`, a point no joint moves. Lengths in metres.
 """
 
 from __future__ import annotations
@@ -31,9 +31,9 @@ _ORBITS = Memo()
 
 
 def _lengths_strokes(chain: SerialChain):
-    """``(lengths (..., n+1), stroke (...,))``: the length of each fixed transform's translation,
-    and the most the prismatic joints can add together (a slide moves by ``q + offset`` along its
-    unit axis, ``q`` within its limits)."""
+    """`(lengths (..., n+1), stroke (...,))`: the length of each fixed transform's translation,
+    and the most the prismatic joints can add together (a slide moves by `q + offset` along its
+    unit axis, `q` within its limits)."""
     lengths = np.linalg.norm(chain.fixed[..., :3, 3], axis=-1)
     pris = np.array([k == PRISMATIC for k in chain.kinds])
     stroke = np.zeros(chain.batch_shape)
@@ -44,18 +44,18 @@ def _lengths_strokes(chain: SerialChain):
 
 
 def reach_filter(chain: SerialChain, T, margin, wrist_orbit: bool = True):
-    """A sound test (…,) bool: False where no configuration puts the tool within ``margin`` of ``T``.
+    """A sound test (…,) bool: False where no configuration puts the tool within `margin` of `T`.
 
     If the last joint is revolute, the origin of its frame (the "wrist point") is fixed by the tool
-    pose: ``T · G⁻¹`` with ``G = F_n · tool``; it is at most ``Σ_{i<n} |t(F_i)| - used`` (plus the
-    strokes of prismatic joints) from the first joint's axis point (:func:`first_axis_point`),
+    pose: `T · G⁻¹` with `G = F_n · tool`; it is at most `Σ_{i<n} |t(F_i)| - used` (plus the
+    strokes of prismatic joints) from the first joint's axis point (`first_axis_point`),
     which no joint moves.
     Otherwise the tool origin itself is bounded by the lengths of the later fixed transforms and the
-    tool. A pose within ``margin`` in position and
-    rotation angle of a reachable one moves the wrist point by at most ``margin·(1 + |t(G)|)``.
+    tool. A pose within `margin` in position and
+    rotation angle of a reachable one moves the wrist point by at most `margin·(1 + |t(G)|)`.
 
-    ``wrist_orbit`` (arms of revolute joints): also the wrist point's orbit about joint 0 must meet
-    the set the joints ``1 .. n-2`` sweep it through (:func:`_wrist_orbit`, :func:`_orbit_test`);
+    `wrist_orbit` (arms of revolute joints): also the wrist point's orbit about joint 0 must meet
+    the set the joints `1 .. n-2` sweep it through (`_wrist_orbit`, `_orbit_test`);
     for the PUMA560 at a fixed orientation this leaves exactly the reachable poses.
     """
     n = chain.n
@@ -96,23 +96,23 @@ def reach_filter(chain: SerialChain, T, margin, wrist_orbit: bool = True):
 
 
 def _rotate(R, v):
-    """``R @ v`` for rotations ``R`` (..., 3, 3) and vectors ``v`` (..., 3), broadcast: three
+    """`R @ v` for rotations `R` (..., 3, 3) and vectors `v` (..., 3), broadcast: three
     multiply-adds over whole arrays (a broadcast einsum over a batch of arms times nodes is several
     times slower)."""
     return R[..., 0] * v[..., None, 0] + R[..., 1] * v[..., None, 1] + R[..., 2] * v[..., None, 2]
 
 
 def _wrist_orbit(chain: SerialChain):
-    """A bound, per arm, of where the wrist point (the origin of the frame after ``F_{n-1}``) can be,
-    in the frame after ``F_0`` (base folded in) before joint 0 turns it: joint 0 turns it about
-    ``a0`` (3,) within ``{x : |x - c| <= r, |(x - c)·u| <= w}`` (a ball cut by a slab).
+    """A bound, per arm, of where the wrist point (the origin of the frame after `F_{n-1}`) can be,
+    in the frame after `F_0` (base folded in) before joint 0 turns it: joint 0 turns it about
+    `a0` (3,) within `{x : |x - c| <= r, |(x - c)·u| <= w}` (a ball cut by a slab).
 
-    Built from the wrist point back (joints ``n-2 .. 1``, their limits ignored, so a superset): a
-    fixed transform moves the set rigidly; a revolute joint turning a ball ∩ slab ``(c, r, u, w)``
-    about its axis ``a`` (through the origin) sweeps a set inside the ball about ``(c·a) a`` of radius
-    ``ρ + r`` (``ρ`` the distance of ``c`` from the axis) cut by the slab normal to ``a`` of half-width
-    ``e = min(r, min(w, r)·|u·a| + r·sqrt(1 - (u·a)²))`` (the set's extent along ``a``, unchanged by
-    the turn). Returns ``(a0, c, r, u, w)`` with batch shapes ``(..., 3)`` and ``(...)``, or None
+    Built from the wrist point back (joints `n-2 .. 1`, their limits ignored, so a superset): a
+    fixed transform moves the set rigidly; a revolute joint turning a ball ∩ slab `(c, r, u, w)`
+    about its axis `a` (through the origin) sweeps a set inside the ball about `(c·a) a` of radius
+    `ρ + r` (`ρ` the distance of `c` from the axis) cut by the slab normal to `a` of half-width
+    `e = min(r, min(w, r)·|u·a| + r·sqrt(1 - (u·a)²))` (the set's extent along `a`, unchanged by
+    the turn). Returns `(a0, c, r, u, w)` with batch shapes `(..., 3)` and `(...)`, or None
     for an arm with a prismatic joint.
     """
     if any(k == PRISMATIC for k in chain.kinds):
@@ -144,11 +144,11 @@ def _wrist_orbit(chain: SerialChain):
 
 
 def _orbit_test(a, c, r, u, w, p, slack):
-    """Whether some turn of the points ``p`` (..., 3) about the axis ``a`` (through the origin) puts
-    them within ``slack`` of the set ``{x : |x - c| <= r, |(x - c)·u| <= w}`` (a necessary condition,
-    exact up to rounding): the turned point runs on a circle; its distance to ``c`` is least at the
-    circle's point nearest ``c`` if that point is inside the slab, else at an end of the arcs of
-    the circle inside the slab (where ``(x - c)·u = ±w``)."""
+    """Whether some turn of the points `p` (..., 3) about the axis `a` (through the origin) puts
+    them within `slack` of the set `{x : |x - c| <= r, |(x - c)·u| <= w}` (a necessary condition,
+    exact up to rounding): the turned point runs on a circle; its distance to `c` is least at the
+    circle's point nearest `c` if that point is inside the slab, else at an end of the arcs of
+    the circle inside the slab (where `(x - c)·u = ±w`)."""
     r, w = np.asarray(r + slack, dtype=np.float64), np.asarray(w + slack, dtype=np.float64)
     shape = np.broadcast_shapes(p.shape[:-1], np.shape(c)[:-1], np.shape(u)[:-1], r.shape, w.shape)
 
@@ -163,13 +163,13 @@ def _orbit_test(a, c, r, u, w, p, slack):
 
 
 def first_axis_point(chain: SerialChain) -> tuple[np.ndarray, np.ndarray]:
-    """A point no joint moves, and how much of the lengths it uses: ``(centre (…, 3), used (…,))``.
+    """A point no joint moves, and how much of the lengths it uses: `(centre (…, 3), used (…,))`.
 
-    The first joint turns (or slides) about its axis ``a`` through the origin of ``base · F_0``;
-    the part of ``t(F_1)`` along ``a`` is not turned by it (a shoulder height such as the Panda's
-    d1 = 0.333 m), so ``centre = base · F_0 · ((t(F_1)·a) a)`` is fixed, and everything after it
-    is within ``|t(F_1)⊥|`` (the part across the axis) plus the later lengths:
-    ``used = |t(F_0)| + |t(F_1)| - |t(F_1)⊥|`` is what the reach bounds subtract from the sum of
+    The first joint turns (or slides) about its axis `a` through the origin of `base · F_0`;
+    the part of `t(F_1)` along `a` is not turned by it (a shoulder height such as the Panda's
+    d1 = 0.333 m), so `centre = base · F_0 · ((t(F_1)·a) a)` is fixed, and everything after it
+    is within `|t(F_1)⊥|` (the part across the axis) plus the later lengths:
+    `used = |t(F_0)| + |t(F_1)| - |t(F_1)⊥|` is what the reach bounds subtract from the sum of
     all the lengths. A slide along the same axis keeps this sound: its stroke is added anyway."""
     F = chain.fixed
     t0 = F[..., 0, :3, 3]
@@ -186,8 +186,8 @@ def first_axis_point(chain: SerialChain) -> tuple[np.ndarray, np.ndarray]:
 
 def position_filter(chain: SerialChain, p, margin):
     """A sound test (B, N) or (N,) bool: False where no configuration puts the tool origin within
-    ``margin`` of the positions ``p`` (N, 3): farther from a point of the first joint's axis
-    (:func:`first_axis_point`) than the lengths of the fixed transforms after it, the tool and the
+    `margin` of the positions `p` (N, 3): farther from a point of the first joint's axis
+    (`first_axis_point`) than the lengths of the fixed transforms after it, the tool and the
     prismatic strokes together."""
     lengths, stroke = _lengths_strokes(chain)
     lengths = lengths.sum(axis=-1) + stroke  # (...,)
@@ -200,7 +200,7 @@ def position_filter(chain: SerialChain, p, margin):
 
 
 # --------------------------------------------------------------------------- the joint-limit bound
-#: Tolerance of the branch and bound of :func:`limit_bounds` (metres): each interval is wider than the
+#: Tolerance of the branch and bound of `limit_bounds` (metres): each interval is wider than the
 #: exact range by at most this much, or a little more where the cell budget ran out (sound either way).
 LIMIT_BOUND_EPS = 1e-3
 #: Cells a branch and bound evaluates at most (then it stops with the sound bound it has), and how
@@ -215,8 +215,8 @@ _LIMIT_BOUNDS = Memo()
 
 
 def _nearest_on_line(p0, a, p1, b):
-    """The point of the line ``p0 + t a`` nearest to the line ``p1 + s b`` (unit directions; metres);
-    ``p0`` where the lines are parallel."""
+    """The point of the line `p0 + t a` nearest to the line `p1 + s b` (unit directions; metres);
+    `p0` where the lines are parallel."""
     w = p0 - p1
     ab = float(a @ b)
     den = 1.0 - ab * ab
@@ -227,10 +227,10 @@ def _nearest_on_line(p0, a, p1, b):
 
 
 def _limit_geometry(chain: SerialChain):
-    """The points :func:`limit_bounds` measures between, for one arm of revolute joints: ``S`` (3,),
+    """The points `limit_bounds` measures between, for one arm of revolute joints: `S` (3,),
     the point of joint 0's axis nearest joint 1's axis (world frame, base included; no joint moves
-    it); ``w_loc`` (3,), the point of the last joint's axis nearest joint n-2's axis, in the last
-    joint's frame (no joint after n-2 moves it within that frame); the frames at ``q = 0`` (n, 4, 4)."""
+    it); `w_loc` (3,), the point of the last joint's axis nearest joint n-2's axis, in the last
+    joint's frame (no joint after n-2 moves it within that frame); the frames at `q = 0` (n, 4, 4)."""
     n = chain.n
     frames, _ = chain.joint_frames(np.zeros(n))
     a0 = frames[0, :3, :3] @ chain.axes[0]
@@ -246,14 +246,14 @@ def _limit_geometry(chain: SerialChain):
 def _invariant_cells(chain, S, a0, w_loc, dims, centre, hw, radius):
     """The three invariants at cell centres and bounds of them over the cells.
 
-    ``centre``, ``hw`` (K, n) radians: the cells' centres and half-widths in joint space (``hw`` 0 off
-    ``dims``). Returns ``values``, ``lower``, ``upper`` (3, K): ``d = |W - S|``, ``g = (W - S)·z`` and
-    ``h = (W - S)·a0`` (metres; ``W`` the point ``w_loc`` of the last axis, ``z`` its direction,
-    ``a0`` joint 0's axis, all in the chain's frame). The bounds
-    are second-order Taylor bounds: ``W(c + δ) = W(c) + Jδ + r`` with ``|r| <= Σ_ij H_ij hw_i hw_j / 2``,
-    ``H_ij = radius[max(i, j)]`` (``∂²W/∂q_i∂q_j`` is a double cross product with ``W``'s offset from
-    joint ``max(i, j)``'s axis, at most ``radius`` (n,) m, the lengths after that joint); likewise
-    ``z`` with ``H_ij = 1``, ``s = Σ hw``."""
+    `centre`, `hw` (K, n) radians: the cells' centres and half-widths in joint space (`hw` 0 off
+    `dims`). Returns `values`, `lower`, `upper` (3, K): `d = |W - S|`, `g = (W - S)·z` and
+    `h = (W - S)·a0` (metres; `W` the point `w_loc` of the last axis, `z` its direction,
+    `a0` joint 0's axis, all in the chain's frame). The bounds
+    are second-order Taylor bounds: `W(c + δ) = W(c) + Jδ + r` with `|r| <= Σ_ij H_ij hw_i hw_j / 2`,
+    `H_ij = radius[max(i, j)]` (`∂²W/∂q_i∂q_j` is a double cross product with `W`'s offset from
+    joint `max(i, j)`'s axis, at most `radius` (n,) m, the lengths after that joint); likewise
+    `z` with `H_ij = 1`, `s = Σ hw`."""
     n = chain.n
     frames, _ = chain.joint_frames(centre)
     last = frames[:, n - 1]
@@ -291,12 +291,12 @@ def _invariant_cells(chain, S, a0, w_loc, dims, centre, hw, radius):
 
 
 def _branch_and_bound(chain, S, a0, w_loc, which, dims, box, radius, sign):
-    """A sound bound (m) of ``max`` (``sign`` 1) or ``min`` (-1) of invariant ``which`` (0: ``d``,
-    1: ``g``, 2: ``h``; :func:`_invariant_cells`) over the joint box ``box`` (n, 2) rad, splitting the
-    joints ``dims``, best first: each round splits the :data:`LIMIT_BOUND_BATCH` cells of the highest
-    bounds in two across the joint that moves ``W`` most; a cell is dropped once its bound cannot
-    beat the best centre value by more than :data:`LIMIT_BOUND_EPS`. It stops there, or after
-    :data:`LIMIT_BOUND_EVALS` cells, with the highest bound of the cells left (sound either way)."""
+    """A sound bound (m) of `max` (`sign` 1) or `min` (-1) of invariant `which` (0: `d`,
+    1: `g`, 2: `h`; `_invariant_cells`) over the joint box `box` (n, 2) rad, splitting the
+    joints `dims`, best first: each round splits the `LIMIT_BOUND_BATCH` cells of the highest
+    bounds in two across the joint that moves `W` most; a cell is dropped once its bound cannot
+    beat the best centre value by more than `LIMIT_BOUND_EPS`. It stops there, or after
+    `LIMIT_BOUND_EVALS` cells, with the highest bound of the cells left (sound either way)."""
     n = chain.n
     centre = box.mean(axis=-1)[None].copy()
     hw = np.zeros((1, n))
@@ -333,8 +333,8 @@ def _branch_and_bound(chain, S, a0, w_loc, which, dims, box, radius, sign):
 
 
 def _through_point(chain, frames, point):
-    """Joints ``1 ..`` whose axes, in an unbroken run from joint 1, pass through ``point`` at
-    ``q = 0``: a turn of such a joint keeps the next one through the point, so it turns
+    """Joints `1 ..` whose axes, in an unbroken run from joint 1, pass through `point` at
+    `q = 0`: a turn of such a joint keeps the next one through the point, so it turns
     everything after it rigidly about the point."""
     out = []
     for j in range(1, chain.n):
@@ -351,22 +351,22 @@ def limit_bounds(chain: SerialChain):
     (a batch, a prismatic joint, fewer than 3 joints).
 
     Three numbers of the last joint's axis are unchanged by joint 0 (they are measured from a point
-    ``S`` of its axis, along its direction ``a0``) and by joint n-1 (they use a point ``W`` of its
-    axis and its direction ``z``): ``d = |W - S|``, ``g = (W - S)·z`` and ``h = (W - S)·a0`` (metres).
-    So they depend on joints ``1 .. n-2`` only, and
-    inside the limits each lies in an interval ``[lo, hi]``, found by a branch and bound over those
-    joints' box (:func:`_branch_and_bound`; sound, at most :data:`LIMIT_BOUND_EPS` wider than the
-    exact range where its cell budget lasts). Joints whose axes pass through ``S`` in an unbroken
-    run from joint 1 (the Panda's and the iiwa's shoulders) turn ``W - S`` and ``z`` rigidly about
-    ``S``, change neither ``d`` nor ``g``, and are not split for them; ``|g|, |h| <= d`` tightens
-    those two. Unlike :func:`reach_filter`'s bounds these use
-    the limits (a revolute range of a turn or more, or none, counts as a full turn). ``S`` is the point
-    of joint 0's axis nearest joint 1's; ``W`` the point of the last axis nearest joint n-2's.
+    `S` of its axis, along its direction `a0`) and by joint n-1 (they use a point `W` of its
+    axis and its direction `z`): `d = |W - S|`, `g = (W - S)·z` and `h = (W - S)·a0` (metres).
+    So they depend on joints `1 .. n-2` only, and
+    inside the limits each lies in an interval `[lo, hi]`, found by a branch and bound over those
+    joints' box (`_branch_and_bound`; sound, at most `LIMIT_BOUND_EPS` wider than the
+    exact range where its cell budget lasts). Joints whose axes pass through `S` in an unbroken
+    run from joint 1 (the Panda's and the iiwa's shoulders) turn `W - S` and `z` rigidly about
+    `S`, change neither `d` nor `g`, and are not split for them; `|g|, |h| <= d` tightens
+    those two. Unlike `reach_filter`'s bounds these use
+    the limits (a revolute range of a turn or more, or none, counts as a full turn). `S` is the point
+    of joint 0's axis nearest joint 1's; `W` the point of the last axis nearest joint n-2's.
 
-    Returns ``dict(S (3,), a0 (3,), w_loc (3,), lo (3,), hi (3,))`` (``d``, ``g``, ``h``): ``S`` and
-    joint 0's axis ``a0`` in the chain's frame without its base (so the numbers do not depend on
-    the base or the tool), ``w_loc`` in the last joint's frame. Building it takes 0.1-0.4 s per
-    arm (once per process and arm; most of it ``h``, over joints 1 .. n-2 all)."""
+    Returns `dict(S (3,), a0 (3,), w_loc (3,), lo (3,), hi (3,))` (`d`, `g`, `h`): `S` and
+    joint 0's axis `a0` in the chain's frame without its base (so the numbers do not depend on
+    the base or the tool), `w_loc` in the last joint's frame. Building it takes 0.1-0.4 s per
+    arm (once per process and arm; most of it `h`, over joints 1 .. n-2 all)."""
     if chain.batch_shape != () or chain.n < 3 or any(k == PRISMATIC for k in chain.kinds):
         return None
     # in the chain's own frame (no base, no tool): an arm moved around a cell keeps its numbers
@@ -399,9 +399,9 @@ def _make_limit_bounds(chain: SerialChain):
 
 
 def limit_filter(chain: SerialChain, T, margin):
-    """A sound test (...,) bool of one arm and target poses ``T`` (..., 4, 4): False where no
-    configuration inside the limits puts the tool within ``margin`` (m in position, rad in rotation
-    angle) of ``T``, because ``d``, ``g`` or ``h`` of :func:`limit_bounds` lies outside its interval. All
+    """A sound test (...,) bool of one arm and target poses `T` (..., 4, 4): False where no
+    configuration inside the limits puts the tool within `margin` (m in position, rad in rotation
+    angle) of `T`, because `d`, `g` or `h` of `limit_bounds` lies outside its interval. All
     True where the arm has no such bound (a batch, a prismatic joint, fewer than 3 joints)."""
     T = np.asarray(T, dtype=np.float64)
     b = limit_bounds(chain)

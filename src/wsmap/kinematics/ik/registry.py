@@ -1,21 +1,21 @@
 """The closed-form extension point: each closed form registers a recogniser and a solver here.
 
-A closed form is one module of :mod:`wsmap.kinematics.ik.closed_forms` that ends with
-``register(ClosedForm(...))``; that package imports every module in it, so adding a closed form is
+A closed form is one module of `wsmap.kinematics.ik.closed_forms` that ends with
+`register(ClosedForm(...))`; that package imports every module in it, so adding a closed form is
 one new file there (and its tests). Whoever needs to decide "closed form or numerical", or which
-closed form, asks :func:`closed_form_for` (the maps, the reach maps, base placement, the dataset
+closed form, asks `closed_form_for` (the maps, the reach maps, base placement, the dataset
 labels, the command line).
 
-Branch numbering, shared by every 6R closed form with 8 branches (``q`` of shape ``(..., 8, 6)``):
-branch ``k = 4·shoulder + 2·wrist + elbow`` (bit 2 :data:`SHOULDER`, bit 1 :data:`WRIST`, bit 0
-:data:`ELBOW`), each bit defined on the closed form's canonical joint angles ``θ``:
+Branch numbering, shared by every 6R closed form with 8 branches (`q` of shape `(..., 8, 6)`):
+branch `k = 4·shoulder + 2·wrist + elbow` (bit 2 `SHOULDER`, bit 1 `WRIST`, bit 0
+`ELBOW`), each bit defined on the closed form's canonical joint angles `θ`:
 
-* shoulder 0: ``θ1 = φ + asin(o/r)``, 1: ``θ1 = φ + pi − asin(o/r)``, with ``(r, φ)`` the polar
-  coordinates of the wrist point in the base plane and ``o`` the arm's lateral offset (``d3`` of
-  the spherical-wrist family, ``d4`` of the UR family);
-* wrist 0: ``sin θ5 >= 0``, 1: ``sin θ5 <= 0``;
-* elbow 0: ``sin ψ >= 0``, 1: ``sin ψ <= 0``, with ``ψ`` the elbow angle of the planar two-link
-  arm of joints 2 and 3 (``θ3`` for the UR family, ``θ3 + atan2(d4, a3)`` for the spherical-wrist
+* shoulder 0: `θ1 = φ + asin(o/r)`, 1: `θ1 = φ + pi − asin(o/r)`, with `(r, φ)` the polar
+  coordinates of the wrist point in the base plane and `o` the arm's lateral offset (`d3` of
+  the spherical-wrist family, `d4` of the UR family);
+* wrist 0: `sin θ5 >= 0`, 1: `sin θ5 <= 0`;
+* elbow 0: `sin ψ >= 0`, 1: `sin ψ <= 0`, with `ψ` the elbow angle of the planar two-link
+  arm of joints 2 and 3 (`θ3` for the UR family, `θ3 + atan2(d4, a3)` for the spherical-wrist
   family, whose forearm is pitched by that angle).
 """
 
@@ -43,16 +43,16 @@ SHOULDER, WRIST, ELBOW = 4, 2, 1
 class ClosedForm:
     """A closed-form inverse kinematics for a family of arms.
 
-    name : short identifier (``"spherical_wrist"``, ``"ur"``), also the family's name in messages
+    name : short identifier (`"spherical_wrist"`, `"ur"`), also the family's name in messages
         and map settings
-    description : the family in words, for messages (``"the UR family"``)
-    recognise : ``robot -> bool array`` of the robot's batch shape, True for each arm the closed form
+    description : the family in words, for messages (`"the UR family"`)
+    recognise : `robot -> bool array` of the robot's batch shape, True for each arm the closed form
         solves (False, not an error, for any other arm or robot type)
-    require : ``robot -> None``, raises ``ValueError`` naming the first arm and what differs
-    solve : ``(robot, T) -> IKSolution``, every branch (a branch axis before the joints), joint
-        limits honoured (a branch outside them fails with ``OUTSIDE_LIMITS``)
-    reachable : ``(robot, T) -> bool array``, some branch of ``solve`` succeeds (a faster path
-        where the closed form has one); the shape of ``T.shape[:-2]`` broadcast with the batch
+    require : `robot -> None`, raises `ValueError` naming the first arm and what differs
+    solve : `(robot, T) -> IKSolution`, every branch (a branch axis before the joints), joint
+        limits honoured (a branch outside them fails with `OUTSIDE_LIMITS`)
+    reachable : `(robot, T) -> bool array`, some branch of `solve` succeeds (a faster path
+        where the closed form has one); the shape of `T.shape[:-2]` broadcast with the batch
     """
 
     name: str
@@ -67,8 +67,8 @@ _REGISTRY: dict[str, ClosedForm] = {}
 
 
 def register(closed_form: ClosedForm) -> ClosedForm:
-    """Add ``closed_form`` to the registry (asked in registration order); returns it. A name that is
-    already registered is a ``ValueError``."""
+    """Add `closed_form` to the registry (asked in registration order); returns it. A name that is
+    already registered is a `ValueError`."""
     if not isinstance(closed_form, ClosedForm):
         raise TypeError(f"register takes a ClosedForm, got {type(closed_form).__name__}")
     if closed_form.name in _REGISTRY:
@@ -78,7 +78,7 @@ def register(closed_form: ClosedForm) -> ClosedForm:
 
 
 def unregister(name: str) -> None:
-    """Remove the closed form ``name`` (``KeyError`` if none is registered under it)."""
+    """Remove the closed form `name` (`KeyError` if none is registered under it)."""
     del _REGISTRY[name]
 
 
@@ -88,9 +88,9 @@ def closed_forms() -> tuple[ClosedForm, ...]:
 
 
 def closed_form_for(robot: Arm) -> ClosedForm | None:
-    """The registered closed form that recognises every arm of ``robot`` (the first in registration
-    order, should two), or None; None for anything that is not an arm (a :class:`DHRobot` or a
-    :class:`SerialChain`)."""
+    """The registered closed form that recognises every arm of `robot` (the first in registration
+    order, should two), or None; None for anything that is not an arm (a `DHRobot` or a
+    `SerialChain`)."""
     if not isinstance(robot, ArmBatch):
         return None
     for cf in _REGISTRY.values():
@@ -105,7 +105,7 @@ def _names() -> str:
 
 
 def require_closed_form(robot: Arm, what: str = "method 'exact'") -> ClosedForm:
-    """:func:`closed_form_for`, or a ``ValueError`` saying that ``what`` has no closed form for the
+    """`closed_form_for`, or a `ValueError` saying that `what` has no closed form for the
     arm, which closed forms there are, and to use method 'numerical'."""
     cf = closed_form_for(robot)
     if cf is None:

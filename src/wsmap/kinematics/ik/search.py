@@ -1,56 +1,56 @@
 """Reachability search: multi-start Levenberg–Marquardt for any serial arm, joint limits inside the search.
 
-:func:`ikine_search` decides, per target pose, whether the arm reaches it, and returns a solution
-where it does. It is the numerical path of :mod:`wsmap.workspace` (maps and
-:func:`wsmap.workspace.reachable`). Per target:
+`ikine_search` decides, per target pose, whether the arm reaches it, and returns a solution
+where it does. It is the numerical path of `wsmap.workspace` (maps and
+`wsmap.workspace.reachable`). Per target:
 
-* **Starts, in order, with early exit.** Start 0 is ``q0`` (default zeros); starts ``1 ..`` are
-  drawn uniformly inside the limits (``[-pi, pi)`` for an unlimited revolute joint). Start ``k``
-  runs only on the targets that starts ``0 .. k-1`` did not solve, so a run with ``k`` starts is
-  the first ``k`` starts of a longer one. The random numbers of a target come from a counter-based
-  hash (splitmix64) of ``seed``, the target pose's bits, the start and the joint
-  (:func:`wsmap.kinematics.ik.kernel.pose_keys`): deterministic, independent between targets, and
+* **Starts, in order, with early exit.** Start 0 is `q0` (default zeros); starts `1 ..` are
+  drawn uniformly inside the limits (`[-pi, pi)` for an unlimited revolute joint). Start `k`
+  runs only on the targets that starts `0 .. k-1` did not solve, so a run with `k` starts is
+  the first `k` starts of a longer one. The random numbers of a target come from a counter-based
+  hash (splitmix64) of `seed`, the target pose's bits, the start and the joint
+  (`wsmap.kinematics.ik.kernel.pose_keys`): deterministic, independent between targets, and
   the same wherever the pose sits in a batch. Every target is solved on its own (one compiled loop
-  per target, :mod:`wsmap.kinematics.lm_compiled`), so results do not depend on ``chunk``, on the
+  per target, `wsmap.kinematics.lm_compiled`), so results do not depend on `chunk`, on the
   thread count or on which targets share a call.
-* **The iteration** is the paper's LM (Appendix; :func:`wsmap.kinematics.ik.lm.ikine_LM`)::
+* **The iteration** is the paper's LM (Appendix; `wsmap.kinematics.ik.lm.ikine_LM`)::
 
       dq = (JᵀJ + λ² I)⁻¹ Jᵀe,   q' = P(q + dq)
       accept if |e(q')| < |e(q)|: q = q', λ /= 2, r = 0;  else λ *= 2, r += 1 (fail when r > rlimit)
 
-  with ``J`` the base-frame geometric Jacobian, and three changes. (1) The rotation part of ``e``
-  is the rotation vector ``θ·a`` of ``R_target·Rᵀ`` rather than Corke's ``tr2delta``
-  ``sin θ·a``, which also vanishes at a half turn: from random starts LM fell into that false zero
-  about half the time. (2) ``P`` projects onto the limits: a revolute joint whose range is
+  with `J` the base-frame geometric Jacobian, and three changes. (1) The rotation part of `e`
+  is the rotation vector `θ·a` of `R_target·Rᵀ` rather than Corke's `tr2delta`
+  `sin θ·a`, which also vanishes at a half turn: from random starts LM fell into that false zero
+  about half the time. (2) `P` projects onto the limits: a revolute joint whose range is
   narrower than a turn and which leaves it is first moved by a multiple of 2·pi to the equivalent
   angle closest to the range (inside it when there is one), then clipped; a prismatic joint is
-  clipped. And a joint on a limit that the gradient ``Jᵀe`` pushes outward is held for that step
+  clipped. And a joint on a limit that the gradient `Jᵀe` pushes outward is held for that step
   (its row and column replaced by the identity, as in Bertsekas' projected Newton), so the
   iteration slides along the limits instead of stalling against them. Joints without limits, or
   with a range of a turn or more, move freely and are brought into their range by a multiple of
-  2·pi at the end. (3) Per-start limits ``ilimit = 100``, ``rlimit = 20`` (see
-  :data:`DEFAULT_ILIMIT`).
+  2·pi at the end. (3) Per-start limits `ilimit = 100`, `rlimit = 20` (see
+  `DEFAULT_ILIMIT`).
 * **Two passes per start on limited arms.** Where the constrained run fails and the limits did
   change it, LM runs again from the same start ignoring the limits, and its solution, moved into
   the range by multiples of 2·pi, counts if it lies inside the limits (a solution behind a limit
   that the constrained run could not walk around). Where the limits never changed the
   constrained run, the free run would be the same run, so it is skipped.
-* **Success** = the error norm reached ``tol``, ``q`` lies inside the limits, and an independent
-  forward kinematics (:meth:`SerialChain.fkine`) of the returned ``q`` puts the tool within
-  ``confirm_tol`` of the target (metres in position, radians in rotation angle). A start whose
+* **Success** = the error norm reached `tol`, `q` lies inside the limits, and an independent
+  forward kinematics (`SerialChain.fkine`) of the returned `q` puts the tool within
+  `confirm_tol` of the target (metres in position, radians in rotation angle). A start whose
   check fails does not count, and the next start runs.
-* **Sound pre-filter** (:mod:`wsmap.kinematics.ik.reach_filter`). A target whose wrist point is
-  farther from the base than the sum of the arm's link lengths (plus ``confirm_tol`` margins), or
+* **Sound pre-filter** (`wsmap.kinematics.ik.reach_filter`). A target whose wrist point is
+  farther from the base than the sum of the arm's link lengths (plus `confirm_tol` margins), or
   outside the set that the joints before it can sweep it through, cannot be confirmed by any
-  ``q``; it is marked unreachable (``IKReason.OUT_OF_REACH``) without running LM. It changes no
+  `q`; it is marked unreachable (`IKReason.OUT_OF_REACH`) without running LM. It changes no
   success, only the time.
-* **Exact stagnation shortcut**: once λ is so large that no later step can move ``q`` by one bit,
+* **Exact stagnation shortcut**: once λ is so large that no later step can move `q` by one bit,
   every later trial is rejected, so the start fails at once.
 
-:mod:`wsmap.kinematics.ik.lm_reference` is the same search in numpy, the reference the tests
+`wsmap.kinematics.ik.lm_reference` is the same search in numpy, the reference the tests
 compare the compiled kernel with. The paper's own one-start path,
-:func:`wsmap.kinematics.ik.lm.ikine_LM` (DH arms, limits checked after convergence), is unchanged;
-the paper's pipeline keeps using it (in the maps: ``ik={"solver": "paper"}``).
+`wsmap.kinematics.ik.lm.ikine_LM` (DH arms, limits checked after convergence), is unchanged;
+the paper's pipeline keeps using it (in the maps: `ik={"solver": "paper"}`).
 """
 
 from __future__ import annotations
@@ -75,8 +75,8 @@ _ARM_ARRAYS = Memo()
 # targets per call of the border search (bounds its (C, K, n) array of starts)
 _BORDER_CHUNK = 1 << 16
 
-#: Starts per target of :func:`ikine_search`, the maps' numerical path and ``reachable``. Measured
-#: with ``benchmarks/bench_recall.py`` (21³ grid; PUMA560 with and without limits against the closed
+#: Starts per target of `ikine_search`, the maps' numerical path and `reachable`. Measured
+#: with `benchmarks/bench_recall.py` (21³ grid; PUMA560 with and without limits against the closed
 #: form, UR5e against EAIK; R = I and tool down): the hardest case, PUMA560 with limits, needs 24
 #: starts for recall >= 0.999 at seed 0 but 32 at seed 1 (24: 0.9986); 32 starts missed no node in
 #: any case at seeds 0-4. No false positive at any count.
@@ -84,7 +84,7 @@ DEFAULT_STARTS = 32
 
 #: Per-start iteration and consecutive-rejection limits. The paper's 500 and 100 spend most of a
 #: failing start on rejections (a start that fails, fails slowly); 100 and 20 gave the same recall
-#: at every count of starts in ``benchmarks/bench_recall.py`` (so did 60 and 10) at about half the time.
+#: at every count of starts in `benchmarks/bench_recall.py` (so did 60 and 10) at about half the time.
 DEFAULT_ILIMIT = 100
 DEFAULT_RLIMIT = 20
 
@@ -111,9 +111,9 @@ def _check_seed(seed):
 
 
 def _check_settings(chain: SerialChain, tol, lam, confirm_tol, seed, q0):
-    """The checks :func:`ikine_search` and :func:`map_search` share: ``tol``, ``lam`` and
-    ``confirm_tol`` positive and finite with ``confirm_tol >= tol``; returns ``(seed, q0)`` checked
-    (``q0`` default zeros, shape ``(..., n)``)."""
+    """The checks `ikine_search` and `map_search` share: `tol`, `lam` and
+    `confirm_tol` positive and finite with `confirm_tol >= tol`; returns `(seed, q0)` checked
+    (`q0` default zeros, shape `(..., n)`)."""
     for label, v in (("tol", tol), ("lam", lam), ("confirm_tol", confirm_tol)):
         if isinstance(v, bool) or not (np.isscalar(v) and np.isreal(v) and v > 0 and np.isfinite(v)):
             raise ValueError(f"{label} must be positive and finite, got {v!r}")
@@ -128,9 +128,9 @@ def _check_settings(chain: SerialChain, tol, lam, confirm_tol, seed, q0):
 
 
 def _check_search(chain: SerialChain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0):
-    """The arguments :func:`ikine_search` and its numpy reference check alike: ``starts >= 1``,
-    ``ilimit``, ``rlimit >= 0`` and :func:`_check_settings`'s; returns ``(starts, ilimit, rlimit,
-    seed, q0)`` checked."""
+    """The arguments `ikine_search` and its numpy reference check alike: `starts >= 1`,
+    `ilimit`, `rlimit >= 0` and `_check_settings`'s; returns `(starts, ilimit, rlimit,
+    seed, q0)` checked."""
     starts = _check_count("starts", starts, 1)
     ilimit = _check_count("ilimit", ilimit, 0)
     rlimit = _check_count("rlimit", rlimit, 0)
@@ -138,9 +138,9 @@ def _check_search(chain: SerialChain, starts, ilimit, rlimit, tol, lam, confirm_
 
 
 def _broadcast_targets(chain: SerialChain, T: np.ndarray, q0: np.ndarray):
-    """Targets ``T`` (..., 4, 4), the arms of ``chain`` (batch shape ``(...)``) and starts ``q0``
-    (..., n) broadcast together and flattened: ``(shape, count, Tf (count, 4, 4), Q0 (count, n),
-    arm_of (count,))``, ``arm_of`` the index of each target's arm in the flattened batch."""
+    """Targets `T` (..., 4, 4), the arms of `chain` (batch shape `(...)`) and starts `q0`
+    (..., n) broadcast together and flattened: `(shape, count, Tf (count, 4, 4), Q0 (count, n),
+    arm_of (count,))`, `arm_of` the index of each target's arm in the flattened batch."""
     n, batch = chain.n, chain.batch_shape
     shape = np.broadcast_shapes(T.shape[:-2], batch, q0.shape[:-1])
     count = int(np.prod(shape, dtype=np.int64))
@@ -151,8 +151,8 @@ def _broadcast_targets(chain: SerialChain, T: np.ndarray, q0: np.ndarray):
 
 
 def _solution(shape: tuple, q, ok, it, res, start, possible) -> IKSolution:
-    """The flat answers of a search (``count`` targets) as an :class:`IKSolution` of batch shape
-    ``shape``; ``possible`` (count,) False where the pre-filter ruled the target out of reach."""
+    """The flat answers of a search (`count` targets) as an `IKSolution` of batch shape
+    `shape`; `possible` (count,) False where the pre-filter ruled the target out of reach."""
     return IKSolution(q.reshape(shape + q.shape[-1:]), ok.reshape(shape), it.reshape(shape), res.reshape(shape),
                       failure_reasons(ok, out_of_reach=~possible).reshape(shape), start.reshape(shape))
 
@@ -195,7 +195,7 @@ def ikine_search(
     T : array_like, shape (..., 4, 4)
         Target tool poses in the base (world) frame; each must be a rigid transform.
     starts : int
-        Start configurations per target, tried in order until one succeeds (1: only ``q0``).
+        Start configurations per target, tried in order until one succeeds (1: only `q0`).
     seed : int >= 0, or None
         Seed of the random starts 1.. (None: a fresh random seed, not reproducible).
     q0 : array_like, shape (n,) or (..., n), optional
@@ -206,20 +206,20 @@ def ikine_search(
     joint_limits : bool
         Honour the arm's limits (default). False drops the revolute joints' limits.
     confirm_tol : float
-        Forward-kinematics confirmation tolerance (m, rad); at least ``tol``.
+        Forward-kinematics confirmation tolerance (m, rad); at least `tol`.
     chunk : int
         Targets solved together (bounds memory; the result does not depend on it).
     progress : callable, optional
         Called with the number of targets finished after each chunk.
-    position_only : reach the position of each ``T`` at any orientation
+    position_only : reach the position of each `T` at any orientation
 
-    Runs on :func:`wsmap.kinematics.lm_compiled.set_threads` threads. Returns an
-    :class:`~wsmap.kinematics.ik.solution.IKSolution` of the broadcast batch shape of targets and
-    arms: ``q`` a confirmed solution where ``success`` (inside the limits); elsewhere the end point
+    Runs on `wsmap.kinematics.lm_compiled.set_threads` threads. Returns an
+    `IKSolution` of the broadcast batch shape of targets and
+    arms: `q` a confirmed solution where `success` (inside the limits); elsewhere the end point
     of the start with the smallest final error (inside the limits; NaN where LM was not run);
-    ``iterations`` over all starts tried; ``residual`` the error norm at ``q`` (``inf`` where LM
-    was not run); ``reason`` ``OUT_OF_REACH`` where the pre-filter ruled the target out, else
-    ``NO_CONVERGENCE`` where no start succeeded; ``start`` the index of the start that succeeded,
+    `iterations` over all starts tried; `residual` the error norm at `q` (`inf` where LM
+    was not run); `reason` `OUT_OF_REACH` where the pre-filter ruled the target out, else
+    `NO_CONVERGENCE` where no start succeeded; `start` the index of the start that succeeded,
     -1 where none did.
     """
     chain = _limited(as_chain_memo(robot), joint_limits)
@@ -253,7 +253,7 @@ def ikine_search(
 
 
 # --------------------------------------------------------------------------- maps: starts from neighbours
-#: Defaults of :func:`map_search` for the maps, measured with ``benchmarks/bench_fast_maps.py``
+#: Defaults of `map_search` for the maps, measured with `benchmarks/bench_fast_maps.py`
 #: (recall against the closed forms and a 64-start reference on the 21³ grid for PUMA560 with and
 #: without limits, UR5e, Panda, iiwa14, Gen3): start 0 only in the first pass (a neighbour's solution
 #: is a better start than a random one), two seeds per wave, four random retries next to solved
@@ -262,9 +262,9 @@ def ikine_search(
 #: solution is not rerun without the limits (the Panda index: 13 % less time, the same recall); a
 #: hole in a solved region gets 16 retries (the iiwa14 from its URDF, tool down, missed 3 of 1768
 #: nodes near its axis with 4). Last, every unsolved node that borders a solved one gets the search of
-#: :func:`ikine_search` (``border_starts`` = :data:`DEFAULT_STARTS` starts, its iteration settings), after the
+#: `ikine_search` (`border_starts` = `DEFAULT_STARTS` starts, its iteration settings), after the
 #: solutions of its solved neighbours: recall at the edge of the reachable region by construction, not by
-#: tuning (YuMi's right arm, tool down, missed 5 of 2826 border nodes without it; ``docs/recall.md``).
+#: tuning (YuMi's right arm, tool down, missed 5 of 2826 border nodes without it; `docs/recall.md`).
 MAP_SETTINGS = dict(starts=0, seeds=2, retry=4, hole_retry=16, ilimit=60, rlimit=10, gtol=1e-4, seed_free_pass=False,
                     border_starts=DEFAULT_STARTS)
 
@@ -279,69 +279,69 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
                border_starts: int = MAP_SETTINGS["border_starts"], limit_bound: bool = True,
                progress: Callable[[int], object] | None = None,
                accept: Callable[[np.ndarray], np.ndarray] | None = None, accept_retry: int = 16) -> IKSolution:
-    """Reachability of a map's nodes, each start of :func:`ikine_search`'s iteration, with starts taken
+    """Reachability of a map's nodes, each start of `ikine_search`'s iteration, with starts taken
     from neighbouring nodes' solutions (continuation): the solution at a node is an excellent start
     at the next one, and an unreachable node costs a few failed starts instead of dozens.
 
     Parameters
     ----------
-    robot : SerialChain or DHRobot, one arm or a batch of ``B`` arms (flattened)
+    robot : SerialChain or DHRobot, one arm or a batch of `B` arms (flattened)
     T : (N, 4, 4) the nodes' target poses (base frame), shared by the arms
-    neighbours : (N, K) int, node indices of each node's neighbours, ``-1`` padding (e.g. from
-        :func:`wsmap.workspace.grids.node_neighbours`)
-    starts : random starts per node in the first pass, after start 0 (``q0``, default zeros)
+    neighbours : (N, K) int, node indices of each node's neighbours, `-1` padding (e.g. from
+        `wsmap.workspace.grids.node_neighbours`)
+    starts : random starts per node in the first pass, after start 0 (`q0`, default zeros)
     seeds : neighbours' solutions tried per node and wave
     retry : random starts per node for the nodes still unsolved when no wave solves any more and
         next to a solved node, after which the waves run again from what they found
     hole_retry : the random starts instead for such a node with at least half of its neighbours
         solved (a hole in a reachable region is most likely reachable)
-    ilimit, rlimit, tol, lam, joint_limits, confirm_tol : per start, as :func:`ikine_search`
-    gtol : the stationary-point test (:mod:`wsmap.kinematics.lm_compiled`): a start fails once the gradient
-        vanishes relative to ``|J|·|e|`` away from a solution; 0 turns it off
-    q_init : optional ``(N, n)`` (or ``(B, N, n)``) starts tried first at each node, NaN rows where
+    ilimit, rlimit, tol, lam, joint_limits, confirm_tol : per start, as `ikine_search`
+    gtol : the stationary-point test (`wsmap.kinematics.lm_compiled`): a start fails once the gradient
+        vanishes relative to `|J|·|e|` away from a solution; 0 turns it off
+    q_init : optional `(N, n)` (or `(B, N, n)`) starts tried first at each node, NaN rows where
         none (e.g. each node's solution at a neighbouring orientation, or a sampled configuration
         whose tool lies near the node)
-    position_only : reach the position of ``T`` at any orientation (the error and the
+    position_only : reach the position of `T` at any orientation (the error and the
         confirmation on the position alone)
     seed_free_pass : whether a neighbour's solution that fails inside the limits is also run
-        without them (the second pass of :func:`ikine_search`'s starts)
-    border_starts : the starts of :func:`ikine_search` (``q0``, then its random starts ``1 ..
-        border_starts - 1``, with its per-start settings :data:`DEFAULT_ILIMIT`,
-        :data:`DEFAULT_RLIMIT`, no stationary-point test, both passes) that every node still
+        without them (the second pass of `ikine_search`'s starts)
+    border_starts : the starts of `ikine_search` (`q0`, then its random starts `1 ..
+        border_starts - 1`, with its per-start settings `DEFAULT_ILIMIT`,
+        `DEFAULT_RLIMIT`, no stationary-point test, both passes) that every node still
         unsolved next to a solved node gets once, after the solutions of its solved neighbours
         that the waves did not try; 0 turns the border search off
-    limit_bound : whether the joint-limit bound (:func:`wsmap.kinematics.ik.reach_filter.limit_filter`)
+    limit_bound : whether the joint-limit bound (`wsmap.kinematics.ik.reach_filter.limit_filter`)
         also rules out nodes before any start (one arm of revolute joints, a pose target): sound, so
         it changes no success and no solution, only the time (most of it was the border search's 32
-        starts at unreachable border nodes; ``docs/recall.md``) and, at the nodes it rules out,
-        ``reason``, ``q``, ``residual`` and ``iterations``; False is the reference path. A batch of
+        starts at unreachable border nodes; `docs/recall.md`) and, at the nodes it rules out,
+        `reason`, `q`, `residual` and `iterations`; False is the reference path. A batch of
         arms skips it (each arm would pay its build), so an arm alone and the same arm in a batch
         differ there, and only there
     progress : called with the number of targets settled as the search goes (those the reach filter
         rules out at once, those solved after each pass and wave, the rest at the end); the numbers
         add up to the number of targets
-    accept : optional configuration predicate, ``accept(q)`` with ``q`` ``(M, n)`` → bool ``(M,)``
-        (e.g. collision-free, :class:`wsmap.collision.CollisionChecker`); a converged solution it
+    accept : optional configuration predicate, `accept(q)` with `q` `(M, n)` → bool `(M,)`
+        (e.g. collision-free, `wsmap.collision.CollisionChecker`); a converged solution it
         rejects does not count, and its node keeps looking: neighbours' accepted solutions in the
-        waves, the retries, then ``accept_retry`` more random starts (in rounds of 4, each round
+        waves, the retries, then `accept_retry` more random starts (in rounds of 4, each round
         followed by waves) for the nodes whose solutions were all rejected, and the border search
 
-    Per arm, in passes: (1) every node: ``q0`` then ``starts`` random starts (the first ones of
-    :func:`ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
-    neighbour whose solution it has not tried takes up to ``seeds`` of them, in neighbour order, as
-    starts, until a wave solves nothing new; (3) the nodes left take ``retry`` more random starts,
+    Per arm, in passes: (1) every node: `q0` then `starts` random starts (the first ones of
+    `ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
+    neighbour whose solution it has not tried takes up to `seeds` of them, in neighbour order, as
+    starts, until a wave solves nothing new; (3) the nodes left take `retry` more random starts,
     and (2) again; (4) the border search: every node still unsolved next to a solved node, and not
-    border-searched before, tries its solved neighbours' solutions not tried yet and then the ``border_starts``
-    starts of :func:`ikine_search` (with ``seed`` and ``q0``, the same starts that search draws for
+    border-searched before, tries its solved neighbours' solutions not tried yet and then the `border_starts`
+    starts of `ikine_search` (with `seed` and `q0`, the same starts that search draws for
     the node's pose), then (2) again, until no new node borders a solved one. So a node next to a
-    solved node is reached whenever :func:`ikine_search` with ``border_starts`` starts reaches it,
+    solved node is reached whenever `ikine_search` with `border_starts` starts reaches it,
     whatever the waves did before. Every success is confirmed by forward kinematics inside the
-    limits, so ``True`` is never wrong; recall is measured in ``benchmarks/bench_fast_maps.py`` and
-    ``benchmarks/bench_recall_arms.py``. Deterministic; does not depend on the thread count.
+    limits, so `True` is never wrong; recall is measured in `benchmarks/bench_fast_maps.py` and
+    `benchmarks/bench_recall_arms.py`. Deterministic; does not depend on the thread count.
 
-    Returns an :class:`~wsmap.kinematics.ik.solution.IKSolution` of shape ``(B, N)`` (``(N,)`` for one
-    arm), its fields as :func:`ikine_search`'s; ``start`` is the random start's index ``k``
-    (0 = ``q0``) that succeeded, ``-2`` where a neighbour's solution did, ``-1`` where none did.
+    Returns an `IKSolution` of shape `(B, N)` (`(N,)` for one
+    arm), its fields as `ikine_search`'s; `start` is the random start's index `k`
+    (0 = `q0`) that succeeded, `-2` where a neighbour's solution did, `-1` where none did.
     """
     chain = _limited(as_chain_memo(robot), joint_limits)
     T = check_rigid("target poses", T)
@@ -435,13 +435,13 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
             start[idx[okk]] = np.where(st[okk] < nexp[okk], 0, st[okk] - nexp[okk] + k_first)
         return int(okk.sum())
 
-    rejected = np.zeros(M, dtype=bool)  # a converged solution was refused by ``accept``
+    rejected = np.zeros(M, dtype=bool)  # a converged solution was refused by `accept`
     K = nb.shape[1]
     tried = np.zeros((M, K), dtype=bool)
 
     def waves():
         # a wave: every unsolved node next to a node solved since the last wave tries up to
-        # ``seeds`` of those fresh solutions; it ends when a wave solves nothing
+        # `seeds` of those fresh solutions; it ends when a wave solves nothing
         if not seeds or not K:
             return
         fresh = ok.copy()

@@ -1,5 +1,5 @@
 """The first call of the compiled IK kernels: compiled now, with a one-line notice, rather than during
-the first map in silence (:func:`ensure_compiled`, called by ``wsmap map`` before it maps)."""
+the first map in silence (`ensure_compiled`, called by `wsmap map` before it maps)."""
 
 from __future__ import annotations
 
@@ -17,27 +17,27 @@ __all__ = ["ensure_compiled", "needs_compile"]
 
 
 def _scalar(joints) -> tuple:
-    """Of the joint counts ``joints`` (an int or a sequence), those whose search runs on the scalar
-    (numba) kernel now: none where the lane kernel runs them (:func:`lm_lanes.runs_on_lanes`)."""
+    """Of the joint counts `joints` (an int or a sequence), those whose search runs on the scalar
+    (numba) kernel now: none where the lane kernel runs them (`lm_lanes.runs_on_lanes`)."""
     joints = (joints,) if isinstance(joints, (int, np.integer)) else tuple(joints)
     return tuple(int(n) for n in joints if not lm_lanes.runs_on_lanes(int(n)))
 
 
 def needs_compile(joints=(6, 7)) -> bool:
-    """Whether the first numerical map of this process on arms of the joint counts ``joints`` will
+    """Whether the first numerical map of this process on arms of the joint counts `joints` will
     compile numba code: the scalar kernel's builds where it runs them
-    (:func:`wsmap.kinematics.lm_compiled.needs_compile`), else the search's helpers alone."""
+    (`wsmap.kinematics.lm_compiled.needs_compile`), else the search's helpers alone."""
     return lm_compiled.needs_compile(_scalar(joints))
 
 
 def ensure_compiled(notify=None, joints=(6, 7)) -> float:
-    """Compile the IK kernels for arms of the joint counts ``joints`` (an int or a sequence: 6 takes
+    """Compile the IK kernels for arms of the joint counts `joints` (an int or a sequence: 6 takes
     the six-joint build, any other count the generic one; none where the lane kernel,
-    :mod:`wsmap.kinematics.lm_lanes`, runs them: then only the search's numba helpers, silently) now if the first map would
-    (:func:`wsmap.kinematics.lm_compiled.needs_compile`: numba's cache index says), and say so first:
-    ``notify`` (a callable taking one line; None: silent) gets "compiling the IK kernels once, about
+    `wsmap.kinematics.lm_lanes`, runs them: then only the search's numba helpers, silently) now if the first map would
+    (`wsmap.kinematics.lm_compiled.needs_compile`: numba's cache index says), and say so first:
+    `notify` (a callable taking one line; None: silent) gets "compiling the IK kernels once, about
     N s; cached in DIR", N the last cold compile measured here per build (or
-    :data:`~wsmap.kinematics.lm_compiled.COLD_COMPILE_SECONDS`). The compile is a one-pose search of
+    `COLD_COMPILE_SECONDS`). The compile is a one-pose search of
     the PUMA560 (six joints) and of the Panda (seven: the generic build) as the counts need (every
     kernel, the types every caller passes), and the PUMA560's wrist-orbit pre-filter. Returns the
     seconds it took (0.0 where everything was cached: loading is left to the first call)."""

@@ -1,24 +1,24 @@
 """The parts of the paper's reproduction: one module per notebook (pipeline stage), each registering itself.
 
-A part module ``wsmap.paper.parts.<name>`` holds everything its notebook computes and draws:
+A part module `wsmap.paper.parts.<name>` holds everything its notebook computes and draws:
 
-* ``PART`` — its :class:`Part` record (name, place in the run order, the parts whose outputs it
-  reads, the files it writes), registered with :func:`register` when the module is imported;
-* ``Metrics`` — the schema of its ``results/<name>.json`` (a :class:`typing.TypedDict`, every key
-  documented once; :func:`check_metrics` holds a metrics dict to it);
-* ``run(cfg, out, ...)`` — the computation, from the notebook's params section ``cfg``
-  (:func:`wsmap.paths.notebook_params`) and the run's folders ``out`` (:class:`wsmap.paths.Outputs`:
-  the datasets and the models of the parts it reads); returns a result whose ``metrics`` follow
-  ``Metrics``;
-* ``save(result, out)`` — its metrics file, tables and model files; ``figures(result, out)`` — its
-  figures (drawn with :mod:`wsmap.viz`), returning their paths.
+* `PART` — its `Part` record (name, place in the run order, the parts whose outputs it
+  reads, the files it writes), registered with `register` when the module is imported;
+* `Metrics` — the schema of its `results/<name>.json` (a `typing.TypedDict`, every key
+  documented once; `check_metrics` holds a metrics dict to it);
+* `run(cfg, out, ...)` — the computation, from the notebook's params section `cfg`
+  (`wsmap.paths.notebook_params`) and the run's folders `out` (`wsmap.paths.Outputs`:
+  the datasets and the models of the parts it reads); returns a result whose `metrics` follow
+  `Metrics`;
+* `save(result, out)` — its metrics file, tables and model files; `figures(result, out)` — its
+  figures (drawn with `wsmap.viz`), returning their paths.
 
-The notebook ``notebooks/<name>.ipynb`` loads its params, calls these and narrates.
-:func:`order` (the pipeline order, ``wsmap paper run --all`` and ``wsmap paper list``) and
-:func:`reads` (which parts a part reads; the smoke tests run those first) come from the registry;
-DVC's ``dvc.yaml`` holds the same stages (``tests/test_paper_pipeline.py`` compares them).
+The notebook `notebooks/<name>.ipynb` loads its params, calls these and narrates.
+`order` (the pipeline order, `wsmap paper run --all` and `wsmap paper list`) and
+`reads` (which parts a part reads; the smoke tests run those first) come from the registry;
+DVC's `dvc.yaml` holds the same stages (`tests/test_paper_pipeline.py` compares them).
 
-A new figure of the paper is one new module here (with its ``PART``), one notebook and one stage.
+A new figure of the paper is one new module here (with its `PART`), one notebook and one stage.
 """
 
 from __future__ import annotations
@@ -41,11 +41,11 @@ __all__ = ["Part", "register", "registry", "part", "order", "reads", "metric_key
 class Part:
     """One part of the paper: a notebook, a DVC stage, a metrics file.
 
-    ``name``: the notebook, the params section and the stage (``results/<name>.json``).
-    ``position``: its place in the run order (the paper's order; ties are not allowed).
-    ``reads``: the parts whose output files it reads (they run first).
-    ``outputs``: the files and folders it writes, relative to the output root (the executed
-    notebook aside), as ``dvc.yaml`` lists them for the committed params.
+    `name`: the notebook, the params section and the stage (`results/<name>.json`).
+    `position`: its place in the run order (the paper's order; ties are not allowed).
+    `reads`: the parts whose output files it reads (they run first).
+    `outputs`: the files and folders it writes, relative to the output root (the executed
+    notebook aside), as `dvc.yaml` lists them for the committed params.
     """
 
     name: str
@@ -63,8 +63,8 @@ _REGISTRY: dict[str, Part] = {}
 
 
 def register(p: Part) -> Part:
-    """Add ``p`` to the registry (a part module's last statement); a second part of the same name
-    or position is a ``ValueError``."""
+    """Add `p` to the registry (a part module's last statement); a second part of the same name
+    or position is a `ValueError`."""
     if not p.name.isidentifier():
         raise ValueError(f"a part's name must be a Python identifier (its module's), got {p.name!r}")
     old = _REGISTRY.get(p.name)
@@ -82,7 +82,7 @@ def registry() -> dict[str, Part]:
 
     The modules are found by listing the package, so that running one notebook imports only its
     own part; a part that reads an unknown part, or one placed before a part it reads, is a
-    ``ValueError``.
+    `ValueError`.
     """
     for info in pkgutil.iter_modules(__path__):
         if not info.name.startswith("_"):
@@ -98,7 +98,7 @@ def registry() -> dict[str, Part]:
 
 
 def part(name: str) -> Part:
-    """The registered part ``name``; an unknown name is a ``ValueError`` listing the known ones."""
+    """The registered part `name`; an unknown name is a `ValueError` listing the known ones."""
     parts = registry()
     if name not in parts:
         raise ValueError(f"unknown part {name!r}; known: {', '.join(parts)}")
@@ -111,21 +111,21 @@ def order() -> list[str]:
 
 
 def reads(name: str) -> list[str]:
-    """The parts whose outputs part ``name`` reads, in run order."""
+    """The parts whose outputs part `name` reads, in run order."""
     p = part(name)
     return [n for n in order() if n in p.reads]
 
 
 def metric_keys(schema: type) -> tuple[str, ...]:
-    """The keys of a ``Metrics`` TypedDict, in declaration order."""
+    """The keys of a `Metrics` TypedDict, in declaration order."""
     return tuple(schema.__annotations__)
 
 
 def check_metrics(metrics: dict, schema: type, what: str, *, beside: Callable[[str, Any], bool] | None = None,
                   other: str = "have keys not in the schema") -> dict:
-    """``metrics`` unchanged when it holds the schema's keys and no other key, or only others for
-    which ``beside(key, value)`` is true (the parts with one entry per table cell or method); else a
-    ``ValueError`` naming the keys missing and, after ``other``, the keys not allowed (``what``:
+    """`metrics` unchanged when it holds the schema's keys and no other key, or only others for
+    which `beside(key, value)` is true (the parts with one entry per table cell or method); else a
+    `ValueError` naming the keys missing and, after `other`, the keys not allowed (`what`:
     whose metrics)."""
     keys = metric_keys(schema)
     missing = [k for k in keys if k not in metrics]
@@ -138,8 +138,8 @@ def check_metrics(metrics: dict, schema: type, what: str, *, beside: Callable[[s
 
 def save_tables(out: Outputs, name: str, table: pd.DataFrame, runs: pd.DataFrame, shown: pd.DataFrame, metrics: dict,
                 whole: Sequence[str] = ()) -> None:
-    """A table part's files: ``tables/<name>``, ``<name>_runs`` and ``<name>_display`` (.csv and .md;
-    ``whole``: the columns written as whole numbers) and ``results/<name>.json``."""
+    """A table part's files: `tables/<name>`, `<name>_runs` and `<name>_display` (.csv and .md;
+    `whole`: the columns written as whole numbers) and `results/<name>.json`."""
     write_table(table, out.tables / name, whole=whole)
     write_table(runs, out.tables / f"{name}_runs", whole=whole)
     write_table(shown, out.tables / f"{name}_display", whole=whole)
@@ -147,8 +147,8 @@ def save_tables(out: Outputs, name: str, table: pd.DataFrame, runs: pd.DataFrame
 
 
 def save_figure(fig: Figure, path: PathLike) -> Path:
-    """:func:`wsmap.viz.save_figure` (the figure written, then closed), returning ``path`` so that
-    ``figures`` can list what it wrote."""
+    """`wsmap.viz.save_figure` (the figure written, then closed), returning `path` so that
+    `figures` can list what it wrote."""
     from ... import viz
 
     viz.save_figure(fig, path)
@@ -156,9 +156,9 @@ def save_figure(fig: Figure, path: PathLike) -> Path:
 
 
 def knows_key(name: str, key: str) -> bool:
-    """Whether part ``name``'s metrics schema has the dotted ``key`` (``"f_mean"``,
-    ``"panda7.f"``, ``"rprop_mse.f_mean"``): the first component a key of its ``Metrics`` (nested
-    TypedDicts followed), or else a key its module's ``is_cell_key`` accepts (the parts whose
+    """Whether part `name`'s metrics schema has the dotted `key` (`"f_mean"`,
+    `"panda7.f"`, `"rprop_mse.f_mean"`): the first component a key of its `Metrics` (nested
+    TypedDicts followed), or else a key its module's `is_cell_key` accepts (the parts whose
     metrics hold one entry per table cell or method)."""
     module = importlib.import_module(part(name).module)
     schema, rest = module.Metrics, key.split(".")

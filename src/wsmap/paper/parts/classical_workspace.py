@@ -3,8 +3,8 @@
 A grid of positions at a fixed orientation, inverse kinematics at every node, one bit per node:
 the exact closed-form map against the paper's numerical path (one-start Levenberg–Marquardt from
 q0 = 0), the two pose conventions side by side, and the label audit (how the paper's numerical path
-would label the datasets' (arm, node) pairs, :func:`wsmap.datasets.audit_table` on
-:func:`wsmap.paper.specs.audit_specs`).
+would label the datasets' (arm, node) pairs, `wsmap.datasets.audit_table` on
+`wsmap.paper.specs.audit_specs`).
 """
 
 from __future__ import annotations
@@ -43,16 +43,16 @@ class LabelAudit(TypedDict):
 
 
 class Metrics(TypedDict):
-    """``results/classical_workspace.json``."""
+    """`results/classical_workspace.json`."""
 
     nodes: int
-    reachable_exact: int  #: nodes of the PUMA560's exact map at ``rpy``
+    reachable_exact: int  #: nodes of the PUMA560's exact map at `rpy`
     reachable_numerical: int  #: nodes the paper's one-start LM finds
     numerical_false_negatives: int
     numerical_false_positives: int
     exact_numerical_agreement: float  #: fraction of nodes where the two agree
     conventions_equal_at_identity: bool
-    conventions_differ_fraction_rotated: float  #: fraction of nodes where the conventions differ at ``rotated_rpy``
+    conventions_differ_fraction_rotated: float  #: fraction of nodes where the conventions differ at `rotated_rpy`
     label_audit: LabelAudit
 
 
@@ -67,11 +67,11 @@ PART = Part("classical_workspace", "The classical workspace map of the PUMA560",
 class Result:
     metrics: Metrics
     shape: tuple[int, int, int]
-    exact: np.ndarray  #: the exact map at ``rpy`` (flat, node order)
+    exact: np.ndarray  #: the exact map at `rpy` (flat, node order)
     numerical: np.ndarray  #: the paper's numerical map
-    paper_convention: np.ndarray  #: the map at ``rotated_rpy``, paper's convention
+    paper_convention: np.ndarray  #: the map at `rotated_rpy`, paper's convention
     standard_convention: np.ndarray
-    mesh: object  #: marching-cubes mesh of ``exact``
+    mesh: object  #: marching-cubes mesh of `exact`
     audit: pd.DataFrame
     seconds: dict[str, float]  #: exact, numerical, audit
     cfg: Mapping
@@ -81,7 +81,7 @@ class Result:
 
 
 def run(cfg: Mapping, out: Outputs | None = None, *, log=print) -> Result:
-    """The maps and the audit of params section ``cfg`` (nothing is read from ``out``)."""
+    """The maps and the audit of params section `cfg` (nothing is read from `out`)."""
     axes = workspace.grid_axes(cfg["lo"], cfg["hi"], cfg["step"])
     shape = tuple(len(a) for a in axes)
     nodes = workspace.cartesian_grid(cfg["lo"], cfg["hi"], cfg["step"])

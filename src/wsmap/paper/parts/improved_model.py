@@ -33,7 +33,7 @@ from . import Part, check_metrics, register, save_figure
 
 
 class Metrics(TypedDict):
-    """``results/improved_model.json``."""
+    """`results/improved_model.json`."""
 
     f: float  #: pooled F on the held-out arms
     precision: float
@@ -73,7 +73,7 @@ class Result:
 
 
 def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
-    """Train and test the model of params section ``cfg`` on ``out.data``'s dataset."""
+    """Train and test the model of params section `cfg` on `out.data`'s dataset."""
     import torch
 
     device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
@@ -130,7 +130,7 @@ def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
 
 
 def save(result: Result, out: Outputs) -> None:
-    """The model (``models/improved_model.pt``, read by ``learned_maps``) and the metrics file."""
+    """The model (`models/improved_model.pt`, read by `learned_maps`) and the metrics file."""
     save_model(result.model, out.models / "improved_model.pt", dataset_spec=result.train.spec,
                train_config=result.train_config)
     write_json(result.metrics, out.results / "improved_model.json")

@@ -2,11 +2,11 @@
 
 The paper's idea on a family whose classical map is expensive: **panda7** (the Franka Panda with
 its six non-zero lengths scaled by U(0.7, 1.3), joint limits, no closed form; its tool-down map
-labelled by the numerical search), a map model trained on it (:mod:`wsmap.learn.family`), its
+labelled by the numerical search), a map model trained on it (`wsmap.learn.family`), its
 learning curve and speed against the numerical map; the paper's future work, a **manipulability**
-model of the spherical-wrist family (:mod:`wsmap.learn.manipulability`); and **design by
+model of the spherical-wrist family (`wsmap.learn.manipulability`); and **design by
 gradient** through a map model against CMA-ES and random search on the classical map
-(:mod:`wsmap.design`), for the spherical-wrist family (``improved_model``'s model) and panda7.
+(`wsmap.design`), for the spherical-wrist family (`improved_model`'s model) and panda7.
 """
 
 from __future__ import annotations
@@ -44,17 +44,17 @@ class Panda7Metrics(TypedDict):
     f_std: float
     epochs: int
     train_seconds: float
-    recipe: dict  #: :class:`wsmap.learn.family.MapRecipe`
+    recipe: dict  #: `wsmap.learn.family.MapRecipe`
     curve: list[dict]  #: F against the number of training arms
-    speed: dict  #: one map from the model against the numerical map (``speedup``)
+    speed: dict  #: one map from the model against the numerical map (`speedup`)
 
 
 class Metrics(TypedDict):
-    """``results/learned_maps.json``."""
+    """`results/learned_maps.json`."""
 
     panda7: Panda7Metrics
-    manipulability: dict  #: train/test arms, epochs and :func:`wsmap.learn.manipulability.regression_metrics`
-    design: dict  #: family -> rows of :func:`wsmap.design.compare_designs`
+    manipulability: dict  #: train/test arms, epochs and `wsmap.learn.manipulability.regression_metrics`
+    design: dict  #: family -> rows of `wsmap.design.compare_designs`
     device: str
 
 
@@ -87,8 +87,8 @@ class Result:
 
 
 def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
-    """The panda7 model, the manipulability model and the design studies of params section ``cfg``
-    (the datasets in ``out.data``; ``improved_model``'s model in ``out.inputs.models``)."""
+    """The panda7 model, the manipulability model and the design studies of params section `cfg`
+    (the datasets in `out.data`; `improved_model`'s model in `out.inputs.models`)."""
     import torch
 
     device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work

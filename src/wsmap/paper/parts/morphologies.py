@@ -1,28 +1,28 @@
 """One network for every arm: workspace maps of arms it has never seen (beyond the paper, issue 28).
 
-The experience: arms of the ``morph6`` and ``morph7`` families (:mod:`wsmap.robots.morph`: every
+The experience: arms of the `morph6` and `morph7` families (`wsmap.robots.morph`: every
 serial 6R/7R arm in the range of industrial and collaborative arms, the named arms held out), their
-tool-down map (``R = Rx(pi)``, ``T = transl(p)·R``) on ``[-1.5, 1.5]³`` at ``step`` labelled by the
-numerical map search, built in resumable shards (:func:`wsmap.learn.morph_model.build_morph_shards`,
-on a local Dask cluster with ``workers``). The model: the implicit network ``f(morphology, point)``
-of :mod:`wsmap.learn.morph_model`. Beside it, on the same held-out arms:
+tool-down map (`R = Rx(pi)`, `T = transl(p)·R`) on `[-1.5, 1.5]³` at `step` labelled by the
+numerical map search, built in resumable shards (`wsmap.learn.morph_model.build_morph_shards`,
+on a local Dask cluster with `workers`). The model: the implicit network `f(morphology, point)`
+of `wsmap.learn.morph_model`. Beside it, on the same held-out arms:
 
-* ``fk_model``: the same network trained on labels from forward kinematics alone
-  (:func:`~wsmap.learn.morph_model.fk_labels`: no inverse kinematics, as RAM's experience);
-* ``nearest_arm``: the map-search map of the training arm nearest in the description space;
-* ``fk_sampled``: the held-out arm's own forward-kinematics-sampled map (no learning: what
+* `fk_model`: the same network trained on labels from forward kinematics alone
+  (`fk_labels`: no inverse kinematics, as RAM's experience);
+* `nearest_arm`: the map-search map of the training arm nearest in the description space;
+* `fk_sampled`: the held-out arm's own forward-kinematics-sampled map (no learning: what
   sampling that arm directly gives for the same number of samples);
-* ``family_model``, for a named arm that belongs to a family (params ``family``: the Panda is
-  ``panda7`` at scale 1): that family's map model (:func:`wsmap.learn.family.fit_map_model`, the
-  ``learned_maps`` recipe) trained here on the same grid, orientation and label search.
+* `family_model`, for a named arm that belongs to a family (params `family`: the Panda is
+  `panda7` at scale 1): that family's map model (`wsmap.learn.family.fit_map_model`, the
+  `learned_maps` recipe) trained here on the same grid, orientation and label search.
 
 Held out: the random arms of shard 0's test streams (never trained on) and the six named arms
 (labelled here by the same map search; no training arm within
-:data:`~wsmap.robots.morph.HOLD_OUT_RADIUS` of them, checked). Then one 3-D map of ``time_step``
+`HOLD_OUT_RADIUS` of them, checked). Then one 3-D map of `time_step`
 by the model against the classical map of the same arm, side by side. Last, design across
-morphologies (:mod:`wsmap.morph_design`): the shortest 6R arm of any twist pattern whose
+morphologies (`wsmap.morph_design`): the shortest 6R arm of any twist pattern whose
 tool-down map covers a box of task positions, by gradient through the model against CMA-ES and
-random search on the classical map (params ``design``), every answer verified by the classical map.
+random search on the classical map (params `design`), every answer verified by the classical map.
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ METHODS = ("model", "fk_model", "nearest_arm", "fk_sampled")
 
 
 class Metrics(TypedDict):
-    """``results/morphologies.json``."""
+    """`results/morphologies.json`."""
 
     step: float  #: label grid step (m) on [-1.5, 1.5]³
     nodes: int  #: nodes of the label grid
@@ -91,7 +91,7 @@ class Result:
     fk_model: Any
     arms: pd.DataFrame  #: one row per (arm group, method): F, precision, recall
     speed: pd.DataFrame
-    design: pd.DataFrame  #: one row per design method (:func:`wsmap.design.format_design_table`'s columns)
+    design: pd.DataFrame  #: one row per design method (`wsmap.design.format_design_table`'s columns)
     shown: dict  #: the named arm shown: name, labels and each method's map, grid shape
 
 
@@ -102,7 +102,7 @@ def _scores(pred, truth) -> dict[str, float]:
 
 
 def _predict(model, features) -> np.ndarray:
-    """Maps ``(B, N)`` of arms by their features, at the model's nodes and threshold."""
+    """Maps `(B, N)` of arms by their features, at the model's nodes and threshold."""
     with torch.no_grad():
         prob = torch.sigmoid(model(torch.as_tensor(features, dtype=torch.float32))).numpy()
     return prob > model.threshold
@@ -116,7 +116,7 @@ def _train_config(t: Mapping, seed: int, device: str = "cpu") -> TrainConfig:
 
 def run(cfg: Mapping, out: Outputs) -> Result:
     """Build (or reuse) the experience, train the model and the FK-only model, score every method on
-    the held-out arms, time one map (module notes). ``cfg``: the ``morphologies`` params section."""
+    the held-out arms, time one map (module notes). `cfg`: the `morphologies` params section."""
     device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
     torch.set_num_threads(int(cfg["threads"]))
     step, seed = float(cfg["step"]), int(cfg["seed"])
@@ -210,8 +210,8 @@ def run(cfg: Mapping, out: Outputs) -> Result:
 
 
 def _family_members(family: Mapping, where: str) -> dict[str, np.ndarray]:
-    """Each named arm of params ``family`` as a member of its family: its family parameters, checked
-    before any work (an unknown family, or an arm that is not a member, is a ``ValueError`` naming
+    """Each named arm of params `family` as a member of its family: its family parameters, checked
+    before any work (an unknown family, or an arm that is not a member, is a `ValueError` naming
     the entry)."""
     members = {}
     for name, f in family.items():
@@ -228,9 +228,9 @@ def _family_members(family: Mapping, where: str) -> dict[str, np.ndarray]:
 
 def _family_model(name: str, f: Mapping, params: np.ndarray, spec, data_dir: Path, seed: int, nodes,
                   device: str = "cpu") -> dict:
-    """The family baseline of named arm ``name`` (its family parameters ``params``): a map model of
-    family ``f["family"]`` (``f["samples"]`` arms on the stage's grid, tool down, labelled by the
-    numerical map search; built once into ``data_dir``) trained with ``f["recipe"]``, scored on the
+    """The family baseline of named arm `name` (its family parameters `params`): a map model of
+    family `f["family"]` (`f["samples"]` arms on the stage's grid, tool down, labelled by the
+    numerical map search; built once into `data_dir`) trained with `f["recipe"]`, scored on the
     arm's map-search map."""
     from ...datasets import DatasetError, DatasetSpec, build_dataset_files, load_dataset
     from ...learn import family as learn_family
@@ -258,8 +258,8 @@ def _family_model(name: str, f: Mapping, params: np.ndarray, spec, data_dir: Pat
 
 
 def _design(model, d: Mapping, seed: int) -> tuple[list[dict], dict]:
-    """The design study (:func:`wsmap.morph_design.compare_morph_designs`) on the box of tasks of
-    params ``design``: rows of the table and the record of each method's answer."""
+    """The design study (`wsmap.morph_design.compare_morph_designs`) on the box of tasks of
+    params `design`: rows of the table and the record of each method's answer."""
     from ... import morph_design as md
     from ...design import box_tasks
 
@@ -279,11 +279,11 @@ def _design(model, d: Mapping, seed: int) -> tuple[list[dict], dict]:
 
 
 def _speed(model, cfg: Mapping, test_sets) -> pd.DataFrame:
-    """One map of ``time_step`` on ``[-1.5, 1.5]³`` by the model, coarse to fine as ``wsmap map
-    --method model`` maps a grid (:func:`~wsmap.learn.morph_model.predict_morph_grid`, ``model_ms``)
-    and at every node (``dense_ms``), best of ``timing_repeats`` each, beside the classical numerical
-    map (one call, after an untimed call on a small grid), for a held-out ``morph7`` arm and each of
-    ``speed_arms``. ``same_map``: the two model maps are equal."""
+    """One map of `time_step` on `[-1.5, 1.5]³` by the model, coarse to fine as `wsmap map
+    --method model` maps a grid (`predict_morph_grid`, `model_ms`)
+    and at every node (`dense_ms`), best of `timing_repeats` each, beside the classical numerical
+    map (one call, after an untimed call on a small grid), for a held-out `morph7` arm and each of
+    `speed_arms`. `same_map`: the two model maps are equal."""
     step = float(cfg["time_step"])
     nodes = workspace.cartesian_grid(-MORPH_GRID, MORPH_GRID, step)
     small = workspace.cartesian_grid(-MORPH_GRID, MORPH_GRID, 0.5)

@@ -1,16 +1,16 @@
 """The maps roboticists use, for the named arms (beyond the paper).
 
-For every named arm (``wsmap robots``): the reachability index over a set of orientations spread on
+For every named arm (`wsmap robots`): the reachability index over a set of orientations spread on
 SO(3) (super-Fibonacci, seed), the reach and dexterous volumes, the PUMA560's manipulability map,
 and base placement of a UR5e and a Panda for pick poses on a table (world frame, tool down). Arms
 of a closed-form family are mapped exactly, the others by the numerical search.
 
-What collisions remove (params ``collision``): for each named arm with a collision model
-(:mod:`wsmap.collision.named`: panda, ur5e, iiwa14) the tool-down map (``T = transl(p)·Rx(π)``,
+What collisions remove (params `collision`): for each named arm with a collision model
+(`wsmap.collision.named`: panda, ur5e, iiwa14) the tool-down map (`T = transl(p)·Rx(π)`,
 standard convention) and the reachability index, three ways: the chain alone, with self-collision
 and the floor, and with a table (a box in the base frame) as well; the volume each loses (m³, %);
 and a base placement around a table in the world (targets on its top) ranked by the chain alone and
-collision-aware (:meth:`wsmap.collision.CollisionChecker.at_bases` checks each candidate base).
+collision-aware (`wsmap.collision.CollisionChecker.at_bases` checks each candidate base).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ class CollisionPlacement(TypedDict):
 
 
 class Metrics(TypedDict):
-    """``results/real_arms.json``."""
+    """`results/real_arms.json`."""
 
     arms: list[dict]  #: per arm: method, nodes, volumes (m³), mean index where reached, seconds
     placement: list[dict]  #: per arm and rank: base x, y (m), yaw (deg), targets reached, score, seconds
@@ -71,9 +71,9 @@ PART = Part("real_arms", "The maps roboticists use, for real arms", 90, outputs=
     "tables/real_arms_collision_placement.csv", "tables/real_arms_collision_placement.md",
     "figures/real_arms_collision.png", "figures/real_arms_collision_placement.png"))
 
-#: The three ways every collision map is computed (the ``way`` column), in order.
+#: The three ways every collision map is computed (the `way` column), in order.
 WAYS = ("chain", "self_floor", "table")
-#: The tool-down orientation of the collision part (``T = transl(p)·Rx(π)``, standard convention).
+#: The tool-down orientation of the collision part (`T = transl(p)·Rx(π)`, standard convention).
 TOOL_DOWN = (np.pi, 0.0, 0.0)
 
 
@@ -101,7 +101,7 @@ class Result:
 
 
 def run(cfg: Mapping, out: Outputs | None = None, *, log=print) -> Result:
-    """The maps, volumes and placements of params section ``cfg``."""
+    """The maps, volumes and placements of params section `cfg`."""
     step, k = cfg["step"], cfg["orientations"]
     orientations = workspace.orientation_samples(k, seed=cfg["seed"])
     arms = {name: robots.load(name) for name in cfg["arms"]}
@@ -170,9 +170,9 @@ def run(cfg: Mapping, out: Outputs | None = None, *, log=print) -> Result:
 
 
 def table_obstacle(spec: Mapping, frame: str):
-    """The table of params (``size`` [x, y, z] m, a solid box; ``xyz`` its centre, m) as a
-    :class:`wsmap.collision.Obstacle` in ``frame`` (``"base"`` or ``"world"``); a bad size or
-    position is a :class:`wsmap.collision.CollisionError` naming it (the scene files' checks)."""
+    """The table of params (`size` [x, y, z] m, a solid box; `xyz` its centre, m) as a
+    `wsmap.collision.Obstacle` in `frame` (`"base"` or `"world"`); a bad size or
+    position is a `wsmap.collision.CollisionError` naming it (the scene files' checks)."""
     from ...collision import scene_from_dict
 
     item = {"name": "table", "shape": "box", "size": list(spec["size"]), "xyz": list(spec["xyz"])}
@@ -181,8 +181,8 @@ def table_obstacle(spec: Mapping, frame: str):
 
 
 def _checkers(name: str, table):
-    """The three ways of arm ``name``: None (the chain), self-collision and the floor, and the
-    floor and ``table`` as well (one model, one allowed-collision matrix)."""
+    """The three ways of arm `name`: None (the chain), self-collision and the floor, and the
+    floor and `table` as well (one model, one allowed-collision matrix)."""
     from ...collision import CollisionChecker, Scene, checker_for
 
     free = checker_for(name)
@@ -193,17 +193,17 @@ def _checkers(name: str, table):
 def collision_volumes(arms, step: float, half_width: Mapping, orientations: np.ndarray, table, *,
                       log=print) -> tuple[list[dict], dict]:
     """What collisions remove from the tool-down map and the reachability index of each of
-    ``arms`` (named arms with a capsule model) on the cube of half-width ``half_width[arm]`` (m)
-    sampled at ``step`` (m), over ``orientations`` (K, 3, 3), three ways (:data:`WAYS`); ``table``
-    an obstacle in the base frame (:func:`table_obstacle`).
+    `arms` (named arms with a capsule model) on the cube of half-width `half_width[arm]` (m)
+    sampled at `step` (m), over `orientations` (K, 3, 3), three ways (`WAYS`); `table`
+    an obstacle in the base frame (`table_obstacle`).
 
-    Returns the rows (per arm, kind ``tooldown``/``index`` and way: ``nodes`` reached,
-    ``volume_m3`` = nodes · step³ (the index: nodes with index > 0), ``lost_m3`` and ``lost_pct``
-    against the chain, ``index_volume_m3`` = Σ index · step³ (the tool-down map: its volume) and
-    ``index_lost_pct``, ``volume_above_floor_m3`` (nodes with z > 0; the z = 0 layer counts with
-    the floor) and ``lost_above_floor_pct`` (the share of those lost: mostly what self-collision and
+    Returns the rows (per arm, kind `tooldown`/`index` and way: `nodes` reached,
+    `volume_m3` = nodes · step³ (the index: nodes with index > 0), `lost_m3` and `lost_pct`
+    against the chain, `index_volume_m3` = Σ index · step³ (the tool-down map: its volume) and
+    `index_lost_pct`, `volume_above_floor_m3` (nodes with z > 0; the z = 0 layer counts with
+    the floor) and `lost_above_floor_pct` (the share of those lost: mostly what self-collision and
     the table take, the floor's cut of the lower half left aside; an arm reaching a node just above
-    the floor can still dip into it), ``seconds``) and the maps (arm -> ``grid``, ``tooldown``/``index``: way ->
+    the floor can still dip into it), `seconds`) and the maps (arm -> `grid`, `tooldown`/`index`: way ->
     the map in node order)."""
     rows, maps = [], {}
     cell = step ** 3
@@ -246,14 +246,14 @@ def collision_volumes(arms, step: float, half_width: Mapping, orientations: np.n
 
 
 def collision_placement(spec: Mapping, *, log=print) -> dict:
-    """Base placement of ``spec["arm"]`` around a table in the world (``spec["table"]``, see
-    :func:`table_obstacle`) for tool poses ``spec["positions"]`` (world, m) at ``spec["rpy"]``
-    (standard convention), candidates on ``x`` × ``y`` (m) at ``step`` with ``yaws`` headings, ranked
+    """Base placement of `spec["arm"]` around a table in the world (`spec["table"]`, see
+    `table_obstacle`) for tool poses `spec["positions"]` (world, m) at `spec["rpy"]`
+    (standard convention), candidates on `x` × `y` (m) at `step` with `yaws` headings, ranked
     twice: by the chain alone and collision-aware (self-collision, the floor and the table, checked
-    from each candidate base). Returns ``metrics`` (:class:`CollisionPlacement`), ``table`` (the
-    ``top`` bases of each ranking, each with both rankings' scores ``score_chain``, ``score_free``) and ``scores``
-    (``chain``/``free``: the best score over the headings at each position, ``(ny, nx)``, and the
-    positions ``x`` (nx,), ``y`` (ny,), m)."""
+    from each candidate base). Returns `metrics` (`CollisionPlacement`), `table` (the
+    `top` bases of each ranking, each with both rankings' scores `score_chain`, `score_free`) and `scores`
+    (`chain`/`free`: the best score over the headings at each position, `(ny, nx)`, and the
+    positions `x` (nx,), `y` (ny,), m)."""
     from ...collision import CollisionChecker, Scene, arm_model, build_acm
 
     arm = robots.load(spec["arm"])
@@ -306,9 +306,9 @@ def _levels(manip: np.ndarray) -> tuple[float, ...]:
 
 
 def save(result: Result, out: Outputs) -> None:
-    """The metrics file, the tables, and the 3-D views (``results/real_arms/``: PLY point clouds and
-    GLB iso-surfaces of each index; ``results/real_arms_html/``: the interactive view of
-    ``show_3d``, a standalone page carrying plotly.js, about 5 MB: DVC-cached, not committed)."""
+    """The metrics file, the tables, and the 3-D views (`results/real_arms/`: PLY point clouds and
+    GLB iso-surfaces of each index; `results/real_arms_html/`: the interactive view of
+    `show_3d`, a standalone page carrying plotly.js, about 5 MB: DVC-cached, not committed)."""
     cfg = result.cfg
     views = out.results / "real_arms"
     views.mkdir(parents=True, exist_ok=True)
@@ -333,8 +333,8 @@ def save(result: Result, out: Outputs) -> None:
 
 
 def figure_3d_of_shown(result: Result, stride: int = 1):
-    """The interactive plotly view of ``show_3d``'s index (the notebook shows it), on every
-    ``stride``-th node along each axis (the grid's step times ``stride``, the same first node)."""
+    """The interactive plotly view of `show_3d`'s index (the notebook shows it), on every
+    `stride`-th node along each axis (the grid's step times `stride`, the same first node)."""
     show = result.cfg["show_3d"]
     index, grid = result.index_maps[show]
     if isinstance(stride, bool) or not isinstance(stride, int) or stride < 1:
@@ -352,7 +352,7 @@ def figure_3d_of_shown(result: Result, stride: int = 1):
 
 
 def figures(result: Result, out: Outputs) -> list[Path]:
-    """Index slices per arm, an iso-surface of ``show_3d``'s index, the PUMA560's manipulability."""
+    """Index slices per arm, an iso-surface of `show_3d`'s index, the PUMA560's manipulability."""
     cfg, k = result.cfg, result.metrics["orientations"]
     paths = []
     for name, (index, grid) in result.index_maps.items():
@@ -390,7 +390,7 @@ _WAY_TITLES = {"chain": "chain alone", "self_floor": "+ self-collision, floor", 
 
 
 def _section(values, grid, y: float = 0.0) -> tuple[np.ndarray, list]:
-    """The x–z section of a map at the grid layer nearest ``y`` (m): ``(nz, nx)`` and the extent (m)."""
+    """The x–z section of a map at the grid layer nearest `y` (m): `(nz, nx)` and the extent (m)."""
     nx, ny, nz = grid["shape"]
     lo, st = np.broadcast_to(grid["lo"], 3), np.broadcast_to(grid["step"], 3)
     j = int(np.clip(np.rint((y - lo[1]) / st[1]), 0, ny - 1))

@@ -1,9 +1,9 @@
 """The reproduction report: every number the other parts measured beside the paper's.
 
-Reads the metrics files the other parts wrote (``results/*.json``; their keys are the parts'
-``Metrics`` schemas, :func:`wsmap.paper.report.unknown_keys` holds the report to them), the label
-audit's table and the paper-scale results (``results/full/``), compares the committed params with
-the paper-scale ones, and writes ``results/REPORT.md`` (:func:`wsmap.paper.report.write_report`).
+Reads the metrics files the other parts wrote (`results/*.json`; their keys are the parts'
+`Metrics` schemas, `wsmap.paper.report.unknown_keys` holds the report to them), the label
+audit's table and the paper-scale results (`results/full/`), compares the committed params with
+the paper-scale ones, and writes `results/REPORT.md` (`wsmap.paper.report.write_report`).
 It computes nothing new.
 """
 
@@ -25,7 +25,7 @@ from . import Part, register, save_figure
 
 
 class Metrics(TypedDict):
-    """The report writes no metrics file: ``results/REPORT.md`` is its output."""
+    """The report writes no metrics file: `results/REPORT.md` is its output."""
 
 
 PART = Part("report", "The reproduction report", 110,
@@ -36,7 +36,7 @@ PART = Part("report", "The reproduction report", 110,
 
 @dataclass
 class Result:
-    metrics: dict  #: every metrics file, by stem (:func:`wsmap.paper.report.load_metrics`)
+    metrics: dict  #: every metrics file, by stem (`wsmap.paper.report.load_metrics`)
     table: pd.DataFrame  #: one row per comparison
     reductions: list[dict]  #: where the committed params are smaller than the paper's
     cfg: Mapping
@@ -47,12 +47,12 @@ class Result:
 
 
 def run(cfg: Mapping, out: Outputs) -> Result:
-    """Read the metrics in ``out.inputs.results`` (the committed run's; ``full/``: the paper-scale
-    parts) and the two params files of section ``cfg``. The table has one row per
-    :data:`wsmap.paper.report.COMPARISONS` entry: ``section``, ``what``, ``ours`` (the committed
-    run), ``paper_scale`` (``wsmap paper full``'s number, NaN where there is none or it has not
-    run; ``paper_scale_note`` says which: "—" no counterpart, "not run yet"), ``paper``, ``difference``
-    (ours − paper), ``source``."""
+    """Read the metrics in `out.inputs.results` (the committed run's; `full/`: the paper-scale
+    parts) and the two params files of section `cfg`. The table has one row per
+    `wsmap.paper.report.COMPARISONS` entry: `section`, `what`, `ours` (the committed
+    run), `paper_scale` (`wsmap paper full`'s number, NaN where there is none or it has not
+    run; `paper_scale_note` says which: "—" no counterpart, "not run yet"), `paper`, `difference`
+    (ours − paper), `source`."""
     unknown = report.unknown_keys()
     if unknown:
         raise ValueError(f"the report reads keys no part's metrics schema has: {unknown}")
@@ -68,7 +68,7 @@ def run(cfg: Mapping, out: Outputs) -> Result:
 
 
 def save(result: Result, out: Outputs) -> Path:
-    """``results/REPORT.md``, with the label audit (``tables/label_audit.md``) when it exists."""
+    """`results/REPORT.md`, with the label audit (`tables/label_audit.md`) when it exists."""
     extra = {}
     audit = out.inputs.tables / "label_audit.md"
     if audit.exists():
@@ -78,7 +78,7 @@ def save(result: Result, out: Outputs) -> Path:
 
 
 def _dataset_name(name: str) -> str:
-    """A Table 1 dataset as the paper names it: ``"R3, δ 0.5 (125 nodes)"`` for ``table1_r3_step05``."""
+    """A Table 1 dataset as the paper names it: `"R3, δ 0.5 (125 nodes)"` for `table1_r3_step05`."""
     row = PAPER_TABLE1[name]
     delta = row["delta"].replace("pi", "π")
     return f"{row['workspace']}, δ {delta} ({row['paper_nodes']} nodes)"
@@ -89,7 +89,7 @@ PAPER_TABLE1_NAMES = {name: _dataset_name(name) for name in PAPER_TABLE1}
 
 
 def _f_rows(table: pd.DataFrame) -> pd.DataFrame:
-    """The F-measure rows with a published number: the bars of :func:`figures`."""
+    """The F-measure rows with a published number: the bars of `figures`."""
     what = table["what"]
     return table[what.str.contains("F", regex=False) & ~what.str.contains("sigma") & table["paper"].notna()
                  & table["ours"].notna()].reset_index(drop=True)
@@ -107,7 +107,7 @@ def _bar_label(section: str, what: str) -> str:
 
 def figures(result: Result, out: Outputs) -> list[Path]:
     """Reproduced F-measures against the published ones: per row of the report (its names), the
-    committed run, the paper-scale run where it exists (``results/full``) and the paper, each bar
+    committed run, the paper-scale run where it exists (`results/full`) and the paper, each bar
     with its value; the legend sits below the axis, off the bars."""
     import matplotlib.pyplot as plt
 

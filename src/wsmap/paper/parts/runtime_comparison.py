@@ -1,10 +1,10 @@
 """Run time of the SL model against the classical algorithm (the paper's run-time figure).
 
 The PUMA560's constant-orientation map (R = I, paper convention) on the 27-, 125- and 9261-node
-grids, timed per method (:data:`wsmap.paper.runtime.METHODS`: the paper's one-node-at-a-time LM,
+grids, timed per method (`wsmap.paper.runtime.METHODS`: the paper's one-node-at-a-time LM,
 batched LM, the exact closed form, the untrained paper network) by
-:func:`wsmap.paper.runtime.runtime_comparison`; mean ± σ over repeated calls, beside the paper's
-:data:`wsmap.paper.published.RUNTIME_SECONDS`.
+`wsmap.paper.runtime.runtime_comparison`; mean ± σ over repeated calls, beside the paper's
+`wsmap.paper.published.RUNTIME_SECONDS`.
 """
 
 from __future__ import annotations
@@ -29,12 +29,12 @@ from . import check_metrics as check_schema
 
 
 class Metrics(TypedDict):
-    """``results/runtime_comparison.json``: besides these keys, one mapping per method of
-    :data:`wsmap.paper.runtime.METHODS` that ran, grid nodes (as a string) -> mean seconds, and
-    ``<method>_std`` -> σ (:func:`wsmap.paper.runtime.metrics_from_table`)."""
+    """`results/runtime_comparison.json`: besides these keys, one mapping per method of
+    `wsmap.paper.runtime.METHODS` that ran, grid nodes (as a string) -> mean seconds, and
+    `<method>_std` -> σ (`wsmap.paper.runtime.metrics_from_table`)."""
 
-    speedup: dict  #: ``network_vs_<classical method>`` -> grid -> classical mean / network mean
-    paper: dict  #: the paper's ``classical`` and ``network`` seconds per grid
+    speedup: dict  #: `network_vs_<classical method>` -> grid -> classical mean / network mean
+    paper: dict  #: the paper's `classical` and `network` seconds per grid
     per_node_extrapolated: dict[str, bool]  #: grid -> whether the per-node time was extrapolated
     settings: dict  #: the params section's timing settings
     machine: dict  #: CPUs, load, threads, device, versions
@@ -50,8 +50,8 @@ PART = Part("runtime_comparison", "Run time of the SL model against the classica
 
 
 def check_metrics(metrics: Mapping) -> dict:
-    """``metrics`` unchanged when it holds :class:`Metrics`' keys and, beside them, only methods of
-    :data:`wsmap.paper.runtime.METHODS` (and their ``_std``); else a ``ValueError``."""
+    """`metrics` unchanged when it holds `Metrics`' keys and, beside them, only methods of
+    `wsmap.paper.runtime.METHODS` (and their `_std`); else a `ValueError`."""
     methods = set(runtime.METHODS) | {f"{m}_std" for m in runtime.METHODS}
     return dict(check_schema(metrics, Metrics, PART.name, other="have unknown keys",
                              beside=lambda key, value: key in methods))
@@ -60,7 +60,7 @@ def check_metrics(metrics: Mapping) -> dict:
 @dataclass
 class Result:
     metrics: dict
-    df: pd.DataFrame  #: :func:`wsmap.paper.runtime.runtime_comparison`'s table
+    df: pd.DataFrame  #: `wsmap.paper.runtime.runtime_comparison`'s table
 
     @property
     def table(self) -> pd.DataFrame:
@@ -68,7 +68,7 @@ class Result:
 
 
 def run(cfg: Mapping, out: Outputs | None = None, *, log=print) -> Result:
-    """Time every method on every grid of params section ``cfg``."""
+    """Time every method on every grid of params section `cfg`."""
     import torch
 
     device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
@@ -161,7 +161,7 @@ def figures(result: Result, out: Outputs) -> list[Path]:
 
 
 def is_cell_key(key: str) -> bool:
-    """A method's key: ``<method or method_std>.<grid nodes>``."""
+    """A method's key: `<method or method_std>.<grid nodes>`."""
     method, _, nodes = key.partition(".")
     return method.removesuffix("_std") in runtime.METHODS and (not nodes or nodes.isdigit())
 

@@ -1,13 +1,13 @@
 """§6.1: one subspace (block 5, 1323 nodes) learnt in several sessions; F mean ± σ over them.
 
 The paper's network (84 raw inputs, tanh [125, 100, 100, 125], linear output, Nguyen–Widrow,
-full-batch Rprop on MSE, 70/15/15 split) trained ``sessions`` times (session ``k``: seed
-``seed + k``) on the first ``train_samples`` arms of the ``sec61`` dataset; each session scored on
-the test set at ``threshold`` (pooled F); the best session (lowest validation loss) swept over
-``sweep_points`` thresholds from 0 to 1.
+full-batch Rprop on MSE, 70/15/15 split) trained `sessions` times (session `k`: seed
+`seed + k`) on the first `train_samples` arms of the `sec61` dataset; each session scored on
+the test set at `threshold` (pooled F); the best session (lowest validation loss) swept over
+`sweep_points` thresholds from 0 to 1.
 
-The notebook (:func:`run`) and the paper-scale runner (:mod:`wsmap.paper.full`, one session per
-resumable step) summarise the sessions with the same :func:`summarise` into :class:`Summary`.
+The notebook (`run`) and the paper-scale runner (`wsmap.paper.full`, one session per
+resumable step) summarise the sessions with the same `summarise` into `Summary`.
 """
 
 from __future__ import annotations
@@ -35,9 +35,9 @@ from . import Part, check_metrics, register, save_figure
 
 
 class Summary(TypedDict):
-    """The sessions summarised (:func:`summarise`): the notebook's and the paper-scale runner's keys."""
+    """The sessions summarised (`summarise`): the notebook's and the paper-scale runner's keys."""
 
-    f_mean: float  #: pooled F at ``threshold``, mean over the sessions
+    f_mean: float  #: pooled F at `threshold`, mean over the sessions
     f_std: float  #: its sample standard deviation over the sessions (NaN for one session)
     f_sessions: list[float]  #: pooled F of each session
     precision_mean: float
@@ -50,18 +50,18 @@ class Summary(TypedDict):
     best_threshold_f: float  #: its F
     threshold: float
     sessions: int
-    epochs: int  #: ``max_epochs``
+    epochs: int  #: `max_epochs`
     epochs_run: list[int]  #: epochs each session ran (early stopping)
     best_epochs: list[int]
     stop_reasons: list[str]
     seconds_per_session: list[float]  #: training wall time of each session (s)
     seconds_per_session_mean: float
     train_samples: int  #: training arms used
-    paper: dict  #: the paper's numbers (:data:`wsmap.paper.published.SEC61`)
+    paper: dict  #: the paper's numbers (`wsmap.paper.published.SEC61`)
 
 
 class Metrics(Summary):
-    """``results/sec61_subspace.json``: :class:`Summary` plus what the notebook measures beside it."""
+    """`results/sec61_subspace.json`: `Summary` plus what the notebook measures beside it."""
 
     best_session_precision: float
     best_session_recall: float
@@ -78,10 +78,10 @@ class Metrics(Summary):
 
 
 class PaperScaleMetrics(Summary):
-    """``results/full/sec61_subspace.json``'s ``metrics``: :class:`Summary`, the sweep, every session's row."""
+    """`results/full/sec61_subspace.json`'s `metrics`: `Summary`, the sweep, every session's row."""
 
-    sweep: dict  #: :meth:`wsmap.metrics.Sweep.to_dict` of the best session
-    runs: list[dict]  #: :func:`wsmap.paper.tables.score_results` rows, one per session
+    sweep: dict  #: `wsmap.metrics.Sweep.to_dict` of the best session
+    runs: list[dict]  #: `wsmap.paper.tables.score_results` rows, one per session
 
 
 PART = Part("sec61_subspace", "§6.1: the block-5 subspace, Rprop + MSE sessions", 20, outputs=(
@@ -93,16 +93,16 @@ PART = Part("sec61_subspace", "§6.1: the block-5 subspace, Rprop + MSE sessions
 
 
 def sweep_of(evaluation: Mapping, points: int) -> Sweep:
-    """The threshold sweep of one evaluation (:func:`wsmap.paper.fitting.evaluate`'s ``scores`` and
-    ``truth``) at ``points`` thresholds evenly from 0 to 1, as the paper's."""
+    """The threshold sweep of one evaluation (`wsmap.paper.fitting.evaluate`'s `scores` and
+    `truth`) at `points` thresholds evenly from 0 to 1, as the paper's."""
     return threshold_sweep(evaluation["scores"], evaluation["truth"], np.linspace(0.0, 1.0, int(points)))
 
 
 def summarise(sessions: Sequence[Mapping[str, Any]], sweep: Sweep, *, threshold: float, max_epochs: int,
               train_samples: int) -> Summary:
-    """The :class:`Summary` of the sessions' rows (each with ``session``, ``precision``, ``recall``,
-    ``f``, ``epochs``, ``best_epoch``, ``stop_reason``, ``seconds``, ``best_val_loss``, as
-    :func:`wsmap.paper.tables.score_results` makes them) and the best session's ``sweep``."""
+    """The `Summary` of the sessions' rows (each with `session`, `precision`, `recall`,
+    `f`, `epochs`, `best_epoch`, `stop_reason`, `seconds`, `best_val_loss`, as
+    `wsmap.paper.tables.score_results` makes them) and the best session's `sweep`."""
     runs = pd.DataFrame(list(sessions))
     f = runs.f.to_numpy(dtype=float)
     best = int(runs.best_val_loss.to_numpy(dtype=float).argmin())
@@ -122,11 +122,11 @@ def summarise(sessions: Sequence[Mapping[str, Any]], sweep: Sweep, *, threshold:
 
 @dataclass
 class Result:
-    """What :func:`run` computed: the metrics and what the figures and tables draw from."""
+    """What `run` computed: the metrics and what the figures and tables draw from."""
 
     metrics: Metrics
-    results: list  #: :class:`wsmap.learn.training.TrainResult` per session
-    evals: list[dict]  #: :func:`wsmap.paper.fitting.evaluate` of each session on the test set
+    results: list  #: `wsmap.learn.training.TrainResult` per session
+    evals: list[dict]  #: `wsmap.paper.fitting.evaluate` of each session on the test set
     per_session: pd.DataFrame
     errors: np.ndarray  #: the best session's fraction of wrong nodes per test arm
     sweep: Sweep
@@ -141,7 +141,7 @@ class Result:
 
 
 def run(cfg: Mapping, out: Outputs, *, log: Callable[[str], Any] = print) -> Result:
-    """Train and score the sessions of params section ``cfg`` on ``out.data``'s dataset."""
+    """Train and score the sessions of params section `cfg` on `out.data`'s dataset."""
     device, threads, train_all, train, test = fitting.training_data(cfg, out.data)
     spec = train.spec
     block = workspace.block_slice(4)
@@ -202,8 +202,8 @@ def run(cfg: Mapping, out: Outputs, *, log: Callable[[str], Any] = print) -> Res
 
 def save(result: Result, out: Outputs) -> None:
     """The metrics file, the sessions' and the sweep's tables, and the best session's model (its
-    map_spec says what the outputs are, block 5 of the 21³ grid, so that ``predict_maps`` and
-    ``wsmap map --method model`` can use it)."""
+    map_spec says what the outputs are, block 5 of the 21³ grid, so that `predict_maps` and
+    `wsmap map --method model` can use it)."""
     cfg, best, ev = result.cfg, result.best, result.evals[result.best]
     write_table(result.per_session, out.tables / "sec61_sessions")
     sweep_table = pd.DataFrame({k: getattr(result.sweep, k)
@@ -218,7 +218,7 @@ def save(result: Result, out: Outputs) -> None:
 
 def figures(result: Result, out: Outputs) -> list[Path]:
     """The section's figures: gradient and loss over the sessions, the best session's error per test
-    arm, sections of ``sections`` random test arms (layer ``section_layer``), the threshold sweep."""
+    arm, sections of `sections` random test arms (layer `section_layer`), the threshold sweep."""
     import matplotlib.pyplot as plt
 
     cfg, best, test = result.cfg, result.best, result.test

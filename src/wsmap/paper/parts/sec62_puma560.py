@@ -3,11 +3,11 @@
 The 21³ map (grid [-1, 1] m at 0.1 m, R = I) splits into 7 consecutive blocks of 1323 nodes; one
 §6.1 network per block (same config and seed, trained one after another), stacked into one model
 that predicts the whole map. Scored per block and assembled on the test set (pooled F at
-``threshold``), and on the PUMA560 against its exact (closed-form) map.
+`threshold`), and on the PUMA560 against its exact (closed-form) map.
 
-The notebook (:func:`run`) and the paper-scale runner (:mod:`wsmap.paper.full`, one block per
-resumable step) summarise the blocks with the same :func:`summarise` into :class:`Summary`, and
-score the PUMA560 with the same :func:`puma560_map`.
+The notebook (`run`) and the paper-scale runner (`wsmap.paper.full`, one block per
+resumable step) summarise the blocks with the same `summarise` into `Summary`, and
+score the PUMA560 with the same `puma560_map`.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from . import Part, check_metrics, register, save_figure
 
 
 class Summary(TypedDict):
-    """The blocks and the assembled map summarised (:func:`summarise`): the notebook's and the
+    """The blocks and the assembled map summarised (`summarise`): the notebook's and the
     paper-scale runner's keys."""
 
     f_full: float  #: pooled F of the assembled 9261-node map on the test set
@@ -47,7 +47,7 @@ class Summary(TypedDict):
     f_blocks: list[float]  #: pooled F of each block on the test set
     precision_blocks: list[float]
     recall_blocks: list[float]
-    epochs_run: list[int]  #: epochs each block trained (early stopping at ``max_fail``)
+    epochs_run: list[int]  #: epochs each block trained (early stopping at `max_fail`)
     best_epochs: list[int]
     stop_reasons: list[str]
     seconds_per_block: list[float]  #: training wall time of each block (s)
@@ -59,11 +59,11 @@ class Summary(TypedDict):
     train_samples: int
     test_samples: int
     max_fail: int
-    paper: dict  #: :data:`wsmap.paper.published.SEC62`
+    paper: dict  #: `wsmap.paper.published.SEC62`
 
 
 class Metrics(Summary):
-    """``results/sec62_puma560.json``: :class:`Summary` plus what the notebook measures beside it."""
+    """`results/sec62_puma560.json`: `Summary` plus what the notebook measures beside it."""
 
     error_mean_blocks: list[float]  #: mean of truth − output per block
     error_std_blocks: list[float]
@@ -74,7 +74,7 @@ class Metrics(Summary):
     runtime_test_set_s: dict[str, float]  #: seconds to score the whole test set
     runtime_test_set_std_s: dict[str, float]
     subspaces: int
-    epochs: int  #: ``max_epochs``
+    epochs: int  #: `max_epochs`
     seconds_training_total: float
     torch_threads: int
     device: str
@@ -82,7 +82,7 @@ class Metrics(Summary):
 
 
 class PaperScaleMetrics(Summary):
-    """``results/full/sec62_puma560.json``'s ``metrics``."""
+    """`results/full/sec62_puma560.json`'s `metrics`."""
 
     max_epochs: int
     model_file: str  #: the stacked model, relative to the result folder
@@ -97,8 +97,8 @@ PART = Part("sec62_puma560", "§6.2: 7 block subspaces, stacked; the PUMA560", 3
 
 
 def puma560_map(model, spec: DatasetSpec, threshold: float) -> tuple[np.ndarray, np.ndarray, PRF]:
-    """The PUMA560's map as the stacked ``model`` predicts it (assembled, at ``threshold``), its
-    exact map (closed form) on the dataset ``spec``'s grid, and their precision/recall/F."""
+    """The PUMA560's map as the stacked `model` predicts it (assembled, at `threshold`), its
+    exact map (closed form) on the dataset `spec`'s grid, and their precision/recall/F."""
     puma = arm_batch(robots.puma560())
     predicted = model.predict(features_for(puma, spec), threshold, assemble=True).cpu().numpy()[0]
     exact = labels_for(puma, spec)[0]
@@ -107,9 +107,9 @@ def puma560_map(model, spec: DatasetSpec, threshold: float) -> tuple[np.ndarray,
 
 def summarise(blocks: Sequence[Mapping[str, Any]], full: Mapping[str, Any], puma: tuple, *, train_samples: int,
               test_samples: int, max_fail: int) -> Summary:
-    """The :class:`Summary` of the blocks' rows (each with ``f``, ``precision``, ``recall``,
-    ``epochs``, ``best_epoch``, ``stop_reason``, ``seconds``), the assembled map's evaluation
-    ``full`` (:func:`wsmap.paper.fitting.evaluate`) and :func:`puma560_map`'s ``puma``."""
+    """The `Summary` of the blocks' rows (each with `f`, `precision`, `recall`,
+    `epochs`, `best_epoch`, `stop_reason`, `seconds`), the assembled map's evaluation
+    `full` (`wsmap.paper.fitting.evaluate`) and `puma560_map`'s `puma`."""
     predicted, exact, prf = puma
     return {
         "f_full": full["f"], "precision_full": full["precision"], "recall_full": full["recall"],
@@ -126,23 +126,23 @@ def summarise(blocks: Sequence[Mapping[str, Any]], full: Mapping[str, Any], puma
 
 @dataclass
 class Result:
-    """What :func:`run` computed: the metrics and what the figures, tables and files draw from."""
+    """What `run` computed: the metrics and what the figures, tables and files draw from."""
 
     metrics: Metrics
-    model: Any  #: the stacked :class:`wsmap.learn.SubspaceMLP`
+    model: Any  #: the stacked `wsmap.learn.SubspaceMLP`
     results: list
     names: list[str]  #: "block 1", ...
     z_ranges: list[str]
     evals: list[dict]
     full: dict
-    hists: list  #: :class:`wsmap.metrics.ErrorHistogram` per block
+    hists: list  #: `wsmap.metrics.ErrorHistogram` per block
     hist_full: Any
     one_arm: dict[str, np.ndarray]  #: timings (s) of one arm's map
     all_arms: dict[str, np.ndarray]  #: timings (s) of the test set's maps
     predicted: np.ndarray  #: the PUMA560's predicted map
     exact: np.ndarray
     puma: PRF
-    mesh: Any  #: marching-cubes mesh of ``predicted`` (empty when nothing is predicted reachable)
+    mesh: Any  #: marching-cubes mesh of `predicted` (empty when nothing is predicted reachable)
     train: Dataset
     test: Dataset
     train_config: TrainConfig
@@ -150,13 +150,13 @@ class Result:
 
 
 def _times(fn, repeats):
-    """Wall-clock seconds of ``repeats`` calls of ``fn`` after 2 untimed ones, as an array. ``fn``
+    """Wall-clock seconds of `repeats` calls of `fn` after 2 untimed ones, as an array. `fn`
     returns a tensor, copied to the host inside the timing (on a GPU: the work is finished)."""
     return np.asarray(time_call(lambda: fn().cpu(), repeats, warmup=2).values)
 
 
 def run(cfg: Mapping, out: Outputs, *, log: Callable[[str], Any] = print) -> Result:
-    """Train the 7 blocks of params section ``cfg``, score them, time them, map the PUMA560."""
+    """Train the 7 blocks of params section `cfg`, score them, time them, map the PUMA560."""
     import trimesh
 
     device, threads, train_all, train, test = fitting.training_data(cfg, out.data)
@@ -247,7 +247,7 @@ def table(result: Result) -> pd.DataFrame:
 def save(result: Result, out: Outputs) -> None:
     """The metrics file, the table, the predicted PUMA560 mesh (GLB, STL) and the stacked model (its
     map_spec: the 7 subspaces assembled in node order are the 9261-node map, so that
-    ``predict_maps`` and ``wsmap map --method model`` use it as a stand-in for the classical map)."""
+    `predict_maps` and `wsmap map --method model` use it as a stand-in for the classical map)."""
     cfg, model, spec = result.cfg, result.model, result.train.spec
     write_table(table(result), out.tables / "sec62_subspaces")
     viz.export_mesh(result.mesh, out.results / "puma560_workspace_predicted.glb")

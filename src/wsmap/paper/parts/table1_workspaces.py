@@ -2,9 +2,9 @@
 
 Constant-orientation ("R3") maps over [-1, 1]³ at R = I (grid step 1, 0.5, and 0.1: block 5, the
 crop to z = 0.8, the whole 21³ grid) and orientation ("SO3") maps over [0, 2π]³ at a fixed point;
-one model per row (:func:`wsmap.paper.tables.table1`), F pooled over every test arm and node.
-The paper-scale runner (:mod:`wsmap.paper.full`) trains the same rows, one session per step, and
-summarises them with the same :func:`wsmap.paper.tables.table1_summary`.
+one model per row (`wsmap.paper.tables.table1`), F pooled over every test arm and node.
+The paper-scale runner (`wsmap.paper.full`) trains the same rows, one session per step, and
+summarises them with the same `wsmap.paper.tables.table1_summary`.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from . import Part, check_metrics, register, save_figure, save_tables
 
 
 class Metrics(TypedDict):
-    """``results/table1_workspaces.json``: per-dataset mappings (dataset name -> value) of the table's
+    """`results/table1_workspaces.json`: per-dataset mappings (dataset name -> value) of the table's
     columns, and the run's totals."""
 
     f: dict[str, float]  #: pooled F, mean over sessions
@@ -34,7 +34,7 @@ class Metrics(TypedDict):
     recall: dict[str, float]
     f_sample_mean: dict[str, float]  #: mean over test arms of each arm's F
     f_sample_std: dict[str, float]
-    paper_f: dict[str, float]  #: :data:`wsmap.paper.published.PAPER_TABLE1`
+    paper_f: dict[str, float]  #: `wsmap.paper.published.PAPER_TABLE1`
     difference: dict[str, float]  #: F − paper F
     nodes: dict[str, int]
     train_samples: dict[str, int]
@@ -54,7 +54,7 @@ PART = Part("table1_workspaces", "Table 1: F-measures of other workspace models"
 @dataclass
 class Result:
     metrics: Metrics
-    table: pd.DataFrame  #: :func:`wsmap.paper.tables.table1_summary`
+    table: pd.DataFrame  #: `wsmap.paper.tables.table1_summary`
     runs: pd.DataFrame  #: one row per (dataset, session)
 
     def shown(self) -> pd.DataFrame:
@@ -68,7 +68,7 @@ class Result:
 
 
 def run(cfg: Mapping, out: Outputs) -> Result:
-    """Train and score one model per dataset of params section ``cfg`` (datasets in ``out.data``)."""
+    """Train and score one model per dataset of params section `cfg` (datasets in `out.data`)."""
     device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
     config = TrainConfig(optimizer=cfg["optimizer"], loss=cfg["loss"], max_fail=cfg["max_fail"], seed=cfg["seed"],
                          device=device)

@@ -1,9 +1,9 @@
 """Table 2: the §6.1 network on block 5 with five full-batch optimisers and three losses.
 
-Every optimiser with every loss (:func:`wsmap.paper.tables.table2`), ``sessions`` sessions each,
-the same epoch budget for all; cross entropy on logits (see :mod:`wsmap.paper.tables`). The
-paper-scale runner (:mod:`wsmap.paper.full`) trains the Rprop + MSE cell and summarises it with the
-same :func:`wsmap.paper.tables.table2_summary`.
+Every optimiser with every loss (`wsmap.paper.tables.table2`), `sessions` sessions each,
+the same epoch budget for all; cross entropy on logits (see `wsmap.paper.tables`). The
+paper-scale runner (`wsmap.paper.full`) trains the Rprop + MSE cell and summarises it with the
+same `wsmap.paper.tables.table2_summary`.
 """
 
 from __future__ import annotations
@@ -26,14 +26,14 @@ from ..specs import load_pair
 from . import Part, register, save_figure, save_tables
 from . import check_metrics as check_schema
 
-#: The keys of each cell ``<optimizer>_<loss>`` of the metrics (:class:`Metrics`).
+#: The keys of each cell `<optimizer>_<loss>` of the metrics (`Metrics`).
 CELL_KEYS = ("f_mean", "f_std", "f_sample_mean", "f_sample_std", "precision", "recall", "epochs", "seconds",
              "paper_f", "paper_f_std", "difference")
 
 
 class Metrics(TypedDict):
-    """``results/table2_optimisers.json``: besides these keys, one mapping per cell, keyed
-    ``<optimizer>_<loss>`` (``rprop_mse``, ...), with the :data:`CELL_KEYS` (F mean and σ over
+    """`results/table2_optimisers.json`: besides these keys, one mapping per cell, keyed
+    `<optimizer>_<loss>` (`rprop_mse`, ...), with the `CELL_KEYS` (F mean and σ over
     sessions, per-arm F mean and σ, precision, recall, epochs, seconds, the paper's F ± σ, difference)."""
 
     best_cell: str | None  #: the cell of highest mean F
@@ -52,8 +52,8 @@ PART = Part("table2_optimisers", "Table 2: optimisers and losses", 50, outputs=(
 
 
 def check_metrics(metrics: Mapping) -> dict:
-    """``metrics`` unchanged when it holds :class:`Metrics`' keys and, beside them, cells of exactly
-    :data:`CELL_KEYS`; else a ``ValueError``."""
+    """`metrics` unchanged when it holds `Metrics`' keys and, beside them, cells of exactly
+    `CELL_KEYS`; else a `ValueError`."""
     return dict(check_schema(metrics, Metrics, PART.name, other=f"have cells not of {CELL_KEYS}:",
                              beside=lambda key, value: isinstance(value, dict) and tuple(value) == CELL_KEYS))
 
@@ -61,7 +61,7 @@ def check_metrics(metrics: Mapping) -> dict:
 @dataclass
 class Result:
     metrics: dict
-    summary: pd.DataFrame  #: :func:`wsmap.paper.tables.table2_summary`
+    summary: pd.DataFrame  #: `wsmap.paper.tables.table2_summary`
     runs: pd.DataFrame
     cfg: Mapping
 
@@ -85,7 +85,7 @@ class Result:
 
 
 def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
-    """Train and score the grid of params section ``cfg`` on ``out.data``'s dataset."""
+    """Train and score the grid of params section `cfg` on `out.data`'s dataset."""
     device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
     train, test = load_pair(cfg["dataset"], out.data)
     config = TrainConfig(max_epochs=cfg["max_epochs"], max_fail=cfg["max_fail"], seed=cfg["seed"], device=device)
@@ -141,7 +141,7 @@ def figures(result: Result, out: Outputs) -> list[Path]:
 
 
 def is_cell_key(key: str) -> bool:
-    """A cell's key: ``<optimizer>_<loss>.<one of CELL_KEYS>``."""
+    """A cell's key: `<optimizer>_<loss>.<one of CELL_KEYS>`."""
     cell, _, what = key.partition(".")
     return cell.count("_") == 1 and what in CELL_KEYS
 

@@ -2,11 +2,11 @@
 
 Three models of the same architecture (three tanh layers of 80, linear output, Rprop + MSE) on
 three datasets sharing the inputs (84 features) and the outputs (block 5's 1323 nodes):
-spherical-wrist arms at R = I (``subspace``), at an orientation drawn on SO(3) per arm
-(``workspace``), arbitrary 6-DOF arms at a fixed orientation (``nosubspace``, numerical labels).
-Each is tested on all three test sets (:func:`wsmap.paper.tables.table3`); the paper-scale runner
-(:mod:`wsmap.paper.full`) trains one embedding per part and summarises with the same
-:func:`wsmap.paper.tables.table3_summary`.
+spherical-wrist arms at R = I (`subspace`), at an orientation drawn on SO(3) per arm
+(`workspace`), arbitrary 6-DOF arms at a fixed orientation (`nosubspace`, numerical labels).
+Each is tested on all three test sets (`wsmap.paper.tables.table3`); the paper-scale runner
+(`wsmap.paper.full`) trains one embedding per part and summarises with the same
+`wsmap.paper.tables.table3_summary`.
 """
 
 from __future__ import annotations
@@ -33,8 +33,8 @@ CELL_KEYS = ("precision", "recall", "f", "precision_sample_mean", "precision_sam
 
 
 class Metrics(TypedDict):
-    """``results/table3_embeddings.json``: besides these keys, one mapping per model embedding
-    (``subspace``, ``workspace``, ``nosubspace``) of test set -> cell of :data:`CELL_KEYS` (pooled
+    """`results/table3_embeddings.json`: besides these keys, one mapping per model embedding
+    (`subspace`, `workspace`, `nosubspace`) of test set -> cell of `CELL_KEYS` (pooled
     and per-arm P, R, F; the paper's)."""
 
     test_positive_rate: dict[str, float]  #: fraction of reachable nodes in each test set
@@ -53,8 +53,8 @@ PART = Part("table3_embeddings", "Table 3: subspace, workspace and no-subspace e
 
 
 def check_metrics(metrics: Mapping, embeddings) -> dict:
-    """``metrics`` unchanged when it holds :class:`Metrics`' keys and one mapping per embedding of
-    test set -> cell of :data:`CELL_KEYS`; else a ``ValueError``."""
+    """`metrics` unchanged when it holds `Metrics`' keys and one mapping per embedding of
+    test set -> cell of `CELL_KEYS`; else a `ValueError`."""
     fixed = tuple(Metrics.__annotations__)
     expected = set(fixed) | set(embeddings)
     bad = [e for e in embeddings if not all(tuple(c) == CELL_KEYS for c in metrics.get(e, {}).values())]
@@ -67,7 +67,7 @@ def check_metrics(metrics: Mapping, embeddings) -> dict:
 @dataclass
 class Result:
     metrics: dict
-    summary: pd.DataFrame  #: :func:`wsmap.paper.tables.table3_summary`
+    summary: pd.DataFrame  #: `wsmap.paper.tables.table3_summary`
     runs: pd.DataFrame
     cfg: Mapping
 
@@ -89,7 +89,7 @@ class Result:
             columns={"paper_precision_": "paper P", "paper_recall_": "paper R", "paper_f_": "paper F"})
 
     def wide(self, key: str) -> pd.DataFrame:
-        """``key`` (``precision``, ``recall``, ``f``, ``paper_f``) by model (rows) and test set (columns)."""
+        """`key` (`precision`, `recall`, `f`, `paper_f`) by model (rows) and test set (columns)."""
         return self.summary.pivot(index="embedding", columns="test", values=key).reindex(index=self.order,
                                                                                          columns=self.order)
 
@@ -105,7 +105,7 @@ class Result:
 
 
 def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
-    """Train the three models of params section ``cfg`` and test each on the three test sets."""
+    """Train the three models of params section `cfg` and test each on the three test sets."""
     device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
     pairs = {emb: load_pair(name, out.data) for emb, name in cfg["embeddings"].items()}
     for emb, (tr, te) in pairs.items():
@@ -163,7 +163,7 @@ def figures(result: Result, out: Outputs) -> list[Path]:
 
 
 def is_cell_key(key: str) -> bool:
-    """A cell's key: ``<model embedding>.<test set>.<one of CELL_KEYS>``."""
+    """A cell's key: `<model embedding>.<test set>.<one of CELL_KEYS>`."""
     parts = key.split(".")
     return len(parts) == 3 and parts[2] in CELL_KEYS
 

@@ -1,7 +1,7 @@
-"""Universal Robots' DH layout, shared by the UR arms (:mod:`.ur5e`, :mod:`.ur10e`): not an arm.
+"""Universal Robots' DH layout, shared by the UR arms (`.ur5e`, `.ur10e`): not an arm.
 
-UR publishes, per model, six lengths of one standard-DH layout: ``d = (d1, 0, 0, d4, d5, d6)``,
-``a = (0, a2, a3, 0, 0, 0)``, the twists :data:`UR_ALPHA` and all offsets zero (the DH zero is
+UR publishes, per model, six lengths of one standard-DH layout: `d = (d1, 0, 0, d4, d5, d6)`,
+`a = (0, a2, a3, 0, 0, 0)`, the twists `UR_ALPHA` and all offsets zero (the DH zero is
 the controller's zero, the arm stretched out horizontally); base frame as the controller's, flange
 at d6.
 """
@@ -21,7 +21,7 @@ UR_SOURCE = ("Universal Robots, 'DH parameters for calculations of kinematics an
 
 
 def ur_table(name, title, d1, a2, a3, d4, d5, d6) -> ArmTable:
-    """The :class:`ArmTable` of a UR arm from its six published lengths (metres); every joint ±360°."""
+    """The `ArmTable` of a UR arm from its six published lengths (metres); every joint ±360°."""
     d, a = (d1, 0.0, 0.0, d4, d5, d6), (0.0, a2, a3, 0.0, 0.0, 0.0)
     return ArmTable(name=name, title=title, convention="standard",
                     rows=tuple(zip(d, a, UR_ALPHA, (0.0,) * 6)),

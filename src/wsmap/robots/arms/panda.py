@@ -1,5 +1,5 @@
-"""Franka Emika Panda (FER), base ``panda_link0`` (the mounting flange) to the flange
-(``panda_link8``), without the hand."""
+"""Franka Emika Panda (FER), base `panda_link0` (the mounting flange) to the flange
+(`panda_link8`), without the hand."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
-"""The PUMA560 as the paper used it: MATLAB Robotics Toolbox 10 ``mdl_puma560`` with base height d1 = 0.
+"""The PUMA560 as the paper used it: MATLAB Robotics Toolbox 10 `mdl_puma560` with base height d1 = 0.
 
-Standard DH; the paper's spherical-wrist family (:data:`wsmap.robots.SPHERICAL_WRIST`) with
-d3 = 0.15005, d4 = 0.4318, a2 = 0.4318, a3 = 0.0203 m. A :class:`~wsmap.kinematics.DHRobot`
+Standard DH; the paper's spherical-wrist family (`wsmap.robots.SPHERICAL_WRIST`) with
+d3 = 0.15005, d4 = 0.4318, a2 = 0.4318, a3 = 0.0203 m. A `DHRobot`
 without joint limits by default, as the paper ignored them.
 """
 
@@ -16,23 +16,23 @@ PI = np.pi
 
 SOURCE = "MATLAB Robotics Toolbox mdl_puma560 (the paper's arm, d1 = 0)"
 
-#: Corke, MATLAB Robotics Toolbox 10, ``mdl_puma560`` (standard DH; toolbox d1 = 0.6718 m, the
+#: Corke, MATLAB Robotics Toolbox 10, `mdl_puma560` (standard DH; toolbox d1 = 0.6718 m, the
 #: paper's 0). Columns per joint, metres and radians.
 D = (0.0, 0.0, 0.15005, 0.4318, 0.0, 0.0)
 A = (0.0, 0.4318, 0.0203, 0.0, 0.0, 0.0)
 ALPHA = (PI / 2, 0.0, -PI / 2, PI / 2, -PI / 2, 0.0)
 
-#: PUMA560 joint limits in degrees (Corke's ``mdl_puma560``); the paper ignores them.
+#: PUMA560 joint limits in degrees (Corke's `mdl_puma560`); the paper ignores them.
 PUMA560_QLIM_DEG = np.array(
     [[-160, 160], [-45, 225], [-225, 45], [-110, 170], [-100, 100], [-266, 266]], dtype=np.float64
 )
 
 
 def puma560(joint_limits: bool = False) -> DHRobot:
-    """The PUMA560 as the paper used it (MATLAB toolbox 10 ``mdl_puma560``, base height d1 = 0).
+    """The PUMA560 as the paper used it (MATLAB toolbox 10 `mdl_puma560`, base height d1 = 0).
 
-    At ``q = 0`` the flange sits at (0.4521, -0.15005, 0.4318) m. Joint limits
-    (:data:`PUMA560_QLIM_DEG`) are attached only when asked for, as the paper ignored them.
+    At `q = 0` the flange sits at (0.4521, -0.15005, 0.4318) m. Joint limits
+    (`PUMA560_QLIM_DEG`) are attached only when asked for, as the paper ignored them.
     """
     qlim = np.deg2rad(PUMA560_QLIM_DEG) if joint_limits else None
     return DHRobot(np.array(D), np.array(A), np.array(ALPHA), qlim=qlim, name="puma560")

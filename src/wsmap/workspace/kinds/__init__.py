@@ -1,26 +1,26 @@
-"""Map kinds: one module per kind of workspace map, each ending by registering its :class:`MapKind`.
+"""Map kinds: one module per kind of workspace map, each ending by registering its `MapKind`.
 
-The command line (``wsmap map --kind NAME``), the map files (:mod:`wsmap.workspace.files`) and the
-views ask this registry what a kind is (:func:`get_kind`, :func:`kinds`); none of them names a kind.
+The command line (`wsmap map --kind NAME`), the map files (`wsmap.workspace.files`) and the
+views ask this registry what a kind is (`get_kind`, `kinds`); none of them names a kind.
 
-Kinds (in the order they register, the order of ``--kind``'s choices):
+Kinds (in the order they register, the order of `--kind`'s choices):
 
-* :mod:`.constant` — the paper's R3 map: positions reachable at a fixed orientation (bool);
-* :mod:`.orientation` — the paper's SO3 map: orientations reachable at a fixed point (bool);
-* :mod:`.index` — the reachability index over a set of orientations (float in [0, 1]);
-* :mod:`.reach` — reachable at some orientation (bool);
-* :mod:`.dexterous` — reachable at every orientation of a set (bool);
-* :mod:`.manipulability` — the best Yoshikawa manipulability at a fixed orientation (float, m³).
+* `.constant` — the paper's R3 map: positions reachable at a fixed orientation (bool);
+* `.orientation` — the paper's SO3 map: orientations reachable at a fixed point (bool);
+* `.index` — the reachability index over a set of orientations (float in [0, 1]);
+* `.reach` — reachable at some orientation (bool);
+* `.dexterous` — reachable at every orientation of a set (bool);
+* `.manipulability` — the best Yoshikawa manipulability at a fixed orientation (float, m³).
 
-A new kind is one new module here (its glue: a ``compute(robot, grid, request)`` that calls the
-library function, and ``register(MapKind(...))`` at its end; a kind like the paper's maps or one over
-a set of orientations builds its record with :func:`~.registry.paper_map_kind` or
-:func:`~.registry.orientation_set_kind`), its name added to the import line below, and its tests; the computing function itself lives with the maps (:mod:`wsmap.workspace.maps`,
-:mod:`wsmap.workspace.reach`).
+A new kind is one new module here (its glue: a `compute(robot, grid, request)` that calls the
+library function, and `register(MapKind(...))` at its end; a kind like the paper's maps or one over
+a set of orientations builds its record with `paper_map_kind` or
+`orientation_set_kind`), its name added to the import line below, and its tests; the computing function itself lives with the maps (`wsmap.workspace.maps`,
+`wsmap.workspace.reach`).
 
-What a kind reads (:attr:`MapKind.inputs`) is what ``wsmap map`` accepts with it: an option feeding an
-input the kind does not read is refused. A kind with :attr:`MapKind.poses` (reachability at each of a
-set of orientations) can be written as a Reuleaux HDF5 map (``--h5``, :mod:`wsmap.workspace.reuleaux`).
+What a kind reads (`MapKind.inputs`) is what `wsmap map` accepts with it: an option feeding an
+input the kind does not read is refused. A kind with `MapKind.poses` (reachability at each of a
+set of orientations) can be written as a Reuleaux HDF5 map (`--h5`, `wsmap.workspace.reuleaux`).
 """
 
 from .registry import (

@@ -1,8 +1,8 @@
 """The constant-orientation map (the paper's "R3" map): which positions of a grid the tool reaches at
-one fixed orientation ``rpy`` (bool per node).
+one fixed orientation `rpy` (bool per node).
 
-Computed by :func:`wsmap.workspace.grid_map` (:func:`wsmap.workspace.constant_orientation_map` on the
-grid's nodes; or a trained network, ``method="model"``); for a batch of arms as well as one.
+Computed by `wsmap.workspace.grid_map` (`wsmap.workspace.constant_orientation_map` on the
+grid's nodes; or a trained network, `method="model"`); for a batch of arms as well as one.
 """
 
 from __future__ import annotations

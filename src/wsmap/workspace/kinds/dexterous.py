@@ -1,8 +1,8 @@
-"""The dexterous workspace for a set of orientations ``(K, 3, 3)``: every orientation of the set is
-reachable at the position (bool per node; ``T = transl(p)·R_k``, the standard convention).
+"""The dexterous workspace for a set of orientations `(K, 3, 3)`: every orientation of the set is
+reachable at the position (bool per node; `T = transl(p)·R_k`, the standard convention).
 
-Computed by :func:`wsmap.workspace.dexterous_map` (the reachability index ``== 1``), with the
-index's search defaults (:data:`wsmap.workspace.reach.INDEX_SETTINGS`).
+Computed by `wsmap.workspace.dexterous_map` (the reachability index `== 1`), with the
+index's search defaults (`wsmap.workspace.reach.INDEX_SETTINGS`).
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
-"""The reachability index: the fraction of a set of orientations ``(K, 3, 3)`` reachable at each
-position (float in [0, 1] per node; ``T = transl(p)·R_k``, the standard convention).
+"""The reachability index: the fraction of a set of orientations `(K, 3, 3)` reachable at each
+position (float in [0, 1] per node; `T = transl(p)·R_k`, the standard convention).
 
-Computed by :func:`wsmap.workspace.reachability_index`, with its own search defaults
-(:data:`wsmap.workspace.reach.INDEX_SETTINGS`: fewer retries than the maps').
+Computed by `wsmap.workspace.reachability_index`, with its own search defaults
+(`wsmap.workspace.reach.INDEX_SETTINGS`: fewer retries than the maps').
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
-"""The manipulability map: the largest Yoshikawa manipulability ``√det(J Jᵀ)`` over the IK solutions
-found at each position for one orientation ``rpy`` (float >= 0 per node, 0 where unreachable; m³ for
+"""The manipulability map: the largest Yoshikawa manipulability `√det(J Jᵀ)` over the IK solutions
+found at each position for one orientation `rpy` (float >= 0 per node, 0 where unreachable; m³ for
 a 6-joint arm with lengths in metres).
 
-Computed by :func:`wsmap.workspace.manipulability_map` (every closed-form branch, or the solution the
+Computed by `wsmap.workspace.manipulability_map` (every closed-form branch, or the solution the
 numerical search finds).
 """
 

@@ -1,8 +1,8 @@
-"""The orientation map (the paper's "SO3" map): which orientations ``(r1, r2, r3)`` of a grid of
+"""The orientation map (the paper's "SO3" map): which orientations `(r1, r2, r3)` of a grid of
 angles (rad) the tool reaches at one fixed point (m) (bool per node).
 
-Computed by :func:`wsmap.workspace.grid_map` (:func:`wsmap.workspace.orientation_map` on the grid's
-nodes; or a trained network, ``method="model"``); for a batch of arms as well as one.
+Computed by `wsmap.workspace.grid_map` (`wsmap.workspace.orientation_map` on the grid's
+nodes; or a trained network, `method="model"`); for a batch of arms as well as one.
 """
 
 from __future__ import annotations

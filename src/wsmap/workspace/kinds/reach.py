@@ -1,7 +1,7 @@
 """Reach at any orientation: whether the tool origin can be put at each position (bool per node).
 
-Computed by :func:`wsmap.workspace.position_map` (the numerical search on the position alone; there
-is no closed form of its own, so ``method="exact"`` computes it numerically too).
+Computed by `wsmap.workspace.position_map` (the numerical search on the position alone; there
+is no closed form of its own, so `method="exact"` computes it numerically too).
 """
 
 from __future__ import annotations

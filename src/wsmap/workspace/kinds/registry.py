@@ -1,13 +1,13 @@
 """The registry of map kinds: what a kind of workspace map is, and where the library finds one.
 
 A *map kind* says what each node of a grid holds (reachable at a fixed orientation, the fraction of a
-set of orientations reachable, Yoshikawa's manipulability, ...). Its :class:`MapKind` record carries
-everything the command line (``wsmap map --kind NAME``), the map files (:mod:`wsmap.workspace.files`)
-and the views need to know about it: its scope (a grid of positions, ``"R3"``, or of orientations,
-``"SO3"``), its value type (``bool`` or ``float``), the inputs and methods it takes, the function that
+set of orientations reachable, Yoshikawa's manipulability, ...). Its `MapKind` record carries
+everything the command line (`wsmap map --kind NAME`), the map files (`wsmap.workspace.files`)
+and the views need to know about it: its scope (a grid of positions, `"R3"`, or of orientations,
+`"SO3"`), its value type (`bool` or `float`), the inputs and methods it takes, the function that
 computes it on the nodes of a grid, and how its values read (a label with units, iso-surface levels,
-a colour range). Each kind is one module of :mod:`wsmap.workspace.kinds` that ends with
-:func:`register`; nothing outside the registry names a kind.
+a colour range). Each kind is one module of `wsmap.workspace.kinds` that ends with
+`register`; nothing outside the registry names a kind.
 """
 
 from __future__ import annotations
@@ -32,12 +32,12 @@ __all__ = ["INPUTS", "METHODS", "MapKind", "MapRequest", "register", "unregister
            "kind_names", "default_kind", "kinds_taking", "grid_positions", "paper_map_kind",
            "orientation_set_kind"]
 
-#: What a kind may read besides the arm and the grid: ``"rpy"`` the fixed orientation (rad,
-#: ``R = Rx·Ry·Rz``), ``"point"`` the fixed point (m), ``"orientations"`` a set of orientations
-#: ``(K, 3, 3)``, ``"convention"`` the caller's pose convention (:func:`wsmap.workspace.target_poses`).
+#: What a kind may read besides the arm and the grid: `"rpy"` the fixed orientation (rad,
+#: `R = Rx·Ry·Rz`), `"point"` the fixed point (m), `"orientations"` a set of orientations
+#: `(K, 3, 3)`, `"convention"` the caller's pose convention (`wsmap.workspace.target_poses`).
 INPUTS = ("rpy", "point", "orientations", "convention")
-#: How a kind can be computed: ``"exact"`` (a closed form), ``"numerical"`` (the IK search),
-#: ``"model"`` (a trained network that predicts the map, :func:`wsmap.workspace.grid_map`).
+#: How a kind can be computed: `"exact"` (a closed form), `"numerical"` (the IK search),
+#: `"model"` (a trained network that predicts the map, `wsmap.workspace.grid_map`).
 METHODS = ("exact", "numerical", "model")
 
 _NAME = re.compile(r"^[a-z][a-z0-9_]*$")
@@ -45,26 +45,26 @@ _NAME = re.compile(r"^[a-z][a-z0-9_]*$")
 
 @dataclass(frozen=True)
 class MapRequest:
-    """What a kind's ``compute`` is asked for, besides the arm and the grid.
+    """What a kind's `compute` is asked for, besides the arm and the grid.
 
     Attributes:
-        method: ``"exact"``, ``"numerical"`` or ``"model"`` (``"auto"`` lets the kind's function
-            choose, :func:`wsmap.workspace.resolve_method`).
-        convention: the pose convention, ``"standard"`` (default) or ``"paper"`` (a kind with a fixed
-            :attr:`MapKind.convention` is always given that one).
-        rpy: the fixed orientation ``(r1, r2, r3)`` in radians, ``R = Rx(r1)·Ry(r2)·Rz(r3)``.
-        point: the fixed point ``(x, y, z)`` in metres.
-        orientations: ``(K, 3, 3)`` rotation matrices, or ``None`` (kinds without ``"orientations"``).
-        ik: the numerical settings as a map file records them (:data:`wsmap.workspace.MAP_SETTINGS`
-            keys, ``tol``, ``ilimit``, ``rlimit``, ``seed``, and ``solver`` for the paper's one-start LM).
+        method: `"exact"`, `"numerical"` or `"model"` (`"auto"` lets the kind's function
+            choose, `wsmap.workspace.resolve_method`).
+        convention: the pose convention, `"standard"` (default) or `"paper"` (a kind with a fixed
+            `MapKind.convention` is always given that one).
+        rpy: the fixed orientation `(r1, r2, r3)` in radians, `R = Rx(r1)·Ry(r2)·Rz(r3)`.
+        point: the fixed point `(x, y, z)` in metres.
+        orientations: `(K, 3, 3)` rotation matrices, or `None` (kinds without `"orientations"`).
+        ik: the numerical settings as a map file records them (`wsmap.workspace.MAP_SETTINGS`
+            keys, `tol`, `ilimit`, `rlimit`, `seed`, and `solver` for the paper's one-start LM).
         seed: the seed of random IK starts and of the orientation set.
-        model: a trained model file (``method="model"``); ``allow_extrapolation`` as
-            :func:`wsmap.workspace.grid_map`.
-        progress: ``True`` for a progress bar on stderr, or a callable ``progress(n)``
-            (:mod:`wsmap._progress`); every kind's function takes it.
-        collision: a configuration predicate (e.g. :class:`wsmap.collision.CollisionChecker`) for
-            kinds that take one (:attr:`MapKind.collision`): a node counts only with a
-            collision-free solution; ``None``: the chain's map.
+        model: a trained model file (`method="model"`); `allow_extrapolation` as
+            `wsmap.workspace.grid_map`.
+        progress: `True` for a progress bar on stderr, or a callable `progress(n)`
+            (`wsmap._progress`); every kind's function takes it.
+        collision: a configuration predicate (e.g. `wsmap.collision.CollisionChecker`) for
+            kinds that take one (`MapKind.collision`): a node counts only with a
+            collision-free solution; `None`: the chain's map.
     """
 
     method: str = "auto"
@@ -81,7 +81,7 @@ class MapRequest:
 
     @property
     def search(self) -> dict:
-        """The search's keyword arguments: :attr:`ik` without ``seed`` and ``solver`` (given apart)."""
+        """The search's keyword arguments: `ik` without `seed` and `solver` (given apart)."""
         return {k: v for k, v in self.ik.items() if k not in ("seed", "solver")}
 
 
@@ -94,35 +94,35 @@ class MapKind:
     """One kind of workspace map.
 
     Attributes:
-        name: the kind's name (``wsmap map --kind NAME``; the ``"kind"`` of a map file's settings):
-            lower case letters, digits and ``_``.
-        scope: ``"R3"`` (nodes are positions, m) or ``"SO3"`` (nodes are angles ``(r1, r2, r3)``, rad).
-        value_type: ``bool`` (one bit per node) or ``float`` (float64 per node, finite).
-        compute: ``compute(robot, grid, request) -> (N,) array`` of ``value_type``: the map of one arm
-            (or of a batch, where :attr:`batch`) on the nodes of ``grid``
-            (:func:`wsmap.workspace.grid_spec`; node order x fastest) for a :class:`MapRequest`.
-        function: the library function ``compute`` calls (its docstring gives units and conventions).
-        description: one line for ``wsmap map --help``: what a node holds, which options it reads.
+        name: the kind's name (`wsmap map --kind NAME`; the `"kind"` of a map file's settings):
+            lower case letters, digits and `_`.
+        scope: `"R3"` (nodes are positions, m) or `"SO3"` (nodes are angles `(r1, r2, r3)`, rad).
+        value_type: `bool` (one bit per node) or `float` (float64 per node, finite).
+        compute: `compute(robot, grid, request) -> (N,) array` of `value_type`: the map of one arm
+            (or of a batch, where `batch`) on the nodes of `grid`
+            (`wsmap.workspace.grid_spec`; node order x fastest) for a `MapRequest`.
+        function: the library function `compute` calls (its docstring gives units and conventions).
+        description: one line for `wsmap map --help`: what a node holds, which options it reads.
         label: what a value is, with units (colour bars, point-cloud comments, HTML views).
-        noun: what a ``True`` node is, in a summary (``"reachable"``, ``"dexterous"``); bool kinds.
-        inputs: the subset of :data:`INPUTS` the kind reads.
-        methods: the subset of :data:`METHODS` the kind has; a kind without ``"exact"`` is computed
+        noun: what a `True` node is, in a summary (`"reachable"`, `"dexterous"`); bool kinds.
+        inputs: the subset of `INPUTS` the kind reads.
+        methods: the subset of `METHODS` the kind has; a kind without `"exact"` is computed
             numerically when the closed form is asked for (an arm with a closed form).
-        paper_solver: takes the paper's one-start LM (``ik={"solver": "paper"}``, ``--paper-lm``).
+        paper_solver: takes the paper's one-start LM (`ik={"solver": "paper"}`, `--paper-lm`).
         batch: maps a batch of arms at once (otherwise one arm).
         search_settings: the numerical search's defaults for this kind (what the command line's
-            ``--starts``/``--retry``/... override).
-        convention: the pose convention the kind always uses, or ``None`` when it takes the caller's
-            (``"convention"`` in :attr:`inputs`).
-        levels: ``levels(values) -> tuple`` of iso-surface levels of a map (``.glb`` views).
-        value_range: ``(lo, hi)`` colour range of float maps; ``None`` for an end means the map's own.
-        poses: ``poses(robot, grid, request) -> (values (N,), bits (N, K) bool, R (K, 3, 3))``: the
-            map together with the reachability of every node at each of the ``K`` orientations it
-            tested (``T = transl(p)·R_k``), one computation; what a Reuleaux HDF5 file stores
-            (:func:`wsmap.workspace.save_reuleaux`, ``wsmap map --h5``). ``None``: the kind's values
+            `--starts`/`--retry`/... override).
+        convention: the pose convention the kind always uses, or `None` when it takes the caller's
+            (`"convention"` in `inputs`).
+        levels: `levels(values) -> tuple` of iso-surface levels of a map (`.glb` views).
+        value_range: `(lo, hi)` colour range of float maps; `None` for an end means the map's own.
+        poses: `poses(robot, grid, request) -> (values (N,), bits (N, K) bool, R (K, 3, 3))`: the
+            map together with the reachability of every node at each of the `K` orientations it
+            tested (`T = transl(p)·R_k`), one computation; what a Reuleaux HDF5 file stores
+            (`wsmap.workspace.save_reuleaux`, `wsmap map --h5`). `None`: the kind's values
             are not reachability at a set of orientations, so it does not export.
-        collision: the kind's ``compute`` honours :attr:`MapRequest.collision` (self-collision and
-            obstacles, ``wsmap map --collision/--scene``).
+        collision: the kind's `compute` honours `MapRequest.collision` (self-collision and
+            obstacles, `wsmap map --collision/--scene`).
     """
 
     name: str
@@ -178,7 +178,7 @@ class MapKind:
         return np.dtype(bool) if self.value_type is bool else np.dtype(np.float64)
 
     def summary(self, values: ArrayLike) -> str:
-        """One line on a computed map ``values`` (N,): how many nodes are reachable (and the mean value
+        """One line on a computed map `values` (N,): how many nodes are reachable (and the mean value
         of a float map)."""
         values = np.asarray(values)
         if self.value_type is float:
@@ -188,15 +188,15 @@ class MapKind:
 
 
 def grid_positions(grid: Mapping) -> np.ndarray:
-    """The nodes ``(N, 3)`` (m, x fastest) of an R3 grid spec (:func:`wsmap.workspace.grid_spec`)."""
+    """The nodes `(N, 3)` (m, x fastest) of an R3 grid spec (`wsmap.workspace.grid_spec`)."""
     return cartesian_grid(grid["lo"], grid["hi"], grid["step"])
 
 
 def paper_map_kind(name: str, scope: str, fixed: str, function: Callable, description: str) -> MapKind:
-    """The record of one of the paper's maps (bool per node, computed by :func:`wsmap.workspace.grid_map`
-    for a batch of arms; every method, the paper's one-start LM, the caller's convention) of ``scope``
-    at the request's ``fixed`` input (``"rpy"`` for R3, ``"point"`` for SO3); ``function`` the map
-    function ``grid_map`` calls on the grid's nodes."""
+    """The record of one of the paper's maps (bool per node, computed by `wsmap.workspace.grid_map`
+    for a batch of arms; every method, the paper's one-start LM, the caller's convention) of `scope`
+    at the request's `fixed` input (`"rpy"` for R3, `"point"` for SO3); `function` the map
+    function `grid_map` calls on the grid's nodes."""
 
     def compute(robot, grid, request):
         return grid_map(robot, grid, method=request.method, convention=request.convention, model=request.model,
@@ -222,11 +222,11 @@ def paper_map_kind(name: str, scope: str, fixed: str, function: Callable, descri
 def orientation_set_kind(name: str, value_type: type, function: Callable, description: str,
                          from_bits: Callable, **fields) -> MapKind:
     """The record of a kind over the request's set of orientations at each position of an R3 grid
-    (``T = transl(p)·R_k``, the standard convention; the index's search defaults
-    :data:`wsmap.workspace.reach.INDEX_SETTINGS`), computed by ``function(robot, nodes, orientations,
-    method=, ik=, seed=, progress=)``; ``from_bits(bits (N, K)) -> (N,)`` the same values from
-    :func:`wsmap.workspace.reachability_index`'s bits (its :attr:`MapKind.poses`); ``fields`` the rest
-    of its :class:`MapKind` (label, levels, ...)."""
+    (`T = transl(p)·R_k`, the standard convention; the index's search defaults
+    `wsmap.workspace.reach.INDEX_SETTINGS`), computed by `function(robot, nodes, orientations,
+    method=, ik=, seed=, progress=)`; `from_bits(bits (N, K)) -> (N,)` the same values from
+    `wsmap.workspace.reachability_index`'s bits (its `MapKind.poses`); `fields` the rest
+    of its `MapKind` (label, levels, ...)."""
 
     def compute(robot, grid, request):
         return function(robot, grid_positions(grid), request.orientations, method=request.method,
@@ -247,9 +247,9 @@ _REGISTRY: dict[str, MapKind] = {}
 
 
 def register(kind: MapKind, *, replace: bool = False) -> MapKind:
-    """Add ``kind`` to the registry (the end of every kind module) and return it. A second kind of
-    the same name is a ``ValueError`` unless ``replace``; kinds keep the order they registered in
-    (``--kind``'s choices, :func:`kinds`)."""
+    """Add `kind` to the registry (the end of every kind module) and return it. A second kind of
+    the same name is a `ValueError` unless `replace`; kinds keep the order they registered in
+    (`--kind`'s choices, `kinds`)."""
     if not isinstance(kind, MapKind):
         raise TypeError(f"register takes a MapKind, got {type(kind).__name__}")
     if kind.name in _REGISTRY and not replace:
@@ -260,14 +260,14 @@ def register(kind: MapKind, *, replace: bool = False) -> MapKind:
 
 
 def unregister(name: str) -> MapKind:
-    """Remove the kind ``name`` from the registry and return it (``ValueError`` when unknown)."""
+    """Remove the kind `name` from the registry and return it (`ValueError` when unknown)."""
     kind = get_kind(name)
     del _REGISTRY[name]
     return kind
 
 
 def get_kind(name: str) -> MapKind:
-    """The registered kind ``name``; ``ValueError`` naming the known kinds otherwise."""
+    """The registered kind `name`; `ValueError` naming the known kinds otherwise."""
     kind = _REGISTRY.get(name) if isinstance(name, str) else None
     if kind is None:
         raise ValueError(f"unknown map kind {name!r}; known kinds: {', '.join(_REGISTRY)}")
@@ -285,8 +285,8 @@ def kind_names() -> tuple[str, ...]:
 
 
 def default_kind(scope: str) -> MapKind:
-    """The first kind registered for ``scope``: the paper's map of that scope (``constant`` for R3,
-    ``orientation`` for SO3)."""
+    """The first kind registered for `scope`: the paper's map of that scope (`constant` for R3,
+    `orientation` for SO3)."""
     for kind in _REGISTRY.values():
         if kind.scope == scope:
             return kind
@@ -294,7 +294,7 @@ def default_kind(scope: str) -> MapKind:
 
 
 def kinds_taking(input_name: str) -> tuple[MapKind, ...]:
-    """The kinds that read ``input_name`` (one of :data:`INPUTS`), in registration order."""
+    """The kinds that read `input_name` (one of `INPUTS`), in registration order."""
     if input_name not in INPUTS:
         raise ValueError(f"unknown input {input_name!r}; inputs: {', '.join(INPUTS)}")
     return tuple(k for k in _REGISTRY.values() if input_name in k.inputs)

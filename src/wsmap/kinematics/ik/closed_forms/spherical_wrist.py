@@ -1,7 +1,7 @@
 """Closed-form inverse kinematics of the spherical-wrist family (PUMA-type geometry), registered as
-``"spherical_wrist"``.
+`"spherical_wrist"`.
 
-All 8 branches (shoulder × wrist × elbow, numbered as :mod:`wsmap.kinematics.ik.registry` says),
+All 8 branches (shoulder × wrist × elbow, numbered as `wsmap.kinematics.ik.registry` says),
 vectorised over arms and targets; joint limits honoured up to multiples of 2·pi. Units: metres and
 radians.
 """
@@ -23,19 +23,19 @@ __all__ = ["SPHERICAL_WRIST_ALPHA", "is_spherical_wrist", "require_spherical_wri
            "ikine_spherical_wrist", "spherical_wrist_reachable"]
 
 
-# The spherical-wrist family of the paper (PUMA-type geometry, Corke's ``ikine6s``):
+# The spherical-wrist family of the paper (PUMA-type geometry, Corke's `ikine6s`):
 #   j:     1     2    3     4     5     6
 #   d:    d1     0   d3    d4     0     0
 #   a:     0    a2   a3     0     0     0
 #   alpha: pi/2  0  -pi/2  pi/2 -pi/2   0
-# d1 (a base height) is allowed so that Corke's Python ``Puma560`` fits too; the paper's arms have d1 = 0.
+# d1 (a base height) is allowed so that Corke's Python `Puma560` fits too; the paper's arms have d1 = 0.
 SPHERICAL_WRIST_ALPHA = np.array([np.pi / 2, 0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, 0.0])
 _FREE_D = np.array([True, False, True, True, False, False])
 _FREE_A = np.array([False, True, True, False, False, False])
 
 
 def is_spherical_wrist(robot: Arm, atol: float = 1e-9) -> np.ndarray:
-    """True for each arm of the batch that belongs to the spherical-wrist family (a :class:`DHRobot`
+    """True for each arm of the batch that belongs to the spherical-wrist family (a `DHRobot`
     without a tool); all False for any other robot."""
     if not isinstance(robot, DHRobot):
         return np.zeros(getattr(robot, "batch_shape", ()), dtype=bool)
@@ -48,7 +48,7 @@ def is_spherical_wrist(robot: Arm, atol: float = 1e-9) -> np.ndarray:
 
 
 def require_spherical_wrist(robot: Arm) -> None:
-    """Raise ``ValueError`` naming the first arm outside the closed-form family."""
+    """Raise `ValueError` naming the first arm outside the closed-form family."""
     ok = is_spherical_wrist(robot)
     if not np.all(ok):
         if not isinstance(robot, DHRobot):
@@ -67,12 +67,12 @@ def wrist_centre_reachable(robot: DHRobot, p: ArrayLike, atol: float = 1e-12) ->
     """Closed-form reachability of wrist-centre positions for unlimited spherical-wrist arms.
 
     With unlimited joints and a spherical wrist every orientation is reachable wherever the wrist
-    centre is, so a pose is reachable exactly when its position ``p`` satisfies::
+    centre is, so a pose is reachable exactly when its position `p` satisfies::
 
         px² + py² >= d3²                                  (shoulder offset)
         (a2 − L)² <= px² + py² + (pz − d1)² − d3² <= (a2 + L)²,   L² = a3² + d4²   (elbow)
 
-    ``p`` has shape ``(..., 3)`` broadcasting with the robot's batch shape; the result is bool.
+    `p` has shape `(..., 3)` broadcasting with the robot's batch shape; the result is bool.
     """
     p = np.asarray(p, dtype=np.float64)
     d1, d3, d4 = robot.d[..., 0], robot.d[..., 2], robot.d[..., 3]
@@ -91,21 +91,21 @@ def ikine_spherical_wrist(robot: DHRobot, T: ArrayLike, atol: float = 1e-9) -> I
 
     Parameters
     ----------
-    robot : DHRobot of the spherical-wrist family (see :func:`is_spherical_wrist`)
+    robot : DHRobot of the spherical-wrist family (see `is_spherical_wrist`)
     T : array_like, shape (..., 4, 4), target flange poses broadcasting with the robot batch
     atol : reach tolerance of the shoulder and elbow tests, on squared distances (m²)
 
     Returns
     -------
-    :class:`~wsmap.kinematics.ik.solution.IKSolution` with a branch axis: ``q`` (..., 8, 6) joint
-    angles in (-pi, pi], branch ``k = 4·shoulder + 2·wrist + elbow``
-    (:mod:`wsmap.kinematics.ik.registry`): shoulder 0 has ``q1 = φ + asin(d3/r)`` (``(r, φ)`` the
-    polar coordinates of the wrist centre); wrist 0 has ``sin q5 >= 0`` (the two wrist branches are
-    each other's flip, ``(q4 + pi, −q5, q6 + pi)``); elbow 0 has ``sin(q3 + atan2(d4, a3)) >= 0``.
-    ``success`` (..., 8): the branch solves the pose and, if the robot has joint limits, respects
-    them up to multiples of 2·pi; ``reason`` ``OUT_OF_REACH``
-    where the shoulder or the elbow cannot reach the wrist centre, ``OUTSIDE_LIMITS`` where a
-    reaching branch leaves the limits; ``iterations`` 0, ``residual`` NaN.
+    `IKSolution` with a branch axis: `q` (..., 8, 6) joint
+    angles in (-pi, pi], branch `k = 4·shoulder + 2·wrist + elbow`
+    (`wsmap.kinematics.ik.registry`): shoulder 0 has `q1 = φ + asin(d3/r)` (`(r, φ)` the
+    polar coordinates of the wrist centre); wrist 0 has `sin q5 >= 0` (the two wrist branches are
+    each other's flip, `(q4 + pi, −q5, q6 + pi)`); elbow 0 has `sin(q3 + atan2(d4, a3)) >= 0`.
+    `success` (..., 8): the branch solves the pose and, if the robot has joint limits, respects
+    them up to multiples of 2·pi; `reason` `OUT_OF_REACH`
+    where the shoulder or the elbow cannot reach the wrist centre, `OUTSIDE_LIMITS` where a
+    reaching branch leaves the limits; `iterations` 0, `residual` NaN.
     """
     require_spherical_wrist(robot)
     T = check_rigid("target poses", T)
@@ -184,9 +184,9 @@ def ikine_spherical_wrist(robot: DHRobot, T: ArrayLike, atol: float = 1e-9) -> I
 
 
 def spherical_wrist_reachable(robot: DHRobot, T: ArrayLike) -> np.ndarray:
-    """Some branch of :func:`ikine_spherical_wrist` succeeds: bool, ``T.shape[:-2]`` broadcast with
+    """Some branch of `ikine_spherical_wrist` succeeds: bool, `T.shape[:-2]` broadcast with
     the robot's batch shape. Without joint limits every orientation is reachable wherever the wrist
-    centre is, so only the position is tested (:func:`wrist_centre_reachable`)."""
+    centre is, so only the position is tested (`wrist_centre_reachable`)."""
     T = np.asarray(T, dtype=np.float64)
     if robot.qlim is None:
         return wrist_centre_reachable(robot, T[..., :3, 3])

@@ -1,34 +1,34 @@
 """Closed-form inverse kinematics of spherical-wrist arms with a shoulder offset, from their
-geometry: registered as ``"spherical_wrist_offset"``.
+geometry: registered as `"spherical_wrist_offset"`.
 
 The family (industrial arms with an orthogonal–parallel base and a spherical wrist: PUMA with its
 shoulder offset, ABB IRB 140, the KUKA KR series, and any description of them): 6 revolute joints,
 axis 2 parallel to axis 3, axis 1 not parallel to axis 2, and axes 4, 5, 6 meeting in one point
-(the wrist centre) with neither 4 ∥ 5 nor 5 ∥ 6. Offsets between axes 1 and 2 (``a1``), lateral
-offsets along the parallel axes (PUMA's ``d3``) and a forearm pitched against the wrist centre
-(``a3`` with ``d4``) are all part of the geometry, not special cases. It is recognised on the
-joint axes as lines in the base frame at ``q = 0`` (:func:`wsmap.kinematics.ik.geometry.joint_lines`),
-so a URDF whose joints turn about ``y`` (or a modified-DH table, or any frames) is recognised as
-well as a DH table; the paper's DH family, a subset, is solved by :mod:`.spherical_wrist` first.
+(the wrist centre) with neither 4 ∥ 5 nor 5 ∥ 6. Offsets between axes 1 and 2 (`a1`), lateral
+offsets along the parallel axes (PUMA's `d3`) and a forearm pitched against the wrist centre
+(`a3` with `d4`) are all part of the geometry, not special cases. It is recognised on the
+joint axes as lines in the base frame at `q = 0` (`wsmap.kinematics.ik.geometry.joint_lines`),
+so a URDF whose joints turn about `y` (or a modified-DH table, or any frames) is recognised as
+well as a DH table; the paper's DH family, a subset, is solved by `.spherical_wrist` first.
 
-The solution is the product of exponentials ``T(q) = exp(ξ1·q1) ··· exp(ξ6·q6) · M`` split into
-Paden–Kahan subproblems, as EAIK's decomposition does (all in the base frame, ``w_j``, ``p_j`` the
-axes at ``q = 0``, ``W`` the wrist centre at ``q = 0``, ``c = T · M⁻¹ · W`` the target's):
+The solution is the product of exponentials `T(q) = exp(ξ1·q1) ··· exp(ξ6·q6) · M` split into
+Paden–Kahan subproblems, as EAIK's decomposition does (all in the base frame, `w_j`, `p_j` the
+axes at `q = 0`, `W` the wrist centre at `q = 0`, `c = T · M⁻¹ · W` the target's):
 
 * **shoulder** (two solutions): rotations about the parallel axes 2 and 3 keep a point's height
-  along ``w2`` over axis 2, so ``w2 · (R(w1, −q1)(c − p1) + p1 − p2) = w2 · (W − p2)``, an equation
-  ``A cos q1 + B sin q1 = h``;
-* **elbow** (two solutions): the distance of the wrist centre from axis 2 fixes ``q3`` (subproblem
-  3, the planar two-link arm of joints 2 and 3), then ``q2`` rotates it onto the target
+  along `w2` over axis 2, so `w2 · (R(w1, −q1)(c − p1) + p1 − p2) = w2 · (W − p2)`, an equation
+  `A cos q1 + B sin q1 = h`;
+* **elbow** (two solutions): the distance of the wrist centre from axis 2 fixes `q3` (subproblem
+  3, the planar two-link arm of joints 2 and 3), then `q2` rotates it onto the target
   (subproblem 1);
-* **wrist** (two solutions): ``R4·R5·w6 = (R1·R2·R3)ᵀ·R·R_Mᵀ·w6`` gives ``q4, q5`` (subproblem 2, two
-  rotations about intersecting axes), then ``q6`` (subproblem 1).
+* **wrist** (two solutions): `R4·R5·w6 = (R1·R2·R3)ᵀ·R·R_Mᵀ·w6` gives `q4, q5` (subproblem 2, two
+  rotations about intersecting axes), then `q6` (subproblem 1).
 
-Branch ``k = 4·shoulder + 2·wrist + elbow`` (the bits of :mod:`wsmap.kinematics.ik.registry`, on this
-family's own angles): shoulder 0 takes ``+acos`` in the shoulder equation, 1 ``−acos``; elbow 0 and
-1 the two subproblem-3 angles (``+`` and ``−`` the law-of-cosines angle); wrist 0 and 1 the two
-intersection points ``±γ`` of subproblem 2. Every branch is confirmed by the chain's own forward
-kinematics (within ``atol``), so a degenerate pose (the wrist centre on axis 1, a stretched elbow)
+Branch `k = 4·shoulder + 2·wrist + elbow` (the bits of `wsmap.kinematics.ik.registry`, on this
+family's own angles): shoulder 0 takes `+acos` in the shoulder equation, 1 `−acos`; elbow 0 and
+1 the two subproblem-3 angles (`+` and `−` the law-of-cosines angle); wrist 0 and 1 the two
+intersection points `±γ` of subproblem 2. Every branch is confirmed by the chain's own forward
+kinematics (within `atol`), so a degenerate pose (the wrist centre on axis 1, a stretched elbow)
 can only lose a branch, never give a wrong one. Vectorised over arms and targets, float64; metres
 and radians.
 """
@@ -60,15 +60,15 @@ def _dot(a, b):
 
 
 def _sp1(w, a, b):
-    """Subproblem 1: the angle that turns ``a`` onto ``b`` about the unit axis ``w`` (through the
-    origin), from their components perpendicular to ``w`` (0 where either vanishes)."""
+    """Subproblem 1: the angle that turns `a` onto `b` about the unit axis `w` (through the
+    origin), from their components perpendicular to `w` (0 where either vanishes)."""
     ap = a - _dot(a, w)[..., None] * w
     bp = b - _dot(b, w)[..., None] * w
     return np.arctan2(_dot(w, np.cross(ap, bp)), _dot(ap, bp))
 
 
 def _rot(w, q):
-    """Rotation matrices ``R(w, q)`` (Rodrigues), ``w`` (..., 3) unit, ``q`` (...)."""
+    """Rotation matrices `R(w, q)` (Rodrigues), `w` (..., 3) unit, `q` (...)."""
     K = np.zeros(w.shape[:-1] + (3, 3))
     K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
     K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
@@ -77,7 +77,7 @@ def _rot(w, q):
 
 
 def _closest(p1, w1, p2, w2):
-    """Closest points of two non-parallel lines: ``(x1, x2)``, each (..., 3)."""
+    """Closest points of two non-parallel lines: `(x1, x2)`, each (..., 3)."""
     r = p2 - p1
     c = _dot(w1, w2)
     den = 1.0 - c * c
@@ -87,8 +87,8 @@ def _closest(p1, w1, p2, w2):
 
 
 def _geometry(robot, atol):
-    """``(chain, ok, why, w, p, M, W)``: ``ok`` (batch) the family test, ``why`` a function of an
-    arm index wording its first failure, and the geometry (``W`` the wrist centre at ``q = 0``)."""
+    """`(chain, ok, why, w, p, M, W)`: `ok` (batch) the family test, `why` a function of an
+    arm index wording its first failure, and the geometry (`W` the wrist centre at `q = 0`)."""
     chain = as_chain(robot)
     batch = chain.batch_shape
     none = np.zeros(batch, dtype=bool)
@@ -130,9 +130,9 @@ def _geometry(robot, atol):
 
 
 def is_spherical_wrist_offset(robot, atol: float = 1e-9) -> np.ndarray:
-    """True for each arm of the batch (shape ``robot.batch_shape``) of the family (module notes):
-    6 revolute joints, axes 2 ∥ 3, axis 1 ∦ 2, axes 4, 5, 6 meeting within ``atol`` (m) in one
-    point, 4 ∦ 5 and 5 ∦ 6; tested on the geometry at ``q = 0``, whatever frames describe the arm.
+    """True for each arm of the batch (shape `robot.batch_shape`) of the family (module notes):
+    6 revolute joints, axes 2 ∥ 3, axis 1 ∦ 2, axes 4, 5, 6 meeting within `atol` (m) in one
+    point, 4 ∦ 5 and 5 ∦ 6; tested on the geometry at `q = 0`, whatever frames describe the arm.
     All False for anything that is not an arm."""
     if not isinstance(robot, ArmBatch):
         return np.zeros((), dtype=bool)
@@ -140,7 +140,7 @@ def is_spherical_wrist_offset(robot, atol: float = 1e-9) -> np.ndarray:
 
 
 def require_spherical_wrist_offset(robot, atol: float = 1e-9) -> None:
-    """Raise ``ValueError`` naming the first arm and what differs from the family."""
+    """Raise `ValueError` naming the first arm and what differs from the family."""
     if not isinstance(robot, ArmBatch):
         raise ValueError(f"not an arm: {type(robot).__name__}")
     chain, ok, why, *_ = _geometry(robot, atol)
@@ -157,23 +157,23 @@ def ikine_spherical_wrist_offset(robot, T, atol: float = 1e-9) -> IKSolution:
 
     Parameters
     ----------
-    robot : SerialChain or DHRobot of the family (:func:`is_spherical_wrist_offset`), one arm or a batch
+    robot : SerialChain or DHRobot of the family (`is_spherical_wrist_offset`), one arm or a batch
     T : array_like, shape (..., 4, 4)
-        Target tool poses in the robot's world frame (``robot.fkine`` convention, metres),
-        broadcasting with the robot's batch shape; rigid (else ``ValueError``).
+        Target tool poses in the robot's world frame (`robot.fkine` convention, metres),
+        broadcasting with the robot's batch shape; rigid (else `ValueError`).
     atol : float
         The structure test's tolerance (m) and that of the confirmation: a branch succeeds where
-        the chain's forward kinematics of its ``q`` is within ``atol`` of ``T`` in every matrix
+        the chain's forward kinematics of its `q` is within `atol` of `T` in every matrix
         entry (metres for the position).
 
     Returns
     -------
-    :class:`~wsmap.kinematics.ik.solution.IKSolution` with a branch axis: ``q`` (..., 8, 6) in
-    ``(-pi, pi]`` (rad), branch ``k = 4·shoulder + 2·wrist + elbow`` (module notes); ``success``
+    `IKSolution` with a branch axis: `q` (..., 8, 6) in
+    `(-pi, pi]` (rad), branch `k = 4·shoulder + 2·wrist + elbow` (module notes); `success`
     (..., 8): confirmed and, where the robot has limits, inside them up to multiples of 2·pi;
-    ``reason`` ``OUT_OF_REACH`` where the branch does not reach the pose, ``OUTSIDE_LIMITS`` where
-    it does outside the limits; ``iterations`` 0; ``residual`` the largest entry of
-    ``|fkine(q) − T|`` (``inf`` for a branch whose cosines are out of range, not evaluated).
+    `reason` `OUT_OF_REACH` where the branch does not reach the pose, `OUTSIDE_LIMITS` where
+    it does outside the limits; `iterations` 0; `residual` the largest entry of
+    `|fkine(q) − T|` (`inf` for a branch whose cosines are out of range, not evaluated).
     """
     require_spherical_wrist_offset(robot, atol)
     chain, _, _, w, p, M, W = _geometry(robot, atol)
@@ -293,7 +293,7 @@ def ikine_spherical_wrist_offset(robot, T, atol: float = 1e-9) -> IKSolution:
 
 
 def spherical_wrist_offset_reachable(robot, T, atol: float = 1e-9) -> np.ndarray:
-    """Some branch of :func:`ikine_spherical_wrist_offset` succeeds: bool, ``T.shape[:-2]``
+    """Some branch of `ikine_spherical_wrist_offset` succeeds: bool, `T.shape[:-2]`
     broadcast with the robot's batch shape."""
     return ikine_spherical_wrist_offset(robot, T, atol).success.any(axis=-1)
 

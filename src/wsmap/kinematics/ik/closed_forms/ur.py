@@ -1,16 +1,16 @@
 """Closed-form inverse kinematics of the UR family: three parallel axes (Universal Robots' geometry),
-registered as ``"ur"``.
+registered as `"ur"`.
 
-All 8 branches (shoulder × wrist × elbow, numbered as :mod:`wsmap.kinematics.ik.registry` says)
+All 8 branches (shoulder × wrist × elbow, numbered as `wsmap.kinematics.ik.registry` says)
 over arms and targets in float64; joint limits honoured up to multiples of 2·pi. Units: metres and
 radians.
 
 The solver is a numba loop over the targets spread over threads
-(:func:`wsmap.kinematics.lm_compiled.set_threads`), :func:`_branches` per target. For maps,
-:func:`ur_reachable` stops at the first valid branch of each target and computes only what decides
+(`wsmap.kinematics.lm_compiled.set_threads`), `_branches` per target. For maps,
+`ur_reachable` stops at the first valid branch of each target and computes only what decides
 it (no angle at all when no joint limit needs checking).
 
-The family, in UR's standard DH convention (link ``i`` is ``Rz(θ_i) Tz(d_i) Tx(a_i) Rx(α_i)``)::
+The family, in UR's standard DH convention (link `i` is `Rz(θ_i) Tz(d_i) Tx(a_i) Rx(α_i)`)::
 
     j:      1      2    3     4      5     6
     d:     d1     d2   d3    d4     d5    d6
@@ -20,24 +20,24 @@ The family, in UR's standard DH convention (link ``i`` is ``Rz(θ_i) Tz(d_i) Tx(
 Joints 2, 3 and 4 turn about parallel axes, perpendicular to joint 1. What the solver accepts
 beyond UR's published tables (each handled exactly, not approximated):
 
-* ``d2`` and ``d3`` translate along the parallel axes, so only ``d2 + d3 + d4`` matters; it is
-  reported as ``d4``;
-* ``a1`` (a shoulder offset along the arm plane);
-* either sign of ``alpha`` at joints 1, 4 and 5: ``Rx(-pi/2) = Rz(pi)·Rx(pi/2)·Rz(pi)``, so a
-  mirrored twist is UR's twist with a half turn added to that joint and the next (and ``a``
-  negated, which only concerns ``a1``);
-* joint axes ``+z`` or ``-z`` and any joint offsets (``θ = ±(q + offset)``);
-* anything before joint 1 (the chain's ``base`` and ``F_0``) and after joint 6 (``F_6`` beyond its
-  translation along the joint-6 axis, which is ``d6``, and the chain's ``tool``): targets are
-  mapped with ``T' = base⁻¹ · T · flange⁻¹``.
+* `d2` and `d3` translate along the parallel axes, so only `d2 + d3 + d4` matters; it is
+  reported as `d4`;
+* `a1` (a shoulder offset along the arm plane);
+* either sign of `alpha` at joints 1, 4 and 5: `Rx(-pi/2) = Rz(pi)·Rx(pi/2)·Rz(pi)`, so a
+  mirrored twist is UR's twist with a half turn added to that joint and the next (and `a`
+  negated, which only concerns `a1`);
+* joint axes `+z` or `-z` and any joint offsets (`θ = ±(q + offset)`);
+* anything before joint 1 (the chain's `base` and `F_0`) and after joint 6 (`F_6` beyond its
+  translation along the joint-6 axis, which is `d6`, and the chain's `tool`): targets are
+  mapped with `T' = base⁻¹ · T · flange⁻¹`.
 
-The geometry (frame ``k`` is the frame after link ``k``, with axes ``xk``, ``yk``, ``zk``; ``y1``
-is the base ``z`` axis and ``z1`` the direction of the parallel axes): the wrist point
-``p5 = p − d6·z6`` lies at height ``d4`` along ``z1`` (shoulder, two solutions), the cosine of
-``θ5`` is ``z6·z1`` (wrist, two signs of
-``θ5``), the frame-4 origin is ``p5 − d5·z4`` with ``z4 ⟂ z1, z6`` (its direction gives
-``θ2 + θ3 + θ4``), and joints 2 and 3 form a planar two-link arm reaching the frame-4 origin in
-the arm plane (elbow, two solutions). ``θ6`` is solved from the frames already fixed, so the
+The geometry (frame `k` is the frame after link `k`, with axes `xk`, `yk`, `zk`; `y1`
+is the base `z` axis and `z1` the direction of the parallel axes): the wrist point
+`p5 = p − d6·z6` lies at height `d4` along `z1` (shoulder, two solutions), the cosine of
+`θ5` is `z6·z1` (wrist, two signs of
+`θ5`), the frame-4 origin is `p5 − d5·z4` with `z4 ⟂ z1, z6` (its direction gives
+`θ2 + θ3 + θ4`), and joints 2 and 3 form a planar two-link arm reaching the frame-4 origin in
+the arm plane (elbow, two solutions). `θ6` is solved from the frames already fixed, so the
 rotation is exact even close to the wrist singularity.
 """
 
@@ -70,7 +70,7 @@ __all__ = ["UR_ALPHA", "URParameters", "ur_parameters", "is_ur_type", "require_u
 _NUMBA_CACHE_DIR_BEFORE = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = cache_dir()
 
-#: UR's twists ``alpha`` (rad) of joints 1..6 (standard DH); joint 6's twist is part of the flange.
+#: UR's twists `alpha` (rad) of joints 1..6 (standard DH); joint 6's twist is part of the flange.
 UR_ALPHA = np.array([np.pi / 2, 0.0, 0.0, np.pi / 2, -np.pi / 2, 0.0])
 
 _TWO_PI = 2.0 * np.pi
@@ -84,13 +84,13 @@ _RIGID_TOL = 1e-6
 class URParameters(NamedTuple):
     """A UR-type arm (or batch of arms) in the canonical form the solver uses.
 
-    Lengths ``d1, a1, a2, a3, d4, d5, d6`` (m) have the robot's batch shape and are UR's standard DH
-    values with ``alpha = UR_ALPHA`` exactly (``d4`` includes ``d2 + d3``; ``a1`` is 0 for UR's
-    arms). Joint angles of the canonical table ``θ`` (rad) relate to the robot's joint coordinates
-    ``q`` by ``q = sign · θ − shift`` (``sign``, ``shift``: ``(..., 6)``). The robot's flange pose
-    is ``T = base · T_UR(θ) · flange``, with ``T_UR`` UR's forward kinematics from the frame of
-    joint 1 (z along joint 1) to the frame after ``Tz(d6)``; ``base``, ``flange``: ``(..., 4, 4)``.
-    ``qlim``: the robot's limits ``(..., 6, 2)`` (rad) or ``None``.
+    Lengths `d1, a1, a2, a3, d4, d5, d6` (m) have the robot's batch shape and are UR's standard DH
+    values with `alpha = UR_ALPHA` exactly (`d4` includes `d2 + d3`; `a1` is 0 for UR's
+    arms). Joint angles of the canonical table `θ` (rad) relate to the robot's joint coordinates
+    `q` by `q = sign · θ − shift` (`sign`, `shift`: `(..., 6)`). The robot's flange pose
+    is `T = base · T_UR(θ) · flange`, with `T_UR` UR's forward kinematics from the frame of
+    joint 1 (z along joint 1) to the frame after `Tz(d6)`; `base`, `flange`: `(..., 4, 4)`.
+    `qlim`: the robot's limits `(..., 6, 2)` (rad) or `None`.
     """
 
     d1: np.ndarray
@@ -124,12 +124,12 @@ _HALF_TURNS = np.pi * np.array([[1.0, 1.0, 0.0, 0.0, 0.0, 0.0],
 
 
 def _structure(chain: SerialChain, atol: float):
-    """The UR-type test in a few whole-batch operations: ``(ok, values)``.
+    """The UR-type test in a few whole-batch operations: `(ok, values)`.
 
-    ``ok`` (``chain.batch_shape``) bool; ``values = (F, d, a, alpha)``, the fixed transforms
-    ``(..., 7, 4, 4)`` and the DH numbers ``(..., 5)`` of the links after joints 1..5, all with the
-    chain's batch shape, or ``None`` when the joint count, kinds or axes rule every arm out. The
-    same comparisons as :func:`_explain`, which words the first failure (and is only run then).
+    `ok` (`chain.batch_shape`) bool; `values = (F, d, a, alpha)`, the fixed transforms
+    `(..., 7, 4, 4)` and the DH numbers `(..., 5)` of the links after joints 1..5, all with the
+    chain's batch shape, or `None` when the joint count, kinds or axes rule every arm out. The
+    same comparisons as `_explain`, which words the first failure (and is only run then).
     """
     batch = chain.batch_shape
     if chain.n != 6 or PRISMATIC in chain.kinds or np.abs(chain.axes[:, :2]).max() > atol:
@@ -152,8 +152,8 @@ def _structure(chain: SerialChain, atol: float):
 def _explain(robot, atol: float):
     """Check the structure of every arm of the batch, joint by joint, with words.
 
-    Returns ``(chain, ok, why)``: ``ok`` (batch) bool; ``why(idx)`` the first difference of arm
-    ``idx`` from the UR type (a sentence naming the joint). Slow; :func:`_structure` decides.
+    Returns `(chain, ok, why)`: `ok` (batch) bool; `why(idx)` the first difference of arm
+    `idx` from the UR type (a sentence naming the joint). Slow; `_structure` decides.
     """
     chain = as_chain(robot)
     batch = chain.batch_shape
@@ -203,10 +203,10 @@ def _explain(robot, atol: float):
 
 
 def _canonical(robot, atol: float):
-    """``(chain, ok, values)``: the robot's chain with :func:`_structure`'s answer where every arm
-    passes as described, else its standard-DH equivalent (:func:`~wsmap.kinematics.ik.geometry.dh_equivalent`,
+    """`(chain, ok, values)`: the robot's chain with `_structure`'s answer where every arm
+    passes as described, else its standard-DH equivalent (`dh_equivalent`,
     from the joint axes in the base frame at the zero pose, so that a URDF whose joints turn about
-    ``y`` is recognised) with :func:`_structure`'s answer on it. ``values`` None where no arm passes."""
+    `y` is recognised) with `_structure`'s answer on it. `values` None where no arm passes."""
     chain = as_chain(robot)
     ok, values = _structure(chain, atol)
     if chain.n != 6 or np.all(ok):
@@ -222,15 +222,15 @@ def _canonical(robot, atol: float):
 
 
 def is_ur_type(robot: Arm, atol: float = 1e-9) -> np.ndarray:
-    """True for each arm of the batch (shape ``robot.batch_shape``) that :func:`ikine_ur` solves.
+    """True for each arm of the batch (shape `robot.batch_shape`) that `ikine_ur` solves.
 
-    ``robot``: a :class:`SerialChain` or :class:`DHRobot`. The test is on the numbers (``atol`` on
-    matrix entries, metres and radians): 6 revolute joints about ``±z`` of their frames, the fixed
-    transforms after joints 1..5 of the form ``Tz(d)·Tx(a)·Rx(alpha)`` with ``alpha`` ±pi/2, 0, 0,
-    ±pi/2, ±pi/2 and ``a4 = a5 = 0``. Base, ``F_0``, ``F_6`` and tool are free (see the module doc).
-    An arm described otherwise (a URDF's joints about ``y``, frames anywhere on the axes) is tested
+    `robot`: a `SerialChain` or `DHRobot`. The test is on the numbers (`atol` on
+    matrix entries, metres and radians): 6 revolute joints about `±z` of their frames, the fixed
+    transforms after joints 1..5 of the form `Tz(d)·Tx(a)·Rx(alpha)` with `alpha` ±pi/2, 0, 0,
+    ±pi/2, ±pi/2 and `a4 = a5 = 0`. Base, `F_0`, `F_6` and tool are free (see the module doc).
+    An arm described otherwise (a URDF's joints about `y`, frames anywhere on the axes) is tested
     on its standard-DH equivalent, computed from the joint axes in the base frame at the zero pose
-    (:func:`wsmap.kinematics.ik.geometry.dh_equivalent`): the family is recognised from the arm's
+    (`wsmap.kinematics.ik.geometry.dh_equivalent`): the family is recognised from the arm's
     geometry, whatever frames describe it.
     """
     if not isinstance(robot, ArmBatch):
@@ -247,7 +247,7 @@ def _raise_not_ur(robot, atol):
 
 
 def require_ur_type(robot: Arm, atol: float = 1e-9) -> None:
-    """Raise ``ValueError`` naming the first arm and joint that differ from the UR type."""
+    """Raise `ValueError` naming the first arm and joint that differ from the UR type."""
     if not np.all(is_ur_type(robot, atol)):
         _raise_not_ur(robot, atol)
 
@@ -262,11 +262,11 @@ def _rigid_inverse(T):
 
 
 def ur_parameters(robot: Arm, atol: float = 1e-9) -> URParameters:
-    """The canonical UR numbers of a UR-type arm (see :class:`URParameters`); ``ValueError`` otherwise.
+    """The canonical UR numbers of a UR-type arm (see `URParameters`); `ValueError` otherwise.
 
-    ``robot``: a :class:`SerialChain` (e.g. ``wsmap.robots.load("ur5e")``) or :class:`DHRobot`, one
-    arm or a batch. ``base = chain.base · F_0`` (the identity for a :class:`DHRobot`);
-    ``flange = Tz(−d6) · F_6 · chain.tool`` with ``d6 = F_6[2, 3]``, the translation of ``F_6``
+    `robot`: a `SerialChain` (e.g. `wsmap.robots.load("ur5e")`) or `DHRobot`, one
+    arm or a batch. `base = chain.base · F_0` (the identity for a `DHRobot`);
+    `flange = Tz(−d6) · F_6 · chain.tool` with `d6 = F_6[2, 3]`, the translation of `F_6`
     along joint 6 (it commutes with joint 6, so any split is exact).
     """
     chain, ok, values = _canonical(robot, atol)
@@ -297,42 +297,42 @@ def ikine_ur(robot: Arm, T: ArrayLike, atol: float = 1e-9) -> IKSolution:
 
     Parameters
     ----------
-    robot : SerialChain or DHRobot of the UR type (:func:`is_ur_type`), or its :class:`URParameters`
-        (from :func:`ur_parameters`, to skip the structure check on repeated calls).
+    robot : SerialChain or DHRobot of the UR type (`is_ur_type`), or its `URParameters`
+        (from `ur_parameters`, to skip the structure check on repeated calls).
     T : array_like, shape (..., 4, 4)
-        Target tool poses in the robot's world frame (``robot.fkine`` convention: base → tool,
-        metres), broadcasting with the robot's batch shape; rigid (else ``ValueError``).
+        Target tool poses in the robot's world frame (`robot.fkine` convention: base → tool,
+        metres), broadcasting with the robot's batch shape; rigid (else `ValueError`).
     atol : float
-        Reach tolerance in metres: the wrist point may lie up to ``atol`` inside the shoulder
-        cylinder ``r >= |d4|`` and the frame-4 origin up to ``atol`` outside the elbow annulus
-        ``||a2| − |a3|| <= ρ <= |a2| + |a3|``; such a branch is the nearest configuration, with a
-        position error of at most about ``atol``. Also the tolerance of the structure check.
+        Reach tolerance in metres: the wrist point may lie up to `atol` inside the shoulder
+        cylinder `r >= |d4|` and the frame-4 origin up to `atol` outside the elbow annulus
+        `||a2| − |a3|| <= ρ <= |a2| + |a3|`; such a branch is the nearest configuration, with a
+        position error of at most about `atol`. Also the tolerance of the structure check.
 
     Returns
     -------
-    :class:`~wsmap.kinematics.ik.solution.IKSolution` with a branch axis, ``...`` the broadcast of
-    ``T.shape[:-2]`` and the robot's batch shape:
+    `IKSolution` with a branch axis, `...` the broadcast of
+    `T.shape[:-2]` and the robot's batch shape:
 
     q : (..., 8, 6) float64
-        Joint coordinates (rad) in ``[-pi, pi]``. Branch ``k = 4·shoulder + 2·wrist + elbow``
-        (:mod:`wsmap.kinematics.ik.registry`), defined on the canonical angles ``θ`` (UR's table,
-        ``q = sign·θ − shift``, :class:`URParameters`; for UR's own arms ``θ = q``): shoulder 0:
-        ``θ1 = φ + asin(d4/r)``, 1: ``φ + pi − asin(d4/r)``, with ``(r, φ)`` the polar coordinates
-        of the wrist point ``p − d6·z`` in the joint-1 frame; wrist 0: ``sin θ5 >= 0``, 1:
-        ``<= 0``; elbow 0: ``sin θ3 >= 0``, 1: ``<= 0``. Entries of branches that do not succeed
+        Joint coordinates (rad) in `[-pi, pi]`. Branch `k = 4·shoulder + 2·wrist + elbow`
+        (`wsmap.kinematics.ik.registry`), defined on the canonical angles `θ` (UR's table,
+        `q = sign·θ − shift`, `URParameters`; for UR's own arms `θ = q`): shoulder 0:
+        `θ1 = φ + asin(d4/r)`, 1: `φ + pi − asin(d4/r)`, with `(r, φ)` the polar coordinates
+        of the wrist point `p − d6·z` in the joint-1 frame; wrist 0: `sin θ5 >= 0`, 1:
+        `<= 0`; elbow 0: `sin θ3 >= 0`, 1: `<= 0`. Entries of branches that do not succeed
         are finite but meaningless.
     success : (..., 8) bool
-        The branch reaches the pose (tolerance ``atol``) and, if the robot has joint limits, every
-        joint lies inside them up to a multiple of 2·pi (``q`` itself is not moved into the range).
-    reason : (..., 8) ``OUT_OF_REACH`` where the branch does not reach the pose, ``OUTSIDE_LIMITS``
-        where it reaches it outside the limits; ``iterations`` 0, ``residual`` NaN.
+        The branch reaches the pose (tolerance `atol`) and, if the robot has joint limits, every
+        joint lies inside them up to a multiple of 2·pi (`q` itself is not moved into the range).
+    reason : (..., 8) `OUT_OF_REACH` where the branch does not reach the pose, `OUTSIDE_LIMITS`
+        where it reaches it outside the limits; `iterations` 0, `residual` NaN.
 
     Notes
     -----
-    Singular wrist (``z6 = ±z1``, ``sin θ5 = 0``): only ``θ2 + θ3 + θ4`` and ``θ6`` together are
+    Singular wrist (`z6 = ±z1`, `sin θ5 = 0`): only `θ2 + θ3 + θ4` and `θ6` together are
     determined; the free angle is chosen so that the elbow is as close to a right angle as the
     position allows (the two wrist branches take the two mirror choices), which reaches the pose
-    whenever any choice does. A free ``θ1`` (wrist point on the joint-1 axis with ``d4 = 0``)
+    whenever any choice does. A free `θ1` (wrist point on the joint-1 axis with `d4 = 0`)
     takes 0 and pi. In these one-parameter families the limits are checked on the chosen member only.
     """
     prm, T = _front(robot, T, atol)
@@ -347,7 +347,7 @@ def ikine_ur(robot: Arm, T: ArrayLike, atol: float = 1e-9) -> IKSolution:
 
 
 def _front(robot, T, atol):
-    """The checks of :func:`ikine_ur` and :func:`ur_reachable`: ``(URParameters, T as float64)``."""
+    """The checks of `ikine_ur` and `ur_reachable`: `(URParameters, T as float64)`."""
     prm = robot if isinstance(robot, URParameters) else ur_parameters(robot, atol)
     T = as_real_array("target poses", T)
     if T.ndim < 2 or T.shape[-2:] != (4, 4):
@@ -356,7 +356,7 @@ def _front(robot, T, atol):
 
 
 def ur_reachable(robot: Arm, T: ArrayLike, atol: float = 1e-9) -> np.ndarray:
-    """True where some branch of :func:`ikine_ur` succeeds: bool, shape ``T.shape[:-2]`` broadcast
+    """True where some branch of `ikine_ur` succeeds: bool, shape `T.shape[:-2]` broadcast
     with the robot's batch shape.
 
     Stops at the first valid branch of each target and computes only what decides it: without
@@ -382,11 +382,11 @@ _SIGN0, _SHIFT0, _LO0, _HI0, _NPAR = 7, 13, 19, 25, 31
 
 
 def _ikine_compiled(prm, T, atol, full):
-    """:func:`ikine_ur` (``full``) or :func:`ur_reachable` through :func:`_run`.
+    """`ikine_ur` (`full`) or `ur_reachable` through `_run`.
 
-    Per arm of the batch (``B`` arms, shape ``arms``): the canonical lengths ``(B, 7)``, joint signs,
-    shifts and limits ``(B, 6)``, inverse mounts ``(B, 4, 4)``; per target ``i`` (``M`` of them, the
-    broadcast of ``T`` and the arms) the index of its pose in ``T`` and of its arm (empty index
+    Per arm of the batch (`B` arms, shape `arms`): the canonical lengths `(B, 7)`, joint signs,
+    shifts and limits `(B, 6)`, inverse mounts `(B, 4, 4)`; per target `i` (`M` of them, the
+    broadcast of `T` and the arms) the index of its pose in `T` and of its arm (empty index
     arrays: the identity, resp. arm 0). Which mounts to apply and which joints to map and to check
     is decided once for the whole batch.
     """
@@ -457,13 +457,13 @@ def _ikine_compiled(prm, T, atol, full):
 
 @njit(cache=True, error_model="numpy")
 def _wrap1(x):
-    """``x`` moved by a multiple of 2·pi into ``[-pi, pi]`` (rint is far cheaper than mod)."""
+    """`x` moved by a multiple of 2·pi into `[-pi, pi]` (rint is far cheaper than mod)."""
     return x - _TWO_PI * np.rint(x * _INV_TWO_PI)
 
 
 @njit(cache=True, error_model="numpy")
 def _clip1(x):
-    """``np.clip(x, -1, 1)`` of one number (NaN stays NaN)."""
+    """`np.clip(x, -1, 1)` of one number (NaN stays NaN)."""
     if x < -1.0:
         return -1.0
     if x > 1.0:
@@ -473,8 +473,8 @@ def _clip1(x):
 
 @njit(cache=True, error_model="numpy")
 def _joint(x, j, P, mapped):
-    """Canonical angle ``x`` of joint ``j`` → the robot's ``q_j``
-    (``P``: the arm's row, :func:`_arm_row`; ``mapped``: bit ``j`` set where joint ``j`` is mapped)."""
+    """Canonical angle `x` of joint `j` → the robot's `q_j`
+    (`P`: the arm's row, `_arm_row`; `mapped`: bit `j` set where joint `j` is mapped)."""
     if mapped >> j & 1:
         return _wrap1(P[_SIGN0 + j] * x - P[_SHIFT0 + j])
     if j == 1 or j == 3:  # θ2, θ4 are sums of angles; the others are in [-pi, pi] already
@@ -484,9 +484,9 @@ def _joint(x, j, P, mapped):
 
 @njit(cache=True, error_model="numpy")
 def _inside(x, j, P, limited):
-    """``q_j = x`` inside the arm's limits up to a multiple of 2·pi, as ``dh._angle_in_range`` (the
-    same operations; ``np.mod`` by 2·pi is ``fmod`` moved into ``[0, 2·pi)``); true unless bit
-    ``j`` of ``limited`` is set."""
+    """`q_j = x` inside the arm's limits up to a multiple of 2·pi, as `dh._angle_in_range` (the
+    same operations; `np.mod` by 2·pi is `fmod` moved into `[0, 2·pi)`); true unless bit
+    `j` of `limited` is set."""
     if not limited >> j & 1:
         return True
     lo, hi = P[_LO0 + j], P[_HI0 + j]
@@ -500,9 +500,9 @@ def _inside(x, j, P, limited):
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _wrist_joint(x, j, P, mapped, limited, ok, full, q, i, k0):
-    """Wrist joint ``j`` (θ5 or θ6, shared by the two elbow branches ``k0``, ``k0 + 1`` of target
-    ``i``) from its canonical angle ``x``: written to ``q`` when ``full``; returns ``ok`` and the
-    joint inside the limits (:func:`_joint`, :func:`_inside`)."""
+    """Wrist joint `j` (θ5 or θ6, shared by the two elbow branches `k0`, `k0 + 1` of target
+    `i`) from its canonical angle `x`: written to `q` when `full`; returns `ok` and the
+    joint inside the limits (`_joint`, `_inside`)."""
     x = _joint(x, j, P, mapped)
     ok = ok and _inside(x, j, P, limited)
     if full:
@@ -513,9 +513,9 @@ def _wrist_joint(x, j, P, mapped, limited, ok, full, q, i, k0):
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _rigid_bad(T, t, tol):
-    """Target ``t`` fails a quick rigidity test (NaN fails): :func:`check_rigid`'s conditions
-    (``RᵀR = I``, ``a = n × o``, the bottom row) at a quarter of its tolerance, so what passes here
-    passes there; a pose that fails is handed to :func:`check_rigid`, which decides and words the
+    """Target `t` fails a quick rigidity test (NaN fails): `check_rigid`'s conditions
+    (`RᵀR = I`, `a = n × o`, the bottom row) at a quarter of its tolerance, so what passes here
+    passes there; a pose that fails is handed to `check_rigid`, which decides and words the
     error."""
     for c in range(3):
         for d in range(c, 3):
@@ -535,21 +535,21 @@ def _rigid_bad(T, t, tol):
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _left(L, b, T, t, r, c):
-    """Entry ``(r, c)`` of ``L[b] · T[t]``, summed left to right."""
+    """Entry `(r, c)` of `L[b] · T[t]`, summed left to right."""
     return L[b, r, 0] * T[t, 0, c] + L[b, r, 1] * T[t, 1, c] + L[b, r, 2] * T[t, 2, c] + L[b, r, 3] * T[t, 3, c]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _product(L, R, b, r, c):
-    """Entry ``(r, c)`` of ``L · R[b]`` (``L`` a 16-tuple read row by row), summed left to right."""
+    """Entry `(r, c)` of `L · R[b]` (`L` a 16-tuple read row by row), summed left to right."""
     return L[4 * r] * R[b, 0, c] + L[4 * r + 1] * R[b, 1, c] + L[4 * r + 2] * R[b, 2, c] + L[4 * r + 3] * R[b, 3, c]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _target(T, t, b, base_mode, Binv, flange_mode, Finv):
-    """Rows 0..2 of ``base⁻¹ · T[t] · flange⁻¹`` (as the mount modes say), a 12-tuple row by row.
+    """Rows 0..2 of `base⁻¹ · T[t] · flange⁻¹` (as the mount modes say), a 12-tuple row by row.
 
-    Why tuples and ``inline="always"``: a compiled call that takes arrays may keep atomic
+    Why tuples and `inline="always"`: a compiled call that takes arrays may keep atomic
     reference-count updates of them that numba's pruning misses where the code branches; at about
     a dozen per target they cost as much as the arithmetic (measured: 150 ns per target instead
     of 35). Inlined into the loop, with the target and the arm's numbers as plain tuples, none
@@ -573,7 +573,7 @@ def _target(T, t, b, base_mode, Binv, flange_mode, Finv):
 
 @njit(cache=True, error_model="numpy")
 def _arm_row(par, b):
-    """Row ``b`` of the per-arm numbers as a 31-tuple (see ``_ikine_compiled``)."""
+    """Row `b` of the per-arm numbers as a 31-tuple (see `_ikine_compiled`)."""
     return (par[b, 0], par[b, 1], par[b, 2], par[b, 3], par[b, 4], par[b, 5], par[b, 6],
             par[b, 7], par[b, 8], par[b, 9], par[b, 10], par[b, 11], par[b, 12],
             par[b, 13], par[b, 14], par[b, 15], par[b, 16], par[b, 17], par[b, 18],
@@ -586,10 +586,10 @@ def _branches(A, P, mapped, limited, atol, full, q, valid, i):
     """The closed form of one target (the geometry is in the module notes); returns whether some
     branch is valid.
 
-    ``A``: rows 0..2 of the target in the joint-1 frame (mounts applied), a 12-tuple row by row;
-    ``P``: the arm's numbers (:func:`_arm_row`); ``mapped``, ``limited``: bit ``j`` set where joint
-    ``j``'s angle is mapped (sign, shift) and where its limits are checked. ``full`` (a literal):
-    every branch's ``q`` and ``valid`` written into row ``i`` of ``q`` (M, 8, 6) and ``valid``
+    `A`: rows 0..2 of the target in the joint-1 frame (mounts applied), a 12-tuple row by row;
+    `P`: the arm's numbers (`_arm_row`); `mapped`, `limited`: bit `j` set where joint
+    `j`'s angle is mapped (sign, shift) and where its limits are checked. `full` (a literal):
+    every branch's `q` and `valid` written into row `i` of `q` (M, 8, 6) and `valid`
     (M, 8). Otherwise nothing is written, the search stops at the first valid branch, a branch is
     dropped as soon as its reach or a limit fails, and only the angles that some limit check needs
     are computed (none, without limits).
@@ -770,10 +770,10 @@ def _branches(A, P, mapped, limited, atol, full, q, valid, i):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _run(T, tix, arm, par, mapped, limited, base_mode, Binv, flange_mode, Finv, atol, M, full, q, valid, reach, bad):
-    """Every target ``i < M``: pose ``T[tix[i]]`` (``T[i]`` if ``tix`` is empty) for arm ``arm[i]``
-    (0 if empty). ``full``: all branches into ``q`` (M, 8, 6) and ``valid`` (M, 8); else
-    reachability into ``reach`` (M,). ``bad[task]``: a pose of the task failed the quick rigidity
-    test. Targets go to threads in tasks of :data:`TARGETS_PER_TASK`; each target is independent,
+    """Every target `i < M`: pose `T[tix[i]]` (`T[i]` if `tix` is empty) for arm `arm[i]`
+    (0 if empty). `full`: all branches into `q` (M, 8, 6) and `valid` (M, 8); else
+    reachability into `reach` (M,). `bad[task]`: a pose of the task failed the quick rigidity
+    test. Targets go to threads in tasks of `TARGETS_PER_TASK`; each target is independent,
     so the results do not depend on the thread count."""
     ntask = bad.shape[0]
     tol = 0.25 * _RIGID_TOL
