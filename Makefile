@@ -34,7 +34,7 @@ smoke: $(STAMP)
 
 # The documentation site (mkdocs.yml; the API reference from the docstrings) into site/; warnings are errors
 docs: $(STAMP)
-	$(BIN)/mkdocs build --strict --quiet
+	$(BIN)/mkdocs build --strict
 	@echo "site/index.html"
 
 # JupyterLab on the notebooks: opened by hand, a notebook writes into scratch/<notebook>/ (git-ignored),

@@ -270,6 +270,8 @@ class CollisionChecker:
     self_collision : bool
         Check the enabled link pairs (default); False checks the scene alone.
 
+    Notes
+    -----
     `checker(q)` with `q` `(C, n)` (rad / m) returns bool `(C,)`, True where collision-free
     (the guarantee in the module notes); `stats` counts the work. The same instance can be
     given to every map (`collision=`).

@@ -476,6 +476,13 @@ def build_dataset_files(
         `scheduler="tcp://host:port"` on that Dask cluster (one connection for both files).
         The files are byte-identical either way.
 
+    Returns
+    -------
+    list of Path
+        The written paths, training file first.
+
+    Notes
+    -----
     Every input is checked before any work and before any file is touched: a bad count (0,
     negative, not an integer), an unknown name, an output path that is empty, a directory, or in a
     folder that cannot be written or created, two outputs at the same path, and both `workers`
@@ -483,8 +490,7 @@ def build_dataset_files(
     naming the argument; a scheduler that does not answer is a `SchedulerError`. Both files
     are then written to temporary files beside their targets and renamed into place only when both
     are complete; if anything fails (or the run is interrupted), no temporary file is left behind
-    and an existing file at either path is untouched. Returns the written paths, training file
-    first.
+    and an existing file at either path is untouched.
     """
     # ---- what to build (no work, no files yet)
     if isinstance(spec, str):

@@ -109,17 +109,22 @@ def reachable(robot: Arm, T: ArrayLike, *, starts: int = DEFAULT_STARTS, seed: i
     **settings :
         `q0`, `tol`, `ilimit`, `rlimit`, `lam`, `joint_limits`, `confirm_tol`, `chunk`,
         `progress` of `wsmap.kinematics.ik.search.ikine_search`, which also returns the solutions.
+    collision : callable, optional
+        One arm: a configuration predicate, `collision(q)` with `q` `(M, n)` → bool
+        `(M,)` True where acceptable, e.g. a `wsmap.collision.CollisionChecker`; a pose then
+        counts only with an accepted solution, and a pose whose solutions were refused is searched
+        again `collision_rounds` times with other random starts (`seed` moved on per round).
+    collision_rounds : int
+        How many more searches, with other random starts, a pose whose solutions `collision` refused gets.
+    return_q : bool
+        Also return the solutions `(..., n)` (NaN where unreachable).
 
+    Notes
+    -----
     A pose is reachable when some start converges to it inside the joint limits and forward
     kinematics confirms the solution (within 1e-6 m and rad), so `True` comes with a solution;
     `False` means no start found one (recall measured against exact references in
     `benchmarks/bench_recall.py`: >= 0.999 with the default starts, no false positive).
-
-    `collision` (one arm): a configuration predicate, `collision(q)` with `q` `(M, n)` → bool
-    `(M,)` True where acceptable, e.g. a `wsmap.collision.CollisionChecker`; a pose then
-    counts only with an accepted solution, and a pose whose solutions were refused is searched
-    again `collision_rounds` times with other random starts (`seed` moved on per round).
-    `return_q` also returns the solutions `(..., n)` (NaN where unreachable).
     """
     valid = _predicate(robot, collision)
     if valid is None:

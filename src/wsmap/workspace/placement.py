@@ -118,8 +118,14 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
         base is `T_m·fkine(q)⁻¹`, the pose the solution was found for); such a scene must then
         have no base-frame obstacles
 
-    Returns a `Placement`, best first (ties: nearer the middle of the region first, then the
-    grid order). Bad input (a range with lo > hi, `step` <= 0, `yaws` < 1, targets that are not
+    Returns
+    -------
+    Placement
+        Best first (ties: nearer the middle of the region first, then the grid order).
+
+    Notes
+    -----
+    Bad input (a range with lo > hi, `step` <= 0, `yaws` < 1, targets that are not
     rigid transforms) is a `ValueError` before any work, as are sizes beyond the bounds
     (`MAX_TARGETS` targets, `MAX_YAWS` headings, `MAX_CANDIDATES` candidate bases)
     and a `MemoryError` a problem whose solutions would not fit in half the memory available.

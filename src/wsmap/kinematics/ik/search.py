@@ -211,16 +211,23 @@ def ikine_search(
         Targets solved together (bounds memory; the result does not depend on it).
     progress : callable, optional
         Called with the number of targets finished after each chunk.
-    position_only : reach the position of each `T` at any orientation
+    position_only : bool
+        Reach the position of each `T` at any orientation.
 
-    Runs on `wsmap.kinematics.lm_compiled.set_threads` threads. Returns an
-    `IKSolution` of the broadcast batch shape of targets and
-    arms: `q` a confirmed solution where `success` (inside the limits); elsewhere the end point
-    of the start with the smallest final error (inside the limits; NaN where LM was not run);
-    `iterations` over all starts tried; `residual` the error norm at `q` (`inf` where LM
-    was not run); `reason` `OUT_OF_REACH` where the pre-filter ruled the target out, else
-    `NO_CONVERGENCE` where no start succeeded; `start` the index of the start that succeeded,
-    -1 where none did.
+    Returns
+    -------
+    IKSolution
+        Of the broadcast batch shape of targets and
+        arms: `q` a confirmed solution where `success` (inside the limits); elsewhere the end point
+        of the start with the smallest final error (inside the limits; NaN where LM was not run);
+        `iterations` over all starts tried; `residual` the error norm at `q` (`inf` where LM
+        was not run); `reason` `OUT_OF_REACH` where the pre-filter ruled the target out, else
+        `NO_CONVERGENCE` where no start succeeded; `start` the index of the start that succeeded,
+        -1 where none did.
+
+    Notes
+    -----
+    Runs on `wsmap.kinematics.lm_compiled.set_threads` threads.
     """
     chain = _limited(as_chain_memo(robot), joint_limits)
     T = check_rigid("target poses", T)
@@ -326,6 +333,15 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
         waves, the retries, then `accept_retry` more random starts (in rounds of 4, each round
         followed by waves) for the nodes whose solutions were all rejected, and the border search
 
+    Returns
+    -------
+    IKSolution
+        Of shape `(B, N)` (`(N,)` for one
+        arm), its fields as `ikine_search`'s; `start` is the random start's index `k`
+        (0 = `q0`) that succeeded, `-2` where a neighbour's solution did, `-1` where none did.
+
+    Notes
+    -----
     Per arm, in passes: (1) every node: `q0` then `starts` random starts (the first ones of
     `ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
     neighbour whose solution it has not tried takes up to `seeds` of them, in neighbour order, as
@@ -338,10 +354,6 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
     whatever the waves did before. Every success is confirmed by forward kinematics inside the
     limits, so `True` is never wrong; recall is measured in `benchmarks/bench_fast_maps.py` and
     `benchmarks/bench_recall_arms.py`. Deterministic; does not depend on the thread count.
-
-    Returns an `IKSolution` of shape `(B, N)` (`(N,)` for one
-    arm), its fields as `ikine_search`'s; `start` is the random start's index `k`
-    (0 = `q0`) that succeeded, `-2` where a neighbour's solution did, `-1` where none did.
     """
     chain = _limited(as_chain_memo(robot), joint_limits)
     T = check_rigid("target poses", T)
