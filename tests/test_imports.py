@@ -59,8 +59,18 @@ def _ancestors(name: str) -> list[str]:
     return [".".join(parts[:i]) for i in range(1, len(parts))]
 
 
-def import_graph(src: Path, top: str = "wsmap") -> dict[str, set[str]]:
-    """``{module: modules its import statements run}`` for every module of ``top`` (module docstring)."""
+def _is_type_checking(node: ast.AST) -> bool:
+    """``if TYPE_CHECKING:`` or ``if typing.TYPE_CHECKING:``."""
+    if not isinstance(node, ast.If):
+        return False
+    test = node.test
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def import_graph(src: Path, top: str = "wsmap", type_checking: bool = True) -> dict[str, set[str]]:
+    """``{module: modules its import statements name}`` for every module of ``top`` (module
+    docstring); ``type_checking=False`` leaves out those under ``if TYPE_CHECKING:`` (what runs)."""
     modules = _modules(src, top)
     compiled = _compiled(src, top)
     modules.update({name: None for name in compiled})
@@ -89,9 +99,10 @@ def import_graph(src: Path, top: str = "wsmap") -> dict[str, set[str]]:
                 targets.add(target)
 
         tree = ast.parse(path.read_text(), filename=str(path))
-        for node in ast.walk(tree):  # ``if TYPE_CHECKING:`` never runs: the names of annotations only
-            if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
-                node.body = []
+        if not type_checking:  # ``if TYPE_CHECKING:`` never runs: what runs is the rest
+            for node in ast.walk(tree):
+                if _is_type_checking(node):
+                    node.body = []
         for node in ast.walk(tree):
             if isinstance(node, ast.Import):
                 for alias in node.names:
