@@ -6,7 +6,7 @@ multiply-adds (8 chains per lane group, so latency is hidden), best of 5, one th
 Scalar: 8 independent chains of ``x = x * a + b`` on float64 locals (one FMA, 2 flops, per step);
 SIMD: the same on 8 chains of ``W`` lanes (W = 4: AVX2 ymm, W = 8: AVX-512 zmm), written as loops
 over a constant lane count that LLVM vectorises (the assembly is checked for ymm/zmm FMAs and
-printed). The bound in docs/performance.md ("The limit") divides these rates by an LM iteration's
+printed). The bound in docs/speed.md ("The limit") divides these rates by an LM iteration's
 flop count.
 
 Then the question of the lane kernel: does numba vectorise a loop over lanes? A joint step of the

@@ -29,7 +29,7 @@ never compiles the six-joint build. The per-iteration functions are inlined into
 numba (`inline="always"`), not called with their dozen array arguments: a fifth faster again
 (and most of the compile time: without it a build compiles in 17 s of CPU instead of 23 s, but
 the Panda's single-start IK runs about 1.5x slower). `_lm` evaluates the start and every
-trial step at one call site, so each is inlined once. A build compiles once (docs/performance.md,
+trial step at one call site, so each is inlined once. A build compiles once (docs/speed.md,
 "Compile time"): the builds are cached on disk.
 
 Floating point: compiled with `fastmath={"contract", "reassoc"}` (fused multiply-adds, and sums
@@ -907,7 +907,7 @@ def orbit_test(a, e0, c, r, u, w, p):
 
 # --------------------------------------------------------------------------- the first call
 #: Seconds a cold compile of one build of the kernels took on the development machine (2 shared
-#: cores; see docs/performance.md, "Compile time"); the notice's estimate until this machine has
+#: cores; see docs/speed.md, "Compile time"); the notice's estimate until this machine has
 #: measured its own.
 COLD_COMPILE_SECONDS = 25
 _ESTIMATE_FILE = "wsmap_compile_seconds.txt"

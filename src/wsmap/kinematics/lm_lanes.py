@@ -2,7 +2,7 @@
 
 `wsmap.kinematics.lm_compiled` runs one target at a time; each LM iteration is a long chain of
 dependent operations (joint after joint, pivot after pivot), so most of a core's vector units and
-most of its cycles sit idle (docs/performance.md, "The limit"). The lane kernel (C++,
+most of its cycles sit idle (docs/speed.md, "The limit"). The lane kernel (C++,
 `src/wsmap/kinematics/_lanes/lanes.hpp`, built into the extension `wsmap.kinematics._lanes`)
 keeps a block of `lanes` targets in flight: every number of the iteration is an array over the
 block, so the forward kinematics, pose error, Jacobian, normal equations and solve are loops over
