@@ -20,7 +20,7 @@ paper's convention; :func:`wsmap.learn.manipulability_targets`), trains
 
 Measured so (a 2-core machine shared with other jobs; the epochs done in the time limit depend on
 the load): 63 epochs, held-out R² 0.9948 pooled, MAE 0.00064 m³, R² 0.9925 on reachable nodes;
-0.13 ms per predicted map in bulk against 1.8 ms exact (``docs/design-and-learned-maps.md``).
+0.13 ms per predicted map in bulk against 1.8 ms exact (`docs/learned-maps.md`).
 With ``--epochs 60`` (the library's default config; 2026-12-02, the machine shared with a
 two-thread training run): R² 0.9947, MAE 0.00064 m³, R² 0.9925 on reachable nodes, 330 s.
 """

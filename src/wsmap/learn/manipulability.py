@@ -41,7 +41,7 @@ arms, the default config (60 epochs), 500 held-out arms: R² 0.9947 pooled over 
 0.00064 m³; on the reachable nodes R² 0.9925, MAE 0.0026 m³; largest error 0.080 m³ (the earlier
 time-limited default, 150 s or 63 epochs: R² 0.9948). A map costs
 0.13 ms per arm predicted in bulk (0.3 ms for one arm) against 1.8-2.6 ms exact
-(`wsmap.workspace.manipulability_maps`). `docs/design-and-learned-maps.md` (section "A learned manipulability map") has the runs.
+(`wsmap.workspace.manipulability_maps`). `docs/learned-maps.md` (section "Manipulability, learned") has the runs.
 """
 
 from __future__ import annotations
