@@ -655,6 +655,342 @@ def _check_finite(name: str, a, chunk: int = 4096) -> None:
                              "training on them would stop at once with loss NaN")
 
 
+def _checked_arrays(X, Y) -> tuple[np.ndarray | torch.Tensor, np.ndarray | torch.Tensor]:
+    """`X` and `Y` as arrays (torch tensors stay tensors), checked: `(n, f)` inputs,
+    `(n, m)` or `(S, n, m)` targets with the same `n >= 1`, every value finite."""
+    if not isinstance(X, torch.Tensor):
+        X = np.asarray(X)
+    if not isinstance(Y, torch.Tensor):
+        Y = np.asarray(Y)
+    if X.ndim != 2 or Y.ndim not in (2, 3) or X.shape[0] != Y.shape[-2]:
+        raise ValueError(f"X must be (n, f) and Y (n, m) or (S, n, m) with the same n; "
+                         f"got {tuple(X.shape)}, {tuple(Y.shape)}")
+    if X.shape[0] == 0:
+        raise ValueError("no samples: X and Y have 0 rows")
+    _check_finite("X", X)
+    _check_finite("Y", Y)
+    return X, Y
+
+
+def _session_count(model: nn.Module, params: list[torch.Tensor], X, Y) -> int | None:
+    """`S` for a stacked model (read from the rank of its output on one sample), `None` for a
+    single one; `ValueError` when the parameters or the targets do not fit that."""
+    with torch.no_grad():
+        probe = model(_take(X, np.arange(1), params[0].dtype, params[0].device))
+    per_session_y = Y.ndim == 3
+    if probe.ndim == 3:
+        S = probe.shape[0]
+        if per_session_y and Y.shape[0] != S:
+            raise ValueError(f"stacked model with S = {S}: targets (S, n, m) have S = {Y.shape[0]}")
+        bad = [tuple(p.shape) for p in params if p.ndim == 0 or p.shape[0] != S]
+        if bad:
+            raise ValueError(f"stacked model with S = {S}: every parameter needs leading dimension S; got {bad}")
+        return S
+    if probe.ndim == 2:
+        if per_session_y:
+            raise ValueError("targets (S, n, m) need a stacked model")
+        return None
+    raise ValueError(f"model output must be (n, m) or (S, n, m); got {tuple(probe.shape)}")
+
+
+def _resolve_splits(split: Split | Sequence[Split] | None, n: int, S: int | None, config: TrainConfig) -> list[Split]:
+    """The splits `train` uses: one, or one per session of a stacked model (`split=None`:
+    drawn by `split_indices` with seed `config.seed + s`), as int64 index arrays."""
+    if split is None:
+        splits = ([split_indices(n, config.fractions, config.seed)] if S is None else
+                  [split_indices(n, config.fractions, config.seed + s) for s in range(S)])
+    elif isinstance(split, Split) or (len(split) == 3 and not isinstance(split[0], (Split, tuple))):
+        splits = [Split(*(np.asarray(i, dtype=np.int64) for i in split))]
+    else:
+        splits = [Split(*(np.asarray(i, dtype=np.int64) for i in sp)) for sp in split]
+    if S is None and len(splits) != 1:
+        raise ValueError("one split for a single model")
+    if S is not None and len(splits) not in (1, S):
+        raise ValueError(f"stacked model with S = {S}: give one split or {S}")
+    for part in range(3):
+        if len({len(sp[part]) for sp in splits}) != 1:
+            raise ValueError("per-session splits must have equal sizes")
+    return splits
+
+
+@dataclass
+class _TrainData:
+    """The samples of the splits, gathered once onto the training device.
+
+    `x_*` are `(k, f)` (one split) or `(S, k, f)` (one split per session), `y_*` `(k, m)` or
+    `(S, k, m)`; `x_te`, `y_te` are `None` unless the test loss is tracked.
+    """
+
+    x_tr: torch.Tensor
+    y_tr: torch.Tensor
+    x_va: torch.Tensor
+    y_va: torch.Tensor
+    x_te: torch.Tensor | None
+    y_te: torch.Tensor | None
+    has_val: bool
+    track_test: bool
+
+    @classmethod
+    def gather(cls, X, Y, splits: list[Split], config: TrainConfig, dtype: torch.dtype,
+               device: torch.device) -> _TrainData:
+        """Rows of `X` and `Y` per split, as `dtype` on `device` (bool targets of a minibatch run
+        stay bool: they are cast batch by batch, 4x less memory)."""
+        bool_y = (Y.dtype == torch.bool) if isinstance(Y, torch.Tensor) else (Y.dtype == np.bool_)
+        y_dtype = torch.bool if (config.batch_size is not None and bool_y) else dtype
+
+        def part(i):
+            if len(splits) == 1:
+                idx = splits[0][i]
+            else:
+                idx = np.stack([sp[i] for sp in splits])  # (S, k): one batch per session
+            return _take(X, idx, dtype, device), _take(Y, idx, y_dtype, device, Y.ndim == 3)
+
+        (x_tr, y_tr), (x_va, y_va) = part(0), part(1)
+        track_test = config.track_test and len(splits[0].test) > 0
+        x_te, y_te = part(2) if track_test else (None, None)  # the test split is big: gather only if used
+        return cls(x_tr, y_tr, x_va, y_va, x_te, y_te, has_val=len(splits[0].val) > 0, track_test=track_test)
+
+
+class _SplitLoss:
+    """Per-session loss `(S,)` (float64 numpy; `(1,)` for a single model) of `model` on a split,
+    without gradients; in chunks of `chunk` samples when given (a full `(n, 9261)` forward
+    pass of 20 000 arms would hold ~0.7 GB per activation of the output layer)."""
+
+    def __init__(self, model: nn.Module, loss_fn: Loss, dtype: torch.dtype, chunk: int | None):
+        self.model, self.loss_fn, self.dtype, self.chunk = model, loss_fn, dtype, chunk
+
+    def __call__(self, x: torch.Tensor, y: torch.Tensor) -> np.ndarray:
+        n_x = x.shape[-2]
+        with torch.no_grad():
+            if self.chunk is None or n_x <= self.chunk:
+                return self.loss_fn(self.model(x), y.to(self.dtype)).double().cpu().numpy().reshape(-1)
+            total = 0.0
+            for i in range(0, n_x, self.chunk):
+                xb, yb = x[..., i:i + self.chunk, :], y[..., i:i + self.chunk, :]
+                total = total + self.loss_fn(self.model(xb), yb.to(self.dtype)).double() * xb.shape[-2]
+            return (total / n_x).cpu().numpy().reshape(-1)
+
+
+class _LearningRateSchedule:
+    """`TrainConfig.lr_decay` on an optimiser: counts the steps taken and, before each, sets every
+    group's learning rate to its initial one times the cosine factor (a no-op without decay)."""
+
+    def __init__(self, optimizer: torch.optim.Optimizer, config: TrainConfig, total_steps: int):
+        self.optimizer, self.config, self.total_steps = optimizer, config, total_steps
+        self.base_lrs = [g.get("lr") for g in optimizer.param_groups]
+        self.steps_done = 0
+
+    def apply(self, elapsed: float) -> None:
+        """Set the learning rates for the next step, `elapsed` seconds into the run."""
+        decay, limit = self.config.lr_decay, self.config.time_limit_s
+        if decay is None:
+            return
+        if decay == "cosine":
+            t = self.steps_done / self.total_steps
+        else:
+            t = elapsed / limit if limit > 0 else 1.0
+        factor = 0.5 * (1.0 + math.cos(math.pi * min(1.0, t)))
+        for g, lr in zip(self.optimizer.param_groups, self.base_lrs):
+            g["lr"] = lr * factor
+
+
+class _FullBatchEpochs:
+    """Full-batch training: an epoch is one optimiser step on the whole training split."""
+
+    def __init__(self, optimizer: torch.optim.Optimizer, objective: _Objective, schedule: _LearningRateSchedule):
+        self.optimizer, self.objective, self.schedule = optimizer, objective, schedule
+
+    def training_loss(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per-session training loss and gradient norm `(S,)` at the current parameters."""
+        _, loss_s, gnorm_s = self.objective.evaluate()
+        return loss_s, gnorm_s
+
+    def drop_stopped(self, active: np.ndarray) -> None:
+        self.objective.set_active(active)
+
+    def step(self, t0: float) -> None:
+        """One optimiser step (`t0`: the run's start, for a time-based learning-rate decay)."""
+        self.schedule.apply(time.perf_counter() - t0)
+        self.optimizer.step(self.objective)
+        self.schedule.steps_done += 1
+
+
+class _MinibatchEpochs:
+    """Minibatch training: an epoch is one pass over the training split in batches of `batch`
+    samples, in an order drawn from `torch.Generator().manual_seed(seed)`; stopped sessions of
+    a stacked model leave the summed loss through the session mask."""
+
+    def __init__(self, model: nn.Module, optimizer: torch.optim.Optimizer, data: _TrainData, loss_fn: Loss,
+                 split_loss: _SplitLoss, schedule: _LearningRateSchedule, S: int | None, batch: int, seed: int):
+        self.model, self.optimizer, self.data, self.loss_fn = model, optimizer, data, loss_fn
+        self.split_loss, self.schedule, self.S, self.batch = split_loss, schedule, S, batch
+        self.n_s = 1 if S is None else S
+        self.dtype, self.device = split_loss.dtype, data.x_tr.device
+        self.mask = torch.ones(self.n_s, dtype=self.dtype, device=self.device)
+        self.shuffle = torch.Generator().manual_seed(int(seed))
+        self.pass_loss: np.ndarray | None = None
+
+    def training_loss(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per-session training loss `(S,)`: the full loss before the first pass, then the
+        last pass's mean minibatch loss; the gradient norm is NaN (none is computed)."""
+        if self.pass_loss is None:
+            loss_s = self.split_loss(self.data.x_tr, self.data.y_tr)
+        else:
+            loss_s = self.pass_loss
+        return loss_s, np.full(self.n_s, float("nan"))
+
+    def drop_stopped(self, active: np.ndarray) -> None:
+        # Under Adam the stopped sessions' momentum still moves them; their best parameters are kept apart.
+        self.mask = torch.as_tensor(active, dtype=self.dtype, device=self.device)
+
+    def step(self, t0: float) -> None:
+        """One shuffled pass (`t0`: the run's start, for a time-based learning-rate decay); keeps
+        its per-session mean minibatch loss (float64, weighted by batch size)."""
+        x_tr, y_tr = self.data.x_tr, self.data.y_tr
+        n_train = x_tr.shape[-2]
+        perm = torch.randperm(n_train, generator=self.shuffle).to(self.device)
+        sums = torch.zeros(self.n_s, dtype=torch.float64, device=self.device)
+        for i in range(0, n_train, self.batch):
+            idx = perm[i:i + self.batch]
+            xb, yb = x_tr.index_select(-2, idx), y_tr.index_select(-2, idx).to(self.dtype)
+            self.schedule.apply(time.perf_counter() - t0)
+            self.optimizer.zero_grad(set_to_none=True)
+            per = self.loss_fn(self.model(xb), yb)
+            total = per.sum() if self.S is None else (per * self.mask).sum()
+            total.backward()
+            self.optimizer.step()
+            self.schedule.steps_done += 1
+            sums += per.detach().double().reshape(-1) * idx.numel()
+        self.pass_loss = (sums / n_train).cpu().numpy()
+
+
+def _stop_reason(config: TrainConfig, epoch: int, loss: float, grad_norm: float, fails: int, elapsed: float,
+                 has_val: bool, stalled: bool) -> str | None:
+    """The first of `STOP_REASONS` that holds for one session after `epoch`, else `None`."""
+    if not math.isfinite(loss):
+        return "nonfinite"
+    if loss <= config.goal:
+        return "goal"
+    if epoch == config.max_epochs:
+        return "max_epochs"
+    if config.time_limit_s is not None and elapsed >= config.time_limit_s:
+        return "time_limit"
+    if grad_norm <= config.min_grad:
+        return "min_grad"
+    if has_val and fails >= config.max_fail:
+        return "max_fail"
+    if stalled:
+        return "min_step"
+    return None
+
+
+class _EarlyStopping:
+    """Per-session bookkeeping of a run: which sessions still train, MATLAB's validation count,
+    the best epoch with a copy of its parameters, and why and when each session stopped."""
+
+    def __init__(self, params: list[torch.Tensor], S: int | None, config: TrainConfig, has_val: bool):
+        self.params, self.S, self.config, self.has_val = params, S, config, has_val
+        n_s = 1 if S is None else S
+        self.active = np.ones(n_s, dtype=bool)
+        self.best_crit = np.full(n_s, np.inf)
+        self.best_val = np.full(n_s, np.nan)
+        self.best_epoch = np.zeros(n_s, dtype=int)
+        self.fails = np.zeros(n_s, dtype=int)
+        self.stop_reason: list[str | None] = [None] * n_s
+        self.stop_epoch = np.zeros(n_s, dtype=int)
+        # Best parameters: a copy per tensor; a session's slice is refreshed when it improves.
+        self.best = [p.detach().clone() for p in params]
+
+    def masked(self, v: np.ndarray) -> float | list[float]:
+        """A history entry: `v` `(S,)` with NaN for the stopped sessions (a float for a single model)."""
+        v = np.where(self.active, v, np.nan)
+        return float(v[0]) if self.S is None else [float(a) for a in v]
+
+    def update_best(self, epoch: int, loss_s: np.ndarray, val_s: np.ndarray) -> None:
+        """Count `epoch`'s validation failures (the training loss without a validation split) and
+        keep the parameters of the sessions that improved."""
+        crit = val_s if self.has_val else loss_s
+        improved = _validation_update(crit, self.best_crit, self.fails, self.active, epoch == 0, self.has_val)
+        self.best_val[improved] = val_s[improved]
+        self.best_epoch[improved] = epoch
+        if not improved.any():
+            return
+        with torch.no_grad():
+            for b, p in zip(self.best, self.params):
+                if self.S is None:
+                    b.copy_(p)
+                else:
+                    sel = torch.as_tensor(np.flatnonzero(improved), device=p.device)
+                    b[sel] = p[sel]
+
+    def stop(self, epoch: int, loss_s: np.ndarray, gnorm_s: np.ndarray, elapsed: float, stalled: bool) -> bool:
+        """Stop the active sessions for which a `STOP_REASONS` holds; returns whether any did."""
+        newly = np.zeros(len(self.active), dtype=bool)
+        for s in np.flatnonzero(self.active):
+            reason = _stop_reason(self.config, epoch, loss_s[s], gnorm_s[s], self.fails[s], elapsed,
+                                  self.has_val, stalled)
+            if reason is not None:
+                self.stop_reason[s], self.stop_epoch[s], newly[s] = reason, epoch, True
+        self.active &= ~newly
+        return bool(newly.any())
+
+    def restore_best(self) -> None:
+        """Every session's parameters back to its best epoch's."""
+        with torch.no_grad():
+            for b, p in zip(self.best, self.params):
+                p.copy_(b)
+
+    def result(self, model: nn.Module, history: History, splits: list[Split], config: TrainConfig) -> TrainResult:
+        """The `TrainResult` of the run: scalars for a single model, lists for a stacked one."""
+        S = self.S
+        if S is None:
+            return TrainResult(model=model, history=history, best_epoch=int(self.best_epoch[0]),
+                               best_val_loss=float(self.best_val[0]), stop_reason=self.stop_reason[0],
+                               stop_epoch=int(self.stop_epoch[0]), split=splits[0], config=config)
+        return TrainResult(model=model, history=history, best_epoch=[int(e) for e in self.best_epoch],
+                           best_val_loss=[float(v) for v in self.best_val], stop_reason=list(self.stop_reason),
+                           stop_epoch=[int(e) for e in self.stop_epoch],
+                           split=splits * S if len(splits) == 1 else splits, config=config, n_sessions=S)
+
+
+def _record_epoch(history: History, stopping: _EarlyStopping, epoch: int, losses: dict[str, np.ndarray | None],
+                  elapsed: float) -> None:
+    """Append one epoch to `history` (`losses`: `loss`, `grad_norm`, `val_loss`, `test_loss`,
+    each `(S,)` or `None` when not tracked)."""
+    history.epoch.append(epoch)
+    for key, value in losses.items():
+        if value is not None:
+            getattr(history, key).append(stopping.masked(value))
+    history.time.append(elapsed)
+
+
+def _run_epochs(config: TrainConfig, epochs: _FullBatchEpochs | _MinibatchEpochs, optimizer: torch.optim.Optimizer,
+                data: _TrainData, split_loss: _SplitLoss, stopping: _EarlyStopping) -> History:
+    """The epoch loop of `train`: evaluate and record, update the best epoch, stop or step."""
+    n_s = len(stopping.active)
+    history = History()
+    stalled = False
+    t0 = time.perf_counter()
+    for epoch in range(config.max_epochs + 1):
+        loss_s, gnorm_s = epochs.training_loss()
+        val_s = split_loss(data.x_va, data.y_va) if data.has_val else np.full(n_s, float("nan"))
+        test_s = split_loss(data.x_te, data.y_te) if data.track_test else None
+        elapsed = time.perf_counter() - t0
+        _record_epoch(history, stopping, epoch,
+                      {"loss": loss_s, "grad_norm": gnorm_s, "val_loss": val_s, "test_loss": test_s}, elapsed)
+        stopping.update_best(epoch, loss_s, val_s)
+        if stopping.stop(epoch, loss_s, gnorm_s, elapsed, stalled):
+            if not stopping.active.any():
+                break
+            # Drop stopped sessions from the objective: under Rprop their zero gradients freeze them.
+            epochs.drop_stopped(stopping.active)
+            if hasattr(optimizer, "objective_changed"):
+                optimizer.objective_changed()
+        epochs.step(t0)
+        stalled = bool(getattr(optimizer, "stalled", False))
+    return history
+
+
 def train(model: nn.Module, X: ArrayLike | torch.Tensor, Y: ArrayLike | torch.Tensor, config: TrainConfig | None = None,
           split: Split | Sequence[Split] | None = None) -> TrainResult:
     """Train `model` on `(X, Y)` with early stopping, full batch or in minibatches
@@ -695,228 +1031,27 @@ def train(model: nn.Module, X: ArrayLike | torch.Tensor, Y: ArrayLike | torch.Te
     if not params:
         raise ValueError("model has no trainable parameters")
     dtype, device = params[0].dtype, params[0].device
-    if not isinstance(X, torch.Tensor):
-        X = np.asarray(X)
-    if not isinstance(Y, torch.Tensor):
-        Y = np.asarray(Y)
-    per_session_y = Y.ndim == 3
-    if X.ndim != 2 or Y.ndim not in (2, 3) or X.shape[0] != Y.shape[-2]:
-        raise ValueError(f"X must be (n, f) and Y (n, m) or (S, n, m) with the same n; "
-                         f"got {tuple(X.shape)}, {tuple(Y.shape)}")
-    n = X.shape[0]
-    if n == 0:
-        raise ValueError("no samples: X and Y have 0 rows")
-    _check_finite("X", X)
-    _check_finite("Y", Y)
-
-    with torch.no_grad():
-        probe = model(_take(X, np.arange(1), dtype, device))
-    if probe.ndim == 3:
-        S = probe.shape[0]
-        if per_session_y and Y.shape[0] != S:
-            raise ValueError(f"stacked model with S = {S}: targets (S, n, m) have S = {Y.shape[0]}")
-        bad = [tuple(p.shape) for p in params if p.ndim == 0 or p.shape[0] != S]
-        if bad:
-            raise ValueError(f"stacked model with S = {S}: every parameter needs leading dimension S; got {bad}")
-    elif probe.ndim == 2:
-        S = None
-        if per_session_y:
-            raise ValueError("targets (S, n, m) need a stacked model")
-    else:
-        raise ValueError(f"model output must be (n, m) or (S, n, m); got {tuple(probe.shape)}")
-
-    # Splits and data on the device, once.
-    if split is None:
-        splits = ([split_indices(n, config.fractions, config.seed)] if S is None else
-                  [split_indices(n, config.fractions, config.seed + s) for s in range(S)])
-    elif isinstance(split, Split) or (len(split) == 3 and not isinstance(split[0], (Split, tuple))):
-        splits = [Split(*(np.asarray(i, dtype=np.int64) for i in split))]
-    else:
-        splits = [Split(*(np.asarray(i, dtype=np.int64) for i in sp)) for sp in split]
-    if S is None and len(splits) != 1:
-        raise ValueError("one split for a single model")
-    if S is not None and len(splits) not in (1, S):
-        raise ValueError(f"stacked model with S = {S}: give one split or {S}")
-    for part in range(3):
-        if len({len(sp[part]) for sp in splits}) != 1:
-            raise ValueError("per-session splits must have equal sizes")
-
-    minibatch = config.batch_size is not None
-    bool_y = (Y.dtype == torch.bool) if isinstance(Y, torch.Tensor) else (Y.dtype == np.bool_)
-    # Minibatch runs cast targets batch by batch: bool labels stay bool (4x less memory).
-    y_dtype = torch.bool if (minibatch and bool_y) else dtype
-
-    def data(part):
-        if len(splits) == 1:
-            idx = splits[0][part]
-        else:
-            idx = np.stack([sp[part] for sp in splits])  # (S, k): one batch per session
-        return _take(X, idx, dtype, device), _take(Y, idx, y_dtype, device, per_session_y)
-
-    (x_tr, y_tr), (x_va, y_va) = data(0), data(1)
-    has_val = len(splits[0].val) > 0
-    track_test = config.track_test and len(splits[0].test) > 0
-    x_te, y_te = data(2) if track_test else (None, None)  # the test split is big: gather only if used
+    X, Y = _checked_arrays(X, Y)
+    S = _session_count(model, params, X, Y)
+    splits = _resolve_splits(split, X.shape[0], S, config)
+    data = _TrainData.gather(X, Y, splits, config, dtype, device)
     loss_fn = make_loss(config.loss, config.pos_weight)
-    objective = None if minibatch else _Objective(model, params, x_tr, y_tr, loss_fn, S)
+    minibatch = config.batch_size is not None
+    objective = None if minibatch else _Objective(model, params, data.x_tr, data.y_tr, loss_fn, S)
     optimizer = _build_optimizer(config.optimizer, params, dict(config.optimizer_kwargs))
-    n_train = x_tr.shape[-2]
-    batch = n_train if not minibatch else min(config.batch_size, n_train)
+    n_train = data.x_tr.shape[-2]
+    batch = min(config.batch_size, n_train) if minibatch else n_train
     steps_per_epoch = -(-n_train // batch) if minibatch else 1
-    # Evaluate big splits in chunks when training in minibatches: a full (n, 9261) forward pass
-    # of 20 000 arms would hold ~0.7 GB per activation of the output layer.
-    eval_chunk = max(batch, 4096) if minibatch else None
-
-    def eval_loss(x, y) -> np.ndarray:
-        n_x = x.shape[-2]
-        with torch.no_grad():
-            if eval_chunk is None or n_x <= eval_chunk:
-                return loss_fn(model(x), y.to(dtype)).double().cpu().numpy().reshape(-1)
-            total = 0.0
-            for i in range(0, n_x, eval_chunk):
-                xb, yb = x[..., i:i + eval_chunk, :], y[..., i:i + eval_chunk, :]
-                total = total + loss_fn(model(xb), yb.to(dtype)).double() * xb.shape[-2]
-            return (total / n_x).cpu().numpy().reshape(-1)
-
-    n_s = 1 if S is None else S
-    # Minibatch state: the session mask (stopped sessions leave the summed loss), the shuffle
-    # stream, and the learning-rate schedule's base rates and step count.
-    mask = torch.ones(n_s, dtype=dtype, device=device)
-    shuffle = torch.Generator().manual_seed(int(config.seed))
-    base_lrs = [g.get("lr") for g in optimizer.param_groups]
-    total_steps = max(1, config.max_epochs * steps_per_epoch)
-    steps_done = 0
-
-    def set_lr(elapsed: float) -> None:
-        if config.lr_decay is None:
-            return
-        if config.lr_decay == "cosine":
-            t = steps_done / total_steps
-        else:
-            t = elapsed / config.time_limit_s if config.time_limit_s > 0 else 1.0
-        factor = 0.5 * (1.0 + math.cos(math.pi * min(1.0, t)))
-        for g, lr in zip(optimizer.param_groups, base_lrs):
-            g["lr"] = lr * factor
-
-    def minibatch_pass() -> np.ndarray:
-        """One shuffled pass; returns the per-session mean minibatch loss (float64)."""
-        nonlocal steps_done
-        perm = torch.randperm(n_train, generator=shuffle).to(device)
-        sums = torch.zeros(n_s, dtype=torch.float64, device=device)
-        for i in range(0, n_train, batch):
-            idx = perm[i:i + batch]
-            xb, yb = x_tr.index_select(-2, idx), y_tr.index_select(-2, idx).to(dtype)
-            set_lr(time.perf_counter() - t0)
-            optimizer.zero_grad(set_to_none=True)
-            per = loss_fn(model(xb), yb)
-            total = per.sum() if S is None else (per * mask).sum()
-            total.backward()
-            optimizer.step()
-            steps_done += 1
-            sums += per.detach().double().reshape(-1) * idx.numel()
-        return (sums / n_train).cpu().numpy()
-
-    active = np.ones(n_s, dtype=bool)
-    best_crit = np.full(n_s, np.inf)
-    best_val = np.full(n_s, np.nan)
-    best_epoch = np.zeros(n_s, dtype=int)
-    fails = np.zeros(n_s, dtype=int)
-    stop_reason: list[str | None] = [None] * n_s
-    stop_epoch = np.zeros(n_s, dtype=int)
-    # Best parameters: a copy per tensor; a session's slice is refreshed when it improves.
-    best = [p.detach().clone() for p in params]
-    history = History()
-    stalled = False
-    nan = float("nan")
-
-    def masked(v: np.ndarray):
-        v = np.where(active, v, np.nan)
-        return float(v[0]) if S is None else [float(a) for a in v]
-
-    t0 = time.perf_counter()
-    pass_loss = None
-    for epoch in range(config.max_epochs + 1):
-        if not minibatch:
-            _, loss_s, gnorm_s = objective.evaluate()
-        else:
-            # No full-batch gradient in minibatch mode (module docstring): grad_norm is NaN.
-            loss_s = eval_loss(x_tr, y_tr) if pass_loss is None else pass_loss
-            gnorm_s = np.full(n_s, nan)
-        val_s = eval_loss(x_va, y_va) if has_val else np.full(n_s, nan)
-        test_s = eval_loss(x_te, y_te) if track_test else None
-        elapsed = time.perf_counter() - t0
-        history.epoch.append(epoch)
-        history.loss.append(masked(loss_s))
-        history.grad_norm.append(masked(gnorm_s))
-        history.val_loss.append(masked(val_s))
-        if test_s is not None:
-            history.test_loss.append(masked(test_s))
-        history.time.append(elapsed)
-
-        crit = val_s if has_val else loss_s
-        improved = _validation_update(crit, best_crit, fails, active, epoch == 0, has_val)
-        best_val[improved] = val_s[improved]
-        best_epoch[improved] = epoch
-        if improved.any():
-            with torch.no_grad():
-                for b, p in zip(best, params):
-                    if S is None:
-                        b.copy_(p)
-                    else:
-                        sel = torch.as_tensor(np.flatnonzero(improved), device=device)
-                        b[sel] = p[sel]
-
-        newly = np.zeros(n_s, dtype=bool)
-        for s in np.flatnonzero(active):
-            reason = None
-            if not math.isfinite(loss_s[s]):
-                reason = "nonfinite"
-            elif loss_s[s] <= config.goal:
-                reason = "goal"
-            elif epoch == config.max_epochs:
-                reason = "max_epochs"
-            elif config.time_limit_s is not None and elapsed >= config.time_limit_s:
-                reason = "time_limit"
-            elif gnorm_s[s] <= config.min_grad:
-                reason = "min_grad"
-            elif has_val and fails[s] >= config.max_fail:
-                reason = "max_fail"
-            elif stalled:
-                reason = "min_step"
-            if reason is not None:
-                stop_reason[s], stop_epoch[s], newly[s] = reason, epoch, True
-        active &= ~newly
-        if not active.any():
-            break
-        if newly.any():
-            # Drop stopped sessions from the objective: under Rprop their zero gradients freeze them
-            # (under Adam their momentum still moves them; their best parameters are kept apart).
-            if minibatch:
-                mask = torch.as_tensor(active, dtype=dtype, device=device)
-            else:
-                objective.set_active(active)
-            if hasattr(optimizer, "objective_changed"):
-                optimizer.objective_changed()
-        if minibatch:
-            pass_loss = minibatch_pass()
-        else:
-            set_lr(time.perf_counter() - t0)
-            optimizer.step(objective)
-            steps_done += 1
-        stalled = bool(getattr(optimizer, "stalled", False))
-
-    with torch.no_grad():
-        for b, p in zip(best, params):
-            p.copy_(b)
-
-    if S is None:
-        return TrainResult(model=model, history=history, best_epoch=int(best_epoch[0]),
-                           best_val_loss=float(best_val[0]), stop_reason=stop_reason[0],
-                           stop_epoch=int(stop_epoch[0]), split=splits[0], config=config)
-    return TrainResult(model=model, history=history, best_epoch=[int(e) for e in best_epoch],
-                       best_val_loss=[float(v) for v in best_val], stop_reason=list(stop_reason),
-                       stop_epoch=[int(e) for e in stop_epoch],
-                       split=splits * S if len(splits) == 1 else splits, config=config, n_sessions=S)
+    split_loss = _SplitLoss(model, loss_fn, dtype, max(batch, 4096) if minibatch else None)
+    schedule = _LearningRateSchedule(optimizer, config, max(1, config.max_epochs * steps_per_epoch))
+    if minibatch:
+        epochs = _MinibatchEpochs(model, optimizer, data, loss_fn, split_loss, schedule, S, batch, config.seed)
+    else:
+        epochs = _FullBatchEpochs(optimizer, objective, schedule)
+    stopping = _EarlyStopping(params, S, config, data.has_val)
+    history = _run_epochs(config, epochs, optimizer, data, split_loss, stopping)
+    stopping.restore_best()
+    return stopping.result(model, history, splits, config)
 
 
 def train_sessions(model_factory: Callable[[list[int]], nn.Module], X: ArrayLike | torch.Tensor,
