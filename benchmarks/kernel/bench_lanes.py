@@ -11,24 +11,23 @@ solves per second, success rate, mean LM iterations per pose and nanoseconds per
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
+from pathlib import Path
 
 import numpy as np
 
-from wsmap.timing import time_call
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = harness.parser(__doc__, repeat=5, repeat_help="timed calls per configuration and round, best kept (default 5)")
     ap.add_argument("--poses", type=int, default=2000)
-    ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--rounds", type=int, default=3)
-    ap.add_argument("--json")
     args = ap.parse_args(argv)
-    if min(args.poses, args.repeats, args.rounds) < 1:
-        ap.error("--poses, --repeats and --rounds must be positive")
+    if min(args.poses, args.rounds) < 1:
+        ap.error("--poses and --rounds must be positive")
     if args.json:
         from wsmap.io import check_output_path
 
@@ -62,7 +61,7 @@ def main(argv=None):
     sols = {c: solve(c) for c in configs}  # warm-up (and the answers)
     for _ in range(args.rounds):
         for c in configs:
-            times[c].append(min(time_call(lambda: solve(c), args.repeats, warmup=0).values))
+            times[c].append(harness.best_of(lambda: solve(c), args.repeat)[0])  # noqa: B023 - called at once
     print(f"load average {os.getloadavg()}; this CPU's widest build: {best}\n")
     print("| kernel | build | lanes | solves/s | / scalar | success | iterations per pose | ns per iteration |")
     print("|---|---|---:|---:|---:|---:|---:|---:|")
@@ -78,10 +77,7 @@ def main(argv=None):
         out["rows"].append(row)
         print(f"| {c[0]} | {c[1] or 'numba'} | {c[2] or 1} | {row['solves_per_s']:,.0f} | {row['vs_scalar']:.2f} | "
               f"{row['success']:.3f} | {its:.1f} | {row['ns_per_iteration']:.0f} |")
-    if args.json:
-        from wsmap.io import write_json
-
-        write_json(out, args.json)
+    harness.write_json(args, out)
 
 
 if __name__ == "__main__":

@@ -31,15 +31,15 @@ average printed beside them: the machine is shared.
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import tempfile
-import time
+from pathlib import Path
 
 import numpy as np
 
-from wsmap.timing import time_call
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 PI = np.pi
 GOALS = {"raw_ik_ratio_rtb": 3.0, "map_seconds_2_threads": 0.1, "index_seconds": 15.0}
@@ -49,9 +49,8 @@ KERNELS = ("lanes", "scalar")
 
 def best_of(fn, repeats):
     """``(best seconds of repeats calls, the answer)``, after one warm-up call (compile or load the
-    kernels) whose answer is the one returned."""
-    out = fn()
-    return min(time_call(fn, repeats, warmup=0).values), out
+    kernels)."""
+    return harness.best_of(fn, repeats, warmup=1)
 
 
 def poses(nodes, R):
@@ -180,7 +179,7 @@ def section_raw(args, out, panda, rtb_rob, kl):
         for threads in (1, 2):
             lm_compiled.set_threads(threads)
             with lm_lanes.use_kernel(kernel):
-                t, sol = best_of(lambda: ikine_search(panda, T, starts=1, q0=mid), args.repeats)
+                t, sol = best_of(lambda: ikine_search(panda, T, starts=1, q0=mid), args.repeat)
             ok = sol.success
             assert np.allclose(np.array(panda.fkine(sol.q[ok])), T[ok], atol=1e-6), "a wsmap success FK-refuted"
             rows[f"wsmap_{kernel}_{threads}"] = {"seconds": t, "solves_per_s": len(T) / t, "success": float(ok.mean()),
@@ -188,16 +187,12 @@ def section_raw(args, out, panda, rtb_rob, kl):
     lm_compiled.set_threads(2)
     if rtb_rob is not None:
         n = min(len(T), args.peer_poses)
-        t0 = time.perf_counter()
-        ok = np.array([rtb_rob.ik_LM(T[i], q0=mid, slimit=1, tol=1e-10, joint_limits=True)[1] for i in range(n)],
-                      dtype=bool)
-        t = time.perf_counter() - t0
+        t, ok = harness.timed(lambda: np.array(
+            [rtb_rob.ik_LM(T[i], q0=mid, slimit=1, tol=1e-10, joint_limits=True)[1] for i in range(n)], dtype=bool))
         rows["rtb"] = {"poses": n, "seconds": t, "solves_per_s": n / t, "success": float(ok.mean())}
     if kl is not None:
         n = min(len(T), args.peer_poses)
-        t0 = time.perf_counter()
-        ok = np.array([kl.solve_one(T[i], mid) for i in range(n)], dtype=bool)
-        t = time.perf_counter() - t0
+        t, ok = harness.timed(lambda: np.array([kl.solve_one(T[i], mid) for i in range(n)], dtype=bool))
         rows["klampt"] = {"poses": n, "seconds": t, "solves_per_s": n / t, "success": float(ok.mean())}
     out["raw_ik"] = rows
     w = rows["wsmap_lanes_1"]
@@ -236,7 +231,7 @@ def section_map(args, out, panda, rtb_rob, kl):
             lm_compiled.set_threads(threads)
             with lm_lanes.use_kernel(kernel):
                 t, m = best_of(lambda: constant_orientation_map(panda, nodes, (PI, 0, 0), method="numerical",
-                                                                convention="standard"), args.repeats)
+                                                                convention="standard"), args.repeat)
             rows.setdefault(f"wsmap_{kernel}_{threads}", []).append(t)
             maps[kernel] = m
     lm_compiled.set_threads(2)
@@ -248,16 +243,13 @@ def section_map(args, out, panda, rtb_rob, kl):
     rng = np.random.default_rng(1)
     sample = rng.choice(len(nodes), min(args.peer_sample, len(nodes)), replace=False)
     if rtb_rob is not None:
-        t0 = time.perf_counter()
-        ok = np.array([rtb_rob.ik_LM(T[i], tol=1e-10, joint_limits=True)[1] for i in sample], dtype=bool)
-        t = time.perf_counter() - t0
+        t, ok = harness.timed(lambda: np.array([rtb_rob.ik_LM(T[i], tol=1e-10, joint_limits=True)[1]
+                                                for i in sample], dtype=bool))
         rows["rtb"] = {"nodes": len(sample), "seconds_extrapolated": t * len(nodes) / len(sample),
                        "recall_on_sample": float((ok & ref[sample]).sum() / max(ref[sample].sum(), 1)),
                        "beyond_reference_on_sample": int((ok & ~ref[sample]).sum())}
     if kl is not None:
-        t0 = time.perf_counter()
-        ok = np.array([kl.solve_global(T[i]) for i in sample], dtype=bool)
-        t = time.perf_counter() - t0
+        t, ok = harness.timed(lambda: np.array([kl.solve_global(T[i]) for i in sample], dtype=bool))
         rows["klampt"] = {"nodes": len(sample), "seconds_extrapolated": t * len(nodes) / len(sample),
                           "recall_on_sample": float((ok & ref[sample]).sum() / max(ref[sample].sum(), 1)),
                        "beyond_reference_on_sample": int((ok & ~ref[sample]).sum())}
@@ -296,9 +288,8 @@ def section_index(args, out, panda, rtb_rob):
         for threads in (2, 1):
             lm_compiled.set_threads(threads)
             with lm_lanes.use_kernel(kernel):
-                t0 = time.perf_counter()
-                idx, bits = ws.reachability_index(panda, nodes, R, return_bits=True)
-                rows[f"wsmap_{kernel}_{threads}"] = time.perf_counter() - t0
+                rows[f"wsmap_{kernel}_{threads}"], (idx, bits) = harness.timed(
+                    lambda: ws.reachability_index(panda, nodes, R, return_bits=True))
             all_bits[kernel] = bits
     lm_compiled.set_threads(2)
     rows["bits_differing"] = int((all_bits["lanes"] != all_bits["scalar"]).sum())
@@ -310,13 +301,12 @@ def section_index(args, out, panda, rtb_rob):
         picks, ks = rng.choice(cand, args.peer_sample // 3), rng.integers(0, 50, args.peer_sample // 3)
         Tr = np.zeros((len(picks), 4, 4))
         Tr[:, :3, :3], Tr[:, :3, 3], Tr[:, 3, 3] = R[ks], nodes[picks], 1.0
-        t0 = time.perf_counter()
-        ok = np.array([rtb_rob.ik_LM(t, tol=1e-10, joint_limits=True)[1] for t in Tr], dtype=bool)
-        t = time.perf_counter() - t0
+        t, ok = harness.timed(lambda: np.array([rtb_rob.ik_LM(t, tol=1e-10, joint_limits=True)[1] for t in Tr],
+                                               dtype=bool))
         rows["rtb"] = {"poses": len(Tr), "seconds_extrapolated": t / len(Tr) * len(nodes) * 50,
                        "agreement_with_index_bits": float((ok == bits[picks, ks]).mean())}
     out["index"] = rows
-    t2, t1 = rows["wsmap_lanes_2"], rows["wsmap_lanes_1"]
+    t2 = rows["wsmap_lanes_2"]
     print(f"\n### 3. Panda reachability index, 5 cm ({len(nodes)} nodes) x 50 orientations\n")
     for kernel in KERNELS:
         a, b = rows[f"wsmap_{kernel}_2"], rows[f"wsmap_{kernel}_1"]
@@ -332,16 +322,14 @@ def section_index(args, out, panda, rtb_rob):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = harness.parser(__doc__, repeat=5, quick="leave the 5 cm index out",
+                        repeat_help="timed calls of each wsmap measurement, after a warm-up; best kept (default 5)")
     ap.add_argument("--poses", type=int, default=2000, help="reachable poses of the raw IK section")
     ap.add_argument("--peer-poses", type=int, default=2000, help="of those, solved by each peer")
     ap.add_argument("--peer-sample", type=int, default=150, help="map nodes solved by each peer, extrapolated")
-    ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--quick", action="store_true", help="leave the 5 cm index out")
-    ap.add_argument("--json")
     args = ap.parse_args(argv)
-    if min(args.poses, args.peer_poses, args.peer_sample, args.repeats) < 1:
-        ap.error("--poses, --peer-poses, --peer-sample and --repeats must be positive")
+    if min(args.poses, args.peer_poses, args.peer_sample) < 1:
+        ap.error("--poses, --peer-poses and --peer-sample must be positive")
     if args.json:
         from wsmap.io import check_output_path
 
@@ -351,7 +339,6 @@ def main(argv=None):
 
     from wsmap import robots
     from wsmap.kinematics import lm_compiled
-
     from wsmap.kinematics.ik.warmup import ensure_compiled
 
     ensure_compiled(notify=lambda line: print(line, file=sys.stderr))
@@ -383,10 +370,7 @@ def main(argv=None):
         section_index(args, out, panda, rtb_rob)
     out["info"]["load_average_at_end"] = os.getloadavg()
     print(f"\nload average at end: {out['info']['load_average_at_end']}")
-    if args.json:
-        from wsmap.io import write_json
-
-        write_json(out, args.json)
+    harness.write_json(args, out)
 
 
 if __name__ == "__main__":

@@ -27,14 +27,16 @@ EAIK on 1 thread (aim: 30x).
 
 from __future__ import annotations
 
-import argparse
 import importlib.metadata
 import os
 import platform
 import sys
-import time
+from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
 def _best_of(methods, repeats, rounds):
@@ -49,24 +51,20 @@ def _best_of(methods, repeats, rounds):
     for _ in range(rounds):
         for i, (prepare, fn) in enumerate(methods):
             prepare()
-            out[i] = fn()
-            for _ in range(repeats):
-                t = time.perf_counter()
-                out[i] = fn()
-                best[i] = min(best[i], time.perf_counter() - t)
+            t, out[i] = harness.best_of(fn, repeats, warmup=1)
+            best[i] = min(best[i], t)
     return best, out
 
 
 def _best_time(fn, number, repeats):
     """Best mean time in s of ``number`` calls in a row, over ``repeats`` tries (after a warm-up)."""
     fn()
-    best = np.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
+
+    def calls():
         for _ in range(number):
             fn()
-        best = min(best, (time.perf_counter() - t) / number)
-    return best
+
+    return harness.best_of(calls, repeats)[0] / number
 
 
 def _eaik_labels(chain, T, sols):
@@ -83,24 +81,27 @@ def _eaik_labels(chain, T, sols):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--repeats", type=int, default=5, help="timed runs in a row per map and method (best is kept)")
+    ap = harness.parser(__doc__, repeat=5, threads=2,
+                        repeat_help="timed runs in a row per map and method (best is kept)",
+                        threads_help="threads of the compiled kernel's second run (default 2)")
     ap.add_argument("--rounds", type=int, default=2, help="cycles over the methods, each with --repeats runs")
-    ap.add_argument("--threads", type=int, default=2, help="threads of the compiled kernel's second run (default 2)")
     ap.add_argument("--eaik-threads", type=int, default=4, help="worker threads of EAIK's second run (its default: 4)")
-    ap.add_argument("--json", metavar="PATH", help="also write the numbers to this JSON file")
     args = ap.parse_args(argv)
-    if args.repeats < 1 or args.rounds < 1 or args.eaik_threads < 1 or args.threads < 1:
-        ap.error("--repeats, --rounds, --threads and --eaik-threads must be positive")
+    if args.rounds < 1 or args.eaik_threads < 1:
+        ap.error("--rounds and --eaik-threads must be positive")
 
+    import numba
     from eaik.IK_DH import DhRobot
 
     from wsmap import robots
     from wsmap.kinematics import lm_compiled, rotx
-    from wsmap.kinematics.ik.closed_forms.ur import ikine_ur, is_ur_type, ur_parameters, ur_reachable
+    from wsmap.kinematics.ik.closed_forms.ur import (
+        ikine_ur,
+        is_ur_type,
+        ur_parameters,
+        ur_reachable,
+    )
     from wsmap.workspace import cartesian_grid
-
-    import numba
 
     chain = robots.load("ur5e")
     d, a, alpha, _ = np.array(robots.NAMED["ur5e"].rows).T
@@ -110,10 +111,10 @@ def main(argv=None):
     N = len(nodes)
     threads_before = lm_compiled.threads()
     many = lm_compiled.set_threads(args.threads)  # clamped to the cores numba sees
-    t0 = time.perf_counter()
-    ur_reachable(chain, np.eye(4))
-    ikine_ur(chain, np.eye(4))
-    first_call = time.perf_counter() - t0  # numba: compile, or load from its cache
+    with harness.Stopwatch() as sw:
+        ur_reachable(chain, np.eye(4))
+        ikine_ur(chain, np.eye(4))
+    first_call = sw.seconds  # numba: compile, or load from its cache
     info = {
         "python": sys.version.split()[0],
         "numpy": np.__version__,
@@ -125,7 +126,7 @@ def main(argv=None):
         "omp_num_threads": os.environ.get("OMP_NUM_THREADS"),
         "load_average": os.getloadavg() if hasattr(os, "getloadavg") else None,
         "nodes": N,
-        "repeats": args.repeats,
+        "repeats": args.repeat,
         "rounds": args.rounds,
         "compiled_threads": many,
         "first_call_seconds": first_call,
@@ -158,7 +159,7 @@ def main(argv=None):
         eaik_threads = [1] + ([args.eaik_threads] if batched and args.eaik_threads != 1 else [])
         methods += [(f"EAIK {info['eaik_call']} ({plural(k)})", nothing, lambda k=k: eaik_solve(T, k))
                     for k in eaik_threads]
-        times, results = _best_of([(p, f) for _, p, f in methods], args.repeats, args.rounds)
+        times, results = _best_of([(p, f) for _, p, f in methods], args.repeat, args.rounds)
         labels = results[0]
         rows = []
         for i, ((name, _, _), t, res) in enumerate(zip(methods, times, results)):
@@ -192,7 +193,7 @@ def main(argv=None):
     }
     lm_compiled.set_threads(threads_before)
 
-    print(f"UR5e, {N} nodes of cartesian_grid(-1, 1, 0.1), best of {args.repeats} in a row x {args.rounds} "
+    print(f"UR5e, {N} nodes of cartesian_grid(-1, 1, 0.1), best of {args.repeat} in a row x {args.rounds} "
           f"rounds; python {info['python']}, numpy {info['numpy']}, numba {info['numba']}, eaik {info['eaik']}, "
           f"{info['cpus']} CPUs, OMP_NUM_THREADS={info['omp_num_threads']}, load average {info['load_average']}; "
           f"first compiled call {first_call:.2f} s (compile or cache load)")
@@ -215,10 +216,7 @@ def main(argv=None):
     worst = min(m["rows"][0]["speedup_over_eaik_1_thread"] for m in maps.values())
     print(f"goal: compiled (1 thread) >= 10x EAIK (1 thread): {'met' if worst >= 10 else 'NOT met'} "
           f"(worst map {worst:.1f}x; aim 30x: {'met' if worst >= 30 else 'not met'})")
-    if args.json:
-        from wsmap.io import write_json
-
-        write_json({"info": info, "maps": maps, "structure_check": structure}, args.json)
+    harness.write_json(args, {"info": info, "maps": maps, "structure_check": structure})
     return maps
 
 

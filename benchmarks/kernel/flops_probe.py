@@ -20,13 +20,15 @@ arrays carry no no-alias information.
 """
 from __future__ import annotations
 
-import argparse
-import json
 import re
-import time
+import sys
+from pathlib import Path
 
 import numpy as np
 from numba import njit
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 STEPS = 20_000_000
 
@@ -111,20 +113,10 @@ def _lane_layouts(L):
     return arrays3d, flat, separate
 
 
-def _timed(fn, *args):
-    t0 = time.perf_counter()
-    fn(*args)
-    return time.perf_counter() - t0
-
-
 def best(fn, *args, repeats=5):
+    """Best of `repeats` timed calls `fn(*args)`, after a short call that compiles it."""
     fn(10, *args[1:])
-    ts = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn(*args)
-        ts.append(time.perf_counter() - t0)
-    return min(ts)
+    return harness.best_of(lambda: fn(*args), repeats)[0]
 
 
 def fma_regs(fn) -> set:
@@ -133,18 +125,17 @@ def fma_regs(fn) -> set:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--json")
+    ap = harness.parser(__doc__, repeat=5, repeat_help="timed calls per loop, best kept (default 5)")
     args = ap.parse_args(argv)
     a, b = 0.999999, 1e-7
     out = {}
-    t = best(scalar_fma, STEPS, a, b)
+    t = best(scalar_fma, STEPS, a, b, repeats=args.repeat)
     out["scalar"] = 8 * STEPS * 2 / t
     print(f"scalar FMA chains: {out['scalar'] / 1e9:6.2f} Gflop/s  (fma registers: {sorted(fma_regs(scalar_fma))})")
     for W in (2, 4, 8):
         fn = _lanes(W)
         steps = STEPS // W
-        t = best(fn, steps, a, b)
+        t = best(fn, steps, a, b, repeats=args.repeat)
         out[f"simd{W}"] = 8 * W * steps * 2 / t
         print(f"{W} lanes x 8 chains: {out[f'simd{W}'] / 1e9:6.2f} Gflop/s  (fma registers: {sorted(fma_regs(fn))})")
     print("\nlane loops: one joint step of the forward kinematics per lane, 7 joints")
@@ -153,7 +144,7 @@ def main(argv=None):
         qt = np.random.default_rng(0).uniform(0, 0.01, (7, L))
         for fn in _lane_layouts(L):
             fn(qt, 7, 1)  # compile
-            t = min(_timed(fn, qt, 7, reps) for _ in range(5))
+            t = harness.best_of(lambda: fn(qt, 7, reps), args.repeat)[0]  # noqa: B023 - called at once
             asm = "\n".join(fn.inspect_asm().values())
             packed = len(re.findall(r"vf(?:n?madd|n?msub)\w*pd", asm))
             scalar = len(re.findall(r"vf(?:n?madd|n?msub)\w*sd", asm))
@@ -162,9 +153,7 @@ def main(argv=None):
                                        "scalar_fma": scalar}
             print(f"  {L:2d} lanes, {name:9s}: {t / reps / 7 / L * 1e9:5.2f} ns per lane and joint; "
                   f"packed FMAs {packed}, scalar FMAs {scalar}")
-    if args.json:
-        from wsmap.io import write_json
-        write_json(out, args.json)
+    harness.write_json(args, out)
 
 
 if __name__ == "__main__":

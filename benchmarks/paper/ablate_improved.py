@@ -14,10 +14,8 @@ About 3–4 minutes per variant on 2 cores at the defaults.
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
-import time
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -26,6 +24,9 @@ from wsmap import paths
 from wsmap.learn import TrainConfig
 from wsmap.paper import fitting
 from wsmap.paper.specs import load_pair
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 PAPER_HIDDEN = [125, 100, 100, 125]
 WIDE = [256, 256, 256]
@@ -40,13 +41,11 @@ VARIANTS = {
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = harness.parser(__doc__, threads=2, seed=0, threads_help="torch threads (default 2)",
+                       seed_help="training seed of every variant (default 0)")
     p.add_argument("--variants", nargs="*", default=list(VARIANTS), help=f"any of {list(VARIANTS)}")
     p.add_argument("--train-samples", type=int, default=20000)
     p.add_argument("--epochs", type=int, default=40)
-    p.add_argument("--threads", type=int, default=2)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--json", help="also write the rows to this JSON file")
     args = p.parse_args(argv)
     unknown = [v for v in args.variants if v not in VARIANTS]
     if unknown:
@@ -66,10 +65,11 @@ def main(argv=None) -> int:
         cfg = TrainConfig(optimizer="adam", optimizer_kwargs={"lr": 1e-3}, lr_decay="cosine", batch_size=256,
                           loss=loss, max_epochs=args.epochs, max_fail=args.epochs, fractions=(0.95, 0.05, 0.0),
                           seed=args.seed)
-        t0 = time.perf_counter()
-        (res,) = fitting.fit(train, cfg, hidden=hidden, input_columns=free if inputs == "free" else None,
-                       input_scaling=scaling, output_kind=output, init="torch")
-        seconds = time.perf_counter() - t0
+        with harness.Stopwatch() as sw:
+            (res,) = fitting.fit(train, cfg, hidden=hidden, input_columns=free if inputs == "free" else None,
+                                 input_scaling=scaling, output_kind=output, init="torch")
+        seconds = sw.seconds
+
         ev = fitting.evaluate(res.model, test)
         row = dict(variant=name, hidden=hidden, inputs=inputs, scaling=scaling, output=output, loss=loss,
                    f=ev["f"], precision=ev["precision"], recall=ev["recall"], train_seconds=seconds,
@@ -78,10 +78,8 @@ def main(argv=None) -> int:
         print(f"| {name} | {hidden} | {len(free) if inputs == 'free' else train.features.shape[1]} "
               f"({scaling}) | {output} / {loss} | {ev['f']:.4f} | {ev['precision']:.4f} | {ev['recall']:.4f} "
               f"| {seconds:.0f} |", flush=True)
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump({"train_samples": len(train), "epochs": args.epochs, "threads": args.threads, "rows": rows},
-                      f, indent=1)
+    harness.write_json(args, {"train_samples": len(train), "epochs": args.epochs, "threads": args.threads,
+                              "rows": rows})
     return 0
 
 

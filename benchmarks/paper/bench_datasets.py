@@ -9,19 +9,20 @@ Goal: under 2 minutes on a 2-core machine.
 
 from __future__ import annotations
 
-import argparse
 import resource
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 from wsmap import datasets
 from wsmap.paper.specs import PAPER_SPECS
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
+
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = harness.parser(__doc__)
     p.add_argument("--spec", default="sec62", choices=sorted(PAPER_SPECS), help="paper spec (default sec62)")
     p.add_argument("--samples", type=int, help="scale the sample count (default: the spec's, 1e5 for sec62)")
     p.add_argument("--chunk", type=int, help="arms per chunk (default: the builder's)")
@@ -34,18 +35,13 @@ def main(argv=None) -> int:
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{spec.name}.npz"
-        t = time.perf_counter()
-        datasets.build_dataset(spec, path, chunk=args.chunk, progress=args.progress)
-        build_s = time.perf_counter() - t
+        build_s, _ = harness.timed(lambda: datasets.build_dataset(spec, path, chunk=args.chunk,
+                                                                  progress=args.progress))
         size = path.stat().st_size
         rss_build = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
         if args.load:
-            t = time.perf_counter()
-            ds = datasets.load_dataset(path, expect_spec=spec)
-            load_s = time.perf_counter() - t
-            t = time.perf_counter()
-            pos = float(ds.labels.mean())
-            unpack_s = time.perf_counter() - t
+            load_s, ds = harness.timed(lambda: datasets.load_dataset(path, expect_spec=spec))
+            unpack_s, pos = harness.timed(lambda: float(ds.labels.mean()))
     pairs = spec.samples * spec.n_nodes
     print(f"spec {spec.name}: {spec.samples} arms x {spec.n_nodes} nodes = {pairs:.3e} labels ({spec.method})")
     print(f"build: {build_s:.2f} s wall, {pairs / build_s:.3e} labels/s")
@@ -58,6 +54,11 @@ def main(argv=None) -> int:
         rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
         print(f"load + checksum: {load_s:.2f} s; unpack labels: {unpack_s:.2f} s (positives {pos:.4f}); "
               f"peak RSS {rss / 1024:.0f} MiB")
+    harness.write_json(args, {
+        "spec": spec.name, "samples": spec.samples, "nodes": spec.n_nodes, "method": spec.method,
+        "build_seconds": build_s, "labels_per_second": pairs / build_s, "file_bytes": size,
+        "peak_rss_mib_after_build": rss_build / 1024, "rss_mib_at_start": rss0 / 1024,
+        "load_seconds": load_s if args.load else None, "unpack_seconds": unpack_s if args.load else None})
     return 0
 
 

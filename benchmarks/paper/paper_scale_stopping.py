@@ -15,21 +15,23 @@ full ... --params results/full_extra/params.full.table1_max_fail6.yaml --out DIR
 
 from __future__ import annotations
 
-import argparse
+import sys
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
-def main() -> int:
+
+def main(argv=None) -> int:
     from wsmap import paths
 
     full = paths.ROOT / "results" / "full"
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = harness.parser(__doc__)
     p.add_argument("parts", nargs="*", help="wsmap paper full parts (default: every part with a history in --full)")
     p.add_argument("--max-fail", type=int, nargs="+", default=[6, 20, 100], help="max_fail values to replay")
     p.add_argument("--full", type=Path, default=full, help="the paper-scale results (default results/full)")
     p.add_argument("--retrained", type=Path, help="results of the same parts trained with the first --max-fail")
-    p.add_argument("--json", help="write the rows here")
-    args = p.parse_args()
+    args = p.parse_args(argv)
     if any(m < 1 for m in args.max_fail):
         p.error(f"--max-fail values must be >= 1, got {args.max_fail}")
     names = args.parts or sorted(f.name[: -len(".history.json")] for f in args.full.glob("*.history.json"))
@@ -39,7 +41,7 @@ def main() -> int:
     if missing:
         p.error(f"no history in {args.full} for: {', '.join(missing)}")
 
-    from wsmap.io import read_json, write_json
+    from wsmap.io import read_json
     from wsmap.learn import validation_stop
 
     def result(folder: Path, name: str) -> dict:
@@ -89,8 +91,7 @@ def main() -> int:
                                 "agrees_with_replay": agree == "="}
             print(f"| {name} | {a['metrics']['f']:.4f} | {b['metrics']['f']:.4f} | {run['epochs']} {agree} "
                   f"({replay['stop_epoch']}) | {run['best_val_loss']:.4g} |")
-    if args.json:
-        write_json(rows, args.json)
+    harness.write_json(args, {"rows": rows})
     return 0
 
 

@@ -11,21 +11,23 @@ also how many tanh units of each hidden layer are constant on the test arms
 
 from __future__ import annotations
 
-import argparse
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
-def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv=None) -> int:
+    p = harness.parser(__doc__)
     p.add_argument("parts", nargs="+", help="wsmap paper full parts (Table 1 rows)")
     p.add_argument("--units", action="store_true", help="also the constant (saturated) tanh units per hidden layer")
-    p.add_argument("--json", help="write the rows here")
-    args = p.parse_args()
+    args = p.parse_args(argv)
 
     import numpy as np
     import torch
 
     from wsmap import datasets, learn, metrics, paths
-    from wsmap.io import write_json
     from wsmap.learn import unit_saturation
 
     torch.set_num_threads(1)
@@ -52,8 +54,7 @@ def main() -> int:
         for row in rows:
             print(f"| {row['part']} | " + " | ".join(f"{r['units'] - r['active_units']} / {r['units']} ({r['saturated']:.2f})"
                                                     for r in row["units"]) + " |")
-    if args.json:
-        write_json(rows, args.json)
+    harness.write_json(args, {"rows": rows})
     return 0
 
 
