@@ -47,7 +47,8 @@ import os
 import struct
 import warnings
 from pathlib import Path
-from typing import Any
+from collections.abc import Callable
+from typing import Any, NoReturn
 
 import numpy as np
 import torch
@@ -281,6 +282,104 @@ def _read(path, fail) -> bytes:
     return data
 
 
+def _read_payload(data: bytes, fail: Callable[..., NoReturn]) -> dict:
+    """The payload dict of a model file's bytes, read with `weights_only=True` on the CPU;
+    `fail` for anything that is not a torch zip of this `FORMAT`."""
+    if not data.startswith(b"PK\x03\x04"):
+        fail("not a wsmap model file (not a torch zip archive; truncated or corrupt, or another kind of file)")
+    try:
+        payload = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
+    except Exception as e:  # truncated zip, flipped bits, a pickle with non-plain content
+        fail("not a readable torch file (truncated or corrupt)", e)
+    if not isinstance(payload, dict) or "format" not in payload:
+        fail("not a wsmap model file (no format tag)")
+    if payload["format"] != FORMAT:
+        fail(f"format tag {payload['format']!r} is not {FORMAT!r}")
+    return payload
+
+
+def _verified_version(payload: dict, path, fail: Callable[..., NoReturn], allow_unverified: bool) -> int:
+    """The payload's format version, after checking its checksum (version 2) or, for version 1
+    (no checksum), refusing it unless `allow_unverified` (then an `UnverifiedModelWarning`
+    attributed to `load`'s caller)."""
+    version = payload.get("version")
+    if isinstance(version, bool) or not isinstance(version, int) or not 1 <= version <= FORMAT_VERSION:
+        fail(f"format version {version!r} is not supported (this wsmap reads 1..{FORMAT_VERSION})")
+    if version >= 2:
+        checksum = payload.get("checksum")
+        if not isinstance(checksum, str) or not checksum.startswith(_CHECKSUM_PREFIX):
+            fail("it has no valid checksum (corrupt)")
+        try:
+            actual = payload_checksum(payload)
+        except ValueError as e:
+            fail(f"corrupt content ({e})", e)
+        if actual != checksum:
+            fail("checksum mismatch: the file is corrupt (its content differs from what was saved)")
+        return version
+    message = "written by an older wsmap (format version 1) without a checksum, so its integrity cannot be verified"
+    if not allow_unverified:
+        fail(message + ". Re-create it (make paper), or, if you trust it, re-save it in the current format: "
+             "model, meta = wsmap.learn.load(path, allow_unverified=True); wsmap.learn.save(model, path, "
+             "training_data=<training features>, dataset_spec=meta['dataset_spec'], ...)")
+    warnings.warn(f"model {path}: {message}; loaded anyway (allow_unverified=True)", UnverifiedModelWarning,
+                  stacklevel=3)
+    return version
+
+
+def _state_problems(expected: dict[str, torch.Tensor], state: dict) -> list[str]:
+    """What keeps the stored `state` from loading into a model whose state dict is `expected`:
+    missing or unexpected keys, non-tensors, wrong shapes, non-floating dtypes (empty: it fits)."""
+    problems = []
+    if sorted(set(expected) - set(state)):
+        problems.append(f"missing {sorted(set(expected) - set(state))}")
+    if sorted(set(state) - set(expected)):
+        problems.append(f"unexpected {sorted(set(state) - set(expected))}")
+    for k in sorted(set(expected) & set(state)):
+        v = state[k]
+        if not isinstance(v, torch.Tensor):
+            problems.append(f"{k} is not a tensor")
+        elif tuple(v.shape) != tuple(expected[k].shape):
+            problems.append(f"{k} has shape {tuple(v.shape)}, config needs {tuple(expected[k].shape)}")
+        elif not v.is_floating_point():
+            problems.append(f"{k} has dtype {v.dtype}, not a floating-point type")
+    return problems
+
+
+def _model_from_payload(payload: dict, fail: Callable[..., NoReturn]) -> SubspaceMLP:
+    """The `SubspaceMLP` a verified payload describes (on the CPU, in the stored dtype), with
+    its map spec and training range; `fail` for an invalid config, state, spec or range."""
+    missing = [k for k in ("config", "state_dict") if not isinstance(payload.get(k), dict)]
+    if missing:
+        fail(f"missing {missing}")
+    try:
+        config = MLPConfig.from_dict(payload["config"])
+    except (TypeError, ValueError) as e:
+        fail(f"invalid config: {e}", e)
+    model = SubspaceMLP(config, _init=False)
+    state = payload["state_dict"]
+    problems = _state_problems(model.state_dict(), state)
+    if problems:
+        fail("state does not match config: " + "; ".join(problems))
+    if payload.get("map_spec") is not None:
+        try:
+            model.map_spec = payload["map_spec"]
+        except (TypeError, ValueError) as e:
+            fail(f"invalid map_spec: {e}", e)
+    if payload.get("training_range") is not None:
+        try:
+            model.training_range = TrainingRange.from_dict(payload["training_range"])
+        except (TypeError, ValueError) as e:
+            fail(f"invalid training_range: {e}", e)
+    dtypes = {v.dtype for v in state.values()}
+    try:
+        if len(dtypes) == 1:
+            model.to(dtype=dtypes.pop())  # keep what was saved (float32 for the networks)
+        model.load_state_dict(state)
+    except (RuntimeError, TypeError, ValueError) as e:
+        fail(f"cannot use its state ({e})", e)
+    return model
+
+
 def load(path: PathLike, *, map_location: str | torch.device = "cpu",
          allow_unverified: bool = False) -> tuple[SubspaceMLP, dict[str, Any]]:
     """Read a file written by `save` -> `(model, meta)`.
@@ -301,89 +400,17 @@ def load(path: PathLike, *, map_location: str | torch.device = "cpu",
             module docstring.
         TypeError: `path` is not a str or path.
     """
-    def fail(problem: str, cause: BaseException | None = None):
+    def fail(problem: str, cause: BaseException | None = None) -> NoReturn:
         raise ModelFileError(f"cannot load model {path}: {problem}") from cause
 
-    data = _read(path, fail)
-    if not data.startswith(b"PK\x03\x04"):
-        fail("not a wsmap model file (not a torch zip archive; truncated or corrupt, or another kind of file)")
-    try:
-        payload = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
-    except Exception as e:  # truncated zip, flipped bits, a pickle with non-plain content
-        fail("not a readable torch file (truncated or corrupt)", e)
-    if not isinstance(payload, dict) or "format" not in payload:
-        fail("not a wsmap model file (no format tag)")
-    if payload["format"] != FORMAT:
-        fail(f"format tag {payload['format']!r} is not {FORMAT!r}")
-    version = payload.get("version")
-    if isinstance(version, bool) or not isinstance(version, int) or not 1 <= version <= FORMAT_VERSION:
-        fail(f"format version {version!r} is not supported (this wsmap reads 1..{FORMAT_VERSION})")
-    checksum = payload.get("checksum")
-    if version >= 2:
-        if not isinstance(checksum, str) or not checksum.startswith(_CHECKSUM_PREFIX):
-            fail("it has no valid checksum (corrupt)")
-        try:
-            actual = payload_checksum(payload)
-        except ValueError as e:
-            fail(f"corrupt content ({e})", e)
-        if actual != checksum:
-            fail("checksum mismatch: the file is corrupt (its content differs from what was saved)")
-    else:
-        message = ("written by an older wsmap (format version 1) without a checksum, so its integrity cannot be "
-                   "verified")
-        if not allow_unverified:
-            fail(message + ". Re-create it (make paper), or, if you trust it, re-save it in the current format: "
-                 "model, meta = wsmap.learn.load(path, allow_unverified=True); wsmap.learn.save(model, path, "
-                 "training_data=<training features>, dataset_spec=meta['dataset_spec'], ...)")
-        warnings.warn(f"model {path}: {message}; loaded anyway (allow_unverified=True)", UnverifiedModelWarning,
-                      stacklevel=2)
-    missing = [k for k in ("config", "state_dict") if not isinstance(payload.get(k), dict)]
-    if missing:
-        fail(f"missing {missing}")
-    try:
-        config = MLPConfig.from_dict(payload["config"])
-    except (TypeError, ValueError) as e:
-        fail(f"invalid config: {e}", e)
-    model = SubspaceMLP(config, _init=False)
-    expected = model.state_dict()
-    state = payload["state_dict"]
-    problems = []
-    if sorted(set(expected) - set(state)):
-        problems.append(f"missing {sorted(set(expected) - set(state))}")
-    if sorted(set(state) - set(expected)):
-        problems.append(f"unexpected {sorted(set(state) - set(expected))}")
-    for k in sorted(set(expected) & set(state)):
-        v = state[k]
-        if not isinstance(v, torch.Tensor):
-            problems.append(f"{k} is not a tensor")
-        elif tuple(v.shape) != tuple(expected[k].shape):
-            problems.append(f"{k} has shape {tuple(v.shape)}, config needs {tuple(expected[k].shape)}")
-        elif not v.is_floating_point():
-            problems.append(f"{k} has dtype {v.dtype}, not a floating-point type")
-    if problems:
-        fail("state does not match config: " + "; ".join(problems))
-    if payload.get("map_spec") is not None:
-        try:
-            model.map_spec = payload["map_spec"]
-        except (TypeError, ValueError) as e:
-            fail(f"invalid map_spec: {e}", e)
-    if payload.get("training_range") is not None:
-        try:
-            model.training_range = TrainingRange.from_dict(payload["training_range"])
-        except (TypeError, ValueError) as e:
-            fail(f"invalid training_range: {e}", e)
-    dtypes = {v.dtype for v in state.values()}
-    try:
-        if len(dtypes) == 1:
-            model.to(dtype=dtypes.pop())  # keep what was saved (float32 for the networks)
-        model.load_state_dict(state)
-    except (RuntimeError, TypeError, ValueError) as e:
-        fail(f"cannot use its state ({e})", e)
+    payload = _read_payload(_read(path, fail), fail)
+    version = _verified_version(payload, path, fail, allow_unverified)
+    model = _model_from_payload(payload, fail)
     model.to(map_location)
     model.eval()
     meta = {"path": str(path), "format": payload["format"], "version": version,
             "wsmap_version": payload.get("wsmap_version"), "dataset_spec": payload.get("dataset_spec"),
             "train_config": payload.get("train_config"), "extra": payload.get("extra"),
             "map_spec": model.map_spec, "training_range": payload.get("training_range"),
-            "checksum": checksum if version >= 2 else None}
+            "checksum": payload.get("checksum") if version >= 2 else None}
     return model, meta
