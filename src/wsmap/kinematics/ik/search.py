@@ -62,34 +62,20 @@ from ..transforms import check_rigid
 from .kernel import arm_arrays, pose_keys, run_compiled, unsolved
 from .memo import Memo, as_chain_memo, chain_key
 from .reach_filter import limit_filter, position_filter, reach_filter
+from .settings import DEFAULT_ILIMIT, DEFAULT_RLIMIT, DEFAULT_STARTS, FK_CONFIRM_TOL, MAP_SETTINGS, SearchSettings
 from .solution import MIN_TOL, IKSolution, failure_reasons
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike, Callable
+    from wsmap._typing import ArrayLike, Callable
+    from wsmap.kinematics.chain import Arm
 
-__all__ = ["MAP_SETTINGS", "map_search", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DEFAULT_STARTS", "FK_CONFIRM_TOL",
+__all__ = ["MAP_SETTINGS", "SearchSettings", "map_search", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DEFAULT_STARTS", "FK_CONFIRM_TOL",
            "ikine_search"]
 
 _ARM_ARRAYS = Memo()
 # targets per call of the border search (bounds its (C, K, n) array of starts)
 _BORDER_CHUNK = 1 << 16
-
-#: Starts per target of `ikine_search`, the maps' numerical path and `reachable`. Measured
-#: with `benchmarks/bench_recall.py` (21³ grid; PUMA560 with and without limits against the closed
-#: form, UR5e against EAIK; R = I and tool down): the hardest case, PUMA560 with limits, needs 24
-#: starts for recall >= 0.999 at seed 0 but 32 at seed 1 (24: 0.9986); 32 starts missed no node in
-#: any case at seeds 0-4. No false positive at any count.
-DEFAULT_STARTS = 32
-
-#: Per-start iteration and consecutive-rejection limits. The paper's 500 and 100 spend most of a
-#: failing start on rejections (a start that fails, fails slowly); 100 and 20 gave the same recall
-#: at every count of starts in `benchmarks/bench_recall.py` (so did 60 and 10) at about half the time.
-DEFAULT_ILIMIT = 100
-DEFAULT_RLIMIT = 20
-
-#: Tolerance of the forward-kinematics confirmation of every success (m and rad).
-FK_CONFIRM_TOL = 1e-6
 
 
 def _check_count(name, v, minimum):
@@ -260,32 +246,9 @@ def ikine_search(
 
 
 # --------------------------------------------------------------------------- maps: starts from neighbours
-#: Defaults of `map_search` for the maps, measured with `benchmarks/bench_fast_maps.py`
-#: (recall against the closed forms and a 64-start reference on the 21³ grid for PUMA560 with and
-#: without limits, UR5e, Panda, iiwa14, Gen3): start 0 only in the first pass (a neighbour's solution
-#: is a better start than a random one), two seeds per wave, four random retries next to solved
-#: nodes; per start 60 iterations and 10 rejections, and the stationary-point test at 1e-4, which
-#: cut the iterations spent on unreachable nodes by about half without a missed node; a neighbour's
-#: solution is not rerun without the limits (the Panda index: 13 % less time, the same recall); a
-#: hole in a solved region gets 16 retries (the iiwa14 from its URDF, tool down, missed 3 of 1768
-#: nodes near its axis with 4). Last, every unsolved node that borders a solved one gets the search of
-#: `ikine_search` (`border_starts` = `DEFAULT_STARTS` starts, its iteration settings), after the
-#: solutions of its solved neighbours: recall at the edge of the reachable region by construction, not by
-#: tuning (YuMi's right arm, tool down, missed 5 of 2826 border nodes without it; `docs/recall.md`).
-MAP_SETTINGS = dict(starts=0, seeds=2, retry=4, hole_retry=16, ilimit=60, rlimit=10, gtol=1e-4, seed_free_pass=False,
-                    border_starts=DEFAULT_STARTS)
-
-
-def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int = MAP_SETTINGS["starts"],
-               seeds: int = MAP_SETTINGS["seeds"], retry: int = MAP_SETTINGS["retry"], seed: int = 0,
-               q0: ArrayLike | None = None, tol: float = 1e-10, ilimit: int = MAP_SETTINGS["ilimit"],
-               rlimit: int = MAP_SETTINGS["rlimit"], lam: float = 0.1, joint_limits: bool = True,
-               confirm_tol: float = FK_CONFIRM_TOL, gtol: float = MAP_SETTINGS["gtol"],
-               q_init: ArrayLike | None = None, position_only: bool = False,
-               seed_free_pass: bool = MAP_SETTINGS["seed_free_pass"], hole_retry: int = MAP_SETTINGS["hole_retry"],
-               border_starts: int = MAP_SETTINGS["border_starts"], limit_bound: bool = True,
-               progress: Callable[[int], object] | None = None,
-               accept: Callable[[np.ndarray], np.ndarray] | None = None, accept_retry: int = 16) -> IKSolution:
+def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, settings: SearchSettings | None = None, *,
+               q_init: ArrayLike | None = None, progress: Callable[[int], object] | None = None,
+               accept: Callable[[np.ndarray], np.ndarray] | None = None, **overrides) -> IKSolution:
     """Reachability of a map's nodes, each start of `ikine_search`'s iteration, with starts taken
     from neighbouring nodes' solutions (continuation): the solution at a node is an excellent start
     at the next one, and an unreachable node costs a few failed starts instead of dozens.
@@ -296,52 +259,50 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
     T : (N, 4, 4) the nodes' target poses (base frame), shared by the arms
     neighbours : (N, K) int, node indices of each node's neighbours, `-1` padding (e.g. from
         `wsmap.workspace.grids.node_neighbours`)
-    starts : random starts per node in the first pass, after start 0 (`q0`, default zeros)
-    seeds : neighbours' solutions tried per node and wave
-    retry : random starts per node for the nodes still unsolved when no wave solves any more and
-        next to a solved node, after which the waves run again from what they found
-    hole_retry : the random starts instead for such a node with at least half of its neighbours
-        solved (a hole in a reachable region is most likely reachable)
-    ilimit, rlimit, tol, lam, joint_limits, confirm_tol : per start, as `ikine_search`
-    gtol : the stationary-point test (`wsmap.kinematics.lm_compiled`): a start fails once the gradient
-        vanishes relative to `|J|·|e|` away from a solution; 0 turns it off
+    settings : `SearchSettings` of solver `"search"` (default `SearchSettings()`, the
+        measured `MAP_SETTINGS`); its fields, as they act here:
+
+        * `starts`: random starts per node in the first pass, after start 0 (`q0`, default zeros);
+        * `seeds`: neighbours' solutions tried per node and wave;
+        * `retry`: random starts per node for the nodes still unsolved when no wave solves any more
+          and next to a solved node, after which the waves run again from what they found;
+        * `hole_retry`: the random starts instead for such a node with at least half of its
+          neighbours solved (a hole in a reachable region is most likely reachable);
+        * `ilimit`, `rlimit`, `tol`, `lam`, `joint_limits`, `confirm_tol`: per start, as
+          `ikine_search`;
+        * `gtol`: the stationary-point test (`wsmap.kinematics.lm_compiled`): a start fails once
+          the gradient vanishes relative to `|J|·|e|` away from a solution; 0 turns it off;
+        * `position_only`: reach the position of `T` at any orientation (the error and the
+          confirmation on the position alone);
+        * `seed_free_pass`: whether a neighbour's solution that fails inside the limits is also
+          run without them (the second pass of `ikine_search`'s starts);
+        * `border_starts`: the starts of `ikine_search` (`q0`, then its random starts
+          `1 .. border_starts - 1`, with its per-start settings `DEFAULT_ILIMIT`,
+          `DEFAULT_RLIMIT`, no stationary-point test, both passes) that every node still unsolved
+          next to a solved node gets once, after the solutions of its solved neighbours that the
+          waves did not try; 0 turns the border search off;
+        * `limit_bound`: whether the joint-limit bound
+          (`wsmap.kinematics.ik.reach_filter.limit_filter`) also rules out nodes before any start
+          (one arm of revolute joints, a pose target): sound, so it changes no success and no
+          solution, only the time (most of it was the border search's 32 starts at unreachable
+          border nodes; `docs/recall.md`) and, at the nodes it rules out, `reason`, `q`,
+          `residual` and `iterations`; False is the reference path. A batch of arms skips it
+          (each arm would pay its build), so an arm alone and the same arm in a batch differ
+          there, and only there;
+        * `accept_retry`: more random starts (in rounds of 4, each round followed by waves) for
+          the nodes whose solutions `accept` all rejected.
     q_init : optional `(N, n)` (or `(B, N, n)`) starts tried first at each node, NaN rows where
         none (e.g. each node's solution at a neighbouring orientation, or a sampled configuration
         whose tool lies near the node)
-    position_only : reach the position of `T` at any orientation (the error and the
-        confirmation on the position alone)
-    seed_free_pass : whether a neighbour's solution that fails inside the limits is also run
-        without them (the second pass of `ikine_search`'s starts)
-    border_starts : the starts of `ikine_search` (`q0`, then its random starts `1 ..
-        border_starts - 1`, with its per-start settings `DEFAULT_ILIMIT`,
-        `DEFAULT_RLIMIT`, no stationary-point test, both passes) that every node still
-        unsolved next to a solved node gets once, after the solutions of its solved neighbours
-        that the waves did not try; 0 turns the border search off
-    limit_bound : whether the joint-limit bound (`wsmap.kinematics.ik.reach_filter.limit_filter`)
-        also rules out nodes before any start (one arm of revolute joints, a pose target): sound, so
-        it changes no success and no solution, only the time (most of it was the border search's 32
-        starts at unreachable border nodes; `docs/recall.md`) and, at the nodes it rules out,
-        `reason`, `q`, `residual` and `iterations`; False is the reference path. A batch of
-        arms skips it (each arm would pay its build), so an arm alone and the same arm in a batch
-        differ there, and only there
     progress : called with the number of targets settled as the search goes (those the reach filter
         rules out at once, those solved after each pass and wave, the rest at the end); the numbers
         add up to the number of targets
     accept : optional configuration predicate, `accept(q)` with `q` `(M, n)` → bool `(M,)`
         (e.g. collision-free, `wsmap.collision.CollisionChecker`); a converged solution it
         rejects does not count, and its node keeps looking: neighbours' accepted solutions in the
-        waves, the retries, then `accept_retry` more random starts (in rounds of 4, each round
-        followed by waves) for the nodes whose solutions were all rejected, and the border search
+        waves, the retries, then `accept_retry` more random starts, and the border search
+    **overrides : fields of `settings` to change for this call (`SearchSettings.replace`)
 
-    Returns
-    -------
-    IKSolution
-        Of shape `(B, N)` (`(N,)` for one
-        arm), its fields as `ikine_search`'s; `start` is the random start's index `k`
-        (0 = `q0`) that succeeded, `-2` where a neighbour's solution did, `-1` where none did.
-
-    Notes
-    -----
     Per arm, in passes: (1) every node: `q0` then `starts` random starts (the first ones of
     `ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
     neighbour whose solution it has not tried takes up to `seeds` of them, in neighbour order, as
@@ -354,8 +315,26 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
     whatever the waves did before. Every success is confirmed by forward kinematics inside the
     limits, so `True` is never wrong; recall is measured in `benchmarks/bench_fast_maps.py` and
     `benchmarks/bench_recall_arms.py`. Deterministic; does not depend on the thread count.
+
+    Returns an `IKSolution` of shape `(B, N)` (`(N,)` for one
+    arm), its fields as `ikine_search`'s; `start` is the random start's index `k`
+    (0 = `q0`) that succeeded, `-2` where a neighbour's solution did, `-1` where none did.
     """
-    chain = _limited(as_chain_memo(robot), joint_limits)
+    s = SearchSettings() if settings is None else settings
+    if not isinstance(s, SearchSettings):
+        raise ValueError(f"settings must be a SearchSettings, got {type(s).__name__}")
+    if overrides:
+        s = s.replace(**overrides)
+    if s.solver != "search":
+        raise ValueError(f"map_search runs the solver 'search', got settings of solver {s.solver!r}")
+    if accept is not None and not callable(accept):
+        raise TypeError(f"accept must be a configuration predicate (callable), got {type(accept).__name__}")
+    search = _MapSearch(robot, T, neighbours, s, q_init, progress, accept)
+    return search.solve()
+
+
+def _check_map_targets(T, neighbours):
+    """`T` (N, 4, 4) rigid and `neighbours` (N, K) node indices or -1, checked: `(T, nb)`."""
     T = check_rigid("target poses", T)
     if T.ndim != 3:
         raise ValueError(f"target poses must have shape (N, 4, 4), got {T.shape}")
@@ -365,212 +344,245 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, *, starts: int =
         raise ValueError(f"neighbours must be an integer array of shape ({N}, K), got {nb.dtype} {nb.shape}")
     if nb.size and (nb.min() < -1 or nb.max() >= N):
         raise ValueError(f"neighbours must be node indices in [0, {N}) or -1 (none)")
-    starts = _check_count("starts", starts, 0)
-    seeds = _check_count("seeds", seeds, 0)
-    retry = _check_count("retry", retry, 0)
-    hole_retry = _check_count("hole_retry", hole_retry, 0)
-    border_starts = _check_count("border_starts", border_starts, 0)
-    accept_retry = _check_count("accept_retry", accept_retry, 0)
-    if accept is not None and not callable(accept):
-        raise TypeError(f"accept must be a configuration predicate (callable), got {type(accept).__name__}")
-    ilimit = _check_count("ilimit", ilimit, 0)
-    rlimit = _check_count("rlimit", rlimit, 0)
-    seed, q0 = _check_settings(chain, tol, lam, confirm_tol, seed, q0)
-    n = chain.n
-    if q0.shape != (n,):
-        raise ValueError(f"q0 must have shape ({n},) for a map, got {q0.shape}")
-    batch = chain.batch_shape
-    B = int(np.prod(batch, dtype=np.int64))
-    flat = chain if not batch else flatten_arms(chain)
-    M = B * N
-    arm_of = np.repeat(np.arange(B), N)
-    node_of = np.tile(np.arange(N), B)
-    Tb = T[None] if not batch else T[None, :]
-    if position_only:
-        # (N,) for one arm, (B, N) for a batch: target b·N + i
-        possible = position_filter(flat if batch else chain, T[:, :3, 3], confirm_tol).reshape(-1)
-    else:
-        possible = reach_filter(flat if batch else chain, Tb if not batch else T[:, None], confirm_tol)
+    return T, nb
+
+
+class _MapSearch:
+    """The state of one `map_search` (every arm x node target, flattened: target `b·N + i`) and
+    its passes; the methods share the answers found so far."""
+
+    def __init__(self, robot, T, neighbours, s: SearchSettings, q_init, progress, accept):
+        chain = _limited(as_chain_memo(robot), s.joint_limits)
+        T, nb = _check_map_targets(T, neighbours)
+        seed, q0 = _check_settings(chain, s.tol, s.lam, s.confirm_tol, s.seed, s.q0_array)
+        N, n = T.shape[0], chain.n
+        if q0.shape != (n,):
+            raise ValueError(f"q0 must have shape ({n},) for a map, got {q0.shape}")
+        batch = chain.batch_shape
+        B = int(np.prod(batch, dtype=np.int64))
+        self.s, self.T, self.nb, self.q0, self.accept, self.progress = s, T, nb, q0, accept, progress
+        self.N, self.n, self.B, self.M, self.K, self.batch = N, n, B, B * N, nb.shape[1], batch
+        self.flat = chain if not batch else flatten_arms(chain)
+        self.arm_of = np.repeat(np.arange(B), N)
+        self.node_of = np.tile(np.arange(N), B)
+        self.possible = self._possible(chain)
+        self.q_init = self._q_init(q_init)
+        self.keys_node = pose_keys(seed, T)
+        self.aa = _ARM_ARRAYS.get(chain_key(self.flat), lambda: arm_arrays(self.flat))
+        self.per_start = (s.ilimit, s.rlimit, s.tol, s.lam, s.confirm_tol, float(s.gtol))
+        M = self.M
+        self.q = np.full((M, n), np.nan)
+        self.ok = np.zeros(M, dtype=bool)
+        self.its = np.zeros(M, dtype=np.int64)
+        self.res = np.full(M, np.inf)
+        self.start = np.full(M, -1, dtype=np.int64)
+        self.rejected = np.zeros(M, dtype=bool)  # a converged solution was refused by `accept`
+        self.tried = np.zeros((M, self.K), dtype=bool)
+        self.valid_nb = nb >= 0
+        self.slot_nb = np.where(self.valid_nb, nb, 0)
+        self.reported = 0
+
+    def _possible(self, chain):
+        """Targets the sound pre-filters leave (M,) bool."""
+        s, T, batch, flat = self.s, self.T, self.batch, self.flat
+        if s.position_only:
+            # (N,) for one arm, (B, N) for a batch: target b·N + i
+            return position_filter(flat if batch else chain, T[:, :3, 3], s.confirm_tol).reshape(-1)
+        Tb = T[None] if not batch else T[:, None]
+        possible = reach_filter(flat if batch else chain, Tb, s.confirm_tol)
         possible = (possible.T if batch else possible).reshape(-1)
-        if limit_bound and not batch:
+        if s.limit_bound and not batch:
             # the limits-aware invariants of the last axis (its first build per arm takes 0.1-0.4 s;
             # an arm in a batch, e.g. the labels of a family, would pay that per arm, so only one arm)
             idx = np.flatnonzero(possible)
-            possible[idx] = limit_filter(chain, T[idx], confirm_tol)
-    mode = 2 if position_only else 0
-    if q_init is not None:
+            possible[idx] = limit_filter(chain, T[idx], s.confirm_tol)
+        return possible
+
+    def _q_init(self, q_init):
+        if q_init is None:
+            return None
+        N, n, B = self.N, self.n, self.B
         q_init = np.asarray(q_init, dtype=np.float64)
         if q_init.shape not in ((N, n), (B, N, n)):
             raise ValueError(f"q_init must have shape ({N}, {n}) or ({B}, {N}, {n}), got {q_init.shape}")
-        q_init = np.broadcast_to(q_init, (B, N, n)).reshape(M, n)
-    keys_node = pose_keys(seed, T)
-    aa = _ARM_ARRAYS.get(chain_key(flat), lambda: arm_arrays(flat))
-    settings = (ilimit, rlimit, tol, lam, confirm_tol, float(gtol))
+        return np.broadcast_to(q_init, (B, N, n)).reshape(self.M, n)
 
-    q = np.full((M, n), np.nan)
-    ok = np.zeros(M, dtype=bool)
-    its = np.zeros(M, dtype=np.int64)
-    res = np.full(M, np.inf)
-    start = np.full(M, -1, dtype=np.int64)
+    def report(self, count):
+        if self.progress is not None and count:
+            self.reported += count
+            self.progress(count)
 
-    reported = [0]
+    def solve(self) -> IKSolution:
+        s = self.s
+        self.report(int(self.M - self.possible.sum()))
+        self.first_pass()
+        self.waves()
+        if s.retry:
+            self.retries()
+        if self.accept is not None and s.accept_retry:
+            self.accept_retries()
+        if s.border_starts and self.K:
+            self.border_search(s.border_starts)
+        self.report(self.M - self.reported)
+        shape = (self.N,) if not self.batch else self.batch + (self.N,)
+        ok = self.ok
+        return IKSolution(self.q.reshape(shape + (self.n,)), ok.reshape(shape), self.its.reshape(shape),
+                          self.res.reshape(shape), failure_reasons(ok, out_of_reach=~self.possible).reshape(shape),
+                          self.start.reshape(shape))
 
-    def report(count):
-        if progress is not None and count:
-            reported[0] += count
-            progress(count)
-
-    report(int(M - possible.sum()))
-
-    def run(idx, qexp, nexp, k_first, k_last, seeded, per_start=settings, free=None):
+    def run(self, idx, qexp, nexp, k_first, k_last, seeded, per_start=None, free=None):
+        """Run the kernel on targets `idx` from the explicit starts `qexp` (C, E, n) (`nexp`
+        of them per target), then random starts `k_first .. k_last - 1`; keep what it solved."""
         if not idx.size:
             return 0
-        free = (not seeded or seed_free_pass) if free is None else free
-        qq, okk, it, rr, st = run_compiled(mode, aa, arm_of[idx], T[node_of[idx]], keys_node[node_of[idx]], qexp, nexp,
-                                           k_first, k_last, *per_start, free_pass=free)
-        if accept is not None and okk.any():
+        free = (not seeded or self.s.seed_free_pass) if free is None else free
+        mode = 2 if self.s.position_only else 0
+        nodes = self.node_of[idx]
+        qq, okk, it, rr, st = run_compiled(mode, self.aa, self.arm_of[idx], self.T[nodes], self.keys_node[nodes], qexp,
+                                           nexp, k_first, k_last, *(per_start or self.per_start), free_pass=free)
+        if self.accept is not None and okk.any():
             hit = np.flatnonzero(okk)
-            yes = np.asarray(accept(qq[hit]), dtype=bool)
-            rejected[idx[hit[~yes]]] = True
+            yes = np.asarray(self.accept(qq[hit]), dtype=bool)
+            self.rejected[idx[hit[~yes]]] = True
             okk = okk.copy()
             okk[hit[~yes]] = False
-        its[idx] += it
+        ok, res = self.ok, self.res
+        self.its[idx] += it
         better = okk | (~ok[idx] & (rr < res[idx]))
-        q[idx[better]] = qq[better]
+        self.q[idx[better]] = qq[better]
         res[idx[better]] = rr[better]
         ok[idx] |= okk
-        report(int(okk.sum()))
+        self.report(int(okk.sum()))
         if seeded:
-            start[idx[okk]] = -2
+            self.start[idx[okk]] = -2
         else:
             # positions in the run's order (explicit q0 first) → random-start index k
-            start[idx[okk]] = np.where(st[okk] < nexp[okk], 0, st[okk] - nexp[okk] + k_first)
+            self.start[idx[okk]] = np.where(st[okk] < nexp[okk], 0, st[okk] - nexp[okk] + k_first)
         return int(okk.sum())
 
-    rejected = np.zeros(M, dtype=bool)  # a converged solution was refused by `accept`
-    K = nb.shape[1]
-    tried = np.zeros((M, K), dtype=bool)
+    def _neighbour_starts(self, idx, use, nbt, width):
+        """The solutions of the neighbours where `use` (C, K) as explicit starts `(C, width, n)`."""
+        qexp = np.zeros((idx.size, width, self.n))
+        slot = np.cumsum(use, axis=1) - 1
+        r, c = np.nonzero(use)
+        qexp[r, slot[r, c]] = self.q[nbt[r, c]]
+        return qexp
 
-    def waves():
+    def _neighbour_targets(self, idx):
+        """Node indices (C, K) of the neighbours of targets `idx` and their target indices."""
+        nbn = self.nb[self.node_of[idx]]
+        return nbn, self.arm_of[idx][:, None] * self.N + np.where(nbn >= 0, nbn, 0)
+
+    def waves(self):
         # a wave: every unsolved node next to a node solved since the last wave tries up to
         # `seeds` of those fresh solutions; it ends when a wave solves nothing
-        if not seeds or not K:
+        seeds, ok = self.s.seeds, self.ok
+        if not seeds or not self.K:
             return
         fresh = ok.copy()
         while fresh.any():
-            cand = np.flatnonzero(~ok & possible)
+            cand = np.flatnonzero(~ok & self.possible)
             if not cand.size:
                 return
-            nbn = nb[node_of[cand]]  # (C, K) node indices
-            nbt = arm_of[cand][:, None] * N + np.where(nbn >= 0, nbn, 0)
-            usable = (nbn >= 0) & fresh[nbt] & ~tried[cand]
+            nbn, nbt = self._neighbour_targets(cand)
+            usable = (nbn >= 0) & fresh[nbt] & ~self.tried[cand]
             pick = usable & (np.cumsum(usable, axis=1) <= seeds)
             count = pick.sum(axis=1)
             has = count > 0
             if not has.any():
                 return
             cand, pick, nbt, count = cand[has], pick[has], nbt[has], count[has]
-            tried[cand] |= pick
-            qexp = np.zeros((cand.size, seeds, n))
-            slot = np.cumsum(pick, axis=1) - 1
-            r, c = np.nonzero(pick)
-            qexp[r, slot[r, c]] = q[nbt[r, c]]
+            self.tried[cand] |= pick
+            qexp = self._neighbour_starts(cand, pick, nbt, seeds)
             before = ok.copy()
-            run(cand, qexp, count, 0, 0, True)
+            self.run(cand, qexp, count, 0, 0, True)
             fresh = ok & ~before
 
-    valid_nb = nb >= 0
-    slot_nb = np.where(valid_nb, nb, 0)
-
-    def solved_neighbours():
+    def solved_neighbours(self):
         # solved neighbours per target, one neighbour slot at a time: (B, N) arrays, never (B·N, K)
-        ok_bn = ok.reshape(B, N)
-        count = np.zeros((B, N), dtype=np.int32)
-        for k in range(K):
-            count += ok_bn[:, slot_nb[:, k]] & valid_nb[:, k]
+        ok_bn = self.ok.reshape(self.B, self.N)
+        count = np.zeros((self.B, self.N), dtype=np.int32)
+        for k in range(self.K):
+            count += ok_bn[:, self.slot_nb[:, k]] & self.valid_nb[:, k]
         return count.reshape(-1)
 
-    def border_search(count):
+    def _from_q0(self, idx):
+        """Start 0 (`q0`) as the one explicit start of targets `idx`: `(qexp, nexp)`."""
+        return np.broadcast_to(self.q0, (idx.size, 1, self.n)), np.ones(idx.size, dtype=np.int64)
+
+    def first_pass(self):
+        first = np.flatnonzero(self.possible)
+        starts, q_init, q0 = self.s.starts, self.q_init, self.q0
+        if q_init is None:
+            self.run(first, *self._from_q0(first), 1, 1 + starts, False)
+            return
+        # the given start first where there is one, then q0 (start 0 counts for both)
+        qexp = np.empty((first.size, 2, self.n))
+        given = np.all(np.isfinite(q_init[first]), axis=1)
+        qexp[:, 0] = np.where(given[:, None], q_init[first], q0)
+        qexp[:, 1] = q0
+        self.run(first, qexp, np.where(given, 2, 1).astype(np.int64), 1, 1 + starts, False)
+
+    def retries(self):
+        # only next to solved nodes: a reachable node that the waves missed borders solved ones (a
+        # pocket behind a joint limit, another branch), while nodes deep in an unreachable region
+        # would spend every retry in vain. A hole (at least half of its neighbours solved) is most
+        # likely reachable: it gets hole_retry starts instead
+        s, M = self.s, self.M
+        left = ~self.ok & self.possible
+        hole = np.zeros(M, dtype=bool)
+        if self.K:
+            solved_nb = self.solved_neighbours()
+            left &= solved_nb > 0
+            hole = left & (2 * solved_nb.reshape(self.B, self.N) >= self.valid_nb.sum(axis=1)).reshape(-1)
+        k0 = 1 + s.starts
+        for group, count in ((left & ~hole, s.retry), (hole, max(s.retry, s.hole_retry))):
+            idx = np.flatnonzero(group)
+            self.run(idx, np.zeros((idx.size, 1, self.n)), np.zeros(idx.size, dtype=np.int64), k0, k0 + count, False)
+        self.waves()
+
+    def accept_retries(self):
+        # a node whose every solution so far was refused is reachable by the chain: other random
+        # starts find other solutions (branches, the self-motion of a redundant arm)
+        s = self.s
+        k0 = 1 + s.starts + max(s.retry, s.hole_retry)
+        for r0 in range(0, s.accept_retry, 4):
+            idx = np.flatnonzero(self.rejected & ~self.ok)
+            if not idx.size:
+                break
+            w = min(4, s.accept_retry - r0)
+            self.run(idx, np.zeros((idx.size, 1, self.n)), np.zeros(idx.size, dtype=np.int64), k0 + r0, k0 + r0 + w,
+                     False)
+            self.waves()
+
+    def border_search(self, count):
         # what ikine_search does for one pose, at every unsolved node next to a solved one, once
         # each: its starts (q0, then its random starts 1 .. count-1 from the same keys) with its
         # per-start settings, after the solved neighbours' solutions that the waves have not tried
         # yet; then the waves carry what it finds, and the nodes that newly border a solved node
         # get it too
-        per_start = (DEFAULT_ILIMIT, DEFAULT_RLIMIT, tol, lam, confirm_tol, 0.0)
-        searched = np.zeros(M, dtype=bool)
+        s = self.s
+        per_start = (DEFAULT_ILIMIT, DEFAULT_RLIMIT, s.tol, s.lam, s.confirm_tol, 0.0)
+        searched = np.zeros(self.M, dtype=bool)
         while True:
-            cand = np.flatnonzero(~ok & possible & ~searched & (solved_neighbours() > 0))
+            cand = np.flatnonzero(~self.ok & self.possible & ~searched & (self.solved_neighbours() > 0))
             if not cand.size:
                 return
             searched[cand] = True
             # chunks bound the (C, K, n) starts
             for c0 in range(0, cand.size, _BORDER_CHUNK):
-                idx = cand[c0 : c0 + _BORDER_CHUNK]
-                nbn = nb[node_of[idx]]
-                nbt = arm_of[idx][:, None] * N + np.where(nbn >= 0, nbn, 0)
-                use = (nbn >= 0) & ok[nbt] & ~tried[idx]
-                tried[idx] |= use
-                count_nb = use.sum(axis=1)
-                has = count_nb > 0
-                if has.any():
-                    sel, use_s, nbt_s = idx[has], use[has], nbt[has]
-                    qexp = np.zeros((sel.size, K, n))
-                    slot = np.cumsum(use_s, axis=1) - 1
-                    r, c = np.nonzero(use_s)
-                    qexp[r, slot[r, c]] = q[nbt_s[r, c]]
-                    run(sel, qexp, count_nb[has].astype(np.int64), 0, 0, True)
-                idx = idx[~ok[idx]]
-                run(idx, np.broadcast_to(q0, (idx.size, 1, n)), np.ones(idx.size, dtype=np.int64), 1, count, False,
-                    per_start=per_start, free=True)
-            waves()
+                self._border_chunk(cand[c0 : c0 + _BORDER_CHUNK], count, per_start)
+            self.waves()
 
-    first = np.flatnonzero(possible)
-    if q_init is None:
-        run(first, np.broadcast_to(q0, (first.size, 1, n)), np.ones(first.size, dtype=np.int64), 1, 1 + starts, False)
-    else:
-        # the given start first where there is one, then q0 (start 0 counts for both)
-        qexp = np.empty((first.size, 2, n))
-        given = np.all(np.isfinite(q_init[first]), axis=1)
-        qexp[:, 0] = np.where(given[:, None], q_init[first], q0)
-        qexp[:, 1] = q0
-        run(first, qexp, np.where(given, 2, 1).astype(np.int64), 1, 1 + starts, False)
-    waves()
-    if retry:
-        # only next to solved nodes: a reachable node that the waves missed borders solved ones (a
-        # pocket behind a joint limit, another branch), while nodes deep in an unreachable region
-        # would spend every retry in vain. A hole (at least half of its neighbours solved) is most
-        # likely reachable: it gets hole_retry starts instead
-        left = ~ok & possible
-        hole = np.zeros(M, dtype=bool)
-        if K:
-            # solved neighbours per target, one neighbour slot at a time: (B, N) arrays, never (B·N, K)
-            valid = nb >= 0
-            slot = np.where(valid, nb, 0)
-            ok_bn = ok.reshape(B, N)
-            solved_nb = np.zeros((B, N), dtype=np.int32)
-            for k in range(K):
-                solved_nb += ok_bn[:, slot[:, k]] & valid[:, k]
-            left &= (solved_nb > 0).reshape(-1)
-            hole = left & (2 * solved_nb >= valid.sum(axis=1)).reshape(-1)
-        for group, count in ((left & ~hole, retry), (hole, max(retry, hole_retry))):
-            idx = np.flatnonzero(group)
-            run(idx, np.zeros((idx.size, 1, n)), np.zeros(idx.size, dtype=np.int64), 1 + starts, 1 + starts + count,
-                False)
-        waves()
-    if accept is not None and accept_retry:
-        # a node whose every solution so far was refused is reachable by the chain: other random
-        # starts find other solutions (branches, the self-motion of a redundant arm)
-        k0 = 1 + starts + max(retry, hole_retry)
-        for r0 in range(0, int(accept_retry), 4):
-            idx = np.flatnonzero(rejected & ~ok)
-            if not idx.size:
-                break
-            w = min(4, int(accept_retry) - r0)
-            run(idx, np.zeros((idx.size, 1, n)), np.zeros(idx.size, dtype=np.int64), k0 + r0, k0 + r0 + w, False)
-            waves()
-    if border_starts and K:
-        border_search(border_starts)
-    report(M - reported[0])
-    shape = (N,) if not batch else batch + (N,)
-    return IKSolution(q.reshape(shape + (n,)), ok.reshape(shape), its.reshape(shape), res.reshape(shape),
-                      failure_reasons(ok, out_of_reach=~possible).reshape(shape), start.reshape(shape))
+    def _border_chunk(self, idx, count, per_start):
+        ok = self.ok
+        nbn, nbt = self._neighbour_targets(idx)
+        use = (nbn >= 0) & ok[nbt] & ~self.tried[idx]
+        self.tried[idx] |= use
+        count_nb = use.sum(axis=1)
+        has = count_nb > 0
+        if has.any():
+            qexp = self._neighbour_starts(idx[has], use[has], nbt[has], self.K)
+            self.run(idx[has], qexp, count_nb[has].astype(np.int64), 0, 0, True)
+        idx = idx[~ok[idx]]
+        self.run(idx, *self._from_q0(idx), 1, count, False, per_start=per_start, free=True)

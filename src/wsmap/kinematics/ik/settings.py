@@ -1,0 +1,264 @@
+"""`SearchSettings`: the numerical inverse-kinematics settings of a map, one typed record.
+
+A map, a reach map, an index, a base placement or a dataset label computed numerically is fixed by
+its arm, its targets and these settings: which numerical solver runs (`solver`) and every number
+it reads. They travel as one frozen object from whoever builds the job (the command line, a
+`wsmap.workspace.kinds.MapRequest`, a Python caller) to the solver
+(`wsmap.kinematics.ik.solvers`), and `SearchSettings.digest` is their stable hash (what a map
+file's provenance and a cache key record).
+
+Solvers (`solver`):
+
+* `"search"` (default): the search started at each node from its neighbours' solutions
+  (`wsmap.kinematics.ik.search.map_search`), defaults `MAP_SETTINGS`;
+* `"independent"`: every target alone with `wsmap.kinematics.ik.search.ikine_search`
+  (`starts` default `DEFAULT_STARTS`, per start `DEFAULT_ILIMIT` iterations and
+  `DEFAULT_RLIMIT` rejections);
+* `"paper"`: the paper's one-start LM from `q0` (`wsmap.kinematics.ik.lm.ikine_LM`, DH arms, its
+  defaults 500 iterations and 100 rejections), which the paper's pipeline runs.
+
+A field left `None` takes its solver's default when the record is built, so two records that
+run the same search are equal and hash alike. A field the solver does not read stays `None`
+(setting it is a `ValueError`), except `seed` and `starts` of the paper's solver, which the maps
+have always accepted and dropped (`starts` must then be 1) and `chunk` of the search, which
+splits no work there.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from .solution import MIN_TOL
+
+__all__ = ["SOLVERS", "MAP_SETTINGS", "DEFAULT_STARTS", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "FK_CONFIRM_TOL",
+           "SearchSettings", "as_settings"]
+
+#: Numerical solvers, by name (see the module notes); the first is the default.
+SOLVERS = ("search", "independent", "paper")
+
+#: Starts per target of `ikine_search`, the maps' numerical path and `reachable`. Measured
+#: with `benchmarks/bench_recall.py` (21³ grid; PUMA560 with and without limits against the closed
+#: form, UR5e against EAIK; R = I and tool down): the hardest case, PUMA560 with limits, needs 24
+#: starts for recall >= 0.999 at seed 0 but 32 at seed 1 (24: 0.9986); 32 starts missed no node in
+#: any case at seeds 0-4. No false positive at any count.
+DEFAULT_STARTS = 32
+
+#: Per-start iteration and consecutive-rejection limits. The paper's 500 and 100 spend most of a
+#: failing start on rejections (a start that fails, fails slowly); 100 and 20 gave the same recall
+#: at every count of starts in `benchmarks/bench_recall.py` (so did 60 and 10) at about half the time.
+DEFAULT_ILIMIT = 100
+DEFAULT_RLIMIT = 20
+
+#: Tolerance of the forward-kinematics confirmation of every success (m and rad).
+FK_CONFIRM_TOL = 1e-6
+
+#: Defaults of `map_search` for the maps, measured with `benchmarks/bench_fast_maps.py`
+#: (recall against the closed forms and a 64-start reference on the 21³ grid for PUMA560 with and
+#: without limits, UR5e, Panda, iiwa14, Gen3): start 0 only in the first pass (a neighbour's solution
+#: is a better start than a random one), two seeds per wave, four random retries next to solved
+#: nodes; per start 60 iterations and 10 rejections, and the stationary-point test at 1e-4, which
+#: cut the iterations spent on unreachable nodes by about half without a missed node; a neighbour's
+#: solution is not rerun without the limits (the Panda index: 13 % less time, the same recall); a
+#: hole in a solved region gets 16 retries (the iiwa14 from its URDF, tool down, missed 3 of 1768
+#: nodes near its axis with 4). Last, every unsolved node that borders a solved one gets the search of
+#: `ikine_search` (`border_starts` = `DEFAULT_STARTS` starts, its iteration settings), after the
+#: solutions of its solved neighbours: recall at the edge of the reachable region by construction, not by
+#: tuning (YuMi's right arm, tool down, missed 5 of 2826 border nodes without it; `docs/recall.md`).
+MAP_SETTINGS = dict(starts=0, seeds=2, retry=4, hole_retry=16, ilimit=60, rlimit=10, gtol=1e-4, seed_free_pass=False,
+                    border_starts=DEFAULT_STARTS)
+
+_COMMON = dict(tol=1e-10, lam=0.1, q0=None)
+#: Per solver, the fields it reads and their defaults.
+_DEFAULTS = {
+    "search": {**_COMMON, **MAP_SETTINGS, "seed": 0, "joint_limits": True, "confirm_tol": FK_CONFIRM_TOL,
+               "limit_bound": True, "accept_retry": 16, "position_only": False},
+    "independent": {**_COMMON, "starts": DEFAULT_STARTS, "seed": 0, "ilimit": DEFAULT_ILIMIT, "rlimit": DEFAULT_RLIMIT,
+                    "joint_limits": True, "confirm_tol": FK_CONFIRM_TOL, "position_only": False, "chunk": None},
+    "paper": {**_COMMON, "ilimit": 500, "rlimit": 100, "chunk": None},
+}
+#: Fields a solver accepts and drops (the maps' `ik` dicts always did).
+_DROPPED = {"search": ("chunk",), "independent": (), "paper": ("seed", "starts")}
+_COUNTS = {"starts": 0, "seeds": 0, "retry": 0, "hole_retry": 0, "border_starts": 0, "accept_retry": 0,
+           "ilimit": 0, "rlimit": 0, "chunk": 1}
+_FLAGS = ("joint_limits", "seed_free_pass", "limit_bound", "position_only")
+
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """The settings of a numerical map search (see the module notes).
+
+    Attributes
+    ----------
+    solver : str
+        `"search"` (default), `"independent"` or `"paper"` (`SOLVERS`).
+    starts : int
+        Random starts per node after start 0 (`"search"`: in the first pass, default 0;
+        `"independent"`: starts in all, default `DEFAULT_STARTS`; `"paper"`: 1).
+    seeds, retry, hole_retry, border_starts, accept_retry : int
+        The search's neighbours' solutions per node and wave, retries next to solved nodes, retries
+        in a hole, starts of the border search (0: off), more starts where `accept` refused every
+        solution (`wsmap.kinematics.ik.search.map_search`).
+    seed : int or None
+        Seed of the random starts (>= 0, below 2**64; None: a fresh random one, not reproducible).
+    q0 : tuple of float or None
+        Start 0 (rad or m per joint; None: zeros).
+    tol : float
+        Tolerance on the error norm per start (m and rad), at least `MIN_TOL`.
+    ilimit, rlimit : int
+        Per start: iteration limit and consecutive-rejection limit.
+    lam : float
+        Initial LM damping.
+    gtol : float
+        The search's stationary-point test (0: off).
+    confirm_tol : float
+        Forward-kinematics confirmation tolerance (m and rad), at least `tol`.
+    joint_limits, seed_free_pass, limit_bound, position_only : bool
+        Honour the arm's revolute limits; rerun a neighbour's solution without the limits; the
+        joint-limit bound before any start; reach the position at any orientation.
+    chunk : int or None
+        Targets per call of the `"independent"` and `"paper"` solvers (None: their default;
+        the result does not depend on it).
+    """
+
+    solver: str = "search"
+    starts: int | None = None
+    seeds: int | None = None
+    retry: int | None = None
+    hole_retry: int | None = None
+    border_starts: int | None = None
+    accept_retry: int | None = None
+    seed: int | None = None
+    q0: tuple | None = None
+    tol: float | None = None
+    ilimit: int | None = None
+    rlimit: int | None = None
+    lam: float | None = None
+    gtol: float | None = None
+    confirm_tol: float | None = None
+    joint_limits: bool | None = None
+    seed_free_pass: bool | None = None
+    limit_bound: bool | None = None
+    position_only: bool | None = None
+    chunk: int | None = None
+
+    def __post_init__(self):
+        if self.solver not in SOLVERS:
+            raise ValueError(f"unknown solver {self.solver!r}; choose one of {', '.join(SOLVERS)}")
+        if self.solver == "paper" and self.starts not in (None, 1):
+            raise ValueError(f"the paper's solver has one start (q0), got starts={self.starts!r}; use solver 'search'")
+        defaults = _DEFAULTS[self.solver]
+        for f in dataclasses.fields(self):
+            name, value = f.name, getattr(self, f.name)
+            if name == "solver":
+                continue
+            if name in _DROPPED[self.solver]:
+                value = None
+            elif name not in defaults:
+                if value is not None:
+                    raise ValueError(f"solver {self.solver!r} takes no {name} (it reads "
+                                     f"{', '.join(sorted(defaults))})")
+            elif value is None:
+                value = defaults[name]
+            object.__setattr__(self, name, _checked(name, value))
+        self._check_tolerances()
+
+    def _check_tolerances(self):
+        if self.tol < MIN_TOL:
+            raise ValueError(f"tol must be at least {MIN_TOL:g} (float64 forward kinematics is exact to about 1e-16 "
+                             f"per metre, so no pose meets a smaller one), got {self.tol!r}")
+        if self.confirm_tol is not None and self.confirm_tol < self.tol:
+            raise ValueError(f"confirm_tol ({self.confirm_tol}) must be at least tol ({self.tol})")
+
+    @classmethod
+    def from_dict(cls, ik: Mapping | None = None, base: Mapping | None = None) -> SearchSettings:
+        """The settings of an `ik` dict (the maps' `ik=` argument, a map file's record): `base`
+        (e.g. `MAP_SETTINGS`, a kind's defaults) updated with `ik`; a key that is not a field is
+        a `ValueError` naming the fields."""
+        merged = {**(base or {}), **(ik or {})}
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(k for k in merged if k not in known)
+        if unknown:
+            raise ValueError(f"unknown IK setting(s) {', '.join(map(repr, unknown))}; settings: "
+                             f"{', '.join(sorted(known))}")
+        return cls(**merged)
+
+    def to_dict(self) -> dict:
+        """The fields the solver reads, as plain JSON values (`q0` a list)."""
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        out = {k: v for k, v in out.items() if v is not None or k in _DEFAULTS[self.solver]}
+        if out.get("q0") is not None:
+            out["q0"] = list(out["q0"])
+        return out
+
+    def replace(self, **changes) -> SearchSettings:
+        """A copy with `changes` (field names; checked as at construction)."""
+        current = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        if "solver" in changes and changes["solver"] != self.solver:
+            current = {"solver": changes["solver"]}  # the other solver's defaults, not this one's values
+        return SearchSettings(**{**current, **changes})
+
+    def digest(self) -> str:
+        """The settings hash: SHA-256 (hex) of the fields as canonical JSON (equal settings, equal
+        digest, in any process)."""
+        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"), default=repr)
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    @property
+    def q0_array(self) -> np.ndarray | None:
+        """`q0` as a float64 array `(n,)`, or None."""
+        return None if self.q0 is None else np.asarray(self.q0, dtype=np.float64)
+
+
+def _checked(name, value):
+    if value is None:
+        return None
+    if name in _COUNTS:
+        return _count(name, value, _COUNTS[name])
+    if name in _FLAGS:
+        if not isinstance(value, (bool, np.bool_)):
+            raise ValueError(f"{name} must be True or False, got {value!r}")
+        return bool(value)
+    if name == "seed":
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value < 2**64:
+            raise ValueError(f"seed must be a non-negative integer below 2**64 (or None for a random one), "
+                             f"got {value!r}")
+        return int(value)
+    if name == "q0":
+        q = np.asarray(value, dtype=np.float64)
+        if q.ndim != 1 or not np.all(np.isfinite(q)):
+            raise ValueError(f"q0 must be a finite joint vector (n,), got {value!r}")
+        return tuple(float(v) for v in q)
+    return _positive(name, value, allow_zero=name == "gtol")
+
+
+def _count(name, v, minimum):
+    try:
+        ok = not isinstance(v, bool) and np.isscalar(v) and np.isreal(v) and np.isfinite(v) and int(v) == v
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok or v < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {v!r}")
+    return int(v)
+
+
+def _positive(name, v, allow_zero=False):
+    if isinstance(v, bool) or not (np.isscalar(v) and np.isreal(v) and math.isfinite(v) and
+                                   (v > 0 or (allow_zero and v == 0))):
+        raise ValueError(f"{name} must be {'non-negative' if allow_zero else 'positive'} and finite, got {v!r}")
+    return float(v)
+
+
+def as_settings(ik: SearchSettings | Mapping | None, base: Mapping | None = None) -> SearchSettings:
+    """`ik` as `SearchSettings`: itself when it is one, else `SearchSettings.from_dict(ik, base)`."""
+    if isinstance(ik, SearchSettings):
+        return ik
+    if ik is not None and not isinstance(ik, Mapping):
+        raise ValueError(f"IK settings must be a SearchSettings or a dict, got {type(ik).__name__}")
+    return SearchSettings.from_dict(ik, base)
