@@ -303,6 +303,15 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, settings: Search
         waves, the retries, then `accept_retry` more random starts, and the border search
     **overrides : fields of `settings` to change for this call (`SearchSettings.replace`)
 
+    Returns
+    -------
+    IKSolution
+        Of shape `(B, N)` (`(N,)` for one
+        arm), its fields as `ikine_search`'s; `start` is the random start's index `k`
+        (0 = `q0`) that succeeded, `-2` where a neighbour's solution did, `-1` where none did.
+
+    Notes
+    -----
     Per arm, in passes: (1) every node: `q0` then `starts` random starts (the first ones of
     `ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
     neighbour whose solution it has not tried takes up to `seeds` of them, in neighbour order, as
@@ -315,10 +324,6 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, settings: Search
     whatever the waves did before. Every success is confirmed by forward kinematics inside the
     limits, so `True` is never wrong; recall is measured in `benchmarks/bench_fast_maps.py` and
     `benchmarks/bench_recall_arms.py`. Deterministic; does not depend on the thread count.
-
-    Returns an `IKSolution` of shape `(B, N)` (`(N,)` for one
-    arm), its fields as `ikine_search`'s; `start` is the random start's index `k`
-    (0 = `q0`) that succeeded, `-2` where a neighbour's solution did, `-1` where none did.
     """
     s = SearchSettings() if settings is None else settings
     if not isinstance(s, SearchSettings):
