@@ -20,16 +20,17 @@ at a time), and the agreement of each numerical result with the exact map.
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import platform
 import sys
-import time
+from pathlib import Path
 
 import numpy as np
 
 from wsmap.paper.published import RUNTIME_SECONDS
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 PAPER_SECONDS_9261 = RUNTIME_SECONDS[9261][0]  # the paper's classical run time for the 9261-node map
 
@@ -38,11 +39,10 @@ def _best_of(fn, repeats):
     """(best wall time in s, CPU time of that run in s, result of the last call)."""
     best, best_cpu, out = np.inf, np.inf, None
     for _ in range(repeats):
-        t, c = time.perf_counter(), time.process_time()
-        out = fn()
-        dt, dc = time.perf_counter() - t, time.process_time() - c
-        if dt < best:
-            best, best_cpu = dt, dc
+        with harness.Stopwatch() as sw:
+            out = fn()
+        if sw.seconds < best:
+            best, best_cpu = sw.seconds, sw.cpu_seconds
     return best, best_cpu, out
 
 
@@ -67,19 +67,17 @@ def _rtb_puma(puma):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = harness.parser(__doc__, repeat=5, seed=0, threads=None,
+                        repeat_help="repeats of the whole-map timings (best is kept)",
+                        seed_help="seed of the node sample", threads_help=(
+                            "threads of the compiled kernel (wsmap.kinematics.lm_compiled.set_threads; default: "
+                            "WSMAP_THREADS or every core)"))
     ap.add_argument("--nodes-sample", type=int, default=200, help="nodes solved one at a time (methods 3, 4)")
-    ap.add_argument("--repeats", type=int, default=5, help="repeats of the whole-map timings (best is kept)")
-    ap.add_argument("--seed", type=int, default=0, help="seed of the node sample")
-    ap.add_argument("--threads", type=int, default=None,
-                    help="threads of the compiled kernel (wsmap.kinematics.lm_compiled.set_threads; default: "
-                         "WSMAP_THREADS or every core)")
     ap.add_argument("--reference", action="store_true",
                     help="also time the numpy reference of the LM iteration (wsmap.kinematics.ik.lm_reference)")
-    ap.add_argument("--json", metavar="PATH", help="also write the numbers to this JSON file")
     args = ap.parse_args(argv)
-    if args.nodes_sample < 1 or args.repeats < 1:
-        ap.error("--nodes-sample and --repeats must be positive")
+    if args.nodes_sample < 1:
+        ap.error("--nodes-sample must be positive")
     from wsmap import robots
     from wsmap import workspace as ws
     from wsmap.kinematics import ikine_LM, lm_compiled
@@ -107,31 +105,31 @@ def main(argv=None):
     rows = []
 
     # 1. exact
-    t, c, exact = _best_of(lambda: ws.constant_orientation_map(puma, nodes, method="exact"), args.repeats)
+    t, c, exact = _best_of(lambda: ws.constant_orientation_map(puma, nodes, method="exact"), args.repeat)
     rows.append({"method": "exact map (closed form, batched)", "nodes": N, "seconds": t, "cpu_seconds": c,
                  "agreement": _agreement(exact, exact)})
 
     # 2. batched numerical
     ik = {"tol": 1e-10, "solver": "paper"}  # the paper's one-start LM
     t, c, num = _best_of(
-        lambda: ws.constant_orientation_map(puma, nodes, method="numerical", ik=ik), max(1, args.repeats)
+        lambda: ws.constant_orientation_map(puma, nodes, method="numerical", ik=ik), max(1, args.repeat)
     )
     rows.append({"method": "numerical map (batched LM, tol 1e-10)", "nodes": N, "seconds": t, "cpu_seconds": c,
                  "agreement": _agreement(num, exact)})
 
     # 2b. the numpy reference of the same iteration, for comparison
     if args.reference:
-        t, c, ref = _best_of(lambda: ikine_LM_reference(puma, T, tol=1e-10).success, max(1, min(args.repeats, 2)))
+        t, c, ref = _best_of(lambda: ikine_LM_reference(puma, T, tol=1e-10).success, max(1, min(args.repeat, 2)))
         rows.append({"method": "numerical map, numpy reference LM", "nodes": N, "seconds": t,
                      "cpu_seconds": c, "agreement": _agreement(ref, exact),
                      "same_success_as_new": bool(np.array_equal(ref, num))})
 
     # 3. one node at a time, as the paper did
     ok = np.zeros(len(sample), dtype=bool)
-    t0, c0 = time.perf_counter(), time.process_time()
-    for k, i in enumerate(sample):
-        ok[k] = ikine_LM(puma, T[i], tol=1e-10).success
-    t, c = time.perf_counter() - t0, time.process_time() - c0
+    with harness.Stopwatch() as sw:
+        for k, i in enumerate(sample):
+            ok[k] = ikine_LM(puma, T[i], tol=1e-10).success
+    t, c = sw.seconds, sw.cpu_seconds
     rows.append({"method": "ikine_LM one node at a time (paper's way)", "nodes": int(len(sample)),
                  "seconds": t * N / len(sample), "cpu_seconds": c * N / len(sample), "extrapolated": True,
                  "agreement": _agreement(ok, exact[sample])})
@@ -146,16 +144,16 @@ def main(argv=None):
         # Robotics Toolbox's C++ solver (Chan's damping by default), one search from q0 = 0 so
         # that it matches the paper's setting; its own stopping rules differ from the Appendix
         ok = np.zeros(len(sample), dtype=bool)
-        t0, c0 = time.perf_counter(), time.process_time()
-        try:
-            for k, i in enumerate(sample):
-                sol = rtb_robot.ik_LM(T[i], q0=np.zeros(6), ilimit=500, slimit=1, tol=1e-10, joint_limits=False)
-                # 1.x returns an IKSolution (attribute .success); older releases a tuple
-                ok[k] = bool(sol.success if hasattr(sol, "success") else sol[1])
-        except Exception as exc:  # an ik_LM signature other than roboticstoolbox 1.x's
-            print(f"roboticstoolbox ik_LM failed ({type(exc).__name__}: {exc}); skipping it", file=sys.stderr)
-            rtb_robot = None
-        t, c = time.perf_counter() - t0, time.process_time() - c0
+        with harness.Stopwatch() as sw:
+            try:
+                for k, i in enumerate(sample):
+                    sol = rtb_robot.ik_LM(T[i], q0=np.zeros(6), ilimit=500, slimit=1, tol=1e-10, joint_limits=False)
+                    # 1.x returns an IKSolution (attribute .success); older releases a tuple
+                    ok[k] = bool(sol.success if hasattr(sol, "success") else sol[1])
+            except Exception as exc:  # an ik_LM signature other than roboticstoolbox 1.x's
+                print(f"roboticstoolbox ik_LM failed ({type(exc).__name__}: {exc}); skipping it", file=sys.stderr)
+                rtb_robot = None
+        t, c = sw.seconds, sw.cpu_seconds
     if rtb_robot is not None:
         rows.append({"method": "roboticstoolbox ik_LM (C++, one node at a time)", "nodes": int(len(sample)),
                      "seconds": t * N / len(sample), "cpu_seconds": c * N / len(sample), "extrapolated": True,
@@ -179,11 +177,9 @@ def main(argv=None):
               f"{r['nodes_per_second']:,.0f} | {r['speedup_vs_paper']:,.0f}x | {a['rate']:.4f} | "
               f"{a['false_negatives']} | {a['false_positives']} |")
     print()
-    print(f"exact map: {rows[0]['seconds'] * 1e3:.2f} ms (best of {args.repeats})")
+    print(f"exact map: {rows[0]['seconds'] * 1e3:.2f} ms (best of {args.repeat})")
 
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump({"info": info, "paper_seconds_9261": PAPER_SECONDS_9261, "rows": rows}, f, indent=2)
+    harness.write_json(args, {"info": info, "paper_seconds_9261": PAPER_SECONDS_9261, "rows": rows})
     return rows
 
 

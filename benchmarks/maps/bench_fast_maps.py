@@ -28,25 +28,22 @@ Goals (issue "fast maps", 2-core machine) are printed beside the measurements.
 
 from __future__ import annotations
 
-import argparse
 import os
 import platform
 import sys
-import time
+from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 PI = np.pi
 
 
 def best_of(fn, repeats):
-    fn()  # warm-up: compile, caches
-    best = np.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
+    """(best seconds of `repeats` calls, the last answer), after an untimed warm-up call (compile, caches)."""
+    return harness.best_of(fn, repeats, warmup=1)
 
 
 def urdf_of(chain) -> str:
@@ -88,8 +85,16 @@ def poses(nodes, R):
 
 def section_kernel(args, out):
     from wsmap import robots
-    from wsmap.kinematics import ikine_LM, ikine_search, ikine_spherical_wrist, lm_compiled
-    from wsmap.kinematics.ik.lm_reference import ikine_LM_reference, ikine_search_reference
+    from wsmap.kinematics import (
+        ikine_LM,
+        ikine_search,
+        ikine_spherical_wrist,
+        lm_compiled,
+    )
+    from wsmap.kinematics.ik.lm_reference import (
+        ikine_LM_reference,
+        ikine_search_reference,
+    )
     from wsmap.workspace import cartesian_grid
 
     puma = robots.puma560()
@@ -104,14 +109,14 @@ def section_kernel(args, out):
 
     for th in (2, 1):
         lm_compiled.set_threads(th)
-        t, r = best_of(lambda: ikine_search(puma, T), args.repeats)
+        t, r = best_of(lambda: ikine_search(puma, T), args.repeat)
         add(f"wsmap ikine_search, compiled, {th} thread{'s' if th > 1 else ''}", t, r.success)
     lm_compiled.set_threads(2)
-    t, r = best_of(lambda: ikine_LM(puma, T), args.repeats)
+    t, r = best_of(lambda: ikine_LM(puma, T), args.repeat)
     add("wsmap ikine_LM (paper's LM), compiled, 2 threads", t, r.success)
-    t, r = best_of(lambda: ikine_search_reference(puma, T), max(1, args.repeats // 2))
+    t, r = best_of(lambda: ikine_search_reference(puma, T), max(1, args.repeat // 2))
     add("wsmap ikine_search, numpy reference", t, r.success)
-    t, r = best_of(lambda: ikine_LM_reference(puma, T), max(1, args.repeats // 2))
+    t, r = best_of(lambda: ikine_LM_reference(puma, T), max(1, args.repeat // 2))
     add("wsmap ikine_LM (paper's LM), numpy reference", t, r.success)
     try:
         rob = rtb_robot(puma.d, puma.a, puma.alpha)
@@ -137,7 +142,7 @@ def section_kernel(args, out):
         ik = pk.PseudoInverseIK(chain, max_iterations=50, num_retries=1, pos_tolerance=1e-6, rot_tolerance=1e-5,
                                 retry_configs=torch.zeros(1, 6, dtype=torch.float64),
                                 early_stopping_any_converged=True, enforce_joint_limits=False)
-        t, sol = best_of(lambda: ik.solve(goal), max(1, args.repeats // 2))
+        t, sol = best_of(lambda: ik.solve(goal), max(1, args.repeat // 2))
         add("pytorch-kinematics PseudoInverseIK, batched (torch, 2 threads)", t,
             sol.converged_any.numpy(), "start q = 0, 50 iterations, tol 1e-6 m / 1e-5 rad")
     except ImportError as exc:
@@ -169,7 +174,7 @@ def section_maps(args, out):
             T = poses(nodes, R)
             exact = (ikine_spherical_wrist(arm, T).success.any(axis=-1) if name == "puma560" else ur_reachable(arm, T))
             t, m = best_of(lambda: constant_orientation_map(arm, nodes, rpy, method="numerical",
-                                                            convention="standard"), args.repeats)
+                                                            convention="standard"), args.repeat)
             row = {"arm": name, "orientation": label, "method": "wsmap numerical map (compiled, 2 threads)",
                    "seconds": t, "reachable": int(exact.sum()), "recall": float((m & exact).sum() / exact.sum()),
                    "false_positives": int((m & ~exact).sum()), "goal_seconds": goals[name]}
@@ -184,9 +189,8 @@ def section_maps(args, out):
                     d, a, alpha, _ = np.array(robots.NAMED["ur5e"].rows).T
                     rob = rtb_robot(d, a, alpha, robots.NAMED["ur5e"].qlim)
                     jl = True
-                t0 = time.perf_counter()
-                ok = np.array([rob.ik_LM(T[i], tol=1e-10, joint_limits=jl)[1] for i in sample], dtype=bool)
-                ts = time.perf_counter() - t0
+                ts, ok = harness.timed(lambda: np.array([rob.ik_LM(T[i], tol=1e-10, joint_limits=jl)[1]  # noqa: B023
+                                                         for i in sample], dtype=bool))
                 rows.append({"arm": name, "orientation": label,
                              "method": f"Robotics Toolbox ik_LM (C++), default restarts, node by node "
                                        f"({len(sample)} nodes, extrapolated)",
@@ -203,7 +207,7 @@ def section_maps(args, out):
             arm = robots.load(name)
             T = poses(nodes, rotx(PI))
             t, m = best_of(lambda: constant_orientation_map(arm, nodes, (PI, 0, 0), method="numerical",
-                                                            convention="standard"), max(1, args.repeats // 2))
+                                                            convention="standard"), max(1, args.repeat // 2))
             ref = ikine_search(arm, T, starts=64).success
             rows.append({"arm": name, "orientation": "tool down", "method": "wsmap numerical map (compiled, 2 threads)",
                          "seconds": t, "reachable": int(ref.sum()), "recall": float((m & ref).sum() / ref.sum()),
@@ -236,8 +240,8 @@ def section_ur_exact(args, out):
     rows = []
     for label, R in (("R = I", np.eye(3)), ("tool down", rotx(PI))):
         T = poses(nodes, R)
-        t_ours, ours = best_of(lambda: ur_reachable(chain, T), args.repeats)
-        t_eaik, sols = best_of(lambda: eaik.IK_batched(T, 1), args.repeats)
+        t_ours, ours = best_of(lambda: ur_reachable(chain, T), args.repeat)
+        t_eaik, sols = best_of(lambda: eaik.IK_batched(T, 1), args.repeat)
         Q = np.zeros((len(T), 8, 6))
         present = np.zeros((len(T), 8), dtype=bool)
         for i, s in enumerate(sols):
@@ -246,7 +250,7 @@ def section_ur_exact(args, out):
         err = np.abs(chain.fkine(np.moveaxis(Q, 1, 0)) - T).max(axis=(-1, -2)).T
         theirs = (present & (err <= 1e-6)).any(axis=-1)
         lm_compiled.set_threads(2)
-        t_ours2, _ = best_of(lambda: ur_reachable(chain, T), args.repeats)
+        t_ours2, _ = best_of(lambda: ur_reachable(chain, T), args.repeat)
         lm_compiled.set_threads(1)
         rows.append({"orientation": label, "wsmap_seconds": t_ours, "wsmap_seconds_2_threads": t_ours2,
                      "eaik_seconds": t_eaik,
@@ -329,18 +333,16 @@ def section_scaling(args, out):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--repeats", type=int, default=5)
+    ap = harness.parser(__doc__, repeat=5, repeat_help="timed calls per row after a warm-up, best kept (default 5)")
     ap.add_argument("--rtb-sample", type=int, default=300, help="nodes for the Robotics Toolbox map rows")
     ap.add_argument("--scaling", action="store_true", help="also measure cost against nodes and arms (minutes)")
     ap.add_argument("--all-arms", action="store_true",
                     help="also the Panda, iiwa14 and Gen3 maps, recall against 64 independent starts per node")
     ap.add_argument("--sections", default="1234", help="which sections to run (digits)")
     ap.add_argument("--plot", help="scaling figure (PNG)")
-    ap.add_argument("--json", help="write the numbers here")
     args = ap.parse_args(argv)
-    if args.repeats < 1 or args.rtb_sample < 1:
-        ap.error("--repeats and --rtb-sample must be positive")
+    if args.rtb_sample < 1:
+        ap.error("--rtb-sample must be positive")
     if args.plot and not args.scaling:
         ap.error("--plot needs --scaling")
     import numba
@@ -358,10 +360,7 @@ def main(argv=None):
         section_ur_exact(args, out)
     if args.scaling and "4" in args.sections:
         section_scaling(args, out)
-    if args.json:
-        from wsmap.io import write_json
-
-        write_json(out, args.json)
+    harness.write_json(args, out)
     return out
 
 

@@ -19,12 +19,10 @@ thread, each once (alternating ``--index-repeats`` times), its bits compared.
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import os
 import sys
-import time
+from pathlib import Path
 
 import numpy as np
 
@@ -34,6 +32,9 @@ from wsmap.kinematics import as_chain, lm_compiled
 from wsmap.kinematics.ik import reach_filter
 from wsmap.kinematics.ik.search import MAP_SETTINGS, map_search
 from wsmap.kinematics.ik.solution import IKReason
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
 def urdf_arm():
@@ -54,32 +55,21 @@ def cube(chain, k=21):
     return np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=-1)
 
 
-def best(fn, repeats):
-    times, out = [], None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
-
 
 def bench_arm(label, arm, nodes, repeats):
     chain = as_chain(arm)
     nb = ws.node_neighbours(nodes)
     T = ws.target_poses(nodes, (math.pi, 0.0, 0.0), "standard")
     reach_filter._LIMIT_BOUNDS.items.clear()
-    t0 = time.perf_counter()
-    b = reach_filter.limit_bounds(chain)
-    t_build = time.perf_counter() - t0
+    t_build, b = harness.timed(lambda: reach_filter.limit_bounds(chain))
     lm_compiled.set_threads(1)
     map_search(arm, T, nb, **MAP_SETTINGS)  # warm
     times = {True: [], False: []}
     res = {}
     for _ in range(repeats):
         for on in (True, False):
-            t0 = time.perf_counter()
-            res[on] = map_search(arm, T, nb, **MAP_SETTINGS, limit_bound=on)
-            times[on].append(time.perf_counter() - t0)
+            t, res[on] = harness.timed(lambda: map_search(arm, T, nb, **MAP_SETTINGS, limit_bound=on))  # noqa: B023
+            times[on].append(t)
     on, off = res[True], res[False]
     same = bool(np.array_equal(on.success, off.success) and np.array_equal(on.q[on.success], off.q[off.success]))
     threads = {}
@@ -88,9 +78,7 @@ def bench_arm(label, arm, nodes, repeats):
         for _ in range(repeats):
             for k in (1, 2):
                 lm_compiled.set_threads(k)
-                t0 = time.perf_counter()
-                map_search(arm, T, nb, **MAP_SETTINGS)
-                t[k].append(time.perf_counter() - t0)
+                t[k].append(harness.timed(lambda: map_search(arm, T, nb, **MAP_SETTINGS))[0])
         threads = {"seconds_1_thread": min(t[1]), "seconds_2_threads": min(t[2])}
     lm_compiled.set_threads(1)
     row = dict(arm=label, nodes=len(nodes), reachable_on=int(on.success.sum()), reachable_off=int(off.success.sum()),
@@ -122,9 +110,9 @@ def bench_index(step, k, repeats):
     bits = {}
     for _ in range(repeats):
         for on in (True, False):
-            t0 = time.perf_counter()
-            bits[on] = reachability_index(panda, nodes, R, return_bits=True, ik={"limit_bound": on})[1]
-            times[on].append(time.perf_counter() - t0)
+            t, (_, bits[on]) = harness.timed(
+                lambda: reachability_index(panda, nodes, R, return_bits=True, ik={"limit_bound": on}))  # noqa: B023
+            times[on].append(t)
     row = dict(nodes=len(nodes), orientations=k, step=step, seconds_on=min(times[True]), seconds_off=min(times[False]),
                reachable_poses_on=int(bits[True].sum()), reachable_poses_off=int(bits[False].sum()),
                identical=bool(np.array_equal(bits[True], bits[False])))
@@ -136,9 +124,8 @@ def bench_index(step, k, repeats):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--repeats", type=int, default=5)
-    p.add_argument("--json", help="write the results here")
+    p = harness.parser(__doc__, repeat=5, repeat_help="timed maps with the bound on and off, interleaved; best kept "
+                                                      "(default 5)")
     p.add_argument("--index", action="store_true", help="also the Panda's reachability index on and off")
     p.add_argument("--index-step", type=float, default=0.05)
     p.add_argument("--index-orientations", type=int, default=50)
@@ -151,15 +138,14 @@ def main(argv=None):
     yumi = urdf_arm()
     if yumi is not None:
         arms.append(("YuMi right arm (rtbdata URDF)", yumi, cube(as_chain(yumi))))
-    rows = [] if args.no_maps else [bench_arm(label, arm, nodes, args.repeats) for label, arm, nodes in arms]
+    rows = [] if args.no_maps else [bench_arm(label, arm, nodes, args.repeat) for label, arm, nodes in arms]
     if args.index:
         rows.append(dict(arm="Panda index", **bench_index(args.index_step, args.index_orientations, args.index_repeats)))
     if not all(r["identical"] for r in rows):
         print("MAPS DIFFER with and without the bound", file=sys.stderr)
     if args.json:
         os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
-        with open(args.json, "w") as f:
-            json.dump(dict(load_average=os.getloadavg(), rows=rows), f, indent=1)
+    harness.write_json(args, dict(load_average=os.getloadavg(), rows=rows))
     return 0 if all(r["identical"] for r in rows) else 1
 
 

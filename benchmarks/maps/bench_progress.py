@@ -9,32 +9,26 @@ orientations), best of ``--repeats``, side by side in one run; the maps must be 
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import io
 import math
-import time
+import sys
+from pathlib import Path
 
 import numpy as np
 
 from wsmap import robots
 from wsmap import workspace as ws
 
-
-def best(fn, repeats):
-    times, out = [], None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=3)
+def main(argv=None):
+    ap = harness.parser(__doc__, repeat=3, repeat_help="timed maps per progress setting, best kept (default 3)")
     ap.add_argument("--step", type=float, default=0.1)
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
+    record = []
     panda, ur5e = robots.load("panda"), robots.load("ur5e")
     grid = ws.grid_spec("R3", -1, 1, args.step)
     nodes = ws.cartesian_grid(grid["lo"], grid["hi"], grid["step"])
@@ -49,11 +43,13 @@ def main():
         rows = []
         for label, progress in (("off", False), ("callable", lambda n: None), ("tqdm bar", True)):
             with contextlib.redirect_stderr(io.StringIO()):
-                t, out = best(lambda: fn(progress), args.repeats)
+                t, out = harness.best_of(lambda: fn(progress), args.repeat)  # noqa: B023 - called at once
             rows.append((label, t, out))
         for label, t, out in rows:
             assert np.array_equal(out, rows[0][2]), f"{case}: progress {label} changed the map"
             print(f"{case:40s} progress {label:9s} {t:8.3f} s  ({t / rows[0][1] - 1:+.1%})")
+            record.append({"case": case, "progress": label, "seconds": t, "overhead": t / rows[0][1] - 1})
+    harness.write_json(args, {"step": args.step, "rows": record})
 
 
 if __name__ == "__main__":

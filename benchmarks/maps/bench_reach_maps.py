@@ -20,26 +20,23 @@ of a UR5e, and the row a user would write today with Robotics Toolbox.
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
-import time
+from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
-def timed(fn):
-    t = time.perf_counter()
-    out = fn()
-    return time.perf_counter() - t, out
+timed = harness.timed
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = harness.parser(__doc__)
     ap.add_argument("--sample", type=int, default=150, help="nodes of the Panda index checked against the reference")
     ap.add_argument("--ref-starts", type=int, default=64)
     ap.add_argument("--rtb-sample", type=int, default=100)
-    ap.add_argument("--json")
     args = ap.parse_args(argv)
 
     import numba
@@ -139,10 +136,7 @@ def main(argv=None):
         print(f"| Panda index by Robotics Toolbox ik_LM, restarts, pose by pose ({r['poses']} poses, extrapolated) | "
               f"{pi_['nodes']:,} x 50 | {r['extrapolated_seconds_whole_index']:,.0f} | | agrees with the index on "
               f"{r['agreement_with_index_bits']:.0%} of its poses |")
-    if args.json:
-        from wsmap.io import write_json
-
-        write_json(out, args.json)
+    harness.write_json(args, out)
     return out
 
 

@@ -26,13 +26,9 @@ JSON with ``--json PATH``.
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
-import os
-import platform
 import sys
-import time
+from pathlib import Path
 
 import numpy as np
 
@@ -40,6 +36,9 @@ from wsmap import robots
 from wsmap import workspace as ws
 from wsmap.kinematics import from_dh
 from wsmap.kinematics.ik.search import DEFAULT_STARTS, ikine_search
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 COUNTS = (1, 2, 4, 8, 12, 16, 24, 32, 48, 64)
 ORIENTATIONS = {"R=I": (0.0, 0.0, 0.0), "tool down": (math.pi, 0.0, 0.0)}
@@ -92,22 +91,18 @@ def cases(which):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p = harness.parser(__doc__, seed=0, seed_help="seed of the random IK starts (default 0)")
     p.add_argument("--counts", type=int, nargs="+", default=list(COUNTS))
-    p.add_argument("--seed", type=int, default=0)
     p.add_argument("--cases", nargs="+", default=["puma560", "puma560_limits", "ur5e"],
                    choices=["puma560", "puma560_limits", "ur5e"])
     p.add_argument("--no-time-each", dest="time_each", action="store_false",
                    help="only the largest count is run and timed; the curve comes from its start indices")
-    p.add_argument("--json", help="write the results here")
     args = p.parse_args(argv)
     counts = sorted(set(args.counts))
     S = counts[-1]
     rows = []
     for robot, oname, arm, T, exact, extra in cases(args.cases):
-        t0 = time.perf_counter()
-        res = ikine_search(arm, T, starts=S, seed=args.seed)
-        t_max = time.perf_counter() - t0
+        t_max, res = harness.timed(lambda: ikine_search(arm, T, starts=S, seed=args.seed))  # noqa: B023
         first = res.start
         n_exact = int(exact.sum())
         row = {"robot": robot, "orientation": oname, "nodes": len(T), "reachable": n_exact, **extra,
@@ -121,9 +116,8 @@ def main(argv=None):
                 if k == S:
                     entry["seconds"] = t_max
                 else:
-                    t0 = time.perf_counter()
-                    m = ikine_search(arm, T, starts=k, seed=args.seed).success
-                    entry["seconds"] = time.perf_counter() - t0
+                    entry["seconds"], m = harness.timed(
+                        lambda: ikine_search(arm, T, starts=k, seed=args.seed).success)  # noqa: B023
                     if not np.array_equal(m, found):
                         raise AssertionError(f"{robot} {oname}: the map with {k} starts is not the prefix of {S}")
             row["counts"][str(k)] = entry
@@ -154,11 +148,7 @@ def main(argv=None):
         for r in rows:
             print(f"| {r['robot']} | {r['orientation']} | "
                   + " | ".join(f"{r['counts'][str(k)]['seconds']:.1f}" for k in counts) + " |")
-    if args.json:
-        meta = {"python": platform.python_version(), "numpy": np.__version__, "machine": platform.machine(),
-                "cpus": os.cpu_count(), "seed": args.seed, "default_starts": DEFAULT_STARTS}
-        with open(args.json, "w") as f:
-            json.dump({"meta": meta, "rows": rows}, f, indent=1)
+    harness.write_json(args, {"meta": {"seed": args.seed, "default_starts": DEFAULT_STARTS}, "rows": rows})
 
 
 if __name__ == "__main__":

@@ -29,19 +29,19 @@ seconds with and without the border search) and the worst arm; ``--json PATH`` w
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import os
-import platform
 import sys
-import time
+from pathlib import Path
 
 import numpy as np
 
 from wsmap import workspace as ws
 from wsmap.kinematics.ik.search import MAP_SETTINGS, ikine_search, map_search
 from wsmap.kinematics.urdf import from_urdf
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 #: (name, source, base_link, ee_link): ``pb:`` paths are in ``pybullet_data``, the others in
 #: ``rtbdata/xacro``; ``None`` links: the URDF's root, its only leaf.
@@ -172,21 +172,16 @@ def run_arm(name, source, base_link, ee_link, nodes_per_axis, ref_starts):
     rows = []
     for oname, rpy in ORIENTATIONS.items():
         T = ws.target_poses(nodes, rpy, "standard")
-        t0 = time.perf_counter()
-        before = map_search(chain, T, nb, **{**MAP_SETTINGS, "border_starts": 0})
-        t_before = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        res = map_search(chain, T, nb, **MAP_SETTINGS)
-        t_after = time.perf_counter() - t0
+        t_before, before = harness.timed(
+            lambda: map_search(chain, T, nb, **{**MAP_SETTINGS, "border_starts": 0}))  # noqa: B023
+        t_after, res = harness.timed(lambda: map_search(chain, T, nb, **MAP_SETTINGS))  # noqa: B023
         pos = np.flatnonzero(res.success)
         good = confirm(pin_fk, chain, res.q[pos], T[pos])
         fp = int((~good).sum())
         reach = np.zeros(len(T), dtype=bool)
         reach[pos[good]] = True
         todo = np.flatnonzero(~res.success)
-        t0 = time.perf_counter()
-        ref = ikine_search(chain, T[todo], starts=ref_starts, seed=12345)
-        t_ref = time.perf_counter() - t0
+        t_ref, ref = harness.timed(lambda: ikine_search(chain, T[todo], starts=ref_starts, seed=12345))  # noqa: B023
         hit = np.flatnonzero(ref.success)
         ok_ref = confirm(pin_fk, chain, ref.q[hit], T[todo][hit])
         reach[todo[hit[ok_ref]]] = True
@@ -229,21 +224,21 @@ def panda_map_times(repeats: int = 3) -> dict:
     counts = {}
     for _ in range(repeats):
         for label, ik in (("before", {"border_starts": 0}), ("after", {})):
-            t0 = time.perf_counter()
-            m = ws.grid_map(arm, grid, rpy=(math.pi, 0.0, 0.0), method="numerical", ik=ik)
-            out[label].append(time.perf_counter() - t0)
+            t, m = harness.timed(lambda: ws.grid_map(arm, grid, rpy=(math.pi, 0.0, 0.0), method="numerical",
+                                                     ik=ik))  # noqa: B023
+            out[label].append(t)
             counts[label] = int(m.sum())
     return {"seconds_before": min(out["before"]), "seconds_after": min(out["after"]),
             "reachable_before": counts["before"], "reachable_after": counts["after"], "nodes": int(m.size)}
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--quick", action="store_true", help=f"only {', '.join(QUICK)}; 11 nodes per axis")
+    p = harness.parser(__doc__, repeat=3, quick=f"only {', '.join(QUICK)}; 11 nodes per axis",
+                       repeat_help="timed Panda maps without and with the border search, alternating; best kept "
+                                   "(default 3)")
     p.add_argument("--arms", nargs="+", help="arm names of ARMS (default: all, or the quick ones)")
     p.add_argument("--nodes", type=int, help="nodes per axis (default 15, 11 with --quick)")
     p.add_argument("--ref-starts", type=int, default=128)
-    p.add_argument("--json", help="write the results here")
     args = p.parse_args(argv)
     names = args.arms or (QUICK if args.quick else [a[0] for a in ARMS])
     unknown = sorted(set(names) - {a[0] for a in ARMS})
@@ -254,11 +249,11 @@ def main(argv=None):
     nodes = args.nodes or (11 if args.quick else 15)
     rows = []
     warm_up()
-    t0 = time.perf_counter()
-    for arm in ARMS:
-        if arm[0] in names:
-            rows.extend(run_arm(*arm, nodes, args.ref_starts))
-    total = time.perf_counter() - t0
+    with harness.Stopwatch() as sw:
+        for arm in ARMS:
+            if arm[0] in names:
+                rows.extend(run_arm(*arm, nodes, args.ref_starts))
+    total = sw.seconds
     print(f"\nRecall of the default numerical map (MAP_SETTINGS, border_starts={MAP_SETTINGS['border_starts']}) "
           f"against a {args.ref_starts}-start per-node reference, every positive confirmed by Pinocchio's FK; "
           f"{nodes}³ nodes per arm; total {total:.0f} s\n")
@@ -277,17 +272,13 @@ def main(argv=None):
           f"false positives in all: {sum(r['false_positives'] for r in rows)}; "
           f"largest FK difference from Pinocchio {fk:.1e}; map time {sum(r['seconds'] for r in rows):.1f} s "
           f"(before {sum(r['seconds_before'] for r in rows):.1f} s)")
-    pm = panda_map_times()
-    print(f"\nDefault Panda tool-down map (wsmap.load('panda'), {pm['nodes']} nodes, numerical), best of 3: "
+    pm = panda_map_times(args.repeat)
+    print(f"\nDefault Panda tool-down map (wsmap.load('panda'), {pm['nodes']} nodes, numerical), best of {args.repeat}: "
           f"{pm['seconds_before']:.2f} s without the border search, {pm['seconds_after']:.2f} s with it "
           f"({pm['seconds_after'] / pm['seconds_before']:.1f}x); reachable {pm['reachable_before']} -> "
           f"{pm['reachable_after']}")
-    if args.json:
-        meta = {"python": platform.python_version(), "numpy": np.__version__, "machine": platform.machine(),
-                "cpus": os.cpu_count(), "nodes_per_axis": nodes, "ref_starts": args.ref_starts,
-                "map_settings": MAP_SETTINGS}
-        with open(args.json, "w") as f:
-            json.dump({"meta": meta, "rows": rows, "panda_tool_down_map": pm}, f, indent=1)
+    meta = {"nodes_per_axis": nodes, "ref_starts": args.ref_starts, "map_settings": MAP_SETTINGS}
+    harness.write_json(args, {"meta": meta, "rows": rows, "panda_tool_down_map": pm})
 
 
 if __name__ == "__main__":
