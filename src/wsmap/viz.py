@@ -32,7 +32,10 @@ from .workspace.grids import map_to_volume
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Any, ArrayLike, Axes, Figure, PathLike
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from wsmap._typing import Any, ArrayLike, PathLike
 
 __all__ = [
     "OUTCOME_COLORS", "plot_mean_band", "plot_training_curves", "plot_sample_errors", "plot_sections",

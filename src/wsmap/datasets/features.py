@@ -39,7 +39,8 @@ from .spec import N_DH, N_JOINTS, DatasetSpec, _check_spec, float64_array, requi
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike
+    from wsmap._typing import ArrayLike
+    from wsmap.kinematics.chain import Arm
 
 __all__ = [
     "grid_axes",

@@ -41,7 +41,8 @@ from .spec import MAX_SAMPLES, MAX_STARTS, N_JOINTS, STREAMS, DatasetSpec, _chec
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike, NDArray
+    from wsmap._typing import ArrayLike, NDArray
+    from wsmap.kinematics.chain import Arm
 
 __all__ = ["draw_samples", "draw_scales", "start_configurations", "uniform_rotations", "rotation_to_rpy"]
 

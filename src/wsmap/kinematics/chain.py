@@ -27,10 +27,10 @@ import numpy as np
 from .arms import ArmBatch
 from .dh import DHRobot
 from .transforms import as_real_array, check_finite, check_rigid
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeAlias
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike
+    from wsmap._typing import ArrayLike
 
 __all__ = ["SerialChain", "from_dh", "as_chain", "flatten_arms", "REVOLUTE", "PRISMATIC"]
 
@@ -262,6 +262,11 @@ class SerialChain(ArmBatch):
             q = lo + u * (hi - lo)
         # limits of ±1e308 overflow hi - lo: the same uniform draw as a convex combination there
         return np.where(np.isfinite(q), q, lo * (1.0 - u) + hi * u)
+
+
+#: One arm, or a batch of arms (parameters with a leading batch dimension): a `DHRobot` (standard
+#: DH) or a `SerialChain` (any serial arm). The annotation of every function that takes an arm.
+Arm: TypeAlias = DHRobot | SerialChain
 
 
 def from_dh(d: ArrayLike, a: ArrayLike, alpha: ArrayLike, offset: ArrayLike | None = None,

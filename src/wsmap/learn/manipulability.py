@@ -63,7 +63,8 @@ from .training_range import TrainingRange
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike, PathLike
+    from wsmap._typing import ArrayLike, PathLike
+    from wsmap.kinematics.chain import Arm
 
 __all__ = [
     "PARAM_NAMES",

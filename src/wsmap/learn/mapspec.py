@@ -112,9 +112,8 @@ def make_map_spec(dataset: Dataset, *, nodes: ArrayLike | None = None, assemble:
             "assemble": bool(assemble), "subspace": subspace, "threshold": threshold}
 
 
-def map_plan(config, map_spec) -> tuple[dict[str, Any], MapPlan]:
-    """Validate `map_spec` against a model's config -> (normalised dict, plan)."""
-    check_record(map_spec, {"dataset", "nodes", "assemble", "subspace", "threshold"}, "map_spec", "map_spec")
+def _plan_dataset(config, map_spec) -> DatasetSpec:
+    """The `DatasetSpec` of `map_spec["dataset"]`, checked against the model's input count."""
     if "dataset" not in map_spec:
         raise ValueError("map_spec needs 'dataset' (the DatasetSpec dict the model was trained on)")
     try:
@@ -125,25 +124,30 @@ def map_plan(config, map_spec) -> tuple[dict[str, Any], MapPlan]:
     if n_inputs is not None and spec.n_features != n_inputs:
         raise ValueError(f"map_spec dataset {spec.name!r} has {spec.n_features} features per arm but the model "
                          f"expects {n_inputs}: the model was trained on another grid or feature layout")
-    assemble = map_spec.get("assemble", False)
-    if not isinstance(assemble, (bool, np.bool_)):
-        raise ValueError(f"map_spec assemble must be true or false; got {assemble!r}")
-    assemble = bool(assemble)
-    S, m = config.n_subspaces, config.n_outputs
-    width = S * m if assemble else m
+    return spec
+
+
+def _plan_subspace(map_spec, assemble: bool, S: int) -> int | None:
+    """The subspace that predicts (`None` for an assembled model, which uses every one of its `S`)."""
     key = map_spec.get("subspace")
     if assemble:
         if key is not None:
             raise ValueError("map_spec: an assembled model uses every subspace; give no subspace")
-    elif key is None:
+        return None
+    if key is None:
         if S > 1:
             raise ValueError(f"map_spec: the model has {S} subspaces: set assemble=True (consecutive node "
                              "blocks) or pick one with subspace=k")
-        key = 0
-    else:
-        if isinstance(key, bool) or not isinstance(key, (int, np.integer)) or not 0 <= key < S:
-            raise ValueError(f"map_spec subspace must be an integer in 0..{S - 1}; got {key!r}")
-        key = int(key)
+        return 0
+    if isinstance(key, bool) or not isinstance(key, (int, np.integer)) or not 0 <= key < S:
+        raise ValueError(f"map_spec subspace must be an integer in 0..{S - 1}; got {key!r}")
+    return int(key)
+
+
+def _plan_nodes(map_spec, spec: DatasetSpec, assemble: bool, S: int, m: int) -> tuple[int, int]:
+    """The node range `[start, stop)` the outputs map: within the dataset's labelled nodes and
+    as wide as the model's outputs (`S·m` assembled, else `m`)."""
+    width = S * m if assemble else m
     labelled = node_slice(spec)
     nodes = map_spec.get("nodes")
     if nodes is None:
@@ -163,21 +167,39 @@ def map_plan(config, map_spec) -> tuple[dict[str, Any], MapPlan]:
         what = f"{S} subspaces x {m} outputs" if assemble else f"{m} outputs"
         raise ValueError(f"map_spec covers {stop - start} nodes [{start}, {stop}) but the model gives {width} "
                          f"({what})")
+    return start, stop
+
+
+def _template_features(spec: DatasetSpec) -> np.ndarray | None:
+    """The read-only feature row of the nominal arm whose columns `map_features` overwrites
+    (`None` for datasets with random fixed values: every column comes from the arm)."""
+    if spec.fixed == "random":
+        return None
+    if spec.is_chain_family:
+        # the nominal arm (scales 1): map_features overwrites the scale columns
+        template = features_for(np.ones((1, spec.n_arm_features)), spec)[0]
+    else:
+        zero = np.zeros((1, 6))
+        template = features_for(DHRobot(zero, zero, zero), spec)[0]
+    template.setflags(write=False)
+    return template
+
+
+def map_plan(config, map_spec) -> tuple[dict[str, Any], MapPlan]:
+    """Validate `map_spec` against a model's config -> (normalised dict, plan)."""
+    check_record(map_spec, {"dataset", "nodes", "assemble", "subspace", "threshold"}, "map_spec", "map_spec")
+    spec = _plan_dataset(config, map_spec)
+    assemble = map_spec.get("assemble", False)
+    if not isinstance(assemble, (bool, np.bool_)):
+        raise ValueError(f"map_spec assemble must be true or false; got {assemble!r}")
+    assemble = bool(assemble)
+    key = _plan_subspace(map_spec, assemble, config.n_subspaces)
+    start, stop = _plan_nodes(map_spec, spec, assemble, config.n_subspaces, config.n_outputs)
     threshold = map_spec.get("threshold", 0.5)
     threshold = check_threshold(0.5 if threshold is None else threshold, "map_spec threshold")
     normalised = {"dataset": spec.to_dict(), "nodes": [start, stop], "assemble": assemble,
-                  "subspace": None if assemble else key, "threshold": float(threshold)}
-    template = None
-    if spec.fixed != "random":
-        if spec.is_chain_family:
-            # the nominal arm (scales 1): map_features overwrites the scale columns
-            template = features_for(np.ones((1, spec.n_arm_features)), spec)[0]
-        else:
-            zero = np.zeros((1, 6))
-            template = features_for(DHRobot(zero, zero, zero), spec)[0]
-        template.setflags(write=False)
-    return normalised, MapPlan(spec, slice(start, stop), assemble, None if assemble else key, float(threshold),
-                                template)
+                  "subspace": key, "threshold": float(threshold)}
+    return normalised, MapPlan(spec, slice(start, stop), assemble, key, float(threshold), _template_features(spec))
 
 
 def family_scales(arms, spec) -> tuple[np.ndarray, tuple[int, ...]]:

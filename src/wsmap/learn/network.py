@@ -75,7 +75,9 @@ from .training_range import TrainingRange, check_no_range
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike, Dataset
+    from wsmap._typing import ArrayLike
+    from wsmap.datasets.store import Dataset
+    from wsmap.kinematics.chain import Arm
 
 __all__ = [
     "ACTIVATIONS",

@@ -22,7 +22,8 @@ from .network import SubspaceMLP
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike, PathLike
+    from wsmap._typing import ArrayLike, PathLike
+    from wsmap.kinematics.chain import Arm
 
 __all__ = ["predict_maps", "predict_maps_from_file", "check_model_grid", "MODEL_FORMATS", "register_model_format"]
 

@@ -84,7 +84,10 @@ from .optim import ALIASES, ELEMENTWISE, OPTIMIZERS, canonical_name, make_optimi
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import ArrayLike, SubspaceMLP, pd
+    import pandas as pd
+
+    from wsmap._typing import ArrayLike
+    from wsmap.learn.network import SubspaceMLP
 
 __all__ = [
     "LOSSES",

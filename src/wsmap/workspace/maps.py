@@ -29,7 +29,8 @@ from .grids import _check_fits, _triple, cartesian_grid, grid_axes, node_neighbo
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Any, Arm, ArrayLike, Callable, Mapping, NDArray, PathLike
+    from wsmap._typing import Any, ArrayLike, Callable, Mapping, NDArray, PathLike
+    from wsmap.kinematics.chain import Arm
 
 __all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP_SETTINGS", "target_poses",
            "reachable", "resolve_method", "constant_orientation_map", "orientation_map",

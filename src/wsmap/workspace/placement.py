@@ -22,7 +22,8 @@ from .maps import _exact, _predicate, resolve_method
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike, Callable
+    from wsmap._typing import ArrayLike, Callable
+    from wsmap.kinematics.chain import Arm
 
 __all__ = ["Placement", "base_placement", "floor_poses", "MAX_TARGETS", "MAX_YAWS", "MAX_CANDIDATES"]
 

@@ -34,7 +34,8 @@ from .orientations import check_rotations, continuation_order
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike, Callable, NDArray
+    from wsmap._typing import ArrayLike, Callable, NDArray
+    from wsmap.kinematics.chain import Arm
 
 __all__ = ["INDEX_SETTINGS", "position_map", "reachability_index", "dexterous_map", "manipulability_map",
            "manipulability_maps", "yoshikawa"]

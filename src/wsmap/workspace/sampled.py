@@ -32,7 +32,7 @@ from .grids import grid_counts
 from .maps import CONVENTIONS
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm
+    from wsmap.kinematics.chain import Arm
 
 __all__ = ["fk_sampled_maps", "orientation_share"]
 

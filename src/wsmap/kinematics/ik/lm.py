@@ -18,7 +18,8 @@ from .solution import MIN_TOL, IKSolution, failure_reasons
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike
+    from wsmap._typing import ArrayLike
+    from wsmap.kinematics.chain import Arm
 
 __all__ = ["ikine_LM"]
 

@@ -30,7 +30,7 @@ from ..arms import ArmBatch
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm
+    from wsmap.kinematics.chain import Arm
 
 __all__ = ["SHOULDER", "WRIST", "ELBOW", "ClosedForm", "register", "unregister", "closed_forms", "closed_form_for",
            "require_closed_form"]

@@ -31,7 +31,11 @@ from ...io import write_json, write_table
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Any, Callable, Figure, Outputs, Path, PathLike, Sequence, pd
+    from matplotlib.figure import Figure
+    import pandas as pd
+
+    from wsmap._typing import Any, Callable, Path, PathLike, Sequence
+    from wsmap.paths import Outputs
 
 __all__ = ["Part", "register", "registry", "part", "order", "reads", "metric_keys", "check_metrics", "save_tables",
            "save_figure"]

@@ -17,7 +17,8 @@ from ..solution import IKReason, IKSolution
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike
+    from wsmap._typing import ArrayLike
+    from wsmap.kinematics.chain import Arm
 
 __all__ = ["SPHERICAL_WRIST_ALPHA", "is_spherical_wrist", "require_spherical_wrist", "wrist_centre_reachable",
            "ikine_spherical_wrist", "spherical_wrist_reachable"]

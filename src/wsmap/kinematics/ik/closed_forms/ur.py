@@ -60,7 +60,8 @@ from ..solution import IKReason, IKSolution
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike
+    from wsmap._typing import ArrayLike
+    from wsmap.kinematics.chain import Arm
 
 __all__ = ["UR_ALPHA", "URParameters", "ur_parameters", "is_ur_type", "require_ur_type", "ikine_ur",
            "ur_reachable"]
