@@ -31,7 +31,8 @@ from .registry import ArmTable
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Arm, ArrayLike
+    from wsmap._typing import ArrayLike
+    from wsmap.kinematics.chain import Arm
 
 __all__ = [
     "spherical_wrist",
@@ -69,11 +70,14 @@ def spherical_wrist(a2: float, a3: float, d3: float, d4: float, d1: float = 0.0,
 
 
 # ------------------------------------------------------------------------------------------ arm families
-def _rng(seed) -> np.random.Generator:
+def as_generator(seed: int | np.random.Generator | None) -> np.random.Generator:
+    """`seed` itself when it is a `numpy.random.Generator` (the draw goes on from it), else
+    `numpy.random.default_rng(seed)`: the generator every family draws from."""
     return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
 
 
-def _check_count(count):
+def check_count(count: int) -> int:
+    """`count` (a number of arms to draw) as an int; not a positive integer is a `ValueError`."""
     if int(count) != count or count < 1:
         raise ValueError(f"count must be a positive integer, got {count!r}")
     return int(count)
@@ -202,8 +206,8 @@ class ArmFamily:
         """The parameters `(count, n_params)` of `count` random arms: one uniform `U(low, high)`
         array from `seed` (an int, `None` or a `numpy.random.Generator`), so the first `k`
         arms of a seed are the arms of `count = k`."""
-        count = _check_count(count)
-        return _rng(seed).uniform(self.low, self.high, size=(count, self.n_params))
+        count = check_count(count)
+        return as_generator(seed).uniform(self.low, self.high, size=(count, self.n_params))
 
     def sample(self, count: int, seed: int | None = None) -> tuple[DHRobot | SerialChain, np.ndarray]:
         """`count` random arms: `(arms, params)`, batch `(count,)`, `params` from `draw`."""

@@ -50,7 +50,7 @@ import numpy as np
 from ..kinematics import SerialChain
 from ..kinematics.chain import from_dh
 from ..kinematics.morphology import Morphology, describe, morphology_distance
-from .families import FAMILIES, ArmFamily, FamilyRangeWarning, _check_count, _rng
+from .families import FAMILIES, ArmFamily, FamilyRangeWarning, as_generator, check_count
 from .registry import load
 
 __all__ = ["MorphFamily", "MORPH6", "MORPH7", "HELD_OUT", "HOLD_OUT_RADIUS", "MORPH_GRID", "morph_params",
@@ -212,8 +212,8 @@ class MorphFamily(ArmFamily):
     def draw(self, count: int, seed=None) -> np.ndarray:
         """The parameters `(count, 6 n + 6)` of `count` random arms (module notes), from
         `seed` (an int, `None` or a `numpy.random.Generator`), one arm after another."""
-        count = _check_count(count)
-        rng = _rng(seed)
+        count = check_count(count)
+        rng = as_generator(seed)
         return np.stack([self._one(rng) for _ in range(count)])
 
     # ------------------------------------------------------------------ the range
