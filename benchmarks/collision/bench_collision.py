@@ -32,8 +32,8 @@ self-collision, the floor and a table (a solid box in the base frame, params.yam
 
 from __future__ import annotations
 
-import argparse
-import time
+import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -41,6 +41,9 @@ from wsmap import load
 from wsmap.collision import CollisionChecker, arm_model, build_acm
 from wsmap.kinematics import ikine_search
 from wsmap.workspace import cartesian_grid, constant_orientation_map, target_poses
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 DOWN = (np.pi, 0.0, 0.0)
 
@@ -62,12 +65,8 @@ def reference(robot, chk, T, starts, seed):
 
 
 def timed(f, repeats=2):
-    best, out = np.inf, None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = f()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
+    """(best seconds of `repeats` calls of `f()`, the last answer)."""
+    return harness.best_of(f, repeats)
 
 
 #: params.yaml's real_arms.collision.table: size (m) and centre (m) in the base frame; top at 0.3 m
@@ -77,7 +76,7 @@ TABLE = {"size": [0.8, 1.2, 0.3], "xyz": [0.75, 0.0, 0.15]}
 def bench_index(step, k, half_width=1.2, ik=None):
     """The Panda's index with and without collisions, timed once each (after a small warm-up);
     ``ik``: search settings for both (e.g. ``{"border_starts": 0}``)."""
-    from wsmap.collision import CollisionChecker, Scene, scene_from_dict
+    from wsmap.collision import CollisionChecker, scene_from_dict
     from wsmap.workspace import orientation_samples, reachability_index
 
     robot = load("panda")
@@ -112,12 +111,17 @@ def bench_index(step, k, half_width=1.2, ik=None):
     pos = np.argwhere(bits)
     sample = pos[rng.choice(len(pos), min(2000, len(pos)), replace=False)]
     qs = q[sample[:, 0], sample[:, 1]]
-    print(f"  {len(sample)} returned solutions sampled: colliding by coal alone {int((~chk.exact(qs)).sum())} "
+    colliding = int((~chk.exact(qs)).sum())
+    print(f"  {len(sample)} returned solutions sampled: colliding by coal alone {colliding} "
           f"(goal 0); inside the limits {bool(robot.within_limits(qs).all())}")
+    return {"nodes": len(nodes), "step": step, "orientations": k, "search_settings": ik, "acm_seconds": t_acm,
+            "chain_seconds": t0, "collision_free_seconds": t1, "chain_nodes_reached": int((i0 > 0).sum()),
+            "free_nodes_reached": int((i1 > 0).sum()), "sampled_solutions": len(sample),
+            "sampled_colliding": colliding, "checker": vars(st)}
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = harness.parser(__doc__)
     ap.add_argument("--arms", nargs="+", default=["panda", "iiwa14", "ur5e", "panda-urdf"],
                     help="named arms (capsule models) and 'panda-urdf': pybullet_data's Panda URDF with its "
                          "collision meshes and hand (the tool at panda_hand)")
@@ -132,7 +136,9 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.index:
         ik = None if args.index_border_starts is None else {"border_starts": args.index_border_starts}
-        return bench_index(args.index_step, args.index_orientations, ik=ik)
+        harness.write_json(args, {"index": bench_index(args.index_step, args.index_orientations, ik=ik)})
+        return
+    results = {}
     nodes = cartesian_grid(-1, 1, args.step)
     T = target_poses(nodes, DOWN, "standard")
     print(f"tool-down map, {len(nodes)} nodes, self-collision + floor; reference {args.starts} starts per node")
@@ -160,9 +166,8 @@ def main(argv=None):
                                                              collision=chk, return_q=True), 1)
         st = type(chk.stats)(**vars(chk.stats))  # this map's checks only
         fast = st.fast_fraction
-        te0 = time.perf_counter()
-        exact_free = chk.exact(q[m1])
-        per_config = (time.perf_counter() - te0) / max(int(m1.sum()), 1)
+        te, exact_free = harness.timed(lambda: chk.exact(q[m1]))  # noqa: B023 - called at once
+        per_config = te / max(int(m1.sum()), 1)
         fk = np.abs(robot.fkine(q[m1]) - T[m1]).max() if m1.any() else 0.0
         t_ref, ref = timed(lambda: reference(robot, chk, T, args.starts, 1), 1)
         both = ref & m1
@@ -178,6 +183,11 @@ def main(argv=None):
         print(f"  checker: {st.configurations} configurations, {fast:.1%} decided without coal (spheres, capsules), "
               f"{st.exact_tests} coal tests, {st.seconds:.2f} s in the checker ({st.exact_seconds:.2f} s exact)")
         print(f"  exact check (coal, every pair and the floor): {per_config * 1e3:.3f} ms per configuration")
+        results[name] = {"enabled_pairs": len(chk.pairs), "acm_seconds": t_acm, "chain_nodes": int(m0.sum()),
+                         "chain_seconds": t0, "free_nodes": int(m1.sum()), "free_seconds": t1,
+                         "colliding_solutions": int((~exact_free).sum()), "fk_error": float(fk),
+                         "reference_nodes": int(ref.sum()), "reference_seconds": t_ref, "recall": float(recall),
+                         "checker": vars(st), "exact_seconds_per_configuration": per_config}
         if name == "ur5e":
             # the chain's closed-form map stops at the first valid branch without its angles; the
             # collision-free one needs every branch's angles: the numerical maps side by side as well
@@ -188,6 +198,8 @@ def main(argv=None):
             print(f"  numerical: chain map {tn0:.3f} s, collision-free {tn1:.3f} s, ratio {tn1 / tn0:.2f}")
             print(f"  numerical collision-free map against the closed form (all 8 branches): recall "
                   f"{(num & m1).sum() / max(m1.sum(), 1):.4f}, false positives {int((num & ~m1).sum())}")
+            results[name].update(numerical_chain_seconds=tn0, numerical_free_seconds=tn1)
+    harness.write_json(args, {"step": args.step, "starts": args.starts, "arms": results})
 
 
 if __name__ == "__main__":

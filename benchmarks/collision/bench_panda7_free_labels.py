@@ -13,16 +13,17 @@ For the first ``--arms`` arms (default 8) of :data:`wsmap.paper.specs.PANDA7_TOO
 
 from __future__ import annotations
 
-import argparse
-import json
-import time
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv=None) -> None:
+    p = harness.parser(__doc__)
     p.add_argument("--arms", type=int, default=8)
-    p.add_argument("--json", help="write the rows here")
-    args = p.parse_args()
+    args = p.parse_args(argv)
 
     import numpy as np
 
@@ -39,25 +40,19 @@ def main() -> None:
     rows = []
     for b in range(args.arms):
         arm = scales[b : b + 1]
-        t0 = time.perf_counter()
-        chain = datasets.labels_for(arm, chain_spec)[0]
-        t1 = time.perf_counter()
-        free = datasets.labels_for(arm, free_spec)[0]
-        t2 = time.perf_counter()
-        free_spec.collision.checker(robots.family_arm("panda7", scales[b]))
-        t3 = time.perf_counter()
+        chain_s, chain = harness.timed(lambda: datasets.labels_for(arm, chain_spec)[0])  # noqa: B023
+        free_s, free = harness.timed(lambda: datasets.labels_for(arm, free_spec)[0])  # noqa: B023
+        checker_s, _ = harness.timed(lambda: free_spec.collision.checker(robots.family_arm("panda7", scales[b])))  # noqa: B023
         row = dict(arm=b, chain_nodes=int(chain.sum()), free_nodes=int(free.sum()),
-                   free_not_in_chain=int((free & ~chain).sum()), chain_s=round(t1 - t0, 3), free_s=round(t2 - t1, 3),
-                   checker_s=round(t3 - t2, 3))
+                   free_not_in_chain=int((free & ~chain).sum()), chain_s=round(chain_s, 3), free_s=round(free_s, 3),
+                   checker_s=round(checker_s, 3))
         rows.append(row)
         print(row, flush=True)
     mean = {k: round(float(np.mean([r[k] for r in rows])), 3) for k in ("chain_s", "free_s", "checker_s")}
     print(f"mean seconds per arm: chain {mean['chain_s']}, free {mean['free_s']} (of which the checker "
           f"{mean['checker_s']}); free / chain nodes {sum(r['free_nodes'] for r in rows) / sum(r['chain_nodes'] for r in rows):.3f}; "
           f"free nodes outside the chain labels: {sum(r['free_not_in_chain'] for r in rows)}")
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump({"rows": rows, "mean": mean}, f, indent=1)
+    harness.write_json(args, {"rows": rows, "mean": mean})
 
 
 if __name__ == "__main__":
