@@ -218,16 +218,9 @@ def charalambous_search(phi: Callable[[float], tuple[float, torch.Tensor]], f0: 
         flat = fa == fb and not da < 0 < db  # equal values that do not bracket a minimum
         if wolfe or flat or evals >= max_iter or (b - a) <= rel_tol * b or b < t_min:
             break
-        if not math.isfinite(fb) or (db < 0 and fb > fa):
-            new = a + (b - a) / scale
-        elif db < 0:
-            if b >= t_max:
-                break  # the minimum lies beyond the largest allowed step: take it
-            new = min(a + scale * (b - a), t_max)
-        else:
-            new = _cubic_min(a, fa, da, b, fb, db)
-            lo, hi = a + gamma * (b - a), b - gamma * (b - a)
-            new = min(max(new, lo), hi) if math.isfinite(new) else 0.5 * (a + b)
+        new = _next_trial(a, fa, da, b, fb, db, t_max, scale, gamma)
+        if new is None:
+            break  # the minimum lies beyond the largest allowed step: take it
         fn, dn, gn = probe(new)
         evals += 1
         if new > b:
@@ -240,6 +233,23 @@ def charalambous_search(phi: Callable[[float], tuple[float, torch.Tensor]], f0: 
     if not ft < f0:
         return 0.0, f0, g0, evals
     return t, ft, gt, evals
+
+
+def _next_trial(a: float, fa: float, da: float, b: float, fb: float, db: float, t_max: float, scale: float,
+                gamma: float) -> float | None:
+    """The next trial step of `charalambous_search` from the interval `[a, b]` (values `f`,
+    slopes `d` at both ends): contract when `f(b)` is not finite or higher with a falling slope,
+    extend (up to `t_max`) while the slope at `b` still falls, else the cubic's minimiser kept
+    `gamma·(b − a)` inside the interval. `None`: the slope still falls at `b = t_max`."""
+    if not math.isfinite(fb) or (db < 0 and fb > fa):
+        return a + (b - a) / scale
+    if db < 0:
+        if b >= t_max:
+            return None
+        return min(a + scale * (b - a), t_max)
+    new = _cubic_min(a, fa, da, b, fb, db)
+    lo, hi = a + gamma * (b - a), b - gamma * (b - a)
+    return min(max(new, lo), hi) if math.isfinite(new) else 0.5 * (a + b)
 
 
 def _cubic_min(a: float, fa: float, da: float, b: float, fb: float, db: float) -> float:
