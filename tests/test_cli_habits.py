@@ -51,7 +51,9 @@ def test_library_and_cli_default_to_the_standard_convention(tmp_path):
     assert cli.main(["map", "--robot", "puma560", "--step", "0.25", "--rpy", *rpy, "--out", str(out), "-q"]) == 0
     flat, nodes, _, settings = ws.load_map(out)
     assert settings["convention"] == "standard"
-    arm = cli._robot_from_args(cli._parser().parse_args(["map", "--robot", "puma560"]))
+    from wsmap.cli.arguments import arm_source
+
+    arm = arm_source(cli._parser().parse_args(["map", "--robot", "puma560"])).build()
     standard = ws.constant_orientation_map(arm, nodes, (0.3, 0.2, 0.1), convention="standard")
     np.testing.assert_array_equal(flat, standard)
     np.testing.assert_array_equal(ws.constant_orientation_map(arm, nodes, (0.3, 0.2, 0.1)), standard)

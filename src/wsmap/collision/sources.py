@@ -1,0 +1,124 @@
+"""Where a job's collision geometry comes from, in one record: the arm's own (its URDF or MJCF
+`<collision>` elements, a named arm's model, capsules of given radii), a scene of obstacles and the
+allowed-collision matrix's settings.
+
+`CollisionSource` is the collision part of a job (`wsmap.jobs.MapJob`, `wsmap.jobs.PlacementJob`)
+and of the command line's `--collision`, `--scene`, `--mount`, `--link-radius`, `--allow` and
+`--acm-samples` options. `check()` says what is wrong before any file is read; `build(robot, arm)`
+reads the scene and the arm's geometry and builds the `CollisionChecker` (the matrix's random
+configurations are the only work it does).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .._optional import require
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from ..robots.sources import ArmSource
+    from .checks import CollisionChecker
+
+__all__ = ["CollisionSource"]
+
+
+@dataclass(frozen=True)
+class CollisionSource:
+    """The collision geometry of a job; `wanted` is False when none was asked for.
+
+    Parameters
+    ----------
+    collision : bool
+        Count a node only with a collision-free solution: self-collision from the arm's own geometry
+        (a URDF's or MJCF's `<collision>` elements, a named arm's model, `link_radius` capsules) and
+        the floor for a named arm.
+    scene : path, optional
+        Obstacles (YAML or JSON; or a work cell's URDF); implies `collision`.
+    mount : str, optional
+        A `scene` URDF's link the arm's base is attached to.
+    link_radius : sequence of float, optional
+        Capsules of these radii (m; one, or one per body 0..n) along the links; implies `collision`.
+    allow : sequence of (str, str), optional
+        Link pairs never checked, besides the allowed-collision matrix's.
+    acm_samples : int, optional
+        Random configurations of the matrix's "never in collision" test (`DEFAULT_SAMPLES` when None).
+    seed : int
+        Seed of those configurations.
+    """
+
+    collision: bool = False
+    scene: str | None = None
+    mount: str | None = None
+    link_radius: Sequence[float] | None = None
+    allow: Sequence[tuple[str, str]] | None = None
+    acm_samples: int | None = None
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.scene is not None:
+            object.__setattr__(self, "scene", str(self.scene))
+        if self.link_radius is not None:
+            object.__setattr__(self, "link_radius", tuple(float(r) for r in self.link_radius))
+        if self.allow is not None:
+            object.__setattr__(self, "allow", tuple(tuple(p) for p in self.allow))
+
+    @property
+    def wanted(self) -> bool:
+        """Whether the job counts collisions at all."""
+        return bool(self.collision or self.scene is not None or self.link_radius is not None)
+
+    def check(self) -> None:
+        """Raise a one-line `ValueError` for options that go with collisions when none is asked for,
+        and for a missing `collision` extra (coal), before any work."""
+        if not self.wanted:
+            for flag, v in (("--allow", self.allow), ("--acm-samples", self.acm_samples), ("--mount", self.mount)):
+                if v is not None:
+                    raise ValueError(f"{flag} is used with --collision or --scene")
+            return
+        if self.mount is not None and self.scene is None:
+            raise ValueError("--mount names a link of a work-cell URDF given with --scene CELL.urdf")
+        require("coal", why="--collision/--scene")
+
+    def build(self, robot, arm: ArmSource) -> CollisionChecker | None:
+        """The checker of `robot` (built from `arm`), or None when no collision is wanted: the scene,
+        meshes and link names of `allow` read and checked, the allowed-collision matrix sampled."""
+        self.check()
+        if not self.wanted:
+            return None
+        from . import DEFAULT_SAMPLES, CollisionChecker, build_acm, load_scene
+
+        scene = load_scene(self.scene, self.mount) if self.scene is not None else None
+        model = self._model(robot, arm)
+        samples = DEFAULT_SAMPLES if self.acm_samples is None else self.acm_samples
+        model.acm = build_acm(model, samples=samples, seed=self.seed, disable=[tuple(p) for p in (self.allow or [])])
+        return CollisionChecker(model, scene)
+
+    def _model(self, robot, arm: ArmSource):
+        from . import arm_model, capsules_along_links, from_urdf_collision
+
+        if self.link_radius is not None:
+            r = self.link_radius
+            if len(r) not in (1, robot.n + 1):
+                raise ValueError(f"--link-radius takes one radius or one per body (0..{robot.n}: {robot.n + 1}), "
+                                 f"got {len(r)}")
+            return capsules_along_links(robot, r[0] if len(r) == 1 else list(r),
+                                        floor=not arm.has_dh and arm.urdf is None)
+        if arm.urdf is not None:
+            model = from_urdf_collision(arm.urdf, ee_link=arm.ee, base_link=arm.base)
+        elif arm.mjcf is not None:
+            from .mjcf import from_mjcf_collision
+
+            model = from_mjcf_collision(arm.mjcf, arm.ee)
+        elif arm.has_dh:
+            raise ValueError("DH columns carry no collision geometry: give --link-radius R (capsules along the links)")
+        else:
+            return arm_model(arm.name, robot)
+        model.chain = robot  # the same chain, with the limits the job chose
+        return model
+
+    def describe(self) -> dict:
+        """The source's files as a JSON-ready dict (the map file's provenance)."""
+        return {"scene_file": self.scene, "mount": self.mount}
