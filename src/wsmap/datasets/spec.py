@@ -180,6 +180,29 @@ def _grid_counts(lo, hi, step) -> tuple[int, int, int]:
     return ws.grid_counts(lo, hi, step, max_nodes=MAX_GRID_NODES, what="a dataset may have")
 
 
+def _checked_select(sel, total: int) -> tuple[int, int] | None:
+    """A spec's `select` as `None` (every node: `None` or `"all"`) or `(start, stop)` within
+    the grid's `total` nodes (a list, tuple or contiguous slice)."""
+    if isinstance(sel, str):
+        if sel != "all":
+            raise ValueError(f"select must be 'all' or [start, stop], got {sel!r}")
+        return None
+    if sel is None:
+        return None
+    if isinstance(sel, slice):
+        if sel.step not in (None, 1):
+            raise ValueError(f"select must be a contiguous range [start, stop), got {sel!r}")
+        sel = (sel.start, sel.stop)
+    if not isinstance(sel, (list, tuple)) or len(sel) != 2:
+        raise ValueError(f"select must be 'all' or [start, stop], got {sel!r}")
+    start, stop = (_int(f"select {k}", v, 0) for k, v in zip(("start", "stop"), sel))
+    if stop <= start:
+        raise ValueError(f"empty node selection [{start}, {stop}): stop must exceed start")
+    if stop > total:
+        raise ValueError(f"node selection [{start}, {stop}) runs past the grid's {total} nodes")
+    return (start, stop)
+
+
 # --------------------------------------------------------------------------- the spec
 @dataclass(frozen=True)
 class DatasetSpec:
@@ -257,12 +280,24 @@ class DatasetSpec:
     collision: LabelCollision | None = None
 
     def __post_init__(self):
-        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen dataclass)
+        # Every field is checked and normalised in this order, so the first bad one is the one named.
         if not isinstance(self.name, str) or not self.name.strip():
             raise ValueError(f"name must be a non-empty string, got {self.name!r}")
         for k, choices in (("family", FAMILIES), ("scope", SCOPES), ("convention", CONVENTIONS),
                            ("method", METHODS), ("stream", STREAMS)):
-            set_(k, _choice(k, getattr(self, k), choices))
+            self._set(k, _choice(k, getattr(self, k), choices))
+        family = self._normalise_family()
+        total = self._normalise_grid(family)
+        self._set("select", _checked_select(self.select, total))
+        self._normalise_fixed()
+        self._normalise_counts()
+
+    def _set(self, key: str, value) -> None:
+        object.__setattr__(self, key, value)  # frozen dataclass: only the checks write fields
+
+    def _normalise_family(self) -> robots.ArmFamily:
+        """Check the family against `method`, `beta` and (chain families) the settings they
+        cannot honour; normalise `beta` and `collision`. Returns the registry's family."""
         family = robots.arm_family(self.family)
         if self.method == "exact" and not family.exact and not family.chain:  # (chain: _check_chain_family)
             raise ValueError(
@@ -272,62 +307,53 @@ class DatasetSpec:
         beta = _real("beta", self.beta)
         if beta <= 0:
             raise ValueError(f"beta must be positive, got {self.beta!r}")
-        set_("beta", beta)
-        chain = family.chain
-        if chain:
+        self._set("beta", beta)
+        if family.chain:
             self._check_chain_family()
-        set_("collision", label_collision(self.collision, family))
-        half = (family.grid or CHAIN_FAMILY_GRID) if chain else 2.0 * beta
+        self._set("collision", label_collision(self.collision, family))
+        return family
+
+    def _normalise_grid(self, family: robots.ArmFamily) -> int:
+        """Fill in the default `lo` / `hi` (`[-2·beta, 2·beta]` or the chain family's grid for
+        R3, `[0, 2·pi]` for SO3), normalise `lo`, `hi`, `step`; returns the grid's node count."""
+        half = (family.grid or CHAIN_FAMILY_GRID) if family.chain else 2.0 * self.beta
         if self.lo is None:
-            set_("lo", -half if self.scope == "R3" else 0.0)
+            self._set("lo", -half if self.scope == "R3" else 0.0)
         if self.hi is None:
-            set_("hi", half if self.scope == "R3" else 2.0 * math.pi)
+            self._set("hi", half if self.scope == "R3" else 2.0 * math.pi)
         for k in ("lo", "hi", "step"):
-            set_(k, _real_or_triple(k, getattr(self, k)))
+            self._set(k, _real_or_triple(k, getattr(self, k)))
         try:
             nx, ny, nz = _grid_counts(self.lo, self.hi, self.step)
         except ValueError as e:
             raise ValueError(f"empty or invalid grid (lo={self.lo}, hi={self.hi}, step={self.step}): {e}") from None
-        total = nx * ny * nz
-        sel = self.select
-        if isinstance(sel, str):
-            if sel != "all":
-                raise ValueError(f"select must be 'all' or [start, stop], got {sel!r}")
-            sel = None
-        if sel is not None:
-            if isinstance(sel, slice):
-                if sel.step not in (None, 1):
-                    raise ValueError(f"select must be a contiguous range [start, stop), got {sel!r}")
-                sel = (sel.start, sel.stop)
-            if not isinstance(sel, (list, tuple)) or len(sel) != 2:
-                raise ValueError(f"select must be 'all' or [start, stop], got {sel!r}")
-            start, stop = (_int(f"select {k}", v, 0) for k, v in zip(("start", "stop"), sel))
-            if stop <= start:
-                raise ValueError(f"empty node selection [{start}, {stop}): stop must exceed start")
-            if stop > total:
-                raise ValueError(f"node selection [{start}, {stop}) runs past the grid's {total} nodes")
-            sel = (start, stop)
-        set_("select", sel)
+        return nx * ny * nz
+
+    def _normalise_fixed(self) -> None:
+        """`fixed` as `"random"` or a tuple of 3 floats."""
         if isinstance(self.fixed, str):
             if self.fixed != "random":
                 raise ValueError(f"fixed must be 3 numbers or 'random', got {self.fixed!r}")
-        else:
-            f = self.fixed
-            if not ((isinstance(f, (list, tuple)) and len(f) == 3) or (isinstance(f, np.ndarray) and f.shape == (3,))):
-                raise ValueError(f"fixed must be 3 finite numbers or 'random', got {self.fixed!r}")
-            set_("fixed", tuple(_real(f"fixed[{i}]", v) for i, v in enumerate(self.fixed)))
-        set_("samples", _int("samples", self.samples, 1, MAX_SAMPLES))
-        set_("seed", _int("seed", self.seed, 0))
-        set_("ilimit", _int("ilimit", self.ilimit, 1, MAX_LM_ITERATIONS))
-        set_("rlimit", _int("rlimit", self.rlimit, 0, MAX_LM_ITERATIONS))
-        set_("starts", _int("starts", self.starts, 1, MAX_STARTS))
+            return
+        f = self.fixed
+        if not ((isinstance(f, (list, tuple)) and len(f) == 3) or (isinstance(f, np.ndarray) and f.shape == (3,))):
+            raise ValueError(f"fixed must be 3 finite numbers or 'random', got {self.fixed!r}")
+        self._set("fixed", tuple(_real(f"fixed[{i}]", v) for i, v in enumerate(self.fixed)))
+
+    def _normalise_counts(self) -> None:
+        """`samples`, `seed` and the LM settings as numbers within their limits."""
+        self._set("samples", _int("samples", self.samples, 1, MAX_SAMPLES))
+        self._set("seed", _int("seed", self.seed, 0))
+        self._set("ilimit", _int("ilimit", self.ilimit, 1, MAX_LM_ITERATIONS))
+        self._set("rlimit", _int("rlimit", self.rlimit, 0, MAX_LM_ITERATIONS))
+        self._set("starts", _int("starts", self.starts, 1, MAX_STARTS))
         tol = _real("tol", self.tol)
         if not 0 < tol <= MAX_TOL:
             raise ValueError(
                 f"tol must be positive and at most {MAX_TOL:g} (the forward-kinematics check of every "
                 f"LM success), got {self.tol!r}"
             )
-        set_("tol", tol)
+        self._set("tol", tol)
 
     def _check_chain_family(self) -> None:
         """The settings a chain family (`CHAIN_FAMILIES`) cannot honour are refused, not ignored."""
