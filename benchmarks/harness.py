@@ -138,9 +138,13 @@ class Stopwatch:
     seconds: float
     cpu_seconds: float
 
-    def __enter__(self) -> "Stopwatch":
+    def start(self) -> "Stopwatch":
+        """Start (or restart) the watch; returns it, for a watch read by `elapsed()` outside a `with` block."""
         self._t0, self._c0 = CLOCK(), time.process_time()
         return self
+
+    def __enter__(self) -> "Stopwatch":
+        return self.start()
 
     def elapsed(self) -> float:
         """Wall seconds since the block began."""

@@ -33,11 +33,14 @@ defaults): a region to cover, where each classical call solves IK at every one o
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
+from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
 def _print_rows(title, rows, design, extra=""):
@@ -52,7 +55,7 @@ def _print_rows(title, rows, design, extra=""):
 def main(argv=None):
     from wsmap import paths
 
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = harness.parser(__doc__, seed=0, seed_help="seed of the searches (default 0)")
     ap.add_argument("--model", help="a panda7_tooldown map model (.pt): runs the panda7 study with it")
     ap.add_argument("--sw-model", default=str(paths.ROOT / "models" / "improved_model.pt"),
                     help="a spherical-wrist R3 map model of the whole grid (default models/improved_model.pt)")
@@ -69,14 +72,11 @@ def main(argv=None):
     ap.add_argument("--length-tol", type=float, default=0.02, help="relative length goal of the searches")
     ap.add_argument("--max-calls", type=int, default=3000, help="classical calls (arms) per search")
     ap.add_argument("--max-seconds", type=float, default=120.0, help="seconds per search")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--json", help="write the results here (wsmap.io.write_json)")
     args = ap.parse_args(argv)
 
     import torch
 
     from wsmap import design, learn
-    from wsmap.io import write_json
     from wsmap.kinematics import lm_compiled
 
     torch.set_num_threads(1)
@@ -135,7 +135,7 @@ def main(argv=None):
         name = "panda7" if args.model else "panda7_searches_only"
         study(name, "panda7", tuple(args.panda7_centre), args.model, ("gradient", "cmaes", "random"))
     if args.json:
-        print(f"\nwrote {write_json(out, args.json)}")
+        print(f"\nwrote {harness.write_json(args, out)}")
 
 
 if __name__ == "__main__":

@@ -27,9 +27,8 @@ two-thread training run): R² 0.9947, MAE 0.00064 m³, R² 0.9925 on reachable n
 
 from __future__ import annotations
 
-import argparse
-import platform
-import time
+import sys
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -37,12 +36,17 @@ import torch
 from wsmap import learn, robots
 from wsmap import workspace as ws
 from wsmap.cli import positive_int
-from wsmap.io import write_json
 from wsmap.timing import time_call
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = harness.parser(__doc__, repeat=20, threads=1, seed=1,
+                        repeat_help="timed calls per one-map measurement (default 20)",
+                        threads_help="torch.set_num_threads (default 1)",
+                        seed_help="seed of the training arms (the held-out ones: seed + 1) and of training (default 1)")
     ap.add_argument("--train", type=int, default=4000, help="training arms (5 %% of them validate)")
     ap.add_argument("--test", type=int, default=500, help="held-out arms")
     budget = ap.add_mutually_exclusive_group()
@@ -54,17 +58,11 @@ def main(argv=None) -> int:
     ap.add_argument("--target", choices=learn.MANIPULABILITY_TARGETS, default="linear")
     ap.add_argument("--batch-size", type=int, default=64)
     ap.add_argument("--lr", type=float, default=1e-3)
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--threads", type=int, default=1, help="torch.set_num_threads (default 1)")
-    ap.add_argument("--repeats", type=int, default=20, help="timed calls per one-map measurement")
     ap.add_argument("--save", metavar="PATH", help="also save the trained model here")
-    ap.add_argument("--json", metavar="PATH", help="write the numbers to this JSON file")
     args = ap.parse_args(argv)
     torch.set_num_threads(args.threads)
 
-    t0 = time.perf_counter()
-    X, Y = learn.manipulability_dataset(args.train, seed=args.seed)
-    data_s = time.perf_counter() - t0
+    data_s, (X, Y) = harness.timed(lambda: learn.manipulability_dataset(args.train, seed=args.seed))
     Xt, Yt = learn.manipulability_dataset(args.test, seed=args.seed + 1)
     print(f"data: {args.train} training + {args.test} held-out arms x {Y.shape[1]} nodes, exact targets "
           f"in {data_s:.1f} s (training set); {100 * (Y > 0).mean():.1f} % of values > 0, max {Y.max():.4f} m^3")
@@ -74,9 +72,7 @@ def main(argv=None) -> int:
     config = learn.ManipulabilityTrainConfig(hidden=tuple(int(h) for h in args.hidden.split(",")),
                                              target=args.target, lr=args.lr, batch_size=args.batch_size,
                                              seed=args.seed, **budget)
-    t0 = time.perf_counter()
-    model, result = learn.train_manipulability_model(X, Y, config)
-    train_s = time.perf_counter() - t0
+    train_s, (model, result) = harness.timed(lambda: learn.train_manipulability_model(X, Y, config))
     best, stop = result.best_epoch, result.stop_epoch
     best, stop, reason = (best[0], stop[0], result.stop_reason[0]) if isinstance(best, list) else (
         best, stop, result.stop_reason)
@@ -98,10 +94,10 @@ def main(argv=None) -> int:
     one_arm = robots.spherical_wrist(a2=one_p[0, 2], a3=one_p[0, 3], d3=one_p[0, 0], d4=one_p[0, 1])
     arms = robots.spherical_wrist(a2=Xt[:, 2], a3=Xt[:, 3], d3=Xt[:, 0], d4=Xt[:, 1])
     timing = {
-        "network_one_ms": time_call(lambda: learn.predict_manipulability(model, one_p), args.repeats),
+        "network_one_ms": time_call(lambda: learn.predict_manipulability(model, one_p), args.repeat),
         "network_bulk_ms_per_map": time_call(lambda: learn.predict_manipulability(model, Xt), 3).scaled(1 / len(Xt)),
         "exact_one_ms": time_call(lambda: ws.manipulability_maps(one_arm, g["nodes"], g["rpy"],
-                                                                 convention=g["convention"]), args.repeats),
+                                                                 convention=g["convention"]), args.repeat),
         "exact_bulk_ms_per_map": time_call(lambda: ws.manipulability_maps(arms, g["nodes"], g["rpy"],
                                                                           convention=g["convention"]), 3
                                            ).scaled(1 / len(Xt)),
@@ -115,12 +111,12 @@ def main(argv=None) -> int:
     print(f"  reference (IK + Jacobians)   {ms['reference_one_ms']:8.3f}")
 
     if args.json:
-        write_json({
-            "args": vars(args), "machine": platform.platform(), "torch": torch.__version__,
+        harness.write_json(args, {
+            "args": vars(args),
             "grid": {"spec": g["spec"], "nodes": len(g["nodes"]), "rpy": g["rpy"], "convention": g["convention"]},
             "config": config.to_dict(), "data_s": data_s, "train_s": train_s, "epochs": stop, "best_epoch": best,
             "stop_reason": reason, "metrics": metrics, "ms_per_map": ms,
-        }, args.json)
+        })
         print(f"wrote {args.json}")
     return 0
 

@@ -20,10 +20,9 @@ Timing does not depend on the weights, so (a)-(c) use freshly initialised models
 
 from __future__ import annotations
 
-import argparse
-import json
 import platform
-import time
+import sys
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -32,6 +31,9 @@ from wsmap import datasets, metrics, robots
 from wsmap.learn import MLPConfig, SubspaceMLP, TrainConfig, split_indices, train
 from wsmap.paper.specs import PAPER_SPECS
 from wsmap.timing import time_call
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 SEC62 = PAPER_SPECS["sec62"]
 FREE_DH = [2, 3, 7, 8]  # feature columns d3, d4, a2, a3: the spherical-wrist family's free parameters
@@ -130,20 +132,18 @@ def _throughput(name, res, n_train, batch) -> dict:
 
 
 def bench_accuracy(n_train: int, minutes: float, lr_decay: str | None, test_samples: int) -> dict:
-    t = time.perf_counter()
-    spec = datasets.scaled(SEC62, n_train)
-    _, X, Y = labelled(spec, n_train)
-    test_arms, _ = datasets.draw_samples(datasets.test_spec(spec, test_samples))
-    truth = datasets.labels_for(test_arms, spec)
-    data_s = time.perf_counter() - t
+    with harness.Stopwatch() as sw:
+        spec = datasets.scaled(SEC62, n_train)
+        _, X, Y = labelled(spec, n_train)
+        test_arms, _ = datasets.draw_samples(datasets.test_spec(spec, test_samples))
+        truth = datasets.labels_for(test_arms, spec)
+    data_s = sw.seconds
     # A small validation split picks the best epoch; no test split (the test set is separate).
     sp = split_indices(n_train, (0.95, 0.05, 0.0), seed=0)
     torch.manual_seed(0)
     model = SubspaceMLP(improved_config()).configure(X[sp.train]).set_map_spec(spec)
     cfg = improved_train_config(max_epochs=100_000, max_fail=1000, time_limit_s=60.0 * minutes, lr_decay=lr_decay)
-    t = time.perf_counter()
-    res = train(model, X, Y, cfg, split=sp)
-    train_s = time.perf_counter() - t
+    train_s, res = harness.timed(lambda: train(model, X, Y, cfg, split=sp))
     pred = model.predict_maps(test_arms, batch_size=1000)
     micro = metrics.precision_recall_f(pred, truth, "micro")
     return {"n_train": n_train, "train_split": len(sp.train), "minutes": minutes, "lr_decay": lr_decay,
@@ -153,9 +153,8 @@ def bench_accuracy(n_train: int, minutes: float, lr_decay: str | None, test_samp
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--threads", type=int, default=2, help="torch.set_num_threads (default 2)")
-    ap.add_argument("--repeats", type=int, default=1000, help="timed calls per one-map measurement")
+    ap = harness.parser(__doc__, repeat=1000, threads=2, repeat_help="timed calls per one-map measurement",
+                        threads_help="torch.set_num_threads (default 2)")
     ap.add_argument("--arms", type=int, default=10_000, help="arms in the bulk measurement (b)")
     ap.add_argument("--train-samples", type=int, default=10_000,
                     help="arms for the throughput runs (c); the 70%% training split is timed")
@@ -168,7 +167,6 @@ def main(argv=None) -> int:
     ap.add_argument("--minutes", type=float, default=5.0, help="(d) training time budget")
     ap.add_argument("--lr-decay", choices=["cosine-time"], help="(d) anneal Adam's lr over the time budget")
     ap.add_argument("--test-samples", type=int, default=1000, help="(d) test arms")
-    ap.add_argument("--json", metavar="PATH", help="also write the numbers to this JSON file")
     args = ap.parse_args(argv)
 
     torch.set_num_threads(args.threads)
@@ -178,7 +176,7 @@ def main(argv=None) -> int:
     out: dict = {"info": info}
 
     if not args.skip_inference:
-        rows = bench_inference(args.repeats, args.arms)
+        rows = bench_inference(args.repeat, args.arms)
         out["inference"] = rows
         print("\n(a) one 9261-node map of one arm (PUMA560), ms: median [p10, p90]; goal < 1 ms")
         print(f"{'model':40s} {'params':>9s} {'features':>20s} {'network':>20s} {'predict_maps':>20s}")
@@ -210,9 +208,7 @@ def main(argv=None) -> int:
         print(f"    test ({r['test_samples']} arms x 9261 nodes): precision {r['precision']:.4f}, "
               f"recall {r['recall']:.4f}, F {r['f']:.4f}")
 
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(out, f, indent=2)
+    harness.write_json(args, out)
     return 0
 
 

@@ -20,12 +20,14 @@ the same tasks and their total link lengths (``sum |a| + |d|`` of their modified
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
-import time
+from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
 def _check(arm, tasks):
@@ -57,7 +59,7 @@ def _named_lengths(tasks):
 def main(argv=None):
     from wsmap import paths
 
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = harness.parser(__doc__, seed=0, seed_help="seed of the searches (default 0)")
     ap.add_argument("--model", default=str(paths.ROOT / "models" / "morph.pt"),
                     help="a morphology model (default models/morph.pt, from dvc repro morphologies)")
     ap.add_argument("--centre", type=float, nargs=3, default=(0.45, 0.0, 0.2), help="task box centre (m)")
@@ -70,16 +72,14 @@ def main(argv=None):
     ap.add_argument("--length-tol", type=float, default=0.02)
     ap.add_argument("--max-calls", type=int, default=3000)
     ap.add_argument("--max-seconds", type=float, default=300.0)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--json", help="write the rows here")
     a = ap.parse_args(argv)
 
     import torch
 
     from wsmap import design
     from wsmap import morph_design as md
-    from wsmap.learn.morph_model import load_morph_model
     from wsmap.learn.files import ModelFileError
+    from wsmap.learn.morph_model import load_morph_model
 
     torch.set_num_threads(1)
     try:
@@ -88,14 +88,14 @@ def main(argv=None):
         sys.exit(f"bench_morph_design: {e}")
     tasks = design.box_tasks(a.centre, a.size)
     space = md.MorphDesignSpace()
-    t0 = time.perf_counter()
-    rows, results = md.compare_morph_designs(
+    seconds, (rows, results) = harness.timed(lambda: md.compare_morph_designs(
         model, tasks, space, length_tol=a.length_tol, max_calls=a.max_calls, max_seconds=a.max_seconds,
-        gradient={"screen": a.screen, "keep": a.keep, "starts_per_pattern": a.starts, "steps": a.steps, "verify_top": a.verify_top}, seed=a.seed)
+        gradient={"screen": a.screen, "keep": a.keep, "starts_per_pattern": a.starts, "steps": a.steps,
+                  "verify_top": a.verify_top}, seed=a.seed))
     print(f"# design across morphologies: {len(tasks)} tasks, box {a.size} m at {list(a.centre)} m, tool down; "
-          f"{time.perf_counter() - t0:.1f} s in all\n")
+          f"{seconds:.1f} s in all\n")
     print(design.format_design_table(rows), end="")
-    out = {"tasks": tasks.tolist(), "rows": rows, "designs": {}}
+    out = {"tasks": tasks.tolist(), "seconds": seconds, "rows": rows, "designs": {}}
     for name, r in results.items():
         table = space.tables(r.params)[0]
         again = _check(space.arms(r.params[None])[0], tasks)
@@ -109,10 +109,7 @@ def main(argv=None):
     for r in named:
         print(f"  {r['arm']}: covers {r['covered']}, total length {r['total_length_m']:.3f} m")
     out["named"] = named
-    if a.json:
-        from wsmap.io import write_json
-
-        write_json(out, a.json)
+    harness.write_json(a, out)
 
 
 if __name__ == "__main__":

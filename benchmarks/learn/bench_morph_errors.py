@@ -16,15 +16,17 @@ map with a 6-neighbour outside it) or inside it, and false nodes next to the map
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import sys
 import warnings
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = harness.parser(__doc__)
     p.add_argument("--models", nargs="+", required=True, metavar="FILE", help="morphology model files")
     p.add_argument("--data", required=True, help="folder of the stage's shards (shard 0's test sets built if missing)")
     p.add_argument("--arms", type=int, default=250, help="arms per shard of the stage (names the shard files)")
@@ -32,7 +34,6 @@ def main(argv=None) -> int:
     p.add_argument("--step", type=float, default=0.3, help="the models' label grid step (m)")
     p.add_argument("--fine", type=float, default=0.1, help="the finer grid step (m)")
     p.add_argument("--random", type=int, default=25, help="held-out arms per family scored on both grids")
-    p.add_argument("--json", help="write the results here")
     args = p.parse_args(argv)
 
     import numpy as np
@@ -109,9 +110,7 @@ def main(argv=None) -> int:
                   f"farther; by size " + ", ".join(f"{k}: {v['arms']} arms F {v['f']:.3f}" for k, v in by_size.items()),
                   flush=True)
         out["models"][path] = res
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(out, f, indent=1)
+    harness.write_json(args, out)
     return 0
 
 

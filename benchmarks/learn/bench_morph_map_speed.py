@@ -15,23 +15,22 @@ numerical map of the same arm once for scale.
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
-import time
 import warnings
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = harness.parser(__doc__, repeat=20, seed=12345, repeat_help="timed calls per map (default 20)",
+                       seed_help="stream of the random arms (default 12345)")
     p.add_argument("--models", nargs="+", required=True, metavar="FILE", help="morphology model files")
     p.add_argument("--arms", type=int, default=100, help="random arms per family")
-    p.add_argument("--seed", type=int, default=12345, help="stream of the random arms")
     p.add_argument("--step", type=float, default=0.1, help="grid step (m) on [-1.5, 1.5]^3")
     p.add_argument("--coarse", type=int, default=3, help="every coarse-th node first")
     p.add_argument("--margins", type=float, nargs="+", default=[2.0, 4.0, 6.0, 8.0], help="logits")
-    p.add_argument("--repeats", type=int, default=20, help="timed calls per map")
-    p.add_argument("--json", help="write the results here")
     args = p.parse_args(argv)
 
     import numpy as np
@@ -61,7 +60,7 @@ def main(argv=None) -> int:
             warnings.simplefilter("ignore", ExtrapolationWarning)
             dense = {k: mm.predict_morph_map(model, a, nodes, allow_extrapolation=True) for k, a in arms.items()}
             for margin in args.margins:
-                missed = extra = differ = evaluated = positives = 0
+                missed = extra = differ = positives = 0
                 for k, a in arms.items():
                     g = mm.predict_morph_grid(model, a, lo, hi, args.step, coarse=args.coarse, margin=margin,
                                               allow_extrapolation=True)
@@ -81,21 +80,14 @@ def main(argv=None) -> int:
                 a = arms[k]
 
                 def median(f):
-                    f()
-                    reps = []
-                    for _ in range(args.repeats):
-                        t0 = time.perf_counter()
-                        f()
-                        reps.append(time.perf_counter() - t0)
-                    return float(np.median(reps))
+                    return float(np.median(harness.timings(f, args.repeat, warmup=1)[0].values))
 
                 t_dense = median(lambda: mm.predict_morph_map(model, a, nodes, allow_extrapolation=True))
                 t_grid = median(lambda: mm.predict_morph_grid(model, a, lo, hi, args.step, coarse=args.coarse,
                                                               margin=margin, allow_extrapolation=True))
                 ws.constant_orientation_map(a, ws.cartesian_grid(lo, hi, 0.5), mm.TOOL_DOWN, convention="standard")
-                t0 = time.perf_counter()
-                ws.constant_orientation_map(a, nodes, mm.TOOL_DOWN, convention="standard")
-                classical = time.perf_counter() - t0
+                classical, _ = harness.timed(
+                    lambda: ws.constant_orientation_map(a, nodes, mm.TOOL_DOWN, convention="standard"))  # noqa: B023
                 row = {"arm": k, "margin": margin, "dense_ms": 1e3 * t_dense, "grid_ms": 1e3 * t_grid,
                        "classical_s": classical, "grid_vs_classical": classical / t_grid,
                        "reachable_share": float(dense[k].mean())}
@@ -104,9 +96,7 @@ def main(argv=None) -> int:
                       f"(x{t_dense / t_grid:4.1f})   classical {classical:6.3f} s (x{classical / t_grid:5.0f}); "
                       f"{100 * dense[k].mean():.1f} % reachable", flush=True)
         out["models"][path] = res
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(out, f, indent=1)
+    harness.write_json(args, out)
     return 0
 
 

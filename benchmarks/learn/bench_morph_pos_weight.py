@@ -12,15 +12,18 @@ here when missing, resumably). One thread::
 
 from __future__ import annotations
 
-import argparse
-import time
+import sys
 import warnings
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
 def main(argv=None) -> None:
     from wsmap import paths
 
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = harness.parser(__doc__)
     ap.add_argument("--weights", type=float, nargs="+", default=[1.0, 5.0, 20.0])
     ap.add_argument("--data", default=str(paths.ROOT / "data" / "morph"))
     ap.add_argument("--params", default=str(paths.ROOT / "params.yaml"))
@@ -31,9 +34,9 @@ def main(argv=None) -> None:
 
     from wsmap import robots, workspace
     from wsmap.learn import morph_model as mm
-    from wsmap.paper.parts import morphologies as stage
     from wsmap.learn.training_range import ExtrapolationWarning
     from wsmap.metrics import score_maps
+    from wsmap.paper.parts import morphologies as stage
     from wsmap.robots.morph import HELD_OUT, MORPH_GRID
 
     torch.set_num_threads(1)
@@ -56,11 +59,10 @@ def main(argv=None) -> None:
           f"{len(nodes)} nodes ({step} m); reachable share of the held-out arms {test_Y.mean():.3f}\n")
     print("| pos_weight | threshold | pooled F | P | R | " + " | ".join(HELD_OUT) + " | named mean | train s |")
     print("|---" * (7 + len(HELD_OUT)) + "|")
+    rows = []
     for w in a.weights:
         tc = stage._train_config({**t, "pos_weight": None if w == 1 else w}, seed)  # the stage's recipe
-        t0 = time.perf_counter()
-        model, _ = mm.fit_morph_model(train, model_cfg, tc, seed=seed)
-        secs = time.perf_counter() - t0
+        secs, (model, _) = harness.timed(lambda: mm.fit_morph_model(train, model_cfg, tc, seed=seed))  # noqa: B023
         with torch.no_grad():
             pred = torch.sigmoid(model(torch.as_tensor(test_F, dtype=torch.float32))).numpy() > model.threshold
         s = score_maps(pred, test_Y)
@@ -72,6 +74,9 @@ def main(argv=None) -> None:
             fs.append(float(np.nan_to_num(score_maps(p[None], truth[None])["f"])))  # none predicted: 0
         print(f"| {w:g} | {model.threshold:.2f} | {s['f']:.3f} | {s['precision']:.3f} | {s['recall']:.3f} | "
               + " | ".join(f"{f:.3f}" for f in fs) + f" | {np.mean(fs):.3f} | {secs:.0f} |", flush=True)
+        rows.append({"pos_weight": w, "threshold": model.threshold, "f": s["f"], "precision": s["precision"],
+                     "recall": s["recall"], "named_f": dict(zip(named, fs)), "train_seconds": secs})
+    harness.write_json(a, {"rows": rows})
 
 
 if __name__ == "__main__":

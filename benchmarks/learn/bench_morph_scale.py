@@ -42,7 +42,10 @@ import argparse
 import json
 import os
 import sys
-import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 RUN_KEYS = {"name": str, "shards": int, "encoder": str, "latent": int, "decoder": str, "batch": int, "lr": float,
             "seconds": float}
@@ -79,14 +82,13 @@ def _label_shard(job):
     from wsmap.learn import morph_model as mm
     from wsmap.robots.morph import MORPH_GRID
 
-    t0 = time.perf_counter()
-    mm.build_morph_shards(data, n, 1, arms, step=step, box=MORPH_GRID, first_seed=k,
-                          test_samples=test_arms if k == 0 else None)
-    return n, k, time.perf_counter() - t0
+    seconds, _ = harness.timed(lambda: mm.build_morph_shards(data, n, 1, arms, step=step, box=MORPH_GRID, first_seed=k,
+                                                             test_samples=test_arms if k == 0 else None))
+    return n, k, seconds
 
 
-def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv=None) -> int:
+    p = harness.parser(__doc__)
     p.add_argument("--data", required=True, help="folder of the experience shards (reused when there)")
     p.add_argument("--arms", type=int, default=250, help="arms per shard (the stage's full scale: 250)")
     p.add_argument("--test-arms", type=int, default=100, help="held-out random arms per family (shard 0's test set)")
@@ -96,9 +98,8 @@ def main() -> int:
     p.add_argument("--device", default="auto", help="where the networks train: auto, cpu, cuda")
     p.add_argument("--pos-weight", type=float, default=20.0, help="weight of a reachable node's loss term")
     p.add_argument("--run", type=parse_run, action="append", required=True, help="a training run (module notes)")
-    p.add_argument("--json", help="write the results here (after every run)")
     p.add_argument("--save", help="folder to save each run's model in (NAME.pt)")
-    args = p.parse_args()
+    args = p.parse_args(argv)
 
     # one numba thread per process, set before numba is imported (the workers inherit it)
     for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "WSMAP_THREADS"):
@@ -112,7 +113,6 @@ def main() -> int:
 
     import wsmap
     from wsmap import workspace as ws
-    from wsmap.io import write_json
     from wsmap.kinematics.ik.warmup import ensure_compiled
     from wsmap.kinematics.morphology import describe
     from wsmap.learn import TrainConfig, resolve_device
@@ -122,16 +122,15 @@ def main() -> int:
     from wsmap.robots.morph import HELD_OUT
 
     device = resolve_device(args.device, "--device")  # before any work
-    t_start = time.perf_counter()
+    run_clock = harness.Stopwatch().start()
     facts = {"device": str(device), "gpu": torch.cuda.get_device_name(device) if device.type == "cuda" else None,
              "cpus": os.cpu_count(), "procs": args.procs, "torch": torch.__version__, "numpy": np.__version__,
              "python": sys.version.split()[0]}
     print(json.dumps(facts), flush=True)
     out = {"facts": facts, "args": {k: v for k, v in vars(args).items() if k != "run"}, "runs": []}
 
-    def save_json():
-        if args.json:
-            write_json(out, args.json)
+    def save_json():  # after every run
+        harness.write_json(args, out)
 
     compile_s = ensure_compiled(joints=(6, 7))  # once here; the workers load the cache
     print(f"kernels compiled in {compile_s:.0f} s", flush=True)
@@ -144,8 +143,7 @@ def main() -> int:
     pool = ProcessPoolExecutor(args.procs, mp_context=mp.get_context("spawn"))
     futures = {pool.submit(_label_shard, (n, k, args.arms, args.test_arms, args.step, args.data)): (n, k)
                for n, k in order}
-    t_label = time.perf_counter()
-    label_deadline = t_label + args.label_seconds
+    label_clock = harness.Stopwatch().start()
 
     def prefix(n: int) -> int:
         k = 0
@@ -162,7 +160,7 @@ def main() -> int:
             if until_shards is not None and min(prefix(6), prefix(7)) >= until_shards:
                 return
             pending = [f for f in futures if f not in collected and not f.cancelled()]
-            left = 0.0 if drain else label_deadline - time.perf_counter()
+            left = 0.0 if drain else args.label_seconds - label_clock.elapsed()
             if not pending or (left <= 0 and not drain):
                 return
             finished, _ = wait(pending, timeout=max(left, 0.0), return_when=FIRST_COMPLETED)
@@ -176,7 +174,7 @@ def main() -> int:
 
     def label_facts() -> dict:
         arms = sum(len(done[n]) for n in (6, 7)) * args.arms
-        wall = time.perf_counter() - t_label
+        wall = label_clock.elapsed()
         return {"shards_done": {f"morph{n}": prefix(n) for n in (6, 7)}, "arms_labelled": arms,
                 "wall_seconds": wall, "arms_per_second": arms / wall if wall > 0 else None,
                 "seconds_per_shard_median": float(np.median(label_s)) if label_s else None}
@@ -225,9 +223,7 @@ def main() -> int:
                          max_epochs=100_000, max_fail=10 ** 6, fractions=(0.95, 0.05, 0.0), seed=0,
                          pos_weight=args.pos_weight, device=str(device))
         cfg = mm.MorphModelConfig(encoder=run["encoder"], latent=run["latent"], decoder=run["decoder"])
-        t0 = time.perf_counter()
-        model, result = mm.fit_morph_model(train_sets, cfg, tc)
-        train_s = time.perf_counter() - t0
+        train_s, (model, result) = harness.timed(lambda: mm.fit_morph_model(train_sets, cfg, tc))  # noqa: B023
         train_X = np.concatenate([mm.morph_features(list(d.features[:, :d.spec.n_arm_features])) for d in train_sets])
         train_Y = np.concatenate([d.labels for d in train_sets])
         with torch.no_grad():
@@ -277,15 +273,11 @@ def main() -> int:
         model = models[row["name"]]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ExtrapolationWarning)
-            mm.predict_morph_map(model, named["iiwa14"], big, allow_extrapolation=True)  # warm
-            reps = []
-            for _ in range(5):
-                t0 = time.perf_counter()
-                mm.predict_morph_map(model, named["iiwa14"], big, allow_extrapolation=True)
-                reps.append(time.perf_counter() - t0)
-        row["map_ms_one_thread"] = 1e3 * float(np.median(reps))
+            reps, _ = harness.timings(lambda: mm.predict_morph_map(model, named["iiwa14"], big,  # noqa: B023
+                                                                   allow_extrapolation=True), 5, warmup=1)
+        row["map_ms_one_thread"] = 1e3 * float(np.median(reps.values))
         print(f"{row['name']}: one {len(big)}-node map {row['map_ms_one_thread']:.1f} ms on one CPU thread", flush=True)
-    out["total_seconds"] = time.perf_counter() - t_start
+    out["total_seconds"] = run_clock.elapsed()
     save_json()
     print(f"total {out['total_seconds']:.0f} s", flush=True)
     return 0

@@ -14,27 +14,28 @@ and the first reason is printed: that is where the model has no business being r
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import os
 import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(__file__))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "maps"))  # bench_recall_arms: its arms and URDFs
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = harness.parser(__doc__)
     p.add_argument("--models", default="models", help="folder of morph.pt and morph_fk.pt")
     p.add_argument("--files", nargs="+", metavar="FILE",
                    help="score these morphology model files instead (each named by its file's stem; the first "
-                        "one's grid is the truth's), e.g. the models of bench_morph_scale.py")
+                        "one's grid is the truth's), e.g. the models of learn/bench_morph_scale.py")
     p.add_argument("--samples", type=int, default=50_000, help="FK samples of the sampled map")
     p.add_argument("--angle-tol", type=float, default=0.4, help="rad, of the sampled map")
-    p.add_argument("--json", help="write the rows here")
     args = p.parse_args(argv)
 
     import torch
@@ -88,9 +89,7 @@ def main(argv=None) -> int:
     print("|" + "---|" * len(cols))
     for r in rows:
         print("| " + " | ".join(cell(r.get(c)) for c in cols) + " |")
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(rows, f, indent=1)
+    harness.write_json(args, {"rows": rows})
     return 0
 
 

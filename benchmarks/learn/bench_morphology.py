@@ -21,10 +21,11 @@ side in this run. Everything single-threaded (``torch.set_num_threads(1)``; run 
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
-import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
 def _score(pred, truth):
@@ -34,8 +35,8 @@ def _score(pred, truth):
     return {k: s[k] for k in ("f", "precision", "recall", "f_mean")}
 
 
-def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv=None) -> int:
+    p = harness.parser(__doc__)
     p.add_argument("--data", default="data/morph", help="folder of the experience shards (reused when there)")
     p.add_argument("--shards", type=int, default=5, help="shards per family (morph6, morph7)")
     p.add_argument("--arms", type=int, default=100, help="arms per shard")
@@ -47,8 +48,7 @@ def main() -> int:
     p.add_argument("--batch-size", type=int, default=8, help="arms per Adam step")
     p.add_argument("--lr", type=float, default=1e-3)
     p.add_argument("--save", help="write the model here")
-    p.add_argument("--json", help="write the results here")
-    args = p.parse_args()
+    args = p.parse_args(argv)
 
     import numpy as np
     import torch
@@ -61,7 +61,7 @@ def main() -> int:
     from wsmap.robots.morph import HELD_OUT
 
     torch.set_num_threads(1)
-    t_start = time.perf_counter()
+    run_clock = harness.Stopwatch().start()
     train_sets, tests, build_s, arms_built = [], [], 0.0, 0
     for n in (6, 7):
         sets, secs = mm.build_morph_shards(args.data, n, args.shards, args.arms, step=args.step,
@@ -82,19 +82,15 @@ def main() -> int:
     named, named_labels, named_s = {}, {}, {}
     for name in HELD_OUT:
         arm = wsmap.load(name)
-        t0 = time.perf_counter()
-        named_labels[name] = ws.constant_orientation_map(arm, nodes, mm.TOOL_DOWN, method="numerical",
-                                                         convention="standard")
-        named_s[name] = time.perf_counter() - t0
+        named_s[name], named_labels[name] = harness.timed(lambda: ws.constant_orientation_map(
+            arm, nodes, mm.TOOL_DOWN, method="numerical", convention="standard"))  # noqa: B023
         named[name] = arm
 
     # training
     tc = TrainConfig(optimizer="adam", optimizer_kwargs={"lr": args.lr}, loss="crossentropy",
                      batch_size=args.batch_size, lr_decay="cosine-time", time_limit_s=60 * args.minutes,
                      max_epochs=args.epochs, max_fail=10 ** 6, fractions=(0.95, 0.05, 0.0), seed=0)
-    t0 = time.perf_counter()
-    model, result = mm.fit_morph_model(train_sets, train_config=tc)
-    train_s = time.perf_counter() - t0
+    train_s, (model, result) = harness.timed(lambda: mm.fit_morph_model(train_sets, train_config=tc))
     epochs = len(result.history.epoch) - 1
     print(f"trained on {sum(len(d) for d in train_sets)} arms x {len(nodes)} nodes: {epochs} epochs in "
           f"{train_s:.0f} s (best epoch {result.best_epoch}, stop: {result.stop_reason}); threshold "
@@ -146,25 +142,16 @@ def main() -> int:
     print(f"\none map of {len(big)} nodes ({args.time_step} m), one core:")
     speed = []
     for label, arm in timed.items():
-        t0 = time.perf_counter()
-        ws.constant_orientation_map(arm, big, mm.TOOL_DOWN, method="numerical", convention="standard")
-        classical = time.perf_counter() - t0
-        mm.predict_morph_map(model, arm, big)  # warm
-        reps = []
-        for _ in range(5):
-            t0 = time.perf_counter()
-            mm.predict_morph_map(model, arm, big)
-            reps.append(time.perf_counter() - t0)
-        mod = float(np.median(reps))
+        classical, _ = harness.timed(lambda: ws.constant_orientation_map(  # noqa: B023
+            arm, big, mm.TOOL_DOWN, method="numerical", convention="standard"))
+        reps, _ = harness.timings(lambda: mm.predict_morph_map(model, arm, big), 5, warmup=1)  # noqa: B023
+        mod = float(np.median(reps.values))
         print(f"  {label:<22} model {1e3 * mod:8.1f} ms   classical {classical:7.2f} s   x{classical / mod:7.0f}")
         speed.append({"arm": label, "model_s": mod, "classical_s": classical})
-    print(f"\ntotal {time.perf_counter() - t_start:.0f} s")
-    if args.json:
-        from wsmap.io import write_json
-
-        write_json({"rows": out_rows, "speed": speed, "train_s": train_s, "epochs": epochs,
-                               "label_s_per_arm": build_s / arms_built if arms_built else None,
-                               "named_label_s": named_s, "args": vars(args)}, args.json)
+    print(f"\ntotal {run_clock.elapsed():.0f} s")
+    harness.write_json(args, {"rows": out_rows, "speed": speed, "train_s": train_s, "epochs": epochs,
+                              "label_s_per_arm": build_s / arms_built if arms_built else None,
+                              "named_label_s": named_s, "args": vars(args)})
     return 0
 
 

@@ -16,20 +16,20 @@ Every file is compared byte for byte with the single-process one. Prints arms pe
 
 from __future__ import annotations
 
-import argparse
 import os
-import platform
+import sys
 import tempfile
-import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+
+def main(argv=None) -> None:
+    p = harness.parser(__doc__)
     p.add_argument("--arms", type=int, default=20)
     p.add_argument("--workers", type=int, nargs="+", default=[1, 2])
-    p.add_argument("--json", help="write the results here")
-    args = p.parse_args()
+    args = p.parse_args(argv)
 
     from wsmap import datasets
     from wsmap.datasets.store import _dask_client
@@ -44,9 +44,7 @@ def main() -> None:
 
         def timed(label, n_workers, **kw):
             out = tmp / f"{label.replace(' ', '_')}.npz"
-            t0 = time.perf_counter()
-            datasets.build_dataset(kw.pop("spec", spec), out, progress=False, **kw)
-            dt = time.perf_counter() - t0
+            dt, _ = harness.timed(lambda: datasets.build_dataset(kw.pop("spec", spec), out, progress=False, **kw))
             row = dict(build=label, workers=n_workers, arms=args.arms, seconds=round(dt, 2),
                        arms_per_s=round(args.arms / dt, 3))
             return row, out.read_bytes()
@@ -67,10 +65,8 @@ def main() -> None:
             rows.append(row)
             print(row, flush=True)
     if args.json:
-        from wsmap.io import write_json
-
         os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
-        write_json(dict(rows=rows, cpus=os.cpu_count(), load=os.getloadavg(), machine=platform.platform()), args.json)
+    harness.write_json(args, dict(rows=rows))
 
 
 if __name__ == "__main__":

@@ -37,31 +37,29 @@ Measured (2-core machine shared with another job, OMP_NUM_THREADS=1, one numba t
 
 from __future__ import annotations
 
-import argparse
-import platform
-import time
+import sys
+from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+
+def main(argv=None) -> None:
+    p = harness.parser(__doc__, seed=0, seed_help="seed of the node samples and of the reference starts (default 0)")
     p.add_argument("--arms", type=int, default=4, help="arms of the training stream (plus the Panda itself)")
     p.add_argument("--sample", type=int, default=300,
                    help="candidate nodes per arm sent to the reference (0: every candidate, an exact count)")
     p.add_argument("--check", type=int, default=100, help="map-reachable nodes per arm sent to the reference")
     p.add_argument("--starts", type=int, default=64, help="reference starts per node")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--json", help="write the results here")
-    args = p.parse_args()
+    args = p.parse_args(argv)
 
     from scipy.stats import beta
 
-    from wsmap import datasets
-    from wsmap import robots
+    from wsmap import datasets, robots
     from wsmap import workspace as ws
-    from wsmap.kinematics import ikine_search, lm_compiled
-    from wsmap.kinematics import as_chain
+    from wsmap.kinematics import as_chain, ikine_search, lm_compiled
     from wsmap.kinematics.ik.reach_filter import reach_filter
     from wsmap.paper.specs import PANDA7_TOOLDOWN as spec
 
@@ -74,17 +72,15 @@ def main() -> None:
     rows, totals = [], dict(tp=0, fn_est=0.0, fn_hi=0.0, sampled=0, found=0, checked=0, confirmed=0)
     for i, s in enumerate(scales):
         arm = robots.family_arm("panda7", s)
-        t0 = time.perf_counter()
-        L = ws.constant_orientation_map(arm, nodes, spec.fixed, method="numerical", convention=spec.convention)
-        t_map = time.perf_counter() - t0
+        t_map, L = harness.timed(lambda: ws.constant_orientation_map(  # noqa: B023
+            arm, nodes, spec.fixed, method="numerical", convention=spec.convention))
         possible = reach_filter(as_chain(arm), T, 1e-6)
         cand = np.flatnonzero(~L & possible)
         pick = cand if args.sample <= 0 else rng.choice(cand, size=min(args.sample, cand.size), replace=False)
         yes = np.flatnonzero(L)
         check = rng.choice(yes, size=min(args.check, yes.size), replace=False)
-        t0 = time.perf_counter()
-        ref = ikine_search(arm, T[np.concatenate([pick, check])], starts=args.starts, seed=args.seed + 1).success
-        t_ref = time.perf_counter() - t0
+        t_ref, ref = harness.timed(lambda: ikine_search(  # noqa: B023
+            arm, T[np.concatenate([pick, check])], starts=args.starts, seed=args.seed + 1).success)
         found, confirmed = int(ref[: pick.size].sum()), int(ref[pick.size :].sum())
         tp = int(L.sum())
         rate = found / max(pick.size, 1)
@@ -114,11 +110,8 @@ def main() -> None:
     if args.json:
         import os
 
-        from wsmap.io import write_json
-
         os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
-        write_json(dict(args=vars(args), rows=rows, pooled_recall=pooled, pooled_recall_95_lower=pooled_lo,
-                        machine=platform.platform(), processor=platform.processor()), args.json)
+    harness.write_json(args, dict(args=vars(args), rows=rows, pooled_recall=pooled, pooled_recall_95_lower=pooled_lo))
 
 
 if __name__ == "__main__":

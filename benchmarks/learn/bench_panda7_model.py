@@ -16,14 +16,15 @@ beside the measurements: F >= 0.97, <= 1 ms per map, >= 1000x the numerical map,
 
 from __future__ import annotations
 
-import argparse
-import platform
 import sys
-import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+import harness  # noqa: E402
 
 
-def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv=None) -> int:
+    p = harness.parser(__doc__, threads=2, threads_help="torch threads for training (default 2)")
     p.add_argument("--train", required=True, help="panda7_tooldown training dataset (.npz)")
     p.add_argument("--test", required=True, help="its independent test set (.npz)")
     p.add_argument("--train-arms", type=int, default=None, help="first N training arms (default all)")
@@ -31,17 +32,15 @@ def main() -> int:
     p.add_argument("--epochs", type=int, default=60)
     p.add_argument("--lr", type=float, default=1e-3)
     p.add_argument("--batch-size", type=int, default=64)
-    p.add_argument("--threads", type=int, default=2, help="torch threads for training")
+
     p.add_argument("--curve", type=int, nargs="*", default=[], help="also train on these numbers of arms")
     p.add_argument("--speed-arms", type=int, default=3, help="held-out arms whose classical map is timed")
     p.add_argument("--save", help="write the model here (wsmap.learn.save)")
-    p.add_argument("--json", help="write the results here")
-    args = p.parse_args()
+    args = p.parse_args(argv)
 
     import torch
 
     from wsmap import datasets, learn
-    from wsmap.io import write_json
     from wsmap.learn import family as map_family
 
     torch.set_num_threads(args.threads)
@@ -52,9 +51,7 @@ def main() -> int:
     print(f"{len(train)} training arms, {len(test)} held-out arms, {test.n_nodes} nodes; recipe {recipe.to_dict()}",
           flush=True)
 
-    t0 = time.perf_counter()
-    model, result = map_family.fit_map_model(train, recipe)
-    train_s = time.perf_counter() - t0
+    train_s, (model, result) = harness.timed(lambda: map_family.fit_map_model(train, recipe))
     ev = map_family.evaluate_map_model(model, test)
     print(f"trained in {train_s:.0f} s ({torch.get_num_threads()} threads), best epoch {result.best_epoch}; "
           f"held-out F {ev['f']:.4f} (P {ev['precision']:.4f}, R {ev['recall']:.4f}; per arm {ev['f_mean']:.4f} "
@@ -83,12 +80,10 @@ def main() -> int:
     print("\n| training arms | F | P | R | training s |\n|---:|---:|---:|---:|---:|")
     for r in curve:
         print(f"| {r['train_arms']} | {r['f']:.4f} | {r['precision']:.4f} | {r['recall']:.4f} | {r['seconds']:.0f} |")
-    if args.json:
-        write_json(dict(command=" ".join(sys.argv), machine=platform.processor() or platform.machine(),
-                        recipe=recipe.to_dict(), train_arms=len(train), test_arms=len(test), train_seconds=train_s,
-                        best_epoch=result.best_epoch, f=ev["f"], precision=ev["precision"], recall=ev["recall"],
-                        f_mean=ev["f_mean"], f_std=ev["f_std"], speed={str(k): v for k, v in speed.items()},
-                        curve=curve), args.json)
+    harness.write_json(args, dict(recipe=recipe.to_dict(), train_arms=len(train), test_arms=len(test),
+                                  train_seconds=train_s, best_epoch=result.best_epoch, f=ev["f"],
+                                  precision=ev["precision"], recall=ev["recall"], f_mean=ev["f_mean"],
+                                  f_std=ev["f_std"], speed={str(k): v for k, v in speed.items()}, curve=curve))
     return 0
 
 
