@@ -435,6 +435,40 @@ def _same_file(a: Path, b: Path) -> bool:
         return False
 
 
+def _named_spec(spec: DatasetSpec | str, catalogue: Mapping[str, DatasetSpec] | None) -> DatasetSpec:
+    """`spec` itself, or the spec of that name in `catalogue`."""
+    if not isinstance(spec, str):
+        return spec
+    if catalogue is None:
+        raise ValueError(f"a dataset given by name ({spec!r}) needs a catalogue of specs to look it up in")
+    if spec not in catalogue:
+        raise ValueError(f"unknown dataset {spec!r}; choose one of {', '.join(sorted(catalogue))}")
+    return catalogue[spec]
+
+
+def _file_jobs(spec: DatasetSpec, out: PathLike, samples: int | None, test_samples: int | None,
+               test_out: PathLike | None, test_only: bool) -> list[tuple[DatasetSpec, Path]]:
+    """The `(spec, path)` pairs `build_dataset_files` writes (training file first), every path
+    checked (`check_output_path`; the two outputs not the same file); `samples` and
+    `test_samples` are counts already checked (or `None`)."""
+    if test_only:
+        if test_samples is not None or test_out is not None:
+            raise ValueError(
+                "test_only builds only a test set (of `samples` arms) into `out`; test_samples and test_out "
+                "build one beside a training set: give one or the other"
+            )
+        return [(test_spec(spec, 1000 if samples is None else samples), check_output_path(out, "dataset"))]
+    train = spec if samples is None else scaled(spec, samples)
+    out = check_output_path(out, "dataset")
+    jobs = [(train, out)]
+    if test_samples is not None or test_out is not None:
+        test_out = check_output_path(test_path_for(out) if test_out is None else test_out, "test set")
+        if _same_file(out, test_out):
+            raise OutputPathError(f"the dataset and its test set would both be written to {str(out)!r}")
+        jobs.append((test_spec(train, 1000 if test_samples is None else test_samples), test_out))
+    return jobs
+
+
 def build_dataset_files(
     spec: DatasetSpec,
     out: PathLike,
@@ -493,12 +527,7 @@ def build_dataset_files(
     and an existing file at either path is untouched.
     """
     # ---- what to build (no work, no files yet)
-    if isinstance(spec, str):
-        if catalogue is None:
-            raise ValueError(f"a dataset given by name ({spec!r}) needs a catalogue of specs to look it up in")
-        if spec not in catalogue:
-            raise ValueError(f"unknown dataset {spec!r}; choose one of {', '.join(sorted(catalogue))}")
-        spec = catalogue[spec]
+    spec = _named_spec(spec, catalogue)
     _check_spec(spec)
     if not isinstance(test_only, bool):
         raise ValueError(f"test_only must be True or False, got {test_only!r}")
@@ -509,22 +538,7 @@ def build_dataset_files(
     if chunk is not None:
         chunk = _int("chunk", chunk, 1)
     workers, scheduler, connect_timeout = _check_cluster(workers, scheduler, connect_timeout)
-    if test_only:
-        if test_samples is not None or test_out is not None:
-            raise ValueError(
-                "test_only builds only a test set (of `samples` arms) into `out`; test_samples and test_out "
-                "build one beside a training set: give one or the other"
-            )
-        jobs = [(test_spec(spec, 1000 if samples is None else samples), check_output_path(out, "dataset"))]
-    else:
-        train = spec if samples is None else scaled(spec, samples)
-        out = check_output_path(out, "dataset")
-        jobs = [(train, out)]
-        if test_samples is not None or test_out is not None:
-            test_out = check_output_path(test_path_for(out) if test_out is None else test_out, "test set")
-            if _same_file(out, test_out):
-                raise OutputPathError(f"the dataset and its test set would both be written to {str(out)!r}")
-            jobs.append((test_spec(train, 1000 if test_samples is None else test_samples), test_out))
+    jobs = _file_jobs(spec, out, samples, test_samples, test_out, test_only)
     # ---- the work, all or nothing (the Dask scheduler, if any, reached first)
     _write_all(jobs, chunk, progress, workers, scheduler, connect_timeout)
     return [path for _, path in jobs]
