@@ -19,7 +19,7 @@ the tool into the last, joint offsets and limits (B, n)); each target `i` names 
 Shared by the batch: joint axes (n, 3) in the joint frames, which joints are prismatic, which axes
 are `z`.
 
-Speed (`benchmarks/bench_fast_maps.py`, kernel rate): the forward kinematics takes its sines and
+Speed (`benchmarks/maps/bench_fast_maps.py`, kernel rate): the forward kinematics takes its sines and
 cosines from `_sincos` (no libm call: a third of the forward kinematics' time went to libm),
 and the joint count is a compile-time constant for six-joint arms (`_run_targets6` passes
 the literal 6 to `_task`, numba compiles that build apart and LLVM unrolls the loops over

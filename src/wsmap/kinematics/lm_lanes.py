@@ -43,7 +43,7 @@ __all__ = ["KERNELS", "LANES", "MAX_JOINTS", "available", "isa", "kernel", "set_
 
 #: The kernels `set_kernel` takes.
 KERNELS = ("lanes", "scalar")
-#: Targets in flight per thread (4, 8 or 16; `benchmarks/bench_peers.py --lanes` compares them).
+#: Targets in flight per thread (4, 8 or 16; `benchmarks/kernel/bench_peers.py --lanes` compares them).
 LANES = 8
 #: The most joints the lane kernel takes; longer chains run on the scalar kernel.
 MAX_JOINTS = 16

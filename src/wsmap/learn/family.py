@@ -4,7 +4,7 @@ The paper's networks map an arm's DH parameters to its binary workspace map. Thi
 such a map model for any dataset of the catalogue -- in particular a chain family whose classical
 map is expensive (`panda7`: a 7-joint arm with joint limits and no closed form, whose numerical
 map takes about a second per arm) -- with the recipe that works best here (measured in
-`benchmarks/bench_panda7_model.py`):
+`benchmarks/learn/bench_panda7_model.py`):
 
 * inputs: the feature columns that vary across the family (`panda7`: its 6 scale factors; the
   grid and orientation columns are the same for every arm and carry nothing), standardised on the

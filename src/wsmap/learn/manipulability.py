@@ -36,7 +36,7 @@ Inputs outside the family are refused the way the map models refuse them
 `allow_extrapolation=True`; arms that are not of the family (other twists, `d1 ≠ 0`, joint
 limits, a tool) and arrays of the wrong shape raise `ValueError`.
 
-Measured (`benchmarks/bench_manipulability_model.py --epochs 60`, one thread): 4000 training
+Measured (`benchmarks/learn/bench_manipulability_model.py --epochs 60`, one thread): 4000 training
 arms, the default config (60 epochs), 500 held-out arms: R² 0.9947 pooled over arms x nodes, MAE
 0.00064 m³; on the reachable nodes R² 0.9925, MAE 0.0026 m³; largest error 0.080 m³ (the earlier
 time-limited default, 150 s or 63 epochs: R² 0.9948). A map costs

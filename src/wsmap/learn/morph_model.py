@@ -253,7 +253,7 @@ def predict_morph_map(model: MorphMapModel, robot, nodes, *, rpy=None, conventio
 
 #: `predict_morph_grid`'s defaults: every `COARSE`-th node along each axis first, and a
 #: coarse cell is refined when a corner's logit is within `MARGIN` of the threshold's
-#: (`benchmarks/bench_morph_map_speed.py`: with margin 6 the maps of 206 arms were already
+#: (`benchmarks/learn/bench_morph_map_speed.py`: with margin 6 the maps of 206 arms were already
 #: identical to the dense ones; 8 keeps room)
 COARSE, MARGIN = 3, 8.0
 #: where the coarse pass leaves more than this share of the nodes to evaluate, every node is

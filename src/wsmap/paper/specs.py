@@ -103,13 +103,13 @@ PAPER_SPECS: dict[str, DatasetSpec] = _paper_specs()
 #: 1883 for the Panda); the largest arms reach a little past the grid's top face (z = 1.2 m: 61
 #: nodes of that face for all scales 1.3), nothing reaches its other faces.
 #:
-#: Recall against a denser reference (`benchmarks/bench_panda7_labels.py`: `ikine_search` with
+#: Recall against a denser reference (`benchmarks/learn/bench_panda7_labels.py`: `ikine_search` with
 #: 64 independent starts per node on the nodes the map calls unreachable that the sound reach filter
 #: does not exclude): 0 misses in 5 x 1000 sampled such nodes (arms 0-3 of the training stream and
 #: the Panda; per-arm 95 % lower bounds 0.987-0.992), and on every such node of two arms (10,952
 #: nodes) 1 miss: recall 1268/1269 = 0.9992 for arm 0, 1883/1883 = 1.0 for the Panda, 0.9997 pooled.
 #: The reference confirmed 500/500 sampled map-reachable nodes. ~0.8 s per arm on one thread
-#: (`benchmarks/bench_panda7_build.py`: 1.24 arms/s in one process, 2.0 on a 2-worker LocalCluster
+#: (`benchmarks/learn/bench_panda7_build.py`: 1.24 arms/s in one process, 2.0 on a 2-worker LocalCluster
 #: of a 2-core machine shared with another job).
 PANDA7_TOOLDOWN = DatasetSpec(
     "panda7_tooldown",
@@ -135,7 +135,7 @@ PANDA7_TOOLDOWN = DatasetSpec(
 #: labels there. For the first four arms 1040, 1593, 841, 2033 nodes of the chain's 1269, 2232, 1310,
 #: 2749; over the first 8, 0.711 of the chain's nodes and none outside them, 3.2 s per arm on one
 #: thread against 4.2 s for `panda7_tooldown`'s labels in the same run of a loaded 2-core machine
-#: (`benchmarks/bench_panda7_free_labels.py`).
+#: (`benchmarks/collision/bench_panda7_free_labels.py`).
 PANDA7_TOOLDOWN_FREE = PANDA7_TOOLDOWN.replace(name="panda7_tooldown_free", collision={"model": "panda"})
 
 #: Datasets beyond the paper's experiments (not part of its pipeline); `test_spec(s)` as ever.

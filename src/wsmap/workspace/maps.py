@@ -125,7 +125,7 @@ def reachable(robot: Arm, T: ArrayLike, *, starts: int = DEFAULT_STARTS, seed: i
     A pose is reachable when some start converges to it inside the joint limits and forward
     kinematics confirms the solution (within 1e-6 m and rad), so `True` comes with a solution;
     `False` means no start found one (recall measured against exact references in
-    `benchmarks/bench_recall.py`: >= 0.999 with the default starts, no false positive).
+    `benchmarks/maps/bench_recall.py`: >= 0.999 with the default starts, no false positive).
     """
     valid = _predicate(robot, collision)
     if valid is None:

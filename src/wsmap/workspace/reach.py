@@ -18,7 +18,7 @@ Arms with a closed form (`wsmap.kinematics.closed_form_for`) are mapped exactly 
 branch); other arms by the numerical search started from neighbouring nodes' solutions and, across
 orientations, from the same node's solution at the nearest orientation already solved
 (`wsmap.kinematics.map_search`): `True` always comes with a joint solution inside the limits
-that forward kinematics confirms; recall is measured in `benchmarks/bench_reach_maps.py`.
+that forward kinematics confirms; recall is measured in `benchmarks/maps/bench_reach_maps.py`.
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ def _check_arm(robot):
 #: and no border search at each orientation: the continuation over the orientations already starts
 #: every node from its own solution at a nearby orientation, so the border search found 3 of 5.9
 #: million poses more on the Panda at 5 cm x 50 orientations, for 11 times the time (946 s against
-#: 82 s, benchmarks/bench_collision.py --index, docs/collision.md). The reach pre-filter keeps it.
+#: 82 s, benchmarks/collision/bench_collision.py --index, docs/collision.md). The reach pre-filter keeps it.
 INDEX_SETTINGS = {**MAP_SETTINGS, "retry": 2, "border_starts": 0}
 
 

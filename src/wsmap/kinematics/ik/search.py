@@ -322,8 +322,8 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, settings: Search
     the node's pose), then (2) again, until no new node borders a solved one. So a node next to a
     solved node is reached whenever `ikine_search` with `border_starts` starts reaches it,
     whatever the waves did before. Every success is confirmed by forward kinematics inside the
-    limits, so `True` is never wrong; recall is measured in `benchmarks/bench_fast_maps.py` and
-    `benchmarks/bench_recall_arms.py`. Deterministic; does not depend on the thread count.
+    limits, so `True` is never wrong; recall is measured in `benchmarks/maps/bench_fast_maps.py` and
+    `benchmarks/maps/bench_recall_arms.py`. Deterministic; does not depend on the thread count.
     """
     s = SearchSettings() if settings is None else settings
     if not isinstance(s, SearchSettings):

@@ -44,7 +44,7 @@ __all__ = ["SOLVERS", "MAP_SETTINGS", "DEFAULT_STARTS", "DEFAULT_ILIMIT", "DEFAU
 SOLVERS = ("search", "independent", "paper")
 
 #: Starts per target of `ikine_search`, the maps' numerical path and `reachable`. Measured
-#: with `benchmarks/bench_recall.py` (21³ grid; PUMA560 with and without limits against the closed
+#: with `benchmarks/maps/bench_recall.py` (21³ grid; PUMA560 with and without limits against the closed
 #: form, UR5e against EAIK; R = I and tool down): the hardest case, PUMA560 with limits, needs 24
 #: starts for recall >= 0.999 at seed 0 but 32 at seed 1 (24: 0.9986); 32 starts missed no node in
 #: any case at seeds 0-4. No false positive at any count.
@@ -52,14 +52,14 @@ DEFAULT_STARTS = 32
 
 #: Per-start iteration and consecutive-rejection limits. The paper's 500 and 100 spend most of a
 #: failing start on rejections (a start that fails, fails slowly); 100 and 20 gave the same recall
-#: at every count of starts in `benchmarks/bench_recall.py` (so did 60 and 10) at about half the time.
+#: at every count of starts in `benchmarks/maps/bench_recall.py` (so did 60 and 10) at about half the time.
 DEFAULT_ILIMIT = 100
 DEFAULT_RLIMIT = 20
 
 #: Tolerance of the forward-kinematics confirmation of every success (m and rad).
 FK_CONFIRM_TOL = 1e-6
 
-#: Defaults of `map_search` for the maps, measured with `benchmarks/bench_fast_maps.py`
+#: Defaults of `map_search` for the maps, measured with `benchmarks/maps/bench_fast_maps.py`
 #: (recall against the closed forms and a 64-start reference on the 21³ grid for PUMA560 with and
 #: without limits, UR5e, Panda, iiwa14, Gen3): start 0 only in the first pass (a neighbour's solution
 #: is a better start than a random one), two seeds per wave, four random retries next to solved
