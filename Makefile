@@ -45,9 +45,9 @@ lab: $(STAMP)
 # Speed measurements (minutes; never part of the tests). JSON results land in bench/.
 bench: $(STAMP)
 	mkdir -p bench
-	OMP_NUM_THREADS=1 $(BIN)/python benchmarks/bench_classical.py --json bench/classical.json
-	OMP_NUM_THREADS=1 $(BIN)/python benchmarks/bench_datasets.py --load | tee bench/datasets.txt
-	$(BIN)/python benchmarks/bench_models.py --threads 2 --json bench/models.json
+	OMP_NUM_THREADS=1 $(BIN)/python benchmarks/maps/bench_classical.py --json bench/classical.json
+	OMP_NUM_THREADS=1 $(BIN)/python benchmarks/paper/bench_datasets.py --load | tee bench/datasets.txt
+	$(BIN)/python benchmarks/learn/bench_models.py --threads 2 --json bench/models.json
 
 # Regenerate environment.lock from requirements.in (needs pip-tools in the venv).
 lock:
