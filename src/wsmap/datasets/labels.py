@@ -202,6 +202,62 @@ def _chain_family_labels(arms, spec: DatasetSpec, fx, nodes) -> np.ndarray:
     return out
 
 
+def _chain_labels_for(arms, spec: DatasetSpec, fixed, method: str, q0, nodes: np.ndarray) -> np.ndarray:
+    """`labels_for` of a chain family: the numerical map search (no other method, no `q0`) on the
+    family's arms (a SerialChain batch, or their scale factors)."""
+    if method != "numerical":
+        raise ValueError(f"family {spec.family!r} has no closed form: method must be 'numerical', got {method!r}")
+    if q0 is not None:
+        raise ValueError(f"q0 sets the paper's LM starts; family {spec.family!r} is labelled by the map search, "
+                         "which starts from neighbouring nodes' solutions")
+    if isinstance(arms, SerialChain):
+        scales_for(arms, spec)  # checks that they are a batch (count,) of the family's arms
+    else:
+        arms = robots.family_arm(spec.family, scales_for(arms, spec))
+    return _chain_family_labels(arms, spec, _fixed_rows(spec, arms.batch_shape[0], fixed), nodes)
+
+
+def _checked_starts(spec: DatasetSpec, count: int, q0) -> np.ndarray:
+    """The LM start configurations `(count, S, 6)` for `count` arms: `q0` (`(S, 6)` shared or
+    `(count, S, 6)`, finite) or, when `None`, the spec's `start_configurations`."""
+    if q0 is None:
+        q0 = start_configurations(spec, count)
+    q0 = float64_array(q0, f"q0 must be numbers of shape (S, 6) or ({count}, S, 6)")
+    if q0.ndim == 2:
+        q0 = np.broadcast_to(q0, (count,) + q0.shape)
+    if q0.ndim != 3 or q0.shape[0] != count or q0.shape[2] != N_JOINTS or q0.shape[1] < 1:
+        raise ValueError(f"q0 must have shape (S, 6) or ({count}, S, 6) with S >= 1, got {q0.shape}")
+    return require_finite(q0, "q0 contains NaN or infinite values")
+
+
+def _exact_labels(arms: DHRobot, spec: DatasetSpec, nodes: np.ndarray, fx: np.ndarray) -> np.ndarray:
+    """Closed-form labels `(count, N)` of spherical-wrist `arms` at `nodes`, with the fixed
+    orientation (R3) or point (SO3) `fx` `(count, 3)` of each arm."""
+    count = arms.batch_shape[0]
+    if count == 0:
+        return np.zeros((0, len(nodes)), dtype=bool)
+    # one orientation for all arms (a fixed spec, or rows that happen to agree): the map functions
+    if not np.any(fx != fx[0]):
+        if spec.scope == "R3":
+            return ws.constant_orientation_map(arms, nodes, fx[0], method="exact", convention=spec.convention)
+        return ws.orientation_map(arms, nodes, fx[0], method="exact", convention=spec.convention)
+    # one orientation (point) per arm: the pose of node n for arm b, the closed form's reach test,
+    # a few arms at a time (the (arms, nodes, 4, 4) poses are 128 bytes per pair)
+    closed_form = require_closed_form(arms)
+    out = np.empty((count, len(nodes)), dtype=bool)
+    per = max(1, (1 << 18) // max(len(nodes), 1))
+    for s in range(0, count, per):
+        sl = slice(s, min(s + per, count))
+        if spec.scope == "R3":
+            T = ws.target_poses(nodes[None, :, :], fx[sl, None, :], spec.convention)
+        else:
+            T = ws.target_poses(fx[sl, None, :], nodes[None, :, :], spec.convention)
+        sub = arms[sl]
+        node_arms = DHRobot(sub.d[:, None, :], sub.a[:, None, :], sub.alpha[:, None, :])
+        out[sl] = closed_form.reachable(node_arms, T)
+    return out
+
+
 def labels_for(
     arms: DHRobot,
     spec: DatasetSpec,
@@ -239,48 +295,11 @@ def labels_for(
     method = spec.method if method is None else _choice("method", method, METHODS)
     nodes = spec_nodes(spec) if nodes is None else _nodes_array(nodes)
     if spec.is_chain_family:
-        if method != "numerical":
-            raise ValueError(f"family {spec.family!r} has no closed form: method must be 'numerical', got {method!r}")
-        if q0 is not None:
-            raise ValueError(f"q0 sets the paper's LM starts; family {spec.family!r} is labelled by the map search, "
-                             "which starts from neighbouring nodes' solutions")
-        if isinstance(arms, SerialChain):
-            scales_for(arms, spec)  # checks that they are a batch (count,) of the family's arms
-        else:
-            arms = robots.family_arm(spec.family, scales_for(arms, spec))
-        return _chain_family_labels(arms, spec, _fixed_rows(spec, arms.batch_shape[0], fixed), nodes)
+        return _chain_labels_for(arms, spec, fixed, method, q0, nodes)
     arms = _check_arms(arms)
     count = arms.batch_shape[0]
     fx = _fixed_rows(spec, count, fixed)
     if method == "numerical":
-        if q0 is None:
-            q0 = start_configurations(spec, count)
-        q0 = float64_array(q0, f"q0 must be numbers of shape (S, 6) or ({count}, S, 6)")
-        if q0.ndim == 2:
-            q0 = np.broadcast_to(q0, (count,) + q0.shape)
-        if q0.ndim != 3 or q0.shape[0] != count or q0.shape[2] != N_JOINTS or q0.shape[1] < 1:
-            raise ValueError(f"q0 must have shape (S, 6) or ({count}, S, 6) with S >= 1, got {q0.shape}")
-        require_finite(q0, "q0 contains NaN or infinite values")
+        q0 = _checked_starts(spec, count, q0)
         return _numerical_first_start(arms, spec, nodes, fx, q0, prefilter) >= 0
-    if count == 0:
-        return np.zeros((0, len(nodes)), dtype=bool)
-    # one orientation for all arms (a fixed spec, or rows that happen to agree): the map functions
-    if not np.any(fx != fx[0]):
-        if spec.scope == "R3":
-            return ws.constant_orientation_map(arms, nodes, fx[0], method="exact", convention=spec.convention)
-        return ws.orientation_map(arms, nodes, fx[0], method="exact", convention=spec.convention)
-    # one orientation (point) per arm: the pose of node n for arm b, the closed form's reach test,
-    # a few arms at a time (the (arms, nodes, 4, 4) poses are 128 bytes per pair)
-    closed_form = require_closed_form(arms)
-    out = np.empty((count, len(nodes)), dtype=bool)
-    per = max(1, (1 << 18) // max(len(nodes), 1))
-    for s in range(0, count, per):
-        sl = slice(s, min(s + per, count))
-        if spec.scope == "R3":
-            T = ws.target_poses(nodes[None, :, :], fx[sl, None, :], spec.convention)
-        else:
-            T = ws.target_poses(fx[sl, None, :], nodes[None, :, :], spec.convention)
-        sub = arms[sl]
-        node_arms = DHRobot(sub.d[:, None, :], sub.a[:, None, :], sub.alpha[:, None, :])
-        out[sl] = closed_form.reachable(node_arms, T)
-    return out
+    return _exact_labels(arms, spec, nodes, fx)
