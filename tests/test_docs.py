@@ -9,11 +9,11 @@ from pathlib import Path
 
 import pytest
 
-from wsmap import paths
-
-SRC = paths.ROOT / "src"
-LAYOUT = (paths.ROOT / "docs" / "layout.md").read_text()
-README = (paths.ROOT / "README.md").read_text()
+#: The repository (these checks read files only: they need no import of the package).
+ROOT = Path(__file__).resolve().parents[1]
+SRC = ROOT / "src"
+LAYOUT = (ROOT / "docs" / "layout.md").read_text()
+README = (ROOT / "README.md").read_text()
 
 #: A path of the package as docs/layout.md writes it: a code span `wsmap/...`, a package with its
 #: trailing slash, a module with `.py` (placeholders such as `<kind>.py` are not names).
@@ -80,4 +80,16 @@ def test_the_readme_points_to_the_one_table():
 
 def test_the_readme_links_to_pages_that_exist():
     for page in re.findall(r"\]\((docs/[^)#]+)", README):
-        assert (paths.ROOT / page).is_file(), page
+        assert (ROOT / page).is_file(), page
+
+
+#: The documentation (every page and the README) with its text, for the checks of what it names.
+PAGES = {"README.md": README, **{f"docs/{p.name}": p.read_text() for p in sorted((ROOT / "docs").glob("*.md"))}}
+
+
+@pytest.mark.parametrize("page", sorted(PAGES))
+def test_the_scripts_a_page_names_exist(page):
+    """A command that names a benchmark or a tool names one that is there (they move by area)."""
+    named = set(re.findall(r"\b((?:benchmarks|tools)/[\w/]+\.py)\b", PAGES[page]))
+    gone = sorted(p for p in named if not (ROOT / p).is_file())
+    assert not gone, f"{page} names {gone}, which do not exist"
