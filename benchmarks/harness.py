@@ -34,7 +34,8 @@ from typing import Any
 
 from wsmap.timing import Timing, time_call
 
-__all__ = ["ROOT", "Stopwatch", "best_of", "environment", "parser", "timed", "timings", "write_json"]
+__all__ = ["ROOT", "Stopwatch", "best_of", "environment", "parser", "positive_int", "timed", "timings",
+           "write_json"]
 
 #: the repository root (benchmarks/ is one level below it)
 ROOT = Path(__file__).resolve().parents[1]
@@ -87,10 +88,10 @@ def parser(doc: str | None, *, repeat: int | None = None, threads: int | None | 
     ap.add_argument("--json", metavar="PATH",
                     help="also write the numbers to this JSON file, with the environment record")
     if repeat is not None:
-        ap.add_argument("--repeat", "--repeats", dest="repeat", type=_positive, default=repeat,
+        ap.add_argument("--repeat", "--repeats", dest="repeat", type=positive_int, default=repeat,
                         help=repeat_help or f"timed repetitions (default {repeat})")
     if threads is not False:
-        ap.add_argument("--threads", type=_positive, default=threads,
+        ap.add_argument("--threads", type=positive_int, default=threads,
                         help=threads_help or f"threads (default {threads})")
     if seed is not None:
         ap.add_argument("--seed", type=int, default=seed, help=seed_help or f"random seed (default {seed})")
@@ -99,7 +100,8 @@ def parser(doc: str | None, *, repeat: int | None = None, threads: int | None | 
     return ap
 
 
-def _positive(text: str) -> int:
+def positive_int(text: str) -> int:
+    """An argparse type: an integer of at least 1 (a count of repetitions, threads, epochs)."""
     value = int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")

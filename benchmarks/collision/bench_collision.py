@@ -1,6 +1,6 @@
 """Collision-free maps, side by side in one run: the tool-down map (``T = transl(p)·Rx(pi)``) on the
 21³ grid (``cartesian_grid(-1, 1, 0.1)``) of the Panda, the iiwa 14 and the UR5e (their capsule
-models, :mod:`wsmap.collision.named`) and of pybullet_data's Panda URDF (collision meshes, hand), with
+models, `wsmap.collision.named`) and of pybullet_data's Panda URDF (collision meshes, hand), with
 self-collision and the floor, against the chain's map.
 
 Per arm:
@@ -9,7 +9,7 @@ Per arm:
 * the chain's map and the collision-free map (``collision=``), each timed after a warm-up (numba
   compiled, caches filled), and their ratio (goal <= 3);
 * every node marked reachable has its returned solution checked by coal alone
-  (:meth:`CollisionChecker.exact`, no spheres): collisions found (goal 0), FK error, limits;
+  (`CollisionChecker.exact`, no spheres): collisions found (goal 0), FK error, limits;
 * recall against a reference that solves each node with ``--starts`` (default 64) independent
   random starts (one-start ``ikine_search`` runs from uniform configurations inside the limits,
   seeded) and keeps any collision-free solution (goal >= 0.995); for the UR5e also against its
@@ -18,7 +18,7 @@ Per arm:
   fraction of the configurations the checker decided without coal (the spheres; capsule pairs
   in numpy).
 
-    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_collision.py
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/collision/bench_collision.py
 
 ``--index``: instead, the Panda's reachability index at 5 cm x 50 orientations (the real_arms
 grid: the cube of half-width 1.2 m, 49³ nodes; super-Fibonacci orientations, seed 0) with
@@ -27,7 +27,7 @@ self-collision, the floor and a table (a solid box in the base frame, params.yam
 <= 3 minutes on this machine), each once (``--index-step``, ``--index-orientations`` to change it;
 ``--index-border-starts 0``: both without the map search's border search):
 
-    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_collision.py --index
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/collision/bench_collision.py --index
 """
 
 from __future__ import annotations

@@ -1,14 +1,14 @@
 """Time per arm of the ``panda7_tooldown_free`` labels (collision-free) beside ``panda7_tooldown``'s.
 
-For the first ``--arms`` arms (default 8) of :data:`wsmap.paper.specs.PANDA7_TOOLDOWN_FREE` (25³ =
+For the first ``--arms`` arms (default 8) of `wsmap.paper.specs.PANDA7_TOOLDOWN_FREE` (25³ =
 15,625 tool-down nodes, the numerical map search), one numba thread, after a warm-up arm:
 
-* ``chain``: ``labels_for`` of :data:`~wsmap.paper.specs.PANDA7_TOOLDOWN` (the same arms), per arm;
+* ``chain``: ``labels_for`` of `wsmap.paper.specs.PANDA7_TOOLDOWN` (the same arms), per arm;
 * ``free``: ``labels_for`` of the collision spec, per arm, split into the checker's construction
   (capsules on the arm's chain, its allowed-collision matrix of 10000 samples) and the map;
 * the labels: chain and free reachable nodes, free nodes the chain labels lack (the subset check).
 
-    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 PYTHONPATH=src .venv/bin/python benchmarks/bench_panda7_free_labels.py --arms 8
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 PYTHONPATH=src .venv/bin/python benchmarks/collision/bench_panda7_free_labels.py --arms 8
 """
 
 from __future__ import annotations

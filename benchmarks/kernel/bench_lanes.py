@@ -6,7 +6,7 @@ Each configuration is timed best of ``--repeats`` calls of ``ikine_search``, the
 interleaved round by round (``--rounds``) so that a drift of the machine's load reaches all of them;
 solves per second, success rate, mean LM iterations per pose and nanoseconds per LM iteration.
 
-    NUMBA_NUM_THREADS=2 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_lanes.py --json bench/lanes.json
+    NUMBA_NUM_THREADS=2 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/kernel/bench_lanes.py --json bench/lanes.json
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ numba kernel (``lm_compiled``, its tested reference); the maps and the index's b
 between the two. The thread ratios (2 threads against 1) are measured side by side here, the load
 average printed beside them: the machine is shared.
 
-    NUMBA_NUM_THREADS=2 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_peers.py --json bench/peers.json
+    NUMBA_NUM_THREADS=2 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/kernel/bench_peers.py --json bench/peers.json
 """
 
 from __future__ import annotations
@@ -100,7 +100,7 @@ def urdf_of(chain) -> str:
 
 
 class Klampt:
-    """klampt's IK on a wsmap chain (loaded from :func:`urdf_of`); ``q`` maps to the revolute links."""
+    """klampt's IK on a wsmap chain (loaded from `urdf_of`); ``q`` maps to the revolute links."""
 
     def __init__(self, chain):
         import klampt

@@ -1,4 +1,4 @@
-"""Time the UR closed form (:mod:`wsmap.kinematics.ik.closed_forms.ur`) against EAIK on UR5e maps.
+"""Time the UR closed form (`wsmap.kinematics.ik.closed_forms.ur`) against EAIK on UR5e maps.
 
 Two maps of the 9261 nodes of ``cartesian_grid(-1, 1, 0.1)`` (m), each at one orientation:
 ``R = I`` and tool-down ``R = Rx(pi)``; pose ``T = transl(p) · R`` in the UR5e base frame (flange,
@@ -15,14 +15,14 @@ cache, happens before any of it):
 4. the same with ``--eaik-threads`` workers (its default is 4), when that is not 1.
 
 EAIK's label of a node: one of its solutions puts the flange within 1e-6 of ``T`` (forward
-kinematics of :meth:`SerialChain.fkine`, every matrix entry). The script asserts that the labels
+kinematics of `SerialChain.fkine`, every matrix entry). The script asserts that the labels
 of every method are identical node for node, prints a Markdown table per map (method, seconds per
 map, poses/s, speed-up over EAIK on 1 thread) and the cost of the structure check
 (``ur_parameters``, ``is_ur_type``) beside the compiled map from precomputed ``URParameters``; with
 ``--json PATH`` it writes the numbers. Goal: the compiled map on 1 thread at least 10x faster than
 EAIK on 1 thread (aim: 30x).
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_ur_closed_form.py --repeats 5 --json out.json
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/kernel/bench_ur_closed_form.py --repeats 5 --json out.json
 """
 
 from __future__ import annotations

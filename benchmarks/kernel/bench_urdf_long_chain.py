@@ -1,13 +1,13 @@
 """Time ``from_urdf`` on a URDF of one revolute joint followed by a long chain of fixed links.
 
-The loop check of :class:`wsmap.kinematics.urdf.URDFTree` used to walk every link to the root through
+The loop check of `wsmap.kinematics.urdf.URDFTree` used to walk every link to the root through
 Python lists (``link in seen`` on a growing list): cubic in the chain's length, 2000 links 15 s and
 4000 links 108 s, and a 5000-link file (0.8 MB) never finished. It now visits each link once. This
 script times, side by side in one run, the whole ``from_urdf`` (XML checks, the loop check, yourdfpy's
 transforms) and the old loop check alone (re-implemented here as it was, on the same tree, only up to
 ``--old-max`` links so that the run stays short).
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_urdf_long_chain.py --links 1000 2000 5000 --old-max 2000
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/kernel/bench_urdf_long_chain.py --links 1000 2000 5000 --old-max 2000
 """
 
 from __future__ import annotations

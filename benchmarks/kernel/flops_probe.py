@@ -1,7 +1,7 @@
 """This core's double-precision throughput, scalar and SIMD: numba loops of independent fused
 multiply-adds (8 chains per lane group, so latency is hidden), best of 5, one thread.
 
-    NUMBA_NUM_THREADS=1 python benchmarks/flops_probe.py [--json out.json]
+    NUMBA_NUM_THREADS=1 python benchmarks/kernel/flops_probe.py [--json out.json]
 
 Scalar: 8 independent chains of ``x = x * a + b`` on float64 locals (one FMA, 2 flops, per step);
 SIMD: the same on 8 chains of ``W`` lanes (W = 4: AVX2 ymm, W = 8: AVX-512 zmm), written as loops

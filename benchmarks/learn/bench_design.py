@@ -1,8 +1,8 @@
 """Design by gradient (issue 14, part 5): when does the surrogate pay? Both families side by side.
 
-For a 0.4 m box of task positions (8 corners + 12 edge midpoints, :func:`wsmap.design.box_tasks`)
+For a 0.4 m box of task positions (8 corners + 12 edge midpoints, `wsmap.design.box_tasks`)
 in front of the base, find the arm of the family with the smallest total link length that reaches
-every task at the task orientation, three ways in one run (:func:`wsmap.design.compare_designs`):
+every task at the task orientation, three ways in one run (`wsmap.design.compare_designs`):
 
 * ``gradient``: augmented-Lagrangian Adam through a map model, each candidate verified by the
   classical map at the tasks;
@@ -23,9 +23,9 @@ Families:
 The compiled kernels are compiled (or loaded) before the timings. Times are wall-clock seconds on
 one thread (torch and the compiled IK)::
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_design.py --json bench/design.json
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_design.py --model models/panda7_map.pt
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_design.py --model models/panda7_map.pt --tasks region
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_design.py --json bench/design.json
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_design.py --model models/panda7_map.pt
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_design.py --model models/panda7_map.pt --tasks region
 
 With ``--tasks region`` the tasks are every point of the box on a ``--task-step`` grid (125 at the
 defaults): a region to cover, where each classical call solves IK at every one of them.

@@ -3,19 +3,19 @@
 Measured, not asserted. One run: draws ``--train`` arms (seed ``--seed``) and ``--test`` held-out
 arms (seed ``--seed + 1``) of the paper's family (d3, d4, a2, a3 ~ U(0, 0.5) m), computes their
 exact manipulability maps on the ``sec61`` grid (21³ nodes on [-1, 1]³ m, rpy (0, 0, 0), the
-paper's convention; :func:`wsmap.learn.manipulability_targets`), trains
-:func:`wsmap.learn.train_manipulability_model` on one thread (``--threads``) for at most
+paper's convention; `wsmap.learn.manipulability_targets`), trains
+`wsmap.learn.train_manipulability_model` on one thread (``--threads``) for at most
 ``--minutes``, and reports on the held-out arms: pooled R² (1 − SSE/SST over arms x nodes), MAE
 (m³), R² and MAE on the reachable nodes, the largest error; then the time per map, side by side:
 
 * the network: ``predict_manipulability`` on one arm (median of ``--repeats`` calls) and per arm
   in one call for all held-out arms;
-* the exact closed form: :func:`wsmap.workspace.manipulability_maps` (factorised ``|det J|``,
+* the exact closed form: `wsmap.workspace.manipulability_maps` (factorised ``|det J|``,
   vectorised over arms) on one arm and per arm over the held-out arms, and the reference
-  definition :func:`wsmap.workspace.manipulability_map` (8 IK branches and 6 x 6 Jacobians per node)
+  definition `wsmap.workspace.manipulability_map` (8 IK branches and 6 x 6 Jacobians per node)
   on one arm.
 
-    PYTHONPATH=src OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_manipulability_model.py \\
+    PYTHONPATH=src OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_manipulability_model.py \\
         --train 4000 --test 500 --minutes 2.5 --json bench_manipulability_model.json
 
 Measured so (a 2-core machine shared with other jobs; the epochs done in the time limit depend on
@@ -35,7 +35,6 @@ import torch
 
 from wsmap import learn, robots
 from wsmap import workspace as ws
-from wsmap.cli import positive_int
 from wsmap.timing import time_call
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
@@ -52,7 +51,7 @@ def main(argv=None) -> int:
     budget = ap.add_mutually_exclusive_group()
     budget.add_argument("--minutes", type=float, default=2.5,
                         help="training time limit, cosine decay over it (default 2.5)")
-    budget.add_argument("--epochs", type=positive_int, help="an epoch budget instead, cosine decay over it, no time "
+    budget.add_argument("--epochs", type=harness.positive_int, help="an epoch budget instead, cosine decay over it, no time "
                         "limit: the library's default config (60 epochs) when the other options are left alone")
     ap.add_argument("--hidden", default="256,256,256", help="hidden layer widths, comma-separated")
     ap.add_argument("--target", choices=learn.MANIPULABILITY_TARGETS, default="linear")

@@ -14,8 +14,8 @@ Measured, not asserted. Parts (all on the paper's 21³ grid, 9261 nodes, PUMA560
 
 Timing does not depend on the weights, so (a)-(c) use freshly initialised models.
 
-    .venv/bin/python benchmarks/bench_models.py --threads 2 --json bench_models.json
-    .venv/bin/python benchmarks/bench_models.py --threads 2 --skip-inference --skip-training --accuracy
+    .venv/bin/python benchmarks/learn/bench_models.py --threads 2 --json bench_models.json
+    .venv/bin/python benchmarks/learn/bench_models.py --threads 2 --skip-inference --skip-training --accuracy
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Design across morphologies (issue 28, item 6): the shortest 6R arm of any twist pattern whose
 tool-down map covers a box of task positions, three ways side by side in one run
-(:func:`wsmap.morph_design.compare_morph_designs`):
+(`wsmap.morph_design.compare_morph_designs`):
 
 * ``gradient``: one batched augmented-Lagrangian descent through the morphology model over every
   twist pattern (243 for 6 joints, ``--starts`` starts each), the ``verify_top`` shortest designs
@@ -9,12 +9,12 @@ tool-down map covers a box of task positions, three ways side by side in one run
   calls the classical map at the tasks; they stop at a verified design within ``--length-tol`` of
   the gradient's length, or after ``--max-calls`` arms / ``--max-seconds``.
 
-The classical map is each task solved on its own with :func:`wsmap.reachable`'s search (32
+The classical map is each task solved on its own with `wsmap.reachable`'s search (32
 starts, every success confirmed by forward kinematics in the limits). Each verified answer is
 checked again here with 128 starts of another seed. Beside them, the named 6-joint arms that cover
 the same tasks and their total link lengths (``sum |a| + |d|`` of their modified-DH tables).
 
-    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_morph_design.py \\
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_morph_design.py \\
         --model models/morph.pt --json bench/morph_design.json
 """
 

@@ -10,7 +10,7 @@ map size, and the errors split into missed nodes on the true map's boundary shel
 map with a 6-neighbour outside it) or inside it, and false nodes next to the map (within one node,
 26-neighbourhood) or farther.
 
-    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_morph_errors.py \\
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_morph_errors.py \\
         --models headline100k.pt big100k.pt headline20k.pt --data /tmp/ms_full [--random 25] [--json out.json]
 """
 

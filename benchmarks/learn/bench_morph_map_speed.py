@@ -2,14 +2,14 @@
 
 For each model file and each ``--margin``, maps random ``morph6``/``morph7`` arms (``--arms`` of
 each, drawn from ``--seed``) and the six named arms on ``[-1.5, 1.5]³`` at ``--step`` (0.1 m:
-29,791 nodes) with :func:`wsmap.learn.morph_model.predict_morph_grid` (coarse to fine) and with
-:func:`~wsmap.learn.morph_model.predict_morph_map` (the network at every node), and counts the
+29,791 nodes) with `wsmap.learn.morph_model.predict_morph_grid` (coarse to fine) and with
+`wsmap.learn.morph_model.predict_morph_map` (the network at every node), and counts the
 nodes where the two maps differ (positives the coarse pass skipped, and any other difference) and
 the share of nodes the network was evaluated at. Then times both, one thread, median of
 ``--repeats``, side by side on the named arms and a random ``morph7`` arm, with the classical
 numerical map of the same arm once for scale.
 
-    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_morph_map_speed.py \\
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_morph_map_speed.py \\
         --models models/morph.pt [--margins 2 4 6 8] [--arms 100] [--json bench/morph_map_speed.json]
 """
 

@@ -7,7 +7,7 @@ Reachable nodes are about 2 % of the morph box, so the unweighted model leans to
 predicts nothing at all for some arms. The experience is the stage's ``data/morph`` shards (built
 here when missing, resumably). One thread::
 
-    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_morph_pos_weight.py --weights 1 5 20
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_morph_pos_weight.py --weights 1 5 20
 """
 
 from __future__ import annotations

@@ -1,9 +1,9 @@
 """The morphology model at scale: experience labelled in parallel processes, networks trained on a
 GPU, each run scored on the same held-out arms as the ``morphologies`` stage.
 
-What it measures: how the held-out F of :class:`wsmap.learn.morph_model.MorphMapModel` moves with
+What it measures: how the held-out F of `wsmap.learn.morph_model.MorphMapModel` moves with
 the number of training arms and with the network's size, at equal training time per run. It builds
-the ``morph6``/``morph7`` shards of the stage (:func:`wsmap.learn.morph_model.build_morph_shards`:
+the ``morph6``/``morph7`` shards of the stage (`wsmap.learn.morph_model.build_morph_shards`:
 shard ``k`` is seed ``k``, the tool-down map on ``[-1.5, 1.5]³`` at ``--step`` m by the map
 search; the files are the stage's, so the first 40 shards of 250 arms are the headline's 20,000
 training arms and shard 0's test files its 200 held-out arms), one shard per process on
@@ -14,7 +14,7 @@ trains a network with the stage's recipe (Adam, binary cross-entropy with positi
 the threshold of best validation F), its learning rate decaying on a cosine over its time budget
 (``cosine-time``), and is scored against the map-search labels of the held-out random arms
 (pooled F, precision, recall, per-arm mean F) and of the six named arms
-(:data:`wsmap.robots.morph.HELD_OUT`), beside the nearest-training-arm baseline of the same
+(`wsmap.robots.morph.HELD_OUT`), beside the nearest-training-arm baseline of the same
 training set. Last, one map of 31³ = 29,791 nodes (0.1 m) of the iiwa14 by each model on one CPU
 thread (median of 5). The first run's shards are labelled first, and it trains while the other
 shards are labelled.
@@ -24,14 +24,14 @@ A run: ``name=big,shards=200,encoder=512x512x512,latent=256,decoder=256x256x256,
 
 On the lent H200 machine (16 cores), from the repository root (its python3 has torch, numba, numpy):
 
-    PYTHONPATH=src python3 benchmarks/bench_morph_scale.py --data /tmp/morph --procs 15 --device cuda \\
+    PYTHONPATH=src python3 benchmarks/learn/bench_morph_scale.py --data /tmp/morph --procs 15 --device cuda \\
         --label-seconds 170 --json $OUT/morph_scale.json --save $OUT \\
         --run name=headline20k,shards=40,seconds=45 --run name=headline100k,shards=200,seconds=110 \\
         --run name=big100k,shards=200,encoder=512x512x512,latent=256,decoder=256x256x256,seconds=130
 
 A small run on this machine (checks the script, numbers meaningless):
 
-    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_morph_scale.py --data /tmp/ms \\
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_morph_scale.py --data /tmp/ms \\
         --procs 2 --arms 20 --test-arms 10 --step 0.5 --device cpu --label-seconds 120 \\
         --run name=a,shards=2,seconds=5 --run name=b,shards=4,encoder=64x64,latent=32,decoder=64,seconds=5
 """

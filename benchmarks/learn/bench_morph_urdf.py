@@ -8,7 +8,7 @@ grid; beside them the arm's own forward-kinematics-sampled map with the stage's 
 model would refuse (outside its families' range) is predicted anyway (``allow_extrapolation``)
 and the first reason is printed: that is where the model has no business being right.
 
-    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/bench_morph_urdf.py \\
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/learn/bench_morph_urdf.py \\
         [--models models | --files A.pt B.pt ...] [--samples 50000] [--json bench/morph_urdf.json]
 """
 

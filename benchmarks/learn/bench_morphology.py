@@ -2,19 +2,19 @@
 baseline on the same held-out arms, and one 3-D map against the classical map of the same arm.
 
 Builds (or reuses, from ``--data``) the ``morph6`` and ``morph7`` experience in shards
-(:func:`wsmap.learn.morph_model.build_morph_shards`: the tool-down map, ``R = Rx(pi)``, standard
+(`wsmap.learn.morph_model.build_morph_shards`: the tool-down map, ``R = Rx(pi)``, standard
 convention, on ``[-1.5, 1.5]³`` at ``--step`` m, labelled by the numerical map search), trains
-:class:`~wsmap.learn.morph_model.MorphMapModel` single-threaded for ``--minutes`` with the
-project's :func:`wsmap.learn.training.train`, and prints per-arm F, precision and recall pooled over
+`wsmap.learn.morph_model.MorphMapModel` single-threaded for ``--minutes`` with the
+project's `wsmap.learn.training.train`, and prints per-arm F, precision and recall pooled over
 the held-out random arms (the shard-0 test streams, never trained on) and for each named arm
-(:data:`wsmap.robots.morph.HELD_OUT`, labelled here by the same map search), for the model and for
+(`wsmap.robots.morph.HELD_OUT`, labelled here by the same map search), for the model and for
 the nearest-neighbour baseline (the map of the training arm nearest in
-:func:`~wsmap.kinematics.morphology.morphology_distance`). Then times one map of ``--time-step``
+`wsmap.kinematics.morphology.morphology_distance`). Then times one map of ``--time-step``
 (0.1 m: 31³ = 29,791 nodes) of new arms by the model and by the classical numerical map, side by
 side in this run. Everything single-threaded (``torch.set_num_threads(1)``; run with
 ``NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1``).
 
-    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/bench_morphology.py \\
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/learn/bench_morphology.py \\
         --data data/morph --shards 5 --arms 100 --test-arms 50 --step 0.2 --minutes 6 --save bench/morph.pt \\
         --json bench/morph.json
 """

@@ -1,6 +1,6 @@
 """Build rate of the ``panda7_tooldown`` dataset: in one process, and on Dask with 1 and 2 workers.
 
-Builds the first ``--arms`` arms (default 20) of :data:`wsmap.paper.specs.PANDA7_TOOLDOWN` (25³ =
+Builds the first ``--arms`` arms (default 20) of `wsmap.paper.specs.PANDA7_TOOLDOWN` (25³ =
 15,625 tool-down nodes per arm, numerical map search) into temporary files:
 
 * ``single``: the single-process build (this process, one numba thread);
@@ -11,7 +11,7 @@ Builds the first ``--arms`` arms (default 20) of :data:`wsmap.paper.specs.PANDA7
 
 Every file is compared byte for byte with the single-process one. Prints arms per second.
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_panda7_build.py --arms 20 --json bench/panda7_build.json
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_panda7_build.py --arms 20 --json bench/panda7_build.json
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Recall of the ``panda7_tooldown`` labels (the numerical map search) against a denser reference.
 
-The labels of :data:`wsmap.paper.specs.PANDA7_TOOLDOWN` are
+The labels of `wsmap.paper.specs.PANDA7_TOOLDOWN` are
 ``constant_orientation_map(arms, nodes, (pi, 0, 0), method="numerical", convention="standard")``:
 the map search started from neighbouring nodes' solutions (``MAP_SETTINGS``). Its ``True`` is
 never wrong (every success is confirmed by forward kinematics inside the joint limits), so the
@@ -31,8 +31,8 @@ Measured (2-core machine shared with another job, OMP_NUM_THREADS=1, one numba t
   (recall 1268/1269 = 0.9992); the Panda, 0 in 5569 (recall 1.0, as on the 21³ grid); pooled
   3151/3152 = 0.9997.
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_panda7_labels.py --arms 4 --sample 1000 --json bench/panda7_labels.json
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_panda7_labels.py --arms 0 --sample 0   # the Panda, every candidate
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_panda7_labels.py --arms 4 --sample 1000 --json bench/panda7_labels.json
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_panda7_labels.py --arms 0 --sample 0   # the Panda, every candidate
 """
 
 from __future__ import annotations

@@ -1,15 +1,15 @@
 """The panda7 map model, measured: F on held-out arms, ms per map against the classical map,
 training time, and F against the number of training arms.
 
-Trains :func:`wsmap.learn.family.fit_map_model` (the recipe of ``--hidden``, ``--epochs``, ...) on
+Trains `wsmap.learn.family.fit_map_model` (the recipe of ``--hidden``, ``--epochs``, ...) on
 the first ``--train-arms`` arms of ``--train`` (a ``panda7_tooldown`` dataset: ``wsmap data build
 panda7_tooldown --samples N --out F``), scores it on every arm of ``--test`` (the independent test
 stream: ``--test``), times one map against the numerical map that labelled the data, side by
-side in this run (:func:`wsmap.learn.family.speed_against_classical`), and with ``--curve`` trains
+side in this run (`wsmap.learn.family.speed_against_classical`), and with ``--curve`` trains
 the same recipe on fewer arms. Saves the model with ``--save``. The goals of issue 14 are printed
 beside the measurements: F >= 0.97, <= 1 ms per map, >= 1000x the numerical map, training <= 20 min.
 
-    .venv/bin/python benchmarks/bench_panda7_model.py --train data/full/panda7_tooldown.npz \\
+    .venv/bin/python benchmarks/learn/bench_panda7_model.py --train data/full/panda7_tooldown.npz \\
         --test data/full/panda7_tooldown.test.npz --train-arms 4000 --curve 250 500 1000 2000 \\
         --save bench/panda7_map.pt --json bench/panda7_model.json
 """

@@ -15,7 +15,7 @@ Prints a Markdown table: seconds and nodes/s (for all 9261 nodes, extrapolated w
 the speed-up over the paper's reported classical time (`wsmap.paper.published.RUNTIME_SECONDS`, MATLAB, one node
 at a time), and the agreement of each numerical result with the exact map.
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_classical.py --repeats 5 --json out.json
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/maps/bench_classical.py --repeats 5 --json out.json
 """
 
 from __future__ import annotations

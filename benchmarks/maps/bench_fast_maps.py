@@ -11,10 +11,10 @@ happens in the warm-up). Grid: ``cartesian_grid(-1, 1, 0.1)`` (21³ = 9261 nodes
    from q = 0, tol 1e-10, as the paper's LM); pytorch-kinematics' batched ``PseudoInverseIK``
    (float64, its own tolerances, 1e-6 m / 1e-5 rad, which it cannot push to 1e-10).
 2. **Whole numerical maps** (unreachable nodes included) by the map's default numerical path
-   (:func:`wsmap.kinematics.map_search`): PUMA560 (paper, no limits) and UR5e, at ``R = I`` and tool
+   (`wsmap.kinematics.map_search`): PUMA560 (paper, no limits) and UR5e, at ``R = I`` and tool
    down; recall and false positives against the closed forms; Robotics Toolbox's ``ik_LM`` with its
    default restarts (``slimit`` 100) node by node on a sample of ``--rtb-sample`` nodes, extrapolated.
-3. **Exact UR5e maps**: :func:`wsmap.kinematics.ur_reachable` against EAIK's ``IK_batched`` (1 thread),
+3. **Exact UR5e maps**: `wsmap.kinematics.ur_reachable` against EAIK's ``IK_batched`` (1 thread),
    labels compared node for node.
 4. **Scaling** (``--scaling``): map time against nodes (10³ … 10⁶, PUMA560) and against arms
    (1 … 10⁴ exact, 1 … 10³ numerical; spherical-wrist arms) for the exact and numerical paths, with
@@ -22,7 +22,7 @@ happens in the warm-up). Grid: ``cartesian_grid(-1, 1, 0.1)`` (21³ = 9261 nodes
 
 Goals (issue "fast maps", 2-core machine) are printed beside the measurements.
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_fast_maps.py --all-arms --scaling \\
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/maps/bench_fast_maps.py --all-arms --scaling \\
         --json bench/fast_maps.json --plot docs/fast_maps_scaling.png
 """
 

@@ -9,7 +9,7 @@ must be identical: the bound is a proof of unreachability); LM iterations, which
 the load. Also the bound's build time (once per arm and process, memoised) and the map with the
 bound on 1 and 2 kernel threads (alternating, best of ``--repeats``).
 
-    NUMBA_NUM_THREADS=2 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_map_bound.py --json bench/map_bound.json
+    NUMBA_NUM_THREADS=2 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/maps/bench_map_bound.py --json bench/map_bound.json
 
 (``NUMBA_NUM_THREADS`` at least 2 for the thread rows; the on/off rows run on one thread.)
 ``--index``: also the Panda's reachability index (``INDEX_SETTINGS``, ``--index-step`` 0.05 m over

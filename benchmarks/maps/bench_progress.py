@@ -1,6 +1,6 @@
 """What a progress bar costs: the same maps with ``progress`` off, a counting callable and a tqdm bar.
 
-    python benchmarks/bench_progress.py [--repeats 3] [--step 0.1]
+    python benchmarks/maps/bench_progress.py [--repeats 3] [--step 0.1]
 
 The Panda tool-down constant-orientation map (the neighbour search, which now reports per pass
 and wave) and the UR5e reachability index over 20 orientations (closed form, per block of

@@ -15,7 +15,7 @@ of a UR5e, and the row a user would write today with Robotics Toolbox.
 4. **Robotics Toolbox** ``ik_LM`` (C++) with its default restarts (``slimit`` 100), pose by pose, on
    ``--rtb-sample`` poses of the Panda index, extrapolated to the whole index.
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_reach_maps.py --json bench/reach_maps.json
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/maps/bench_reach_maps.py --json bench/reach_maps.json
 """
 
 from __future__ import annotations

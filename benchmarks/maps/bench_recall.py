@@ -11,7 +11,7 @@ Cases (the paper's grid, ``cartesian_grid(-1, 1, 0.1)``: 9261 nodes, standard po
   reachable iff EAIK returns a solution not flagged least-squares whose forward kinematics is
   within 1e-6 of the target; ±2·pi limits admit every angle). EAIK is a test-only dependency.
 
-For every case the map is computed by :func:`wsmap.kinematics.ikine_search` with the largest
+For every case the map is computed by `wsmap.kinematics.ikine_search` with the largest
 count of starts, recording which start first succeeded at each node; the recall at ``k`` starts
 is the fraction of exact-reachable nodes solved by starts ``0 .. k-1``. With ``--time-each``
 (default) the map is also recomputed at every count, timed, and checked to equal that prefix
@@ -21,7 +21,7 @@ is the fraction of exact-reachable nodes solved by starts ``0 .. k-1``. With ``-
 Prints a Markdown table (recall, false negatives, false positives, seconds per map) and writes
 JSON with ``--json PATH``.
 
-    OMP_NUM_THREADS=1 nice .venv/bin/python benchmarks/bench_recall.py --json recall.json
+    OMP_NUM_THREADS=1 nice .venv/bin/python benchmarks/maps/bench_recall.py --json recall.json
 """
 
 from __future__ import annotations

@@ -2,19 +2,19 @@
 
 The arms are built from the URDFs shipped with PyBullet's data package (``pybullet_data``) and
 Robotics Toolbox's ``rtbdata`` (xacro sources expanded in-process with the ``xacro`` package, its
-``$(find pkg)`` pointed at ``rtbdata``'s folders; no network): see :data:`ARMS`. Per arm and
+``$(find pkg)`` pointed at ``rtbdata``'s folders; no network): see `ARMS`. Per arm and
 orientation (tool frame ``R = I`` and tool down ``R = Rx(pi)``, pose convention ``standard``: the
 node is the tool position), on a cube grid around the arm's first joint (half-width the sum of its
 link lengths, ``--nodes`` per axis):
 
-* **the map**: :func:`wsmap.kinematics.ik.search.map_search` with :data:`MAP_SETTINGS`, exactly
+* **the map**: `wsmap.kinematics.ik.search.map_search` with `MAP_SETTINGS`, exactly
   what ``grid_map(..., method="numerical")`` runs; timed, and timed again without the border
   search (``border_starts=0``, the map before issue 29) for the side-by-side cost;
 * **its positives** are confirmed by an independent forward kinematics, Pinocchio's (``pin``,
   built from the same URDF text, the joints outside the chain locked), and inside the URDF's
   limits: a positive that fails is a false positive;
 * **the reference**: at every node the map left unsolved, a per-node search of ``--ref-starts``
-  (default 128) starts (:func:`ikine_search`, a different seed from the map's), each success again
+  (default 128) starts (`ikine_search`, a different seed from the map's), each success again
   confirmed by Pinocchio. Reachable = confirmed map positives ∪ confirmed reference successes;
   recall = map positives / reachable.
 
@@ -22,9 +22,9 @@ Prints a Markdown table (per arm and orientation: reachable, recall, misses, fal
 seconds with and without the border search) and the worst arm; ``--json PATH`` writes it all.
 
     # quick (5 arms, 11³ nodes, a couple of minutes single-threaded)
-    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/bench_recall_arms.py --quick
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/maps/bench_recall_arms.py --quick
     # full (every arm of ARMS, 15³ nodes: about 8 minutes; --nodes 21 for the paper's density, about 20)
-    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/bench_recall_arms.py
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/maps/bench_recall_arms.py
 """
 
 from __future__ import annotations
@@ -79,7 +79,7 @@ def _dirs():
 
 
 def urdf_text(source: str) -> str:
-    """The plain URDF text of ``source`` (see :data:`ARMS`); a xacro file is expanded in-process."""
+    """The plain URDF text of ``source`` (see `ARMS`); a xacro file is expanded in-process."""
     pb, rx = _dirs()
     path = os.path.join(pb, source[3:]) if source.startswith("pb:") else os.path.join(rx, source)
     if not path.endswith(".xacro"):

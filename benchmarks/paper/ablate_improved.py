@@ -9,7 +9,7 @@ trained exactly as the improved model (same arms, epochs, seed), and is scored o
 held-out arms of ``data/sec62.test.npz``. Needs the sec62 datasets (``dvc repro datasets@sec62``).
 About 3–4 minutes per variant on 2 cores at the defaults.
 
-    .venv/bin/python benchmarks/ablate_improved.py --threads 2 --json bench/ablation.json
+    .venv/bin/python benchmarks/paper/ablate_improved.py --threads 2 --json bench/ablation.json
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@
 Prints the wall time, the peak resident memory of the process (``ru_maxrss``) and the file size.
 Goal: under 2 minutes on a 2-core machine.
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_datasets.py                 # full size
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_datasets.py --samples 10000 # scaled, extrapolated
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/paper/bench_datasets.py                 # full size
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/paper/bench_datasets.py --samples 10000 # scaled, extrapolated
 """
 
 from __future__ import annotations

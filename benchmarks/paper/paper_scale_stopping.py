@@ -1,7 +1,7 @@
 """Would MATLAB's default validation stopping (``max_fail`` 6) explain a paper-scale row? The
 paper-scale runs (``params.full.yaml``) train their 1000 epochs with ``max_fail`` 1000 (§6.2: 100).
 This replays each recorded run's per-epoch validation loss (``results/full/<part>.history.json``)
-with :func:`wsmap.learn.validation_stop` at other ``max_fail`` values: where the run would have
+with `wsmap.learn.validation_stop` at other ``max_fail`` values: where the run would have
 stopped and the validation loss of the epoch it would have kept. No training: up to the stop a
 run does not depend on ``max_fail``.
 
@@ -9,8 +9,8 @@ run does not depend on ``max_fail``.
 full ... --params results/full_extra/params.full.table1_max_fail6.yaml --out DIR``) beside the
 1000-epoch F, and checks that each retrained run stopped where the replay says.
 
-    .venv/bin/python benchmarks/paper_scale_stopping.py
-    .venv/bin/python benchmarks/paper_scale_stopping.py --retrained results/full_extra/max_fail6 --max-fail 6
+    .venv/bin/python benchmarks/paper/paper_scale_stopping.py
+    .venv/bin/python benchmarks/paper/paper_scale_stopping.py --retrained results/full_extra/max_fail6 --max-fail 6
 """
 
 from __future__ import annotations

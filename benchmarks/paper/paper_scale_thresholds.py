@@ -3,10 +3,10 @@
 (``data/full/<part>.test.npz``) at 0.5 and at the best threshold of the test set itself (an upper
 bound on what any threshold can give), and prints the false negatives' scores. With ``--units``
 also how many tanh units of each hidden layer are constant on the test arms
-(:func:`wsmap.learn.unit_saturation`: saturated at one sign on at least 95 % of them).
+(`wsmap.learn.unit_saturation`: saturated at one sign on at least 95 % of them).
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/paper_scale_thresholds.py table1_r3_step1 table1_r3_step05 table1_so3_pi3
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/paper_scale_thresholds.py --units table1_so3_pi10 table1_so3_pi8
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/paper/paper_scale_thresholds.py table1_r3_step1 table1_r3_step05 table1_so3_pi3
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/paper/paper_scale_thresholds.py --units table1_so3_pi10 table1_so3_pi8
 """
 
 from __future__ import annotations
