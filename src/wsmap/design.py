@@ -233,6 +233,87 @@ def check_tasks(tasks) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------------------ surrogate
+def _surrogate_spec(model, fam: DesignFamily, tasks: np.ndarray, rpy, convention):
+    """The `DatasetSpec` of a map model's `map_spec`, checked for a design of `fam` at the
+    tasks' orientation `rpy` (rad) and `convention` (`TypeError` / `ValueError`)."""
+    from .datasets.spec import DatasetSpec
+    from .learn.network import SubspaceMLP
+
+    if not isinstance(model, SubspaceMLP):
+        raise TypeError(f"model must be a wsmap.learn.SubspaceMLP, got {type(model).__name__}")
+    ms = model.map_spec
+    if ms is None:
+        raise ValueError("the model has no map_spec (which grid its outputs are): set one with "
+                         "model.set_map_spec(dataset_spec)")
+    spec = DatasetSpec.from_dict(dict(ms["dataset"]))
+    if spec.family != fam.name:
+        raise ValueError(f"the model maps family {spec.family!r} (dataset {spec.name!r}), not {fam.name!r}")
+    if spec.scope != "R3" or spec.fixed == "random":
+        raise ValueError(f"the model maps {spec.scope} with fixed={spec.fixed!r}: a design needs a "
+                         "constant-orientation (R3) model at one fixed orientation")
+    # the model's and the tasks' target poses must be the same (the paper and standard
+    # conventions agree at R = I, so the paper's identity-orientation models serve both)
+    want = ws.target_poses(tasks, rpy, convention)
+    have = ws.target_poses(tasks, spec.fixed, spec.convention)
+    if not np.allclose(want, have, rtol=0, atol=1e-9):
+        raise ValueError(f"the model was trained at orientation {list(spec.fixed)} rad ({spec.convention} "
+                         f"convention); the tasks are at {list(np.round(rpy, 6))} ({convention})")
+    return spec
+
+
+def _task_cells(spec, tasks: np.ndarray, nodes: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Trilinear interpolation of the tasks `(T, 3)` m on the grid of `spec`: the flat node
+    index `(T, 8)` of each cell corner and its weight `(T, 8)`. `ValueError` for a task outside
+    the grid, or whose cell has a weighted node outside the model's `nodes` `[start, stop)`."""
+    lo, hi = np.array(spec.lo, dtype=np.float64), np.array(spec.hi, dtype=np.float64)
+    lo, hi = np.broadcast_to(lo, (3,)), np.broadcast_to(hi, (3,))
+    step = np.broadcast_to(np.array(spec.step, dtype=np.float64), (3,))
+    shape = np.array(spec.grid_shape)
+    top = lo + (shape - 1) * step  # the last node on each axis
+    out = np.any((tasks < lo - 1e-9) | (tasks > top + 1e-9), axis=1)
+    if out.any():
+        i = int(np.argmax(out))
+        raise ValueError(f"task {i} at {np.round(tasks[i], 6).tolist()} m is outside the model's grid "
+                         f"[{lo[0]:g}, {top[0]:g}] x [{lo[1]:g}, {top[1]:g}] x [{lo[2]:g}, {top[2]:g}] m "
+                         f"(dataset {spec.name!r})")
+    # cell of each task: index of its lower node, clipped so a task on the last node uses the
+    # last cell (weight 1 on its upper node)
+    f = (tasks - lo) / step
+    i0 = np.clip(np.floor(f + 1e-9).astype(np.int64), 0, np.maximum(shape - 2, 0))
+    t = np.clip(f - i0, 0.0, 1.0)
+    corners = np.array(list(itertools.product((0, 1), repeat=3)))  # (8, 3): offsets (dx, dy, dz)
+    idx = i0[:, None, :] + corners[None]  # (T, 8, 3)
+    idx = np.minimum(idx, shape - 1)  # a one-node axis: both corners the same node
+    flat = idx[..., 0] + shape[0] * (idx[..., 1] + shape[1] * idx[..., 2])  # node order: x fastest
+    w = np.prod(np.where(corners[None] == 1, t[:, None, :], 1.0 - t[:, None, :]), axis=-1)  # (T, 8)
+    start, stop = nodes
+    # a corner of weight 0 (a task on a cell face or node) may be off a node-slice model: it is
+    # not needed, so it reads the task's heaviest corner instead
+    flat = np.where(w > 0, flat, flat[np.arange(len(flat)), np.argmax(w, axis=1)][:, None])
+    uncovered = np.any((flat < start) | (flat >= stop), axis=1)
+    if uncovered.any():
+        i = int(np.argmax(uncovered))
+        covered_nodes = ws.cartesian_grid(spec.lo, spec.hi, spec.step)[start:stop]
+        blo, bhi = covered_nodes.min(axis=0), covered_nodes.max(axis=0)
+        raise ValueError(f"task {i} at {np.round(tasks[i], 6).tolist()} m lies in a grid cell the model "
+                         f"does not cover: it maps nodes [{start}, {stop}) of dataset {spec.name!r}, the box "
+                         f"[{blo[0]:g}, {bhi[0]:g}] x [{blo[1]:g}, {bhi[1]:g}] x [{blo[2]:g}, {bhi[2]:g}] m")
+    return flat, w
+
+
+def _surrogate_bounds(fam: DesignFamily, spec, model) -> tuple[np.ndarray, np.ndarray]:
+    """The family's range intersected with the model's training range of the design features."""
+    blo, bhi = fam.low.copy(), fam.high.copy()
+    rng = model.training_range
+    if rng is not None:
+        cols = fam.model_columns(spec)
+        blo = np.maximum(blo, np.asarray(rng.low, dtype=np.float64)[cols])
+        bhi = np.minimum(bhi, np.asarray(rng.high, dtype=np.float64)[cols])
+        if np.any(blo >= bhi):
+            raise ValueError(f"the model's training range does not overlap the range of family {fam.name!r}")
+    return blo, bhi
+
+
 class MapSurrogate:
     """Differentiable task coverage from a map model: trilinear interpolation of node outputs.
 
@@ -258,74 +339,24 @@ class MapSurrogate:
     """
 
     def __init__(self, model, family, tasks, *, rpy=None, convention=None):
-        from .datasets.spec import DatasetSpec
-        from .learn.network import ACTIVATIONS, SubspaceMLP
+        from .learn.network import ACTIVATIONS
 
         fam = design_family(family)
         tasks = check_tasks(tasks)
-        if not isinstance(model, SubspaceMLP):
-            raise TypeError(f"model must be a wsmap.learn.SubspaceMLP, got {type(model).__name__}")
-        ms = model.map_spec
-        if ms is None:
-            raise ValueError("the model has no map_spec (which grid its outputs are): set one with "
-                             "model.set_map_spec(dataset_spec)")
-        spec = DatasetSpec.from_dict(dict(ms["dataset"]))
-        if spec.family != fam.name:
-            raise ValueError(f"the model maps family {spec.family!r} (dataset {spec.name!r}), not {fam.name!r}")
-        if spec.scope != "R3" or spec.fixed == "random":
-            raise ValueError(f"the model maps {spec.scope} with fixed={spec.fixed!r}: a design needs a "
-                             "constant-orientation (R3) model at one fixed orientation")
         rpy = fam.rpy if rpy is None else rpy
         convention = fam.convention if convention is None else convention
-        # the model's and the tasks' target poses must be the same (the paper and standard
-        # conventions agree at R = I, so the paper's identity-orientation models serve both)
-        want = ws.target_poses(tasks, rpy, convention)
-        have = ws.target_poses(tasks, spec.fixed, spec.convention)
-        if not np.allclose(want, have, rtol=0, atol=1e-9):
-            raise ValueError(f"the model was trained at orientation {list(spec.fixed)} rad ({spec.convention} "
-                             f"convention); the tasks are at {list(np.round(rpy, 6))} ({convention})")
+        spec = _surrogate_spec(model, fam, tasks, rpy, convention)
+        ms = model.map_spec
         self.family, self.tasks, self.spec = fam, tasks, spec
         self.rpy, self.convention = tuple(float(v) for v in rpy), convention
         self.model = model
-        lo, hi = np.array(spec.lo, dtype=np.float64), np.array(spec.hi, dtype=np.float64)
-        lo, hi = np.broadcast_to(lo, (3,)), np.broadcast_to(hi, (3,))
-        step = np.broadcast_to(np.array(spec.step, dtype=np.float64), (3,))
-        shape = np.array(spec.grid_shape)
-        top = lo + (shape - 1) * step  # the last node on each axis
-        out = np.any((tasks < lo - 1e-9) | (tasks > top + 1e-9), axis=1)
-        if out.any():
-            i = int(np.argmax(out))
-            raise ValueError(f"task {i} at {np.round(tasks[i], 6).tolist()} m is outside the model's grid "
-                             f"[{lo[0]:g}, {top[0]:g}] x [{lo[1]:g}, {top[1]:g}] x [{lo[2]:g}, {top[2]:g}] m "
-                             f"(dataset {spec.name!r})")
-        # cell of each task: index of its lower node, clipped so a task on the last node uses the
-        # last cell (weight 1 on its upper node)
-        f = (tasks - lo) / step
-        i0 = np.clip(np.floor(f + 1e-9).astype(np.int64), 0, np.maximum(shape - 2, 0))
-        t = np.clip(f - i0, 0.0, 1.0)
-        corners = np.array(list(itertools.product((0, 1), repeat=3)))  # (8, 3): offsets (dx, dy, dz)
-        idx = i0[:, None, :] + corners[None]  # (T, 8, 3)
-        idx = np.minimum(idx, shape - 1)  # a one-node axis: both corners the same node
-        flat = idx[..., 0] + shape[0] * (idx[..., 1] + shape[1] * idx[..., 2])  # node order: x fastest
-        w = np.prod(np.where(corners[None] == 1, t[:, None, :], 1.0 - t[:, None, :]), axis=-1)  # (T, 8)
-        start, stop = ms["nodes"]
-        # a corner of weight 0 (a task on a cell face or node) may be off a node-slice model: it is
-        # not needed, so it reads the task's heaviest corner instead
-        flat = np.where(w > 0, flat, flat[np.arange(len(flat)), np.argmax(w, axis=1)][:, None])
-        uncovered = np.any((flat < start) | (flat >= stop), axis=1)
-        if uncovered.any():
-            i = int(np.argmax(uncovered))
-            nodes = ws.cartesian_grid(spec.lo, spec.hi, spec.step)[start:stop]
-            blo, bhi = nodes.min(axis=0), nodes.max(axis=0)
-            raise ValueError(f"task {i} at {np.round(tasks[i], 6).tolist()} m lies in a grid cell the model "
-                             f"does not cover: it maps nodes [{start}, {stop}) of dataset {spec.name!r}, the box "
-                             f"[{blo[0]:g}, {bhi[0]:g}] x [{blo[1]:g}, {bhi[1]:g}] x [{blo[2]:g}, {bhi[2]:g}] m")
+        flat, w = _task_cells(spec, tasks, ms["nodes"])
         self.weights = torch.as_tensor(w, dtype=torch.float64)  # (T, 8)
         # the outputs the margins need: each distinct node once (shared corners of neighbouring tasks)
         need, inverse = np.unique(flat.reshape(-1), return_inverse=True)
         self._inverse = torch.as_tensor(inverse.reshape(flat.shape), dtype=torch.long)  # (T, 8) into need
         m = model.config.n_outputs
-        local = need - start
+        local = need - ms["nodes"][0]
         if ms["assemble"]:
             sub, col = local // m, local % m
         else:
@@ -341,15 +372,7 @@ class MapSurrogate:
         self.default_margin = 1.0 if self.logit else 0.1
         self._template = torch.as_tensor(fam.feature_template(spec), dtype=torch.float64)
         self._columns = torch.as_tensor(fam.model_columns(spec), dtype=torch.long)
-        blo, bhi = fam.low.copy(), fam.high.copy()
-        rng = model.training_range
-        if rng is not None:
-            cols = fam.model_columns(spec)
-            blo = np.maximum(blo, np.asarray(rng.low, dtype=np.float64)[cols])
-            bhi = np.minimum(bhi, np.asarray(rng.high, dtype=np.float64)[cols])
-            if np.any(blo >= bhi):
-                raise ValueError(f"the model's training range does not overlap the range of family {fam.name!r}")
-        self.bounds = (blo, bhi)
+        self.bounds = _surrogate_bounds(fam, spec, model)
 
     def features(self, params: torch.Tensor) -> torch.Tensor:
         """Feature rows `(k, n_features)` (float64, differentiable) of design parameters `(k, n)`."""
@@ -470,6 +493,141 @@ def _rng(seed):
 
 
 # ------------------------------------------------------------------------------------------ gradient
+def _start_designs(fam: DesignFamily, starts, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray | None, int]:
+    """`design_by_gradient`'s `starts`: `(None, count)` for a count, `(rows, len(rows))` for
+    start designs `(k, n)` (checked: finite, inside `[lo, hi]`)."""
+    if not isinstance(starts, (np.ndarray, list, tuple)):
+        return None, starts
+    start_rows = np.array(starts, dtype=np.float64)
+    if start_rows.ndim != 2 or start_rows.shape[1] != fam.n_params or len(start_rows) < 1:
+        raise ValueError(f"starts must be a positive integer or designs (k, {fam.n_params}), "
+                         f"got shape {start_rows.shape}")
+    if not np.all(np.isfinite(start_rows)) or np.any(start_rows < lo - 1e-12) or np.any(start_rows > hi + 1e-12):
+        raise ValueError("every start design must be finite and inside the bounds")
+    return start_rows, len(start_rows)
+
+
+def _check_descent_counts(starts, steps, max_rounds, dual_every, verify_top) -> None:
+    """`ValueError` for a count of `design_by_gradient` that is not a positive integer."""
+    for name, v in (("starts", starts), ("steps", steps), ("max_rounds", max_rounds), ("dual_every", dual_every)):
+        if isinstance(v, bool) or int(v) != v or v < 1:
+            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+    if verify_top is not None and (isinstance(verify_top, bool) or int(verify_top) != verify_top or verify_top < 1):
+        raise ValueError(f"verify_top must be None or a positive integer, got {verify_top!r}")
+
+
+def _unit_starts(fam: DesignFamily, start_rows: np.ndarray | None, starts: int, lo: np.ndarray, hi: np.ndarray,
+                 rng: np.random.Generator) -> np.ndarray:
+    """The starting points `(starts, n)` in unit coordinates `u = (params − lo)/(hi − lo)`:
+    the given designs, or the upper corner, the centre, then `starts − 2` uniform draws of `rng`."""
+    if start_rows is not None:
+        u0 = list((start_rows - lo) / (hi - lo))
+    else:
+        u0 = [np.ones(fam.n_params), np.full(fam.n_params, 0.5)] + [rng.uniform(size=fam.n_params)
+                                                                     for _ in range(max(starts - 2, 0))]
+    return np.clip(np.array(u0[:starts]), 0.0, 1.0)
+
+
+class _Descent:
+    """The augmented-Lagrangian descent of `design_by_gradient`, all starts at once.
+
+    Holds the unit coordinates `u` `(k, n)` with their Adam state, the multipliers `lam`
+    `(k, T)`, the penalty weights `rho` `(k, 1)`, the worst violation at the last dual update,
+    the per-step path (total length, surrogate coverage) of every start and the count of
+    surrogate evaluations.
+    """
+
+    def __init__(self, surrogate, fam: DesignFamily, lo: np.ndarray, hi: np.ndarray, u0: np.ndarray, n_tasks: int,
+                 lr: float, rho: float):
+        self.surrogate, self.fam, self.lr = surrogate, fam, lr
+        self.u = torch.tensor(u0, dtype=torch.float64, requires_grad=True)
+        self.k = self.u.shape[0]
+        self.lo_t, self.span_t = torch.as_tensor(lo), torch.as_tensor(hi - lo)
+        self.l_max = float(fam.total_length(hi))
+        self.lam = torch.zeros((self.k, n_tasks), dtype=torch.float64)
+        self.rho = torch.full((self.k, 1), float(rho), dtype=torch.float64)
+        self.opt = torch.optim.Adam([self.u], lr=lr)
+        self.paths: list[np.ndarray] = []
+        self.evals = 0
+        self.new_round()
+
+    def new_round(self) -> None:
+        """Forget the last worst violation (a round's margins differ from the last round's)."""
+        self.worst_prev = torch.full((self.k,), math.inf, dtype=torch.float64)
+
+    def run_round(self, margins: np.ndarray, steps: int, dual_every: int) -> np.ndarray:
+        """`steps` descent steps asking margins `(k,)`; returns the final designs `(k, n)`."""
+        m_t = torch.as_tensor(margins)[:, None]
+        for it in range(steps):
+            for g in self.opt.param_groups:  # geometric decay to 1 % over the round
+                g["lr"] = self.lr * 0.01 ** (it / max(steps - 1, 1))
+            c = self._step(m_t)
+            if (it + 1) % dual_every == 0:
+                self._dual_update(c)
+        with torch.no_grad():
+            return (self.lo_t + self.span_t * self.u).numpy().copy()
+
+    def _step(self, m_t: torch.Tensor) -> torch.Tensor:
+        """One Adam step on `L/L_max + sum psi(m − margin)`, then `u` clamped to `[0, 1]`;
+        returns the constraint values `c = m − margin` `(k, T)` (detached)."""
+        params = self.lo_t + self.span_t * self.u
+        g_i = self.surrogate(params)  # (k, T)
+        self.evals += self.k
+        length = self.fam.total_length(params)
+        c = m_t - g_i
+        psi = (torch.clamp(self.lam + self.rho * c, min=0) ** 2 - self.lam ** 2) / (2 * self.rho)
+        loss = (length / self.l_max + psi.sum(-1)).sum()  # starts are independent: sum their losses
+        self.opt.zero_grad()
+        loss.backward()
+        self.opt.step()
+        with torch.no_grad():
+            self.u.clamp_(0.0, 1.0)
+            self.paths.append(np.stack([length.detach().numpy(), (g_i.detach() > 0).double().mean(-1).numpy()], -1))
+        return c.detach()
+
+    def _dual_update(self, c: torch.Tensor) -> None:
+        """`lam ← max(0, lam + rho c)`; `rho` doubles (to at most 1e3) where the worst violation
+        has not halved since the last update."""
+        self.lam = torch.clamp(self.lam + self.rho * c, min=0)
+        worst = c.clamp(min=0).max(-1).values
+        grow = (worst > 0.5 * self.worst_prev) & (worst > 0)
+        self.rho = torch.where(grow[:, None], torch.clamp(self.rho * 2, max=1e3), self.rho)
+        self.worst_prev = worst
+
+
+def _verify_finals(fam: DesignFamily, surrogate, check: _Verifier, final: np.ndarray, n_tasks: int,
+                   verify_top: int | None) -> tuple[tuple[int, np.ndarray, np.ndarray, bool], int]:
+    """Check a round's final designs `(k, n)` with the classical map (with `verify_top`: only
+    the shortest ones the surrogate says cover every task).
+
+    Returns `((start, params, covered, verified), surrogate_evals)`: the shortest verified
+    design, or (none verified) the most covered then shortest checked one (nothing checked: the
+    one the surrogate covers most, checked alone).
+    """
+    k = len(final)
+    lengths = fam.total_length(final)
+    evals = 0
+    if verify_top is None:
+        rows = np.arange(k)
+    else:  # the shortest finals the surrogate says cover every task
+        with torch.no_grad():
+            predicted = (surrogate(torch.as_tensor(final)) > 0).numpy()
+        evals = k
+        cand = np.flatnonzero(predicted.all(-1))
+        rows = cand[np.argsort(lengths[cand], kind="stable")][: int(verify_top)]
+    covered = check(final[rows]) if len(rows) else np.zeros((0, n_tasks), dtype=bool)
+    ok = covered.all(-1)
+    if ok.any():
+        j = int(np.flatnonzero(ok)[np.argmin(lengths[rows][ok])])
+        return (int(rows[j]), final[rows[j]], covered[j], True), evals
+    if len(rows):
+        j = int(np.lexsort((lengths[rows], -covered.sum(-1)))[0])  # most covered, then shortest
+        return (int(rows[j]), final[rows[j]], covered[j], False), evals
+    # nothing predicted covering: the most covered by the surrogate, checked
+    i = int(np.lexsort((lengths, -predicted.sum(-1)))[0])
+    return (i, final[i], check(final[i:i + 1])[0], False), evals
+
+
 def design_by_gradient(family, tasks, model, *, rpy=None, convention=None, verify=None, bounds=None,
                        starts: int | np.ndarray = 8, steps: int = 500, lr: float = 0.1, margin: float | None = None,
                        margin_step: float | None = None, max_rounds: int = 6, rho: float = 0.1,
@@ -526,97 +684,28 @@ def design_by_gradient(family, tasks, model, *, rpy=None, convention=None, verif
     if bounds is None and getattr(surrogate, "bounds", None) is not None:
         bounds = surrogate.bounds
     lo, hi = _bounds(fam, bounds)
-    start_rows = None
-    if isinstance(starts, (np.ndarray, list, tuple)):
-        start_rows = np.array(starts, dtype=np.float64)
-        if start_rows.ndim != 2 or start_rows.shape[1] != fam.n_params or len(start_rows) < 1:
-            raise ValueError(f"starts must be a positive integer or designs (k, {fam.n_params}), "
-                             f"got shape {start_rows.shape}")
-        if not np.all(np.isfinite(start_rows)) or np.any(start_rows < lo - 1e-12) or np.any(start_rows > hi + 1e-12):
-            raise ValueError("every start design must be finite and inside the bounds")
-        starts = len(start_rows)
-    for name, v in (("starts", starts), ("steps", steps), ("max_rounds", max_rounds), ("dual_every", dual_every)):
-        if isinstance(v, bool) or int(v) != v or v < 1:
-            raise ValueError(f"{name} must be a positive integer, got {v!r}")
-    if verify_top is not None and (isinstance(verify_top, bool) or int(verify_top) != verify_top or verify_top < 1):
-        raise ValueError(f"verify_top must be None or a positive integer, got {verify_top!r}")
+    start_rows, starts = _start_designs(fam, starts, lo, hi)
+    _check_descent_counts(starts, steps, max_rounds, dual_every, verify_top)
     m0 = float(getattr(surrogate, "default_margin", 0.0) if margin is None else margin)
     step_m = float(max(m0, 0.05) if margin_step is None else margin_step)
-    rng = _rng(seed)
-    if start_rows is not None:
-        u0 = list((start_rows - lo) / (hi - lo))
-    else:
-        u0 = [np.ones(fam.n_params), np.full(fam.n_params, 0.5)] + [rng.uniform(size=fam.n_params)
-                                                                     for _ in range(max(starts - 2, 0))]
-    u = torch.tensor(np.clip(np.array(u0[:starts]), 0.0, 1.0), dtype=torch.float64, requires_grad=True)
-    k = u.shape[0]
-    lo_t, span_t = torch.as_tensor(lo), torch.as_tensor(hi - lo)
-    l_max = float(fam.total_length(hi))
-    margins = np.full(k, m0)
-    lam = torch.zeros((k, len(tasks)), dtype=torch.float64)
-    rho_t = torch.full((k, 1), float(rho), dtype=torch.float64)
-    opt = torch.optim.Adam([u], lr=lr)
-    paths: list[np.ndarray] = []
-    evals = 0
-    worst_prev = torch.full((k,), math.inf, dtype=torch.float64)
-    best = None
+    u0 = _unit_starts(fam, start_rows, starts, lo, hi, _rng(seed))
+    descent = _Descent(surrogate, fam, lo, hi, u0, len(tasks), lr, rho)
+    margins = np.full(descent.k, m0)
     for rnd in range(1, max_rounds + 1):
-        m_t = torch.as_tensor(margins)[:, None]
-        for it in range(steps):
-            for g in opt.param_groups:  # geometric decay to 1 % over the round
-                g["lr"] = lr * 0.01 ** (it / max(steps - 1, 1))
-            params = lo_t + span_t * u
-            g_i = surrogate(params)  # (k, T)
-            evals += k
-            length = fam.total_length(params)
-            c = m_t - g_i
-            psi = (torch.clamp(lam + rho_t * c, min=0) ** 2 - lam ** 2) / (2 * rho_t)
-            loss = (length / l_max + psi.sum(-1)).sum()  # starts are independent: sum their losses
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            with torch.no_grad():
-                u.clamp_(0.0, 1.0)
-                paths.append(np.stack([length.detach().numpy(), (g_i.detach() > 0).double().mean(-1).numpy()], -1))
-                if (it + 1) % dual_every == 0:
-                    cd = c.detach()
-                    lam = torch.clamp(lam + rho_t * cd, min=0)
-                    worst = cd.clamp(min=0).max(-1).values
-                    grow = (worst > 0.5 * worst_prev) & (worst > 0)
-                    rho_t = torch.where(grow[:, None], torch.clamp(rho_t * 2, max=1e3), rho_t)
-                    worst_prev = worst
-        with torch.no_grad():
-            final = (lo_t + span_t * u).numpy().copy()
-        lengths = fam.total_length(final)
-        if verify_top is None:
-            rows = np.arange(k)
-        else:  # the shortest finals the surrogate says cover every task
-            with torch.no_grad():
-                predicted = (surrogate(torch.as_tensor(final)) > 0).numpy()
-            evals += k
-            cand = np.flatnonzero(predicted.all(-1))
-            rows = cand[np.argsort(lengths[cand], kind="stable")][: int(verify_top)]
-        covered = check(final[rows]) if len(rows) else np.zeros((0, len(tasks)), dtype=bool)
-        ok = covered.all(-1)
-        if ok.any():
-            j = int(np.flatnonzero(ok)[np.argmin(lengths[rows][ok])])
-            best = (int(rows[j]), final[rows[j]], covered[j], True)
+        final = descent.run_round(margins, steps, dual_every)
+        best, evals = _verify_finals(fam, surrogate, check, final, len(tasks), verify_top)
+        descent.evals += evals
+        if best[3]:
             break
         # none verified: ask every start for more margin and go on from where it is
-        if len(rows):
-            j = int(np.lexsort((lengths[rows], -covered.sum(-1)))[0])  # most covered, then shortest
-            best = (int(rows[j]), final[rows[j]], covered[j], False)
-        else:  # nothing predicted covering: the most covered by the surrogate, checked
-            i = int(np.lexsort((lengths, -predicted.sum(-1)))[0])
-            best = (i, final[i], check(final[i:i + 1])[0], False)
         margins = margins + step_m
-        worst_prev = torch.full((k,), math.inf, dtype=torch.float64)
+        descent.new_round()
     i, p, cov, verified = best
     wall = time.perf_counter() - t0
     return DesignResult("gradient", fam.name, fam.params, p, float(fam.total_length(p)), bool(verified), cov,
-                        check.calls, evals, wall, wall if verified else None,
-                        path=np.array(paths)[:, i, :], margins=margins, rounds=rnd, classical_time=check.seconds)
-
+                        check.calls, descent.evals, wall, wall if verified else None,
+                        path=np.array(descent.paths)[:, i, :], margins=margins, rounds=rnd,
+                        classical_time=check.seconds)
 
 def _is_subspace_mlp(obj) -> bool:
     from .learn.network import SubspaceMLP
