@@ -8,6 +8,8 @@ The library (what a roboticist imports)::
     reach = wsmap.constant_orientation_map(arm, nodes, rpy=(3.14159, 0, 0), convention="standard")
     index = wsmap.reachability_index(arm, nodes, wsmap.workspace.orientation_samples(50))  # (9261,) in [0, 1]
 
+* `wsmap.jobs` — what the command line runs, as objects: `MapJob`, `PlacementJob` (`check`,
+  `run`, `save`), their arm (`ArmSource`) and collision geometry (`CollisionSource`);
 * `wsmap.kinematics` — transforms, robot models (`DHRobot`), forward kinematics, IK;
 * `wsmap.robots` — named arms and families of arms;
 * `wsmap.workspace` — grids, maps of every kind (one module each in `wsmap.workspace.kinds`),
@@ -25,7 +27,7 @@ experiments, run-time comparison, report and notebook runner). A reproduction an
 P. Liao, "Deep Neural Network Based Subspace Learning of Robotic Manipulator Workspace Mapping".
 """
 
-from . import kinematics, robots, workspace
+from . import jobs, kinematics, robots, workspace
 from ._version import __version__
 from .kinematics import (
     DHRobot,
@@ -39,6 +41,7 @@ from .kinematics import (
     rpy2r,
     transl,
 )
+from .jobs import ArmSource, CollisionSource, MapJob, MapOutputs, PlacementJob
 from .robots import from_dh, from_urdf, load
 from .workspace import (
     Placement,
@@ -71,4 +74,6 @@ __all__ = [
     "angle_grid", "cartesian_grid", "grid_spec", "grid_map", "map_to_volume", "reachable",
     "constant_orientation_map", "orientation_map", "reachability_index", "position_map", "dexterous_map",
     "manipulability_map", "get_kind", "kind_names", "load_map", "save_map", "base_placement", "Placement",
+    # jobs: what the command line runs, built in Python (check, run, save)
+    "jobs", "MapJob", "MapOutputs", "PlacementJob", "ArmSource", "CollisionSource",
 ]

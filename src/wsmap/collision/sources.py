@@ -12,17 +12,30 @@ configurations are the only work it does).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
 
 from .._optional import require
-from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
-    from ..robots.sources import ArmSource
+    from ..kinematics.chain import Arm
     from .checks import CollisionChecker
+    from .geometry import CollisionModel
 
-__all__ = ["CollisionSource"]
+__all__ = ["CollisionSource", "ArmFiles"]
+
+
+class ArmFiles(Protocol):
+    """What the collision geometry needs to know of an arm's source (`wsmap.robots.sources.ArmSource`
+    is one): its description files, their end and base links, whether it is DH columns, its name."""
+
+    urdf: str | None
+    mjcf: str | None
+    ee: str | None
+    base: str | None
+    has_dh: bool
+    name: str
 
 
 @dataclass(frozen=True)
@@ -82,7 +95,7 @@ class CollisionSource:
             raise ValueError("--mount names a link of a work-cell URDF given with --scene CELL.urdf")
         require("coal", why="--collision/--scene")
 
-    def build(self, robot, arm: ArmSource) -> CollisionChecker | None:
+    def build(self, robot: Arm, arm: ArmFiles) -> CollisionChecker | None:
         """The checker of `robot` (built from `arm`), or None when no collision is wanted: the scene,
         meshes and link names of `allow` read and checked, the allowed-collision matrix sampled."""
         self.check()
@@ -96,7 +109,7 @@ class CollisionSource:
         model.acm = build_acm(model, samples=samples, seed=self.seed, disable=[tuple(p) for p in (self.allow or [])])
         return CollisionChecker(model, scene)
 
-    def _model(self, robot, arm: ArmSource):
+    def _model(self, robot: Arm, arm: ArmFiles) -> CollisionModel:
         from . import arm_model, capsules_along_links, from_urdf_collision
 
         if self.link_radius is not None:
