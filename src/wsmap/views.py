@@ -324,6 +324,70 @@ def save_ply(path: PathLike, values: ArrayLike, grid: Mapping[str, Any], thresho
 # --------------------------------------------------------------------------------------------
 
 
+def _point_traces(go, v: np.ndarray, xyz: np.ndarray, hover: str, label: str, threshold: float,
+                  thresholds: Sequence[float] | None, marker_size: float, opacity: float | None
+                  ) -> tuple[list, list[dict]]:
+    """`figure_3d`'s `"points"` traces (one per threshold, the first visible) and the steps of
+    the threshold slider (none for a single threshold)."""
+    if thresholds is None:
+        ts = [_number("threshold", threshold)]
+    else:
+        if isinstance(thresholds, (str, bytes)) or np.ndim(thresholds) != 1 or len(thresholds) == 0:
+            raise ValueError(f"thresholds must be a non-empty sequence of numbers, got {thresholds!r}")
+        ts = sorted(set(_number("every threshold", t) for t in thresholds))
+        ts = [t for t in ts if v.max() > t] or ts[:1]  # a threshold above the whole map shows nothing
+    traces = []
+    for t in ts:
+        keep = np.flatnonzero(v > t)
+        if keep.size == 0:
+            raise ValueError(f"no node is above the threshold {t:g} (the map lies in "
+                             f"[{v.min():g}, {v.max():g}]): no point to draw")
+        traces.append(go.Scatter3d(
+            x=xyz[keep, 0], y=xyz[keep, 1], z=xyz[keep, 2], mode="markers",
+            name=label if thresholds is None else f"{label} > {t:g}", visible=not traces,
+            marker=dict(size=float(marker_size), color=v[keep], coloraxis="coloraxis"),
+            opacity=0.8 if opacity is None else float(opacity),
+            hovertemplate=hover + "%{marker.color:.4g}<extra></extra>"))
+    if thresholds is None:
+        return traces, []
+    steps = [dict(method="restyle", label=f"{t:g}", args=[{"visible": [j == i for j in range(len(ts))]}])
+             for i, t in enumerate(ts)]
+    return traces, steps
+
+
+def _iso_traces(go, v: np.ndarray, shape: tuple[int, int, int], xyz: np.ndarray, hover: str, label: str,
+                levels: float | Sequence[float], opacity: float | None) -> list:
+    """`figure_3d`'s `"iso"` traces: one `go.Isosurface` per level that some node is above."""
+    lv = _levels(levels)
+    # plotly's volume traces take the nodes of an 'ij' meshgrid (x slowest): transpose
+    vol = map_to_volume(v, shape).transpose(2, 1, 0).ravel()
+    gxyz = xyz.reshape(shape[2], shape[1], shape[0], 3).transpose(2, 1, 0, 3).reshape(-1, 3)
+    traces = [go.Isosurface(
+        x=gxyz[:, 0], y=gxyz[:, 1], z=gxyz[:, 2], value=vol, isomin=level, isomax=level, surface_count=1,
+        caps=dict(x_show=False, y_show=False, z_show=False), coloraxis="coloraxis", name=f"{label} = {level:g}",
+        opacity=0.35 if opacity is None else float(opacity), showlegend=True,
+        hovertemplate=hover + f"{level:g}<extra></extra>")
+        for level in lv if v.max() > level]
+    if not traces:
+        raise ValueError(f"no node is above any of the levels {lv} (the map lies in [{v.min():g}, {v.max():g}]): "
+                         "no surface to draw")
+    return traces
+
+
+def _cut_plane(shape, lo: np.ndarray, step: np.ndarray, axis_title: str, below_slider: bool
+               ) -> tuple[list[list[float]], dict]:
+    """`figure_3d`'s `cut_plane`: the scene's axis ranges (half a step beyond the outer nodes,
+    so that their ends do not clip them) and the slider that ends the third axis at a layer."""
+    half = 0.5 * step
+    ranges = [[float(lo[i] - half[i]), float(lo[i] + step[i] * (shape[i] - 1) + half[i])] for i in range(3)]
+    layers = lo[2] + step[2] * np.arange(shape[2])
+    cuts = [dict(method="relayout", label=f"{z:.2f}",
+                 args=[{"scene.zaxis.range": [ranges[2][0], float(z + half[2])]}]) for z in layers]
+    slider = dict(active=len(cuts) - 1, steps=cuts, currentvalue=dict(prefix=f"{axis_title} ≤ "),
+                  pad=dict(t=10, b=10), x=0.05, len=0.9, y=-0.12 if below_slider else 0.0, yanchor="top")
+    return ranges, slider
+
+
 def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points", title: str | None = None,
               label: str = "reachability index", threshold: float = 0.0,
               levels: float | Sequence[float] = (0.25, 0.5, 0.75), colormap: str = "Viridis",
@@ -367,44 +431,10 @@ def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points
     names, unit = _AXES[scope]
     hover = (f"{names[0]} = %{{x:.3f}} {unit}<br>{names[1]} = %{{y:.3f}} {unit}<br>"
              f"{names[2]} = %{{z:.3f}} {unit}<br>{label} = ")
-    steps = []
     if kind == "points":
-        if thresholds is None:
-            ts = [_number("threshold", threshold)]
-        else:
-            if isinstance(thresholds, (str, bytes)) or np.ndim(thresholds) != 1 or len(thresholds) == 0:
-                raise ValueError(f"thresholds must be a non-empty sequence of numbers, got {thresholds!r}")
-            ts = sorted(set(_number("every threshold", t) for t in thresholds))
-            ts = [t for t in ts if v.max() > t] or ts[:1]  # a threshold above the whole map shows nothing
-        traces = []
-        for t in ts:
-            keep = np.flatnonzero(v > t)
-            if keep.size == 0:
-                raise ValueError(f"no node is above the threshold {t:g} (the map lies in "
-                                 f"[{v.min():g}, {v.max():g}]): no point to draw")
-            traces.append(go.Scatter3d(
-                x=xyz[keep, 0], y=xyz[keep, 1], z=xyz[keep, 2], mode="markers",
-                name=label if thresholds is None else f"{label} > {t:g}", visible=not traces,
-                marker=dict(size=float(marker_size), color=v[keep], coloraxis="coloraxis"),
-                opacity=0.8 if opacity is None else float(opacity),
-                hovertemplate=hover + "%{marker.color:.4g}<extra></extra>"))
-        if thresholds is not None:
-            steps = [dict(method="restyle", label=f"{t:g}", args=[{"visible": [j == i for j in range(len(ts))]}])
-                     for i, t in enumerate(ts)]
+        traces, steps = _point_traces(go, v, xyz, hover, label, threshold, thresholds, marker_size, opacity)
     else:
-        lv = _levels(levels)
-        # plotly's volume traces take the nodes of an 'ij' meshgrid (x slowest): transpose
-        vol = map_to_volume(v, shape).transpose(2, 1, 0).ravel()
-        gxyz = xyz.reshape(shape[2], shape[1], shape[0], 3).transpose(2, 1, 0, 3).reshape(-1, 3)
-        traces = [go.Isosurface(
-            x=gxyz[:, 0], y=gxyz[:, 1], z=gxyz[:, 2], value=vol, isomin=level, isomax=level, surface_count=1,
-            caps=dict(x_show=False, y_show=False, z_show=False), coloraxis="coloraxis", name=f"{label} = {level:g}",
-            opacity=0.35 if opacity is None else float(opacity), showlegend=True,
-            hovertemplate=hover + f"{level:g}<extra></extra>")
-            for level in lv if v.max() > level]
-        if not traces:
-            raise ValueError(f"no node is above any of the levels {lv} (the map lies in [{v.min():g}, {v.max():g}]): "
-                             "no surface to draw")
+        traces, steps = _iso_traces(go, v, shape, xyz, hover, label, levels, opacity), []
     fig = go.Figure(data=traces)
     titles = [f"{n} ({unit})" for n in names]
     sliders = []
@@ -412,14 +442,8 @@ def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points
         sliders.append(dict(active=0, steps=steps, currentvalue=dict(prefix=f"{label} > "), pad=dict(t=10, b=10),
                             x=0.05, len=0.9, y=0.0, yanchor="top"))
     if cut_plane:
-        # half a step beyond the outer nodes so that the ends of the range do not clip them
-        half = 0.5 * step
-        ranges = [[float(lo[i] - half[i]), float(lo[i] + step[i] * (shape[i] - 1) + half[i])] for i in range(3)]
-        layers = lo[2] + step[2] * np.arange(shape[2])
-        cuts = [dict(method="relayout", label=f"{z:.2f}",
-                     args=[{"scene.zaxis.range": [ranges[2][0], float(z + half[2])]}]) for z in layers]
-        sliders.append(dict(active=len(cuts) - 1, steps=cuts, currentvalue=dict(prefix=f"{names[2]} ({unit}) ≤ "),
-                            pad=dict(t=10, b=10), x=0.05, len=0.9, y=-0.12 if steps else 0.0, yanchor="top"))
+        ranges, cut_slider = _cut_plane(shape, lo, step, titles[2], bool(steps))
+        sliders.append(cut_slider)
     fig.update_layout(
         title=title,
         coloraxis=dict(colorscale=colormap, cmin=cl, cmax=ch, colorbar=dict(title=dict(text=label))),
@@ -438,7 +462,6 @@ def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points
             xaxis=dict(range=ranges[0], autorange=False), yaxis=dict(range=ranges[1], autorange=False),
             zaxis=dict(range=ranges[2], autorange=False)))
     return fig
-
 
 def save_html(path: PathLike, values: ArrayLike, grid: Mapping[str, Any], **kw) -> Path:
     """Write `figure_3d` `(values, grid, **kw)` as one standalone HTML file.
