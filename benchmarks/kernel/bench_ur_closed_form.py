@@ -80,42 +80,88 @@ def _eaik_labels(chain, T, sols):
     return (present & (err <= 1e-6)).any(axis=-1), not_ls
 
 
-def main(argv=None):
-    ap = harness.parser(__doc__, repeat=5, threads=2,
-                        repeat_help="timed runs in a row per map and method (best is kept)",
-                        threads_help="threads of the compiled kernel's second run (default 2)")
-    ap.add_argument("--rounds", type=int, default=2, help="cycles over the methods, each with --repeats runs")
-    ap.add_argument("--eaik-threads", type=int, default=4, help="worker threads of EAIK's second run (its default: 4)")
-    args = ap.parse_args(argv)
-    if args.rounds < 1 or args.eaik_threads < 1:
-        ap.error("--rounds and --eaik-threads must be positive")
+def _checked_rows(methods, times, results, ours, chain, T, label):
+    """The labels of the first method and one row per method; asserts that every method's labels are
+    the same node for node (EAIK's from its solutions, `_eaik_labels`)."""
+    N = len(T)
+    labels = results[0]
+    rows = []
+    for i, ((name, _, _), t, res) in enumerate(zip(methods, times, results)):
+        row = {"method": name, "seconds": t}
+        if i < ours:
+            mism = np.flatnonzero(res != labels)
+        else:
+            theirs, not_ls = _eaik_labels(chain, T, res)
+            mism = np.flatnonzero(theirs != labels)
+            row["labels_from_is_LS_agree"] = bool(np.array_equal(not_ls, theirs))
+        assert mism.size == 0, f"{label}: labels of {name} differ at nodes {mism[:10]}"
+        rows.append(row)
+    eaik1 = times[ours]
+    for r in rows:
+        r["poses_per_second"] = N / r["seconds"]
+        r["speedup_over_eaik_1_thread"] = eaik1 / r["seconds"]
+    return labels, rows
 
-    import numba
-    from eaik.IK_DH import DhRobot
 
-    from wsmap import robots
-    from wsmap.kinematics import lm_compiled, rotx
+def _structure_check(chain, nodes):
+    """Seconds of the structure check (`ur_parameters`, `is_ur_type`) and of the compiled map with and
+    without it (from precomputed `URParameters`), on 1 thread."""
+    from wsmap.kinematics import lm_compiled
     from wsmap.kinematics.ik.closed_forms.ur import (
-        ikine_ur,
         is_ur_type,
         ur_parameters,
         ur_reachable,
     )
-    from wsmap.workspace import cartesian_grid
 
-    chain = robots.load("ur5e")
-    d, a, alpha, _ = np.array(robots.NAMED["ur5e"].rows).T
-    eaik = DhRobot(alpha, a, d)
-    batched = hasattr(eaik, "IK_batched")
-    nodes = cartesian_grid(-1.0, 1.0, 0.1)
     N = len(nodes)
-    threads_before = lm_compiled.threads()
-    many = lm_compiled.set_threads(args.threads)  # clamped to the cores numba sees
-    with harness.Stopwatch() as sw:
-        ur_reachable(chain, np.eye(4))
-        ikine_ur(chain, np.eye(4))
-    first_call = sw.seconds  # numba: compile, or load from its cache
-    info = {
+    lm_compiled.set_threads(1)
+    prm = ur_parameters(chain)
+    T = np.zeros((N, 4, 4))
+    T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = np.eye(3), nodes, 1.0
+    number = 2000
+    structure = {
+        "ur_parameters_seconds": _best_time(lambda: ur_parameters(chain), number, 5),
+        "is_ur_type_seconds": _best_time(lambda: is_ur_type(chain), number, 5),
+        "ur_reachable_one_pose_seconds": _best_time(lambda: ur_reachable(chain, T[:1]), number, 5),
+        "ur_reachable_from_parameters_seconds": _best_time(lambda: ur_reachable(prm, T), 20, 5),
+        "ur_reachable_from_robot_seconds": _best_time(lambda: ur_reachable(chain, T), 20, 5),
+    }
+    return structure
+
+
+def _print_report(info, maps, structure, repeat, rounds):
+    """The run's conditions, a Markdown table per map, the structure check and the goal."""
+    N, first_call = info["nodes"], info["first_call_seconds"]
+    print(f"UR5e, {N} nodes of cartesian_grid(-1, 1, 0.1), best of {repeat} in a row x {rounds} "
+          f"rounds; python {info['python']}, numpy {info['numpy']}, numba {info['numba']}, eaik {info['eaik']}, "
+          f"{info['cpus']} CPUs, OMP_NUM_THREADS={info['omp_num_threads']}, load average {info['load_average']}; "
+          f"first compiled call {first_call:.2f} s (compile or cache load)")
+    for label, m in maps.items():
+        print()
+        print(f"{label}: {m['reachable']} reachable nodes, labels identical node for node (all methods)")
+        print()
+        print("| method | seconds per map | poses/s | speed-up over EAIK (1 thread) |")
+        print("|---|---:|---:|---:|")
+        for r in m["rows"]:
+            print(f"| {r['method']} | {r['seconds']:.5f} | {r['poses_per_second']:,.0f} "
+                  f"| {r['speedup_over_eaik_1_thread']:.1f}x |")
+    print()
+    s = structure
+    print(f"structure check: ur_parameters {s['ur_parameters_seconds'] * 1e6:.1f} us, is_ur_type "
+          f"{s['is_ur_type_seconds'] * 1e6:.1f} us; ur_reachable of one pose (all fixed costs) "
+          f"{s['ur_reachable_one_pose_seconds'] * 1e6:.1f} us; the R = I map from the robot "
+          f"{s['ur_reachable_from_robot_seconds'] * 1e3:.3f} ms, from URParameters "
+          f"{s['ur_reachable_from_parameters_seconds'] * 1e3:.3f} ms (1 thread)")
+    worst = min(m["rows"][0]["speedup_over_eaik_1_thread"] for m in maps.values())
+    print(f"goal: compiled (1 thread) >= 10x EAIK (1 thread): {'met' if worst >= 10 else 'NOT met'} "
+          f"(worst map {worst:.1f}x; aim 30x: {'met' if worst >= 30 else 'not met'})")
+
+
+def _info(N, args, many, first_call, batched):
+    """The run's conditions: versions, CPUs, thread settings, load, sizes and the first compiled call."""
+    import numba
+
+    return {
         "python": sys.version.split()[0],
         "numpy": np.__version__,
         "numba": numba.__version__,
@@ -132,6 +178,44 @@ def main(argv=None):
         "first_call_seconds": first_call,
         "eaik_call": "IK_batched" if batched else "IK in a Python loop",
     }
+
+
+def _options():
+    """The command line: the harness's common options and this benchmark's own."""
+    ap = harness.parser(__doc__, repeat=5, threads=2,
+                        repeat_help="timed runs in a row per map and method (best is kept)",
+                        threads_help="threads of the compiled kernel's second run (default 2)")
+    ap.add_argument("--rounds", type=int, default=2, help="cycles over the methods, each with --repeats runs")
+    ap.add_argument("--eaik-threads", type=int, default=4, help="worker threads of EAIK's second run (its default: 4)")
+    return ap
+
+
+def main(argv=None):
+    ap = _options()
+    args = ap.parse_args(argv)
+    if args.rounds < 1 or args.eaik_threads < 1:
+        ap.error("--rounds and --eaik-threads must be positive")
+
+    from eaik.IK_DH import DhRobot
+
+    from wsmap import robots
+    from wsmap.kinematics import lm_compiled, rotx
+    from wsmap.kinematics.ik.closed_forms.ur import ikine_ur, ur_reachable
+    from wsmap.workspace import cartesian_grid
+
+    chain = robots.load("ur5e")
+    d, a, alpha, _ = np.array(robots.NAMED["ur5e"].rows).T
+    eaik = DhRobot(alpha, a, d)
+    batched = hasattr(eaik, "IK_batched")
+    nodes = cartesian_grid(-1.0, 1.0, 0.1)
+    N = len(nodes)
+    threads_before = lm_compiled.threads()
+    many = lm_compiled.set_threads(args.threads)  # clamped to the cores numba sees
+    with harness.Stopwatch() as sw:
+        ur_reachable(chain, np.eye(4))
+        ikine_ur(chain, np.eye(4))
+    first_call = sw.seconds  # numba: compile, or load from its cache
+    info = _info(N, args, many, first_call, batched)
 
     def eaik_solve(T, threads):
         return eaik.IK_batched(T, threads) if batched else [eaik.IK(t) for t in T]
@@ -160,62 +244,13 @@ def main(argv=None):
         methods += [(f"EAIK {info['eaik_call']} ({plural(k)})", nothing, lambda k=k: eaik_solve(T, k))
                     for k in eaik_threads]
         times, results = _best_of([(p, f) for _, p, f in methods], args.repeat, args.rounds)
-        labels = results[0]
-        rows = []
-        for i, ((name, _, _), t, res) in enumerate(zip(methods, times, results)):
-            row = {"method": name, "seconds": t}
-            if i < ours:
-                mism = np.flatnonzero(res != labels)
-            else:
-                theirs, not_ls = _eaik_labels(chain, T, res)
-                mism = np.flatnonzero(theirs != labels)
-                row["labels_from_is_LS_agree"] = bool(np.array_equal(not_ls, theirs))
-            assert mism.size == 0, f"{label}: labels of {name} differ at nodes {mism[:10]}"
-            rows.append(row)
-        eaik1 = times[ours]
-        for r in rows:
-            r["poses_per_second"] = N / r["seconds"]
-            r["speedup_over_eaik_1_thread"] = eaik1 / r["seconds"]
+        labels, rows = _checked_rows(methods, times, results, ours, chain, T, label)
         maps[label] = {"reachable": int(labels.sum()), "labels_identical": True, "rows": rows}
 
-    # the structure check, and the compiled map without it (from precomputed URParameters)
-    lm_compiled.set_threads(1)
-    prm = ur_parameters(chain)
-    T = np.zeros((N, 4, 4))
-    T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = np.eye(3), nodes, 1.0
-    number = 2000
-    structure = {
-        "ur_parameters_seconds": _best_time(lambda: ur_parameters(chain), number, 5),
-        "is_ur_type_seconds": _best_time(lambda: is_ur_type(chain), number, 5),
-        "ur_reachable_one_pose_seconds": _best_time(lambda: ur_reachable(chain, T[:1]), number, 5),
-        "ur_reachable_from_parameters_seconds": _best_time(lambda: ur_reachable(prm, T), 20, 5),
-        "ur_reachable_from_robot_seconds": _best_time(lambda: ur_reachable(chain, T), 20, 5),
-    }
+    structure = _structure_check(chain, nodes)
     lm_compiled.set_threads(threads_before)
 
-    print(f"UR5e, {N} nodes of cartesian_grid(-1, 1, 0.1), best of {args.repeat} in a row x {args.rounds} "
-          f"rounds; python {info['python']}, numpy {info['numpy']}, numba {info['numba']}, eaik {info['eaik']}, "
-          f"{info['cpus']} CPUs, OMP_NUM_THREADS={info['omp_num_threads']}, load average {info['load_average']}; "
-          f"first compiled call {first_call:.2f} s (compile or cache load)")
-    for label, m in maps.items():
-        print()
-        print(f"{label}: {m['reachable']} reachable nodes, labels identical node for node (all methods)")
-        print()
-        print("| method | seconds per map | poses/s | speed-up over EAIK (1 thread) |")
-        print("|---|---:|---:|---:|")
-        for r in m["rows"]:
-            print(f"| {r['method']} | {r['seconds']:.5f} | {r['poses_per_second']:,.0f} "
-                  f"| {r['speedup_over_eaik_1_thread']:.1f}x |")
-    print()
-    s = structure
-    print(f"structure check: ur_parameters {s['ur_parameters_seconds'] * 1e6:.1f} us, is_ur_type "
-          f"{s['is_ur_type_seconds'] * 1e6:.1f} us; ur_reachable of one pose (all fixed costs) "
-          f"{s['ur_reachable_one_pose_seconds'] * 1e6:.1f} us; the R = I map from the robot "
-          f"{s['ur_reachable_from_robot_seconds'] * 1e3:.3f} ms, from URParameters "
-          f"{s['ur_reachable_from_parameters_seconds'] * 1e3:.3f} ms (1 thread)")
-    worst = min(m["rows"][0]["speedup_over_eaik_1_thread"] for m in maps.values())
-    print(f"goal: compiled (1 thread) >= 10x EAIK (1 thread): {'met' if worst >= 10 else 'NOT met'} "
-          f"(worst map {worst:.1f}x; aim 30x: {'met' if worst >= 30 else 'not met'})")
+    _print_report(info, maps, structure, args.repeat, args.rounds)
     harness.write_json(args, {"info": info, "maps": maps, "structure_check": structure})
     return maps
 

@@ -52,7 +52,8 @@ def _print_rows(title, rows, design, extra=""):
         print(extra)
 
 
-def main(argv=None):
+def _options():
+    """The command line: the harness's common options and this benchmark's own."""
     from wsmap import paths
 
     ap = harness.parser(__doc__, seed=0, seed_help="seed of the searches (default 0)")
@@ -72,6 +73,11 @@ def main(argv=None):
     ap.add_argument("--length-tol", type=float, default=0.02, help="relative length goal of the searches")
     ap.add_argument("--max-calls", type=int, default=3000, help="classical calls (arms) per search")
     ap.add_argument("--max-seconds", type=float, default=120.0, help="seconds per search")
+    return ap
+
+
+def main(argv=None):
+    ap = _options()
     args = ap.parse_args(argv)
 
     import torch

@@ -25,7 +25,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the
 import harness  # noqa: E402
 
 
-def main(argv=None) -> int:
+def _options():
+    """The command line: the harness's common options and this benchmark's own."""
     p = harness.parser(__doc__)
     p.add_argument("--models", nargs="+", required=True, metavar="FILE", help="morphology model files")
     p.add_argument("--data", required=True, help="folder of the stage's shards (shard 0's test sets built if missing)")
@@ -34,6 +35,11 @@ def main(argv=None) -> int:
     p.add_argument("--step", type=float, default=0.3, help="the models' label grid step (m)")
     p.add_argument("--fine", type=float, default=0.1, help="the finer grid step (m)")
     p.add_argument("--random", type=int, default=25, help="held-out arms per family scored on both grids")
+    return p
+
+
+def main(argv=None) -> int:
+    p = _options()
     args = p.parse_args(argv)
 
     import numpy as np

@@ -87,7 +87,8 @@ def _label_shard(job):
     return n, k, seconds
 
 
-def main(argv=None) -> int:
+def _options():
+    """The command line: the harness's common options and this benchmark's own."""
     p = harness.parser(__doc__)
     p.add_argument("--data", required=True, help="folder of the experience shards (reused when there)")
     p.add_argument("--arms", type=int, default=250, help="arms per shard (the stage's full scale: 250)")
@@ -99,68 +100,46 @@ def main(argv=None) -> int:
     p.add_argument("--pos-weight", type=float, default=20.0, help="weight of a reachable node's loss term")
     p.add_argument("--run", type=parse_run, action="append", required=True, help="a training run (module notes)")
     p.add_argument("--save", help="folder to save each run's model in (NAME.pt)")
-    args = p.parse_args(argv)
+    return p
 
-    # one numba thread per process, set before numba is imported (the workers inherit it)
-    for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "WSMAP_THREADS"):
-        os.environ[var] = "1"
-    import multiprocessing as mp
-    import warnings
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-    import numpy as np
-    import torch
+class _Labelling:
+    """The experience shards labelled in worker processes (one shard per process, one numba thread
+    each), the shards of the runs in order of need, new ones started until `--label-seconds`."""
 
-    import wsmap
-    from wsmap import workspace as ws
-    from wsmap.kinematics.ik.warmup import ensure_compiled
-    from wsmap.kinematics.morphology import describe
-    from wsmap.learn import TrainConfig, resolve_device
-    from wsmap.learn import morph_model as mm
-    from wsmap.learn.training_range import ExtrapolationWarning
-    from wsmap.metrics import score_maps
-    from wsmap.robots.morph import HELD_OUT
+    def __init__(self, args):
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
 
-    device = resolve_device(args.device, "--device")  # before any work
-    run_clock = harness.Stopwatch().start()
-    facts = {"device": str(device), "gpu": torch.cuda.get_device_name(device) if device.type == "cuda" else None,
-             "cpus": os.cpu_count(), "procs": args.procs, "torch": torch.__version__, "numpy": np.__version__,
-             "python": sys.version.split()[0]}
-    print(json.dumps(facts), flush=True)
-    out = {"facts": facts, "args": {k: v for k, v in vars(args).items() if k != "run"}, "runs": []}
+        need = max(r["shards"] for r in args.run)
+        order = [(n, k) for k in range(need) for n in (6, 7)]
+        self.label_seconds = args.label_seconds
+        self.arms = args.arms
+        self.done: dict[int, set] = {6: set(), 7: set()}
+        self.seconds: list[float] = []
+        self.collected: set = set()
+        self.pool = ProcessPoolExecutor(args.procs, mp_context=mp.get_context("spawn"))
+        self.futures = {self.pool.submit(_label_shard, (n, k, args.arms, args.test_arms, args.step, args.data)): (n, k)
+                        for n, k in order}
+        self.clock = harness.Stopwatch().start()
 
-    def save_json():  # after every run
-        harness.write_json(args, out)
-
-    compile_s = ensure_compiled(joints=(6, 7))  # once here; the workers load the cache
-    print(f"kernels compiled in {compile_s:.0f} s", flush=True)
-
-    # ---- labels: one shard per process, the shards of the runs in order of need
-    need = max(r["shards"] for r in args.run)
-    order = [(n, k) for k in range(need) for n in (6, 7)]
-    done: dict[int, set] = {6: set(), 7: set()}
-    label_s: list[float] = []
-    pool = ProcessPoolExecutor(args.procs, mp_context=mp.get_context("spawn"))
-    futures = {pool.submit(_label_shard, (n, k, args.arms, args.test_arms, args.step, args.data)): (n, k)
-               for n, k in order}
-    label_clock = harness.Stopwatch().start()
-
-    def prefix(n: int) -> int:
+    def prefix(self, n: int) -> int:
+        """Shards 0, 1, ... of family `n` joints done without a gap."""
         k = 0
-        while k in done[n]:
+        while k in self.done[n]:
             k += 1
         return k
 
-    collected: set = set()
-
-    def collect(until_shards: int | None, drain: bool = False) -> None:
+    def collect(self, until_shards: int | None, drain: bool = False) -> None:
         """Gather finished shards until both families have ``until_shards`` (None: every shard) or
         the deadline; ``drain``: only those finished by now (after the pool has shut down)."""
+        from concurrent.futures import FIRST_COMPLETED, wait
+
         while True:
-            if until_shards is not None and min(prefix(6), prefix(7)) >= until_shards:
+            if until_shards is not None and min(self.prefix(6), self.prefix(7)) >= until_shards:
                 return
-            pending = [f for f in futures if f not in collected and not f.cancelled()]
-            left = 0.0 if drain else args.label_seconds - label_clock.elapsed()
+            pending = [f for f in self.futures if f not in self.collected and not f.cancelled()]
+            left = 0.0 if drain else self.label_seconds - self.clock.elapsed()
             if not pending or (left <= 0 and not drain):
                 return
             finished, _ = wait(pending, timeout=max(left, 0.0), return_when=FIRST_COMPLETED)
@@ -168,19 +147,40 @@ def main(argv=None) -> int:
                 return
             for f in finished:
                 n, k, secs = f.result()
-                done[n].add(k)
-                label_s.append(secs)
-                collected.add(f)
+                self.done[n].add(k)
+                self.seconds.append(secs)
+                self.collected.add(f)
 
-    def label_facts() -> dict:
-        arms = sum(len(done[n]) for n in (6, 7)) * args.arms
-        wall = label_clock.elapsed()
-        return {"shards_done": {f"morph{n}": prefix(n) for n in (6, 7)}, "arms_labelled": arms,
+    def finish(self) -> dict:
+        """Stop labelling (shards not started are cancelled), gather what finished; the labelling's facts."""
+        import numpy as np
+
+        self.pool.shutdown(wait=True, cancel_futures=True)
+        self.collect(None, drain=True)
+        arms = sum(len(self.done[n]) for n in (6, 7)) * self.arms
+        wall = self.clock.elapsed()
+        return {"shards_done": {f"morph{n}": self.prefix(n) for n in (6, 7)}, "arms_labelled": arms,
                 "wall_seconds": wall, "arms_per_second": arms / wall if wall > 0 else None,
-                "seconds_per_shard_median": float(np.median(label_s)) if label_s else None}
+                "seconds_per_shard_median": float(np.median(self.seconds)) if self.seconds else None}
 
-    # ---- the held-out arms: shard 0's test sets and the named arms, labelled by the same search
-    collect(1)
+
+def _score(pred, y) -> dict:
+    from wsmap.metrics import score_maps
+
+    s = score_maps(pred, y)
+    return {k: float(s[k]) for k in ("f", "precision", "recall", "f_mean")}
+
+
+def _held_out(args) -> dict:
+    """Shard 0's test sets and the six named arms, labelled by the same search: their features, labels
+    and the record of them."""
+    import numpy as np
+
+    import wsmap
+    from wsmap import workspace as ws
+    from wsmap.learn import morph_model as mm
+    from wsmap.robots.morph import HELD_OUT
+
     test_sets = []
     for n in (6, 7):
         built, _ = mm.build_morph_shards(args.data, n, 1, args.arms, step=args.step, first_seed=0,
@@ -193,95 +193,143 @@ def main(argv=None) -> int:
     named = {name: wsmap.load(name) for name in HELD_OUT}
     truth = {name: ws.constant_orientation_map(arm, nodes, mm.TOOL_DOWN, convention="standard")
              for name, arm in named.items()}
-    out["held_out"] = {"random_arms": int(len(test_Y)), "nodes": int(len(nodes)),
-                       "reachable_share": float(test_Y.mean()),
-                       "named_reachable": {k: int(v.sum()) for k, v in truth.items()}}
+    record = {"random_arms": int(len(test_Y)), "nodes": int(len(nodes)), "reachable_share": float(test_Y.mean()),
+              "named_reachable": {k: int(v.sum()) for k, v in truth.items()}}
+    return {"nodes": nodes, "X": test_X, "Y": test_Y, "named": named, "truth": truth, "record": record}
 
-    def score(pred, y) -> dict:
-        s = score_maps(pred, y)
-        return {k: float(s[k]) for k in ("f", "precision", "recall", "f_mean")}
 
-    torch.set_num_threads(1)  # the labelling processes hold the other cores
-    models = {}
-    for i, run in enumerate(args.run):
-        collect(run["shards"] if i == 0 else None)
-        if i == 1:  # the rest train after the labelling
-            pool.shutdown(wait=True, cancel_futures=True)
-            collect(None, drain=True)
-            out["labels"] = label_facts()
-            print(f"labels: {out['labels']}", flush=True)
-            torch.set_num_threads(max(1, (os.cpu_count() or 2) - 1))
-        shards = min(run["shards"], prefix(6), prefix(7))
-        train_sets = []
-        for n in (6, 7):
-            built, _ = mm.build_morph_shards(args.data, n, shards, args.arms, step=args.step,
-                                             test_samples=args.test_arms)
-            train_sets += built[:-1]
-        n_train = sum(len(d.features) for d in train_sets)
-        tc = TrainConfig(optimizer="adam", optimizer_kwargs={"lr": run["lr"]}, loss="crossentropy",
-                         batch_size=run["batch"], lr_decay="cosine-time", time_limit_s=run["seconds"],
-                         max_epochs=100_000, max_fail=10 ** 6, fractions=(0.95, 0.05, 0.0), seed=0,
-                         pos_weight=args.pos_weight, device=str(device))
-        cfg = mm.MorphModelConfig(encoder=run["encoder"], latent=run["latent"], decoder=run["decoder"])
-        train_s, (model, result) = harness.timed(lambda: mm.fit_morph_model(train_sets, cfg, tc))  # noqa: B023
-        train_X = np.concatenate([mm.morph_features(list(d.features[:, :d.spec.n_arm_features])) for d in train_sets])
-        train_Y = np.concatenate([d.labels for d in train_sets])
-        with torch.no_grad():
-            logits = model.logits_at(torch.as_tensor(test_X, dtype=torch.float32),
-                                     torch.as_tensor(nodes, dtype=torch.float32)).numpy()
-        pred = logits > np.log(model.threshold / (1 - model.threshold))
-        nn_pred, nn_dist = mm.nearest_arm_maps(train_X, train_Y, test_X)
-        row = {**{k: (list(v) if isinstance(v, tuple) else v) for k, v in run.items()},
-               "shards_used": shards, "train_arms": n_train,
-               "parameters": int(sum(p.numel() for p in model.parameters())),
-               "train_seconds": train_s, "epochs": int(len(result.history.epoch) - 1),
-               "best_epoch": int(result.best_epoch), "best_val_loss": float(np.nanmin(result.history.val_loss)),
-               "threshold": float(model.threshold),
-               "pooled": {"model": score(pred, test_Y), "nearest_arm": score(nn_pred, test_Y),
-                          "nearest_distance_median": float(np.median(nn_dist))},
-               "named": {}}
-        for name, arm in named.items():
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always", ExtrapolationWarning)
-                mp_ = mm.predict_morph_map(model, arm, nodes, allow_extrapolation=True)
-            nb, nd = mm.nearest_arm_maps(train_X, train_Y, describe(arm).features()[None])
-            row["named"][name] = {"model": score(mp_[None], truth[name][None]),
-                                  "nearest_arm": score(nb, truth[name][None]), "nearest_distance": float(nd[0]),
-                                  "in_range": not any(issubclass(w.category, ExtrapolationWarning) for w in caught)}
-        # an arm with no node predicted has F undefined (NaN): counted as 0, as the stage does
-        row["named_mean_f"] = float(np.mean(np.nan_to_num([v["model"]["f"] for v in row["named"].values()])))
-        models[run["name"]] = model
-        out["runs"].append(row)
-        print(f"{run['name']}: {n_train} arms, {row['parameters']} parameters, {row['epochs']} epochs in "
-              f"{train_s:.0f} s (best {row['best_epoch']}): pooled F {row['pooled']['model']['f']:.3f} "
-              f"(P {row['pooled']['model']['precision']:.3f}, R {row['pooled']['model']['recall']:.3f}), "
-              f"nearest {row['pooled']['nearest_arm']['f']:.3f}; named "
-              + ", ".join(f"{k} {v['model']['f']:.3f}" for k, v in row["named"].items()), flush=True)
-        if args.save:
-            mm.save_morph_model(model, os.path.join(args.save, f"{run['name']}.pt"),
-                                extra={"bench_morph_scale": {k: row[k] for k in ("name", "train_arms", "epochs")}})
-        save_json()
-    if len(args.run) == 1:
-        pool.shutdown(wait=True, cancel_futures=True)
-        collect(None, drain=True)
-        out["labels"] = label_facts()
+def _train_run(run, shards, args, device, held):
+    """One `--run`: its network trained on the first `shards` shards of each family, scored on the
+    held-out arms beside the nearest-training-arm baseline; (model, row)."""
+    import warnings
 
-    # ---- one 29,791-node map of the iiwa14 by each model, one CPU thread
+    import numpy as np
+    import torch
+
+    from wsmap.kinematics.morphology import describe
+    from wsmap.learn import TrainConfig
+    from wsmap.learn import morph_model as mm
+    from wsmap.learn.training_range import ExtrapolationWarning
+
+    train_sets = []
+    for n in (6, 7):
+        built, _ = mm.build_morph_shards(args.data, n, shards, args.arms, step=args.step,
+                                         test_samples=args.test_arms)
+        train_sets += built[:-1]
+    n_train = sum(len(d.features) for d in train_sets)
+    tc = TrainConfig(optimizer="adam", optimizer_kwargs={"lr": run["lr"]}, loss="crossentropy",
+                     batch_size=run["batch"], lr_decay="cosine-time", time_limit_s=run["seconds"],
+                     max_epochs=100_000, max_fail=10 ** 6, fractions=(0.95, 0.05, 0.0), seed=0,
+                     pos_weight=args.pos_weight, device=str(device))
+    cfg = mm.MorphModelConfig(encoder=run["encoder"], latent=run["latent"], decoder=run["decoder"])
+    train_s, (model, result) = harness.timed(lambda: mm.fit_morph_model(train_sets, cfg, tc))
+    train_X = np.concatenate([mm.morph_features(list(d.features[:, :d.spec.n_arm_features])) for d in train_sets])
+    train_Y = np.concatenate([d.labels for d in train_sets])
+    nodes, test_X, test_Y = held["nodes"], held["X"], held["Y"]
+    with torch.no_grad():
+        logits = model.logits_at(torch.as_tensor(test_X, dtype=torch.float32),
+                                 torch.as_tensor(nodes, dtype=torch.float32)).numpy()
+    pred = logits > np.log(model.threshold / (1 - model.threshold))
+    nn_pred, nn_dist = mm.nearest_arm_maps(train_X, train_Y, test_X)
+    row = {**{k: (list(v) if isinstance(v, tuple) else v) for k, v in run.items()},
+           "shards_used": shards, "train_arms": n_train,
+           "parameters": int(sum(p.numel() for p in model.parameters())),
+           "train_seconds": train_s, "epochs": int(len(result.history.epoch) - 1),
+           "best_epoch": int(result.best_epoch), "best_val_loss": float(np.nanmin(result.history.val_loss)),
+           "threshold": float(model.threshold),
+           "pooled": {"model": _score(pred, test_Y), "nearest_arm": _score(nn_pred, test_Y),
+                      "nearest_distance_median": float(np.median(nn_dist))},
+           "named": {}}
+    for name, arm in held["named"].items():
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ExtrapolationWarning)
+            mp_ = mm.predict_morph_map(model, arm, nodes, allow_extrapolation=True)
+        nb, nd = mm.nearest_arm_maps(train_X, train_Y, describe(arm).features()[None])
+        truth = held["truth"][name][None]
+        row["named"][name] = {"model": _score(mp_[None], truth), "nearest_arm": _score(nb, truth),
+                              "nearest_distance": float(nd[0]),
+                              "in_range": not any(issubclass(w.category, ExtrapolationWarning) for w in caught)}
+    # an arm with no node predicted has F undefined (NaN): counted as 0, as the stage does
+    row["named_mean_f"] = float(np.mean(np.nan_to_num([v["model"]["f"] for v in row["named"].values()])))
+    print(f"{run['name']}: {n_train} arms, {row['parameters']} parameters, {row['epochs']} epochs in "
+          f"{train_s:.0f} s (best {row['best_epoch']}): pooled F {row['pooled']['model']['f']:.3f} "
+          f"(P {row['pooled']['model']['precision']:.3f}, R {row['pooled']['model']['recall']:.3f}), "
+          f"nearest {row['pooled']['nearest_arm']['f']:.3f}; named "
+          + ", ".join(f"{k} {v['model']['f']:.3f}" for k, v in row["named"].items()), flush=True)
+    if args.save:
+        mm.save_morph_model(model, os.path.join(args.save, f"{run['name']}.pt"),
+                            extra={"bench_morph_scale": {k: row[k] for k in ("name", "train_arms", "epochs")}})
+    return model, row
+
+
+def _map_speed(rows, models, iiwa14):
+    """One 29,791-node map of the iiwa14 by each run's model, one CPU thread, median of 5 (into each row)."""
+    import warnings
+
+    import numpy as np
+    import torch
+
+    from wsmap import workspace as ws
+    from wsmap.learn import morph_model as mm
+    from wsmap.learn.training_range import ExtrapolationWarning
+
     torch.set_num_threads(1)
     big = ws.cartesian_grid(-1.5, 1.5, 0.1)
-    for row in out["runs"]:
+    for row in rows:
         model = models[row["name"]]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ExtrapolationWarning)
-            reps, _ = harness.timings(lambda: mm.predict_morph_map(model, named["iiwa14"], big,  # noqa: B023
+            reps, _ = harness.timings(lambda: mm.predict_morph_map(model, iiwa14, big,  # noqa: B023
                                                                    allow_extrapolation=True), 5, warmup=1)
         row["map_ms_one_thread"] = 1e3 * float(np.median(reps.values))
         print(f"{row['name']}: one {len(big)}-node map {row['map_ms_one_thread']:.1f} ms on one CPU thread", flush=True)
+
+
+def main(argv=None) -> int:
+    args = _options().parse_args(argv)
+    # one numba thread per process, set before numba is imported (the workers inherit it)
+    for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "WSMAP_THREADS"):
+        os.environ[var] = "1"
+    import numpy as np
+    import torch
+
+    from wsmap.kinematics.ik.warmup import ensure_compiled
+    from wsmap.learn import resolve_device
+
+    device = resolve_device(args.device, "--device")  # before any work
+    run_clock = harness.Stopwatch().start()
+    facts = {"device": str(device), "gpu": torch.cuda.get_device_name(device) if device.type == "cuda" else None,
+             "cpus": os.cpu_count(), "procs": args.procs, "torch": torch.__version__, "numpy": np.__version__,
+             "python": sys.version.split()[0]}
+    print(json.dumps(facts), flush=True)
+    out = {"facts": facts, "args": {k: v for k, v in vars(args).items() if k != "run"}, "runs": []}
+    compile_s = ensure_compiled(joints=(6, 7))  # once here; the workers load the cache
+    print(f"kernels compiled in {compile_s:.0f} s", flush=True)
+
+    labelling = _Labelling(args)
+    labelling.collect(1)
+    held = _held_out(args)
+    out["held_out"] = held["record"]
+    torch.set_num_threads(1)  # the labelling processes hold the other cores
+    models = {}
+    for i, run in enumerate(args.run):
+        labelling.collect(run["shards"] if i == 0 else None)
+        if i == 1:  # the rest train after the labelling
+            out["labels"] = labelling.finish()
+            print(f"labels: {out['labels']}", flush=True)
+            torch.set_num_threads(max(1, (os.cpu_count() or 2) - 1))
+        shards = min(run["shards"], labelling.prefix(6), labelling.prefix(7))
+        models[run["name"]], row = _train_run(run, shards, args, device, held)
+        out["runs"].append(row)
+        harness.write_json(args, out)  # after every run
+    if len(args.run) == 1:
+        out["labels"] = labelling.finish()
+
+    _map_speed(out["runs"], models, held["named"]["iiwa14"])
     out["total_seconds"] = run_clock.elapsed()
-    save_json()
+    harness.write_json(args, out)
     print(f"total {out['total_seconds']:.0f} s", flush=True)
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())

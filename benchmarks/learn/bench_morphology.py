@@ -35,33 +35,11 @@ def _score(pred, truth):
     return {k: s[k] for k in ("f", "precision", "recall", "f_mean")}
 
 
-def main(argv=None) -> int:
-    p = harness.parser(__doc__)
-    p.add_argument("--data", default="data/morph", help="folder of the experience shards (reused when there)")
-    p.add_argument("--shards", type=int, default=5, help="shards per family (morph6, morph7)")
-    p.add_argument("--arms", type=int, default=100, help="arms per shard")
-    p.add_argument("--test-arms", type=int, default=50, help="held-out random arms per family")
-    p.add_argument("--step", type=float, default=0.2, help="label grid step (m) on [-1.5, 1.5]^3")
-    p.add_argument("--time-step", type=float, default=0.1, help="grid step (m) of the timed 3-D maps")
-    p.add_argument("--minutes", type=float, default=6.0, help="training time (cosine-time schedule)")
-    p.add_argument("--epochs", type=int, default=200, help="epoch cap (the time limit usually stops first)")
-    p.add_argument("--batch-size", type=int, default=8, help="arms per Adam step")
-    p.add_argument("--lr", type=float, default=1e-3)
-    p.add_argument("--save", help="write the model here")
-    args = p.parse_args(argv)
-
-    import numpy as np
-    import torch
-
-    import wsmap
-    from wsmap import workspace as ws
-    from wsmap.kinematics.morphology import describe
-    from wsmap.learn import TrainConfig
+def _experience(args):
+    """The morph6 and morph7 shards (built when missing) with their held-out sets: (training sets, test
+    sets, seconds spent labelling, arms labelled now)."""
     from wsmap.learn import morph_model as mm
-    from wsmap.robots.morph import HELD_OUT
 
-    torch.set_num_threads(1)
-    run_clock = harness.Stopwatch().start()
     train_sets, tests, build_s, arms_built = [], [], 0.0, 0
     for n in (6, 7):
         sets, secs = mm.build_morph_shards(args.data, n, args.shards, args.arms, step=args.step,
@@ -75,16 +53,84 @@ def main(argv=None) -> int:
     if arms_built:
         print(f"labels: {arms_built / build_s:.2f} arms/s single-threaded ({build_s / arms_built:.2f} s per arm, "
               f"{train_sets[0].labels.shape[1]} nodes)", flush=True)
-    spec = train_sets[0].spec
-    nodes = wsmap.datasets.spec_nodes(spec)
+    return train_sets, tests, build_s, arms_built
 
-    # the named arms: labelled by the same map search as the datasets
+
+def _speed(model, named, tests, time_step):
+    """One 3-D map of a new arm, the model against the classical map (same arm, same grid), one core."""
+    import numpy as np
+
+    import wsmap
+    from wsmap import workspace as ws
+    from wsmap.learn import morph_model as mm
+
+    big = ws.cartesian_grid(-1.5, 1.5, time_step)
+    timed = {"held-out morph7 arm": wsmap.robots.family_arm("morph7", tests[1].features[0, :tests[1].spec.n_arm_features]),
+             "iiwa14": named["iiwa14"], "ur5e": named["ur5e"]}
+    print(f"\none map of {len(big)} nodes ({time_step} m), one core:")
+    speed = []
+    for label, arm in timed.items():
+        classical, _ = harness.timed(lambda: ws.constant_orientation_map(  # noqa: B023
+            arm, big, mm.TOOL_DOWN, method="numerical", convention="standard"))
+        reps, _ = harness.timings(lambda: mm.predict_morph_map(model, arm, big), 5, warmup=1)  # noqa: B023
+        mod = float(np.median(reps.values))
+        print(f"  {label:<22} model {1e3 * mod:8.1f} ms   classical {classical:7.2f} s   x{classical / mod:7.0f}")
+        speed.append({"arm": label, "model_s": mod, "classical_s": classical})
+    return speed
+
+
+def _named_arms(nodes):
+    """The six named arms, labelled by the same map search as the datasets: (arms, labels, seconds each)."""
+    import wsmap
+    from wsmap import workspace as ws
+    from wsmap.learn import morph_model as mm
+    from wsmap.robots.morph import HELD_OUT
+
     named, named_labels, named_s = {}, {}, {}
     for name in HELD_OUT:
         arm = wsmap.load(name)
         named_s[name], named_labels[name] = harness.timed(lambda: ws.constant_orientation_map(
             arm, nodes, mm.TOOL_DOWN, method="numerical", convention="standard"))  # noqa: B023
         named[name] = arm
+    return named, named_labels, named_s
+
+
+def _options():
+    """The command line: the harness's common options and this benchmark's own."""
+    p = harness.parser(__doc__)
+    p.add_argument("--data", default="data/morph", help="folder of the experience shards (reused when there)")
+    p.add_argument("--shards", type=int, default=5, help="shards per family (morph6, morph7)")
+    p.add_argument("--arms", type=int, default=100, help="arms per shard")
+    p.add_argument("--test-arms", type=int, default=50, help="held-out random arms per family")
+    p.add_argument("--step", type=float, default=0.2, help="label grid step (m) on [-1.5, 1.5]^3")
+    p.add_argument("--time-step", type=float, default=0.1, help="grid step (m) of the timed 3-D maps")
+    p.add_argument("--minutes", type=float, default=6.0, help="training time (cosine-time schedule)")
+    p.add_argument("--epochs", type=int, default=200, help="epoch cap (the time limit usually stops first)")
+    p.add_argument("--batch-size", type=int, default=8, help="arms per Adam step")
+    p.add_argument("--lr", type=float, default=1e-3)
+    p.add_argument("--save", help="write the model here")
+    return p
+
+
+def main(argv=None) -> int:
+    p = _options()
+    args = p.parse_args(argv)
+
+    import numpy as np
+    import torch
+
+    import wsmap
+    from wsmap.kinematics.morphology import describe
+    from wsmap.learn import TrainConfig
+    from wsmap.learn import morph_model as mm
+
+    torch.set_num_threads(1)
+    run_clock = harness.Stopwatch().start()
+    train_sets, tests, build_s, arms_built = _experience(args)
+    spec = train_sets[0].spec
+    nodes = wsmap.datasets.spec_nodes(spec)
+
+    named, named_labels, named_s = _named_arms(nodes)
 
     # training
     tc = TrainConfig(optimizer="adam", optimizer_kwargs={"lr": args.lr}, loss="crossentropy",
@@ -135,19 +181,7 @@ def main(argv=None) -> int:
         out_rows.append({"arms": label, "n": n, "model": ms, "nearest": ns, "nn_distance_m": dist,
                          "reachable_share": share})
 
-    # one 3-D map of a new arm: model against the classical map, same arm, same grid
-    big = ws.cartesian_grid(-1.5, 1.5, args.time_step)
-    timed = {"held-out morph7 arm": wsmap.robots.family_arm("morph7", tests[1].features[0, :tests[1].spec.n_arm_features]),
-             "iiwa14": named["iiwa14"], "ur5e": named["ur5e"]}
-    print(f"\none map of {len(big)} nodes ({args.time_step} m), one core:")
-    speed = []
-    for label, arm in timed.items():
-        classical, _ = harness.timed(lambda: ws.constant_orientation_map(  # noqa: B023
-            arm, big, mm.TOOL_DOWN, method="numerical", convention="standard"))
-        reps, _ = harness.timings(lambda: mm.predict_morph_map(model, arm, big), 5, warmup=1)  # noqa: B023
-        mod = float(np.median(reps.values))
-        print(f"  {label:<22} model {1e3 * mod:8.1f} ms   classical {classical:7.2f} s   x{classical / mod:7.0f}")
-        speed.append({"arm": label, "model_s": mod, "classical_s": classical})
+    speed = _speed(model, named, tests, args.time_step)
     print(f"\ntotal {run_clock.elapsed():.0f} s")
     harness.write_json(args, {"rows": out_rows, "speed": speed, "train_s": train_s, "epochs": epochs,
                               "label_s_per_arm": build_s / arms_built if arms_built else None,

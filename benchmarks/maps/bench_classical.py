@@ -66,6 +66,68 @@ def _rtb_puma(puma):
     return rtb.DHRobot(links, name="puma560-paper")
 
 
+def _one_at_a_time(puma, T, sample, exact, N):
+    """Methods 3 and 4: `ikine_LM` and Robotics Toolbox's `ik_LM` node by node on `sample`, extrapolated to
+    the `N` nodes; their rows."""
+    from wsmap.kinematics import ikine_LM
+
+    rows = []
+    # 3. one node at a time, as the paper did
+    ok = np.zeros(len(sample), dtype=bool)
+    with harness.Stopwatch() as sw:
+        for k, i in enumerate(sample):
+            ok[k] = ikine_LM(puma, T[i], tol=1e-10).success
+    t, c = sw.seconds, sw.cpu_seconds
+    rows.append({"method": "ikine_LM one node at a time (paper's way)", "nodes": int(len(sample)),
+                 "seconds": t * N / len(sample), "cpu_seconds": c * N / len(sample), "extrapolated": True,
+                 "agreement": _agreement(ok, exact[sample])})
+
+    # 4. Robotics Toolbox's C++ ik_LM, when installed
+    try:
+        rtb_robot = _rtb_puma(puma)
+    except Exception as exc:  # ImportError, or an API that differs
+        print(f"roboticstoolbox not available ({type(exc).__name__}: {exc}); skipping its ik_LM", file=sys.stderr)
+        rtb_robot = None
+    if rtb_robot is not None:
+        # Robotics Toolbox's C++ solver (Chan's damping by default), one search from q0 = 0 so
+        # that it matches the paper's setting; its own stopping rules differ from the Appendix
+        ok = np.zeros(len(sample), dtype=bool)
+        with harness.Stopwatch() as sw:
+            try:
+                for k, i in enumerate(sample):
+                    sol = rtb_robot.ik_LM(T[i], q0=np.zeros(6), ilimit=500, slimit=1, tol=1e-10, joint_limits=False)
+                    # 1.x returns an IKSolution (attribute .success); older releases a tuple
+                    ok[k] = bool(sol.success if hasattr(sol, "success") else sol[1])
+            except Exception as exc:  # an ik_LM signature other than roboticstoolbox 1.x's
+                print(f"roboticstoolbox ik_LM failed ({type(exc).__name__}: {exc}); skipping it", file=sys.stderr)
+                rtb_robot = None
+        t, c = sw.seconds, sw.cpu_seconds
+    if rtb_robot is not None:
+        rows.append({"method": "roboticstoolbox ik_LM (C++, one node at a time)", "nodes": int(len(sample)),
+                     "seconds": t * N / len(sample), "cpu_seconds": c * N / len(sample), "extrapolated": True,
+                     "agreement": _agreement(ok, exact[sample])})
+    return rows
+
+
+def _print_table(rows, info, N, repeat):
+    """The Markdown table of `rows` and the exact map's time."""
+    print(f"PUMA560, 21^3 grid ({N} nodes), rpy = 0, paper convention; python {info['python']}, numpy "
+          f"{info['numpy']}, {info['cpus']} CPUs, load average {info['load_average']}, "
+          f"kernel threads {info['kernel_threads']}")
+    print()
+    print(f"| method | nodes timed | seconds for 9261 | CPU seconds | nodes/s | speed-up vs paper ({PAPER_SECONDS_9261} s) "
+          "| agreement with exact | false neg. | false pos. |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for r in rows:
+        a = r["agreement"]
+        star = " (extrapolated)" if r.get("extrapolated") else ""
+        print(f"| {r['method']} | {r['nodes']} | {r['seconds']:.4g}{star} | {r['cpu_seconds']:.4g} | "
+              f"{r['nodes_per_second']:,.0f} | {r['speedup_vs_paper']:,.0f}x | {a['rate']:.4f} | "
+              f"{a['false_negatives']} | {a['false_positives']} |")
+    print()
+    print(f"exact map: {rows[0]['seconds'] * 1e3:.2f} ms (best of {repeat})")
+
+
 def main(argv=None):
     ap = harness.parser(__doc__, repeat=5, seed=0, threads=None,
                         repeat_help="repeats of the whole-map timings (best is kept)",
@@ -80,7 +142,7 @@ def main(argv=None):
         ap.error("--nodes-sample must be positive")
     from wsmap import robots
     from wsmap import workspace as ws
-    from wsmap.kinematics import ikine_LM, lm_compiled
+    from wsmap.kinematics import lm_compiled
     from wsmap.kinematics.ik.lm_reference import ikine_LM_reference
 
     kernel_threads = lm_compiled.set_threads(args.threads)
@@ -124,61 +186,13 @@ def main(argv=None):
                      "cpu_seconds": c, "agreement": _agreement(ref, exact),
                      "same_success_as_new": bool(np.array_equal(ref, num))})
 
-    # 3. one node at a time, as the paper did
-    ok = np.zeros(len(sample), dtype=bool)
-    with harness.Stopwatch() as sw:
-        for k, i in enumerate(sample):
-            ok[k] = ikine_LM(puma, T[i], tol=1e-10).success
-    t, c = sw.seconds, sw.cpu_seconds
-    rows.append({"method": "ikine_LM one node at a time (paper's way)", "nodes": int(len(sample)),
-                 "seconds": t * N / len(sample), "cpu_seconds": c * N / len(sample), "extrapolated": True,
-                 "agreement": _agreement(ok, exact[sample])})
-
-    # 4. Robotics Toolbox's C++ ik_LM, when installed
-    try:
-        rtb_robot = _rtb_puma(puma)
-    except Exception as exc:  # ImportError, or an API that differs
-        print(f"roboticstoolbox not available ({type(exc).__name__}: {exc}); skipping its ik_LM", file=sys.stderr)
-        rtb_robot = None
-    if rtb_robot is not None:
-        # Robotics Toolbox's C++ solver (Chan's damping by default), one search from q0 = 0 so
-        # that it matches the paper's setting; its own stopping rules differ from the Appendix
-        ok = np.zeros(len(sample), dtype=bool)
-        with harness.Stopwatch() as sw:
-            try:
-                for k, i in enumerate(sample):
-                    sol = rtb_robot.ik_LM(T[i], q0=np.zeros(6), ilimit=500, slimit=1, tol=1e-10, joint_limits=False)
-                    # 1.x returns an IKSolution (attribute .success); older releases a tuple
-                    ok[k] = bool(sol.success if hasattr(sol, "success") else sol[1])
-            except Exception as exc:  # an ik_LM signature other than roboticstoolbox 1.x's
-                print(f"roboticstoolbox ik_LM failed ({type(exc).__name__}: {exc}); skipping it", file=sys.stderr)
-                rtb_robot = None
-        t, c = sw.seconds, sw.cpu_seconds
-    if rtb_robot is not None:
-        rows.append({"method": "roboticstoolbox ik_LM (C++, one node at a time)", "nodes": int(len(sample)),
-                     "seconds": t * N / len(sample), "cpu_seconds": c * N / len(sample), "extrapolated": True,
-                     "agreement": _agreement(ok, exact[sample])})
+    rows += _one_at_a_time(puma, T, sample, exact, N)
 
     for r in rows:
         r["nodes_per_second"] = N / r["seconds"]
         r["speedup_vs_paper"] = PAPER_SECONDS_9261 / r["seconds"]
 
-    print(f"PUMA560, 21^3 grid ({N} nodes), rpy = 0, paper convention; python {info['python']}, numpy "
-          f"{info['numpy']}, {info['cpus']} CPUs, load average {info['load_average']}, "
-          f"kernel threads {info['kernel_threads']}")
-    print()
-    print(f"| method | nodes timed | seconds for 9261 | CPU seconds | nodes/s | speed-up vs paper ({PAPER_SECONDS_9261} s) "
-          "| agreement with exact | false neg. | false pos. |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for r in rows:
-        a = r["agreement"]
-        star = " (extrapolated)" if r.get("extrapolated") else ""
-        print(f"| {r['method']} | {r['nodes']} | {r['seconds']:.4g}{star} | {r['cpu_seconds']:.4g} | "
-              f"{r['nodes_per_second']:,.0f} | {r['speedup_vs_paper']:,.0f}x | {a['rate']:.4f} | "
-              f"{a['false_negatives']} | {a['false_positives']} |")
-    print()
-    print(f"exact map: {rows[0]['seconds'] * 1e3:.2f} ms (best of {args.repeat})")
-
+    _print_table(rows, info, N, args.repeat)
     harness.write_json(args, {"info": info, "paper_seconds_9261": PAPER_SECONDS_9261, "rows": rows})
     return rows
 

@@ -32,6 +32,60 @@ import harness  # noqa: E402
 timed = harness.timed
 
 
+def _rtb_row(panda, R, nodes, cand, bits, rng, sample_size):
+    """Section 4: Robotics Toolbox's `ik_LM`, pose by pose with restarts, on `sample_size` poses of the Panda
+    index, extrapolated to the whole index; None without roboticstoolbox."""
+    from wsmap import robots
+
+    try:
+        import roboticstoolbox as rtb
+
+        # the same arm in the toolbox: Franka's modified-DH rows, limits and flange (d = 0.107 m)
+        from spatialmath import SE3
+
+        rows = np.array(robots.NAMED["panda"].rows)
+        links = [rtb.RevoluteMDH(d=d, a=a, alpha=al, qlim=list(lim)) for (d, a, al, _), lim in
+                 zip(rows, robots.NAMED["panda"].qlim)]
+        rob = rtb.DHRobot(links, tool=SE3(0, 0, robots.NAMED["panda"].flange[0]))
+        q = panda.random_q(5, rng)
+        assert np.allclose(np.array([rob.fkine(qi).A for qi in q]), panda.fkine(q), atol=1e-12)
+        picks = rng.choice(cand, sample_size)
+        ks = rng.integers(0, 50, sample_size)
+        Tr = np.zeros((sample_size, 4, 4))
+        Tr[:, :3, :3], Tr[:, :3, 3], Tr[:, 3, 3] = R[ks], nodes[picks], 1.0
+        t_rtb, ok = timed(lambda: np.array([rob.ik_LM(t, tol=1e-10, joint_limits=True)[1] for t in Tr], dtype=bool))
+        per_pose = t_rtb / sample_size
+        return {"poses": sample_size, "seconds": t_rtb, "seconds_per_pose": per_pose,
+                "extrapolated_seconds_whole_index": per_pose * len(nodes) * 50,
+                "agreement_with_index_bits": float((ok == bits[picks, ks]).mean())}
+    except ImportError as exc:
+        print(f"roboticstoolbox unavailable: {exc}", file=sys.stderr)
+        return None
+
+
+def _print_table(out, ref_starts):
+    """The Markdown table of the four sections."""
+    info = out["info"]
+    pi_, ur, ui = out["panda_index"], out["ur5e_reach"], out["ur5e_index"]
+    print(f"load average at start {info['load_average_at_start']}\n")
+    print("| map | nodes x orientations | seconds | goal | recall (reference) |\n|---|---:|---:|---|---|")
+    print(f"| Panda reachability index, 5 cm, box side 1.9 m | {pi_['nodes']:,} x 50 | {pi_['seconds']:.1f} | "
+          f"<= 60 s: {'met' if pi_['seconds'] <= 60 else 'NOT met'} | {pi_['recall']:.4f} ({ref_starts} starts per "
+          f"pose, {pi_['sample_nodes']} nodes x 50; the map found {pi_['positives_the_reference_missed']} the "
+          f"reference missed) |")
+    print(f"| UR5e reach map (any orientation), 2.5 cm | {ur['nodes']:,} | {ur['seconds']:.1f} | <= 30 s: "
+          f"{'met' if ur['seconds'] <= 30 else 'NOT met'} | {ur['recall']:.4f} ({ur['sample_nodes']} nodes; "
+          f"{ur['positives_the_reference_missed']} found beyond the reference) |")
+    print(f"| UR5e index, exact (closed form) | {ui['nodes']:,} x 50 | {ui['exact_seconds']:.2f} | | exact |")
+    print(f"| UR5e index, numerical | {ui['nodes']:,} x 50 | {ui['numerical_seconds']:.1f} | | {ui['recall']:.4f} "
+          f"(closed form), {ui['false_positives']} false positives |")
+    if "rtb" in out:
+        r = out["rtb"]
+        print(f"| Panda index by Robotics Toolbox ik_LM, restarts, pose by pose ({r['poses']} poses, extrapolated) | "
+              f"{pi_['nodes']:,} x 50 | {r['extrapolated_seconds_whole_index']:,.0f} | | agrees with the index on "
+              f"{r['agreement_with_index_bits']:.0%} of its poses |")
+
+
 def main(argv=None):
     ap = harness.parser(__doc__)
     ap.add_argument("--sample", type=int, default=150, help="nodes of the Panda index checked against the reference")
@@ -94,48 +148,11 @@ def main(argv=None):
                          "recall": float((ubn & ube).sum() / ube.sum()), "false_positives": int((ubn & ~ube).sum())}
 
     # 4. Robotics Toolbox, pose by pose with restarts, extrapolated
-    try:
-        import roboticstoolbox as rtb
+    rtb_row = _rtb_row(panda, R, nodes, cand, bits, rng, args.rtb_sample)
+    if rtb_row is not None:
+        out["rtb"] = rtb_row
 
-        # the same arm in the toolbox: Franka's modified-DH rows, limits and flange (d = 0.107 m)
-        from spatialmath import SE3
-
-        rows = np.array(robots.NAMED["panda"].rows)
-        links = [rtb.RevoluteMDH(d=d, a=a, alpha=al, qlim=list(lim)) for (d, a, al, _), lim in
-                 zip(rows, robots.NAMED["panda"].qlim)]
-        rob = rtb.DHRobot(links, tool=SE3(0, 0, robots.NAMED["panda"].flange[0]))
-        q = panda.random_q(5, rng)
-        assert np.allclose(np.array([rob.fkine(qi).A for qi in q]), panda.fkine(q), atol=1e-12)
-        picks = rng.choice(cand, args.rtb_sample)
-        ks = rng.integers(0, 50, args.rtb_sample)
-        Tr = np.zeros((args.rtb_sample, 4, 4))
-        Tr[:, :3, :3], Tr[:, :3, 3], Tr[:, 3, 3] = R[ks], nodes[picks], 1.0
-        t_rtb, ok = timed(lambda: np.array([rob.ik_LM(t, tol=1e-10, joint_limits=True)[1] for t in Tr], dtype=bool))
-        per_pose = t_rtb / args.rtb_sample
-        out["rtb"] = {"poses": args.rtb_sample, "seconds": t_rtb, "seconds_per_pose": per_pose,
-                      "extrapolated_seconds_whole_index": per_pose * len(nodes) * 50,
-                      "agreement_with_index_bits": float((ok == bits[picks, ks]).mean())}
-    except ImportError as exc:
-        print(f"roboticstoolbox unavailable: {exc}", file=sys.stderr)
-
-    pi_, ur, ui = out["panda_index"], out["ur5e_reach"], out["ur5e_index"]
-    print(f"load average at start {info['load_average_at_start']}\n")
-    print("| map | nodes x orientations | seconds | goal | recall (reference) |\n|---|---:|---:|---|---|")
-    print(f"| Panda reachability index, 5 cm, box side 1.9 m | {pi_['nodes']:,} x 50 | {pi_['seconds']:.1f} | "
-          f"<= 60 s: {'met' if pi_['seconds'] <= 60 else 'NOT met'} | {pi_['recall']:.4f} ({args.ref_starts} starts per "
-          f"pose, {pi_['sample_nodes']} nodes x 50; the map found {pi_['positives_the_reference_missed']} the "
-          f"reference missed) |")
-    print(f"| UR5e reach map (any orientation), 2.5 cm | {ur['nodes']:,} | {ur['seconds']:.1f} | <= 30 s: "
-          f"{'met' if ur['seconds'] <= 30 else 'NOT met'} | {ur['recall']:.4f} ({ur['sample_nodes']} nodes; "
-          f"{ur['positives_the_reference_missed']} found beyond the reference) |")
-    print(f"| UR5e index, exact (closed form) | {ui['nodes']:,} x 50 | {ui['exact_seconds']:.2f} | | exact |")
-    print(f"| UR5e index, numerical | {ui['nodes']:,} x 50 | {ui['numerical_seconds']:.1f} | | {ui['recall']:.4f} "
-          f"(closed form), {ui['false_positives']} false positives |")
-    if "rtb" in out:
-        r = out["rtb"]
-        print(f"| Panda index by Robotics Toolbox ik_LM, restarts, pose by pose ({r['poses']} poses, extrapolated) | "
-              f"{pi_['nodes']:,} x 50 | {r['extrapolated_seconds_whole_index']:,.0f} | | agrees with the index on "
-              f"{r['agreement_with_index_bits']:.0%} of its poses |")
+    _print_table(out, args.ref_starts)
     harness.write_json(args, out)
     return out
 
