@@ -265,19 +265,6 @@ def private_imports(src: Path, top: str = "wsmap") -> set[tuple[str, str, str]]:
 #: here as its module is mended (the name made public in the right module, or the code moved): an
 #: entry that no longer matches an import fails `test_the_private_import_allowlist_is_not_stale`.
 PRIVATE_IMPORTS_TO_MEND = {
-    ("wsmap.collision.geometry", "wsmap.kinematics.chain", "_motion"),
-    ("wsmap.collision.geometry", "wsmap.kinematics.urdf", "_Tree"),
-    ("wsmap.collision.geometry", "wsmap.kinematics.urdf", "_parse_xml"),
-    ("wsmap.collision.geometry", "wsmap.kinematics.urdf", "_read"),
-    ("wsmap.collision.mjcf", "wsmap.kinematics.mjcf", "_chain_parts"),
-    ("wsmap.collision.mjcf", "wsmap.kinematics.mjcf", "_load"),
-    ("wsmap.collision.mjcf", "wsmap.kinematics.mjcf", "_pose"),
-    ("wsmap.collision.scene", "wsmap.collision.geometry", "_origin"),
-    ("wsmap.collision.scene", "wsmap.collision.geometry", "_rpy_urdf"),
-    ("wsmap.collision.scene", "wsmap.collision.geometry", "_urdf_shapes"),
-    ("wsmap.collision.scene", "wsmap.kinematics.urdf", "_Tree"),
-    ("wsmap.collision.scene", "wsmap.kinematics.urdf", "_parse_xml"),
-    ("wsmap.collision.scene", "wsmap.kinematics.urdf", "_read"),
     ("wsmap.datasets.audit", "wsmap.datasets.labels", "_pair_poses"),
     ("wsmap.datasets.audit", "wsmap.datasets.labels", "_solve"),
     ("wsmap.datasets.audit", "wsmap.datasets.sampling", "_audit_rng"),

@@ -12,7 +12,7 @@ from wsmap import cli, load
 from wsmap import workspace as ws
 from wsmap.collision import (CollisionChecker, CollisionError, Scene, arm_model, build_acm, load_scene,
                              scene_from_dict, scene_from_urdf)
-from wsmap.collision.geometry import _rpy_urdf
+from wsmap.kinematics.urdf import rpy_matrix
 from wsmap.workspace import cartesian_grid, constant_orientation_map
 
 DOWN = (np.pi, 0.0, 0.0)
@@ -63,7 +63,7 @@ def _write_cell(d, text=CELL):
 
 def _pose(xyz, rpy=(0.0, 0.0, 0.0)):
     T = np.eye(4)
-    T[:3, :3] = _rpy_urdf(np.asarray(rpy, dtype=np.float64))
+    T[:3, :3] = rpy_matrix(np.asarray(rpy, dtype=np.float64))
     T[:3, 3] = xyz
     return T
 

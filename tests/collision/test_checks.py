@@ -7,7 +7,7 @@ import pytest
 from wsmap import load
 from wsmap.collision import (CollisionChecker, CollisionError, Obstacle, Scene, Shape, arm_model, build_acm,
                              capsule_model)
-from wsmap.collision.checks import _collide, coal_shape
+from wsmap.collision.checks import coal_collide, coal_shape
 
 
 def _segment_distance(p0, p1, q0, q1):
@@ -30,7 +30,7 @@ def test_coal_capsule_collision_agrees_with_the_segment_distance():
         s1, s2 = m.links[0].shapes[0], m.links[1].shapes[0]
         d = _segment_distance(*p) - r.sum()
         if abs(d) > 1e-3:
-            assert _collide(coal_shape(s1), s1.origin, coal_shape(s2), s2.origin) == (d < 0)
+            assert coal_collide(coal_shape(s1), s1.origin, coal_shape(s2), s2.origin) == (d < 0)
 
 
 @pytest.mark.parametrize("name", ["panda", "ur5e", "iiwa14"])

@@ -16,7 +16,7 @@ pybullet = pytest.importorskip("pybullet")
 pybullet_data = pytest.importorskip("pybullet_data")
 
 from wsmap.collision import CollisionChecker, Scene, body_frames, build_acm, from_urdf_collision  # noqa: E402
-from wsmap.collision.checks import _tf  # noqa: E402
+from wsmap.collision.checks import coal_transform  # noqa: E402
 
 MARGIN = 2e-3  # m
 
@@ -29,7 +29,8 @@ def _distance(chk, B, i, j):
     for si in L.link_shapes[i]:
         for sj in L.link_shapes[j]:
             res = coal.DistanceResult()
-            coal.distance(L.geoms[si], _tf(L.shape_pose(B, si)), L.geoms[sj], _tf(L.shape_pose(B, sj)),
+            coal.distance(L.geoms[si], coal_transform(L.shape_pose(B, si)), L.geoms[sj],
+                          coal_transform(L.shape_pose(B, sj)),
                           coal.DistanceRequest(), res)
             d = min(d, res.min_distance)
     return d

@@ -292,8 +292,8 @@ def test_the_loop_check_is_linear_in_the_links(monkeypatch):
     from wsmap.kinematics import urdf as urdf_module
 
     calls = []
-    real = urdf_module._Tree._parent
-    monkeypatch.setattr(urdf_module._Tree, "_parent", lambda self, link: calls.append(1) or real(self, link))
+    real = urdf_module.URDFTree.parent
+    monkeypatch.setattr(urdf_module.URDFTree, "parent", lambda self, link: calls.append(1) or real(self, link))
     arm = from_urdf(robot(*parts))
     assert arm.n == 1 and arm.links[-1] == f"l{n}"
     assert len(calls) <= 3 * n

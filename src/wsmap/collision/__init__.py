@@ -1,5 +1,8 @@
 """Maps a robot can use: self-collision and obstacles from the arm's own collision geometry.
 
+* `.shapes` — one record per kind of shape (`SHAPE_KINDS`: box, cylinder, sphere, capsule, mesh): its
+  sizes, bounding spheres, coal geometry and readers (URDF, MJCF, scene files); a new kind is one
+  new module there;
 * `.geometry` — the collision model of an arm: shapes on the bodies of its chain, from a
   URDF's `<collision>` elements (`from_urdf_collision`), capsules (`capsule_model`,
   `capsules_along_links` for a DH arm with link radii);
@@ -23,11 +26,13 @@ from .geometry import (SHAPES, CollisionError, CollisionModel, Link, Shape, body
                        capsules_along_links, from_urdf_collision, read_mesh)
 from .named import ARM_MODELS, arm_model
 from .scene import Obstacle, Scene, load_scene, scene_from_dict, scene_from_urdf
+from .shapes import SHAPE_KINDS, ShapeKind, shape_kind
 
 __all__ = ["ACM", "DEFAULT_SAMPLES", "REASONS", "build_acm", "CheckStats", "CollisionChecker", "bounding_spheres",
            "exact_pairs", "SHAPES", "CollisionError", "CollisionModel", "Link", "Shape", "body_frames",
            "capsule_model", "capsules_along_links", "from_urdf_collision", "read_mesh", "ARM_MODELS", "arm_model",
-           "Obstacle", "Scene", "load_scene", "scene_from_dict", "scene_from_urdf", "checker_for"]
+           "Obstacle", "Scene", "load_scene", "scene_from_dict", "scene_from_urdf", "SHAPE_KINDS", "ShapeKind",
+           "shape_kind", "checker_for"]
 
 
 def checker_for(robot_name_or_model, scene=None, *, link_radius=None, **acm_settings) -> CollisionChecker:

@@ -36,109 +36,53 @@ from .scene import Scene
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike
 
-__all__ = ["bounding_spheres", "coal_shape", "exact_pairs", "CollisionChecker", "CheckStats"]
+__all__ = ["bounding_spheres", "coal_shape", "coal_transform", "coal_collide", "exact_pairs", "segment_distance",
+           "CollisionChecker", "CheckStats"]
 
 
 # ------------------------------------------------------------------------------------ sphere layer
-def _hull_slab_points(hull_v, edges, axis, lo, hi):
-    """Points whose convex hull is the part of a convex polytope (vertices `hull_v`, edges
-    `edges`) between the planes `axis·x = lo` and `hi`: its vertices there and its edges'
-    crossings of the two planes."""
-    s = hull_v @ axis
-    pts = [hull_v[(s >= lo) & (s <= hi)]]
-    a, b = s[edges[:, 0]], s[edges[:, 1]]
-    for plane in (lo, hi):
-        cross = (a - plane) * (b - plane) < 0
-        if cross.any():
-            t = (plane - a[cross]) / (b[cross] - a[cross])
-            va, vb = hull_v[edges[cross, 0]], hull_v[edges[cross, 1]]
-            pts.append(va + t[:, None] * (vb - va))
-    return np.concatenate(pts)
-
-
 def bounding_spheres(shape: Shape, max_spheres: int = 6) -> tuple[np.ndarray, np.ndarray]:
-    """`(centres (m, 3), radii (m,))` in the shape's own frame (m), whose union contains the shape
-    (its convex hull for a mesh): the shape is cut along its longest axis into `m <= max_spheres`
-    pieces, each enclosed by one sphere."""
-    k, size = shape.kind, shape.size
-    if k == "sphere":
-        return np.zeros((1, 3)), np.array([size[0]])
-    if k == "box":
-        dims = np.array(size)
-        a = int(np.argmax(dims))
-        rest = np.delete(dims, a)
-        m = int(np.clip(np.ceil(dims[a] / max(rest.max(), 1e-9)), 1, max_spheres))
-        piece = dims.copy()
-        piece[a] = dims[a] / m
-        c = np.zeros((m, 3))
-        c[:, a] = -dims[a] / 2 + piece[a] * (np.arange(m) + 0.5)
-        return c, np.full(m, 0.5 * np.linalg.norm(piece))
-    if k == "cylinder":
-        r, L = size
-        m = int(np.clip(np.ceil(L / (2 * r)), 1, max_spheres))
-        c = np.zeros((m, 3))
-        c[:, 2] = -L / 2 + L / m * (np.arange(m) + 0.5)
-        return c, np.full(m, np.hypot(r, L / (2 * m)))
-    if k == "capsule":
-        r, L = size
-        m = int(np.clip(np.ceil(L / r), 1, max_spheres - 1)) if L > 0 else 0
-        # spheres on the segment, spacing s: a point within r of the segment is within
-        # hypot(r, s/2) of the nearest centre
-        c = np.zeros((m + 1, 3))
-        c[:, 2] = np.linspace(-L / 2, L / 2, m + 1)
-        return c, np.full(m + 1, np.hypot(r, L / (2 * m)) if m else r)
-    import trimesh
+    """Spheres whose union contains a shape (a mesh's convex hull).
 
-    hull = trimesh.Trimesh(shape.vertices, shape.faces, process=False).convex_hull
-    v, edges = np.asarray(hull.vertices), np.asarray(hull.edges_unique)
-    centred = v - v.mean(axis=0)
-    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
-    axis = vt[0]
-    s = v @ axis
-    lo, hi = s.min(), s.max()
-    width = 2 * np.sqrt(np.max(np.sum((centred - np.outer(centred @ axis, axis)) ** 2, axis=1)))
-    m = int(np.clip(np.ceil((hi - lo) / max(width, 1e-9)), 1, max_spheres))
-    cuts = np.linspace(lo, hi, m + 1)
-    centres, radii = [], []
-    for i in range(m):
-        p = _hull_slab_points(v, edges, axis, cuts[i], cuts[i + 1])
-        c = (p.min(axis=0) + p.max(axis=0)) / 2
-        centres.append(c)
-        radii.append(np.sqrt(np.max(np.sum((p - c) ** 2, axis=1))) * (1 + 1e-9) + 1e-12)
-    return np.array(centres), np.array(radii)
+    Parameters
+    ----------
+    shape : Shape
+        The shape.
+    max_spheres : int
+        At most this many spheres: the shape is cut along its longest axis into `m <= max_spheres`
+        pieces, each enclosed by one sphere (its kind's `ShapeKind.bounding_spheres`).
+
+    Returns
+    -------
+    centres : numpy.ndarray
+        `(m, 3)` in the shape's own frame (m).
+    radii : numpy.ndarray
+        `(m,)` (m).
+    """
+    return shape.record.bounding_spheres(shape, max_spheres)
 
 
 # ------------------------------------------------------------------------------------ coal
 def coal_shape(shape: Shape):
-    """The coal collision geometry of `shape` (a mesh as its convex hull)."""
-    import coal
-
-    k, s = shape.kind, shape.size
-    if k == "box":
-        return coal.Box(*s)
-    if k == "cylinder":
-        return coal.Cylinder(s[0], s[1])
-    if k == "sphere":
-        return coal.Sphere(s[0])
-    if k == "capsule":
-        return coal.Capsule(s[0], s[1])
-    pts = coal.StdVec_Vec3s()
-    pts.extend([np.ascontiguousarray(p, dtype=np.float64) for p in shape.vertices])
-    return coal.Convex.convexHull(pts, False, None)
+    """The coal collision geometry of `shape` (a mesh as its convex hull), in its own frame."""
+    return shape.record.coal_geometry(shape)
 
 
-def _tf(T):
+def coal_transform(T):
+    """coal's `Transform3s` of a pose `T` `(4, 4)`."""
     import coal
 
     return coal.Transform3s(np.ascontiguousarray(T[:3, :3]), np.ascontiguousarray(T[:3, 3]))
 
 
-def _collide(g1, T1, g2, T2) -> bool:
+def coal_collide(g1, T1, g2, T2) -> bool:
+    """Whether coal geometries `g1` at pose `T1` and `g2` at `T2` (`(4, 4)`) intersect
+    (touching counts)."""
     import coal
 
     req = coal.CollisionRequest()
     res = coal.CollisionResult()
-    return coal.collide(g1, _tf(T1), g2, _tf(T2), req, res) > 0
+    return coal.collide(g1, coal_transform(T1), g2, coal_transform(T2), req, res) > 0
 
 
 @dataclass
@@ -196,10 +140,11 @@ class _Layer:
                 self.shape_body.append(lk.body)
                 self.shape_origin.append(s.origin)
                 self.shape_link.append(li)
-                if s.kind in ("capsule", "sphere"):
-                    half = s.size[1] / 2 if s.kind == "capsule" else 0.0
+                swept = s.record.swept_sphere(s)
+                if swept is not None:
+                    half, radius = swept
                     ends = s.origin[:3, :3] @ np.array([[0, 0, -half], [0, 0, half]]).T + s.origin[:3, 3:4]
-                    self.caps[si] = (ends[:, 0], ends[:, 1], s.size[0])
+                    self.caps[si] = (ends[:, 0], ends[:, 1], radius)
                 c, r = bounding_spheres(s)
                 cs.append(c @ s.origin[:3, :3].T + s.origin[:3, 3])
                 rs.append(r)
@@ -237,21 +182,13 @@ class _Layer:
         return B[self.shape_body[si]] @ self.shape_origin[si]
 
 
-def _obstacle_maybe(kind, size, P, centres, radii):
-    """`(C, S)` bool: the sphere may touch an obstacle of `kind`/`size` at pose `P`: the exact
-    point-to-solid distance for a box, a cylinder and a sphere, compared with the radius."""
+def _obstacle_maybe(shape, P, centres, radii):
+    """`(C, S)` bool: the sphere may touch the obstacle `shape` at pose `P`: the exact
+    point-to-solid distance of its kind (`ShapeKind.point_distance`) compared with the radius;
+    None for a kind without one."""
     local = (centres - P[:3, 3]) @ P[:3, :3]
-    if kind == "box":
-        d = np.linalg.norm(np.maximum(np.abs(local) - np.array(size) / 2, 0.0), axis=-1)
-    elif kind == "cylinder":
-        rr = np.maximum(np.hypot(local[..., 0], local[..., 1]) - size[0], 0.0)
-        d = np.hypot(rr, np.maximum(np.abs(local[..., 2]) - size[1] / 2, 0.0))
-    elif kind == "sphere":
-        d = np.maximum(np.linalg.norm(local, axis=-1) - size[0], 0.0)
-    elif kind == "capsule":
-        z = np.clip(local[..., 2], -size[1] / 2, size[1] / 2)
-        d = np.maximum(np.linalg.norm(local - np.stack([0 * z, 0 * z, z], -1), axis=-1) - size[0], 0.0)
-    else:
+    d = shape.record.point_distance(shape.size, local)
+    if d is None:
         return None
     return d <= radii + 1e-12
 
@@ -369,7 +306,7 @@ class CollisionChecker:
                 s = np.flatnonzero(L.sphere_link == li)
                 cs, rs = c[:, s], r[s]
                 for k, ob in enumerate(obs):
-                    m = _obstacle_maybe(ob.shape.kind, ob.shape.size, L.obs_pose[k], cs, rs)
+                    m = _obstacle_maybe(ob.shape, L.obs_pose[k], cs, rs)
                     if m is None:  # a mesh: its own spheres
                         oc, orad = L.obs_spheres[k]
                         m = np.linalg.norm(cs[:, :, None] - oc[None, None], axis=-1) <= rs[:, None] + orad + 1e-12
@@ -423,7 +360,7 @@ class CollisionChecker:
             Ti = L.shape_pose(B, si)
             for sj in L.link_shapes[j]:
                 self.stats.exact_tests += 1
-                if _collide(L.geoms[si], Ti, L.geoms[sj], L.shape_pose(B, sj)):
+                if coal_collide(L.geoms[si], Ti, L.geoms[sj], L.shape_pose(B, sj)):
                     return True
         return False
 
@@ -434,9 +371,9 @@ class CollisionChecker:
             self.stats.exact_tests += 1
             Ti = L.shape_pose(B, si)
             if floor:
-                hit = _collide(L.geoms[si], Ti, L.floor_geom, np.eye(4))
+                hit = coal_collide(L.geoms[si], Ti, L.floor_geom, np.eye(4))
             else:
-                hit = _collide(L.geoms[si], Ti, L.obs_geoms[k], L.obs_pose[k])
+                hit = coal_collide(L.geoms[si], Ti, L.obs_geoms[k], L.obs_pose[k])
             if hit:
                 return True
         return False

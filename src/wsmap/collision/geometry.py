@@ -7,15 +7,8 @@ from a URDF it is the URDF frame of the child link of the `k`-th movable joint, 
 base link's. A *link* of the model is a named set of shapes, each with its pose in its body's
 frame; several links can ride on one body (a URDF link fixed to another, a hand on the flange).
 
-Shapes (metres; each centred on its own frame, axis `z` for a cylinder and a capsule, as URDF):
-
-* `box`: `size = (x, y, z)` full edge lengths;
-* `cylinder`, `capsule`: `size = (radius, length)` (the capsule's length between the centres
-  of its two end spheres, as URDF's `<capsule>` and coal);
-* `sphere`: `size = (radius,)`;
-* `mesh`: `vertices` `(V, 3)` (scaled, in the shape's frame) and `faces`; the exact checks
-  use its convex hull (as PyBullet and MuJoCo do), which contains the mesh, so a configuration
-  free for the hull is free for the mesh.
+Shapes (metres; `wsmap.collision.shapes`, one record per kind): `box`, `cylinder`, `sphere`,
+`capsule`, `mesh` (`Shape`; each kind's sizes in its module's notes).
 
 Sources: `from_urdf_collision` (the URDF's `<collision>` elements, meshes read by trimesh:
 STL, OBJ, DAE, PLY), `capsule_model` (capsules given per body, e.g. a named arm's model
@@ -25,7 +18,6 @@ arm with link radii).
 
 from __future__ import annotations
 
-import math
 import os
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
@@ -33,60 +25,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..kinematics.chain import PRISMATIC, SerialChain, _motion, as_chain
-from ..kinematics.urdf import _parse_xml, _read, _Tree, from_urdf
+from ..kinematics.chain import PRISMATIC, SerialChain, as_chain, joint_motion
+from ..kinematics.urdf import URDFTree, from_urdf, parse_xml, read_source
+from .errors import CollisionError
+from .fields import urdf_origin
+from .shapes import SHAPE_KINDS, SHAPES, Shape, urdf_shape_kind
+from .shapes.mesh import read_mesh
 
 __all__ = ["SHAPES", "CollisionError", "Shape", "Link", "CollisionModel", "body_frames", "from_urdf_collision",
-           "capsule_model", "capsules_along_links", "read_mesh"]
-
-#: Shape kinds (see the module notes).
-SHAPES = ("box", "cylinder", "sphere", "capsule", "mesh")
-_SIZES = {"box": 3, "cylinder": 2, "sphere": 1, "capsule": 2, "mesh": 0}
-
-
-class CollisionError(ValueError):
-    """Collision geometry, an allowed-collision matrix or a scene that cannot be used; the message
-    names the file (or the object) and what is wrong."""
-
-
-@dataclass(frozen=True, eq=False)
-class Shape:
-    """One collision shape: `kind` of `SHAPES`, `size` (metres, see the module notes),
-    `origin` (4, 4) its pose in its body's frame, `vertices`/`faces` for a mesh, `source`
-    (the mesh file, or `""`)."""
-
-    kind: str
-    size: tuple
-    origin: np.ndarray
-    vertices: np.ndarray | None = None
-    faces: np.ndarray | None = None
-    source: str = ""
-
-    def __post_init__(self):
-        if self.kind not in SHAPES:
-            raise CollisionError(f"unknown shape {self.kind!r}; shapes are {', '.join(SHAPES)}")
-        size = tuple(float(x) for x in self.size)
-        if len(size) != _SIZES[self.kind]:
-            raise CollisionError(f"a {self.kind} has {_SIZES[self.kind]} size numbers, got {len(size)}")
-        if not all(math.isfinite(x) for x in size):
-            raise CollisionError(f"a {self.kind} has a NaN or infinite size: {size}")
-        if any(x < 0 for x in size) or (self.kind != "capsule" and any(x <= 0 for x in size)) or (
-                self.kind == "capsule" and size[0] <= 0):
-            raise CollisionError(f"a {self.kind} needs positive dimensions, got {size}")
-        object.__setattr__(self, "size", size)
-        object.__setattr__(self, "origin", np.asarray(self.origin, dtype=np.float64).reshape(4, 4))
-        if self.kind == "mesh":
-            v = np.asarray(self.vertices, dtype=np.float64)
-            if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4 or not np.all(np.isfinite(v)):
-                raise CollisionError(f"mesh {self.source or ''}: needs at least 4 finite vertices (V, 3)")
-            object.__setattr__(self, "vertices", v)
-
-    def describe(self) -> dict:
-        """A JSON-able record (map files): kind, size, origin (4x4 list), mesh file."""
-        d = {"kind": self.kind, "size": list(self.size), "origin": self.origin.round(12).tolist()}
-        if self.kind == "mesh":
-            d.update(file=self.source, vertices=int(len(self.vertices)))
-        return d
+           "urdf_link_shapes", "capsule_model", "capsules_along_links", "read_mesh"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -171,131 +118,99 @@ def body_frames(chain: SerialChain, q) -> np.ndarray:
     T = np.broadcast_to(np.eye(4) if chain.base is None else chain.base, shape + (4, 4))
     out[..., 0, :, :] = T
     for i in range(chain.n):  # a loop over joints, not over configurations
-        T = T @ chain.fixed[..., i, :, :] @ _motion(chain.kinds[i], chain.axes[i], x[..., i])
+        T = T @ chain.fixed[..., i, :, :] @ joint_motion(chain.kinds[i], chain.axes[i], x[..., i])
         out[..., i + 1, :, :] = T
     return out
 
 
-# ------------------------------------------------------------------------------------------- meshes
-def read_mesh(path: str, label: str, scale=(1.0, 1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
-    """`(vertices (V, 3), faces (F, 3))` of a mesh file (STL, OBJ, DAE, PLY, ... through trimesh),
-    scaled; a missing, empty or unreadable file is a `CollisionError` naming it."""
-    import trimesh
+# ------------------------------------------------------------------------------------------- URDF
+def urdf_link_shapes(link_el: ET.Element, label: str, urdf_dir: str | None) -> list[Shape]:
+    """The shapes of a URDF `<link>`'s `<collision>` elements, each at its `<origin>`.
 
-    if not os.path.isfile(path):
-        raise CollisionError(f"{label}: collision mesh {path!r}: no such file")
-    if os.path.getsize(path) == 0:
-        raise CollisionError(f"{label}: collision mesh {path!r} is empty")
-    try:
-        mesh = trimesh.load(path, force="mesh", process=False)
-    except Exception as exc:
-        raise CollisionError(f"{label}: collision mesh {path!r} is not a mesh trimesh can read "
-                             f"({type(exc).__name__}: {exc})") from None
-    v = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64)
-    f = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64)
-    if len(v) < 4 or len(f) == 0:
-        raise CollisionError(f"{label}: collision mesh {path!r} is not a mesh: no triangles in it")
-    if not np.all(np.isfinite(v)):
-        raise CollisionError(f"{label}: collision mesh {path!r} has NaN or infinite vertices")
-    return v * np.asarray(scale, dtype=np.float64), f
+    Parameters
+    ----------
+    link_el : xml.etree.ElementTree.Element
+        The `<link>` element.
+    label : str
+        The URDF named for messages (`wsmap.kinematics.urdf.read_source`).
+    urdf_dir : str or None
+        The URDF's folder, where relative and `package://` mesh files are looked for (None: the
+        working directory).
 
-
-def _resolve_mesh(filename: str, urdf_dir: str | None) -> str:
-    """A URDF mesh reference as a path: absolute, `file://`, `package://NAME/rest` (looked for
-    beside the URDF and in the folders above it, with and without `NAME`) or relative to the URDF."""
-    if filename.startswith("file://"):
-        filename = filename[len("file://"):]
-    base = urdf_dir or os.getcwd()
-    if filename.startswith("package://"):
-        pkg, _, rest = filename[len("package://"):].partition("/")
-        d = os.path.abspath(base)
-        while True:
-            for cand in (os.path.join(d, pkg, rest), os.path.join(d, rest)):
-                if os.path.isfile(cand):
-                    return cand
-            if os.path.dirname(d) == d:
-                return os.path.join(base, rest)
-            d = os.path.dirname(d)
-    return filename if os.path.isabs(filename) else os.path.join(base, filename)
-
-
-def _origin(el: ET.Element | None, label: str, what: str) -> np.ndarray:
-    T = np.eye(4)
-    if el is None:
-        return T
-    vals = []
-    for key in ("xyz", "rpy"):
-        text = el.get(key, "0 0 0")
-        try:
-            v = np.array([float(x) for x in text.split()])
-        except ValueError:
-            v = np.zeros(0)
-        if v.shape != (3,) or not np.all(np.isfinite(v)):
-            raise CollisionError(f"{label}: {what} <origin {key}={text!r}> is not three finite numbers")
-        vals.append(v)
-    T[:3, :3] = _rpy_urdf(vals[1])
-    T[:3, 3] = vals[0]
-    return T
-
-
-def _rpy_urdf(rpy) -> np.ndarray:
-    """URDF's fixed-axis roll-pitch-yaw: `R = Rz(yaw)·Ry(pitch)·Rx(roll)`."""
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
-
-
-def _floats(label, what, text, count) -> tuple:
-    try:
-        v = tuple(float(x) for x in (text or "").split())
-    except ValueError:
-        raise CollisionError(f"{label}: {what} is not numbers: {text!r}") from None
-    if len(v) != count:
-        raise CollisionError(f"{label}: {what} needs {count} numbers, got {text!r}")
-    if not all(math.isfinite(x) for x in v):
-        raise CollisionError(f"{label}: {what} contains NaN or infinity: {text!r}")
-    return v
-
-
-def _urdf_shapes(link_el: ET.Element, label: str, urdf_dir: str | None) -> list[Shape]:
+    Returns
+    -------
+    list of Shape
+        In the order of the elements, origins in the link's frame; meshes read now. Every problem
+        (no or several shapes in a `<geometry>`, an unknown shape, bad numbers, a bad mesh file) is a
+        `CollisionError` starting with `label` and naming the link.
+    """
     name = link_el.get("name")
     shapes = []
     for col in link_el.findall("collision"):
         what = f"link {name!r} <collision>"
-        origin = _origin(col.find("origin"), label, what)
+        origin = urdf_origin(col.find("origin"), label, what)
         geom = col.find("geometry")
         kids = [] if geom is None else [g for g in geom if isinstance(g.tag, str)]
         if len(kids) != 1:
             raise CollisionError(f"{label}: {what} needs one shape inside <geometry>")
-        g = kids[0]
-        tag = g.tag
+        kind = urdf_shape_kind(kids[0].tag)
+        if kind is None:
+            tags = [k.urdf_tag for k in SHAPE_KINDS if k.urdf_tag]
+            raise CollisionError(f"{label}: {what} has an unknown shape <{kids[0].tag}>; shapes are {', '.join(tags)}")
         try:
-            if tag == "box":
-                shapes.append(Shape("box", _floats(label, f"{what} <box size>", g.get("size"), 3), origin))
-            elif tag in ("cylinder", "capsule"):
-                r = _floats(label, f"{what} <{tag} radius>", g.get("radius"), 1)[0]
-                L = _floats(label, f"{what} <{tag} length>", g.get("length"), 1)[0]
-                shapes.append(Shape(tag, (r, L), origin))
-            elif tag == "sphere":
-                shapes.append(Shape("sphere", _floats(label, f"{what} <sphere radius>", g.get("radius"), 1), origin))
-            elif tag == "mesh":
-                fn = g.get("filename")
-                if not fn:
-                    raise CollisionError(f"{label}: {what} <mesh> has no filename")
-                scale = _floats(label, f"{what} <mesh scale>", g.get("scale"), 3) if g.get("scale") else (1, 1, 1)
-                path = _resolve_mesh(fn, urdf_dir)
-                v, f = read_mesh(path, f"{label}, {what}", scale)
-                shapes.append(Shape("mesh", (), origin, v, f, source=path))
-            else:
-                raise CollisionError(f"{label}: {what} has an unknown shape <{tag}>; shapes are box, cylinder, "
-                                     "sphere, capsule, mesh")
+            shapes.append(kind.from_urdf(kids[0], origin, label, what, urdf_dir))
         except CollisionError as exc:
             if str(exc).startswith(label):
                 raise
             raise CollisionError(f"{label}: {what}: {exc}") from None
     return shapes
+
+
+def _off_chain_motion(el: ET.Element) -> np.ndarray:
+    """The motion `(4, 4)` of a movable joint off the chain at its rest value: 0 clipped into its
+    `<limit>` (the identity at 0, for a continuous joint, or for a zero axis)."""
+    jtype = el.get("type")
+    if jtype not in ("revolute", "prismatic", "continuous"):
+        return np.eye(4)
+    a = el.find("axis")
+    axis = np.array([float(x) for x in (a.get("xyz") if a is not None else "1 0 0").split()])
+    lim = el.find("limit")
+    x0 = 0.0
+    if lim is not None and jtype != "continuous":
+        lo, hi = float(lim.get("lower", "0")), float(lim.get("upper", "0"))
+        x0 = min(max(0.0, lo), hi)
+    if x0 != 0.0 and np.linalg.norm(axis) > 0:
+        return joint_motion(PRISMATIC if jtype == "prismatic" else "R", axis / np.linalg.norm(axis), np.array(x0))
+    return np.eye(4)
+
+
+def _urdf_links(root: ET.Element, tree: URDFTree, base: str, movable: list[str], label: str,
+                urdf_dir: str | None) -> list[Link]:
+    """The `Link`s of the URDF links below `base` that have `<collision>` elements, walking down
+    the tree: each rides on the body of its nearest movable joint of the chain `movable` above it
+    (movable joints off the chain at their rest value)."""
+    link_els = {el.get("name"): el for el in root.findall("link")}
+    # (body, pose in body frame, nearest ancestor with geometry) per link, walking down from base
+    place = {base: (0, np.eye(4), None)}
+    links: list[Link] = []
+    stack = [base]
+    while stack:
+        parent = stack.pop()
+        body, Tp, above = place[parent]
+        shapes = urdf_link_shapes(link_els[parent], label, urdf_dir)
+        if shapes:
+            links.append(Link(parent, body, tuple(s.placed(Tp) for s in shapes), parent=above, frame=Tp))
+            above = parent
+        for jname in reversed(tree.children[parent]):
+            el = tree.joints[jname]
+            child = tree.child(jname)
+            origin = urdf_origin(el.find("origin"), label, f"joint {jname!r}")
+            if jname in movable:
+                place[child] = (movable.index(jname) + 1, np.eye(4), above)
+            else:
+                place[child] = (body, Tp @ origin @ _off_chain_motion(el), above)
+            stack.append(child)
+    return links
 
 
 def from_urdf_collision(source, ee_link: str | None = None, base_link: str | None = None,
@@ -308,8 +223,8 @@ def from_urdf_collision(source, ee_link: str | None = None, base_link: str | Non
     joint at 0 (clipped into its limits). Meshes are read now (a missing, empty or unreadable file
     is a `CollisionError` naming it); a URDF without any collision element is one too.
     """
-    data, label, path = _read(source)
-    root = _parse_xml(data, label)
+    data, label, path = read_source(source)
+    root = parse_xml(data, label)
     # the chain from the URDF without its collision elements: what yourdfpy does not know (a
     # <capsule>) or refuses is this module's to report, with the file named
     bare = ET.fromstring(data)
@@ -318,47 +233,12 @@ def from_urdf_collision(source, ee_link: str | None = None, base_link: str | Non
             el.remove(col)
     chain = from_urdf(ET.tostring(bare), ee_link=ee_link, base_link=base_link, name=name)
     chain = chain.replace(source=path if path is not None else "URDF text")
-    tree = _Tree(root, label)
+    tree = URDFTree(root, label)
     base = base_link or tree.root()
-    ee = chain.links[-1]
-    on_path = tree.path(base, ee)
+    on_path = tree.path(base, chain.links[-1])
     movable = [j for j in on_path if tree.joints[j].get("type") != "fixed"]
-    link_els = {el.get("name"): el for el in root.findall("link")}
     urdf_dir = os.path.dirname(os.path.abspath(path)) if path else None
-    # (body, pose in body frame, nearest ancestor with geometry) per link, walking down from base
-    place = {base: (0, np.eye(4), None)}
-    links: list[Link] = []
-    stack = [base]
-    while stack:
-        parent = stack.pop()
-        body, Tp, above = place[parent]
-        shapes = _urdf_shapes(link_els[parent], label, urdf_dir)
-        if shapes:
-            links.append(Link(parent, body, tuple(Shape(s.kind, s.size, Tp @ s.origin, s.vertices, s.faces, s.source)
-                                                  for s in shapes), parent=above, frame=Tp))
-            above = parent
-        for jname in reversed(tree.children[parent]):
-            el = tree.joints[jname]
-            child = tree._child(jname)
-            origin = _origin(el.find("origin"), label, f"joint {jname!r}")
-            if jname in movable:
-                place[child] = (movable.index(jname) + 1, np.eye(4), above)
-            else:
-                M = np.eye(4)
-                jtype = el.get("type")
-                if jtype in ("revolute", "prismatic", "continuous"):
-                    a = el.find("axis")
-                    axis = np.array([float(x) for x in (a.get("xyz") if a is not None else "1 0 0").split()])
-                    lim = el.find("limit")
-                    x0 = 0.0
-                    if lim is not None and jtype != "continuous":
-                        lo, hi = float(lim.get("lower", "0")), float(lim.get("upper", "0"))
-                        x0 = min(max(0.0, lo), hi)
-                    if x0 != 0.0 and np.linalg.norm(axis) > 0:
-                        M = _motion(PRISMATIC if jtype == "prismatic" else "R", axis / np.linalg.norm(axis),
-                                    np.array(x0))
-                place[child] = (body, Tp @ origin @ M, above)
-            stack.append(child)
+    links = _urdf_links(root, tree, base, movable, label, urdf_dir)
     if not links:
         raise CollisionError(f"{label} has no <collision> elements below {base!r}")
     return CollisionModel(chain, tuple(links), source=path or "URDF text", floor=floor)

@@ -1,19 +1,42 @@
 """MJCF collision geoms (`wsmap.kinematics.mjcf` reads the chain): the geoms with a non-zero
-`contype` or `conaffinity` of the chain's bodies — spheres, capsules, cylinders, boxes, meshes
-(MuJoCo's compiled vertices, tested as convex hulls, as MuJoCo does). Geoms of bodies hanging off
-the chain ride with their parent at `qpos0`; the world body's (a floor plane) are not the arm's.
+`contype` or `conaffinity` of the chain's bodies, of the types that have a record in
+`wsmap.collision.shapes` (spheres, capsules, cylinders, boxes, meshes: MuJoCo's compiled vertices,
+tested as convex hulls, as MuJoCo does). Geoms of bodies hanging off the chain ride with their parent
+at `qpos0`; the world body's (a floor plane) are not the arm's.
 """
 
 from __future__ import annotations
 
 import os
 
-import numpy as np
-
-from ..kinematics.mjcf import MJCFError, _chain_parts, _load, _pose, from_mjcf
-from .geometry import CollisionError, CollisionModel, Link, Shape
+from ..kinematics.mjcf import MJCFError, chain_and_bodies, from_mjcf, load_model, pose_matrix
+from .errors import CollisionError
+from .geometry import CollisionModel, Link
+from .shapes import SHAPE_KINDS, mjcf_shape_kind
 
 __all__ = ["from_mjcf", "from_mjcf_collision", "MJCFError"]
+
+
+def _body_shapes(m, path: str, b: int, place: dict) -> list:
+    """The shapes of MuJoCo body `b`'s collision geoms (a non-zero `contype` or `conaffinity`), in
+    the frame of the chain body it rides on (`place`, `chain_and_bodies`)."""
+    import mujoco
+
+    shapes = []
+    for g in range(int(m.body_geomadr[b]), int(m.body_geomadr[b] + m.body_geomnum[b])) if m.body_geomnum[b] else ():
+        if not (m.geom_contype[g] or m.geom_conaffinity[g]):
+            continue
+        k, Tb = place[b]
+        T = Tb @ pose_matrix(m.geom_pos[g], m.geom_quat[g])
+        t = int(m.geom_type[g])
+        kind = mjcf_shape_kind(t)
+        if kind is None:
+            gname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom {g}"
+            known = ", ".join(k.name for k in SHAPE_KINDS if k.mjcf_type)
+            raise CollisionError(f"MJCF file {path!r}: {gname!r} is a {mujoco.mjtGeom(t).name[7:].lower()} geom on the "
+                                 f"arm; collision geoms are of the types {known}")
+        shapes.append(kind.from_mjcf(m, g, T))
+    return shapes
 
 
 def from_mjcf_collision(path, site_or_body: str, *, floor: bool = False) -> CollisionModel:
@@ -22,37 +45,11 @@ def from_mjcf_collision(path, site_or_body: str, *, floor: bool = False) -> Coll
     import mujoco
 
     path = os.fspath(path)
-    m = _load(path)
-    chain, place = _chain_parts(m, path, site_or_body)
-    G = mujoco.mjtGeom
+    m = load_model(path)
+    chain, place = chain_and_bodies(m, path, site_or_body)
     links, names = [], {}
     for b in range(1, m.nbody):
-        shapes = []
-        for g in range(int(m.body_geomadr[b]), int(m.body_geomadr[b] + m.body_geomnum[b])) if m.body_geomnum[b] else ():
-            if not (m.geom_contype[g] or m.geom_conaffinity[g]):
-                continue
-            k, Tb = place[b]
-            T = Tb @ _pose(m.geom_pos[g], m.geom_quat[g])
-            t, s = int(m.geom_type[g]), m.geom_size[g]
-            if t == int(G.mjGEOM_SPHERE):
-                shapes.append(Shape("sphere", (s[0],), T))
-            elif t == int(G.mjGEOM_CAPSULE):
-                shapes.append(Shape("capsule", (s[0], 2 * s[1]), T))
-            elif t == int(G.mjGEOM_CYLINDER):
-                shapes.append(Shape("cylinder", (s[0], 2 * s[1]), T))
-            elif t == int(G.mjGEOM_BOX):
-                shapes.append(Shape("box", tuple(2 * s), T))
-            elif t == int(G.mjGEOM_MESH):
-                mid = int(m.geom_dataid[g])
-                v0, nv = int(m.mesh_vertadr[mid]), int(m.mesh_vertnum[mid])
-                f0, nf = int(m.mesh_faceadr[mid]), int(m.mesh_facenum[mid])
-                shapes.append(Shape("mesh", (), T, np.array(m.mesh_vert[v0 : v0 + nv], dtype=np.float64),
-                                    np.array(m.mesh_face[f0 : f0 + nf], dtype=np.int64),
-                                    source=mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_MESH, mid) or f"mesh {mid}"))
-            else:
-                gname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom {g}"
-                raise CollisionError(f"MJCF file {path!r}: {gname!r} is a {G(t).name[7:].lower()} geom on the arm; "
-                                     "collision geoms are spheres, capsules, cylinders, boxes and meshes")
+        shapes = _body_shapes(m, path, b, place)
         if shapes:
             name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"
             parent = int(m.body_parentid[b])

@@ -66,8 +66,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kinematics.urdf import URDFError, _parse_xml, _read, _Tree
-from .geometry import CollisionError, Shape, _origin, _rpy_urdf, _urdf_shapes, read_mesh
+from ..kinematics.urdf import URDFError, URDFTree, parse_xml, read_source, rpy_matrix
+from .errors import CollisionError
+from .fields import scene_vector, urdf_origin
+from .geometry import urdf_link_shapes
+from .shapes import SHAPE_KINDS, Shape
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
@@ -76,8 +79,6 @@ if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
 __all__ = ["FRAMES", "CELL_SUFFIXES", "Obstacle", "Scene", "load_scene", "scene_from_dict", "scene_from_urdf"]
 
 FRAMES = ("base", "world")
-_SHAPE_KEYS = {"box": ("size",), "cylinder": ("radius", "length"), "capsule": ("radius", "length"),
-               "sphere": ("radius",), "mesh": ("file", "scale")}
 _COMMON = ("name", "shape", "xyz", "rpy", "frame")
 
 
@@ -127,70 +128,23 @@ class Scene:
                                                    for o in self.obstacles]}
 
 
-def _vector(label, what, value, count=3) -> np.ndarray:
-    if isinstance(value, (int, float)) and not isinstance(value, bool) and count == 1:
-        value = [value]
-    if not isinstance(value, Sequence) or isinstance(value, str) or len(value) != count or not all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) for x in value):
-        raise CollisionError(f"{label}: {what} must be {count} numbers, got {value!r}")
-    v = np.array(value, dtype=np.float64)
-    if not np.all(np.isfinite(v)):
-        raise CollisionError(f"{label}: {what} contains NaN or infinity: {value!r}")
-    return v
-
-
-def _size(label, what, value) -> float:
-    v = _vector(label, what, value, 1)[0]
-    if v <= 0:
-        raise CollisionError(f"{label}: {what} must be positive, got {value!r}")
-    return float(v)
-
-
 def _obstacle(item, i: int, label: str, frame: str, folder: str | None) -> Obstacle:
     where = f"{label}: obstacle {i + 1}"
     if not isinstance(item, Mapping):
         raise CollisionError(f"{where} must be a mapping with a 'shape', got {type(item).__name__}")
-    kind = item.get("shape")
-    if kind not in _SHAPE_KEYS:
-        raise CollisionError(f"{where} has unknown shape {kind!r}; shapes are {', '.join(_SHAPE_KEYS)}")
-    unknown = sorted(set(item) - set(_COMMON) - set(_SHAPE_KEYS[kind]))
+    name = item.get("shape")
+    if not isinstance(name, str) or name not in SHAPE_KINDS:
+        raise CollisionError(f"{where} has unknown shape {name!r}; shapes are {', '.join(SHAPE_KINDS.names())}")
+    kind = SHAPE_KINDS.get(name)
+    unknown = sorted(set(item) - set(_COMMON) - set(kind.scene_keys))
     if unknown:
-        raise CollisionError(f"{where} ({kind}) has unknown keys {', '.join(map(str, unknown))}; a {kind} takes "
-                             f"{', '.join(_COMMON + _SHAPE_KEYS[kind])}")
-    name = str(item.get("name", f"{kind}{i + 1}"))
-    where = f"{label}: obstacle {name!r}"
+        raise CollisionError(f"{where} ({name}) has unknown keys {', '.join(map(str, unknown))}; a {name} takes "
+                             f"{', '.join(_COMMON + kind.scene_keys)}")
+    name = str(item.get("name", f"{name}{i + 1}"))
     T = np.eye(4)
-    T[:3, 3] = _vector(label, f"obstacle {name!r} xyz", item.get("xyz", [0, 0, 0]))
-    T[:3, :3] = _rpy_urdf(_vector(label, f"obstacle {name!r} rpy", item.get("rpy", [0, 0, 0])))
-    if kind == "box":
-        if "size" not in item:
-            raise CollisionError(f"{where}: a box needs size: [x, y, z]")
-        size = _vector(label, f"obstacle {name!r} size", item["size"])
-        if np.any(size <= 0):
-            raise CollisionError(f"{where}: box size must be positive, got {item['size']!r}")
-        shape = Shape("box", tuple(size), T)
-    elif kind == "sphere":
-        shape = Shape("sphere", (_size(label, f"obstacle {name!r} radius", item.get("radius")),), T)
-    elif kind in ("cylinder", "capsule"):
-        r = _size(label, f"obstacle {name!r} radius", item.get("radius"))
-        length = _vector(label, f"obstacle {name!r} length", item.get("length"), 1)[0]
-        if length <= 0 if kind == "cylinder" else length < 0:
-            raise CollisionError(f"{where}: length must be {'positive' if kind == 'cylinder' else '>= 0'}, "
-                                 f"got {item.get('length')!r}")
-        shape = Shape(kind, (r, float(length)), T)
-    else:
-        fn = item.get("file")
-        if not isinstance(fn, str) or not fn:
-            raise CollisionError(f"{where}: a mesh needs file: PATH")
-        scale = item.get("scale", 1.0)
-        scale = _vector(label, f"obstacle {name!r} scale", [scale] * 3 if isinstance(scale, (int, float))
-                        and not isinstance(scale, bool) else scale)
-        if np.any(scale <= 0):
-            raise CollisionError(f"{where}: mesh scale must be positive, got {item.get('scale')!r}")
-        path = fn if os.path.isabs(fn) or folder is None else os.path.join(folder, fn)
-        v, f = read_mesh(path, where, scale)
-        shape = Shape("mesh", (), T, v, f, source=path)
-    return Obstacle(name, shape, item.get("frame", frame))
+    T[:3, 3] = scene_vector(label, f"obstacle {name!r} xyz", item.get("xyz", [0, 0, 0]))
+    T[:3, :3] = rpy_matrix(scene_vector(label, f"obstacle {name!r} rpy", item.get("rpy", [0, 0, 0])))
+    return Obstacle(name, kind.from_scene(item, T, label, name, folder), item.get("frame", frame))
 
 
 def scene_from_dict(d, label: str = "scene", folder: str | None = None) -> Scene:
@@ -289,12 +243,12 @@ def scene_from_urdf(source: PathLike, mount: str | None = None, *, floor: bool |
         position `1, 2, ...`), in the order of the links in the file.
     """
     try:
-        data, label, path = _read(source)
+        data, label, path = read_source(source)
     except FileNotFoundError:
         raise CollisionError(f"work-cell URDF file {os.fspath(source)!r}: no such file") from None
     try:
-        root = _parse_xml(data, label)
-        tree = _Tree(root, label)
+        root = parse_xml(data, label)
+        tree = URDFTree(root, label)
     except URDFError as exc:
         raise CollisionError(str(exc)) from None
     roots = [link for link in tree.links if link not in tree.parent_joint]
@@ -314,8 +268,8 @@ def scene_from_urdf(source: PathLike, mount: str | None = None, *, floor: bool |
     while stack:
         parent = stack.pop()
         for jname in tree.children[parent]:
-            child = tree._child(jname)
-            pose[child] = pose[parent] @ _origin(tree.joints[jname].find("origin"), label, f"joint {jname!r}")
+            child = tree.child(jname)
+            pose[child] = pose[parent] @ urdf_origin(tree.joints[jname].find("origin"), label, f"joint {jname!r}")
             stack.append(child)
     if mount is None:
         frame, ref = "world", np.eye(4)
@@ -325,12 +279,11 @@ def scene_from_urdf(source: PathLike, mount: str | None = None, *, floor: bool |
     obstacles = []
     for link_el in root.findall("link"):
         name = link_el.get("name")
-        shapes = _urdf_shapes(link_el, label, urdf_dir)  # meshes read (and checked) here
+        shapes = urdf_link_shapes(link_el, label, urdf_dir)  # meshes read (and checked) here
         names = [c.get("name") or str(i + 1) for i, c in enumerate(link_el.findall("collision"))]
         T = ref @ pose[name]
         for s, cname in zip(shapes, names):
-            shape = Shape(s.kind, s.size, T @ s.origin, s.vertices, s.faces, s.source)
-            obstacles.append(Obstacle(name if len(shapes) == 1 else f"{name}/{cname}", shape, frame))
+            obstacles.append(Obstacle(name if len(shapes) == 1 else f"{name}/{cname}", s.placed(T), frame))
     if not obstacles:
         raise CollisionError(f"{label} has no <collision> elements: a work cell's obstacles are its links' "
                              "<collision> geometry")

@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, TypeAlias
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike
 
-__all__ = ["SerialChain", "from_dh", "as_chain", "flatten_arms", "REVOLUTE", "PRISMATIC"]
+__all__ = ["SerialChain", "from_dh", "as_chain", "flatten_arms", "joint_motion", "REVOLUTE", "PRISMATIC"]
 
 REVOLUTE = "R"
 PRISMATIC = "P"
@@ -64,7 +64,7 @@ def _trans(x, y, z):
     return T
 
 
-def _motion(kind: str, axis: np.ndarray, x: np.ndarray) -> np.ndarray:
+def joint_motion(kind: str, axis: np.ndarray, x: np.ndarray) -> np.ndarray:
     """`(..., 4, 4)`: rotation by `x` about `axis` (Rodrigues) or translation by `x` along it."""
     T = np.zeros(x.shape + (4, 4))
     T[..., 3, 3] = 1.0
@@ -225,7 +225,7 @@ class SerialChain(ArmBatch):
         frames = np.empty(shape + (self.n, 4, 4))
         for i in range(self.n):  # a loop over joints, not over arms or configurations
             frames[..., i, :, :] = T
-            T = T @ _motion(self.kinds[i], self.axes[i], x[..., i]) @ self.fixed[..., i + 1, :, :]
+            T = T @ joint_motion(self.kinds[i], self.axes[i], x[..., i]) @ self.fixed[..., i + 1, :, :]
         if self.tool is not None:
             T = T @ self.tool
         return frames, T

@@ -20,14 +20,31 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import PathLike
 
-__all__ = ["MJCFError", "from_mjcf"]
+__all__ = ["MJCFError", "from_mjcf", "load_model", "pose_matrix", "chain_and_bodies"]
 
 
 class MJCFError(ValueError):
     """An MJCF file that cannot be read as a serial chain; the message names the file and why."""
 
 
-def _load(path):
+def load_model(path: PathLike):
+    """MuJoCo's compiled model of an MJCF file.
+
+    Parameters
+    ----------
+    path : path or str
+        The MJCF file.
+
+    Returns
+    -------
+    mujoco.MjModel
+        The compiled model (angles in radians, whatever the file's `<compiler angle>`).
+
+    Raises
+    ------
+    MJCFError
+        No such file, or a file mujoco cannot read (its message, on one line).
+    """
     import mujoco
 
     path = os.fspath(path)
@@ -40,7 +57,21 @@ def _load(path):
         raise MJCFError(f"MJCF file {path!r}: mujoco cannot read it: {msg}") from None
 
 
-def _pose(pos, quat) -> np.ndarray:
+def pose_matrix(pos, quat) -> np.ndarray:
+    """A pose as MuJoCo gives one (a body, a geom or a site in its parent's frame).
+
+    Parameters
+    ----------
+    pos : array_like
+        The position `(3,)`, m.
+    quat : array_like
+        The quaternion `(w, x, y, z)`, `(4,)`; normalised here.
+
+    Returns
+    -------
+    numpy.ndarray
+        The homogeneous transform `(4, 4)`.
+    """
     w, x, y, z = quat / np.linalg.norm(quat)
     T = np.eye(4)
     T[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
@@ -56,8 +87,32 @@ def _trans(p) -> np.ndarray:
     return T
 
 
-def _chain_parts(m, path: str, site_or_body: str):
-    """The chain and, per MuJoCo body on or below the path, `(chain body, pose in its frame)`."""
+def chain_and_bodies(m, path: str, site_or_body: str) -> tuple[SerialChain, dict[int, tuple[int, np.ndarray]]]:
+    """The serial chain of a compiled MJCF model and where each of its MuJoCo bodies rides on it.
+
+    Parameters
+    ----------
+    m : mujoco.MjModel
+        The compiled model (`load_model`).
+    path : str
+        The MJCF file, for messages and the chain's `source` (its name is the file's stem).
+    site_or_body : str
+        The site or body whose frame is the tool frame.
+
+    Returns
+    -------
+    chain : SerialChain
+        As `from_mjcf`.
+    bodies : dict
+        MuJoCo body id -> `(k, T)`: the chain body `k` (0 the base, `k` moves with joint `k`) it
+        rides on and its pose `T` `(4, 4)` in that body's frame; every body but the world (id 0)
+        is there (bodies off the path with their parent, their joints at `qpos0`).
+
+    Raises
+    ------
+    MJCFError
+        An unknown site or body, a ball or free joint on the chain, no joint on the chain.
+    """
     import mujoco
 
     sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site_or_body)
@@ -67,7 +122,7 @@ def _chain_parts(m, path: str, site_or_body: str):
         raise MJCFError(f"MJCF file {path!r} has no site or body {site_or_body!r}; sites: "
                              f"{', '.join(s for s in sites if s) or 'none'}")
     end = int(m.site_bodyid[sid]) if sid >= 0 else bid
-    tool = _pose(m.site_pos[sid], m.site_quat[sid]) if sid >= 0 else np.eye(4)
+    tool = pose_matrix(m.site_pos[sid], m.site_quat[sid]) if sid >= 0 else np.eye(4)
     bodies = []
     b = end
     while b != 0:
@@ -77,7 +132,7 @@ def _chain_parts(m, path: str, site_or_body: str):
     fixed, axes, kinds, offset, qlim, T = [], [], [], [], [], np.eye(4)
     place = {0: (0, np.eye(4))}
     for b in bodies:
-        T = T @ _pose(m.body_pos[b], m.body_quat[b])
+        T = T @ pose_matrix(m.body_pos[b], m.body_quat[b])
         for j in range(int(m.body_jntadr[b]), int(m.body_jntadr[b] + m.body_jntnum[b])):
             jt = int(m.jnt_type[j])
             if jt not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
@@ -108,7 +163,7 @@ def _chain_parts(m, path: str, site_or_body: str):
             chainb.append(int(m.body_parentid[chainb[-1]]))
         for c in reversed(chainb):
             k, Tp = place[int(m.body_parentid[c])]
-            place[c] = (k, Tp @ _pose(m.body_pos[c], m.body_quat[c]))
+            place[c] = (k, Tp @ pose_matrix(m.body_pos[c], m.body_quat[c]))
     return chain, place
 
 
@@ -118,5 +173,5 @@ def from_mjcf(path: PathLike, site_or_body: str) -> SerialChain:
     joints' anchors, axes as MuJoCo has them (body frame), `offset = -ref`, `qlim` from
     `range`. Errors (no such file, not MJCF, an unknown site, a ball joint) are an
     `MJCFError` naming the file."""
-    m = _load(path)
-    return _chain_parts(m, os.fspath(path), site_or_body)[0]
+    m = load_model(path)
+    return chain_and_bodies(m, os.fspath(path), site_or_body)[0]

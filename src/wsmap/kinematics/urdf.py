@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import PathLike
 
-__all__ = ["URDFError", "URDFWarning", "from_urdf"]
+__all__ = ["URDFError", "URDFWarning", "URDFTree", "from_urdf", "parse_xml", "read_source", "rpy_matrix"]
 
 #: Joint types of the URDF specification.
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
@@ -57,8 +57,31 @@ class URDFWarning(UserWarning):
 
 
 # ---------------------------------------------------------------------------------------- reading
-def _read(source) -> tuple[bytes, str, str | None]:
-    """`(data, label, path)`: the XML bytes, a label for messages, and the file path (or None)."""
+def read_source(source: PathLike | bytes) -> tuple[bytes, str, str | None]:
+    """The bytes of a URDF given as a file or as its text.
+
+    Parameters
+    ----------
+    source : path, str or bytes
+        A URDF file, or the URDF's XML text (bytes, or a string with a `<` in it that is not the
+        name of a file).
+
+    Returns
+    -------
+    data : bytes
+        The XML.
+    label : str
+        The URDF named for messages: `"URDF file 'PATH'"` or `"URDF text"`.
+    path : str or None
+        The file's path, or None for text.
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    TypeError
+        `source` is neither a path nor text.
+    """
     if isinstance(source, bytes):
         return source, "URDF text", None
     if isinstance(source, str) and "<" in source and not os.path.isfile(source):  # XML text, not a file named "a<b"
@@ -76,7 +99,27 @@ def _local(tag) -> str:
     return tag.rsplit("}", 1)[-1] if isinstance(tag, str) else ""
 
 
-def _parse_xml(data: bytes, label: str) -> ET.Element:
+def parse_xml(data: bytes, label: str) -> ET.Element:
+    """The `<robot>` element of a URDF's XML, checked, with every tag by its local name.
+
+    Parameters
+    ----------
+    data : bytes
+        The XML (`read_source`).
+    label : str
+        What to call the URDF in messages.
+
+    Returns
+    -------
+    xml.etree.ElementTree.Element
+        The root `<robot>` element; tags in an XML namespace are renamed to their local names, as
+        urdfdom reads them.
+
+    Raises
+    ------
+    URDFError
+        Not XML, a root that is not `<robot>`, a `<robot>` without a name, or unexpanded xacro.
+    """
     try:
         root = ET.fromstring(data)
     except ET.ParseError as exc:
@@ -132,8 +175,34 @@ def _new_name(el: ET.Element, tag: str, seen, label: str) -> str:
     return name
 
 
-class _Tree:
-    """Links and joints of a URDF, checked: unique names, defined links, finite numbers, no loops."""
+class URDFTree:
+    """The links and joints of a URDF, checked: unique names, defined links, finite joint origins
+    and axes, one tree without loops.
+
+    Parameters
+    ----------
+    root : xml.etree.ElementTree.Element
+        The `<robot>` element (`parse_xml`).
+    label : str
+        What to call the URDF in messages.
+
+    Attributes
+    ----------
+    links : list of str
+        The link names, in file order.
+    joints : dict
+        Joint name -> its `<joint>` element, in file order.
+    parent_joint : dict
+        Child link -> the joint above it.
+    children : dict
+        Link -> the names of the joints below it, in file order.
+
+    Raises
+    ------
+    URDFError
+        A missing or repeated name, an unknown joint type or link, a NaN or infinite origin or
+        axis, a loop.
+    """
 
     def __init__(self, root: ET.Element, label: str):
         self.label = label
@@ -176,7 +245,7 @@ class _Tree:
         # a cycle: following parents from some link never reaches a root. Each link has at most one
         # parent, so one walk per link that stops at a link already known to reach a root visits
         # every link once: linear (a chain of 5000 fixed links is 5000 steps, not 5000² list scans).
-        parent = {child: self._parent(child) for child in self.parent_joint}
+        parent = {child: self.parent(child) for child in self.parent_joint}
         rooted: set[str] = set()
         for start in self.links:
             path, on_path, link = [], set(), start
@@ -190,17 +259,21 @@ class _Tree:
             rooted.update(path)
             rooted.add(link)
 
-    def _parent(self, link: str) -> str:
+    def parent(self, link: str) -> str:
+        """The parent link of `link` (a link that has a parent joint)."""
         return self.joints[self.parent_joint[link]].find("parent").get("link")
 
-    def _child(self, joint: str) -> str:
+    def child(self, joint: str) -> str:
+        """The child link of the joint `joint`."""
         return self.joints[joint].find("child").get("link")
 
     def check_link(self, link: str, role: str):
+        """A `URDFError` listing the links if `link` (the `role`, e.g. `"base_link"`) is not one."""
         if link not in self.children:
             raise URDFError(f"{self.label}: unknown {role} {link!r}; the links are: {', '.join(self.links)}")
 
     def root(self) -> str:
+        """The one root link; a `URDFError` when there is none or several (then give a base link)."""
         roots = [link for link in self.links if link not in self.parent_joint]
         if not roots:
             raise URDFError(f"{self.label} has no links")
@@ -210,10 +283,11 @@ class _Tree:
         return roots[0]
 
     def leaves_below(self, base: str) -> list[str]:
+        """The links without children below `base` (depth first, file order)."""
         leaves, stack = [], [base]
         while stack:
             link = stack.pop()
-            kids = [self._child(j) for j in self.children[link]]
+            kids = [self.child(j) for j in self.children[link]]
             if not kids:
                 leaves.append(link)
             stack.extend(reversed(kids))
@@ -227,7 +301,7 @@ class _Tree:
                 raise URDFError(f"{self.label}: no path from base link {base!r} to end link {ee!r} "
                                 f"({ee!r} is not below {base!r})")
             joints.append(self.parent_joint[link])
-            link = self._parent(link)
+            link = self.parent(link)
         return joints[::-1]
 
 
@@ -248,6 +322,100 @@ def _load_yourdfpy(data: bytes, path: str | None, label: str):
         raise URDFError(f"{label}: yourdfpy cannot read it: {type(exc).__name__}: {exc}") from exc
     finally:
         logging.getLogger("yourdfpy").setLevel(level)
+
+
+def _limits(label: str, jname: str, jtype: str, el: ET.Element) -> tuple[float, float]:
+    """`(lower, upper)` of a movable joint on the chain (`±inf` for a continuous one)."""
+    if jtype == "continuous":
+        return -np.inf, np.inf
+    limit = el.find("limit")
+    if limit is None:
+        raise URDFError(f"{label}: {jtype} joint {jname!r} has no <limit lower=... upper=...>")
+    lo = _limit_value(label, jname, limit, "lower")
+    hi = _limit_value(label, jname, limit, "upper")
+    for key in ("effort", "velocity"):
+        if limit.get(key) is None:  # urdfdom (ROS, Pinocchio) refuses the file too
+            raise URDFError(f"{label}: joint {jname!r} has a <limit> without {key!r} (the URDF "
+                            "specification requires effort and velocity on every <limit>)")
+    missing = [k for k in ("lower", "upper") if limit.get(k) is None]
+    if missing:
+        import warnings
+
+        still = (" so it cannot move" if lo == hi else "")
+        # stacklevel: this function, _chain_joints, from_urdf, then from_urdf's caller
+        warnings.warn(f"{label}: joint {jname!r} has a <limit> without {' and '.join(missing)}: read as 0 "
+                      f"(the URDF specification's default), limits [{lo:g}, {hi:g}]{still}",
+                      URDFWarning, stacklevel=4)
+    if lo > hi:
+        raise URDFError(f"{label}: joint {jname!r} has lower limit {lo} above its upper limit {hi}")
+    if jtype == "prismatic" and not (np.isfinite(lo) and np.isfinite(hi)):
+        raise URDFError(f"{label}: prismatic joint {jname!r} needs finite limits, got [{lo}, {hi}]")
+    return lo, hi
+
+
+def _ends(tree: URDFTree, label: str, ee_link: str | None, base_link: str | None) -> tuple[str, str]:
+    """`(base_link, ee_link)`, checked, with their defaults: the root and the one leaf below it."""
+    if base_link is None:
+        base_link = tree.root()
+    else:
+        tree.check_link(base_link, "base_link")
+    if ee_link is None:
+        leaves = tree.leaves_below(base_link)
+        if len(leaves) != 1:
+            raise URDFError(f"{label}: the tree branches below {base_link!r}, so give ee_link; "
+                            f"the candidate end links are: {', '.join(leaves)}")
+        ee_link = leaves[0]
+    else:
+        tree.check_link(ee_link, "ee_link")
+    return base_link, ee_link
+
+
+def _chain_joints(tree: URDFTree, label: str, path_joints: list[str], base_link: str, ee_link: str):
+    """`(kinds, axes, limits, links)` of the movable joints on the path, read from the XML."""
+    kinds, axes, limits, links = [], [], [], []
+    for jname in path_joints:
+        el = tree.joints[jname]
+        jtype = el.get("type")
+        mimic = el.find("mimic")
+        if mimic is not None:
+            raise URDFError(f"{label}: joint {jname!r} on the chain from {base_link!r} to {ee_link!r} is a mimic "
+                            f"joint (it follows {mimic.get('joint')!r}); a serial chain has independent joints")
+        if jtype in ("floating", "planar"):
+            raise URDFError(f"{label}: joint {jname!r} on the chain from {base_link!r} to {ee_link!r} is {jtype}; "
+                            "only revolute, continuous, prismatic and fixed joints are supported")
+        if jtype == "fixed":
+            continue
+        axis = _numbers(label, f"joint {jname!r} <axis xyz>",
+                        None if el.find("axis") is None else el.find("axis").get("xyz"), "1 0 0")
+        if np.linalg.norm(axis) < 1e-12:
+            raise URDFError(f"{label}: joint {jname!r} has a zero <axis>")
+        limits.append(_limits(label, jname, jtype, el))
+        kinds.append(_MOVABLE[jtype])
+        axes.append(axis)
+        links.append(tree.child(jname))
+    if not kinds:
+        raise URDFError(f"{label}: no movable joint between {base_link!r} and {ee_link!r}")
+    links.append(ee_link)
+    return kinds, axes, limits, links
+
+
+def _fixed_transforms(model, label: str, path_joints: list[str], axes: list) -> np.ndarray:
+    """The chain's fixed transforms `(n + 1, 4, 4)` from yourdfpy's joints `model.joint_map`:
+    the joint origins, fixed joints folded in."""
+    fixed, T = [], np.eye(4)
+    for jname in path_joints:
+        joint = model.joint_map[jname]
+        origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=np.float64)
+        T = T @ origin
+        if joint.type != "fixed":
+            fixed.append(T)
+            T = np.eye(4)
+            axis = np.asarray(joint.axis, dtype=np.float64)
+            i = len(fixed) - 1
+            if not np.allclose(axis, axes[i]):  # pragma: no cover - yourdfpy and the XML disagree
+                raise URDFError(f"{label}: joint {jname!r}: yourdfpy reads axis {axis}, the XML says {axes[i]}")
+    fixed.append(T)
+    return np.stack(fixed)
 
 
 def from_urdf(source: PathLike, ee_link: str | None = None, base_link: str | None = None,
@@ -274,90 +442,38 @@ def from_urdf(source: PathLike, ee_link: str | None = None, base_link: str | Non
         names after each fixed transform (the child link of each movable joint, then `ee_link`),
         `source` the file path or `"URDF text"`.
     """
-    data, label, path = _read(source)
-    root = _parse_xml(data, label)
+    data, label, path = read_source(source)
+    root = parse_xml(data, label)
     if b"xmlns" in data:  # yourdfpy finds no <link> in a namespace: give it the local names
         data = ET.tostring(root)
-    tree = _Tree(root, label)
-    if base_link is None:
-        base_link = tree.root()
-    else:
-        tree.check_link(base_link, "base_link")
-    if ee_link is None:
-        leaves = tree.leaves_below(base_link)
-        if len(leaves) != 1:
-            raise URDFError(f"{label}: the tree branches below {base_link!r}, so give ee_link; "
-                            f"the candidate end links are: {', '.join(leaves)}")
-        ee_link = leaves[0]
-    else:
-        tree.check_link(ee_link, "ee_link")
+    tree = URDFTree(root, label)
+    base_link, ee_link = _ends(tree, label, ee_link, base_link)
     path_joints = tree.path(base_link, ee_link)
-
-    kinds, axes, limits, links = [], [], [], []
-    for jname in path_joints:
-        el = tree.joints[jname]
-        jtype = el.get("type")
-        mimic = el.find("mimic")
-        if mimic is not None:
-            raise URDFError(f"{label}: joint {jname!r} on the chain from {base_link!r} to {ee_link!r} is a mimic "
-                            f"joint (it follows {mimic.get('joint')!r}); a serial chain has independent joints")
-        if jtype in ("floating", "planar"):
-            raise URDFError(f"{label}: joint {jname!r} on the chain from {base_link!r} to {ee_link!r} is {jtype}; "
-                            "only revolute, continuous, prismatic and fixed joints are supported")
-        if jtype == "fixed":
-            continue
-        axis = _numbers(label, f"joint {jname!r} <axis xyz>",
-                        None if el.find("axis") is None else el.find("axis").get("xyz"), "1 0 0")
-        if np.linalg.norm(axis) < 1e-12:
-            raise URDFError(f"{label}: joint {jname!r} has a zero <axis>")
-        if jtype == "continuous":
-            lo, hi = -np.inf, np.inf
-        else:
-            limit = el.find("limit")
-            if limit is None:
-                raise URDFError(f"{label}: {jtype} joint {jname!r} has no <limit lower=... upper=...>")
-            lo = _limit_value(label, jname, limit, "lower")
-            hi = _limit_value(label, jname, limit, "upper")
-            for key in ("effort", "velocity"):
-                if limit.get(key) is None:  # urdfdom (ROS, Pinocchio) refuses the file too
-                    raise URDFError(f"{label}: joint {jname!r} has a <limit> without {key!r} (the URDF "
-                                    "specification requires effort and velocity on every <limit>)")
-            missing = [k for k in ("lower", "upper") if limit.get(k) is None]
-            if missing:
-                import warnings
-
-                still = (" so it cannot move" if lo == hi else "")
-                warnings.warn(f"{label}: joint {jname!r} has a <limit> without {' and '.join(missing)}: read as 0 "
-                              f"(the URDF specification's default), limits [{lo:g}, {hi:g}]{still}",
-                              URDFWarning, stacklevel=2)
-            if lo > hi:
-                raise URDFError(f"{label}: joint {jname!r} has lower limit {lo} above its upper limit {hi}")
-            if jtype == "prismatic" and not (np.isfinite(lo) and np.isfinite(hi)):
-                raise URDFError(f"{label}: prismatic joint {jname!r} needs finite limits, got [{lo}, {hi}]")
-        kinds.append(_MOVABLE[jtype])
-        axes.append(axis)
-        limits.append((lo, hi))
-        links.append(tree._child(jname))
-    if not kinds:
-        raise URDFError(f"{label}: no movable joint between {base_link!r} and {ee_link!r}")
-    links.append(ee_link)
-
-    # the transforms, from yourdfpy's joints
+    kinds, axes, limits, links = _chain_joints(tree, label, path_joints, base_link, ee_link)
     model = _load_yourdfpy(data, path, label)
-    fixed, T = [], np.eye(4)
-    for jname in path_joints:
-        joint = model.joint_map[jname]
-        origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=np.float64)
-        T = T @ origin
-        if joint.type != "fixed":
-            fixed.append(T)
-            T = np.eye(4)
-            axis = np.asarray(joint.axis, dtype=np.float64)
-            i = len(fixed) - 1
-            if not np.allclose(axis, axes[i]):  # pragma: no cover - yourdfpy and the XML disagree
-                raise URDFError(f"{label}: joint {jname!r}: yourdfpy reads axis {axis}, the XML says {axes[i]}")
-    fixed.append(T)
+    fixed = _fixed_transforms(model, label, path_joints, axes)
     qlim = np.array(limits, dtype=np.float64)
-    return SerialChain(np.stack(fixed), np.array(axes), kinds, qlim=qlim,
+    return SerialChain(fixed, np.array(axes), kinds, qlim=qlim,
                        name=name if name is not None else root.get("name"),
                        source=path if path is not None else "URDF text", links=links)
+
+
+def rpy_matrix(rpy) -> np.ndarray:
+    """The rotation of a URDF `<origin rpy="r p y">`: fixed-axis roll-pitch-yaw,
+    `R = Rz(y) · Ry(p) · Rx(r)` (the URDF convention).
+
+    Parameters
+    ----------
+    rpy : array_like
+        `(roll, pitch, yaw)` in radians, shape `(3,)`.
+
+    Returns
+    -------
+    numpy.ndarray
+        The rotation matrix, `(3, 3)`.
+    """
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
