@@ -295,18 +295,6 @@ PRIVATE_IMPORTS_TO_MEND = {
     ("wsmap.learn.network", "wsmap.learn.init", "_to_numpy"),
     ("wsmap.morph_design", "wsmap.learn.morph_model", "_family_of"),
     ("wsmap.paper.report", "wsmap.paper.full", "_fmt_seconds"),
-    ("wsmap.workspace.maps", "wsmap.workspace.grids", "_check_fits"),
-    ("wsmap.workspace.maps", "wsmap.workspace.grids", "_triple"),
-    ("wsmap.workspace.placement", "wsmap.workspace.grids", "_check_fits"),
-    ("wsmap.workspace.placement", "wsmap.workspace.grids", "_triple"),
-    ("wsmap.workspace.placement", "wsmap.workspace.maps", "_exact"),
-    ("wsmap.workspace.placement", "wsmap.workspace.maps", "_predicate"),
-    ("wsmap.workspace.reach", "wsmap.workspace.grids", "_check_fits"),
-    ("wsmap.workspace.reach", "wsmap.workspace.maps", "_check_choice"),
-    ("wsmap.workspace.reach", "wsmap.workspace.maps", "_check_nodes"),
-    ("wsmap.workspace.reach", "wsmap.workspace.maps", "_exact"),
-    ("wsmap.workspace.reach", "wsmap.workspace.maps", "_predicate"),
-    ("wsmap.workspace.reach", "wsmap.workspace.maps", "_search_settings"),
 }
 
 

@@ -19,7 +19,8 @@ if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike, Sequence
 
 __all__ = ["grid_counts", "grid_axes", "cartesian_grid", "angle_grid", "map_to_volume", "volume_to_map", "BLOCK_NODES",
-           "N_BLOCKS", "block_slice", "CROP_3087", "available_memory", "MAX_NODES", "node_neighbours"]
+           "N_BLOCKS", "block_slice", "CROP_3087", "available_memory", "MAX_NODES", "node_neighbours",
+           "check_fits", "triple"]
 
 #: The paper's output blocks of the 21³ map: 7 consecutive blocks of 1323 nodes (3 z-layers each).
 BLOCK_NODES = 1323
@@ -41,7 +42,9 @@ def available_memory() -> int:
     return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
-def _check_fits(nbytes: int, what: str) -> None:
+def check_fits(nbytes: int, what: str) -> None:
+    """A one-line `MemoryError` when `what` needs `nbytes` bytes, more than half the memory
+    available (`available_memory`), before any work."""
     avail = available_memory()
     if nbytes > avail // 2:
         raise MemoryError(
@@ -51,7 +54,8 @@ def _check_fits(nbytes: int, what: str) -> None:
 
 
 # --------------------------------------------------------------------------- grids
-def _triple(name, x):
+def triple(name: str, x: float | ArrayLike) -> np.ndarray:
+    """`x` as three finite floats `(3,)` (a scalar repeated), or a one-line `ValueError` naming `name`."""
     x = as_real_array(name, x)
     if x.ndim == 0:
         x = np.repeat(x, 3)
@@ -70,7 +74,7 @@ def grid_counts(lo: float | ArrayLike, hi: float | ArrayLike, step: float | Arra
     complex values, `step <= 0`, `lo > hi`, and grids of more than `max_nodes` nodes — checked
     in floating point first, because a tiny step (1e-300) overflows int64 and would wrap to 0 nodes.
     """
-    lo, hi, step = _triple("lo", lo), _triple("hi", hi), _triple("step", step)
+    lo, hi, step = triple("lo", lo), triple("hi", hi), triple("step", step)
     if np.any(step <= 0):
         raise ValueError(f"step must be positive, got {step.tolist()}")
     if np.any(lo > hi):
@@ -95,9 +99,9 @@ def grid_axes(lo: float | ArrayLike, hi: float | ArrayLike, step: float | ArrayL
     `[-1, 1]` at 0.1 gives 21 values, `[0, 2·pi]` at `pi/10` gives 21 (`grid_counts`).
     """
     counts = grid_counts(lo, hi, step)
-    lo, step = _triple("lo", lo), _triple("step", step)
+    lo, step = triple("lo", lo), triple("step", step)
     total = int(np.prod(counts))
-    _check_fits(total * 3 * 8, f"a grid of {list(counts)} = {total} nodes")
+    check_fits(total * 3 * 8, f"a grid of {list(counts)} = {total} nodes")
     return [lo[i] + step[i] * np.arange(counts[i]) for i in range(3)]
 
 

@@ -20,32 +20,37 @@ import math
 
 import numpy as np
 
-from ..kinematics import DHRobot, SerialChain, closed_form_for, ikine_LM, require_closed_form, rpy2r
+from ..kinematics import DHRobot, SerialChain, closed_form_for, require_closed_form, rpy2r
 from ..kinematics.chain import as_chain, flatten_arms
-from ..kinematics.ik.search import DEFAULT_STARTS, MAP_SETTINGS, ikine_search, map_search
+from ..kinematics.ik.search import ikine_search
+from ..kinematics.ik.settings import DEFAULT_STARTS, MAP_SETTINGS, SearchSettings, as_settings
+from ..kinematics.ik.solvers import numerical_solvers, per_node, solver_for
+from ..kinematics.ik.solvers.independent import search_accepted
 from ..kinematics.transforms import as_real_array
 from .._progress import check_progress, progress_bar
-from .grids import _check_fits, _triple, cartesian_grid, grid_axes, node_neighbours
+from .grids import cartesian_grid, check_fits, grid_axes, node_neighbours, triple
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import Any, ArrayLike, Callable, Mapping, NDArray, PathLike
     from wsmap.kinematics.chain import Arm
 
-__all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP_SETTINGS", "target_poses",
-           "reachable", "resolve_method", "constant_orientation_map", "orientation_map",
-           "grid_map", "MAP_PREDICTORS", "register_map_predictor"]
+__all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP_SETTINGS", "SearchSettings",
+           "target_poses", "reachable", "resolve_method", "constant_orientation_map", "orientation_map",
+           "grid_map", "MAP_PREDICTORS", "register_map_predictor", "check_choice", "check_nodes",
+           "configuration_predicate", "search_settings"]
 
 #: `"auto"` is `"exact"` for an arm of a closed-form family, else `"numerical"`.
 METHODS = ("auto", "exact", "numerical")
-#: Numerical solvers (`ik={"solver": ...}`): `"search"` (default) is the search with joint limits
+#: Numerical solvers (`ik={"solver": ...}`, `SearchSettings.solver`), registered in
+#: `wsmap.kinematics.ik.solvers`: `"search"` (default) is the search with joint limits
 #: inside it, started at each node from its neighbours' solutions as well
 #: (`wsmap.kinematics.ik.search.map_search`, settings `MAP_SETTINGS`); `"independent"`
 #: solves every node on its own with `wsmap.kinematics.ik.search.ikine_search` (`starts`
 #: default `DEFAULT_STARTS`); `"paper"` is the paper's one-start LM from q0 = 0
 #: (`wsmap.kinematics.ik.lm.ikine_LM`, DH arms, a converged solution outside the limits rejected
 #: afterwards), which the paper's pipeline uses.
-SOLVERS = ("search", "independent", "paper")
+SOLVERS = numerical_solvers()
 CONVENTIONS = ("paper", "standard")
 SCOPES = ("R3", "SO3")
 #: Map methods of `grid_map` that other packages supply, by name: `predict(model, robot,
@@ -62,7 +67,8 @@ def register_map_predictor(name: str, predict) -> None:
     MAP_PREDICTORS[name] = predict
 
 
-def _check_choice(name, value, choices):
+def check_choice(name: str, value: object, choices: tuple) -> None:
+    """A one-line `ValueError` unless `value` is one of `choices` (`name` says what it is)."""
     if value not in choices:
         raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
 
@@ -72,7 +78,7 @@ def target_poses(positions: ArrayLike, rpy: ArrayLike, convention: str = "standa
 
     `"standard"` (default): `transl(p) · R`; `"paper"`: `Rx Ry Rz · transl(p)` (position `R·p`).
     """
-    _check_choice("convention", convention, CONVENTIONS)
+    check_choice("convention", convention, CONVENTIONS)
     positions = np.asarray(positions, dtype=np.float64)
     if positions.shape[-1:] != (3,):
         raise ValueError(f"positions must have a last dimension of 3, got shape {positions.shape}")
@@ -127,15 +133,15 @@ def reachable(robot: Arm, T: ArrayLike, *, starts: int = DEFAULT_STARTS, seed: i
     `False` means no start found one (recall measured against exact references in
     `benchmarks/maps/bench_recall.py`: >= 0.999 with the default starts, no false positive).
     """
-    valid = _predicate(robot, collision)
+    valid = configuration_predicate(robot, collision)
     if valid is None:
         res = ikine_search(robot, T, starts=starts, seed=seed, **settings)
         return (res.success, np.where(res.success[..., None], res.q, np.nan)) if return_q else res.success
-    ok, q = _search_free(robot, np.asarray(T, dtype=np.float64), valid, starts, seed, collision_rounds, settings)
-    return (ok, q) if return_q else ok
+    res = search_accepted(robot, np.asarray(T, dtype=np.float64), valid, starts, seed, collision_rounds, settings)
+    return (res.success, res.q) if return_q else res.success
 
 
-def _predicate(arms, collision):
+def configuration_predicate(arms: Arm, collision: Callable | None) -> Callable | None:
     """`collision` checked as a configuration predicate of `arms` (one arm), or None. A
     `wsmap.collision.CollisionChecker` of another arm (other joint frames) is refused."""
     if collision is None:
@@ -156,108 +162,38 @@ def _predicate(arms, collision):
     return collision
 
 
-def _search_free(robot, T, valid, starts, seed, rounds, settings):
-    """`ikine_search` keeping only solutions `valid` accepts: `(ok, q)` of `T.shape[:-2]`;
-    refused poses are searched again with other seeds, `rounds` times."""
-    res = ikine_search(robot, T, starts=starts, seed=seed, **settings)
-    shape = res.success.shape
-    ok = res.success.reshape(-1).copy()
-    q = res.q.reshape(-1, res.q.shape[-1]).copy()
-    Tf = np.broadcast_to(T, shape + (4, 4)).reshape(-1, 4, 4)
-    settings = {k: v for k, v in settings.items() if k not in ("q0", "progress")}
-    left = np.zeros(ok.shape, dtype=bool)
-    if ok.any():
-        idx = np.flatnonzero(ok)
-        ok[idx] = np.asarray(valid(q[idx]), dtype=bool)
-        left[idx] = ~ok[idx]
-    for r in range(1, int(rounds) + 1):
-        idx = np.flatnonzero(left)
-        if not idx.size:
-            break
-        again = ikine_search(robot, Tf[idx], starts=starts, seed=None if seed is None else int(seed) + 7919 * r,
-                             **settings)
-        good = again.success.copy()
-        if good.any():
-            good[good] = np.asarray(valid(again.q[good]), dtype=bool)
-        ok[idx[good]] = True
-        q[idx[good]] = again.q[good]
-        left[idx[good]] = False
-    q[~ok] = np.nan
-    return ok.reshape(shape), q.reshape(shape + (q.shape[-1],))
-
-
 # --------------------------------------------------------------------------- maps
-def _per_node(robot: DHRobot) -> DHRobot:
-    """The same arms with a node axis inserted before the joints: batch `(..., 1)`."""
-    qlim = robot.qlim
-    if qlim is not None and qlim.ndim > 2:
-        qlim = qlim[..., None, :, :]
-    return DHRobot(robot.d[..., None, :], robot.a[..., None, :], robot.alpha[..., None, :], qlim=qlim, tool=robot.tool)
+#: The DH arms with a node axis before the joints (`wsmap.kinematics.ik.solvers.per_node`; the
+#: name the kernel tests read).
+_per_node = per_node
 
 
-def _numerical_settings(ik: dict) -> tuple[str, dict]:
-    """(solver, the solver's keyword arguments) from a map's `ik` dict."""
-    ik = dict(ik)
-    solver = ik.pop("solver", "search")
-    _check_choice("solver", solver, SOLVERS)
-    if solver == "paper":
-        starts = ik.pop("starts", 1)
-        if starts != 1:
-            raise ValueError(f"the paper's solver has one start (q0), got starts={starts!r}; use solver 'search'")
-        ik.pop("seed", None)
-    elif solver == "search":
-        ik = _search_settings(ik, drop=("chunk",))
-    return solver, ik
-
-
-def _search_settings(ik, base=MAP_SETTINGS, drop=("solver", "chunk", "progress")) -> dict:
-    """`map_search`'s keyword arguments: `base` updated with `ik`, without the keys in
-    `drop` (the other solvers' settings, or ones the caller passes itself)."""
-    settings = {**base, **(ik or {})}
-    for key in drop:
-        settings.pop(key, None)
-    return settings
+def search_settings(ik: SearchSettings | Mapping | None, base: Mapping = MAP_SETTINGS, *,
+                    seed: int | None = None) -> SearchSettings:
+    """The settings of the neighbour search (solver `"search"`) of a map, a reach map, an index or a
+    placement: `ik` itself when it is a `SearchSettings`, else the dict `ik` over `base`
+    (without its `solver`, `chunk` and `progress` keys, which those maps never read); `seed`
+    (the function's own argument) replaces the settings' seed when given."""
+    if isinstance(ik, SearchSettings):
+        if ik.solver != "search":
+            raise ValueError(f"this map runs the solver 'search' (neighbours' solutions), got solver {ik.solver!r}")
+        settings = ik
+    else:
+        drop = ("solver", "chunk", "progress")
+        settings = as_settings({k: v for k, v in (ik or {}).items() if k not in drop}, base)
+    return settings if seed is None else settings.replace(seed=seed)
 
 
 def resolve_method(robot: Arm, method: str = "auto") -> str:
     """`"exact"` or `"numerical"`: `auto` picks the closed form where a registered closed form
     solves the arm (`wsmap.kinematics.closed_form_for`), else numerical IK. `exact` for an
     arm without a closed form is a `ValueError` that says so."""
-    _check_choice("method", method, METHODS)
+    check_choice("method", method, METHODS)
     if method == "auto":
         return "exact" if closed_form_for(robot) is not None else "numerical"
     if method == "exact":
         require_closed_form(robot)
     return method
-
-
-def _exact(arms, T, valid=None, return_q=False):
-    """Closed-form reachability of poses `T` (N, 4, 4) for arms (batch `(B,)` or one): (..., N).
-
-    `valid` (a configuration predicate, one arm): a pose counts only with a branch it accepts;
-    every branch is tried. `return_q` also returns a valid branch's `q` `(..., N, n)` (the
-    first accepted, NaN where none)."""
-    cf = require_closed_form(arms)
-    robot = arms if arms.batch_shape == () and not isinstance(arms, DHRobot) else _per_node(arms)
-    if valid is None and not return_q:
-        return cf.reachable(robot, T)
-    sol = cf.solve(robot, T)
-    ok = np.array(sol.success, dtype=bool)
-    q = sol.q
-    if valid is not None and ok.any():
-        # branch by branch, only where no earlier branch was accepted: a pose needs one free branch
-        found = np.zeros(ok.shape[:-1], dtype=bool)
-        for b in range(ok.shape[-1]):
-            ask = ok[..., b] & ~found
-            if ask.any():
-                ok[..., b][ask] = np.asarray(valid(q[..., b, :][ask]), dtype=bool)
-            found |= ok[..., b]
-        ok &= np.cumsum(ok, axis=-1) == 1  # the first accepted branch (later ones were not asked)
-    reach = ok.any(axis=-1)
-    if not return_q:
-        return reach
-    first = np.take_along_axis(q, ok.argmax(axis=-1)[..., None, None], axis=-2)[..., 0, :]
-    return reach, np.where(reach[..., None], first, np.nan)
 
 
 def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress, space, return_method,
@@ -267,33 +203,26 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
     (arms..., N, n) with `return_q`, and the method used, with `return_method`)."""
     if not isinstance(arms, (DHRobot, SerialChain)):
         raise TypeError(f"arms must be a DHRobot or a SerialChain, got {type(arms).__name__}")
-    valid = _predicate(arms, collision)
+    valid = configuration_predicate(arms, collision)
     method = resolve_method(arms, method)
-    _check_choice("convention", convention, CONVENTIONS)
+    check_choice("convention", convention, CONVENTIONS)
     T = target_poses(positions, rpy, convention)  # (N, 4, 4)
     N = T.shape[0]
     batch = arms.batch_shape
     B = int(np.prod(batch, dtype=np.int64))
-    _check_fits(B * N, f"a map of {B} arms x {N} nodes")
-    solver, settings = ("", {}) if method == "exact" else _numerical_settings(ik or {})
-    if solver == "paper" and not isinstance(arms, DHRobot):
-        raise ValueError("the paper's solver (ikine_LM) is for DHRobot arms; use solver 'search'")
-    if solver == "paper" and valid is not None:
-        raise ValueError("the paper's solver has one start and cannot look for another solution; collision= "
-                         "needs solver 'search' or 'independent'")
-    nb = node_neighbours(space) if solver == "search" else None
+    check_fits(B * N, f"a map of {B} arms x {N} nodes")
+    settings = None if method == "exact" else as_settings(ik)
+    solver = solver_for(method, settings)
+    solver.check(arms, settings, valid)
+    nb = node_neighbours(space) if solver.neighbours else None
     flat = arms if batch == () else flatten_arms(arms)
     out = np.empty((max(B, 1), N), dtype=bool)
     q_out = np.full((max(B, 1), N, arms.n), np.nan) if return_q else None
     per_chunk = max(1, chunk_elements // max(N, 1))
     with progress_bar(progress, max(B, 1) * N, desc=f"{method} map") as update:
-        if update is not None and method == "numerical":
-            # the solvers report as they go: per chunk of targets, the neighbour search per pass and wave
-            settings["progress"] = update
-            if solver != "search":
-                settings.setdefault("chunk", 2048)
-        _map_chunks(flat, batch, B, N, T, nb, method, solver, settings, per_chunk, out, q_out, valid,
-                    update if method == "exact" else None)
+        # a numerical solver reports as it goes (per chunk of targets, the search per pass and wave);
+        # the closed form after each chunk of arms
+        _map_chunks(flat, batch, B, N, T, nb, solver, settings, per_chunk, out, q_out, valid, update)
     out = out.reshape(batch + (N,))
     result = (out,) if not return_q else (out, q_out.reshape(batch + (N, arms.n)))
     if return_method:
@@ -301,43 +230,29 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
     return result if len(result) > 1 else out
 
 
-def _map_chunks(flat, batch, B, N, T, nb, method, solver, settings, per_chunk, out, q_out, valid, update):
+def _map_chunks(flat, batch, B, N, T, nb, solver, settings, per_chunk, out, q_out, valid, update):
     """Fill `out` (max(B, 1), N) and, unless `None`, `q_out` (max(B, 1), N, n) chunk of arms by
-    chunk of arms (`update(n)` after each); `valid` the configuration predicate or `None`."""
-    return_q = q_out is not None
+    chunk of arms with `solver` (a `wsmap.kinematics.ik.solvers.Solver`); `valid` the
+    configuration predicate or `None`; `update(n)` the progress."""
+    inner = update if solver.numerical else None
     for s in range(0, max(B, 1), per_chunk):
         sub = flat if batch == () else flat[s : s + per_chunk]
-        qq = None
-        if method == "exact":
-            res = _exact(sub, T, valid, return_q)
-            if return_q:
-                res, qq = res
-        elif solver == "paper":
-            sol = ikine_LM(_per_node(sub), T, check_limits=sub.qlim is not None, **settings)
-            res, qq = sol.success, sol.q
-        elif solver == "search":
-            sol = map_search(sub, T, nb, accept=valid, **settings)  # (N,) or (arms, N)
-            res, qq = sol.success, sol.q
-        elif valid is not None:  # one arm (checked by _predicate)
-            search = {k: v for k, v in settings.items() if k not in ("starts", "seed")}
-            res, qq = _search_free(sub, T, valid, settings.get("starts", DEFAULT_STARTS), settings.get("seed", 0),
-                                   4, search)
-        elif batch == ():
-            sol = ikine_search(sub, T, **settings)  # (N,)
-            res, qq = sol.success, sol.q
+        if q_out is None:
+            res = solver.reachable(sub, T, settings, valid, neighbours=nb, progress=inner)
         else:
-            sol = ikine_search(sub, T[:, None], **settings)  # (N, arms) -> (arms, N)
-            res, qq = sol.success.T, np.swapaxes(sol.q, 0, 1)
+            sol = solver.solve(sub, T, settings, valid, neighbours=nb, progress=inner)
+            res, qq = sol.success, sol.q
         rows = out[s : s + per_chunk].shape[0]
         out[s : s + per_chunk] = np.broadcast_to(res, (rows, N))
         if q_out is not None:
             q_out[s : s + per_chunk] = np.where(out[s : s + per_chunk, :, None],
                                                 np.broadcast_to(qq, (rows, N, q_out.shape[-1])), np.nan)
-        if update is not None:
+        if update is not None and not solver.numerical:
             update(out[s : s + per_chunk].size)
 
 
-def _check_nodes(name, nodes):
+def check_nodes(name: str, nodes: ArrayLike) -> np.ndarray:
+    """`nodes` as a finite real float64 array `(N, 3)`, or a one-line `ValueError` naming `name`."""
     nodes = as_real_array(name, nodes)  # complex nodes are refused, not cast (numpy drops the imaginary part)
     if nodes.ndim != 2 or nodes.shape[1] != 3:
         raise ValueError(f"{name} must have shape (N, 3), got {nodes.shape}")
@@ -384,8 +299,8 @@ def constant_orientation_map(arms: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0,
     bool array `(..., N)` in node order (then the solutions, with `return_q`, and the method, with
     `return_method`). Joint limits are honoured when the arms carry them.
     """
-    nodes = _check_nodes("nodes", nodes)
-    rpy = _triple("rpy", rpy)
+    nodes = check_nodes("nodes", nodes)
+    rpy = triple("rpy", rpy)
     return _map(arms, nodes, rpy, convention, method, ik, chunk_elements, progress, nodes, return_method,
                 collision, return_q)
 
@@ -402,15 +317,15 @@ def orientation_map(arms: Arm, angle_nodes: ArrayLike, point: ArrayLike = (0.5, 
     positions on the sphere of radius `|point|`. Other arguments as
     `constant_orientation_map` (`collision`, `return_q` too); returns bool `(..., N)`.
     """
-    angle_nodes = _check_nodes("angle nodes", angle_nodes)
-    point = _triple("point", point)
+    angle_nodes = check_nodes("angle nodes", angle_nodes)
+    point = triple("point", point)
     return _map(arms, point[None, :], angle_nodes, convention, method, ik, chunk_elements, progress, angle_nodes,
                 return_method, collision, return_q)
 
 
 def default_grid(scope: str) -> tuple[float, float, float]:
     """The paper's grid of a scope: R3 `[-1, 1]` m at 0.1 m, SO3 `[0, 2·pi]` rad at `pi/10`."""
-    _check_choice("scope", scope, SCOPES)
+    check_choice("scope", scope, SCOPES)
     return (-1.0, 1.0, 0.1) if scope == "R3" else (0.0, 2 * math.pi, math.pi / 10)
 
 
@@ -424,8 +339,8 @@ def grid_spec(scope: str = "R3", lo: float | ArrayLike | None = None, hi: float 
     dlo, dhi, dstep = default_grid(scope)
     lo, hi, step = (dlo if lo is None else lo), (dhi if hi is None else hi), (dstep if step is None else step)
     axes = grid_axes(lo, hi, step)
-    return {"scope": scope, "lo": _triple("lo", lo).tolist(), "hi": _triple("hi", hi).tolist(),
-            "step": _triple("step", step).tolist(), "shape": [len(a) for a in axes]}
+    return {"scope": scope, "lo": triple("lo", lo).tolist(), "hi": triple("hi", hi).tolist(),
+            "step": triple("step", step).tolist(), "shape": [len(a) for a in axes]}
 
 
 def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point: ArrayLike = (0.5, 0.5, 0.5),
@@ -451,7 +366,7 @@ def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point:
     check_progress(progress)
     nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
     scope = grid["scope"]
-    _check_choice("scope", scope, SCOPES)
+    check_choice("scope", scope, SCOPES)
     if method == "model":
         if collision is not None:
             raise ValueError("method 'model' predicts the chain's map; collision= needs method exact or numerical")
@@ -467,7 +382,7 @@ def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point:
             raise ValueError(f"model {model} gave a map of shape {flat.shape}, the grid has {len(nodes)} nodes")
         return (flat, "model") if return_method else flat
     method = resolve_method(robot, method)
-    ik = dict(ik or {})
+    ik = ik if isinstance(ik, SearchSettings) else dict(ik or {})
     if scope == "R3":
         return constant_orientation_map(robot, nodes, rpy, method=method, convention=convention, ik=ik,
                                         progress=progress, return_method=return_method, collision=collision)

@@ -15,10 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kinematics import DHRobot, SerialChain, as_chain, check_rigid, map_search
-from ..kinematics.ik.search import MAP_SETTINGS
-from .grids import _check_fits, _triple, node_neighbours
-from .maps import _exact, _predicate, resolve_method
+from ..kinematics import DHRobot, SerialChain, as_chain, check_rigid
+from ..kinematics.ik.solvers import get_solver
+from .grids import check_fits, node_neighbours, triple
+from .maps import configuration_predicate, resolve_method, search_settings
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
@@ -95,6 +95,78 @@ def _from_its_base(robot, checker, target):
     return valid
 
 
+def _check_placement(robot, targets, x, y, step, yaws, z0, method):
+    """`base_placement`'s checks of everything but `collision`, before any work:
+    `(T (M, 4, 4), x range, y range, z0, method)`."""
+    if not isinstance(robot, (DHRobot, SerialChain)):
+        raise TypeError(f"robot must be a DHRobot or a SerialChain, got {type(robot).__name__}")
+    if robot.batch_shape != ():
+        raise ValueError(f"base placement takes one arm, got a batch of shape {robot.batch_shape}")
+    T = check_rigid("targets", targets)
+    if T.ndim == 2:
+        T = T[None]
+    if T.ndim != 3 or len(T) == 0:
+        raise ValueError(f"targets must have shape (M, 4, 4) with M >= 1, got {T.shape}")
+    xr, yr = _range("x", x), _range("y", y)
+    if isinstance(step, bool) or not (np.isscalar(step) and np.isfinite(step) and step > 0):
+        raise ValueError(f"step must be positive and finite, got {step!r}")
+    if isinstance(yaws, bool) or not isinstance(yaws, (int, np.integer)) or yaws < 1:
+        raise ValueError(f"yaws must be a positive integer (the number of base headings), got {yaws!r}")
+    if yaws > MAX_YAWS:
+        raise ValueError(f"yaws must be at most {MAX_YAWS} (headings 0.1° apart; finer ones only multiply the work), "
+                         f"got {yaws}")
+    if len(T) > MAX_TARGETS:
+        raise ValueError(f"at most {MAX_TARGETS} targets (each is one map over every candidate base, 1 to 10 s on "
+                         f"one core), got {len(T)}")
+    z0 = float(triple("z0", z0)[0])
+    method = resolve_method(robot, method)
+    with np.errstate(over="ignore"):  # counted in floating point: a 1e-300 step must not wrap an integer
+        counts = [np.floor((r[1] - r[0]) / step + 0.5) + 1.0 for r in (xr, yr)]
+        total = float(counts[0] * counts[1] * yaws)
+    if not total <= MAX_CANDIDATES:
+        raise ValueError(f"a region of {counts[0]:.3g} x {counts[1]:.3g} positions x {yaws} headings is {total:.3g} "
+                         f"candidate bases, more than {MAX_CANDIDATES:.0e} (each holds a pose and a solution per "
+                         "target); use a larger step or a smaller region")
+    check_fits(int(total) * (len(T) * (8 * robot.n + 1) + 512),
+                f"{int(total)} candidate bases x {len(T)} targets")
+    return T, xr, yr, z0, method
+
+
+def _check_collision(robot, collision):
+    """`base_placement`'s `collision` checked: `(the predicate or None, whether the scene has
+    world-frame obstacles)`."""
+    valid = configuration_predicate(robot, collision)
+    scene = getattr(collision, "scene", None)
+    world = scene is not None and any(ob.frame == "world" for ob in scene.obstacles)
+    if world and not callable(getattr(collision, "at_bases", None)):
+        raise ValueError("base placement moves the base under world-frame obstacles: give a "
+                         "wsmap.collision.CollisionChecker (it checks each candidate base) or base-frame obstacles")
+    if world and any(ob.frame == "base" for ob in scene.obstacles):
+        raise ValueError("base placement takes world-frame or base-frame obstacles, not both in one scene")
+
+    return valid, world
+
+
+def _solve_targets(robot, T, Binv, nb, method, settings, valid, world_checker, progress, reached, qsol):
+    """Fill `reached` (C, M) and `qsol` (C, M, n) target by target over the candidate bases
+    `Binv` (C, 4, 4) (inverted), by the closed form or the neighbour search (`settings`);
+    `world_checker` the `CollisionChecker` of a world-frame scene, else None (`valid` as is)."""
+    from tqdm.auto import tqdm
+
+    chain = as_chain(robot)
+    solver = get_solver("closed_form" if method == "exact" else "search")
+    for m in tqdm(range(len(T)), unit="target", desc="base placement", disable=not progress, leave=False):
+        Tm = Binv @ T[m]  # (C, 4, 4): the target in each candidate's base frame
+        if world_checker is not None:
+            valid = _from_its_base(robot, world_checker, T[m])
+        if method == "exact":
+            reached[:, m] = solver.reachable(robot, Tm, None, valid)
+        else:
+            res = solver.solve(chain, Tm, settings, valid, neighbours=nb)
+            reached[:, m] = res.success
+            qsol[:, m] = res.q
+
+
 def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.0, 1.0),
                    y: tuple[float, float] = (-1.0, 1.0), *, step: float = 0.1, yaws: int = 8, z0: float = 0.0,
                    method: str = "auto", ik: dict | None = None, seed: int = 0,
@@ -131,45 +203,8 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
     (`MAX_TARGETS` targets, `MAX_YAWS` headings, `MAX_CANDIDATES` candidate bases)
     and a `MemoryError` a problem whose solutions would not fit in half the memory available.
     """
-    if not isinstance(robot, (DHRobot, SerialChain)):
-        raise TypeError(f"robot must be a DHRobot or a SerialChain, got {type(robot).__name__}")
-    if robot.batch_shape != ():
-        raise ValueError(f"base placement takes one arm, got a batch of shape {robot.batch_shape}")
-    T = check_rigid("targets", targets)
-    if T.ndim == 2:
-        T = T[None]
-    if T.ndim != 3 or len(T) == 0:
-        raise ValueError(f"targets must have shape (M, 4, 4) with M >= 1, got {T.shape}")
-    xr, yr = _range("x", x), _range("y", y)
-    if isinstance(step, bool) or not (np.isscalar(step) and np.isfinite(step) and step > 0):
-        raise ValueError(f"step must be positive and finite, got {step!r}")
-    if isinstance(yaws, bool) or not isinstance(yaws, (int, np.integer)) or yaws < 1:
-        raise ValueError(f"yaws must be a positive integer (the number of base headings), got {yaws!r}")
-    if yaws > MAX_YAWS:
-        raise ValueError(f"yaws must be at most {MAX_YAWS} (headings 0.1° apart; finer ones only multiply the work), "
-                         f"got {yaws}")
-    if len(T) > MAX_TARGETS:
-        raise ValueError(f"at most {MAX_TARGETS} targets (each is one map over every candidate base, 1 to 10 s on "
-                         f"one core), got {len(T)}")
-    z0 = float(_triple("z0", z0)[0])
-    method = resolve_method(robot, method)
-    with np.errstate(over="ignore"):  # counted in floating point: a 1e-300 step must not wrap an integer
-        counts = [np.floor((r[1] - r[0]) / step + 0.5) + 1.0 for r in (xr, yr)]
-        total = float(counts[0] * counts[1] * yaws)
-    if not total <= MAX_CANDIDATES:
-        raise ValueError(f"a region of {counts[0]:.3g} x {counts[1]:.3g} positions x {yaws} headings is {total:.3g} "
-                         f"candidate bases, more than {MAX_CANDIDATES:.0e} (each holds a pose and a solution per "
-                         "target); use a larger step or a smaller region")
-    _check_fits(int(total) * (len(T) * (8 * robot.n + 1) + 512),
-                f"{int(total)} candidate bases x {len(T)} targets")
-    valid = _predicate(robot, collision)
-    scene = getattr(collision, "scene", None)
-    world = scene is not None and any(ob.frame == "world" for ob in scene.obstacles)
-    if world and not callable(getattr(collision, "at_bases", None)):
-        raise ValueError("base placement moves the base under world-frame obstacles: give a "
-                         "wsmap.collision.CollisionChecker (it checks each candidate base) or base-frame obstacles")
-    if world and any(ob.frame == "base" for ob in scene.obstacles):
-        raise ValueError("base placement takes world-frame or base-frame obstacles, not both in one scene")
+    T, xr, yr, z0, method = _check_placement(robot, targets, x, y, step, yaws, z0, method)
+    valid, world = _check_collision(robot, collision)
 
     xs = np.arange(xr[0], xr[1] + step * 0.5, step)
     ys = np.arange(yr[0], yr[1] + step * 0.5, step)
@@ -187,22 +222,8 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
     # neighbours over (x, y, yaw): the yaw axis scaled so one heading step is one position step
     coords = np.stack([cx, cy, cyaw / (2 * np.pi / yaws) * step], axis=1)
     nb = node_neighbours(coords) if C > 1 else np.full((C, 0), -1, dtype=np.int64)
-    chain = as_chain(robot)
-    settings = {**MAP_SETTINGS, **(ik or {})}
-    for key in ("solver", "chunk", "progress"):
-        settings.pop(key, None)
-    from tqdm.auto import tqdm
-
-    for m in tqdm(range(M), unit="target", desc="base placement", disable=not progress, leave=False):
-        Tm = Binv @ T[m]  # (C, 4, 4): the target in each candidate's base frame
-        if world:
-            valid = _from_its_base(robot, collision, T[m])
-        if method == "exact":
-            reached[:, m] = _exact(robot, Tm, valid)
-        else:
-            res = map_search(chain, Tm, nb, seed=seed, accept=valid, **settings)
-            reached[:, m] = res.success
-            qsol[:, m] = res.q
+    settings = None if method == "exact" else search_settings(ik, seed=seed)
+    _solve_targets(robot, T, Binv, nb, method, settings, valid, collision if world else None, progress, reached, qsol)
     score = reached.mean(axis=1)
     centre = np.hypot(cx - xr.mean(), cy - yr.mean())
     order = np.lexsort((np.arange(C), centre, -score))
@@ -211,7 +232,7 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
         # the solutions of the best base from the closed form, for its reached targets
         if world:
             valid = (lambda q: collision.at_bases(q, B[best])) if collision is not None else None
-        _, q_best = _exact(robot, Binv[best] @ T, valid, True)
+        q_best = get_solver("closed_form").solve(robot, Binv[best] @ T, None, valid).q
     else:
         q_best = qsol[best]
     return Placement(poses=B[order], x=cx[order], y=cy[order], yaw=cyaw[order], score=score[order],

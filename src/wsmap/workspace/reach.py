@@ -25,11 +25,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kinematics import DHRobot, SerialChain, as_chain, map_search, require_closed_form, require_spherical_wrist
-from ..kinematics.ik.search import MAP_SETTINGS
+from ..kinematics import DHRobot, SerialChain, as_chain, require_closed_form, require_spherical_wrist
+from ..kinematics.ik.closed_forms.spherical_wrist import spherical_wrist_manipulability
+from ..kinematics.ik.settings import MAP_SETTINGS
+from ..kinematics.ik.solvers import get_solver
 from .._progress import check_progress, progress_bar
-from .grids import _check_fits, node_neighbours
-from .maps import _check_choice, _check_nodes, _exact, _predicate, _search_settings, resolve_method, target_poses
+from .grids import check_fits, node_neighbours
+from .maps import check_choice, check_nodes, configuration_predicate, resolve_method, search_settings, target_poses
 from .orientations import check_rotations, continuation_order
 from typing import TYPE_CHECKING
 
@@ -79,7 +81,7 @@ def position_map(robot: Arm, nodes: ArrayLike, *, samples: int = 20000, seed: in
     on stderr of the nodes settled) or a callable `progress(n)` (`wsmap._progress`).
     """
     robot = _check_arm(robot)
-    nodes = _check_nodes("nodes", nodes)
+    nodes = check_nodes("nodes", nodes)
     check_progress(progress)
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
         raise ValueError(f"samples must be a non-negative integer, got {samples!r}")
@@ -103,8 +105,9 @@ def position_map(robot: Arm, nodes: ArrayLike, *, samples: int = 20000, seed: in
         q_init[node[order][first]] = q[order][first]
     T = target_poses(nodes, (0.0, 0.0, 0.0), "standard")
     with progress_bar(progress, N, desc="reach map") as update:
-        res = map_search(chain, T, node_neighbours(nodes), q_init=q_init, position_only=True, seed=seed,
-                         progress=update, **_search_settings(ik))
+        settings = search_settings(ik, seed=seed).replace(position_only=True)
+        res = get_solver("search").solve(chain, T, settings, neighbours=node_neighbours(nodes), q_init=q_init,
+                                         progress=update)
     return (res.success, np.where(res.success[:, None], res.q, np.nan)) if return_q else res.success
 
 
@@ -133,15 +136,15 @@ def reachability_index(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, *,
     also returns the solutions `(N, K, n)` (NaN where a pose is not reached), after the bits.
     """
     robot = _check_arm(robot)
-    nodes = _check_nodes("nodes", nodes)
+    nodes = check_nodes("nodes", nodes)
     R = check_rotations("orientations", orientations)
     N, K = len(nodes), len(R)
     method = resolve_method(robot, method)
     # the bits, and numerically every node's solution at every orientation (the continuation's starts)
     per = 1 + (0 if method == "exact" else 8 * robot.n) + (8 * robot.n if return_q else 0)
-    _check_fits(N * K * per, f"an index of {N} nodes x {K} orientations")
+    check_fits(N * K * per, f"an index of {N} nodes x {K} orientations")
     check_progress(progress)
-    valid = _predicate(robot, collision)
+    valid = configuration_predicate(robot, collision)
     total = N * K + (N if method == "numerical" else 0)
     with progress_bar(progress, total, unit="pose", desc=f"{method} index") as update:
         bits, qs = _index_bits(robot, nodes, R, method, ik, seed, update, valid, return_q)
@@ -158,43 +161,56 @@ def _index_bits(robot, nodes, R, method, ik, seed, update, valid, return_q):
     qs = np.full((N, K, robot.n), np.nan) if return_q else None
     update = update or (lambda n: None)
     if method == "exact":
-        # blocks of orientations: ~1e6 poses per closed-form call, and about 20 updates of the bar
-        block = max(1, min((1 << 20) // max(N, 1), -(-K // 20)))
-        for k0 in range(0, K, block):
-            Rk = R[k0 : k0 + block]
-            T = np.zeros((len(Rk), N, 4, 4))
-            T[..., :3, :3] = Rk[:, None]
-            T[..., :3, 3] = nodes[None]
-            T[..., 3, 3] = 1.0
-            if valid is None and not return_q:
-                bits[:, k0 : k0 + block] = _exact(robot, T.reshape(-1, 4, 4)).reshape(len(Rk), N).T
-            else:
-                b, qb = _exact(robot, T.reshape(-1, 4, 4), valid, True)
-                bits[:, k0 : k0 + block] = b.reshape(len(Rk), N).T
-                if return_q:
-                    qs[:, k0 : k0 + block] = np.swapaxes(qb.reshape(len(Rk), N, -1), 0, 1)
-            update(len(Rk) * N)
+        _index_exact(robot, nodes, R, update, valid, bits, qs)
     else:
-        chain = as_chain(robot)
-        settings = _search_settings(ik, INDEX_SETTINGS)
-        reach = position_map(chain, nodes, ik=ik, seed=seed, progress=update)
-        idx = np.flatnonzero(reach)
-        update((N - idx.size) * K)
-        if idx.size:
-            nb = _subset_neighbours(node_neighbours(nodes), reach)
-            sol = np.full((K, idx.size, chain.n), np.nan)
-            order, parent = continuation_order(R)
-            for k, par in zip(order, parent):
-                T = np.zeros((idx.size, 4, 4))
-                T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = R[k], nodes[idx], 1.0
-                res = map_search(chain, T, nb, q_init=None if par < 0 else sol[par], seed=seed, accept=valid,
-                                 **settings)
-                bits[idx, k] = res.success
-                sol[k][res.success] = res.q[res.success]
-                update(idx.size)
-            if return_q:
-                qs[idx] = np.swapaxes(sol, 0, 1)
+        _index_search(robot, nodes, R, ik, seed, update, valid, bits, qs)
     return bits, qs
+
+
+def _index_exact(robot, nodes, R, update, valid, bits, qs):
+    """`_index_bits` by the closed form, into `bits` and `qs` (unless None)."""
+    N, K = len(nodes), len(R)
+    closed_form = get_solver("closed_form")
+    # blocks of orientations: ~1e6 poses per closed-form call, and about 20 updates of the bar
+    block = max(1, min((1 << 20) // max(N, 1), -(-K // 20)))
+    for k0 in range(0, K, block):
+        Rk = R[k0 : k0 + block]
+        T = np.zeros((len(Rk), N, 4, 4))
+        T[..., :3, :3] = Rk[:, None]
+        T[..., :3, 3] = nodes[None]
+        T[..., 3, 3] = 1.0
+        if valid is None and qs is None:
+            bits[:, k0 : k0 + block] = closed_form.reachable(robot, T.reshape(-1, 4, 4)).reshape(len(Rk), N).T
+        else:
+            sol = closed_form.solve(robot, T.reshape(-1, 4, 4), None, valid)
+            bits[:, k0 : k0 + block] = sol.success.reshape(len(Rk), N).T
+            if qs is not None:
+                qs[:, k0 : k0 + block] = np.swapaxes(sol.q.reshape(len(Rk), N, -1), 0, 1)
+        update(len(Rk) * N)
+
+
+def _index_search(robot, nodes, R, ik, seed, update, valid, bits, qs):
+    """`_index_bits` by the neighbour search, into `bits` and `qs` (unless None)."""
+    N, K = len(nodes), len(R)
+    chain = as_chain(robot)
+    settings = search_settings(ik, INDEX_SETTINGS, seed=seed)
+    search = get_solver("search")
+    reach = position_map(chain, nodes, ik=ik, seed=seed, progress=update)
+    idx = np.flatnonzero(reach)
+    update((N - idx.size) * K)
+    if idx.size:
+        nb = _subset_neighbours(node_neighbours(nodes), reach)
+        sol = np.full((K, idx.size, chain.n), np.nan)
+        order, parent = continuation_order(R)
+        for k, par in zip(order, parent):
+            T = np.zeros((idx.size, 4, 4))
+            T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = R[k], nodes[idx], 1.0
+            res = search.solve(chain, T, settings, valid, neighbours=nb, q_init=None if par < 0 else sol[par])
+            bits[idx, k] = res.success
+            sol[k][res.success] = res.q[res.success]
+            update(idx.size)
+        if qs is not None:
+            qs[idx] = np.swapaxes(sol, 0, 1)
 
 
 def dexterous_map(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, **kw) -> np.ndarray:
@@ -229,8 +245,8 @@ def manipulability_map(robot: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0, 0.0,
     callable `progress(n)` (`wsmap._progress`).
     """
     robot = _check_arm(robot)
-    nodes = _check_nodes("nodes", nodes)
-    _check_choice("convention", convention, ("paper", "standard"))
+    nodes = check_nodes("nodes", nodes)
+    check_choice("convention", convention, ("paper", "standard"))
     method = resolve_method(robot, method)
     check_progress(progress)
     T = target_poses(nodes, rpy, convention)
@@ -241,7 +257,7 @@ def manipulability_map(robot: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0, 0.0,
 def _manipulability(robot, nodes, T, method, ik, seed, update):
     out = np.zeros(len(nodes))
     if method == "exact":
-        sol = require_closed_form(robot).solve(robot, T)
+        sol = require_closed_form(robot).solve(robot, T)  # every branch: the best of them counts
         q, valid = sol.q, sol.success
         rows = np.flatnonzero(valid.any(axis=1))
         if rows.size:
@@ -251,7 +267,8 @@ def _manipulability(robot, nodes, T, method, ik, seed, update):
             update(len(nodes))
         return out
     chain = as_chain(robot)
-    res = map_search(chain, T, node_neighbours(nodes), seed=seed, progress=update, **_search_settings(ik))
+    res = get_solver("search").solve(chain, T, search_settings(ik, seed=seed), neighbours=node_neighbours(nodes),
+                                     progress=update)
     if res.success.any():
         out[res.success] = yoshikawa(chain.jacob0(res.q[res.success]))
     return out
@@ -261,45 +278,6 @@ def _manipulability(robot, nodes, T, method, ik, seed, update):
 #: Arms x nodes per block of `manipulability_maps`: about 20 float64 temporaries of this size stay
 #: in cache (2.3 ms per 9261-node map on one thread against 3.7 ms with blocks of 2**20).
 _MANIP_BLOCK = 1 << 16
-
-
-def _manipulability_block(d, a, T, atol):
-    """The exact map of arms `d`, `a` (b, 6) at poses `T` (N, 4, 4): (b, N)."""
-    p, approach = T[:, :3, 3], T[:, :3, 2]
-    d1, d3, d4 = d[:, 0:1], d[:, 2:3], d[:, 3:4]
-    a2, a3 = a[:, 1:2], a[:, 2:3]
-    px, py, pz = p[:, 0], p[:, 1], p[:, 2] - d1
-    r2 = px * px + py * py
-    # The reach tests and tolerances are ikine_spherical_wrist's, so the support is the same map.
-    reach_sh = r2 >= d3 * d3 - atol
-    x1 = np.sqrt(np.maximum(r2 - d3 * d3, 0.0))  # |planar reach in the arm plane|, equal on both shoulders
-    L = np.hypot(a3, d4)
-    gamma = np.arctan2(d4, a3)
-    rho2 = x1 * x1 + pz * pz
-    denom = 2.0 * a2 * L
-    degenerate = denom < 1e-12
-    c_psi = np.clip(np.where(degenerate, 1.0, (rho2 - a2 * a2 - L * L) / np.where(degenerate, 1.0, denom)), -1.0, 1.0)
-    s_psi = np.sqrt(1.0 - c_psi * c_psi)
-    reach_el = (rho2 >= (a2 - L) ** 2 - atol) & (rho2 <= (a2 + L) ** 2 + atol)
-    # The wrist joints' axes meet at the flange (d6 = 0), so J is block triangular and
-    # |det J| = |det J_arm| · |det J_wrist|: the wrist centre's 3x3 Jacobian in q1..q3,
-    # a2 · L·|sin ψ| · |x1| (elbow and shoulder singularities), the same on all four arm branches,
-    # times |sin q5| (wrist), which differs between them; the wrist flip keeps |sin q5|.
-    arm_det = a2 * L * s_psi * x1
-    r = np.sqrt(np.maximum(r2, 1e-300))
-    phi = np.arctan2(py, px)
-    beta = np.arcsin(np.clip(d3 / r, -1.0, 1.0))
-    best = np.zeros(arm_det.shape)
-    for q1, xs in ((phi + beta, x1), (phi + np.pi - beta, -x1)):
-        c1, s1 = np.cos(q1), np.sin(q1)
-        for sign in (1.0, -1.0):
-            ps = sign * s_psi
-            q23 = np.arctan2(pz, xs) - np.arctan2(L * ps, a2 + L * c_psi) + np.arctan2(ps, c_psi) - gamma
-            s23 = np.sin(q23)
-            # joint 4's axis z3 = (-c1·s23, -s1·s23, c23); cos q5 is its cosine with the approach
-            c5 = -c1 * s23 * approach[:, 0] - s1 * s23 * approach[:, 1] + np.cos(q23) * approach[:, 2]
-            best = np.maximum(best, np.sqrt(np.maximum(1.0 - c5 * c5, 0.0)))
-    return np.where(reach_sh & reach_el, arm_det * best, 0.0)
 
 
 def manipulability_maps(arms: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0, 0.0, 0.0), *, convention: str = "standard",
@@ -331,13 +309,13 @@ def manipulability_maps(arms: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0, 0.0,
     require_spherical_wrist(arms)
     if arms.qlim is not None:
         raise ValueError("manipulability_maps is for arms without joint limits; use manipulability_map per arm")
-    nodes = _check_nodes("nodes", nodes)
-    _check_choice("convention", convention, ("paper", "standard"))
+    nodes = check_nodes("nodes", nodes)
+    check_choice("convention", convention, ("paper", "standard"))
     T = target_poses(nodes, rpy, convention)
     batch, N = arms.batch_shape, len(nodes)
     d, a = arms.d.reshape(-1, 6), arms.a.reshape(-1, 6)
     out = np.zeros((d.shape[0], N))
     step = max(1, _MANIP_BLOCK // max(N, 1))
     for s in range(0, d.shape[0], step):
-        out[s : s + step] = _manipulability_block(d[s : s + step], a[s : s + step], T, atol)
+        out[s : s + step] = spherical_wrist_manipulability(d[s : s + step], a[s : s + step], T, atol)
     return out.reshape(batch + (N,))

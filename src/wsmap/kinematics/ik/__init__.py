@@ -14,6 +14,12 @@ Every solver returns one answer type, `IKSolution` (`q`, `success`,
 * `.lm` — `ikine_LM`, the paper's one-start LM (DH arms);
 * `.search` — `ikine_search` and `map_search`, the multi-start reachability search
   with joint limits inside it, every success confirmed by forward kinematics;
+* `.settings` — `SearchSettings`, the numerical search's settings as one typed record (its
+  `digest` the settings hash);
+* `.solver` — the `Solver` protocol and its registry `SOLVERS` (`get_solver`,
+  `solver_for`): one interface for the closed forms and the numerical solvers;
+* `.solvers` — one module per solver, each registering itself (closed form, neighbour search,
+  independent search, the paper's LM); a new solver is a new module there;
 * `.reach_filter` — the search's sound pre-filters (targets proven out of reach);
 * `.kernel` — the bridge to the compiled LM kernel (`wsmap.kinematics.lm_compiled`);
 * `.memo` — content-keyed memos of what the solvers derive from an arm;
@@ -33,7 +39,10 @@ from .closed_forms.ur import UR_ALPHA, URParameters, ikine_ur, is_ur_type, requi
 from .lm import ikine_LM
 from .registry import ELBOW, SHOULDER, WRIST, ClosedForm, closed_form_for, closed_forms, register, require_closed_form
 from .search import DEFAULT_STARTS, FK_CONFIRM_TOL, MAP_SETTINGS, ikine_search, map_search
+from .settings import SearchSettings
 from .solution import IKReason, IKSolution
+from .solver import SOLVERS, Solver, get_solver, solver_for
+from . import solvers  # noqa: E402, F401, I001  (imports and so registers every solver)
 
 __all__ = [
     "IKSolution", "IKReason",
@@ -42,4 +51,5 @@ __all__ = [
     "spherical_wrist_reachable", "wrist_centre_reachable",
     "UR_ALPHA", "URParameters", "ikine_ur", "is_ur_type", "require_ur_type", "ur_parameters", "ur_reachable",
     "ikine_LM", "ikine_search", "map_search", "DEFAULT_STARTS", "FK_CONFIRM_TOL", "MAP_SETTINGS",
+    "SearchSettings", "Solver", "SOLVERS", "get_solver", "solver_for",
 ]

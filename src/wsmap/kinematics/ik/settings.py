@@ -36,12 +36,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .solution import MIN_TOL
+from .solver import SOLVERS
 
-__all__ = ["SOLVERS", "MAP_SETTINGS", "DEFAULT_STARTS", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "FK_CONFIRM_TOL",
+__all__ = ["MAP_SETTINGS", "DEFAULT_STARTS", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "FK_CONFIRM_TOL",
            "SearchSettings", "as_settings"]
-
-#: Numerical solvers, by name (see the module notes); the first is the default.
-SOLVERS = ("search", "independent", "paper")
 
 #: Starts per target of `ikine_search`, the maps' numerical path and `reachable`. Measured
 #: with `benchmarks/maps/bench_recall.py` (21³ grid; PUMA560 with and without limits against the closed
@@ -74,17 +72,6 @@ FK_CONFIRM_TOL = 1e-6
 MAP_SETTINGS = dict(starts=0, seeds=2, retry=4, hole_retry=16, ilimit=60, rlimit=10, gtol=1e-4, seed_free_pass=False,
                     border_starts=DEFAULT_STARTS)
 
-_COMMON = dict(tol=1e-10, lam=0.1, q0=None)
-#: Per solver, the fields it reads and their defaults.
-_DEFAULTS = {
-    "search": {**_COMMON, **MAP_SETTINGS, "seed": 0, "joint_limits": True, "confirm_tol": FK_CONFIRM_TOL,
-               "limit_bound": True, "accept_retry": 16, "position_only": False},
-    "independent": {**_COMMON, "starts": DEFAULT_STARTS, "seed": 0, "ilimit": DEFAULT_ILIMIT, "rlimit": DEFAULT_RLIMIT,
-                    "joint_limits": True, "confirm_tol": FK_CONFIRM_TOL, "position_only": False, "chunk": None},
-    "paper": {**_COMMON, "ilimit": 500, "rlimit": 100, "chunk": None},
-}
-#: Fields a solver accepts and drops (the maps' `ik` dicts always did).
-_DROPPED = {"search": ("chunk",), "independent": (), "paper": ("seed", "starts")}
 _COUNTS = {"starts": 0, "seeds": 0, "retry": 0, "hole_retry": 0, "border_starts": 0, "accept_retry": 0,
            "ilimit": 0, "rlimit": 0, "chunk": 1}
 _FLAGS = ("joint_limits", "seed_free_pass", "limit_bound", "position_only")
@@ -97,7 +84,8 @@ class SearchSettings:
     Attributes
     ----------
     solver : str
-        `"search"` (default), `"independent"` or `"paper"` (`SOLVERS`).
+        `"search"` (default), `"independent"`, `"paper"`, or another numerical solver registered in
+        `wsmap.kinematics.ik.solvers`.
     starts : int
         Random starts per node after start 0 (`"search"`: in the first pass, default 0;
         `"independent"`: starts in all, default `DEFAULT_STARTS`; `"paper"`: 1).
@@ -105,8 +93,8 @@ class SearchSettings:
         The search's neighbours' solutions per node and wave, retries next to solved nodes, retries
         in a hole, starts of the border search (0: off), more starts where `accept` refused every
         solution (`wsmap.kinematics.ik.search.map_search`).
-    seed : int or None
-        Seed of the random starts (>= 0, below 2**64; None: a fresh random one, not reproducible).
+    seed : int
+        Seed of the random starts (>= 0, below 2**64; default 0).
     q0 : tuple of float or None
         Start 0 (rad or m per joint; None: zeros).
     tol : float
@@ -149,16 +137,14 @@ class SearchSettings:
     chunk: int | None = None
 
     def __post_init__(self):
-        if self.solver not in SOLVERS:
-            raise ValueError(f"unknown solver {self.solver!r}; choose one of {', '.join(SOLVERS)}")
-        if self.solver == "paper" and self.starts not in (None, 1):
-            raise ValueError(f"the paper's solver has one start (q0), got starts={self.starts!r}; use solver 'search'")
-        defaults = _DEFAULTS[self.solver]
+        solver = _numerical_solver(self.solver)
+        solver.check_given({f.name: getattr(self, f.name) for f in dataclasses.fields(self)})
+        defaults, dropped = solver.defaults, solver.dropped
         for f in dataclasses.fields(self):
             name, value = f.name, getattr(self, f.name)
             if name == "solver":
                 continue
-            if name in _DROPPED[self.solver]:
+            if name in dropped:
                 value = None
             elif name not in defaults:
                 if value is not None:
@@ -192,7 +178,8 @@ class SearchSettings:
     def to_dict(self) -> dict:
         """The fields the solver reads, as plain JSON values (`q0` a list)."""
         out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
-        out = {k: v for k, v in out.items() if v is not None or k in _DEFAULTS[self.solver]}
+        reads = _numerical_solver(self.solver).defaults
+        out = {k: v for k, v in out.items() if v is not None or k in reads}
         if out.get("q0") is not None:
             out["q0"] = list(out["q0"])
         return out
@@ -216,6 +203,14 @@ class SearchSettings:
         return None if self.q0 is None else np.asarray(self.q0, dtype=np.float64)
 
 
+def _numerical_solver(name):
+    """The registered numerical solver `name` (`wsmap.kinematics.ik.solvers`), or a `ValueError`."""
+    if not isinstance(name, str) or name not in SOLVERS or not SOLVERS.get(name).numerical:
+        known = [s.name for s in SOLVERS.records() if s.numerical]
+        raise ValueError(f"unknown solver {name!r}; choose one of {', '.join(known)}")
+    return SOLVERS.get(name)
+
+
 def _checked(name, value):
     if value is None:
         return None
@@ -227,8 +222,7 @@ def _checked(name, value):
         return bool(value)
     if name == "seed":
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value < 2**64:
-            raise ValueError(f"seed must be a non-negative integer below 2**64 (or None for a random one), "
-                             f"got {value!r}")
+            raise ValueError(f"seed must be a non-negative integer below 2**64, got {value!r}")
         return int(value)
     if name == "q0":
         q = np.asarray(value, dtype=np.float64)

@@ -21,7 +21,7 @@ if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap.kinematics.chain import Arm
 
 __all__ = ["SPHERICAL_WRIST_ALPHA", "is_spherical_wrist", "require_spherical_wrist", "wrist_centre_reachable",
-           "ikine_spherical_wrist", "spherical_wrist_reachable"]
+           "ikine_spherical_wrist", "spherical_wrist_reachable", "spherical_wrist_manipulability"]
 
 
 # The spherical-wrist family of the paper (PUMA-type geometry, Corke's `ikine6s`):
@@ -192,6 +192,58 @@ def spherical_wrist_reachable(robot: DHRobot, T: ArrayLike) -> np.ndarray:
     if robot.qlim is None:
         return wrist_centre_reachable(robot, T[..., :3, 3])
     return ikine_spherical_wrist(robot, T).success.any(axis=-1)
+
+
+def spherical_wrist_manipulability(d: np.ndarray, a: np.ndarray, T: np.ndarray, atol: float = 1e-9) -> np.ndarray:
+    """The exact best Yoshikawa manipulability `√det(J Jᵀ)` over the 8 branches of unlimited
+    spherical-wrist arms (the paper's DH family, `SPHERICAL_WRIST_ALPHA`, no tool) at poses `T`.
+
+    Parameters
+    ----------
+    d, a : (b, 6) the arms' DH offsets and lengths (m)
+    T : (N, 4, 4) flange poses in the base frame (m)
+    atol : the reach tolerance of `ikine_spherical_wrist` (so the support is the closed form's map)
+
+    Returns
+    -------
+    (b, N) float64, m³ (per rad³ of joint motion), 0 where no branch reaches the pose. `|det J|`
+    factorises for the family (comments in the code), so no branch or Jacobian is built.
+    """
+    p, approach = T[:, :3, 3], T[:, :3, 2]
+    d1, d3, d4 = d[:, 0:1], d[:, 2:3], d[:, 3:4]
+    a2, a3 = a[:, 1:2], a[:, 2:3]
+    px, py, pz = p[:, 0], p[:, 1], p[:, 2] - d1
+    r2 = px * px + py * py
+    # The reach tests and tolerances are ikine_spherical_wrist's, so the support is the same map.
+    reach_sh = r2 >= d3 * d3 - atol
+    x1 = np.sqrt(np.maximum(r2 - d3 * d3, 0.0))  # |planar reach in the arm plane|, equal on both shoulders
+    L = np.hypot(a3, d4)
+    gamma = np.arctan2(d4, a3)
+    rho2 = x1 * x1 + pz * pz
+    denom = 2.0 * a2 * L
+    degenerate = denom < 1e-12
+    c_psi = np.clip(np.where(degenerate, 1.0, (rho2 - a2 * a2 - L * L) / np.where(degenerate, 1.0, denom)), -1.0, 1.0)
+    s_psi = np.sqrt(1.0 - c_psi * c_psi)
+    reach_el = (rho2 >= (a2 - L) ** 2 - atol) & (rho2 <= (a2 + L) ** 2 + atol)
+    # The wrist joints' axes meet at the flange (d6 = 0), so J is block triangular and
+    # |det J| = |det J_arm| · |det J_wrist|: the wrist centre's 3x3 Jacobian in q1..q3,
+    # a2 · L·|sin ψ| · |x1| (elbow and shoulder singularities), the same on all four arm branches,
+    # times |sin q5| (wrist), which differs between them; the wrist flip keeps |sin q5|.
+    arm_det = a2 * L * s_psi * x1
+    r = np.sqrt(np.maximum(r2, 1e-300))
+    phi = np.arctan2(py, px)
+    beta = np.arcsin(np.clip(d3 / r, -1.0, 1.0))
+    best = np.zeros(arm_det.shape)
+    for q1, xs in ((phi + beta, x1), (phi + np.pi - beta, -x1)):
+        c1, s1 = np.cos(q1), np.sin(q1)
+        for sign in (1.0, -1.0):
+            ps = sign * s_psi
+            q23 = np.arctan2(pz, xs) - np.arctan2(L * ps, a2 + L * c_psi) + np.arctan2(ps, c_psi) - gamma
+            s23 = np.sin(q23)
+            # joint 4's axis z3 = (-c1·s23, -s1·s23, c23); cos q5 is its cosine with the approach
+            c5 = -c1 * s23 * approach[:, 0] - s1 * s23 * approach[:, 1] + np.cos(q23) * approach[:, 2]
+            best = np.maximum(best, np.sqrt(np.maximum(1.0 - c5 * c5, 0.0)))
+    return np.where(reach_sh & reach_el, arm_det * best, 0.0)
 
 
 register(ClosedForm(name="spherical_wrist", description="the spherical-wrist DH family",
