@@ -13,7 +13,9 @@
   fixed links with `<collision>` elements, in the world frame or the frame of the link the arm
   is mounted on; `load_scene` by the suffix `.urdf`);
 * `.checks` — `CollisionChecker`, a configuration predicate (a batch of `q` → bool
-  free): spheres first, coal's exact test where they say "maybe".
+  free): spheres first, coal's exact test where they say "maybe";
+* `.fields` — checked numbers of URDF attributes and `<origin>` elements and of scene-file values;
+  `.errors` — `CollisionError`, raised by all of them.
 
 The maps take the checker as `collision=` (`wsmap.workspace.constant_orientation_map`,
 `wsmap.reachable`, `wsmap.workspace.reachability_index`): a node counts only with a

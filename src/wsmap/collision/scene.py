@@ -19,19 +19,20 @@ A scene file (`load_scene`) is YAML or JSON::
       - {shape: sphere, radius: 0.1, xyz: [0.5, -0.3, 0.5], frame: world}
       - {shape: mesh, file: bowl.stl, scale: 1.0, xyz: [0.5, 0, 0.1]}
 
-`xyz` (m) and `rpy` (rad, URDF's fixed-axis roll-pitch-yaw) place an obstacle; a mesh file
-is read relative to the scene file. Anything else (an unknown shape or key, a NaN or negative size,
+`xyz` (m) and `rpy` (rad, URDF's fixed-axis roll-pitch-yaw) place an obstacle; the other keys are
+its shape kind's (`ShapeKind.scene_keys`, `wsmap.collision.shapes`); a mesh file is read relative to
+the scene file. Anything else (an unknown shape or key, a NaN or negative size,
 a file that is not YAML/JSON) is a `CollisionError` naming the
 file and the problem, before any work.
 
 A file ending in `.urdf` is read as the URDF of a work cell (`scene_from_urdf`, below).
 
-**Work cells.** A work-cell URDF (`scene_from_urdf`) is a tree of links joined by `fixed` joints (no arm in it: the arm comes from its
-own URDF, MJCF, DH table or name); every `<collision>` element of every link becomes one
-`Obstacle` of a `Scene`. The shapes are
-read by the same reader as an arm's collision elements (`wsmap.collision.geometry`: box,
-cylinder, sphere, capsule; meshes through trimesh, `package://`, `file://` and relative paths
-looked up as for an arm).
+**Work cells.** A work-cell URDF (`scene_from_urdf`) is a tree of links joined by `fixed` joints
+(no arm in it: the arm comes from its own URDF, MJCF, DH table or name); every `<collision>` element
+of every link becomes one `Obstacle` of a `Scene`. The shapes are read by the same reader as an
+arm's collision elements (`wsmap.collision.geometry.urdf_link_shapes`, the shape records of
+`wsmap.collision.shapes`: box, cylinder, sphere, capsule; meshes through trimesh, `package://`,
+`file://` and relative paths looked up as for an arm).
 
 **Frames.** `T_link` is a link's pose in the frame of the cell's root link (the product of the
 fixed joints' `<origin>` from the root down); a collision element's pose is
