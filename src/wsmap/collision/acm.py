@@ -22,7 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .geometry import CollisionError, CollisionModel
+from .errors import CollisionError
+from .geometry import CollisionModel
 
 __all__ = ["REASONS", "ACM", "build_acm", "DEFAULT_SAMPLES"]
 
