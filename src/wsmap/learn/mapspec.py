@@ -33,7 +33,8 @@ from ..kinematics import DHRobot
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import ArrayLike, Dataset
+    from wsmap._typing import ArrayLike
+    from wsmap.datasets.store import Dataset
 
 __all__ = [
     "make_map_spec",
