@@ -33,7 +33,7 @@ import sys
 import threading
 
 from ..paper.pipeline import NotebookError
-from . import data, map, paper, place
+from . import data, map, paper, place, study
 from .arguments import Parser, number
 
 __all__ = ["main", "number"]
@@ -44,9 +44,9 @@ def _parser():
 
     p = Parser(prog="wsmap", description="Manipulator workspace maps, classical and learned.")
     p.add_argument("--version", action="version", version=f"wsmap {__version__}")
-    sub = p.add_subparsers(dest="command", required=True, metavar="{map,place,robots,data,paper}",
+    sub = p.add_subparsers(dest="command", required=True, metavar="{map,place,study,robots,data,paper}",
                            parser_class=Parser)
-    for module in (map, place):
+    for module in (map, place, study):
         module.add_parser(sub)
     data.add_robots_parser(sub)
     data.add_parser(sub)

@@ -1,0 +1,325 @@
+"""The reach study job: can this arm, placed here, do this job on this workpiece without hitting anything.
+
+A study file (YAML or JSON; `docs/study.md` has the whole format) names the arm or a catalogue of
+arms, the TCP, the targets (a workpiece mesh or point cloud with normals, or a pose CSV), the
+orientation freedom of the tool, the scores, the base (one pose or a region to search) and the
+outputs. `StudyJob.from_file(path)` reads and checks every field (one line naming the file and the
+key for every problem, before any work); `run()` evaluates every arm (`wsmap.workspace.study`);
+`save(result)` writes the study file (`.npz`, `wsmap.workspace.study_files.load_study`) and the
+pictures. The same file and seed give the same bytes.
+
+Example::
+
+    robot: ur5e                       # or {urdf: arm.urdf, ee: tool0}, {mjcf: ..., ee: ...}, {name: panda}
+    tcp: [0, 0, 0.1, 0, 0, 0]         # x y z (m) r1 r2 r3 (rad) of the TCP in the arm's end frame
+    targets: {poses: picks.csv}       # or {mesh: part.ply, spacing: 0.02, pose: [...], standoff: 0}
+    orientation: {turns: 8}           # the tool free about its axis, every 45 degrees
+    base: {region: {x: [-1, 1], y: [-1, 1], step: 0.1, yaws: 8}, top: 5}
+    outputs: {study: study.npz}
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..collision.sources import CollisionSource
+from ..io import check_outputs
+from ..robots.sources import ArmSource
+from ..workspace.maps import target_poses
+from ..workspace.scores import SCORES
+from ..workspace.study import BaseRegion, evaluate_targets, rank_bases, tool_variants
+from ..workspace.study_files import StudyResult, save_study
+from ..workspace.targets import read_target_csv
+from .config import ConfigError, check_keys, load_config
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ..workspace.workpiece import TargetSet
+
+__all__ = ["StudyJob", "TargetSpec", "OrientationSpec", "BaseSpec", "MAX_STUDY_TARGETS"]
+
+#: The most targets one study takes (each is K IK problems per candidate base).
+MAX_STUDY_TARGETS = 100_000
+_TOP = ("robot", "robots", "tcp", "targets", "orientation", "scores", "base", "collision", "search", "outputs", "seed")
+
+
+def _pose(values, label: str) -> np.ndarray:
+    """A pose from `[x, y, z, r1, r2, r3]` (m, rad; `R = Rx Ry Rz`) or a 4x4 list."""
+    a = np.asarray(values, dtype=np.float64) if isinstance(values, (list, tuple)) else None
+    if a is None or a.shape not in ((6,), (4, 4)) or not np.all(np.isfinite(a)):
+        raise ConfigError(f"{label}: a pose is [x, y, z, r1, r2, r3] (m, rad) or a 4x4 matrix, got {values!r:.80}")
+    return target_poses(a[:3], a[3:], "standard") if a.shape == (6,) else a
+
+
+def _number(value, label: str, *, lo: float = -np.inf, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise ConfigError(f"{label}: must be a finite number, got {value!r:.40}")
+    if (positive and value <= 0) or value < lo:
+        raise ConfigError(f"{label}: must be {'positive' if positive else f'at least {lo}'}, got {value!r}")
+    return float(value)
+
+
+def _count(value, label: str, lo: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < lo:
+        raise ConfigError(f"{label}: must be an integer of at least {lo}, got {value!r:.40}")
+    return value
+
+
+def _range(value, label: str) -> tuple[float, float]:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ConfigError(f"{label}: a range is [lo, hi] (m), got {value!r:.60}")
+    lo, hi = (_number(v, label) for v in value)
+    if lo > hi:
+        raise ConfigError(f"{label}: lo ({lo}) is above hi ({hi})")
+    return lo, hi
+
+
+def _arm(spec, label: str, root: Path) -> ArmSource:
+    """An `ArmSource` from a study's `robot` entry: a name, or a mapping."""
+    if isinstance(spec, str):
+        return ArmSource(robot=spec)
+    check_keys(spec, ("name", "urdf", "mjcf", "ee", "base", "dh", "joint_limits", "qlim_deg"), label=label)
+    dh = spec.get("dh") or {}
+    if dh:
+        check_keys(dh, ("d", "a", "alpha", "offset", "modified"), label=f"{label}.dh", required=("d", "a", "alpha"))
+    path = {k: str(root / spec[k]) if spec.get(k) is not None else None for k in ("urdf", "mjcf")}
+    return ArmSource(robot=spec.get("name"), urdf=path["urdf"], mjcf=path["mjcf"], ee=spec.get("ee"),
+                     base=spec.get("base"), d=dh.get("d"), a=dh.get("a"), alpha=dh.get("alpha"),
+                     offset=dh.get("offset"), modified=bool(dh.get("modified", False)),
+                     joint_limits=spec.get("joint_limits"), qlim_deg=spec.get("qlim_deg"))
+
+
+@dataclass(frozen=True)
+class TargetSpec:
+    """Where the targets come from: exactly one of a workpiece `mesh` (sampled every `spacing` m), a
+    point cloud `points` with normals, or a pose CSV `poses`; `pose` places the workpiece in the
+    world; the tool stands `standoff` m off the surface along the normal."""
+
+    mesh: str | None = None
+    points: str | None = None
+    poses: str | None = None
+    pose: tuple | None = None
+    spacing: float | None = None
+    standoff: float = 0.0
+
+    @classmethod
+    def from_dict(cls, d, label: str, root: Path) -> TargetSpec:
+        check_keys(d, ("mesh", "points", "poses", "pose", "spacing", "standoff"), label=label)
+        given = [k for k in ("mesh", "points", "poses") if d.get(k) is not None]
+        if len(given) != 1:
+            raise ConfigError(f"{label}: give exactly one of mesh, points, poses (got {', '.join(given) or 'none'})")
+        if "mesh" in given and "spacing" not in d:
+            raise ConfigError(f"{label}: a mesh needs its sampling spacing: spacing (m)")
+        pose = None if d.get("pose") is None else tuple(_pose(d["pose"], f"{label}.pose").reshape(-1))
+        return cls(mesh=_path(d, "mesh", root), points=_path(d, "points", root), poses=_path(d, "poses", root),
+                   pose=pose, spacing=None if d.get("spacing") is None else _number(d["spacing"], f"{label}.spacing",
+                                                                                    positive=True),
+                   standoff=_number(d.get("standoff", 0.0), f"{label}.standoff", lo=0.0))
+
+    def load(self) -> TargetSet:
+        """The targets (`wsmap.workspace.workpiece.TargetSet`), files read and checked."""
+        from ..workspace import workpiece
+
+        pose = None if self.pose is None else np.asarray(self.pose).reshape(4, 4)
+        if self.mesh is not None:
+            return workpiece.targets_from_mesh(self.mesh, self.spacing, pose=pose, standoff=self.standoff,
+                                               max_targets=MAX_STUDY_TARGETS)
+        if self.points is not None:
+            return workpiece.targets_from_points(self.points, pose=pose, standoff=self.standoff,
+                                                 max_targets=MAX_STUDY_TARGETS)
+        T = read_target_csv(self.poses, "targets.poses")
+        if pose is not None:
+            T = pose @ T
+        return workpiece.TargetSet(points=T[:, :3, 3].copy(), normals=-T[:, :3, 2].copy(), poses=T,
+                                   moved=np.zeros(len(T)), vertices=None, faces=None, source=str(self.poses))
+
+
+def _path(d, key, root: Path) -> str | None:
+    return None if d.get(key) is None else str(root / str(d[key]))
+
+
+@dataclass(frozen=True)
+class OrientationSpec:
+    """The tool's freedom: `turns` samples about its axis (every `2π / turns`), tilts within a cone
+    of half-angle `cone_deg` on `rings` rings of `per_ring` azimuths (`wsmap.workspace.study.tool_variants`)."""
+
+    turns: int = 1
+    cone_deg: float = 0.0
+    rings: int = 0
+    per_ring: int = 6
+
+    @classmethod
+    def from_dict(cls, d, label: str) -> OrientationSpec:
+        check_keys(d, ("turns", "cone_deg", "rings", "per_ring"), label=label)
+        spec = cls(turns=_count(d.get("turns", 1), f"{label}.turns", 1),
+                   cone_deg=_number(d.get("cone_deg", 0.0), f"{label}.cone_deg", lo=0.0),
+                   rings=_count(d.get("rings", 0), f"{label}.rings", 0),
+                   per_ring=_count(d.get("per_ring", 6), f"{label}.per_ring", 1))
+        try:
+            spec.variants()
+        except ValueError as e:
+            raise ConfigError(f"{label}: {e}") from None
+        return spec
+
+    def variants(self) -> np.ndarray:
+        return tool_variants(self.turns, np.radians(self.cone_deg), self.rings, self.per_ring)
+
+
+@dataclass(frozen=True)
+class BaseSpec:
+    """One base `pose`, or a `region` to search for the `top` best."""
+
+    pose: tuple | None = None
+    region: BaseRegion | None = None
+    top: int = 5
+
+    @classmethod
+    def from_dict(cls, d, label: str) -> BaseSpec:
+        check_keys(d, ("pose", "region", "top"), label=label)
+        if (d.get("pose") is None) == (d.get("region") is None):
+            raise ConfigError(f"{label}: give one of pose (one base) and region (bases to search)")
+        if d.get("pose") is not None:
+            return cls(pose=tuple(_pose(d["pose"], f"{label}.pose").reshape(-1)))
+        r, rl = d["region"], f"{label}.region"
+        check_keys(r, ("x", "y", "step", "yaws", "z0", "keep_out"), label=rl, required=("x", "y"))
+        keep = r.get("keep_out", [])
+        if not isinstance(keep, list) or any(not isinstance(b, list) or len(b) != 4 for b in keep):
+            raise ConfigError(f"{rl}.keep_out: a list of boxes [x_lo, x_hi, y_lo, y_hi] (m)")
+        boxes = tuple(_range(b[:2], f"{rl}.keep_out") + _range(b[2:], f"{rl}.keep_out") for b in keep)
+        region = BaseRegion(x=_range(r["x"], f"{rl}.x"), y=_range(r["y"], f"{rl}.y"),
+                            step=_number(r.get("step", 0.1), f"{rl}.step", positive=True),
+                            yaws=_count(r.get("yaws", 8), f"{rl}.yaws", 1), z0=_number(r.get("z0", 0.0), f"{rl}.z0"),
+                            keep_out=boxes)
+        try:
+            n = len(region.candidates())
+        except ValueError as e:
+            raise ConfigError(f"{rl}: {e}") from None
+        if n > 10**6:
+            raise ConfigError(f"{rl}: {n} candidate bases (at most 1000000); a coarser step or fewer yaws")
+        return cls(region=region, top=_count(d.get("top", 5), f"{label}.top", 1))
+
+
+@dataclass(frozen=True)
+class StudyJob:
+    """A reach study; see the module notes. Build it with `from_file` (or the fields directly)."""
+
+    arms: tuple
+    targets: TargetSpec
+    tcp: tuple = tuple(np.eye(4).reshape(-1))
+    orientation: OrientationSpec = field(default_factory=OrientationSpec)
+    scores: tuple = ("manipulability", "joint_margin")
+    base: BaseSpec = field(default_factory=lambda: BaseSpec(pose=tuple(np.eye(4).reshape(-1))))
+    collision: CollisionSource = field(default_factory=CollisionSource)
+    method: str = "auto"
+    starts: int = 8
+    seed: int = 0
+    study_file: str | None = None
+    source: str | None = None
+
+    @classmethod
+    def from_file(cls, path) -> StudyJob:
+        """The job of a study file; every field checked (one-line `ConfigError` naming file and key)."""
+        d = load_config(path, "study file")
+        return cls.from_dict(d, label=f"study file {str(path)!r}", root=Path(path).resolve().parent, source=str(path))
+
+    @classmethod
+    def from_dict(cls, d, *, label: str = "study", root: Path = Path("."), source: str | None = None) -> StudyJob:
+        check_keys(d, _TOP, label=label, required=("targets",))
+        if ("robot" in d) == ("robots" in d):
+            raise ConfigError(f"{label}: give robot (one arm) or robots (a catalogue), not {'both' if 'robot' in d else 'neither'}")
+        specs = [d["robot"]] if "robot" in d else d["robots"]
+        if not isinstance(specs, list) or not specs:
+            raise ConfigError(f"{label}.robots: a non-empty list of arms")
+        arms = tuple(_arm(s, f"{label}.robot", root) for s in specs)
+        scores = d.get("scores", ["manipulability", "joint_margin"])
+        if not isinstance(scores, list) or any(s not in SCORES for s in scores):
+            raise ConfigError(f"{label}.scores: a list of {', '.join(SCORES)}, got {scores!r:.80}")
+        search = d.get("search", {})
+        check_keys(search, ("method", "starts"), label=f"{label}.search")
+        method = search.get("method", "auto")
+        if method not in ("auto", "exact", "numerical"):
+            raise ConfigError(f"{label}.search.method: one of auto, exact, numerical, got {method!r:.40}")
+        return cls(arms=arms, targets=TargetSpec.from_dict(d["targets"], f"{label}.targets", root),
+                   tcp=tuple(_pose(d.get("tcp", [0, 0, 0, 0, 0, 0]), f"{label}.tcp").reshape(-1)),
+                   orientation=OrientationSpec.from_dict(d.get("orientation", {}), f"{label}.orientation"),
+                   scores=tuple(scores), base=BaseSpec.from_dict(d.get("base", {"pose": [0, 0, 0, 0, 0, 0]}),
+                                                                 f"{label}.base"),
+                   collision=_collision(d.get("collision"), f"{label}.collision", root),
+                   method=method, starts=_count(search.get("starts", 8), f"{label}.search.starts", 1),
+                   seed=_count(d.get("seed", 0), f"{label}.seed", 0), study_file=_outputs(d, label, root),
+                   source=source)
+
+    def check(self) -> StudyPlan:
+        """Every input read and checked: the arms built, the targets generated, the output checked."""
+        out = check_outputs({"outputs.study": self.study_file}).get("outputs.study")
+        if out is not None and out.suffix != ".npz":
+            raise ConfigError(f"outputs.study {str(out)!r}: a study file is .npz")
+        robots = [a.build() for a in self.arms]
+        checkers = [self.collision.build(r, a) for r, a in zip(robots, self.arms)]
+        targets = self.targets.load()
+        return StudyPlan(robots=robots, checkers=checkers, targets=targets, out=out)
+
+    def run(self, plan: StudyPlan | None = None) -> StudyResult:
+        """Evaluate every arm: at the base pose, or the best bases of the region."""
+        plan = self.check() if plan is None else plan
+        variants, tcp = self.orientation.variants(), np.asarray(self.tcp).reshape(4, 4)
+        kw = dict(variants=variants, tcp=tcp, method=self.method, starts=self.starts, seed=self.seed,
+                  scores=self.scores)
+        per_arm = []
+        for robot, checker in zip(plan.robots, plan.checkers):
+            if self.base.region is None:
+                res = evaluate_targets(robot, plan.targets.poses, base=np.asarray(self.base.pose).reshape(4, 4),
+                                       collision=checker, **kw)
+                per_arm.append([res])
+            else:
+                ranking = rank_bases(robot, plan.targets.poses, self.base.region, top=self.base.top,
+                                     collision=checker, **kw)
+                per_arm.append(ranking.results)
+        return StudyResult(names=[r.name or f"arm {i}" for i, r in enumerate(plan.robots)], targets=plan.targets,
+                           results=per_arm, variants=variants, settings=self.settings())
+
+    def settings(self) -> dict:
+        """The job as the study file records it (no timings: the same job gives the same bytes)."""
+        return {"arms": [a.describe() | {"dh": a.has_dh} for a in self.arms], "targets": self.targets.__dict__,
+                "tcp": list(self.tcp), "orientation": self.orientation.__dict__, "scores": list(self.scores),
+                "base": {"pose": self.base.pose, "top": self.base.top,
+                         "region": None if self.base.region is None else self.base.region.__dict__},
+                "collision": {"wanted": self.collision.wanted, **self.collision.describe()},
+                "method": self.method, "starts": self.starts, "seed": self.seed, "source": self.source}
+
+    def save(self, result: StudyResult, plan: StudyPlan) -> list[Path]:
+        """Write the study file; returns the paths written."""
+        if plan.out is None:
+            return []
+        save_study(plan.out, result)
+        return [plan.out]
+
+
+@dataclass
+class StudyPlan:
+    """A checked `StudyJob`: the arms, their collision checkers, the targets, the study file's path."""
+
+    robots: list
+    checkers: list
+    targets: TargetSet
+    out: Path | None
+
+
+def _collision(d, label: str, root: Path) -> CollisionSource:
+    if d is None or d is False:
+        return CollisionSource()
+    if d is True:
+        return CollisionSource(collision=True)
+    check_keys(d, ("scene", "allow", "acm_samples", "link_radius"), label=label)
+    return CollisionSource(collision=True, scene=_path(d, "scene", root), allow=d.get("allow"),
+                           acm_samples=d.get("acm_samples"), link_radius=d.get("link_radius"))
+
+
+def _outputs(d, label: str, root: Path) -> str | None:
+    out = d.get("outputs", {})
+    check_keys(out, ("study",), label=f"{label}.outputs")
+    return _path(out, "study", root)
