@@ -89,56 +89,55 @@ def _is_type_checking(node: ast.AST) -> bool:
         isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
 
 
+def _statements(path: Path, type_checking: bool = True) -> list[ast.Import | ast.ImportFrom]:
+    """Every import statement of the file ``path``, at any depth; ``type_checking=False`` leaves out
+    those under ``if TYPE_CHECKING:`` (they never run)."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    if not type_checking:
+        for node in ast.walk(tree):
+            if _is_type_checking(node):
+                node.body = []
+    return [node for node in ast.walk(tree) if isinstance(node, (ast.Import, ast.ImportFrom))]
+
+
+def _resolve(modules: dict, name: str) -> str | None:
+    """``name`` or its longest prefix that is a module of the package (``None`` outside it)."""
+    while name and name not in modules:
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+def _named(node: ast.Import | ast.ImportFrom, package: str, top: str, modules: dict) -> list[tuple[str | None, bool]]:
+    """``(module, explicit)`` per module of ``top`` an import statement in ``package`` names;
+    ``explicit`` is false for ``import a.b.c`` (it names ``a.b.c`` through its packages)."""
+    if isinstance(node, ast.Import):
+        return [(_resolve(modules, a.name), False) for a in node.names if a.name.split(".")[0] == top]
+    where = _from_where(package, node)
+    if where.split(".")[0] != top:
+        return []
+    # ``from pkg import submodule``: the submodule; any other name is read from ``where``'s namespace
+    return [(f"{where}.{a.name}" if f"{where}.{a.name}" in modules else _resolve(modules, where), True)
+            for a in node.names]
+
+
 def import_graph(src: Path, top: str = "wsmap", type_checking: bool = True) -> dict[str, set[str]]:
     """``{module: modules its import statements name}`` for every module of ``top`` (module
     docstring); ``type_checking=False`` leaves out those under ``if TYPE_CHECKING:`` (what runs)."""
     modules = _modules(src, top)
-    compiled = _compiled(src, top)
-    modules.update({name: None for name in compiled})
-
-    def resolve(name: str) -> str | None:
-        """``name`` or its longest prefix that is a module of the package (``None`` outside it)."""
-        while name and name not in modules:
-            name = name.rpartition(".")[0]
-        return name or None
-
+    modules.update({name: None for name in _compiled(src, top)})
     graph: dict[str, set[str]] = {}
     for mod, path in modules.items():
-        if path is None:  # compiled: no import statements
-            graph[mod] = set()
-            continue
-        package = _package_of(mod, path)
-        running = set(_ancestors(mod)) | {mod}
         targets: set[str] = set()
-
-        def add(target: str | None, explicit: bool = True) -> None:
-            if target is None:
-                return
-            # the packages of a module run before it; those containing ``mod`` are running already
-            targets.update(a for a in _ancestors(target) if a not in running)
-            if explicit or target not in running:
-                targets.add(target)
-
-        tree = ast.parse(path.read_text(), filename=str(path))
-        if not type_checking:  # ``if TYPE_CHECKING:`` never runs: what runs is the rest
-            for node in ast.walk(tree):
-                if _is_type_checking(node):
-                    node.body = []
-        for node in ast.walk(tree):
-            if isinstance(node, ast.Import):
-                for alias in node.names:
-                    if alias.name.split(".")[0] == top:
-                        add(resolve(alias.name), explicit=False)
-            elif isinstance(node, ast.ImportFrom):
-                where = _from_where(package, node)
-                if where.split(".")[0] != top:
-                    continue
-                for alias in node.names:
-                    sub = f"{where}.{alias.name}"
-                    if sub in modules:
-                        add(sub)  # ``from pkg import submodule``: the submodule
-                    else:
-                        add(resolve(where))  # a name read from ``where``'s namespace
+        if path is not None:  # a compiled module has no import statements
+            running = set(_ancestors(mod)) | {mod}
+            for node in _statements(path, type_checking):
+                for target, explicit in _named(node, _package_of(mod, path), top, modules):
+                    if target is None:
+                        continue
+                    # the packages of a module run before it; those containing ``mod`` are running already
+                    targets.update(a for a in _ancestors(target) if a not in running)
+                    if explicit or target not in running:
+                        targets.add(target)
         graph[mod] = targets - {mod}
     return graph
 
@@ -244,20 +243,14 @@ def private_imports(src: Path, top: str = "wsmap") -> set[tuple[str, str, str]]:
                 found.add((mod, where, name))
 
     for mod, path in modules.items():
-        if path is None:
-            continue
-        package = _package_of(mod, path)
-        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        for node in _statements(path) if path is not None else ():
             if isinstance(node, ast.Import):
                 for alias in node.names:
                     if alias.name.split(".")[0] == top:
-                        where, _, name = alias.name.rpartition(".")
-                        check(mod, where, name)
-            elif isinstance(node, ast.ImportFrom):
-                where = _from_where(package, node)
-                if where.split(".")[0] == top:
-                    for alias in node.names:
-                        check(mod, where, alias.name)
+                        check(mod, *alias.name.rpartition(".")[::2])
+            elif _from_where(_package_of(mod, path), node).split(".")[0] == top:
+                for alias in node.names:
+                    check(mod, _from_where(_package_of(mod, path), node), alias.name)
     return found
 
 
@@ -423,7 +416,8 @@ def test_typing_names_are_generic():
     assert graph["wsmap._typing"] == set()
     tree = ast.parse((SRC / "wsmap" / "_typing.py").read_text())
     imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
-    imported |= {(n.module or "").split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and not n.level}
+    imported |= {(n.module or "").split(".")[0] for n in ast.walk(tree)
+                 if isinstance(n, ast.ImportFrom) and not n.level}
     assert imported <= {"__future__", "os", "collections", "pathlib", "typing", "numpy"}, imported
 
 

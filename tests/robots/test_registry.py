@@ -1,9 +1,12 @@
 """wsmap.robots.registry and wsmap.robots.arms: one module per named arm, each registering itself.
 
 A named arm is one module of wsmap.robots.arms named as the arm; these tests hold that layout (every
-arm module registers exactly one arm, under its file name, with a source), and the registry's
-contract for a new arm: registering a table makes load(name) build it; a duplicate name or a table
-that cannot describe an arm is refused with an error naming what is wrong.
+arm module registers exactly one arm, under its file name, with a source and an explicit priority;
+the folder is discovered, not listed), what an arm declares in its own module (its capsule collision
+model, read by wsmap.collision.named, and whether the morphology families hold it out, read by
+wsmap.robots.morph), and the registry's contract for a new arm: registering a table makes load(name)
+build it; a duplicate name or a table that cannot describe an arm is refused with an error naming
+what is wrong.
 """
 
 from __future__ import annotations
@@ -16,8 +19,10 @@ import numpy as np
 import pytest
 
 from wsmap import robots
+from wsmap.collision import named
 from wsmap.robots import arms, registry
-from wsmap.robots.registry import ArmTable
+from wsmap.robots.morph import HELD_OUT
+from wsmap.robots.registry import ArmCapsules, ArmTable
 
 ARM_MODULES = sorted(m.name for m in pkgutil.iter_modules(arms.__path__) if not m.name.startswith("_"))
 
@@ -35,40 +40,61 @@ def _table(**change) -> ArmTable:
 
 @pytest.fixture
 def registered():
-    """Register tables for one test and leave the registry as it was afterwards."""
-    before = {k: dict(d) for k, d in (("NAMED", registry.NAMED), ("ROBOTS", registry.ROBOTS),
-                                      ("SOURCES", registry.SOURCES))}
-    yield registry.register
-    for k, d in before.items():
-        live = getattr(registry, k)
-        live.clear()
-        live.update(d)
+    """Register tables for one test (last: priority 1000 unless given) and leave the registry as it was
+    afterwards."""
+    before = registry.ARMS.records()
+
+    def register(table, priority=1000, **fields):
+        return registry.register(table, priority=priority, **fields)
+
+    yield register
+    for name in set(registry.ARMS.names()) - {arm.name for arm in before}:
+        registry.ARMS.unregister(name)
+    assert registry.ARMS.records() == before
 
 
 # ------------------------------------------------------------------------------ the layout of arms/
-def test_every_arm_module_is_registered_in_the_listed_order():
-    # arms/__init__.py imports each module; forgetting a new one there leaves it out of ROBOTS
-    assert sorted(robots.ROBOTS) == ARM_MODULES
+def test_every_arm_module_is_registered_in_the_order_of_its_priority():
+    # arms/__init__.py discovers every module: a new file is a new arm, nothing else to list
+    assert sorted(robots.ROBOTS) == ARM_MODULES == sorted(registry.ARMS.names())
     assert list(robots.ROBOTS) == ["puma560", "panda", "iiwa14", "ur5e", "ur10e", "gen3"]
-    assert robots.ROBOTS is registry.ROBOTS and robots.NAMED is registry.NAMED
+    assert [arm.priority for arm in registry.ARMS] == [10, 20, 30, 40, 50, 60]
+    assert robots.ROBOTS is registry.ROBOTS and robots.NAMED is registry.NAMED and robots.ARMS is registry.ARMS
     assert list(robots.NAMED) == [n for n in robots.ROBOTS if n != "puma560"]  # puma560 is a DHRobot
+    assert list(robots.SOURCES) == list(robots.ROBOTS) and len(robots.ROBOTS) == 6
+    with pytest.raises(TypeError):
+        robots.ROBOTS["other"] = robots.puma560  # a view of ARMS: arms register, nobody writes here
+
+
+def test_each_arm_declares_its_collision_model_and_whether_it_is_held_out():
+    # read from the arms' own modules: collision.named and robots.morph keep no list of their own
+    assert {arm.name: arm.capsules is not None for arm in registry.ARMS} == {
+        "puma560": False, "panda": True, "iiwa14": True, "ur5e": True, "ur10e": False, "gen3": False}
+    assert list(named.ARM_MODELS) == ["panda", "iiwa14", "ur5e"]
+    assert named.ALONG_LINKS == ("panda", "iiwa14")  # the UR5e's capsules are fixed numbers
+    assert HELD_OUT == ("puma560", "panda", "iiwa14", "ur5e", "ur10e", "gen3")
+    assert all(arm.held_out for arm in registry.ARMS)
 
 
 @pytest.mark.parametrize("module", ARM_MODULES)
 def test_each_arm_module_registers_exactly_one_arm_named_as_its_file(module, monkeypatch):
     # run the module's code again with the registry's two entry points recording instead of registering
     calls = []
-    monkeypatch.setattr(registry, "register", lambda table: calls.append(("table", table.name, table)))
-    monkeypatch.setattr(registry, "register_constructor",
-                        lambda name, constructor, source: calls.append(("constructor", name, source)))
+    monkeypatch.setattr(registry, "register", lambda table, *, priority, capsules=None, held_out=False: calls.append(
+        ("table", table.name, table, (priority, capsules, held_out))))
+    monkeypatch.setattr(registry, "register_constructor", lambda name, constructor, source, *, priority,
+                        capsules=None, held_out=False: calls.append(("constructor", name, source,
+                                                                     (priority, capsules, held_out))))
     spec = importlib.util.find_spec(f"wsmap.robots.arms.{module}")
     spec.loader.exec_module(importlib.util.module_from_spec(spec))  # a fresh copy, not in sys.modules
-    assert [name for _, name, _ in calls] == [module]
-    kind, _, what = calls[0]
+    assert [name for _, name, _, _ in calls] == [module]
+    kind, _, what, fields = calls[0]
     if kind == "table":
         assert what == robots.NAMED[module] and what.source.strip()
     else:
         assert what == robots.SOURCES[module] and what.strip()
+    arm = registry.ARMS.get(module)
+    assert fields == (arm.priority, arm.capsules, arm.held_out)
 
 
 @pytest.mark.parametrize("name", list(robots.ROBOTS))
@@ -84,6 +110,7 @@ def test_every_named_arm_has_a_source(name):
 def test_a_registered_table_loads_by_name_and_leaves_with_the_test(registered):
     table = registered(_table())
     assert list(robots.ROBOTS)[-1] == "planar2" and robots.NAMED["planar2"] is table
+    assert "planar2" not in HELD_OUT and registry.ARMS.get("planar2").capsules is None  # by default
     arm = robots.load("Planar2")  # names are looked up in lower case
     assert arm.name == "planar2" and arm.n == 2 and arm.source == "this test"
     np.testing.assert_allclose(arm.qlim, [[-PI / 2, PI / 2], [-np.inf, np.inf]])
@@ -109,7 +136,7 @@ def test_a_duplicate_name_is_refused_and_registers_nothing(registered):
             "a robot named 'panda' is already registered; known robots: puma560, panda, iiwa14, ur5e, ur10e, gen3")):
         registered(_table(name="panda"))
     with pytest.raises(ValueError, match="a robot named 'puma560' is already registered"):
-        registry.register_constructor("puma560", robots.puma560, "again")
+        registry.register_constructor("puma560", robots.puma560, "again", priority=5)
     assert (list(robots.ROBOTS), dict(robots.NAMED)) == before
     assert robots.load("panda").n == 7  # still Franka's
     with pytest.raises(TypeError, match=r"^register\(\) takes an ArmTable, got dict$"):
@@ -145,8 +172,40 @@ def test_a_table_that_cannot_be_an_arm_is_refused(change, message, registered):
 
 def test_a_constructor_without_a_source_is_refused(registered):
     with pytest.raises(ValueError, match=r"^robot 'other' has no source: name the document its numbers come from$"):
-        registry.register_constructor("other", robots.puma560, "")
+        registry.register_constructor("other", robots.puma560, "", priority=5)
     assert "other" not in robots.ROBOTS
+
+
+def test_a_registered_arm_is_listed_by_its_priority(registered):
+    registered(_table(), priority=15)
+    assert list(robots.ROBOTS) == ["puma560", "planar2", "panda", "iiwa14", "ur5e", "ur10e", "gen3"]
+    with pytest.raises(ValueError, match=r"^named arm 'other': priority must be an int, got '5'$"):
+        registry.register_constructor("other", robots.puma560, "a source", priority="5")
+    assert "other" not in robots.ROBOTS
+
+
+def test_a_registered_arm_declares_its_capsules(registered):
+    capsules = ArmCapsules(radii=(0.05, 0.04, 0.03), source="this test's estimates")
+    registered(_table(), capsules=capsules)
+    assert registry.ARMS.get("planar2").capsules is capsules
+    model = named.capsules_model(capsules, robots.load("planar2"))
+    assert model.floor and model.source == "this test's estimates" and len(model.links) == 3
+    with pytest.raises(ValueError, match=r"^robot 'other': capsules must be an ArmCapsules or None, got tuple$"):
+        registry.register_constructor("other", robots.puma560, "a source", priority=5, capsules=(0.05,))
+    with pytest.raises(ValueError, match=r"^robot 'other': held_out must be True or False, got 1$"):
+        registry.register_constructor("other", robots.puma560, "a source", priority=5, held_out=1)
+
+
+@pytest.mark.parametrize("fields, message", [
+    (dict(radii=(0.1,), source=" "), "a capsule model needs a source: name the drawing or document its numbers "
+                                     "come from"),
+    (dict(source="s"), "a capsule model has either radii (along the links) or capsules (fixed), not neither"),
+    (dict(radii=(0.1,), capsules=((0, (0, 0, 0), (0, 0, 1), 0.1),), source="s"),
+     "a capsule model has either radii (along the links) or capsules (fixed), not both"),
+])
+def test_capsules_that_cannot_be_a_model_are_refused(fields, message):
+    with pytest.raises(ValueError, match="^" + re.escape(message) + "$"):
+        ArmCapsules(**fields)
 
 
 # ------------------------------------------------------------------ issue 29: inputs that built the wrong arm

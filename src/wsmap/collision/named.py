@@ -1,5 +1,10 @@
 """Capsule models of the named arms (`wsmap.robots.arms`), for self-collision and the floor.
 
+Each named arm declares its capsules in its own module (an `ArmCapsules` registered with it,
+`wsmap.robots.registry`); this module builds them into a `CollisionModel` on the arm's chain
+and lists them (`ARM_MODELS`, in the order of the named arms). A new arm's model is its
+module's `capsules=`, nothing here.
+
 No URDF with collision meshes of these arms ships with a package wsmap depends on at run time
 (pybullet_data and rtb-data are test-only), so each arm gets capsules in its bodies' frames
 (`wsmap.collision.geometry`: body `k` moves with joint `k`; its frame is the chain's
@@ -16,65 +21,51 @@ URDF with its collision meshes.
 
 from __future__ import annotations
 
-from ..robots import load
+from collections.abc import Callable
+from functools import partial
+from typing import TYPE_CHECKING
+
+from ..robots import ARMS, load
+from ..robots.registry import ArmCapsules
 from .geometry import CollisionError, CollisionModel, capsule_model, capsules_along_links
 
-__all__ = ["ARM_MODELS", "ALONG_LINKS", "arm_model"]
+if TYPE_CHECKING:  # names of the annotations only
+    from wsmap.kinematics.chain import Arm
+
+__all__ = ["ARM_MODELS", "ALONG_LINKS", "arm_model", "capsules_model"]
 
 
-def _panda(chain) -> CollisionModel:
-    # Franka Emika Panda datasheet's dimension drawing (estimated, see the module notes): joint
-    # housings about 0.13-0.14 m across at joints 1-4, narrowing towards the wrist. Body k spans
-    # the DH link k (d along z, then a along x), so body 0 is a ball at the base origin.
-    radii = (0.10, 0.07, 0.07, 0.065, 0.065, 0.06, 0.055, 0.045)
-    return capsules_along_links(chain, radii, floor=True, source=(
-        "capsules along the Panda's modified-DH links (FCI 'Robot and interface specifications'), radii "
-        f"{list(radii)} m (estimates of the housings of the Panda datasheet's dimension drawing)"))
+def capsules_model(capsules: ArmCapsules, chain: Arm) -> CollisionModel:
+    """The `CollisionModel` of a named arm's `capsules` on `chain` (one arm), standing on the floor.
+
+    Parameters
+    ----------
+    capsules : ArmCapsules
+        The arm's declared capsules: radii along the links (`capsules_along_links`, which follow
+        the links of `chain`) or fixed capsules in the bodies' frames (`capsule_model`).
+    chain : SerialChain or DHRobot
+        The arm they ride on (metres, its base frame).
+
+    Returns
+    -------
+    CollisionModel
+        With `floor=True` and the capsules' `source`.
+    """
+    if capsules.along_links:
+        return capsules_along_links(chain, capsules.radii, floor=True, source=capsules.source)
+    return capsule_model(chain, capsules.capsules, floor=True, names=capsules.names, source=capsules.source)
 
 
-def _iiwa14(chain) -> CollisionModel:
-    # KUKA "LBR iiwa 7 R800, LBR iiwa 14 R820" specification's dimension drawing (estimated, see
-    # the module notes): housings about 0.15 m across at A1-A4, narrowing towards the flange.
-    radii = (0.10, 0.075, 0.075, 0.07, 0.07, 0.065, 0.06, 0.045)
-    return capsules_along_links(chain, radii, floor=True, source=(
-        "capsules along the iiwa 14's DH links (KUKA principal dimensions 360/420/400/126 mm), radii "
-        f"{list(radii)} m (estimates of the housings of the specification's dimension drawing)"))
-
-
-#: UR5e: upper arm offset 0.138 m and forearm 0.007 m along the parallel axes from the DH line
-#: (Universal Robots' ur_description visual parameters for the UR5e: shoulder_offset, elbow_offset);
-#: base footprint 0.149 m across (UR5e User Manual, technical specifications); the radii of the
-#: tubes and housings are estimates (module notes).
-UR5E_CAPSULES = (
-    # (body, p0, p1, radius), metres, body frames of the UR5e's standard-DH chain
-    (0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.06), 0.075),            # base
-    (1, (0.0, 0.0, 0.0), (0.0, 0.0, 0.1625), 0.065),          # shoulder pan housing up to joint 2
-    (2, (0.0, 0.0, 0.0), (0.0, 0.0, 0.138), 0.065),           # shoulder lift housing
-    (2, (0.0, 0.0, 0.138), (-0.425, 0.0, 0.138), 0.055),      # upper arm tube
-    (2, (-0.425, 0.0, 0.138), (-0.425, 0.0, 0.02), 0.055),    # elbow housing
-    (3, (0.0, 0.0, 0.007), (-0.3922, 0.0, 0.007), 0.045),     # forearm tube
-    (4, (0.0, 0.0, 0.0), (0.0, 0.0, 0.1333), 0.045),          # wrist 1 housing
-    (5, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0997), 0.045),          # wrist 2 housing
-    (6, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0996), 0.04),           # wrist 3 and the flange
-)
-
-
-def _ur5e(chain) -> CollisionModel:
-    return capsule_model(chain, UR5E_CAPSULES, floor=True,
-                         names=("base", "shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3"),
-                         source="UR5e capsules: ur_description offsets (0.138 m, 0.007 m), UR5e User Manual "
-                                "footprint; radii estimated")
-
-
-#: Named arm -> the builder of its capsule model from its chain.
-ARM_MODELS = {"panda": _panda, "ur5e": _ur5e, "iiwa14": _iiwa14}
+#: Named arm -> the builder of its capsule model from its chain, in the order of the named arms.
+ARM_MODELS: dict[str, Callable[..., CollisionModel]] = {
+    arm.name: partial(capsules_model, arm.capsules) for arm in ARMS if arm.capsules is not None}
 #: The models built along the links of the chain they are given (`capsules_along_links`):
 #: on an arm with scaled lengths (a family of `wsmap.robots.families`) the capsules follow the
 #: scaled links. The UR5e's capsules are fixed coordinates and do not.
-ALONG_LINKS = ("panda", "iiwa14")
+ALONG_LINKS: tuple[str, ...] = tuple(arm.name for arm in ARMS if arm.capsules is not None and arm.capsules.along_links)
 
 
-def arm_model(name: str, robot=None) -> CollisionModel:
+def arm_model(name: str, robot: Arm | None = None) -> CollisionModel:
     """The capsule model of the named arm `name` (`ARM_MODELS`), on `robot` (default
     `wsmap.load(name)`; its limits may differ, its kinematics must be the named arm's, or for the
     models of `ALONG_LINKS` the named arm's table with other lengths, whose links the capsules

@@ -51,14 +51,16 @@ from ..kinematics import SerialChain
 from ..kinematics.chain import from_dh
 from ..kinematics.morphology import Morphology, describe, morphology_distance
 from .families import FAMILIES, ArmFamily, FamilyRangeWarning, as_generator, check_count
-from .registry import load
+from .registry import ARMS, load
 
 __all__ = ["MorphFamily", "MORPH6", "MORPH7", "HELD_OUT", "HOLD_OUT_RADIUS", "MORPH_GRID", "morph_params",
            "morphology_of", "held_out_features"]
 
 #: The named arms never drawn (and every arm a generalisation test uses): no arm of the families
-#: lies within `HOLD_OUT_RADIUS` of them.
-HELD_OUT = ("puma560", "panda", "iiwa14", "ur5e", "ur10e", "gen3")
+#: lies within `HOLD_OUT_RADIUS` of them. Each arm says so in its own module (`held_out=True`
+#: when it registers, `wsmap.robots.arms`); in the order of the named arms (today all six:
+#: puma560, panda, iiwa14, ur5e, ur10e, gen3).
+HELD_OUT: tuple[str, ...] = tuple(arm.name for arm in ARMS if arm.held_out)
 #: Metres, in `morphology_distance` (e.g. all lengths within
 #: ~4 cm and the twists, offsets, limits and tool the same).
 HOLD_OUT_RADIUS = 0.1

@@ -1,27 +1,36 @@
-"""The named arms' registry: the `ArmTable` record and the lookup by name.
+"""The named arms' registry: one record per arm (`NamedArm`), the `ArmTable` of a real arm's
+published kinematics, and the lookup by name.
 
-Each module of `wsmap.robots.arms` ends by registering its arm here: a real arm registers its
-published table with `register` (`NAMED` holds the tables), the paper's `puma560` (a
-`DHRobot`, not a table) its constructor with `register_constructor`.
-`ROBOTS` holds every arm's constructor and `SOURCES` the document its numbers come from,
-in the order they registered; `load` looks an arm up by name.
+Each module of `wsmap.robots.arms` ends by registering its arm here, with an explicit `priority`
+(the order `wsmap robots` lists the arms in): a real arm registers its published table with
+`register`, the paper's `puma560` (a `DHRobot`, not a table) its constructor with
+`register_constructor`. Beside its kinematics an arm declares, in its own module, its capsule
+collision model (`ArmCapsules`: `wsmap.collision.named` builds it) and whether the
+morphology families hold it out (`held_out`: `wsmap.robots.morph.HELD_OUT`).
+
+`ARMS` holds the records, listed by `(priority, name)`; `ROBOTS` (name -> constructor),
+`NAMED` (name -> table, the real arms) and `SOURCES` (name -> the document the numbers come
+from) are read-only views of it in that order; `load` looks an arm up by name.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from numbers import Real
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._plugins import Registry
 from ..kinematics import DHRobot, SerialChain
 from ..kinematics.chain import from_dh
-from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
-    from wsmap._typing import Any, ArrayLike, Callable, Sequence
+    from wsmap._typing import Any, ArrayLike, Sequence
 
-__all__ = ["ArmTable", "NAMED", "ROBOTS", "SOURCES", "register", "register_constructor", "load", "from_name"]
+__all__ = ["ArmTable", "ArmCapsules", "NamedArm", "ARMS", "NAMED", "ROBOTS", "SOURCES", "register",
+           "register_constructor", "load", "from_name"]
 
 CONVENTIONS = ("standard", "modified")
 LIMIT_UNITS = ("deg", "rad")
@@ -134,36 +143,127 @@ class ArmTable:
         return arm
 
 
+@dataclass(frozen=True)
+class ArmCapsules:
+    """A named arm's capsule collision model, as numbers (`wsmap.collision.named` builds the
+    `CollisionModel` from them, standing on the floor `z = 0` of the arm's base frame).
+
+    Either `radii` (metres, one per body `0..n`): a capsule along each DH link of the chain it
+    is given (`wsmap.collision.capsules_along_links`), so on an arm with other lengths (a family
+    of `wsmap.robots.families`) the capsules follow its links; or `capsules`: `(body, p0, p1,
+    radius)` per capsule (metres, the body's frame of the arm's chain;
+    `wsmap.collision.capsule_model`) with the links' `names` per body, fixed numbers that do not
+    follow other lengths. `source` says where the numbers come from (the model's `source`).
+    """
+
+    source: str
+    radii: tuple[float, ...] | None = None
+    capsules: tuple[tuple[int, tuple[float, float, float], tuple[float, float, float], float], ...] | None = None
+    names: tuple[str, ...] | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.source, str) or not self.source.strip():
+            raise ValueError("a capsule model needs a source: name the drawing or document its numbers come from")
+        if (self.radii is None) == (self.capsules is None):
+            raise ValueError("a capsule model has either radii (along the links) or capsules (fixed), not "
+                             f"{'both' if self.radii is not None else 'neither'}")
+
+    @property
+    def along_links(self) -> bool:
+        """Whether the capsules follow the links of the chain they are built on."""
+        return self.radii is not None
+
+
+@dataclass(frozen=True)
+class NamedArm:
+    """One named arm's record in `ARMS`.
+
+    `build(joint_limits)` makes the arm (`None`: its default limits); `source` names the document
+    its numbers come from; `table` is its `ArmTable` (`None` for the paper's `puma560`);
+    `capsules` its capsule collision model (`None`: none); `held_out` whether the morphology
+    families (`wsmap.robots.morph`) never draw an arm near it. `priority` is its place in the
+    order the arms are listed in (lower first).
+    """
+
+    name: str
+    priority: int
+    build: Callable[..., DHRobot | SerialChain]
+    source: str
+    table: ArmTable | None = None
+    capsules: ArmCapsules | None = None
+    held_out: bool = False
+
+
+#: Every named arm, listed by `(priority, name)`: the paper's `puma560` first, then the real arms.
+ARMS: Registry[NamedArm] = Registry("named arm")
+
+
+class _ArmView(Mapping):
+    """A read-only mapping `name -> field` of the arms of `ARMS` (those with the field set), in its order."""
+
+    def __init__(self, field: str) -> None:
+        self._field = field
+
+    def _value(self, name: object) -> Any:
+        if not isinstance(name, str) or name not in ARMS:
+            return None
+        return getattr(ARMS.get(name), self._field)
+
+    def __getitem__(self, name: str) -> Any:
+        value = self._value(name)
+        if value is None:
+            raise KeyError(name)
+        return value
+
+    def __contains__(self, name: object) -> bool:
+        return self._value(name) is not None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter([arm.name for arm in ARMS if getattr(arm, self._field) is not None])
+
+    def __len__(self) -> int:
+        return sum(1 for _ in self)
+
+    def __repr__(self) -> str:
+        return f"{{{', '.join(f'{k!r}: {v!r}' for k, v in self.items())}}}"
+
+
 #: The real arms' tables by name, each from its manufacturer's published kinematics.
-NAMED: dict[str, ArmTable] = {}
-#: Constructors of every named arm, `name -> f(joint_limits=None)`, in the order they registered
-#: (`wsmap.robots.arms` imports the paper's `puma560` first).
-ROBOTS: dict = {}
+NAMED: Mapping[str, ArmTable] = _ArmView("table")
+#: Constructors of every named arm, `name -> f(joint_limits=None)`, in the order of `ARMS`.
+ROBOTS: Mapping[str, Callable[..., DHRobot | SerialChain]] = _ArmView("build")
 #: The document each named arm's numbers come from, `name -> str`.
-SOURCES: dict[str, str] = {}
+SOURCES: Mapping[str, str] = _ArmView("source")
 
 
-def register_constructor(name: str, constructor: Callable[..., Any], source: str) -> None:
+def register_constructor(name: str, constructor: Callable[..., Any], source: str, *, priority: int,
+                         capsules: ArmCapsules | None = None, held_out: bool = False,
+                         table: ArmTable | None = None) -> NamedArm:
     """Make `load(name)` call `constructor(joint_limits=...)` (`None`: the arm's default).
 
     For an arm that is not an `ArmTable` (the paper's `puma560`); a table registers with
-    `register`. `source` names the document the arm's numbers come from. A name already
-    registered, a name `load` cannot find (not lower case), or an empty source is a
-    `ValueError`; nothing is registered then.
+    `register`. `source` names the document the arm's numbers come from, `priority` (an int)
+    its place in the order of `ARMS`; `capsules` and `held_out` are its `NamedArm` fields.
+    Returns the record. A name already registered, a name `load` cannot find (not lower case), an
+    empty source or a priority that is not an int is a `ValueError`; nothing is registered then.
     """
     if not isinstance(name, str) or not name or name != name.lower():
         raise ValueError(f"a named arm's name must be a non-empty lower-case string, got {name!r}")
-    if name in ROBOTS:
+    if name in ARMS:
         raise ValueError(f"a robot named {name!r} is already registered; known robots: {', '.join(ROBOTS)}")
     if not callable(constructor):
         raise ValueError(f"the constructor of robot {name!r} must be callable, got {type(constructor).__name__}")
     if not isinstance(source, str) or not source.strip():
         raise ValueError(f"robot {name!r} has no source: name the document its numbers come from")
-    ROBOTS[name] = constructor
-    SOURCES[name] = source
+    if capsules is not None and not isinstance(capsules, ArmCapsules):
+        raise ValueError(f"robot {name!r}: capsules must be an ArmCapsules or None, got {type(capsules).__name__}")
+    if not isinstance(held_out, bool):
+        raise ValueError(f"robot {name!r}: held_out must be True or False, got {held_out!r}")
+    return ARMS.register(NamedArm(name=name, priority=priority, build=constructor, source=source, table=table,
+                                  capsules=capsules, held_out=held_out))
 
 
-def _named(table: ArmTable):
+def _named(table: ArmTable) -> Callable[..., SerialChain]:
     def make(joint_limits: bool | None = None) -> SerialChain:
         return table.chain(joint_limits=True if joint_limits is None else bool(joint_limits))
 
@@ -172,17 +272,19 @@ def _named(table: ArmTable):
     return make
 
 
-def register(table: ArmTable) -> ArmTable:
+def register(table: ArmTable, *, priority: int, capsules: ArmCapsules | None = None,
+             held_out: bool = False) -> ArmTable:
     """Register a real arm's published table: `NAMED[table.name]` and `load(table.name)`
-    (a `SerialChain` with the table's joint limits by default). Returns `table`.
+    (a `SerialChain` with the table's joint limits by default), at `priority` in the order of
+    `ARMS`, with its capsule model `capsules` and `held_out` (`NamedArm`). Returns `table`.
 
     Anything but an `ArmTable` is a `TypeError`, a name already registered a
     `ValueError` listing the known ones (the table itself is checked when it is made).
     """
     if not isinstance(table, ArmTable):
         raise TypeError(f"register() takes an ArmTable, got {type(table).__name__}")
-    register_constructor(table.name, _named(table), table.source)
-    NAMED[table.name] = table
+    register_constructor(table.name, _named(table), table.source, priority=priority, capsules=capsules,
+                         held_out=held_out, table=table)
     return table
 
 
@@ -198,12 +300,12 @@ def load(name: str, joint_limits: bool | None = None) -> DHRobot | SerialChain:
     `.fkine(q)` (base → flange). An unknown name is a `ValueError` listing the known ones.
     """
     key = str(name).lower()
-    if key not in ROBOTS:
+    if key not in ARMS:
         raise ValueError(f"unknown robot {name!r}; known robots: {', '.join(ROBOTS)}")
     if joint_limits is not None and not isinstance(joint_limits, (bool, np.bool_)):
         # a string such as "no" is truthy: it would turn the limits on
         raise ValueError(f"joint_limits must be True, False or None (the arm's default), got {joint_limits!r}")
-    return ROBOTS[key](joint_limits=None if joint_limits is None else bool(joint_limits))
+    return ARMS.get(key).build(joint_limits=None if joint_limits is None else bool(joint_limits))
 
 
 def from_name(name: str, joint_limits: bool | None = None) -> DHRobot | SerialChain:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..registry import ArmTable, register
+from ..registry import ArmCapsules, ArmTable, register
 
 PI = np.pi
 
@@ -32,4 +32,12 @@ IIWA14 = ArmTable(
            "and axis ranges A1-A7 ±170/±120/±170/±120/±170/±120/±175 deg",
 )
 
-register(IIWA14)
+#: The capsule model (`wsmap.collision.named`), from the KUKA specification's dimension drawing
+#: (estimated, see `wsmap.collision.named`'s notes): housings about 0.15 m across at A1-A4,
+#: narrowing towards the flange; one capsule along each DH link.
+IIWA14_RADII = (0.10, 0.075, 0.075, 0.07, 0.07, 0.065, 0.06, 0.045)
+IIWA14_CAPSULES = ArmCapsules(radii=IIWA14_RADII, source=(
+    "capsules along the iiwa 14's DH links (KUKA principal dimensions 360/420/400/126 mm), radii "
+    f"{list(IIWA14_RADII)} m (estimates of the housings of the specification's dimension drawing)"))
+
+register(IIWA14, priority=30, capsules=IIWA14_CAPSULES, held_out=True)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..registry import ArmTable, register
+from ..registry import ArmCapsules, ArmTable, register
 
 PI = np.pi
 
@@ -32,4 +32,13 @@ PANDA = ArmTable(
            "flange d = 0.107 m) and 'Limits for Panda' (q_min/q_max)",
 )
 
-register(PANDA)
+#: The capsule model (`wsmap.collision.named`), from the Franka Emika Panda datasheet's dimension
+#: drawing (estimated, see `wsmap.collision.named`'s notes): joint housings about 0.13-0.14 m
+#: across at joints 1-4, narrowing towards the wrist. Body k spans the DH link k (d along z, then a
+#: along x), so body 0 is a ball at the base origin.
+PANDA_RADII = (0.10, 0.07, 0.07, 0.065, 0.065, 0.06, 0.055, 0.045)
+PANDA_CAPSULES = ArmCapsules(radii=PANDA_RADII, source=(
+    "capsules along the Panda's modified-DH links (FCI 'Robot and interface specifications'), radii "
+    f"{list(PANDA_RADII)} m (estimates of the housings of the Panda datasheet's dimension drawing)"))
+
+register(PANDA, priority=20, capsules=PANDA_CAPSULES, held_out=True)

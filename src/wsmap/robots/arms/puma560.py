@@ -42,4 +42,6 @@ def _load(joint_limits: bool | None = None) -> DHRobot:
     return puma560(joint_limits=bool(joint_limits))
 
 
-register_constructor("puma560", _load, SOURCE)
+#: The paper's arm comes first in the order of the named arms; no capsule model (the paper ignored
+#: self-collision).
+register_constructor("puma560", _load, SOURCE, priority=10, held_out=True)

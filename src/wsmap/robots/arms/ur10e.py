@@ -9,4 +9,5 @@ from ._ur import ur_table
 #: joint ranges ±360° from the UR10e User Manual (e-Series).
 UR10E = ur_table("ur10e", "UR10e", d1=0.1807, a2=-0.6127, a3=-0.57155, d4=0.17415, d5=0.11985, d6=0.11655)
 
-register(UR10E)
+#: No capsule model (yet): `wsmap.collision.arm_model("ur10e")` refuses, naming the arms that have one.
+register(UR10E, priority=50, held_out=True)
