@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..kinematics.chain import PRISMATIC, SerialChain, as_chain, joint_motion
+from ..kinematics.chain import PRISMATIC, REVOLUTE, SerialChain, as_chain, joint_motion
 from ..kinematics.urdf import URDFTree, from_urdf, parse_xml, read_source
 from .errors import CollisionError
 from .fields import urdf_origin
@@ -180,7 +180,7 @@ def _off_chain_motion(el: ET.Element) -> np.ndarray:
         lo, hi = float(lim.get("lower", "0")), float(lim.get("upper", "0"))
         x0 = min(max(0.0, lo), hi)
     if x0 != 0.0 and np.linalg.norm(axis) > 0:
-        return joint_motion(PRISMATIC if jtype == "prismatic" else "R", axis / np.linalg.norm(axis), np.array(x0))
+        return joint_motion(PRISMATIC if jtype == "prismatic" else REVOLUTE, axis / np.linalg.norm(axis), np.array(x0))
     return np.eye(4)
 
 
