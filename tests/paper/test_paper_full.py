@@ -157,14 +157,14 @@ def test_more_sessions_reuse_the_sessions_already_run(tmp_path, data_dir, capsys
 def test_a_crashed_run_leaves_no_partial_file_and_resumes(tmp_path, data_dir, monkeypatch, capsys):
     out = tmp_path / "out"
     part = full.select(full.plan(SMOKE), ["table2_rprop_mse"])[0]
-    real = full._STEP["table2"]
+    real = full.run_step
 
-    def crash_on_second(part, step, data, out):
-        if step == "session_1":
+    def crash_on_second(unit, step, *args):
+        if unit.name == "table2_rprop_mse" and step == "session_1":
             raise KeyboardInterrupt  # Ctrl-C, or SIGTERM (the CLI turns it into this)
-        return real(part, step, data, out)
+        return real(unit, step, *args)
 
-    monkeypatch.setitem(full._STEP, "table2", crash_on_second)
+    monkeypatch.setattr(full, "run_step", crash_on_second)
     code, _, err = _run(["paper", "full", "table2_rprop_mse", *_args(out, data_dir)], capsys)
     assert code == 130 and "interrupted" in err
     files = _files(out)
@@ -175,7 +175,7 @@ def test_a_crashed_run_leaves_no_partial_file_and_resumes(tmp_path, data_dir, mo
     lines = full.list_lines(SMOKE, out, data_dir, names=["table2_rprop_mse"])
     assert "partial" in lines[1] and "1/2" in lines[1]
 
-    monkeypatch.setitem(full._STEP, "table2", real)
+    monkeypatch.setattr(full, "run_step", real)
     code, stdout, err = _run(["paper", "full", "table2_rprop_mse", *_args(out, data_dir)], capsys)
     assert code == 0, err
     assert "session_0: done earlier" in stdout and "session_1: running" in stdout

@@ -99,8 +99,8 @@ def test_a_bad_registration_is_an_error_naming_it():
     sec61 = parts.part("sec61_subspace")
     with pytest.raises(ValueError, match="part 'sec61_subspace' registered twice"):
         parts.register(parts.Part("sec61_subspace", "another", 999))
-    with pytest.raises(ValueError, match="parts 'new' and 'sec61_subspace' share position 20"):
-        parts.register(parts.Part("new", "new", sec61.position))
+    with pytest.raises(ValueError, match="parts 'new' and 'sec61_subspace' share priority 20"):
+        parts.register(parts.Part("new", "new", sec61.priority))
     with pytest.raises(ValueError, match="must be a Python identifier"):
         parts.register(parts.Part("new-part", "new", 12345))
     assert parts.register(sec61) is sec61  # the same record again: nothing changes

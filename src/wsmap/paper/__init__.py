@@ -7,10 +7,14 @@
 * `.runtime` — the run-time comparison (classical against the network);
 * `.report` — `results/REPORT.md`, every reproduced number beside the paper's;
 * `.parts` — one module per part of the paper (per notebook and DVC stage): its `run`,
-  `save`, `figures` and `Metrics` schema, registered with its place in the run order and the
-  parts it reads; the notebooks call them;
+  `save`, `figures` and `Metrics` schema, registered with its priority (its place in the run
+  order), the parts it reads and, where it runs at the paper's scale, its `Scale`; the
+  notebooks call them;
 * `.pipeline` — the papermill runner of the notebooks (`wsmap paper run`), in the parts' order;
-* `.full` — the paper's scale, part by part and resumable (`wsmap paper full`);
+* `.scale` — what a part declares to run at the paper's scale (`Scale`: its units, steps and
+  summary) and what those entry points receive;
+* `.full` — the paper's scale, part by part and resumable (`wsmap paper full`): the parts'
+  `Scale` records run, resumed and listed;
 * `.dataset`, `.notebook` — one dataset, one notebook as one DVC stage (both end in
   `run_stage`).
 """

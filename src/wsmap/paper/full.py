@@ -18,9 +18,13 @@ part                   what (settings from the params file's section, default pa
                        `table3_nosubspace`)
 =====================  ==========================================================================
 
-Every part trains with the package's own code (`wsmap.paper.fitting.fit`, scored by
+The parts are those of the paper's parts (`wsmap.paper.parts`) whose record carries a
+`wsmap.paper.scale.Scale` (their module's `SCALE`), in the registry's order: the part's
+module plans its units from its params section, runs one step and summarises the finished steps
+(`Scale.plan`, `Scale.step`, `Scale.finalize`); this runner knows no part by name. Every part
+trains with the package's own code (`wsmap.paper.fitting.fit`, scored by
 `wsmap.paper.tables.score_results` / `wsmap.paper.fitting.evaluate`), summarised by
-the code the notebooks' parts use (`wsmap.paper.parts.sec61_subspace.summarise`,
+the code the notebooks use (`wsmap.paper.parts.sec61_subspace.summarise`,
 `wsmap.paper.parts.sec62_puma560.summarise` and `puma560_map`, the `tables` summaries),
 at exactly the params file's settings; §6.1's and §6.2's `metrics` follow the parts'
 `PaperScaleMetrics` schemas. The command is `wsmap paper full` (`python -m wsmap paper full`):
@@ -81,7 +85,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import fnmatch
-import hashlib
 import json
 import math
 import os
@@ -89,36 +92,36 @@ import platform
 import subprocess
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from .. import paths
-from . import fitting, tables
-from .parts import check_metrics, sec61_subspace, sec62_puma560
-from .specs import dataset_sizes
-from .specs import whole_param as _whole
+from . import parts as paper_parts
+from .scale import RUNNER_VERSION, Data, Planner, Unit, relative, settings_hash, step_hash
 
 __all__ = [
     "RUNNER_VERSION",
     "CPU_GFLOPS",
-    "Part",
+    "Unit",
     "plan",
     "select",
     "settings_hash",
+    "step_hash",
     "part_state",
+    "run_step",
     "run_part",
     "run",
     "list_lines",
+    "flop_estimate",
     "estimate_part",
     "estimate",
     "data_estimate",
+    "fmt_seconds",
+    "machine_facts",
     "default_out",
     "default_data",
 ]
 
-#: Bumped when what a part computes changes, so that old results are not taken for new ones.
-RUNNER_VERSION = 1
 #: Sustained float32 GFLOP/s of full-batch Rprop epochs on the development machine (2 cores, no
 #: GPU, nothing else running): 70-92 in `--estimate` runs of the paper's shapes (§6.1, Table 2,
 #: Table 1 rows). `--list` uses it for parts without a timed estimate; smaller networks (Table 3)
@@ -150,157 +153,24 @@ def _now() -> str:
 # --------------------------------------------------------------------------------------------
 
 
-@dataclass
-class Part:
-    """One resumable unit of work and everything its result depends on.
-
-    `settings` is hashed (`settings_hash`); `device` is the requested setting (`auto`,
-    `cpu`, `cuda`) and `device_what` names where it came from, for error messages.
-    `analysis`: settings of the summary drawn from the finished steps (§6.1's threshold sweep),
-    not of the training: not hashed, so a change summarises the same steps again (no retraining);
-    recorded in the result, and a result with other ones is not done.
-    """
-
-    name: str
-    kind: str  # sec61, sec62, table1, table2, table3
-    section: str
-    settings: dict[str, Any]
-    steps: list[str]
-    datasets: dict[str, dict[str, int]]  # name -> {"samples", "test_samples"}
-    device: str
-    device_what: str
-    title: str = ""
-    analysis: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def hash(self) -> str:
-        return settings_hash(self.settings)
-
-    @property
-    def step_hash(self) -> str:
-        """The hash a finished step is matched by: the settings without the number of sessions
-        (session `k` trains with seed `seed + k` whatever their number), so that raising
-        `sessions` reuses the sessions already run."""
-        return step_hash(self.settings)
-
-    @property
-    def train_config(self):
-        from ..learn.training import TrainConfig
-
-        return TrainConfig.from_dict({**self.settings["train_config"], "device": self.device})
-
-
-def settings_hash(settings: dict) -> str:
-    """`sha256:<hex>` of the canonical JSON of `settings` (sorted keys, no spaces)."""
-    from ..io import jsonable
-
-    text = json.dumps(jsonable(settings), sort_keys=True, separators=(",", ":"), allow_nan=False)
-    return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
-
-
-def step_hash(settings: dict) -> str:
-    """`settings_hash` of `settings` without `section.sessions` (see `Part.step_hash`)."""
-    section = {k: v for k, v in settings.get("section", {}).items() if k != "sessions"}
-    return settings_hash({**settings, "section": section})
-
-
-def _dataset_settings(names: Sequence[str], sizes: dict, source: str = "the params file") -> dict[str, dict]:
-    from ..datasets.spec import scaled
-    from .specs import paper_spec
-
-    return {name: {**s, "spec": scaled(paper_spec(name), s["samples"]).to_dict()}
-            for name, s in dataset_sizes(names, sizes, source).items()}
-
-
-def plan(params_file=None, *, device: str | None = None) -> list[Part]:
-    """Every part of the params file (default `params.full.yaml`), in run order.
+def plan(params_file=None, *, device: str | None = None) -> list[Unit]:
+    """Every part of the params file (default `params.full.yaml`), in run order: the units
+    each paper part with a `Scale` plans from its params section (`Scale.plan`).
 
     `device`: one `device` setting for every part (`--device`); `None`: each section's.
     Missing sections or keys are errors naming the file and section (nothing has run yet).
     """
-    from ..learn.training import TrainConfig
-    from ..workspace import N_BLOCKS
-
     params_file = Path(params_file) if params_file else paths.ROOT / "params.full.yaml"
-    sizes = paths.load_params("datasets", params_file)
-
-    def section(name):
-        return paths.notebook_params(name, params_file)
-
-    def dev(cfg):
-        if device is not None:
-            return device, "--device"
-        return cfg["device"], f"{cfg.source} device"
-
-    def train_config(optimizer, loss, max_epochs, max_fail, seed, where="the params file") -> dict:
-        d = TrainConfig(optimizer=optimizer, loss=loss, max_epochs=_whole(where, "max_epochs", max_epochs, 1),
-                        max_fail=_whole(where, "max_fail", max_fail, 1), seed=_whole(where, "seed", seed)).to_dict()
-        d.pop("device")
-        return d
-
-    def sessions(cfg, n=None) -> list[str]:
-        n = cfg["sessions"] if n is None else n
-        return [f"session_{k}" for k in range(_whole(cfg.source, "sessions", n, 1))]
-
-    def make(name, kind, cfg, steps, datasets, values, tc, title, analysis=None):
-        data = _dataset_settings(datasets, sizes, params_file.name)
-        settings = {"runner_version": RUNNER_VERSION, "part": name, "kind": kind, "section": values,
-                    "train_config": tc, "datasets": data}
-        d, what = dev(cfg)
-        return Part(name=name, kind=kind, section=cfg.source, settings=settings, steps=steps,
-                    datasets={k: {"samples": v["samples"], "test_samples": v["test_samples"]} for k, v in data.items()},
-                    device=d, device_what=what, title=title, analysis=dict(analysis or {}))
-
-    parts: list[Part] = []
-    c = section("sec61_subspace")
-    values = {k: c[k] for k in ("dataset", "train_samples", "sessions", "max_epochs", "max_fail", "hidden", "seed",
-                                "threshold")}
-    parts.append(make("sec61_subspace", "sec61", c, sessions(c),
-                      [c["dataset"]], values,
-                      train_config("rprop", "mse", c["max_epochs"], c["max_fail"], c["seed"], c.source),
-                      "§6.1: block-5 subspace, Rprop + MSE sessions",
-                      analysis={"sweep_points": _whole(c.source, "sweep_points", c["sweep_points"], 2)}))
-    c = section("sec62_puma560")
-    values = {k: c[k] for k in ("dataset", "train_samples", "max_epochs", "max_fail", "hidden", "seed", "threshold")}
-    parts.append(make("sec62_puma560", "sec62", c, [f"block_{k + 1}" for k in range(N_BLOCKS)], [c["dataset"]],
-                      values, train_config("rprop", "mse", c["max_epochs"], c["max_fail"], c["seed"], c.source),
-                      "§6.2: 7 block subspaces, stacked; PUMA560"))
-    c = section("table1_workspaces")
-    for name in c["datasets"]:
-        max_epochs = _whole(f"{c.source}, dataset {name!r}", "max_epochs",
-                            tables.per_dataset(c["max_epochs"], name), 1)
-        n_sessions = _whole(f"{c.source}, dataset {name!r}", "sessions", tables.per_dataset(c["sessions"], name), 1)
-        values = {"dataset": name, "train_samples": tables.per_dataset(c["train_samples"], name), "sessions": n_sessions,
-                  "max_epochs": max_epochs, "max_fail": c["max_fail"], "hidden": c["hidden"], "seed": c["seed"],
-                  "optimizer": c["optimizer"], "loss": c["loss"], "threshold": 0.5}
-        parts.append(make(name, "table1", c, sessions(c, n_sessions), [name], values,
-                          train_config(c["optimizer"], c["loss"], max_epochs, c["max_fail"], c["seed"], c.source),
-                          f"Table 1 row {name}"))
-    c = section("table2_optimisers")
-    values = {k: c[k] for k in ("dataset", "train_samples", "sessions", "max_epochs", "max_fail", "hidden", "seed")}
-    values.update(optimizer="rprop", loss="mse", threshold=0.5)
-    parts.append(make("table2_rprop_mse", "table2", c, sessions(c),
-                      [c["dataset"]], values,
-                      train_config("rprop", "mse", c["max_epochs"], c["max_fail"], c["seed"], c.source),
-                      "Table 2: Rprop + MSE cell"))
-    c = section("table3_embeddings")
-    embeddings = dict(c["embeddings"])
-    for emb, dataset in embeddings.items():
-        values = {"embedding": emb, "dataset": dataset, "embeddings": embeddings,
-                  "train_samples": tables.per_dataset(c["train_samples"], emb), "sessions": c["sessions"],
-                  "max_epochs": c["max_epochs"], "max_fail": c["max_fail"], "hidden": c["hidden"], "seed": c["seed"],
-                  "optimizer": c["optimizer"], "loss": c["loss"], "threshold": 0.5}
-        parts.append(make(f"table3_{emb}", "table3", c, sessions(c),
-                          list(embeddings.values()), values,
-                          train_config(c["optimizer"], c["loss"], c["max_epochs"], c["max_fail"], c["seed"], c.source),
-                          f"Table 3: {emb} model on the three test sets"))
-    names = [p.name for p in parts]
+    planner = Planner(params_file, device)
+    units = [unit for part in paper_parts.registry().values() if part.scale is not None
+             for unit in part.scale.plan(planner.section(part.name), planner)]
+    names = [u.name for u in units]
     if len(set(names)) != len(names):
         raise ValueError(f"two parts share a name: {names}")
-    return parts
+    return units
 
 
-def select(parts: Sequence[Part], names: Sequence[str]) -> list[Part]:
+def select(parts: Sequence[Unit], names: Sequence[str]) -> list[Unit]:
     """The parts named by `names` (exact names, shell patterns such as `table1_*`, or a group:
     `sec61`, `sec62`, `table1`, `table2`, `table3`), in run order; none given: all.
 
@@ -310,7 +180,7 @@ def select(parts: Sequence[Part], names: Sequence[str]) -> list[Part]:
         return list(parts)
     chosen: set[str] = set()
     for n in names:
-        hits = [p.name for p in parts if p.name == n or p.kind == n or fnmatch.fnmatchcase(p.name, n)]
+        hits = [p.name for p in parts if n in (p.name, p.kind) or fnmatch.fnmatchcase(p.name, n)]
         if not hits:
             raise ValueError(f"unknown part {n!r}; known: {', '.join(p.name for p in parts)} "
                              f"(or a group: {', '.join(dict.fromkeys(p.kind for p in parts))})")
@@ -323,20 +193,16 @@ def select(parts: Sequence[Part], names: Sequence[str]) -> list[Part]:
 # --------------------------------------------------------------------------------------------
 
 
-def _part_file(out: Path, part: Part) -> Path:
+def _part_file(out: Path, part: Unit) -> Path:
     return out / f"{part.name}.json"
 
 
-def _history_file(out: Path, part: Part) -> Path:
+def _history_file(out: Path, part: Unit) -> Path:
     return out / f"{part.name}.history.json"
 
 
-def _step_file(out: Path, part: Part, step: str) -> Path:
+def _step_file(out: Path, part: Unit, step: str) -> Path:
     return out / "steps" / part.name / f"{step}.json"
-
-
-def _model_file(out: Path, part: Part, step: str) -> Path:
-    return out / "models" / part.name / f"{step}.pt"
 
 
 def _read_json(path: Path) -> dict | None:
@@ -348,45 +214,45 @@ def _read_json(path: Path) -> dict | None:
     return data if isinstance(data, dict) else None
 
 
-# parts whose finalisation loads the steps' models (§6.2 stacks its 7 block models into one file;
-# §6.1 sweeps the threshold of its best session, known only once every session is done)
-_FINALIZE_LOADS_MODELS = {"sec61", "sec62"}
+def _write_json(path: Path, data: dict) -> None:
+    """`data` to `path` atomically, as the step files are written (one line)."""
+    from ..io import atomic_path, jsonable
+
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(json.dumps(jsonable(data), allow_nan=False) + "\n")
 
 
-# the columns _finalize adds to the steps' score rows (a step's rows are without them)
-_FINALIZE_COLUMNS = {"table1": ("dataset",), "table2": ("optimizer", "loss"), "table3": ("embedding",)}
-
-
-def _step_matches(data: dict, part: Part) -> bool:
+def _step_matches(data: dict, part: Unit) -> bool:
     # step files before step_hash carry only the hash of their part's settings
     return data.get("step_hash", data.get("settings_hash")) in (part.step_hash, part.hash)
 
 
-def _done_step(out: Path, part: Part, step: str) -> dict | None:
+def _done_step(out: Path, part: Unit, step: str) -> dict | None:
     """A finished step's record, or None: its step file, else its record in a finished result of
-    the same settings but another number of sessions (`Part.step_hash`). The step files are
+    the same settings but another number of sessions (`Unit.step_hash`). The step files are
     committed and the models are not, so on a fresh checkout a step whose model the part's
-    finalisation needs counts as not done."""
+    finalisation needs (`Scale.loads_models`) counts as not done."""
     data = _read_json(_step_file(out, part, step))
     if data is None or data.get("step") != step or not _step_matches(data, part):
         data = _step_from_result(out, part, step)
     if data is None:
         return None
-    if part.kind in _FINALIZE_LOADS_MODELS and not _model_file(out, part, step).is_file():
+    if part.scale.loads_models and not part.model_file(out, step).is_file():
         return None
     return data
 
 
-def _step_from_result(out: Path, part: Part, step: str) -> dict | None:
+def _step_from_result(out: Path, part: Unit, step: str) -> dict | None:
     """Step `step` (`session_<k>`) rebuilt from the part's finished `<part>.json` and its
     history when that result's settings differ from `part`'s in the number of sessions only: its
-    score rows, timings and training record, as its step file held them."""
+    score rows (without the columns `Scale.finalize` added), timings and training record, as its
+    step file held them."""
     result = _read_json(_part_file(out, part))
-    if (result is None or part.kind == "sec62" or not isinstance(result.get("settings"), dict)
+    if (result is None or not part.scale.sessions or not isinstance(result.get("settings"), dict)
             or step_hash(result["settings"]) != part.step_hash or not step.startswith("session_")):
         return None
     k = int(step.split("_")[1])
-    added = _FINALIZE_COLUMNS.get(part.kind, ())
+    added = part.scale.added_columns
     rows = [{c: v for c, v in r.items() if c not in added}
             for r in result.get("metrics", {}).get("runs", []) if r.get("session") == k]
     entry = next((s for s in result.get("steps", []) if s.get("step") == step), None)
@@ -399,12 +265,12 @@ def _step_from_result(out: Path, part: Part, step: str) -> dict | None:
             "from_result": True}
 
 
-def _is_done(result: dict | None, part: Part) -> bool:
+def _is_done(result: dict | None, part: Unit) -> bool:
     return (result is not None and result.get("settings_hash") == part.hash
             and result.get("analysis", {}) == part.analysis)
 
 
-def part_state(part: Part, out) -> dict[str, Any]:
+def part_state(part: Unit, out) -> dict[str, Any]:
     """`state`: `done` (a result with this part's settings hash), `partial` (some steps
     done), `stale` (a result from other settings; no step of the current ones yet) or
     `pending`; `steps_done`; `seconds` (measured: the result's `wall_seconds`, or the
@@ -434,6 +300,8 @@ def _git_commit() -> str | None:
 
 
 def machine_facts() -> dict[str, Any]:
+    """The machine a part ran on: host, platform, CPUs, memory (GiB), load, the versions of
+    Python, torch, numpy and wsmap, torch's threads, whether CUDA is there, the git commit."""
     import numpy as np
     import torch
 
@@ -453,309 +321,113 @@ def machine_facts() -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------------------------
-# Data
-# --------------------------------------------------------------------------------------------
-
-
-class _Data:
-    """The datasets of a part, loaded (built first where missing or of other sizes)."""
-
-    def __init__(self, part: Part, data_dir: Path, log: Log):
-        self.pairs: dict[str, tuple] = {}
-        self.timings: dict[str, dict[str, float]] = {}
-        for name, sizes in part.datasets.items():
-            self.pairs[name] = self._ensure(name, sizes, part.settings["datasets"][name]["spec"], data_dir, log)
-
-    def _ensure(self, name, sizes, spec, data_dir, log):
-        from .specs import build_pair, dataset_paths, load_pair
-
-        t0 = time.perf_counter()
-        pair = None
-        if all(p.exists() for p in dataset_paths(name, data_dir)):
-            try:
-                pair = load_pair(name, data_dir)
-            except ValueError as e:  # corrupt or inconsistent: rebuilt below
-                log(f"  dataset {name}: {e}; rebuilding")
-            if pair is not None and (len(pair[0]) != sizes["samples"] or len(pair[1]) != sizes["test_samples"]
-                                     or pair[0].spec.to_dict() != spec):
-                log(f"  dataset {name}: {len(pair[0])}/{len(pair[1])} arms in {data_dir}, "
-                    f"need {sizes['samples']}/{sizes['test_samples']} (or another spec); rebuilding")
-                pair = None
-        timing = {"load_s": time.perf_counter() - t0}
-        if pair is None:
-            log(f"  dataset {name}: building {sizes['samples']} + {sizes['test_samples']} arms into {data_dir} ...")
-            t1 = time.perf_counter()
-            build_pair(name, data_dir, sizes["samples"], sizes["test_samples"], progress=False)
-            timing["build_s"] = time.perf_counter() - t1
-            t2 = time.perf_counter()
-            pair = load_pair(name, data_dir)
-            timing["load_s"] += time.perf_counter() - t2
-            log(f"  dataset {name}: built in {timing['build_s']:.1f} s")
-        self.timings[name] = {k: round(v, 3) for k, v in timing.items()}
-        return pair
-
-
-# --------------------------------------------------------------------------------------------
-# Steps and finalisation per kind
-# --------------------------------------------------------------------------------------------
-
-
-def _relative(path: Path, out: Path) -> str:
-    """`path` relative to the result folder `out` when inside it (results stay valid when moved)."""
-    try:
-        return str(Path(path).resolve().relative_to(Path(out).resolve()))
-    except ValueError:
-        return str(path)
-
-
-def _history(result) -> dict[str, list]:
-    h = result.history.to_dict()
-    return {k: [None if v is None or (isinstance(v, float) and not math.isfinite(v)) else round(float(v), 7)
-                for v in vals] for k, vals in h.items() if vals}
-
-
-def _save_model(model, path: Path, spec, config, extra: dict, **map_spec) -> None:
-    from ..learn.files import save
-
-    model.set_map_spec(spec, **map_spec)
-    save(model, path, dataset_spec=spec, train_config=config, extra=extra)
-
-
-def _tests(part: Part, data: _Data) -> dict:
-    if part.kind == "table3":
-        return {emb: data.pairs[name][1] for emb, name in part.settings["section"]["embeddings"].items()}
-    name = part.settings["section"]["dataset"]
-    return {name: data.pairs[name][1]}
-
-
-def _session_step(part: Part, step: str, data: _Data, out: Path) -> dict:
-    """One session (seed `seed + k`) of a sec61/table1/table2/table3 part: train, score, save."""
-
-    k = int(step.split("_")[1])
-    sec = part.settings["section"]
-    train = data.pairs[sec["dataset"]][0].head(sec["train_samples"])
-    config = part.train_config.replace(seed=int(sec["seed"]) + k)
-    t0 = time.perf_counter()
-    (result,) = fitting.fit(train, config, sessions=1, hidden=sec["hidden"], **tables.mlp_options(config.loss))
-    t1 = time.perf_counter()
-    rows = tables.score_results([result], train, _tests(part, data), float(sec["threshold"]), first_session=k)
-    t2 = time.perf_counter()
-    threshold = float(sec["threshold"])
-    _save_model(result.model, _model_file(out, part, step), train.spec, config,
-                {"part": part.name, "step": step, "settings_hash": part.hash}, threshold=threshold)
-    t3 = time.perf_counter()
-    return {"metrics": {"rows": rows}, "history": _history(result),
-            "timings": {"train_s": t1 - t0, "score_s": t2 - t1, "save_s": t3 - t2,
-                        "epochs": int(result.stop_epoch),
-                        "seconds_per_epoch": (t1 - t0) / max(1, int(result.stop_epoch))}}
-
-
-def _block_step(part: Part, step: str, data: _Data, out: Path) -> dict:
-    """One §6.2 block (`block_k`, 1-based): as `wsmap.paper.fitting.fit_blocks` trains it."""
-    from .. import workspace
-
-    k = int(step.split("_")[1]) - 1
-    sec = part.settings["section"]
-    train_all, test = data.pairs[sec["dataset"]]
-    train = train_all.head(sec["train_samples"])
-    block = workspace.block_slice(k)
-    config = part.train_config
-    t0 = time.perf_counter()
-    (result,) = fitting.fit(train, config, nodes=block, sessions=1, hidden=sec["hidden"])
-    t1 = time.perf_counter()
-    ev = fitting.evaluate(result.model, test, nodes=block, key=0, threshold=float(sec["threshold"]))
-    t2 = time.perf_counter()
-    _save_model(result.model, _model_file(out, part, step), train.spec, config,
-                {"part": part.name, "step": step, "block": [block.start, block.stop], "settings_hash": part.hash},
-                nodes=(block.start, block.stop), threshold=float(sec["threshold"]))
-    t3 = time.perf_counter()
-    metrics = {"block": k + 1, "nodes": [block.start, block.stop], "precision": ev["precision"],
-               "recall": ev["recall"], "f": ev["f"], "f_per_sample": ev["f_mean"],
-               "reachable": float(ev["truth"].mean()), "epochs": int(result.stop_epoch),
-               "best_epoch": int(result.best_epoch), "stop_reason": result.stop_reason,
-               "best_val_loss": float(result.best_val_loss), "train_samples": len(train),
-               "seconds": float(result.history.time[-1])}
-    return {"metrics": metrics, "history": _history(result),
-            "timings": {"train_s": t1 - t0, "score_s": t2 - t1, "save_s": t3 - t2, "epochs": int(result.stop_epoch),
-                        "seconds_per_epoch": (t1 - t0) / max(1, int(result.stop_epoch))}}
-
-
-def _runs(steps: dict[str, dict]):
-    import pandas as pd
-
-    return pd.DataFrame([row for s in steps.values() for row in s["metrics"]["rows"]])
-
-
-def _finalize(part: Part, steps: dict[str, dict], data: _Data, out: Path) -> tuple[dict, list[Path]]:
-    """The part's metrics from its steps' (and, for §6.2, the stacked model file)."""
-
-    sec = part.settings["section"]
-    if part.kind == "sec62":
-        return _finalize_sec62(part, steps, data, out)
-    runs = _runs(steps)
-    if part.kind == "sec61":
-        best = int(runs.best_val_loss.to_numpy(dtype=float).argmin())
-        sweep = _sec61_sweep(part, f"session_{int(runs.session.iloc[best])}", data, out)
-        metrics = {**sec61_subspace.summarise(runs.to_dict("records"), sweep, threshold=float(sec["threshold"]),
-                                              max_epochs=int(sec["max_epochs"]),
-                                              train_samples=int(runs.train_samples.iloc[0])),
-                   "sweep": sweep.to_dict()}
-    elif part.kind == "table1":
-        runs.insert(0, "dataset", sec["dataset"])
-        row = tables.table1_summary(runs).iloc[0].to_dict()
-        metrics = {**row, "sessions": int(len(runs))}
-    elif part.kind == "table2":
-        runs.insert(0, "loss", sec["loss"])
-        runs.insert(0, "optimizer", sec["optimizer"])
-        metrics = tables.table2_summary(runs).iloc[0].to_dict()
-    elif part.kind == "table3":
-        runs.insert(0, "embedding", sec["embedding"])
-        summary = tables.table3_summary(runs)
-        metrics = {"embedding": sec["embedding"],
-                   "tests": {r["test"]: {k: v for k, v in r.items() if k not in ("embedding", "test")}
-                             for r in summary.to_dict("records")}}
-        own = metrics["tests"].get(sec["embedding"], {})
-        metrics.update(f_own=own.get("f"), precision_own=own.get("precision"), recall_own=own.get("recall"))
-    else:  # pragma: no cover - plan() makes no other kind
-        raise ValueError(f"unknown part kind {part.kind!r}")
-    metrics["runs"] = runs.to_dict("records")
-    if part.kind == "sec61":
-        check_metrics(metrics, sec61_subspace.PaperScaleMetrics, f"{part.name} (paper scale)")
-    return metrics, []
-
-
-def _sec61_sweep(part: Part, step: str, data: _Data, out: Path):
-    """The threshold sweep of §6.1's best session (lowest validation loss), as the paper's: its
-    model scored on the test set at `sweep_points` thresholds evenly from 0 to 1
-    (`wsmap.paper.parts.sec61_subspace.sweep_of`)."""
-    from ..learn.device import resolve_device
-    from ..learn.files import load
-
-    sec = part.settings["section"]
-    model, _ = load(_model_file(out, part, step), map_location=resolve_device(part.device, part.device_what))
-    evaluation = fitting.evaluate(model, data.pairs[sec["dataset"]][1], threshold=float(sec["threshold"]))
-    return sec61_subspace.sweep_of(evaluation, part.analysis["sweep_points"])
-
-
-def _finalize_sec62(part: Part, steps: dict[str, dict], data: _Data, out: Path) -> tuple[dict, list[Path]]:
-    from ..learn import SubspaceMLP
-    from ..learn.device import resolve_device
-    from ..learn.files import load, save
-
-    sec = part.settings["section"]
-    device = resolve_device(part.device, part.device_what)
-    models = [load(_model_file(out, part, s), map_location=device)[0] for s in part.steps]
-    model = SubspaceMLP.from_models(models)
-    train_all, test = data.pairs[sec["dataset"]]
-    spec = train_all.head(sec["train_samples"]).spec
-    threshold = float(sec["threshold"])
-    full = fitting.evaluate(model, test, assemble=True, threshold=threshold)
-    puma = sec62_puma560.puma560_map(model, spec, threshold)
-    model.set_map_spec(spec, assemble=True, threshold=threshold)
-    stacked = out / "models" / f"{part.name}.pt"
-    save(model, stacked, dataset_spec=spec, train_config=part.train_config,
-         extra={"part": part.name, "settings_hash": part.hash, "threshold": threshold})
-    blocks = [steps[s]["metrics"] for s in part.steps]
-    metrics = {
-        **sec62_puma560.summarise(blocks, full, puma, train_samples=blocks[0]["train_samples"],
-                                  test_samples=len(test), max_fail=int(sec["max_fail"])),
-        "max_epochs": int(sec["max_epochs"]), "model_file": _relative(stacked, out),
-    }
-    return check_metrics(metrics, sec62_puma560.PaperScaleMetrics, f"{part.name} (paper scale)"), [stacked]
-
-
-_STEP = {"sec61": _session_step, "table1": _session_step, "table2": _session_step, "table3": _session_step,
-         "sec62": _block_step}
-
-
-# --------------------------------------------------------------------------------------------
 # Running
 # --------------------------------------------------------------------------------------------
 
 
-def run_part(part: Part, out=None, data_dir=None, *, log: Log = print) -> dict:
-    """Run `part` (skipped when done; finished steps reused) and write `<out>/<part>.json`.
+def run_step(part: Unit, step: str, data: Data, out: Path, device) -> dict:
+    """Run step `step` of `part` (its `Scale.step`) and write its step file (atomically);
+    returns the step's record (its `metrics`, `history`, `timings`, `seconds`, hashes)."""
+    t0 = time.perf_counter()
+    result = part.scale.step(part, step, data, out)
+    seconds = time.perf_counter() - t0
+    done = {"part": part.name, "step": step, "settings_hash": part.hash, "step_hash": part.step_hash,
+            "seconds": seconds, "finished": _now(), "device": str(device), **result}
+    _write_json(_step_file(out, part, step), done)
+    return done
 
-    Returns the result dict (the file's content), or the existing one when the part was done.
-    """
-    from ..io import atomic_path, atomic_paths, jsonable
-    from ..learn.device import device_facts, resolve_device
 
-    out = Path(out) if out is not None else default_out()
-    data_dir = Path(data_dir) if data_dir is not None else default_data()
-    existing = _read_json(_part_file(out, part))
-    if _is_done(existing, part):
-        log(f"{part.name}: done ({_fmt_seconds(existing.get('wall_seconds'))}), skipped")
-        return existing
-    device = resolve_device(part.device, part.device_what)  # before any work
-    started, t_start = _now(), time.perf_counter()
-    machine = machine_facts()
-    log(f"{part.name}: {part.title}; {len(part.steps)} step(s) on {device}")
-    data = _Data(part, data_dir, log)
+def _run_steps(part: Unit, data: Data, out: Path, device, log: Log) -> tuple[dict[str, dict], dict[str, dict]]:
+    """Every step of `part`, those finished earlier reused: (step -> record, step -> training
+    record), in step order."""
     step_results: dict[str, dict] = {}
     histories: dict[str, dict] = {}
     for step in part.steps:
         done = _done_step(out, part, step)
         if done is not None:
             if done.pop("from_result", False):  # its own file from now on: the result is about to be replaced
-                with atomic_path(_step_file(out, part, step)) as tmp:
-                    Path(tmp).write_text(json.dumps(jsonable(done), allow_nan=False) + "\n")
-            log(f"  {step}: done earlier ({_fmt_seconds(done.get('seconds'))}), reused")
+                _write_json(_step_file(out, part, step), done)
+            log(f"  {step}: done earlier ({fmt_seconds(done.get('seconds'))}), reused")
         else:
             log(f"  {step}: running ...")
-            t0 = time.perf_counter()
-            result = _STEP[part.kind](part, step, data, out)
-            seconds = time.perf_counter() - t0
-            done = {"part": part.name, "step": step, "settings_hash": part.hash, "step_hash": part.step_hash,
-                    "seconds": seconds,
-                    "finished": _now(), "device": str(device), **result}
-            with atomic_path(_step_file(out, part, step)) as tmp:
-                Path(tmp).write_text(json.dumps(jsonable(done), allow_nan=False) + "\n")
-            log(f"  {step}: {_fmt_seconds(seconds)}; {_step_summary(part, done)}")
+            done = run_step(part, step, data, out, device)
+            log(f"  {step}: {fmt_seconds(done['seconds'])}; {part.scale.summary(part, done)}")
         histories[step] = done.pop("history", {})
         step_results[step] = done
+    return step_results, histories
+
+
+def _steps_entries(part: Unit, step_results: dict[str, dict]) -> list[dict]:
+    # per step: its timings (the per-session scores are metrics["runs"]; a block's are here)
+    return [{"step": name, "seconds": s["seconds"], "finished": s["finished"], "device": s["device"],
+             "summary": part.scale.summary(part, s), "timings": s["timings"],
+             **({"metrics": s["metrics"]} if part.scale.step_metrics else {})}
+            for name, s in step_results.items()]
+
+
+def _write_result(part: Unit, out: Path, result: dict, histories: dict[str, dict]) -> None:
+    """The result file and the history file: both or neither; the result file, last of all,
+    marks the part done."""
+    from ..io import atomic_paths, jsonable
+
+    text = json.dumps(jsonable(result), indent=1, allow_nan=False) + "\n"
+    history_text = json.dumps(jsonable({"part": part.name, "settings_hash": part.hash, "steps": histories}),
+                              allow_nan=False) + "\n"
+    with atomic_paths([_history_file(out, part), _part_file(out, part)]) as (h, r):
+        Path(h).write_text(history_text)
+        Path(r).write_text(text)
+
+
+def run_part(part: Unit, out=None, data_dir=None, *, log: Log = print) -> dict:
+    """Run `part` (skipped when done; finished steps reused) and write `<out>/<part>.json`.
+
+    Returns the result dict (the file's content), or the existing one when the part was done.
+    """
+    from ..learn.device import device_facts, resolve_device
+
+    out = Path(out) if out is not None else default_out()
+    data_dir = Path(data_dir) if data_dir is not None else default_data()
+    existing = _read_json(_part_file(out, part))
+    if _is_done(existing, part):
+        log(f"{part.name}: done ({fmt_seconds(existing.get('wall_seconds'))}), skipped")
+        return existing
+    device = resolve_device(part.device, part.device_what)  # before any work
+    started, t_start = _now(), time.perf_counter()
+    machine = machine_facts()
+    log(f"{part.name}: {part.title}; {len(part.steps)} step(s) on {device}")
+    data = Data(part, data_dir, log)
+    step_results, histories = _run_steps(part, data, out, device, log)
     t0 = time.perf_counter()
-    metrics, extra_files = _finalize(part, step_results, data, out)
+    metrics, extra_files = part.scale.finalize(part, step_results, data, out)
     finalize_s = time.perf_counter() - t0
     data_s = sum(sum(t.values()) for t in data.timings.values())
     steps_s = sum(float(s["seconds"]) for s in step_results.values())
     result = {
         "part": part.name, "title": part.title, "kind": part.kind, "settings_hash": part.hash,
         "settings": part.settings, "analysis": part.analysis, "params_section": part.section,
-        "metrics": metrics,
-        # per step: its timings (the per-session scores are metrics["runs"]; a block's are here)
-        "steps": [{"step": name, "seconds": s["seconds"], "finished": s["finished"], "device": s["device"],
-                   "summary": _step_summary(part, s), "timings": s["timings"],
-                   **({"metrics": s["metrics"]} if part.kind == "sec62" else {})}
-                  for name, s in step_results.items()],
+        "metrics": metrics, "steps": _steps_entries(part, step_results),
         "timings": {"datasets": data.timings, "steps": {k: s["seconds"] for k, s in step_results.items()},
                     "finalize_s": finalize_s},
         "wall_seconds": steps_s + data_s + finalize_s,
         "wall_seconds_this_run": time.perf_counter() - t_start,
         "device": {"setting": part.device, "from": part.device_what, "used": str(device), **device_facts(device)},
         "machine": {**machine, "load_average_end": list(os.getloadavg())},
-        "files": [_relative(p, out) for p in extra_files],
+        "files": [relative(p, out) for p in extra_files],
         "started": started, "finished": _now(),
     }
-    text = json.dumps(jsonable(result), indent=1, allow_nan=False) + "\n"
-    history_text = json.dumps(jsonable({"part": part.name, "settings_hash": part.hash, "steps": histories}),
-                              allow_nan=False) + "\n"
-    # both files or neither; the result file last of all marks the part done
-    with atomic_paths([_history_file(out, part), _part_file(out, part)]) as (h, r):
-        Path(h).write_text(history_text)
-        Path(r).write_text(text)
-    log(f"{part.name}: done in {_fmt_seconds(result['wall_seconds'])} -> {_part_file(out, part)}")
+    _write_result(part, out, result, histories)
+    log(f"{part.name}: done in {fmt_seconds(result['wall_seconds'])} -> {_part_file(out, part)}")
     return result
 
 
-def _step_summary(part: Part, done: dict) -> str:
-    m = done["metrics"]
-    if part.kind == "sec62":
-        return f"F {m['f']:.4f}, {m['epochs']} epochs ({m['stop_reason']})"
-    own = m["rows"][0] if part.kind != "table3" else next(
-        (r for r in m["rows"] if r["test"] == part.settings["section"]["embedding"]), m["rows"][0])
-    f = own.get("f")
-    return f"F {f:.4f}" if isinstance(f, float) and math.isfinite(f) else "F undefined"
+def _checked(names: Sequence[str], params_file, device: str | None) -> list[Unit]:
+    """The selected parts, every name, section, key and device checked (nothing built yet)."""
+    from ..learn.device import resolve_device
+
+    parts = select(plan(params_file, device=device), names)
+    for p in parts:
+        resolve_device(p.device, p.device_what)
+    return parts
 
 
 def run(names: Sequence[str] = (), params_file=None, out=None, data_dir=None, *, device: str | None = None,
@@ -763,11 +435,8 @@ def run(names: Sequence[str] = (), params_file=None, out=None, data_dir=None, *,
     """Run the selected parts (`select`) of `params_file` in order. Every name, section,
     key and device is checked before anything is built, loaded or written."""
     from ..io import check_output_path
-    from ..learn.device import resolve_device
 
-    parts = select(plan(params_file, device=device), names)
-    for p in parts:
-        resolve_device(p.device, p.device_what)
+    parts = _checked(names, params_file, device)
     out = Path(out) if out is not None else default_out()
     data_dir = Path(data_dir) if data_dir is not None else default_data()
     check_output_path(out / "x.json", "--out")
@@ -785,32 +454,32 @@ def _layer_macs(n_inputs: int, hidden: Sequence[int], n_outputs: int) -> int:
     return sum(a * b for a, b in zip(sizes[:-1], sizes[1:]))
 
 
-def _shape(part: Part) -> dict[str, int]:
-    """Inputs, outputs, training and validation samples of one step of `part`."""
-    from ..workspace import BLOCK_NODES
+def _shape(part: Unit) -> dict[str, int]:
+    """Inputs, outputs (`Scale.step_nodes`, else the dataset's nodes), training and validation
+    samples of one step of `part`."""
     from .specs import paper_spec
 
-    sec = part.settings["section"]
+    sec = part.values
     spec = paper_spec(sec["dataset"])
     samples = part.datasets[sec["dataset"]]["samples"]
     n = min(int(sec["train_samples"] or samples), samples)
     fr = part.settings["train_config"]["fractions"]
     n_val, n_test = int(round(fr[1] * n)), int(round(fr[2] * n))
-    m = BLOCK_NODES if part.kind == "sec62" else spec.n_nodes
+    m = part.scale.step_nodes if part.scale.step_nodes is not None else spec.n_nodes
     return {"n": n, "n_train": n - n_val - n_test, "n_val": n_val, "f": spec.n_features, "m": m}
 
 
-def flop_estimate(part: Part, gflops: float = CPU_GFLOPS) -> float:
+def flop_estimate(part: Unit, gflops: float = CPU_GFLOPS) -> float:
     """Seconds of `part`'s training at `gflops`: per epoch a forward and backward pass over the
     training split (3 x 2 x MACs) and a forward pass over the validation split, x `max_epochs`
     x steps."""
     s = _shape(part)
-    macs = _layer_macs(s["f"], part.settings["section"]["hidden"], s["m"])
+    macs = _layer_macs(s["f"], part.values["hidden"], s["m"])
     per_epoch = 2 * macs * (3 * s["n_train"] + s["n_val"]) / (gflops * 1e9)
-    return per_epoch * int(part.settings["section"]["max_epochs"]) * len(part.steps)
+    return per_epoch * int(part.values["max_epochs"]) * len(part.steps)
 
 
-def data_estimate(part: Part, data_dir=None, counted: set | None = None) -> float:
+def data_estimate(part: Unit, data_dir=None, counted: set | None = None) -> float:
     """Seconds to build the part's datasets missing from `data_dir` (file existence only):
     `EXACT_SECONDS_PER_LABEL` per label for closed-form labels,
     `NUMERICAL_SECONDS_PER_ARM` per arm for numerical ones. `counted`: names already
@@ -831,7 +500,7 @@ def data_estimate(part: Part, data_dir=None, counted: set | None = None) -> floa
     return total
 
 
-def estimate_part(part: Part, epochs: int = 4) -> dict[str, Any]:
+def estimate_part(part: Unit, epochs: int = 4) -> dict[str, Any]:
     """Time `epochs` epochs of one step of `part` on random data of its exact shapes (features,
     nodes, training and validation samples, network, optimiser) on its device; no dataset needed.
 
@@ -846,17 +515,18 @@ def estimate_part(part: Part, epochs: int = 4) -> dict[str, Any]:
     from ..learn import MLPConfig, SubspaceMLP
     from ..learn.device import resolve_device
     from ..learn.training import split_indices, train
+    from .tables import mlp_options
 
     device = resolve_device(part.device, part.device_what)
     s = _shape(part)
-    sec = part.settings["section"]
+    sec = part.values
     rng = np.random.default_rng(0)
     X = rng.uniform(0.0, 0.5, size=(s["n"], s["f"]))
     Y = torch.rand(s["n"], s["m"], generator=torch.Generator().manual_seed(0)) < 0.3
     Y = Y.to(torch.float32)
     cfg = part.train_config.replace(max_epochs=int(epochs), max_fail=10**6)
     split = split_indices(s["n"], cfg.fractions, cfg.seed)
-    mlp = MLPConfig(n_inputs=s["f"], n_outputs=s["m"], hidden=list(sec["hidden"]), **tables.mlp_options(cfg.loss))
+    mlp = MLPConfig(n_inputs=s["f"], n_outputs=s["m"], hidden=list(sec["hidden"]), **mlp_options(cfg.loss))
     model = SubspaceMLP(mlp, seeds=[0]).configure(X[split.train], seeds=[0])
     res = train(model, X, Y, cfg, split=split)
     t = np.asarray(res.history.time)
@@ -879,11 +549,8 @@ def estimate(names: Sequence[str] = (), params_file=None, out=None, *, device: s
     """`estimate_part` for every selected part that is not done; merged into
     `<out>/estimates.json` (written atomically)."""
     from ..io import write_json
-    from ..learn.device import resolve_device
 
-    parts = select(plan(params_file, device=device), names)
-    for p in parts:
-        resolve_device(p.device, p.device_what)
+    parts = _checked(names, params_file, device)
     out = Path(out) if out is not None else default_out()
     known = _read_json(_estimates_file(out)) or {}
     for p in parts:
@@ -891,13 +558,14 @@ def estimate(names: Sequence[str] = (), params_file=None, out=None, *, device: s
             continue
         e = estimate_part(p, epochs)
         known[p.name] = e
-        log(f"{p.name}: {e['seconds_per_epoch']:.3f} s per epoch on {e['device']} -> ≈ {_fmt_seconds(e['estimate_s'])} "
-            f"for {p.settings['section']['max_epochs']} epochs x {len(p.steps)} step(s)")
+        log(f"{p.name}: {e['seconds_per_epoch']:.3f} s per epoch on {e['device']} -> ≈ {fmt_seconds(e['estimate_s'])} "
+            f"for {p.values['max_epochs']} epochs x {len(p.steps)} step(s)")
         write_json(known, _estimates_file(out))
     return known
 
 
-def _fmt_seconds(s) -> str:
+def fmt_seconds(s) -> str:
+    """A wall time as the listing prints it: `"45 s"`, `"4 min"`, `"3.2 h"`; `"?"` for none."""
     if s is None or (isinstance(s, float) and not math.isfinite(s)):
         return "?"
     s = float(s)
@@ -908,6 +576,35 @@ def _fmt_seconds(s) -> str:
     return f"{s / 3600:.1f} h"
 
 
+def _device_name(part: Unit) -> str:
+    from ..learn.device import resolve_device
+
+    try:
+        return str(resolve_device(part.device, part.device_what))
+    except ValueError:
+        return f"{part.device} (unavailable)"
+
+
+def _pending_time(part: Unit, state: dict, dev: str, estimates: dict, data_dir, counted: set
+                  ) -> tuple[float | None, str]:
+    """Seconds still to run for a part not done, and how they were found (`timed`, `flops`
+    or `run --estimate` where there is no estimate), the datasets still to build included."""
+    left = (len(part.steps) - state["steps_done"]) / len(part.steps)
+    e = estimates.get(part.name)
+    if isinstance(e, dict) and e.get("settings_hash") == part.hash and e.get("device") == dev:
+        seconds, how = float(e["estimate_s"]) * left, "timed"
+    elif dev == "cpu":
+        seconds, how = flop_estimate(part) * left, "flops"
+    else:
+        seconds, how = None, "run --estimate"
+    data_s = data_estimate(part, data_dir, counted)  # each missing dataset with the first part needing it
+    if seconds is not None:
+        seconds += data_s
+        if data_s > 0:
+            how += f" + data {fmt_seconds(data_s)}"
+    return seconds, how
+
+
 def list_lines(params_file=None, out=None, data_dir=None, *, device: str | None = None,
                names: Sequence[str] = ()) -> list[str]:
     """The `--list` table: one line per part (state, steps done, time), then the totals.
@@ -916,48 +613,30 @@ def list_lines(params_file=None, out=None, data_dir=None, *, device: str | None 
     `estimates.json`, matching settings) or `flops` (`flop_estimate`, CPU only) for the
     steps still to run, plus `data` for datasets still to build. Changes nothing on disk.
     """
-    from ..learn.device import resolve_device
-
     parts = select(plan(params_file, device=device), names)
     out = Path(out) if out is not None else default_out()
     estimates = _read_json(_estimates_file(out)) or {}
     rows = [("part", "state", "steps", "time", "how", "device")]
     pending_total, unknown, counted = 0.0, [], set()
     for p in parts:
-        st = part_state(p, out)
-        try:
-            dev = str(resolve_device(p.device, p.device_what))
-        except ValueError:
-            dev = f"{p.device} (unavailable)"
+        st, dev = part_state(p, out), _device_name(p)
         steps = f"{st['steps_done']}/{len(p.steps)}"
         if st["state"] == "done":
-            rows.append((p.name, "done", steps, _fmt_seconds(st["seconds"]), "measured", st.get("device") or dev))
+            rows.append((p.name, "done", steps, fmt_seconds(st["seconds"]), "measured", st.get("device") or dev))
             continue
-        left = (len(p.steps) - st["steps_done"]) / len(p.steps)
-        e = estimates.get(p.name)
-        if isinstance(e, dict) and e.get("settings_hash") == p.hash and e.get("device") == dev:
-            seconds, how = float(e["estimate_s"]) * left, "timed"
-        elif dev == "cpu":
-            seconds, how = flop_estimate(p) * left, "flops"
-        else:
-            seconds, how = None, "run --estimate"
-        data_s = data_estimate(p, data_dir, counted)  # each missing dataset with the first part needing it
-        if seconds is not None:
-            seconds += data_s
-            pending_total += seconds
-            if data_s > 0:
-                how += f" + data {_fmt_seconds(data_s)}"
-        else:
+        seconds, how = _pending_time(p, st, dev, estimates, data_dir, counted)
+        if seconds is None:
             unknown.append(p.name)
-        bound = "≤ " if p.kind == "sec62" else "≈ "  # §6.2 stops at max_fail 100: its epochs are a bound
-        rows.append((p.name, st["state"], steps, bound + _fmt_seconds(seconds) if seconds is not None else "?",
+        else:
+            pending_total += seconds
+        bound = "≤ " if p.scale.stops_early else "≈ "  # validation stopping: the epochs are a bound
+        rows.append((p.name, st["state"], steps, bound + fmt_seconds(seconds) if seconds is not None else "?",
                      how, dev))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows]
     done = sum(1 for r in rows[1:] if r[1] == "done")
-    tail = f"{done} of {len(parts)} parts done; still to run ≈ {_fmt_seconds(pending_total)}"
+    tail = f"{done} of {len(parts)} parts done; still to run ≈ {fmt_seconds(pending_total)}"
     if unknown:
         tail += f" + {len(unknown)} part(s) without an estimate"
     lines.append(tail)
     return lines
-

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from ..io import atomic_path, markdown_table
-from .full import _fmt_seconds
+from .full import fmt_seconds
 from .published import PAPER
 
 __all__ = ["PAPER", "DEPARTURES", "PAPER_SCALE", "FULL_PARTS", "NOT_RUN", "Row", "markdown_table", "lookup",
@@ -115,7 +115,7 @@ class Row:
 
 def wall_time(seconds) -> str:
     """A wall time as `wsmap paper full --list` prints it: `"45 s"`, `"4 min"`, `"3.2 h"`."""
-    return _fmt_seconds(seconds)
+    return fmt_seconds(seconds)
 
 
 def _finite(v) -> bool:

@@ -2,8 +2,10 @@
 
 A part module `wsmap.paper.parts.<name>` holds everything its notebook computes and draws:
 
-* `PART` — its `Part` record (name, place in the run order, the parts whose outputs it
-  reads, the files it writes), registered with `register` when the module is imported;
+* `PART` — its `Part` record (name, `priority`: its place in the run order, the parts whose
+  outputs it reads, the files it writes, and for the parts `wsmap paper full` runs at the paper's
+  scale their `SCALE`), registered with `register` in `PARTS` (a `wsmap._plugins.Registry`)
+  when the module is imported;
 * `Metrics` — the schema of its `results/<name>.json` (a `typing.TypedDict`, every key
   documented once; `check_metrics` holds a metrics dict to it);
 * `run(cfg, out, ...)` — the computation, from the notebook's params section `cfg`
@@ -24,11 +26,11 @@ A new figure of the paper is one new module here (with its `PART`), one notebook
 from __future__ import annotations
 
 import importlib
-import pkgutil
 from dataclasses import dataclass
-
-from ...io import write_json, write_table
 from typing import TYPE_CHECKING
+
+from ..._plugins import Registry, discover
+from ...io import write_json, write_table
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from matplotlib.figure import Figure
@@ -37,8 +39,10 @@ if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import Any, Callable, Path, PathLike, Sequence
     from wsmap.paths import Outputs
 
-__all__ = ["Part", "register", "registry", "part", "order", "reads", "metric_keys", "check_metrics", "save_tables",
-           "save_figure"]
+    from ..scale import Scale
+
+__all__ = ["Part", "PARTS", "register", "registry", "part", "order", "reads", "metric_keys", "check_metrics",
+           "save_tables", "save_figure", "knows_key"]
 
 
 @dataclass(frozen=True)
@@ -46,59 +50,62 @@ class Part:
     """One part of the paper: a notebook, a DVC stage, a metrics file.
 
     `name`: the notebook, the params section and the stage (`results/<name>.json`).
-    `position`: its place in the run order (the paper's order; ties are not allowed).
+    `priority`: its place in the run order (the paper's order; ties are not allowed).
     `reads`: the parts whose output files it reads (they run first).
     `outputs`: the files and folders it writes, relative to the output root (the executed
     notebook aside), as `dvc.yaml` lists them for the committed params.
+    `scale`: how `wsmap paper full` runs it at the paper's scale, cut into resumable steps
+    (a `wsmap.paper.scale.Scale` the part's module exports as `SCALE`); `None` for the parts
+    that the paper-scale runner leaves to their notebook.
     """
 
     name: str
     title: str
-    position: int
+    priority: int
     reads: tuple[str, ...] = ()
     outputs: tuple[str, ...] = ()
+    scale: Scale | None = None
 
     @property
     def module(self) -> str:
         return f"{__name__}.{self.name}"
 
 
-_REGISTRY: dict[str, Part] = {}
+#: Every part of the paper, by `(priority, name)`; each part module registers its `PART`.
+PARTS: Registry[Part] = Registry("part of the paper")
 
 
 def register(p: Part) -> Part:
-    """Add `p` to the registry (a part module's last statement); a second part of the same name
-    or position is a `ValueError`."""
+    """Add `p` to `PARTS` (a part module's last statement); returns it. The same record again
+    changes nothing; another part of the same name or priority is a `ValueError`."""
     if not p.name.isidentifier():
         raise ValueError(f"a part's name must be a Python identifier (its module's), got {p.name!r}")
-    old = _REGISTRY.get(p.name)
-    if old is not None and old != p:
-        raise ValueError(f"part {p.name!r} registered twice")
-    clash = [q.name for q in _REGISTRY.values() if q.position == p.position and q.name != p.name]
+    if p.name in PARTS:
+        if PARTS.get(p.name) != p:
+            raise ValueError(f"part {p.name!r} registered twice")
+        return PARTS.get(p.name)
+    clash = [q.name for q in PARTS if q.priority == p.priority]
     if clash:
-        raise ValueError(f"parts {p.name!r} and {clash[0]!r} share position {p.position}")
-    _REGISTRY[p.name] = p
-    return p
+        raise ValueError(f"parts {p.name!r} and {clash[0]!r} share priority {p.priority}")
+    return PARTS.register(p)
 
 
 def registry() -> dict[str, Part]:
     """Every part, by name, in run order: each module of this package imported (it registers itself).
 
-    The modules are found by listing the package, so that running one notebook imports only its
-    own part; a part that reads an unknown part, or one placed before a part it reads, is a
-    `ValueError`.
+    The discovery runs here, when the registry is first asked, and not when the package is
+    imported: running one notebook imports only its own part, so that a DVC stage depends on the
+    code of its own part alone (`tools/stage_deps.py`). A part that reads an unknown part, or one
+    placed before a part it reads, is a `ValueError`.
     """
-    for info in pkgutil.iter_modules(__path__):
-        if not info.name.startswith("_"):
-            importlib.import_module(f"{__name__}.{info.name}")
-    parts = sorted(_REGISTRY.values(), key=lambda p: p.position)
-    for p in parts:
+    discover(__name__, __path__)
+    for p in PARTS:
         for r in p.reads:
-            if r not in _REGISTRY:
-                raise ValueError(f"part {p.name!r} reads unknown part {r!r}; known: {', '.join(_REGISTRY)}")
-            if _REGISTRY[r].position >= p.position:
+            if r not in PARTS:
+                raise ValueError(f"part {p.name!r} reads unknown part {r!r}; known: {', '.join(PARTS.names())}")
+            if PARTS.get(r).priority >= p.priority:
                 raise ValueError(f"part {p.name!r} reads {r!r}, which runs after it")
-    return {p.name: p for p in parts}
+    return {p.name: p for p in PARTS}
 
 
 def part(name: str) -> Part:

@@ -6,8 +6,8 @@ full-batch Rprop on MSE, 70/15/15 split) trained `sessions` times (session `k`: 
 the test set at `threshold` (pooled F); the best session (lowest validation loss) swept over
 `sweep_points` thresholds from 0 to 1.
 
-The notebook (`run`) and the paper-scale runner (`wsmap.paper.full`, one session per
-resumable step) summarise the sessions with the same `summarise` into `Summary`.
+The notebook (`run`) and the paper-scale runner (`wsmap.paper.full` through `SCALE`: one
+session per resumable step) summarise the sessions with the same `summarise` into `Summary`.
 """
 
 from __future__ import annotations
@@ -31,6 +31,8 @@ from ...metrics import Sweep, per_sample_error, session_curves, threshold_sweep
 from ...paths import Outputs
 from .. import fitting
 from ..published import SEC61
+from ..scale import Data, Planner, Scale, Unit, step_runs
+from ..specs import whole_param
 from . import Part, check_metrics, register, save_figure
 
 
@@ -82,14 +84,6 @@ class PaperScaleMetrics(Summary):
 
     sweep: dict  #: `wsmap.metrics.Sweep.to_dict` of the best session
     runs: list[dict]  #: `wsmap.paper.tables.score_results` rows, one per session
-
-
-PART = Part("sec61_subspace", "§6.1: the block-5 subspace, Rprop + MSE sessions", 20, outputs=(
-    "models/sec61_subspace.pt", "results/sec61_subspace.json",
-    "tables/sec61_sessions.csv", "tables/sec61_sessions.md",
-    "tables/sec61_threshold_sweep.csv", "tables/sec61_threshold_sweep.md",
-    "figures/sec61_gradient.png", "figures/sec61_loss.png", "figures/sec61_test_error.png",
-    "figures/sec61_sections.png", "figures/sec61_threshold_sweep.png"))
 
 
 def sweep_of(evaluation: Mapping, points: int) -> Sweep:
@@ -255,4 +249,54 @@ def figures(result: Result, out: Outputs) -> list[Path]:
     return paths
 
 
+# --------------------------------------------------------------------------------------------
+# The paper's scale (`wsmap paper full sec61`): one unit, one session per step
+# --------------------------------------------------------------------------------------------
+
+
+def scale_plan(cfg: Mapping, planner: Planner) -> list[Unit]:
+    """§6.1's one unit from params section `cfg`: a step per session; the best session's sweep
+    (`sweep_points`) is its analysis, not a hashed setting."""
+    values = {k: cfg[k] for k in ("dataset", "train_samples", "sessions", "max_epochs", "max_fail", "hidden", "seed",
+                                  "threshold")}
+    return [planner.unit("sec61_subspace", SCALE, cfg, planner.sessions(cfg), [cfg["dataset"]], values,
+                         planner.train_config("rprop", "mse", cfg["max_epochs"], cfg["max_fail"], cfg["seed"],
+                                              cfg.source),
+                         "§6.1: block-5 subspace, Rprop + MSE sessions",
+                         analysis={"sweep_points": whole_param(cfg.source, "sweep_points", cfg["sweep_points"], 2)})]
+
+
+def scale_sweep(unit: Unit, step: str, data: Data, out: Path) -> Sweep:
+    """The threshold sweep of session `step` (the best one, of lowest validation loss), as the
+    paper's: its model scored on the test set at `sweep_points` thresholds evenly from 0 to 1
+    (`sweep_of`)."""
+    from ...learn.device import resolve_device
+    from ...learn.files import load
+
+    sec = unit.values
+    model, _ = load(unit.model_file(out, step), map_location=resolve_device(unit.device, unit.device_what))
+    evaluation = fitting.evaluate(model, data.pairs[sec["dataset"]][1], threshold=float(sec["threshold"]))
+    return sweep_of(evaluation, unit.analysis["sweep_points"])
+
+
+def scale_finalize(unit: Unit, steps: dict[str, dict], data: Data, out: Path) -> tuple[PaperScaleMetrics, list]:
+    """The unit's `PaperScaleMetrics`: the sessions `summarise`d with the best one's sweep."""
+    sec = unit.values
+    runs = step_runs(steps)
+    best = int(runs.best_val_loss.to_numpy(dtype=float).argmin())
+    sweep = scale_sweep(unit, f"session_{int(runs.session.iloc[best])}", data, out)
+    metrics = {**summarise(runs.to_dict("records"), sweep, threshold=float(sec["threshold"]),
+                           max_epochs=int(sec["max_epochs"]), train_samples=int(runs.train_samples.iloc[0])),
+               "sweep": sweep.to_dict(), "runs": runs.to_dict("records")}
+    return check_metrics(metrics, PaperScaleMetrics, f"{unit.name} (paper scale)"), []
+
+
+SCALE = Scale(kind="sec61", plan=scale_plan, finalize=scale_finalize, loads_models=True)
+
+PART = Part("sec61_subspace", "§6.1: the block-5 subspace, Rprop + MSE sessions", 20, outputs=(
+    "models/sec61_subspace.pt", "results/sec61_subspace.json",
+    "tables/sec61_sessions.csv", "tables/sec61_sessions.md",
+    "tables/sec61_threshold_sweep.csv", "tables/sec61_threshold_sweep.md",
+    "figures/sec61_gradient.png", "figures/sec61_loss.png", "figures/sec61_test_error.png",
+    "figures/sec61_sections.png", "figures/sec61_threshold_sweep.png"), scale=SCALE)
 register(PART)

@@ -5,8 +5,8 @@ The 21³ map (grid [-1, 1] m at 0.1 m, R = I) splits into 7 consecutive blocks o
 that predicts the whole map. Scored per block and assembled on the test set (pooled F at
 `threshold`), and on the PUMA560 against its exact (closed-form) map.
 
-The notebook (`run`) and the paper-scale runner (`wsmap.paper.full`, one block per
-resumable step) summarise the blocks with the same `summarise` into `Summary`, and
+The notebook (`run`) and the paper-scale runner (`wsmap.paper.full` through `SCALE`: one
+block per resumable step) summarise the blocks with the same `summarise` into `Summary`, and
 score the PUMA560 with the same `puma560_map`.
 """
 
@@ -33,6 +33,7 @@ from ...timing import time_call
 from ...views import iso_mesh
 from .. import fitting
 from ..published import SEC62
+from ..scale import Data, Planner, Scale, Unit, history, relative, save_model as save_step_model
 from . import Part, check_metrics, register, save_figure
 
 
@@ -86,14 +87,6 @@ class PaperScaleMetrics(Summary):
 
     max_epochs: int
     model_file: str  #: the stacked model, relative to the result folder
-
-
-PART = Part("sec62_puma560", "§6.2: 7 block subspaces, stacked; the PUMA560", 30, outputs=(
-    "models/sec62_puma560.pt", "results/sec62_puma560.json",
-    "results/puma560_workspace_predicted.glb", "results/puma560_workspace_predicted.stl",
-    "tables/sec62_subspaces.csv", "tables/sec62_subspaces.md",
-    "figures/sec62_training.png", "figures/sec62_error_histogram.png", "figures/sec62_subspace_runtime.png",
-    "figures/puma560_workspace_predicted.png", "figures/sec62_puma560_slices.png"))
 
 
 def puma560_map(model, spec: DatasetSpec, threshold: float) -> tuple[np.ndarray, np.ndarray, PRF]:
@@ -291,4 +284,92 @@ def figures(result: Result, out: Outputs) -> list[Path]:
     return paths
 
 
+# --------------------------------------------------------------------------------------------
+# The paper's scale (`wsmap paper full sec62`): one unit, one block per step
+# --------------------------------------------------------------------------------------------
+
+
+def scale_plan(cfg: Mapping, planner: Planner) -> list[Unit]:
+    """§6.2's one unit from params section `cfg`: a step per block (`block_1` .. `block_7`)."""
+    values = {k: cfg[k] for k in ("dataset", "train_samples", "max_epochs", "max_fail", "hidden", "seed", "threshold")}
+    return [planner.unit("sec62_puma560", SCALE, cfg, [f"block_{k + 1}" for k in range(workspace.N_BLOCKS)],
+                         [cfg["dataset"]], values,
+                         planner.train_config("rprop", "mse", cfg["max_epochs"], cfg["max_fail"], cfg["seed"],
+                                              cfg.source),
+                         "§6.2: 7 block subspaces, stacked; PUMA560")]
+
+
+def scale_step(unit: Unit, step: str, data: Data, out: Path) -> dict:
+    """One block (`block_k`, 1-based): as `wsmap.paper.fitting.fit_blocks` trains it, scored on
+    the test set's nodes of the block, its model saved."""
+    k = int(step.split("_")[1]) - 1
+    sec = unit.values
+    train_all, test = data.pairs[sec["dataset"]]
+    train = train_all.head(sec["train_samples"])
+    block = workspace.block_slice(k)
+    config = unit.train_config
+    t0 = time.perf_counter()
+    (result,) = fitting.fit(train, config, nodes=block, sessions=1, hidden=sec["hidden"])
+    t1 = time.perf_counter()
+    ev = fitting.evaluate(result.model, test, nodes=block, key=0, threshold=float(sec["threshold"]))
+    t2 = time.perf_counter()
+    save_step_model(result.model, unit.model_file(out, step), train.spec, config,
+                    {"part": unit.name, "step": step, "block": [block.start, block.stop], "settings_hash": unit.hash},
+                    nodes=(block.start, block.stop), threshold=float(sec["threshold"]))
+    t3 = time.perf_counter()
+    metrics = {"block": k + 1, "nodes": [block.start, block.stop], "precision": ev["precision"],
+               "recall": ev["recall"], "f": ev["f"], "f_per_sample": ev["f_mean"],
+               "reachable": float(ev["truth"].mean()), "epochs": int(result.stop_epoch),
+               "best_epoch": int(result.best_epoch), "stop_reason": result.stop_reason,
+               "best_val_loss": float(result.best_val_loss), "train_samples": len(train),
+               "seconds": float(result.history.time[-1])}
+    return {"metrics": metrics, "history": history(result),
+            "timings": {"train_s": t1 - t0, "score_s": t2 - t1, "save_s": t3 - t2, "epochs": int(result.stop_epoch),
+                        "seconds_per_epoch": (t1 - t0) / max(1, int(result.stop_epoch))}}
+
+
+def scale_summary(unit: Unit, done: dict) -> str:
+    """A finished block in one line: its F, epochs and why it stopped."""
+    m = done["metrics"]
+    return f"F {m['f']:.4f}, {m['epochs']} epochs ({m['stop_reason']})"
+
+
+def scale_finalize(unit: Unit, steps: dict[str, dict], data: Data, out: Path) -> tuple[PaperScaleMetrics, list[Path]]:
+    """The 7 block models stacked into `models/sec62_puma560.pt` (under the result folder),
+    scored on the whole map and on the PUMA560, `summarise`d with the blocks' scores."""
+    from ...learn import SubspaceMLP
+    from ...learn.device import resolve_device
+    from ...learn.files import load
+
+    sec = unit.values
+    device = resolve_device(unit.device, unit.device_what)
+    model = SubspaceMLP.from_models([load(unit.model_file(out, s), map_location=device)[0] for s in unit.steps])
+    train_all, test = data.pairs[sec["dataset"]]
+    spec = train_all.head(sec["train_samples"]).spec
+    threshold = float(sec["threshold"])
+    full = fitting.evaluate(model, test, assemble=True, threshold=threshold)
+    puma = puma560_map(model, spec, threshold)
+    model.set_map_spec(spec, assemble=True, threshold=threshold)
+    stacked = Path(out) / "models" / f"{unit.name}.pt"
+    save_model(model, stacked, dataset_spec=spec, train_config=unit.train_config,
+               extra={"part": unit.name, "settings_hash": unit.hash, "threshold": threshold})
+    blocks = [steps[s]["metrics"] for s in unit.steps]
+    metrics = {
+        **summarise(blocks, full, puma, train_samples=blocks[0]["train_samples"], test_samples=len(test),
+                    max_fail=int(sec["max_fail"])),
+        "max_epochs": int(sec["max_epochs"]), "model_file": relative(stacked, out),
+    }
+    return check_metrics(metrics, PaperScaleMetrics, f"{unit.name} (paper scale)"), [stacked]
+
+
+SCALE = Scale(kind="sec62", plan=scale_plan, finalize=scale_finalize, step=scale_step, summary=scale_summary,
+              loads_models=True, sessions=False, step_metrics=True, stops_early=True,
+              step_nodes=workspace.BLOCK_NODES)
+
+PART = Part("sec62_puma560", "§6.2: 7 block subspaces, stacked; the PUMA560", 30, outputs=(
+    "models/sec62_puma560.pt", "results/sec62_puma560.json",
+    "results/puma560_workspace_predicted.glb", "results/puma560_workspace_predicted.stl",
+    "tables/sec62_subspaces.csv", "tables/sec62_subspaces.md",
+    "figures/sec62_training.png", "figures/sec62_error_histogram.png", "figures/sec62_subspace_runtime.png",
+    "figures/puma560_workspace_predicted.png", "figures/sec62_puma560_slices.png"), scale=SCALE)
 register(PART)

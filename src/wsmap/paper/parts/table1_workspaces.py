@@ -3,7 +3,8 @@
 Constant-orientation ("R3") maps over [-1, 1]³ at R = I (grid step 1, 0.5, and 0.1: block 5, the
 crop to z = 0.8, the whole 21³ grid) and orientation ("SO3") maps over [0, 2π]³ at a fixed point;
 one model per row (`wsmap.paper.tables.table1`), F pooled over every test arm and node.
-The paper-scale runner (`wsmap.paper.full`) trains the same rows, one session per step, and
+The paper-scale runner (`wsmap.paper.full`, through `SCALE`) trains the same rows, one unit
+per row and one session per step, and
 summarises them with the same `wsmap.paper.tables.table1_summary`.
 """
 
@@ -22,6 +23,8 @@ from ...learn.device import resolve_device
 from ...learn.training import TrainConfig
 from ...paths import Outputs
 from .. import tables
+from ..scale import Data, Planner, Scale, Unit, step_runs
+from ..specs import whole_param
 from . import Part, check_metrics, register, save_figure, save_tables
 
 
@@ -43,12 +46,6 @@ class Metrics(TypedDict):
     total_training_seconds: float
     device: str
     config: dict  #: the params section
-
-
-PART = Part("table1_workspaces", "Table 1: F-measures of other workspace models", 40, outputs=(
-    "results/table1_workspaces.json", "tables/table1_workspaces.csv", "tables/table1_workspaces.md",
-    "tables/table1_workspaces_display.csv", "tables/table1_workspaces_display.md",
-    "tables/table1_workspaces_runs.csv", "tables/table1_workspaces_runs.md", "figures/table1_workspaces.png"))
 
 
 @dataclass
@@ -125,4 +122,45 @@ def figures(result: Result, out: Outputs) -> list[Path]:
     return [save_figure(fig, out.figures / "table1_workspaces.png")]
 
 
+# --------------------------------------------------------------------------------------------
+# The paper's scale (`wsmap paper full table1`): one unit per row, one session per step
+# --------------------------------------------------------------------------------------------
+
+
+def scale_plan(cfg: Mapping, planner: Planner) -> list[Unit]:
+    """A unit per dataset (row) of params section `cfg`, named after it, with that dataset's
+    `train_samples`, `max_epochs` and `sessions` (a number, or one per dataset); a step per
+    session."""
+    units = []
+    for name in cfg["datasets"]:
+        where = f"{cfg.source}, dataset {name!r}"
+        max_epochs = whole_param(where, "max_epochs", tables.per_dataset(cfg["max_epochs"], name), 1)
+        n_sessions = whole_param(where, "sessions", tables.per_dataset(cfg["sessions"], name), 1)
+        values = {"dataset": name, "train_samples": tables.per_dataset(cfg["train_samples"], name),
+                  "sessions": n_sessions, "max_epochs": max_epochs, "max_fail": cfg["max_fail"],
+                  "hidden": cfg["hidden"], "seed": cfg["seed"], "optimizer": cfg["optimizer"], "loss": cfg["loss"],
+                  "threshold": 0.5}
+        units.append(planner.unit(name, SCALE, cfg, planner.sessions(cfg, n_sessions), [name], values,
+                                  planner.train_config(cfg["optimizer"], cfg["loss"], max_epochs, cfg["max_fail"],
+                                                       cfg["seed"], cfg.source),
+                                  f"Table 1 row {name}"))
+    return units
+
+
+def scale_finalize(unit: Unit, steps: dict[str, dict], data: Data, out: Path) -> tuple[dict, list]:
+    """The row's `wsmap.paper.tables.table1_summary` over its sessions, their number, and the
+    sessions' score rows (`runs`, with their `dataset`)."""
+    runs = step_runs(steps)
+    runs.insert(0, "dataset", unit.values["dataset"])
+    metrics = {**tables.table1_summary(runs).iloc[0].to_dict(), "sessions": int(len(runs))}
+    metrics["runs"] = runs.to_dict("records")
+    return metrics, []
+
+
+SCALE = Scale(kind="table1", plan=scale_plan, finalize=scale_finalize, added_columns=("dataset",))
+
+PART = Part("table1_workspaces", "Table 1: F-measures of other workspace models", 40, outputs=(
+    "results/table1_workspaces.json", "tables/table1_workspaces.csv", "tables/table1_workspaces.md",
+    "tables/table1_workspaces_display.csv", "tables/table1_workspaces_display.md",
+    "tables/table1_workspaces_runs.csv", "tables/table1_workspaces_runs.md", "figures/table1_workspaces.png"), scale=SCALE)
 register(PART)

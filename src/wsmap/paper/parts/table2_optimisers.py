@@ -2,7 +2,7 @@
 
 Every optimiser with every loss (`wsmap.paper.tables.table2`), `sessions` sessions each,
 the same epoch budget for all; cross entropy on logits (see `wsmap.paper.tables`). The
-paper-scale runner (`wsmap.paper.full`) trains the Rprop + MSE cell and summarises it with the
+paper-scale runner (`wsmap.paper.full`, through `SCALE`) trains the Rprop + MSE cell and summarises it with the
 same `wsmap.paper.tables.table2_summary`.
 """
 
@@ -22,6 +22,7 @@ from ...learn.training import TrainConfig
 from ...paths import Outputs
 from .. import tables
 from ..published import PAPER_TABLE2
+from ..scale import Data, Planner, Scale, Unit, step_runs
 from ..specs import load_pair
 from . import Part, register, save_figure, save_tables
 from . import check_metrics as check_schema
@@ -43,12 +44,6 @@ class Metrics(TypedDict):
     total_training_seconds: float
     device: str
     config: dict
-
-
-PART = Part("table2_optimisers", "Table 2: optimisers and losses", 50, outputs=(
-    "results/table2_optimisers.json", "tables/table2_optimisers.csv", "tables/table2_optimisers.md",
-    "tables/table2_optimisers_display.csv", "tables/table2_optimisers_display.md",
-    "tables/table2_optimisers_runs.csv", "tables/table2_optimisers_runs.md", "figures/table2_optimisers.png"))
 
 
 def check_metrics(metrics: Mapping) -> dict:
@@ -146,4 +141,36 @@ def is_cell_key(key: str) -> bool:
     return cell.count("_") == 1 and what in CELL_KEYS
 
 
+# --------------------------------------------------------------------------------------------
+# The paper's scale (`wsmap paper full table2`): the Rprop + MSE cell, one session per step
+# --------------------------------------------------------------------------------------------
+
+
+def scale_plan(cfg: Mapping, planner: Planner) -> list[Unit]:
+    """The Rprop + MSE cell of params section `cfg` as one unit, a step per session."""
+    values = {k: cfg[k] for k in ("dataset", "train_samples", "sessions", "max_epochs", "max_fail", "hidden", "seed")}
+    values.update(optimizer="rprop", loss="mse", threshold=0.5)
+    return [planner.unit("table2_rprop_mse", SCALE, cfg, planner.sessions(cfg), [cfg["dataset"]], values,
+                         planner.train_config("rprop", "mse", cfg["max_epochs"], cfg["max_fail"], cfg["seed"],
+                                              cfg.source),
+                         "Table 2: Rprop + MSE cell")]
+
+
+def scale_finalize(unit: Unit, steps: dict[str, dict], data: Data, out: Path) -> tuple[dict, list]:
+    """The cell's `wsmap.paper.tables.table2_summary` over its sessions and their score rows
+    (`runs`, with their `optimizer` and `loss`)."""
+    runs = step_runs(steps)
+    runs.insert(0, "loss", unit.values["loss"])
+    runs.insert(0, "optimizer", unit.values["optimizer"])
+    metrics = tables.table2_summary(runs).iloc[0].to_dict()
+    metrics["runs"] = runs.to_dict("records")
+    return metrics, []
+
+
+SCALE = Scale(kind="table2", plan=scale_plan, finalize=scale_finalize, added_columns=("optimizer", "loss"))
+
+PART = Part("table2_optimisers", "Table 2: optimisers and losses", 50, outputs=(
+    "results/table2_optimisers.json", "tables/table2_optimisers.csv", "tables/table2_optimisers.md",
+    "tables/table2_optimisers_display.csv", "tables/table2_optimisers_display.md",
+    "tables/table2_optimisers_runs.csv", "tables/table2_optimisers_runs.md", "figures/table2_optimisers.png"), scale=SCALE)
 register(PART)

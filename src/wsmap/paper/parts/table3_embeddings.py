@@ -5,7 +5,7 @@ three datasets sharing the inputs (84 features) and the outputs (block 5's 1323 
 spherical-wrist arms at R = I (`subspace`), at an orientation drawn on SO(3) per arm
 (`workspace`), arbitrary 6-DOF arms at a fixed orientation (`nosubspace`, numerical labels).
 Each is tested on all three test sets (`wsmap.paper.tables.table3`); the paper-scale runner
-(`wsmap.paper.full`) trains one embedding per part and summarises with the same
+(`wsmap.paper.full`, through `SCALE`) trains one embedding per unit and summarises with the same
 `wsmap.paper.tables.table3_summary`.
 """
 
@@ -25,6 +25,7 @@ from ...learn.training import TrainConfig
 from ...paths import Outputs
 from .. import tables
 from ..specs import load_pair
+from ..scale import Data, Planner, Scale, Unit, f_line, step_runs
 from . import Part, register, save_figure, save_tables
 
 #: The keys of each (model embedding, test set) cell of the metrics.
@@ -44,12 +45,6 @@ class Metrics(TypedDict):
     total_training_seconds: float
     device: str
     config: dict
-
-
-PART = Part("table3_embeddings", "Table 3: subspace, workspace and no-subspace embeddings", 60, outputs=(
-    "results/table3_embeddings.json", "tables/table3_embeddings.csv", "tables/table3_embeddings.md",
-    "tables/table3_embeddings_display.csv", "tables/table3_embeddings_display.md",
-    "tables/table3_embeddings_runs.csv", "tables/table3_embeddings_runs.md", "figures/table3_embeddings.png"))
 
 
 def check_metrics(metrics: Mapping, embeddings) -> dict:
@@ -168,4 +163,60 @@ def is_cell_key(key: str) -> bool:
     return len(parts) == 3 and parts[2] in CELL_KEYS
 
 
+# --------------------------------------------------------------------------------------------
+# The paper's scale (`wsmap paper full table3`): one unit per embedding, one session per step
+# --------------------------------------------------------------------------------------------
+
+
+def scale_plan(cfg: Mapping, planner: Planner) -> list[Unit]:
+    """A unit per embedding of params section `cfg` (`table3_<embedding>`), each reading all
+    the embeddings' datasets (its model is tested on every test set); a step per session."""
+    embeddings = dict(cfg["embeddings"])
+    units = []
+    for emb, dataset in embeddings.items():
+        values = {"embedding": emb, "dataset": dataset, "embeddings": embeddings,
+                  "train_samples": tables.per_dataset(cfg["train_samples"], emb), "sessions": cfg["sessions"],
+                  "max_epochs": cfg["max_epochs"], "max_fail": cfg["max_fail"], "hidden": cfg["hidden"],
+                  "seed": cfg["seed"], "optimizer": cfg["optimizer"], "loss": cfg["loss"], "threshold": 0.5}
+        units.append(planner.unit(f"table3_{emb}", SCALE, cfg, planner.sessions(cfg), list(embeddings.values()),
+                                  values, planner.train_config(cfg["optimizer"], cfg["loss"], cfg["max_epochs"],
+                                                               cfg["max_fail"], cfg["seed"], cfg.source),
+                                  f"Table 3: {emb} model on the three test sets"))
+    return units
+
+
+def scale_test_sets(unit: Unit, data: Data) -> dict:
+    """Every embedding's test set, by embedding: a unit's model is scored on all three."""
+    return {emb: data.pairs[name][1] for emb, name in unit.values["embeddings"].items()}
+
+
+def scale_summary(unit: Unit, done: dict) -> str:
+    """A finished session in one line: its F on its own embedding's test set."""
+    rows = done["metrics"]["rows"]
+    return f_line(next((r for r in rows if r["test"] == unit.values["embedding"]), rows[0]))
+
+
+def scale_finalize(unit: Unit, steps: dict[str, dict], data: Data, out: Path) -> tuple[dict, list]:
+    """The model's `wsmap.paper.tables.table3_summary` per test set (`tests`), its own test
+    set's scores beside them, and the sessions' score rows (`runs`, with their `embedding`)."""
+    emb = unit.values["embedding"]
+    runs = step_runs(steps)
+    runs.insert(0, "embedding", emb)
+    summary = tables.table3_summary(runs)
+    metrics = {"embedding": emb,
+               "tests": {r["test"]: {k: v for k, v in r.items() if k not in ("embedding", "test")}
+                         for r in summary.to_dict("records")}}
+    own = metrics["tests"].get(emb, {})
+    metrics.update(f_own=own.get("f"), precision_own=own.get("precision"), recall_own=own.get("recall"))
+    metrics["runs"] = runs.to_dict("records")
+    return metrics, []
+
+
+SCALE = Scale(kind="table3", plan=scale_plan, finalize=scale_finalize, test_sets=scale_test_sets,
+              summary=scale_summary, added_columns=("embedding",))
+
+PART = Part("table3_embeddings", "Table 3: subspace, workspace and no-subspace embeddings", 60, outputs=(
+    "results/table3_embeddings.json", "tables/table3_embeddings.csv", "tables/table3_embeddings.md",
+    "tables/table3_embeddings_display.csv", "tables/table3_embeddings_display.md",
+    "tables/table3_embeddings_runs.csv", "tables/table3_embeddings_runs.md", "figures/table3_embeddings.png"), scale=SCALE)
 register(PART)
