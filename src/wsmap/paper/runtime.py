@@ -30,9 +30,8 @@ Times are wall-clock (`time.perf_counter`), mean ± sigma (sample standard devia
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -102,6 +101,152 @@ def _agreement(pred, exact) -> float:
     return float(np.mean(np.asarray(pred, bool) == np.asarray(exact, bool)))
 
 
+@dataclass
+class _Grid:
+    """One grid of the comparison: its step (m), nodes `(N, 3)`, exact map `(N,)` and the
+    paper's classical and network times for its node count (NaN where the paper has none)."""
+
+    step: float
+    nodes: np.ndarray
+    exact: np.ndarray
+    paper_classical: float
+    paper_network: float
+
+    @property
+    def n(self) -> int:
+        return len(self.nodes)
+
+
+@dataclass
+class _Comparison:
+    """The settings of one `runtime_comparison` (see there), the arm, the node-sample
+    generator (one for all grids, drawn in grid order) and the rows measured so far."""
+
+    robot: Any
+    lo: float
+    hi: float
+    rpy: tuple[float, float, float]
+    ik: dict
+    repeats: int
+    warmup: int
+    classical_repeats: int
+    classical_warmup: int
+    per_node_sample: int
+    seed: int
+    methods: list[str]
+    say: Callable[[str], None]
+    net_device: Any
+    rng: np.random.Generator
+    rows: list[dict] = field(default_factory=list)
+
+    def grid(self, step: float) -> _Grid:
+        from .. import workspace
+
+        nodes = workspace.cartesian_grid(self.lo, self.hi, step)
+        exact = workspace.constant_orientation_map(self.robot, nodes, self.rpy, method="exact", convention="paper")
+        paper_classical, paper_network_s = RUNTIME_SECONDS.get(len(nodes), (math.nan, math.nan))
+        return _Grid(step, nodes, exact, paper_classical, paper_network_s)
+
+    def add(self, g: _Grid, method: str, timing: Timing, timed_nodes: int, extrapolated: bool = False,
+            agreement: float = math.nan) -> None:
+        network = method.startswith("network")
+        paper = g.paper_network if network else g.paper_classical
+        self.rows.append(dict(
+            nodes=g.n, step=float(g.step), method=method, label=METHODS[method],
+            mean_s=timing.mean, std_s=timing.std, min_s=timing.min, repeats=timing.n,
+            timed_nodes=int(timed_nodes), extrapolated=bool(extrapolated),
+            device=str(self.net_device) if network else "cpu",
+            agreement_with_exact=agreement, paper_s=paper,
+            speedup_vs_paper=paper / timing.mean if timing.mean > 0 else math.nan,
+        ))
+
+    def per_node(self, g: _Grid) -> None:
+        """The paper's way: one LM call per node of a fresh random sample per repeat, the time
+        extrapolated to the grid."""
+        from .. import workspace
+        from ..kinematics import ikine_LM
+
+        T = workspace.target_poses(g.nodes, self.rpy, "paper")
+        n = min(int(self.per_node_sample), g.n)
+        samples = [np.sort(self.rng.choice(g.n, size=n, replace=False)) if n < g.n else np.arange(g.n)
+                   for _ in range(self.classical_repeats)]
+        it = iter(samples)
+        solved: dict[int, bool] = {}
+
+        def per_node():
+            for i in next(it):
+                solved[int(i)] = bool(ikine_LM(self.robot, T[i], **self.ik).success)
+
+        for _ in range(self.classical_warmup):  # one node per warm-up call: the loop is the same code
+            ikine_LM(self.robot, T[0], **self.ik)
+        self.say(f"{g.n} nodes: per-node LM on {n} nodes x {self.classical_repeats} repeats")
+        t = time_call(per_node, self.classical_repeats, 0).scaled(g.n / n)
+        idx = np.fromiter(solved, dtype=int)
+        self.add(g, "classical_per_node_numerical", t, n, extrapolated=n < g.n,
+                 agreement=_agreement([solved[i] for i in idx], g.exact[idx]))
+
+    def batched(self, g: _Grid) -> None:
+        """The same LM on every node at once."""
+        from .. import workspace
+
+        out = {}
+
+        def batched():
+            # the paper's one-start LM, not the library's multi-start search
+            out["map"] = workspace.constant_orientation_map(self.robot, g.nodes, self.rpy, method="numerical",
+                                                            convention="paper", ik={**self.ik, "solver": "paper"})
+
+        self.say(f"{g.n} nodes: batched LM x {self.classical_repeats} repeats")
+        t = time_call(batched, self.classical_repeats, self.classical_warmup)
+        self.add(g, "classical_batched_numerical", t, g.n, agreement=_agreement(out["map"], g.exact))
+
+    def exact(self, g: _Grid) -> None:
+        """The closed-form map, batched."""
+        from .. import workspace
+
+        self.say(f"{g.n} nodes: exact x {self.repeats} repeats")
+        t = time_call(lambda: workspace.constant_orientation_map(self.robot, g.nodes, self.rpy, method="exact",
+                                                                 convention="paper"), self.repeats, self.warmup)
+        self.add(g, "classical_exact", t, g.n, agreement=1.0)
+
+    def network(self, g: _Grid) -> None:
+        """The network's `predict`, and features + `predict`, on the arm's feature row."""
+        import torch
+
+        from ..datasets import features_for
+        from ..kinematics import DHRobot
+
+        spec = grid_spec(g.step, self.lo, self.hi, self.rpy)
+        arm = DHRobot(self.robot.d[None], self.robot.a[None], self.robot.alpha[None])
+        X = features_for(arm, spec)
+        model, how = paper_network(spec.n_features, g.n, seed=self.seed, device=self.net_device)
+        shape = model.predict(X, **how).shape
+        if tuple(shape) != (1, g.n):
+            raise AssertionError(f"network output {tuple(shape)} for a {g.n}-node grid")
+        with torch.inference_mode():
+            # .cpu(): the map on the host (a no-op on the CPU; on a GPU it waits for the kernels)
+            if "network" in self.methods:
+                self.say(f"{g.n} nodes: network predict on {self.net_device} x {self.repeats} repeats")
+                t = time_call(lambda: model.predict(X, **how).cpu(), self.repeats, self.warmup)
+                self.add(g, "network", t, g.n)
+            if "network_end_to_end" in self.methods:
+                self.say(f"{g.n} nodes: features + network predict on {self.net_device} x {self.repeats} repeats")
+                t = time_call(lambda: model.predict(features_for(arm, spec), **how).cpu(), self.repeats, self.warmup)
+                self.add(g, "network_end_to_end", t, g.n)
+
+    def measure(self, step: float) -> None:
+        """Every chosen method on the grid of `step`, in `METHODS`' order."""
+        g = self.grid(step)
+        if "classical_per_node_numerical" in self.methods:
+            self.per_node(g)
+        if "classical_batched_numerical" in self.methods:
+            self.batched(g)
+        if "classical_exact" in self.methods:
+            self.exact(g)
+        if "network" in self.methods or "network_end_to_end" in self.methods:
+            self.network(g)
+
+
 def runtime_comparison(
     steps: Sequence[float] = (1.0, 0.5, 0.1),
     *,
@@ -122,27 +267,40 @@ def runtime_comparison(
 ):
     """Run time of the classical map and of the network on each grid; a `pandas.DataFrame`.
 
-    Args:
-        steps: grid steps (the paper's 1, 0.5, 0.1 give 27, 125 and 9261 nodes on [-1, 1]³).
-        lo, hi, rpy: the grid's bounds (m) and fixed orientation (rad, paper convention).
-        repeats, warmup: timed and untimed calls of the fast methods (exact, network).
-        classical_repeats, classical_warmup: the same for the numerical methods (per-node and
-            batched LM), which take seconds per call (a per-node warm-up call solves one node).
-        per_node_sample: nodes solved one at a time per repeat of the per-node method (a fresh
-            random sample each repeat, extrapolated to the grid); grids with at most this many
-            nodes are solved whole.
-        ik: LM settings (default the paper's: tol 1e-10, ilimit 500, rlimit 100, q0 = 0).
-        robot: the arm (default `wsmap.robots.puma560`).
-        seed: node samples and network initialisation.
-        methods: subset of `METHODS` (default all).
-        progress: called with a line of text before each measurement.
-        device: where the network runs: `"cpu"` (default), `"cuda"` or `"auto"`
-            (`wsmap.learn.device.resolve_device`; `"cuda"` without a GPU is a `ValueError`
-            before any measurement). A timed network call includes copying its map back to the
-            host (`.cpu()`), so a GPU's asynchronous work is finished inside the timing. The
-            classical methods always run on the CPU.
+    Parameters
+    ----------
+    steps : sequence of float
+        Grid steps (m; the paper's 1, 0.5, 0.1 give 27, 125 and 9261 nodes on [-1, 1]³).
+    lo, hi, rpy : float, float, tuple of float
+        The grid's bounds (m) and fixed orientation (rad, paper convention).
+    repeats, warmup : int
+        Timed and untimed calls of the fast methods (exact, network).
+    classical_repeats, classical_warmup : int
+        The same for the numerical methods (per-node and batched LM), which take seconds per
+        call (a per-node warm-up call solves one node).
+    per_node_sample : int
+        Nodes solved one at a time per repeat of the per-node method (a fresh random sample each
+        repeat, extrapolated to the grid); grids with at most this many nodes are solved whole.
+    ik : dict, optional
+        LM settings (default the paper's: tol 1e-10, ilimit 500, rlimit 100, q0 = 0).
+    robot : DHRobot, optional
+        The arm (default `wsmap.robots.puma560`).
+    seed : int
+        Node samples and network initialisation.
+    methods : sequence of str, optional
+        Subset of `METHODS` (default all).
+    progress : callable, optional
+        Called with a line of text before each measurement.
+    device : str or torch.device
+        Where the network runs: `"cpu"` (default), `"cuda"` or `"auto"`
+        (`wsmap.learn.device.resolve_device`; `"cuda"` without a GPU is a `ValueError`
+        before any measurement). A timed network call includes copying its map back to the
+        host (`.cpu()`), so a GPU's asynchronous work is finished inside the timing. The
+        classical methods always run on the CPU.
 
-    Returns:
+    Returns
+    -------
+    pandas.DataFrame
         One row per (grid, method): `nodes`, `step`, `method`, `label`, `mean_s`,
         `std_s`, `min_s`, `repeats`, `timed_nodes` (nodes solved per timed call),
         `extrapolated`, `device` (where the method ran), `agreement_with_exact` (fraction
@@ -150,101 +308,36 @@ def runtime_comparison(
         (the paper's classical time for the classical rows, its network time for the network
         rows), `speedup_vs_paper` (`paper_s / mean_s`).
     """
-    import pandas as pd
-    import torch
-
     from .. import robots
-    from .. import workspace
-    from ..datasets import features_for
-    from ..kinematics import DHRobot, ikine_LM
     from ..learn.device import resolve_device
 
+    methods = _checked_methods(methods)
+    net_device = resolve_device(device, "runtime_comparison device")
+    if isinstance(per_node_sample, bool) or int(per_node_sample) != per_node_sample or per_node_sample < 1:
+        raise ValueError(f"per_node_sample must be a positive integer, got {per_node_sample!r}")
+    run = _Comparison(robot=robots.puma560() if robot is None else robot, lo=lo, hi=hi,
+                      rpy=tuple(float(r) for r in rpy), ik={"tol": 1e-10, "ilimit": 500, "rlimit": 100, **(ik or {})},
+                      repeats=repeats, warmup=warmup, classical_repeats=classical_repeats,
+                      classical_warmup=classical_warmup, per_node_sample=per_node_sample, seed=seed, methods=methods,
+                      say=progress or (lambda s: None), net_device=net_device, rng=np.random.default_rng(seed))
+    for step in steps:
+        run.measure(step)
+    return _table(run.rows)
+
+
+def _checked_methods(methods: Sequence[str] | None) -> list[str]:
+    """`methods` as a list (`None`: all of `METHODS`); an unknown one is a `ValueError`."""
     methods = list(METHODS) if methods is None else list(methods)
     unknown = [m for m in methods if m not in METHODS]
     if unknown:
         raise ValueError(f"unknown methods {unknown}; choose from {list(METHODS)}")
-    net_device = resolve_device(device, "runtime_comparison device")
-    if isinstance(per_node_sample, bool) or int(per_node_sample) != per_node_sample or per_node_sample < 1:
-        raise ValueError(f"per_node_sample must be a positive integer, got {per_node_sample!r}")
-    ik = {"tol": 1e-10, "ilimit": 500, "rlimit": 100, **(ik or {})}
-    robot = robots.puma560() if robot is None else robot
-    rpy = tuple(float(r) for r in rpy)
-    say = progress or (lambda s: None)
-    rng = np.random.default_rng(seed)
-    rows = []
-    for step in steps:
-        nodes = workspace.cartesian_grid(lo, hi, step)
-        N = len(nodes)
-        exact = workspace.constant_orientation_map(robot, nodes, rpy, method="exact", convention="paper")
-        paper_classical, paper_network_s = RUNTIME_SECONDS.get(N, (math.nan, math.nan))
+    return methods
 
-        def add(method, timing, timed_nodes, extrapolated=False, agreement=math.nan):
-            paper = paper_network_s if method.startswith("network") else paper_classical
-            rows.append(dict(
-                nodes=N, step=float(step), method=method, label=METHODS[method],
-                mean_s=timing.mean, std_s=timing.std, min_s=timing.min, repeats=timing.n,
-                timed_nodes=int(timed_nodes), extrapolated=bool(extrapolated),
-                device=str(net_device) if method.startswith("network") else "cpu",
-                agreement_with_exact=agreement, paper_s=paper,
-                speedup_vs_paper=paper / timing.mean if timing.mean > 0 else math.nan,
-            ))
 
-        if "classical_per_node_numerical" in methods:
-            T = workspace.target_poses(nodes, rpy, "paper")
-            n = min(int(per_node_sample), N)
-            samples = [np.sort(rng.choice(N, size=n, replace=False)) if n < N else np.arange(N)
-                       for _ in range(classical_repeats)]
-            it = iter(samples)
-            solved: dict[int, bool] = {}
+def _table(rows: list[dict]):
+    """The rows as a `pandas.DataFrame`, by node count and then in `METHODS`' order."""
+    import pandas as pd
 
-            def per_node():
-                for i in next(it):
-                    solved[int(i)] = bool(ikine_LM(robot, T[i], **ik).success)
-
-            for _ in range(classical_warmup):  # one node per warm-up call: the loop is the same code
-                ikine_LM(robot, T[0], **ik)
-            say(f"{N} nodes: per-node LM on {n} nodes x {classical_repeats} repeats")
-            t = time_call(per_node, classical_repeats, 0).scaled(N / n)
-            idx = np.fromiter(solved, dtype=int)
-            add("classical_per_node_numerical", t, n, extrapolated=n < N,
-                agreement=_agreement([solved[i] for i in idx], exact[idx]))
-
-        if "classical_batched_numerical" in methods:
-            out = {}
-
-            def batched():
-                # the paper's one-start LM, not the library's multi-start search
-                out["map"] = workspace.constant_orientation_map(robot, nodes, rpy, method="numerical",
-                                                         convention="paper", ik={**ik, "solver": "paper"})
-
-            say(f"{N} nodes: batched LM x {classical_repeats} repeats")
-            t = time_call(batched, classical_repeats, classical_warmup)
-            add("classical_batched_numerical", t, N, agreement=_agreement(out["map"], exact))
-
-        if "classical_exact" in methods:
-            say(f"{N} nodes: exact x {repeats} repeats")
-            t = time_call(lambda: workspace.constant_orientation_map(robot, nodes, rpy, method="exact",
-                                                                     convention="paper"), repeats, warmup)
-            add("classical_exact", t, N, agreement=1.0)
-
-        if "network" in methods or "network_end_to_end" in methods:
-            spec = grid_spec(step, lo, hi, rpy)
-            arm = DHRobot(robot.d[None], robot.a[None], robot.alpha[None])
-            X = features_for(arm, spec)
-            model, how = paper_network(spec.n_features, N, seed=seed, device=net_device)
-            shape = model.predict(X, **how).shape
-            if tuple(shape) != (1, N):
-                raise AssertionError(f"network output {tuple(shape)} for a {N}-node grid")
-            with torch.inference_mode():
-                # .cpu(): the map on the host (a no-op on the CPU; on a GPU it waits for the kernels)
-                if "network" in methods:
-                    say(f"{N} nodes: network predict on {net_device} x {repeats} repeats")
-                    t = time_call(lambda: model.predict(X, **how).cpu(), repeats, warmup)
-                    add("network", t, N)
-                if "network_end_to_end" in methods:
-                    say(f"{N} nodes: features + network predict on {net_device} x {repeats} repeats")
-                    t = time_call(lambda: model.predict(features_for(arm, spec), **how).cpu(), repeats, warmup)
-                    add("network_end_to_end", t, N)
     df = pd.DataFrame(rows)
     order = {m: i for i, m in enumerate(METHODS)}
     if len(df):
