@@ -19,6 +19,7 @@ spherical-wrist spec) and `STARTS_STUDY_SPEC` (Table 3's arbitrary arms, on whic
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 from .. import workspace as ws

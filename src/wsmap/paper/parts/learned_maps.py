@@ -86,15 +86,9 @@ class Result:
         return pd.DataFrame([r for _, rows, _ in self.studies.values() for r in rows]).drop(columns=["params"])
 
 
-def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
-    """The panda7 model, the manipulability model and the design studies of params section `cfg`
-    (the datasets in `out.data`; `improved_model`'s model in `out.inputs.models`)."""
-    import torch
-
-    device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work
-    torch.set_num_threads(cfg["threads"])
-    lm_compiled.set_threads(cfg["threads"])
-    p7 = cfg["panda7"]
+def _panda7(p7: Mapping, device_setting: str, out: Outputs, log) -> dict:
+    """The panda7 map model of section `p7`: trained, scored on the held-out arms, its learning
+    curve, one held-out arm's maps and its speed against the classical map."""
     train, test = load_pair(p7["dataset"], out.data)
     spec = train.spec
     log(f"panda7: {len(train)} training arms, {len(test)} held-out arms, {train.n_nodes} nodes "
@@ -102,7 +96,7 @@ def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
 
     # inputs: the six scale factors (the columns that vary), standardised; one logit per node; Adam
     # on binary cross-entropy with a cosine schedule over a fixed number of epochs
-    recipe = learn_family.MapRecipe.from_dict({**p7["recipe"], "device": cfg["device"]})
+    recipe = learn_family.MapRecipe.from_dict({**p7["recipe"], "device": device_setting})
     model, result = learn_family.fit_map_model(train, recipe)
     model = model.cpu()
     ev = learn_family.evaluate_map_model(model, test)
@@ -125,10 +119,20 @@ def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
                                                  threads=1)
     log(f"one thread: model {speed['model_s'] * 1e3:.3f} ms per map, numerical map {speed['classical_s']:.3f} s "
         f"per map: {speed['speedup']:.0f}x")
+    metrics = check_metrics(dict(
+        train_arms=len(train), test_arms=len(test), f=ev["f"], precision=ev["precision"], recall=ev["recall"],
+        f_mean=ev["f_mean"], f_std=ev["f_std"], epochs=int(result.stop_epoch),
+        train_seconds=float(history["time"].iloc[-1]), recipe=recipe.to_dict(),
+        curve=curve.to_dict(orient="records"), speed=speed), Panda7Metrics, f"{PART.name} panda7")
+    return {"model": model, "recipe": recipe, "train": train, "test": test, "curve": curve, "shown": shown,
+            "metrics": metrics}
 
-    # Yoshikawa's √det(JJᵀ) (m³ for a 6-joint arm), the largest over the closed form's branches, on
-    # the paper's 21³ grid at R = I; a network from the four free parameters (d3, d4, a2, a3)
-    mc = cfg["manipulability"]
+
+def _manipulability(mc: Mapping, log) -> tuple[dict, dict]:
+    """Yoshikawa's √det(JJᵀ) (m³ for a 6-joint arm), the largest over the closed form's branches,
+    on the paper's 21³ grid at R = I: a network from the four free parameters (d3, d4, a2, a3) of
+    section `mc`, scored on held-out arms; returns its metrics and the PUMA560's grid, predicted
+    and exact maps."""
     p_train, y_train = learn_manipulability.manipulability_dataset(mc["train_arms"], seed=mc["seed"])
     p_test, y_test = learn_manipulability.manipulability_dataset(mc["test_arms"], seed=mc["seed"] + 1)
     mconfig = learn_manipulability.ManipulabilityTrainConfig(**{**mc["config"], "hidden": tuple(mc["config"]["hidden"])})
@@ -140,16 +144,21 @@ def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
         f"(goal 0.98), MAE {mm['mae']:.5f} m³; on reachable nodes R² {mm['r2_reachable']:.4f}")
     puma = robots.puma560()
     exact = learn_manipulability.manipulability_targets(puma)
-    manipulability = {"grid": learn_manipulability.manipulability_grid(),
-                      "predicted": learn_manipulability.predict_manipulability(mmodel, puma), "exact": exact}
+    maps = {"grid": learn_manipulability.manipulability_grid(),
+            "predicted": learn_manipulability.predict_manipulability(mmodel, puma), "exact": exact}
+    metrics = dict(train_arms=len(p_train), test_arms=len(p_test), epochs=int(np.max(mresult.stop_epoch)), **mm)
+    return metrics, maps
 
-    # the shortest arm (total link length) whose map covers 20 task positions (corners and edge
-    # midpoints of a box) at tool-down: gradient descent through the map model, every candidate
-    # verified by the classical map, against CMA-ES and random search on the classical map
-    dc = cfg["design"]
+
+def _designs(dc: Mapping, out: Outputs, panda7_model, spec, log) -> tuple[dict, np.ndarray]:
+    """The shortest arm (total link length) whose map covers 20 task positions (corners and edge
+    midpoints of a box) at tool-down, per family of section `dc`: gradient descent through the
+    map model, every candidate verified by the classical map, against CMA-ES and random search on
+    the classical map. Returns the studies (family -> tasks, table rows, results) and the
+    classical map of the best panda7 design on `spec`'s grid."""
     studies = {}
     sw_model, _ = load_model(out.inputs.models / dc["sw_model"])  # another stage's output
-    for fam, mdl, box in (("spherical_wrist", sw_model, dc["sw_box"]), ("panda7", model, dc["panda7_box"])):
+    for fam, mdl, box in (("spherical_wrist", sw_model, dc["sw_box"]), ("panda7", panda7_model, dc["panda7_box"])):
         tasks = design.box_tasks(box["centre"], box["size"])
         rows, results = design.compare_designs(fam, tasks, mdl, max_calls=dc["max_calls"],
                                                max_seconds=dc["max_seconds"], seed=dc["seed"],
@@ -160,21 +169,28 @@ def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
     best = studies["panda7"][2]["gradient"]
     arm = robots.family_arm("panda7", best.params)
     nodes = workspace.cartesian_grid(spec.lo, spec.hi, spec.step)
-    design_map = workspace.constant_orientation_map(arm, nodes, spec.fixed, convention=spec.convention)
+    return studies, workspace.constant_orientation_map(arm, nodes, spec.fixed, convention=spec.convention)
 
+
+def run(cfg: Mapping, out: Outputs, *, log=print) -> Result:
+    """The panda7 model, the manipulability model and the design studies of params section `cfg`
+    (the datasets in `out.data`; `improved_model`'s model in `out.inputs.models`)."""
+    import torch
+
+    device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work
+    torch.set_num_threads(cfg["threads"])
+    lm_compiled.set_threads(cfg["threads"])
+    p7 = _panda7(cfg["panda7"], cfg["device"], out, log)
+    manipulability_metrics, manipulability = _manipulability(cfg["manipulability"], log)
+    studies, design_map = _designs(cfg["design"], out, p7["model"], p7["train"].spec, log)
     metrics: Metrics = dict(
-        panda7=check_metrics(dict(
-            train_arms=len(train), test_arms=len(test), f=ev["f"], precision=ev["precision"], recall=ev["recall"],
-            f_mean=ev["f_mean"], f_std=ev["f_std"], epochs=int(result.stop_epoch),
-            train_seconds=float(history["time"].iloc[-1]), recipe=recipe.to_dict(),
-            curve=curve.to_dict(orient="records"), speed=speed), Panda7Metrics, f"{PART.name} panda7"),
-        manipulability=dict(train_arms=len(p_train), test_arms=len(p_test), epochs=int(np.max(mresult.stop_epoch)),
-                            **mm),
+        panda7=p7["metrics"],
+        manipulability=manipulability_metrics,
         design={fam: rows for fam, (_, rows, _) in studies.items()},
         device=str(device),
     )
-    return Result(check_metrics(metrics, Metrics, PART.name), model, recipe, train, test, curve, shown,
-                  manipulability, studies, design_map, cfg)
+    return Result(check_metrics(metrics, Metrics, PART.name), p7["model"], p7["recipe"], p7["train"], p7["test"],
+                  p7["curve"], p7["shown"], manipulability, studies, design_map, cfg)
 
 
 def save(result: Result, out: Outputs) -> None:

@@ -114,16 +114,10 @@ def _train_config(t: Mapping, seed: int, device: str = "cpu") -> TrainConfig:
                        fractions=(0.95, 0.05, 0.0), seed=seed, pos_weight=t.get("pos_weight"), device=device)
 
 
-def run(cfg: Mapping, out: Outputs) -> Result:
-    """Build (or reuse) the experience, train the model and the FK-only model, score every method on
-    the held-out arms, time one map (module notes). `cfg`: the `morphologies` params section."""
-    device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
-    torch.set_num_threads(int(cfg["threads"]))
-    step, seed = float(cfg["step"]), int(cfg["seed"])
-    members = _family_members(cfg["family"], cfg.source)  # before any work
-    model_cfg = mm.MorphModelConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in cfg["model"].items()})
-    fk = {"samples": int(cfg["fk"]["samples"]), "angle_tol": float(cfg["fk"]["angle_tol"])}
-    data_dir = Path(out.root) / "data" / "morph"
+def _experience(cfg: Mapping, data_dir: Path, step: float, seed: int, fk: dict) -> dict:
+    """The labelled arms (`morph6` and `morph7` shards, each family's last shard the held-out
+    test set; built once into `data_dir`) and the FK-sampled labels of the training arms, with
+    the seconds each took."""
     train_sets, test_sets = [], []
     t0 = time.perf_counter()
     for n in (6, 7):
@@ -133,37 +127,33 @@ def run(cfg: Mapping, out: Outputs) -> Result:
         train_sets += built[:-1]
         test_sets.append(built[-1])
     label_s = time.perf_counter() - t0
-    n_labelled = sum(len(d.features) for d in (*train_sets, *test_sets))
     t0 = time.perf_counter()
     fk_train = [mm.fk_labels(d, seed=seed, **fk) for d in train_sets]
-    fk_label_s = time.perf_counter() - t0
+    return {"train": train_sets, "test": test_sets, "fk_train": fk_train, "label_s": label_s,
+            "fk_label_s": time.perf_counter() - t0}
 
+
+def _train_both(cfg: Mapping, exp: dict, model_cfg, seed: int, device: str) -> dict:
+    """The model (on the map-search labels) and the FK-only model (on the FK-sampled labels):
+    name -> (model, its epochs, seconds and threshold)."""
     trained = {}
-    for name, labels in (("model", None), ("fk_model", fk_train)):
+    for name, labels in (("model", None), ("fk_model", exp["fk_train"])):
         t0 = time.perf_counter()
-        model, res = mm.fit_morph_model(train_sets, model_cfg, _train_config(cfg["train"], seed, str(device)),
+        model, res = mm.fit_morph_model(exp["train"], model_cfg, _train_config(cfg["train"], seed, device),
                                         seed=seed,
                                         labels=labels)
         trained[name] = (model, {"epochs": int(res.stop_epoch), "seconds": time.perf_counter() - t0,
                                  "threshold": float(model.threshold)})
-    model, fk_model = trained["model"][0], trained["fk_model"][0]
+    return trained
 
-    spec = train_sets[0].spec
-    nodes = workspace.cartesian_grid(spec.lo, spec.hi, spec.step)
-    train_F = np.concatenate([mm.morph_features(list(d.features[:, :d.spec.n_arm_features])) for d in train_sets])
-    train_Y = np.concatenate([d.labels for d in train_sets])
-    test_F = np.concatenate([mm.morph_features(list(d.features[:, :d.spec.n_arm_features])) for d in test_sets])
-    test_Y = np.concatenate([d.labels for d in test_sets])
-    test_fk = np.concatenate([mm.fk_labels(d, seed=seed + 1, **fk) for d in test_sets])
-    nearest, _ = mm.nearest_arm_maps(train_F, train_Y, test_F)
-    preds = {"model": _predict(model, test_F), "fk_model": _predict(fk_model, test_F), "nearest_arm": nearest,
-             "fk_sampled": test_fk}
-    pooled = {m: _scores(preds[m], test_Y) for m in METHODS}
-    rows = [{"arms": f"held-out random ({len(test_Y)})", **{"method": m, **pooled[m]}} for m in METHODS]
 
+def _named_arms(cfg: Mapping, model, fk_model, train_F, train_Y, spec, nodes, seed: int, fk: dict, rows: list):
+    """Every method on each named arm the families hold out (`HELD_OUT`), its distance to the
+    nearest training arm; rows appended to `rows`. Returns (name -> scores, the arm `show`'s
+    maps, the least distance); a training arm inside the hold-out radius is a `RuntimeError`."""
     named, shown = {}, None
     least = math.inf
-    for i, name in enumerate(HELD_OUT):
+    for name in HELD_OUT:
         arm = robots.load(name)
         f = describe(arm).features()
         d = morphology_distance(train_F, f[None]).min()
@@ -185,6 +175,42 @@ def run(cfg: Mapping, out: Outputs) -> Result:
     if least <= HOLD_OUT_RADIUS:
         raise RuntimeError(f"a training arm lies {least:.3f} m from a named arm, inside the hold-out radius "
                            f"{HOLD_OUT_RADIUS} m")
+    return named, shown, least
+
+
+def _stacked(sets) -> tuple[np.ndarray, np.ndarray]:
+    """The morphology features and the labels of datasets `sets`, one row per arm."""
+    return (np.concatenate([mm.morph_features(list(d.features[:, :d.spec.n_arm_features])) for d in sets]),
+            np.concatenate([d.labels for d in sets]))
+
+
+def run(cfg: Mapping, out: Outputs) -> Result:
+    """Build (or reuse) the experience, train the model and the FK-only model, score every method on
+    the held-out arms, time one map (module notes). `cfg`: the `morphologies` params section."""
+    device = resolve_device(cfg["device"], f"{cfg.source} device")  # before any work: cuda without a GPU fails here
+    torch.set_num_threads(int(cfg["threads"]))
+    step, seed = float(cfg["step"]), int(cfg["seed"])
+    members = _family_members(cfg["family"], cfg.source)  # before any work
+    model_cfg = mm.MorphModelConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in cfg["model"].items()})
+    fk = {"samples": int(cfg["fk"]["samples"]), "angle_tol": float(cfg["fk"]["angle_tol"])}
+    data_dir = Path(out.root) / "data" / "morph"
+    exp = _experience(cfg, data_dir, step, seed, fk)
+    train_sets, test_sets = exp["train"], exp["test"]
+    n_labelled = sum(len(d.features) for d in (*train_sets, *test_sets))
+    trained = _train_both(cfg, exp, model_cfg, seed, str(device))
+    model, fk_model = trained["model"][0], trained["fk_model"][0]
+
+    spec = train_sets[0].spec
+    nodes = workspace.cartesian_grid(spec.lo, spec.hi, spec.step)
+    train_F, train_Y = _stacked(train_sets)
+    test_F, test_Y = _stacked(test_sets)
+    test_fk = np.concatenate([mm.fk_labels(d, seed=seed + 1, **fk) for d in test_sets])
+    nearest, _ = mm.nearest_arm_maps(train_F, train_Y, test_F)
+    preds = {"model": _predict(model, test_F), "fk_model": _predict(fk_model, test_F), "nearest_arm": nearest,
+             "fk_sampled": test_fk}
+    pooled = {m: _scores(preds[m], test_Y) for m in METHODS}
+    rows = [{"arms": f"held-out random ({len(test_Y)})", **{"method": m, **pooled[m]}} for m in METHODS]
+    named, shown, least = _named_arms(cfg, model, fk_model, train_F, train_Y, spec, nodes, seed, fk, rows)
 
     family = {}
     for name, fcfg in cfg["family"].items():
@@ -193,13 +219,14 @@ def run(cfg: Mapping, out: Outputs) -> Result:
                      **{k: family[name][k] for k in ("f", "precision", "recall", "f_mean")}})
     speed = _speed(model, cfg, test_sets)
     design_rows, design_out = _design(model, cfg["design"], seed)
+    label_s = exp["label_s"]
     metrics: Metrics = {
         "step": step, "nodes": int(len(nodes)),
         "train_arms": {f"morph{n}": sum(len(d.features) for d in train_sets if d.spec.family == f"morph{n}")
                        for n in (6, 7)},
         "test_arms": {d.spec.family: int(len(d.features)) for d in test_sets},
         "label_seconds": label_s, "arms_per_second": n_labelled / label_s if label_s > 0 else math.nan,
-        "fk_label_seconds": fk_label_s, "fk": fk,
+        "fk_label_seconds": exp["fk_label_s"], "fk": fk,
         "train": {k: v[1] for k, v in trained.items()},
         "pooled": pooled, "named": named,
         "hold_out": {"least_distance": least, "radius": HOLD_OUT_RADIUS},
