@@ -78,6 +78,28 @@ def test_the_plan_of_the_paper_scale():
         "sec61_subspace", "table3_subspace", "table3_workspace", "table3_nosubspace"]
 
 
+def test_the_runner_runs_the_parts_own_records():
+    """Each unit runs through its part module's own ``SCALE`` (the record on its registered
+    ``PART``); the runner names no part and switches on no kind."""
+    import ast
+    import importlib
+
+    from wsmap.paper import parts
+    from wsmap.paper.scale import Planner
+
+    scaled = {name: p for name, p in parts.registry().items() if p.scale is not None}
+    assert list(scaled) == ["sec61_subspace", "sec62_puma560", "table1_workspaces", "table2_optimisers",
+                            "table3_embeddings"]
+    assert all(p.scale is importlib.import_module(p.module).SCALE for p in scaled.values())
+    units = full.plan(SMOKE)
+    assert [u.kind for u in units] == [p.scale.kind for p in scaled.values() for u in p.scale.plan(
+        paths.notebook_params(p.name, SMOKE), Planner(SMOKE))]
+    source = Path(full.__file__).read_text()
+    strings = {n.value for n in ast.walk(ast.parse(source)) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+    assert not strings & ({*parts.order(), *(u.kind for u in units), *(u.name for u in units)})
+    assert "kind ==" not in source and ".kind in" not in source
+
+
 def test_a_part_runs_end_to_end_and_is_skipped_when_done(tmp_path, data_dir, capsys):
     out = tmp_path / "out"
     code, stdout, err = _run(["paper", "full", *QUICK, *_args(out, data_dir)], capsys)
