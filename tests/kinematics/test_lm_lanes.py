@@ -138,16 +138,14 @@ def test_answers_do_not_depend_on_lanes_threads_or_order():
     nexp = np.ones(M, dtype=np.int64)
 
     def run(order, lanes, threads, isa="auto"):
-        q, ok, it, res, start = ik_kernel.unsolved(M, n)
-        args = [lm_compiled.MODE_SEARCH, np.zeros(M, dtype=np.int64), np.ascontiguousarray(T[order, :3, :3]),
-                np.ascontiguousarray(T[order, :3, 3]), keys[order], qexp, nexp, 0, 3,
-                *(aa[k] for k in ("Rf", "tf", "rkind", "off", "axes", "pris", "zax", "lo", "hi", "clo", "chi",
-                                  "clipped", "limited", "unlimited", "blo", "bhi")),
-                100, 20, 1e-10, 0.1, 1e-9, 1e-6, True, q, ok, it, res, start]
+        out = lm_compiled.Answers(*ik_kernel.unsolved(M, n))
+        targets = lm_compiled.Targets(np.zeros(M, dtype=np.int64), np.ascontiguousarray(T[order, :3, :3]),
+                                      np.ascontiguousarray(T[order, :3, 3]), keys[order], qexp, nexp)
+        settings = lm_compiled.LMSettings(lm_compiled.MODE_SEARCH, 0, 3, 100, 20, 1e-10, 0.1, 1e-9, 1e-6, True)
         lm_compiled.set_threads(threads)
-        lm_lanes.run_targets(*args, lanes=lanes, isa=isa)
+        lm_lanes.run_targets(lm_compiled.KernelCall(targets, aa, settings, out), lanes=lanes, isa=isa)
         back = np.argsort(order)
-        return q[back], ok[back], it[back], res[back], start[back]
+        return tuple(x[back] for x in out)
 
     ident = np.arange(M)
     ref = run(ident, 8, 1)
@@ -176,26 +174,41 @@ def test_bad_input():
         _call_with(isa="sse9")
     with pytest.raises(ValueError, match="lanes must be 4, 8 or 16"):
         _call_with(lanes=5)
-    with pytest.raises(ValueError, match="Rt has 9 elements, not 18"):
-        _call_with(Rt=np.zeros((1, 3, 3)))
+    with pytest.raises(ValueError, match="targets.Rt has 9 elements, not 18"):
+        _call_with(targets={"Rt": np.zeros((1, 3, 3))})
     with pytest.raises(ValueError, match="arm index out of range"):
-        _call_with(arm=np.array([0, 3], dtype=np.int64))
+        _call_with(targets={"arm": np.array([0, 3], dtype=np.int64)})
+    # a field of the wrong type is named, not copied or converted (the out arrays are written in place)
+    with pytest.raises(ValueError, match="^arms.off must be a C-contiguous float64 numpy array$"):
+        _call_with(arms={"off": np.zeros((1, 6), dtype=np.float32)})
+    with pytest.raises(ValueError, match="^out.q must be a C-contiguous float64 writable numpy array$"):
+        _call_with(out={"q": np.zeros((6, 2)).T})
+    with pytest.raises(ValueError, match="^settings.tol must be a Python float$"):
+        _call_with(settings={"tol": 1})
 
 
-def _call_with(**over):
-    """One call of the extension on two targets of the PUMA560, with ``over`` replacing arguments."""
-    aa = ik_kernel.arm_arrays(as_chain(robots.load("puma560")))
+def _call_with(lanes=8, isa="auto", **over):
+    """One call of the extension on two targets of the PUMA560, with the fields of each group of
+    ``over`` (``targets={"Rt": ...}``) replacing those of the call."""
     M, n = 2, 6
-    q, ok, it, res, start = ik_kernel.unsolved(M, n)
-    args = dict(mode=0, arm=np.zeros(M, dtype=np.int64), Rt=np.tile(np.eye(3), (M, 1, 1)), pt=np.zeros((M, 3)),
-                keys=np.zeros(M, dtype=np.uint64), qexp=np.zeros((M, 1, n)), nexp=np.ones(M, dtype=np.int64),
-                k_first=0, k_last=0, **{k: aa[k] for k in ("Rf", "tf", "rkind", "off", "axes", "pris", "zax", "lo",
-                                                           "hi", "clo", "chi", "clipped")},
-                limited_arm=aa["limited"], unlimited=aa["unlimited"], blo=aa["blo"], bhi=aa["bhi"], ilimit=10,
-                rlimit=5, tol=1e-10, lam0=0.1, gtol=0.0, confirm_tol=1e-6, free_pass=True, q_out=q, ok_out=ok,
-                it_out=it, res_out=res, start_out=start, counter=np.zeros(1, dtype=np.int64), lanes=8, isa="auto")
-    args.update(over)
-    lm_lanes._lanes.run_targets(*args.values())
+    call = lm_compiled.KernelCall(
+        targets=lm_compiled.Targets(arm=np.zeros(M, dtype=np.int64), Rt=np.tile(np.eye(3), (M, 1, 1)),
+                                    pt=np.zeros((M, 3)), keys=np.zeros(M, dtype=np.uint64), qexp=np.zeros((M, 1, n)),
+                                    nexp=np.ones(M, dtype=np.int64)),
+        arms=ik_kernel.arm_arrays(as_chain(robots.load("puma560"))),
+        settings=lm_compiled.LMSettings(mode=0, k_first=0, k_last=0, ilimit=10, rlimit=5, tol=1e-10, lam0=0.1,
+                                        gtol=0.0, confirm_tol=1e-6, free_pass=True),
+        out=lm_compiled.Answers(*ik_kernel.unsolved(M, n)))
+    call = call._replace(**{group: getattr(call, group)._replace(**fields) for group, fields in over.items()})
+    lm_lanes._lanes.run_targets(call, np.zeros(1, dtype=np.int64), lanes, isa)
+
+
+def test_the_lane_table_names_every_field_of_a_kernel_call():
+    # lanes.hpp's table and lm_compiled.KernelCall: the same fields (a new LM setting is a field of
+    # LMSettings and a line of the table); an extension built from other sources is not used
+    assert sorted(lm_lanes._lanes.FIELDS) == sorted(lm_compiled.call_fields())
+    assert len(lm_compiled.call_fields()) == len(set(lm_compiled.call_fields()))
+    assert "settings.lam0" in lm_compiled.call_fields() and "arms.Rf" in lm_compiled.call_fields()
 
 
 def test_the_lanes_atan2_is_within_two_ulp_of_libm():

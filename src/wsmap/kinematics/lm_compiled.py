@@ -13,11 +13,12 @@ of targets, and the rows thin out as targets finish; per target, a compiled loop
 of a 6-joint arm (forward kinematics, pose error, Jacobian, 6 x 6 normal equations) in well under
 a microsecond, with no active-set bookkeeping and early exits that cost nothing.
 
-Layout: every arm of a batch is described by arrays with a leading arm axis `B` (fixed rotations
-`Rf` (B, n+1, 3, 3) and translations `tf` (B, n+1, 3) with the base folded into the first and
-the tool into the last, joint offsets and limits (B, n)); each target `i` names its arm `arm[i]`.
-Shared by the batch: joint axes (n, 3) in the joint frames, which joints are prismatic, which axes
-are `z`.
+Layout: a call is one object, a `KernelCall` (its targets, the arms they name, the settings and
+the arrays the answers go to), read by both kernels by field name. Every arm of a batch is
+described by arrays with a leading arm axis `B` (`ArmBatch`: fixed rotations `Rf` (B, n+1, 3, 3)
+and translations `tf` (B, n+1, 3) with the base folded into the first and the tool into the
+last, joint offsets and limits (B, n)); each target `i` names its arm `arm[i]`. Shared by the
+batch: joint axes (n, 3) in the joint frames, which joints are prismatic, which axes are `z`.
 
 Speed (`benchmarks/maps/bench_fast_maps.py`, kernel rate): the forward kinematics takes its sines and
 cosines from `_sincos` (no libm call: a third of the forward kinematics' time went to libm),
@@ -76,14 +77,15 @@ import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
+from typing import NamedTuple
 
 import numba
 import numpy as np
 from numba import njit
 
-__all__ = ["MODE_SEARCH", "MODE_PAPER", "MODE_POSITION", "TARGETS_PER_TASK", "set_threads", "threads", "threads_for",
-           "run_targets", "pose_keys", "orbit_test", "cache_dir", "needs_compile", "estimate", "builds_for",
-           "record_compile_seconds"]
+__all__ = ["MODE_SEARCH", "MODE_PAPER", "MODE_POSITION", "TARGETS_PER_TASK", "ArmBatch", "Targets", "LMSettings",
+           "Answers", "KernelCall", "call_fields", "set_threads", "threads", "threads_for", "run_targets", "pose_keys",
+           "orbit_test", "cache_dir", "needs_compile", "estimate", "builds_for", "record_compile_seconds"]
 
 
 def cache_dir() -> str:
@@ -112,6 +114,112 @@ _TINY = 5e-324  # np.spacing(0.0)
 
 # termination codes of one LM run
 _SUCCESS, _REJECTIONS, _ILIMIT, _STAGNATED, _AT_START, _STATIONARY = 1, 2, 3, 4, 5, 6
+
+
+# --------------------------------------------------------------------------- what a call reads and writes
+# One object crosses the kernel boundary, `KernelCall`; the numba kernels read its fields by name and the
+# lane kernel (`wsmap.kinematics.lm_lanes`) reads the same fields by name through its one table
+# (`WSMAP_LANES_ARRAYS` and `WSMAP_LANES_SCALARS` in `_lanes/lanes.hpp`; `call_fields` lists them and
+# `wsmap.kinematics.lm_lanes` checks the two agree). A new LM setting: a field of `LMSettings`, a line of
+# the lane table, and its use in each kernel. Named tuples, not dataclasses: numba takes them as they are.
+
+
+class ArmBatch(NamedTuple):
+    """A batch of `B` arms of `n` joints as the kernels read them (built by
+    `wsmap.kinematics.ik.kernel.arm_arrays`); every array C-contiguous.
+
+    Per arm: `Rf` (B, n+1, 3, 3) float64 and `tf` (B, n+1, 3) float64, the fixed rotations and
+    translations with the base folded into the first and the tool into the last; `rkind` (B, n+1)
+    int8, each fixed rotation 0 the identity, 1 a rotation about `x`, 2 any; `off`, `lo`, `hi`
+    (B, n) float64, joint offsets and limits (±inf where unlimited); `clo`, `chi` (B, n) float64
+    and `clipped` (B, n) bool, the bounds the LM projects onto and which joints have them;
+    `limited` (B,) bool, any joint clipped; `unlimited` (B, n) bool, revolute without limits;
+    `blo`, `bhi` (B, n) float64, the box random starts are drawn in. Shared by the batch: `axes`
+    (n, 3) float64, the joint axes in the joint frames; `pris`, `zax` (n,) bool, prismatic joints
+    and axes along `z`.
+    """
+
+    Rf: np.ndarray
+    tf: np.ndarray
+    rkind: np.ndarray
+    off: np.ndarray
+    axes: np.ndarray
+    pris: np.ndarray
+    zax: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    clo: np.ndarray
+    chi: np.ndarray
+    clipped: np.ndarray
+    limited: np.ndarray
+    unlimited: np.ndarray
+    blo: np.ndarray
+    bhi: np.ndarray
+
+
+class Targets(NamedTuple):
+    """The `M` targets of a call: `arm` (M,) int64, the index into the `ArmBatch` of each;
+    `Rt` (M, 3, 3) and `pt` (M, 3) float64, the target rotations and positions (m); `keys`
+    (M,) uint64, the hash of each target's random starts (`wsmap.kinematics.ik.kernel.pose_keys`);
+    `qexp` (M, S, n) float64 and `nexp` (M,) int64, the explicit starts, the first `nexp[i]`
+    of `qexp[i]` tried in order."""
+
+    arm: np.ndarray
+    Rt: np.ndarray
+    pt: np.ndarray
+    keys: np.ndarray
+    qexp: np.ndarray
+    nexp: np.ndarray
+
+
+class LMSettings(NamedTuple):
+    """How a call searches: `mode` (`MODE_SEARCH`, `MODE_PAPER` or `MODE_POSITION`); the random
+    starts `k_first .. k_last - 1` after the explicit ones; per LM run at most `ilimit`
+    iterations and `rlimit` consecutive rejected steps, success at `|e| <= tol`, the damping
+    `lam0` at the start, the stationary-point test `gtol` (0: off; ignored by `MODE_PAPER`);
+    a success confirmed by forward kinematics within `confirm_tol` (m and rad); `free_pass`:
+    a failed constrained run whose steps the limits changed is run again free of them."""
+
+    mode: int
+    k_first: int
+    k_last: int
+    ilimit: int
+    rlimit: int
+    tol: float
+    lam0: float
+    gtol: float
+    confirm_tol: float
+    free_pass: bool
+
+
+class Answers(NamedTuple):
+    """What a call writes, per target (M of them): `q` (M, n) float64, `ok` (M,) bool,
+    `iterations` (M,) int64, `residual` (M,) float64 and `start` (M,) int64 (see `run_targets`)."""
+
+    q: np.ndarray
+    ok: np.ndarray
+    iterations: np.ndarray
+    residual: np.ndarray
+    start: np.ndarray
+
+
+class KernelCall(NamedTuple):
+    """Everything one call of a kernel reads and writes: the `targets`, the `arms` they name, the
+    `settings` and the `out` arrays it fills (`run_targets`, `wsmap.kinematics.lm_lanes.run_targets`)."""
+
+    targets: Targets
+    arms: ArmBatch
+    settings: LMSettings
+    out: Answers
+
+
+_GROUPS = {"targets": Targets, "arms": ArmBatch, "settings": LMSettings, "out": Answers}
+
+
+def call_fields() -> tuple:
+    """Every field of a `KernelCall` as `"group.name"` (`"settings.tol"`), in order: the names
+    the lane kernel's table must hold (`wsmap.kinematics.lm_lanes`)."""
+    return tuple(f"{group}.{name}" for group in KernelCall._fields for name in _GROUPS[group]._fields)
 
 
 def set_threads(count: int | None = None) -> int:
@@ -413,19 +521,22 @@ def _stationary(A, g, na, gtol, n):
 
 # --------------------------------------------------------------------------- one LM run
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, kin, sc, n):
+def _lm(q, b, Rt, pt, limited, rotvec, rows, st, gtol, arms, sc, n):
     """LM from `q` (n,), updated in place, towards `(Rt, pt)`; inside the LM bounds if `limited`.
 
-    `gtol` > 0: fail at a stationary point, an accepted step after which
-    `|Jᵀe| <= gtol·|J|_F·|e|` with `|e| > tol` (a local minimum of the error that is not a
-    solution; 0 turns the test off, as the paper's iteration has it).
-    `kin`: the arm arrays `(Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped)`; `sc`: scratch
-    (tuples: a call with over 30 arguments compiles to a bytecode numba does not take).
+    `st`: the `LMSettings` (`ilimit`, `rlimit`, `tol`, `lam0` read here); `gtol` > 0 (the
+    mode's, not `st.gtol`: the paper's LM has none): fail at a stationary point, an accepted step
+    after which `|Jᵀe| <= gtol·|J|_F·|e|` with `|e| > tol` (a local minimum of the error that is
+    not a solution; 0 turns the test off, as the paper's iteration has it).
+    `arms`: the `ArmBatch`; `sc`: scratch (a tuple: a call with over 30 arguments compiles to a
+    bytecode numba does not take).
 
     `out` (3,) float ← iterations, consecutive rejections at the end, final |e|. Returns
     `(code, touched)`: the termination code and whether the limits changed a trial step.
     """
-    Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped = kin
+    Rf, tf, rkind, off, axes, pris, zax = arms.Rf, arms.tf, arms.rkind, arms.off, arms.axes, arms.pris, arms.zax
+    clo, chi, clipped = arms.clo, arms.chi, arms.clipped
+    ilimit, rlimit, tol, lam0 = st.ilimit, st.rlimit, st.tol, st.lam0
     Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out = sc
     touched = False
     for j in range(n):
@@ -516,10 +627,11 @@ def _lm(q, b, Rt, pt, limited, rotvec, rows, ilimit, rlimit, tol, lam0, gtol, ki
 
 # --------------------------------------------------------------------------- confirmation
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _confirm(q, b, Rt, pt, atol, rows, Rf, tf, off, axes, pris, lo, hi, M4, N4, P4, n):
+def _confirm(q, b, Rt, pt, atol, rows, arms, M4, N4, P4, n):
     """Forward kinematics by 4 x 4 homogeneous products (another code path than `_fk`) puts
     the tool within `atol` of the target (m; rotation angle, rad, unless `rows` = 3: position
-    only), and `q` is inside the limits."""
+    only), and `q` is inside the limits of arm `b` of `arms` (an `ArmBatch`)."""
+    Rf, tf, off, axes, pris, lo, hi = arms.Rf, arms.tf, arms.off, arms.axes, arms.pris, arms.lo, arms.hi
     for j in range(n):
         if q[j] < lo[b, j] - 1e-9 or q[j] > hi[b, j] + 1e-9:
             return False
@@ -604,12 +716,17 @@ def _random_start(key, k, b, blo, bhi, q):
 
 # --------------------------------------------------------------------------- the batch
 @njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n):
-    """The targets of task `task` (see `run_targets`); `n` the joint count, a compile-time
-    constant where `run_targets` passes a literal (the loops over joints then unroll)."""
-    Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi = arrs
-    ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass = settings
-    q_out, ok_out, it_out, res_out, start_out = outs
+def _task(task, call, n):
+    """The targets of task `task` of `call` (a `KernelCall`; see `run_targets`); `n` the joint
+    count, a compile-time constant where `run_targets` passes a literal (the loops over joints
+    then unroll)."""
+    arm, Rt, pt, keys, qexp, nexp = call.targets
+    arms, st = call.arms, call.settings
+    lo, hi, pris, limited_arm, unlimited, blo, bhi = arms.lo, arms.hi, arms.pris, arms.limited, arms.unlimited, \
+        arms.blo, arms.bhi
+    mode, k_first, k_last, ilimit, rlimit = st.mode, st.k_first, st.k_last, st.ilimit, st.rlimit
+    gtol, confirm_tol, free_pass = st.gtol, st.confirm_tol, st.free_pass
+    q_out, ok_out, it_out, res_out, start_out = call.out
     M = Rt.shape[0]
     # both modes call _lm with run-time flags, not literals: numba compiles one _lm per build
     # instead of one per literal combination (the inlined loop is most of the compile time)
@@ -632,7 +749,6 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
     held = np.zeros(n, dtype=np.bool_)
     out = np.empty(3)
     sc = (Rn, pn, wn, on, T33, e, en, J, A, g, H, dq, qt, held, out)
-    kin = (Rf, tf, rkind, off, axes, pris, zax, clo, chi, clipped)
     q = np.empty(n)
     qs = np.empty(n)
     M4 = np.empty((4, 4))
@@ -643,8 +759,7 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
         if mode == MODE_PAPER:
             for j in range(n):
                 q[j] = qexp[i, 0, j]
-            code, _ = _lm(q, b, Rt[i], pt[i], not paper, not paper, rows, ilimit, rlimit, tol, lam0, gtol_run, kin, sc,
-                          n)
+            code, _ = _lm(q, b, Rt[i], pt[i], not paper, not paper, rows, st, gtol_run, arms, sc, n)
             it = int(out[0])
             if code == _AT_START:
                 its = min(1, ilimit)  # the Appendix's count: 1, or 0 when ilimit = 0
@@ -679,8 +794,8 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
             for pss in range(passes):
                 for j in range(n):
                     q[j] = qs[j]
-                code, touched = _lm(q, b, Rt[i], pt[i], limited and pss == 0, not paper, rows, ilimit, rlimit, tol,
-                                    lam0, gtol_run, kin, sc, n)
+                code, touched = _lm(q, b, Rt[i], pt[i], limited and pss == 0, not paper, rows, st, gtol_run, arms, sc,
+                                    n)
                 total += int(out[0])
                 # into the limits by multiples of 2·pi; unlimited revolute joints into [-pi, pi)
                 for j in range(n):
@@ -695,8 +810,7 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
                         best = res_c
                         for j in range(n):
                             q_out[i, j] = q[j]
-                if conv and _confirm(q, b, Rt[i], pt[i], confirm_tol, rows, Rf, tf, off, axes, pris, lo, hi,
-                                     M4, N4, P4, n):
+                if conv and _confirm(q, b, Rt[i], pt[i], confirm_tol, rows, arms, M4, N4, P4, n):
                     found = True
                     for j in range(n):
                         q_out[i, j] = q[j]
@@ -715,30 +829,20 @@ def _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, sett
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _run_targets(t0, t1, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
-                 Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
-                 ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
-    """Tasks `t0 .. t1 - 1` of the batch behind `run_targets`, any joint count (the generic
-    build); releases the GIL (see "Threads" and "Cache" in the module notes)."""
-    n = axes.shape[0]
-    arrs = (Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi)
-    settings = (ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass)
-    outs = (q_out, ok_out, it_out, res_out, start_out)
+def _run_targets(t0, t1, call):
+    """Tasks `t0 .. t1 - 1` of `call` (a `KernelCall`, see `run_targets`), any joint count (the
+    generic build); releases the GIL (see "Threads" and "Cache" in the module notes)."""
+    n = call.arms.axes.shape[0]
     for task in range(t0, t1):
-        _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, n)
+        _task(task, call, n)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "reassoc"})
-def _run_targets6(t0, t1, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
-                  Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
-                  ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
+def _run_targets6(t0, t1, call):
     """`_run_targets` for six-joint arms: the joint count the literal 6 (the loops over joints
     unroll), a build of its own, compiled on first use."""
-    arrs = (Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi)
-    settings = (ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass)
-    outs = (q_out, ok_out, it_out, res_out, start_out)
     for task in range(t0, t1):
-        _task(task, mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last, arrs, settings, outs, 6)
+        _task(task, call, 6)
 
 
 def _build(n: int):
@@ -818,30 +922,27 @@ def _bind_callees(batch=None) -> None:
                 dispatcher.compile(key[0])
 
 
-def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
-                Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
-                ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out):
-    """Solve every target `i` (M of them) for arm `arm[i]`; results written into the `*_out` arrays.
+def run_targets(call: KernelCall) -> None:
+    """Solve every target `i` of `call` (a `KernelCall`; M targets) for arm `call.targets.arm[i]`;
+    the answers written into `call.out`. With `t = call.targets` and `s = call.settings`:
 
-    `MODE_SEARCH`: the explicit starts `qexp[i, :nexp[i]]` (S, n) in order, then the random starts
-    `k_first .. k_last - 1` (hashed from `keys[i]`), until one succeeds; per start a constrained
-    run and, where it failed and the limits changed it, a free run whose solution counts if it is
-    inside the limits (unless `free_pass` is False); a success is confirmed by forward kinematics.
-    `start_out`: the position of the succeeding start in that order (explicit first), -1 where none did.
-    Where none did, `q_out` is the constrained end point of the start with the smallest residual.
+    `MODE_SEARCH`: the explicit starts `t.qexp[i, :t.nexp[i]]` in order, then the random starts
+    `s.k_first .. s.k_last - 1` (hashed from `t.keys[i]`), until one succeeds; per start a
+    constrained run and, where it failed and the limits changed it, a free run whose solution
+    counts if it is inside the limits (unless `s.free_pass` is False); a success is confirmed by
+    forward kinematics. `out.start`: the position of the succeeding start in that order (explicit
+    first), -1 where none did. Where none did, `out.q` is the constrained end point of the start
+    with the smallest residual.
 
     `MODE_POSITION`: as `MODE_SEARCH` with the position error alone (the tool's orientation free).
 
-    `MODE_PAPER`: one run from `qexp[i, 0]` with the paper's error, no limits, no confirmation;
-    `it_out` counts iterations as the Appendix's loop does (success is tested at the top of the
-    next iteration; see `wsmap.kinematics.ik.lm_reference.ikine_LM_reference`).
+    `MODE_PAPER`: one run from `t.qexp[i, 0]` with the paper's error, no limits, no confirmation;
+    `out.iterations` counts iterations as the Appendix's loop does (success is tested at the top
+    of the next iteration; see `wsmap.kinematics.ik.lm_reference.ikine_LM_reference`).
     """
-    batch = _build(axes.shape[0])
+    batch = _build(call.arms.axes.shape[0])
     _bind_callees(batch)
-    args = (mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
-            Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
-            ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out)
-    _spread((Rt.shape[0] + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK, lambda a, b: batch(a, b, *args))
+    _spread((len(call.targets.arm) + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK, lambda a, b: batch(a, b, call))
 
 
 # --------------------------------------------------------------------------- helpers of the search

@@ -38,6 +38,12 @@ except ImportError as exc:  # a source checkout that was never built: the scalar
     _IMPORT_ERROR = str(exc)
 else:
     _IMPORT_ERROR = ""
+    # the extension reads a `KernelCall` by the names of its own table: a build from older sources
+    # would ignore a new field, or miss one, so it is not used
+    _differ = set(getattr(_lanes, "FIELDS", ())) ^ set(lm_compiled.call_fields())
+    if _differ:
+        _IMPORT_ERROR = f"built from other sources: its fields and lm_compiled.KernelCall's differ by {sorted(_differ)}"
+        _lanes = None
 
 __all__ = ["KERNELS", "LANES", "MAX_JOINTS", "available", "isa", "kernel", "set_kernel", "use_kernel", "run_targets"]
 
@@ -99,22 +105,23 @@ def runs_on_lanes(n: int) -> bool:
     return kernel() == "lanes" and 1 <= n <= MAX_JOINTS
 
 
-def run_targets(mode, arm, Rt, pt, keys, qexp, nexp, k_first, k_last,
-                Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
-                ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass, q_out, ok_out, it_out, res_out, start_out,
-                lanes: int = LANES, isa: str = "auto"):
-    """`wsmap.kinematics.lm_compiled.run_targets` on the lane kernel (same arguments, same
-    results to rounding), on `threads` threads: this one and
-    pool threads, each a block of `lanes` targets taken one at a time from a shared counter.
-    `isa`: `"auto"` (the widest build this CPU runs) or a narrower one (tests, benchmarks)."""
+def run_targets(call: lm_compiled.KernelCall, lanes: int = LANES, isa: str = "auto") -> None:
+    """`wsmap.kinematics.lm_compiled.run_targets` on the lane kernel (the same `KernelCall`, the
+    same results to rounding), on `threads` threads: this one and pool threads, each a block of
+    `lanes` targets taken one at a time from a shared counter.
+
+    Parameters
+    ----------
+    call : lm_compiled.KernelCall
+        The targets, arms and settings; the answers are written into `call.out`.
+    lanes : int
+        Targets in flight per thread: 4, 8 or 16.
+    isa : str
+        `"auto"` (the widest build this CPU runs) or a narrower one (tests, benchmarks).
+    """
     if _lanes is None:
         raise RuntimeError(f"the lane kernel is not built ({_IMPORT_ERROR}); reinstall wsmap, or use 'scalar'")
-    M = len(arm)
     counter = np.zeros(1, dtype=np.int64)
-    args = (mode, arm, Rt, pt, keys, qexp, nexp, int(k_first), int(k_last),
-            Rf, tf, rkind, off, axes, pris, zax, lo, hi, clo, chi, clipped, limited_arm, unlimited, blo, bhi,
-            int(ilimit), int(rlimit), float(tol), float(lam0), float(gtol), float(confirm_tol), bool(free_pass),
-            q_out, ok_out, it_out, res_out, start_out, counter, int(lanes), isa)
     # a thread per block of lanes at least, so a second thread has whole blocks to work on
-    want = max(1, min(numba.get_num_threads(), M // (2 * int(lanes))))
-    lm_compiled.on_threads(want, lambda: _lanes.run_targets(*args))
+    want = max(1, min(numba.get_num_threads(), len(call.targets.arm) // (2 * int(lanes))))
+    lm_compiled.on_threads(want, lambda: _lanes.run_targets(call, counter, int(lanes), isa))

@@ -26,31 +26,61 @@ constexpr int MODE_SEARCH = 0, MODE_PAPER = 1, MODE_POSITION = 2;
 constexpr int SUCCESS = 1, REJECTIONS = 2, ILIMIT = 3, STAGNATED = 4, AT_START = 5, STATIONARY = 6;
 constexpr int MAX_JOINTS = 16;  // longer chains run on the scalar kernel
 
-// Everything one call reads and writes (numpy arrays, C order; see lm_compiled.run_targets).
+// The fields of lm_compiled.KernelCall, one line each: the group (its attribute of the call), the C
+// type, the name (the Python field's), and for an array its element count in M targets, B arms, n
+// joints and S explicit starts per target. The members of Args, their reading from Python and their
+// checks (lanesmodule.cpp) all come from these two tables; lm_lanes checks at import that they name
+// the Python fields. A new field: a line here, a field there, and its use in each kernel.
+#define WSMAP_LANES_ARRAYS(X)                        \
+    X(targets, const int64_t, arm, M)                \
+    X(targets, const double, Rt, M * 9)              \
+    X(targets, const double, pt, M * 3)              \
+    X(targets, const uint64_t, keys, M)              \
+    X(targets, const double, qexp, M * S * n)        \
+    X(targets, const int64_t, nexp, M)               \
+    X(arms, const double, Rf, B * (n + 1) * 9)       \
+    X(arms, const double, tf, B * (n + 1) * 3)       \
+    X(arms, const int8_t, rkind, B * (n + 1))        \
+    X(arms, const double, off, B * n)                \
+    X(arms, const double, axes, n * 3)               \
+    X(arms, const bool, pris, n)                     \
+    X(arms, const bool, zax, n)                      \
+    X(arms, const double, lo, B * n)                 \
+    X(arms, const double, hi, B * n)                 \
+    X(arms, const double, clo, B * n)                \
+    X(arms, const double, chi, B * n)                \
+    X(arms, const bool, clipped, B * n)              \
+    X(arms, const bool, limited, B)                  \
+    X(arms, const bool, unlimited, B * n)            \
+    X(arms, const double, blo, B * n)                \
+    X(arms, const double, bhi, B * n)                \
+    X(out, double, q, M * n)                         \
+    X(out, bool, ok, M)                              \
+    X(out, int64_t, iterations, M)                   \
+    X(out, double, residual, M)                      \
+    X(out, int64_t, start, M)
+#define WSMAP_LANES_SCALARS(X)          \
+    X(settings, int64_t, mode)          \
+    X(settings, int64_t, k_first)       \
+    X(settings, int64_t, k_last)        \
+    X(settings, int64_t, ilimit)        \
+    X(settings, int64_t, rlimit)        \
+    X(settings, double, tol)            \
+    X(settings, double, lam0)           \
+    X(settings, double, gtol)           \
+    X(settings, double, confirm_tol)    \
+    X(settings, bool, free_pass)
+
+// Everything one call reads and writes: a pointer per array of the call (numpy arrays, C order),
+// its settings, its sizes, and the counter of the targets taken.
 struct Args {
-    int mode;
     int64_t M, B, n, S;  // targets, arms, joints, explicit starts per target
-    const int64_t *arm;
-    const double *Rt, *pt;
-    const uint64_t *keys;
-    const double *qexp;
-    const int64_t *nexp;
-    int64_t k_first, k_last;
-    const double *Rf, *tf;
-    const int8_t *rkind;
-    const double *off, *axes;
-    const bool *pris, *zax;
-    const double *lo, *hi, *clo, *chi;
-    const bool *clipped, *limited_arm, *unlimited;
-    const double *blo, *bhi;
-    int64_t ilimit, rlimit;
-    double tol, lam0, gtol, confirm_tol;
-    bool free_pass;
-    double *q_out;
-    bool *ok_out;
-    int64_t *it_out;
-    double *res_out;
-    int64_t *start_out;
+#define WSMAP_LANES_ARRAY_MEMBER(group, T, name, count) T *name;
+#define WSMAP_LANES_SCALAR_MEMBER(group, T, name) T name;
+    WSMAP_LANES_ARRAYS(WSMAP_LANES_ARRAY_MEMBER)
+    WSMAP_LANES_SCALARS(WSMAP_LANES_SCALAR_MEMBER)
+#undef WSMAP_LANES_ARRAY_MEMBER
+#undef WSMAP_LANES_SCALAR_MEMBER
     int64_t *counter;  // the next target to take, shared by every thread of the call
 };
 
@@ -299,7 +329,7 @@ struct Block {
         }
         for (int m = 0; m < 9; ++m) Rt[m][l] = a.Rt[i * 9 + m];
         for (int m = 0; m < 3; ++m) pt[m][l] = a.pt[i * 3 + m];
-        limited[l] = a.limited_arm[b];
+        limited[l] = a.limited[b];
         total[l] = 0;
         best[l] = INF;
         s[l] = 0;
@@ -359,11 +389,11 @@ struct Block {
     void finish(int l, bool found) {
         const int n = FIXED ? NM : n_rt;
         const int64_t i = tgt[l];
-        a.ok_out[i] = found;
-        a.it_out[i] = total[l];
+        a.ok[i] = found;
+        a.iterations[i] = total[l];
         if (!found) {
-            a.res_out[i] = best[l];
-            a.start_out[i] = -1;
+            a.residual[i] = best[l];
+            a.start[i] = -1;
         }
     }
 
@@ -377,12 +407,12 @@ struct Block {
             else if (code == REJECTIONS) its = it[l];
             else if (code == STAGNATED) its = std::min<int64_t>(it[l] + 1 + (a.rlimit - rej[l]), a.ilimit);
             else its = a.ilimit;
-            for (int j = 0; j < n; ++j) a.q_out[i * n + j] = q[j][l];
+            for (int j = 0; j < n; ++j) a.q[i * n + j] = q[j][l];
             const bool ok = code == SUCCESS || code == AT_START;
-            a.ok_out[i] = ok;
-            a.it_out[i] = its;
-            a.res_out[i] = na[l];
-            a.start_out[i] = ok ? 0 : -1;
+            a.ok[i] = ok;
+            a.iterations[i] = its;
+            a.residual[i] = na[l];
+            a.start[i] = ok ? 0 : -1;
             take_target(l);
             return;
         }
@@ -397,12 +427,12 @@ struct Block {
         const bool conv = code == SUCCESS || code == AT_START;
         if (pss[l] == 0 && na[l] < best[l]) {
             best[l] = na[l];
-            for (int j = 0; j < n; ++j) a.q_out[i * n + j] = qv[j];
+            for (int j = 0; j < n; ++j) a.q[i * n + j] = qv[j];
         }
         if (conv && confirm(a, qv, b, a.Rt + i * 9, a.pt + i * 3, rows)) {
-            for (int j = 0; j < n; ++j) a.q_out[i * n + j] = qv[j];
-            a.res_out[i] = na[l];
-            a.start_out[i] = s[l];
+            for (int j = 0; j < n; ++j) a.q[i * n + j] = qv[j];
+            a.residual[i] = na[l];
+            a.start[i] = s[l];
             finish(l, true);
             take_target(l);
             return;

@@ -1,6 +1,7 @@
 // wsmap.kinematics._lanes: the lane kernel (lanes.hpp) for Python, through nanobind. The build for
 // the widest instruction set this CPU has is chosen at import; every call releases the GIL, so
-// several threads run it at once, taking targets from one shared counter.
+// several threads run it at once, taking targets from one shared counter. A call takes one object,
+// an lm_compiled.KernelCall, whose fields it reads by the names of lanes.hpp's tables.
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/string.h>
@@ -8,6 +9,7 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "lanes.hpp"
 
@@ -23,9 +25,11 @@ namespace avx512 { void run(const Args &, int); void atan2_array(const double *,
 }  // namespace wsmap_lanes
 
 template <class T>
-using In = nb::ndarray<const T, nb::c_contig, nb::device::cpu>;
+using Arr = nb::ndarray<T, nb::c_contig, nb::device::cpu>;
 template <class T>
-using Out = nb::ndarray<T, nb::c_contig, nb::device::cpu>;
+using In = Arr<const T>;
+template <class T>
+using Out = Arr<T>;
 
 using RunFn = void (*)(const wl::Args &, int);
 
@@ -80,45 +84,103 @@ static void need(const A &arr, size_t size, const char *name) {
         throw std::invalid_argument(std::string(name) + " has " + std::to_string(arr.size()) + " elements, not " + std::to_string(size));
 }
 
-static void run_targets(int mode, In<int64_t> arm, In<double> Rt, In<double> pt, In<uint64_t> keys, In<double> qexp,
-                        In<int64_t> nexp, int64_t k_first, int64_t k_last, In<double> Rf, In<double> tf, In<int8_t> rkind,
-                        In<double> off, In<double> axes, In<bool> pris, In<bool> zax, In<double> lo, In<double> hi,
-                        In<double> clo, In<double> chi, In<bool> clipped, In<bool> limited_arm, In<bool> unlimited,
-                        In<double> blo, In<double> bhi, int64_t ilimit, int64_t rlimit, double tol, double lam0, double gtol,
-                        double confirm_tol, bool free_pass, Out<double> q_out, Out<bool> ok_out, Out<int64_t> it_out,
-                        Out<double> res_out, Out<int64_t> start_out, Out<int64_t> counter, int lanes, const std::string &isa) {
-    if (mode < 0 || mode > 2) throw std::invalid_argument("mode must be 0, 1 or 2");
-    if (axes.ndim() != 2 || axes.shape(1) != 3) throw std::invalid_argument("axes must be (n, 3)");
-    if (qexp.ndim() != 3) throw std::invalid_argument("qexp must be (M, S, n)");
-    const size_t M = arm.size(), n = axes.shape(0), B = limited_arm.size(), S = qexp.shape(1);
+// the numpy names of the C types of the tables (for the error messages)
+template <class T>
+static const char *dtype_name() {
+    using U = std::remove_const_t<T>;
+    if (std::is_same_v<U, double>) return "float64";
+    if (std::is_same_v<U, bool>) return "bool";
+    if (std::is_same_v<U, int8_t>) return "int8";
+    if (std::is_same_v<U, uint64_t>) return "uint64";
+    return "int64";
+}
+
+// field `group.name` of the call as an array of T, read as it is (no copy: the kernel writes into
+// the out arrays)
+template <class T>
+static Arr<T> array_field(nb::handle call, const char *group, const char *name) {
+    Arr<T> arr;
+    if (!nb::try_cast(nb::getattr(nb::getattr(call, group), name), arr, false))
+        throw std::invalid_argument(std::string(group) + "." + name + " must be a C-contiguous " + dtype_name<T>() +
+                                    (std::is_const_v<T> ? "" : " writable") + " numpy array");
+    return arr;
+}
+
+template <class T>
+static T scalar_field(nb::handle call, const char *group, const char *name) {
+    T v;
+    if (!nb::try_cast(nb::getattr(nb::getattr(call, group), name), v, false))
+        throw std::invalid_argument(std::string(group) + "." + name + " must be a Python " +
+                                    (std::is_same_v<T, double> ? "float" : std::is_same_v<T, bool> ? "bool" : "int"));
+    return v;
+}
+
+// every array of the call, held while it runs
+struct Arrays {
+#define WSMAP_LANES_HOLD(group, T, name, count) Arr<T> name;
+    WSMAP_LANES_ARRAYS(WSMAP_LANES_HOLD)
+#undef WSMAP_LANES_HOLD
+};
+
+// the call's fields, checked: every array of the size its table line says, the targets' arms and
+// explicit start counts in range
+static wl::Args read_call(nb::handle call, Arrays &h) {
+    wl::Args a{};
+#define WSMAP_LANES_READ_ARRAY(group, T, name, count) h.name = array_field<T>(call, #group, #name);
+#define WSMAP_LANES_READ_SCALAR(group, T, name) a.name = scalar_field<T>(call, #group, #name);
+    WSMAP_LANES_ARRAYS(WSMAP_LANES_READ_ARRAY)
+    WSMAP_LANES_SCALARS(WSMAP_LANES_READ_SCALAR)
+#undef WSMAP_LANES_READ_ARRAY
+#undef WSMAP_LANES_READ_SCALAR
+    if (a.mode < 0 || a.mode > 2) throw std::invalid_argument("mode must be 0, 1 or 2");
+    if (h.axes.ndim() != 2 || h.axes.shape(1) != 3) throw std::invalid_argument("axes must be (n, 3)");
+    if (h.qexp.ndim() != 3) throw std::invalid_argument("qexp must be (M, S, n)");
+    const size_t M = h.arm.size(), n = h.axes.shape(0), B = h.limited.size(), S = h.qexp.shape(1);
     if (n < 1 || n > (size_t)wl::MAX_JOINTS) throw std::invalid_argument("the lane kernel takes 1 to 16 joints");
-    need(Rt, 9 * M, "Rt"); need(pt, 3 * M, "pt"); need(keys, M, "keys"); need(qexp, M * S * n, "qexp"); need(nexp, M, "nexp");
-    need(Rf, B * (n + 1) * 9, "Rf"); need(tf, B * (n + 1) * 3, "tf"); need(rkind, B * (n + 1), "rkind");
-    for (auto *x : {&off, &lo, &hi, &clo, &chi, &blo, &bhi}) need(*x, B * n, "a per-arm joint array");
-    need(clipped, B * n, "clipped"); need(unlimited, B * n, "unlimited"); need(pris, n, "pris"); need(zax, n, "zax");
-    need(q_out, M * n, "q_out"); need(ok_out, M, "ok_out"); need(it_out, M, "it_out"); need(res_out, M, "res_out");
-    need(start_out, M, "start_out"); need(counter, 1, "counter");
+#define WSMAP_LANES_CHECK(group, T, name, count) need(h.name, count, #group "." #name);
+    WSMAP_LANES_ARRAYS(WSMAP_LANES_CHECK)
+#undef WSMAP_LANES_CHECK
     for (size_t i = 0; i < M; ++i) {
-        if (arm.data()[i] < 0 || (size_t)arm.data()[i] >= B) throw std::invalid_argument("arm index out of range");
-        if (nexp.data()[i] < 0 || (size_t)nexp.data()[i] > S) throw std::invalid_argument("nexp out of range");
+        if (h.arm.data()[i] < 0 || (size_t)h.arm.data()[i] >= B) throw std::invalid_argument("arm index out of range");
+        if (h.nexp.data()[i] < 0 || (size_t)h.nexp.data()[i] > S) throw std::invalid_argument("nexp out of range");
     }
+    a.M = (int64_t)M, a.B = (int64_t)B, a.n = (int64_t)n, a.S = (int64_t)S;
+#define WSMAP_LANES_POINT(group, T, name, count) a.name = h.name.data();
+    WSMAP_LANES_ARRAYS(WSMAP_LANES_POINT)
+#undef WSMAP_LANES_POINT
+    return a;
+}
+
+static void run_targets(nb::handle call, Out<int64_t> counter, int lanes, const std::string &isa) {
+    Arrays h;
+    wl::Args a = read_call(call, h);
+    need(counter, 1, "counter");
     RunFn fn = build(isa).run;
     if (lanes != 4 && lanes != 8 && lanes != 16) throw std::invalid_argument("lanes must be 4, 8 or 16");
-    wl::Args a{mode, (int64_t)M, (int64_t)B, (int64_t)n, (int64_t)S, arm.data(), Rt.data(), pt.data(), keys.data(),
-               qexp.data(), nexp.data(), k_first, k_last, Rf.data(), tf.data(), rkind.data(), off.data(), axes.data(),
-               pris.data(), zax.data(), lo.data(), hi.data(), clo.data(), chi.data(), clipped.data(), limited_arm.data(),
-               unlimited.data(), blo.data(), bhi.data(), ilimit, rlimit, tol, lam0, gtol, confirm_tol, free_pass,
-               q_out.data(), ok_out.data(), it_out.data(), res_out.data(), start_out.data(), counter.data()};
+    a.counter = counter.data();
     nb::gil_scoped_release release;
     fn(a, lanes);
+}
+
+// "group.name" of every field lanes.hpp's tables hold (lm_lanes checks them against lm_compiled.KernelCall)
+static nb::tuple fields() {
+    nb::list out;
+#define WSMAP_LANES_NAME_ARRAY(group, T, name, count) out.append(#group "." #name);
+#define WSMAP_LANES_NAME_SCALAR(group, T, name) out.append(#group "." #name);
+    WSMAP_LANES_ARRAYS(WSMAP_LANES_NAME_ARRAY)
+    WSMAP_LANES_SCALARS(WSMAP_LANES_NAME_SCALAR)
+#undef WSMAP_LANES_NAME_ARRAY
+#undef WSMAP_LANES_NAME_SCALAR
+    return nb::tuple(out);
 }
 
 NB_MODULE(_lanes, m) {
     m.doc() = "The lane (SIMD) build of the LM search of wsmap.kinematics.lm_compiled; see wsmap.kinematics.lm_lanes.";
     m.def("run_targets", &run_targets,
-          "lm_compiled.run_targets's arguments, then counter (1,) int64 (the next target, shared by the "
-          "threads of one call), lanes (4, 8 or 16) and isa ('auto', 'avx512', 'avx2', 'base').");
+          "lm_compiled.run_targets on the lanes: call (an lm_compiled.KernelCall), counter (1,) int64 (the next "
+          "target, shared by the threads of one call), lanes (4, 8 or 16) and isa ('auto', 'avx512', 'avx2', 'base').");
     m.def("atan2", &atan2_lanes, "out <- atan2(y, x) for y >= 0 as the lanes compute it (tests): y, x, out, isa.");
     m.def("best_isa", &best_isa, "The widest instruction set this CPU has that a build exists for.");
     m.attr("MAX_JOINTS") = wl::MAX_JOINTS;
+    m.attr("FIELDS") = fields();
 }

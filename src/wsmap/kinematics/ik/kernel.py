@@ -1,7 +1,7 @@
 """The bridge from arms and targets to the compiled LM kernel (`wsmap.kinematics.lm_compiled`).
 
-* `arm_arrays` — a chain's numbers laid out as the kernel reads them;
-* `run_compiled` — one call of the kernel on a set of targets;
+* `arm_arrays` — a chain's numbers laid out as the kernel reads them (an `ArmBatch`);
+* `run_compiled` — one call of the kernel on a set of targets (one `KernelCall`);
 * `pose_keys` — the per-target keys of the random starts (counter-based hashing, so a pose
   gets the same starts wherever it sits in a batch), and `start_box`, where they are drawn.
 
@@ -15,6 +15,7 @@ import numpy as np
 
 from .. import lm_compiled, lm_lanes
 from ..chain import PRISMATIC, SerialChain
+from ..lm_compiled import Answers, ArmBatch, KernelCall, LMSettings, Targets
 
 __all__ = ["arm_arrays", "run_compiled", "pose_keys", "start_box", "mix"]
 
@@ -47,8 +48,9 @@ def pose_keys(seed: int, T) -> np.ndarray:
     return lm_compiled.pose_keys(mix(np.array([seed], dtype=np.uint64))[0], words)
 
 
-def arm_arrays(chain: SerialChain) -> dict:
-    """The numbers of a chain (or a batch, flattened to `B` arms) as the compiled kernel reads them.
+def arm_arrays(chain: SerialChain) -> ArmBatch:
+    """The numbers of a chain (or a batch, flattened to `B` arms) as the compiled kernels read them:
+    a `wsmap.kinematics.lm_compiled.ArmBatch` (its fields by name).
 
     `Rf` (B, n+1, 3, 3) and `tf` (B, n+1, 3): the fixed transforms with the base folded into the
     first and the tool into the last; `off`, `lo`, `hi` (B, n): offsets and limits (±inf where
@@ -78,7 +80,7 @@ def arm_arrays(chain: SerialChain) -> dict:
     e0 = np.array([1.0, 0.0, 0.0])
     about_x = np.all(Rf[..., 0, :] == e0, axis=-1) & np.all(Rf[..., :, 0] == e0, axis=-1)
     rkind = np.where(np.all(Rf == np.eye(3), axis=(-2, -1)), 0, np.where(about_x, 1, 2)).astype(np.int8)
-    return dict(
+    return ArmBatch(
         Rf=Rf, tf=np.ascontiguousarray(F[:, :, :3, 3]), rkind=rkind,
         off=np.ascontiguousarray(np.broadcast_to(chain.offset, batch + (n,)).reshape(B, n), dtype=np.float64),
         axes=np.ascontiguousarray(chain.axes, dtype=np.float64), pris=pris,
@@ -96,23 +98,24 @@ def unsolved(count: int, n: int):
             np.full(count, np.inf), np.full(count, -1, dtype=np.int64))
 
 
-def run_compiled(mode, aa: dict, arm, T, keys, qexp, nexp, k_first, k_last, ilimit, rlimit, tol, lam, confirm_tol,
+def run_compiled(mode, aa: ArmBatch, arm, T, keys, qexp, nexp, k_first, k_last, ilimit, rlimit, tol, lam, confirm_tol,
                  gtol=0.0, free_pass=True):
-    """Run `wsmap.kinematics.lm_compiled.run_targets` on targets `T` (M, 4, 4) of arms
-    `arm` (M,) (indices into `aa`, from `arm_arrays`). Returns `q` (M, n), `ok`,
-    `iterations`, `residual`, `start` (M,)."""
-    M, n = len(T), aa["axes"].shape[0]
-    q, ok, it, res, start = unsolved(M, n)
+    """Run the kernel in use (`wsmap.kinematics.lm_lanes.run_targets`, else
+    `wsmap.kinematics.lm_compiled.run_targets`) on targets `T` (M, 4, 4) of arms `arm` (M,)
+    (indices into `aa`, from `arm_arrays`); the other arguments are the fields of
+    `wsmap.kinematics.lm_compiled.Targets` and `LMSettings` (`lam`: `lam0`). Returns `q`
+    (M, n), `ok`, `iterations`, `residual`, `start` (M,)."""
+    M, n = len(T), aa.axes.shape[0]
+    out = Answers(*unsolved(M, n))
     if M:
-        Rt = np.ascontiguousarray(T[:, :3, :3], dtype=np.float64)
-        pt = np.ascontiguousarray(T[:, :3, 3], dtype=np.float64)
+        targets = Targets(
+            arm=np.ascontiguousarray(arm, dtype=np.int64), Rt=np.ascontiguousarray(T[:, :3, :3], dtype=np.float64),
+            pt=np.ascontiguousarray(T[:, :3, 3], dtype=np.float64), keys=np.ascontiguousarray(keys, dtype=np.uint64),
+            qexp=np.ascontiguousarray(qexp, dtype=np.float64), nexp=np.ascontiguousarray(nexp, dtype=np.int64))
+        settings = LMSettings(mode=int(mode), k_first=int(k_first), k_last=int(k_last), ilimit=int(ilimit),
+                              rlimit=int(rlimit), tol=float(tol), lam0=float(lam), gtol=float(gtol),
+                              confirm_tol=float(confirm_tol), free_pass=bool(free_pass))
         impl = lm_lanes if lm_lanes.runs_on_lanes(n) else lm_compiled
         with lm_compiled.threads_for(M, 64):
-            impl.run_targets(
-                mode, np.ascontiguousarray(arm, dtype=np.int64), Rt, pt, np.ascontiguousarray(keys, dtype=np.uint64),
-                np.ascontiguousarray(qexp, dtype=np.float64), np.ascontiguousarray(nexp, dtype=np.int64),
-                int(k_first), int(k_last), aa["Rf"], aa["tf"], aa["rkind"], aa["off"], aa["axes"], aa["pris"], aa["zax"],
-                aa["lo"], aa["hi"], aa["clo"], aa["chi"], aa["clipped"], aa["limited"], aa["unlimited"], aa["blo"],
-                aa["bhi"], int(ilimit), int(rlimit), float(tol), float(lam), float(gtol), float(confirm_tol),
-                bool(free_pass), q, ok, it, res, start)
-    return q, ok, it, res, start
+            impl.run_targets(KernelCall(targets, aa, settings, out))
+    return tuple(out)
