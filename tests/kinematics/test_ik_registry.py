@@ -28,7 +28,7 @@ from wsmap.kinematics.ik.registry import ELBOW, SHOULDER, WRIST
 PI = np.pi
 
 
-def test_the_closed_forms_are_discovered_in_name_order():
+def test_the_closed_forms_are_asked_by_priority():
     assert [cf.name for cf in closed_forms()] == ["spherical_wrist", "spherical_wrist_offset", "ur"]
 
 
@@ -88,7 +88,7 @@ def _planar_closed_form():
                           np.where(ok, IKReason.SOLVED, IKReason.OUT_OF_REACH).astype(np.int8))
 
     return ClosedForm(name="planar_2r", description="planar 2R arms", recognise=recognise, require=require,
-                      solve=solve, reachable=reachable)
+                      solve=solve, reachable=reachable, priority=100)
 
 
 def test_a_closed_form_registered_from_outside_is_used_by_the_maps():

@@ -1,8 +1,9 @@
 """The closed-form extension point: each closed form registers a recogniser and a solver here.
 
 A closed form is one module of `wsmap.kinematics.ik.closed_forms` that ends with
-`register(ClosedForm(...))`; that package imports every module in it, so adding a closed form is
-one new file there (and its tests). Whoever needs to decide "closed form or numerical", or which
+`register(ClosedForm(...))`; that package discovers every module in it (`wsmap._plugins.discover`),
+so adding a closed form is one new file there (and its tests). The registry asks them by their
+`priority` (lower first), then their name. Whoever needs to decide "closed form or numerical", or which
 closed form, asks `closed_form_for` (the maps, the reach maps, base placement, the dataset
 labels, the command line).
 
@@ -26,13 +27,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..._plugins import Registry
 from ..arms import ArmBatch
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap.kinematics.chain import Arm
 
-__all__ = ["SHOULDER", "WRIST", "ELBOW", "ClosedForm", "register", "unregister", "closed_forms", "closed_form_for",
+__all__ = ["SHOULDER", "WRIST", "ELBOW", "ClosedForm", "CLOSED_FORMS", "register", "unregister", "closed_forms", "closed_form_for",
            "require_closed_form"]
 
 #: Bits of a closed-form branch index (see the module notes).
@@ -53,6 +55,8 @@ class ClosedForm:
         limits honoured (a branch outside them fails with `OUTSIDE_LIMITS`)
     reachable : `(robot, T) -> bool array`, some branch of `solve` succeeds (a faster path
         where the closed form has one); the shape of `T.shape[:-2]` broadcast with the batch
+    priority : int, the order in which `closed_form_for` asks the closed forms (lower first): a
+        family's own closed form before a more general one that also solves it
     """
 
     name: str
@@ -61,46 +65,45 @@ class ClosedForm:
     require: Callable
     solve: Callable
     reachable: Callable
+    priority: int
 
 
-_REGISTRY: dict[str, ClosedForm] = {}
+#: The registered closed forms, by `(priority, name)`.
+CLOSED_FORMS: Registry[ClosedForm] = Registry("closed form")
 
 
 def register(closed_form: ClosedForm) -> ClosedForm:
-    """Add `closed_form` to the registry (asked in registration order); returns it. A name that is
-    already registered is a `ValueError`."""
+    """Add `closed_form` to the registry (asked by priority); returns it. A name that is already
+    registered, or a priority that is not an int, is a `ValueError`."""
     if not isinstance(closed_form, ClosedForm):
         raise TypeError(f"register takes a ClosedForm, got {type(closed_form).__name__}")
-    if closed_form.name in _REGISTRY:
-        raise ValueError(f"a closed form named {closed_form.name!r} is already registered")
-    _REGISTRY[closed_form.name] = closed_form
-    return closed_form
+    return CLOSED_FORMS.register(closed_form)
 
 
 def unregister(name: str) -> None:
     """Remove the closed form `name` (`KeyError` if none is registered under it)."""
-    del _REGISTRY[name]
+    CLOSED_FORMS.unregister(name)
 
 
 def closed_forms() -> tuple[ClosedForm, ...]:
-    """The registered closed forms, in registration order."""
-    return tuple(_REGISTRY.values())
+    """The registered closed forms, by priority."""
+    return CLOSED_FORMS.records()
 
 
 def closed_form_for(robot: Arm) -> ClosedForm | None:
-    """The registered closed form that recognises every arm of `robot` (the first in registration
-    order, should two), or None; None for anything that is not an arm (a `DHRobot` or a
+    """The registered closed form that recognises every arm of `robot` (the first by priority,
+    should two), or None; None for anything that is not an arm (a `DHRobot` or a
     `SerialChain`)."""
     if not isinstance(robot, ArmBatch):
         return None
-    for cf in _REGISTRY.values():
+    for cf in CLOSED_FORMS.records():
         if bool(np.all(cf.recognise(robot))):
             return cf
     return None
 
 
 def _names() -> str:
-    words = [cf.description for cf in _REGISTRY.values()]
+    words = [cf.description for cf in CLOSED_FORMS.records()]
     return " and ".join(words) if len(words) <= 2 else ", ".join(words[:-1]) + " and " + words[-1]
 
 

@@ -248,4 +248,4 @@ def spherical_wrist_manipulability(d: np.ndarray, a: np.ndarray, T: np.ndarray, 
 
 register(ClosedForm(name="spherical_wrist", description="the spherical-wrist DH family",
                     recognise=is_spherical_wrist, require=require_spherical_wrist, solve=ikine_spherical_wrist,
-                    reachable=spherical_wrist_reachable))
+                    reachable=spherical_wrist_reachable, priority=10))

@@ -301,4 +301,4 @@ def spherical_wrist_offset_reachable(robot, T, atol: float = 1e-9) -> np.ndarray
 register(ClosedForm(name="spherical_wrist_offset",
                     description="the spherical-wrist family with a shoulder offset",
                     recognise=is_spherical_wrist_offset, require=require_spherical_wrist_offset,
-                    solve=ikine_spherical_wrist_offset, reachable=spherical_wrist_offset_reachable))
+                    solve=ikine_spherical_wrist_offset, reachable=spherical_wrist_offset_reachable, priority=20))

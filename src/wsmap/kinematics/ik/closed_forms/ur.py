@@ -795,7 +795,7 @@ def _run(T, tix, arm, par, mapped, limited, base_mode, Binv, flange_mode, Finv, 
 
 
 register(ClosedForm(name="ur", description="the UR family", recognise=is_ur_type, require=require_ur_type,
-                    solve=ikine_ur, reachable=ur_reachable))
+                    solve=ikine_ur, reachable=ur_reachable, priority=30))
 
 
 numba.config.CACHE_DIR = _NUMBA_CACHE_DIR_BEFORE
