@@ -382,6 +382,26 @@ def test_the_classical_library_does_not_import_the_learned_one():
             assert not bad, f"{mod} imports {bad}"
 
 
+@pytest.mark.parametrize("package", ["wsmap.kinematics", "wsmap.workspace", "wsmap.robots", "wsmap.collision"])
+def test_type_checking_the_classical_library_needs_neither_torch_nor_the_learned_side(package):
+    """Everything a module of ``package`` names, at any depth and under ``if TYPE_CHECKING:`` too: no
+    torch, pandas or matplotlib, and no module of the learned side."""
+    graph, modules = import_graph(SRC), _modules(SRC, "wsmap")
+    seen = {m for m in graph if m == package or m.startswith(package + ".")}
+    todo = list(seen)
+    while todo:
+        for target in graph[todo.pop()] - seen:
+            seen.add(target)
+            todo.append(target)
+    learned = sorted(m for m in seen if m.startswith(("wsmap.learn", "wsmap.datasets", "wsmap.paper", "wsmap.cli")))
+    assert not learned, f"{package} names {learned}"
+    heavy = sorted({(m, name) for m in seen if modules.get(m) is not None for node in _statements(modules[m])
+                    for name in ([a.name for a in node.names] if isinstance(node, ast.Import)
+                                 else [] if node.level else [node.module or ""])
+                    if name.split(".")[0] in ("torch", "pandas", "matplotlib")})
+    assert not heavy, f"{package} needs {heavy}"
+
+
 @pytest.mark.parametrize("module", ["wsmap", "wsmap.workspace", "wsmap.kinematics", "wsmap.robots"])
 def test_the_classical_tool_stays_light(module):
     """A classical user's import loads neither torch nor the learned side (fresh interpreter)."""

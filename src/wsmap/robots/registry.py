@@ -242,10 +242,35 @@ def register_constructor(name: str, constructor: Callable[..., Any], source: str
     """Make `load(name)` call `constructor(joint_limits=...)` (`None`: the arm's default).
 
     For an arm that is not an `ArmTable` (the paper's `puma560`); a table registers with
-    `register`. `source` names the document the arm's numbers come from, `priority` (an int)
-    its place in the order of `ARMS`; `capsules` and `held_out` are its `NamedArm` fields.
-    Returns the record. A name already registered, a name `load` cannot find (not lower case), an
-    empty source or a priority that is not an int is a `ValueError`; nothing is registered then.
+    `register`. Nothing is registered when an argument is refused.
+
+    Parameters
+    ----------
+    name : str
+        The arm's name, lower case (`load` looks names up in lower case).
+    constructor : callable
+        `constructor(joint_limits=None | True | False)` -> the arm (`DHRobot` or `SerialChain`).
+    source : str
+        The document the arm's numbers come from.
+    priority : int
+        The arm's place in the order of `ARMS` (lower first; today's arms use 10, 20, ... 60).
+    capsules : ArmCapsules, optional
+        Its capsule collision model (`wsmap.collision.arm_model`); `None`: none.
+    held_out : bool
+        Whether the morphology families never draw an arm near it (`wsmap.robots.morph.HELD_OUT`).
+    table : ArmTable, optional
+        Its published table (`register` passes it).
+
+    Returns
+    -------
+    NamedArm
+        The record registered.
+
+    Raises
+    ------
+    ValueError
+        A name already registered or not lower case, a constructor that is not callable, an empty
+        source, a priority that is not an int, `capsules` not an `ArmCapsules`, `held_out` not a bool.
     """
     if not isinstance(name, str) or not name or name != name.lower():
         raise ValueError(f"a named arm's name must be a non-empty lower-case string, got {name!r}")
@@ -275,11 +300,30 @@ def _named(table: ArmTable) -> Callable[..., SerialChain]:
 def register(table: ArmTable, *, priority: int, capsules: ArmCapsules | None = None,
              held_out: bool = False) -> ArmTable:
     """Register a real arm's published table: `NAMED[table.name]` and `load(table.name)`
-    (a `SerialChain` with the table's joint limits by default), at `priority` in the order of
-    `ARMS`, with its capsule model `capsules` and `held_out` (`NamedArm`). Returns `table`.
+    (a `SerialChain` with the table's joint limits by default).
 
-    Anything but an `ArmTable` is a `TypeError`, a name already registered a
-    `ValueError` listing the known ones (the table itself is checked when it is made).
+    Parameters
+    ----------
+    table : ArmTable
+        The arm's published kinematics (checked when it is made).
+    priority : int
+        The arm's place in the order of `ARMS` (lower first).
+    capsules : ArmCapsules, optional
+        Its capsule collision model; `None`: none.
+    held_out : bool
+        Whether the morphology families hold it out.
+
+    Returns
+    -------
+    ArmTable
+        `table`.
+
+    Raises
+    ------
+    TypeError
+        `table` is not an `ArmTable`.
+    ValueError
+        As `register_constructor` (a name already registered lists the known ones).
     """
     if not isinstance(table, ArmTable):
         raise TypeError(f"register() takes an ArmTable, got {type(table).__name__}")
