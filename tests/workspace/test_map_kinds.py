@@ -92,10 +92,11 @@ def test_unknown_kind_is_an_error_naming_the_known_ones():
     (dict(methods=("exact",)), "every kind has the numerical method"),
     (dict(inputs=("convention",), convention="standard"), "either takes the caller's convention"),
     (dict(compute=None), "compute must be callable"),
+    (dict(priority="first"), "priority must be an int"),
 ])
 def test_a_bad_kind_record_is_refused(change, message):
     fields = dict(name="toy", scope="R3", value_type=bool, compute=_distance_compute, function=np.linalg.norm,
-                  description="toy", convention="standard")
+                  description="toy", priority=100, convention="standard")
     with pytest.raises(ValueError, match=message):
         kinds.MapKind(**{**fields, **change})
 
@@ -115,7 +116,8 @@ def _distance_compute(robot, grid, request):
 def distance_kind():
     kind = kinds.register(kinds.MapKind(
         name="distance", scope="R3", value_type=float, compute=_distance_compute, function=np.linalg.norm,
-        description="the distance of each position from the base (a test's toy kind)", label="distance (m)",
+        description="the distance of each position from the base (a test's toy kind)", priority=100,
+        label="distance (m)",
         convention="standard", levels=lambda v: (0.5,), value_range=(0.0, None)))
     try:
         yield kind

@@ -11,4 +11,4 @@ from ..maps import constant_orientation_map
 from .registry import paper_map_kind, register
 
 KIND = register(paper_map_kind("constant", "R3", "rpy", constant_orientation_map,
-                               "positions at a fixed orientation (--rpy; the paper's R3)"))
+                               "positions at a fixed orientation (--rpy; the paper's R3)", priority=10))

@@ -11,4 +11,4 @@ from ..reach import dexterous_map
 from .registry import orientation_set_kind, register
 
 KIND = register(orientation_set_kind("dexterous", bool, dexterous_map, "reachable at every one of --orientations",
-                                     from_bits=lambda bits: bits.all(axis=1), noun="dexterous"))
+                                     priority=50, from_bits=lambda bits: bits.all(axis=1), noun="dexterous"))

@@ -11,7 +11,7 @@ from ..reach import reachability_index
 from .registry import orientation_set_kind, register
 
 KIND = register(orientation_set_kind(
-    "index", float, reachability_index, "the fraction of --orientations reachable at each position",
+    "index", float, reachability_index, "the fraction of --orientations reachable at each position", priority=30,
     from_bits=lambda bits: bits.mean(axis=1),
     label="reachability index", levels=lambda values: (0.25, 0.5, 0.75), value_range=(0.0, 1.0),
 ))

@@ -34,6 +34,6 @@ def _levels(values):
 
 KIND = register(MapKind(
     name="manipulability", scope="R3", value_type=float, compute=_compute, function=manipulability_map,
-    description="the largest Yoshikawa manipulability of the IK solutions at --rpy",
+    description="the largest Yoshikawa manipulability of the IK solutions at --rpy", priority=60,
     label="manipulability √det(J Jᵀ)", inputs=("rpy", "convention"), levels=_levels, value_range=(0.0, None),
 ))

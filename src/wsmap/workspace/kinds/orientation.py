@@ -11,4 +11,4 @@ from ..maps import orientation_map
 from .registry import paper_map_kind, register
 
 KIND = register(paper_map_kind("orientation", "SO3", "point", orientation_map,
-                               "orientations at a fixed point (--point; the paper's SO3)"))
+                               "orientations at a fixed point (--point; the paper's SO3)", priority=20))

@@ -16,5 +16,5 @@ def _compute(robot, grid, request):
 
 KIND = register(MapKind(
     name="reach", scope="R3", value_type=bool, compute=_compute, function=position_map,
-    description="reachable at some orientation", methods=("numerical",), convention="standard",
+    description="reachable at some orientation", priority=40, methods=("numerical",), convention="standard",
 ))

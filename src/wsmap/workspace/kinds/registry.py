@@ -7,7 +7,8 @@ and the views need to know about it: its scope (a grid of positions, `"R3"`, or 
 `"SO3"`), its value type (`bool` or `float`), the inputs and methods it takes, the function that
 computes it on the nodes of a grid, and how its values read (a label with units, iso-surface levels,
 a colour range). Each kind is one module of `wsmap.workspace.kinds` that ends with
-`register`; nothing outside the registry names a kind.
+`register`; nothing outside the registry names a kind. The registry lists kinds by their
+`MapKind.priority` (lower first), then their name (`wsmap._plugins.Registry`).
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ from types import MappingProxyType
 
 import numpy as np
 
+from ..._plugins import Registry
+from ...kinematics.ik.settings import SearchSettings, as_settings
 from ..grids import cartesian_grid
 from ..maps import CONVENTIONS, MAP_SETTINGS, SCOPES, grid_map
 from ...kinematics import rpy2r
@@ -28,7 +31,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike
 
-__all__ = ["INPUTS", "METHODS", "MapKind", "MapRequest", "register", "unregister", "get_kind", "kinds",
+__all__ = ["INPUTS", "METHODS", "KINDS", "MapKind", "MapRequest", "register", "unregister", "get_kind", "kinds",
            "kind_names", "default_kind", "kinds_taking", "grid_positions", "paper_map_kind",
            "orientation_set_kind"]
 
@@ -55,8 +58,12 @@ class MapRequest:
         rpy: the fixed orientation `(r1, r2, r3)` in radians, `R = Rx(r1)·Ry(r2)·Rz(r3)`.
         point: the fixed point `(x, y, z)` in metres.
         orientations: `(K, 3, 3)` rotation matrices, or `None` (kinds without `"orientations"`).
-        ik: the numerical settings as a map file records them (`wsmap.workspace.MAP_SETTINGS`
-            keys, `tol`, `ilimit`, `rlimit`, `seed`, and `solver` for the paper's one-start LM).
+        ik: the numerical settings: a `SearchSettings` (its `solver` the paper's one-start LM
+            or the search), or, during the transition from the `ik` dicts, a dict as a map file
+            records them (`wsmap.workspace.MAP_SETTINGS` keys, `tol`, `ilimit`, `rlimit`,
+            `seed`, `solver`), kept as given (the record) and converted into `settings`.
+        settings: the `SearchSettings` of `ik` (set on construction, not an argument), or None
+            where `ik` is empty: the kind's own defaults (`MapKind.search_settings`).
         seed: the seed of random IK starts and of the orientation set.
         model: a trained model file (`method="model"`); `allow_extrapolation` as
             `wsmap.workspace.grid_map`.
@@ -72,17 +79,25 @@ class MapRequest:
     rpy: tuple = (0.0, 0.0, 0.0)
     point: tuple = (0.5, 0.5, 0.5)
     orientations: np.ndarray | None = None
-    ik: Mapping = field(default_factory=dict)
+    ik: SearchSettings | Mapping | None = field(default_factory=dict)
     seed: int = 0
     model: str | None = None
     allow_extrapolation: bool = False
     progress: object = False
     collision: object = None
+    settings: SearchSettings | None = field(default=None, init=False)
+
+    def __post_init__(self):
+        # checked before any work; a dict stays the record a map file writes, byte for byte
+        ik = self.ik
+        settings = ik if isinstance(ik, SearchSettings) else (as_settings(ik) if ik else None)
+        object.__setattr__(self, "settings", settings)
 
     @property
-    def search(self) -> dict:
-        """The search's keyword arguments: `ik` without `seed` and `solver` (given apart)."""
-        return {k: v for k, v in self.ik.items() if k not in ("seed", "solver")}
+    def search(self) -> SearchSettings | None:
+        """The settings the kinds over orientations pass their functions (`settings`; the functions
+        take `seed` apart, from `MapRequest.seed`)."""
+        return self.settings
 
 
 def _boolean_levels(values: ArrayLike) -> tuple[float, ...]:
@@ -116,6 +131,8 @@ class MapKind:
             (`"convention"` in `inputs`).
         levels: `levels(values) -> tuple` of iso-surface levels of a map (`.glb` views).
         value_range: `(lo, hi)` colour range of float maps; `None` for an end means the map's own.
+        priority: the kind's place in the registry's order (lower first: `--kind`'s choices,
+            `kinds`; the first of a scope is its `default_kind`).
         poses: `poses(robot, grid, request) -> (values (N,), bits (N, K) bool, R (K, 3, 3))`: the
             map together with the reachability of every node at each of the `K` orientations it
             tested (`T = transl(p)·R_k`), one computation; what a Reuleaux HDF5 file stores
@@ -131,6 +148,7 @@ class MapKind:
     compute: Callable
     function: Callable
     description: str
+    priority: int
     label: str = "reachable"
     noun: str = "reachable"
     inputs: tuple = ()
@@ -148,6 +166,8 @@ class MapKind:
         where = f"map kind {self.name!r}"
         if not isinstance(self.name, str) or not _NAME.match(self.name):
             raise ValueError(f"a map kind's name is lower case letters, digits and '_', got {self.name!r}")
+        if not isinstance(self.priority, int) or isinstance(self.priority, bool):
+            raise ValueError(f"{where}: priority must be an int (its place in the registry), got {self.priority!r}")
         if self.scope not in SCOPES:
             raise ValueError(f"{where}: scope must be one of {', '.join(SCOPES)}, got {self.scope!r}")
         if self.value_type not in (bool, float):
@@ -192,15 +212,16 @@ def grid_positions(grid: Mapping) -> np.ndarray:
     return cartesian_grid(grid["lo"], grid["hi"], grid["step"])
 
 
-def paper_map_kind(name: str, scope: str, fixed: str, function: Callable, description: str) -> MapKind:
+def paper_map_kind(name: str, scope: str, fixed: str, function: Callable, description: str,
+                   priority: int) -> MapKind:
     """The record of one of the paper's maps (bool per node, computed by `wsmap.workspace.grid_map`
     for a batch of arms; every method, the paper's one-start LM, the caller's convention) of `scope`
     at the request's `fixed` input (`"rpy"` for R3, `"point"` for SO3); `function` the map
-    function `grid_map` calls on the grid's nodes."""
+    function `grid_map` calls on the grid's nodes; `priority` its place in the registry."""
 
     def compute(robot, grid, request):
         return grid_map(robot, grid, method=request.method, convention=request.convention, model=request.model,
-                        allow_extrapolation=request.allow_extrapolation, ik=request.ik, progress=request.progress,
+                        allow_extrapolation=request.allow_extrapolation, ik=request.settings, progress=request.progress,
                         collision=request.collision, **{fixed: getattr(request, fixed)})
 
     def poses(robot, grid, request):
@@ -215,11 +236,12 @@ def paper_map_kind(name: str, scope: str, fixed: str, function: Callable, descri
         return values, np.asarray(values, dtype=bool)[:, None], rpy2r(np.asarray(request.rpy, dtype=float))[None]
 
     return MapKind(name=name, scope=scope, value_type=bool, compute=compute, function=function,
-                   description=description, inputs=(fixed, "convention"), methods=METHODS, paper_solver=True,
+                   description=description, priority=priority, inputs=(fixed, "convention"), methods=METHODS,
+                   paper_solver=True,
                    batch=True, poses=poses if scope == "R3" else None, collision=True)
 
 
-def orientation_set_kind(name: str, value_type: type, function: Callable, description: str,
+def orientation_set_kind(name: str, value_type: type, function: Callable, description: str, priority: int,
                          from_bits: Callable, **fields) -> MapKind:
     """The record of a kind over the request's set of orientations at each position of an R3 grid
     (`T = transl(p)·R_k`, the standard convention; the index's search defaults
@@ -239,62 +261,64 @@ def orientation_set_kind(name: str, value_type: type, function: Callable, descri
         return from_bits(bits), bits, np.asarray(request.orientations, dtype=np.float64)
 
     return MapKind(name=name, scope="R3", value_type=value_type, compute=compute, function=function,
-                   description=description, inputs=("orientations",), search_settings=INDEX_SETTINGS,
+                   description=description, priority=priority, inputs=("orientations",),
+                   search_settings=INDEX_SETTINGS,
                    convention="standard", poses=poses, collision=True, **fields)
 
 
-_REGISTRY: dict[str, MapKind] = {}
+#: The registered kinds, by `(priority, name)`.
+KINDS: Registry[MapKind] = Registry("map kind")
 
 
 def register(kind: MapKind, *, replace: bool = False) -> MapKind:
     """Add `kind` to the registry (the end of every kind module) and return it. A second kind of
-    the same name is a `ValueError` unless `replace`; kinds keep the order they registered in
+    the same name is a `ValueError` unless `replace`; kinds are listed by their priority
     (`--kind`'s choices, `kinds`)."""
     if not isinstance(kind, MapKind):
         raise TypeError(f"register takes a MapKind, got {type(kind).__name__}")
-    if kind.name in _REGISTRY and not replace:
-        raise ValueError(f"a map kind named {kind.name!r} is already registered (register(..., replace=True) "
-                         "replaces it)")
-    _REGISTRY[kind.name] = kind
-    return kind
+    if kind.name in KINDS:
+        if not replace:
+            raise ValueError(f"a map kind named {kind.name!r} is already registered (register(..., replace=True) "
+                             "replaces it)")
+        KINDS.unregister(kind.name)
+    return KINDS.register(kind)
 
 
 def unregister(name: str) -> MapKind:
     """Remove the kind `name` from the registry and return it (`ValueError` when unknown)."""
     kind = get_kind(name)
-    del _REGISTRY[name]
+    KINDS.unregister(name)
     return kind
 
 
 def get_kind(name: str) -> MapKind:
     """The registered kind `name`; `ValueError` naming the known kinds otherwise."""
-    kind = _REGISTRY.get(name) if isinstance(name, str) else None
-    if kind is None:
-        raise ValueError(f"unknown map kind {name!r}; known kinds: {', '.join(_REGISTRY)}")
-    return kind
+    if not isinstance(name, str) or name not in KINDS:
+        raise ValueError(f"unknown map kind {name!r}; known kinds: {', '.join(KINDS.names())}")
+    return KINDS.get(name)
 
 
 def kinds() -> tuple[MapKind, ...]:
-    """Every registered kind, in registration order."""
-    return tuple(_REGISTRY.values())
+    """Every registered kind, by priority."""
+    return KINDS.records()
 
 
 def kind_names() -> tuple[str, ...]:
-    """The names of the registered kinds, in registration order."""
-    return tuple(_REGISTRY)
+    """The names of the registered kinds, by priority."""
+    return tuple(KINDS.names())
 
 
 def default_kind(scope: str) -> MapKind:
-    """The first kind registered for `scope`: the paper's map of that scope (`constant` for R3,
+    """The first kind of `scope` by priority: the paper's map of that scope (`constant` for R3,
     `orientation` for SO3)."""
-    for kind in _REGISTRY.values():
+    for kind in KINDS.records():
         if kind.scope == scope:
             return kind
     raise ValueError(f"no map kind of scope {scope!r} is registered")
 
 
 def kinds_taking(input_name: str) -> tuple[MapKind, ...]:
-    """The kinds that read `input_name` (one of `INPUTS`), in registration order."""
+    """The kinds that read `input_name` (one of `INPUTS`), by priority."""
     if input_name not in INPUTS:
         raise ValueError(f"unknown input {input_name!r}; inputs: {', '.join(INPUTS)}")
-    return tuple(k for k in _REGISTRY.values() if input_name in k.inputs)
+    return tuple(k for k in KINDS.records() if input_name in k.inputs)
