@@ -118,17 +118,24 @@ def load_map(path: PathLike) -> tuple[NDArray[Any], NDArray[np.float64], dict[st
     if problem:
         raise MapFileError(f"{path} is not a consistent wsmap map file: {problem}")
     if flat.dtype != bool:
-        if not np.all(np.isfinite(flat)):
-            raise MapFileError(f"{path} is not a consistent wsmap map file: its map holds "
-                               f"{int((~np.isfinite(flat)).sum())} NaN or infinite values")
-        if settings.get("kind") is not None:
-            kind = get_kind(settings["kind"])
-            lo, hi = kind.value_range
-            if (lo is not None and flat.min(initial=lo) < lo) or (hi is not None and flat.max(initial=hi) > hi):
-                raise MapFileError(f"{path} is not a consistent wsmap map file: a {kind.name!r} map lies in "
-                                   f"[{'' if lo is None else lo}, {'' if hi is None else hi}], this one in "
-                                   f"[{flat.min():g}, {flat.max():g}]")
+        _check_values(path, flat, settings.get("kind"))
     return flat, nodes, grid, settings
+
+
+def _check_values(path, flat, kind_name) -> None:
+    """The values of a float map read back: finite, inside the range of its kind `kind_name`
+    (None: no kind recorded) (a `MapFileError` naming the disagreement)."""
+    if not np.all(np.isfinite(flat)):
+        raise MapFileError(f"{path} is not a consistent wsmap map file: its map holds "
+                           f"{int((~np.isfinite(flat)).sum())} NaN or infinite values")
+    if kind_name is None:
+        return
+    kind = get_kind(kind_name)
+    lo, hi = kind.value_range
+    if (lo is not None and flat.min(initial=lo) < lo) or (hi is not None and flat.max(initial=hi) > hi):
+        raise MapFileError(f"{path} is not a consistent wsmap map file: a {kind.name!r} map lies in "
+                           f"[{'' if lo is None else lo}, {'' if hi is None else hi}], this one in "
+                           f"[{flat.min():g}, {flat.max():g}]")
 
 
 def _check_grid(path, flat, nodes, grid) -> None:
