@@ -287,7 +287,6 @@ PRIVATE_IMPORTS_TO_MEND = {
     ("wsmap.learn.network", "wsmap.learn.init", "_input_range_array"),
     ("wsmap.learn.network", "wsmap.learn.init", "_to_numpy"),
     ("wsmap.morph_design", "wsmap.learn.morph_model", "_family_of"),
-    ("wsmap.paper.report", "wsmap.paper.full", "_fmt_seconds"),
 }
 
 
