@@ -1,5 +1,6 @@
-"""wsmap.kinematics has no import circle at any level, imports inside functions included, and its
-forward-kinematics modules do not import the inverse-kinematics layer."""
+"""wsmap.kinematics has no import circle at any level, imports inside functions and under
+``if TYPE_CHECKING:`` included, and its forward-kinematics modules do not import the
+inverse-kinematics layer (not even for their annotations)."""
 
 import ast
 from pathlib import Path
