@@ -583,6 +583,135 @@ def _arm_row(par, b):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _wrist_regular(X0, Y0, cp, sp, nx1, nz, w, s5, u, d5, need6, need_psi):
+    """The two wrist branches of a shoulder away from the wrist singularity: the frame-4 origins
+    `(X_0, Y_0)`, `(X_1, Y_1)` in the arm plane, `ψ` and `θ6` of each (0 where not needed)."""
+    th6_0 = th6_1 = psi0 = psi1 = 0.0
+    if need6:
+        x4n = cp * nx1 + sp * nz
+        z4n = cp * nz - sp * nx1
+        x4n = x4n * w + s5 * u
+        th6_0 = math.atan2(z4n, x4n)
+        th6_1 = th6_0 - math.copysign(math.pi, th6_0)
+    if need_psi:
+        psi0 = math.atan2(sp, cp)
+        psi1 = psi0 + math.pi
+    spd = sp * d5
+    cpd = cp * d5
+    X_0 = X0 - spd
+    X_1 = X0 - (-spd)
+    Y_0 = cpd + Y0
+    Y_1 = -cpd + Y0
+    return X_0, Y_0, X_1, Y_1, psi0, psi1, th6_0, th6_1
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _wrist_singular(X0, Y0, nx1, nz, w, s5, u, d5, aa, need6, need_psi):
+    """`_wrist_regular` at the wrist singularity (joint 4's angle free)."""
+    th6_0 = th6_1 = psi0 = psi1 = 0.0
+    # the free angle: |frame-4 origin|² aimed at a2² + a3², so the elbow is as close to a
+    # right angle as the position allows
+    pn = math.sqrt(X0 * X0 + Y0 * Y0)
+    if pn < 1e-150 or abs(d5) < 1e-150:
+        ex, ey, kappa = 1.0, 0.0, 0.0
+    else:
+        ex, ey = X0 / pn, Y0 / pn
+        kappa = _clip1((aa - pn * pn - d5 * d5) / (2.0 * d5 * pn))
+    perp = math.sqrt(1.0 - kappa * kappa)
+    ex_0 = kappa * ex - perp * ey
+    ey_0 = kappa * ey + perp * ex
+    ex_1 = kappa * ex - (-perp) * ey
+    ey_1 = kappa * ey + (-perp) * ex
+    if need_psi:
+        psi0 = math.atan2(-ex_0, ey_0)
+        psi1 = math.atan2(-ex_1, ey_1)
+    if need6:
+        th6_0 = math.atan2(ey_0 * nz - (-ex_0) * nx1, w * (ey_0 * nx1 + (-ex_0) * nz) + s5 * u)
+        th6_1 = math.atan2(ey_1 * nz - (-ex_1) * nx1, w * (ey_1 * nx1 + (-ex_1) * nz) + (-s5) * u)
+    X_0 = X0 + d5 * ex_0
+    Y_0 = Y0 + d5 * ey_0
+    X_1 = X0 + d5 * ex_1
+    Y_1 = Y0 + d5 * ey_1
+    return X_0, Y_0, X_1, Y_1, psi0, psi1, th6_0, th6_1
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _elbow(X, Y, rho2, psi, ok, aa, k1, fr, a2, a3, P, mapped, limited, full, q, valid, i, k0):
+    """The two elbow branches `k0`, `k0 + 1` of a planar two-link arm `(a2, a3)` to the frame-4
+    origin `(X, Y)`: whether one is valid. `full`: both written into row `i` of `q` and
+    `valid`; else nothing is written and the answer comes at the first valid branch."""
+    found = False
+    c3 = rho2 - aa
+    c3 = c3 * k1
+    c3 = _clip1(c3 + fr)
+    s3 = math.sqrt(1.0 - c3 * c3)
+    gam = math.atan2(Y, X)
+    th3 = math.atan2(s3, c3)
+    beta = math.atan2(s3 * a3, c3 * a3 + a2)
+    pg = psi - gam
+    bt = beta - th3
+    for el in range(2):
+        if el == 0:
+            t2, t3, t4 = gam - beta, th3, pg + bt
+        else:
+            t2, t3, t4 = gam + beta, -th3, pg - bt
+        x2 = _joint(t2, 1, P, mapped)
+        x3 = _joint(t3, 2, P, mapped)
+        x4 = _joint(t4, 3, P, mapped)
+        okl = ok and _inside(x2, 1, P, limited) and _inside(x3, 2, P, limited) and _inside(x4, 3, P, limited)
+        if full:
+            q[i, k0 + el, 1] = x2
+            q[i, k0 + el, 2] = x3
+            q[i, k0 + el, 3] = x4
+            valid[i, k0 + el] = okl
+            found = found or okl
+        elif okl:
+            return True
+    return found
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _wrist_branch(X, Y, psi, th6, t5, ok, lo2, hi2, aa, k1, fr, a2, a3, P, mapped, limited, full, need5, need6,
+                  need_elbow, q, valid, i, k0):
+    """The branches `k0`, `k0 + 1` of one shoulder and wrist branch (frame-4 origin `(X, Y)`,
+    `ψ`, `θ6`, `θ5` = `t5`; `ok` whether the shoulder holds): whether one is valid. `full`:
+    written into row `i` of `q` and `valid`; else nothing is written, and the answer comes
+    as soon as it is known (the elbow only where a limit check needs it)."""
+    rho2 = X * X
+    rho2 = rho2 + Y * Y
+    ok = ok and rho2 >= lo2 and rho2 <= hi2
+    if not full and not ok:
+        return False
+    if need5:
+        ok = _wrist_joint(t5, 4, P, mapped, limited, ok, full, q, i, k0)
+    if need6:
+        ok = _wrist_joint(th6, 5, P, mapped, limited, ok, full, q, i, k0)
+    if not full and (not ok or not need_elbow):
+        return ok
+    # ---- elbow: a planar two-link arm (a2, a3) to (X, Y)
+    return _elbow(X, Y, rho2, psi, ok, aa, k1, fr, a2, a3, P, mapped, limited, full, q, valid, i, k0)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _elbow_constants(a2, a3, atol):
+    """The elbow's numbers: the reach `[lo_e, hi_e]` of the two-link arm `(a2, a3)` (with
+    `atol`) and its squares, `1 / (2·a2·a3)` and 1 where that is infinite (`k1`, `fr`), and
+    `a2² + a3²`."""
+    L1, L2 = abs(a2), abs(a3)
+    lo_e = abs(L1 - L2) - atol
+    if not lo_e > 0.0:
+        lo_e = 0.0
+    hi_e = L1 + L2 + atol
+    lo2, hi2 = lo_e * lo_e, hi_e * hi_e
+    den = 2.0 * a2 * a3
+    free = den == 0.0
+    k1 = 0.0 if free else 1.0 / den
+    fr = 1.0 if free else 0.0
+    aa = a2 * a2 + a3 * a3
+    return lo_e, hi_e, lo2, hi2, k1, fr, aa
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _branches(A, P, mapped, limited, atol, full, q, valid, i):
     """The closed form of one target (the geometry is in the module notes); returns whether some
     branch is valid.
@@ -621,18 +750,7 @@ def _branches(A, P, mapped, limited, atol, full, q, valid, i):
     ux = ux + on_axis
     sd = _clip1(d4 / r)
     cd = math.sqrt(1.0 - sd * sd)
-    # elbow constants
-    L1, L2 = abs(a2), abs(a3)
-    lo_e = abs(L1 - L2) - atol
-    if not lo_e > 0.0:
-        lo_e = 0.0
-    hi_e = L1 + L2 + atol
-    lo2, hi2 = lo_e * lo_e, hi_e * hi_e
-    den = 2.0 * a2 * a3
-    free = den == 0.0
-    k1 = 0.0 if free else 1.0 / den
-    fr = 1.0 if free else 0.0
-    aa = a2 * a2 + a3 * a3
+    lo_e, hi_e, lo2, hi2, k1, fr, aa = _elbow_constants(a2, a3, atol)
     Y0 = wz - d1
     # reach-only shortcut: the frame-4 origin lies at distance |d5| from the wrist point (X0, Y0)
     # in the arm plane, so |(X0, Y0)| outside [lo − |d5|, hi + |d5|] (with a margin far above
@@ -679,93 +797,25 @@ def _branches(A, P, mapped, limited, atol, full, q, valid, i):
         sp = -(az / m)
         th5 = math.atan2(s5, w) if need5 else 0.0
         # per wrist branch j: the frame-4 origin (X, Y) in the arm plane, ψ = θ2+θ3+θ4 and θ6
-        th6_0 = th6_1 = psi0 = psi1 = 0.0
         if not sing:
-            if need6:
-                x4n = cp * nx1 + sp * nz
-                z4n = cp * nz - sp * nx1
-                x4n = x4n * w + s5 * u
-                th6_0 = math.atan2(z4n, x4n)
-                th6_1 = th6_0 - math.copysign(math.pi, th6_0)
-            if need_psi:
-                psi0 = math.atan2(sp, cp)
-                psi1 = psi0 + math.pi
-            spd = sp * d5
-            cpd = cp * d5
-            X_0 = X0 - spd
-            X_1 = X0 - (-spd)
-            Y_0 = cpd + Y0
-            Y_1 = -cpd + Y0
+            X_0, Y_0, X_1, Y_1, psi0, psi1, th6_0, th6_1 = _wrist_regular(X0, Y0, cp, sp, nx1, nz, w, s5, u, d5,
+                                                                          need6, need_psi)
         else:
-            # the free angle: |frame-4 origin|² aimed at a2² + a3², so the elbow is as close to a
-            # right angle as the position allows
-            pn = math.sqrt(X0 * X0 + Y0 * Y0)
-            if pn < 1e-150 or abs(d5) < 1e-150:
-                ex, ey, kappa = 1.0, 0.0, 0.0
-            else:
-                ex, ey = X0 / pn, Y0 / pn
-                kappa = _clip1((aa - pn * pn - d5 * d5) / (2.0 * d5 * pn))
-            perp = math.sqrt(1.0 - kappa * kappa)
-            ex_0 = kappa * ex - perp * ey
-            ey_0 = kappa * ey + perp * ex
-            ex_1 = kappa * ex - (-perp) * ey
-            ey_1 = kappa * ey + (-perp) * ex
-            if need_psi:
-                psi0 = math.atan2(-ex_0, ey_0)
-                psi1 = math.atan2(-ex_1, ey_1)
-            if need6:
-                th6_0 = math.atan2(ey_0 * nz - (-ex_0) * nx1, w * (ey_0 * nx1 + (-ex_0) * nz) + s5 * u)
-                th6_1 = math.atan2(ey_1 * nz - (-ex_1) * nx1, w * (ey_1 * nx1 + (-ex_1) * nz) + (-s5) * u)
-            X_0 = X0 + d5 * ex_0
-            Y_0 = Y0 + d5 * ey_0
-            X_1 = X0 + d5 * ex_1
-            Y_1 = Y0 + d5 * ey_1
+            X_0, Y_0, X_1, Y_1, psi0, psi1, th6_0, th6_1 = _wrist_singular(X0, Y0, nx1, nz, w, s5, u, d5, aa,
+                                                                           need6, need_psi)
         for j in range(2):
             if j == 0:
                 X, Y, psi, th6, t5 = X_0, Y_0, psi0, th6_0, th5
             else:
                 X, Y, psi, th6, t5 = X_1, Y_1, psi1, th6_1, th5 * -1.0
             k0 = 4 * s + 2 * j
-            rho2 = X * X
-            rho2 = rho2 + Y * Y
-            ok = ok1 and rho2 >= lo2 and rho2 <= hi2 and reach_sh
-            if not full and not ok:
-                continue
-            if need5:
-                ok = _wrist_joint(t5, 4, P, mapped, limited, ok, full, q, i, k0)
-            if need6:
-                ok = _wrist_joint(th6, 5, P, mapped, limited, ok, full, q, i, k0)
-            if not full and (not ok or not need_elbow):
-                if ok:
-                    return True
-                continue
-            # ---- elbow: a planar two-link arm (a2, a3) to (X, Y)
-            c3 = rho2 - aa
-            c3 = c3 * k1
-            c3 = _clip1(c3 + fr)
-            s3 = math.sqrt(1.0 - c3 * c3)
-            gam = math.atan2(Y, X)
-            th3 = math.atan2(s3, c3)
-            beta = math.atan2(s3 * a3, c3 * a3 + a2)
-            pg = psi - gam
-            bt = beta - th3
-            for el in range(2):
-                if el == 0:
-                    t2, t3, t4 = gam - beta, th3, pg + bt
-                else:
-                    t2, t3, t4 = gam + beta, -th3, pg - bt
-                x2 = _joint(t2, 1, P, mapped)
-                x3 = _joint(t3, 2, P, mapped)
-                x4 = _joint(t4, 3, P, mapped)
-                okl = ok and _inside(x2, 1, P, limited) and _inside(x3, 2, P, limited) and _inside(x4, 3, P, limited)
-                if full:
-                    q[i, k0 + el, 1] = x2
-                    q[i, k0 + el, 2] = x3
-                    q[i, k0 + el, 3] = x4
-                    valid[i, k0 + el] = okl
-                    found = found or okl
-                elif okl:
-                    return True
+            ok = ok1 and reach_sh
+            hit = _wrist_branch(X, Y, psi, th6, t5, ok, lo2, hi2, aa, k1, fr, a2, a3, P, mapped, limited, full,
+                                need5, need6, need_elbow, q, valid, i, k0)
+            if full:
+                found = found or hit
+            elif hit:
+                return True
     return found
 
 
