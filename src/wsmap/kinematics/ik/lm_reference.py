@@ -23,8 +23,8 @@ from ..dh import DHRobot
 from ..transforms import check_rigid
 from .kernel import mix, pose_keys, start_box, unsolved
 from .reach_filter import reach_filter
-from .search import (DEFAULT_ILIMIT, DEFAULT_RLIMIT, DEFAULT_STARTS, FK_CONFIRM_TOL, _broadcast_targets,
-                     _check_search, _limited, _solution)
+from .search import (DEFAULT_ILIMIT, DEFAULT_RLIMIT, DEFAULT_STARTS, FK_CONFIRM_TOL, broadcast_targets,
+                     check_search, search_solution, with_joint_limits)
 from .solution import IKSolution, failure_reasons
 
 __all__ = ["ikine_search_reference", "ikine_LM_reference"]
@@ -470,12 +470,12 @@ def ikine_search_reference(robot, T, *, starts: int = DEFAULT_STARTS, seed=0, q0
                            joint_limits: bool = True, confirm_tol: float = FK_CONFIRM_TOL) -> IKSolution:
     """`wsmap.kinematics.ik.search.ikine_search` in numpy (the same arguments, checks, starts,
     pre-filter and result; no `position_only`), one start at a time on the targets not yet solved."""
-    chain = _limited(as_chain(robot), joint_limits)
+    chain = with_joint_limits(as_chain(robot), joint_limits)
     T = check_rigid("target poses", T)
-    starts, ilimit, rlimit, seed, q0 = _check_search(chain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0)
+    starts, ilimit, rlimit, seed, q0 = check_search(chain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0)
     n = chain.n
     batch = chain.batch_shape
-    shape, count, Tf, Q0, arm_of = _broadcast_targets(chain, T, q0)
+    shape, count, Tf, Q0, arm_of = broadcast_targets(chain, T, q0)
 
     q_out, ok_out, it_out, res_out, start_out = unsolved(count, n)
     possible = reach_filter(chain, np.broadcast_to(T, shape + (4, 4)), confirm_tol).reshape(-1)
@@ -504,7 +504,7 @@ def ikine_search_reference(robot, T, *, starts: int = DEFAULT_STARTS, seed=0, q0
         ok_out[tg[ok]] = True
         start_out[tg[ok]] = k
         live = live[~ok]
-    return _solution(shape, q_out, ok_out, it_out, res_out, start_out, possible)
+    return search_solution(shape, q_out, ok_out, it_out, res_out, start_out, possible)
 
 
 def ikine_LM_reference(robot: DHRobot, T, q0=None, *, ilimit: int = 500, rlimit: int = 100, tol: float = 1e-10,

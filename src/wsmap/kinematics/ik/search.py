@@ -70,7 +70,8 @@ if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike, Callable
     from wsmap.kinematics.chain import Arm
 
-__all__ = ["MAP_SETTINGS", "SearchSettings", "map_search", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DEFAULT_STARTS", "FK_CONFIRM_TOL",
+__all__ = ["MAP_SETTINGS", "SearchSettings", "map_search", "check_search", "broadcast_targets", "with_joint_limits",
+           "search_solution", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "DEFAULT_STARTS", "FK_CONFIRM_TOL",
            "ikine_search"]
 
 _ARM_ARRAYS = Memo()
@@ -113,7 +114,7 @@ def _check_settings(chain: SerialChain, tol, lam, confirm_tol, seed, q0):
     return seed, q0
 
 
-def _check_search(chain: SerialChain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0):
+def check_search(chain: SerialChain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0):
     """The arguments `ikine_search` and its numpy reference check alike: `starts >= 1`,
     `ilimit`, `rlimit >= 0` and `_check_settings`'s; returns `(starts, ilimit, rlimit,
     seed, q0)` checked."""
@@ -123,7 +124,7 @@ def _check_search(chain: SerialChain, starts, ilimit, rlimit, tol, lam, confirm_
     return (starts, ilimit, rlimit) + _check_settings(chain, tol, lam, confirm_tol, seed, q0)
 
 
-def _broadcast_targets(chain: SerialChain, T: np.ndarray, q0: np.ndarray):
+def broadcast_targets(chain: SerialChain, T: np.ndarray, q0: np.ndarray):
     """Targets `T` (..., 4, 4), the arms of `chain` (batch shape `(...)`) and starts `q0`
     (..., n) broadcast together and flattened: `(shape, count, Tf (count, 4, 4), Q0 (count, n),
     arm_of (count,))`, `arm_of` the index of each target's arm in the flattened batch."""
@@ -136,14 +137,14 @@ def _broadcast_targets(chain: SerialChain, T: np.ndarray, q0: np.ndarray):
     return shape, count, Tf, Q0, arm_of
 
 
-def _solution(shape: tuple, q, ok, it, res, start, possible) -> IKSolution:
+def search_solution(shape: tuple, q, ok, it, res, start, possible) -> IKSolution:
     """The flat answers of a search (`count` targets) as an `IKSolution` of batch shape
     `shape`; `possible` (count,) False where the pre-filter ruled the target out of reach."""
     return IKSolution(q.reshape(shape + q.shape[-1:]), ok.reshape(shape), it.reshape(shape), res.reshape(shape),
                       failure_reasons(ok, out_of_reach=~possible).reshape(shape), start.reshape(shape))
 
 
-def _limited(chain: SerialChain, joint_limits: bool) -> SerialChain:
+def with_joint_limits(chain: SerialChain, joint_limits: bool) -> SerialChain:
     """The chain, or without its revolute limits (prismatic joints keep their strokes)."""
     if joint_limits or chain.qlim is None:
         return chain
@@ -215,11 +216,11 @@ def ikine_search(
     -----
     Runs on `wsmap.kinematics.lm_compiled.set_threads` threads.
     """
-    chain = _limited(as_chain_memo(robot), joint_limits)
+    chain = with_joint_limits(as_chain_memo(robot), joint_limits)
     T = check_rigid("target poses", T)
-    starts, ilimit, rlimit, seed, q0 = _check_search(chain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0)
+    starts, ilimit, rlimit, seed, q0 = check_search(chain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0)
     chunk = _check_count("chunk", chunk, 1)
-    shape, count, Tf, Q0, arm_of = _broadcast_targets(chain, T, q0)
+    shape, count, Tf, Q0, arm_of = broadcast_targets(chain, T, q0)
     B = int(np.prod(chain.batch_shape, dtype=np.int64))
 
     q_out, ok_out, it_out, res_out, start_out = unsolved(count, chain.n)
@@ -242,7 +243,7 @@ def ikine_search(
         q_out[todo], ok_out[todo], it_out[todo], res_out[todo], start_out[todo] = q, ok, it, res, st
         if progress is not None:
             progress(min(s0 + chunk, count) - s0)
-    return _solution(shape, q_out, ok_out, it_out, res_out, start_out, possible)
+    return search_solution(shape, q_out, ok_out, it_out, res_out, start_out, possible)
 
 
 # --------------------------------------------------------------------------- maps: starts from neighbours
@@ -357,7 +358,7 @@ class _MapSearch:
     its passes; the methods share the answers found so far."""
 
     def __init__(self, robot, T, neighbours, s: SearchSettings, q_init, progress, accept):
-        chain = _limited(as_chain_memo(robot), s.joint_limits)
+        chain = with_joint_limits(as_chain_memo(robot), s.joint_limits)
         T, nb = _check_map_targets(T, neighbours)
         seed, q0 = _check_settings(chain, s.tol, s.lam, s.confirm_tol, s.seed, s.q0_array)
         N, n = T.shape[0], chain.n
