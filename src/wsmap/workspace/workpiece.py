@@ -135,8 +135,7 @@ def orthonormalise(T, *, limit: float = MOVED_LIMIT, name: str = "poses") -> tup
         raise ValueError(f"{name}: a bottom row is not [0, 0, 0, 1]; give rigid transforms")
     R = T[..., :3, :3]
     U, _, Vt = np.linalg.svd(R)
-    d = np.sign(np.linalg.det(U @ Vt))
-    d[d == 0] = 1.0
+    d = np.where(np.linalg.det(U @ Vt) < 0, -1.0, 1.0)
     U = U.copy()
     U[..., :, 2] *= d[..., None]
     R_rigid = U @ Vt
@@ -565,7 +564,7 @@ def _read_cloud(p: Path, label: str, max_targets: int) -> tuple[np.ndarray, np.n
 
 
 def targets_from_points(path_or_arrays, *, pose=None, standoff: float = 0.0,
-                        max_targets: int = MAX_STUDY_TARGETS) -> TargetSet:
+                        max_targets: int = MAX_STUDY_TARGETS, flip: bool = False) -> TargetSet:
     """Targets from a point cloud with normals.
 
     Parameters
@@ -581,6 +580,10 @@ def targets_from_points(path_or_arrays, *, pose=None, standoff: float = 0.0,
         The tool origin's distance off the surface along the normal (m, >= 0).
     max_targets : int
         The most points allowed (checked against a file's declared count before reading).
+    flip : bool
+        True where the given normals point into the workpiece: they are negated. REACH sets its
+        target's z axis to `+n` of its cloud, so its tool poses are this module's with `flip=True`
+        (its demo `part.pcd`'s normals point towards the arm's base).
 
     Returns
     -------
@@ -609,6 +612,8 @@ def targets_from_points(path_or_arrays, *, pose=None, standoff: float = 0.0,
             raise ValueError(f"{label}: {len(pts)} points, more than {max_targets}; thin the cloud")
     else:
         pts, nrm = _read_cloud(_check_file(path_or_arrays, label), label, max_targets)
+    if flip:
+        nrm = -nrm
     return _cloud_targets(pts, nrm, T, standoff, label, source)
 
 
