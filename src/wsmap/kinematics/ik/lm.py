@@ -24,6 +24,30 @@ if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
 __all__ = ["ikine_LM"]
 
 
+def _run_chunks(robot, shape, Tf, qf, ilimit, rlimit, tol, lam, chunk, progress):
+    """The paper's LM on the flat targets `Tf` (count, 4, 4) from `qf` (count, n), `chunk` at a
+    time, the arms of `robot` broadcast to `shape`: `(q, converged, iterations, residual)` flat."""
+    count, n = len(Tf), robot.n
+    q_out = np.empty((count, n))
+    ok_out = np.zeros(count, dtype=bool)
+    it_out = np.zeros(count, dtype=np.int64)
+    res_out = np.empty(count)
+    batch = robot.batch_shape
+    aa = arm_arrays(as_chain(robot).replace(qlim=None))
+    arm_of = np.broadcast_to(np.arange(int(np.prod(batch, dtype=np.int64))).reshape(batch), shape).reshape(-1)
+    ones = np.ones(min(chunk, count), dtype=np.int64)
+    no_keys = np.zeros(min(chunk, count), dtype=np.uint64)
+    for s in range(0, count, chunk):
+        sl = slice(s, min(s + chunk, count))
+        m = sl.stop - sl.start
+        q_out[sl], ok_out[sl], it_out[sl], res_out[sl], _ = run_compiled(
+            MODE_PAPER, aa, arm_of[sl], Tf[sl], no_keys[:m], qf[sl][:, None, :], ones[:m], 0, 0, ilimit, rlimit,
+            tol, lam, 1.0)
+        if progress is not None:
+            progress(m)
+    return q_out, ok_out, it_out, res_out
+
+
 def ikine_LM(
     robot: Arm,
     T: ArrayLike,
@@ -92,30 +116,10 @@ def ikine_LM(
         raise ValueError(f"lam must be positive and finite, got {lam!r}")
     n = robot.n
     q0 = np.zeros(n) if q0 is None else robot._check_q(q0)
-
     shape = np.broadcast_shapes(T.shape[:-2], robot.batch_shape, q0.shape[:-1])
-    count = int(np.prod(shape, dtype=np.int64))
     Tf = np.broadcast_to(T, shape + (4, 4)).reshape(-1, 4, 4)
     qf = np.broadcast_to(q0, shape + (n,)).reshape(-1, n)
-
-    q_out = np.empty((count, n))
-    ok_out = np.zeros(count, dtype=bool)
-    it_out = np.zeros(count, dtype=np.int64)
-    res_out = np.empty(count)
-    batch = robot.batch_shape
-    aa = arm_arrays(as_chain(robot).replace(qlim=None))
-    arm_of = np.broadcast_to(np.arange(int(np.prod(batch, dtype=np.int64))).reshape(batch), shape).reshape(-1)
-    ones = np.ones(min(chunk, count), dtype=np.int64)
-    no_keys = np.zeros(min(chunk, count), dtype=np.uint64)
-    for s in range(0, count, chunk):
-        sl = slice(s, min(s + chunk, count))
-        m = sl.stop - sl.start
-        q_out[sl], ok_out[sl], it_out[sl], res_out[sl], _ = run_compiled(
-            MODE_PAPER, aa, arm_of[sl], Tf[sl], no_keys[:m], qf[sl][:, None, :], ones[:m], 0, 0, ilimit, rlimit,
-            tol, lam, 1.0)
-        if progress is not None:
-            progress(m)
-
+    q_out, ok_out, it_out, res_out = _run_chunks(robot, shape, Tf, qf, ilimit, rlimit, tol, lam, chunk, progress)
     q_out = q_out.reshape(shape + (n,))
     converged = ok_out.reshape(shape)
     ok = converged

@@ -156,6 +156,18 @@ def with_joint_limits(chain: SerialChain, joint_limits: bool) -> SerialChain:
     return chain.replace(qlim=qlim)
 
 
+def _possible_targets(chain, T, shape, count, arm_of, confirm_tol, position_only):
+    """The flat targets (count,) of `ikine_search` that the sound pre-filters leave (`arm_of`
+    each target's arm)."""
+    if not position_only:
+        return reach_filter(chain, np.broadcast_to(T, shape + (4, 4)), confirm_tol).reshape(-1)
+    pb = position_filter(chain, np.broadcast_to(T, shape + (4, 4))[..., :3, 3].reshape(-1, 3), confirm_tol)
+    if pb.ndim == 1:
+        return np.broadcast_to(pb, (count,))
+    B = int(np.prod(chain.batch_shape, dtype=np.int64))
+    return pb.reshape(B, count)[arm_of, np.arange(count)]  # a batch of arms: the filter per target's arm
+
+
 def ikine_search(
     robot: Arm,
     T: ArrayLike,
@@ -221,16 +233,8 @@ def ikine_search(
     starts, ilimit, rlimit, seed, q0 = check_search(chain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0)
     chunk = _check_count("chunk", chunk, 1)
     shape, count, Tf, Q0, arm_of = broadcast_targets(chain, T, q0)
-    B = int(np.prod(chain.batch_shape, dtype=np.int64))
-
     q_out, ok_out, it_out, res_out, start_out = unsolved(count, chain.n)
-    if position_only:
-        pb = position_filter(chain, np.broadcast_to(T, shape + (4, 4))[..., :3, 3].reshape(-1, 3), confirm_tol)
-        possible = np.broadcast_to(pb, (count,)) if pb.ndim == 1 else None
-        if possible is None:  # a batch of arms: the filter per target's arm
-            possible = pb.reshape(B, count)[arm_of, np.arange(count)]
-    else:
-        possible = reach_filter(chain, np.broadcast_to(T, shape + (4, 4)), confirm_tol).reshape(-1)
+    possible = _possible_targets(chain, T, shape, count, arm_of, confirm_tol, position_only)
 
     aa = _ARM_ARRAYS.get(chain_key(chain), lambda: arm_arrays(chain))
     for s0 in range(0, count, chunk):
@@ -261,37 +265,10 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, settings: Search
     neighbours : (N, K) int, node indices of each node's neighbours, `-1` padding (e.g. from
         `wsmap.workspace.grids.node_neighbours`)
     settings : `SearchSettings` of solver `"search"` (default `SearchSettings()`, the
-        measured `MAP_SETTINGS`); its fields, as they act here:
-
-        * `starts`: random starts per node in the first pass, after start 0 (`q0`, default zeros);
-        * `seeds`: neighbours' solutions tried per node and wave;
-        * `retry`: random starts per node for the nodes still unsolved when no wave solves any more
-          and next to a solved node, after which the waves run again from what they found;
-        * `hole_retry`: the random starts instead for such a node with at least half of its
-          neighbours solved (a hole in a reachable region is most likely reachable);
-        * `ilimit`, `rlimit`, `tol`, `lam`, `joint_limits`, `confirm_tol`: per start, as
-          `ikine_search`;
-        * `gtol`: the stationary-point test (`wsmap.kinematics.lm_compiled`): a start fails once
-          the gradient vanishes relative to `|J|·|e|` away from a solution; 0 turns it off;
-        * `position_only`: reach the position of `T` at any orientation (the error and the
-          confirmation on the position alone);
-        * `seed_free_pass`: whether a neighbour's solution that fails inside the limits is also
-          run without them (the second pass of `ikine_search`'s starts);
-        * `border_starts`: the starts of `ikine_search` (`q0`, then its random starts
-          `1 .. border_starts - 1`, with its per-start settings `DEFAULT_ILIMIT`,
-          `DEFAULT_RLIMIT`, no stationary-point test, both passes) that every node still unsolved
-          next to a solved node gets once, after the solutions of its solved neighbours that the
-          waves did not try; 0 turns the border search off;
-        * `limit_bound`: whether the joint-limit bound
-          (`wsmap.kinematics.ik.reach_filter.limit_filter`) also rules out nodes before any start
-          (one arm of revolute joints, a pose target): sound, so it changes no success and no
-          solution, only the time (most of it was the border search's 32 starts at unreachable
-          border nodes; `docs/recall.md`) and, at the nodes it rules out, `reason`, `q`,
-          `residual` and `iterations`; False is the reference path. A batch of arms skips it
-          (each arm would pay its build), so an arm alone and the same arm in a batch differ
-          there, and only there;
-        * `accept_retry`: more random starts (in rounds of 4, each round followed by waves) for
-          the nodes whose solutions `accept` all rejected.
+        measured `MAP_SETTINGS`); what each field does here is in its docstring (`starts`,
+        `seeds`, `retry`, `hole_retry`, `border_starts`, `accept_retry`, `gtol`,
+        `limit_bound`, ...; per start `ilimit`, `rlimit`, `tol`, `lam`, `joint_limits`,
+        `confirm_tol` as `ikine_search`)
     q_init : optional `(N, n)` (or `(B, N, n)`) starts tried first at each node, NaN rows where
         none (e.g. each node's solution at a neighbouring orientation, or a sampled configuration
         whose tool lies near the node)

@@ -89,10 +89,23 @@ class SearchSettings:
     starts : int
         Random starts per node after start 0 (`"search"`: in the first pass, default 0;
         `"independent"`: starts in all, default `DEFAULT_STARTS`; `"paper"`: 1).
-    seeds, retry, hole_retry, border_starts, accept_retry : int
-        The search's neighbours' solutions per node and wave, retries next to solved nodes, retries
-        in a hole, starts of the border search (0: off), more starts where `accept` refused every
-        solution (`wsmap.kinematics.ik.search.map_search`).
+    seeds : int
+        The search's neighbours' solutions tried per node and wave.
+    retry : int
+        Random starts per node for the nodes still unsolved when no wave solves any more and next to
+        a solved node, after which the waves run again from what they found.
+    hole_retry : int
+        The random starts instead for such a node with at least half of its neighbours solved (a
+        hole in a reachable region is most likely reachable).
+    border_starts : int
+        The starts of `ikine_search` (`q0`, then its random starts `1 .. border_starts - 1`,
+        with its per-start settings `DEFAULT_ILIMIT`, `DEFAULT_RLIMIT`, no stationary-point
+        test, both passes) that every node still unsolved next to a solved node gets once, after
+        the solutions of its solved neighbours that the waves did not try; 0 turns the border
+        search off.
+    accept_retry : int
+        More random starts (in rounds of 4, each followed by waves) for the nodes whose solutions
+        the search's `accept` predicate all refused.
     seed : int
         Seed of the random starts (>= 0, below 2**64; default 0).
     q0 : tuple of float or None
@@ -104,12 +117,24 @@ class SearchSettings:
     lam : float
         Initial LM damping.
     gtol : float
-        The search's stationary-point test (0: off).
+        The search's stationary-point test (`wsmap.kinematics.lm_compiled`): a start fails once
+        the gradient vanishes relative to `|J|·|e|` away from a solution; 0 turns it off.
     confirm_tol : float
         Forward-kinematics confirmation tolerance (m and rad), at least `tol`.
-    joint_limits, seed_free_pass, limit_bound, position_only : bool
-        Honour the arm's revolute limits; rerun a neighbour's solution without the limits; the
-        joint-limit bound before any start; reach the position at any orientation.
+    joint_limits : bool
+        Honour the arm's revolute limits (False drops them; prismatic strokes stay).
+    seed_free_pass : bool
+        Whether a neighbour's solution that fails inside the limits is also run without them (the
+        second pass of `ikine_search`'s starts).
+    limit_bound : bool
+        Whether the joint-limit bound (`wsmap.kinematics.ik.reach_filter.limit_filter`) also
+        rules out nodes before any start (one arm of revolute joints, a pose target): sound, so it
+        changes no success and no solution, only the time and, at the nodes it rules out,
+        `reason`, `q`, `residual` and `iterations`; False is the reference path. A batch of arms
+        skips it (each arm would pay its build).
+    position_only : bool
+        Reach the position of each target at any orientation (the error and the confirmation on
+        the position alone).
     chunk : int or None
         Targets per call of the `"independent"` and `"paper"` solvers (None: their default;
         the result does not depend on it).
