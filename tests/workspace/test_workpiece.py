@@ -423,6 +423,14 @@ def test_hostile_headers_refused_before_allocation(tmp_path):
     assert _message(targets_from_points, pcd) == (
         f"points {pcd}: its PCD header declares 50000 points needing at least 1200000 bytes, but the file holds "
         "120; the file is truncated or hostile")
+    _write_pcd(pcd, np.hstack([p, n]), names, "binary_compressed")
+    body = bytearray(pcd.read_bytes())
+    at = body.index(b"DATA binary_compressed\n") + len("DATA binary_compressed\n")
+    body[at + 4:at + 8] = struct.pack("<I", 4_000_000_000)  # the uncompressed size the reader would allocate
+    pcd.write_bytes(bytes(body))
+    assert _message(targets_from_points, pcd) == (
+        f"points {pcd}: its compressed PCD data declares 4000000000 bytes in 124, but 5 points of 24 bytes are 120 "
+        "and the file holds 124; the file is truncated or hostile")
     _write_pcd(pcd, np.hstack([p, n]), names, "binary", points=10**12)
     assert _message(targets_from_points, pcd) == f"points {pcd}: 1000000000000 points, more than 100000; thin the cloud"
 

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 import re
+import struct
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -497,6 +498,14 @@ def _pcd_header(p: Path, label: str, max_targets: int) -> None:
     if need > have:
         raise ValueError(f"{label}: its PCD header declares {points} points needing at least {need:.0f} bytes, "
                          f"but the file holds {have}; the file is truncated or hostile")
+    if data == "binary_compressed":
+        # the reader allocates the declared uncompressed size: it must be the declared points' bytes
+        sizes = head[nl + 1:nl + 9]
+        comp, raw = struct.unpack("<II", sizes) if len(sizes) == 8 else (-1, -1)
+        if raw != points * row or not 0 <= comp <= have - 8:
+            raise ValueError(f"{label}: its compressed PCD data declares {raw} bytes in {comp}, but {points} points "
+                             f"of {row} bytes are {points * row} and the file holds {have - 8}; the file is "
+                             "truncated or hostile")
 
 
 def _read_pcd(p: Path, label: str, max_targets: int) -> tuple[np.ndarray, np.ndarray]:
