@@ -712,6 +712,56 @@ def _elbow_constants(a2, a3, atol):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _shortcut_bounds(r, wz, a1, d1, d5, lo_e, hi_e):
+    """The squared bounds `(far2, near2)` of `|(X0, Y0)|` outside which the reach-only shortcut
+    rules out both wrist branches of a shoulder (`near2` -1 where there is no inner bound)."""
+    margin = 1e-9 * (r + abs(wz) + abs(a1) + abs(d1) + abs(d5) + hi_e)
+    far = hi_e + abs(d5) + margin
+    far2 = far * far
+    near = lo_e - abs(d5) - margin
+    near2 = near * near if near > 0.0 else -1.0
+    return far2, near2
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _wrist(n0, n1, o0, o1, z0, z1, c1, s1, ax1, az, nx1, nz, X0, Y0, d5, aa, need5, need6, need_psi):
+    """The two wrist branches of shoulder `(c1, s1)`: `_wrist_regular`'s (or, at the wrist
+    singularity, `_wrist_singular`'s) eight numbers and `θ5` of branch 0 (0 where not needed)."""
+    u = v = w = s5 = 0.0
+    if need5 or need6:
+        u = n0 * s1 - n1 * c1
+        v = o0 * s1 - o1 * c1
+        w = z0 * s1 - z1 * c1
+        s5 = math.sqrt(u * u + v * v)
+    m = math.sqrt(ax1 * ax1 + az * az)
+    sing = m < _SINGULAR
+    fs = 1.0 if sing else 0.0
+    m = m + fs
+    cp = -(ax1 / m) + fs
+    sp = -(az / m)
+    th5 = math.atan2(s5, w) if need5 else 0.0
+    if not sing:
+        X_0, Y_0, X_1, Y_1, psi0, psi1, th6_0, th6_1 = _wrist_regular(X0, Y0, cp, sp, nx1, nz, w, s5, u, d5,
+                                                                      need6, need_psi)
+    else:
+        X_0, Y_0, X_1, Y_1, psi0, psi1, th6_0, th6_1 = _wrist_singular(X0, Y0, nx1, nz, w, s5, u, d5, aa,
+                                                                       need6, need_psi)
+    return X_0, Y_0, X_1, Y_1, psi0, psi1, th6_0, th6_1, th5
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _needs(full, limited):
+    """Which angles `_branches` computes: all with `full`, else those a limit check needs
+    (`limited` bit `j` for joint `j`): `(θ1, θ5, θ6, ψ, the elbow)`."""
+    need1 = full or limited & 1 != 0
+    need5 = full or limited & 16 != 0
+    need6 = full or limited & 32 != 0
+    need_psi = full or limited & 8 != 0
+    need_elbow = full or limited & 14 != 0
+    return need1, need5, need6, need_psi, need_elbow
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _branches(A, P, mapped, limited, atol, full, q, valid, i):
     """The closed form of one target (the geometry is in the module notes); returns whether some
     branch is valid.
@@ -726,11 +776,7 @@ def _branches(A, P, mapped, limited, atol, full, q, valid, i):
     """
     d1, a1, a2, a3, d4, d5, d6 = P[0], P[1], P[2], P[3], P[4], P[5], P[6]
     n0, o0, z0, p0, n1, o1, z1, p1, n2, o2, z2, p2 = A
-    need1 = full or limited & 1 != 0
-    need5 = full or limited & 16 != 0
-    need6 = full or limited & 32 != 0
-    need_psi = full or limited & 8 != 0
-    need_elbow = full or limited & 14 != 0
+    need1, need5, need6, need_psi, need_elbow = _needs(full, limited)
     found = False
     # ---- shoulder
     wx = p0 - d6 * z0
@@ -756,11 +802,7 @@ def _branches(A, P, mapped, limited, atol, full, q, valid, i):
     # in the arm plane, so |(X0, Y0)| outside [lo − |d5|, hi + |d5|] (with a margin far above
     # the rounding of these numbers) rules out both wrist branches of a shoulder before the
     # square root and divisions of the wrist; it only skips what the full computation rejects
-    margin = 1e-9 * (r + abs(wz) + abs(a1) + abs(d1) + abs(d5) + hi_e)
-    far = hi_e + abs(d5) + margin
-    far2 = far * far
-    near = lo_e - abs(d5) - margin
-    near2 = near * near if near > 0.0 else -1.0
+    far2, near2 = _shortcut_bounds(r, wz, a1, d1, d5, lo_e, hi_e)
     for s in range(2):
         sg = 1.0 if s == 0 else -1.0
         c1 = sg * (ux * cd) - uy * sd
@@ -783,26 +825,9 @@ def _branches(A, P, mapped, limited, atol, full, q, valid, i):
             P2 = X0 * X0 + Y0 * Y0
             if P2 > far2 or P2 < near2:
                 continue
-        u = v = w = s5 = 0.0
-        if need5 or need6:
-            u = n0 * s1 - n1 * c1
-            v = o0 * s1 - o1 * c1
-            w = z0 * s1 - z1 * c1
-            s5 = math.sqrt(u * u + v * v)
-        m = math.sqrt(ax1 * ax1 + az * az)
-        sing = m < _SINGULAR
-        fs = 1.0 if sing else 0.0
-        m = m + fs
-        cp = -(ax1 / m) + fs
-        sp = -(az / m)
-        th5 = math.atan2(s5, w) if need5 else 0.0
         # per wrist branch j: the frame-4 origin (X, Y) in the arm plane, ψ = θ2+θ3+θ4 and θ6
-        if not sing:
-            X_0, Y_0, X_1, Y_1, psi0, psi1, th6_0, th6_1 = _wrist_regular(X0, Y0, cp, sp, nx1, nz, w, s5, u, d5,
-                                                                          need6, need_psi)
-        else:
-            X_0, Y_0, X_1, Y_1, psi0, psi1, th6_0, th6_1 = _wrist_singular(X0, Y0, nx1, nz, w, s5, u, d5, aa,
-                                                                           need6, need_psi)
+        X_0, Y_0, X_1, Y_1, psi0, psi1, th6_0, th6_1, th5 = _wrist(n0, n1, o0, o1, z0, z1, c1, s1, ax1, az, nx1, nz,
+                                                                   X0, Y0, d5, aa, need5, need6, need_psi)
         for j in range(2):
             if j == 0:
                 X, Y, psi, th6, t5 = X_0, Y_0, psi0, th6_0, th5
