@@ -87,6 +87,36 @@ def wrist_centre_reachable(robot: DHRobot, p: ArrayLike, atol: float = 1e-12) ->
     return (r2 >= d3 * d3 - atol) & (rho2 >= lo - atol) & (rho2 <= hi + atol)
 
 
+def _wrist_branches(robot, T, q1e, q2, q3):
+    """The wrist angles `(q4, q5, q6)` of both wrist branches for the arm angles `q1e`, `q2`,
+    `q3` (..., 2 shoulder, 2 elbow) of poses `T` (..., 4, 4): (..., 2 shoulder, 2 wrist, 2 elbow, 3)."""
+    # wrist: R36 = R03ᵀ R = Rz(q4) · Ry(−q5) · Rz(q6)
+    zeros = np.zeros(q2.shape + (3,))
+    q123 = np.concatenate([np.stack([q1e, q2, q3], axis=-1), zeros], axis=-1)  # (..., 2, 2, 6)
+    dh_b = [np.broadcast_to(x[..., None, None, :], q2.shape + (6,)) for x in (robot.d, robot.a, robot.alpha)]
+    R03 = _link_frames(*dh_b, q123)[..., 3, :3, :3]
+    R = T[..., None, None, :3, :3]
+    M = np.swapaxes(R03, -1, -2) @ R
+    sb = np.hypot(M[..., 0, 2], M[..., 1, 2])
+    b = np.arctan2(sb, M[..., 2, 2])  # in [0, pi]
+    regular = sb > 1e-12
+    q4 = np.where(regular, np.arctan2(M[..., 1, 2], M[..., 0, 2]), 0.0)
+    q6 = np.where(
+        regular,
+        np.arctan2(M[..., 2, 1], -M[..., 2, 0]),
+        # singular wrist: only q4 ± q6 is determined; put it all in q6
+        np.where(M[..., 2, 2] > 0, np.arctan2(M[..., 1, 0], M[..., 0, 0]), np.arctan2(M[..., 1, 0], -M[..., 0, 0])),
+    )
+    q5 = -b
+    return np.stack(
+        [
+            np.stack([q4 + np.pi, -q5, q6 + np.pi], axis=-1),  # wrist 0: sin q5 >= 0 (the flipped wrist)
+            np.stack([q4, q5, q6], axis=-1),  # wrist 1: sin q5 <= 0
+        ],
+        axis=-3,
+    )  # (..., 2 shoulder, 2 wrist, 2 elbow, 3)
+
+
 def ikine_spherical_wrist(robot: DHRobot, T: ArrayLike, atol: float = 1e-9) -> IKSolution:
     """All 8 closed-form solutions for spherical-wrist arms.
 
@@ -143,31 +173,7 @@ def ikine_spherical_wrist(robot: DHRobot, T: ArrayLike, atol: float = 1e-9) -> I
     q2 = np.arctan2(Y1, X1) - np.arctan2(L[..., None] * np.sin(psi), A2[..., None] + L[..., None] * np.cos(psi))
     q1e = np.broadcast_to(q1[..., None], q2.shape)
 
-    # wrist: R36 = R03ᵀ R = Rz(q4) · Ry(−q5) · Rz(q6)
-    zeros = np.zeros(q2.shape + (3,))
-    q123 = np.concatenate([np.stack([q1e, q2, q3], axis=-1), zeros], axis=-1)  # (..., 2, 2, 6)
-    dh_b = [np.broadcast_to(x[..., None, None, :], q2.shape + (6,)) for x in (robot.d, robot.a, robot.alpha)]
-    R03 = _link_frames(*dh_b, q123)[..., 3, :3, :3]
-    R = T[..., None, None, :3, :3]
-    M = np.swapaxes(R03, -1, -2) @ R
-    sb = np.hypot(M[..., 0, 2], M[..., 1, 2])
-    b = np.arctan2(sb, M[..., 2, 2])  # in [0, pi]
-    regular = sb > 1e-12
-    q4 = np.where(regular, np.arctan2(M[..., 1, 2], M[..., 0, 2]), 0.0)
-    q6 = np.where(
-        regular,
-        np.arctan2(M[..., 2, 1], -M[..., 2, 0]),
-        # singular wrist: only q4 ± q6 is determined; put it all in q6
-        np.where(M[..., 2, 2] > 0, np.arctan2(M[..., 1, 0], M[..., 0, 0]), np.arctan2(M[..., 1, 0], -M[..., 0, 0])),
-    )
-    q5 = -b
-    wrist = np.stack(
-        [
-            np.stack([q4 + np.pi, -q5, q6 + np.pi], axis=-1),  # wrist 0: sin q5 >= 0 (the flipped wrist)
-            np.stack([q4, q5, q6], axis=-1),  # wrist 1: sin q5 <= 0
-        ],
-        axis=-3,
-    )  # (..., 2 shoulder, 2 wrist, 2 elbow, 3)
+    wrist = _wrist_branches(robot, T, q1e, q2, q3)  # (..., 2 shoulder, 2 wrist, 2 elbow, 3)
     arm = np.broadcast_to(np.stack([q1e, q2, q3], axis=-1)[..., None, :, :], wrist.shape)
     q = np.concatenate([arm, wrist], axis=-1).reshape(shape + (8, 6))
     q = np.mod(q + np.pi, 2 * np.pi) - np.pi

@@ -152,6 +152,94 @@ def require_spherical_wrist_offset(robot, atol: float = 1e-9) -> None:
                          f"meeting in a point): {arm}{why(idx)}")
 
 
+def _elbow_angles(v, q1, w1, w2, w3, p1, p2, p3, W):
+    """Joints 2 and 3 of both elbows per shoulder `q1` (..., 2), `v` the wrist centre from
+    `p1`: `(q2, q3)` (..., 2 shoulder, 2 elbow) and the elbow's cosine before clipping."""
+    R1 = _rot(w1[..., None, :], q1)  # (..., 2, 3, 3)
+    cp = np.einsum("...sji,...j->...si", R1, v) + p1[..., None, :]  # R1ᵀ v
+    s3 = np.sign(_dot(w2, w3))[..., None]  # w3 = s3·w2
+    W2, P2, P3 = w2[..., None, :], p2[..., None, :], p3[..., None, :]
+    perp = lambda x: x - _dot(x, W2)[..., None] * W2  # noqa: E731
+    u = perp(np.broadcast_to((W - p3)[..., None, :], cp.shape))
+    vv = perp(np.broadcast_to((p2 - p3)[..., None, :], cp.shape))
+    delta2 = _dot(perp(cp - P2), perp(cp - P2))
+    nu, nv = np.linalg.norm(u, axis=-1), np.linalg.norm(vv, axis=-1)
+    den = 2.0 * nu * nv
+    deg3 = den < 1e-12
+    cphi_raw = np.where(deg3, 1.0, (nu * nu + nv * nv - delta2) / np.where(deg3, 1.0, den))
+    cphi = np.clip(cphi_raw, -1.0, 1.0)
+    phi = np.arccos(cphi)
+    alpha_u = np.arctan2(_dot(W2, np.cross(vv, u)), _dot(vv, u))
+    theta = np.stack([phi - alpha_u, -phi - alpha_u], axis=-1)  # (..., 2 sh, 2 el), about w2
+    q3 = s3[..., None] * theta
+    # q2: turn the wrist centre after joint 3 onto c' about axis 2
+    R3 = _rot(np.broadcast_to(w2[..., None, None, :], theta.shape + (3,)), theta)
+    a_vec = np.einsum("...ij,...j->...i", R3, u[..., None, :] + 0.0 * theta[..., None]) \
+        + (P3 - P2)[..., None, :] + (_dot(W - p3, w2)[..., None, None, None] * w2[..., None, None, :])
+    # (the component along w2 of W - p3 is kept by the rotation)
+    b_vec = (cp - P2)[..., None, :]
+    q2 = _sp1(np.broadcast_to(w2[..., None, None, :], a_vec.shape), a_vec, np.broadcast_to(b_vec, a_vec.shape))
+    return q2, q3, cphi_raw
+
+
+def _wrist_angles(w, T, RM, q1e, q2, q3):
+    """Joints 4-6 of both wrists per (shoulder, elbow): lists (wrist 0, wrist 1) of `q4`, `q5`,
+    `q6` (..., 2 shoulder, 2 elbow) and the squared `γ` of the wrist's subproblem."""
+    w1, w2, w3 = w[..., 0, :], w[..., 1, :], w[..., 2, :]
+    Rb = (_rot(np.broadcast_to(w1[..., None, None, :], q2.shape + (3,)), q1e)
+          @ _rot(np.broadcast_to(w2[..., None, None, :], q2.shape + (3,)), q2)
+          @ _rot(np.broadcast_to(w3[..., None, None, :], q2.shape + (3,)), q3))
+    Rrel = np.swapaxes(Rb, -1, -2) @ (T[..., :3, :3] @ np.swapaxes(RM, -1, -2))[..., None, None, :, :]
+    w4, w5, w6 = (np.broadcast_to(w[..., j, None, None, :], q2.shape + (3,)) for j in (3, 4, 5))
+    qv = np.einsum("...ij,...j->...i", Rrel, w6)
+    k45 = _dot(w4, w5)
+    den2 = k45 * k45 - 1.0
+    al = (k45 * _dot(w5, w6) - _dot(w4, qv)) / den2
+    be = (k45 * _dot(w4, qv) - _dot(w5, w6)) / den2
+    cr = np.cross(w4, w5)
+    g2 = (1.0 - al * al - be * be - 2.0 * al * be * k45) / _dot(cr, cr)
+    gam = np.sqrt(np.maximum(g2, 0.0))
+    q4s, q5s, q6s = [], [], []
+    for sg in (1.0, -1.0):
+        cv = al[..., None] * w4 + be[..., None] * w5 + (sg * gam)[..., None] * cr
+        q5 = _sp1(w5, w6, cv)
+        q4 = _sp1(w4, cv, qv)
+        R6 = np.swapaxes(_rot(w4, q4) @ _rot(w5, q5), -1, -2) @ Rrel
+        n6 = np.cross(w6, np.where(np.abs(w6[..., :1]) < 0.9, np.array([1.0, 0, 0]), np.array([0, 1.0, 0])))
+        q6 = _sp1(w6, n6, np.einsum("...ij,...j->...i", R6, n6))
+        q4s.append(q4), q5s.append(q5), q6s.append(q6)
+    return q4s, q5s, q6s, g2
+
+
+def _confirmation(chain, q, T, cand):
+    """The largest entry of `|fkine(q) − T|` of each candidate branch (`cand`, (..., 8)) by the
+    chain's own forward kinematics; `inf` elsewhere."""
+    shape = cand.shape[:-1]
+    err = np.full(shape + (8,), np.inf)
+    if cand.any():
+        arm_index = np.broadcast_to(np.arange(max(1, int(np.prod(chain.batch_shape, dtype=np.int64))))
+                                    .reshape(chain.batch_shape or ()), shape)
+        idx = np.nonzero(cand)
+        flat = chain if not chain.batch_shape else _flat_arms(chain)
+        sel = flat if not chain.batch_shape else flat[arm_index[idx[:-1]]]
+        Tq = sel.fkine(q[idx])
+        err[idx] = np.abs(Tq - T[idx[:-1]]).max(axis=(-2, -1))
+    return err
+
+
+def _branch_angles(q1e, q2, q3, q4s, q5s, q6s, shape):
+    """The joint angles of the 8 branches, `shape + (8, 6)` in `(-pi, pi]` (0 where not finite),
+    from the arm's (..., 2 shoulder, 2 elbow) and the wrists' (lists of wrist 0, wrist 1)."""
+    # (..., 2 shoulder, 2 wrist, 2 elbow, 6)
+    arm = np.stack([q1e, q2, q3], axis=-1)[..., :, None, :, :]
+    wrist = np.stack([np.stack(q4s, axis=-2), np.stack(q5s, axis=-2), np.stack(q6s, axis=-2)], axis=-1)
+    arm = np.broadcast_to(arm, wrist.shape)
+    q = np.concatenate([arm, wrist], axis=-1).reshape(shape + (8, 6))
+    q = np.where(np.isfinite(q), q, 0.0)
+    q = np.mod(q + np.pi, 2 * np.pi) - np.pi
+    return np.where(q <= -np.pi, q + 2 * np.pi, q)
+
+
 def ikine_spherical_wrist_offset(robot, T, atol: float = 1e-9) -> IKSolution:
     """All 8 closed-form solutions of an arm of the family (module notes).
 
@@ -206,63 +294,12 @@ def ikine_spherical_wrist_offset(robot, T, atol: float = 1e-9) -> IKSolution:
         q1 = np.stack([base + ds, base - ds], axis=-1)  # (..., 2 shoulder)
 
         # ---- elbow, per shoulder: c' = R(w1, −q1)(c − p1) + p1
-        R1 = _rot(w1[..., None, :], q1)  # (..., 2, 3, 3)
-        cp = np.einsum("...sji,...j->...si", R1, v) + p1[..., None, :]  # R1ᵀ v
-        s3 = np.sign(_dot(w2, w3))[..., None]  # w3 = s3·w2
-        W2, P2, P3 = w2[..., None, :], p2[..., None, :], p3[..., None, :]
-        perp = lambda x: x - _dot(x, W2)[..., None] * W2  # noqa: E731
-        u = perp(np.broadcast_to((W - p3)[..., None, :], cp.shape))
-        vv = perp(np.broadcast_to((p2 - p3)[..., None, :], cp.shape))
-        delta2 = _dot(perp(cp - P2), perp(cp - P2))
-        nu, nv = np.linalg.norm(u, axis=-1), np.linalg.norm(vv, axis=-1)
-        den = 2.0 * nu * nv
-        deg3 = den < 1e-12
-        cphi_raw = np.where(deg3, 1.0, (nu * nu + nv * nv - delta2) / np.where(deg3, 1.0, den))
-        cphi = np.clip(cphi_raw, -1.0, 1.0)
-        phi = np.arccos(cphi)
-        alpha_u = np.arctan2(_dot(W2, np.cross(vv, u)), _dot(vv, u))
-        theta = np.stack([phi - alpha_u, -phi - alpha_u], axis=-1)  # (..., 2 sh, 2 el), about w2
-        q3 = s3[..., None] * theta
-        # q2: turn the wrist centre after joint 3 onto c' about axis 2
-        R3 = _rot(np.broadcast_to(w2[..., None, None, :], theta.shape + (3,)), theta)
-        a_vec = np.einsum("...ij,...j->...i", R3, u[..., None, :] + 0.0 * theta[..., None]) \
-            + (P3 - P2)[..., None, :] + (_dot(W - p3, w2)[..., None, None, None] * w2[..., None, None, :])
-        # (the component along w2 of W - p3 is kept by the rotation)
-        b_vec = (cp - P2)[..., None, :]
-        q2 = _sp1(np.broadcast_to(w2[..., None, None, :], a_vec.shape), a_vec, np.broadcast_to(b_vec, a_vec.shape))
+        q2, q3, cphi_raw = _elbow_angles(v, q1, w1, w2, w3, p1, p2, p3, W)
 
         # ---- wrist, per (shoulder, elbow): R4 R5 R6 = (R1 R2 R3)ᵀ R R_Mᵀ
         q1e = np.broadcast_to(q1[..., None], q2.shape)
-        Rb = (_rot(np.broadcast_to(w1[..., None, None, :], q2.shape + (3,)), q1e)
-              @ _rot(np.broadcast_to(w2[..., None, None, :], q2.shape + (3,)), q2)
-              @ _rot(np.broadcast_to(w3[..., None, None, :], q2.shape + (3,)), q3))
-        Rrel = np.swapaxes(Rb, -1, -2) @ (T[..., :3, :3] @ np.swapaxes(RM, -1, -2))[..., None, None, :, :]
-        w4, w5, w6 = (np.broadcast_to(w[..., j, None, None, :], q2.shape + (3,)) for j in (3, 4, 5))
-        qv = np.einsum("...ij,...j->...i", Rrel, w6)
-        k45 = _dot(w4, w5)
-        den2 = k45 * k45 - 1.0
-        al = (k45 * _dot(w5, w6) - _dot(w4, qv)) / den2
-        be = (k45 * _dot(w4, qv) - _dot(w5, w6)) / den2
-        cr = np.cross(w4, w5)
-        g2 = (1.0 - al * al - be * be - 2.0 * al * be * k45) / _dot(cr, cr)
-        gam = np.sqrt(np.maximum(g2, 0.0))
-        q4s, q5s, q6s = [], [], []
-        for sg in (1.0, -1.0):
-            cv = al[..., None] * w4 + be[..., None] * w5 + (sg * gam)[..., None] * cr
-            q5 = _sp1(w5, w6, cv)
-            q4 = _sp1(w4, cv, qv)
-            R6 = np.swapaxes(_rot(w4, q4) @ _rot(w5, q5), -1, -2) @ Rrel
-            n6 = np.cross(w6, np.where(np.abs(w6[..., :1]) < 0.9, np.array([1.0, 0, 0]), np.array([0, 1.0, 0])))
-            q6 = _sp1(w6, n6, np.einsum("...ij,...j->...i", R6, n6))
-            q4s.append(q4), q5s.append(q5), q6s.append(q6)
-    # (..., 2 shoulder, 2 wrist, 2 elbow, 6)
-    arm = np.stack([q1e, q2, q3], axis=-1)[..., :, None, :, :]
-    wrist = np.stack([np.stack(q4s, axis=-2), np.stack(q5s, axis=-2), np.stack(q6s, axis=-2)], axis=-1)
-    arm = np.broadcast_to(arm, wrist.shape)
-    q = np.concatenate([arm, wrist], axis=-1).reshape(shape + (8, 6))
-    q = np.where(np.isfinite(q), q, 0.0)
-    q = np.mod(q + np.pi, 2 * np.pi) - np.pi
-    q = np.where(q <= -np.pi, q + 2 * np.pi, q)
+        q4s, q5s, q6s, g2 = _wrist_angles(w, T, RM, q1e, q2, q3)
+    q = _branch_angles(q1e, q2, q3, q4s, q5s, q6s, shape)
 
     # candidates: branches whose cosines and subproblem-2 radius are in range up to rounding (a
     # margin far above it: a pose out of reach by more fails the confirmation anyway)
@@ -273,15 +310,7 @@ def ikine_spherical_wrist_offset(robot, T, atol: float = 1e-9) -> IKSolution:
             & (g2 >= -slack)[..., :, None, :]
     cand = np.broadcast_to(cand, shape + (2, 2, 2)).reshape(shape + (8,))
     # the confirmation: the chain's own forward kinematics of the candidates
-    err = np.full(shape + (8,), np.inf)
-    if cand.any():
-        arm_index = np.broadcast_to(np.arange(max(1, int(np.prod(chain.batch_shape, dtype=np.int64))))
-                                    .reshape(chain.batch_shape or ()), shape)
-        idx = np.nonzero(cand)
-        flat = chain if not chain.batch_shape else _flat_arms(chain)
-        sel = flat if not chain.batch_shape else flat[arm_index[idx[:-1]]]
-        Tq = sel.fkine(q[idx])
-        err[idx] = np.abs(Tq - T[idx[:-1]]).max(axis=(-2, -1))
+    err = _confirmation(chain, q, T, cand)
     reach = err <= atol
     valid = reach
     if chain.qlim is not None:
