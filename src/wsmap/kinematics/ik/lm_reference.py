@@ -306,6 +306,32 @@ def _lm(arm: _Arm, Rt, pt, q, ilimit, rlimit, tol, lam0, constrained=True, rotve
         return _lm_run(arm, Rt, pt, q, ilimit, rlimit, tol, lam0, constrained and arm.limited, rotvec)
 
 
+def _held_joints(cur, q, g):
+    """`(lo, hi, held)`: the limits of the active targets' arms `cur` and the joints on a limit
+    that the gradient `g` pushes outward, held for this step (None where there is none)."""
+    lo, hi, clipped = cur.lm_bounds()
+    held = clipped & (((q <= lo) & (g < 0)) | ((q >= hi) & (g > 0)))
+    return lo, hi, (held if held.any() else None)
+
+
+def _mark_stagnated(code, rej, lam, g, A, q):
+    """Set `code` to `_STAGNATED` (in place) where a target still running after a rejection can
+    no longer move `q` by a bit: λ so large that the bound on |dq| of lm_compiled's loop is
+    below an eighth of the spacing of every joint value."""
+    n = q.shape[0]
+    cand = np.flatnonzero((code == 0) & (rej > 0))
+    if cand.size:
+        mu = lam[cand] * lam[cand]
+        gc, Ac = g[:, cand], A[..., cand]
+        g2, trace = gc[0] * gc[0], Ac[0, 0]
+        for j in range(1, n):
+            g2 = g2 + gc[j] * gc[j]
+            trace = trace + Ac[j, j]
+        bound = (np.abs(gc) + (trace / mu + 64.0 * n * _EPS) * np.sqrt(g2)) / mu
+        stuck = np.all(bound <= 0.125 * np.spacing(np.abs(q[:, cand])), axis=0)
+        code[cand[stuck]] = _STAGNATED
+
+
 def _lm_run(arm, Rt, pt, q, ilimit, rlimit, tol, lam0, limited, rotvec):
     n, M = q.shape
     rev = arm.revolute[:, None]
@@ -321,7 +347,6 @@ def _lm_run(arm, Rt, pt, q, ilimit, rlimit, tol, lam0, limited, rotvec):
     it_out = np.zeros(M, dtype=np.int64)
     rej_out = np.zeros(M, dtype=np.int64)
     res_out = np.empty(M)
-
     R, p, w, o = arm.fk(q)
     e, na = _pose_error(R, p, Rt, pt, rotvec)
     A, g = _normal_equations(arm.jacobian(p, w, o), e)
@@ -330,7 +355,6 @@ def _lm_run(arm, Rt, pt, q, ilimit, rlimit, tol, lam0, limited, rotvec):
     it = np.zeros(M, dtype=np.int64)
     idx = np.arange(M)
     cur = arm  # the arm numbers of the active targets
-
     touched = touched_out.copy()
 
     def finish(mask, code):
@@ -357,13 +381,9 @@ def _lm_run(arm, Rt, pt, q, ilimit, rlimit, tol, lam0, limited, rotvec):
     while idx.size:
         held = None
         if limited:
-            # a joint on a limit that the gradient pushes outward is held for this step
-            lo, hi, clipped = cur.lm_bounds()
-            held = clipped & (((q <= lo) & (g < 0)) | ((q >= hi) & (g > 0)))
-            if held.any():
+            lo, hi, held = _held_joints(cur, q, g)
+            if held is not None:
                 touched |= held.any(axis=0)
-            else:
-                held = None
         dq = _solve(A, g, lam * lam, held)
         qt = q + dq
         if limited:
@@ -388,17 +408,7 @@ def _lm_run(arm, Rt, pt, q, ilimit, rlimit, tol, lam0, limited, rotvec):
                         np.where(rej > rlimit, _REJECTIONS, np.where(it >= ilimit, _ILIMIT, 0)))
         # exact stagnation: once λ is so large that no later step can move q by a bit (the bound
         # on |dq| of lm_compiled's loop), every later trial is rejected
-        cand = np.flatnonzero((code == 0) & (rej > 0))
-        if cand.size:
-            mu = lam[cand] * lam[cand]
-            gc, Ac = g[:, cand], A[..., cand]
-            g2, trace = gc[0] * gc[0], Ac[0, 0]
-            for j in range(1, n):
-                g2 = g2 + gc[j] * gc[j]
-                trace = trace + Ac[j, j]
-            bound = (np.abs(gc) + (trace / mu + 64.0 * n * _EPS) * np.sqrt(g2)) / mu
-            stuck = np.all(bound <= 0.125 * np.spacing(np.abs(q[:, cand])), axis=0)
-            code[cand[stuck]] = _STAGNATED
+        _mark_stagnated(code, rej, lam, g, A, q)
         if code.any():
             finish(code != 0, code)
     return q_out, code_out, it_out, rej_out, res_out, touched_out
