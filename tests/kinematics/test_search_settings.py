@@ -111,6 +111,13 @@ def test_every_solver_answers_what_the_maps_answer():
         assert sol.success.sum() > exact.success.sum() // 2
 
 
+def test_a_kind_s_defaults_are_settings():
+    from wsmap.workspace.kinds import get_kind
+
+    assert get_kind("constant").settings == SearchSettings()
+    assert get_kind("index").settings == SearchSettings(retry=2, border_starts=0)
+
+
 def test_a_map_request_carries_settings():
     assert MapRequest().settings is None and MapRequest(ik={}).settings is None
     r = MapRequest(ik={"solver": "paper", "tol": 1e-9})

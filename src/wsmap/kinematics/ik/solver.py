@@ -16,15 +16,21 @@ without importing the solvers (which import the search, which imports the settin
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from types import MappingProxyType
-from typing import Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
 from ..._plugins import Registry
 from ..dh import DHRobot
 from .solution import IKSolution
+
+if TYPE_CHECKING:  # names of the annotations only
+    from ..chain import Arm
+
+#: A configuration predicate, `accept(q)` with `q` `(M, n)` → bool `(M,)`.
+Predicate = Callable[[np.ndarray], np.ndarray]
 
 __all__ = ["Solver", "SOLVERS", "get_solver", "solver_for", "numerical_solvers", "per_node", "frozen"]
 
@@ -56,15 +62,19 @@ class Solver(Protocol):
     defaults: Mapping
     dropped: tuple
 
+    def __init__(self) -> None:
+        """A solver takes no arguments: its record is its class's attributes."""
+
     def check_given(self, given: dict) -> None:
         """Raise a one-line `ValueError` for `SearchSettings` fields as given (None: not given)
         that the solver refuses beyond `defaults` and `dropped` (e.g. the paper's `starts`)."""
 
-    def check(self, arms, settings, accept) -> None:
+    def check(self, arms: Arm, settings: object, accept: Predicate | None) -> None:
         """Raise a one-line `ValueError` before any work if the solver cannot take `arms` or `accept`."""
 
-    def solve(self, arms, T: np.ndarray, settings, accept=None, *, neighbours=None,
-              q_init=None, progress=None) -> IKSolution:
+    def solve(self, arms: Arm, T: np.ndarray, settings: object, accept: Predicate | None = None, *,
+              neighbours: np.ndarray | None = None, q_init: np.ndarray | None = None,
+              progress: Callable[[int], object] | None = None) -> IKSolution:
         """One answer per arm and target.
 
         Parameters
@@ -72,7 +82,7 @@ class Solver(Protocol):
         arms : DHRobot or SerialChain, one arm or a flat batch `(B,)`
         T : (N, 4, 4) target poses in the arms' base frame (m), shared by the arms
         settings : the `SearchSettings` of a numerical solver (None: its defaults; the closed form
-            reads none)
+            reads none; typed `object` here because the settings module imports this one)
         accept : optional predicate `accept(q)`, `q` `(M, n)` → bool `(M,)`: a solution it
             refuses does not count (one arm)
         neighbours : (N, K) node indices of each target's neighbours, -1 padding (solvers with
@@ -87,8 +97,9 @@ class Solver(Protocol):
         NaN elsewhere).
         """
 
-    def reachable(self, arms, T: np.ndarray, settings, accept=None, *, neighbours=None,
-                  q_init=None, progress=None) -> np.ndarray:
+    def reachable(self, arms: Arm, T: np.ndarray, settings: object, accept: Predicate | None = None, *,
+                  neighbours: np.ndarray | None = None, q_init: np.ndarray | None = None,
+                  progress: Callable[[int], object] | None = None) -> np.ndarray:
         """`solve(...).success`, through a faster path where the solver has one: bool `(N,)` or `(B, N)`."""
 
 
@@ -106,7 +117,7 @@ def numerical_solvers() -> tuple[str, ...]:
     return tuple(s.name for s in SOLVERS.records() if s.numerical)
 
 
-def solver_for(method: str, settings=None) -> Solver:
+def solver_for(method: str, settings: object = None) -> Solver:
     """The solver of a map computed by `method` (`"exact"`: the closed form; `"numerical"`:
     `settings.solver`, default the search)."""
     if method == "exact":

@@ -193,6 +193,11 @@ class MapKind:
         object.__setattr__(self, "search_settings", MappingProxyType(dict(self.search_settings)))
 
     @property
+    def settings(self) -> SearchSettings:
+        """The kind's numerical search defaults (`search_settings`) as `SearchSettings`."""
+        return SearchSettings.from_dict(self.search_settings)
+
+    @property
     def dtype(self) -> np.dtype:
         """The map file's dtype of this kind: bool or float64."""
         return np.dtype(bool) if self.value_type is bool else np.dtype(np.float64)
