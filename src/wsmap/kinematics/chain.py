@@ -65,7 +65,8 @@ def _trans(x, y, z):
 
 
 def joint_motion(kind: str, axis: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """`(..., 4, 4)`: rotation by `x` about `axis` (Rodrigues) or translation by `x` along it."""
+    """The motion of one joint: `(..., 4, 4)`, rotation by `x` (rad) about the unit `axis` (3,)
+    (Rodrigues) for `kind` `REVOLUTE`, translation by `x` (m) along it for `PRISMATIC`; `x` `(...)`."""
     T = np.zeros(x.shape + (4, 4))
     T[..., 3, 3] = 1.0
     if kind == PRISMATIC:

@@ -217,13 +217,8 @@ def morphology_distance(x, y) -> np.ndarray:
     return np.linalg.norm((x - y) * _FEATURE_SCALE, axis=-1)
 
 
-def describe(robot, name: str | None = None) -> Morphology:
-    """The canonical `Morphology` of one arm (a `SerialChain` or
-    `DHRobot`, batch shape `()`) of 6 or 7 revolute joints.
-
-    An arm with a prismatic joint, fewer than 6 or more than 7 joints, or a batch of arms is a
-    `MorphologyError` naming what is wrong.
-    """
+def _describable(robot, name: str | None) -> SerialChain:
+    """`robot` as one chain of 6 or 7 revolute joints, or the `MorphologyError` of `describe`."""
     try:
         chain = as_chain(robot)
     except TypeError as e:
@@ -236,6 +231,18 @@ def describe(robot, name: str | None = None) -> Morphology:
         raise MorphologyError(f"{label}: joint {j} is prismatic; a morphology has revolute joints only")
     if chain.n not in JOINTS:
         raise MorphologyError(f"{label} has {chain.n} joints; a morphology has 6 or 7 revolute joints")
+    return chain
+
+
+def describe(robot, name: str | None = None) -> Morphology:
+    """The canonical `Morphology` of one arm (a `SerialChain` or
+    `DHRobot`, batch shape `()`) of 6 or 7 revolute joints.
+
+    An arm with a prismatic joint, fewer than 6 or more than 7 joints, or a batch of arms is a
+    `MorphologyError` naming what is wrong.
+    """
+    chain = _describable(robot, name)
+    label = name or chain.name or "the arm"
     n = chain.n
     frames, T0 = chain.joint_frames(np.zeros(n))
     z = np.einsum("nij,nj->ni", frames[:, :3, :3], chain.axes)
