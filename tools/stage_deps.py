@@ -78,7 +78,13 @@ def wsmap_imports(source: str, module: str | None) -> set[str]:
     # a plug-in package that imports every module of its folder when it is imported (a module-level
     # ``for ... in pkgutil.iter_modules(__path__)``, the closed forms' registry) loads each of them,
     # though no import names it; a loop inside a function (paper.parts.registry) runs only when called
-    if is_pkg and any(isinstance(n, ast.For) and "iter_modules(__path__)" in ast.unparse(n.iter) for n in tree.body):
+    # ``discover(__name__, __path__)`` (wsmap._plugins) at module level does the same
+    def loads_folder(n):
+        if isinstance(n, ast.For):
+            return "iter_modules(__path__)" in ast.unparse(n.iter)
+        return isinstance(n, ast.Expr) and isinstance(n.value, ast.Call) and ast.unparse(n.value.func) == "discover"
+
+    if is_pkg and any(loads_folder(n) for n in tree.body):
         folder = module_file(module).parent
         found |= {f"{module}.{p.stem}" for p in folder.glob("*.py") if p.name != "__init__.py"}
         found |= {f"{module}.{p.parent.name}" for p in folder.glob("*/__init__.py")}

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from .._optional import require
 from ..jobs import MapJob, MapOutputs
 from .arguments import (HelpFormatter, arm_arguments, arm_source, collision_arguments, collision_source, non_negative_int,
                         notice, number, positive_int, quiet_argument, seed_int, tolerance)
@@ -84,6 +85,9 @@ def add_parser(sub):
 
 def run(args) -> int:
     """`wsmap map`: the options parsed into a `wsmap.jobs.MapJob`, checked, run and saved."""
+    if args.method == "model" and args.model:
+        require("torch", why="--method model")
+        from ..learn import predictor  # noqa: F401 -- registers the "model" map method
     job = MapJob(arm=arm_source(args), kind=args.kind, scope=args.scope, lo=args.lo, hi=args.hi, step=args.step,
                  rpy=args.rpy, point=args.point, orientations=args.orientations, convention=args.convention,
                  method=args.method, starts=args.starts, retry=args.retry, seed=args.seed, paper_lm=args.paper_lm,

@@ -30,6 +30,7 @@ from ..io import atomic_paths, check_outputs
 from ..kinematics import closed_form_for
 from ..robots.sources import ArmSource
 from ..workspace import grid_spec, orientation_samples, resolve_method, save_map, save_reuleaux
+from ..workspace.maps import MAP_PREDICTORS
 from ..workspace.kinds import MapRequest, default_kind, get_kind, kinds, kinds_taking
 from ..workspace.orientations import MAX_ORIENTATIONS
 from typing import TYPE_CHECKING
@@ -269,7 +270,9 @@ class MapJob:
         if not Path(self.model).is_file():
             raise ValueError(f"--model {self.model!r}: no such file")
         require("torch", why="--method model")
-        from .. import learn  # noqa: F401 -- registers the "model" map method of wsmap.workspace.grid_map
+        if "model" not in MAP_PREDICTORS:  # the classical library never imports the learned one
+            raise ValueError("--method model is supplied by wsmap.learn (trained networks, needs torch): "
+                             "import wsmap.learn first")
 
     def _resolve_method(self, kind, robot) -> str:
         method = self.method if self.method == "model" else resolve_method(robot, self.method)
