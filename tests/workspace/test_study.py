@@ -193,7 +193,7 @@ def test_a_study_file_round_trips_and_is_deterministic(tmp_path):
 
 
 def test_comparing_two_studies_names_the_targets_gained_and_lost(tmp_path):
-    T = ws.target_poses(np.array([[0.5, 0, 0.2], [1.1, 0, 0.2], [-0.5, 0, 0.2]]), (np.pi, 0, 0))
+    T = ws.target_poses(np.array([[0.3, 0, 0.2], [1.1, 0, 0.2], [-0.5, 0, 0.2]]), (np.pi, 0, 0))
     save_study(tmp_path / "a.npz", _study(tmp_path, T))
     shifted = np.eye(4)
     shifted[0, 3] = 0.5  # the base moved towards the far target, away from the one behind
