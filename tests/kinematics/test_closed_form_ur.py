@@ -582,7 +582,7 @@ def test_consistent_on_random_arms_poses_and_limits(generalised, limited):
 def test_limits_on_the_boundary():
     # limits that put one joint of a valid branch 1e-9 rad inside or outside (by multiples of 2·pi),
     # or exactly on the upper limit (inside: the check allows 1e-12 above it). Not exactly on the
-    # lower limit: the solver's check (as dh._angle_in_range) has no slack below, the independent
+    # lower limit: the solver's check (as dh.angle_in_range) has no slack below, the independent
     # one of _in_range_mod_2pi has 1e-12
     rng = np.random.default_rng(30)
     ur = _ur("ur5e", qlim=None)

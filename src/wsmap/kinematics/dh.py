@@ -23,9 +23,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike
 
-__all__ = ["DHRobot", "arm_batch"]
-
-
+__all__ = ["DHRobot", "arm_batch", "angle_in_range", "link_frames"]
 
 
 class DHRobot(ArmBatch):
@@ -105,7 +103,7 @@ class DHRobot(ArmBatch):
     def link_frames(self, q: ArrayLike) -> np.ndarray:
         """Frames of every link: `(..., n + 1, 4, 4)`; index 0 is the base, n the flange (no tool)."""
         q = self._check_q(q)
-        return _link_frames(self.d, self.a, self.alpha, q)
+        return link_frames(self.d, self.a, self.alpha, q)
 
     def fkine(self, q: ArrayLike) -> np.ndarray:
         """Forward kinematics: tool pose in the base frame, shape `(..., 4, 4)`."""
@@ -126,11 +124,26 @@ class DHRobot(ArmBatch):
         q = self._check_q(q)
         if self.qlim is None:
             return np.ones(q.shape[:-1], dtype=bool)
-        return np.all(_angle_in_range(q, self.qlim[..., 0], self.qlim[..., 1]), axis=-1)
+        return np.all(angle_in_range(q, self.qlim[..., 0], self.qlim[..., 1]), axis=-1)
 
 
-def _angle_in_range(q, lo, hi):
-    """True where some `q + 2·pi·k` lies in `[lo, hi]` (elementwise, broadcasting)."""
+def angle_in_range(q: ArrayLike, lo: ArrayLike, hi: ArrayLike) -> np.ndarray:
+    """Whether a revolute joint angle lies inside its limits up to a whole number of turns.
+
+    Parameters
+    ----------
+    q : array_like
+        Joint angles (rad), any shape.
+    lo, hi : array_like
+        Lower and upper limits (rad), broadcastable against `q`; `lo <= hi`.
+
+    Returns
+    -------
+    ndarray of bool
+        The broadcast shape of `q`, `lo` and `hi`: True where some `q + 2·pi·k` (`k` an
+        integer) lies in `[lo, hi]`. An angle on the upper limit counts within a slack of
+        1e-12 rad; a range at least 2·pi wide holds every angle.
+    """
     two_pi = 2.0 * np.pi
     # the smallest 2·pi-equivalent of q that is >= lo
     shifted = lo + np.mod(q - lo, two_pi)
@@ -138,8 +151,22 @@ def _angle_in_range(q, lo, hi):
     return (shifted <= hi + 1e-12) | ((hi - lo) >= two_pi)
 
 
-def _link_frames(d, a, alpha, q):
-    """All link frames, `(..., n + 1, 4, 4)`, for broadcastable DH arrays and `q`."""
+def link_frames(d: ArrayLike, a: ArrayLike, alpha: ArrayLike, q: ArrayLike) -> np.ndarray:
+    """Every link frame of standard-DH arms, without checks (`DHRobot.link_frames` checks `q`).
+
+    Parameters
+    ----------
+    d, a, alpha : ndarray, shape (..., n)
+        DH offsets (m), lengths (m) and twists (rad).
+    q : ndarray, shape (..., n)
+        Joint angles (rad); leading dimensions broadcast against the DH arrays'.
+
+    Returns
+    -------
+    ndarray, shape (..., n + 1, 4, 4)
+        Frame `i` is `A_1 ··· A_i` in the base frame (`A_i = Rz(q_i) Tz(d_i) Tx(a_i) Rx(alpha_i)`):
+        index 0 the base (identity), index n the flange (no tool).
+    """
     shape = np.broadcast_shapes(d.shape, q.shape)
     n = shape[-1]
     ct, st = np.cos(q), np.sin(q)
@@ -167,7 +194,7 @@ def _link_frames(d, a, alpha, q):
 
 def _jacob0(d, a, alpha, q, tool):
     """Base-frame geometric Jacobian `(..., 6, n)` and the tool pose `(..., 4, 4)`."""
-    frames = _link_frames(d, a, alpha, q)
+    frames = link_frames(d, a, alpha, q)
     T = frames[..., -1, :, :]
     if tool is not None:
         T = T @ tool

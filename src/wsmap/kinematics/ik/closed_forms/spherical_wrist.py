@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...dh import DHRobot, _angle_in_range, _link_frames
+from ...dh import DHRobot, angle_in_range, link_frames
 from ...transforms import check_rigid
 from ..registry import ClosedForm, register
 from ..solution import IKReason, IKSolution
@@ -94,7 +94,7 @@ def _wrist_branches(robot, T, q1e, q2, q3):
     zeros = np.zeros(q2.shape + (3,))
     q123 = np.concatenate([np.stack([q1e, q2, q3], axis=-1), zeros], axis=-1)  # (..., 2, 2, 6)
     dh_b = [np.broadcast_to(x[..., None, None, :], q2.shape + (6,)) for x in (robot.d, robot.a, robot.alpha)]
-    R03 = _link_frames(*dh_b, q123)[..., 3, :3, :3]
+    R03 = link_frames(*dh_b, q123)[..., 3, :3, :3]
     R = T[..., None, None, :3, :3]
     M = np.swapaxes(R03, -1, -2) @ R
     sb = np.hypot(M[..., 0, 2], M[..., 1, 2])
@@ -184,7 +184,7 @@ def ikine_spherical_wrist(robot: DHRobot, T: ArrayLike, atol: float = 1e-9) -> I
     valid = reach
     if robot.qlim is not None:
         qlim = robot.qlim[..., None, :, :] if robot.qlim.ndim > 2 else robot.qlim
-        valid = reach & np.all(_angle_in_range(q, qlim[..., 0], qlim[..., 1]), axis=-1)
+        valid = reach & np.all(angle_in_range(q, qlim[..., 0], qlim[..., 1]), axis=-1)
     reason = np.where(valid, IKReason.SOLVED, np.where(reach, IKReason.OUTSIDE_LIMITS, IKReason.OUT_OF_REACH))
     return IKSolution(q=q, success=valid, iterations=np.zeros(valid.shape, dtype=np.int64),
                       residual=np.full(valid.shape, np.nan), reason=reason.astype(np.int8))

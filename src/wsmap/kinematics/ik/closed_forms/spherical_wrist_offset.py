@@ -40,7 +40,7 @@ import numpy as np
 from ...arms import ArmBatch
 from ...chain import PRISMATIC, as_chain
 from ...chain import flatten_arms as _flat_arms
-from ...dh import _angle_in_range
+from ...dh import angle_in_range
 from ...transforms import check_rigid
 from ..geometry import joint_lines
 from ..registry import ClosedForm, register
@@ -315,7 +315,7 @@ def ikine_spherical_wrist_offset(robot, T, atol: float = 1e-9) -> IKSolution:
     valid = reach
     if chain.qlim is not None:
         lim = np.broadcast_to(chain.qlim, chain.batch_shape + (6, 2))[..., None, :, :]
-        valid = reach & np.all(_angle_in_range(q, lim[..., 0], lim[..., 1]), axis=-1)
+        valid = reach & np.all(angle_in_range(q, lim[..., 0], lim[..., 1]), axis=-1)
     reason = np.where(valid, IKReason.SOLVED, np.where(reach, IKReason.OUTSIDE_LIMITS, IKReason.OUT_OF_REACH))
     return IKSolution(q=q, success=valid, iterations=np.zeros(valid.shape, dtype=np.int64), residual=err,
                       reason=reason.astype(np.int8))

@@ -485,7 +485,7 @@ def _joint(x, j, P, mapped):
 
 @njit(cache=True, error_model="numpy")
 def _inside(x, j, P, limited):
-    """`q_j = x` inside the arm's limits up to a multiple of 2·pi, as `dh._angle_in_range` (the
+    """`q_j = x` inside the arm's limits up to a multiple of 2·pi, as `dh.angle_in_range` (the
     same operations; `np.mod` by 2·pi is `fmod` moved into `[0, 2·pi)`); true unless bit
     `j` of `limited` is set."""
     if not limited >> j & 1:
