@@ -25,6 +25,8 @@ def _reuleaux_file(path, centres, per_sphere, reach, resolution, radius=None):
     (x, y, z, w); ``reach`` (S, K) which are reachable; Reuleaux's pose positions lie on a small
     sphere (``radius``) around the centre, along the pose's z axis (pointing at the centre)."""
     radius = resolution if radius is None else radius
+    # the centres are octomap point3d (float) widened to double: float32 values in both datasets
+    centres = np.asarray(centres, dtype=np.float32).astype(np.float64)
     rows, spheres = [], []
     for c, r in zip(centres, reach):
         if not r.any():
@@ -192,3 +194,56 @@ def test_the_constant_map_exports_its_one_orientation(tmp_path):
     np.testing.assert_allclose(m.spheres, nodes[flat])
     assert np.all(m.ri == 100.0) and len(m.poses) == flat.sum()
     np.testing.assert_allclose(m.orientations(), Rotation.from_euler("x", np.pi).as_matrix()[None], atol=1e-6)
+
+
+def _pair_as_reuleaux(path):
+    """Reuleaux's inverse-map loader (``h5ToMultiMapPosesAndSpheres``): pose rows read as float and
+    widened to double, sphere rows read as double, then paired by *exact* equality of the centres
+    (``std::multimap<std::vector<double>, ...>`` keys). Returns, per sphere, how many poses it found,
+    and the number of poses that found no sphere."""
+    with h5py.File(path, "r") as f:
+        poses = f["/Poses/poses_dataset"][()].astype(np.float64)
+        spheres = f["/Spheres/sphere_dataset"][()]
+    keys = {tuple(s[:3]): 0 for s in spheres}
+    orphans = 0
+    for row in poses:
+        key = tuple(row[:3])
+        if key in keys:
+            keys[key] += 1
+        else:
+            orphans += 1
+    return np.array([keys[tuple(s[:3])] for s in spheres]), orphans
+
+
+def test_every_sphere_finds_its_poses_by_exact_equality(tmp_path):
+    # a grid whose centres are not float32 numbers (-0.2 + k*0.1 in float64: -0.19999999999999996)
+    arm = robots.load("ur5e")
+    grid = ws.grid_spec("R3", -0.5, 0.5, 0.1)
+    nodes = ws.cartesian_grid(grid["lo"], grid["hi"], grid["step"])
+    R = ws.orientation_samples(4, seed=1)
+    _, bits = ws.reachability_index(arm, nodes, R, return_bits=True)
+    path = save_reuleaux(tmp_path / "m.h5", grid, bits, R)
+    found, orphans = _pair_as_reuleaux(path)
+    assert orphans == 0
+    np.testing.assert_array_equal(found, bits[bits.any(axis=1)].sum(axis=1))
+    with h5py.File(path, "r") as f:
+        s = f["/Spheres/sphere_dataset"][()]
+        assert s.dtype == np.float64
+        # bit for bit the float32 pose centres, widened
+        np.testing.assert_array_equal(s[:, :3], s[:, :3].astype(np.float32).astype(np.float64))
+
+
+def test_a_pose_without_its_sphere_is_refused(tmp_path):
+    res = 0.1
+    centres = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]])
+    per_sphere = Rotation.random(3, random_state=0).as_quat()
+    path = tmp_path / "r.h5"
+    _reuleaux_file(path, centres, per_sphere, np.ones((2, 3), dtype=bool), res)
+    with h5py.File(path, "r+") as f:
+        s = f["/Spheres/sphere_dataset"][()]
+        del f["/Spheres/sphere_dataset"]
+        ds = f["Spheres"].create_dataset("sphere_dataset", data=s[:1])  # the second sphere dropped
+        ds.attrs.create("Resolution", np.array([res], dtype=np.float32))
+    with pytest.raises(ValueError, match=r"r\.h5: 3 poses lie at no sphere of the file \(the first at "
+                                         r"\[0\.1, 0\.0, 0\.0\] m\)$"):
+        load_reuleaux(path)

@@ -6,7 +6,8 @@ The layout, as `map_creator/src/hdf5_dataset.cpp` (`Hdf5Dataset::saveReachMapsTo
 it and `load_reachability_map` / `create_inverse_reachability_map` read it:
 
 * `/Spheres/sphere_dataset`: float64 `(S, 4)`, one row per *reachable* sphere (voxel centre):
-  `x, y, z` (m, robot base frame) and the reachability index `D = 100·R/N` (percent: `R` of
+  `x, y, z` (m, robot base frame; float32 values widened, bit for bit the poses' centres, as
+  Reuleaux's inverse-map loader pairs poses with spheres by exact equality) and the reachability index `D = 100·R/N` (percent: `R` of
   the `N` poses tested at the sphere are reachable). Spheres with no reachable pose are absent.
   Its attribute `Resolution`: float32 `(1,)`, the distance between sphere centres (m).
 * `/Poses/poses_dataset`: float32 `(M, 10)`, one row per reachable pose: the sphere centre
@@ -121,6 +122,9 @@ class ReuleauxMap:
             raise ValueError(f"bits must be bool of shape ({len(nodes)}, {len(R)}) (nodes x orientations), "
                              f"got {bits.dtype} {bits.shape}")
         step = np.asarray(grid["step"], dtype=np.float64)
+        # Reuleaux pairs poses with spheres by exact equality of the centres, the poses' read as
+        # float32: the spheres must be those float32 values (widened), bit for bit
+        nodes = _as_float32(nodes)
         reached = bits.any(axis=1)
         node, k = np.nonzero(bits)  # node-major, orientations in their order: the file's row order
         q = _quaternions(R)
@@ -162,8 +166,9 @@ class ReuleauxMap:
         if grid is None:
             if not len(self.spheres):
                 raise ValueError("the map has no spheres: give the grid")
-            grid = grid_spec("R3", self.spheres.min(axis=0).tolist(), self.spheres.max(axis=0).tolist(),
-                             self.resolution)
+            # the float32 centres' shortest decimals (-0.6, not -0.600000024), as for the resolution
+            lo, hi = ([float(str(np.float32(v))) for v in f(axis=0)] for f in (self.spheres.min, self.spheres.max))
+            grid = grid_spec("R3", lo, hi, self.resolution)
         nodes = _grid_nodes(grid)
         R = self.orientations(tol) if orientations is None else check_rotations("orientations", orientations)
         index = np.zeros(len(nodes))
@@ -186,7 +191,8 @@ class ReuleauxMap:
             raise ValueError(f"a Reuleaux map is an .h5 file (its loader insists), got {str(path)!r}")
         h5py = _h5py("a Reuleaux map (.h5)")
         rows = np.concatenate([self.pose_spheres, self.poses], axis=1).astype(np.float32)
-        spheres = np.concatenate([self.spheres, self.ri[:, None]], axis=1)
+        # centres as the float32 pose rows hold them, so Reuleaux's exact pairing finds every pose
+        spheres = np.concatenate([_as_float32(self.spheres), self.ri[:, None]], axis=1)
         with atomic_path(path) as tmp:
             with h5py.File(tmp, "w") as f:
                 poses = f.create_group("Poses")
@@ -220,11 +226,34 @@ class ReuleauxMap:
             raise ReuleauxFileError(f"{path}: sphere_dataset must be (S, 4) and poses_dataset (M, 10), got "
                                     f"{spheres.shape} and {rows.shape}")
         try:
-            return cls(spheres=spheres[:, :3], ri=spheres[:, 3], pose_spheres=rows[:, :3], poses=rows[:, 3:],
-                       # the float32 attribute's shortest decimal (0.08, not 0.0799999982): the grid's step
-                       resolution=float(str(np.float32(np.ravel(attr)[0]))))
+            m = cls(spheres=spheres[:, :3], ri=spheres[:, 3], pose_spheres=rows[:, :3], poses=rows[:, 3:],
+                    # the float32 attribute's shortest decimal (0.08, not 0.0799999982): the grid's step
+                    resolution=float(str(np.float32(np.ravel(attr)[0]))))
         except ValueError as e:
             raise ReuleauxFileError(f"{path}: {e}") from None
+        _check_pose_spheres(path, m.spheres, m.pose_spheres)
+        return m
+
+
+def _as_float32(points: np.ndarray) -> np.ndarray:
+    """`points` rounded to float32 and widened back to float64 (the values a float32 row holds)."""
+    return np.asarray(points, dtype=np.float32).astype(np.float64)
+
+
+def _row_keys(points: np.ndarray) -> np.ndarray:
+    """One opaque key per row of `points` `(n, 3)`: equal keys for rows equal in float32."""
+    a = np.ascontiguousarray(np.asarray(points, dtype=np.float32) + np.float32(0))  # -0.0 -> 0.0
+    return a.view(np.dtype((np.void, a.dtype.itemsize * 3))).ravel()
+
+
+def _check_pose_spheres(path, spheres: np.ndarray, pose_spheres: np.ndarray) -> None:
+    """`ReuleauxFileError` unless every pose's sphere centre is a sphere of the file (compared
+    in float32, the precision of the pose rows: Reuleaux's loader pairs them by equality)."""
+    missing = ~np.isin(_row_keys(pose_spheres), _row_keys(spheres))
+    if np.any(missing):
+        first = ", ".join(str(np.float32(v)) for v in pose_spheres[np.argmax(missing)])
+        raise ReuleauxFileError(f"{path}: {int(missing.sum())} poses lie at no sphere of the file "
+                                f"(the first at [{first}] m)")
 
 
 def _grid_nodes(grid: Mapping) -> np.ndarray:
