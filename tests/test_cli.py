@@ -386,17 +386,30 @@ def test_a_png_name_without_the_png_suffix_is_refused_before_the_work(tmp_path, 
     assert (tmp_path / "s.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_a_map_with_nothing_reachable_keeps_its_npz_and_says_the_views_have_nothing_to_draw(tmp_path, capsys):
+def test_a_map_with_nothing_reachable_writes_its_npz_and_warns_that_the_views_are_skipped(tmp_path, capsys):
+    # the map of nothing is a valid answer (exit 0); views of nothing are not possible: a warning on
+    # stderr, even with --quiet, and no view file (an old one is left as it was)
     out = tmp_path / "m.npz"
+    out.write_bytes(b"an older map")
     views = [tmp_path / "m.glb", tmp_path / "m.html", tmp_path / "m.ply"]
+    views[1].write_text("an older view")
     code, err = run(["map", "--kind", "manipulability", "--lo", "5", "--hi", "5.2", "--step", "0.1", "--quiet",
                      "--out", str(out), "--glb", str(views[0]), "--html", str(views[1]), "--ply", str(views[2])],
                     capsys)
-    _one_line_error(code, err, "--html and --ply and --glb: nothing to draw",
-                    f"the map was written to {out}, without the views")
+    assert code == 0, err
+    assert err == ("wsmap: warning: --html and --ply and --glb: nothing to draw, no node of the map is reachable "
+                   "(its values are all 0); the views were not written\n")
     flat = ws.load_map(out)[0]
     assert flat.shape == (27,) and not flat.any()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.npz"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.html", "m.npz"]
+    assert views[1].read_text() == "an older view"
+
+
+def test_views_alone_of_a_map_with_nothing_reachable_write_nothing_and_say_so(tmp_path, capsys):
+    code, err = run(["map", "--lo", "5", "--hi", "5.2", "--step", "0.1", "--ply", str(tmp_path / "m.ply")], capsys)
+    assert code == 0, err
+    assert "wsmap: warning: --ply: nothing to draw" in err and "the view was not written" in err
+    assert not list(tmp_path.iterdir())
 
 
 def test_one_reachable_node_draws_an_iso_surface(tmp_path):

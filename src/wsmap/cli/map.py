@@ -15,7 +15,10 @@ def add_parser(sub):
         help="compute the workspace map of an arm on a grid",
         description="Compute a workspace map of an arm (one value per grid node: a bit or a number, as --kind "
                     "says) and write it: a .npz map file, pictures and views, a Reuleaux .h5 for ROS.",
-        epilog="Node order: x fastest, then y, then z (flat index i + nx*j + nx*ny*k).",
+        epilog="Node order: x fastest, then y, then z (flat index i + nx*j + nx*ny*k). All outputs are put in "
+               "place together, once each was written: an error leaves every file as it was. A map with no "
+               "reachable node is written (--out, --png, --h5), but its 3-D views (--html, --ply, --glb) would draw "
+               "nothing: they are skipped with a warning on stderr (even with --quiet), exit code 0.",
         formatter_class=HelpFormatter,
     )
     arm_arguments(m)
@@ -96,10 +99,10 @@ def run(args) -> int:
                  outputs=MapOutputs(out=args.out, png=args.png, html=args.html, ply=args.ply, glb=args.glb,
                                     h5=args.h5), progress=not args.quiet)
     result = job.run(job.check(), notify=notice)  # a first run says why it is silent, only if it compiles
-    paths = job.save(result)
+    paths = job.save(result, warn=lambda line: notice(f"warning: {line}"))  # shown even with --quiet
     if not args.quiet:
         print(f"{result.summary}; {result.plan.method} {result.plan.kind.name} map ({result.settings['how']}) in "
-              f"{result.seconds:.3f} s -> {', '.join(map(str, paths))}")
+              f"{result.seconds:.3f} s -> {', '.join(map(str, paths)) or 'nothing written'}")
     return 0
 
 

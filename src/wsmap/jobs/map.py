@@ -9,8 +9,9 @@ command line does, in three steps a Python user can call alone:
   the collision checker built: a `MapPlan`;
 * `run()` — the map computed: a `MapResult` (values in node order, the grid, the settings and
   provenance recorded in the map file, the Reuleaux poses where asked);
-* `save(result)` — the outputs written, each through a temporary file put in place when all of
-  them (the map, its slices, its Reuleaux file) were written; the 3-D views after the map is safe.
+* `save(result)` — the outputs written, each through a temporary file, all put in place together
+  once every one was written (an error leaves every file as it was); the 3-D views of a map with
+  no reachable node are skipped with a warning, the map itself written.
 
 The command line parses its options into a `MapJob` and prints; a job built in Python writes the
 same bytes as the command with the same options.
@@ -46,7 +47,7 @@ OUTPUTS = {"png": ((), ".png"), "html": (("plotly",), ".html"), "ply": ((), ".pl
 #: The options that feed a kind's inputs (`wsmap.workspace.kinds.INPUTS`): given with a kind that does
 #: not read them, they are refused instead of ignored.
 INPUT_FLAGS = {"rpy": "--rpy", "point": "--point", "orientations": "--orientations", "convention": "--convention"}
-#: The views, written once the map is safe (a view with nothing to draw does not cost the map).
+#: The 3-D views: skipped, with a warning, for a map with no reachable node (nothing to draw).
 VIEWS = ("html", "ply", "glb")
 
 
@@ -371,26 +372,43 @@ class MapJob:
         return settings
 
     # ------------------------------------------------------------------------------- save
-    def save(self, result: MapResult) -> list[Path]:
-        """Write the job's outputs; returns their paths, the map file first. The map, its slices and
-        its Reuleaux file are written together or not at all; the 3-D views after them (a view with
-        nothing to draw is a `ValueError` naming the flags, the map already safe)."""
+    def save(self, result: MapResult, *, warn: Callable[[str], None] | None = None) -> list[Path]:
+        """Write the job's outputs; returns the paths written, the map file first.
+
+        Every output is written to a temporary file and all are put in place together, so an
+        error leaves every file as it was. A map with no reachable node (all values 0) is a valid
+        map: its `.npz`, slices and Reuleaux file are written, while the 3-D views (--html, --ply,
+        --glb), which would draw nothing, are skipped with one line to `warn` (default:
+        `warnings.warn`), and any old file at their paths is left as it was.
+        """
         paths = result.plan.paths
-        first = {flag: p for flag, p in paths.items() if flag[2:] not in VIEWS}
         views = {flag: p for flag, p in paths.items() if flag[2:] in VIEWS}
-        fig = self._figure(result) if "--png" in first else None
+        if views and not np.any(np.asarray(result.values, dtype=np.float64) > 0):
+            plural = "s were" if len(views) > 1 else " was"
+            line = (f"{' and '.join(views)}: nothing to draw, no node of the map is reachable (its values are "
+                    f"all 0); the view{plural} not written")
+            if warn is None:
+                import warnings
+
+                warnings.warn(line, stacklevel=2)
+            else:
+                warn(line)
+            views = {}
+        written = {flag: p for flag, p in paths.items() if flag[2:] not in VIEWS} | views
+        fig = self._figure(result) if "--png" in written else None
+        flag = None
         try:
-            with atomic_paths(list(first.values())) as tmps:
-                for flag, tmp in zip(first, tmps):
+            with atomic_paths(list(written.values())) as tmps:
+                for flag, tmp in zip(written, tmps):
                     self._write(flag, tmp, result, fig)
+        except ValueError as e:  # a view that cannot be drawn: nothing was put in place
+            raise ValueError(f"{flag} {str(written[flag])!r}: {e}; no file was written") from None
         finally:
             if fig is not None:
                 import matplotlib.pyplot as plt
 
                 plt.close(fig)
-        if views:
-            _write_views(views, result, paths.get("--out"))
-        return list(first.values()) + list(views.values())
+        return list(written.values())
 
     @staticmethod
     def _write(flag: str, tmp: Path, result: MapResult, fig) -> None:
@@ -399,6 +417,8 @@ class MapJob:
             save_map(tmp, result.values, plan.grid, result.settings, orientations=plan.orientations)
         elif flag == "--h5":
             save_reuleaux(tmp, plan.grid, result.bits, result.rotations)
+        elif flag[2:] in VIEWS:
+            _write_view(flag, tmp, result)
         else:
             fig.savefig(tmp, format="png", dpi=120, bbox_inches="tight", metadata=fig.wsmap_metadata)
 
@@ -421,30 +441,18 @@ class MapJob:
                            metadata=meta)
 
 
-def _write_views(views: dict, result: MapResult, out: Path | None) -> None:
-    """The 3-D views (`{flag: path}` of --html, --ply, --glb), all or none, once the map is written to
-    `out`; a map with nothing to draw is a `ValueError` naming the flags."""
+def _write_view(flag: str, tmp: Path, result: MapResult) -> None:
+    """One 3-D view (--html, --ply or --glb) of a map with at least one reachable node, to `tmp`."""
     from ..views import save_glb, save_html, save_ply
 
     kind, grid, robot = result.plan.kind, result.plan.grid, result.plan.robot
     values = np.asarray(result.values, dtype=np.float64)
-    flags = " and ".join(views)
-    kept = (f"the map was written to {out}, without the view{'s' if len(views) > 1 else ''}" if out is not None
-            else "no file was written (give --out FILE.npz to keep the map)")
-    if not np.any(values > 0):
-        raise ValueError(f"{flags}: nothing to draw, no node of the map is reachable (its values are all 0); {kept}")
-    flag = None
-    try:
-        with atomic_paths(list(views.values())) as tmps:
-            for flag, tmp in zip(views, tmps):
-                if flag == "--html":
-                    # a float map gets a threshold slider; every map a cut plane through its z-layers
-                    save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map",
-                              thresholds=np.linspace(0.0, 0.9, 10) * values.max() if kind.value_type is float
-                              else None, cut_plane=True)
-                elif flag == "--ply":
-                    save_ply(tmp, values, grid, label=kind.label)
-                else:
-                    save_glb(tmp, values, grid, levels=kind.levels(values))
-    except ValueError as e:
-        raise ValueError(f"{flag} {str(views[flag])!r}: {e}; {kept}") from None
+    if flag == "--html":
+        # a float map gets a threshold slider; every map a cut plane through its z-layers
+        save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map",
+                  thresholds=np.linspace(0.0, 0.9, 10) * values.max() if kind.value_type is float else None,
+                  cut_plane=True)
+    elif flag == "--ply":
+        save_ply(tmp, values, grid, label=kind.label)
+    else:
+        save_glb(tmp, values, grid, levels=kind.levels(values))
