@@ -9,12 +9,21 @@ REACH's `MultiplicativeEvaluator` does.
 * `joint_margin` — how far the joints are from their limits, in [0, 1]: the smallest over limited
   joints of `min(q - lo, hi - q) / ((hi - lo) / 2)`; 1 with every joint at the middle of its
   range (or no limited joint), 0 at a limit. REACH's `JointPenaltyMoveIt` penalises the same
-  distance; this is its normalised form.
+  distance; this is its normalised form;
+* `clearance` — REACH's `DistancePenaltyMoveIt`: `(d / threshold)^exponent` clipped to [0, 1], `d`
+  (m) the smallest distance between the arm's links and the obstacles (the floor included) and
+  between the link pairs the collision checker checks (non-adjacent links, by its allowed-collision
+  matrix), by coal's distance query (`wsmap.collision.CollisionChecker.distance`; 0 in contact).
+  The settings are REACH's demo's (`reach_ros` `demo/config/reach_study.yaml`): `threshold`
+  `CLEARANCE_THRESHOLD` = 0.025 m, `exponent` `CLEARANCE_EXPONENT` = 2. REACH leaves the power
+  unclipped (above 1 past the threshold); clipping keeps every score in [0, 1], so the product ranks
+  a target by its worst factor rather than rewarding clearance beyond the threshold. It needs the
+  collision checker and the base (`Score.needs_collision`; `score_values` passes them).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -26,7 +35,13 @@ if TYPE_CHECKING:
 
     from ..kinematics.chain import Arm
 
-__all__ = ["Score", "SCORES", "manipulability", "joint_margin", "combined", "score_names"]
+__all__ = ["Score", "SCORES", "manipulability", "joint_margin", "clearance", "combined", "score_names",
+           "score_values", "CLEARANCE_THRESHOLD", "CLEARANCE_EXPONENT"]
+
+#: `clearance`'s distance threshold (m): at or beyond it the score is 1 (REACH's demo setting).
+CLEARANCE_THRESHOLD = 0.025
+#: `clearance`'s exponent (REACH's demo setting).
+CLEARANCE_EXPONENT = 2.0
 
 
 def _q(robot: Arm, q) -> np.ndarray:
@@ -60,25 +75,67 @@ def joint_margin(robot: Arm, q) -> np.ndarray:
     return np.clip(margin.min(axis=1), 0.0, 1.0)
 
 
+def clearance(robot: Arm, q, *, collision=None, base=None, threshold: float = CLEARANCE_THRESHOLD,
+              exponent: float = CLEARANCE_EXPONENT) -> np.ndarray:
+    """REACH's distance-to-collision penalty `(M,)` in [0, 1] of solutions `q` `(M, n)` (see the
+    module notes): `min(1, (d / threshold)^exponent)`, `d` (m) the clearance of `collision`, a
+    `wsmap.collision.CollisionChecker` of this arm. `base` `(4, 4)` is the arm's world pose: where
+    the checker's scene has world-frame obstacles they are measured from it (as the study checks
+    them, `CollisionChecker.at_bases`); without such obstacles `base` changes nothing.
+
+    `ValueError` without a checker (or one with no `distance`), for a threshold or exponent that is
+    not a positive finite number, or for `q` of the wrong shape.
+    """
+    q = _q(robot, q)
+    if collision is None or not callable(getattr(collision, "distance", None)):
+        raise ValueError("the clearance score needs the arm's collision checker (a study's collision: entry)")
+    for name, v in (("threshold", threshold), ("exponent", exponent)):
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.number)) or not (np.isfinite(v) and v > 0):
+            raise ValueError(f"clearance {name} must be a positive finite number, got {v!r}")
+    scene = getattr(collision, "scene", None)
+    world = scene is not None and any(ob.frame == "world" for ob in scene.obstacles)
+    # the cap: past the threshold every distance scores 1, so coal need not measure it
+    d = collision.distance(q, base if world and base is not None else None, cap=float(threshold))
+    return np.clip((np.asarray(d, dtype=np.float64) / threshold) ** exponent, 0.0, 1.0)
+
+
 @dataclass(frozen=True)
 class Score:
-    """A named score: `function(robot, q) -> (M,)`, what it measures, its unit."""
+    """A named score: `function(robot, q) -> (M,)`, what it measures, its unit; `needs_collision`:
+    the function also takes the arm's collision checker and base (`collision=`, `base=`);
+    `settings` its fixed parameters, for the study file's record."""
 
     name: str
     function: Callable
     description: str
     unit: str
+    needs_collision: bool = False
+    settings: dict = field(default_factory=dict)
 
 
 SCORES: dict[str, Score] = {s.name: s for s in (
     Score("manipulability", manipulability, "Yoshikawa's sqrt(det(J J^T)), base-frame geometric Jacobian", "m^3"),
     Score("joint_margin", joint_margin, "smallest distance to a joint limit over half the joint's range", "1"),
+    Score("clearance", clearance, "REACH's distance penalty: (d / threshold)^exponent clipped to [0, 1], d the "
+          "smallest distance (m) between links and obstacles and between checked link pairs", "1",
+          needs_collision=True, settings={"threshold_m": CLEARANCE_THRESHOLD, "exponent": CLEARANCE_EXPONENT}),
 )}
 
 
 def score_names() -> list[str]:
     """The names `SCORES` knows, in order."""
     return list(SCORES)
+
+
+def score_values(name: str, robot: Arm, q, *, collision=None, base=None) -> np.ndarray:
+    """Score `name` of `SCORES` `(M,)` for solutions `q` `(M, n)` of `robot` standing at `base`
+    `(4, 4)` (world frame); `collision` (the arm's checker) goes to the scores that need it."""
+    if name not in SCORES:
+        raise ValueError(f"unknown score {name!r}; known: {', '.join(SCORES)}")
+    score = SCORES[name]
+    if score.needs_collision:
+        return score.function(robot, q, collision=collision, base=base)
+    return score.function(robot, q)
 
 
 def combined(scores: Mapping[str, np.ndarray], size: int) -> np.ndarray:
