@@ -559,3 +559,28 @@ def test_a_bad_parameters_file_is_one_line_naming_it(tmp_path, capsys, text, mes
     params.write_bytes(text if isinstance(text, bytes) else text.encode())
     code, err = run([*command, "--params", str(params)], capsys)
     _one_line_error(code, err, f"{params} {message}")
+
+
+# ------------------------------------------------------------------ wsmap paper without the paper extra
+@pytest.mark.parametrize("command", [["paper", "list"], ["paper", "run", "sec61_subspace"], ["paper", "full", "--list"]])
+def test_wsmap_paper_without_pandas_names_the_extra(capsys, monkeypatch, command):
+    monkeypatch.setitem(sys.modules, "pandas", None)  # import pandas fails, as where it is not installed
+    code, err = run(command, capsys)
+    sub = " ".join(command[:2])
+    assert err == f"wsmap: error: wsmap {sub} needs pandas, which is not installed: pip install 'wsmap[paper]'\n"
+    assert code == 2
+
+
+def test_wsmap_paper_outside_a_checkout_says_where_it_looked(tmp_path, capsys, monkeypatch):
+    from wsmap import paths
+
+    monkeypatch.delenv("WSMAP_ROOT", raising=False)
+    monkeypatch.setattr(paths, "ROOT", tmp_path / "site-packages")
+    monkeypatch.setattr(paths, "NOTEBOOKS", tmp_path / "site-packages" / "notebooks")
+    monkeypatch.chdir(tmp_path)
+    code, err = run(["paper", "list"], capsys)
+    _one_line_error(code, err, f"neither {tmp_path / 'site-packages'} (where wsmap is installed) nor a folder above "
+                               f"the working directory {tmp_path} is one")
+    monkeypatch.setenv("WSMAP_ROOT", str(tmp_path / "site-packages"))
+    code, err = run(["paper", "list"], capsys)
+    _one_line_error(code, err, f"WSMAP_ROOT ({tmp_path / 'site-packages'}) is not one: set it to the checkout")

@@ -34,3 +34,34 @@ def test_scratch_is_ignored_by_git():
     ignored = (paths.ROOT / ".gitignore").read_text().splitlines()
     assert "/scratch/" in ignored
     assert paths.SCRATCH == Path(paths.ROOT) / "scratch"
+
+
+def _checkout_like(folder: Path) -> Path:
+    folder.mkdir(parents=True)
+    (folder / "dvc.yaml").write_text("stages: {}\n")
+    (folder / "params.yaml").write_text("{}\n")
+    return folder
+
+
+def test_a_wheel_install_finds_the_checkout_from_the_working_directory(tmp_path):
+    # wsmap installed in site-packages (no dvc.yaml two levels up), run from a folder inside a checkout
+    site = tmp_path / "venv" / "lib" / "python3.11"
+    (site / "site-packages" / "wsmap").mkdir(parents=True)
+    checkout = _checkout_like(tmp_path / "work" / "wsmap")
+    inside = checkout / "notebooks" / "deeper"
+    inside.mkdir(parents=True)
+    assert paths.find_root({}, package_root=site, cwd=inside) == checkout.resolve()
+    assert paths.find_root({}, package_root=site, cwd=checkout) == checkout.resolve()
+    # dvc.yaml alone is not a checkout (a DVC project of someone else's)
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "dvc.yaml").write_text("stages: {}\n")
+    assert paths.find_root({}, package_root=site, cwd=other) == site.resolve()
+    # WSMAP_ROOT wins, and the checkout that holds the package (an editable install) comes before cwd
+    assert paths.find_root({"WSMAP_ROOT": str(other)}, package_root=site, cwd=inside) == other.resolve()
+    editable = _checkout_like(tmp_path / "editable")
+    assert paths.find_root({}, package_root=editable, cwd=inside) == editable.resolve()
+
+
+def test_the_project_root_of_this_checkout_is_the_checkout():
+    assert paths.find_root({}) == paths.ROOT == Path(__file__).resolve().parents[1]

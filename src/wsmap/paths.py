@@ -1,15 +1,57 @@
-"""Where the project's files live: one place, independent of the working directory.
+"""Where the project's files live: one place.
 
-The project root is `$WSMAP_ROOT` when set, else the checkout that holds this package
-(`src/wsmap` → two levels up). Notebooks and pipeline stages take every path from here.
+The project root (`find_root`) is `$WSMAP_ROOT` when set; else the checkout that holds this
+package (`src/wsmap` → two levels up: a checkout, or an editable install of it); else, for a
+package installed from a wheel (in site-packages, far from any checkout), the nearest folder at
+or above the working directory that holds `dvc.yaml` and `params.yaml`. Notebooks and pipeline
+stages take every path from here.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from pathlib import Path
 
-ROOT = Path(os.environ.get("WSMAP_ROOT", Path(__file__).resolve().parents[2])).resolve()
+#: The files that make a folder a checkout of the project (the pipeline and its parameters).
+CHECKOUT_FILES = ("dvc.yaml", "params.yaml")
+
+
+def _is_checkout(folder: Path) -> bool:
+    return all((folder / name).is_file() for name in CHECKOUT_FILES)
+
+
+def find_root(environ: Mapping[str, str] | None = None, *, package_root: Path | str | None = None,
+              cwd: Path | str | None = None) -> Path:
+    """The project root, resolved (see the module notes).
+
+    Parameters
+    ----------
+    environ : mapping, optional
+        The environment (default `os.environ`); its `WSMAP_ROOT`, when set and not empty, wins.
+    package_root : path, optional
+        Two levels above this package (default: this file's `parents[2]`, the checkout for a
+        source or editable install, `lib/pythonX.Y` for a wheel).
+    cwd : path, optional
+        Where the search up for a checkout starts (default: the working directory).
+
+    Returns `package_root` when neither it nor a folder at or above `cwd` is a checkout (a folder
+    with `CHECKOUT_FILES`), so that `require_checkout` names it.
+    """
+    env = os.environ if environ is None else environ
+    if env.get("WSMAP_ROOT"):
+        return Path(env["WSMAP_ROOT"]).resolve()
+    package = Path(__file__).resolve().parents[2] if package_root is None else Path(package_root).resolve()
+    if _is_checkout(package):
+        return package
+    start = Path.cwd() if cwd is None else Path(cwd)
+    for folder in (start.resolve(), *start.resolve().parents):
+        if _is_checkout(folder):
+            return folder
+    return package
+
+
+ROOT = find_root()
 PARAMS = ROOT / "params.yaml"
 DATA = ROOT / "data"
 MODELS = ROOT / "models"
@@ -25,12 +67,14 @@ PAPER = (ROOT / ".." / "shared" / "paper").resolve()
 
 def require_checkout(what: str = "wsmap paper") -> Path:
     """The project root, or a `ValueError` saying that `what` needs a checkout of the repository
-    (`dvc.yaml` and `notebooks/` at the root): an installed package (`pip install wsmap`) has
+    (`dvc.yaml`, `params.yaml` and `notebooks/` at the root) and where it looked: an installed package (`pip install wsmap`) has
     the library but not the paper's notebooks, parameters and data."""
-    if not ((ROOT / "dvc.yaml").is_file() and NOTEBOOKS.is_dir()):
-        raise ValueError(f"{what} reproduces the paper and needs a checkout of the wsmap repository (dvc.yaml and "
-                         f"notebooks/ at its root); {ROOT} is not one: run it inside the checkout, or set "
-                         "WSMAP_ROOT to it")
+    if not (_is_checkout(ROOT) and NOTEBOOKS.is_dir()):
+        where = (f"WSMAP_ROOT ({ROOT}) is not one: set it to the checkout" if os.environ.get("WSMAP_ROOT") else
+                 f"neither {ROOT} (where wsmap is installed) nor a folder above the working directory {Path.cwd()} "
+                 "is one: run it inside the checkout, or set WSMAP_ROOT to it")
+        raise ValueError(f"{what} reproduces the paper and needs a checkout of the wsmap repository (dvc.yaml, "
+                         f"params.yaml and notebooks/ at its root); {where}")
     return ROOT
 
 

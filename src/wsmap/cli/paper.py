@@ -5,7 +5,12 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from .._optional import MissingDependency, require
 from .arguments import HelpFormatter, Parser, non_negative_int
+
+#: The optional modules the paper's parts and runner import as they load (`pip install 'wsmap[paper]'`
+#: brings them): checked first, so that a missing one is one line naming the extra, not a traceback.
+PAPER_MODULES = ("pandas", "torch", "papermill", "nbformat")
 
 def add_parser(sub):
     p = sub.add_parser("paper", help="reproduce the paper: run its notebooks (the DVC stages)",
@@ -48,11 +53,28 @@ def add_parser(sub):
     f.set_defaults(run=_run_paper_full)
 
 
+def _paper_modules(what: str, *names: str) -> list:
+    """`wsmap.paper.<name>` for each name, once the checkout and the paper extra are found:
+    `ValueError` (one line) for a missing checkout, `MissingDependency` naming the extra."""
+    import importlib
+
+    from .. import paths
+
+    paths.require_checkout(what)
+    for module in PAPER_MODULES:
+        require(module, extra="paper", why=what)
+    try:
+        return [importlib.import_module(f"wsmap.paper.{name}") for name in names]
+    except ModuleNotFoundError as e:  # a module the paper imports beyond PAPER_MODULES
+        if e.name is None or e.name.split(".")[0] == "wsmap":
+            raise
+        raise MissingDependency(f"{what} needs {e.name}, which is not installed: pip install 'wsmap[paper]'") from None
+
+
 def _run_paper(args) -> int:
     from .. import paths
-    from ..paper import pipeline
 
-    paths.require_checkout()
+    (pipeline,) = _paper_modules("wsmap paper run", "pipeline")
     if args.all and args.notebooks:
         raise ValueError("give notebook names or --all, not both")
     if not args.all and not args.notebooks:
@@ -78,10 +100,7 @@ def _run_paper(args) -> int:
 
 
 def _run_paper_full(args) -> int:
-    from .. import paths
-    from ..paper import full
-
-    paths.require_checkout("wsmap paper full")
+    (full,) = _paper_modules("wsmap paper full", "full")
     if args.list and args.estimate:
         raise ValueError("give --list or --estimate, not both")
     params = Path(args.params) if args.params else None
@@ -102,10 +121,7 @@ def _run_paper_full(args) -> int:
 
 
 def _run_paper_list(args) -> int:
-    from .. import paths
-    from ..paper import pipeline
-
-    paths.require_checkout("wsmap paper list")
+    (pipeline,) = _paper_modules("wsmap paper list", "pipeline")
     for name in pipeline.order():
         print(name)
     return 0
