@@ -129,6 +129,7 @@ class _Layer:
         self.model = model
         cs, rs, body, link, shape_of = [], [], [], [], []
         self.geoms, self.shape_body, self.shape_origin, self.shape_link = [], [], [], []
+        self.shapes: list[Shape] = []
         self.link_shapes: list[list[int]] = []
         self.caps: dict[int, tuple] = {}  # shape -> (p0, p1, radius) in the body frame: exact tests in numpy
         for li, lk in enumerate(model.links):
@@ -137,6 +138,7 @@ class _Layer:
                 si = len(self.geoms)
                 ids.append(si)
                 self.geoms.append(coal_shape(s))
+                self.shapes.append(s)
                 self.shape_body.append(lk.body)
                 self.shape_origin.append(s.origin)
                 self.shape_link.append(li)
@@ -373,10 +375,19 @@ class CollisionChecker:
             if floor:
                 hit = coal_collide(L.geoms[si], Ti, L.floor_geom, np.eye(4))
             else:
-                hit = coal_collide(L.geoms[si], Ti, L.obs_geoms[k], L.obs_pose[k])
+                hit = coal_collide(L.geoms[si], Ti, L.obs_geoms[k], L.obs_pose[k]) or self._enclosed(si, Ti, k)
             if hit:
                 return True
         return False
+
+    def _enclosed(self, si, Ti, k) -> bool:
+        # a link shape wholly inside a closed surface crosses none of its triangles: coal's answer
+        # for a boundary-only kind is completed by one inner point of the (connected) link shape
+        ob, P = self.scene.obstacles[k].shape, self.layer.obs_pose[k]
+        shape = self.layer.shapes[si]
+        p = Ti[:3, :3] @ shape.record.inner_point(shape) + Ti[:3, 3]
+        inside = ob.record.encloses(ob, (p - P[:3, 3]) @ P[:3, :3])
+        return bool(inside is not None and inside[0])
 
     def _q(self, q) -> np.ndarray:
         q = np.asarray(q, dtype=np.float64)

@@ -60,6 +60,9 @@ class CollisionSource:
         Random configurations of the matrix's "never in collision" test (`DEFAULT_SAMPLES` when None).
     seed : int
         Seed of those configurations.
+    obstacles : sequence of Obstacle
+        Obstacles besides the scene file's (`wsmap.collision.scene.Obstacle`; a reach study's
+        workpiece, a `surface` checked on its triangles); implies `collision`.
     """
 
     collision: bool = False
@@ -69,6 +72,7 @@ class CollisionSource:
     allow: Sequence[tuple[str, str]] | None = None
     acm_samples: int | None = None
     seed: int = 0
+    obstacles: tuple = ()
 
     def __post_init__(self) -> None:
         if self.scene is not None:
@@ -77,11 +81,12 @@ class CollisionSource:
             object.__setattr__(self, "link_radius", tuple(float(r) for r in self.link_radius))
         if self.allow is not None:
             object.__setattr__(self, "allow", tuple(tuple(p) for p in self.allow))
+        object.__setattr__(self, "obstacles", tuple(self.obstacles))
 
     @property
     def wanted(self) -> bool:
         """Whether the job counts collisions at all."""
-        return bool(self.collision or self.scene is not None or self.link_radius is not None)
+        return bool(self.collision or self.scene is not None or self.link_radius is not None or self.obstacles)
 
     def check(self) -> None:
         """Raise a one-line `ValueError` for options that go with collisions when none is asked for,
@@ -101,10 +106,13 @@ class CollisionSource:
         self.check()
         if not self.wanted:
             return None
-        from . import DEFAULT_SAMPLES, CollisionChecker, build_acm, load_scene
+        from . import DEFAULT_SAMPLES, CollisionChecker, Scene, build_acm, load_scene
 
         scene = load_scene(self.scene, self.mount) if self.scene is not None else None
         model = self._model(robot, arm)
+        if self.obstacles:  # beside the scene file's, or beside the default floor of the model
+            scene = scene or (Scene(floor=0.0) if model.floor else Scene())
+            scene = Scene(scene.floor, scene.obstacles + self.obstacles)
         samples = DEFAULT_SAMPLES if self.acm_samples is None else self.acm_samples
         model.acm = build_acm(model, samples=samples, seed=self.seed, disable=[tuple(p) for p in (self.allow or [])])
         return CollisionChecker(model, scene)
@@ -134,4 +142,7 @@ class CollisionSource:
 
     def describe(self) -> dict:
         """The source's files as a JSON-ready dict (the map file's provenance)."""
-        return {"scene_file": self.scene, "mount": self.mount}
+        d = {"scene_file": self.scene, "mount": self.mount}
+        if self.obstacles:
+            d["obstacles"] = [{"name": o.name, "frame": o.frame, **o.shape.describe()} for o in self.obstacles]
+        return d

@@ -7,7 +7,7 @@ checker and the scene readers ask the registry (`shape_kind`, `urdf_shape_kind`,
 `mjcf_shape_kind`); none of them names a kind.
 
 Kinds (by priority): `.box`, `.cylinder`, `.sphere`, `.capsule`, `.mesh` (its convex hull in the
-exact tests). A new kind is one new module here (a `ShapeKind` subclass and its registration) and
+exact tests), `.surface` (a mesh tested on its triangles: a concave workpiece). A new kind is one new module here (a `ShapeKind` subclass and its registration) and
 its tests.
 """
 

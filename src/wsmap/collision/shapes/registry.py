@@ -97,6 +97,18 @@ class ShapeKind(ABC):
         (0 inside), or None where the kind has no closed form (its bounding spheres stand in)."""
         return None
 
+    def encloses(self, shape: Shape, local: np.ndarray) -> np.ndarray | None:
+        """Whether points `local` `(P, 3)` (in the shape's frame, m) lie inside the solid the shape
+        bounds, for a kind whose exact test looks at its boundary only (a closed `surface`): a
+        shape wholly inside such a solid crosses none of its triangles. None for the others (coal
+        tests a primitive or a convex hull as a solid)."""
+        return None
+
+    def inner_point(self, shape: Shape) -> np.ndarray:
+        """A point of the solid shape in its own frame (m): the centre of a primitive (the frame's
+        origin), the vertices' mean for a mesh (inside its convex hull)."""
+        return np.zeros(3) if shape.vertices is None else shape.vertices.mean(axis=0)
+
     def swept_sphere(self, shape: Shape) -> tuple[float, float] | None:
         """`(half_length, radius)` (m) when the shape is the points within `radius` of the segment
         from `-half_length` to `half_length` along its `z` axis (a capsule, a sphere): such shapes

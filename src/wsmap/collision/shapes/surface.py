@@ -1,0 +1,145 @@
+"""A surface: a mesh tested on its own triangles, never on its convex hull.
+
+A workpiece is concave (a bracket, a car door, the REACH demo's curved panel): its convex hull
+fills the space the tool works in, so a reach study that checks the hull calls reachable targets
+colliding. A `surface` is checked exactly: coal's bounding-volume hierarchy (OBB + RSS) of the
+triangles, against which every link shape is tested triangle by triangle (MoveIt tests a mesh
+collision object the same way).
+
+**Open and closed meshes.** A triangle test finds every shape that crosses the surface. A shape
+wholly inside a *closed* mesh (a watertight solid) crosses no triangle; for a closed mesh the
+record also answers `encloses(points)` (the generalised winding number of the triangles, robust to
+a mesh that is closed but not perfectly oriented), and the checker calls a link whose inner point
+is enclosed colliding. An open mesh (a sheet, a scan) has no inside: it is the sheet itself.
+
+The fast sphere layer encloses the mesh's convex hull, which contains the mesh: conservative, as
+for every kind. Degenerate inputs (fewer than one triangle of positive area, NaN vertices) are
+refused with one line naming the file.
+
+A scene file's `{shape: surface, file: PATH, scale: s or [sx, sy, sz]}`; a study's
+`collision: {workpiece: PATH}` (the workpiece at the targets' pose). URDF and MJCF have no such
+element (their meshes are convex hulls, as their consumers load them).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..errors import CollisionError
+from ..fields import scene_vector
+from .mesh import read_mesh
+from .registry import SHAPE_KINDS, Shape, ShapeKind
+
+__all__ = ["SURFACE", "Surface", "winding_number"]
+
+#: A triangle of area below this (m²) carries no surface.
+_MIN_AREA = 1e-14
+
+
+def winding_number(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The generalised winding number of a triangle mesh at points (Jacobson et al. 2013).
+
+    Parameters
+    ----------
+    vertices : numpy.ndarray
+        `(V, 3)` float64 (m).
+    faces : numpy.ndarray
+        `(F, 3)` int vertex indices.
+    points : numpy.ndarray
+        `(P, 3)` query points in the mesh's frame (m).
+
+    Returns
+    -------
+    numpy.ndarray
+        `(P,)`: the sum of the triangles' signed solid angles over 4π — 1 inside a closed
+        outward-wound mesh, 0 outside, ±1 for either winding (use `abs(w) > 0.5` for "inside").
+    """
+    out = np.empty(len(points))
+    tri = vertices[faces]
+    for s in range(0, len(points), 64):  # (64, F, 3, 3) at a time: memory, not per point
+        a = tri[None, :, 0] - points[s : s + 64, None]
+        b = tri[None, :, 1] - points[s : s + 64, None]
+        c = tri[None, :, 2] - points[s : s + 64, None]
+        la, lb, lc = (np.linalg.norm(x, axis=-1) for x in (a, b, c))
+        det = np.einsum("pfi,pfi->pf", a, np.cross(b, c))
+        den = (la * lb * lc + np.einsum("pfi,pfi->pf", a, b) * lc + np.einsum("pfi,pfi->pf", b, c) * la
+               + np.einsum("pfi,pfi->pf", c, a) * lb)
+        out[s : s + 64] = np.arctan2(det, den).sum(axis=1) / (2 * np.pi)
+    return out
+
+
+class Surface(ShapeKind):
+    """The record of surfaces (module notes)."""
+
+    def check_data(self, shape):
+        v = np.asarray(shape.vertices, dtype=np.float64)
+        f = np.asarray(shape.faces, dtype=np.int64) if shape.faces is not None else np.zeros((0, 3), np.int64)
+        where = f"surface {shape.source!r}" if shape.source else "surface"
+        if v.ndim != 2 or v.shape[1:] != (3,) or not np.all(np.isfinite(v)):
+            raise CollisionError(f"{where}: vertices must be finite (V, 3) numbers")
+        if f.ndim != 2 or f.shape[1:] != (3,) or len(f) == 0 or f.min() < 0 or f.max() >= len(v):
+            raise CollisionError(f"{where}: faces must be (F, 3) indices of its {len(v)} vertices")
+        area = np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1) / 2
+        if not np.any(area > _MIN_AREA):
+            raise CollisionError(f"{where}: no triangle has a positive area (a degenerate mesh)")
+        object.__setattr__(shape, "vertices", v)
+        object.__setattr__(shape, "faces", f[area > _MIN_AREA])
+
+    def describe(self, shape):
+        return {"file": shape.source, "vertices": int(len(shape.vertices)), "triangles": int(len(shape.faces)),
+                "closed": self.closed(shape)}
+
+    @staticmethod
+    def closed(shape: Shape) -> bool:
+        """Whether the mesh is watertight (every edge shared by exactly two triangles): a solid."""
+        f = shape.faces
+        edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+        _, counts = np.unique(edges, axis=0, return_counts=True)
+        return bool(np.all(counts == 2))
+
+    def bounding_spheres(self, shape, max_spheres):
+        # the hull's spheres contain the hull, which contains the surface
+        from .mesh import MESH
+
+        return MESH.bounding_spheres(shape, max_spheres)
+
+    def coal_geometry(self, shape):
+        import coal
+
+        bvh = coal.BVHModelOBBRSS()
+        bvh.beginModel(len(shape.faces), len(shape.vertices))
+        bvh.addVertices(np.ascontiguousarray(shape.vertices))
+        bvh.addTriangles(np.ascontiguousarray(shape.faces))
+        bvh.endModel()
+        return bvh
+
+    def encloses(self, shape, local):
+        if not self.closed(shape):
+            return None
+        return np.abs(winding_number(shape.vertices, shape.faces, np.atleast_2d(local))) > 0.5
+
+    def from_urdf(self, el, origin, label, what, folder):  # pragma: no cover - URDF has no surface tag
+        raise CollisionError(f"{label}: {what}: URDF has no surface element")
+
+    def from_mjcf(self, model, geom, pose):  # pragma: no cover - MJCF has no surface type
+        raise CollisionError("MJCF has no surface geom")
+
+    def from_scene(self, item, pose, label, name, folder):
+        where = f"{label}: obstacle {name!r}"
+        fn = item.get("file")
+        if not isinstance(fn, str) or not fn:
+            raise CollisionError(f"{where}: a surface needs file: PATH")
+        scale = item.get("scale", 1.0)
+        scale = scene_vector(label, f"obstacle {name!r} scale", [scale] * 3 if isinstance(scale, (int, float))
+                             and not isinstance(scale, bool) else scale)
+        if np.any(scale <= 0):
+            raise CollisionError(f"{where}: surface scale must be positive, got {item.get('scale')!r}")
+        path = fn if os.path.isabs(fn) or folder is None else os.path.join(folder, fn)
+        v, f = read_mesh(path, where, scale)
+        return Shape("surface", (), pose, v, f, source=path)
+
+
+SURFACE = SHAPE_KINDS.register(Surface(name="surface", priority=60, size_fields=(), scene_keys=("file", "scale"),
+                                       reads_file=True))
