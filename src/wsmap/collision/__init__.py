@@ -6,7 +6,9 @@
 * `.geometry` — the collision model of an arm: shapes on the bodies of its chain, from a
   URDF's `<collision>` elements (`from_urdf_collision`), capsules (`capsule_model`,
   `capsules_along_links` for a DH arm with link radii);
-* `.named` — capsule models of the named arms (`arm_model`: panda, ur5e, iiwa14);
+* `.named` — models of the named arms (`arm_model`: capsules fitted to the vendor's meshes, the
+  meshes themselves, or estimated capsules);
+* `.vendor` — the vendor collision meshes of the Panda and the iiwa 14 and the capsules fitted to them;
 * `.acm` — the allowed-collision matrix (`build_acm`, as MoveIt's setup assistant);
 * `.scene` — obstacles: the floor, boxes, cylinders, spheres, meshes (`Scene`,
   `load_scene` from YAML/JSON), and those of a work cell's URDF (`scene_from_urdf`:
@@ -26,28 +28,34 @@ from .acm import ACM, DEFAULT_SAMPLES, REASONS, build_acm
 from .checks import CheckStats, CollisionChecker, bounding_spheres, exact_pairs
 from .geometry import (SHAPES, CollisionError, CollisionModel, Link, Shape, body_frames, capsule_model,
                        capsules_along_links, from_urdf_collision, read_mesh)
-from .named import ARM_MODELS, arm_model
+from .named import ARM_MODELS, arm_model, default_geometry
 from .scene import Obstacle, Scene, load_scene, scene_from_dict, scene_from_urdf
 from .shapes import SHAPE_KINDS, ShapeKind, shape_kind
 
 __all__ = ["ACM", "DEFAULT_SAMPLES", "REASONS", "build_acm", "CheckStats", "CollisionChecker", "bounding_spheres",
            "exact_pairs", "SHAPES", "CollisionError", "CollisionModel", "Link", "Shape", "body_frames",
-           "capsule_model", "capsules_along_links", "from_urdf_collision", "read_mesh", "ARM_MODELS", "arm_model",
+           "capsule_model", "capsules_along_links", "from_urdf_collision", "read_mesh", "ARM_MODELS", "arm_model", "default_geometry",
            "Obstacle", "Scene", "load_scene", "scene_from_dict", "scene_from_urdf", "SHAPE_KINDS", "ShapeKind",
            "shape_kind", "checker_for"]
 
 
-def checker_for(robot_name_or_model, scene=None, *, link_radius=None, **acm_settings) -> CollisionChecker:
-    """A `CollisionChecker` for a named arm (its capsule model), a `CollisionModel`, or
-    any arm with `link_radius` (m; one or one per body: capsules along its links,
-    `capsules_along_links`), with `scene` (default: the model's floor) and the matrix built
-    with `acm_settings` (`build_acm`: `samples`, `seed`, `disable`)."""
+def checker_for(robot_name_or_model, scene=None, *, link_radius=None, geometry=None,
+                **acm_settings) -> CollisionChecker:
+    """A `CollisionChecker` for a named arm (its model in `geometry`: `"fitted"`, `"meshes"` or
+    `"capsules"`, default the fitted capsules where they exist; `wsmap.collision.named`), a
+    `CollisionModel`, or any arm with `link_radius` (m; one or one per body: capsules along its
+    links, `capsules_along_links`), with `scene` (default: the model's floor) and the matrix
+    built with `acm_settings` (`build_acm`: `samples`, `seed`, `disable`; a fitted model
+    carries the matrix of its vendor meshes)."""
+    if geometry is not None and not isinstance(robot_name_or_model, str):
+        raise CollisionError("geometry= chooses the model of a named arm: give its name")
     if link_radius is not None:
         model = capsules_along_links(robot_name_or_model, link_radius)
     elif isinstance(robot_name_or_model, CollisionModel):
         model = robot_name_or_model
     elif isinstance(robot_name_or_model, str):
-        model = arm_model(robot_name_or_model)
+        name = robot_name_or_model
+        model = arm_model(name, geometry=default_geometry(name) if geometry is None else geometry)
     else:
         raise CollisionError(f"{getattr(robot_name_or_model, 'name', None) or 'this arm'} has no collision model: "
                              "give a named arm, a CollisionModel, or link_radius=")

@@ -1,12 +1,26 @@
-"""Capsule models of the named arms (`wsmap.robots.arms`), for self-collision and the floor.
+"""Collision models of the named arms (`wsmap.robots.arms`), for self-collision and the floor.
+
+`arm_model(name, geometry=...)` gives one of three geometries (`GEOMETRIES`); `default_geometry`
+says which one `wsmap.collision.checker_for(name)` and the command line's `--collision` use:
+
+* `"fitted"` — capsules fitted around the vendor's own collision meshes, every mesh vertex inside
+  (`wsmap.collision.vendor.fitted_model`; the Panda and the iiwa 14, `vendor.FITTED`): a body at
+  least as large as the real arm, checked in numpy. The Panda's default for maps (`vendor.DEFAULT_FITTED`;
+  the iiwa's fitted wrist overlaps its flange in every configuration);
+* `"meshes"` — the vendor's collision meshes themselves, as convex hulls checked by coal
+  (`wsmap.collision.vendor.mesh_model`; needs the package that ships them, pybullet_data);
+* `"capsules"` — the estimated capsules below, the default for the other arms (puma560, ur5e, iiwa14):
+  not fitted to any vendor geometry, so not guaranteed to contain the real arm.
+
+The estimated capsules:
 
 Each named arm declares its capsules in its own module (an `ArmCapsules` registered with it,
 `wsmap.robots.registry`); this module builds them into a `CollisionModel` on the arm's chain
 and lists them (`ARM_MODELS`, in the order of the named arms). A new arm's model is its
 module's `capsules=`, nothing here.
 
-No URDF with collision meshes of these arms ships with a package wsmap depends on at run time
-(pybullet_data and rtb-data are test-only), so each arm gets capsules in its bodies' frames
+For the arms without a vendor description on this machine (or on an arm of a family with other
+lengths), each arm gets capsules in its bodies' frames
 (`wsmap.collision.geometry`: body `k` moves with joint `k`; its frame is the chain's
 frame after joint `k`'s motion) along the links of its DH table, with radii that enclose the
 link housings of the manufacturer's dimension drawing; the source is beside each table. Every
@@ -16,7 +30,7 @@ The radii are estimates of the housings' outer size, rounded up to 5 mm; they we
 the drawings' PDFs here and are to be checked against them (the link lengths are the DH tables'
 and exact). They are not the vendor's own collision model, so a map made with them is a map of the
 capsule arm. A closer model: `wsmap.collision.from_urdf_collision` on the vendor's
-URDF with its collision meshes.
+URDF with its collision meshes, or the fitted capsules where they exist.
 """
 
 from __future__ import annotations
@@ -28,11 +42,15 @@ from typing import TYPE_CHECKING
 from ..robots import ARMS, load
 from ..robots.registry import ArmCapsules
 from .geometry import CollisionError, CollisionModel, capsule_model, capsules_along_links
+from .vendor import DEFAULT_FITTED, FITTED, fitted_model, mesh_model, same_kinematics
 
 if TYPE_CHECKING:  # names of the annotations only
     from wsmap.kinematics.chain import Arm
 
-__all__ = ["ARM_MODELS", "ALONG_LINKS", "arm_model", "capsules_model"]
+__all__ = ["ARM_MODELS", "ALONG_LINKS", "GEOMETRIES", "arm_model", "capsules_model", "default_geometry"]
+
+#: The geometries of a named arm's model (module notes).
+GEOMETRIES = ("fitted", "meshes", "capsules")
 
 
 def capsules_model(capsules: ArmCapsules, chain: Arm) -> CollisionModel:
@@ -65,13 +83,37 @@ ARM_MODELS: dict[str, Callable[..., CollisionModel]] = {
 ALONG_LINKS: tuple[str, ...] = tuple(arm.name for arm in ARMS if arm.capsules is not None and arm.capsules.along_links)
 
 
-def arm_model(name: str, robot: Arm | None = None) -> CollisionModel:
-    """The capsule model of the named arm `name` (`ARM_MODELS`), on `robot` (default
-    `wsmap.load(name)`; its limits may differ, its kinematics must be the named arm's, or for the
-    models of `ALONG_LINKS` the named arm's table with other lengths, whose links the capsules
-    then follow). An arm
-    without a model is a `CollisionError` listing those that have one."""
+def default_geometry(name: str, robot: Arm | None = None) -> str:
+    """The geometry `arm_model` gives the named arm `name` on `robot` by default: `"fitted"` where
+    capsules were fitted to its vendor meshes and `robot` (if given) has its kinematics, else
+    `"capsules"` (an arm of a family with other lengths gets the capsules along its links). The
+    iiwa 14 has fitted capsules but keeps its estimated ones by default (`vendor.DEFAULT_FITTED`)."""
     key = str(name).lower()
+    if key in DEFAULT_FITTED and key in FITTED and (robot is None or same_kinematics(robot, load(key))):
+        return "fitted"
+    return "capsules"
+
+
+def arm_model(name: str, robot: Arm | None = None, geometry: str | None = None) -> CollisionModel:
+    """The collision model of the named arm `name` on `robot` (default `wsmap.load(name)`; its
+    limits may differ, its kinematics must be the named arm's, or for the capsule models of
+    `ALONG_LINKS` the named arm's table with other lengths, whose links the capsules then follow).
+
+    `geometry` is one of `GEOMETRIES` (module notes), default `"capsules"` (the model this
+    function has always given; `wsmap.collision.checker_for` and the command line take
+    `default_geometry`, the fitted capsules where they are the default). An unknown geometry, or
+    an arm without that model, is a `CollisionError` listing what there is."""
+    key = str(name).lower()
+    geometry = "capsules" if geometry is None else geometry
+    if geometry not in GEOMETRIES:
+        raise CollisionError(f"unknown collision geometry {geometry!r}; geometries are {', '.join(GEOMETRIES)}")
+    if geometry == "fitted":
+        if key not in FITTED:
+            raise CollisionError(f"no fitted collision capsules for robot {name!r}; named arms with them: "
+                                 f"{', '.join(FITTED)}")
+        return fitted_model(key, robot)
+    if geometry == "meshes":
+        return mesh_model(key, robot)
     if key not in ARM_MODELS:
         raise CollisionError(f"no collision model for robot {name!r}; named arms with one: {', '.join(ARM_MODELS)} "
                              "(or give a URDF with <collision> elements, or DH link radii)")

@@ -118,7 +118,7 @@ class CollisionSource:
         return CollisionChecker(model, scene)
 
     def _model(self, robot: Arm, arm: ArmFiles) -> CollisionModel:
-        from . import arm_model, capsules_along_links, from_urdf_collision
+        from . import arm_model, capsules_along_links, default_geometry, from_urdf_collision
 
         if self.link_radius is not None:
             r = self.link_radius
@@ -136,7 +136,7 @@ class CollisionSource:
         elif arm.has_dh:
             raise ValueError("DH columns carry no collision geometry: give --link-radius R (capsules along the links)")
         else:
-            return arm_model(arm.name, robot)
+            return arm_model(arm.name, robot, geometry=default_geometry(arm.name, robot))
         model.chain = robot  # the same chain, with the limits the job chose
         return model
 

@@ -1,0 +1,197 @@
+"""The named arms' collision geometry from the vendors' own descriptions: the exact meshes and the
+capsules fitted around them.
+
+Two arms have a vendor description with collision meshes in a package on this machine
+(`VENDOR`): the Panda (Franka Emika's `franka_description` as `pybullet_data` ships it,
+`franka_panda/panda.urdf`, Apache-2.0) and the LBR iiwa 14 R820 (`pybullet_data`'s
+`kuka_iiwa/model.urdf`, from Krug and Stoyanov's `lbr_iiwa` description, BSD-3-Clause). Their
+link frames are wsmap's body frames up to a constant transform per body (`frame_offsets`
+measures it and checks it is constant), with the same joint angles.
+
+* `mesh_model(name)` — the vendor URDF's collision meshes (the arm's links only, without a hand),
+  moved into the bodies' frames of wsmap's chain; the exact checks take each mesh's convex hull
+  (`wsmap.collision.shapes.mesh`). Needs the package that ships the description (pybullet_data,
+  a test dependency): without it a one-line `CollisionError` names it.
+* `fitted_model(name)` — capsules that enclose every vertex of each link's mesh hull plus
+  `PADDING`, fitted by `tools/fit_collision_spheres.py` and committed in
+  `wsmap/collision/data/fitted_<arm>.json` with their source, the package version and the
+  slack per link (capsule volume over hull volume), and with the allowed-collision matrix built on
+  the vendor meshes (the capsules of two links a joint apart overlap where the housings do not, so
+  the pairs never checked are the meshes'). Needs nothing but numpy.
+
+Both models name their links `link0` ... `link<n>` by body (as the capsule models along the links
+do), ride on the chain of `wsmap.load(name)` and stand on the floor `z = 0`.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..robots import load
+from .acm import acm_from_record
+from .errors import CollisionError
+from .geometry import CollisionModel, Link, body_frames, capsule_model, from_urdf_collision
+
+if TYPE_CHECKING:  # names of the annotations only
+    from wsmap.kinematics.chain import Arm
+
+__all__ = ["VENDOR", "PADDING", "DEFAULT_FITTED", "VendorDescription", "vendor_urdf", "frame_offsets", "mesh_model", "fitted_model",
+           "fitted_record", "FITTED", "same_kinematics"]
+
+#: Metres added to every fitted capsule's radius beyond the farthest hull vertex: Bullet keeps a
+#: collision margin of about a millimetre around a convex hull (`tests/collision/test_pybullet.py`),
+#: so PyBullet can call a pair touching that coal's hulls keep up to ~1 mm apart.
+PADDING = 0.002
+
+
+@dataclass(frozen=True)
+class VendorDescription:
+    """Where a named arm's vendor collision meshes are: `package` (an importable module whose
+    folder holds the description), `urdf` (relative to that folder), `links` (the URDF links of
+    bodies 0..n, in order), `licence` and `origin` (who made the description)."""
+
+    package: str
+    distribution: str
+    urdf: str
+    links: tuple[str, ...]
+    licence: str
+    origin: str
+
+
+#: The named arms with a vendor description on this machine, by name.
+VENDOR: dict[str, VendorDescription] = {
+    "panda": VendorDescription(
+        package="pybullet_data", distribution="pybullet", urdf="franka_panda/panda.urdf",
+        links=tuple(f"panda_link{k}" for k in range(8)),
+        licence="Apache-2.0 (pybullet_data/franka_panda/LICENSE.txt)",
+        origin="Franka Emika's franka_description, collision meshes meshes/collision/link0-7.obj"),
+    "iiwa14": VendorDescription(
+        package="pybullet_data", distribution="pybullet", urdf="kuka_iiwa/model.urdf",
+        links=tuple(f"lbr_iiwa_link_{k}" for k in range(8)),
+        licence="BSD-3-Clause (the header of pybullet_data/kuka_iiwa/model.urdf)",
+        origin="Krug and Stoyanov's lbr_iiwa description of the LBR iiwa 14 R820 (AASS, Orebro University), "
+               "collision meshes meshes/link_0-7.stl"),
+}
+
+
+def vendor_urdf(name: str) -> str:
+    """The path of the named arm's vendor URDF; a one-line `CollisionError` when the arm has none
+    or the package that ships it is not installed."""
+    rec = VENDOR.get(name)
+    if rec is None:
+        raise CollisionError(f"no vendor collision meshes for robot {name!r}; arms with them: {', '.join(VENDOR)}")
+    spec = importlib.util.find_spec(rec.package)
+    if spec is None or not spec.submodule_search_locations:
+        raise CollisionError(f"the vendor meshes of {name!r} come from {rec.package}/{rec.urdf}, which is not "
+                             f"installed: pip install {rec.distribution}")
+    return os.path.join(list(spec.submodule_search_locations)[0], rec.urdf)
+
+
+def same_kinematics(a: Arm, b: Arm) -> bool:
+    """Whether two single arms have the same joints and fixed transforms (their limits may differ)."""
+    from ..kinematics.chain import as_chain
+
+    a, b = as_chain(a), as_chain(b)
+    if a.n != b.n or a.batch_shape != () or b.batch_shape != ():
+        return False
+    base_a = np.eye(4) if a.base is None else a.base
+    base_b = np.eye(4) if b.base is None else b.base
+    return (np.array_equal(a.kinds, b.kinds) and np.allclose(a.axes, b.axes, atol=1e-12)
+            and np.allclose(a.offset, b.offset, atol=1e-12) and np.allclose(a.fixed, b.fixed, atol=1e-12)
+            and np.allclose(base_a, base_b, atol=1e-12))
+
+
+def frame_offsets(vendor: Arm, arm: Arm, *, samples: int = 16, tol: float = 1e-6) -> np.ndarray:
+    """The constant transform of each vendor body frame in wsmap's: `X` `(n + 1, 4, 4)` with
+    `B_arm_k(q) · X_k = B_vendor_k(q)` for every `q` (same joint angles).
+
+    Measured at `q = 0` and checked at `samples` random configurations (seed 0) inside the limits:
+    a difference over `tol` (m, and rad in the rotation's entries) is a `CollisionError` (the
+    descriptions then move differently: another zero, sign or length)."""
+    if vendor.n != arm.n:
+        raise CollisionError(f"the vendor description has {vendor.n} joints, the arm {arm.n}")
+    X = np.linalg.inv(body_frames(arm, np.zeros((1, arm.n)))[0]) @ body_frames(vendor, np.zeros((1, arm.n)))[0]
+    lim = np.clip(arm.limits, -np.pi, np.pi)
+    q = np.random.default_rng(0).uniform(lim[:, 0], lim[:, 1], (samples, arm.n))
+    err = np.abs(body_frames(arm, q) @ X - body_frames(vendor, q)).max(axis=(0, 2, 3))
+    if np.any(err > tol):
+        k = int(np.argmax(err))
+        raise CollisionError(f"the vendor description's body {k} does not move with wsmap's (off by {err[k]:.3g}): "
+                             "not the same kinematics")
+    return X
+
+
+def mesh_model(name: str, robot: Arm | None = None) -> CollisionModel:
+    """The named arm's vendor collision meshes on `robot` (default `wsmap.load(name)`; its limits
+    may differ, its kinematics must be the named arm's): one link per body, `link0` ... `link<n>`,
+    each with the meshes of the vendor link on that body (the module notes), on the floor."""
+    rec = VENDOR.get(name)
+    path = vendor_urdf(name)
+    arm = load(name) if robot is None else robot
+    vendor = from_urdf_collision(path, ee_link=rec.links[-1], base_link=rec.links[0])
+    X = frame_offsets(vendor.chain, arm)
+    by_name = {lk.name: lk for lk in vendor.links}
+    links = []
+    for k, lname in enumerate(rec.links):
+        lk = by_name[lname]
+        links.append(Link(f"link{k}", k, tuple(s.placed(X[k]) for s in lk.shapes),
+                          parent=f"link{k - 1}" if k else None, frame=X[k] @ lk.frame))
+    return CollisionModel(arm, tuple(links), source=f"{rec.package}/{rec.urdf}: collision meshes of "
+                          f"{', '.join(rec.links)} ({rec.origin}; {rec.licence})", floor=True)
+
+
+def _data_dir() -> str:
+    return os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+
+
+#: The named arms with fitted capsules committed (`data/fitted_<arm>.json`).
+FITTED: tuple[str, ...] = tuple(sorted(
+    f[len("fitted_"):-len(".json")] for f in os.listdir(_data_dir())
+    if f.startswith("fitted_") and f.endswith(".json"))) if os.path.isdir(_data_dir()) else ()
+
+
+#: The arms whose fitted capsules are their default model (`wsmap.collision.named.default_geometry`).
+#: Not the iiwa 14: its flange (link 7, a disc 0.10 m across) lies 31 mm from link 5's hull at the
+#: zero configuration, and any round enclosure of the disc reaches that far along its axis, so the
+#: fitted links 5 and 7 overlap in every configuration (measured on 2,000 random ones); its
+#: default stays the estimated capsules until a fit with cylinders or a two-level check exists.
+DEFAULT_FITTED: tuple[str, ...] = ("panda",)
+
+
+@lru_cache(maxsize=None)
+def fitted_record(name: str) -> dict:
+    """The committed record of the named arm's fitted capsules (`data/fitted_<name>.json`): its
+    `source` (package, version, URDF, meshes, licence), `padding` (m) and per link `name`
+    (the vendor's), `body`, `capsules` (`[p0, p1, radius]`, m, the body's frame of wsmap's chain),
+    `hull_volume`, `capsule_volume` (m³) and `slack` (their ratio); `acm`: the allowed-collision
+    matrix of the vendor meshes (`samples`, `seed`, `disabled` pairs with their reasons)."""
+    if name not in FITTED:
+        raise CollisionError(f"no fitted capsules for robot {name!r}; arms with them: {', '.join(FITTED)}")
+    with open(os.path.join(_data_dir(), f"fitted_{name}.json"), encoding="utf-8") as fh:
+        return json.load(fh)
+
+
+def fitted_model(name: str, robot: Arm | None = None) -> CollisionModel:
+    """The capsules fitted around the named arm's vendor meshes (`fitted_record`), on `robot`
+    (default `wsmap.load(name)`; its limits may differ, its kinematics must be the named arm's:
+    the capsules are fixed numbers in its bodies' frames), standing on the floor."""
+    rec = fitted_record(name)
+    arm = load(name) if robot is None else robot
+    if not same_kinematics(arm, load(name)):
+        raise CollisionError(f"the fitted capsules of {name!r} are in the bodies' frames of the named arm; "
+                             "this arm's kinematics differ (give geometry='capsules' for capsules along its links)")
+    caps = [(int(lk["body"]), p0, p1, float(r)) for lk in rec["links"] for p0, p1, r in lk["capsules"]]
+    src = rec["source"]
+    model = capsule_model(arm, caps, names=[f"link{k}" for k in range(arm.n + 1)], floor=True,
+                         source=f"capsules fitted around {src['package']} {src['version']} {src['urdf']} collision "
+                                f"meshes (every hull vertex inside, +{rec['padding'] * 1e3:g} mm; "
+                                "tools/fit_collision_spheres.py)")
+    model.acm = acm_from_record(model, {"links": list(model.names), **rec["acm"]})
+    return model
