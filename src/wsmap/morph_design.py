@@ -244,13 +244,13 @@ class MorphSurrogate:
     default_margin = 1.0
 
     def __init__(self, model, space: MorphDesignSpace, tasks):
-        from .learn.morph_model import MorphMapModel, _family_of
+        from .learn.morph_model import MorphMapModel, family_of
 
         if not isinstance(model, MorphMapModel):
             raise TypeError(f"model must be a wsmap.learn.morph_model.MorphMapModel, got {type(model).__name__}")
         if not isinstance(space, MorphDesignSpace):
             raise TypeError(f"space must be a MorphDesignSpace, got {type(space).__name__}")
-        if _family_of(space.n_joints, model.families) is None:
+        if family_of(space.n_joints, model.families) is None:
             raise ValueError(f"the model was trained on {', '.join(model.families)}, not on {space.n_joints}-joint arms")
         if not np.allclose(model.rpy, space.rpy, atol=1e-9) or model.convention != space.convention:
             raise ValueError(f"the model maps rpy = {list(model.rpy)} ({model.convention!r}), the space's tasks are at "

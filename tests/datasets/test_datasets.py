@@ -449,7 +449,7 @@ def test_half_turn_success_is_rejected(monkeypatch):
     fake = IKSolution(q=q, success=np.ones(4, bool), iterations=np.ones(4, int), residual=np.zeros(4),
                       reason=np.zeros(4, np.int8))
     monkeypatch.setattr(labels_module, "ikine_LM", lambda *a, **k: fake)
-    ok = labels_module._solve(arms, T, np.zeros(6), P["table3_nosubspace"])
+    ok = labels_module.solve_confirmed(arms, T, np.zeros(6), P["table3_nosubspace"])
     np.testing.assert_array_equal(ok, [True, False, True, True])
 
 

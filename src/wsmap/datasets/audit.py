@@ -24,9 +24,9 @@ import numpy as np
 
 from ..kinematics import DHRobot
 from .features import spec_nodes
-from .labels import _pair_poses, _solve, labels_for, possibly_reachable
-from .sampling import _audit_rng, _draw_arms, _draw_fixed
-from .spec import MAX_SAMPLES, MAX_STARTS, N_JOINTS, DatasetSpec, _check_spec, _int
+from .labels import labels_for, pair_poses, possibly_reachable, solve_confirmed
+from .sampling import audit_rng, draw_arms, draw_fixed
+from .spec import MAX_SAMPLES, MAX_STARTS, N_JOINTS, DatasetSpec, check_int, check_spec
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
@@ -38,7 +38,7 @@ __all__ = ["starts_study", "starts_recall", "audit_labels", "audit_table", "dist
 def _counts(counts) -> list[int]:
     if isinstance(counts, (str, bytes)) or not isinstance(counts, Iterable):
         raise ValueError(f"counts must be a list of start counts, got {counts!r}")
-    out = sorted({_int("counts entry", c, 1, MAX_STARTS) for c in counts})
+    out = sorted({check_int("counts entry", c, 1, MAX_STARTS) for c in counts})
     if not out:
         raise ValueError("counts must name at least one number of starts")
     return out
@@ -65,15 +65,15 @@ def starts_study(
     pairs), `share_of_final` (reachable / reachable at the most starts), `seconds`
     (cumulative LM time, approximate: counted per start).
     """
-    spec = _check_spec(spec).replace(method="numerical")
-    n_arms = _int("n_arms", n_arms, 1, MAX_SAMPLES)
-    seed = _int("seed", seed, 0)
-    chunk = _int("chunk", chunk, 1)
+    spec = check_spec(spec).replace(method="numerical")
+    n_arms = check_int("n_arms", n_arms, 1, MAX_SAMPLES)
+    seed = check_int("seed", seed, 0)
+    chunk = check_int("chunk", chunk, 1)
     counts = _counts(counts)
     S = counts[-1]
-    rng = lambda q: _audit_rng(seed, "starts_study", q)  # noqa: E731
-    arms = _draw_arms(spec, n_arms, rng("arms"))
-    fixed = _draw_fixed(spec, n_arms, rng("fixed"))
+    rng = lambda q: audit_rng(seed, "starts_study", q)  # noqa: E731
+    arms = draw_arms(spec, n_arms, rng("arms"))
+    fixed = draw_fixed(spec, n_arms, rng("fixed"))
     q0 = np.zeros((n_arms, S, N_JOINTS))
     q0[:, 1:] = rng("starts").uniform(-np.pi, np.pi, size=(n_arms, S - 1, N_JOINTS))
     nodes = spec_nodes(spec)
@@ -89,7 +89,7 @@ def starts_study(
         sub = arms[sl]
         b_all, n_all = (x.ravel() for x in np.indices(f.shape))
         pair_arms = DHRobot(sub.d[b_all], sub.a[b_all], sub.alpha[b_all])
-        possible = possibly_reachable(pair_arms, _pair_poses(spec, nodes, fixed[sl], b_all, n_all), max(1e-8, spec.tol))
+        possible = possibly_reachable(pair_arms, pair_poses(spec, nodes, fixed[sl], b_all, n_all), max(1e-8, spec.tol))
         possible = possible.reshape(f.shape)
         for k in range(S):
             todo = (f < 0) & possible
@@ -98,8 +98,8 @@ def starts_study(
             t = time.perf_counter()
             b_idx, n_idx = np.nonzero(todo)
             robot = DHRobot(sub.d[b_idx], sub.a[b_idx], sub.alpha[b_idx])
-            T = _pair_poses(spec, nodes, fixed[sl], b_idx, n_idx)
-            ok = _solve(robot, T, q0[sl][b_idx, k], spec)
+            T = pair_poses(spec, nodes, fixed[sl], b_idx, n_idx)
+            ok = solve_confirmed(robot, T, q0[sl][b_idx, k], spec)
             f[b_idx[ok], n_idx[ok]] = k
             seconds[k] += time.perf_counter() - t
         first[sl] = f
@@ -133,13 +133,13 @@ def starts_recall(spec: DatasetSpec, n_poses: int = 2000, counts: Sequence[int] 
     `found`, `recall` (found / n_poses). Complements `starts_study`, whose grid nodes
     have no ground truth for arbitrary arms.
     """
-    _check_spec(spec)
-    n_poses = _int("n_poses", n_poses, 1, MAX_SAMPLES)
-    seed = _int("seed", seed, 0)
+    check_spec(spec)
+    n_poses = check_int("n_poses", n_poses, 1, MAX_SAMPLES)
+    seed = check_int("seed", seed, 0)
     counts = _counts(counts)
     S = counts[-1]
-    rng = lambda q: _audit_rng(seed, "starts_recall", q)  # noqa: E731
-    arms = _draw_arms(spec, n_poses, rng("arms"))
+    rng = lambda q: audit_rng(seed, "starts_recall", q)  # noqa: E731
+    arms = draw_arms(spec, n_poses, rng("arms"))
     T = arms.fkine(rng("fixed").uniform(-np.pi, np.pi, size=(n_poses, N_JOINTS)))
     q0 = np.zeros((n_poses, S, N_JOINTS))
     q0[:, 1:] = rng("starts").uniform(-np.pi, np.pi, size=(n_poses, S - 1, N_JOINTS))
@@ -148,7 +148,7 @@ def starts_recall(spec: DatasetSpec, n_poses: int = 2000, counts: Sequence[int] 
         todo = np.nonzero(first < 0)[0]
         if not todo.size:
             break
-        ok = _solve(arms[todo], T[todo], q0[todo, k], spec)
+        ok = solve_confirmed(arms[todo], T[todo], q0[todo, k], spec)
         first[todo[ok]] = k
     rows = []
     for c in counts:
@@ -170,21 +170,21 @@ def audit_labels(spec: DatasetSpec, n_arms: int = 50, seed: int = 0, *, ik: dict
     `seconds_numerical` (with the `possibly_reachable` pre-filter, which changes no label
     but skips far nodes).
     """
-    _check_spec(spec)
+    check_spec(spec)
     if not spec.arm_family.exact:
         raise ValueError(f"spec {spec.name!r} has arms of family {spec.family!r}, which has no closed form: no "
                          "exact labels to audit against")
-    n_arms = _int("n_arms", n_arms, 1, MAX_SAMPLES)
-    seed = _int("seed", seed, 0)
+    n_arms = check_int("n_arms", n_arms, 1, MAX_SAMPLES)
+    seed = check_int("seed", seed, 0)
     settings = dict(tol=1e-10, ilimit=500, rlimit=100, starts=1)
     if ik is not None:
         if not isinstance(ik, dict) or set(ik) - set(settings):
             raise ValueError(f"ik must be a dict with keys among {', '.join(settings)}, got {ik!r}")
         settings.update(ik)
     num_spec = spec.replace(method="numerical", **settings)
-    rng = lambda q: _audit_rng(seed, "audit_labels", q)  # noqa: E731
-    arms = _draw_arms(spec, n_arms, rng("arms"))
-    fixed = _draw_fixed(spec, n_arms, rng("fixed"))
+    rng = lambda q: audit_rng(seed, "audit_labels", q)  # noqa: E731
+    arms = draw_arms(spec, n_arms, rng("arms"))
+    fixed = draw_fixed(spec, n_arms, rng("fixed"))
     t = time.perf_counter()
     exact = labels_for(arms, spec, fixed, method="exact")
     t_exact = time.perf_counter() - t
@@ -220,7 +220,7 @@ def distinct_specs(specs: Sequence[DatasetSpec]) -> list[DatasetSpec]:
     stream or LM settings: the ones whose grid, nodes, orientation and convention are new."""
     seen, unique = set(), []
     for s in specs:
-        _check_spec(s)
+        check_spec(s)
         key = (s.family, s.scope, s.lo, s.hi, s.step, s.select, s.fixed, s.convention)
         if key not in seen:
             seen.add(key)

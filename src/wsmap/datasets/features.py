@@ -35,7 +35,7 @@ import numpy as np
 from .. import robots
 from .. import workspace as ws
 from ..kinematics import DHRobot, SerialChain
-from .spec import N_DH, N_JOINTS, DatasetSpec, _check_spec, float64_array, require_finite
+from .spec import N_DH, N_JOINTS, DatasetSpec, check_spec, float64_array, require_finite
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
@@ -53,26 +53,28 @@ __all__ = [
     "scales_for",
     "arms_from_features",
     "fixed_from_features",
+    "fixed_rows",
+    "check_arms",
 ]
 
 
 # --------------------------------------------------------------------------- nodes
 def grid_axes(spec: DatasetSpec) -> list[np.ndarray]:
     """The node values along each axis of the whole grid (m for R3, rad for SO3)."""
-    _check_spec(spec)
+    check_spec(spec)
     return ws.grid_axes(spec.lo, spec.hi, spec.step)
 
 
 def grid_nodes(spec: DatasetSpec) -> np.ndarray:
     """All nodes of the grid `(nx·ny·nz, 3)` in node order: positions (R3) or angles (SO3)."""
-    _check_spec(spec)
+    check_spec(spec)
     make = ws.cartesian_grid if spec.scope == "R3" else ws.angle_grid
     return make(spec.lo, spec.hi, spec.step)
 
 
 def node_slice(spec: DatasetSpec) -> slice:
     """The labelled nodes as a slice of the flat node order."""
-    _check_spec(spec)
+    check_spec(spec)
     if spec.select is None:
         return slice(0, spec.grid_nodes)
     return slice(*spec.select)
@@ -87,7 +89,7 @@ def spec_nodes(spec: DatasetSpec) -> np.ndarray:
 def feature_slices(spec: DatasetSpec) -> dict[str, slice]:
     """Column ranges of the feature vector: `d`, `a`, `alpha` (a chain family: `scales`),
     `nx`, `ny`, `nz`, `fixed`."""
-    _check_spec(spec)
+    check_spec(spec)
     nx, ny, nz = spec.grid_shape
     if spec.is_chain_family:
         edges = np.cumsum([0, spec.n_arm_features, nx, ny, nz, 3])
@@ -102,7 +104,7 @@ def feature_names(spec: DatasetSpec) -> list[str]:
     """Column names: `d_1..d_6, a_1..a_6, alpha_1..alpha_6, n_x_1.., n_y_1.., n_z_1..` then
     `r_1..r_3` (R3: the orientation angles) or `p_1..p_3` (SO3: the point). 1-based, like the paper.
     A chain family starts with `scale_<param>` (`scale_d1 .. scale_a7` for `panda7`)."""
-    _check_spec(spec)
+    check_spec(spec)
     nx, ny, nz = spec.grid_shape
     if spec.is_chain_family:
         family = robots.arm_family(spec.family)
@@ -115,8 +117,23 @@ def feature_names(spec: DatasetSpec) -> list[str]:
     return names
 
 
-def _fixed_rows(spec: DatasetSpec, count: int, fixed) -> np.ndarray:
-    """The orientation / point of each of `count` arms `(count, 3)`: `fixed` or the spec's."""
+def fixed_rows(spec: DatasetSpec, count: int, fixed) -> np.ndarray:
+    """The fixed orientation (R3, rad) or point (SO3, m) of each of `count` arms.
+
+    Parameters
+    ----------
+    spec : DatasetSpec
+        Its `fixed` is used when `fixed` is None (a `"random"` spec then raises `ValueError`).
+    count : int
+        Number of arms.
+    fixed : array_like, shape (3,) or (count, 3), or None
+        One triple for every arm, or one per arm; finite.
+
+    Returns
+    -------
+    numpy.ndarray, shape (count, 3), float64
+        A read-only broadcast view when one triple is shared.
+    """
     if fixed is None:
         if spec.fixed == "random":
             raise ValueError(
@@ -131,7 +148,20 @@ def _fixed_rows(spec: DatasetSpec, count: int, fixed) -> np.ndarray:
     return np.broadcast_to(fixed, (count, 3))
 
 
-def _check_arms(arms) -> DHRobot:
+def check_arms(arms) -> DHRobot:
+    """`arms` itself when it is a batch `(count,)` of 6-joint `DHRobot` arms (the paper's
+    feature layout), else a one-line `TypeError` or `ValueError`.
+
+    Parameters
+    ----------
+    arms : DHRobot
+        The arms a function was given.
+
+    Returns
+    -------
+    DHRobot
+        `arms`, unchanged.
+    """
     if not isinstance(arms, DHRobot):
         raise TypeError(f"arms must be a DHRobot, got {type(arms).__name__}")
     if arms.n != N_JOINTS:
@@ -171,14 +201,14 @@ def features_for(arms: Arm, spec: DatasetSpec, fixed: ArrayLike | None = None) -
     m), `(3,)` or `(count, 3)`; by default the spec's (required when the spec's is
     `"random"`). A model trained on a fixed-orientation spec has only ever seen that orientation.
     """
-    _check_spec(spec)
+    check_spec(spec)
     if spec.is_chain_family:
         scales = scales_for(arms, spec)
         count = scales.shape[0]
     else:
-        arms = _check_arms(arms)
+        arms = check_arms(arms)
         count = arms.batch_shape[0]
-    fx = _fixed_rows(spec, count, fixed)
+    fx = fixed_rows(spec, count, fixed)
     sl = feature_slices(spec)
     X = np.empty((count, spec.n_features), dtype=np.float64)
     if spec.is_chain_family:
@@ -202,7 +232,7 @@ def arms_from_features(X: ArrayLike, spec: DatasetSpec | None = None) -> DHRobot
     """The arms `(count,)` whose DH columns are the first 18 feature columns; for a `spec` of a
     chain family, the family's arms (`wsmap.robots.family_arm`) of the scale columns."""
     X = _feature_matrix(X)
-    if spec is not None and _check_spec(spec).is_chain_family:
+    if spec is not None and check_spec(spec).is_chain_family:
         k = spec.n_arm_features
         if X.ndim != 2 or X.shape[1] < k:
             raise ValueError(f"features must have shape (count, >= {k}), got {X.shape}")
@@ -214,7 +244,7 @@ def arms_from_features(X: ArrayLike, spec: DatasetSpec | None = None) -> DHRobot
 
 def fixed_from_features(X: ArrayLike, spec: DatasetSpec) -> np.ndarray:
     """The orientation / point columns `(count, 3)` of a feature matrix."""
-    _check_spec(spec)
+    check_spec(spec)
     X = _feature_matrix(X)
     if X.ndim != 2 or X.shape[1] != spec.n_features:
         raise ValueError(f"features for spec {spec.name!r} must have shape (count, {spec.n_features}), got {X.shape}")

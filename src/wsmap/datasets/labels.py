@@ -11,7 +11,7 @@ the default number of starts was chosen. Two things keep the numerical labels ri
 affordable without changing any of them: pairs that `possibly_reachable` proves unreachable
 (a sound bound on reach, height and tool tilt) are not handed to LM, and every LM success is
 confirmed by forward kinematics (the LM pose error is also zero at a half turn of the
-orientation, see `_solve`).
+orientation, see `solve_confirmed`).
 
 A chain family (`panda7`, `wsmap.datasets.spec.CHAIN_FAMILIES`) is labelled by the maps'
 numerical path: `wsmap.workspace.constant_orientation_map` (R3) or
@@ -34,15 +34,15 @@ import numpy as np
 from .. import robots
 from .. import workspace as ws
 from ..kinematics import DHRobot, SerialChain, ikine_LM, require_closed_form
-from .features import _check_arms, _fixed_rows, scales_for, spec_nodes
+from .features import check_arms, fixed_rows, scales_for, spec_nodes
 from .sampling import start_configurations
-from .spec import METHODS, N_JOINTS, DatasetSpec, _check_spec, _choice, float64_array, require_finite
+from .spec import METHODS, N_JOINTS, DatasetSpec, check_choice, check_spec, float64_array, require_finite
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike
 
-__all__ = ["possibly_reachable", "labels_for"]
+__all__ = ["possibly_reachable", "labels_for", "pair_poses", "solve_confirmed", "FK_CHECK_TOL"]
 
 #: position and rotation-matrix tolerance of the forward-kinematics check of every LM success
 FK_CHECK_TOL = 1e-6
@@ -55,8 +55,26 @@ FK_CHECK_TOL = 1e-6
 LABEL_SEARCH = {"border_starts": 0}
 
 
-def _pair_poses(spec: DatasetSpec, nodes, fixed, b_idx, n_idx) -> np.ndarray:
-    """Target poses `(K, 4, 4)` of the (arm, node) pairs `(b_idx[k], n_idx[k])`."""
+def pair_poses(spec: DatasetSpec, nodes, fixed, b_idx, n_idx) -> np.ndarray:
+    """The target flange poses of (arm, node) pairs, in the arms' base frame.
+
+    Parameters
+    ----------
+    spec : DatasetSpec
+        Its `scope` (R3: the nodes are positions, `fixed` orientations; SO3: the nodes are
+        orientation angles, `fixed` points) and `convention` (`wsmap.workspace.target_poses`).
+    nodes : numpy.ndarray, shape (N, 3)
+        The grid nodes (m for R3, rad for SO3).
+    fixed : numpy.ndarray, shape (B, 3)
+        The fixed orientation (rad) or point (m) of each arm.
+    b_idx, n_idx : numpy.ndarray of int, shape (K,)
+        Pair `k` is arm `b_idx[k]` at node `n_idx[k]`.
+
+    Returns
+    -------
+    numpy.ndarray, shape (K, 4, 4), float64
+        Homogeneous poses (m).
+    """
     if spec.scope == "R3":
         return ws.target_poses(nodes[n_idx], fixed[b_idx], spec.convention)
     return ws.target_poses(fixed[b_idx], nodes[n_idx], spec.convention)
@@ -118,9 +136,28 @@ def _check_arms_6(arms) -> DHRobot:
     return arms
 
 
-def _solve(robot: DHRobot, T, q0, spec: DatasetSpec) -> np.ndarray:
-    """LM success per target `(K,)`, confirmed by forward kinematics.
+def solve_confirmed(robot: DHRobot, T, q0, spec: DatasetSpec) -> np.ndarray:
+    """The paper's LM (`ikine_LM` with the spec's `tol`, `ilimit`, `rlimit`) per target, each
+    success confirmed by forward kinematics.
 
+    Parameters
+    ----------
+    robot : DHRobot
+        A batch `(K,)` (one arm per target) or one arm; no joint limits are applied.
+    T : numpy.ndarray, shape (K, 4, 4)
+        Target flange poses in the base frame (m).
+    q0 : numpy.ndarray, shape (K, 6) or (6,)
+        The start of each target (rad).
+    spec : DatasetSpec
+        Its `tol`, `ilimit` and `rlimit`.
+
+    Returns
+    -------
+    numpy.ndarray, shape (K,), bool
+        True where LM converged and the solution's pose is within `FK_CHECK_TOL` of the target.
+
+    Notes
+    -----
     `pose_error`'s rotation part `0.5·sum(c_k x t_k)` is `sin(theta)·axis`: it vanishes at a
     half turn as well as at the target, so an LM "success" could in principle be the right
     position with the orientation off by pi. The check below (position and rotation matrix within
@@ -152,14 +189,14 @@ def _numerical_first_start(arms, spec, nodes, fixed, q0, prefilter=True) -> np.n
         for s in range(0, b_idx.size, 1 << 16):
             sl = slice(s, s + (1 << 16))
             sub = DHRobot(arms.d[b_idx[sl]], arms.a[b_idx[sl]], arms.alpha[b_idx[sl]])
-            ok[sl] = possibly_reachable(sub, _pair_poses(spec, nodes, fixed, b_idx[sl], n_idx[sl]), max(1e-8, spec.tol))
+            ok[sl] = possibly_reachable(sub, pair_poses(spec, nodes, fixed, b_idx[sl], n_idx[sl]), max(1e-8, spec.tol))
         b_idx, n_idx = b_idx[ok], n_idx[ok]
     for k in range(q0.shape[1]):
         if not b_idx.size:
             break
         robot = DHRobot(arms.d[b_idx], arms.a[b_idx], arms.alpha[b_idx])
-        T = _pair_poses(spec, nodes, fixed, b_idx, n_idx)
-        ok = _solve(robot, T, q0[b_idx, k], spec)
+        T = pair_poses(spec, nodes, fixed, b_idx, n_idx)
+        ok = solve_confirmed(robot, T, q0[b_idx, k], spec)
         first[b_idx[ok], n_idx[ok]] = k
         b_idx, n_idx = b_idx[~ok], n_idx[~ok]
     return first
@@ -214,7 +251,7 @@ def _chain_labels_for(arms, spec: DatasetSpec, fixed, method: str, q0, nodes: np
         scales_for(arms, spec)  # checks that they are a batch (count,) of the family's arms
     else:
         arms = robots.family_arm(spec.family, scales_for(arms, spec))
-    return _chain_family_labels(arms, spec, _fixed_rows(spec, arms.batch_shape[0], fixed), nodes)
+    return _chain_family_labels(arms, spec, fixed_rows(spec, arms.batch_shape[0], fixed), nodes)
 
 
 def _checked_starts(spec: DatasetSpec, count: int, q0) -> np.ndarray:
@@ -291,14 +328,14 @@ def labels_for(
         Numerical path: skip the pairs `possibly_reachable` proves unreachable (same labels,
         faster). `False` runs LM on every pair.
     """
-    _check_spec(spec)
-    method = spec.method if method is None else _choice("method", method, METHODS)
+    check_spec(spec)
+    method = spec.method if method is None else check_choice("method", method, METHODS)
     nodes = spec_nodes(spec) if nodes is None else _nodes_array(nodes)
     if spec.is_chain_family:
         return _chain_labels_for(arms, spec, fixed, method, q0, nodes)
-    arms = _check_arms(arms)
+    arms = check_arms(arms)
     count = arms.batch_shape[0]
-    fx = _fixed_rows(spec, count, fixed)
+    fx = fixed_rows(spec, count, fixed)
     if method == "numerical":
         q0 = _checked_starts(spec, count, q0)
         return _numerical_first_start(arms, spec, nodes, fx, q0, prefilter) >= 0

@@ -37,27 +37,60 @@ from __future__ import annotations
 
 import numpy as np
 
-from .spec import MAX_SAMPLES, MAX_STARTS, N_JOINTS, STREAMS, DatasetSpec, _check_spec, _int, float64_array, require_finite
+from .spec import MAX_SAMPLES, MAX_STARTS, N_JOINTS, STREAMS, DatasetSpec, check_int, check_spec, float64_array, require_finite
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike, NDArray
     from wsmap.kinematics.chain import Arm
 
-__all__ = ["draw_samples", "draw_scales", "start_configurations", "uniform_rotations", "rotation_to_rpy"]
+__all__ = ["draw_samples", "draw_scales", "start_configurations", "uniform_rotations", "rotation_to_rpy",
+           "stream_rng", "audit_rng", "draw_arms", "draw_fixed"]
 
 _QUANTITY = {"arms": 0, "fixed": 1, "starts": 2}
 #: splits of the audit streams (the training and test streams use 0 and 1)
 _AUDIT_SPLIT = {"starts_study": 7, "audit_labels": 8, "starts_recall": 9}
 
 
-def _rng(spec: DatasetSpec, quantity: str) -> np.random.Generator:
+def stream_rng(spec: DatasetSpec, quantity: str) -> np.random.Generator:
+    """A fresh generator of the stream of `quantity` in `spec`'s dataset.
+
+    Parameters
+    ----------
+    spec : DatasetSpec
+        Its `seed` and `stream` (`"train"` or `"test"`) pick the stream.
+    quantity : str
+        `"arms"`, `"fixed"` (the orientation or point per sample) or `"starts"` (the LM starts).
+
+    Returns
+    -------
+    numpy.random.Generator
+        Seeded by `SeedSequence(spec.seed, spawn_key=(stream, quantity))`: each quantity of each
+        stream is independent of the others, and a fresh generator replays it from its start.
+    """
     key = (STREAMS.index(spec.stream), _QUANTITY[quantity])
     return np.random.default_rng(np.random.SeedSequence(spec.seed, spawn_key=key))
 
 
-def _audit_rng(seed: int, audit: str, quantity: str) -> np.random.Generator:
-    """The stream of `quantity` for one of the label audits, independent of every dataset stream."""
+def audit_rng(seed: int, audit: str, quantity: str) -> np.random.Generator:
+    """A fresh generator of the stream of `quantity` for one of the label audits, independent of
+    every dataset stream.
+
+    Parameters
+    ----------
+    seed : int
+        The audit's seed (>= 0).
+    audit : str
+        `"starts_study"`, `"audit_labels"` or `"starts_recall"` (`wsmap.datasets.audit`).
+    quantity : str
+        `"arms"`, `"fixed"` or `"starts"`.
+
+    Returns
+    -------
+    numpy.random.Generator
+        Seeded by `SeedSequence(seed, spawn_key=(audit split, quantity))`, the audit splits
+        (7, 8, 9) apart from the dataset streams' (0, 1).
+    """
     key = (_AUDIT_SPLIT[audit], _QUANTITY[quantity])
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=key))
 
@@ -67,7 +100,7 @@ def uniform_rotations(count: int, rng: np.random.Generator) -> np.ndarray:
 
     `rng` is a `numpy.random.Generator` or anything `numpy.random.default_rng` takes (a seed).
     """
-    count = _int("count", count, 0, MAX_SAMPLES)
+    count = check_int("count", count, 0, MAX_SAMPLES)
     rng = np.random.default_rng(rng)
     q = rng.standard_normal((count, 4))
     q /= np.linalg.norm(q, axis=1, keepdims=True)
@@ -100,11 +133,45 @@ def rotation_to_rpy(R: ArrayLike) -> np.ndarray:
     return np.where(out >= 2 * np.pi, 0.0, out)
 
 
-def _draw_arms(spec: DatasetSpec, count: int, rng):
+def draw_arms(spec: DatasetSpec, count: int, rng):
+    """`count` arms of `spec`'s family drawn from `rng`.
+
+    Parameters
+    ----------
+    spec : DatasetSpec
+        Its `arm_family` draws the arms.
+    count : int
+        Number of arms (>= 0).
+    rng : numpy.random.Generator
+        The stream to draw from (`stream_rng(spec, "arms")` for a dataset).
+
+    Returns
+    -------
+    DHRobot or SerialChain
+        A batch `(count,)`: DH arms, or a chain family's arms.
+    """
     return spec.arm_family.sample(count, seed=rng)[0]
 
 
-def _draw_fixed(spec: DatasetSpec, count: int, rng) -> np.ndarray:
+def draw_fixed(spec: DatasetSpec, count: int, rng) -> np.ndarray:
+    """The fixed orientation (R3) or point (SO3) of each of `count` samples.
+
+    Parameters
+    ----------
+    spec : DatasetSpec
+        Its `fixed` (a triple, shared by every sample, or `"random"`), `scope` and `beta`.
+    count : int
+        Number of samples (>= 0).
+    rng : numpy.random.Generator
+        The stream a `"random"` spec draws from (`stream_rng(spec, "fixed")` for a dataset);
+        unused otherwise.
+
+    Returns
+    -------
+    numpy.ndarray, shape (count, 3), float64
+        R3: angles (rad) of a rotation uniform on SO(3) (`rotation_to_rpy`); SO3: a point (m)
+        uniform in `[-2·beta, 2·beta)³`; or `spec.fixed` in every row.
+    """
     if spec.fixed != "random":
         return np.broadcast_to(np.asarray(spec.fixed), (count, 3)).copy()
     if spec.scope == "R3":
@@ -118,28 +185,28 @@ def draw_samples(spec: DatasetSpec, count: int | None = None) -> tuple[Arm, NDAr
     `DHRobot` batch, or for a chain family a
     `SerialChain` batch (`wsmap.robots.family_arm` of
     `draw_scales`)."""
-    _check_spec(spec)
-    count = spec.samples if count is None else _int("count", count, 1, MAX_SAMPLES)
-    return _draw_arms(spec, count, _rng(spec, "arms")), _draw_fixed(spec, count, _rng(spec, "fixed"))
+    check_spec(spec)
+    count = spec.samples if count is None else check_int("count", count, 1, MAX_SAMPLES)
+    return draw_arms(spec, count, stream_rng(spec, "arms")), draw_fixed(spec, count, stream_rng(spec, "fixed"))
 
 
 def draw_scales(spec: DatasetSpec, count: int | None = None) -> np.ndarray:
     """The scale factors `(count, n)` of the first `count` (default `spec.samples`) arms of a
     chain family's spec (the arms of `draw_samples`); `ValueError` for the DH families."""
-    _check_spec(spec)
+    check_spec(spec)
     if not spec.is_chain_family:
         raise ValueError(f"spec {spec.name!r} is of the DH family {spec.family!r}: its arms have no scale factors")
-    count = spec.samples if count is None else _int("count", count, 1, MAX_SAMPLES)
-    return spec.arm_family.draw(count, _rng(spec, "arms"))
+    count = spec.samples if count is None else check_int("count", count, 1, MAX_SAMPLES)
+    return spec.arm_family.draw(count, stream_rng(spec, "arms"))
 
 
 def start_configurations(spec: DatasetSpec, count: int | None = None, starts: int | None = None) -> np.ndarray:
     """IK start configurations `(count, starts, 6)` (rad): `[:, 0]` is zero (the paper's q0),
     `[:, 1:]` uniform in `[-pi, pi)` per arm from the spec's start stream."""
-    _check_spec(spec)
-    count = spec.samples if count is None else _int("count", count, 0, MAX_SAMPLES)
-    starts = spec.starts if starts is None else _int("starts", starts, 1, MAX_STARTS)
+    check_spec(spec)
+    count = spec.samples if count is None else check_int("count", count, 0, MAX_SAMPLES)
+    starts = spec.starts if starts is None else check_int("starts", starts, 1, MAX_STARTS)
     q = np.zeros((count, starts, N_JOINTS))
     if starts > 1:
-        q[:, 1:] = _rng(spec, "starts").uniform(-np.pi, np.pi, size=(count, starts - 1, N_JOINTS))
+        q[:, 1:] = stream_rng(spec, "starts").uniform(-np.pi, np.pi, size=(count, starts - 1, N_JOINTS))
     return q

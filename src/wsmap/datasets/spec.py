@@ -49,6 +49,9 @@ __all__ = [
     "DatasetSpec",
     "test_spec",
     "scaled",
+    "check_spec",
+    "check_int",
+    "check_choice",
 ]
 
 #: Families of a dataset's arms: the names of `wsmap.robots.FAMILIES` (the paper's three DH
@@ -139,8 +142,25 @@ def _real_or_triple(name, value):
     return _real(name, value)
 
 
-def _int(name, value, minimum, maximum=None) -> int:
-    """An int in `[minimum, maximum]`; an integral float (`1e3`) is accepted, a bool is not."""
+def check_int(name, value, minimum, maximum=None) -> int:
+    """`value` as an int in `[minimum, maximum]`, or a one-line `ValueError` naming `name`.
+
+    Parameters
+    ----------
+    name : str
+        What the value is, as the error message names it (`"samples"`, `"counts entry"`).
+    value : int or float
+        An integer, or an integral float (`1e3`); a bool is refused.
+    minimum : int
+        The smallest value accepted.
+    maximum : int, optional
+        The largest value accepted (None: no bound).
+
+    Returns
+    -------
+    int
+        `value` as a Python int.
+    """
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, float, np.floating)):
         raise ValueError(f"{name} must be an integer, got {value!r}")
     if isinstance(value, (float, np.floating)) and not (math.isfinite(value) and float(value).is_integer()):
@@ -168,7 +188,24 @@ def require_finite(x: np.ndarray, message: str) -> np.ndarray:
     return x
 
 
-def _choice(name, value, choices):
+def check_choice(name, value, choices):
+    """`value` when it is one of `choices` (strings), or a one-line `ValueError` naming `name`
+    and the choices.
+
+    Parameters
+    ----------
+    name : str
+        What the value is (`"method"`, `"scope"`), as the error message names it.
+    value : object
+        The value given; only a `str` among `choices` is accepted.
+    choices : sequence of str
+        The accepted values, listed by the error message in this order.
+
+    Returns
+    -------
+    str
+        `value` as a plain `str`.
+    """
     if not isinstance(value, str) or value not in choices:
         raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
     return str(value)
@@ -195,7 +232,7 @@ def _checked_select(sel, total: int) -> tuple[int, int] | None:
         sel = (sel.start, sel.stop)
     if not isinstance(sel, (list, tuple)) or len(sel) != 2:
         raise ValueError(f"select must be 'all' or [start, stop], got {sel!r}")
-    start, stop = (_int(f"select {k}", v, 0) for k, v in zip(("start", "stop"), sel))
+    start, stop = (check_int(f"select {k}", v, 0) for k, v in zip(("start", "stop"), sel))
     if stop <= start:
         raise ValueError(f"empty node selection [{start}, {stop}): stop must exceed start")
     if stop > total:
@@ -285,7 +322,7 @@ class DatasetSpec:
             raise ValueError(f"name must be a non-empty string, got {self.name!r}")
         for k, choices in (("family", FAMILIES), ("scope", SCOPES), ("convention", CONVENTIONS),
                            ("method", METHODS), ("stream", STREAMS)):
-            self._set(k, _choice(k, getattr(self, k), choices))
+            self._set(k, check_choice(k, getattr(self, k), choices))
         family = self._normalise_family()
         total = self._normalise_grid(family)
         self._set("select", _checked_select(self.select, total))
@@ -342,11 +379,11 @@ class DatasetSpec:
 
     def _normalise_counts(self) -> None:
         """`samples`, `seed` and the LM settings as numbers within their limits."""
-        self._set("samples", _int("samples", self.samples, 1, MAX_SAMPLES))
-        self._set("seed", _int("seed", self.seed, 0))
-        self._set("ilimit", _int("ilimit", self.ilimit, 1, MAX_LM_ITERATIONS))
-        self._set("rlimit", _int("rlimit", self.rlimit, 0, MAX_LM_ITERATIONS))
-        self._set("starts", _int("starts", self.starts, 1, MAX_STARTS))
+        self._set("samples", check_int("samples", self.samples, 1, MAX_SAMPLES))
+        self._set("seed", check_int("seed", self.seed, 0))
+        self._set("ilimit", check_int("ilimit", self.ilimit, 1, MAX_LM_ITERATIONS))
+        self._set("rlimit", check_int("rlimit", self.rlimit, 0, MAX_LM_ITERATIONS))
+        self._set("starts", check_int("starts", self.starts, 1, MAX_STARTS))
         tol = _real("tol", self.tol)
         if not 0 < tol <= MAX_TOL:
             raise ValueError(
@@ -468,7 +505,7 @@ def test_spec(spec: DatasetSpec, samples: int = 1000) -> DatasetSpec:
     The test stream is a different `SeedSequence` spawn key of the same seed, so its arms are
     independent of (and, being continuous draws, disjoint from) the training arms.
     """
-    _check_spec(spec)
+    check_spec(spec)
     if spec.stream == "test":
         raise ValueError(f"spec {spec.name!r} is already a test spec")
     return spec.replace(name=f"{spec.name}_test", samples=samples, stream="test")
@@ -479,11 +516,24 @@ test_spec.__test__ = False  # not a pytest test, despite the name
 
 def scaled(spec: DatasetSpec, samples: int) -> DatasetSpec:
     """`spec` with fewer (or more) samples: the first `samples` arms of the same streams."""
-    _check_spec(spec)
+    check_spec(spec)
     return spec.replace(samples=samples)
 
 
-def _check_spec(spec) -> DatasetSpec:
+def check_spec(spec) -> DatasetSpec:
+    """`spec` itself when it is a `DatasetSpec` (every field was checked when it was built),
+    else a one-line `TypeError`.
+
+    Parameters
+    ----------
+    spec : DatasetSpec
+        The dataset spec a function was given.
+
+    Returns
+    -------
+    DatasetSpec
+        `spec`, unchanged.
+    """
     if not isinstance(spec, DatasetSpec):
         raise TypeError(f"spec must be a DatasetSpec, got {type(spec).__name__}")
     return spec

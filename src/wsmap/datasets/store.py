@@ -71,8 +71,8 @@ from .._version import __version__
 from ..io import OutputPathError, atomic_paths, check_output_path
 from .features import feature_names, features_for
 from .labels import labels_for
-from .sampling import _draw_fixed, _rng, draw_samples, draw_scales, start_configurations
-from .spec import DatasetSpec, _check_spec, _int, scaled, test_spec
+from .sampling import draw_fixed, draw_samples, draw_scales, start_configurations, stream_rng
+from .spec import DatasetSpec, check_int, check_spec, scaled, test_spec
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
@@ -165,7 +165,7 @@ def _draw_inputs(spec: DatasetSpec):
     labelled); `q0` the LM starts of the numerical DH path, else `None`."""
     if spec.is_chain_family:
         arms = draw_scales(spec)
-        fixed = _draw_fixed(spec, spec.samples, _rng(spec, "fixed"))
+        fixed = draw_fixed(spec, spec.samples, stream_rng(spec, "fixed"))
         q0 = None
     else:
         arms, fixed = draw_samples(spec)
@@ -269,7 +269,7 @@ def _is_client(x) -> bool:
 def _check_cluster(workers, scheduler, connect_timeout):
     """Checked `(workers, scheduler, connect_timeout)` of a build (see the module notes)."""
     if workers is not None:
-        workers = _int("workers", workers, 1)
+        workers = check_int("workers", workers, 1)
         cores = _cores()
         if workers > WORKERS_PER_CORE * cores:
             raise ValueError(f"workers must be at most {WORKERS_PER_CORE * cores} ({WORKERS_PER_CORE} per core of the "
@@ -409,9 +409,9 @@ def build_dataset(spec: DatasetSpec, path: PathLike, chunk: int | None = None, p
     file is touched (`SchedulerError` after `connect_timeout` seconds); the file appears
     only when complete. Returns the path.
     """
-    _check_spec(spec)
+    check_spec(spec)
     path = check_output_path(path, "dataset")
-    chunk = None if chunk is None else _int("chunk", chunk, 1)
+    chunk = None if chunk is None else check_int("chunk", chunk, 1)
     workers, scheduler, connect_timeout = _check_cluster(workers, scheduler, connect_timeout)
     _write_all([(spec, path)], chunk, progress, workers, scheduler, connect_timeout)
     return path
@@ -528,15 +528,15 @@ def build_dataset_files(
     """
     # ---- what to build (no work, no files yet)
     spec = _named_spec(spec, catalogue)
-    _check_spec(spec)
+    check_spec(spec)
     if not isinstance(test_only, bool):
         raise ValueError(f"test_only must be True or False, got {test_only!r}")
     if samples is not None:
-        samples = _int("samples", samples, 1)
+        samples = check_int("samples", samples, 1)
     if test_samples is not None:
-        test_samples = _int("test_samples", test_samples, 1)
+        test_samples = check_int("test_samples", test_samples, 1)
     if chunk is not None:
-        chunk = _int("chunk", chunk, 1)
+        chunk = check_int("chunk", chunk, 1)
     workers, scheduler, connect_timeout = _check_cluster(workers, scheduler, connect_timeout)
     jobs = _file_jobs(spec, out, samples, test_samples, test_out, test_only)
     # ---- the work, all or nothing (the Dask scheduler, if any, reached first)
@@ -582,7 +582,7 @@ class Dataset:
         reduced training run uses, the same arms a smaller build would have drawn."""
         if n is None:
             return self
-        n = _int("n", n, 1)
+        n = check_int("n", n, 1)
         if n >= len(self):
             return self
         header = {**self.header, "features_shape": [n, self.features.shape[1]],
@@ -735,7 +735,7 @@ def load_dataset(path: PathLike, expect_spec: DatasetSpec | None = None) -> Data
     `expect_spec` is given, a file built for another spec; every message names the path.
     """
     if expect_spec is not None:
-        _check_spec(expect_spec)
+        check_spec(expect_spec)
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"dataset file {path} does not exist")

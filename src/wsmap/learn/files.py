@@ -69,6 +69,7 @@ __all__ = [
     "ModelFileError",
     "UnverifiedModelWarning",
     "payload_checksum",
+    "to_plain",
     "save",
     "load",
 ]
@@ -92,10 +93,29 @@ class UnverifiedModelWarning(UserWarning):
 # --------------------------------------------------------------------------------------------
 
 
-def _plain(value, where: str):
-    """`value` as `weights_only`-loadable content: dicts (str keys), lists, str, int, float,
-    bool, None, tensors. Tuples -> lists, numpy -> Python/lists, paths -> str, dataclasses and
-    objects with `to_dict()` -> dicts; anything else raises `TypeError`."""
+def to_plain(value, where: str):
+    """`value` as content `torch.load(weights_only=True)` loads: dicts (str keys), lists, str,
+    int, float, bool, None and tensors.
+
+    Parameters
+    ----------
+    value : object
+        Tuples become lists, numpy scalars and arrays Python numbers and lists, paths `str`,
+        dataclasses and objects with `to_dict()` dicts; tensors are detached copies on the CPU.
+    where : str
+        What `value` is (`"train_config"`), named by the `TypeError` with the path to the
+        offending item (`"extra['a'][2]"`).
+
+    Returns
+    -------
+    object
+        The plain content.
+
+    Raises
+    ------
+    TypeError
+        A dict key that is not a string, or a value of any other type.
+    """
     if isinstance(value, np.generic):  # before the builtins: np.float64 is a float subclass
         value = value.item()
     if value is None:
@@ -115,14 +135,14 @@ def _plain(value, where: str):
         for k, v in value.items():
             if not isinstance(k, str):
                 raise TypeError(f"cannot save {where}: key {k!r} is not a string")
-            out[k] = _plain(v, f"{where}[{k!r}]")
+            out[k] = to_plain(v, f"{where}[{k!r}]")
         return out
     if isinstance(value, (list, tuple)):
-        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value)]
+        return [to_plain(v, f"{where}[{i}]") for i, v in enumerate(value)]
     if hasattr(value, "to_dict") and callable(value.to_dict):
-        return _plain(value.to_dict(), where)
+        return to_plain(value.to_dict(), where)
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return _plain(dataclasses.asdict(value), where)
+        return to_plain(dataclasses.asdict(value), where)
     raise TypeError(f"cannot save {where}: {type(value).__name__} is not a plain value")
 
 
@@ -239,10 +259,10 @@ def save(model: SubspaceMLP, path: PathLike, *, dataset_spec: dict | None = None
         "wsmap_version": __version__,
         "config": model.config.to_dict(),
         "state_dict": {k: v.detach().cpu().clone() for k, v in model.state_dict().items()},
-        "dataset_spec": _plain(dataset_spec, "dataset_spec"),
-        "train_config": _plain(train_config, "train_config"),
-        "extra": _plain(extra, "extra"),
-        "map_spec": _plain(model.map_spec, "map_spec"),
+        "dataset_spec": to_plain(dataset_spec, "dataset_spec"),
+        "train_config": to_plain(train_config, "train_config"),
+        "extra": to_plain(extra, "extra"),
+        "map_spec": to_plain(model.map_spec, "map_spec"),
         "training_range": None if rng is None else rng.to_dict(),
     }
     payload["checksum"] = payload_checksum(payload)

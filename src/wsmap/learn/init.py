@@ -25,18 +25,37 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike
 
-__all__ = ["nguyen_widrow_", "matlab_rands_", "torch_default_"]
+__all__ = ["nguyen_widrow_", "matlab_rands_", "torch_default_", "to_numpy", "input_range_array"]
 
 
-def _to_numpy(a) -> np.ndarray:
+def to_numpy(a) -> np.ndarray:
+    """`a` as a numpy array: a tensor detached and copied to the CPU, anything else through
+    `numpy.asarray` (same shape and dtype)."""
     return a.detach().cpu().numpy() if isinstance(a, torch.Tensor) else np.asarray(a)
 
 
-def _input_range_array(input_range, n_in: int) -> np.ndarray:
-    """`input_range` as float64 `(n_in, 2)` rows `[min, max]`; `None` -> `[-1, 1]`."""
+def input_range_array(input_range, n_in: int) -> np.ndarray:
+    """The range of each of a layer's `n_in` inputs as rows `[min, max]`.
+
+    Parameters
+    ----------
+    input_range : array_like or tensor, shape (n_in, 2) or (2,), or None
+        Per input, or one `[min, max]` for all; None: `[-1, 1]` for all.
+    n_in : int
+        Number of inputs.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_in, 2), float64
+
+    Raises
+    ------
+    ValueError
+        Another shape, or a row with `min > max`.
+    """
     if input_range is None:
         return np.tile([-1.0, 1.0], (n_in, 1))
-    pr = np.asarray(_to_numpy(input_range), dtype=np.float64)
+    pr = np.asarray(to_numpy(input_range), dtype=np.float64)
     if pr.shape == (2,):
         pr = np.tile(pr, (n_in, 1))
     if pr.shape != (n_in, 2):
@@ -157,7 +176,7 @@ def nguyen_widrow_(linear_or_weight: torch.nn.Module | torch.Tensor, bias: torch
     """
     weight, bias, slices = _as_weight_bias(linear_or_weight, bias, "nguyen_widrow_")
     n_in = slices[0][0].shape[1]
-    pr = _input_range_array(input_range, n_in)
+    pr = input_range_array(input_range, n_in)
     with torch.no_grad():
         for w_view, b_view in slices:
             w, b = _calcnw(w_view.shape[0], pr, active_range, generator)

@@ -50,14 +50,14 @@ from ..io import atomic_path
 from ..kinematics.morphology import N_FEATURES, SNAP, describe, morphology_distance
 from ..robots import FAMILIES
 from ..robots.morph import MorphFamily, morph_params, morphology_of
-from .files import ModelFileError, _plain, payload_checksum
+from .files import ModelFileError, payload_checksum, to_plain
 from .predictor import register_model_format
 from .training import TrainConfig, TrainResult, train
 from .training_range import ExtrapolationError, ExtrapolationWarning
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "MorphModelConfig", "MorphMapModel", "morph_features", "fit_morph_model",
            "predict_morph_map", "predict_morph_grid", "save_morph_model", "load_morph_model", "nearest_arm_maps", "fk_labels", "TOOL_DOWN", "morph_spec",
-           "build_morph_shards"]
+           "build_morph_shards", "family_of"]
 
 FORMAT = "wsmap.morph_model"
 FORMAT_VERSION = 1
@@ -170,7 +170,22 @@ class MorphMapModel(nn.Module):
 
 
 # --------------------------------------------------------------------------------------------- inputs
-def _family_of(n: int, families) -> MorphFamily | None:
+def family_of(n: int, families) -> MorphFamily | None:
+    """The first of `families` that is a morph family of `n`-joint arms.
+
+    Parameters
+    ----------
+    n : int
+        Joint count of the arm.
+    families : iterable of str
+        Names in `wsmap.robots.FAMILIES` (a model's `families`); other families and unknown
+        names are skipped.
+
+    Returns
+    -------
+    MorphFamily or None
+        None when none of them has `n` joints.
+    """
     for name in families:
         f = FAMILIES.get(name)
         if isinstance(f, MorphFamily) and f.n_joints == n:
@@ -195,7 +210,7 @@ def _check_arm(model: MorphMapModel, robot, allow_extrapolation: bool) -> np.nda
     m = describe(robot)  # MorphologyError: prismatic, < 6 or > 7 joints, a batch
     label = m.name or "the arm"
     problems = []
-    family = _family_of(m.n, model.families)
+    family = family_of(m.n, model.families)
     if family is None:
         problems.append(f"it has {m.n} joints; the model was trained on {', '.join(model.families)} only")
     elif np.abs(m.mount - np.eye(4)).max() > SNAP:  # a file's rounded numbers tilt it by ~1e-5
@@ -509,9 +524,9 @@ def save_morph_model(model: MorphMapModel, path, *, extra: dict | None = None) -
         "config": model.config.to_dict(),
         "state_dict": {k: v.detach().cpu().clone() for k, v in model.state_dict().items()},
         "box": model.box, "threshold": model.threshold, "rpy": list(model.rpy), "convention": model.convention, "families": list(model.families),
-        "dataset_specs": _plain(getattr(model, "dataset_specs", None), "dataset_specs"),
-        "train_config": _plain(getattr(model, "train_config", None), "train_config"),
-        "extra": _plain(extra, "extra"),
+        "dataset_specs": to_plain(getattr(model, "dataset_specs", None), "dataset_specs"),
+        "train_config": to_plain(getattr(model, "train_config", None), "train_config"),
+        "extra": to_plain(extra, "extra"),
     }
     payload["checksum"] = payload_checksum(payload)
     p.parent.mkdir(parents=True, exist_ok=True)

@@ -61,7 +61,7 @@ import torch
 from torch import nn
 
 from ..datasets.features import feature_names, grid_nodes
-from .init import _input_range_array, _to_numpy, matlab_rands_, nguyen_widrow_, torch_default_
+from .init import input_range_array, matlab_rands_, nguyen_widrow_, to_numpy, torch_default_
 from .mapspec import (
     MapPlan,
     check_batch_size,
@@ -292,10 +292,10 @@ class SubspaceMLP(nn.Module):
         gens = self._generators(seeds)
         n_net = cfg.n_network_inputs
         if input_range is not None and cfg.input_columns is not None:
-            arr = _to_numpy(input_range)
+            arr = to_numpy(input_range)
             if arr.shape == (cfg.n_inputs, 2) and cfg.n_inputs != n_net:
                 input_range = arr[cfg.input_columns]
-        first_range = _input_range_array(input_range, n_net)
+        first_range = input_range_array(input_range, n_net)
         _, active, out_range = ACTIVATIONS[cfg.activation]
         last = self.n_layers - 1
         with torch.no_grad():
@@ -325,7 +325,7 @@ class SubspaceMLP(nn.Module):
 
     def _select_stats(self, values, name: str) -> torch.Tensor:
         cfg, S = self.config, self.n_subspaces
-        t = torch.as_tensor(_to_numpy(values), dtype=torch.float64)
+        t = torch.as_tensor(to_numpy(values), dtype=torch.float64)
         if t.ndim == 1:
             t = t.expand(S, -1)
         if t.ndim != 2 or t.shape[0] != S:
@@ -364,7 +364,7 @@ class SubspaceMLP(nn.Module):
         exactly 0 (a computed std of a constant column is rounding noise, and dividing by it
         would amplify noise).
         """
-        x = np.asarray(_to_numpy(x), dtype=np.float64)
+        x = np.asarray(to_numpy(x), dtype=np.float64)
         if x.ndim != 2 or x.shape[0] == 0:
             raise ValueError(f"need (n, f) data with n >= 1; got shape {x.shape}")
         const = x.max(axis=0) == x.min(axis=0)
@@ -405,7 +405,7 @@ class SubspaceMLP(nn.Module):
         (the arms the model is trained on), which `predict_maps` checks arms against and
         `wsmap.learn.files.save` writes into the model file. Returns `self`.
         """
-        arr = np.asarray(_to_numpy(x), dtype=np.float64)
+        arr = np.asarray(to_numpy(x), dtype=np.float64)
         if arr.ndim != 2 or arr.shape[0] == 0:
             raise ValueError(f"configure needs (n, f) features with n >= 1; got shape {arr.shape}")
         check_features(self, arr)
@@ -813,5 +813,5 @@ def training_range_of(data) -> TrainingRange:
             names = feature_names(spec)
         except (TypeError, ValueError, AttributeError):
             names = None
-    rng = TrainingRange.from_features(_to_numpy(features) if isinstance(features, torch.Tensor) else features)
+    rng = TrainingRange.from_features(to_numpy(features) if isinstance(features, torch.Tensor) else features)
     return rng.with_names(names) if names is not None and len(names) == rng.n_features else rng
