@@ -1,0 +1,219 @@
+"""The named arms' collision models judged on the vendors' own meshes, by PyBullet.
+
+The judge shares no code with the checker: PyBullet loads the vendor URDF (pybullet_data's
+`franka_panda/panda.urdf`, `kuka_iiwa/model.urdf`) with self-collision, sets the joints, and calls
+a configuration colliding when `getClosestPoints` finds a distance below 0 between two arm links
+that are not adjacent in the chain (the hand and fingers are not part of wsmap's arms) and are not
+already in contact at the zero configuration (the Panda's links 5 and 7 overlap there by 7.6 mm:
+a modelling overlap of the description, MoveIt's "default" rule, not a collision).
+
+Measured with this file's seeds (`pytest -s` prints them): the default Panda checker (fitted
+capsules) calls none of PyBullet's collisions free; it calls about 3 % of the random configurations
+colliding that PyBullet calls free.
+"""
+
+import importlib.util
+import sys
+
+import numpy as np
+import pytest
+
+pybullet = pytest.importorskip("pybullet")
+pytest.importorskip("coal")
+
+from wsmap.collision import CollisionError, Scene, arm_model, body_frames, checker_for, default_geometry  # noqa: E402
+from wsmap.collision import vendor  # noqa: E402
+from wsmap.robots import load  # noqa: E402
+
+
+class Judge:
+    """PyBullet on the vendor URDF of a named arm (module notes)."""
+
+    def __init__(self, name):
+        rec = vendor.VENDOR[name]
+        self.arm = load(name)
+        self.cid = pybullet.connect(pybullet.DIRECT)
+        kw = {"physicsClientId": self.cid}
+        self.robot = pybullet.loadURDF(vendor.vendor_urdf(name), useFixedBase=True,
+                                       flags=pybullet.URDF_USE_SELF_COLLISION, **kw)
+        nj = pybullet.getNumJoints(self.robot, **kw)
+        index = {pybullet.getJointInfo(self.robot, j, **kw)[12].decode(): j for j in range(nj)}
+        index[pybullet.getBodyInfo(self.robot, **kw)[0].decode()] = -1
+        self.links = [index[lk] for lk in rec.links]
+        self.joints = [j for j in range(nj) if pybullet.getJointInfo(self.robot, j, **kw)[2] == pybullet.JOINT_REVOLUTE]
+        self.joints = self.joints[: self.arm.n]
+        q0 = np.clip(np.zeros(self.arm.n), self.arm.limits[:, 0], self.arm.limits[:, 1])
+        near = [(a, b) for a in range(len(self.links)) for b in range(a + 2, len(self.links))]
+        self.pairs = near
+        self.pairs = [p for p in near if p not in self.colliding_pairs(q0)]
+
+    def set(self, q):
+        for j, x in zip(self.joints, q):
+            pybullet.resetJointState(self.robot, j, float(x), physicsClientId=self.cid)
+
+    def colliding_pairs(self, q):
+        self.set(q)
+        out = []
+        for a, b in self.pairs:
+            pts = pybullet.getClosestPoints(self.robot, self.robot, 0.0, self.links[a], self.links[b],
+                                            physicsClientId=self.cid)
+            if any(p[8] < 0 for p in pts):
+                out.append((a, b))
+        return out
+
+    def colliding(self, q):
+        """bool `(C,)`: PyBullet's self-collision of each configuration."""
+        return np.array([bool(self.colliding_pairs(c)) for c in np.atleast_2d(q)])
+
+    def close(self):
+        pybullet.disconnect(self.cid)
+
+
+@pytest.fixture(scope="module")
+def panda_judge():
+    j = Judge("panda")
+    yield j
+    j.close()
+
+
+@pytest.mark.parametrize("name", sorted(vendor.FITTED))
+def test_fitted_capsules_hold_every_vertex_of_the_vendor_meshes(name):
+    meshes, fitted = arm_model(name, geometry="meshes"), arm_model(name, geometry="fitted")
+    rec = vendor.fitted_record(name)
+    assert rec["source"]["package"] == "pybullet_data" and rec["padding"] == vendor.PADDING
+    for mesh_link in meshes.links:
+        caps = [s for lk in fitted.links if lk.body == mesh_link.body for s in lk.shapes]
+        pts = np.concatenate([s.vertices @ s.origin[:3, :3].T + s.origin[:3, 3] for s in mesh_link.shapes])
+        gap = np.full(len(pts), np.inf)
+        for s in caps:
+            r, length = s.size
+            local = (pts - s.origin[:3, 3]) @ s.origin[:3, :3]
+            z = np.clip(local[:, 2], -length / 2, length / 2)
+            d = np.linalg.norm(local - np.stack([0 * z, 0 * z, z], axis=1), axis=1) - r
+            gap = np.minimum(gap, d)
+        assert gap.max() <= -vendor.PADDING + 2e-6, (mesh_link.name, gap.max())
+    for lk in rec["links"]:
+        assert lk["slack"] == pytest.approx(lk["capsule_volume"] / lk["hull_volume"], rel=1e-2)
+        assert 1.0 < lk["slack"] < 4.0
+
+
+@pytest.mark.parametrize("name", sorted(vendor.VENDOR))
+def test_the_vendor_frames_are_wsmaps_bodies_as_pybullet_moves_them(name):
+    judge = Judge(name)
+    try:
+        model = arm_model(name, geometry="meshes")
+        q = model.chain.random_q(20, np.random.default_rng(3))
+        for c in q:
+            judge.set(c)
+            B = body_frames(model.chain, c[None])[0]
+            for k, lk in enumerate(model.links):
+                if judge.links[k] < 0:
+                    continue
+                st = pybullet.getLinkState(judge.robot, judge.links[k], computeForwardKinematics=True,
+                                           physicsClientId=judge.cid)
+                np.testing.assert_allclose((B[lk.body] @ lk.frame)[:3, 3], st[4], atol=1e-6)
+    finally:
+        judge.close()
+
+
+def test_the_default_panda_checker_calls_every_pybullet_collision_colliding(panda_judge):
+    assert default_geometry("panda") == "fitted"
+    chk = checker_for("panda", Scene())  # self-collision only, as the judge (no floor)
+    assert chk.model.source.startswith("capsules fitted around pybullet_data")
+    q = chk.model.chain.random_q(1000, np.random.default_rng(11))
+    theirs = panda_judge.colliding(q)
+    free = chk(q)
+    false_free = np.flatnonzero(free & theirs)
+    assert false_free.size == 0, [panda_judge.colliding_pairs(q[c]) for c in false_free[:5]]
+    false_collisions = float(np.mean(~free & ~theirs))
+    print(f"\npanda, 1000 random q: PyBullet colliding {theirs.mean():.1%}, false free 0, "
+          f"false collisions {false_collisions:.1%}")
+    assert theirs.sum() > 30  # the sample does test something
+    assert false_collisions < 0.06
+
+
+def test_the_fitted_iiwa_calls_every_pybullet_collision_colliding():
+    judge = Judge("iiwa14")
+    try:
+        chk = checker_for("iiwa14", Scene(), geometry="fitted")
+        q = chk.model.chain.random_q(300, np.random.default_rng(12))
+        theirs = judge.colliding(q)
+        assert not np.any(chk(q) & theirs)
+    finally:
+        judge.close()
+
+
+def test_the_mesh_mode_agrees_with_pybullet(panda_judge):
+    chk = checker_for("panda", Scene(), geometry="meshes")
+    assert chk.model.source.startswith("pybullet_data/franka_panda/panda.urdf")
+    q = chk.model.chain.random_q(300, np.random.default_rng(13))
+    theirs, free = panda_judge.colliding(q), chk(q)
+    # Bullet's hull margin (about a millimetre) can make a grazing pair differ; none did here
+    assert not np.any(free & theirs)
+    assert np.mean(free == ~theirs) > 0.98
+
+
+def test_the_readme_collision_aware_panda_map_has_no_colliding_solution(panda_judge):
+    import wsmap.workspace as ws
+
+    panda = load("panda")
+    exact = checker_for("panda", geometry="meshes")
+    fitted = checker_for("panda")
+    grid = ws.cartesian_grid(-1, 1, 0.1)
+    free, q = ws.constant_orientation_map(panda, grid, (np.pi, 0, 0), collision=fitted, return_q=True)
+    sol = q[free]
+    assert len(sol) > 1000 and np.all(np.isfinite(sol))
+    hits = np.flatnonzero(panda_judge.colliding(sol))
+    assert hits.size == 0, [panda_judge.colliding_pairs(sol[c]) for c in hits[:5]]
+    free_exact = ws.constant_orientation_map(panda, grid, (np.pi, 0, 0), collision=exact)
+    print(f"\nREADME Panda tool-down map: {free.sum()} nodes fitted, {free_exact.sum()} nodes on the meshes")
+    assert free.sum() <= free_exact.sum()
+
+
+def test_a_named_arm_without_the_vendor_package_is_one_line(monkeypatch):
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda n, *a: None if n == "pybullet_data" else real(n, *a))
+    with pytest.raises(CollisionError, match=r"^the vendor meshes of 'panda' come from pybullet_data/"
+                       r"franka_panda/panda.urdf, which is not installed: pip install pybullet$"):
+        checker_for("panda", geometry="meshes")
+    assert checker_for("panda").model.source.startswith("capsules fitted")  # the fitted ones need nothing
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: arm_model("panda", geometry="spheres"), "unknown collision geometry 'spheres'; geometries are fitted, "
+                                                     "meshes, capsules"),
+    (lambda: arm_model("ur5e", geometry="fitted"), "no fitted collision capsules for robot 'ur5e'; named arms with "
+                                                   "them: iiwa14, panda"),
+    (lambda: arm_model("ur5e", geometry="meshes"), "no vendor collision meshes for robot 'ur5e'; arms with them: "
+                                                   "panda, iiwa14"),
+    (lambda: checker_for(arm_model("panda"), geometry="meshes"), "geometry= chooses the model of a named arm"),
+])
+def test_bad_geometry_requests_are_one_line(call, message):
+    with pytest.raises(CollisionError) as e:
+        call()
+    assert str(e.value).startswith(message) and "\n" not in str(e.value)
+
+
+def test_a_fitted_model_on_other_kinematics_is_refused():
+    from wsmap.robots import NAMED
+
+    longer = NAMED["panda"].chain(d=np.array([0.4, 0, 0.316, 0, 0.384, 0, 0]))
+    with pytest.raises(CollisionError, match="this arm's kinematics differ"):
+        arm_model("panda", longer, geometry="fitted")
+    assert default_geometry("panda", longer) == "capsules"
+
+
+def test_without_the_collision_extra_the_readme_scene_map_is_one_line(monkeypatch, tmp_path, capsys):
+    from wsmap.cli import main
+
+    scene = tmp_path / "table.yaml"
+    scene.write_text("floor: true\nobstacles:\n  - {name: table, shape: box, size: [1.0, 0.8, 0.04], "
+                     "xyz: [0.6, 0, -0.02]}\n")
+    monkeypatch.setitem(sys.modules, "coal", None)  # import coal raises ImportError
+    for flags in (["--scene", str(scene)], ["--collision"]):
+        code = main(["map", "--robot", "ur5e", *flags, "--out", str(tmp_path / "m.npz")])
+        err = capsys.readouterr().err.strip()
+        assert code == 2
+        assert err == "wsmap: error: --collision/--scene needs coal, which is not installed: pip install " \
+                      "'wsmap[collision]'"
+    assert not (tmp_path / "m.npz").exists()
