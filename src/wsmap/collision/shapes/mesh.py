@@ -6,6 +6,24 @@ URDF `<mesh filename="..." scale="sx sy sz"/>` (STL, OBJ, DAE, PLY, ... read by 
 `package://`, `file://` and relative names, `resolve_mesh`); MJCF `<geom type="mesh">` (MuJoCo's
 compiled vertices); a scene file's `{shape: mesh, file: PATH, scale: s or [sx, sy, sz]}`, the file
 relative to the scene file.
+
+**What is refused, before trimesh or coal sees it** (one-line `CollisionError` naming the file):
+a file whose header declares more than `MAX_MESH_TRIANGLES` triangles (binary STL, PLY: read
+from the header; OBJ: its face lines counted; any other format: after reading), vertices that are
+NaN, infinite or beyond `MAX_COORDINATE` (1 km) once scaled, and a mesh whose convex hull has no
+volume: all its vertices one point, on one line, or in one plane (the thinnest extent below
+`FLAT_RATIO` of the largest). coal's `convexHull` crashes the process (a segmentation fault) on
+such vertices, and a hull without volume is not a solid a link can be tested against. A flat part
+(a sheet, a plate modelled by one face) is refused rather than thickened: the thickness is the
+author's to choose, as a thin box or a mesh with its two faces; a `surface` obstacle tests such a
+mesh on its triangles.
+
+**Which files a URDF may name** (`resolve_mesh`): `package://NAME/REST` names a file inside a
+package, so `NAME` is one folder name and `REST` has no `..`; a relative name may climb out of
+the URDF's folder (`../meshes/x.stl`) but not above the description's tree: the nearest folder
+above the URDF holding a ROS `package.xml`, or else the folder just above the URDF's. An
+absolute name (or `file://`) is the author's explicit choice and is read where it points; every
+mesh must be a regular file (a device or a pipe is "no such file", never read).
 """
 
 from __future__ import annotations
@@ -15,10 +33,117 @@ import os
 import numpy as np
 
 from ..errors import CollisionError
-from ..fields import scene_vector, urdf_numbers
+from ..fields import MAX_COORDINATE, scene_vector, shown, urdf_numbers
 from .registry import SHAPE_KINDS, Shape, ShapeKind
 
-__all__ = ["MESH", "Mesh", "read_mesh", "resolve_mesh"]
+__all__ = ["MESH", "Mesh", "read_mesh", "resolve_mesh", "check_hull_vertices", "mesh_header_triangles",
+           "MAX_MESH_TRIANGLES", "FLAT_RATIO"]
+
+#: The most triangles a collision mesh may have: a vendor's collision meshes have thousands, a fine
+#: scan a few million; beyond this trimesh's arrays alone take gigabytes.
+MAX_MESH_TRIANGLES = 5_000_000
+#: A mesh whose thinnest extent (along its principal axes) is below this fraction of its largest is
+#: flat: coal's convex hull (qhull) crashes on vertices flat to about 1e-8; this keeps a margin of 100.
+FLAT_RATIO = 1e-6
+
+
+def _count_tokens(f, head: bytes, tokens: tuple[bytes, ...]) -> int:
+    """How often `tokens` occur in a file read from `f` after its first bytes `head`, in chunks of
+    4 MiB; a token straddling two chunks is counted (each chunk is searched with the end of the one
+    before it). A text mesh's face lines are counted this way before trimesh parses them."""
+    keep = max(len(t) for t in tokens) - 1
+    count, tail, chunk = 0, b"\n", head
+    while chunk:
+        text = tail + chunk
+        count += sum(text.count(t) for t in tokens)
+        tail, chunk = text[-keep:] if keep else b"", f.read(1 << 22)
+    return count
+
+
+def mesh_header_triangles(path: str, label: str) -> int | None:
+    """The number of triangles a mesh file declares, read without loading it, checked against
+    `MAX_MESH_TRIANGLES`.
+
+    Parameters
+    ----------
+    path : str
+        The file (an existing regular file).
+    label : str
+        What reads it, for messages.
+
+    Returns
+    -------
+    int or None
+        A binary STL's header count, a PLY's `element face` count (polygons, at least one triangle
+        each), an OBJ's number of face lines; None for other formats (checked after reading).
+
+    Raises
+    ------
+    CollisionError
+        A declared count over `MAX_MESH_TRIANGLES`, or a binary STL whose header count does not fit
+        its size.
+    """
+    suffix = os.path.splitext(path)[1].lower()
+    size = os.path.getsize(path)
+    count = None
+    with open(path, "rb") as f:
+        head = f.read(65536)
+        if suffix == ".stl" and not head[:5].lower().startswith(b"solid") and len(head) >= 84:
+            count = int.from_bytes(head[80:84], "little")
+            if 84 + 50 * count != size and count <= MAX_MESH_TRIANGLES:
+                raise CollisionError(f"{label}: collision mesh {path!r} is not a mesh: its binary STL header declares "
+                                     f"{count} triangles ({84 + 50 * count} bytes) but the file holds {size} bytes")
+        elif suffix == ".ply" and head.startswith(b"ply"):
+            for line in head.split(b"end_header")[0].splitlines():
+                w = line.split()
+                if len(w) == 3 and w[0] == b"element" and w[1] == b"face" and w[2].isdigit():
+                    count = int(w[2])
+        elif suffix == ".obj":
+            count = _count_tokens(f, head, (b"\nf ", b"\nf\t"))
+        elif suffix == ".stl":
+            count = _count_tokens(f, head, (b"endfacet",))
+    if count is not None and count > MAX_MESH_TRIANGLES:
+        raise CollisionError(f"{label}: collision mesh {path!r} declares {count} triangles, more than "
+                             f"{MAX_MESH_TRIANGLES} (the most a collision mesh may have; simplify it)")
+    return count
+
+
+def check_hull_vertices(v: np.ndarray, where: str) -> None:
+    """Refuse vertices coal cannot make a convex hull of: NaN or infinite ones, coordinates beyond
+    `MAX_COORDINATE` (m), and vertices whose hull has no volume (one point, one line, one plane:
+    the thinnest extent along the principal axes below `FLAT_RATIO` of the largest).
+
+    Parameters
+    ----------
+    v : numpy.ndarray
+        `(V, 3)` float64 vertices (m, in the shape's frame).
+    where : str
+        The mesh named for messages (`"collision mesh 'hand.stl'"`).
+
+    Raises
+    ------
+    CollisionError
+        One line naming `where` and what is wrong.
+    """
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4:
+        raise CollisionError(f"{where}: needs at least 4 finite vertices (V, 3), got {v.shape[0] if v.ndim else 0}")
+    if not np.all(np.isfinite(v)):
+        raise CollisionError(f"{where} has NaN or infinite vertices")
+    big = float(np.max(np.abs(v)))
+    if big > MAX_COORDINATE:
+        raise CollisionError(f"{where} has a vertex {big:.3g} m from its frame, beyond {MAX_COORDINATE:g} m (check "
+                             "its scale: a mesh in millimetres needs scale 0.001)")
+    centred = v - v.mean(axis=0)
+    # the principal axes from the 3x3 scatter matrix (cheap for millions of vertices); widths along them
+    _, axes = np.linalg.eigh(centred.T @ centred)
+    widths = np.ptp(centred @ axes, axis=0)[::-1]  # largest first
+    if widths[0] <= 1e-12:
+        raise CollisionError(f"{where} is not a solid: all its vertices are one point")
+    for k, what, across in ((1, "on one line", "wide"), (2, "in one plane", "thick")):
+        if widths[k] < FLAT_RATIO * widths[0]:
+            raise CollisionError(f"{where} is not a solid: all its vertices lie {what} ({widths[k]:.3g} m {across}, "
+                                 f"{widths[0]:.3g} m long), so its convex hull has no volume; model a flat part as a "
+                                 "thin box (or a surface obstacle)")
 
 
 def read_mesh(path: str, label: str, scale=(1.0, 1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
@@ -43,8 +168,10 @@ def read_mesh(path: str, label: str, scale=(1.0, 1.0, 1.0)) -> tuple[np.ndarray,
     Raises
     ------
     CollisionError
-        A missing, empty or unreadable file, one without triangles or with NaN vertices; the
-        message names the file.
+        A missing, empty or unreadable file (a device or a pipe is no file), more than
+        `MAX_MESH_TRIANGLES` triangles (counted from the header where the format has one, before
+        reading), none, NaN or infinite vertices, or vertices beyond `MAX_COORDINATE` once scaled;
+        the message names the file.
     """
     import trimesh
 
@@ -52,18 +179,29 @@ def read_mesh(path: str, label: str, scale=(1.0, 1.0, 1.0)) -> tuple[np.ndarray,
         raise CollisionError(f"{label}: collision mesh {path!r}: no such file")
     if os.path.getsize(path) == 0:
         raise CollisionError(f"{label}: collision mesh {path!r} is empty")
+    mesh_header_triangles(path, label)
     try:
         mesh = trimesh.load(path, force="mesh", process=False)
     except Exception as exc:
+        why = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else ""
         raise CollisionError(f"{label}: collision mesh {path!r} is not a mesh trimesh can read "
-                             f"({type(exc).__name__}: {exc})") from None
+                             f"({type(exc).__name__}{': ' + why if why else ''})") from None
     v = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64)
     f = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64)
     if len(v) < 4 or len(f) == 0:
         raise CollisionError(f"{label}: collision mesh {path!r} is not a mesh: no triangles in it")
+    if len(f) > MAX_MESH_TRIANGLES:
+        raise CollisionError(f"{label}: collision mesh {path!r} has {len(f)} triangles, more than "
+                             f"{MAX_MESH_TRIANGLES} (the most a collision mesh may have; simplify it)")
     if not np.all(np.isfinite(v)):
         raise CollisionError(f"{label}: collision mesh {path!r} has NaN or infinite vertices")
-    return v * np.asarray(scale, dtype=np.float64), f
+    with np.errstate(over="ignore", invalid="ignore"):
+        v = v * np.asarray(scale, dtype=np.float64)
+    big = float(np.max(np.abs(v))) if np.all(np.isfinite(v)) else np.inf
+    if big > MAX_COORDINATE:
+        raise CollisionError(f"{label}: collision mesh {path!r} has a vertex {big:.3g} m from its frame once "
+                             f"scaled, beyond {MAX_COORDINATE:g} m (a mesh in millimetres needs scale 0.001)")
+    return v, f
 
 
 def resolve_mesh(filename: str, urdf_dir: str | None) -> str:
@@ -119,9 +257,14 @@ class Mesh(ShapeKind):
     """The record of meshes (module notes)."""
 
     def check_data(self, shape):
+        # every mesh passes here (URDF, MJCF, scene file, Python) before coal sees it
         v = np.asarray(shape.vertices, dtype=np.float64)
-        if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4 or not np.all(np.isfinite(v)):
-            raise CollisionError(f"mesh {shape.source or ''}: needs at least 4 finite vertices (V, 3)")
+        where = f"collision mesh {shape.source!r}" if shape.source else "collision mesh"
+        check_hull_vertices(v, where)
+        if shape.faces is not None:
+            f = np.asarray(shape.faces)
+            if f.ndim != 2 or f.shape[1:] != (3,) or (len(f) and (f.min() < 0 or f.max() >= len(v))):
+                raise CollisionError(f"{where}: faces must be (F, 3) indices of its {len(v)} vertices")
         object.__setattr__(shape, "vertices", v)
 
     def describe(self, shape):
@@ -153,6 +296,10 @@ class Mesh(ShapeKind):
     def coal_geometry(self, shape):
         import coal
 
+        # checked again here: the vertices are a mutable array, and coal's hull crashes the process on
+        # degenerate ones instead of raising
+        check_hull_vertices(np.asarray(shape.vertices, dtype=np.float64),
+                            f"collision mesh {shape.source!r}" if shape.source else "collision mesh")
         pts = coal.StdVec_Vec3s()
         pts.extend([np.ascontiguousarray(p, dtype=np.float64) for p in shape.vertices])
         return coal.Convex.convexHull(pts, False, None)
@@ -185,10 +332,13 @@ class Mesh(ShapeKind):
         scale = scene_vector(label, f"obstacle {name!r} scale", [scale] * 3 if isinstance(scale, (int, float))
                              and not isinstance(scale, bool) else scale)
         if np.any(scale <= 0):
-            raise CollisionError(f"{where}: mesh scale must be positive, got {item.get('scale')!r}")
+            raise CollisionError(f"{where}: mesh scale must be positive, got {shown(item.get('scale'))}")
         path = fn if os.path.isabs(fn) or folder is None else os.path.join(folder, fn)
         v, f = read_mesh(path, where, scale)
-        return Shape("mesh", (), pose, v, f, source=path)
+        try:
+            return Shape("mesh", (), pose, v, f, source=path)
+        except CollisionError as exc:
+            raise CollisionError(f"{where}: {exc}") from None
 
 
 MESH = SHAPE_KINDS.register(Mesh(name="mesh", priority=50, size_fields=(), urdf_tag="mesh", mjcf_type="mjGEOM_MESH",

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..._plugins import Registry
 from ..errors import CollisionError
+from ..fields import MAX_COORDINATE, shown
 
 __all__ = ["ShapeKind", "SHAPE_KINDS", "Shape", "shape_kind", "urdf_shape_kind", "mjcf_shape_kind"]
 
@@ -65,14 +66,18 @@ class ShapeKind(ABC):
     # ------------------------------------------------------------------------- the shape itself
     def check_size(self, size) -> tuple[float, ...]:
         """`size` as floats, checked: `len(size_fields)` finite numbers, positive but for the
-        fields of `zero_allowed` (non-negative); a `CollisionError` otherwise."""
+        fields of `zero_allowed` (non-negative), at most `MAX_COORDINATE` (m); a `CollisionError`
+        otherwise."""
         size = tuple(float(x) for x in size)
         if len(size) != len(self.size_fields):
             raise CollisionError(f"a {self.name} has {len(self.size_fields)} size numbers, got {len(size)}")
         if not all(math.isfinite(x) for x in size):
-            raise CollisionError(f"a {self.name} has a NaN or infinite size: {size}")
+            raise CollisionError(f"a {self.name} has a NaN or infinite size: {shown(size)}")
         if any(x < 0 or (x == 0 and f not in self.zero_allowed) for x, f in zip(size, self.size_fields)):
-            raise CollisionError(f"a {self.name} needs positive dimensions, got {size}")
+            raise CollisionError(f"a {self.name} needs positive dimensions, got {shown(size)}")
+        if any(x > MAX_COORDINATE for x in size):
+            raise CollisionError(f"a {self.name} of {shown(size)} m is beyond {MAX_COORDINATE:g} m (the largest "
+                                 "collision geometry)")
         return size
 
     def check_data(self, shape: Shape) -> None:
