@@ -79,13 +79,14 @@ def test_box_targets_count_surface_normals_and_poses(spacing):
 
 
 def test_x_axis_rule():
-    """The world x axis projected on the tangent plane; near-x normals take y × z (y from world y)."""
+    """The world x axis projected on the tangent plane; near-x normals take `a × n` with `a` world y
+    on the plane, so that y is minus world y there (REACH's demo goals, tests/workspace/test_reach_db.py)."""
     n = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [-0.95, 0.0, np.sqrt(1 - 0.95**2)]])
     T = tool_poses(np.zeros((4, 3)), n)
     np.testing.assert_allclose(T[0, :3, :3], np.diag([1.0, -1.0, -1.0]), atol=1e-15)
     np.testing.assert_allclose(T[1, :3, 0], [1.0, 0.0, 0.0], atol=1e-15)
-    np.testing.assert_allclose(T[2, :3, 1], [0.0, 1.0, 0.0], atol=1e-15)  # y is world y on the plane
-    np.testing.assert_allclose(T[3, :3, 1], [0.0, 1.0, 0.0], atol=1e-15)
+    np.testing.assert_allclose(T[2, :3, 1], [0.0, -1.0, 0.0], atol=1e-15)  # y is minus world y on the plane
+    np.testing.assert_allclose(T[3, :3, 1], [0.0, -1.0, 0.0], atol=1e-15)
     check_rigid("T", T)
 
 
@@ -304,7 +305,7 @@ def test_arrays_renormalised():
     assert ts.source == "arrays" and len(ts) == 2
     flipped = targets_from_points((p, n), flip=True, standoff=0.1)
     np.testing.assert_array_equal(flipped.normals, -ts.normals)
-    np.testing.assert_allclose(flipped.poses[:, :3, 2], ts.normals, atol=1e-15)  # REACH's z = +n
+    np.testing.assert_allclose(flipped.poses[:, :3, 2], ts.normals, atol=1e-15)  # the tool points along the given normals
     _check_frames(flipped, 0.1)
 
 

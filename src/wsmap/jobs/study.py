@@ -13,14 +13,16 @@ Example::
     robot: ur5e                       # or {urdf: arm.urdf, ee: tool0}, {mjcf: ..., ee: ...}, {name: panda}
     tcp: [0, 0, 0.1, 0, 0, 0]         # x y z (m) r1 r2 r3 (rad) of the TCP in the arm's end frame
     targets: {poses: picks.csv}       # or {mesh: part.ply, spacing: 0.02, pose: [...], standoff: 0}
+                                      # or {points: part.pcd, tool_z: along} (REACH's rule: z = +n)
     orientation: {turns: 8}           # the tool free about its axis, every 45 degrees
     base: {region: {x: [-1, 1], y: [-1, 1], step: 0.1, yaws: 8}, top: 5}
+    collision: {workpiece: part.ply}  # the workpiece an obstacle, tested on its triangles
     outputs: {study: study.npz}
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +40,7 @@ from .config import ConfigError, check_keys, load_config
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from ..collision import Obstacle
     from ..workspace.workpiece import TargetSet
 
 __all__ = ["StudyJob", "TargetSpec", "OrientationSpec", "BaseSpec", "MAX_STUDY_TARGETS"]
@@ -97,7 +100,10 @@ def _arm(spec, label: str, root: Path) -> ArmSource:
 class TargetSpec:
     """Where the targets come from: exactly one of a workpiece `mesh` (sampled every `spacing` m), a
     point cloud `points` with normals, or a pose CSV `poses`; `pose` places the workpiece in the
-    world; the tool stands `standoff` m off the surface along the normal."""
+    world; the tool stands `standoff` m off the surface along the normal. `tool_z` says which way
+    a cloud's normals point: `"against"` (default: out of the workpiece; the tool's z axis is
+    `-n`, into the surface) or `"along"` (REACH's rule: the tool's z axis is `+n`, for clouds
+    whose normals point towards the tool, as REACH's demo `part.pcd`)."""
 
     mesh: str | None = None
     points: str | None = None
@@ -105,17 +111,24 @@ class TargetSpec:
     pose: tuple | None = None
     spacing: float | None = None
     standoff: float = 0.0
+    tool_z: str = "against"
 
     @classmethod
     def from_dict(cls, d, label: str, root: Path) -> TargetSpec:
-        check_keys(d, ("mesh", "points", "poses", "pose", "spacing", "standoff"), label=label)
+        check_keys(d, ("mesh", "points", "poses", "pose", "spacing", "standoff", "tool_z"), label=label)
         given = [k for k in ("mesh", "points", "poses") if d.get(k) is not None]
         if len(given) != 1:
             raise ConfigError(f"{label}: give exactly one of mesh, points, poses (got {', '.join(given) or 'none'})")
         if "mesh" in given and "spacing" not in d:
             raise ConfigError(f"{label}: a mesh needs its sampling spacing: spacing (m)")
+        tool_z = d.get("tool_z", "against")
+        if tool_z not in ("against", "along"):
+            raise ConfigError(f"{label}.tool_z: against (z = -n, the default) or along (z = +n, REACH's rule), "
+                              f"got {tool_z!r:.40}")
+        if "tool_z" in d and "points" not in given:
+            raise ConfigError(f"{label}.tool_z: says which way a point cloud's normals point; a {given[0]} has none")
         pose = None if d.get("pose") is None else tuple(_pose(d["pose"], f"{label}.pose").reshape(-1))
-        return cls(mesh=_path(d, "mesh", root), points=_path(d, "points", root), poses=_path(d, "poses", root),
+        return cls(tool_z=tool_z, mesh=_path(d, "mesh", root), points=_path(d, "points", root), poses=_path(d, "poses", root),
                    pose=pose, spacing=None if d.get("spacing") is None else _number(d["spacing"], f"{label}.spacing",
                                                                                     positive=True),
                    standoff=_number(d.get("standoff", 0.0), f"{label}.standoff", lo=0.0))
@@ -130,7 +143,7 @@ class TargetSpec:
                                                max_targets=MAX_STUDY_TARGETS)
         if self.points is not None:
             return workpiece.targets_from_points(self.points, pose=pose, standoff=self.standoff,
-                                                 max_targets=MAX_STUDY_TARGETS)
+                                                 max_targets=MAX_STUDY_TARGETS, flip=self.tool_z == "along")
         T = read_target_csv(self.poses, "targets.poses")
         if pose is not None:
             T = pose @ T
@@ -217,6 +230,7 @@ class StudyJob:
     method: str = "auto"
     starts: int = 8
     seed: int = 0
+    workpiece: str | None = None
     study_file: str | None = None
     source: str | None = None
 
@@ -249,6 +263,7 @@ class StudyJob:
                    scores=tuple(scores), base=BaseSpec.from_dict(d.get("base", {"pose": [0, 0, 0, 0, 0, 0]}),
                                                                  f"{label}.base"),
                    collision=_collision(d.get("collision"), f"{label}.collision", root),
+                   workpiece=_workpiece(d.get("collision"), f"{label}.collision", root),
                    method=method, starts=_count(search.get("starts", 8), f"{label}.search.starts", 1),
                    seed=_count(d.get("seed", 0), f"{label}.seed", 0), study_file=_outputs(d, label, root),
                    source=source)
@@ -259,9 +274,25 @@ class StudyJob:
         if out is not None and out.suffix != ".npz":
             raise ConfigError(f"outputs.study {str(out)!r}: a study file is .npz")
         robots = [a.build() for a in self.arms]
-        checkers = [self.collision.build(r, a) for r, a in zip(robots, self.arms)]
+        collision = self.collision
+        if self.workpiece is not None:
+            collision = replace(collision, obstacles=collision.obstacles + (self.workpiece_obstacle(),))
+        checkers = [collision.build(r, a) for r, a in zip(robots, self.arms)]
         targets = self.targets.load()
         return StudyPlan(robots=robots, checkers=checkers, targets=targets, out=out)
+
+    def workpiece_obstacle(self) -> Obstacle:
+        """The workpiece as a world-frame obstacle at the targets' `pose`, tested on its triangles
+        (`wsmap.collision.shapes.surface`: a concave part is never replaced by its convex hull)."""
+        from ..collision import CollisionError, Obstacle, Shape
+        from ..collision.shapes.mesh import read_mesh
+
+        pose = np.eye(4) if self.targets.pose is None else np.asarray(self.targets.pose).reshape(4, 4)
+        try:
+            v, f = read_mesh(self.workpiece, "collision.workpiece")
+            return Obstacle("workpiece", Shape("surface", (), pose, v, f, source=self.workpiece), frame="world")
+        except CollisionError as e:
+            raise ConfigError(str(e)) from None
 
     def run(self, plan: StudyPlan | None = None) -> StudyResult:
         """Evaluate every arm: at the base pose, or the best bases of the region."""
@@ -288,7 +319,8 @@ class StudyJob:
                 "tcp": list(self.tcp), "orientation": self.orientation.__dict__, "scores": list(self.scores),
                 "base": {"pose": self.base.pose, "top": self.base.top,
                          "region": None if self.base.region is None else self.base.region.__dict__},
-                "collision": {"wanted": self.collision.wanted, **self.collision.describe()},
+                "collision": {"wanted": self.collision.wanted or self.workpiece is not None,
+                              **self.collision.describe(), "workpiece": self.workpiece},
                 "method": self.method, "starts": self.starts, "seed": self.seed, "source": self.source}
 
     def save(self, result: StudyResult, plan: StudyPlan) -> list[Path]:
@@ -314,9 +346,17 @@ def _collision(d, label: str, root: Path) -> CollisionSource:
         return CollisionSource()
     if d is True:
         return CollisionSource(collision=True)
-    check_keys(d, ("scene", "allow", "acm_samples", "link_radius"), label=label)
+    check_keys(d, ("scene", "allow", "acm_samples", "link_radius", "workpiece"), label=label)
     return CollisionSource(collision=True, scene=_path(d, "scene", root), allow=d.get("allow"),
                            acm_samples=d.get("acm_samples"), link_radius=d.get("link_radius"))
+
+
+def _workpiece(d, label: str, root: Path) -> str | None:
+    if not isinstance(d, dict) or d.get("workpiece") is None:
+        return None
+    if not isinstance(d["workpiece"], str) or not d["workpiece"]:
+        raise ConfigError(f"{label}.workpiece: the workpiece's mesh file (STL, OBJ, PLY), got {d['workpiece']!r:.60}")
+    return _path(d, "workpiece", root)
 
 
 def _outputs(d, label: str, root: Path) -> str | None:

@@ -12,9 +12,10 @@ pointing out of the workpiece. The tool pose of a target has its z axis against 
 (`z = -n`, the tool points into the surface), its origin `standoff` m off the surface
 (`point + standoff * n`), and its x axis by ROS-Industrial REACH's rule (`createFrame`, with z
 flipped): the world x axis projected on the tangent plane, or, where the normal is within
-`acos(0.9)` (about 26 degrees) of the world x axis, `y × z` with y the world y axis projected on
-the tangent plane. REACH itself sets `z = +n` from its cloud's normals; a study of REACH's demo
-cloud says which way its normals point.
+`acos(0.9)` (about 26 degrees) of the world x axis, `a × n` with `a` the world y axis projected on
+the tangent plane. These are the goals of REACH's own demo database (`reach.db.xml`: `z = -n` of
+its `part.pcd`, whose normals point out of the part towards the arm), to single precision
+(`tests/workspace/test_reach_db.py`).
 
 Poses from single-precision normals are not rigid to the 1e-6 that `check_rigid` asks
 (REACH's demo goals reach `RᵀR − I = 1.3e-6`): `orthonormalise` moves each rotation to the
@@ -168,8 +169,10 @@ def tool_poses(points, normals, standoff: float = 0.0) -> np.ndarray:
     Returns
     -------
     (M, 4, 4) float64 rigid poses in the world frame; the x axis is the world x axis projected on
-    the tangent plane, or where `|n · x_world| >= 0.9`, `y × z` with y the world y axis projected
-    on the tangent plane (REACH's `createFrame` rule, z flipped).
+    the tangent plane, or where `|n · x_world| >= 0.9`, `a × n` with `a` the world y axis
+    projected on the tangent plane; `y = z × x`. This is REACH's `createFrame(point, n)` turned
+    half a turn about its x axis, and equals the goals REACH's demo database holds
+    (`reach_ros/demo/results/reach_study/reach.db.xml`, from `part.pcd`) to their single precision.
     """
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
@@ -178,7 +181,7 @@ def tool_poses(points, normals, standoff: float = 0.0) -> np.ndarray:
     ref = np.where(near_x[:, None], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0])
     a = ref - np.sum(ref * z, axis=1, keepdims=True) * z  # the reference axis on the tangent plane
     a /= np.linalg.norm(a, axis=1, keepdims=True)
-    x = np.where(near_x[:, None], np.cross(a, z), a)
+    x = np.where(near_x[:, None], np.cross(z, a), a)
     y = np.cross(z, x)
     T = np.zeros((len(p), 4, 4))
     T[:, :3, 0], T[:, :3, 1], T[:, :3, 2] = x, y, z
@@ -590,9 +593,9 @@ def targets_from_points(path_or_arrays, *, pose=None, standoff: float = 0.0,
     max_targets : int
         The most points allowed (checked against a file's declared count before reading).
     flip : bool
-        True where the given normals point into the workpiece: they are negated. REACH sets its
-        target's z axis to `+n` of its cloud, so its tool poses are this module's with `flip=True`
-        (its demo `part.pcd`'s normals point towards the arm's base).
+        True where the given normals point into the workpiece: they are negated, so the tool's z
+        axis is `+n` of the file. REACH's demo cloud `part.pcd` needs no flip (its goals are
+        `z = -n`, `tool_poses`).
 
     Returns
     -------
