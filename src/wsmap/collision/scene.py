@@ -21,9 +21,11 @@ A scene file (`load_scene`) is YAML or JSON::
 
 `xyz` (m) and `rpy` (rad, URDF's fixed-axis roll-pitch-yaw) place an obstacle; the other keys are
 its shape kind's (`ShapeKind.scene_keys`, `wsmap.collision.shapes`); a mesh file is read relative to
-the scene file. Anything else (an unknown shape or key, a NaN or negative size,
-a file that is not YAML/JSON) is a `CollisionError` naming the
-file and the problem, before any work.
+the scene file. Anything else (an unknown shape or key, a NaN or negative size, a number beyond
+`MAX_COORDINATE` (1 km), more than `MAX_OBSTACLES` obstacles, a file that is not YAML/JSON) is a
+`CollisionError` naming the file and the problem, before any work. The file is read by the job
+files' hardened reader (`wsmap.jobs.config.load_config`): YAML aliases (an alias bomb), duplicate
+keys, nesting deeper than 32 levels and files over 1 MB are refused before anything is built.
 
 A file ending in `.urdf` is read as the URDF of a work cell (`scene_from_urdf`, below).
 
@@ -59,7 +61,6 @@ not a mesh, a shape with NaN or non-positive sizes.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from collections.abc import Mapping, Sequence
@@ -69,7 +70,7 @@ import numpy as np
 
 from ..kinematics.urdf import URDFError, URDFTree, parse_xml, read_source, rpy_matrix
 from .errors import CollisionError
-from .fields import scene_vector, urdf_origin
+from .fields import MAX_COORDINATE, scene_vector, shown, urdf_origin
 from .geometry import urdf_link_shapes
 from .shapes import SHAPE_KINDS, Shape
 from typing import TYPE_CHECKING
@@ -77,9 +78,13 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import PathLike
 
-__all__ = ["FRAMES", "CELL_SUFFIXES", "Obstacle", "Scene", "load_scene", "scene_from_dict", "scene_from_urdf"]
+__all__ = ["FRAMES", "CELL_SUFFIXES", "MAX_OBSTACLES", "Obstacle", "Scene", "load_scene", "scene_from_dict",
+           "scene_from_urdf"]
 
 FRAMES = ("base", "world")
+#: The most obstacles a scene may hold: every moving link is tested against each for every
+#: configuration, so a scene of 10^4 obstacles already costs 10^4 sphere tests per link and pose.
+MAX_OBSTACLES = 10_000
 _COMMON = ("name", "shape", "xyz", "rpy", "frame")
 
 
@@ -112,9 +117,13 @@ class Scene:
     obstacles: tuple = ()
 
     def __post_init__(self):
-        if self.floor is not None and (isinstance(self.floor, bool) or not math.isfinite(float(self.floor))):
-            raise CollisionError(f"the floor height must be a finite number of metres or None, got {self.floor!r}")
+        if self.floor is not None and (isinstance(self.floor, bool) or not math.isfinite(float(self.floor))
+                                       or abs(float(self.floor)) > MAX_COORDINATE):
+            raise CollisionError(f"the floor height must be a finite number of metres (at most {MAX_COORDINATE:g} "
+                                 f"in magnitude) or None, got {self.floor!r}")
         object.__setattr__(self, "obstacles", tuple(self.obstacles))
+        if len(self.obstacles) > MAX_OBSTACLES:
+            raise CollisionError(f"a scene holds at most {MAX_OBSTACLES} obstacles, got {len(self.obstacles)}")
         for ob in self.obstacles:
             if not isinstance(ob, Obstacle):
                 raise CollisionError(f"scene obstacles must be Obstacle records, got {type(ob).__name__}")
@@ -135,13 +144,13 @@ def _obstacle(item, i: int, label: str, frame: str, folder: str | None) -> Obsta
         raise CollisionError(f"{where} must be a mapping with a 'shape', got {type(item).__name__}")
     name = item.get("shape")
     if not isinstance(name, str) or name not in SHAPE_KINDS:
-        raise CollisionError(f"{where} has unknown shape {name!r}; shapes are {', '.join(SHAPE_KINDS.names())}")
+        raise CollisionError(f"{where} has unknown shape {shown(name)}; shapes are {', '.join(SHAPE_KINDS.names())}")
     kind = SHAPE_KINDS.get(name)
     unknown = sorted(set(item) - set(_COMMON) - set(kind.scene_keys))
     if unknown:
         raise CollisionError(f"{where} ({name}) has unknown keys {', '.join(map(str, unknown))}; a {name} takes "
                              f"{', '.join(_COMMON + kind.scene_keys)}")
-    name = str(item.get("name", f"{name}{i + 1}"))
+    name = str(item.get("name", f"{name}{i + 1}"))[:80]
     T = np.eye(4)
     T[:3, 3] = scene_vector(label, f"obstacle {name!r} xyz", item.get("xyz", [0, 0, 0]))
     T[:3, :3] = rpy_matrix(scene_vector(label, f"obstacle {name!r} rpy", item.get("rpy", [0, 0, 0])))
@@ -159,23 +168,26 @@ def scene_from_dict(d, label: str = "scene", folder: str | None = None) -> Scene
                              "obstacles")
     frame = d.get("frame", "base")
     if frame not in FRAMES:
-        raise CollisionError(f"{label}: frame must be one of {', '.join(FRAMES)}, got {frame!r}")
+        raise CollisionError(f"{label}: frame must be one of {', '.join(FRAMES)}, got {shown(frame)}")
     floor = d.get("floor", False)
     if floor is True:
         floor = 0.0
     elif floor is False or floor is None:
         floor = None
-    elif isinstance(floor, (int, float)) and math.isfinite(floor):
+    elif isinstance(floor, (int, float)) and math.isfinite(floor) and abs(floor) <= MAX_COORDINATE:
         floor = float(floor)
     else:
-        raise CollisionError(f"{label}: floor must be true, false or a finite height in metres, got {floor!r}")
+        raise CollisionError(f"{label}: floor must be true, false or a finite height in metres (at most "
+                             f"{MAX_COORDINATE:g} in magnitude), got {shown(floor)}")
     obstacles = d.get("obstacles", []) or []
     if not isinstance(obstacles, Sequence) or isinstance(obstacles, str):
         raise CollisionError(f"{label}: obstacles must be a list, got {type(obstacles).__name__}")
+    if len(obstacles) > MAX_OBSTACLES:
+        raise CollisionError(f"{label} has {len(obstacles)} obstacles, more than a scene may hold ({MAX_OBSTACLES})")
     for item in obstacles:
         if isinstance(item, Mapping) and item.get("frame", frame) not in FRAMES:
             raise CollisionError(f"{label}: obstacle frame must be one of {', '.join(FRAMES)}, "
-                                 f"got {item.get('frame')!r}")
+                                 f"got {shown(item.get('frame'))}")
     return Scene(floor, tuple(_obstacle(item, i, label, frame, folder) for i, item in enumerate(obstacles)))
 
 
@@ -193,25 +205,20 @@ def load_scene(path: PathLike, mount: str | None = None) -> Scene:
                              "gives each obstacle's frame (base or world)")
     if not os.path.isfile(path):
         raise CollisionError(f"{label}: no such file")
-    with open(path, "rb") as f:
-        raw = f.read()
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise CollisionError(f"{label} is not YAML or JSON text (not UTF-8)") from None
-    try:
-        d = json.loads(text)
-    except ValueError:
-        import yaml
-
-        try:
-            d = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            where = getattr(exc, "problem_mark", None)
-            at = f" at line {where.line + 1}" if where is not None else ""
-            raise CollisionError(f"{label} is not YAML or JSON{at}: {getattr(exc, 'problem', exc)}") from None
-    if d is None:
+    if os.path.getsize(path) == 0:
         raise CollisionError(f"{label} is empty")
+    from ..jobs.config import ConfigError, load_config  # here: wsmap.jobs imports this package
+
+    # the job files' hardened reader: no YAML aliases (an alias bomb), duplicate keys, nesting beyond
+    # MAX_DEPTH, huge integers or files over MAX_CONFIG_BYTES; JSON text is YAML, so a scene.yaml
+    # may hold either
+    try:
+        d = load_config(path, "scene file")
+    except ConfigError as exc:
+        msg = str(exc)
+        for fmt in ("YAML", "JSON"):  # the scene's own wording for a syntax error
+            msg = msg.replace(f": not valid {fmt}: ", " is not YAML or JSON: ")
+        raise CollisionError(msg) from None
     return scene_from_dict(d, label, os.path.dirname(os.path.abspath(path)))
 
 
@@ -263,6 +270,9 @@ def scene_from_urdf(source: PathLike, mount: str | None = None, *, floor: bool |
     if mount is not None and mount not in tree.children:
         raise CollisionError(f"{label}: unknown mount link {mount!r}; the links are: {', '.join(tree.links)}")
     floor_z = scene_from_dict({"floor": floor}, label).floor  # the scene files' rule
+    count = sum(len(el.findall("collision")) for el in root.findall("link"))
+    if count > MAX_OBSTACLES:  # before any mesh is read
+        raise CollisionError(f"{label} has {count} <collision> elements, more than a scene may hold ({MAX_OBSTACLES})")
     # every link's pose in the root frame, walking down the tree (fixed joints: origins only)
     pose = {roots[0]: np.eye(4)}
     stack = [roots[0]]
