@@ -584,3 +584,25 @@ def test_wsmap_paper_outside_a_checkout_says_where_it_looked(tmp_path, capsys, m
     monkeypatch.setenv("WSMAP_ROOT", str(tmp_path / "site-packages"))
     code, err = run(["paper", "list"], capsys)
     _one_line_error(code, err, f"WSMAP_ROOT ({tmp_path / 'site-packages'}) is not one: set it to the checkout")
+
+
+def test_place_prints_its_tie_break_and_no_negative_zero(tmp_path, capsys):
+    arm = robots.load("ur5e")
+    q = np.array([[0.3, -1.2, 1.4, -1.5, -1.4, 0.2], [-0.4, -1.0, 1.1, -1.3, -1.6, 0.5]])
+    np.savetxt(tmp_path / "t.csv", arm.fkine(q).reshape(-1, 16), delimiter=",")
+    code = cli.main(["place", "--robot", "ur5e", "--targets", str(tmp_path / "t.csv"), "--x", "-0.3", "0.3",
+                     "--y", "-0.3", "0.3", "--yaws", "4", "--top", "40", "--out", str(tmp_path / "r.csv")])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "-0.000" not in out and "-0.0 " not in out
+    lines = out.splitlines()
+    assert lines[1].split() == ["rank", "x", "(m)", "y", "(m)", "yaw", "(deg)", "reached", "mean", "manip.", "margin"]
+    rows = [line.split() for line in lines[2:42]]
+    manip = [float(r[-2]) for r in rows if r[4] == "2/2"]
+    assert len(manip) > 5 and manip == sorted(manip, reverse=True)
+    assert "ties: the higher mean manipulability of the solutions first, then the higher mean joint-limit margin" in out
+    rank = np.genfromtxt(tmp_path / "r.csv", delimiter=",", names=True)
+    assert rank.dtype.names[:6] == ("rank", "x_m", "y_m", "yaw_rad", "score", "mean_manipulability")
+    assert not np.any(np.signbit(rank["x_m"]) & (rank["x_m"] == 0))
+    with open(tmp_path / "r.csv") as f:
+        assert "-0.000000" not in f.read()

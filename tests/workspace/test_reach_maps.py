@@ -240,3 +240,45 @@ def test_orientation_sets_are_bounded():
     with pytest.raises(ValueError, match=r"^k \(the number of orientations\) must be at most 100000 \(neighbouring "
                                          r"orientations are then 3.6° apart"):
         ws.orientation_samples(10**10)
+
+
+def _easy_targets(arm, n=3):
+    """Targets made from the origin base at moderate reach: hundreds of candidate bases reach all."""
+    q = np.array([[0.3, -1.2, 1.4, -1.5, -1.4, 0.2], [-0.4, -1.0, 1.1, -1.3, -1.6, 0.5],
+                  [0.1, -1.5, 1.8, -1.8, -1.5, -0.3]])[:n]
+    return arm.fkine(q)
+
+
+def test_placement_ties_are_broken_by_the_mean_manipulability_of_the_solutions():
+    from wsmap.kinematics.ik.solvers import get_solver
+    from wsmap.workspace.scores import joint_margin, manipulability
+
+    arm = robots.load("ur5e")
+    T = _easy_targets(arm)
+    pl = ws.base_placement(arm, T, x=(-0.5, 0.5), y=(-0.5, 0.5), step=0.1, yaws=4)
+    top = pl.score == pl.score[0]
+    assert top.sum() > 20  # the case the tie-break is for: many bases reach every target
+    # within each score, the secondary score does not increase down the ranking
+    for s in np.unique(pl.score):
+        t = pl.manipulability[pl.score == s]
+        assert np.all(np.diff(t) <= 1e-9 * np.abs(t[:-1]) + 1e-15)
+    assert pl.manipulability[top].max() > pl.manipulability[top].min() * 1.01  # it does decide something
+    # it is the mean Yoshikawa manipulability of the solutions the ranking reports: the best's q ...
+    np.testing.assert_allclose(pl.manipulability[0], manipulability(arm, pl.q[pl.reached[0]]).mean(), rtol=1e-12)
+    np.testing.assert_allclose(pl.joint_margin[0], joint_margin(arm, pl.q[pl.reached[0]]).mean(), rtol=1e-12)
+    # bases at one point whose headings the base joint absorbs: one manipulability, then the joint margin
+    same = (pl.score == pl.score[0]) & np.isclose(pl.manipulability, pl.manipulability[0], rtol=1e-9, atol=0)
+    assert same.sum() > 1 and np.all(np.diff(pl.joint_margin[same]) <= 1e-9)
+    # ... and any other base's, solved from it alone
+    for k in (1, int(top.sum()) - 1, int(top.sum())):
+        q = get_solver("closed_form").solve(arm, np.linalg.inv(pl.poses[k]) @ T).q
+        ok = pl.reached[k]
+        expected = manipulability(arm, q[ok]).mean() if ok.any() else 0.0
+        np.testing.assert_allclose(pl.manipulability[k], expected, rtol=1e-9)
+    # deterministic, and the grid holds exact multiples of the step: 0 is +0.0, never -0.0
+    again = ws.base_placement(arm, T, x=(-0.5, 0.5), y=(-0.5, 0.5), step=0.1, yaws=4)
+    np.testing.assert_array_equal(again.poses, pl.poses)
+    for v in (pl.x, pl.y, pl.yaw):
+        assert not np.any(np.signbit(v) & (v == 0.0))
+    np.testing.assert_array_equal(np.unique(pl.x), np.round(np.arange(-5, 6) / 10, 12))
+    assert 0.0 in pl.x and 0.0 in pl.y

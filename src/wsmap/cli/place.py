@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jobs import PlacementJob
+from ..workspace.placement import RANKING
 from ..workspace.targets import TARGET_CSV_HELP
 from .arguments import (HelpFormatter, arm_arguments, arm_source, collision_arguments, collision_source, number,
                         positive_float, positive_int, quiet_argument)
@@ -14,7 +15,8 @@ def add_parser(sub):
         "place",
         help="where to put an arm's base so that it reaches a set of target poses",
         description="Rank candidate base poses on the floor (x, y, heading) by the fraction of the target "
-                    "poses they reach; every reached target has a joint solution that forward kinematics confirms.",
+                    "poses they reach; every reached target has a joint solution that forward kinematics confirms. "
+                    f"Ranking: {RANKING}.",
         epilog=TARGET_CSV_HELP,
         formatter_class=HelpFormatter,
     )
@@ -35,6 +37,11 @@ def add_parser(sub):
     m.set_defaults(run=run)
 
 
+def _plain(value: float, digits: int) -> float:
+    """`value` rounded as printed, with -0.0 made 0.0 (so `-0.0004` prints `+0.000`, not `-0.000`)."""
+    return round(float(value), digits) + 0.0
+
+
 def run(args) -> int:
     """`wsmap place`: the options parsed into a `wsmap.jobs.PlacementJob`, checked, run and saved."""
     job = PlacementJob(targets=args.targets, arm=arm_source(args), collision=collision_source(args), x=args.x, y=args.y,
@@ -47,10 +54,12 @@ def run(args) -> int:
         free = "" if result.plan.checker is None else ", collision-free"
         print(f"{robot.name or 'arm'}: {len(pl.score)} candidate bases x {M} targets ({pl.method}{free}) in "
               f"{result.seconds:.2f} s")
-        print("rank  x (m)    y (m)    yaw (deg)  reached")
+        print("rank  x (m)    y (m)    yaw (deg)  reached        mean manip.  margin")
         for r in range(min(args.top, len(pl.score))):
-            print(f"{r + 1:>4}  {pl.x[r]:+.3f}   {pl.y[r]:+.3f}   {np.degrees(pl.yaw[r]):8.1f}   "
-                  f"{int(pl.reached[r].sum())}/{M} ({pl.score[r]:.0%})")
+            x, y, yaw = (_plain(v, d) for v, d in ((pl.x[r], 3), (pl.y[r], 3), (np.degrees(pl.yaw[r]), 1)))
+            reached = f"{int(pl.reached[r].sum())}/{M} ({pl.score[r]:.0%})"
+            print(f"{r + 1:>4}  {x:+.3f}   {y:+.3f}   {yaw:8.1f}   {reached:<13}  {pl.manipulability[r]:<11.4g}  {pl.joint_margin[r]:.3f}")
+        print(f"ranking: {RANKING}")
         if paths:
             print(f"ranking -> {paths[0]}")
     return 0

@@ -113,16 +113,20 @@ class PlacementJob:
         return PlacementResult(plan=plan, placement=pl, seconds=time.perf_counter() - t0)
 
     def save(self, result: PlacementResult) -> list[Path]:
-        """Write the ranking CSV (rank, x, y, yaw, score and one 0/1 column per target), if `out` was
-        given; returns the paths written."""
+        """Write the ranking CSV (rank, x (m), y (m), yaw (rad), score, the tie-break
+        `mean_manipulability` and one 0/1 column per target; best first,
+        `wsmap.workspace.placement.RANKING`), if `out` was given; returns the paths written."""
         out = result.plan.out
         if out is None:
             return []
         pl, M = result.placement, len(result.plan.targets)
         with atomic_path(out, suffix=".csv") as tmp:
             with open(tmp, "w") as f:
-                f.write("rank,x_m,y_m,yaw_rad,score," + ",".join(f"target_{m}" for m in range(M)) + "\n")
+                f.write("rank,x_m,y_m,yaw_rad,score,mean_manipulability,"
+                        + ",".join(f"target_{m}" for m in range(M)) + "\n")
                 for r in range(len(pl.score)):
-                    f.write(f"{r + 1},{pl.x[r]:.6f},{pl.y[r]:.6f},{pl.yaw[r]:.6f},{pl.score[r]:.6f},"
+                    # rounded as written, -0.0 made 0.0: no "-0.000000" for a value below 5e-7
+                    x, y, yaw = (round(float(v), 6) + 0.0 for v in (pl.x[r], pl.y[r], pl.yaw[r]))
+                    f.write(f"{r + 1},{x:.6f},{y:.6f},{yaw:.6f},{pl.score[r]:.6f},{pl.manipulability[r]:.6g},"
                             + ",".join(str(int(b)) for b in pl.reached[r]) + "\n")
         return [out]

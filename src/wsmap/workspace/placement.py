@@ -19,13 +19,19 @@ from ..kinematics import DHRobot, SerialChain, as_chain, check_rigid
 from ..kinematics.ik.solvers import get_solver
 from .grids import check_fits, node_neighbours, triple
 from .maps import configuration_predicate, resolve_method, search_settings
+from .scores import joint_margin, manipulability
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike, Callable
     from wsmap.kinematics.chain import Arm
 
-__all__ = ["Placement", "base_placement", "floor_poses", "MAX_TARGETS", "MAX_YAWS", "MAX_CANDIDATES"]
+__all__ = ["Placement", "base_placement", "floor_poses", "MAX_TARGETS", "MAX_YAWS", "MAX_CANDIDATES", "RANKING"]
+
+#: How `base_placement` ranks its candidates, in words (the command line prints it).
+RANKING = ("best first: the larger fraction of targets reached; ties: the higher mean manipulability of the "
+           "solutions first, then the higher mean joint-limit margin, then nearer the middle of the region, then "
+           "the lower heading, y and x")
 
 #: The most target poses one placement takes: each target is one map over every candidate base
 #: (3528 candidates by default: about 1 to 10 s per target on one core), so 100000 are already days.
@@ -39,11 +45,18 @@ MAX_CANDIDATES = 10**7
 
 @dataclass
 class Placement:
-    """Candidate bases ranked best first (every field in that order).
+    """Candidate bases ranked best first (every field in that order; the rule: `RANKING`).
 
     poses : (C, 4, 4) base poses in the world frame (`transl(x, y, z0)·Rz(yaw)`)
-    x, y, yaw : (C,) metres, metres, radians
+    x, y, yaw : (C,) metres, metres, radians; exact multiples of the step from the range's start
+        (rounded to 1e-12, so the middle of a symmetric range is +0.0, not -2e-17)
     score : (C,) fraction of the targets reached from the base
+    manipulability : (C,) the tie-break: the mean Yoshikawa manipulability `sqrt(det(J Jᵀ))` (m³
+        for a six-joint arm; `wsmap.workspace.scores.manipulability`) of the base's solutions of
+        the targets it reaches (the closed form's first branch inside the limits, or the search's
+        solution); 0 where it reaches none
+    joint_margin : (C,) the second tie-break: the mean over the same solutions of their distance
+        from the joint limits in [0, 1] (`wsmap.workspace.scores.joint_margin`); 0 where none
     reached : (C, M) bool, which targets each base reaches
     q : (M, n) joint solutions of the best base for the targets it reaches (NaN elsewhere), each
         confirmed by forward kinematics (numerical) or from the closed form
@@ -55,6 +68,8 @@ class Placement:
     y: np.ndarray
     yaw: np.ndarray
     score: np.ndarray
+    manipulability: np.ndarray
+    joint_margin: np.ndarray
     reached: np.ndarray
     q: np.ndarray
     method: str
@@ -159,12 +174,13 @@ def _solve_targets(robot, T, Binv, nb, method, settings, valid, world_checker, p
         Tm = Binv @ T[m]  # (C, 4, 4): the target in each candidate's base frame
         if world_checker is not None:
             valid = _from_its_base(robot, world_checker, T[m])
+        # solved, not only decided: the solutions' manipulability breaks the ties of the ranking
         if method == "exact":
-            reached[:, m] = solver.reachable(robot, Tm, None, valid)
+            res = solver.solve(robot, Tm, None, valid)
         else:
             res = solver.solve(chain, Tm, settings, valid, neighbours=nb)
-            reached[:, m] = res.success
-            qsol[:, m] = res.q
+        reached[:, m] = res.success
+        qsol[:, m] = np.where(res.success[:, None], res.q, np.nan)
 
 
 def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.0, 1.0),
@@ -194,7 +210,12 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
     Returns
     -------
     Placement
-        Best first (ties: nearer the middle of the region first, then the grid order).
+        Best first (`RANKING`): by the fraction of targets reached; among equal fractions (often
+        hundreds of bases reach every target) by the mean Yoshikawa manipulability of the base's
+        solutions, higher first (compared to 9 significant digits, so rounding does not order
+        bases that only differ by a heading the base joint absorbs); then by the mean joint-limit
+        margin of those solutions, higher first (the same rounding); then nearer the middle of
+        the region; then the grid order (heading, then y, then x, ascending).
 
     Notes
     -----
@@ -206,8 +227,8 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
     T, xr, yr, z0, method = _check_placement(robot, targets, x, y, step, yaws, z0, method)
     valid, world = _check_collision(robot, collision)
 
-    xs = np.arange(xr[0], xr[1] + step * 0.5, step)
-    ys = np.arange(yr[0], yr[1] + step * 0.5, step)
+    # lo + k·step rounded to 1e-12 m (+ 0.0 turns -0.0 into 0.0): -1 + 10·0.1 is 0, not -2.2e-16
+    xs, ys = (np.round(r[0] + step * np.arange(np.floor((r[1] - r[0]) / step + 0.5) + 1), 12) + 0.0 for r in (xr, yr))
     yaw = 2 * np.pi * np.arange(yaws) / yaws
     # candidate grid: x fastest, then y, then yaw (the node order of the maps)
     Y, X = np.meshgrid(ys, xs, indexing="ij")
@@ -225,15 +246,26 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
     settings = None if method == "exact" else search_settings(ik, seed=seed)
     _solve_targets(robot, T, Binv, nb, method, settings, valid, collision if world else None, progress, reached, qsol)
     score = reached.mean(axis=1)
+    manip, margin = (_mean_score(f, robot, qsol, reached) for f in (manipulability, joint_margin))
     centre = np.hypot(cx - xr.mean(), cy - yr.mean())
-    order = np.lexsort((np.arange(C), centre, -score))
-    best = order[0]
-    if method == "exact":
-        # the solutions of the best base from the closed form, for its reached targets
-        if world:
-            valid = (lambda q: collision.at_bases(q, B[best])) if collision is not None else None
-        q_best = get_solver("closed_form").solve(robot, Binv[best] @ T, None, valid).q
-    else:
-        q_best = qsol[best]
+    # 9 significant digits: bases whose solutions differ only in the base joint (a heading it
+    # absorbs) have the same manipulability up to rounding, and fall to the joint margin, which
+    # prefers the heading that leaves the base joint nearer the middle of its range
+    keys = [-np.array([float(f"{v:.9g}") for v in a]) for a in (manip, margin)]
+    order = np.lexsort((np.arange(C), centre, keys[1], keys[0], -score))
     return Placement(poses=B[order], x=cx[order], y=cy[order], yaw=cyaw[order], score=score[order],
-                     reached=reached[order], q=q_best, method=method)
+                     manipulability=manip[order], joint_margin=margin[order], reached=reached[order],
+                     q=qsol[order[0]], method=method)
+
+
+def _mean_score(score, robot, qsol: np.ndarray, reached: np.ndarray) -> np.ndarray:
+    """`(C,)` the mean `score(robot, q)` (`wsmap.workspace.scores`) of each candidate's
+    solutions `qsol` `(C, M, n)` of the targets it reaches (`reached` `(C, M)`); 0 where it
+    reaches none."""
+    total = np.zeros(len(reached))
+    for m in range(reached.shape[1]):  # a target at a time: C Jacobians, not C x M, in memory
+        hit = reached[:, m]
+        if hit.any():
+            total[hit] += score(robot, qsol[hit, m])
+    count = reached.sum(axis=1)
+    return np.where(count > 0, total / np.maximum(count, 1), 0.0)
