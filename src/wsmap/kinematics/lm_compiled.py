@@ -77,14 +77,14 @@ import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
-from typing import NamedTuple
+from typing import NamedTuple, get_type_hints
 
 import numba
 import numpy as np
 from numba import njit
 
 __all__ = ["MODE_SEARCH", "MODE_PAPER", "MODE_POSITION", "TARGETS_PER_TASK", "ArmBatch", "Targets", "LMSettings",
-           "Answers", "KernelCall", "call_fields", "set_threads", "threads", "threads_for", "run_targets", "pose_keys",
+           "Answers", "KernelCall", "call_fields", "lm_settings", "set_threads", "threads", "threads_for", "run_targets", "pose_keys",
            "orbit_test", "cache_dir", "needs_compile", "estimate", "builds_for", "record_compile_seconds"]
 
 
@@ -120,8 +120,11 @@ _SUCCESS, _REJECTIONS, _ILIMIT, _STAGNATED, _AT_START, _STATIONARY = 1, 2, 3, 4,
 # One object crosses the kernel boundary, `KernelCall`; the numba kernels read its fields by name and the
 # lane kernel (`wsmap.kinematics.lm_lanes`) reads the same fields by name through its one table
 # (`WSMAP_LANES_ARRAYS` and `WSMAP_LANES_SCALARS` in `_lanes/lanes.hpp`; `call_fields` lists them and
-# `wsmap.kinematics.lm_lanes` checks the two agree). A new LM setting: a field of `LMSettings`, a line of
-# the lane table, and its use in each kernel. Named tuples, not dataclasses: numba takes them as they are.
+# `wsmap.kinematics.lm_lanes` checks the two agree). A new LM setting: a last field of `LMSettings` with
+# its default and its use in the numba kernel (this file), a line of the lane table and its use in the lane
+# kernel (`_lanes/lanes.hpp`); `wsmap.kinematics.ik.kernel.run_compiled` passes any field by name
+# (`lm_settings`), so a caller that wants another value names it there. Named tuples, not dataclasses:
+# numba takes them as they are.
 
 
 class ArmBatch(NamedTuple):
@@ -173,12 +176,32 @@ class Targets(NamedTuple):
 
 
 class LMSettings(NamedTuple):
-    """How a call searches: `mode` (`MODE_SEARCH`, `MODE_PAPER` or `MODE_POSITION`); the random
-    starts `k_first .. k_last - 1` after the explicit ones; per LM run at most `ilimit`
-    iterations and `rlimit` consecutive rejected steps, success at `|e| <= tol`, the damping
-    `lam0` at the start, the stationary-point test `gtol` (0: off; ignored by `MODE_PAPER`);
-    a success confirmed by forward kinematics within `confirm_tol` (m and rad); `free_pass`:
-    a failed constrained run whose steps the limits changed is run again free of them."""
+    """How a call searches (build one with `lm_settings`, which casts each field to its type).
+
+    Attributes
+    ----------
+    mode : int
+        `MODE_SEARCH`, `MODE_PAPER` or `MODE_POSITION`.
+    k_first, k_last : int
+        The random starts `k_first .. k_last - 1`, after the explicit ones.
+    ilimit, rlimit : int
+        Per LM run: at most `ilimit` iterations and `rlimit` consecutive rejected steps.
+    tol : float
+        Success at `|e| <= tol` (m and rad).
+    lam0 : float
+        The damping at the start of each run.
+    gtol : float
+        The stationary-point test (0: off; ignored by `MODE_PAPER`).
+    confirm_tol : float
+        A success is confirmed by forward kinematics within `confirm_tol` (m and rad).
+    free_pass : bool
+        A failed constrained run whose steps the limits changed is run again free of them.
+
+    Notes
+    -----
+    A new field goes last, with a default (the kernels' behaviour before it), so that every caller
+    that does not name it runs as before.
+    """
 
     mode: int
     k_first: int
@@ -214,6 +237,37 @@ class KernelCall(NamedTuple):
 
 
 _GROUPS = {"targets": Targets, "arms": ArmBatch, "settings": LMSettings, "out": Answers}
+
+
+#: The type of each `LMSettings` field (int, float or bool), what `lm_settings` casts a value to.
+SETTING_TYPES = get_type_hints(LMSettings)
+
+
+def lm_settings(**values) -> LMSettings:
+    """An `LMSettings` from its fields by name: each value cast to its field's type (`int`,
+    `float`, `bool`, as both kernels read them), a field not given taking its default.
+
+    Parameters
+    ----------
+    **values
+        Fields of `LMSettings` (`mode=0, k_first=1, ..., tol=1e-10`).
+
+    Returns
+    -------
+    LMSettings
+
+    Raises
+    ------
+    TypeError
+        A name that is not a field of `LMSettings`, or a field without a default not given.
+    """
+    unknown = sorted(set(values) - set(LMSettings._fields))
+    if unknown:
+        raise TypeError(f"unknown LM setting(s) {', '.join(unknown)}; LMSettings has {', '.join(LMSettings._fields)}")
+    missing = [f for f in LMSettings._fields if f not in values and f not in LMSettings._field_defaults]
+    if missing:
+        raise TypeError(f"LM setting(s) {', '.join(missing)} not given (they have no default)")
+    return LMSettings(**{name: SETTING_TYPES[name](value) for name, value in values.items()})
 
 
 def call_fields() -> tuple:

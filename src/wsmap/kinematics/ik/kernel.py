@@ -15,7 +15,7 @@ import numpy as np
 
 from .. import lm_compiled, lm_lanes
 from ..chain import PRISMATIC, SerialChain
-from ..lm_compiled import Answers, ArmBatch, KernelCall, LMSettings, Targets
+from ..lm_compiled import Answers, ArmBatch, KernelCall, Targets, lm_settings
 
 __all__ = ["arm_arrays", "run_compiled", "pose_keys", "start_box", "mix"]
 
@@ -99,12 +99,49 @@ def unsolved(count: int, n: int):
 
 
 def run_compiled(mode, aa: ArmBatch, arm, T, keys, qexp, nexp, k_first, k_last, ilimit, rlimit, tol, lam, confirm_tol,
-                 gtol=0.0, free_pass=True):
+                 gtol=0.0, free_pass=True, **more):
     """Run the kernel in use (`wsmap.kinematics.lm_lanes.run_targets`, else
-    `wsmap.kinematics.lm_compiled.run_targets`) on targets `T` (M, 4, 4) of arms `arm` (M,)
-    (indices into `aa`, from `arm_arrays`); the other arguments are the fields of
-    `wsmap.kinematics.lm_compiled.Targets` and `LMSettings` (`lam`: `lam0`). Returns `q`
-    (M, n), `ok`, `iterations`, `residual`, `start` (M,)."""
+    `wsmap.kinematics.lm_compiled.run_targets`) on targets of arms from a batch.
+
+    Parameters
+    ----------
+    mode : int
+        `wsmap.kinematics.lm_compiled.MODE_SEARCH`, `MODE_PAPER` or `MODE_POSITION`.
+    aa : ArmBatch
+        The arms (`arm_arrays`).
+    arm : array_like of int, shape (M,)
+        The index into `aa` of each target's arm.
+    T : numpy.ndarray, shape (M, 4, 4)
+        Target poses in the arms' base frame (m).
+    keys : array_like of uint64, shape (M,)
+        The keys of each target's random starts (`pose_keys`).
+    qexp : array_like, shape (M, S, n)
+        Explicit starts (rad or m per joint), the first `nexp[i]` of row `i` tried in order.
+    nexp : array_like of int, shape (M,)
+    k_first, k_last, ilimit, rlimit, tol, confirm_tol, gtol, free_pass :
+        The fields of `wsmap.kinematics.lm_compiled.LMSettings` of the same names.
+    lam : float
+        Its field `lam0`, the initial damping.
+    **more
+        Any other field of `LMSettings`, by name; a field not named takes its default. So a new
+        LM setting (a field with its default) reaches both kernels with no edit here.
+
+    Returns
+    -------
+    q : numpy.ndarray, shape (M, n)
+    ok : numpy.ndarray of bool, shape (M,)
+    iterations : numpy.ndarray of int64, shape (M,)
+    residual : numpy.ndarray, shape (M,)
+    start : numpy.ndarray of int64, shape (M,)
+        See `wsmap.kinematics.lm_compiled.run_targets`.
+
+    Raises
+    ------
+    TypeError
+        A name in `more` that is not a field of `LMSettings` (before the kernel runs).
+    """
+    settings = lm_settings(mode=mode, k_first=k_first, k_last=k_last, ilimit=ilimit, rlimit=rlimit, tol=tol, lam0=lam,
+                           gtol=gtol, confirm_tol=confirm_tol, free_pass=free_pass, **more)
     M, n = len(T), aa.axes.shape[0]
     out = Answers(*unsolved(M, n))
     if M:
@@ -112,9 +149,6 @@ def run_compiled(mode, aa: ArmBatch, arm, T, keys, qexp, nexp, k_first, k_last, 
             arm=np.ascontiguousarray(arm, dtype=np.int64), Rt=np.ascontiguousarray(T[:, :3, :3], dtype=np.float64),
             pt=np.ascontiguousarray(T[:, :3, 3], dtype=np.float64), keys=np.ascontiguousarray(keys, dtype=np.uint64),
             qexp=np.ascontiguousarray(qexp, dtype=np.float64), nexp=np.ascontiguousarray(nexp, dtype=np.int64))
-        settings = LMSettings(mode=int(mode), k_first=int(k_first), k_last=int(k_last), ilimit=int(ilimit),
-                              rlimit=int(rlimit), tol=float(tol), lam0=float(lam), gtol=float(gtol),
-                              confirm_tol=float(confirm_tol), free_pass=bool(free_pass))
         impl = lm_lanes if lm_lanes.runs_on_lanes(n) else lm_compiled
         with lm_compiled.threads_for(M, 64):
             impl.run_targets(KernelCall(targets, aa, settings, out))
