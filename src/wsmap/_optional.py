@@ -43,13 +43,19 @@ class MissingDependency(ImportError, ValueError):
 def require(module: str, *, extra: str | None = None, why: str | None = None) -> ModuleType:
     """Import and return the optional `module`; `MissingDependency` naming the extra otherwise.
 
-    Args:
-        module: the import name (`"plotly"`, `"skimage"`, `"yourdfpy"`, ...).
-        extra: the `pip install wsmap[EXTRA]` that brings it (default: `EXTRAS`'s entry).
-        why: what needs it, for the message (`"--html"`, `"a URDF arm"`); default the module.
+    Parameters
+    ----------
+    module
+        the import name (`"plotly"`, `"skimage"`, `"yourdfpy"`, ...).
+    extra
+        the `pip install wsmap[EXTRA]` that brings it (default: `EXTRAS`'s entry).
+    why
+        what needs it, for the message (`"--html"`, `"a URDF arm"`); default the module.
 
-    Raises:
-        MissingDependency: `"<why> needs <dist>, which is not installed: pip install 'wsmap[<extra>]'"`.
+    Raises
+    ------
+    MissingDependency
+        `"<why> needs <dist>, which is not installed: pip install 'wsmap[<extra>]'"`.
     """
     extra = extra or EXTRAS.get(module.split(".")[0])
     try:

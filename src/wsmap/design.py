@@ -68,14 +68,19 @@ __all__ = [
 class DesignFamily:
     """A family of arms (`wsmap.robots.ArmFamily`) seen as a design space.
 
-    Attributes:
-        family: the arm family of `wsmap.robots.FAMILIES`: its arms, parameters and range.
-        params: the `n` design parameters, in order: the family's parameters by name (`panda7`:
-            its own order; the spherical wrist: `(a2, a3, d3, d4)`).
-        length_coeffs: `(n,)` metres per unit of each parameter: the total link length is
-            `sum(length_coeffs * params)` (the absolute nominal lengths for `panda7`, ones for
-            the spherical-wrist family whose parameters are lengths).
-        rpy, convention: the default task orientation (rad) and pose convention.
+    Attributes
+    ----------
+    family
+        the arm family of `wsmap.robots.FAMILIES`: its arms, parameters and range.
+    params
+        the `n` design parameters, in order: the family's parameters by name (`panda7`:
+        its own order; the spherical wrist: `(a2, a3, d3, d4)`).
+    length_coeffs
+        `(n,)` metres per unit of each parameter: the total link length is
+        `sum(length_coeffs * params)` (the absolute nominal lengths for `panda7`, ones for
+        the spherical-wrist family whose parameters are lengths).
+    rpy, convention
+        the default task orientation (rad) and pose convention.
     """
 
     family: robots.ArmFamily
@@ -330,12 +335,15 @@ class MapSurrogate:
     model such as the paper's block 5), a model of another family or scope, or a model trained at
     another orientation than the tasks'.
 
-    Attributes:
-        bounds: `(low, high)` of the design parameters: the family's range intersected with the
-            model's training range of those features (so the descent never leaves where the model
-            was trained).
-        default_margin: the margin asked of every task before verification (1.0 for logits, i.e.
-            `p >= 0.73`; 0.1 for linear scores).
+    Attributes
+    ----------
+    bounds
+        `(low, high)` of the design parameters: the family's range intersected with the
+        model's training range of those features (so the descent never leaves where the model
+        was trained).
+    default_margin
+        the margin asked of every task before verification (1.0 for logits, i.e.
+        `p >= 0.73`; 0.1 for linear scores).
     """
 
     def __init__(self, model, family, tasks, *, rpy=None, convention=None):
@@ -412,29 +420,46 @@ class MapSurrogate:
 class DesignResult:
     """One design search.
 
-    Attributes:
-        method: `"gradient"`, `"cmaes"` or `"random"`.
-        family: the family's name; `param_names` its parameters.
-        params: the design `(n,)`: `panda7` scale factors (dimensionless), spherical-wrist
-            lengths a2, a3, d3, d4 (m). The shortest verified design found, or (none verified) the
-            candidate covering the most tasks.
-        total_length: its total link length, m.
-        verified: the classical map covers every task with `params`.
-        covered: `(T,)` bool, the classical map of `params` at the tasks.
-        classical_calls: arms whose classical map at the tasks was computed.
-        surrogate_evals: arms passed through the surrogate (forward + backward), 0 without one.
-        wall_time: seconds of the whole search.
-        time_to_verified: seconds until the first verified design (`None`: none).
-        time_to_target: seconds until a verified design of total length `<= target_length`
-            (`None`: not reached or no target).
-        target_length: the length goal of a gradient-free search (m), or `None`.
-        path: `(steps, 2)`: total length (m) and surrogate coverage (fraction of tasks with a
-            positive margin) per descent step of the start that gave `params` (gradient only;
-            `(evaluations, 2)`, best-so-far length of a verified design and its classical
-            coverage, for the gradient-free searches).
-        margins: the margin asked of each start at its last round (gradient only).
-        rounds: verification rounds (gradient) or generations / batches (gradient-free).
-        classical_time: seconds of `wall_time` spent in the classical map.
+    Attributes
+    ----------
+    method
+        `"gradient"`, `"cmaes"` or `"random"`.
+    family
+        the family's name; `param_names` its parameters.
+    params
+        the design `(n,)`: `panda7` scale factors (dimensionless), spherical-wrist
+        lengths a2, a3, d3, d4 (m). The shortest verified design found, or (none verified) the
+        candidate covering the most tasks.
+    total_length
+        its total link length, m.
+    verified
+        the classical map covers every task with `params`.
+    covered
+        `(T,)` bool, the classical map of `params` at the tasks.
+    classical_calls
+        arms whose classical map at the tasks was computed.
+    surrogate_evals
+        arms passed through the surrogate (forward + backward), 0 without one.
+    wall_time
+        seconds of the whole search.
+    time_to_verified
+        seconds until the first verified design (`None`: none).
+    time_to_target
+        seconds until a verified design of total length `<= target_length`
+        (`None`: not reached or no target).
+    target_length
+        the length goal of a gradient-free search (m), or `None`.
+    path
+        `(steps, 2)`: total length (m) and surrogate coverage (fraction of tasks with a
+        positive margin) per descent step of the start that gave `params` (gradient only;
+        `(evaluations, 2)`, best-so-far length of a verified design and its classical
+        coverage, for the gradient-free searches).
+    margins
+        the margin asked of each start at its last round (gradient only).
+    rounds
+        verification rounds (gradient) or generations / batches (gradient-free).
+    classical_time
+        seconds of `wall_time` spent in the classical map.
     """
 
     method: str
@@ -656,22 +681,32 @@ def design_by_gradient(family, tasks, model, *, rpy=None, convention=None, verif
     `margin_step` and its descent continues (multipliers kept), for at most `max_rounds`
     rounds.
 
-    Args:
-        family: a name of `DESIGN_FAMILIES` or a `DesignFamily`.
-        tasks: positions `(T, 3)` m in the base frame.
-        model: a `wsmap.learn.SubspaceMLP` with a `map_spec` (made a
-            `MapSurrogate`: tasks outside its grid are a `ValueError` before any work), or
-            any surrogate callable `params (k, n) float64 tensor -> margins (k, T)`,
-            differentiable, positive = covered (it may have `bounds` and `default_margin`).
-        rpy, convention: task orientation (rad) and pose convention; default the family's.
-        verify: `params (k, n) -> bool (k, T)`; default the classical map at the tasks.
-        bounds: `(low, high)` of the parameters; default the surrogate's `bounds` if it has
-            them, else the family's range.
-        margin: margin asked in the first round; default the surrogate's `default_margin` (0 if
-            it has none). `margin_step`: the raise after a failed verification (default
-            `max(margin, 0.05)`, in the surrogate's units).
+    Parameters
+    ----------
+    family
+        a name of `DESIGN_FAMILIES` or a `DesignFamily`.
+    tasks
+        positions `(T, 3)` m in the base frame.
+    model
+        a `wsmap.learn.SubspaceMLP` with a `map_spec` (made a
+        `MapSurrogate`: tasks outside its grid are a `ValueError` before any work), or
+        any surrogate callable `params (k, n) float64 tensor -> margins (k, T)`,
+        differentiable, positive = covered (it may have `bounds` and `default_margin`).
+    rpy, convention
+        task orientation (rad) and pose convention; default the family's.
+    verify
+        `params (k, n) -> bool (k, T)`; default the classical map at the tasks.
+    bounds
+        `(low, high)` of the parameters; default the surrogate's `bounds` if it has
+        them, else the family's range.
+    margin
+        margin asked in the first round; default the surrogate's `default_margin` (0 if
+        it has none). `margin_step`: the raise after a failed verification (default
+        `max(margin, 0.05)`, in the surrogate's units).
 
-    Returns:
+    Returns
+    -------
+    DesignResult
         `DesignResult` with `method="gradient"`.
     """
     t0 = time.perf_counter()
@@ -847,16 +882,23 @@ def compare_designs(family, tasks, model, *, methods: Sequence[str] = ("gradient
     stop when they reach it or after `max_calls` arms / `max_seconds`. Every search uses the
     same box (the surrogate's bounds: the family's range within the model's training range).
 
-    Args:
-        family, tasks, model, rpy, convention: as `design_by_gradient`.
-        methods: any of `"gradient"`, `"cmaes"`, `"random"`, in run order (the gradient first
-            when given: the others' goal).
-        gradient: more keyword arguments of `design_by_gradient` (or of `gradient_search`).
-        gradient_search: the gradient method to run instead of `design_by_gradient`,
-            `gradient_search(seed=..., **gradient) -> DesignResult` (e.g. the screened search of
-            `wsmap.morph_design.design_across_morphologies`).
+    Parameters
+    ----------
+    family, tasks, model, rpy, convention
+        as `design_by_gradient`.
+    methods
+        any of `"gradient"`, `"cmaes"`, `"random"`, in run order (the gradient first
+        when given: the others' goal).
+    gradient
+        more keyword arguments of `design_by_gradient` (or of `gradient_search`).
+    gradient_search
+        the gradient method to run instead of `design_by_gradient`,
+        `gradient_search(seed=..., **gradient) -> DesignResult` (e.g. the screened search of
+        `wsmap.morph_design.design_across_morphologies`).
 
-    Returns:
+    Returns
+    -------
+    tuple[list[dict], dict[str, DesignResult]]
         `(rows, results)`: one row per method (`DesignResult.row`: method, family, time to
         a verified design and to the length goal in s, classical calls, total length in m, covered
         tasks, ...) and the `DesignResult` of each method by name.

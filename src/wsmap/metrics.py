@@ -128,8 +128,10 @@ def confusion(pred, truth, axis: int | tuple[int, ...] | None = None) -> Confusi
     `axis=None`: pooled over every element (Python ints). Otherwise counted along `axis`
     (e.g. `axis=1` on `(samples, nodes)` gives per-sample int64 arrays).
 
-    Raises:
-        ValueError: shapes differ (both are named), or values are not boolean / 0-1.
+    Raises
+    ------
+    ValueError
+        shapes differ (both are named), or values are not boolean / 0-1.
     """
     p, t = _pair(pred, truth)
     counts = [np.count_nonzero(m, axis=axis) for m in (p & t, p & ~t, ~p & t, ~p & ~t)]
@@ -179,18 +181,25 @@ class PRF:
 def precision_recall_f(pred, truth, average: str = "micro", *, zero_division="nan", ddof: int = 1) -> PRF:
     """Precision, recall and F-measure of bool maps `pred` vs `truth`.
 
-    Args:
-        pred, truth: bool `(samples, nodes)` (any shape for `"micro"`; for `"samples"`
-            the first axis is the sample and the others are pooled per sample).
-        average: `"micro"` (pool every sample and node: the paper's) or `"samples"`
-            (per sample, then mean and std).
-        zero_division: value of an undefined precision/recall: `"nan"` (default), `0` or
-            `1` (module docstring for F).
-        ddof: delta degrees of freedom of the `"samples"` standard deviations (default 1,
-            MATLAB's `std`); with fewer than `ddof + 1` defined samples the std is NaN.
+    Parameters
+    ----------
+    pred, truth
+        bool `(samples, nodes)` (any shape for `"micro"`; for `"samples"`
+        the first axis is the sample and the others are pooled per sample).
+    average
+        `"micro"` (pool every sample and node: the paper's) or `"samples"`
+        (per sample, then mean and std).
+    zero_division
+        value of an undefined precision/recall: `"nan"` (default), `0` or
+        `1` (module docstring for F).
+    ddof
+        delta degrees of freedom of the `"samples"` standard deviations (default 1,
+        MATLAB's `std`); with fewer than `ddof + 1` defined samples the std is NaN.
 
-    Returns:
-        `PRF`.
+    Returns
+    -------
+    PRF
+        Precision, recall and F-measure, averaged as `average` says.
     """
     fill = _zero_division_value(zero_division)
     p, t = _pair(pred, truth)
@@ -306,12 +315,19 @@ class Sweep:
 def threshold_sweep(scores, truth, thresholds=None, *, zero_division="nan") -> Sweep:
     """Micro P/R/F of `score > t` for every threshold `t`, vectorised.
 
-    Args:
-        scores: `(samples, nodes)` (any shape) raw outputs or probabilities.
-        truth: bool, same shape.
-        thresholds: 1-D thresholds; default `linspace(0, 1, 101)` (the authors swept 0..1).
-        zero_division: as in `precision_recall_f`.
+    Parameters
+    ----------
+    scores
+        `(samples, nodes)` (any shape) raw outputs or probabilities.
+    truth
+        bool, same shape.
+    thresholds
+        1-D thresholds; default `linspace(0, 1, 101)` (the authors swept 0..1).
+    zero_division
+        as in `precision_recall_f`.
 
+    Notes
+    -----
     One sort of the scores per class and a binary search per threshold:
     `O(N log N + T log N)` for `N` scores and `T` thresholds.
     """
@@ -383,10 +399,14 @@ def error_histogram(scores, truth, bins=20, range: tuple[float, float] | None = 
     """Histogram of prediction errors `truth - score` (truth as 0/1) for the paper's
     "Histogram of prediction errors" figure.
 
-    Args:
-        scores: raw outputs (or probabilities), any shape; truth: bool, same shape.
-        bins: number of bins (default 20, as MATLAB's `ploterrhist`) or explicit edges.
-        range: `(lo, hi)` of the bins; default the finite errors' min and max.
+    Parameters
+    ----------
+    scores
+        raw outputs (or probabilities), any shape; truth: bool, same shape.
+    bins
+        number of bins (default 20, as MATLAB's `ploterrhist`) or explicit edges.
+    range
+        `(lo, hi)` of the bins; default the finite errors' min and max.
     """
     s = _scores(scores)
     t = _as_bool(truth, "truth")

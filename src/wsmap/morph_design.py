@@ -73,10 +73,14 @@ class MorphDesignSpace:
     """Arms of `n_joints` revolute joints of every twist pattern (module notes), as a design space
     for `wsmap.design` (`wsmap.design.DESIGN_SPACE_ATTRIBUTES`).
 
-    Attributes:
-        n_joints: 6 or 7.
-        limits: `(n, 2)` joint limits (rad) of every design; default a full turn each.
-        rpy, convention: the task orientation (tool down) and pose convention.
+    Attributes
+    ----------
+    n_joints
+        6 or 7.
+    limits
+        `(n, 2)` joint limits (rad) of every design; default a full turn each.
+    rpy, convention
+        the task orientation (tool down) and pose convention.
     """
 
     n_joints: int = 6

@@ -109,17 +109,25 @@ def _inv(T):
 class Morphology:
     """The canonical description of one serial arm of 6 or 7 revolute joints (see the module notes).
 
-    Attributes:
-        mdh: `(n, 4)` rows `(a_{i-1}, alpha_{i-1}, d_i, theta_i)` (m, rad, rad-offset).
-        qlim: `(n, 2)` joint limits `[lo, hi]` (rad; `±inf` continuous).
-        mount: `(4, 4)` world (base) frame → frame 0.
-        tool: `(4, 4)` frame n → tool (the flange and any tool on it).
-        signs: `(n,)` +1 or -1: the description's joint coordinate is `signs * q`.
-        name: the arm's name, for messages.
-        residual: the largest difference between a joint step of the arm and its DH row (m, and
-            entries of rotation matrices): rounding for an exact DH arm; up to `SNAP` where
-            nearly parallel axes were taken as parallel (the description is then of the nearest
-            exact arm, and `chain` differs from the arm by about that much).
+    Attributes
+    ----------
+    mdh
+        `(n, 4)` rows `(a_{i-1}, alpha_{i-1}, d_i, theta_i)` (m, rad, rad-offset).
+    qlim
+        `(n, 2)` joint limits `[lo, hi]` (rad; `±inf` continuous).
+    mount
+        `(4, 4)` world (base) frame → frame 0.
+    tool
+        `(4, 4)` frame n → tool (the flange and any tool on it).
+    signs
+        `(n,)` +1 or -1: the description's joint coordinate is `signs * q`.
+    name
+        the arm's name, for messages.
+    residual
+        the largest difference between a joint step of the arm and its DH row (m, and
+        entries of rotation matrices): rounding for an exact DH arm; up to `SNAP` where
+        nearly parallel axes were taken as parallel (the description is then of the nearest
+        exact arm, and `chain` differs from the arm by about that much).
     """
 
     mdh: np.ndarray

@@ -44,8 +44,10 @@ def check_device_name(name: str, what: str = "device") -> str:
     `"cuda:N"`), checking only the name, not whether the device exists. `what` names the
     setting in the error (e.g. `"params.yaml section 'sec61_subspace' device"`).
 
-    Raises:
-        ValueError: anything else (including `None`, numbers, `"gpu"`, `"mps"`).
+    Raises
+    ------
+    ValueError
+        anything else (including `None`, numbers, `"gpu"`, `"mps"`).
     """
     if isinstance(name, torch.device):
         if name.type not in ("cpu", "cuda"):
@@ -65,10 +67,13 @@ def resolve_device(name: str = "auto", what: str = "device") -> torch.device:
     `auto` is `cuda` if `torch.cuda.is_available()` else `cpu`; `cuda` / `cuda:N`
     must name a usable GPU. `what` names the setting in error messages.
 
-    Raises:
-        ValueError: an unknown name (`check_device_name`).
-        DeviceUnavailableError: (a `ValueError`) `cuda` without a usable CUDA GPU, or `cuda:N`
-            beyond the GPUs present.
+    Raises
+    ------
+    ValueError
+        an unknown name (`check_device_name`).
+    DeviceUnavailableError
+        (a `ValueError`) `cuda` without a usable CUDA GPU, or `cuda:N`
+        beyond the GPUs present.
     """
     key = check_device_name(name, what)
     if key == "cpu":

@@ -49,14 +49,22 @@ __all__ = ["MapRecipe", "varying_columns", "fit_map_model", "map_scores", "score
 class MapRecipe:
     """How `fit_map_model` trains a map model.
 
-    Attributes:
-        hidden: hidden layer widths (tanh).
-        lr: Adam's initial learning rate (cosine-annealed to 0 over `epochs`).
-        epochs: passes over the training split.
-        batch_size: arms per Adam step.
-        validation_fraction: share of the training arms held out to pick the best epoch.
-        seed: the split and the initial weights.
-        device: `"auto"`, `"cpu"`, `"cuda"` or `None` (the CPU, where models are built).
+    Attributes
+    ----------
+    hidden
+        hidden layer widths (tanh).
+    lr
+        Adam's initial learning rate (cosine-annealed to 0 over `epochs`).
+    epochs
+        passes over the training split.
+    batch_size
+        arms per Adam step.
+    validation_fraction
+        share of the training arms held out to pick the best epoch.
+    seed
+        the split and the initial weights.
+    device
+        `"auto"`, `"cpu"`, `"cuda"` or `None` (the CPU, where models are built).
     """
 
     hidden: tuple[int, ...] = (256, 256)

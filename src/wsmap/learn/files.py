@@ -220,18 +220,25 @@ def save(model: SubspaceMLP, path: PathLike, *, dataset_spec: dict | None = None
          extra: dict | None = None, training_data: Any | None = None) -> Path:
     """Write `model` and its provenance to `path` atomically (module docstring); returns the path.
 
-    Args:
-        model: a `SubspaceMLP`.
-        path: the file to write (folders are created).
-        dataset_spec, train_config, extra: provenance: dicts, dataclasses or objects with
-            `to_dict()` (e.g. `DatasetSpec`, `TrainConfig`), stored as plain values.
-        training_data: what the model was trained on, to record its training range: training
-            features `(n, n_inputs)`, a dataset (`.features`) or a
-            `TrainingRange`. `None`: the model's own
-            `training_range` (set by `configure`). A
-            model with a `map_spec` but no range at all is saved with a `UserWarning`: its
-            maps will be refused unless `allow_extrapolation=True`.
+    Parameters
+    ----------
+    model
+        a `SubspaceMLP`.
+    path
+        the file to write (folders are created).
+    dataset_spec, train_config, extra
+        provenance: dicts, dataclasses or objects with
+        `to_dict()` (e.g. `DatasetSpec`, `TrainConfig`), stored as plain values.
+    training_data
+        what the model was trained on, to record its training range: training
+        features `(n, n_inputs)`, a dataset (`.features`) or a
+        `TrainingRange`. `None`: the model's own
+        `training_range` (set by `configure`). A
+        model with a `map_spec` but no range at all is saved with a `UserWarning`: its
+        maps will be refused unless `allow_extrapolation=True`.
 
+    Notes
+    -----
     The stored range gets feature names (`d_1`, ..., `r_3`) from the map spec's dataset or
     `dataset_spec` when one has the model's feature layout.
     """
@@ -409,16 +416,23 @@ def load(path: PathLike, *, map_location: str | torch.device = "cpu",
     absent), `checksum` (`None` for version-1 files). The model is in eval mode and has its
     `map_spec` and `training_range` back (`None` where the file has none).
 
-    Args:
-        path: the model file.
-        map_location: device for the parameters (the file is read and verified on the CPU).
-        allow_unverified: read a format-1 file (no checksum) with an
-            `UnverifiedModelWarning` instead of refusing it.
+    Parameters
+    ----------
+    path
+        the model file.
+    map_location
+        device for the parameters (the file is read and verified on the CPU).
+    allow_unverified
+        read a format-1 file (no checksum) with an
+        `UnverifiedModelWarning` instead of refusing it.
 
-    Raises:
-        ModelFileError: (a `ValueError`) `"cannot load model <path>: <problem>"`; see the
-            module docstring.
-        TypeError: `path` is not a str or path.
+    Raises
+    ------
+    ModelFileError
+        (a `ValueError`) `"cannot load model <path>: <problem>"`; see the
+        module docstring.
+    TypeError
+        `path` is not a str or path.
     """
     def fail(problem: str, cause: BaseException | None = None) -> NoReturn:
         raise ModelFileError(f"cannot load model {path}: {problem}") from cause

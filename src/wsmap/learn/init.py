@@ -145,19 +145,27 @@ def nguyen_widrow_(linear_or_weight: torch.nn.Module | torch.Tensor, bias: torch
                    generator: torch.Generator | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """Nguyen–Widrow initialisation in place, as MATLAB's `initnw` (`calcnw`) for a tanh layer.
 
-    Args:
-        linear_or_weight: an `nn.Linear` (weight `(H, N)`; its own bias unless `bias` is
-            given), or a weight tensor in `SubspaceMLP`'s layout, `(N, H)` or stacked
-            `(S, N, H)` (each of the S slices gets its own random draw, in order).
-        bias: the bias, `(H,)` or `(S, H)`; required with a weight tensor.
-        input_range: `(N, 2)` rows `[min, max]` of each input (torch or numpy), or `(2,)`
-            for all; `None`: `[-1, 1]` for every input. MATLAB uses the min/max over the
-            training inputs (after input processing) for the first layer and the previous
-            layer's output range ([-1, 1] for tansig) for the others.
-        active_range: the net-input interval to spread the neurons over; MATLAB's `tansig`
-            active input range is `[-2, 2]` (`logsig`: `[-4, 4]`).
-        generator: random source (default: the global torch RNG).
+    Parameters
+    ----------
+    linear_or_weight
+        an `nn.Linear` (weight `(H, N)`; its own bias unless `bias` is
+        given), or a weight tensor in `SubspaceMLP`'s layout, `(N, H)` or stacked
+        `(S, N, H)` (each of the S slices gets its own random draw, in order).
+    bias
+        the bias, `(H,)` or `(S, H)`; required with a weight tensor.
+    input_range
+        `(N, 2)` rows `[min, max]` of each input (torch or numpy), or `(2,)`
+        for all; `None`: `[-1, 1]` for every input. MATLAB uses the min/max over the
+        training inputs (after input processing) for the first layer and the previous
+        layer's output range ([-1, 1] for tansig) for the others.
+    active_range
+        the net-input interval to spread the neurons over; MATLAB's `tansig`
+        active input range is `[-2, 2]` (`logsig`: `[-4, 4]`).
+    generator
+        random source (default: the global torch RNG).
 
+    Notes
+    -----
     What is computed, for `H` neurons and the `r` inputs whose range is not a single point
     (constant inputs get weight 0 and do not count; a non-finite range counts as `[0, 1]`):
 

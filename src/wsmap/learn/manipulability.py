@@ -129,9 +129,12 @@ def manipulability_params(arms_or_params: Arm | ArrayLike) -> tuple[np.ndarray, 
     arms (a spherical-wrist `DHRobot`, one arm or a batch of any shape,
     flattened) or of a parameter array `(4,)` / `(B, 4)`; `single` says the input was one arm.
 
-    Raises:
-        ValueError: an array of another shape or with NaN/inf; arms outside the family.
-        TypeError: neither a `DHRobot` nor an array of numbers.
+    Raises
+    ------
+    ValueError
+        an array of another shape or with NaN/inf; arms outside the family.
+    TypeError
+        neither a `DHRobot` nor an array of numbers.
     """
     if isinstance(arms_or_params, DHRobot):
         p = _arm_params(arms_or_params)
@@ -200,13 +203,18 @@ def _check_target(target: str) -> str:
 class ManipulabilityModel:
     """A network predicting manipulability maps from `(d3, d4, a2, a3)`.
 
-    Attributes:
-        network: a `SubspaceMLP` with `n_inputs = 4`, one subspace,
-            `n_outputs = 9261`, linear outputs; its training range is the parameters' range.
-        target: `"linear"` or `"sqrt"`: the network's output times `scale` is the map (m³)
-            or its square root (m^1.5).
-        scale: positive float, the global output scale.
-        grid: the spec whose grid and pose the outputs are (`"sec61"`).
+    Attributes
+    ----------
+    network
+        a `SubspaceMLP` with `n_inputs = 4`, one subspace,
+        `n_outputs = 9261`, linear outputs; its training range is the parameters' range.
+    target
+        `"linear"` or `"sqrt"`: the network's output times `scale` is the map (m³)
+        or its square root (m^1.5).
+    scale
+        positive float, the global output scale.
+    grid
+        the spec whose grid and pose the outputs are (`"sec61"`).
     """
 
     network: SubspaceMLP
@@ -251,18 +259,29 @@ class ManipulabilityModel:
 class ManipulabilityTrainConfig:
     """How `train_manipulability_model` trains.
 
-    Attributes:
-        hidden: tanh hidden layer widths.
-        target: `"linear"` or `"sqrt"` (`ManipulabilityModel`).
-        lr: Adam's initial learning rate; `batch_size`: arms per step.
-        max_epochs: passes over the training arms at most; `max_fail`: validation failures in a
-            row that stop training (the best validation epoch is kept).
-        time_limit_s: stop after this many seconds (`None`: none).
-        lr_decay: `None`, `"cosine"` (over `max_epochs`, reproducible) or `"cosine-time"`
-            (over `time_limit_s`; depends on the machine's speed).
-        val_fraction: arms held out of the training parameters for early stopping.
-        seed: the split and the initial weights.
+    Attributes
+    ----------
+    hidden
+        tanh hidden layer widths.
+    target
+        `"linear"` or `"sqrt"` (`ManipulabilityModel`).
+    lr
+        Adam's initial learning rate; `batch_size`: arms per step.
+    max_epochs
+        passes over the training arms at most; `max_fail`: validation failures in a
+        row that stop training (the best validation epoch is kept).
+    time_limit_s
+        stop after this many seconds (`None`: none).
+    lr_decay
+        `None`, `"cosine"` (over `max_epochs`, reproducible) or `"cosine-time"`
+        (over `time_limit_s`; depends on the machine's speed).
+    val_fraction
+        arms held out of the training parameters for early stopping.
+    seed
+        the split and the initial weights.
 
+    Notes
+    -----
     The default is an epoch budget (60 epochs, cosine decay over them, no time limit), so the same
     arms and seed give the same model on any machine; a time limit (`time_limit_s` with
     `"cosine-time"`) trades that for a bounded wall time.
@@ -319,8 +338,10 @@ def train_manipulability_model(params: ArrayLike, targets: ArrayLike, config: Ma
     (measured on a shared 2-core machine), so the default 60 epochs take 2.5-3.5 minutes; the
     model returned is the best validation epoch's, in eval mode.
 
-    Raises:
-        ValueError: shapes that do not fit, NaN/inf or negative targets, a bad config.
+    Raises
+    ------
+    ValueError
+        shapes that do not fit, NaN/inf or negative targets, a bad config.
     """
     config = ManipulabilityTrainConfig() if config is None else config
     if not isinstance(config, ManipulabilityTrainConfig):
@@ -348,18 +369,26 @@ def predict_manipulability(model: ManipulabilityModel, arms_or_params: Arm | Arr
     """Predicted manipulability maps (m³) on the `sec61` grid: float32 `(B, 9261)`, or
     `(9261,)` for one arm or one `(4,)` parameter vector; nodes in the grid's order, 0 or more.
 
-    Args:
-        model: a `ManipulabilityModel`.
-        arms_or_params: a spherical-wrist `DHRobot` (`d1 = 0`, no joint
-            limits, no tool; one arm or a batch, flattened) or parameters `(B, 4)` / `(4,)`,
-            columns `(d3, d4, a2, a3)` in m.
-        allow_extrapolation: predict for parameters outside the model's training range with an
-            `ExtrapolationWarning` instead of refusing them.
-        batch_size: arms per forward pass (memory: 37 KB of float32 output per arm).
+    Parameters
+    ----------
+    model
+        a `ManipulabilityModel`.
+    arms_or_params
+        a spherical-wrist `DHRobot` (`d1 = 0`, no joint
+        limits, no tool; one arm or a batch, flattened) or parameters `(B, 4)` / `(4,)`,
+        columns `(d3, d4, a2, a3)` in m.
+    allow_extrapolation
+        predict for parameters outside the model's training range with an
+        `ExtrapolationWarning` instead of refusing them.
+    batch_size
+        arms per forward pass (memory: 37 KB of float32 output per arm).
 
-    Raises:
-        ExtrapolationError: (a `ValueError`) parameters outside the training range.
-        ValueError: wrong shapes, NaN/inf, arms outside the family.
+    Raises
+    ------
+    ExtrapolationError
+        (a `ValueError`) parameters outside the training range.
+    ValueError
+        wrong shapes, NaN/inf, arms outside the family.
     """
     if not isinstance(model, ManipulabilityModel):
         raise TypeError(f"model must be a ManipulabilityModel; got {type(model).__name__}")
@@ -378,8 +407,10 @@ def regression_metrics(pred: ArrayLike, true: ArrayLike) -> dict[str, float | in
     `mae_reachable` over the values where the exact map is positive (reachable and not singular;
     NaN when there are none), `max_abs_error` (m³), `n_values`, `n_reachable`.
 
-    Raises:
-        ValueError: shapes that differ, empty arrays, NaN or infinite values.
+    Raises
+    ------
+    ValueError
+        shapes that differ, empty arrays, NaN or infinite values.
     """
     p = np.asarray(pred, dtype=np.float64)
     t = np.asarray(true, dtype=np.float64)

@@ -94,17 +94,23 @@ def make_map_spec(dataset: Dataset, *, nodes: ArrayLike | None = None, assemble:
                   subspace: int | None = None, threshold: float = 0.5) -> dict[str, Any]:
     """A `map_spec` dict (module docstring), before checking it against a model.
 
-    Args:
-        dataset: the `wsmap.datasets.DatasetSpec` the model was trained on, or its `to_dict()`.
-        nodes: `(start, stop)` or a slice of the spec grid's flat node order covered by the
-            model's outputs (0-based, stop exclusive; within the spec's labelled nodes). `None`:
-            the spec's labelled nodes (`wsmap.datasets.node_slice`); with `assemble` and a
-            node count different from the model's, `start` is kept and `stop` follows from
-            the model (see `set_map_spec`).
-        assemble: the S subspaces are consecutive node blocks of `m` nodes each, concatenated
-            in node order (section 6.2: 7 blocks of 1323 → the 9261-node map).
-        subspace: for a stacked model used without `assemble`, the subspace that predicts.
-        threshold: score threshold (`score > threshold` is reachable; the paper's 0.5).
+    Parameters
+    ----------
+    dataset
+        the `wsmap.datasets.DatasetSpec` the model was trained on, or its `to_dict()`.
+    nodes
+        `(start, stop)` or a slice of the spec grid's flat node order covered by the
+        model's outputs (0-based, stop exclusive; within the spec's labelled nodes). `None`:
+        the spec's labelled nodes (`wsmap.datasets.node_slice`); with `assemble` and a
+        node count different from the model's, `start` is kept and `stop` follows from
+        the model (see `set_map_spec`).
+    assemble
+        the S subspaces are consecutive node blocks of `m` nodes each, concatenated
+        in node order (section 6.2: 7 blocks of 1323 → the 9261-node map).
+    subspace
+        for a stacked model used without `assemble`, the subspace that predicts.
+    threshold
+        score threshold (`score > threshold` is reachable; the paper's 0.5).
     """
     spec = dataset if isinstance(dataset, DatasetSpec) else DatasetSpec.from_dict(dataset)
     if isinstance(nodes, slice):

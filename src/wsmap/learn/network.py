@@ -111,20 +111,30 @@ OUTPUT_KINDS = ("linear", "logit")
 class MLPConfig:
     """Architecture and input/output conventions of a `SubspaceMLP`.
 
-    Attributes:
-        n_inputs: features per sample in the stored layout the model is fed (84 for the 21³
-            grid: `[d_1..d_6, a_1..a_6, alpha_1..alpha_6, nx, ny, nz, fixed(3)]`).
-        n_outputs: outputs (nodes) per subspace, `m`.
-        hidden: hidden layer widths (the paper: `[125, 100, 100, 125]`).
-        activation: hidden activation, `"tanh"` (MATLAB `tansig`).
-        init: `"nguyen-widrow"` (MATLAB `initnw`) or `"torch"` (`nn.Linear` default).
-        input_columns: indices into the stored features that feed the first layer, in that
-            order; `None`: all `n_inputs`.
-        input_scaling: `"none"` (the paper: raw inputs) or `"standardize"` (per-subspace mean
-            and std, from training data, stored as buffers).
-        n_subspaces: S, parameter sets held by the model.
-        output_kind: `"linear"` (MSE/MAE-trained: threshold the raw output) or `"logit"`
-            (cross-entropy-trained: threshold `sigmoid(raw)`).
+    Attributes
+    ----------
+    n_inputs
+        features per sample in the stored layout the model is fed (84 for the 21³
+        grid: `[d_1..d_6, a_1..a_6, alpha_1..alpha_6, nx, ny, nz, fixed(3)]`).
+    n_outputs
+        outputs (nodes) per subspace, `m`.
+    hidden
+        hidden layer widths (the paper: `[125, 100, 100, 125]`).
+    activation
+        hidden activation, `"tanh"` (MATLAB `tansig`).
+    init
+        `"nguyen-widrow"` (MATLAB `initnw`) or `"torch"` (`nn.Linear` default).
+    input_columns
+        indices into the stored features that feed the first layer, in that
+        order; `None`: all `n_inputs`.
+    input_scaling
+        `"none"` (the paper: raw inputs) or `"standardize"` (per-subspace mean
+        and std, from training data, stored as buffers).
+    n_subspaces
+        S, parameter sets held by the model.
+    output_kind
+        `"linear"` (MSE/MAE-trained: threshold the raw output) or `"logit"`
+        (cross-entropy-trained: threshold `sigmoid(raw)`).
     """
 
     n_inputs: int
@@ -220,13 +230,17 @@ class SubspaceMLP(nn.Module):
     """S tanh MLPs with identical architecture, stacked: `weights[j]` is `(S, in_j, out_j)`,
     `biases[j]` `(S, out_j)`; buffers `input_mean`/`input_std` `(S, n_network_inputs)`.
 
-    Args:
-        config: `MLPConfig`.
-        input_range: first-layer input ranges for Nguyen–Widrow (see `reset_parameters`).
-        seeds: one seed per subspace; subspace `s` is then initialised from
-            `torch.Generator().manual_seed(seeds[s])` alone, so a stack built with `seeds`
-            equals the single models built with `[seeds[s]]` (and `from_models` of them).
-            `None`: the global torch RNG, subspace 0 first.
+    Parameters
+    ----------
+    config
+        `MLPConfig`.
+    input_range
+        first-layer input ranges for Nguyen–Widrow (see `reset_parameters`).
+    seeds
+        one seed per subspace; subspace `s` is then initialised from
+        `torch.Generator().manual_seed(seeds[s])` alone, so a stack built with `seeds`
+        equals the single models built with `[seeds[s]]` (and `from_models` of them).
+        `None`: the global torch RNG, subspace 0 first.
 
     Shapes: `n` samples, `f = config.n_inputs` stored features, `m = config.n_outputs`.
     """
@@ -473,17 +487,22 @@ class SubspaceMLP(nn.Module):
     def forward(self, x: torch.Tensor, key: str | None = None) -> torch.Tensor:
         """Raw outputs.
 
-        Args:
-            x: features in the stored layout (torch or numpy; cast to the parameters' dtype):
-                `(n, f)` shared by all subspaces, or `(S, n, f)` one batch per subspace
-                (only with `key=None`).
-            key: `None`: all subspaces -> `(S, n, m)` (also for S = 1). An int `k`:
-                subspace `k` only -> `(n, m)`. Per-sample keys `(n,)` (integer tensor,
-                array or list): sample `i` through subspace `key[i]` -> `(n, m)`, one
-                batched pass per distinct key.
+        Parameters
+        ----------
+        x
+            features in the stored layout (torch or numpy; cast to the parameters' dtype):
+            `(n, f)` shared by all subspaces, or `(S, n, f)` one batch per subspace
+            (only with `key=None`).
+        key
+            `None`: all subspaces -> `(S, n, m)` (also for S = 1). An int `k`:
+            subspace `k` only -> `(n, m)`. Per-sample keys `(n,)` (integer tensor,
+            array or list): sample `i` through subspace `key[i]` -> `(n, m)`, one
+            batched pass per distinct key.
 
-        Raises:
-            ValueError: wrong feature count, wrong shape, unknown key.
+        Raises
+        ------
+        ValueError
+            wrong feature count, wrong shape, unknown key.
         """
         x = self._as_tensor(x)
         if key is None:
@@ -681,32 +700,44 @@ class SubspaceMLP(nn.Module):
                      batch_size: int | None = None, *, allow_extrapolation: bool = False) -> np.ndarray:
         """Binary workspace maps of `arms` predicted by the network, in node order.
 
-        Args:
-            arms: a `DHRobot` with 6 joints: one arm (batch `()`) or a
-                batch of any shape `(...)`; finite DH values, no joint limits, no tool.
-            fixed: the orientation (R3 specs; angles in rad) or point (SO3 specs; m), `(3,)` or
-                `(B, 3)`. `None`: the spec's. Required for a spec with `fixed="random"`;
-                for a fixed spec it must equal the spec's (the model has seen no other).
-            threshold: score threshold in (0, 1); `None`: `map_spec["threshold"]`.
-            batch_size: arms per forward pass (memory); `None`: all at once.
-            allow_extrapolation: predict for arms outside `training_range` (or with a model
-                that records none) with an `ExtrapolationWarning`
-                instead of refusing them.
+        Parameters
+        ----------
+        arms
+            a `DHRobot` with 6 joints: one arm (batch `()`) or a
+            batch of any shape `(...)`; finite DH values, no joint limits, no tool.
+        fixed
+            the orientation (R3 specs; angles in rad) or point (SO3 specs; m), `(3,)` or
+            `(B, 3)`. `None`: the spec's. Required for a spec with `fixed="random"`;
+            for a fixed spec it must equal the spec's (the model has seen no other).
+        threshold
+            score threshold in (0, 1); `None`: `map_spec["threshold"]`.
+        batch_size
+            arms per forward pass (memory); `None`: all at once.
+        allow_extrapolation
+            predict for arms outside `training_range` (or with a model
+            that records none) with an `ExtrapolationWarning`
+            instead of refusing them.
 
-        Returns:
+        Returns
+        -------
+        np.ndarray
             bool `(..., N)` with `N` the covered nodes (`map_nodes`): for a model covering
             its whole R3 grid the array `wsmap.workspace.constant_orientation_map(arms,
             grid_nodes, fixed, convention=...)` would be (`orientation_map` for SO3), a
             single arm giving `(N,)`. Equal to `predict(features, threshold, key=subspace,
             assemble=...)` on `map_features`.
 
-        Raises:
-            ExtrapolationError: (a `ValueError`) arms outside the training range, or no training
-                range, without `allow_extrapolation`.
-            ValueError: no `map_spec`; arms with other than 6 joints, non-finite DH values,
-                joint limits or a tool; a `fixed` the model was not trained at; a threshold
-                outside (0, 1); a bad `batch_size`.
-            TypeError: `arms` is not a `DHRobot`.
+        Raises
+        ------
+        ExtrapolationError
+            (a `ValueError`) arms outside the training range, or no training
+            range, without `allow_extrapolation`.
+        ValueError
+            no `map_spec`; arms with other than 6 joints, non-finite DH values,
+            joint limits or a tool; a `fixed` the model was not trained at; a threshold
+            outside (0, 1); a bad `batch_size`.
+        TypeError
+            `arms` is not a `DHRobot`.
         """
         plan = self._require_plan()
         t = plan.threshold if threshold is None else check_threshold(threshold)

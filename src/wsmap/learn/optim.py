@@ -182,12 +182,18 @@ def charalambous_search(phi: Callable[[float], tuple[float, torch.Tensor]], f0: 
     srchcha: its tolerance is absolute (`delta/scale_tol`); here it is relative, so a search
     that has not yet found any decrease (`a = 0`) keeps contracting instead of giving up.
 
-    Args:
-        phi: `phi(t) -> (f, g)`: loss and flat gradient at `x0 + t·d`.
-        f0, g0: loss and gradient at `t = 0`; `d` must be a descent direction (`g0·d < 0`).
-        step0: first trial step `t`.
+    Parameters
+    ----------
+    phi
+        `phi(t) -> (f, g)`: loss and flat gradient at `x0 + t·d`.
+    f0, g0
+        loss and gradient at `t = 0`; `d` must be a descent direction (`g0·d < 0`).
+    step0
+        first trial step `t`.
 
-    Returns:
+    Returns
+    -------
+    tuple[float, float, torch.Tensor, int]
         `(t, f, g, evaluations)` at the best point found; `t = 0` (with `f0`, `g0`) when
         no point improved on the start. The caller must set the parameters to `x0 + t·d`.
     """

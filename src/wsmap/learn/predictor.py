@@ -109,32 +109,46 @@ def predict_maps_from_file(path: PathLike, arms: Arm | ArrayLike, fixed: ArrayLi
                           ) -> np.ndarray:
     """`predict_maps` of the model saved at `path`.
 
-    Args:
-        path: a model file written by `wsmap.learn.files.save` from a model with a
-            `map_spec` (and a training range).
-        arms, fixed, threshold, batch_size, allow_extrapolation: as `predict_maps`.
-        grid: optional dict with `scope` (`"R3"`/`"SO3"`), `lo`, `hi`, `step` (scalars
-            or 3 values; metres or radians) and optionally `shape` that the caller expects the
-            map on; it must be the model's grid, else `ValueError` names every difference.
-        convention: optional pose convention (`"paper"`/`"standard"`) the caller expects; must
-            be the model's.
-        whole_grid: require the model to cover every node of its grid (a flat map of the whole
-            grid, as `wsmap map` writes), not a node slice of it.
-        map_location: the torch device the model is loaded onto (default the CPU; files always
-            hold CPU tensors and are read and verified on the CPU).
-        device: the `device` setting instead (`"auto"`, `"cpu"`, `"cuda"`;
-            `wsmap.learn.device.resolve_device`, checked before the file is read); when
-            given it overrides `map_location`.
+    Parameters
+    ----------
+    path
+        a model file written by `wsmap.learn.files.save` from a model with a
+        `map_spec` (and a training range).
+    arms, fixed, threshold, batch_size, allow_extrapolation
+        as `predict_maps`.
+    grid
+        optional dict with `scope` (`"R3"`/`"SO3"`), `lo`, `hi`, `step` (scalars
+        or 3 values; metres or radians) and optionally `shape` that the caller expects the
+        map on; it must be the model's grid, else `ValueError` names every difference.
+    convention
+        optional pose convention (`"paper"`/`"standard"`) the caller expects; must
+        be the model's.
+    whole_grid
+        require the model to cover every node of its grid (a flat map of the whole
+        grid, as `wsmap map` writes), not a node slice of it.
+    map_location
+        the torch device the model is loaded onto (default the CPU; files always
+        hold CPU tensors and are read and verified on the CPU).
+    device
+        the `device` setting instead (`"auto"`, `"cpu"`, `"cuda"`;
+        `wsmap.learn.device.resolve_device`, checked before the file is read); when
+        given it overrides `map_location`.
 
-    Returns:
+    Returns
+    -------
+    np.ndarray
         bool `(..., N)` maps in node order.
 
-    Raises:
-        ModelFileError: an unreadable, corrupt or old file (from `load`).
-        ExtrapolationError: arms outside the model's training range, or a model without one,
-            unless `allow_extrapolation`.
-        ValueError: a model without `map_spec`; a grid, convention or coverage that does not
-            match; bad arms, `fixed`, threshold or batch size.
+    Raises
+    ------
+    ModelFileError
+        an unreadable, corrupt or old file (from `load`).
+    ExtrapolationError
+        arms outside the model's training range, or a model without one,
+        unless `allow_extrapolation`.
+    ValueError
+        a model without `map_spec`; a grid, convention or coverage that does not
+        match; bad arms, `fixed`, threshold or batch size.
     """
     if device is not None:
         map_location = resolve_device(device)

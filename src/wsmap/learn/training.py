@@ -311,18 +311,25 @@ def validation_stop(val_loss: Sequence[float], max_fail: int) -> dict[str, Any]:
     stop is the same whatever `max_fail` is, the replay is what a run with this `max_fail`
     would have recorded, without training it again.
 
-    Args:
-        val_loss: `(E + 1,)` validation loss at epochs 0..E (`History.val_loss` of one
-            session; NaN entries after a session stopped end the replay there).
-        max_fail: consecutive failures that stop (MATLAB's default 6); `>= 1`.
+    Parameters
+    ----------
+    val_loss
+        `(E + 1,)` validation loss at epochs 0..E (`History.val_loss` of one
+        session; NaN entries after a session stopped end the replay there).
+    max_fail
+        consecutive failures that stop (MATLAB's default 6); `>= 1`.
 
-    Returns:
+    Returns
+    -------
+    dict[str, Any]
         `stop_epoch` (the epoch the rule stops at; the last recorded epoch when it never
         fires), `stopped` (whether the rule fired), `best_epoch` and `best_val_loss` (the
         epoch whose parameters the run keeps and its validation loss).
 
-    Raises:
-        ValueError: `max_fail < 1`, an empty or non-1-D `val_loss`, or NaN at epoch 0.
+    Raises
+    ------
+    ValueError
+        `max_fail < 1`, an empty or non-1-D `val_loss`, or NaN at epoch 0.
     """
     if isinstance(max_fail, bool) or not isinstance(max_fail, numbers.Integral) or max_fail < 1:
         raise ValueError(f"max_fail must be an integer >= 1, got {max_fail!r}")
@@ -349,35 +356,50 @@ def validation_stop(val_loss: Sequence[float], max_fail: int) -> dict[str, Any]:
 class TrainConfig:
     """What `train` needs besides the model and data.
 
-    Attributes:
-        optimizer: name for `wsmap.learn.optim.make_optimizer` (`rprop`, `scg`, `cgb`,
-            `oss`, `gdx` or a MATLAB name), or `adam` (`MINIBATCH_OPTIMIZERS`);
-            `optimizer_kwargs` override its defaults (e.g. `{"lr": 1e-3}` for Adam).
-        loss: `mse`, `crossentropy` or `mae` (`make_loss`).
-        pos_weight: `crossentropy` only: the weight of positive targets (`make_loss`);
-            `None` (default) is 1, and is left out of `to_dict` so that settings hashed
-            before this option existed keep their hash.
-        max_epochs: optimiser steps at most (MATLAB `epochs`; the paper's section 6.1: 1000).
-        max_fail: consecutive validation failures that stop training (MATLAB `max_fail`,
-            default 6; the paper's section 6.2 used 100).
-        min_grad: stop when the L2 norm of the loss gradient is at most this.
-        goal: stop when the training loss is at most this (MATLAB `goal`, default 0).
-        time_limit_s: stop after this many seconds (`None`: no limit), per `train` call.
-        seed: split seed (session `s` of a stacked run uses `seed + s`); `train_sessions`
-            also seeds the initial weights with it.
-        fractions: train/validation/test fractions for `split_indices`.
-        track_test: also record the test-split loss every epoch (costs one more forward pass).
-        batch_size: samples per step; `None` (default): full batch, one step per epoch. Only
-            with `adam`; an epoch is then one shuffled pass (module docstring). A value above
-            the training split's size means full batch.
-        lr_decay: `None` (constant learning rate), `"cosine"` (`lr·(1 + cos(pi·t))/2` with
-            `t` the fraction of `max_epochs` done, updated every step) or `"cosine-time"`
-            (`t` the fraction of `time_limit_s` elapsed). Only with `adam`.
-        device: where `train` runs: `"auto"` (the GPU when `torch.cuda.is_available()`,
-            else the CPU), `"cpu"`, `"cuda"` / `"cuda:N"` (an error without a GPU), or
-            `None` (default): wherever the model's parameters already are (the networks are
-            built on the CPU). `train` moves the model there first (`wsmap.learn.device`);
-            the name is checked here, the GPU's presence when `train` starts.
+    Attributes
+    ----------
+    optimizer
+        name for `wsmap.learn.optim.make_optimizer` (`rprop`, `scg`, `cgb`,
+        `oss`, `gdx` or a MATLAB name), or `adam` (`MINIBATCH_OPTIMIZERS`);
+        `optimizer_kwargs` override its defaults (e.g. `{"lr": 1e-3}` for Adam).
+    loss
+        `mse`, `crossentropy` or `mae` (`make_loss`).
+    pos_weight
+        `crossentropy` only: the weight of positive targets (`make_loss`);
+        `None` (default) is 1, and is left out of `to_dict` so that settings hashed
+        before this option existed keep their hash.
+    max_epochs
+        optimiser steps at most (MATLAB `epochs`; the paper's section 6.1: 1000).
+    max_fail
+        consecutive validation failures that stop training (MATLAB `max_fail`,
+        default 6; the paper's section 6.2 used 100).
+    min_grad
+        stop when the L2 norm of the loss gradient is at most this.
+    goal
+        stop when the training loss is at most this (MATLAB `goal`, default 0).
+    time_limit_s
+        stop after this many seconds (`None`: no limit), per `train` call.
+    seed
+        split seed (session `s` of a stacked run uses `seed + s`); `train_sessions`
+        also seeds the initial weights with it.
+    fractions
+        train/validation/test fractions for `split_indices`.
+    track_test
+        also record the test-split loss every epoch (costs one more forward pass).
+    batch_size
+        samples per step; `None` (default): full batch, one step per epoch. Only
+        with `adam`; an epoch is then one shuffled pass (module docstring). A value above
+        the training split's size means full batch.
+    lr_decay
+        `None` (constant learning rate), `"cosine"` (`lr·(1 + cos(pi·t))/2` with
+        `t` the fraction of `max_epochs` done, updated every step) or `"cosine-time"`
+        (`t` the fraction of `time_limit_s` elapsed). Only with `adam`.
+    device
+        where `train` runs: `"auto"` (the GPU when `torch.cuda.is_available()`,
+        else the CPU), `"cpu"`, `"cuda"` / `"cuda:N"` (an error without a GPU), or
+        `None` (default): wherever the model's parameters already are (the networks are
+        built on the CPU). `train` moves the model there first (`wsmap.learn.device`);
+        the name is checked here, the GPU's presence when `train` starts.
     """
 
     optimizer: str = "rprop"
@@ -456,8 +478,10 @@ class History:
     """Per-epoch record. For a stacked run each value is a list of `S` (one per session; NaN
     once a session has stopped).
 
-    Attributes:
-        epoch: 0, 1, …; `loss`: training loss (minibatch runs: the mean minibatch loss of the
+    Attributes
+    ----------
+    epoch
+        0, 1, …; `loss`: training loss (minibatch runs: the mean minibatch loss of the
         epoch's pass); `grad_norm`: L2 norm of the training-loss gradient (the session's own
         parameters; NaN in minibatch runs); `val_loss`: validation loss (NaN without a
         validation split); `test_loss`: test loss (only with `track_test`; else empty);
@@ -508,18 +532,29 @@ class TrainResult:
     `best_val_loss`, `stop_reason`, `stop_epoch` and `split` are lists (one per session)
     and `sessions` gives one single-session view per session.
 
-    Attributes:
-        model: the trained model, parameters restored to the best epoch (of every session).
-        history: `History`.
-        best_epoch: epoch whose parameters were restored (best validation loss; best training loss
-            without a validation split).
-        best_val_loss: validation loss at `best_epoch` (NaN without validation).
-        stop_reason: one of `STOP_REASONS`.
-        stop_epoch: last epoch evaluated.
-        split: the `Split` used.
-        config: the `TrainConfig`.
-        n_sessions: `S` for a stacked model, `None` otherwise.
-        session: for a view from `sessions`, which slice of the stacked `model` it is.
+    Attributes
+    ----------
+    model
+        the trained model, parameters restored to the best epoch (of every session).
+    history
+        `History`.
+    best_epoch
+        epoch whose parameters were restored (best validation loss; best training loss
+        without a validation split).
+    best_val_loss
+        validation loss at `best_epoch` (NaN without validation).
+    stop_reason
+        one of `STOP_REASONS`.
+    stop_epoch
+        last epoch evaluated.
+    split
+        the `Split` used.
+    config
+        the `TrainConfig`.
+    n_sessions
+        `S` for a stacked model, `None` otherwise.
+    session
+        for a view from `sessions`, which slice of the stacked `model` it is.
     """
 
     model: nn.Module
@@ -999,18 +1034,25 @@ def train(model: nn.Module, X: ArrayLike | torch.Tensor, Y: ArrayLike | torch.Te
     """Train `model` on `(X, Y)` with early stopping, full batch or in minibatches
     (`config.batch_size`); see the module docstring.
 
-    Args:
-        model: maps float `(n, f)` inputs to raw `(n, m)` outputs, or a stacked model
-            (`(S, n, m)` outputs for `(n, f)` or `(S, n, f)` inputs, every parameter with
-            leading dimension `S`). Used as is: no dropout/batch-norm is expected.
-        X: `(n, f)` inputs; Y: `(n, m)` targets, or for a stacked model `(S, n, m)`: one
-            target set per session (e.g. the paper's 7 output blocks trained as one stack). Numpy
-            or torch; cast to the model's dtype and device (float32 for the networks).
-        config: `TrainConfig` (default: the paper's Rprop + MSE, 1000 epochs, max_fail 6).
-        split: a `Split`, or for a stacked model one split per session (equal sizes).
-            `None`: `split_indices(n, config.fractions, config.seed)`; for a stacked model
-            session `s` uses seed `config.seed + s` (as `train_sessions` does).
+    Parameters
+    ----------
+    model
+        maps float `(n, f)` inputs to raw `(n, m)` outputs, or a stacked model
+        (`(S, n, m)` outputs for `(n, f)` or `(S, n, f)` inputs, every parameter with
+        leading dimension `S`). Used as is: no dropout/batch-norm is expected.
+    X
+        `(n, f)` inputs; Y: `(n, m)` targets, or for a stacked model `(S, n, m)`: one
+        target set per session (e.g. the paper's 7 output blocks trained as one stack). Numpy
+        or torch; cast to the model's dtype and device (float32 for the networks).
+    config
+        `TrainConfig` (default: the paper's Rprop + MSE, 1000 epochs, max_fail 6).
+    split
+        a `Split`, or for a stacked model one split per session (equal sizes).
+        `None`: `split_indices(n, config.fractions, config.seed)`; for a stacked model
+        session `s` uses seed `config.seed + s` (as `train_sessions` does).
 
+    Notes
+    -----
     Each epoch `e` (parameters after `e` steps): evaluate training loss and gradient,
     validation loss, record them; update the best epoch (a strictly lower validation loss resets
     the failure count, a strictly higher one adds a failure, an equal one does neither, as
@@ -1019,12 +1061,16 @@ def train(model: nn.Module, X: ArrayLike | torch.Tensor, Y: ArrayLike | torch.Te
     minibatch steps (`batch_size`). At the end every session's parameters are restored to its
     best epoch.
 
-    Returns:
-        `TrainResult`.
+    Returns
+    -------
+    TrainResult
+        The model restored to its best epoch, its history and why it stopped.
 
-    Raises:
-        ValueError: shapes that do not fit, no samples, NaN or infinite values in `X` or `Y`,
-            bad splits, a model without trainable parameters.
+    Raises
+    ------
+    ValueError
+        shapes that do not fit, no samples, NaN or infinite values in `X` or `Y`,
+        bad splits, a model without trainable parameters.
     """
     config = TrainConfig() if config is None else config
     if config.device is not None:
@@ -1065,22 +1111,27 @@ def train_sessions(model_factory: Callable[[list[int]], nn.Module], X: ArrayLike
     The seed of a session fixes its initial weights (the global torch RNG is seeded with it before
     `model_factory` is called) and its split (`split_indices(n, config.fractions, seed)`).
 
-    Args:
-        model_factory: `model_factory(seeds) -> model`. Sequential runs call it once per session
-            with `[seed]`; a stacked run calls it once with all seeds and needs back a stacked
-            model with `S = len(seeds)` whose session `s` is initialised as
-            `model_factory([seeds[s]])` would be (so stacked and sequential runs agree).
-        stacked: train all sessions at once in one stacked model; only for elementwise optimisers
-            (`wsmap.learn.optim.ELEMENTWISE`, i.e. Rprop): with SCG/CGB/OSS/GDX a stacked run
-            couples the sessions (see the module docstring), so `True` raises `ValueError`.
-            Default `False` (one session after another): on a 2-core CPU, 10 stacked sessions of
-            the paper's [84 → 125, 100, 100, 125 → 1323] network on 7000 samples took 3.3–4.0 s
-            per epoch against 2.4–2.8 s for 10 sequential epochs (the per-session matrix products
-            already keep the cores busy; the stacked run only adds memory traffic). Stacking pays
-            where one session leaves the device idle (a GPU: `config.device`, the stacked model
-            runs there as a whole).
+    Parameters
+    ----------
+    model_factory
+        `model_factory(seeds) -> model`. Sequential runs call it once per session
+        with `[seed]`; a stacked run calls it once with all seeds and needs back a stacked
+        model with `S = len(seeds)` whose session `s` is initialised as
+        `model_factory([seeds[s]])` would be (so stacked and sequential runs agree).
+    stacked
+        train all sessions at once in one stacked model; only for elementwise optimisers
+        (`wsmap.learn.optim.ELEMENTWISE`, i.e. Rprop): with SCG/CGB/OSS/GDX a stacked run
+        couples the sessions (see the module docstring), so `True` raises `ValueError`.
+        Default `False` (one session after another): on a 2-core CPU, 10 stacked sessions of
+        the paper's [84 → 125, 100, 100, 125 → 1323] network on 7000 samples took 3.3–4.0 s
+        per epoch against 2.4–2.8 s for 10 sequential epochs (the per-session matrix products
+        already keep the cores busy; the stacked run only adds memory traffic). Stacking pays
+        where one session leaves the device idle (a GPU: `config.device`, the stacked model
+        runs there as a whole).
 
-    Returns:
+    Returns
+    -------
+    list[TrainResult]
         One `TrainResult` per session. In a stacked run they share the stacked `model`
         (each result's `session` says which slice is its own).
     """

@@ -63,11 +63,17 @@ def _fmt(v: float) -> str:
 class TrainingRange:
     """Per-feature `[low, high]` of a model's training inputs (float64 `(n_features,)` each).
 
-    Args:
-        low, high: the minimum and maximum of each stored feature over the training arms.
-        names: optional feature names (`wsmap.datasets.feature_names(spec)`: `d_1`, ..., `r_3`).
-        samples: how many training rows the range was taken from (`None`: unknown).
+    Parameters
+    ----------
+    low, high
+        the minimum and maximum of each stored feature over the training arms.
+    names
+        optional feature names (`wsmap.datasets.feature_names(spec)`: `d_1`, ..., `r_3`).
+    samples
+        how many training rows the range was taken from (`None`: unknown).
 
+    Notes
+    -----
     Immutable; compare with `==`. `to_dict` / `from_dict` give the plain form stored
     in model files, which also lists the fixed features (`low == high`) and their values.
     """

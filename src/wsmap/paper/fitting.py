@@ -106,15 +106,23 @@ def fit(ds: Dataset, train_config: TrainConfig, *, nodes=None, sessions: int = 1
     """Train `sessions` independent models on `ds` (session `s`: seed `train_config.seed + s`
     for its split and initial weights, as `wsmap.learn.training.train_mlp_sessions`).
 
-    Args:
-        ds: training dataset (the 70/15/15 split is drawn inside).
-        train_config: optimiser, loss, epochs, early stopping.
-        nodes: node slice to learn (`None`: all nodes of `ds`; `(start, stop)` 0-based).
-        hidden, mlp: architecture (`model_config`); the first layer is configured
-            (Nguyen–Widrow ranges, input standardisation) on the session's training split.
-        stacked: train the sessions as one stacked model (Rprop only; see `train_sessions`).
+    Parameters
+    ----------
+    ds
+        training dataset (the 70/15/15 split is drawn inside).
+    train_config
+        optimiser, loss, epochs, early stopping.
+    nodes
+        node slice to learn (`None`: all nodes of `ds`; `(start, stop)` 0-based).
+    hidden, mlp
+        architecture (`model_config`); the first layer is configured
+        (Nguyen–Widrow ranges, input standardisation) on the session's training split.
+    stacked
+        train the sessions as one stacked model (Rprop only; see `train_sessions`).
 
-    Returns:
+    Returns
+    -------
+    list[TrainResult]
         One `TrainResult` per session; `result.model` is restored to its best epoch.
     """
     sl = node_slice(nodes, ds.header["labels_shape"][1])

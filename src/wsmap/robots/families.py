@@ -106,13 +106,19 @@ class ArmFamily:
     A parameter is named after the table entry it sets: `"d3"` is the `d` of the joint-3 row,
     `"a4"` the `a` of the joint-4 row, `"alpha2"` the twist of the joint-2 row (1-based).
 
-    Attributes:
-        name: the family's name (the key of `FAMILIES`).
-        title: one line for people.
-        params: the names of the parameters, in their order (the columns of `params` arrays).
-        low, high: the range of every parameter (the draws are `U(low, high)`).
-        exact: every arm of the family has a closed-form inverse kinematics (`method="exact"`
-            maps and labels).
+    Attributes
+    ----------
+    name
+        the family's name (the key of `FAMILIES`).
+    title
+        one line for people.
+    params
+        the names of the parameters, in their order (the columns of `params` arrays).
+    low, high
+        the range of every parameter (the draws are `U(low, high)`).
+    exact
+        every arm of the family has a closed-form inverse kinematics (`method="exact"`
+        maps and labels).
     """
 
     name: str
@@ -395,13 +401,17 @@ def family_arm(name: str, params: ArrayLike, *, allow_extrapolation: bool = Fals
 
     Returns
     -------
-    A batch of shape `params.shape[:-1]` (`()` for one arm): a `SerialChain` with the
-    Panda's joint limits (rad) and flange for `panda7`, a `DHRobot` for the DH families;
-    `fkine` gives flange poses in the base frame (metres).
+    DHRobot or SerialChain
+        A batch of shape `params.shape[:-1]` (`()` for one arm): a `SerialChain` with the
+        Panda's joint limits (rad) and flange for `panda7`, a `DHRobot` for the DH families;
+        `fkine` gives flange poses in the base frame (metres).
 
-    An unknown family, a shape other than `(..., n_params)`, a value that is not valid (not
-    finite; a scale that is not positive), and a value out of range (without
-    `allow_extrapolation`) are each a `ValueError` naming the family, the parameter and the value.
+    Raises
+    ------
+    ValueError
+        An unknown family, a shape other than `(..., n_params)`, a value that is not valid (not
+        finite; a scale that is not positive), or a value out of range (without
+        `allow_extrapolation`), naming the family, the parameter and the value.
     """
     return arm_family(name).arms(params, allow_extrapolation=allow_extrapolation, stacklevel=3)
 

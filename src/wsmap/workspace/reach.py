@@ -292,17 +292,25 @@ def manipulability_maps(arms: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0, 0.0,
     family `|det J|` factorises in closed form (comments in the code), so no IK branches or
     Jacobians are built.
 
-    Args:
-        arms: a `DHRobot` of the spherical-wrist family, one arm or a
-            batch of any shape, without joint limits (the paper ignores them) or a tool.
-        nodes: `(N, 3)` flange positions in the base frame, metres.
-        rpy: the fixed orientation `R = Rx·Ry·Rz` (rad); `convention` as
-            `wsmap.workspace.target_poses` (the two agree at `rpy = (0, 0, 0)`).
-        atol: the reach tolerance of `wsmap.kinematics.ikine_spherical_wrist`.
+    Parameters
+    ----------
+    arms
+        a `DHRobot` of the spherical-wrist family, one arm or a
+        batch of any shape, without joint limits (the paper ignores them) or a tool.
+    nodes
+        `(N, 3)` flange positions in the base frame, metres.
+    rpy
+        the fixed orientation `R = Rx·Ry·Rz` (rad); `convention` as
+        `wsmap.workspace.target_poses` (the two agree at `rpy = (0, 0, 0)`).
+    atol
+        the reach tolerance of `wsmap.kinematics.ikine_spherical_wrist`.
 
-    Raises:
-        TypeError: `arms` is not a `DHRobot`.
-        ValueError: arms outside the family, arms with joint limits, bad nodes or convention.
+    Raises
+    ------
+    TypeError
+        `arms` is not a `DHRobot`.
+    ValueError
+        arms outside the family, arms with joint limits, bad nodes or convention.
     """
     if not isinstance(arms, DHRobot):
         raise TypeError(f"arms must be a DHRobot of the spherical-wrist family, got {type(arms).__name__}")

@@ -50,28 +50,40 @@ _NAME = re.compile(r"^[a-z][a-z0-9_]*$")
 class MapRequest:
     """What a kind's `compute` is asked for, besides the arm and the grid.
 
-    Attributes:
-        method: `"exact"`, `"numerical"` or `"model"` (`"auto"` lets the kind's function
-            choose, `wsmap.workspace.resolve_method`).
-        convention: the pose convention, `"standard"` (default) or `"paper"` (a kind with a fixed
-            `MapKind.convention` is always given that one).
-        rpy: the fixed orientation `(r1, r2, r3)` in radians, `R = Rx(r1)·Ry(r2)·Rz(r3)`.
-        point: the fixed point `(x, y, z)` in metres.
-        orientations: `(K, 3, 3)` rotation matrices, or `None` (kinds without `"orientations"`).
-        ik: the numerical settings: a `SearchSettings` (its `solver` the paper's one-start LM
-            or the search), or, during the transition from the `ik` dicts, a dict as a map file
-            records them (`wsmap.workspace.MAP_SETTINGS` keys, `tol`, `ilimit`, `rlimit`,
-            `seed`, `solver`), kept as given (the record) and converted into `settings`.
-        settings: the `SearchSettings` of `ik` (set on construction, not an argument), or None
-            where `ik` is empty: the kind's own defaults (`MapKind.search_settings`).
-        seed: the seed of random IK starts and of the orientation set.
-        model: a trained model file (`method="model"`); `allow_extrapolation` as
-            `wsmap.workspace.grid_map`.
-        progress: `True` for a progress bar on stderr, or a callable `progress(n)`
-            (`wsmap._progress`); every kind's function takes it.
-        collision: a configuration predicate (e.g. `wsmap.collision.CollisionChecker`) for
-            kinds that take one (`MapKind.collision`): a node counts only with a
-            collision-free solution; `None`: the chain's map.
+    Attributes
+    ----------
+    method
+        `"exact"`, `"numerical"` or `"model"` (`"auto"` lets the kind's function
+        choose, `wsmap.workspace.resolve_method`).
+    convention
+        the pose convention, `"standard"` (default) or `"paper"` (a kind with a fixed
+        `MapKind.convention` is always given that one).
+    rpy
+        the fixed orientation `(r1, r2, r3)` in radians, `R = Rx(r1)·Ry(r2)·Rz(r3)`.
+    point
+        the fixed point `(x, y, z)` in metres.
+    orientations
+        `(K, 3, 3)` rotation matrices, or `None` (kinds without `"orientations"`).
+    ik
+        the numerical settings: a `SearchSettings` (its `solver` the paper's one-start LM
+        or the search), or, during the transition from the `ik` dicts, a dict as a map file
+        records them (`wsmap.workspace.MAP_SETTINGS` keys, `tol`, `ilimit`, `rlimit`,
+        `seed`, `solver`), kept as given (the record) and converted into `settings`.
+    settings
+        the `SearchSettings` of `ik` (set on construction, not an argument), or None
+        where `ik` is empty: the kind's own defaults (`MapKind.search_settings`).
+    seed
+        the seed of random IK starts and of the orientation set.
+    model
+        a trained model file (`method="model"`); `allow_extrapolation` as
+        `wsmap.workspace.grid_map`.
+    progress
+        `True` for a progress bar on stderr, or a callable `progress(n)`
+        (`wsmap._progress`); every kind's function takes it.
+    collision
+        a configuration predicate (e.g. `wsmap.collision.CollisionChecker`) for
+        kinds that take one (`MapKind.collision`): a node counts only with a
+        collision-free solution; `None`: the chain's map.
     """
 
     method: str = "auto"
@@ -108,38 +120,58 @@ def _boolean_levels(values: ArrayLike) -> tuple[float, ...]:
 class MapKind:
     """One kind of workspace map.
 
-    Attributes:
-        name: the kind's name (`wsmap map --kind NAME`; the `"kind"` of a map file's settings):
-            lower case letters, digits and `_`.
-        scope: `"R3"` (nodes are positions, m) or `"SO3"` (nodes are angles `(r1, r2, r3)`, rad).
-        value_type: `bool` (one bit per node) or `float` (float64 per node, finite).
-        compute: `compute(robot, grid, request) -> (N,) array` of `value_type`: the map of one arm
-            (or of a batch, where `batch`) on the nodes of `grid`
-            (`wsmap.workspace.grid_spec`; node order x fastest) for a `MapRequest`.
-        function: the library function `compute` calls (its docstring gives units and conventions).
-        description: one line for `wsmap map --help`: what a node holds, which options it reads.
-        label: what a value is, with units (colour bars, point-cloud comments, HTML views).
-        noun: what a `True` node is, in a summary (`"reachable"`, `"dexterous"`); bool kinds.
-        inputs: the subset of `INPUTS` the kind reads.
-        methods: the subset of `METHODS` the kind has; a kind without `"exact"` is computed
-            numerically when the closed form is asked for (an arm with a closed form).
-        paper_solver: takes the paper's one-start LM (`ik={"solver": "paper"}`, `--paper-lm`).
-        batch: maps a batch of arms at once (otherwise one arm).
-        search_settings: the numerical search's defaults for this kind (what the command line's
-            `--starts`/`--retry`/... override).
-        convention: the pose convention the kind always uses, or `None` when it takes the caller's
-            (`"convention"` in `inputs`).
-        levels: `levels(values) -> tuple` of iso-surface levels of a map (`.glb` views).
-        value_range: `(lo, hi)` colour range of float maps; `None` for an end means the map's own.
-        priority: the kind's place in the registry's order (lower first: `--kind`'s choices,
-            `kinds`; the first of a scope is its `default_kind`).
-        poses: `poses(robot, grid, request) -> (values (N,), bits (N, K) bool, R (K, 3, 3))`: the
-            map together with the reachability of every node at each of the `K` orientations it
-            tested (`T = transl(p)·R_k`), one computation; what a Reuleaux HDF5 file stores
-            (`wsmap.workspace.save_reuleaux`, `wsmap map --h5`). `None`: the kind's values
-            are not reachability at a set of orientations, so it does not export.
-        collision: the kind's `compute` honours `MapRequest.collision` (self-collision and
-            obstacles, `wsmap map --collision/--scene`).
+    Attributes
+    ----------
+    name
+        the kind's name (`wsmap map --kind NAME`; the `"kind"` of a map file's settings):
+        lower case letters, digits and `_`.
+    scope
+        `"R3"` (nodes are positions, m) or `"SO3"` (nodes are angles `(r1, r2, r3)`, rad).
+    value_type
+        `bool` (one bit per node) or `float` (float64 per node, finite).
+    compute
+        `compute(robot, grid, request) -> (N,) array` of `value_type`: the map of one arm
+        (or of a batch, where `batch`) on the nodes of `grid`
+        (`wsmap.workspace.grid_spec`; node order x fastest) for a `MapRequest`.
+    function
+        the library function `compute` calls (its docstring gives units and conventions).
+    description
+        one line for `wsmap map --help`: what a node holds, which options it reads.
+    label
+        what a value is, with units (colour bars, point-cloud comments, HTML views).
+    noun
+        what a `True` node is, in a summary (`"reachable"`, `"dexterous"`); bool kinds.
+    inputs
+        the subset of `INPUTS` the kind reads.
+    methods
+        the subset of `METHODS` the kind has; a kind without `"exact"` is computed
+        numerically when the closed form is asked for (an arm with a closed form).
+    paper_solver
+        takes the paper's one-start LM (`ik={"solver": "paper"}`, `--paper-lm`).
+    batch
+        maps a batch of arms at once (otherwise one arm).
+    search_settings
+        the numerical search's defaults for this kind (what the command line's
+        `--starts`/`--retry`/... override).
+    convention
+        the pose convention the kind always uses, or `None` when it takes the caller's
+        (`"convention"` in `inputs`).
+    levels
+        `levels(values) -> tuple` of iso-surface levels of a map (`.glb` views).
+    value_range
+        `(lo, hi)` colour range of float maps; `None` for an end means the map's own.
+    priority
+        the kind's place in the registry's order (lower first: `--kind`'s choices,
+        `kinds`; the first of a scope is its `default_kind`).
+    poses
+        `poses(robot, grid, request) -> (values (N,), bits (N, K) bool, R (K, 3, 3))`: the
+        map together with the reachability of every node at each of the `K` orientations it
+        tested (`T = transl(p)·R_k`), one computation; what a Reuleaux HDF5 file stores
+        (`wsmap.workspace.save_reuleaux`, `wsmap map --h5`). `None`: the kind's values
+        are not reachability at a set of orientations, so it does not export.
+    collision
+        the kind's `compute` honours `MapRequest.collision` (self-collision and
+        obstacles, `wsmap map --collision/--scene`).
     """
 
     name: str
