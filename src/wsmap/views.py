@@ -204,12 +204,18 @@ def _iso(v: np.ndarray, shape, lo, step, level: float):
 def iso_mesh(values: ArrayLike, grid: Mapping[str, Any], level: float) -> Any:
     """Iso-surface of a map at `level` as a `trimesh.Trimesh` (marching cubes).
 
-    Args:
-        values: the map, `(N,)` numbers (or booleans) in node order, finite.
-        grid: its grid (`lo`, `step`, `shape`; see the module docstring).
-        level: the value of the surface (same units as `values`).
+    Parameters
+    ----------
+    values
+        the map, `(N,)` numbers (or booleans) in node order, finite.
+    grid
+        its grid (`lo`, `step`, `shape`; see the module docstring).
+    level
+        the value of the surface (same units as `values`).
 
-    Returns:
+    Returns
+    -------
+    trimesh.Trimesh
         The closed surface around the nodes above `level`: vertices `(V, 3)` in the grid's frame
         and units (metres for R3 grids), faces wound so normals point away from the values above
         `level`. The volume is padded by one layer of the map's lowest value (below `level`) so
@@ -395,28 +401,41 @@ def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points
               opacity: float | None = None, thresholds: Sequence[float] | None = None, cut_plane: bool = False) -> Any:
     """An interactive plotly `Figure` of a map (notebooks: display it; files: `save_html`).
 
-    Args:
-        values, grid: the map `(N,)` in node order and its grid (module docstring).
-        kind: `"points"` — one `Scatter3d` marker per node whose value is above `threshold`
-            (node order), coloured by value; `"iso"` — one `go.Isosurface` trace per level of
-            `levels` that some node is above (each exactly at its level, caps off).
-        title: the figure's title; `label`: the colour bar's title (what the value is, with units).
-        colormap: a plotly colour scale name; `vmin`/`vmax`: its range (default: the map's).
-        marker_size: points' size in pixels; `opacity`: the traces' (default 0.8 points, 0.35 iso).
-        thresholds: points only: several thresholds (e.g. `np.linspace(0, 0.9, 10)` for an index
-            map), one trace each (the nodes above it), and a slider "value >" under the scene
-            that shows one at a time (the lowest first; `threshold` is then not used).
-        cut_plane: a second slider, "z ≤" (the grid's third axis): the scene's third axis range
-            ends at the chosen layer, and plotly hides what lies beyond it, so that the inside
-            of the map shows; the scene then keeps the whole grid's proportions and x/y ranges
-            (`aspectmode="manual"`).
+    Parameters
+    ----------
+    values, grid
+        the map `(N,)` in node order and its grid (module docstring).
+    kind
+        `"points"` — one `Scatter3d` marker per node whose value is above `threshold`
+        (node order), coloured by value; `"iso"` — one `go.Isosurface` trace per level of
+        `levels` that some node is above (each exactly at its level, caps off).
+    title
+        the figure's title; `label`: the colour bar's title (what the value is, with units).
+    colormap
+        a plotly colour scale name; `vmin`/`vmax`: its range (default: the map's).
+    marker_size
+        points' size in pixels; `opacity`: the traces' (default 0.8 points, 0.35 iso).
+    thresholds
+        points only: several thresholds (e.g. `np.linspace(0, 0.9, 10)` for an index
+        map), one trace each (the nodes above it), and a slider "value >" under the scene
+        that shows one at a time (the lowest first; `threshold` is then not used).
+    cut_plane
+        a second slider, "z ≤" (the grid's third axis): the scene's third axis range
+        ends at the chosen layer, and plotly hides what lies beyond it, so that the inside
+        of the map shows; the scene then keeps the whole grid's proportions and x/y ranges
+        (`aspectmode="manual"`).
 
+    Notes
+    -----
     All traces share `layout.coloraxis` (one colour bar titled `label`). The scene's axes are
     titled with their units (`x (m)`, ... for R3; `r1 (rad)`, ... for SO3) and keep the grid's
     proportions (`aspectmode="data"`).
 
-    `ValueError`: a bad map or grid, an unknown `kind`, no node above `threshold` (points)
-    or above any level (iso), no levels.
+    Raises
+    ------
+    ValueError
+        A bad map or grid, an unknown `kind`, no node above `threshold` (points)
+        or above any level (iso), no levels.
     """
     go = require("plotly.graph_objects", extra="views", why="a 3-D view")
 

@@ -172,13 +172,18 @@ def plot_sections(pred: ArrayLike, truth: ArrayLike, shape: Sequence[int], *, la
     """One panel per sample: z-layer `layer` of its predicted map against the exact one,
     coloured by outcome (TP/FP/FN/TN, `wsmap.metrics.outcomes`, `OUTCOME_COLORS`).
 
-    Args:
-        pred, truth: bool `(samples, nx*ny*nz)` maps in node order (e.g. one block subspace,
-            shape `(21, 21, 3)`).
-        shape: `(nx, ny, nz)` of those maps; `layer`: index into the z-layers.
-        lo, step: the grid's x/y origin and spacing (axis extents); `z_value`: the layer's z,
-            for the title.
-        titles: one small title per panel.
+    Parameters
+    ----------
+    pred, truth
+        bool `(samples, nx*ny*nz)` maps in node order (e.g. one block subspace,
+        shape `(21, 21, 3)`).
+    shape
+        `(nx, ny, nz)` of those maps; `layer`: index into the z-layers.
+    lo, step
+        the grid's x/y origin and spacing (axis extents); `z_value`: the layer's z,
+        for the title.
+    titles
+        one small title per panel.
     """
     plt = _plt()
     from matplotlib.colors import ListedColormap
@@ -420,24 +425,35 @@ def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike
                 max_panels: int = 24, metadata: dict | None = None) -> Figure:
     """The z-layers of a BINARY map side by side, in the grid's units. Returns a matplotlib Figure.
 
-    Args:
-        flat_map: bool `(nx*ny*nz,)` in node order (first coordinate fastest).
-        shape: `(nx, ny, nz)`; `lo`, `step`: the grid's origin and spacing (scalars or 3-tuples;
-            metres for an R3 grid, radians for SO3), which place every cell: ticks in those units,
-            each panel titled with its layer's value (`z = 0.30 m`).
-        compare: a second map of the same shape (e.g. exact labels against a prediction): the cells
-            are coloured in `names` order as `flat_map` only, `compare` only, both
-            (`COMPARE_COLORS`); without it reachable against unreachable (`MAP_COLORS`).
-            A legend below the panels says which colour is which.
-        title: the figure's title, short (arm, kind, orientation, convention); the rest of the
-            settings belong in `metadata`.
-        ncols: panels per row (default up to 6); `labels`: the axes' names (`("r1", "r2", "r3")`
-            for SO3 maps: radians).
-        max_panels: at most this many panels: z-layers with no reachable node are left out and a
-            longer stack is thinned to evenly spaced layers (the legend's title says what was left out).
-        metadata: text stored in the PNG by `save_figure` (`{"Description": ...}`).
+    Parameters
+    ----------
+    flat_map
+        bool `(nx*ny*nz,)` in node order (first coordinate fastest).
+    shape
+        `(nx, ny, nz)`; `lo`, `step`: the grid's origin and spacing (scalars or 3-tuples;
+        metres for an R3 grid, radians for SO3), which place every cell: ticks in those units,
+        each panel titled with its layer's value (`z = 0.30 m`).
+    compare
+        a second map of the same shape (e.g. exact labels against a prediction): the cells
+        are coloured in `names` order as `flat_map` only, `compare` only, both
+        (`COMPARE_COLORS`); without it reachable against unreachable (`MAP_COLORS`).
+        A legend below the panels says which colour is which.
+    title
+        the figure's title, short (arm, kind, orientation, convention); the rest of the
+        settings belong in `metadata`.
+    ncols
+        panels per row (default up to 6); `labels`: the axes' names (`("r1", "r2", "r3")`
+        for SO3 maps: radians).
+    max_panels
+        at most this many panels: z-layers with no reachable node are left out and a
+        longer stack is thinned to evenly spaced layers (the legend's title says what was left out).
+    metadata
+        text stored in the PNG by `save_figure` (`{"Description": ...}`).
 
-    `ValueError` for a map or `compare` that does not fit `shape`, or `max_panels < 1`.
+    Raises
+    ------
+    ValueError
+        A map or `compare` that does not fit `shape`, or `max_panels < 1`.
     """
     plt = _plt()
     from matplotlib.colors import ListedColormap
@@ -482,24 +498,36 @@ def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | Array
     side by side in the grid's units, coloured by value, with one colour bar shared by every panel.
     Returns the Figure.
 
-    Args:
-        values: the map, `(nx*ny*nz,)` finite numbers in node order (first coordinate fastest).
-        shape: `(nx, ny, nz)`; `lo`, `step`: the grid's origin and spacing (scalars or
-            3-tuples; metres for R3 maps, radians for SO3): ticks in those units, each panel titled
-            with its layer's value (`z = 0.30 m`).
-        label: the colour bar's label: what the value is, with its units (`"manipulability (m³)"`).
-        vmin, vmax: the colour range (default: the map's minimum and maximum), the same in every panel.
-        labels: the axes' names (`("r1", "r2", "r3")` for SO3 maps); `cmap`: a matplotlib colormap.
-        max_panels: at most this many panels: layers with no value above `vmin` (nothing reachable)
-            are left out and a longer stack is thinned to evenly spaced layers (a note under the
-            panels says what was left out).
-        unreachable: nodes of exactly this value (default 0: where an index or a manipulability
-            map is unreachable) are drawn light grey, apart from the colour scale, with a legend entry
-            "unreachable"; `None` colours them by value too.
-        title: short; `metadata`: text stored in the PNG by `save_figure`.
+    Parameters
+    ----------
+    values
+        the map, `(nx*ny*nz,)` finite numbers in node order (first coordinate fastest).
+    shape
+        `(nx, ny, nz)`; `lo`, `step`: the grid's origin and spacing (scalars or
+        3-tuples; metres for R3 maps, radians for SO3): ticks in those units, each panel titled
+        with its layer's value (`z = 0.30 m`).
+    label
+        the colour bar's label: what the value is, with its units (`"manipulability (m³)"`).
+    vmin, vmax
+        the colour range (default: the map's minimum and maximum), the same in every panel.
+    labels
+        the axes' names (`("r1", "r2", "r3")` for SO3 maps); `cmap`: a matplotlib colormap.
+    max_panels
+        at most this many panels: layers with no value above `vmin` (nothing reachable)
+        are left out and a longer stack is thinned to evenly spaced layers (a note under the
+        panels says what was left out).
+    unreachable
+        nodes of exactly this value (default 0: where an index or a manipulability
+        map is unreachable) are drawn light grey, apart from the colour scale, with a legend entry
+        "unreachable"; `None` colours them by value too.
+    title
+        short; `metadata`: text stored in the PNG by `save_figure`.
 
-    `ValueError` for a map that does not fit `shape`, has NaN or infinite values, `vmax < vmin`
-    or `max_panels < 1`.
+    Raises
+    ------
+    ValueError
+        A map that does not fit `shape`, has NaN or infinite values, `vmax < vmin`
+        or `max_panels < 1`.
     """
     plt = _plt()
     v = np.asarray(values)
@@ -571,12 +599,17 @@ def map_title(arm: str, kind: Any, *, rpy: Sequence[float] | None = None, point:
     """A map picture's short title: the arm, the kind, its orientation (or point) and its pose convention,
     and on a second line `summary` (e.g. `"1883 of 9261 nodes reachable (numerical)"`).
 
-    Args:
-        arm: the arm's name; `kind`: its `wsmap.workspace.kinds.MapKind` (what it reads
-            decides what the title names: `rpy` in rad as `R = Rx·Ry·Rz`, `point` in m, the
-            number of `orientations`).
-        convention: `"paper"` or `"standard"`; the kind's own convention wins where it fixes one.
+    Parameters
+    ----------
+    arm
+        the arm's name; `kind`: its `wsmap.workspace.kinds.MapKind` (what it reads
+        decides what the title names: `rpy` in rad as `R = Rx·Ry·Rz`, `point` in m, the
+        number of `orientations`).
+    convention
+        `"paper"` or `"standard"`; the kind's own convention wins where it fixes one.
 
+    Examples
+    --------
     >>> from wsmap.workspace.kinds import get_kind
     >>> map_title("panda", get_kind("constant"), rpy=(math.pi, 0, 0), convention="standard")
     'panda: constant map, rpy (π, 0, 0) rad, standard convention T = transl(p)·R'
