@@ -59,6 +59,7 @@ import numpy as np
 
 from ..chain import PRISMATIC, SerialChain, flatten_arms
 from ..transforms import check_rigid
+from .fk_seeds import nearest_starts, sample_count
 from .kernel import arm_arrays, pose_keys, run_compiled, unsolved
 from .memo import Memo, as_chain_memo, chain_key
 from .reach_filter import limit_filter, position_filter, reach_filter
@@ -77,6 +78,9 @@ __all__ = ["MAP_SETTINGS", "SearchSettings", "map_search", "check_search", "broa
 _ARM_ARRAYS = Memo()
 # targets per call of the border search (bounds its (C, K, n) array of starts)
 _BORDER_CHUNK = 1 << 16
+#: Starts per node of the global seeding: the configurations of its nearest sampled poses
+#: (`wsmap.kinematics.ik.fk_seeds`), measured in `benchmarks/maps/bench_recall.py`.
+FK_STARTS_PER_NODE = 4
 
 
 def _check_count(name, v, minimum):
@@ -351,6 +355,7 @@ class _MapSearch:
         self.possible = self._possible(chain)
         self.q_init = self._q_init(q_init)
         self.keys_node = pose_keys(seed, T)
+        self.seed = seed
         self.aa = _ARM_ARRAYS.get(chain_key(self.flat), lambda: arm_arrays(self.flat))
         self.per_start = (s.ilimit, s.rlimit, s.tol, s.lam, s.confirm_tol, float(s.gtol))
         M = self.M
@@ -400,6 +405,8 @@ class _MapSearch:
         self.report(int(self.M - self.possible.sum()))
         self.first_pass()
         self.waves()
+        if s.fk_seeds:
+            self.fk_seed_pass()
         if s.retry:
             self.retries()
         if self.accept is not None and s.accept_retry:
@@ -415,7 +422,9 @@ class _MapSearch:
 
     def run(self, idx, qexp, nexp, k_first, k_last, seeded, per_start=None, free=None):
         """Run the kernel on targets `idx` from the explicit starts `qexp` (C, E, n) (`nexp`
-        of them per target), then random starts `k_first .. k_last - 1`; keep what it solved."""
+        of them per target), then random starts `k_first .. k_last - 1`; keep what it solved.
+        `seeded`: False for `q0` and random starts, else the `start` code of the explicit ones
+        (True: -2, a neighbour's solution; -3: a sampled configuration)."""
         if not idx.size:
             return 0
         free = (not seeded or self.s.seed_free_pass) if free is None else free
@@ -437,7 +446,7 @@ class _MapSearch:
         ok[idx] |= okk
         self.report(int(okk.sum()))
         if seeded:
-            self.start[idx[okk]] = -2
+            self.start[idx[okk]] = -2 if seeded is True else seeded
         else:
             # positions in the run's order (explicit q0 first) → random-start index k
             self.start[idx[okk]] = np.where(st[okk] < nexp[okk], 0, st[okk] - nexp[okk] + k_first)
@@ -505,6 +514,21 @@ class _MapSearch:
         qexp[:, 0] = np.where(given[:, None], q_init[first], q0)
         qexp[:, 1] = q0
         self.run(first, qexp, np.where(given, 2, 1).astype(np.int64), 1, 1 + starts, False)
+
+    def fk_seed_pass(self):
+        # global seeding (wsmap.kinematics.ik.fk_seeds): every node the first pass and the waves
+        # left takes the configurations of the sampled poses nearest its own as starts, so that a
+        # region no solved node borders (an island, or every node when q0 solves none) gets
+        # started; the waves then spread from what they solve
+        s = self.s
+        idx = np.flatnonzero(~self.ok & self.possible)
+        if not idx.size:
+            return
+        per_node = FK_STARTS_PER_NODE
+        qexp = nearest_starts(self.flat, self.T, self.arm_of[idx], self.node_of[idx],
+                              sample_count(s.fk_seeds, self.N), per_node, self.seed, s.position_only)
+        self.run(idx, qexp, np.full(idx.size, per_node, dtype=np.int64), 0, 0, -3)
+        self.waves()
 
     def retries(self):
         # only next to solved nodes: a reachable node that the waves missed borders solved ones (a

@@ -70,9 +70,9 @@ FK_CONFIRM_TOL = 1e-6
 #: solutions of its solved neighbours: recall at the edge of the reachable region by construction, not by
 #: tuning (YuMi's right arm, tool down, missed 5 of 2826 border nodes without it; `docs/recall.md`).
 MAP_SETTINGS = dict(starts=0, seeds=2, retry=4, hole_retry=16, ilimit=60, rlimit=10, gtol=1e-4, seed_free_pass=False,
-                    border_starts=DEFAULT_STARTS)
+                    border_starts=DEFAULT_STARTS, fk_seeds=1)
 
-_COUNTS = {"starts": 0, "seeds": 0, "retry": 0, "hole_retry": 0, "border_starts": 0, "accept_retry": 0,
+_COUNTS = {"starts": 0, "seeds": 0, "retry": 0, "hole_retry": 0, "border_starts": 0, "fk_seeds": 0, "accept_retry": 0,
            "ilimit": 0, "rlimit": 0, "chunk": 1}
 _FLAGS = ("joint_limits", "seed_free_pass", "limit_bound", "position_only")
 
@@ -103,6 +103,12 @@ class SearchSettings:
         test, both passes) that every node still unsolved next to a solved node gets once, after
         the solutions of its solved neighbours that the waves did not try; 0 turns the border
         search off.
+    fk_seeds : int
+        Global seeding (`wsmap.kinematics.ik.fk_seeds`): configurations sampled per node of the
+        map and arm (`sample_count`: at least 1024, rounded up to a power of two), whose forward
+        kinematics gives every node left unsolved by the first pass and its waves the
+        configuration of the sampled pose nearest its own as a start, so that regions no solved
+        node borders are searched too; 0 turns it off.
     accept_retry : int
         More random starts (in rounds of 4, each followed by waves) for the nodes whose solutions
         the search's `accept` predicate all refused.
@@ -146,6 +152,7 @@ class SearchSettings:
     retry: int | None = None
     hole_retry: int | None = None
     border_starts: int | None = None
+    fk_seeds: int | None = None
     accept_retry: int | None = None
     seed: int | None = None
     q0: tuple | None = None
