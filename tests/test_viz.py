@@ -181,7 +181,19 @@ def test_slices_thin_a_long_stack_and_keep_its_ends():
     fig = viz.plot_slices(reach, (5, 5, 30), 0.0, 0.05, max_panels=8)
     titles = [ax.get_title() for ax in fig.axes if ax.images]
     assert len(titles) == 8 and titles[0] == "z = 0.00 m" and titles[-1] == "z = 1.45 m"
-    assert fig.legends[0].get_title().get_text() == "8 of 30 non-empty z-layers shown, evenly spaced"
+    # the note names the layers drawn (the gaps are 4 or 5 layers: not evenly spaced)
+    drawn = ", ".join(t.split(" = ")[1][:-2] for t in titles)
+    assert fig.legends[0].get_title().get_text() == f"8 of 30 non-empty z-layers shown: z = {drawn} m"
+    assert drawn == "0.00, 0.20, 0.40, 0.60, 0.85, 1.05, 1.25, 1.45"
+    plt.close(fig)
+    # layers skipped for being empty, then thinned: the note names exactly the panels' layers
+    values = np.zeros((30, 5, 5))
+    values[[0, 1, 2, 10, 11, 20, 28, 29]] = 0.5
+    fig = viz.plot_value_slices(values.reshape(-1), (5, 5, 30), 0.0, 0.05, label="index", max_panels=4)
+    titles = [ax.get_title() for ax in fig.axes if ax.images]
+    assert titles == ["z = 0.00 m", "z = 0.10 m", "z = 1.00 m", "z = 1.45 m"]
+    assert fig.legends[0].get_title().get_text() == ("22 empty z-layers left out; 4 of 8 non-empty z-layers shown: "
+                                                     "z = 0.00, 0.10, 1.00, 1.45 m")
     plt.close(fig)
     with pytest.raises(ValueError, match="max_panels must be at least 1, got 0"):
         viz.plot_slices(reach, (5, 5, 30), max_panels=0)

@@ -363,10 +363,13 @@ def _units_of(labels: Sequence[str]) -> str:
     return "m" if tuple(labels) == ("x", "y", "z") else "rad"
 
 
-def _layers_shown(occupied: np.ndarray, max_panels: int) -> tuple[np.ndarray, str]:
+def _layers_shown(occupied: np.ndarray, max_panels: int, z: np.ndarray, name: str, units: str
+                  ) -> tuple[np.ndarray, str]:
     """The z-layers to draw and a note on what was left out: layers with nothing to see are dropped
     (all of them but the middle one when the whole map is empty), and more than `max_panels`
-    layers are thinned to evenly spaced ones, the first and last non-empty layer kept."""
+    layers are thinned to `max_panels` of them as evenly as whole layers allow, the first and last
+    non-empty layer kept; the note then names the layers drawn (`z` their values, `name` the
+    axis, in `units`), since the gaps between them are not all equal."""
     nz = occupied.size
     keep = np.flatnonzero(occupied)
     notes = []
@@ -377,7 +380,8 @@ def _layers_shown(occupied: np.ndarray, max_panels: int) -> tuple[np.ndarray, st
         notes.append(f"{nz - keep.size} empty z-layer{'s' if nz - keep.size > 1 else ''} left out")
     if keep.size > max_panels:
         pick = np.unique(np.round(np.linspace(0, keep.size - 1, max_panels)).astype(int))
-        notes.append(f"{pick.size} of {keep.size} non-empty z-layers shown, evenly spaced")
+        drawn = ", ".join(f"{v:.2f}" for v in np.asarray(z)[keep[pick]])
+        notes.append(f"{pick.size} of {keep.size} non-empty z-layers shown: {name} = {drawn} {units}")
         keep = keep[pick]
     return keep, "; ".join(notes)
 
@@ -446,7 +450,8 @@ def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike
         for SO3 maps: radians).
     max_panels
         at most this many panels: z-layers with no reachable node are left out and a
-        longer stack is thinned to evenly spaced layers (the legend's title says what was left out).
+        longer stack is thinned to `max_panels` layers, as evenly as whole layers allow (the
+        legend's title says what was left out and names the layers drawn).
     metadata
         text stored in the PNG by `save_figure` (`{"Description": ...}`).
 
@@ -475,7 +480,7 @@ def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike
         colors, vmax = COMPARE_COLORS, 3
         handles = [Patch(facecolor=c, label=n) for c, n in zip(COMPARE_COLORS[1:], names)]
         handles.append(Patch(facecolor=COMPARE_COLORS[0], edgecolor="0.6", label="neither"))
-    layers, note = _layers_shown(img.reshape(img.shape[0], -1).any(axis=1), int(max_panels))
+    layers, note = _layers_shown(img.reshape(img.shape[0], -1).any(axis=1), int(max_panels), ax_z, labels[2], units)
     extent = _cell_extent(ax_x, ax_y, step)
     fig, axes = _slice_grid(plt, layers.size, ncols, extent, labels, units)
     cmap = ListedColormap(list(colors))
@@ -514,8 +519,8 @@ def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | Array
         the axes' names (`("r1", "r2", "r3")` for SO3 maps); `cmap`: a matplotlib colormap.
     max_panels
         at most this many panels: layers with no value above `vmin` (nothing reachable)
-        are left out and a longer stack is thinned to evenly spaced layers (a note under the
-        panels says what was left out).
+        are left out and a longer stack is thinned to `max_panels` layers, as evenly as whole
+        layers allow (a note under the panels says what was left out and names the layers drawn).
     unreachable
         nodes of exactly this value (default 0: where an index or a manipulability
         map is unreachable) are drawn light grey, apart from the colour scale, with a legend entry
@@ -548,7 +553,8 @@ def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | Array
         raise ValueError(f"the colour range must be finite with vmin <= vmax, got vmin={lo_c}, vmax={hi_c}")
     ax_x, ax_y, ax_z = _axes_of(shape, lo, step)
     units = _units_of(labels)
-    layers, note = _layers_shown((vol > lo_c).reshape(vol.shape[0], -1).any(axis=1), int(max_panels))
+    layers, note = _layers_shown((vol > lo_c).reshape(vol.shape[0], -1).any(axis=1), int(max_panels), ax_z,
+                                 labels[2], units)
     extent = _cell_extent(ax_x, ax_y, step)
     fig, axes = _slice_grid(plt, layers.size, ncols, extent, labels, units)
     import matplotlib

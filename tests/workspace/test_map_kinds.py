@@ -62,8 +62,10 @@ def test_the_kinds_and_their_functions():
     assert kinds.get_kind("manipulability").levels(np.array([0.0, 1.0, 2.0, 3.0, 4.0])) == (1.75, 2.5, 3.25)
     assert kinds.get_kind("reach").levels(np.zeros(3)) == (0.5,)
     assert kinds.get_kind("dexterous").summary(np.array([True, False, True])) == "2 of 3 nodes dexterous"
+    # the mean over the reachable nodes, not the box (the unreachable 0 would make it 0.500)
     assert (kinds.get_kind("index").summary(np.array([0.0, 0.5, 1.0]))
-            == "2 of 3 nodes reachable, mean reachability index 0.500")
+            == "2 of 3 nodes reachable, mean reachability index over reachable nodes 0.750")
+    assert kinds.get_kind("index").summary(np.zeros(3)) == "0 of 3 nodes reachable"
 
 
 def test_every_module_of_the_package_registers_one_kind():

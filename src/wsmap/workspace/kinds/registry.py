@@ -235,12 +235,16 @@ class MapKind:
         return np.dtype(bool) if self.value_type is bool else np.dtype(np.float64)
 
     def summary(self, values: ArrayLike) -> str:
-        """One line on a computed map `values` (N,): how many nodes are reachable (and the mean value
-        of a float map)."""
+        """One line on a computed map `values` (N,): how many nodes are reachable (and, for a float
+        map, the mean value over the reachable nodes, those above 0: the box's unreachable nodes
+        would only dilute it by the box's size)."""
         values = np.asarray(values)
         if self.value_type is float:
-            return (f"{int((values > 0).sum())} of {values.size} nodes reachable, "
-                    f"mean {self.label} {values.mean():.3f}")
+            reached = values > 0
+            line = f"{int(reached.sum())} of {values.size} nodes reachable"
+            if reached.any():
+                line += f", mean {self.label} over reachable nodes {values[reached].mean():.3f}"
+            return line
         return f"{int(values.sum())} of {values.size} nodes {self.noun}"
 
 
