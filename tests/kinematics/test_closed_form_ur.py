@@ -268,17 +268,17 @@ def test_joint_limits_up_to_full_turns():
     limited = free.replace(qlim=qlim)
     sol = ikine_ur(limited, T)
     Q, V = sol.q, sol.success
-    np.testing.assert_array_equal(Q, Q0)  # limits only filter, the angles are the same
     expected = V0 & _in_range_mod_2pi(Q0, qlim[:, 0], qlim[:, 1])
     np.testing.assert_array_equal(V, expected)
     assert 0 < V.sum() < V0.sum()  # the limits do cut branches, not all of them
-    # every valid branch, moved by full turns, lies inside the limits as within_limits sees them
-    k = np.arange(-3, 4)[:, None, None, None]
-    shifted = Q[None] + TWO_PI * k
-    inside = (shifted >= qlim[:, 0] - 1e-12) & (shifted <= qlim[:, 1] + 1e-12)
-    best = np.where(inside, shifted, np.nan)
-    q_in = np.nanmax(best[:, V], axis=0)  # an equivalent inside, per joint of each valid branch
-    assert limited.within_limits(q_in).all()
+    # the limits only filter and move angles by whole turns: failing branches as they were, every
+    # valid branch the free solution's angles plus whole turns, inside the limits itself
+    np.testing.assert_array_equal(Q[~V], Q0[~V])
+    turns = (Q[V] - Q0[V]) / TWO_PI
+    np.testing.assert_allclose(turns, np.rint(turns), rtol=0, atol=1e-12)
+    assert np.all((Q[V] >= qlim[:, 0]) & (Q[V] <= qlim[:, 1]))
+    assert np.any(turns != 0)  # some angle did need a turn
+    assert limited.within_limits(Q[V]).all()
 
 
 def test_batched_limits_per_arm():
@@ -540,21 +540,27 @@ def _poses(rng, arms, n):
 
 
 def _assert_consistent(robot, T, atol=1e-9):
-    """The solver against itself and independent checks: the limits only filter (the angles are
-    those of the arm without limits), a branch succeeds exactly where the unlimited arm's branch does
-    and its angles lie inside the limits by :func:`_in_range_mod_2pi`, ``reason`` says which failed,
-    the reach-only path agrees with the full solve, and every success reproduces the pose by forward
-    kinematics. Returns ``success``."""
+    """The solver against itself and independent checks: the limits only filter and move angles
+    by whole turns (the angles are those of the arm without limits, a valid branch's moved into the
+    limits), a branch succeeds exactly where the unlimited arm's branch does and its angles lie
+    inside the limits by :func:`_in_range_mod_2pi`, ``reason`` says which failed, the reach-only
+    path agrees with the full solve, and every success reproduces the pose by forward kinematics.
+    Returns ``success``."""
     sol = ikine_ur(robot, T, atol)
     Q, V = sol.q, sol.success
     free = ikine_ur(robot.replace(qlim=None), T, atol)
-    np.testing.assert_array_equal(free.q, Q)
-    assert np.all(np.abs(Q) <= np.pi + 1e-12)
+    np.testing.assert_array_equal(free.q[~V], Q[~V])
+    turns = (Q - free.q) / TWO_PI
+    np.testing.assert_allclose(turns, np.rint(turns), rtol=0, atol=1e-12)
+    assert np.all(np.abs(free.q) <= np.pi + 1e-12)
     if robot.qlim is None:
         np.testing.assert_array_equal(V, free.success)
+        np.testing.assert_array_equal(free.q, Q)
     else:
         lim = np.broadcast_to(robot.qlim, robot.batch_shape + (6, 2))[..., None, :, :]
-        np.testing.assert_array_equal(V, free.success & _in_range_mod_2pi(Q, lim[..., 0], lim[..., 1]))
+        np.testing.assert_array_equal(V, free.success & _in_range_mod_2pi(free.q, lim[..., 0], lim[..., 1]))
+        inside = (Q >= lim[..., 0]) & (Q <= lim[..., 1])
+        assert inside.all(axis=-1)[V].all()
     expected = np.where(V, IKReason.SOLVED, np.where(free.success, IKReason.OUTSIDE_LIMITS, IKReason.OUT_OF_REACH))
     np.testing.assert_array_equal(sol.reason, expected)
     np.testing.assert_array_equal(ur_reachable(robot, T, atol), V.any(axis=-1))

@@ -12,7 +12,7 @@ import numpy as np
 
 from ...dh import DHRobot, angle_in_range, link_frames
 from ...transforms import check_rigid
-from ..registry import ClosedForm, register
+from ..registry import ClosedForm, register, within_limits
 from ..solution import IKReason, IKSolution
 from typing import TYPE_CHECKING
 
@@ -117,6 +117,7 @@ def _wrist_branches(robot, T, q1e, q2, q3):
     )  # (..., 2 shoulder, 2 wrist, 2 elbow, 3)
 
 
+@within_limits
 def ikine_spherical_wrist(robot: DHRobot, T: ArrayLike, atol: float = 1e-9) -> IKSolution:
     """All 8 closed-form solutions for spherical-wrist arms.
 
@@ -129,7 +130,8 @@ def ikine_spherical_wrist(robot: DHRobot, T: ArrayLike, atol: float = 1e-9) -> I
     Returns
     -------
     `IKSolution` with a branch axis: `q` (..., 8, 6) joint
-    angles in (-pi, pi], branch `k = 4·shoulder + 2·wrist + elbow`
+    angles in (-pi, pi] (a succeeding branch's moved by whole turns into the robot's limits,
+    `wsmap.kinematics.ik.registry.within_limits`), branch `k = 4·shoulder + 2·wrist + elbow`
     (`wsmap.kinematics.ik.registry`): shoulder 0 has `q1 = φ + asin(d3/r)` (`(r, φ)` the
     polar coordinates of the wrist centre); wrist 0 has `sin q5 >= 0` (the two wrist branches are
     each other's flip, `(q4 + pi, −q5, q6 + pi)`); elbow 0 has `sin(q3 + atan2(d4, a3)) >= 0`.

@@ -43,7 +43,7 @@ from ...chain import flatten_arms as _flat_arms
 from ...dh import angle_in_range
 from ...transforms import check_rigid
 from ..geometry import joint_lines
-from ..registry import ClosedForm, register
+from ..registry import ClosedForm, register, within_limits
 from ..solution import IKReason, IKSolution
 
 __all__ = ["is_spherical_wrist_offset", "require_spherical_wrist_offset", "ikine_spherical_wrist_offset",
@@ -240,6 +240,7 @@ def _branch_angles(q1e, q2, q3, q4s, q5s, q6s, shape):
     return np.where(q <= -np.pi, q + 2 * np.pi, q)
 
 
+@within_limits
 def ikine_spherical_wrist_offset(robot, T, atol: float = 1e-9) -> IKSolution:
     """All 8 closed-form solutions of an arm of the family (module notes).
 
@@ -257,8 +258,10 @@ def ikine_spherical_wrist_offset(robot, T, atol: float = 1e-9) -> IKSolution:
     Returns
     -------
     `IKSolution` with a branch axis: `q` (..., 8, 6) in
-    `(-pi, pi]` (rad), branch `k = 4·shoulder + 2·wrist + elbow` (module notes); `success`
-    (..., 8): confirmed and, where the robot has limits, inside them up to multiples of 2·pi;
+    `(-pi, pi]` (rad; a succeeding branch's moved by whole turns into the robot's limits,
+    `wsmap.kinematics.ik.registry.within_limits`), branch `k = 4·shoulder + 2·wrist + elbow`
+    (module notes); `success` (..., 8): confirmed and, where the robot has limits, inside them
+    up to multiples of 2·pi;
     `reason` `OUT_OF_REACH` where the branch does not reach the pose, `OUTSIDE_LIMITS` where
     it does outside the limits; `iterations` 0; `residual` the largest entry of
     `|fkine(q) − T|` (`inf` for a branch whose cosines are out of range, not evaluated).

@@ -55,7 +55,7 @@ from ...chain import PRISMATIC, SerialChain, as_chain
 from ...lm_compiled import cache_dir, threads_for
 from ...transforms import as_real_array, check_rigid
 from ..geometry import dh_equivalent
-from ..registry import ClosedForm, register
+from ..registry import ClosedForm, register, within_limits
 from ..solution import IKReason, IKSolution
 from typing import TYPE_CHECKING
 
@@ -293,6 +293,7 @@ def ur_parameters(robot: Arm, atol: float = 1e-9) -> URParameters:
                         base=base, flange=flange, qlim=qlim)
 
 
+@within_limits
 def ikine_ur(robot: Arm, T: ArrayLike, atol: float = 1e-9) -> IKSolution:
     """All 8 closed-form solutions of a UR-type arm (shoulder × wrist × elbow).
 
@@ -315,8 +316,9 @@ def ikine_ur(robot: Arm, T: ArrayLike, atol: float = 1e-9) -> IKSolution:
     `T.shape[:-2]` and the robot's batch shape:
 
     q : (..., 8, 6) float64
-        Joint coordinates (rad) in `[-pi, pi]`. Branch `k = 4·shoulder + 2·wrist + elbow`
-        (`wsmap.kinematics.ik.registry`), defined on the canonical angles `θ` (UR's table,
+        Joint coordinates (rad) in `[-pi, pi]`, except that a succeeding branch's angles are moved
+        by whole turns into the robot's limits (`wsmap.kinematics.ik.registry.within_limits`).
+        Branch `k = 4·shoulder + 2·wrist + elbow` (`wsmap.kinematics.ik.registry`), defined on the canonical angles `θ` (UR's table,
         `q = sign·θ − shift`, `URParameters`; for UR's own arms `θ = q`): shoulder 0:
         `θ1 = φ + asin(d4/r)`, 1: `φ + pi − asin(d4/r)`, with `(r, φ)` the polar coordinates
         of the wrist point `p − d6·z` in the joint-1 frame; wrist 0: `sin θ5 >= 0`, 1:
@@ -324,7 +326,7 @@ def ikine_ur(robot: Arm, T: ArrayLike, atol: float = 1e-9) -> IKSolution:
         are finite but meaningless.
     success : (..., 8) bool
         The branch reaches the pose (tolerance `atol`) and, if the robot has joint limits, every
-        joint lies inside them up to a multiple of 2·pi (`q` itself is not moved into the range).
+        joint lies inside them up to a multiple of 2·pi (and `q` is moved there).
     reason : (..., 8) `OUT_OF_REACH` where the branch does not reach the pose, `OUTSIDE_LIMITS`
         where it reaches it outside the limits; `iterations` 0, `residual` NaN.
 
