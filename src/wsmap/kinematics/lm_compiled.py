@@ -85,7 +85,7 @@ from numba import njit
 
 __all__ = ["MODE_SEARCH", "MODE_PAPER", "MODE_POSITION", "TARGETS_PER_TASK", "ArmBatch", "Targets", "LMSettings",
            "Answers", "KernelCall", "call_fields", "lm_settings", "set_threads", "threads", "threads_for", "run_targets", "pose_keys",
-           "orbit_test", "cache_dir", "needs_compile", "estimate", "builds_for", "record_compile_seconds"]
+           "orbit_test", "cache_dir", "needs_compile", "loadable", "estimate", "builds_for", "record_compile_seconds"]
 
 
 def cache_dir() -> str:
@@ -1071,9 +1071,10 @@ _ESTIMATE_FILE = "wsmap_compile_seconds.txt"
 _HELPERS = ("pose_keys", "orbit_test")
 
 
-def _loadable(dispatcher) -> bool:
-    """Whether `dispatcher` is compiled in this process or has a cache entry this process can load
-    (this CPU, this source), read from numba's cache index as `_bind_callees` does."""
+def loadable(dispatcher) -> bool:
+    """Whether `dispatcher` (a `numba.njit` function with `cache=True`) is compiled in this process
+    or has a cache entry this process can load (this CPU, this source), read from numba's cache
+    index as `_bind_callees` does; False: its next call compiles it."""
     if dispatcher.overloads:
         return True
     cache = dispatcher._cache
@@ -1089,7 +1090,7 @@ def needs_compile(joints=(6, 7)) -> bool:
     search on the lane kernel (`wsmap.kinematics.lm_lanes`) compiles."""
     builds = builds_for(joints)
     names = _HELPERS + ((_CALLEES + tuple(b.py_func.__name__ for b in builds)) if builds else ())
-    return not all(_loadable(globals()[name]) for name in names)
+    return not all(loadable(globals()[name]) for name in names)
 
 
 def estimate() -> int:

@@ -52,7 +52,8 @@ from numba import njit, prange
 
 from ...arms import ArmBatch
 from ...chain import PRISMATIC, SerialChain, as_chain
-from ...lm_compiled import cache_dir, threads_for
+from ...._progress import notice
+from ...lm_compiled import cache_dir, loadable, threads_for
 from ...transforms import as_real_array, check_rigid
 from ..geometry import dh_equivalent
 from ..registry import ClosedForm, register, within_limits
@@ -80,6 +81,9 @@ _TWO_PI = 2.0 * np.pi
 _SINGULAR = 1e-12
 # Rigid-transform tolerance of the target check, as wsmap.kinematics.transforms.check_rigid.
 _RIGID_TOL = 1e-6
+#: The notice's estimate of `_run`'s first build (s): a first exact UR5e map in an empty cache took
+#: 29.4 s of CPU (34.8 s wall) on the development machine, one thread (docs/install.md).
+COMPILE_SECONDS = 30
 
 
 class URParameters(NamedTuple):
@@ -447,6 +451,8 @@ def _ikine_compiled(prm, T, atol, full):
         q, valid, reach = np.empty((M, 8, 6)), np.empty((M, 8), dtype=bool), np.empty(0, dtype=bool)
     else:
         q, valid, reach = _NO_Q, _NO_VALID, np.empty(M, dtype=bool)
+    if not loadable(_run):  # its first build, once per machine (numba's cache): at 0 % on the bar for that long
+        notice(f"compiling the UR closed form (numba, once per machine; about {COMPILE_SECONDS} s)...")
     # about 33 ns a pose on the reachability path: one thread below some 10^5 poses
     with threads_for(M, 4096 if full else 65536):
         _run(Tf, tix, arm, par, int(bits[mapped].sum()), int(bits[limited].sum()), base_mode, Binv, flange_mode, Finv,
