@@ -16,7 +16,14 @@
   with two parents, or a cycle), a NaN or infinite number in an origin, an axis or a limit,
   limits with `lower > upper`, a `<limit>` on the chain without the `effort` or `velocity`
   the specification requires, a `<robot>` without a name, and unexpanded xacro;
-* meshes are never loaded, so a URDF whose meshes are missing reads the same.
+* meshes are never loaded, so a URDF whose meshes are missing reads the same;
+* a revolute joint whose limits reach beyond `UNBOUNDED_LIMIT` (1e6 rad, 160,000 turns) on
+  either side, spanning at least a turn, is read as continuous (`±inf`): it reaches every angle,
+  and float64 angles that large lose the precision the searches wrap by (±1e308 found 3 of a map's
+  4 nodes where `continuous` found all 4); such a limit spanning less than a turn is refused;
+* the XML is refused before it is parsed into a tree when it declares entities (`<!ENTITY>`:
+  an entity bomb expands a kilobyte into gigabytes; URDF has no use for them) or nests deeper
+  than `MAX_XML_DEPTH` levels (URDF needs five; the tree walks recurse).
 
 The transforms come from yourdfpy's joint objects (origins with `rpy`:
 `R = Rz(yaw) · Ry(pitch) · Rx(roll)`, the URDF convention). yourdfpy is lax about broken files
@@ -40,7 +47,13 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import PathLike
 
-__all__ = ["URDFError", "URDFWarning", "URDFTree", "from_urdf", "parse_xml", "read_source", "rpy_matrix"]
+__all__ = ["URDFError", "URDFWarning", "URDFTree", "from_urdf", "parse_xml", "read_source", "rpy_matrix",
+           "UNBOUNDED_LIMIT", "MAX_XML_DEPTH"]
+
+#: Limits (rad) of a revolute joint beyond which it is read as continuous (module notes).
+UNBOUNDED_LIMIT = 1e6
+#: The deepest element nesting a URDF may have (`<robot><link><collision><geometry><mesh>` is 5).
+MAX_XML_DEPTH = 64
 
 #: Joint types of the URDF specification.
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
@@ -99,6 +112,35 @@ def _local(tag) -> str:
     return tag.rsplit("}", 1)[-1] if isinstance(tag, str) else ""
 
 
+def _prescan(data: bytes, label: str) -> None:
+    """Refuse entity declarations and deep nesting while expat streams the XML, before a tree is
+    built (expat's own guard stops only the largest entity expansions, and the tree's walks
+    recurse)."""
+    from xml.parsers import expat
+
+    parser = expat.ParserCreate()
+    depth = [0]
+
+    def start(name, attrs):
+        depth[0] += 1
+        if depth[0] > MAX_XML_DEPTH:
+            raise URDFError(f"{label} nests its elements deeper than {MAX_XML_DEPTH} levels (at line "
+                            f"{parser.CurrentLineNumber}); a URDF needs five")
+
+    def end(name):
+        depth[0] -= 1
+
+    def entity(name, *args):
+        raise URDFError(f"{label} declares the XML entity {name!r} (line {parser.CurrentLineNumber}); a URDF "
+                        "declares none (an entity bomb expands a few lines into gigabytes)")
+
+    parser.StartElementHandler, parser.EndElementHandler, parser.EntityDeclHandler = start, end, entity
+    try:
+        parser.Parse(data, True)
+    except expat.ExpatError as exc:
+        raise URDFError(f"{label} is not XML: {exc}") from None
+
+
 def parse_xml(data: bytes, label: str) -> ET.Element:
     """The `<robot>` element of a URDF's XML, checked, with every tag by its local name.
 
@@ -118,8 +160,10 @@ def parse_xml(data: bytes, label: str) -> ET.Element:
     Raises
     ------
     URDFError
-        Not XML, a root that is not `<robot>`, a `<robot>` without a name, or unexpanded xacro.
+        Not XML, entity declarations, nesting deeper than `MAX_XML_DEPTH`, a root that is not
+        `<robot>`, a `<robot>` without a name, or unexpanded xacro.
     """
+    _prescan(data, label)
     try:
         root = ET.fromstring(data)
     except ET.ParseError as exc:
@@ -350,6 +394,12 @@ def _limits(label: str, jname: str, jtype: str, el: ET.Element) -> tuple[float, 
         raise URDFError(f"{label}: joint {jname!r} has lower limit {lo} above its upper limit {hi}")
     if jtype == "prismatic" and not (np.isfinite(lo) and np.isfinite(hi)):
         raise URDFError(f"{label}: prismatic joint {jname!r} needs finite limits, got [{lo}, {hi}]")
+    if jtype == "revolute" and max(-lo, hi) > UNBOUNDED_LIMIT:
+        # every angle is in reach, and angles this large have lost the precision the searches wrap by
+        if hi - lo >= 2 * np.pi:
+            return -np.inf, np.inf
+        raise URDFError(f"{label}: joint {jname!r} has limits [{lo:g}, {hi:g}] rad, beyond ±{UNBOUNDED_LIMIT:g} rad "
+                        "yet less than a turn apart; give them within one turn of 0 (or declare it continuous)")
     return lo, hi
 
 
