@@ -204,8 +204,24 @@ def read_mesh(path: str, label: str, scale=(1.0, 1.0, 1.0)) -> tuple[np.ndarray,
     return v, f
 
 
+def _description_root(folder: str) -> str:
+    """The top of the description's tree a URDF in `folder` may reach by relative names: the nearest
+    folder at or above it holding a ROS `package.xml`, else the folder just above it."""
+    d = folder
+    while True:
+        if os.path.isfile(os.path.join(d, "package.xml")):
+            return d
+        if os.path.dirname(d) == d:
+            return os.path.dirname(folder)
+        d = os.path.dirname(d)
+
+
+def _inside(path: str, root: str) -> bool:
+    return os.path.commonpath([path, root]) == root
+
+
 def resolve_mesh(filename: str, urdf_dir: str | None) -> str:
-    """A URDF mesh reference as a path.
+    """A URDF mesh reference as a path, kept inside the description's tree (module notes).
 
     Parameters
     ----------
@@ -220,13 +236,25 @@ def resolve_mesh(filename: str, urdf_dir: str | None) -> str:
     str
         The path (a `package://` reference found nowhere: `rest` beside the URDF, which the reader
         then reports as missing).
+
+    Raises
+    ------
+    CollisionError
+        A `package://` name whose package is not one folder name or whose rest climbs with `..`,
+        and a relative name that climbs above the description's tree (the nearest folder holding a
+        `package.xml`, else the folder above the URDF's): `package://../../etc/passwd` reads
+        nothing.
     """
     if filename.startswith("file://"):
         filename = filename[len("file://"):]
-    base = urdf_dir or os.getcwd()
+    base = os.path.abspath(urdf_dir or os.getcwd())
     if filename.startswith("package://"):
         pkg, _, rest = filename[len("package://"):].partition("/")
-        d = os.path.abspath(base)
+        parts = rest.replace("\\", "/").split("/")
+        if pkg in ("", ".", "..") or "\\" in pkg or not rest or rest.startswith("/") or ".." in parts:
+            raise CollisionError(f"mesh {filename!r} climbs out of its package: a package:// name is "
+                                 "package://PACKAGE/PATH inside that package, without '..'")
+        d = base
         while True:
             for cand in (os.path.join(d, pkg, rest), os.path.join(d, rest)):
                 if os.path.isfile(cand):
@@ -234,7 +262,14 @@ def resolve_mesh(filename: str, urdf_dir: str | None) -> str:
             if os.path.dirname(d) == d:
                 return os.path.join(base, rest)
             d = os.path.dirname(d)
-    return filename if os.path.isabs(filename) else os.path.join(base, filename)
+    if os.path.isabs(filename):
+        return filename  # the author's explicit path
+    path = os.path.normpath(os.path.join(base, filename))
+    root = _description_root(base)
+    if not _inside(path, root):
+        raise CollisionError(f"mesh {filename!r} climbs out of the description's tree ({root!r}: the folder holding "
+                             "its package.xml, else the one above the URDF's); a relative mesh name stays inside it")
+    return path
 
 
 def _hull_slab_points(hull_v, edges, axis, lo, hi):
