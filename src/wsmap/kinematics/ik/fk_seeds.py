@@ -5,8 +5,8 @@ neighbours, so a reachable region that no solved node borders (an island: anothe
 arm, a pocket behind a joint limit, or every node when start 0 solves none) is never searched.
 Global seeding gives every such region a start from the arm's own configurations:
 
-* **samples**: `count` configurations per arm, a low-discrepancy sequence (Roberts' R_d, shifted
-  by `seed`: the same seed gives the same samples) mapped into the box the random starts are
+* **samples**: `count` configurations per arm, a low-discrepancy sequence (Halton's, shifted by
+  `seed`: the same seed gives the same samples) mapped into the box the random starts are
   drawn in (`wsmap.kinematics.ik.kernel.start_box`: the limits, `[-pi, pi)` where a
   revolute joint has none), and their tool poses by one vectorised float64 forward kinematics;
 * **nearest samples**: a pose is embedded as the 12-vector `(p / L, vec(R) / sqrt(2))`, `p` the
@@ -32,7 +32,7 @@ import numpy as np
 from .kernel import mix, start_box
 from .memo import Memo, chain_key
 
-__all__ = ["sample_count", "sample_configurations", "pose_features", "nearest_starts", "MIN_SAMPLES"]
+__all__ = ["sample_count", "sample_configurations", "halton", "pose_features", "nearest_starts", "MIN_SAMPLES"]
 
 #: The fewest configurations sampled per arm (a small grid still covers the arm's joint space).
 MIN_SAMPLES = 1024
@@ -49,26 +49,42 @@ def sample_count(per_node: int, nodes: int) -> int:
     return 1 << int(math.ceil(math.log2(max(per_node * nodes, MIN_SAMPLES))))
 
 
-def _rd_alpha(d: int) -> np.ndarray:
-    """The additive-recurrence steps `(d,)` of Roberts' R_d sequence: `1 / phi_d**(j + 1)`, with
-    `phi_d` the positive root of `x**(d + 1) = x + 1` (the golden ratio for `d = 1`)."""
-    phi = 2.0
-    for _ in range(64):  # a contraction: 64 steps reach the float64 root for any d
-        phi = (1.0 + phi) ** (1.0 / (d + 1))
-    return phi ** -np.arange(1, d + 1, dtype=np.float64)
+def _primes(count: int) -> list[int]:
+    """The first `count` primes."""
+    out: list[int] = []
+    k = 2
+    while len(out) < count:
+        if all(k % p for p in out if p * p <= k):
+            out.append(k)
+        k += 1
+    return out
+
+
+def halton(count: int, dim: int) -> np.ndarray:
+    """The points `1 .. count` of the Halton sequence in `[0, 1)^dim` `(count, dim)`: coordinate
+    `j` the radical inverse of the point's index in the `j`-th prime base (exact in float64 for
+    `count < 2**53`)."""
+    k = np.arange(1, count + 1, dtype=np.int64)
+    out = np.zeros((count, dim))
+    for j, base in enumerate(_primes(dim)):  # a loop over joints and digits, not over samples
+        rest, scale = k.copy(), 1.0 / base
+        while rest.any():
+            out[:, j] += (rest % base) * scale
+            rest //= base
+            scale /= base
+    return out
 
 
 def sample_configurations(chain, count: int, seed: int) -> np.ndarray:
     """`count` joint configurations `(count, n)` of one arm (rad; m for prismatic joints) inside
-    its start box (`start_box`): the points `frac(shift + k·alpha)`, `k = 1 .. count`, of
-    Roberts' R_d low-discrepancy sequence (`alpha` from `_rd_alpha`), shifted by a random vector
-    of `seed` (splitmix64 of the seed and the joint: a Cranley–Patterson rotation, so the same
-    seed gives the same samples), scaled into the box."""
+    its start box (`start_box`): the Halton sequence (`halton`), every coordinate shifted modulo 1
+    by a number of `seed` (splitmix64 of the seed and the joint: a Cranley–Patterson rotation, so
+    the same seed gives the same samples and each joint's projection stays evenly spread), scaled
+    into the box."""
     n = chain.n
     words = mix(np.uint64(int(seed) % 2**64) ^ mix(np.arange(1, n + 1, dtype=np.uint64)))
     shift = (words >> np.uint64(11)).astype(np.float64) * 2.0**-53
-    k = np.arange(1, count + 1, dtype=np.float64)[:, None]
-    u = np.mod(shift + k * _rd_alpha(n), 1.0)
+    u = np.mod(halton(count, n) + shift, 1.0)
     lo, hi = start_box(np.asarray(chain.limits, dtype=np.float64))
     with np.errstate(over="ignore", invalid="ignore"):
         q = lo + u * (hi - lo)

@@ -80,7 +80,7 @@ _ARM_ARRAYS = Memo()
 _BORDER_CHUNK = 1 << 16
 #: Starts per node of the global seeding: the configurations of its nearest sampled poses
 #: (`wsmap.kinematics.ik.fk_seeds`), measured in `benchmarks/maps/bench_recall.py`.
-FK_STARTS_PER_NODE = 4
+FK_STARTS_PER_NODE = 8
 
 
 def _check_count(name, v, minimum):
