@@ -23,13 +23,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import CollisionError
+from .fields import shown
 from .geometry import CollisionModel
 
-__all__ = ["REASONS", "ACM", "build_acm", "DEFAULT_SAMPLES"]
+__all__ = ["REASONS", "ACM", "build_acm", "DEFAULT_SAMPLES", "MAX_SAMPLES"]
 
 REASONS = ("rigid", "adjacent", "default", "never", "user")
 #: Random configurations of the "never in collision" test (MoveIt's default).
 DEFAULT_SAMPLES = 10000
+#: The most of them: 100 times MoveIt's default, minutes of coal tests for an arm of meshes (10^11
+#: would run for days).
+MAX_SAMPLES = 1_000_000
 
 
 @dataclass(eq=False)
@@ -73,7 +77,7 @@ def _user_pairs(model: CollisionModel, disable) -> list[tuple[int, int]]:
     out = []
     for item in disable:
         if isinstance(item, str) or not isinstance(item, Iterable) or len(tuple(item)) != 2:
-            raise CollisionError(f"allowed-collision matrix: disable takes pairs of link names, got {item!r}")
+            raise CollisionError(f"allowed-collision matrix: disable takes pairs of link names, got {shown(item)}")
         a, b = tuple(item)
         for x in (a, b):
             if x not in model.names:
@@ -92,8 +96,8 @@ def build_acm(model: CollisionModel, *, samples: int = DEFAULT_SAMPLES, seed: in
     `default_q` `(n,)` the default configuration (default `0` clipped into the limits)."""
     from .checks import exact_pairs
 
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
-        raise CollisionError(f"samples must be a non-negative integer, got {samples!r}")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 0 <= samples <= MAX_SAMPLES:
+        raise CollisionError(f"samples must be a whole number from 0 to {MAX_SAMPLES}, got {samples!r}")
     user = _user_pairs(model, disable)
     chain = model.chain
     links = model.links
@@ -139,7 +143,8 @@ def acm_from_record(model: CollisionModel, record: Mapping) -> ACM:
     `model`'s links."""
     names = tuple(record.get("links", ()))
     if names != model.names:
-        raise CollisionError(f"allowed-collision matrix names links {list(names)}, the model has {list(model.names)}")
+        raise CollisionError(f"allowed-collision matrix names the links {', '.join(map(str, names)) or 'none'}; the "
+                             f"model has {', '.join(model.names)}")
     disabled = {}
     for a, b, r in record.get("disabled", ()):
         if r not in REASONS:

@@ -32,8 +32,13 @@ from .fields import urdf_origin
 from .shapes import SHAPE_KINDS, SHAPES, Shape, urdf_shape_kind
 from .shapes.mesh import read_mesh
 
-__all__ = ["SHAPES", "CollisionError", "Shape", "Link", "CollisionModel", "body_frames", "from_urdf_collision",
+__all__ = ["MAX_LINK_RADIUS", "SHAPES", "CollisionError", "Shape", "Link", "CollisionModel", "body_frames", "from_urdf_collision",
            "urdf_link_shapes", "capsule_model", "capsules_along_links", "read_mesh"]
+
+
+#: The largest radius (m) of the capsules along a link (`capsules_along_links`, `--link-radius`): the
+#: widest link of an industrial arm is well under a metre; beyond 10 m a radius is a typo.
+MAX_LINK_RADIUS = 10.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,7 +78,9 @@ class CollisionModel:
             raise CollisionError("a collision model belongs to one arm, not a batch")
         names = [link.name for link in self.links]
         if len(set(names)) != len(names):
-            raise CollisionError(f"collision links must have distinct names, got {names}")
+            twice = sorted({n for n in names if names.count(n) > 1})
+            raise CollisionError(f"collision links must have distinct names; {', '.join(map(repr, twice))} "
+                                 f"{'is' if len(twice) == 1 else 'are'} given more than once")
         for link in self.links:
             if not 0 <= link.body <= self.chain.n:
                 raise CollisionError(f"link {link.name!r} rides on body {link.body}; "
@@ -290,8 +297,10 @@ def capsules_along_links(robot, link_radius, *, floor: bool = False, source: str
     whose link has no length gets a sphere (a capsule of length 0) at its origin."""
     chain = as_chain(robot)
     r = np.broadcast_to(np.asarray(link_radius, dtype=np.float64), (chain.n + 1,))
-    if not np.all(np.isfinite(r)) or np.any(r <= 0):
-        raise CollisionError(f"link_radius must be positive and finite, got {np.asarray(link_radius).tolist()}")
+    bad = np.flatnonzero(~(np.isfinite(r) & (r > 0) & (r <= MAX_LINK_RADIUS)))
+    if len(bad):
+        raise CollisionError(f"link_radius must be a positive number of metres, at most {MAX_LINK_RADIUS:g}; body "
+                             f"{bad[0]} has {r[bad[0]]:g}")
     caps = []
     for k in range(chain.n + 1):
         e = chain.fixed[k, :3, 3]

@@ -14,7 +14,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
+import math
+
+import numpy as np
+
 from .._optional import require
+from .acm import MAX_SAMPLES as MAX_ACM_SAMPLES
+from .geometry import MAX_LINK_RADIUS
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -23,7 +29,7 @@ if TYPE_CHECKING:
     from .checks import CollisionChecker
     from .geometry import CollisionModel
 
-__all__ = ["CollisionSource", "ArmFiles"]
+__all__ = ["CollisionSource", "ArmFiles", "MAX_ACM_SAMPLES", "MAX_LINK_RADIUS"]
 
 
 class ArmFiles(Protocol):
@@ -53,11 +59,13 @@ class CollisionSource:
     mount : str, optional
         A `scene` URDF's link the arm's base is attached to.
     link_radius : sequence of float, optional
-        Capsules of these radii (m; one, or one per body 0..n) along the links; implies `collision`.
+        Capsules of these radii (m; one, or one per body 0..n; each in `(0, MAX_LINK_RADIUS]`) along
+        the links; implies `collision`.
     allow : sequence of (str, str), optional
         Link pairs never checked, besides the allowed-collision matrix's.
     acm_samples : int, optional
-        Random configurations of the matrix's "never in collision" test (`DEFAULT_SAMPLES` when None).
+        Random configurations of the matrix's "never in collision" test (`DEFAULT_SAMPLES` when None;
+        1 to `MAX_ACM_SAMPLES`).
     seed : int
         Seed of those configurations.
     obstacles : sequence of Obstacle
@@ -98,6 +106,15 @@ class CollisionSource:
             return
         if self.mount is not None and self.scene is None:
             raise ValueError("--mount names a link of a work-cell URDF given with --scene CELL.urdf")
+        for r in self.link_radius or ():
+            if not (math.isfinite(r) and 0 < r <= MAX_LINK_RADIUS):
+                raise ValueError(f"--link-radius must be a positive number of metres, at most {MAX_LINK_RADIUS:g} "
+                                 f"(a capsule around a link), got {r:g}")
+        n = self.acm_samples
+        if n is not None and (isinstance(n, bool) or not isinstance(n, (int, np.integer))
+                              or not 1 <= n <= MAX_ACM_SAMPLES):
+            raise ValueError(f"--acm-samples must be a whole number from 1 to {MAX_ACM_SAMPLES} (random configurations "
+                             f"of the matrix's 'never in collision' test), got {n!r}")
         require("coal", why="--collision/--scene")
 
     def build(self, robot: Arm, arm: ArmFiles) -> CollisionChecker | None:
