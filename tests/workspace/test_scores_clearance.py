@@ -6,6 +6,7 @@ from __future__ import annotations
 import coal
 import numpy as np
 import pytest
+import trimesh
 
 from wsmap import robots
 from wsmap.collision import checker_for
@@ -52,6 +53,13 @@ def _coal_geometry(shape):
         return coal.Capsule(shape.size[0], shape.size[1])
     if shape.kind == "sphere":
         return coal.Sphere(shape.size[0])
+    if shape.kind == "surface":  # the triangles themselves, as coal's BVH
+        bvh = coal.BVHModelOBBRSS()
+        bvh.beginModel(len(shape.faces), len(shape.vertices))
+        bvh.addVertices(np.ascontiguousarray(shape.vertices, dtype=np.float64))
+        bvh.addTriangles(np.ascontiguousarray(shape.faces, dtype=np.int64))
+        bvh.endModel()
+        return bvh
     raise AssertionError(f"no test geometry for {shape.kind}")
 
 
@@ -119,6 +127,24 @@ def test_world_obstacles_are_measured_from_the_base():
     np.testing.assert_allclose(moved, _checker_with_ball(centre).distance(q), atol=1e-9)
     with pytest.raises(ValueError, match="^distance with bases takes world-frame obstacles only"):
         _checker_with_ball(centre, frame="base").distance(q, base)
+
+
+def test_a_concave_surface_is_measured_on_its_triangles_and_its_inside_is_zero():
+    ring = trimesh.creation.annulus(r_min=0.25, r_max=0.4, height=0.1)  # a closed ring around the arm
+    ring.apply_translation([0.0, 0.0, 0.5])
+    scene = Scene(floor=0.0, obstacles=(Obstacle("ring", Shape("surface", (), np.eye(4), ring.vertices, ring.faces),
+                                                 frame="world"),))
+    chk = checker_for("ur5e", scene)
+    q = np.random.default_rng(10).uniform(-np.pi, np.pi, (400, 6))
+    q = q[checker_for("ur5e")(q)][:40]  # free of the floor and of each other: the ring decides
+    d = chk.distance(q)
+    np.testing.assert_allclose(d, [_coal_clearance(chk, x) if chk(x[None])[0] else 0.0 for x in q], atol=1e-9)
+    assert ((d == 0) == ~chk(q)).all() and 5 <= (d > 0).sum() <= 35
+    # a closed 6 m box around the whole arm: no triangle near any link, yet every link is inside it
+    box = trimesh.creation.box((6, 6, 6))
+    room = Obstacle("room", Shape("surface", (), np.eye(4), box.vertices, box.faces), frame="world")
+    inside = checker_for("ur5e", Scene(obstacles=(room,))).distance(q, np.eye(4))
+    assert inside.tolist() == [0.0] * len(q)
 
 
 # ---------------------------------------------------------------------------------------- score

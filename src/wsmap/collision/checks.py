@@ -539,17 +539,20 @@ class CollisionChecker:
         return np.maximum(d.reshape(len(c), -1).min(axis=1), 0.0)
 
     def _item_distance(self, B, i, j) -> float:
-        """coal's distance (m, at least 0) of `distance`'s item `(i, j)` at body frames `B` `(n + 1, 4, 4)`."""
+        """coal's distance (m, at least 0) of `distance`'s item `(i, j)` at body frames `B` `(n + 1, 4, 4)`;
+        0 for a link shape wholly inside a closed surface obstacle (the checker calls it colliding)."""
         import coal
 
         L, k = self.layer, -1 - j
+        obstacle = j < 0 and k < len(self.scene.obstacles)
         if j >= 0:
             others = [(L.geoms[s], L.shape_pose(B, s)) for s in L.link_shapes[j]]
         else:
-            floor = k == len(self.scene.obstacles)
-            others = [(L.floor_geom, np.eye(4)) if floor else (L.obs_geoms[k], L.obs_pose[k])]
+            others = [(L.obs_geoms[k], L.obs_pose[k]) if obstacle else (L.floor_geom, np.eye(4))]
         best = np.inf
         for s in L.link_shapes[i]:
+            if obstacle and self._enclosed(s, L.shape_pose(B, s), k):
+                return 0.0
             Ts = coal_transform(L.shape_pose(B, s))
             for g, T in others:
                 self.stats.exact_tests += 1
