@@ -438,19 +438,43 @@ def test_starts_recall_small():
     assert rows[0]["recall"] < 0.9 and rows[1]["recall"] > 0.9
 
 
-def test_half_turn_success_is_rejected(monkeypatch):
+def test_half_turn_success_is_rejected():
     # pose_error vanishes at a half turn: an LM "success" there must not become a label
-    from wsmap.kinematics import IKSolution, rotz
+    from wsmap.kinematics import rotz
 
     arms, _ = datasets.draw_samples(small("table3_nosubspace", 4))
     q = np.full((4, 6), 0.3)
     T = arms.fkine(q)
     T[1, :3, :3] = T[1, :3, :3] @ rotz(np.pi)  # same position, orientation off by pi
-    fake = IKSolution(q=q, success=np.ones(4, bool), iterations=np.ones(4, int), residual=np.zeros(4),
-                      reason=np.zeros(4, np.int8))
-    monkeypatch.setattr(labels_module, "ikine_LM", lambda *a, **k: fake)
-    ok = labels_module.solve_confirmed(arms, T, np.zeros(6), P["table3_nosubspace"])
-    np.testing.assert_array_equal(ok, [True, False, True, True])
+    T[2, :3, 3] += 2e-6  # beyond FK_CHECK_TOL in position
+    ok = labels_module.fk_confirmed(arms, T, q, np.array([True, True, True, False]))
+    np.testing.assert_array_equal(ok, [True, False, False, False])
+    one = DHRobot(arms.d[0], arms.a[0], arms.alpha[0])  # one arm for every target
+    T0 = one.fkine(np.stack([q[0], q[0] + 0.1]))
+    np.testing.assert_array_equal(labels_module.fk_confirmed(one, T0, np.stack([q[0], q[0]]), np.ones(2, bool)),
+                                  [True, False])
+
+
+def test_labels_run_the_paper_solver_per_arm():
+    # solve_confirmed groups pairs by arm and calls the solver "paper" once per arm: the same answer
+    # as the paper's LM on each pair alone (ikine_LM, one arm per target), confirmed by FK
+    from wsmap.kinematics import ikine_LM
+
+    spec = small("table3_nosubspace", 3)
+    arms, _ = datasets.draw_samples(spec)
+    rng = np.random.default_rng(4)
+    b_idx = np.array([2, 0, 2, 1, 0, 2, 1, 1])
+    q = rng.uniform(-np.pi, np.pi, (len(b_idx), 6))
+    T = DHRobot(arms.d[b_idx], arms.a[b_idx], arms.alpha[b_idx]).fkine(q)
+    T[5, :3, 3] += 10.0  # out of reach
+    q0 = rng.uniform(-np.pi, np.pi, (3, 6))
+    ok = labels_module.solve_confirmed(arms, b_idx, T, q0, spec)
+    pairs = DHRobot(arms.d[b_idx], arms.a[b_idx], arms.alpha[b_idx])
+    ref = ikine_LM(pairs, T, q0=q0[b_idx], tol=spec.tol, ilimit=spec.ilimit, rlimit=spec.rlimit)
+    np.testing.assert_array_equal(ok, labels_module.fk_confirmed(pairs, T, ref.q, ref.success))
+    assert not ok[5] and ok.sum() >= 3
+    with pytest.raises(ValueError, match="^tol must be at least 1e-14"):
+        datasets.labels_for(arms, spec.replace(tol=1e-15))
 
 
 def test_audit_small():

@@ -97,9 +97,8 @@ def starts_study(
                 break
             t = time.perf_counter()
             b_idx, n_idx = np.nonzero(todo)
-            robot = DHRobot(sub.d[b_idx], sub.a[b_idx], sub.alpha[b_idx])
             T = pair_poses(spec, nodes, fixed[sl], b_idx, n_idx)
-            ok = solve_confirmed(robot, T, q0[sl][b_idx, k], spec)
+            ok = solve_confirmed(sub, b_idx, T, q0[sl][:, k], spec)
             f[b_idx[ok], n_idx[ok]] = k
             seconds[k] += time.perf_counter() - t
         first[sl] = f
@@ -148,7 +147,7 @@ def starts_recall(spec: DatasetSpec, n_poses: int = 2000, counts: Sequence[int] 
         todo = np.nonzero(first < 0)[0]
         if not todo.size:
             break
-        ok = solve_confirmed(arms[todo], T[todo], q0[todo, k], spec)
+        ok = solve_confirmed(arms, todo, T[todo], q0[:, k], spec)
         first[todo[ok]] = k
     rows = []
     for c in counts:

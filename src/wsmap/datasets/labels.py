@@ -1,8 +1,10 @@
 """Labels: which nodes of the grid each arm reaches.
 
 `method="exact"`: the closed-form test of `wsmap.workspace` (spherical-wrist family,
-unlimited joints). `method="numerical"`: the paper's Levenberg–Marquardt (`ikine_LM`) with
-`tol`, `ilimit`, `rlimit`, from `starts` start configurations; a node is reachable when ANY
+unlimited joints). `method="numerical"`: the paper's Levenberg–Marquardt (the IK solver
+`"paper"` of `wsmap.kinematics.ik.solvers`, `ikine_LM`, called as the maps call a solver: one arm
+and its targets at a time) with `tol`, `ilimit`, `rlimit`, from `starts` start configurations;
+a node is reachable when ANY
 start converges. Start 0 is `q0 = 0` (the paper's); starts 1.. are drawn per arm uniformly in
 `[-pi, pi)^6` and shared by all nodes of that arm (`wsmap.datasets.start_configurations`).
 Later starts are run only on the nodes the earlier ones did not solve (the union does not depend
@@ -11,7 +13,7 @@ the default number of starts was chosen. Two things keep the numerical labels ri
 affordable without changing any of them: pairs that `possibly_reachable` proves unreachable
 (a sound bound on reach, height and tool tilt) are not handed to LM, and every LM success is
 confirmed by forward kinematics (the LM pose error is also zero at a half turn of the
-orientation, see `solve_confirmed`).
+orientation, see `fk_confirmed`).
 
 A chain family (`panda7`, `wsmap.datasets.spec.CHAIN_FAMILIES`) is labelled by the maps'
 numerical path: `wsmap.workspace.constant_orientation_map` (R3) or
@@ -33,7 +35,8 @@ import numpy as np
 
 from .. import robots
 from .. import workspace as ws
-from ..kinematics import DHRobot, SerialChain, ikine_LM, require_closed_form
+from ..kinematics import DHRobot, SerialChain, require_closed_form
+from ..kinematics.ik import SearchSettings, get_solver
 from .features import check_arms, fixed_rows, scales_for, spec_nodes
 from .sampling import start_configurations
 from .spec import METHODS, N_JOINTS, DatasetSpec, check_choice, check_spec, float64_array, require_finite
@@ -42,7 +45,8 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike
 
-__all__ = ["possibly_reachable", "labels_for", "pair_poses", "solve_confirmed", "FK_CHECK_TOL"]
+__all__ = ["possibly_reachable", "labels_for", "pair_poses", "lm_settings_for", "solve_confirmed", "fk_confirmed",
+           "FK_CHECK_TOL"]
 
 #: position and rotation-matrix tolerance of the forward-kinematics check of every LM success
 FK_CHECK_TOL = 1e-6
@@ -136,41 +140,100 @@ def _check_arms_6(arms) -> DHRobot:
     return arms
 
 
-def solve_confirmed(robot: DHRobot, T, q0, spec: DatasetSpec) -> np.ndarray:
-    """The paper's LM (`ikine_LM` with the spec's `tol`, `ilimit`, `rlimit`) per target, each
-    success confirmed by forward kinematics.
+def lm_settings_for(spec: DatasetSpec, q0=None) -> SearchSettings:
+    """The settings of the paper's LM solver (`"paper"`) for a spec's numerical labels.
 
     Parameters
     ----------
-    robot : DHRobot
-        A batch `(K,)` (one arm per target) or one arm; no joint limits are applied.
+    spec : DatasetSpec
+        Its `tol` (m and rad, at least `wsmap.kinematics.ik.solution.MIN_TOL`), `ilimit` and `rlimit`.
+    q0 : array_like, shape (6,), optional
+        The start (rad); None: zeros.
+
+    Returns
+    -------
+    SearchSettings
+        `solver="paper"`, the initial damping its default (0.1, `ikine_LM`'s).
+
+    Raises
+    ------
+    ValueError
+        A `tol` below `MIN_TOL` (no pose meets it in float64), as `SearchSettings` words it.
+    """
+    return SearchSettings(solver="paper", q0=None if q0 is None else tuple(q0), tol=spec.tol, ilimit=spec.ilimit,
+                          rlimit=spec.rlimit)
+
+
+def solve_confirmed(arms: DHRobot, b_idx, T, q0, spec: DatasetSpec) -> np.ndarray:
+    """The paper's LM on (arm, target) pairs, each success confirmed by forward kinematics.
+
+    The pairs are grouped by arm and each arm's targets solved by one call of the solver
+    `"paper"` (`wsmap.kinematics.ik.solver.get_solver`, as the maps call it) with
+    `lm_settings_for(spec, q0[b])`; a target's answer does not depend on the others of its call,
+    so the grouping changes no label.
+
+    Parameters
+    ----------
+    arms : DHRobot, batch (B,)
+        The arms; their joint limits and tool, if any, are not used (the paper's labels).
+    b_idx : array_like of int, shape (K,)
+        The arm of each target.
     T : numpy.ndarray, shape (K, 4, 4)
-        Target flange poses in the base frame (m).
-    q0 : numpy.ndarray, shape (K, 6) or (6,)
-        The start of each target (rad).
+        Target flange poses in the arms' base frame (m).
+    q0 : numpy.ndarray, shape (B, 6)
+        The start of each arm (rad), shared by its targets.
     spec : DatasetSpec
         Its `tol`, `ilimit` and `rlimit`.
 
     Returns
     -------
     numpy.ndarray, shape (K,), bool
-        True where LM converged and the solution's pose is within `FK_CHECK_TOL` of the target.
+        True where LM converged and `fk_confirmed` confirms the solution.
+    """
+    b_idx = np.asarray(b_idx, dtype=np.int64)
+    ok = np.zeros(len(b_idx), dtype=bool)
+    solver = get_solver("paper")
+    order = np.argsort(b_idx, kind="stable")
+    for group in np.split(order, np.flatnonzero(np.diff(b_idx[order])) + 1):
+        if not group.size:
+            continue
+        b = int(b_idx[group[0]])
+        # the DH numbers alone: the labels are those of the arms without limits or tool
+        arm = DHRobot(arms.d[b], arms.a[b], arms.alpha[b])
+        sol = solver.solve(arm, T[group], lm_settings_for(spec, q0[b]))
+        ok[group] = fk_confirmed(arm, T[group], sol.q, sol.success)
+    return ok
 
-    Notes
-    -----
+
+def fk_confirmed(robot: DHRobot, T, q, success) -> np.ndarray:
+    """`success` where the solution `q` really reaches its target: position and rotation matrix
+    within `FK_CHECK_TOL` of `T`.
+
     `pose_error`'s rotation part `0.5·sum(c_k x t_k)` is `sin(theta)·axis`: it vanishes at a
     half turn as well as at the target, so an LM "success" could in principle be the right
-    position with the orientation off by pi. The check below (position and rotation matrix within
-    `FK_CHECK_TOL` of the target) makes such a success a failure; in our runs it has never
-    triggered.
+    position with the orientation off by pi. This check makes such a success a failure; in our
+    runs it has never triggered.
+
+    Parameters
+    ----------
+    robot : DHRobot
+        One arm, or a batch `(K,)` (one arm per target).
+    T : numpy.ndarray, shape (K, 4, 4)
+        The targets (m).
+    q : numpy.ndarray, shape (K, 6)
+        The solutions (rad); read only where `success`.
+    success : numpy.ndarray, shape (K,), bool
+        The solver's successes.
+
+    Returns
+    -------
+    numpy.ndarray, shape (K,), bool
     """
-    res = ikine_LM(robot, T, q0=q0, tol=spec.tol, ilimit=spec.ilimit, rlimit=spec.rlimit)
-    ok = res.success
+    ok = np.array(success, dtype=bool)
     if ok.any():
         idx = np.nonzero(ok)[0]
-        Tc = robot[idx].fkine(res.q[idx])
+        Tc = (robot if robot.batch_shape == () else robot[idx]).fkine(q[idx])
         err = np.abs(Tc[:, :3, :] - T[idx][:, :3, :]).reshape(len(idx), -1).max(axis=1)
-        ok = ok.copy()
         ok[idx] = err <= FK_CHECK_TOL
     return ok
 
@@ -194,9 +257,8 @@ def _numerical_first_start(arms, spec, nodes, fixed, q0, prefilter=True) -> np.n
     for k in range(q0.shape[1]):
         if not b_idx.size:
             break
-        robot = DHRobot(arms.d[b_idx], arms.a[b_idx], arms.alpha[b_idx])
         T = pair_poses(spec, nodes, fixed, b_idx, n_idx)
-        ok = solve_confirmed(robot, T, q0[b_idx, k], spec)
+        ok = solve_confirmed(arms, b_idx, T, q0[:, k], spec)
         first[b_idx[ok], n_idx[ok]] = k
         b_idx, n_idx = b_idx[~ok], n_idx[~ok]
     return first
@@ -337,6 +399,7 @@ def labels_for(
     count = arms.batch_shape[0]
     fx = fixed_rows(spec, count, fixed)
     if method == "numerical":
+        lm_settings_for(spec)  # a tol no pose meets is refused before any work
         q0 = _checked_starts(spec, count, q0)
         return _numerical_first_start(arms, spec, nodes, fx, q0, prefilter) >= 0
     return _exact_labels(arms, spec, nodes, fx)
