@@ -15,6 +15,12 @@ body. For a batch of configurations the sphere centres are one array product, an
 (or a link and an obstacle) whose spheres are all apart is free without asking coal. The exact
 check decides only the pairs the spheres call "maybe".
 
+**Standing on an obstacle**: a moving link that touches an obstacle at the default configuration
+(a turntable on the floor or a pedestal) is not checked against it, but only when the base's origin
+is within `STAND_MARGIN` of that obstacle's surface: an obstacle around the base (the arm inside a
+solid box) or apart from it is checked against every moving link, so the arm inside a box collides
+everywhere.
+
 **Guarantee**: a configuration `CollisionChecker` calls free is free for the exact check
 on every pair it checks (enabled by the allowed-collision matrix, and moving links against the
 scene): the spheres contain the shapes, so apart spheres mean apart shapes, and every other pair
@@ -36,7 +42,15 @@ from .scene import Scene
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike
 
-__all__ = ["bounding_spheres", "coal_shape", "coal_transform", "coal_collide", "exact_pairs", "segment_distance",
+#: How far (m) the base's origin may be from the surface of an obstacle it stands on (the floor, a
+#: table, a pedestal): within it, moving links touching that obstacle at the default configuration
+#: stand on it and are not checked against it; deeper inside or farther away, they are.
+STAND_MARGIN = 0.01
+#: Unit directions to the 26 neighbours of a cube's centre: the probes of `_supports_base`.
+_DIRECTIONS = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1) if i or j or k], float)
+_DIRECTIONS /= np.linalg.norm(_DIRECTIONS, axis=1, keepdims=True)
+
+__all__ = ["STAND_MARGIN", "bounding_spheres", "coal_shape", "coal_transform", "coal_collide", "exact_pairs", "segment_distance",
            "CollisionChecker", "CheckStats"]
 
 
@@ -236,14 +250,45 @@ class CollisionChecker:
         self.stats = CheckStats()
         # a moving link that touches an obstacle (the floor) at the default configuration stands
         # on it, as the base does (a turntable on the floor): that pair is allowed, as the
-        # matrix's "default" pairs (MoveIt's matrix covers world objects the same way)
+        # matrix's "default" pairs (MoveIt's matrix covers world objects the same way). Only an
+        # obstacle the base stands on, though: one holding the base deep inside (a box around the
+        # arm) or apart from it (a shelf the forearm touches at q = 0) was silently ignored
         chain = model.chain
         q0 = np.clip(np.zeros(chain.n), chain.limits[:, 0], chain.limits[:, 1])
         B0 = body_frames(chain, q0[None])[0]
         nob = len(scene.obstacles) + (scene.floor is not None)
-        self.scene_allowed = np.array([[self._scene_collides(B0, li, k) for k in range(nob)] for li in self.moving],
-                                      dtype=bool).reshape(len(self.moving), nob)
+        support = np.array([self._supports_base(B0[0, :3, 3], k) for k in range(nob)], dtype=bool)
+        self.scene_allowed = np.array([[bool(support[k]) and self._scene_collides(B0, li, k) for k in range(nob)]
+                                       for li in self.moving], dtype=bool).reshape(len(self.moving), nob)
         self.stats = CheckStats()
+
+    def _supports_base(self, origin, k) -> bool:
+        """Whether obstacle `k` (the floor last) is what the base stands on: its surface within
+        `STAND_MARGIN` of the base's origin `origin` `(3,)` (world, m), neither around it nor apart.
+        Outside distances are coal's (exact); "not deep inside" is some point at `STAND_MARGIN`
+        from the origin (26 directions) lying outside: coal's penetration depth of a point in a
+        cylinder is not its distance to the nearest face."""
+        import coal
+
+        L = self.layer
+        floor = k == len(self.scene.obstacles)
+        geom, P = (L.floor_geom, np.eye(4)) if floor else (L.obs_geoms[k], L.obs_pose[k])
+        ob = None if floor else self.scene.obstacles[k].shape
+        probe, T = coal.Sphere(1e-9), np.eye(4)
+
+        def distance(p) -> float:
+            T[:3, 3] = p
+            res = coal.DistanceResult()
+            coal.distance(probe, coal_transform(T), geom, coal_transform(P), coal.DistanceRequest(), res)
+            return res.min_distance
+
+        def outside(p) -> bool:
+            inside = None if ob is None else ob.record.encloses(ob, ((p - P[:3, 3]) @ P[:3, :3])[None])
+            return not (inside is not None and inside[0]) and distance(p) > 2e-9  # a closed surface: its inside
+
+        if distance(origin) > STAND_MARGIN:
+            return False
+        return any(outside(origin + STAND_MARGIN * u) for u in _DIRECTIONS)
 
     def _set_pairs(self, pairs):
         """The link pairs checked, `(P, 2)` link indices, and their sphere pairs."""
