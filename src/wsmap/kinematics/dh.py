@@ -141,14 +141,14 @@ def angle_in_range(q: ArrayLike, lo: ArrayLike, hi: ArrayLike) -> np.ndarray:
     -------
     ndarray of bool
         The broadcast shape of `q`, `lo` and `hi`: True where some `q + 2·pi·k` (`k` an
-        integer) lies in `[lo, hi]`. An angle on the upper limit counts within a slack of
-        1e-12 rad; a range at least 2·pi wide holds every angle.
+        integer) lies in `[lo − 1e-12, hi + 1e-12]` (a slack on both sides, so that an angle
+        on a limit is not lost to rounding, and limits moved by a whole turn hold the same
+        angles); a range at least 2·pi wide holds every angle.
     """
     two_pi = 2.0 * np.pi
-    # the smallest 2·pi-equivalent of q that is >= lo
-    shifted = lo + np.mod(q - lo, two_pi)
-    # a tiny slack so that an angle sitting exactly on a limit is not lost to rounding
-    return (shifted <= hi + 1e-12) | ((hi - lo) >= two_pi)
+    # the smallest 2·pi-equivalent of q that is >= lo, and whether q sits just below lo
+    r = np.mod(q - lo, two_pi)
+    return (lo + r <= hi + 1e-12) | (r >= two_pi - 1e-12) | ((hi - lo) >= two_pi)
 
 
 def link_frames(d: ArrayLike, a: ArrayLike, alpha: ArrayLike, q: ArrayLike) -> np.ndarray:

@@ -183,8 +183,9 @@ def into_limits(q: ArrayLike, success: ArrayLike, lo: ArrayLike, hi: ArrayLike,
     q, success : ndarray
         `q` with each angle of a succeeding row that lies outside `[lo, hi]` replaced by
         `lo + mod(q − lo, 2·pi)`, the smallest `q + 2·pi·k` at or above `lo` (capped at `hi`,
-        which it may pass by the 1e-12 rad slack of `wsmap.kinematics.dh.angle_in_range`), or,
-        where `lo` is `-inf`, by `hi − mod(hi − q, 2·pi)`, the largest at or below `hi`.
+        which it may pass by the 1e-12 rad slack of `wsmap.kinematics.dh.angle_in_range`; `lo`
+        itself where the angle lies within that slack below `lo`), or, where `lo` is `-inf`,
+        by `hi − mod(hi − q, 2·pi)`, the largest at or below `hi`.
         A row with an angle that no whole turn brings inside is no solution: its `success` is
         False (the closed forms reject such branches themselves; this is the last guard). The
         inputs themselves are returned, not copied, when nothing moves.
@@ -203,13 +204,18 @@ def into_limits(q: ArrayLike, success: ArrayLike, lo: ArrayLike, hi: ArrayLike,
     # the same operations as angle_in_range, so that both agree on every angle; a limit of
     # -inf (half-open) moves the angle down below hi instead
     with np.errstate(invalid="ignore"):
-        shifted = np.where(np.isfinite(lo_m), lo_m + np.mod(x - lo_m, _TWO_PI), hi_m - np.mod(hi_m - x, _TWO_PI))
-    fits = (shifted <= hi_m + 1e-12) | ((hi_m - lo_m) >= _TWO_PI)
-    q = q.copy()
-    q[idx] = np.where(fits, np.minimum(shifted, hi_m), x)
-    if not fits.all():
+        r = np.mod(x - lo_m, _TWO_PI)
+        shifted = np.where(np.isfinite(lo_m), lo_m + r, hi_m - np.mod(hi_m - x, _TWO_PI))
+    above = (shifted <= hi_m + 1e-12) | ((hi_m - lo_m) >= _TWO_PI)
+    below = ~above & (r >= _TWO_PI - 1e-12)  # within the slack below lo: lo itself
+    fits = above | below
+    moved = np.where(above, np.minimum(shifted, hi_m), np.where(below, lo_m, x))
+    if not fits.all():  # rows with an angle no turn brings inside: no solution, left as they were
         success = success.copy()
         success[tuple(i[~fits] for i in idx[:-1])] = False
+        moved = np.where(success[idx[:-1]], moved, x)
+    q = q.copy()
+    q[idx] = moved
     return q, success
 
 

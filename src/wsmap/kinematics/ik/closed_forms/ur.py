@@ -504,7 +504,7 @@ def _inside(x, j, P, limited):
     r = np.fmod(x - lo, _TWO_PI)
     if r < 0.0:
         r += _TWO_PI
-    return lo + r <= hi + 1e-12
+    return lo + r <= hi + 1e-12 or r >= _TWO_PI - 1e-12
 
 
 @njit(cache=True, error_model="numpy", inline="always")
