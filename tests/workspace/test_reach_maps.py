@@ -282,3 +282,14 @@ def test_placement_ties_are_broken_by_the_mean_manipulability_of_the_solutions()
         assert not np.any(np.signbit(v) & (v == 0.0))
     np.testing.assert_array_equal(np.unique(pl.x), np.round(np.arange(-5, 6) / 10, 12))
     assert 0.0 in pl.x and 0.0 in pl.y
+
+
+def test_placement_by_reach_alone_ties_to_the_middle():
+    arm = robots.load("ur5e")
+    T = _easy_targets(arm, 2)
+    pl = ws.base_placement(arm, T, x=(-0.4, 0.4), y=(-0.4, 0.4), step=0.2, yaws=2, tiebreak="centre")
+    top = pl.score == pl.score[0]
+    d = np.hypot(pl.x[top], pl.y[top])
+    assert np.all(np.diff(d) >= -1e-12) and d[0] == 0.0
+    with pytest.raises(ValueError, match=r"^tiebreak must be one of 'manipulability', 'centre', got 'random'$"):
+        ws.base_placement(arm, T, tiebreak="random")

@@ -26,9 +26,12 @@ if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import ArrayLike, Callable
     from wsmap.kinematics.chain import Arm
 
-__all__ = ["Placement", "base_placement", "floor_poses", "MAX_TARGETS", "MAX_YAWS", "MAX_CANDIDATES", "RANKING"]
+__all__ = ["Placement", "base_placement", "floor_poses", "MAX_TARGETS", "MAX_YAWS", "MAX_CANDIDATES", "RANKING",
+           "TIEBREAKS"]
 
 #: How `base_placement` ranks its candidates, in words (the command line prints it).
+#: The ways `base_placement` breaks ties (`tiebreak=`): the default first.
+TIEBREAKS = ("manipulability", "centre")
 RANKING = ("best first: the larger fraction of targets reached; ties: the higher mean manipulability of the "
            "solutions first, then the higher mean joint-limit margin, then nearer the middle of the region, then "
            "the lower heading, y and x")
@@ -186,7 +189,8 @@ def _solve_targets(robot, T, Binv, nb, method, settings, valid, world_checker, p
 def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.0, 1.0),
                    y: tuple[float, float] = (-1.0, 1.0), *, step: float = 0.1, yaws: int = 8, z0: float = 0.0,
                    method: str = "auto", ik: dict | None = None, seed: int = 0,
-                   progress: bool = False, collision: Callable | None = None) -> Placement:
+                   progress: bool = False, collision: Callable | None = None,
+                   tiebreak: str = "manipulability") -> Placement:
     """Rank candidate base poses on the floor by the fraction of `targets` they reach.
 
     Parameters
@@ -207,10 +211,15 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
         base is `T_m·fkine(q)⁻¹`, the pose the solution was found for); such a scene must then
         have no base-frame obstacles
 
+    tiebreak : {"manipulability", "centre"}
+        How bases reaching the same fraction are ordered: "manipulability" (`RANKING`, the
+        default) or "centre", the reach alone: nearer the middle of the region first, then the
+        grid order (what a ranking by reach without any other criterion picks)
+
     Returns
     -------
     Placement
-        Best first (`RANKING`): by the fraction of targets reached; among equal fractions (often
+        Best first (`RANKING`; with `tiebreak="centre"` as that says): by the fraction of targets reached; among equal fractions (often
         hundreds of bases reach every target) by the mean Yoshikawa manipulability of the base's
         solutions, higher first (compared to 9 significant digits, so rounding does not order
         bases that only differ by a heading the base joint absorbs); then by the mean joint-limit
@@ -224,6 +233,8 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
     (`MAX_TARGETS` targets, `MAX_YAWS` headings, `MAX_CANDIDATES` candidate bases)
     and a `MemoryError` a problem whose solutions would not fit in half the memory available.
     """
+    if tiebreak not in TIEBREAKS:
+        raise ValueError(f"tiebreak must be one of {', '.join(map(repr, TIEBREAKS))}, got {tiebreak!r}")
     T, xr, yr, z0, method = _check_placement(robot, targets, x, y, step, yaws, z0, method)
     valid, world = _check_collision(robot, collision)
 
@@ -252,7 +263,8 @@ def base_placement(robot: Arm, targets: ArrayLike, x: tuple[float, float] = (-1.
     # absorbs) have the same manipulability up to rounding, and fall to the joint margin, which
     # prefers the heading that leaves the base joint nearer the middle of its range
     keys = [-np.array([float(f"{v:.9g}") for v in a]) for a in (manip, margin)]
-    order = np.lexsort((np.arange(C), centre, keys[1], keys[0], -score))
+    scores = (keys[1], keys[0]) if tiebreak == "manipulability" else ()
+    order = np.lexsort((np.arange(C), centre, *scores, -score))
     return Placement(poses=B[order], x=cx[order], y=cy[order], yaw=cyaw[order], score=score[order],
                      manipulability=manip[order], joint_margin=margin[order], reached=reached[order],
                      q=qsol[order[0]], method=method)
