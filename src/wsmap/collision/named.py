@@ -3,13 +3,12 @@
 `arm_model(name, geometry=...)` gives one of three geometries (`GEOMETRIES`); `default_geometry`
 says which one `wsmap.collision.checker_for(name)` and the command line's `--collision` use:
 
-* `"fitted"` — capsules fitted around the vendor's own collision meshes, every mesh vertex inside
-  (`wsmap.collision.vendor.fitted_model`; the Panda and the iiwa 14, `vendor.FITTED`): a body at
-  least as large as the real arm, checked in numpy. The Panda's default for maps (`vendor.DEFAULT_FITTED`;
-  the iiwa's fitted wrist overlaps its flange in every configuration);
+* `"fitted"` — capsules (and cylinders for flat parts) fitted around the vendor's own collision
+  meshes, every mesh vertex inside (`wsmap.collision.vendor.fitted_model`; the Panda and the
+  iiwa 14, `vendor.FITTED`): a body at least as large as the real arm. Their default for maps;
 * `"meshes"` — the vendor's collision meshes themselves, as convex hulls checked by coal
   (`wsmap.collision.vendor.mesh_model`; needs the package that ships them, pybullet_data);
-* `"capsules"` — the estimated capsules below, the default for the other arms (puma560, ur5e, iiwa14):
+* `"capsules"` — the estimated capsules below, the default for the other arms (puma560, ur5e):
   not fitted to any vendor geometry, so not guaranteed to contain the real arm.
 
 The estimated capsules:
@@ -42,7 +41,7 @@ from typing import TYPE_CHECKING
 from ..robots import ARMS, load
 from ..robots.registry import ArmCapsules
 from .geometry import CollisionError, CollisionModel, capsule_model, capsules_along_links
-from .vendor import DEFAULT_FITTED, FITTED, fitted_model, mesh_model, same_kinematics
+from .vendor import FITTED, fitted_model, mesh_model, same_kinematics
 
 if TYPE_CHECKING:  # names of the annotations only
     from wsmap.kinematics.chain import Arm
@@ -86,10 +85,9 @@ ALONG_LINKS: tuple[str, ...] = tuple(arm.name for arm in ARMS if arm.capsules is
 def default_geometry(name: str, robot: Arm | None = None) -> str:
     """The geometry `arm_model` gives the named arm `name` on `robot` by default: `"fitted"` where
     capsules were fitted to its vendor meshes and `robot` (if given) has its kinematics, else
-    `"capsules"` (an arm of a family with other lengths gets the capsules along its links). The
-    iiwa 14 has fitted capsules but keeps its estimated ones by default (`vendor.DEFAULT_FITTED`)."""
+    `"capsules"` (an arm of a family with other lengths gets the capsules along its links)."""
     key = str(name).lower()
-    if key in DEFAULT_FITTED and key in FITTED and (robot is None or same_kinematics(robot, load(key))):
+    if key in FITTED and (robot is None or same_kinematics(robot, load(key))):
         return "fitted"
     return "capsules"
 

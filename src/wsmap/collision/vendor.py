@@ -12,11 +12,11 @@ measures it and checks it is constant), with the same joint angles.
   moved into the bodies' frames of wsmap's chain; the exact checks take each mesh's convex hull
   (`wsmap.collision.shapes.mesh`). Needs the package that ships the description (pybullet_data,
   a test dependency): without it a one-line `CollisionError` names it.
-* `fitted_model(name)` — capsules that enclose every vertex of each link's mesh hull plus
-  `PADDING`, fitted by `tools/fit_collision_spheres.py` and committed in
+* `fitted_model(name)` — capsules (cylinders where a part is flat: the flange discs) that
+  enclose every vertex of each link's mesh hull plus `PADDING`, fitted by `tools/fit_collision_spheres.py` and committed in
   `wsmap/collision/data/fitted_<arm>.json` with their source, the package version and the
-  slack per link (capsule volume over hull volume), and with the allowed-collision matrix built on
-  the vendor meshes (the capsules of two links a joint apart overlap where the housings do not, so
+  slack per link (fitted volume over hull volume), and with the allowed-collision matrix built on
+  the vendor meshes (the shapes of two links a joint apart overlap where the housings do not, so
   the pairs never checked are the meshes'). Needs nothing but numpy.
 
 Both models name their links `link0` ... `link<n>` by body (as the capsule models along the links
@@ -37,13 +37,13 @@ import numpy as np
 from ..robots import load
 from .acm import acm_from_record
 from .errors import CollisionError
-from .geometry import CollisionModel, Link, body_frames, capsule_model, from_urdf_collision
+from .geometry import CollisionModel, Link, Shape, body_frames, from_urdf_collision
 
 if TYPE_CHECKING:  # names of the annotations only
     from wsmap.kinematics.chain import Arm
 
-__all__ = ["VENDOR", "PADDING", "DEFAULT_FITTED", "VendorDescription", "vendor_urdf", "frame_offsets", "mesh_model", "fitted_model",
-           "fitted_record", "FITTED", "same_kinematics"]
+__all__ = ["VENDOR", "PADDING", "VendorDescription", "vendor_urdf", "frame_offsets", "mesh_model", "fitted_model",
+           "fitted_record", "FITTED", "segment_shape", "same_kinematics"]
 
 #: Metres added to every fitted capsule's radius beyond the farthest hull vertex: Bullet keeps a
 #: collision margin of about a millimetre around a convex hull (`tests/collision/test_pybullet.py`),
@@ -157,20 +157,13 @@ FITTED: tuple[str, ...] = tuple(sorted(
     if f.startswith("fitted_") and f.endswith(".json"))) if os.path.isdir(_data_dir()) else ()
 
 
-#: The arms whose fitted capsules are their default model (`wsmap.collision.named.default_geometry`).
-#: Not the iiwa 14: its flange (link 7, a disc 0.10 m across) lies 31 mm from link 5's hull at the
-#: zero configuration, and any round enclosure of the disc reaches that far along its axis, so the
-#: fitted links 5 and 7 overlap in every configuration (measured on 2,000 random ones); its
-#: default stays the estimated capsules until a fit with cylinders or a two-level check exists.
-DEFAULT_FITTED: tuple[str, ...] = ("panda",)
-
-
 @lru_cache(maxsize=None)
 def fitted_record(name: str) -> dict:
     """The committed record of the named arm's fitted capsules (`data/fitted_<name>.json`): its
-    `source` (package, version, URDF, meshes, licence), `padding` (m) and per link `name`
-    (the vendor's), `body`, `capsules` (`[p0, p1, radius]`, m, the body's frame of wsmap's chain),
-    `hull_volume`, `capsule_volume` (m³) and `slack` (their ratio); `acm`: the allowed-collision
+    `source` (package, version, URDF, licence), `padding` (m) and per link `name` (the vendor's),
+    `body`, `meshes`, `shapes` (`kind` capsule or cylinder, axis ends `p0`, `p1` and `radius`, m,
+    the body's frame of wsmap's chain), `hull_volume`, `fitted_volume` (m³) and `slack` (their
+    ratio); `acm`: the allowed-collision
     matrix of the vendor meshes (`samples`, `seed`, `disabled` pairs with their reasons)."""
     if name not in FITTED:
         raise CollisionError(f"no fitted capsules for robot {name!r}; arms with them: {', '.join(FITTED)}")
@@ -178,20 +171,41 @@ def fitted_record(name: str) -> dict:
         return json.load(fh)
 
 
+def segment_shape(kind: str, p0, p1, radius: float) -> Shape:
+    """A capsule or cylinder of `radius` (m) whose axis runs from `p0` to `p1` (the body frame; a
+    capsule's segment, a cylinder's end faces' centres): its frame at the midpoint, `z` along it."""
+    p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
+    d = p1 - p0
+    length = float(np.linalg.norm(d))
+    T = np.eye(4)
+    T[:3, 3] = (p0 + p1) / 2
+    if length > 1e-12:
+        z = d / length
+        x = np.cross(z, [1.0, 0, 0]) if abs(z[0]) < 0.9 else np.cross(z, [0, 1.0, 0])
+        x /= np.linalg.norm(x)
+        T[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
+    return Shape(kind, (float(radius), length), T)
+
+
 def fitted_model(name: str, robot: Arm | None = None) -> CollisionModel:
-    """The capsules fitted around the named arm's vendor meshes (`fitted_record`), on `robot`
-    (default `wsmap.load(name)`; its limits may differ, its kinematics must be the named arm's:
-    the capsules are fixed numbers in its bodies' frames), standing on the floor."""
+    """The capsules (and cylinders) fitted around the named arm's vendor meshes (`fitted_record`),
+    on `robot` (default `wsmap.load(name)`; its limits may differ, its kinematics must be the named
+    arm's: the shapes are fixed numbers in its bodies' frames), standing on the floor; links
+    `link0` ... `link<n>` by body, the allowed-collision matrix of the vendor meshes."""
     rec = fitted_record(name)
     arm = load(name) if robot is None else robot
     if not same_kinematics(arm, load(name)):
         raise CollisionError(f"the fitted capsules of {name!r} are in the bodies' frames of the named arm; "
                              "this arm's kinematics differ (give geometry='capsules' for capsules along its links)")
-    caps = [(int(lk["body"]), p0, p1, float(r)) for lk in rec["links"] for p0, p1, r in lk["capsules"]]
+    links = []
+    for lk in sorted(rec["links"], key=lambda x: int(x["body"])):
+        k = int(lk["body"])
+        shapes = tuple(segment_shape(sh["kind"], sh["p0"], sh["p1"], sh["radius"]) for sh in lk["shapes"])
+        links.append(Link(f"link{k}", k, shapes, parent=links[-1].name if links else None))
     src = rec["source"]
-    model = capsule_model(arm, caps, names=[f"link{k}" for k in range(arm.n + 1)], floor=True,
-                         source=f"capsules fitted around {src['package']} {src['version']} {src['urdf']} collision "
-                                f"meshes (every hull vertex inside, +{rec['padding'] * 1e3:g} mm; "
-                                "tools/fit_collision_spheres.py)")
+    model = CollisionModel(arm, tuple(links), floor=True,
+                           source=f"capsules fitted around {src['package']} {src['version']} {src['urdf']} collision "
+                                  f"meshes (every hull vertex inside, +{rec['padding'] * 1e3:g} mm; "
+                                  "tools/fit_collision_spheres.py)")
     model.acm = acm_from_record(model, {"links": list(model.names), **rec["acm"]})
     return model
