@@ -290,14 +290,19 @@ def map_search(robot: Arm, T: ArrayLike, neighbours: ArrayLike, settings: Search
     IKSolution
         Of shape `(B, N)` (`(N,)` for one
         arm), its fields as `ikine_search`'s; `start` is the random start's index `k`
-        (0 = `q0`) that succeeded, `-2` where a neighbour's solution did, `-1` where none did.
+        (0 = `q0`) that succeeded, `-2` where a neighbour's solution did, `-3` where a sampled
+        configuration (global seeding) did, `-1` where none did.
 
     Notes
     -----
     Per arm, in passes: (1) every node: `q0` then `starts` random starts (the first ones of
     `ikine_search`'s sequence) until one succeeds; (2) waves: every unsolved node with a solved
     neighbour whose solution it has not tried takes up to `seeds` of them, in neighbour order, as
-    starts, until a wave solves nothing new; (3) the nodes left take `retry` more random starts,
+    starts, until a wave solves nothing new; (2b) global seeding (`fk_seeds` > 0,
+    `wsmap.kinematics.ik.fk_seeds`): every node left takes the configurations of the
+    `FK_STARTS_PER_NODE` sampled poses nearest its own as starts, then (2) again, so that islands no
+    solved node borders (and maps where `q0` solves nothing) are searched; (3) the nodes left take
+    `retry` more random starts,
     and (2) again; (4) the border search: every node still unsolved next to a solved node, and not
     border-searched before, tries its solved neighbours' solutions not tried yet and then the `border_starts`
     starts of `ikine_search` (with `seed` and `q0`, the same starts that search draws for

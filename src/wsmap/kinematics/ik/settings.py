@@ -69,6 +69,9 @@ FK_CONFIRM_TOL = 1e-6
 #: `ikine_search` (`border_starts` = `DEFAULT_STARTS` starts, its iteration settings), after the
 #: solutions of its solved neighbours: recall at the edge of the reachable region by construction, not by
 #: tuning (YuMi's right arm, tool down, missed 5 of 2826 border nodes without it; `docs/recall.md`).
+#: Global seeding (`fk_seeds` = 1 sample per node) gives the nodes no solved node borders their own
+#: starts (PUMA560s with random limit windows: 215 of 19155 nodes missed without it, none with it;
+#: `benchmarks/maps/bench_recall_islands.py`, `docs/recall.md`).
 MAP_SETTINGS = dict(starts=0, seeds=2, retry=4, hole_retry=16, ilimit=60, rlimit=10, gtol=1e-4, seed_free_pass=False,
                     border_starts=DEFAULT_STARTS, fk_seeds=1)
 
