@@ -20,7 +20,7 @@ numerical path: `wsmap.workspace.constant_orientation_map` (R3) or
 `wsmap.workspace.orientation_map` (SO3) with `method="numerical"` and the spec's
 convention, i.e. `wsmap.kinematics.ik.search.map_search` with its defaults
 (`MAP_SETTINGS`, seed 0) but for the border search
-(`LABEL_SEARCH`: `border_starts=0`): the search with the joint limits inside
+and the global seeding (`LABEL_SEARCH`: `border_starts=0`, `fk_seeds=0`): the search with the joint limits inside
 it, each node started from its neighbours' solutions, every success confirmed by forward
 kinematics inside the limits (so `True` is never wrong). An arm's labels do not depend on the
 other arms of its batch, nor on the thread count. With the spec's `collision` settings
@@ -56,7 +56,10 @@ FK_CHECK_TOL = 1e-6
 #: 0.8 s) for the last few border nodes: these labels had a measured recall of 0.9997 without it
 #: (docs/recall.md), far below the models' error, and 20000 arms are a 5-hour job with it. Every
 #: positive label is still a confirmed solution; the labels are those the committed models learned.
-LABEL_SEARCH = {"border_starts": 0}
+#: Nor the global seeding (issue 41): it adds 7 nodes to 5 of 12 panda7 arms' tool-down maps (25³),
+#: which would change the committed datasets, and doubles a batch's labelling time (2.5 s -> 5.1 s
+#: for 12 arms: a batch skips the joint-limit bound, so every node left takes its 8 seeded starts).
+LABEL_SEARCH = {"border_starts": 0, "fk_seeds": 0}
 
 
 def pair_poses(spec: DatasetSpec, nodes, fixed, b_idx, n_idx) -> np.ndarray:
