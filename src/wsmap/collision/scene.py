@@ -24,7 +24,7 @@ its shape kind's (`ShapeKind.scene_keys`, `wsmap.collision.shapes`); a mesh file
 the scene file. Anything else (an unknown shape or key, a NaN or negative size, a number beyond
 `MAX_COORDINATE` (1 km), more than `MAX_OBSTACLES` obstacles, a file that is not YAML/JSON) is a
 `CollisionError` naming the file and the problem, before any work. The file is read by the job
-files' hardened reader (`wsmap.jobs.config.load_config`): YAML aliases (an alias bomb), duplicate
+files' hardened reader (`wsmap.safe_load.load_config`): YAML aliases (an alias bomb), duplicate
 keys, nesting deeper than 32 levels and files over 1 MB are refused before anything is built.
 
 A file ending in `.urdf` is read as the URDF of a work cell (`scene_from_urdf`, below).
@@ -69,6 +69,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..kinematics.urdf import URDFError, URDFTree, parse_xml, read_source, rpy_matrix
+from ..safe_load import ConfigError, load_config
 from .errors import CollisionError
 from .fields import MAX_COORDINATE, scene_vector, shown, urdf_origin
 from .geometry import urdf_link_shapes
@@ -207,8 +208,6 @@ def load_scene(path: PathLike, mount: str | None = None) -> Scene:
         raise CollisionError(f"{label}: no such file")
     if os.path.getsize(path) == 0:
         raise CollisionError(f"{label} is empty")
-    from ..jobs.config import ConfigError, load_config  # here: wsmap.jobs imports this package
-
     # the job files' hardened reader: no YAML aliases (an alias bomb), duplicate keys, nesting beyond
     # MAX_DEPTH, huge integers or files over MAX_CONFIG_BYTES; JSON text is YAML, so a scene.yaml
     # may hold either
