@@ -7,7 +7,10 @@ no tool). Per map and method, the best wall time of one whole map over ``--round
 cache, happens before any of it):
 
 1. ``ur_reachable(robot, T)`` (compiled) from the robot (its structure check included), on 1 thread
-   and on ``--threads`` threads (``lm_compiled.set_threads``; default 2);
+   and on ``--threads`` threads (``lm_compiled.set_threads``; default 2); and the whole exact map,
+   ``constant_orientation_map(robot, nodes, rpy, method="exact")`` on 1 thread (the poses built,
+   the closed form chosen, the arm checked: what a user's map call costs), printed again beside
+   EAIK's 1-thread time per map;
 2. ``ikine_ur(robot, T)``, compiled, 1 thread: all 8 branches with their joint angles (more than a
    map needs: about 20 ``atan2`` per pose);
 3. EAIK's ``IK_batched`` with 1 worker thread (``IK`` in a Python loop if ``IK_batched`` is
@@ -37,6 +40,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
 import harness  # noqa: E402
+
+
+#: The row of the whole exact map call (poses built, closed form chosen, arm checked, the map).
+EXACT_MAP = "wsmap constant_orientation_map(method='exact'), the whole map (1 thread)"
 
 
 def _best_of(methods, repeats, rounds):
@@ -146,6 +153,13 @@ def _print_report(info, maps, structure, repeat, rounds):
             print(f"| {r['method']} | {r['seconds']:.5f} | {r['poses_per_second']:,.0f} "
                   f"| {r['speedup_over_eaik_1_thread']:.1f}x |")
     print()
+    for label, m in maps.items():  # the exact map beside EAIK, the numbers of issue 44
+        rows = {r["method"]: r for r in m["rows"]}
+        eaik = next(r for name, r in rows.items() if name.startswith("EAIK") and name.endswith("(1 thread)"))
+        ours = rows[EXACT_MAP]
+        print(f"exact map, UR5e {label}, {N} nodes: wsmap {ours['seconds'] * 1e3:.2f} ms, EAIK (1 thread) "
+              f"{eaik['seconds'] * 1e3:.2f} ms ({ours['speedup_over_eaik_1_thread']:.1f}x)")
+    print()
     s = structure
     print(f"structure check: ur_parameters {s['ur_parameters_seconds'] * 1e6:.1f} us, is_ur_type "
           f"{s['is_ur_type_seconds'] * 1e6:.1f} us; ur_reachable of one pose (all fixed costs) "
@@ -201,7 +215,7 @@ def main(argv=None):
     from wsmap import robots
     from wsmap.kinematics import lm_compiled, rotx
     from wsmap.kinematics.ik.closed_forms.ur import ikine_ur, ur_reachable
-    from wsmap.workspace import cartesian_grid
+    from wsmap.workspace import cartesian_grid, constant_orientation_map
 
     chain = robots.load("ur5e")
     d, a, alpha, _ = np.array(robots.NAMED["ur5e"].rows).T
@@ -228,10 +242,12 @@ def main(argv=None):
 
     plural = lambda n: f"{n} thread{'s' if n > 1 else ''}"  # noqa: E731
     maps = {}
-    for label, R in (("R = I", np.eye(3)), ("tool-down R = Rx(pi)", rotx(np.pi))):
+    for label, rpy in (("R = I", (0.0, 0.0, 0.0)), ("tool-down R = Rx(pi)", (np.pi, 0.0, 0.0))):
         T = np.zeros((N, 4, 4))
-        T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = R, nodes, 1.0
-        methods = [("wsmap ur_reachable, compiled (1 thread)", threads(1), lambda: ur_reachable(chain, T))]
+        T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = rotx(rpy[0]), nodes, 1.0
+        methods = [("wsmap ur_reachable, compiled (1 thread)", threads(1), lambda: ur_reachable(chain, T)),
+                   (EXACT_MAP, threads(1),
+                    lambda rpy=rpy: constant_orientation_map(chain, nodes, rpy, method="exact"))]
         if many > 1:
             methods.append((f"wsmap ur_reachable, compiled ({plural(many)})", threads(many),
                             lambda: ur_reachable(chain, T)))

@@ -192,30 +192,39 @@ def into_limits(q: ArrayLike, success: ArrayLike, lo: ArrayLike, hi: ArrayLike,
     """
     q = np.asarray(q)
     success = np.asarray(success, dtype=bool)
-    move = (q < lo) | (q > hi)
-    move &= success[..., None]
+    # the common case in two contiguous reductions (a tenth of the elementwise test): every angle
+    # inside the narrowest of the limits (NaN angles fail it and take the full test)
+    if q.size and q.min() >= np.max(lo) and q.max() <= np.min(hi):
+        return q, success
+    rows = np.nonzero(success)  # only the solutions are tested and moved
+    qs = q[rows]  # (S, n)
+    lo_s, hi_s = ((np.broadcast_to(x, q.shape)[rows] if np.ndim(x) > 1 else np.broadcast_to(x, q.shape[-1:]))
+                  for x in (lo, hi))
+    move = (qs < lo_s) | (qs > hi_s)
     if revolute is not None:
         move &= np.asarray(revolute, dtype=bool)
     if not move.any():
         return q, success
-    idx = np.nonzero(move)
-    lo_m, hi_m = np.broadcast_to(lo, q.shape)[idx], np.broadcast_to(hi, q.shape)[idx]
-    x = q[idx]
+    r, j = np.nonzero(move)
+    lo_m = lo_s[r, j] if lo_s.ndim > 1 else lo_s[j]
+    hi_m = hi_s[r, j] if hi_s.ndim > 1 else hi_s[j]
+    x = qs[r, j]
     # the same operations as angle_in_range, so that both agree on every angle; a limit of
     # -inf (half-open) moves the angle down below hi instead
     with np.errstate(invalid="ignore"):
-        r = np.mod(x - lo_m, _TWO_PI)
-        shifted = np.where(np.isfinite(lo_m), lo_m + r, hi_m - np.mod(hi_m - x, _TWO_PI))
+        rem = np.mod(x - lo_m, _TWO_PI)
+        shifted = np.where(np.isfinite(lo_m), lo_m + rem, hi_m - np.mod(hi_m - x, _TWO_PI))
     above = (shifted <= hi_m + 1e-12) | ((hi_m - lo_m) >= _TWO_PI)
-    below = ~above & (r >= _TWO_PI - 1e-12)  # within the slack below lo: lo itself
+    below = ~above & (rem >= _TWO_PI - 1e-12)  # within the slack below lo: lo itself
     fits = above | below
-    moved = np.where(above, np.minimum(shifted, hi_m), np.where(below, lo_m, x))
+    qs[r, j] = np.where(above, np.minimum(shifted, hi_m), np.where(below, lo_m, x))
     if not fits.all():  # rows with an angle no turn brings inside: no solution, left as they were
+        bad = np.unique(r[~fits])
+        qs[bad] = q[tuple(i[bad] for i in rows)]
         success = success.copy()
-        success[tuple(i[~fits] for i in idx[:-1])] = False
-        moved = np.where(success[idx[:-1]], moved, x)
+        success[tuple(i[bad] for i in rows)] = False
     q = q.copy()
-    q[idx] = moved
+    q[rows] = qs
     return q, success
 
 
