@@ -139,3 +139,15 @@ def test_fk_seeds_is_checked():
     with pytest.raises(ValueError, match=r"^solver 'independent' takes no fk_seeds"):
         SearchSettings(solver="independent", fk_seeds=1)
     assert SearchSettings().fk_seeds == 1 and SearchSettings(solver="independent").fk_seeds is None
+
+
+def test_position_only_search_is_seeded_by_position():
+    arm = from_dh(d=D, a=A, alpha=ALPHA, qlim=np.array(LIMITS["q0 solves nothing"]))
+    T = ws.target_poses(NODES, (0.0, 0.0, 0.0))
+    nb = ws.node_neighbours(NODES)
+    on = map_search(arm, T, nb, position_only=True)
+    off = map_search(arm, T, nb, position_only=True, fk_seeds=0)
+    assert np.all(off.success <= on.success)
+    assert np.any(on.start == -3)
+    np.testing.assert_allclose(arm.fkine(on.q[on.success])[:, :3, 3], NODES[on.success], atol=1e-6)
+    assert arm.within_limits(on.q[on.success]).all()
