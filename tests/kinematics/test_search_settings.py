@@ -115,7 +115,7 @@ def test_a_kind_s_defaults_are_settings():
     from wsmap.workspace.kinds import get_kind
 
     assert get_kind("constant").settings == SearchSettings()
-    assert get_kind("index").settings == SearchSettings(retry=2, border_starts=0)
+    assert get_kind("index").settings == SearchSettings(retry=2, border_starts=0, fk_seeds=0)
 
 
 def test_a_map_request_carries_settings():
