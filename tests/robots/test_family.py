@@ -264,8 +264,10 @@ def test_build_is_deterministic_checksummed_and_labelled_by_the_map(single_proce
     arm0 = robots.family_arm("panda7", ds.features[0, :6])
     nodes = ws.cartesian_grid(-1.2, 1.2, 0.1)
     np.testing.assert_array_equal(ds.labels[0], ws.constant_orientation_map(
-        arm0, nodes, (np.pi, 0, 0), method="numerical", convention="standard", ik={"border_starts": 0}))
-    # the map's default search adds its border search to what the labels run: only nodes, only a few
+        arm0, nodes, (np.pi, 0, 0), method="numerical", convention="standard",
+        ik={"border_starts": 0, "fk_seeds": 0}))
+    # the map's default search adds its border search and its global seeding to what the labels run:
+    # only nodes, only a few
     full = ws.constant_orientation_map(arm0, nodes, (np.pi, 0, 0), method="numerical", convention="standard")
     assert not (ds.labels[0] & ~full).any() and (full & ~ds.labels[0]).sum() <= 0.001 * full.sum()
     assert (ds.labels.mean(axis=1) > 0.05).all()
