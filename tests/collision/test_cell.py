@@ -12,6 +12,7 @@ from wsmap import cli, load
 from wsmap import workspace as ws
 from wsmap.collision import (CollisionChecker, CollisionError, Scene, arm_model, build_acm, load_scene,
                              scene_from_dict, scene_from_urdf)
+from wsmap.collision.named import default_geometry
 from wsmap.kinematics.urdf import rpy_matrix
 from wsmap.workspace import cartesian_grid, constant_orientation_map
 
@@ -92,7 +93,8 @@ def _mounted_panda():
 
 
 def _checker(robot, scene):
-    model = arm_model("panda", robot)
+    # the geometry the command line gives a named arm (the fitted vendor capsules of the Panda)
+    model = arm_model("panda", robot, geometry=default_geometry("panda", robot))
     model.acm = build_acm(model, samples=500)
     return CollisionChecker(model, scene)
 

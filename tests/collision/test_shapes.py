@@ -55,12 +55,15 @@ def _mesh_shape():
     return Shape("mesh", (), _pose([0.1, 0, 0]), v, np.asarray(m.faces), source="egg")
 
 
-def test_the_registry_lists_the_five_kinds_by_priority_one_module_each():
-    assert SHAPES == ("box", "cylinder", "sphere", "capsule", "mesh") == tuple(SHAPE_KINDS.names())
+def test_the_registry_lists_the_kinds_by_priority_one_module_each():
+    assert SHAPES == ("box", "cylinder", "sphere", "capsule", "mesh", "surface") == tuple(SHAPE_KINDS.names())
     assert [r.priority for r in SHAPE_KINDS] == sorted(r.priority for r in SHAPE_KINDS)
     modules = {type(r).__module__ for r in SHAPE_KINDS}
     assert modules == {f"{shapes_pkg.__name__}.{name}" for name in SHAPES}
     for r in SHAPE_KINDS:
+        if r.name == "surface":  # a scene's (a study's workpiece): URDF and MJCF have none
+            assert r.urdf_tag is None and r.mjcf_type is None
+            continue
         assert r.urdf_tag == r.name and r.mjcf_type == f"mjGEOM_{r.name.upper()}"
         assert shape_kind(r.name) is r is urdf_shape_kind(r.name)
     with pytest.raises(ValueError, match="already registered"):
@@ -68,7 +71,8 @@ def test_the_registry_lists_the_five_kinds_by_priority_one_module_each():
 
 
 def test_unknown_kinds_and_bad_sizes_are_errors_listing_the_kinds():
-    with pytest.raises(CollisionError, match="unknown shape 'cone'; shapes are box, cylinder, sphere, capsule, mesh"):
+    with pytest.raises(CollisionError, match="unknown shape 'cone'; shapes are box, cylinder, sphere, capsule, mesh, "
+                                             "surface"):
         Shape("cone", (1.0,), np.eye(4))
     with pytest.raises(CollisionError, match="a box has 3 size numbers, got 2"):
         Shape("box", (1.0, 1.0), np.eye(4))
@@ -82,8 +86,12 @@ def test_unknown_kinds_and_bad_sizes_are_errors_listing_the_kinds():
 @pytest.mark.parametrize("kind", SHAPES)
 def test_the_spheres_of_every_kind_contain_the_shape(kind):
     rng = np.random.default_rng(0)
-    s = _mesh_shape() if kind == "mesh" else Shape(kind, SAMPLES[kind], _pose([0.1, 0.2, 0.3], [0.3, 0.2, 0.1]))
-    if kind == "mesh":  # points of the convex hull: convex combinations of the vertices
+    if kind in ("mesh", "surface"):
+        m = _mesh_shape()
+        s = Shape(kind, (), m.origin, m.vertices, m.faces)
+    else:
+        s = Shape(kind, SAMPLES[kind], _pose([0.1, 0.2, 0.3], [0.3, 0.2, 0.1]))
+    if kind in ("mesh", "surface"):  # points of the convex hull: convex combinations of the vertices
         w = rng.dirichlet(np.ones(len(s.vertices)) * 0.05, 4000)
         inside = np.concatenate([w @ s.vertices, s.vertices])
     else:  # points of the box around the shape that the closed-form distance calls inside, and its corners

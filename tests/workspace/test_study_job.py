@@ -49,6 +49,21 @@ def _yaml(cell):
     return yaml.safe_load((cell / "study.yaml").read_text())
 
 
+def test_the_heat_maps_are_written_beside_the_study(cell):
+    import yaml
+
+    d = {**_yaml(cell), "scores": ["manipulability", "clearance"],
+         "outputs": {"study": "out.npz", "png": "h.png", "html": "h.html", "ply": "h.ply", "score": "clearance"}}
+    (cell / "views.yaml").write_text(yaml.safe_dump(d))
+    assert main(["study", str(cell / "views.yaml"), "-q"]) == 0
+    ply = trimesh.load(cell / "h.ply", process=False)
+    assert len(ply.faces) == 12 and (cell / "h.png").stat().st_size > 0
+    assert "mesh3d" in (cell / "h.html").read_text()
+    res = load_study(cell / "out.npz").results()
+    ok = res.status == 0
+    assert ok.any() and np.all((res.scores["clearance"][ok] >= 0) & (res.scores["clearance"][ok] <= 1))
+
+
 def test_the_same_file_gives_the_same_bytes(cell, capsys):
     assert main(["study", str(cell / "study.yaml"), "-q"]) == 0
     first = (cell / "out.npz").read_bytes()
@@ -77,6 +92,9 @@ def test_tool_z_along_points_the_tool_along_the_clouds_normals(tmp_path):
     ({"collision": {"workpiece": "nothing.stl"}}, "nothing.stl.*no such file"),
     ({"collision": {"work_piece": "box.stl"}}, "work_piece"),
     ({"targets": {"mesh": "box.stl", "spacing": -1}}, "targets.spacing: must be positive"),
+    ({"collision": None, "scores": ["clearance"]}, "scores: clearance measures the distance to collision"),
+    ({"outputs": {"png": "x.jpg"}}, "outputs.png: the png heat map's file must end in .png"),
+    ({"outputs": {"score": "beauty"}}, "outputs.score: the score the heat map shows"),
 ])
 def test_bad_fields_are_one_line_errors_and_nothing_is_written(cell, capsys, change, message):
     import yaml

@@ -232,6 +232,7 @@ class StudyJob:
     seed: int = 0
     workpiece: str | None = None
     study_file: str | None = None
+    views: dict = field(default_factory=dict)
     source: str | None = None
 
     @classmethod
@@ -257,6 +258,10 @@ class StudyJob:
         method = search.get("method", "auto")
         if method not in ("auto", "exact", "numerical"):
             raise ConfigError(f"{label}.search.method: one of auto, exact, numerical, got {method!r:.40}")
+        needs = [s for s in scores if SCORES[s].needs_collision]
+        if needs and not d.get("collision"):
+            raise ConfigError(f"{label}.scores: {needs[0]} measures the distance to collision: give collision "
+                              "(true, or a scene, or a workpiece)")
         return cls(arms=arms, targets=TargetSpec.from_dict(d["targets"], f"{label}.targets", root),
                    tcp=tuple(_pose(d.get("tcp", [0, 0, 0, 0, 0, 0]), f"{label}.tcp").reshape(-1)),
                    orientation=OrientationSpec.from_dict(d.get("orientation", {}), f"{label}.orientation"),
@@ -266,6 +271,7 @@ class StudyJob:
                    workpiece=_workpiece(d.get("collision"), f"{label}.collision", root),
                    method=method, starts=_count(search.get("starts", 8), f"{label}.search.starts", 1),
                    seed=_count(d.get("seed", 0), f"{label}.seed", 0), study_file=_outputs(d, label, root),
+                   views=_views(d, label, root),
                    source=source)
 
     def check(self) -> StudyPlan:
@@ -273,6 +279,7 @@ class StudyJob:
         out = check_outputs({"outputs.study": self.study_file}).get("outputs.study")
         if out is not None and out.suffix != ".npz":
             raise ConfigError(f"outputs.study {str(out)!r}: a study file is .npz")
+        check_outputs({f"outputs.{k}": v for k, v in self.views.items() if k != "score"} | {"outputs.study": out})
         robots = [a.build() for a in self.arms]
         collision = self.collision
         if self.workpiece is not None:
@@ -324,11 +331,17 @@ class StudyJob:
                 "method": self.method, "starts": self.starts, "seed": self.seed, "source": self.source}
 
     def save(self, result: StudyResult, plan: StudyPlan) -> list[Path]:
-        """Write the study file; returns the paths written."""
-        if plan.out is None:
-            return []
-        save_study(plan.out, result)
-        return [plan.out]
+        """Write the study file and the heat maps of the first arm at its best base (`outputs.png`,
+        `html`, `ply`: `wsmap.study_views`); returns the paths written."""
+        paths = []
+        if plan.out is not None:
+            paths.append(save_study(plan.out, result))
+        views = {k: v for k, v in self.views.items() if k != "score"}
+        if views:
+            from ..study_views import save_views
+
+            paths += save_views(result, score=self.views.get("score"), **views)
+        return paths
 
 
 @dataclass
@@ -361,5 +374,18 @@ def _workpiece(d, label: str, root: Path) -> str | None:
 
 def _outputs(d, label: str, root: Path) -> str | None:
     out = d.get("outputs", {})
-    check_keys(out, ("study",), label=f"{label}.outputs")
+    check_keys(out, ("study", "png", "html", "ply", "score"), label=f"{label}.outputs")
     return _path(out, "study", root)
+
+
+def _views(d, label: str, root: Path) -> dict:
+    out = d.get("outputs", {})
+    views = {k: _path(out, k, root) for k in ("png", "html", "ply") if out.get(k) is not None}
+    for k, p in views.items():
+        if Path(p).suffix.lower() != f".{k}":
+            raise ConfigError(f"{label}.outputs.{k}: the {k} heat map's file must end in .{k}, got {out[k]!r:.60}")
+    score = out.get("score")
+    if score is not None and score not in SCORES:
+        raise ConfigError(f"{label}.outputs.score: the score the heat map shows, one of {', '.join(SCORES)} "
+                          f"(default: the product of the study's scores), got {score!r:.40}")
+    return views | ({"score": score} if score is not None else {})

@@ -38,7 +38,7 @@ from ..kinematics.ik.settings import SearchSettings
 from ..kinematics.ik.solver import get_solver
 from ..kinematics.transforms import check_rigid
 from .maps import resolve_method
-from .scores import SCORES, combined
+from .scores import SCORES, combined, score_values
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -240,7 +240,7 @@ def evaluate_targets(robot: Arm, targets, *, base=None, variants=None, tcp=None,
     values = {name: np.full(M * K, np.nan) for name in scores}
     if good.any():
         for name in scores:
-            values[name][good] = SCORES[name].function(robot, q[good])
+            values[name][good] = score_values(name, robot, q[good], collision=collision, base=base)
     total = np.where(good, combined({k: v for k, v in values.items()}, M * K), -np.inf).reshape(M, K)
     best = np.argmax(total, axis=1)  # the first of equal scores: the lower variant index
     reached = good.reshape(M, K)[np.arange(M), best]

@@ -36,6 +36,8 @@ __all__ = ["SURFACE", "Surface", "winding_number"]
 
 #: A triangle of area below this (m²) carries no surface.
 _MIN_AREA = 1e-14
+#: Whether a surface is closed, by its faces array (held, so that its id is not reused).
+_CLOSED: dict = {}
 
 
 def winding_number(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -93,11 +95,20 @@ class Surface(ShapeKind):
 
     @staticmethod
     def closed(shape: Shape) -> bool:
-        """Whether the mesh is watertight (every edge shared by exactly two triangles): a solid."""
+        """Whether the mesh is watertight (every edge shared by exactly two triangles): a solid.
+        Computed once per shape's triangles (the checker asks it for every link it tests)."""
+        key = (id(shape.faces), len(shape.faces))
+        cached = _CLOSED.get(key)
+        if cached is not None and cached[0] is shape.faces:
+            return cached[1]
         f = shape.faces
         edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
         _, counts = np.unique(edges, axis=0, return_counts=True)
-        return bool(np.all(counts == 2))
+        closed = bool(np.all(counts == 2))
+        if len(_CLOSED) > 256:
+            _CLOSED.clear()
+        _CLOSED[key] = (shape.faces, closed)
+        return closed
 
     def bounding_spheres(self, shape, max_spheres):
         # the hull's spheres contain the hull, which contains the surface
