@@ -24,7 +24,7 @@ import pytest
 from wsmap import paths
 
 BENCH = paths.ROOT / "benchmarks"
-AREAS = ("kernel", "maps", "collision", "learn", "paper")
+AREAS = ("kernel", "maps", "collision", "learn", "paper", "study")
 SCRIPTS = sorted(p for area in AREAS for p in (BENCH / area).glob("*.py"))
 IDS = [f"{p.parent.name}/{p.name}" for p in SCRIPTS]
 

@@ -54,6 +54,8 @@ def find_root(environ: Mapping[str, str] | None = None, *, package_root: Path | 
 ROOT = find_root()
 PARAMS = ROOT / "params.yaml"
 DATA = ROOT / "data"
+#: The committed work cells of the reach studies (`data/cells/<cell>/`: study files, parts, arms, licences).
+CELLS = DATA / "cells"
 MODELS = ROOT / "models"
 FIGURES = ROOT / "figures"
 TABLES = ROOT / "tables"

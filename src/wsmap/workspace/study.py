@@ -279,8 +279,11 @@ class BaseRegion:
                 raise ValueError(f"base region {name}: need finite lo <= hi, got ({lo}, {hi})")
         if not np.isfinite(self.step) or self.step <= 0:
             raise ValueError(f"base region step must be positive, got {self.step}")
-        xs = np.arange(self.x[0], self.x[1] + self.step * 0.5, self.step)
-        ys = np.arange(self.y[0], self.y[1] + self.step * 0.5, self.step)
+        # positions as whole steps from lo, rounded (no 1e-16 where a step lands on 0), + 0.0 (no -0.0)
+        xs = np.round(self.x[0] + self.step * np.arange(int(np.floor((self.x[1] - self.x[0]) / self.step + 1e-9)) + 1),
+                      12) + 0.0
+        ys = np.round(self.y[0] + self.step * np.arange(int(np.floor((self.y[1] - self.y[0]) / self.step + 1e-9)) + 1),
+                      12) + 0.0
         yaw = 2 * np.pi * np.arange(self.yaws) / self.yaws
         Y, X = np.meshgrid(ys, xs, indexing="ij")
         px, py = X.reshape(-1), Y.reshape(-1)
