@@ -132,7 +132,7 @@ def test_paper_commands_need_a_checkout(monkeypatch, tmp_path, capsys):
     for argv in (["paper", "list"], ["paper", "run", "classical_workspace"], ["paper", "full", "--list"]):
         assert cli.main(argv) == 2
         err = capsys.readouterr().err
-        assert "needs a checkout of the wsmap repository (dvc.yaml and notebooks/" in err, argv
+        assert "needs a checkout of the wsmap repository (dvc.yaml, params.yaml and notebooks/" in err, argv
 
 
 def test_dask_missing_is_named_before_any_work(monkeypatch, tmp_path, capsys):
