@@ -26,7 +26,7 @@ paper: $(STAMP)
 	PATH="$(CURDIR)/$(BIN):$$PATH" dvc repro
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup --durations=20
 
 # only the papermill smoke runs of the notebooks (tests marked `smoke`; `-m "not smoke"` for the rest)
 smoke: $(STAMP)
