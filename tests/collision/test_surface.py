@@ -60,11 +60,14 @@ def test_a_link_wholly_inside_a_closed_surface_collides_and_inside_an_open_one_d
     assert CollisionChecker(model, Scene(obstacles=(sheet,)), self_collision=False).at_bases(q, np.eye(4)).all()
 
 
-def test_the_fast_layer_never_accepts_what_the_exact_check_rejects_for_a_concave_surface():
+@pytest.mark.parametrize("closed", [True, False])
+def test_the_fast_layer_never_accepts_what_the_exact_check_rejects_for_a_concave_surface(closed):
     model = arm_model("panda")
     model.acm = build_acm(model, samples=300)
     m = _bracket()
-    ob = Obstacle("bracket", Shape("surface", (), _pose([0.45, 0, 0.2]), m.vertices, m.faces), frame="world")
+    faces = m.faces if closed else m.faces[np.asarray(m.triangles_center)[:, 2] < 0.299]
+    ob = Obstacle("bracket", Shape("surface", (), _pose([0.45, 0, 0.2]), m.vertices, faces), frame="world")
+    assert SURFACE.closed(ob.shape) == closed
     chk = CollisionChecker(model, Scene(floor=0.0, obstacles=(ob,)))
     q = model.chain.random_q(300, np.random.default_rng(3))
     fast, exact = chk(q), chk.exact(q)
@@ -80,3 +83,17 @@ def test_the_fast_layer_never_accepts_what_the_exact_check_rejects_for_a_concave
 def test_degenerate_surfaces_are_one_line_errors(vertices, faces, message):
     with pytest.raises(CollisionError, match=message):
         Shape("surface", (), np.eye(4), vertices, faces, source="part.ply")
+
+
+def test_the_spheres_of_an_open_sheet_contain_every_point_of_its_triangles():
+    m = _bracket()
+    lid = np.asarray(m.triangles_center)[:, 2] > 0.299  # the walls' tops off: an open sheet
+    sheet = Shape("surface", (), np.eye(4), m.vertices, m.faces[~lid])
+    assert not SURFACE.closed(sheet)
+    c, r = SURFACE.bounding_spheres(sheet, 64)
+    assert 6 < len(r) <= 64
+    tri = sheet.vertices[sheet.faces]
+    w = np.random.default_rng(0).dirichlet(np.ones(3), (len(tri), 20))  # points on every triangle
+    pts = np.einsum("tkj,tjd->tkd", w, tri).reshape(-1, 3)
+    d = np.linalg.norm(pts[:, None] - c[None], axis=-1) - r
+    assert (d.min(axis=1) <= 1e-12).all()

@@ -55,6 +55,9 @@ __all__ = ["STAND_MARGIN", "bounding_spheres", "coal_shape", "coal_transform", "
 
 
 # ------------------------------------------------------------------------------------ sphere layer
+#: At most this many spheres enclose each obstacle (a link: `bounding_spheres`' default of 6).
+OBSTACLE_SPHERES = 64
+
 def bounding_spheres(shape: Shape, max_spheres: int = 6) -> tuple[np.ndarray, np.ndarray]:
     """Spheres whose union contains a shape (a mesh's convex hull).
 
@@ -182,7 +185,8 @@ class _Layer:
             P = ob.pose(base)
             self.obs_geoms.append(coal_shape(ob.shape))
             self.obs_pose.append(P)
-            c, r = bounding_spheres(ob.shape)
+            # obstacles stand still: more, smaller spheres cost one array product and spare coal calls
+            c, r = bounding_spheres(ob.shape, OBSTACLE_SPHERES)
             self.obs_spheres.append((c @ P[:3, :3].T + P[:3, 3], r))
         if self.scene.floor is not None:
             import coal
@@ -196,6 +200,15 @@ class _Layer:
 
     def shape_pose(self, B, si):
         return B[self.shape_body[si]] @ self.shape_origin[si]
+
+
+def _spheres_meet(cs, rs, oc, orad) -> np.ndarray:
+    """`(C, S)`: sphere `s` (centres `cs` `(C, S, 3)`, radii `rs` `(S,)`) may meet one of the
+    obstacle's spheres (`oc` `(O, 3)`, `orad` `(O,)`). Squared distances by one matrix product
+    (`|c|² + |o|² − 2 c·o`); the rounding of that form (about 1e-15 m² here) is covered by the 1e-9 m²
+    added to the threshold, which only ever calls more pairs "maybe"."""
+    d2 = (np.einsum("csi,csi->cs", cs, cs)[..., None] + np.einsum("oi,oi->o", oc, oc) - 2.0 * (cs @ oc.T))
+    return np.any(d2 <= (rs[:, None] + orad) ** 2 + 1e-9, axis=-1)
 
 
 def _obstacle_maybe(shape, P, centres, radii):
@@ -355,9 +368,7 @@ class CollisionChecker:
                 for k, ob in enumerate(obs):
                     m = _obstacle_maybe(ob.shape, L.obs_pose[k], cs, rs)
                     if m is None:  # a mesh: its own spheres
-                        oc, orad = L.obs_spheres[k]
-                        m = np.linalg.norm(cs[:, :, None] - oc[None, None], axis=-1) <= rs[:, None] + orad + 1e-12
-                        m = m.any(axis=-1)
+                        m = _spheres_meet(cs, rs, *L.obs_spheres[k])
                     scene[:, mi, k] = m.any(axis=-1)
                 if self.scene.floor is not None and not L.analytic[li]:
                     scene[:, mi, -1] = np.any(cs[..., 2] - rs <= self.scene.floor + 1e-12, axis=-1)
@@ -429,6 +440,8 @@ class CollisionChecker:
         # a link shape wholly inside a closed surface crosses none of its triangles: coal's answer
         # for a boundary-only kind is completed by one inner point of the (connected) link shape
         ob, P = self.scene.obstacles[k].shape, self.layer.obs_pose[k]
+        if ob.record.encloses(ob, np.zeros((0, 3))) is None:  # no inside (a primitive, an open sheet)
+            return False
         shape = self.layer.shapes[si]
         p = Ti[:3, :3] @ shape.record.inner_point(shape) + Ti[:3, 3]
         inside = ob.record.encloses(ob, (p - P[:3, 3]) @ P[:3, :3])

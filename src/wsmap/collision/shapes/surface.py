@@ -12,8 +12,10 @@ record also answers `encloses(points)` (the generalised winding number of the tr
 a mesh that is closed but not perfectly oriented), and the checker calls a link whose inner point
 is enclosed colliding. An open mesh (a sheet, a scan) has no inside: it is the sheet itself.
 
-The fast sphere layer encloses the mesh's convex hull, which contains the mesh: conservative, as
-for every kind. Degenerate inputs (fewer than one triangle of positive area, NaN vertices) are
+The fast sphere layer is conservative, as for every kind: a closed mesh's spheres enclose its convex
+hull (the solid inside it included); an open sheet's enclose its triangles, grouped by a grid (each
+sphere holds every vertex of its group, so every point of its triangles), up to 64 spheres for an
+obstacle. Degenerate inputs (fewer than one triangle of positive area, NaN vertices) are
 refused with one line naming the file.
 
 A scene file's `{shape: surface, file: PATH, scale: s or [sx, sy, sz]}`; a study's
@@ -111,10 +113,34 @@ class Surface(ShapeKind):
         return closed
 
     def bounding_spheres(self, shape, max_spheres):
-        # the hull's spheres contain the hull, which contains the surface
         from .mesh import MESH
 
-        return MESH.bounding_spheres(shape, max_spheres)
+        if self.closed(shape):  # a solid: its inside too, so the hull's spheres
+            return MESH.bounding_spheres(shape, max_spheres)
+        # an open sheet is its triangles alone: triangles grouped by the cell of a grid their centres
+        # fall in, each group's vertices (hence its triangles) in one sphere; the finest grid whose
+        # groups number at most max_spheres
+        tri = shape.vertices[shape.faces]
+        centre = tri.mean(axis=1)
+        lo, extent = centre.min(axis=0), np.ptp(shape.vertices, axis=0).max()
+        for n in range(16, 0, -1):
+            cell = np.floor((centre - lo) / (extent / n + 1e-12)).astype(np.int64)
+            keys, group = np.unique(cell, axis=0, return_inverse=True)
+            if len(keys) <= max_spheres or n == 1:
+                break
+        if len(keys) > max_spheres:
+            return MESH.bounding_spheres(shape, max_spheres)
+        group = group.reshape(-1)
+        pts = tri.reshape(-1, 3)
+        pg = np.repeat(group, 3)
+        lo_g = np.full((len(keys), 3), np.inf)
+        hi_g = np.full((len(keys), 3), -np.inf)
+        np.minimum.at(lo_g, pg, pts)
+        np.maximum.at(hi_g, pg, pts)
+        c = (lo_g + hi_g) / 2
+        r = np.zeros(len(keys))
+        np.maximum.at(r, pg, np.linalg.norm(pts - c[pg], axis=1))
+        return c, r * (1 + 1e-9) + 1e-12
 
     def coal_geometry(self, shape):
         import coal
@@ -129,7 +155,8 @@ class Surface(ShapeKind):
     def encloses(self, shape, local):
         if not self.closed(shape):
             return None
-        return np.abs(winding_number(shape.vertices, shape.faces, np.atleast_2d(local))) > 0.5
+        local = np.asarray(local, dtype=np.float64).reshape(-1, 3)
+        return np.abs(winding_number(shape.vertices, shape.faces, local)) > 0.5
 
     def from_urdf(self, el, origin, label, what, folder):  # pragma: no cover - URDF has no surface tag
         raise CollisionError(f"{label}: {what}: URDF has no surface element")
