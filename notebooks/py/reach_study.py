@@ -29,7 +29,7 @@ out = paths.notebook_outputs("reach_study", output_root)
 cfg = paths.notebook_params("reach_study", params_file)
 result = part.run(cfg, out)
 part.save(result, out)
-figures = part.figures(result, out, cfg["heat_map"])
+figures = part.figures(result, out)
 
 # %% [markdown]
 # ## Coverage per cell and arm

@@ -65,6 +65,7 @@ class Result:
     metrics: dict
     table: pd.DataFrame
     studies: dict  #: cell -> StudyResult
+    heat_map: str  #: the cell whose heat map is the figure (params `heat_map`)
 
 
 def _thinned(targets: TargetSet, stride: int) -> TargetSet:
@@ -127,7 +128,7 @@ def run(cfg: Mapping, out: Outputs | None = None, *, log=print) -> Result:
             agree[cell] = agreement(result, spec["reach_db"], int(spec.get("stride", 1)))
             log(f"{cell} against REACH's database: {agree[cell]}")
     metrics = check_metrics({"cells": rows, "agreement": agree}, Metrics, PART.name)
-    return Result(metrics, pd.DataFrame(rows), studies)
+    return Result(metrics, pd.DataFrame(rows), studies, cfg["heat_map"])
 
 
 def save(result: Result, out: Outputs) -> None:
@@ -140,10 +141,11 @@ def save(result: Result, out: Outputs) -> None:
                                                                    "certified_unreachable", "not_found"))
 
 
-def figures(result: Result, out: Outputs, cell: str) -> list[Path]:
-    """The heat map of `cell` as PNG (the figure) and its HTML and PLY beside the study file."""
+def figures(result: Result, out: Outputs) -> list[Path]:
+    """The heat map of the cell `result.heat_map` as PNG (the figure), its HTML and PLY beside the study files."""
     from ...study_views import save_views
 
+    cell = result.heat_map
     html = out.results / "reach_study_html"
     html.mkdir(parents=True, exist_ok=True)
     png = out.figures / "reach_study_heatmap.png"
