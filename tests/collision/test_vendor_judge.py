@@ -222,3 +222,47 @@ def test_without_the_collision_extra_the_readme_scene_map_is_one_line(monkeypatc
         assert err == "wsmap: error: --collision/--scene needs coal, which is not installed: pip install " \
                       "'wsmap[collision]'"
     assert not (tmp_path / "m.npz").exists()
+
+
+def test_a_reach_studys_solutions_are_free_by_pybullet_part_included():
+    """Every solution of a Panda study on REACH's demo part (the part an obstacle on its triangles)
+    is free of self-collision and of the part by PyBullet: the vendor URDF, the part as a static
+    concave triangle mesh, `getClosestPoints` below 0 (no code shared with the checker)."""
+    from pathlib import Path
+
+    import trimesh
+
+    from wsmap.workspace.study import REACHED, evaluate_targets, tool_variants
+    from wsmap.workspace.workpiece import targets_from_points
+
+    cell = Path(__file__).resolve().parents[2] / "data" / "cells" / "reach_demo"
+    pose = np.array([[1, 0, 0, -0.25], [0, 1, 0, 0], [0, 0, 1, -0.45], [0, 0, 0, 1.0]])
+    part = trimesh.load(cell / "part.ply", process=False)
+    v = np.asarray(part.vertices) @ pose[:3, :3].T + pose[:3, 3]
+    from wsmap.collision import CollisionChecker, Obstacle, Shape, build_acm
+
+    model = arm_model("panda", load("panda"), geometry=default_geometry("panda"))
+    model.acm = build_acm(model, samples=1000)
+    obstacle = Obstacle("part", Shape("surface", (), np.eye(4), v, np.asarray(part.faces)), frame="world")
+    chk = CollisionChecker(model, Scene(floor=0.0, obstacles=(obstacle,)))
+    targets = targets_from_points(cell / "part.pcd", pose=pose).poses[::2]
+    tcp = np.eye(4)
+    tcp[2, 3] = 0.1
+    res = evaluate_targets(load("panda"), targets, variants=tool_variants(4), tcp=tcp, collision=chk)
+    sol = res.q[res.status == REACHED]
+    assert len(sol) > 20
+    judge = Judge("panda")
+    try:
+        kw = {"physicsClientId": judge.cid}
+        shape = pybullet.createCollisionShape(pybullet.GEOM_MESH, vertices=v.tolist(),
+                                              indices=np.asarray(part.faces).reshape(-1).tolist(),
+                                              flags=pybullet.GEOM_FORCE_CONCAVE_TRIMESH, **kw)
+        body = pybullet.createMultiBody(baseMass=0, baseCollisionShapeIndex=shape, **kw)
+        assert not judge.colliding(sol).any()
+        for q in sol:
+            judge.set(q)
+            for link in judge.links[1:]:
+                pts = pybullet.getClosestPoints(judge.robot, body, 0.0, link, -1, **kw)
+                assert not any(p[8] < 0 for p in pts), (q, link)
+    finally:
+        judge.close()
