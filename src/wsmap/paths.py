@@ -35,8 +35,12 @@ def find_root(environ: Mapping[str, str] | None = None, *, package_root: Path | 
     cwd : path, optional
         Where the search up for a checkout starts (default: the working directory).
 
-    Returns `package_root` when neither it nor a folder at or above `cwd` is a checkout (a folder
-    with `CHECKOUT_FILES`), so that `require_checkout` names it.
+    Returns
+    -------
+    pathlib.Path
+        `WSMAP_ROOT`, else `package_root` if it is a checkout (a folder with `CHECKOUT_FILES`), else
+        the nearest checkout at or above `cwd`, else `package_root` (so that `require_checkout`
+        names it).
     """
     env = os.environ if environ is None else environ
     if env.get("WSMAP_ROOT"):

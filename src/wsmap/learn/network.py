@@ -242,6 +242,8 @@ class SubspaceMLP(nn.Module):
         equals the single models built with `[seeds[s]]` (and `from_models` of them).
         `None`: the global torch RNG, subspace 0 first.
 
+    Notes
+    -----
     Shapes: `n` samples, `f = config.n_inputs` stored features, `m = config.n_outputs`.
     """
 
