@@ -110,3 +110,16 @@ def test_bad_fields_are_one_line_errors_and_nothing_is_written(cell, capsys, cha
     assert not (cell / "out.npz").exists()
     with pytest.raises(ConfigError):
         StudyJob.from_dict(d, root=cell).check()
+
+
+def test_progress_is_told_of_every_arm(cell):
+    import yaml
+
+    d = {**_yaml(cell), "robots": ["ur5e", "puma560"], "collision": None}
+    d.pop("robot")
+    job = StudyJob.from_dict(d, root=cell)
+    told = []
+    result = job.run(progress=told.append)
+    assert told == [1, 1] and len(result.results) == 2
+    with pytest.raises(ValueError, match="progress must be"):
+        job.run(progress="yes")

@@ -35,7 +35,7 @@ def run(args) -> int:
     job = StudyJob.from_file(args.file)
     plan = job.check()
     t0 = time.perf_counter()
-    result = job.run(plan)
+    result = job.run(plan, progress=not args.quiet)
     seconds = time.perf_counter() - t0
     paths = job.save(result, plan)
     if not args.quiet:

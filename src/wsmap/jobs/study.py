@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..collision.sources import CollisionSource
+from .._progress import progress_bar
 from ..io import check_outputs
 from ..robots.sources import ArmSource
 from ..workspace.maps import target_poses
@@ -301,9 +302,14 @@ class StudyJob:
         except CollisionError as e:
             raise ConfigError(str(e)) from None
 
-    def run(self, plan: StudyPlan | None = None) -> StudyResult:
-        """Evaluate every arm: at the base pose, or the best bases of the region."""
+    def run(self, plan: StudyPlan | None = None, *, progress=False) -> StudyResult:
+        """Evaluate every arm: at the base pose, or the best bases of the region. `progress`: a bar
+        on stderr (True) or a callable `progress(n)` told of each arm done (`wsmap._progress`)."""
         plan = self.check() if plan is None else plan
+        with progress_bar(progress, len(plan.robots), unit="arm", desc="study") as update:
+            return self._run(plan, update)
+
+    def _run(self, plan: StudyPlan, update) -> StudyResult:
         variants, tcp = self.orientation.variants(), np.asarray(self.tcp).reshape(4, 4)
         kw = dict(variants=variants, tcp=tcp, method=self.method, starts=self.starts, seed=self.seed,
                   scores=self.scores)
@@ -317,6 +323,8 @@ class StudyJob:
                 ranking = rank_bases(robot, plan.targets.poses, self.base.region, top=self.base.top,
                                      collision=checker, **kw)
                 per_arm.append(ranking.results)
+            if update is not None:
+                update(1)
         return StudyResult(names=[r.name or f"arm {i}" for i, r in enumerate(plan.robots)], targets=plan.targets,
                            results=per_arm, variants=variants, settings=self.settings())
 
