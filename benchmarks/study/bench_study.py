@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from wsmap import load, robots
-from wsmap.collision import Obstacle, Shape
+from wsmap.collision import Obstacle, Scene, Shape, arm_model, checker_for
 from wsmap.collision.named import ARM_MODELS
 from wsmap.collision.shapes.mesh import read_mesh
 from wsmap.workspace.study import REACHED, BaseRegion, evaluate_targets, rank_bases, tool_variants
@@ -43,18 +43,12 @@ TCP = np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0.1], [0, 0, 0, 1.0]])
 
 
 def part_checker(name: str):
+    """The default checker of the named arm `name` (`checker_for`) with the floor and the demo part,
+    a surface obstacle at `PART_POSE`."""
     v, f = read_mesh(str(CELL / "part.ply"), "part")
     part = Obstacle("part", Shape("surface", (), PART_POSE, v, f, source="part.ply"), frame="world")
-    return _with_part(name, part)
-
-
-def _with_part(name, part):
-    from wsmap.collision import CollisionChecker, Scene, arm_model, build_acm
-    from wsmap.collision.named import default_geometry
-
-    model = arm_model(name, load(name), geometry=default_geometry(name, load(name)))
-    model.acm = build_acm(model, samples=2000)
-    return CollisionChecker(model, Scene(floor=0.0 if model.floor else None, obstacles=(part,)))
+    floor = 0.0 if arm_model(name).floor else None
+    return checker_for(name, Scene(floor=floor, obstacles=(part,)), samples=2000)
 
 
 def section_targets(args):

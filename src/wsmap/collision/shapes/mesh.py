@@ -36,7 +36,7 @@ from ..errors import CollisionError
 from ..fields import MAX_COORDINATE, scene_vector, shown, urdf_numbers
 from .registry import SHAPE_KINDS, Shape, ShapeKind
 
-__all__ = ["MESH", "Mesh", "read_mesh", "resolve_mesh", "check_hull_vertices", "mesh_header_triangles",
+__all__ = ["MESH", "Mesh", "read_mesh", "read_scene_mesh", "resolve_mesh", "check_hull_vertices", "mesh_header_triangles",
            "MAX_MESH_TRIANGLES", "FLAT_RATIO"]
 
 #: The most triangles a collision mesh may have: a vendor's collision meshes have thousands, a fine
@@ -220,6 +220,24 @@ def _inside(path: str, root: str) -> bool:
     return os.path.commonpath([path, root]) == root
 
 
+def read_scene_mesh(item, label: str, name: str, folder: str | None, kind: str) -> tuple:
+    """The triangles `(vertices, faces, path)` of a scene-file obstacle `{file: PATH, scale: s or
+    [sx, sy, sz]}` of kind `kind` (a mesh, a surface), the file relative to `folder`; one-line
+    `CollisionError`s naming the file and the obstacle."""
+    where = f"{label}: obstacle {name!r}"
+    fn = item.get("file")
+    if not isinstance(fn, str) or not fn:
+        raise CollisionError(f"{where}: a {kind} needs file: PATH")
+    scale = item.get("scale", 1.0)
+    scale = scene_vector(label, f"obstacle {name!r} scale", [scale] * 3 if isinstance(scale, (int, float))
+                         and not isinstance(scale, bool) else scale)
+    if np.any(scale <= 0):
+        raise CollisionError(f"{where}: {kind} scale must be positive, got {shown(item.get('scale'))}")
+    path = fn if os.path.isabs(fn) or folder is None else os.path.join(folder, fn)
+    v, f = read_mesh(path, where, scale)
+    return v, f, path
+
+
 def resolve_mesh(filename: str, urdf_dir: str | None) -> str:
     """A URDF mesh reference as a path, kept inside the description's tree (module notes).
 
@@ -360,16 +378,7 @@ class Mesh(ShapeKind):
 
     def from_scene(self, item, pose, label, name, folder):
         where = f"{label}: obstacle {name!r}"
-        fn = item.get("file")
-        if not isinstance(fn, str) or not fn:
-            raise CollisionError(f"{where}: a mesh needs file: PATH")
-        scale = item.get("scale", 1.0)
-        scale = scene_vector(label, f"obstacle {name!r} scale", [scale] * 3 if isinstance(scale, (int, float))
-                             and not isinstance(scale, bool) else scale)
-        if np.any(scale <= 0):
-            raise CollisionError(f"{where}: mesh scale must be positive, got {shown(item.get('scale'))}")
-        path = fn if os.path.isabs(fn) or folder is None else os.path.join(folder, fn)
-        v, f = read_mesh(path, where, scale)
+        v, f, path = read_scene_mesh(item, label, name, folder, "mesh")
         try:
             return Shape("mesh", (), pose, v, f, source=path)
         except CollisionError as exc:

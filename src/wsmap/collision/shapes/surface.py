@@ -25,13 +25,11 @@ element (their meshes are convex hulls, as their consumers load them).
 
 from __future__ import annotations
 
-import os
 
 import numpy as np
 
 from ..errors import CollisionError
-from ..fields import scene_vector
-from .mesh import read_mesh
+from .mesh import read_scene_mesh
 from .registry import SHAPE_KINDS, Shape, ShapeKind
 
 __all__ = ["SURFACE", "Surface", "winding_number"]
@@ -165,17 +163,7 @@ class Surface(ShapeKind):
         raise CollisionError("MJCF has no surface geom")
 
     def from_scene(self, item, pose, label, name, folder):
-        where = f"{label}: obstacle {name!r}"
-        fn = item.get("file")
-        if not isinstance(fn, str) or not fn:
-            raise CollisionError(f"{where}: a surface needs file: PATH")
-        scale = item.get("scale", 1.0)
-        scale = scene_vector(label, f"obstacle {name!r} scale", [scale] * 3 if isinstance(scale, (int, float))
-                             and not isinstance(scale, bool) else scale)
-        if np.any(scale <= 0):
-            raise CollisionError(f"{where}: surface scale must be positive, got {item.get('scale')!r}")
-        path = fn if os.path.isabs(fn) or folder is None else os.path.join(folder, fn)
-        v, f = read_mesh(path, where, scale)
+        v, f, path = read_scene_mesh(item, label, name, folder, "surface")
         return Shape("surface", (), pose, v, f, source=path)
 
 
