@@ -282,15 +282,25 @@ def _node_index(grid: Mapping, points: np.ndarray, what: str) -> np.ndarray:
 def save_reuleaux(path: PathLike, grid: Mapping, bits: ArrayLike, orientations: ArrayLike) -> Path:
     """Write a reachability index as a Reuleaux reachability map (`.h5`; module docstring).
 
-    Args:
-        path: the output file, `.h5`; written atomically.
-        grid: the R3 grid spec of the map (`wsmap.workspace.grid_spec`), one step on every axis.
-        bits: bool `(N, K)`, orientation `k` reachable at node `i` (`T = transl(p_i)·R_k`):
-            `reachability_index(..., return_bits=True)[1]`.
-        orientations: `(K, 3, 3)` the rotations of the columns of `bits`.
+    Parameters
+    ----------
+    path : the output file, `.h5`; written atomically (a temporary file renamed into place).
+    grid : the R3 grid spec of the map (`wsmap.workspace.grid_spec`), one step on every axis (m).
+    bits : bool `(N, K)`, orientation `k` reachable at node `i` (`T = transl(p_i)·R_k`):
+        `reachability_index(..., return_bits=True)[1]`.
+    orientations : `(K, 3, 3)` the rotations of the columns of `bits`.
 
-    Returns the path. `ValueError` before anything is written for a bad grid, shapes or path;
-    `wsmap._optional.MissingDependency` without h5py.
+    Returns
+    -------
+    Path
+        The path written.
+
+    Raises
+    ------
+    ValueError
+        Before anything is written, for a bad grid, shapes or path.
+    wsmap._optional.MissingDependency
+        Without h5py.
     """
     check_output_path(path, "Reuleaux map")
     _h5py("a Reuleaux map (.h5)")
