@@ -123,6 +123,9 @@ def arm_arguments(m):
     g.add_argument("--ee", metavar="LINK", help="--urdf: the end link (default: the chain's only leaf); "
                                                "--mjcf: the tool's site or body (required)")
     g.add_argument("--base", metavar="LINK", help="--urdf: the first link of the chain (default: the URDF's root)")
+    g.add_argument("--srdf", metavar="FILE",
+                   help="--urdf: MoveIt's SRDF of the arm: its planning group's chain and end effector pick --base and "
+                        "--ee when they are not given; with --collision its <disable_collisions> pairs are never checked")
     g.add_argument("--d", type=number, nargs="+", help="DH link offsets d_1..d_n in metres")
     g.add_argument("--a", type=number, nargs="+", help="DH link lengths a_1..a_n in metres")
     g.add_argument("--alpha", type=number, nargs="+", help="DH twists alpha_1..alpha_n in radians (pi expressions allowed)")
@@ -139,7 +142,7 @@ def collision_arguments(m):
     g.add_argument("--collision", action="store_true",
                    help="count a node only with a collision-free solution: self-collision from the arm's own geometry "
                         "(--urdf: its <collision> elements; --robot: its capsule model; DH columns: --link-radius), "
-                        "and the floor for a named arm")
+                        "and the floor for a named arm (--floor, --no-floor)")
     g.add_argument("--scene", metavar="FILE", help="obstacles (YAML or JSON: floor, boxes, cylinders, spheres, "
                                                   "meshes; or a work cell's URDF, FILE.urdf: its fixed links' "
                                                   "<collision> elements); implies --collision")
@@ -148,21 +151,45 @@ def collision_arguments(m):
                                                    "world frame")
     g.add_argument("--link-radius", type=positive_float, nargs="+", metavar="R",
                    help="capsules of these radii (m; one, or one per body 0..n) along the links; implies --collision")
+    fl = g.add_mutually_exclusive_group()
+    fl.add_argument("--floor", type=number, metavar="Z",
+                    help="a floor at height Z (m, world frame), replacing the scene file's (default: z = 0 for a named "
+                         "arm, none for --urdf/--mjcf/DH arms unless the scene file gives one)")
+    fl.add_argument("--no-floor", action="store_true", help="no floor, not even a named arm's or the scene file's")
     g.add_argument("--allow", nargs=2, action="append", metavar=("LINK", "LINK"),
                    help="never check this link pair (repeatable), besides the allowed-collision matrix's")
     g.add_argument("--acm-samples", type=non_negative_int, default=None, metavar="N",
                    help="random configurations of the matrix's 'never in collision' test (10000 when not given)")
 
 
+def _srdf_ends(args) -> tuple[str | None, str | None]:
+    """`(ee, base)`: the options, or where they are not given the chain of the `--srdf` file
+    (checked against `--urdf`'s links before any work)."""
+    srdf = getattr(args, "srdf", None)
+    if srdf is None:
+        return args.ee, args.base
+    if args.urdf is None:
+        raise ValueError("--srdf goes with --urdf (MoveIt's semantic description of that URDF arm)")
+    from ..collision.srdf import load_srdf
+
+    description = load_srdf(srdf, urdf=args.urdf)
+    if args.ee is not None and args.base is not None:
+        return args.ee, args.base
+    base, ee = description.ends()
+    return (args.ee if args.ee is not None else ee), (args.base if args.base is not None else base)
+
+
 def arm_source(args) -> ArmSource:
-    return ArmSource(robot=args.robot, urdf=args.urdf, mjcf=args.mjcf, ee=args.ee, base=args.base, d=args.d, a=args.a,
+    ee, base = _srdf_ends(args)
+    return ArmSource(robot=args.robot, urdf=args.urdf, mjcf=args.mjcf, ee=ee, base=base, d=args.d, a=args.a,
                      alpha=args.alpha, offset=args.offset, modified=args.mdh, joint_limits=args.joint_limits,
                      qlim_deg=args.qlim_deg)
 
 
 def collision_source(args) -> CollisionSource:
     return CollisionSource(collision=args.collision, scene=args.scene, mount=args.mount, link_radius=args.link_radius,
-                           allow=args.allow, acm_samples=args.acm_samples, seed=getattr(args, "seed", 0))
+                           allow=args.allow, acm_samples=args.acm_samples, seed=getattr(args, "seed", 0),
+                           srdf=getattr(args, "srdf", None), floor=False if args.no_floor else args.floor)
 
 
 def notice(line: str) -> None:

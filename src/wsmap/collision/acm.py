@@ -9,6 +9,8 @@ Built as MoveIt's setup assistant builds it (`build_acm`): a pair is disabled wh
 * `"never"`: never collide over `samples` random configurations drawn uniformly inside the
   limits (seeded by `seed`; MoveIt's default is 10000 as well). This is a sampling heuristic: a
   pair that collides only in a sliver of the joint space can be missed, as in MoveIt;
+* `"srdf"`: a MoveIt SRDF's `<disable_collisions>` disables it (`srdf=`,
+  `wsmap.collision.srdf`); disabled before the sampling, which then skips it;
 * `"user"`: the caller disabled it (`disable=`).
 
 Every other pair is checked. The matrix is stored with the model
@@ -17,6 +19,7 @@ Every other pair is checked. The matrix is stored with the model
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
@@ -28,7 +31,7 @@ from .geometry import CollisionModel
 
 __all__ = ["REASONS", "ACM", "build_acm", "DEFAULT_SAMPLES", "MAX_SAMPLES"]
 
-REASONS = ("rigid", "adjacent", "default", "never", "user")
+REASONS = ("rigid", "adjacent", "default", "never", "srdf", "user")
 #: Random configurations of the "never in collision" test (MoveIt's default).
 DEFAULT_SAMPLES = 10000
 #: The most of them: 100 times MoveIt's default, minutes of coal tests for an arm of meshes (10^11
@@ -89,26 +92,46 @@ def _user_pairs(model: CollisionModel, disable) -> list[tuple[int, int]]:
     return out
 
 
+def _srdf_pairs(model: CollisionModel, srdf) -> list[tuple[int, int]]:
+    from .srdf import Srdf, load_srdf
+
+    if not isinstance(srdf, Srdf):  # a file: its links checked against the model's URDF when it is one
+        source = model.source
+        urdf = source if isinstance(source, str) and source.lower().endswith(".urdf") and os.path.isfile(source) else None
+        srdf = load_srdf(srdf, urdf=urdf)
+    return [tuple(sorted((model.index(a), model.index(b)))) for a, b in srdf.disabled_pairs(model.names)]
+
+
+def _structural(links) -> dict:
+    """The "rigid" and "adjacent" pairs of `links` (module notes)."""
+    disabled: dict = {}
+    for a in range(len(links)):
+        for b in range(a + 1, len(links)):
+            if links[a].body == links[b].body:
+                disabled[(a, b)] = "rigid"
+            elif links[a].parent == links[b].name or links[b].parent == links[a].name:
+                disabled[(a, b)] = "adjacent"
+    return disabled
+
+
 def build_acm(model: CollisionModel, *, samples: int = DEFAULT_SAMPLES, seed: int = 0, disable=(),
-              default_q=None) -> ACM:
+              default_q=None, srdf=None) -> ACM:
     """The allowed-collision matrix of `model` (module notes); `disable` more pairs of link
     names (an unknown name is a `CollisionError` listing the links, before any work);
-    `default_q` `(n,)` the default configuration (default `0` clipped into the limits)."""
+    `default_q` `(n,)` the default configuration (default `0` clipped into the limits); `srdf` a
+    MoveIt SRDF (a `wsmap.collision.srdf.Srdf`, or its file: links checked against the model's
+    URDF file) whose `<disable_collisions>` pairs of the model's links are disabled too."""
     from .checks import exact_pairs
 
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 0 <= samples <= MAX_SAMPLES:
         raise CollisionError(f"samples must be a whole number from 0 to {MAX_SAMPLES}, got {samples!r}")
     user = _user_pairs(model, disable)
+    from_srdf = [] if srdf is None else _srdf_pairs(model, srdf)
     chain = model.chain
-    links = model.links
-    n = len(links)
-    disabled: dict = {}
-    for a in range(n):
-        for b in range(a + 1, n):
-            if links[a].body == links[b].body:
-                disabled[(a, b)] = "rigid"
-            elif links[a].parent == links[b].name or links[b].parent == links[a].name:
-                disabled[(a, b)] = "adjacent"
+    n = len(model.links)
+    disabled = _structural(model.links)
+    for p in from_srdf:  # before the default and sampled tests: MoveIt's own answer, no need to test it
+        disabled.setdefault(p, "srdf")
     q0 = np.zeros(chain.n) if default_q is None else np.asarray(default_q, dtype=np.float64)
     if q0.shape != (chain.n,):
         raise CollisionError(f"default_q must have shape ({chain.n},), got {q0.shape}")

@@ -71,6 +71,13 @@ class CollisionSource:
     obstacles : sequence of Obstacle
         Obstacles besides the scene file's (`wsmap.collision.scene.Obstacle`; a reach study's
         workpiece, a `surface` checked on its triangles); implies `collision`.
+    srdf : path, optional
+        MoveIt's SRDF of a URDF arm: its `<disable_collisions>` pairs go into the allowed-collision
+        matrix (`wsmap.collision.srdf`).
+    floor : float or False, optional
+        The floor, explicitly: a height `z` (m, world frame; a finite number of magnitude at most
+        1000), or False for none. It replaces the scene file's floor. None (default): a named arm
+        stands on the floor `z = 0`, a URDF, MJCF or DH arm has none unless the scene file gives one.
     """
 
     collision: bool = False
@@ -81,6 +88,8 @@ class CollisionSource:
     acm_samples: int | None = None
     seed: int = 0
     obstacles: tuple = ()
+    srdf: str | None = None
+    floor: float | bool | None = None
 
     def __post_init__(self) -> None:
         if self.scene is not None:
@@ -100,10 +109,13 @@ class CollisionSource:
         """Raise a one-line `ValueError` for options that go with collisions when none is asked for,
         and for a missing `collision` extra (coal), before any work."""
         if not self.wanted:
-            for flag, v in (("--allow", self.allow), ("--acm-samples", self.acm_samples), ("--mount", self.mount)):
+            for flag, v in (("--allow", self.allow), ("--acm-samples", self.acm_samples), ("--mount", self.mount),
+                            ("--floor/--no-floor", self.floor)):
                 if v is not None:
                     raise ValueError(f"{flag} is used with --collision or --scene")
             return
+        if self.floor is not None:
+            self._floor_height()
         if self.mount is not None and self.scene is None:
             raise ValueError("--mount names a link of a work-cell URDF given with --scene CELL.urdf")
         for r in self.link_radius or ():
@@ -130,9 +142,25 @@ class CollisionSource:
         if self.obstacles:  # beside the scene file's, or beside the default floor of the model
             scene = scene or (Scene(floor=0.0) if model.floor else Scene())
             scene = Scene(scene.floor, scene.obstacles + self.obstacles)
+        if self.floor is not None:  # explicit: replaces the default floor and the scene file's
+            scene = Scene(self._floor_height(), () if scene is None else scene.obstacles)
         samples = DEFAULT_SAMPLES if self.acm_samples is None else self.acm_samples
-        model.acm = build_acm(model, samples=samples, seed=self.seed, disable=[tuple(p) for p in (self.allow or [])])
+        model.acm = build_acm(model, samples=samples, seed=self.seed, disable=[tuple(p) for p in (self.allow or [])],
+                              srdf=self.srdf)
         return CollisionChecker(model, scene)
+
+    def _floor_height(self) -> float | None:
+        """The explicit floor's height (None: no floor); a one-line `ValueError` for a bad one."""
+        if self.floor is False:
+            return None
+        z = 0.0 if self.floor is True else self.floor
+        try:
+            z = float(z)
+        except (TypeError, ValueError):
+            raise ValueError(f"--floor must be a height in metres, got {self.floor!r}") from None
+        if not (math.isfinite(z) and abs(z) <= 1000.0):
+            raise ValueError(f"--floor must be a finite height of at most 1000 m in magnitude, got {z:g}")
+        return z
 
     def _model(self, robot: Arm, arm: ArmFiles) -> CollisionModel:
         from . import arm_model, capsules_along_links, default_geometry, from_urdf_collision
@@ -160,6 +188,8 @@ class CollisionSource:
     def describe(self) -> dict:
         """The source's files as a JSON-ready dict (the map file's provenance)."""
         d = {"scene_file": self.scene, "mount": self.mount}
+        if self.srdf is not None:
+            d["srdf_file"] = self.srdf
         if self.obstacles:
             d["obstacles"] = [{"name": o.name, "frame": o.frame, **o.shape.describe()} for o in self.obstacles]
         return d

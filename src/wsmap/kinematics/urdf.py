@@ -112,26 +112,27 @@ def _local(tag) -> str:
     return tag.rsplit("}", 1)[-1] if isinstance(tag, str) else ""
 
 
-def _prescan(data: bytes, label: str) -> None:
+def _prescan(data: bytes, label: str, kind: str = "URDF") -> None:
     """Refuse entity declarations and deep nesting while expat streams the XML, before a tree is
     built (expat's own guard stops only the largest entity expansions, and the tree's walks
-    recurse)."""
+    recurse); `kind` names the format in messages (`"URDF"`, `"SRDF"`)."""
     from xml.parsers import expat
 
     parser = expat.ParserCreate()
     depth = [0]
+    a_kind = f"{'an' if kind[:1] in 'AEFHILMNORSX' else 'a'} {kind}"  # an SRDF, a URDF
 
     def start(name, attrs):
         depth[0] += 1
         if depth[0] > MAX_XML_DEPTH:
             raise URDFError(f"{label} nests its elements deeper than {MAX_XML_DEPTH} levels (at line "
-                            f"{parser.CurrentLineNumber}); a URDF needs five")
+                            f"{parser.CurrentLineNumber}); {a_kind} needs five")
 
     def end(name):
         depth[0] -= 1
 
     def entity(name, *args):
-        raise URDFError(f"{label} declares the XML entity {name!r} (line {parser.CurrentLineNumber}); a URDF "
+        raise URDFError(f"{label} declares the XML entity {name!r} (line {parser.CurrentLineNumber}); {a_kind} "
                         "declares none (an entity bomb expands a few lines into gigabytes)")
 
     parser.StartElementHandler, parser.EndElementHandler, parser.EntityDeclHandler = start, end, entity
@@ -141,7 +142,7 @@ def _prescan(data: bytes, label: str) -> None:
         raise URDFError(f"{label} is not XML: {exc}") from None
 
 
-def parse_xml(data: bytes, label: str) -> ET.Element:
+def parse_xml(data: bytes, label: str, kind: str = "URDF") -> ET.Element:
     """The `<robot>` element of a URDF's XML, checked, with every tag by its local name.
 
     Parameters
@@ -150,6 +151,9 @@ def parse_xml(data: bytes, label: str) -> ET.Element:
         The XML (`read_source`).
     label : str
         What to call the URDF in messages.
+    kind : str
+        The format named in messages: `"URDF"`, or `"SRDF"` (MoveIt's semantic description, whose
+        root is a `<robot>` too).
 
     Returns
     -------
@@ -163,7 +167,7 @@ def parse_xml(data: bytes, label: str) -> ET.Element:
         Not XML, entity declarations, nesting deeper than `MAX_XML_DEPTH`, a root that is not
         `<robot>`, a `<robot>` without a name, or unexpanded xacro.
     """
-    _prescan(data, label)
+    _prescan(data, label, kind)
     try:
         root = ET.fromstring(data)
     except ET.ParseError as exc:
@@ -175,7 +179,7 @@ def parse_xml(data: bytes, label: str) -> ET.Element:
             raise URDFError(f"{label} contains xacro (<xacro:{_local(el.tag)}>): expand it to plain URDF first "
                             "(e.g. with the xacro tool)")
     if not root.get("name"):
-        raise URDFError(f"{label}: the <robot> element has no name (the URDF specification requires one)")
+        raise URDFError(f"{label}: the <robot> element has no name (the {kind} specification requires one)")
     for el in root.iter():  # a namespace (xmlns="..." on <robot>) is not part of URDF: read local names
         if isinstance(el.tag, str) and el.tag.startswith("{"):
             el.tag = _local(el.tag)
