@@ -346,7 +346,7 @@ class MapJob:
         if checker is not None:
             st = checker.stats
             how += (f", collision-free ({len(checker.pairs)} link pairs, {len(checker.scene.obstacles)} obstacles"
-                    f"{', floor' if checker.scene.floor is not None else ''}; {st.configurations} configurations "
+                    f"{_floor_words(checker.scene.floor)}; {st.configurations} configurations "
                     f"checked, {st.fast_fraction:.0%} by the spheres alone)")
         return how
 
@@ -363,7 +363,7 @@ class MapJob:
         }
         checker = plan.checker
         if checker is not None:
-            settings["collision"] = {**checker.describe(), **self.collision.describe(),
+            settings["collision"] = {**checker.describe(), **self.collision.describe(), "floor": checker.scene.floor,
                                      "stats": {"configurations": checker.stats.configurations,
                                                "decided_fast": checker.stats.decided_fast,
                                                "exact_tests": checker.stats.exact_tests}}
@@ -439,6 +439,11 @@ class MapJob:
                                      title=title, labels=labels, vmin=vmin, vmax=vmax, metadata=meta)
         return plot_slices(result.values, grid["shape"], grid["lo"], grid["step"], labels=labels, title=title,
                            metadata=meta)
+
+
+def _floor_words(floor: float | None) -> str:
+    """The floor in the map's `how` (and the command line's summary line): said either way."""
+    return ", no floor" if floor is None else f", floor at z = {floor:g} m"
 
 
 def _write_view(flag: str, tmp: Path, result: MapResult) -> None:
