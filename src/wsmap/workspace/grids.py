@@ -42,14 +42,14 @@ def available_memory() -> int:
     return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
-def check_fits(nbytes: int, what: str) -> None:
+def check_fits(nbytes: int, what: str, advice: str = "use a coarser step or a smaller range") -> None:
     """A one-line `MemoryError` when `what` needs `nbytes` bytes, more than half the memory
-    available (`available_memory`), before any work."""
+    available (`available_memory`), before any work; `advice` says what to change."""
     avail = available_memory()
     if nbytes > avail // 2:
         raise MemoryError(
             f"{what} needs {nbytes / 2**30:.2f} GiB, more than half the {avail / 2**30:.2f} GiB of memory "
-            "available; use a coarser step or a smaller range"
+            f"available; {advice}"
         )
 
 
@@ -106,9 +106,14 @@ def grid_axes(lo: float | ArrayLike, hi: float | ArrayLike, step: float | ArrayL
 
 
 def _nodes(axes) -> np.ndarray:
-    # meshgrid with 'ij' on (z, y, x) and reversing gives x fastest in C order
-    zz, yy, xx = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
-    return np.stack([xx.ravel(), yy.ravel(), zz.ravel()], axis=-1)
+    # x fastest in C order, written into the one (N, 3) array by broadcasting: its 24 N bytes are
+    # the whole peak (grid_axes counts them), where meshgrid's three copies and the stack took 48 N
+    nx, ny, nz = (len(a) for a in axes)
+    out = np.empty((nz, ny, nx, 3))
+    out[..., 0] = axes[0][None, None, :]
+    out[..., 1] = axes[1][None, :, None]
+    out[..., 2] = axes[2][:, None, None]
+    return out.reshape(-1, 3)
 
 
 def cartesian_grid(lo: float | ArrayLike = -1.0, hi: float | ArrayLike = 1.0, step: float | ArrayLike = 0.1

@@ -137,12 +137,32 @@ def rotation_angle(Ra, Rb) -> np.ndarray:
     return np.arctan2(np.linalg.norm(v, axis=-1), cos)
 
 
+#: Bytes of rotation_angle's temporaries per pair of orientations (its cross products and sums).
+_ANGLE_BYTES = 160
+#: The temporaries of one block of rows of `continuation_order`'s angles.
+_BLOCK_BYTES = 64 * 2**20
+
+
+def continuation_bytes(K: int) -> int:
+    """Bytes `continuation_order` needs for `K` orientations: its `(K, K)` float64 angles and one
+    block of rows' temporaries (counted by the index before any work: 80 GB at K = 100000)."""
+    return 8 * K * K + min(_BLOCK_BYTES, _ANGLE_BYTES * K * K) + 64 * K
+
+
 def continuation_order(R: ArrayLike) -> np.ndarray:
     """An order of the orientations `R` (K, 3, 3) in which each is close to one before it:
     greedy nearest neighbour from the first. Returns `(order (K,), parent (K,))`, `parent[i]`
     the earlier orientation (in the set's indexing) nearest to `order[i]` (-1 for the first)."""
     K = len(R)
-    dist = rotation_angle(R[:, None], R[None, :])
+    from .grids import check_fits
+
+    check_fits(continuation_bytes(K), f"the continuation order of {K} orientations")
+    # the K x K angles by blocks of rows: rotation_angle's (rows, K, 3, 3) temporaries stay near
+    # _BLOCK_BYTES (the whole matrix at once took about 100 K^2 bytes: 1 TB at K = 100000)
+    dist = np.empty((K, K))
+    rows = max(1, _BLOCK_BYTES // (_ANGLE_BYTES * max(K, 1)))
+    for i in range(0, K, rows):
+        dist[i : i + rows] = rotation_angle(R[i : i + rows, None], R[None, :])
     order = [0]
     parent = [-1]
     left = np.ones(K, dtype=bool)

@@ -32,7 +32,7 @@ from ..kinematics.ik.solvers import get_solver
 from .._progress import check_progress, progress_bar
 from .grids import check_fits, node_neighbours
 from .maps import check_choice, check_nodes, configuration_predicate, resolve_method, search_settings, target_poses
-from .orientations import check_rotations, continuation_order
+from .orientations import check_rotations, continuation_bytes, continuation_order
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
@@ -144,7 +144,9 @@ def reachability_index(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, *,
     method = resolve_method(robot, method)
     # the bits, and numerically every node's solution at every orientation (the continuation's starts)
     per = 1 + (0 if method == "exact" else 8 * robot.n) + (8 * robot.n if return_q else 0)
-    check_fits(N * K * per, f"an index of {N} nodes x {K} orientations")
+    # the numerical search also orders the orientations by their K x K angles (continuation_order)
+    check_fits(N * K * per + (0 if method == "exact" else continuation_bytes(K)),
+               f"an index of {N} nodes x {K} orientations", "use fewer orientations or fewer nodes")
     check_progress(progress)
     valid = configuration_predicate(robot, collision)
     total = N * K + (N if method == "numerical" else 0)

@@ -1,0 +1,49 @@
+"""Hostile inputs of issue 41 that ended in a raw error (numpy, h5py, OverflowError, RecursionError,
+an allocation after the work had started): each is now one line, before any work."""
+
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from wsmap import load
+from wsmap.workspace import grids, orientation_samples, reachability_index
+from wsmap.workspace.orientations import continuation_bytes, continuation_order, rotation_angle
+
+
+def test_the_grid_peak_is_what_the_memory_check_counts():
+    axes = grids.grid_axes(-1, 1, 0.013)
+    zz, yy, xx = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    reference = np.stack([xx.ravel(), yy.ravel(), zz.ravel()], axis=-1)
+    del zz, yy, xx
+    tracemalloc.start()
+    nodes = grids.cartesian_grid(-1, 1, 0.013)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    np.testing.assert_array_equal(nodes, reference)
+    assert peak < 1.02 * 24 * len(nodes)  # the 24 N bytes grid_axes counts (meshgrid and stack took 48 N)
+
+
+def test_the_continuation_order_by_blocks_is_the_whole_matrix_order():
+    R = orientation_samples(700)  # two blocks of rows
+    d = rotation_angle(R[:, None], R[None, :])
+    order, parent, left, best, near = [0], [-1], np.ones(700, bool), d[0].copy(), np.zeros(700, np.int64)
+    left[0] = False
+    for _ in range(699):
+        j = int(np.argmin(np.where(left, best, np.inf)))
+        order.append(j)
+        parent.append(int(near[j]))
+        left[j] = False
+        near, best = np.where(d[j] < best, j, near), np.minimum(best, d[j])
+    o, p = continuation_order(R)
+    np.testing.assert_array_equal(o, order)
+    np.testing.assert_array_equal(p, parent)
+
+
+def test_an_index_whose_orientation_matrix_does_not_fit_is_refused_before_any_work(monkeypatch):
+    monkeypatch.setattr(grids, "available_memory", lambda: 4 * 2**30)
+    R = orientation_samples(20000)  # 3.2 GB of angles: once "Unable to allocate" after the positions' search
+    assert continuation_bytes(20000) > 2 * 2**30
+    with pytest.raises(MemoryError, match="an index of 1 nodes x 20000 orientations needs .* use fewer orientations"):
+        reachability_index(load("panda"), np.array([[0.3, 0.0, 0.3]]), R, method="numerical",
+                           progress=lambda n: pytest.fail("work started"))
