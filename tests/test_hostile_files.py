@@ -1,6 +1,7 @@
 """Hostile inputs of issue 41 that ended in a raw error (numpy, h5py, OverflowError, RecursionError,
 an allocation after the work had started): each is now one line, before any work."""
 
+import re
 import tracemalloc
 
 import numpy as np
@@ -47,3 +48,36 @@ def test_an_index_whose_orientation_matrix_does_not_fit_is_refused_before_any_wo
     with pytest.raises(MemoryError, match="an index of 1 nodes x 20000 orientations needs .* use fewer orientations"):
         reachability_index(load("panda"), np.array([[0.3, 0.0, 0.3]]), R, method="numerical",
                            progress=lambda n: pytest.fail("work started"))
+
+
+def _h5(path, spheres=None, poses=None, sphere_shape=None, sphere_dtype="f8"):
+    h5py = pytest.importorskip("h5py")
+    with h5py.File(path, "w") as f:
+        if sphere_shape is not None:  # declared, never written: a few kB of file
+            s = f.create_dataset("/Spheres/sphere_dataset", shape=sphere_shape, dtype="f8")
+        else:
+            s = f.create_dataset("/Spheres/sphere_dataset", data=spheres if spheres is not None
+                                 else np.array([[0.2, 0, 0, 50.0]]), dtype=sphere_dtype)
+        s.attrs["Resolution"] = np.float32(0.1)
+        f.create_dataset("/Poses/poses_dataset", dtype="f4", data=poses if poses is not None
+                         else np.array([[0.2, 0, 0, 0.2, 0, 0, 0, 0, 0, 1]]))
+    return path
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(sphere_shape=(2_000_000_000, 4)), "/Spheres/sphere_dataset of shape (2000000000, 4) needs 59.60 GiB"),
+    (dict(spheres=np.array([[b"a", b"b", b"c", b"d"]]), sphere_dtype="S1"), "holds byte strings, not numbers"),
+    (dict(spheres=np.zeros(1, dtype=[("a", "f8"), ("b", "f8")]), sphere_dtype=[("a", "f8"), ("b", "f8")]),
+     "holds compound records, not numbers"),
+    (dict(poses=np.array([[0.2, 0, 0, 0.2, 0, 0, 0, 0, 0, 0]])), "pose 0 has norm 0): not rotations"),
+])
+def test_a_hostile_reuleaux_file_is_one_reuleaux_file_error(tmp_path, monkeypatch, kw, message):
+    from wsmap.workspace import load_reuleaux
+    from wsmap.workspace.reuleaux import ReuleauxFileError
+
+    monkeypatch.setattr(grids, "available_memory", lambda: 16 * 2**30)  # the same on a larger machine
+    path = _h5(tmp_path / "r.h5", **kw)
+    assert path.stat().st_size < 20_000
+    with pytest.raises(ReuleauxFileError, match=re.escape(message)) as err:
+        load_reuleaux(path)
+    assert "\n" not in str(err.value)

@@ -39,7 +39,7 @@ import numpy as np
 
 from .._optional import require
 from ..io import atomic_path, check_output_path
-from .grids import cartesian_grid, grid_axes
+from .grids import cartesian_grid, check_fits, grid_axes
 from .orientations import check_rotations
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
@@ -51,6 +51,8 @@ __all__ = ["ReuleauxMap", "save_reuleaux", "load_reuleaux", "REULEAUX_SPHERES", 
 REULEAUX_SPHERES = "/Spheres/sphere_dataset"
 REULEAUX_POSES = "/Poses/poses_dataset"
 _RESOLUTION = "Resolution"
+#: How far from 1 a pose's quaternion norm may be (float32 rows hold unit quaternions to about 1e-7).
+_QUATERNION_TOL = 1e-3
 
 
 class ReuleauxFileError(ValueError):
@@ -101,6 +103,11 @@ class ReuleauxMap:
         if not np.all((ri >= 0) & (ri <= 100)):
             raise ValueError("ri is a percentage: every value must be in [0, 100]")
         object.__setattr__(self, "ri", ri)
+        norm = np.linalg.norm(self.poses[:, 3:], axis=1)
+        bad = np.flatnonzero(np.abs(norm - 1.0) > _QUATERNION_TOL)
+        if bad.size:  # float32 rounding leaves about 1e-7; a zero quaternion is no rotation
+            raise ValueError(f"poses hold {bad.size} quaternions that are not unit (pose {int(bad[0])} has norm "
+                             f"{norm[bad[0]]:g}): not rotations")
         if len(self.pose_spheres) != len(self.poses):
             raise ValueError(f"pose_spheres ({len(self.pose_spheres)}) and poses ({len(self.poses)}) differ in length")
         res = float(self.resolution)
@@ -215,11 +222,16 @@ class ReuleauxMap:
                 for name in (REULEAUX_SPHERES, REULEAUX_POSES):
                     if name not in f:
                         raise ReuleauxFileError(f"{path}: not a Reuleaux reachability map (no {name})")
-                spheres = np.asarray(f[REULEAUX_SPHERES][()], dtype=np.float64)
-                rows = np.asarray(f[REULEAUX_POSES][()], dtype=np.float64)
+                spheres = _dataset(path, f[REULEAUX_SPHERES], 4)
+                rows = _dataset(path, f[REULEAUX_POSES], 10)
                 attr = f[REULEAUX_SPHERES].attrs.get(_RESOLUTION)
         except OSError as e:
             raise ReuleauxFileError(f"{path}: not an HDF5 file ({e})") from None
+        except ReuleauxFileError:
+            raise
+        except (ValueError, TypeError) as e:  # an attribute h5py cannot read, a dataset of another kind
+            raise ReuleauxFileError(f"{path}: not a Reuleaux reachability map ({type(e).__name__}: "
+                                    f"{str(e)[:200]})") from None
         if attr is None:
             raise ReuleauxFileError(f"{path}: {REULEAUX_SPHERES} has no {_RESOLUTION} attribute")
         if spheres.ndim != 2 or spheres.shape[1] != 4 or rows.ndim != 2 or rows.shape[1] != 10:
@@ -233,6 +245,25 @@ class ReuleauxMap:
             raise ReuleauxFileError(f"{path}: {e}") from None
         _check_pose_spheres(path, m.spheres, m.pose_spheres)
         return m
+
+
+def _dataset(path, ds, cols: int) -> np.ndarray:
+    """The dataset `ds` as float64 `(rows, cols)`, its kind and size checked before it is read: a
+    few kB of HDF5 can declare gigabytes (unwritten chunks read as zeros), or hold strings."""
+    if not hasattr(ds, "dtype") or not hasattr(ds, "shape"):
+        raise ReuleauxFileError(f"{path}: {ds.name} is not a dataset")
+    if ds.dtype.kind not in "fiu":
+        what = {"S": "byte strings", "U": "strings", "O": "strings or objects", "V": "compound records",
+                "b": "booleans", "c": "complex numbers"}.get(ds.dtype.kind, str(ds.dtype)[:40])
+        raise ReuleauxFileError(f"{path}: {ds.name} holds {what}, not numbers")
+    if len(ds.shape) != 2 or ds.shape[1] != cols:
+        raise ReuleauxFileError(f"{path}: {ds.name} must be (n, {cols}), got {ds.shape}")
+    try:
+        check_fits(8 * int(np.prod(ds.shape, dtype=np.float64)), f"{ds.name} of shape {ds.shape}",
+                   "not a Reuleaux map this machine can read")
+    except MemoryError as e:
+        raise ReuleauxFileError(f"{path}: {e}") from None
+    return np.asarray(ds[()], dtype=np.float64)
 
 
 def _as_float32(points: np.ndarray) -> np.ndarray:
