@@ -21,7 +21,9 @@ Where things are:
   and test file, all or nothing; in this process or on Dask: `workers=`, `scheduler=`),
   `load_dataset` (checked), `Dataset`;
 * `.audit` -- the IK label audits: `starts_study`, `starts_recall`,
-  `audit_labels`, `audit_table`.
+  `audit_labels`, `audit_table`;
+* `.ram` -- RAM's evaluation protocol (its random arms, poses, boundary set, IK and FK-sampling
+  labels, F1): `sample_morphologies`, `ram_arms`, `ik_labels`, `fk_labels`, `ram_f1`, ...
 
 The paper's datasets (one spec per experiment) are `wsmap.paper.specs.PAPER_SPECS`.
 
@@ -49,6 +51,24 @@ from .features import (
     spec_nodes,
 )
 from .labels import labels_for, possibly_reachable
+from .ram import (
+    RAM_DOFS,
+    RAM_LINK_RADIUS,
+    RAM_PUBLISHED,
+    RAM_R3_DIVISIONS,
+    RAM_SO3_DIVISIONS,
+    boundary_poses,
+    fk_labels,
+    fk_samples,
+    ik_labels,
+    ram_arms,
+    ram_collision,
+    ram_f1,
+    random_poses,
+    reach_ball,
+    sample_morphologies,
+    se3_cells,
+)
 from .sampling import draw_samples, draw_scales, rotation_to_rpy, start_configurations, uniform_rotations
 from .spec import (
     CHAIN_FAMILIES,
@@ -101,4 +121,8 @@ __all__ = [
     "load_dataset", "load_dataset_files", "test_path_for",
     # audit
     "starts_study", "starts_recall", "audit_labels", "audit_table", "distinct_specs",
+    # RAM's protocol
+    "RAM_DOFS", "RAM_LINK_RADIUS", "RAM_PUBLISHED", "RAM_R3_DIVISIONS", "RAM_SO3_DIVISIONS", "sample_morphologies",
+    "ram_arms", "ram_collision", "reach_ball", "random_poses", "fk_samples", "boundary_poses", "ik_labels",
+    "se3_cells", "fk_labels", "ram_f1",
 ]
