@@ -81,3 +81,43 @@ def test_a_hostile_reuleaux_file_is_one_reuleaux_file_error(tmp_path, monkeypatc
     with pytest.raises(ReuleauxFileError, match=re.escape(message)) as err:
         load_reuleaux(path)
     assert "\n" not in str(err.value)
+
+
+def _npz_with_header(path, good, member, header):
+    """`good`'s members, with `member` replaced by a .npy of `header` and 100 bytes of data."""
+    import zipfile
+
+    with zipfile.ZipFile(good) as zin, zipfile.ZipFile(path, "w") as zout:
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            if item.filename == member + ".npy":
+                header = header + " " * (118 - len(header)) + "\n"
+                data = b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header.encode() + b"\0" * 100
+            zout.writestr(item, data)
+    return path
+
+
+def test_npz_headers_and_json_text_are_checked_before_numpy_and_json_read_them(tmp_path):
+    from wsmap.safe_load import ConfigError, check_npz, loads_json
+
+    good = tmp_path / "good.npz"
+    np.savez(good, map=np.zeros(27, bool), grid='{"a": 1}')
+    assert check_npz(good, text=("grid",)) == {"map": ((27,), np.dtype(bool)), "grid": ((), np.dtype("<U8"))}
+    huge = _npz_with_header(tmp_path / "huge.npz", good, "map",
+                            "{'descr': '|b1', 'fortran_order': False, 'shape': (1000000000000,), }")
+    with pytest.raises(ConfigError, match=r"member 'map' declares \(1000000000000,\) bool values \(1000000000000 bytes\) "
+                                          "but holds 100 bytes"):
+        check_npz(huge, text=("grid",))
+    for bad, message in ((dict(map=np.array(["a"] * 27)), "member 'map' holds strings, not numbers"),
+                         (dict(map=np.zeros(2, dtype=[("a", "f8")])), "member 'map' holds compound records"),
+                         (dict(map=np.zeros(2), grid=np.array([1, 2])), "member 'grid' must be one string, got (2,)")):
+        np.savez(tmp_path / "bad.npz", **{"grid": "{}", **bad})
+        with pytest.raises(ConfigError, match=re.escape(message)):
+            check_npz(tmp_path / "bad.npz", text=("grid",))
+    assert loads_json('{"qlim": [[-Infinity, Infinity]], "n": 7}') == {"qlim": [[-np.inf, np.inf]], "n": 7}
+    for text, message in (("[" * 100000 + "]" * 100000, "nested deeper than 32 levels"),  # was RecursionError
+                          ('{"a": ' * 100000 + "1" + "}" * 100000, "nested deeper than 32 levels"),
+                          ('{"lo": [' + "9" * 400 + "]}", "an integer of 400 digits"),
+                          ('{"lo": [1,', "not valid JSON")):
+        with pytest.raises(ConfigError, match=re.escape(message)):
+            loads_json(text)

@@ -8,6 +8,10 @@ a file over `MAX_CONFIG_BYTES`; YAML aliases (an "alias bomb" of a few hundred b
 gigabytes when anything walks it: write the value out instead); duplicate keys (the second would
 silently replace the first); nesting deeper than `MAX_DEPTH`; integers of more than 30 digits; any
 tag beyond YAML's plain scalars, lists and mappings.
+
+`loads_json(text)` reads JSON text a file carries inside it (a map file's grid and settings) with
+the same nesting and integer bounds; `check_npz(path)` reads the array headers of a `.npz` before
+numpy loads anything: a member must hold the bytes its header declares, numbers only.
 """
 
 from __future__ import annotations
@@ -17,7 +21,7 @@ from pathlib import Path
 
 import yaml
 
-__all__ = ["ConfigError", "load_config", "MAX_CONFIG_BYTES", "MAX_DEPTH"]
+__all__ = ["ConfigError", "load_config", "loads_json", "check_npz", "MAX_CONFIG_BYTES", "MAX_DEPTH"]
 
 #: The largest job file read (bytes): a study file is a page of settings.
 MAX_CONFIG_BYTES = 1_000_000
@@ -138,3 +142,77 @@ def load_config(path, what: str = "job file") -> dict:
     if not isinstance(data, dict):
         raise ConfigError(f"{label}: the file must hold a mapping of settings, got {type(data).__name__}")
     return data
+
+
+def loads_json(text: str, *, constants: bool = True):
+    """JSON `text` parsed with the job files' bounds: nesting at most `MAX_DEPTH` (checked before
+    parsing: the parser recurses), integers of at most 30 digits; `constants` allows `NaN` and
+    `Infinity` (what `json.dumps` writes for them). Every problem a one-line `ConfigError`."""
+    _depth_ok(text)
+    try:
+        return json.loads(text, parse_int=_int, parse_constant=(float if constants else lambda c: (_ for _ in ()).throw(
+            ConfigError(f"{c} is not a number"))))
+    except json.JSONDecodeError as e:
+        raise ConfigError(f"not valid JSON: {str(e)[:200]}") from None
+    except RecursionError:  # pragma: no cover - _depth_ok stops it first
+        raise ConfigError(f"nested deeper than {MAX_DEPTH} levels") from None
+
+
+def check_npz(path, text=()) -> dict:
+    """`{member: (shape, dtype)}` of the arrays in the `.npz` file `path`, from their headers,
+    before numpy reads any data. A `ConfigError` of one line for a member whose header does not
+    parse, whose dtype is not a plain number or bool (strings, records, objects; the members named
+    in `text` are one string each, as `np.savez` stores a `str`), that declares more bytes than it
+    holds (a 1 kB member declaring 10^12 elements), or more than half the memory available. Not a
+    zip file: an empty answer, left to numpy's own error."""
+    import zipfile
+
+    from .workspace.grids import available_memory
+
+    out = {}
+    try:
+        zf = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError):
+        return out
+    with zf:
+        for info in zf.infolist():
+            name = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
+            with zf.open(info) as f:
+                shape, dtype, offset = _npy_header(f, name)
+            if name in text:
+                if dtype.kind != "U" or shape != ():
+                    raise ConfigError(f"member {name[:40]!r} must be one string, got {shape} "
+                                      f"{_KINDS.get(dtype.kind, str(dtype)[:40])}")
+            elif dtype.kind not in "biuf":
+                raise ConfigError(f"member {name[:40]!r} holds {_KINDS.get(dtype.kind, str(dtype)[:40])}, not numbers")
+            count = 1
+            for n in shape:
+                count *= int(n)
+            declared = count * dtype.itemsize
+            if declared != info.file_size - offset:
+                raise ConfigError(f"member {name[:40]!r} declares {shape} {dtype} values ({declared} bytes) but holds "
+                                  f"{info.file_size - offset} bytes")
+            if declared > available_memory() // 2:
+                raise ConfigError(f"member {name[:40]!r} holds {declared / 2**30:.2f} GiB, more than half the memory "
+                                  "available")
+            out[name] = (shape, dtype)
+    return out
+
+
+_KINDS = {"b": "booleans", "i": "integers", "u": "integers", "f": "floats", "S": "byte strings", "U": "strings", "O": "Python objects", "V": "compound records", "c": "complex numbers",
+          "M": "dates", "m": "time spans"}
+
+
+def _npy_header(f, name: str):
+    """`(shape, dtype, data offset)` of the `.npy` stream `f`, or a `ConfigError`."""
+    import numpy as np
+
+    try:
+        version = np.lib.format.read_magic(f)
+        if version == (1, 0):
+            shape, _, dtype = np.lib.format.read_array_header_1_0(f)
+        else:
+            shape, _, dtype = np.lib.format.read_array_header_2_0(f)
+    except (ValueError, TypeError, SyntaxError, OverflowError, RecursionError, MemoryError) as e:
+        raise ConfigError(f"member {name[:40]!r} has no readable .npy header ({type(e).__name__})") from None
+    return tuple(shape), np.dtype(dtype), f.tell()
