@@ -25,6 +25,9 @@ module                 contents
                        `cuda`) as a `torch.device`, with a clear error without a GPU
 `morph_model`        one implicit map model for every 6/7R arm, f(morphology, point) -> logit:
                        `fit_morph_model`, files, the nearest-arm baseline
+`verified`           `verified_morph_grid`: the morphology network's map with the nodes it is
+                       unsure of (margin, boundary shell, grown from corrections) decided by the
+                       classical map (`VerifiedMap`)
 `manipulability`     the spherical-wrist family's manipulability map (m³) learned from
                        `(d3, d4, a2, a3)`: `manipulability_dataset`,
                        `train_manipulability_model`, `predict_manipulability`,
@@ -113,6 +116,7 @@ from .manipulability import (
 )
 from .training_range import ExtrapolationError, ExtrapolationWarning, TrainingRange
 from . import morph_model  # noqa: E402 -- registers the morphology model's file format with method="model"
+from .verified import VERIFY_MARGIN, VERIFY_SHELL, VerifiedMap, verified_morph_grid  # noqa: E402
 
 __all__ = [
     # network
@@ -138,4 +142,6 @@ __all__ = [
     "manipulability_params", "manipulability_grid", "train_manipulability_model", "predict_manipulability",
     "regression_metrics", "save_manipulability_model", "load_manipulability_model", "PARAM_NAMES", "FAMILY_RANGE",
     "MANIPULABILITY_TARGETS", "MANIPULABILITY_KIND",
+    # the morphology network's maps with its unsure nodes decided by the classical search
+    "VerifiedMap", "verified_morph_grid", "VERIFY_MARGIN", "VERIFY_SHELL",
 ]

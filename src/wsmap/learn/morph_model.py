@@ -56,7 +56,7 @@ from .training import TrainConfig, TrainResult, train
 from .training_range import ExtrapolationError, ExtrapolationWarning
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "MorphModelConfig", "MorphMapModel", "morph_features", "fit_morph_model",
-           "predict_morph_map", "predict_morph_grid", "save_morph_model", "load_morph_model", "nearest_arm_maps", "fk_labels", "TOOL_DOWN", "morph_spec",
+           "predict_morph_map", "predict_morph_grid", "prepare_query", "save_morph_model", "load_morph_model", "nearest_arm_maps", "fk_labels", "TOOL_DOWN", "morph_spec",
            "build_morph_shards", "family_of"]
 
 FORMAT = "wsmap.morph_model"
@@ -225,9 +225,10 @@ def _check_arm(model: MorphMapModel, robot, allow_extrapolation: bool) -> np.nda
     return m.features()
 
 
-def _prepared(model: MorphMapModel, robot, nodes, rpy, convention, threshold, allow_extrapolation):
-    """The checks every prediction makes before any work: `(features (N_FEATURES,), nodes (N, 3),
-    logit threshold)`."""
+def prepare_query(model: MorphMapModel, robot, nodes, rpy, convention, threshold, allow_extrapolation):
+    """The checks every prediction makes before any work (the orientation, convention, nodes, the
+    arm's range, the box, the threshold): `(features (N_FEATURES,), nodes (N, 3) float64, logit
+    threshold)`; the errors are `predict_morph_map`'s."""
     if rpy is not None and not np.allclose(np.asarray(rpy, dtype=np.float64), model.rpy, atol=1e-9):
         raise ValueError(f"the morphology model maps orientation rpy = {list(model.rpy)} (tool down), not "
                          f"{[float(x) for x in np.ravel(np.asarray(rpy, dtype=float))]}")
@@ -259,7 +260,7 @@ def predict_morph_map(model: MorphMapModel, robot, nodes, *, rpy=None, conventio
     `rpy` and `convention` (`None`: the model's) must be the model's; nodes outside its
     box and arms outside its training range are an `ExtrapolationError` unless
     `allow_extrapolation` (then an `ExtrapolationWarning`)."""
-    x, nodes, logit_threshold = _prepared(model, robot, nodes, rpy, convention, threshold, allow_extrapolation)
+    x, nodes, logit_threshold = prepare_query(model, robot, nodes, rpy, convention, threshold, allow_extrapolation)
     with torch.no_grad():
         X = torch.as_tensor(x[None], dtype=torch.float32)
         logits = model.logits_at(X, torch.as_tensor(nodes, dtype=torch.float32))[0]
@@ -300,7 +301,7 @@ def predict_morph_grid(model: MorphMapModel, robot, lo, hi, step, *, rpy=None, c
     if not margin >= 0:
         raise ValueError(f"margin must be a non-negative number of logits, got {margin!r}")
     counts = [int(c) for c in grid_counts(lo, hi, step)]  # (nx, ny, nz); the nodes x fastest
-    x, nodes, logit_threshold = _prepared(model, robot, cartesian_grid(lo, hi, step), rpy, convention, threshold,
+    x, nodes, logit_threshold = prepare_query(model, robot, cartesian_grid(lo, hi, step), rpy, convention, threshold,
                                          allow_extrapolation)
     with torch.no_grad():
         z = model.dec_latent(model.encode(torch.as_tensor(x[None], dtype=torch.float32)))[0]
