@@ -121,3 +121,18 @@ def test_npz_headers_and_json_text_are_checked_before_numpy_and_json_read_them(t
                           ('{"lo": [1,', "not valid JSON")):
         with pytest.raises(ConfigError, match=re.escape(message)):
             loads_json(text)
+
+
+@pytest.mark.parametrize("payload, message", [
+    ({"format": list(range(100000))}, "format tag [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 1... (a list) is not"),
+    ({"format": "FORMAT", "version": 10**400}, "format version an integer of about 401 digits is not supported"),
+])
+def test_a_model_file_names_a_bad_tag_in_one_short_line(tmp_path, payload, message):
+    torch = pytest.importorskip("torch")
+    from wsmap.learn.files import FORMAT, ModelFileError, load
+
+    payload = {k: (FORMAT if v == "FORMAT" else v) for k, v in payload.items()}
+    torch.save(payload, tmp_path / "m.pt")
+    with pytest.raises(ModelFileError, match=re.escape(message)) as err:
+        load(tmp_path / "m.pt")
+    assert len(str(err.value)) < 300  # the list's repr made a 700 kB line

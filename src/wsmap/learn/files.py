@@ -309,6 +309,16 @@ def _read(path, fail) -> bytes:
     return data
 
 
+def _shown(value, limit: int = 60) -> str:
+    """A value read from a file, for a message: its type and repr, cut to `limit` characters (a
+    list of 10^5 numbers as a format tag made a 700 kB line; a 400-digit version too)."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**limit:
+        return f"an integer of about {int(value.bit_length() * 0.30103) + 1} digits"  # str() refuses 4300+
+    text = repr(value)
+    text = text if len(text) <= limit else text[:limit] + "..."
+    return text if isinstance(value, (str, int, float)) else f"{text} (a {type(value).__name__})"
+
+
 def _read_payload(data: bytes, fail: Callable[..., NoReturn]) -> dict:
     """The payload dict of a model file's bytes, read with `weights_only=True` on the CPU;
     `fail` for anything that is not a torch zip of this `FORMAT`."""
@@ -320,8 +330,8 @@ def _read_payload(data: bytes, fail: Callable[..., NoReturn]) -> dict:
         fail("not a readable torch file (truncated or corrupt)", e)
     if not isinstance(payload, dict) or "format" not in payload:
         fail("not a wsmap model file (no format tag)")
-    if payload["format"] != FORMAT:
-        fail(f"format tag {payload['format']!r} is not {FORMAT!r}")
+    if not isinstance(payload["format"], str) or payload["format"] != FORMAT:
+        fail(f"format tag {_shown(payload['format'])} is not {FORMAT!r}")
     return payload
 
 
@@ -331,7 +341,7 @@ def _verified_version(payload: dict, path, fail: Callable[..., NoReturn], allow_
     attributed to `load`'s caller)."""
     version = payload.get("version")
     if isinstance(version, bool) or not isinstance(version, int) or not 1 <= version <= FORMAT_VERSION:
-        fail(f"format version {version!r} is not supported (this wsmap reads 1..{FORMAT_VERSION})")
+        fail(f"format version {_shown(version)} is not supported (this wsmap reads 1..{FORMAT_VERSION})")
     if version >= 2:
         checksum = payload.get("checksum")
         if not isinstance(checksum, str) or not checksum.startswith(_CHECKSUM_PREFIX):
