@@ -28,6 +28,8 @@ module                 contents
 `verified`           `verified_morph_grid`: the morphology network's map with the nodes it is
                        unsure of (margin, boundary shell, grown from corrections) decided by the
                        classical map (`VerifiedMap`)
+`screening`          `screen_arms`: many arms ranked for tool-down targets by predicted coverage,
+                       the best candidates mapped classically (`Screening`)
 `manipulability`     the spherical-wrist family's manipulability map (m³) learned from
                        `(d3, d4, a2, a3)`: `manipulability_dataset`,
                        `train_manipulability_model`, `predict_manipulability`,
@@ -117,6 +119,7 @@ from .manipulability import (
 from .training_range import ExtrapolationError, ExtrapolationWarning, TrainingRange
 from . import morph_model  # noqa: E402 -- registers the morphology model's file format with method="model"
 from .verified import VERIFY_MARGIN, VERIFY_SHELL, VerifiedMap, verified_morph_grid  # noqa: E402
+from .screening import Screening, predicted_coverage, screen_arms  # noqa: E402
 
 __all__ = [
     # network
@@ -144,4 +147,6 @@ __all__ = [
     "MANIPULABILITY_TARGETS", "MANIPULABILITY_KIND",
     # the morphology network's maps with its unsure nodes decided by the classical search
     "VerifiedMap", "verified_morph_grid", "VERIFY_MARGIN", "VERIFY_SHELL",
+    # a catalogue of arms ranked by the network, its best decided classically
+    "Screening", "screen_arms", "predicted_coverage",
 ]

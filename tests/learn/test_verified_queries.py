@@ -1,4 +1,4 @@
-"""wsmap.learn.verified: the network's unsure nodes decided by the classical map."""
+"""wsmap.learn.verified and wsmap.learn.screening: the network's unsure nodes and its best arms decided by the classical map."""
 
 import math
 
@@ -11,6 +11,7 @@ from wsmap import learn
 from wsmap import workspace as ws
 from wsmap.learn import morph_model as mm
 from wsmap.learn.training_range import ExtrapolationWarning
+from wsmap.learn.screening import screen_arms
 from wsmap.learn.verified import VerifiedMap, verified_morph_grid
 
 GRID = (-1.0, 1.0, 0.2)
@@ -97,3 +98,44 @@ def test_bad_settings_are_refused_before_any_work(model, kw, message, monkeypatc
     monkeypatch.setattr(ws.maps, "constant_orientation_map", no_work)
     with pytest.raises(ValueError, match=message):
         verified_morph_grid(model, wsmap.load("ur5e"), *GRID, **kw)
+
+
+# ---------------------------------------------------------------------------------- catalogue screening
+@pytest.fixture(scope="module")
+def catalogue():
+    from wsmap.robots import FAMILIES
+
+    fam = FAMILIES["morph6"]
+    arms = [fam.arms(p) for p in fam.draw(12, seed=5)] + [wsmap.load("ur5e")]
+    targets = ws.cartesian_grid([0.2, -0.4, 0.0], [0.6, 0.4, 0.4], 0.2)
+    truth = np.array([ws.constant_orientation_map(a, targets, (math.pi, 0, 0)).mean() for a in arms])
+    return arms, targets, truth
+
+
+def test_screening_every_arm_is_the_exhaustive_ranking(model, catalogue):
+    arms, targets, truth = catalogue
+    cost = np.arange(len(arms))[::-1].astype(float)  # ties: the later arm first
+    res = screen_arms(model, arms, targets, top=5, candidates=len(arms), cost=cost)
+    expected = np.lexsort((np.arange(len(arms)), cost, -truth))[:5]
+    assert np.array_equal(res.ranking, expected) and np.array_equal(res.coverage, truth[expected])
+    assert res.predicted.shape == (len(arms),) and ((0 <= res.predicted) & (res.predicted <= 1)).all()
+
+
+def test_screening_maps_only_the_predicted_best(model, catalogue):
+    arms, targets, truth = catalogue
+    res = screen_arms(model, arms, targets, top=3, candidates=6)
+    assert len(res.candidates) == 6 and set(res.ranking) <= set(res.candidates)
+    assert np.array_equal(res.candidates, np.lexsort((np.arange(len(arms)), np.zeros(len(arms)), -res.predicted))[:6])
+    assert np.array_equal(res.coverage, truth[res.ranking])  # classical coverages, never predicted ones
+    assert (np.diff(res.coverage) <= 0).all()
+
+
+@pytest.mark.parametrize("kw, message", [
+    ({"top": 0}, "top must be a positive integer, got 0"),
+    ({"top": 5, "candidates": 2}, "candidates \\(2\\) must be at least top \\(5\\)"),
+    ({"cost": [1.0, 2.0]}, "cost must be 13 finite numbers \\(one per arm\\), got shape \\(2,\\)"),
+])
+def test_screening_refuses_bad_settings(model, catalogue, kw, message):
+    arms, targets, _ = catalogue
+    with pytest.raises(ValueError, match=message):
+        screen_arms(model, arms, targets, **kw)
