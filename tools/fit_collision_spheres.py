@@ -36,6 +36,7 @@ import hashlib
 import json
 import os
 import sys
+from dataclasses import replace
 from importlib.metadata import version
 
 import numpy as np
@@ -222,7 +223,9 @@ def fit_arm(name: str) -> dict:
     from wsmap.collision.vendor import PADDING, VENDOR, mesh_model, vendor_urdf
 
     rec = VENDOR[name]
-    model = mesh_model(name)
+    # the bare hulls (no MESH_MARGIN): the fit and its false collisions are measured against them;
+    # the matrix is the same with the margin (tests/collision/test_vendor_judge.py checks it)
+    model = replace(mesh_model(name), margin=0.0)
     urdf = vendor_urdf(name)
     # the pairs never checked are those of the vendor meshes (MoveIt's rules on the real shapes):
     # the fatter shapes of two links a joint apart overlap where the housings do not

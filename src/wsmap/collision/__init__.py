@@ -41,12 +41,13 @@ __all__ = ["ACM", "DEFAULT_SAMPLES", "REASONS", "build_acm", "CheckStats", "Coll
 
 def checker_for(robot_name_or_model, scene=None, *, link_radius=None, geometry=None,
                 **acm_settings) -> CollisionChecker:
-    """A `CollisionChecker` for a named arm (its model in `geometry`: `"fitted"`, `"meshes"` or
-    `"capsules"`, default the fitted capsules where they exist; `wsmap.collision.named`), a
+    """A `CollisionChecker` for a named arm (its model in `geometry`: `"meshes"`, `"two-level"`,
+    `"fitted"` or `"capsules"`, default `default_geometry`: the vendor meshes where they are
+    installed; `wsmap.collision.named`), a
     `CollisionModel`, or any arm with `link_radius` (m; one or one per body: capsules along its
     links, `capsules_along_links`), with `scene` (default: the model's floor) and the matrix
     built with `acm_settings` (`build_acm`: `samples`, `seed`, `disable`; a fitted model
-    carries the matrix of its vendor meshes)."""
+    carries the matrix of its vendor meshes, and so do the meshes and the two-level model)."""
     if geometry is not None and not isinstance(robot_name_or_model, str):
         raise CollisionError("geometry= chooses the model of a named arm: give its name")
     if link_radius is not None:

@@ -21,6 +21,14 @@ is within `STAND_MARGIN` of that obstacle's surface: an obstacle around the base
 solid box) or apart from it is checked against every moving link, so the arm inside a box collides
 everywhere.
 
+**The two-level check**: a model with a `coarse` model (`CollisionModel.coarse`: the same
+links, each enclosed by the coarse one's shapes; the named arms' vendor meshes with the capsules
+fitted around them, `wsmap.collision.vendor.two_level_model`) is checked on the coarse shapes
+first, for the whole batch, with this checker's link pairs and the scene pairs it allows; only the
+configurations the coarse shapes call colliding are checked on the model's own shapes, which
+decide. Coarse shapes that enclose the fine ones cannot be apart where the fine ones meet, so the
+answer is the fine model's, exactly; the coarse level only saves time.
+
 **Guarantee**: a configuration `CollisionChecker` calls free is free for the exact check
 on every pair it checks (enabled by the allowed-collision matrix, and moving links against the
 scene): the spheres contain the shapes, so apart spheres mean apart shapes, and every other pair
@@ -92,26 +100,29 @@ def coal_transform(T):
     return coal.Transform3s(np.ascontiguousarray(T[:3, :3]), np.ascontiguousarray(T[:3, 3]))
 
 
-def coal_collide(g1, T1, g2, T2) -> bool:
+def coal_collide(g1, T1, g2, T2, margin: float = 0.0) -> bool:
     """Whether coal geometries `g1` at pose `T1` and `g2` at `T2` (`(4, 4)`) intersect
-    (touching counts)."""
+    (touching counts), or come closer than `margin` (m; coal's security margin)."""
     import coal
 
     req = coal.CollisionRequest()
+    req.security_margin = float(margin)
     res = coal.CollisionResult()
     return coal.collide(g1, coal_transform(T1), g2, coal_transform(T2), req, res) > 0
 
 
 @dataclass
 class CheckStats:
-    """What a checker has done: configurations checked, those decided by the spheres alone, exact
-    pair tests (coal calls) and the seconds spent in them."""
+    """What a checker has done: configurations checked, those decided without coal (by the spheres,
+    the capsules in numpy, or the coarse model of a two-level check), those the coarse model called
+    free (`coarse_free`; 0 without one), exact pair tests (coal calls) and the seconds spent in them."""
 
     configurations: int = 0
     decided_fast: int = 0
     exact_tests: int = 0
     exact_seconds: float = 0.0
     seconds: float = 0.0
+    coarse_free: int = 0
 
     @property
     def fast_fraction(self) -> float:
@@ -163,10 +174,10 @@ class _Layer:
                 if swept is not None:
                     half, radius = swept
                     ends = s.origin[:3, :3] @ np.array([[0, 0, -half], [0, 0, half]]).T + s.origin[:3, 3:4]
-                    self.caps[si] = (ends[:, 0], ends[:, 1], radius)
+                    self.caps[si] = (ends[:, 0], ends[:, 1], radius + model.margin)
                 c, r = bounding_spheres(s)
                 cs.append(c @ s.origin[:3, :3].T + s.origin[:3, 3])
-                rs.append(r)
+                rs.append(r + model.margin)  # the spheres hold the shape grown by the model's margin
                 body += [lk.body] * len(r)
                 link += [li] * len(r)
                 shape_of += [si] * len(r)
@@ -274,6 +285,12 @@ class CollisionChecker:
         self.scene_allowed = np.array([[bool(support[k]) and self._scene_collides(B0, li, k) for k in range(nob)]
                                        for li in self.moving], dtype=bool).reshape(len(self.moving), nob)
         self.stats = CheckStats()
+        # the two-level check: the coarse model with this checker's pairs and allowed scene pairs
+        # (those of the fine shapes: the coarse ones may touch an obstacle at q = 0 that these do not)
+        self.coarse = None
+        if model.coarse is not None:
+            self.coarse = CollisionChecker(model.coarse, self.scene, pairs=self.pairs, self_collision=self_collision)
+            self.coarse.scene_allowed = self.scene_allowed
 
     def _supports_base(self, origin, k) -> bool:
         """Whether obstacle `k` (the floor last) is what the base stands on: its surface within
@@ -396,8 +413,16 @@ class CollisionChecker:
         if len(self._ca):
             a = np.array([where[x] for x in self._ca])
             b = np.array([where[x] for x in self._cb])
-            d = segment_distance(w0[:, a], w1[:, a], w0[:, b], w1[:, b])
-            pairs[:, self._an] = np.logical_or.reduceat(d <= rad[a] + rad[b], self._cfirst, axis=1)
+            # each capsule's bounding sphere (its segment's midpoint, half its length plus its radius):
+            # two apart are two capsules apart; segment distances only for the others
+            half = np.linalg.norm(p1 - p0, axis=1) / 2 + rad
+            mid = (w0 + w1) / 2
+            touch = rad[a] + rad[b]
+            near = np.linalg.norm(mid[:, a] - mid[:, b], axis=-1) <= half[a] + half[b] + 1e-12
+            hit = np.zeros(near.shape, dtype=bool)
+            c, k = np.nonzero(near)
+            hit[c, k] = segment_distance(w0[c, a[k]], w1[c, a[k]], w0[c, b[k]], w1[c, b[k]]) <= touch[k]
+            pairs[:, self._an] = np.logical_or.reduceat(hit, self._cfirst, axis=1)
             out |= pairs.any(axis=1)
         if per_pair:
             return pairs
@@ -418,7 +443,7 @@ class CollisionChecker:
             Ti = L.shape_pose(B, si)
             for sj in L.link_shapes[j]:
                 self.stats.exact_tests += 1
-                if coal_collide(L.geoms[si], Ti, L.geoms[sj], L.shape_pose(B, sj)):
+                if coal_collide(L.geoms[si], Ti, L.geoms[sj], L.shape_pose(B, sj), 2 * self.model.margin):
                     return True
         return False
 
@@ -429,9 +454,10 @@ class CollisionChecker:
             self.stats.exact_tests += 1
             Ti = L.shape_pose(B, si)
             if floor:
-                hit = coal_collide(L.geoms[si], Ti, L.floor_geom, np.eye(4))
+                hit = coal_collide(L.geoms[si], Ti, L.floor_geom, np.eye(4), self.model.margin)
             else:
-                hit = coal_collide(L.geoms[si], Ti, L.obs_geoms[k], L.obs_pose[k]) or self._enclosed(si, Ti, k)
+                hit = (coal_collide(L.geoms[si], Ti, L.obs_geoms[k], L.obs_pose[k], self.model.margin)
+                       or self._enclosed(si, Ti, k))
             if hit:
                 return True
         return False
@@ -481,6 +507,23 @@ class CollisionChecker:
         return self._free(q, bases, allowed)
 
     def _free(self, q, bases=None, allowed=None) -> np.ndarray:
+        if self.coarse is None:
+            return self._layers(q, bases, allowed)
+        # two levels: the coarse model on the whole batch, this model on what it calls colliding
+        t0, before = time.perf_counter(), self.stats.seconds
+        free = self.coarse._layers(q, bases, self.scene_allowed if allowed is None else allowed)
+        flagged = np.flatnonzero(~free)
+        if flagged.size:
+            free[flagged] = self._layers(q[flagged], None if bases is None else bases[flagged], allowed)
+        st = self.stats
+        st.configurations += len(q) - flagged.size  # the flagged ones were counted by _layers
+        st.decided_fast += len(q) - flagged.size
+        st.coarse_free += len(q) - flagged.size
+        st.seconds = before + time.perf_counter() - t0
+        return free
+
+    def _layers(self, q, bases=None, allowed=None) -> np.ndarray:
+        """Collision-free `(C,)` by this model's shapes alone: capsules in numpy, spheres, then coal."""
         t0 = time.perf_counter()
         free = np.ones(len(q), dtype=bool)
         for s0 in range(0, len(q), 2048):
@@ -535,7 +578,8 @@ class CollisionChecker:
     def distance(self, q: ArrayLike, bases: ArrayLike | None = None, *, cap: float = np.inf) -> np.ndarray:
         """The clearance `(C,)` (m) of configurations `q` `(C, n)`: the smallest distance between two
         shapes this checker checks (the enabled link pairs; the moving links against the obstacles and
-        the floor, less the pairs allowed to touch), by coal's distance query; 0 where two touch or
+        the floor, less the pairs allowed to touch; each link shape grown by the model's `margin`),
+        by coal's distance query; 0 where two touch or
         overlap (no penetration depth). `bases` `(C, 4, 4)` or `(4, 4)` places the arm's base as in
         `at_bases` (world-frame obstacles against every moving link). A clearance at or above `cap`
         (m) comes back as `cap`.
@@ -616,7 +660,7 @@ class CollisionChecker:
                 self.stats.exact_tests += 1
                 best = min(best, coal.distance(L.geoms[s], Ts, g, coal_transform(T), coal.DistanceRequest(),
                                                coal.DistanceResult()))
-        return max(best, 0.0)
+        return max(best - self.model.margin * (2 if j >= 0 else 1), 0.0)  # the shapes grown by the margin
 
 
 def exact_pairs(model: CollisionModel, pairs, q) -> np.ndarray:

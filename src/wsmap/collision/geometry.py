@@ -63,6 +63,14 @@ class CollisionModel:
     missing); `floor` whether the
     arm stands on the floor `z = 0` of the world (the default scene of a named arm has it);
     `source` where the geometry comes from.
+
+    `margin` (m, at least 0) grows every shape of the model by that much for the checks: two links
+    closer than twice it, or a link closer than it to an obstacle or the floor, collide (Bullet's
+    collision margin around a convex hull; the vendor meshes carry it, `wsmap.collision.vendor`).
+
+    `coarse` (optional) is a second model of the same links (names, bodies and parents alike) whose
+    shapes enclose these: a checker asks it first and these shapes only where it says colliding
+    (`wsmap.collision.checks`, the two-level check).
     """
 
     chain: SerialChain
@@ -70,6 +78,8 @@ class CollisionModel:
     source: str = ""
     floor: bool = False
     acm: object = None
+    margin: float = 0.0
+    coarse: CollisionModel | None = None
     _names: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self):
@@ -89,6 +99,14 @@ class CollisionModel:
                 raise CollisionError(f"link {link.name!r} has no shapes")
         self.links = tuple(self.links)
         self._names = {link.name: i for i, link in enumerate(self.links)}
+        if not (np.isfinite(self.margin) and 0.0 <= self.margin <= 0.1):
+            raise CollisionError(f"margin must be a distance from 0 to 0.1 m, got {self.margin!r}")
+        c = self.coarse
+        if c is not None and (not isinstance(c, CollisionModel) or c.coarse is not None
+                              or [(lk.name, lk.body, lk.parent) for lk in c.links]
+                              != [(lk.name, lk.body, lk.parent) for lk in self.links]):
+            raise CollisionError("a coarse model must be a CollisionModel of the same links (names, bodies, parents), "
+                                 "without a coarse model of its own")
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -110,9 +128,12 @@ class CollisionModel:
 
     def describe(self) -> dict:
         """A JSON-able record of the geometry (map files): source, links with body and shapes."""
-        return {"source": self.source, "floor": self.floor,
-                "links": [{"name": lk.name, "body": lk.body, "shapes": [s.describe() for s in lk.shapes]}
-                          for lk in self.links]}
+        out = {"source": self.source, "floor": self.floor, "margin": self.margin,
+               "links": [{"name": lk.name, "body": lk.body, "shapes": [s.describe() for s in lk.shapes]}
+                         for lk in self.links]}
+        if self.coarse is not None:
+            out["coarse"] = self.coarse.describe()
+        return out
 
 
 def body_frames(chain: SerialChain, q) -> np.ndarray:

@@ -1,13 +1,21 @@
 """Collision models of the named arms (`wsmap.robots.arms`), for self-collision and the floor.
 
-`arm_model(name, geometry=...)` gives one of three geometries (`GEOMETRIES`); `default_geometry`
+`arm_model(name, geometry=...)` gives one of four geometries (`GEOMETRIES`); `default_geometry`
 says which one `wsmap.collision.checker_for(name)` and the command line's `--collision` use:
 
+* `"meshes"` — the vendor's collision meshes themselves, as convex hulls checked by coal behind
+  their enclosing spheres (`wsmap.collision.vendor.mesh_model`; needs the package that ships them,
+  pybullet_data): exact. The default of the Panda and the iiwa 14 where pybullet_data is installed;
+* `"two-level"` — the same meshes with the fitted capsules as their coarse model
+  (`wsmap.collision.vendor.two_level_model`): the capsules first, the meshes decide where the
+  capsules collide, so the answer is the meshes', configuration for configuration (tested). With
+  one convex hull per link, coal is so quick that the capsules cost more than they save
+  (`benchmarks/collision/bench_vendor_judge.py`; docs/collision.md), so it is not the default;
 * `"fitted"` — capsules (and cylinders for flat parts) fitted around the vendor's own collision
   meshes, every mesh vertex inside (`wsmap.collision.vendor.fitted_model`; the Panda and the
-  iiwa 14, `vendor.FITTED`): a body at least as large as the real arm. Their default for maps;
-* `"meshes"` — the vendor's collision meshes themselves, as convex hulls checked by coal
-  (`wsmap.collision.vendor.mesh_model`; needs the package that ships them, pybullet_data);
+  iiwa 14, `vendor.FITTED`): a body at least as large as the real arm, never free where the meshes
+  collide, sometimes colliding where they are free. Their default without pybullet_data (the
+  capsules are committed numbers: they need nothing);
 * `"capsules"` — the estimated capsules below, the default for the other arms (puma560, ur5e):
   not fitted to any vendor geometry, so not guaranteed to contain the real arm.
 
@@ -41,7 +49,7 @@ from typing import TYPE_CHECKING
 from ..robots import ARMS, load
 from ..robots.registry import ArmCapsules
 from .geometry import CollisionError, CollisionModel, capsule_model, capsules_along_links
-from .vendor import FITTED, fitted_model, mesh_model, same_kinematics
+from .vendor import FITTED, fitted_model, mesh_model, same_kinematics, two_level_model, vendor_installed
 
 if TYPE_CHECKING:  # names of the annotations only
     from wsmap.kinematics.chain import Arm
@@ -49,7 +57,7 @@ if TYPE_CHECKING:  # names of the annotations only
 __all__ = ["ARM_MODELS", "ALONG_LINKS", "GEOMETRIES", "arm_model", "capsules_model", "default_geometry"]
 
 #: The geometries of a named arm's model (module notes).
-GEOMETRIES = ("fitted", "meshes", "capsules")
+GEOMETRIES = ("meshes", "two-level", "fitted", "capsules")
 
 
 def capsules_model(capsules: ArmCapsules, chain: Arm) -> CollisionModel:
@@ -83,12 +91,13 @@ ALONG_LINKS: tuple[str, ...] = tuple(arm.name for arm in ARMS if arm.capsules is
 
 
 def default_geometry(name: str, robot: Arm | None = None) -> str:
-    """The geometry `arm_model` gives the named arm `name` on `robot` by default: `"fitted"` where
-    capsules were fitted to its vendor meshes and `robot` (if given) has its kinematics, else
-    `"capsules"` (an arm of a family with other lengths gets the capsules along its links)."""
+    """The geometry `arm_model` gives the named arm `name` on `robot` by default, where capsules were
+    fitted to its vendor meshes and `robot` (if given) has its kinematics: `"meshes"` (exact) when
+    the package that ships the meshes is installed, else `"fitted"`; `"capsules"` for every other arm
+    (an arm of a family with other lengths gets the capsules along its links)."""
     key = str(name).lower()
     if key in FITTED and (robot is None or same_kinematics(robot, load(key))):
-        return "fitted"
+        return "meshes" if vendor_installed(key) else "fitted"
     return "capsules"
 
 
@@ -105,11 +114,11 @@ def arm_model(name: str, robot: Arm | None = None, geometry: str | None = None) 
     geometry = "capsules" if geometry is None else geometry
     if geometry not in GEOMETRIES:
         raise CollisionError(f"unknown collision geometry {geometry!r}; geometries are {', '.join(GEOMETRIES)}")
-    if geometry == "fitted":
+    if geometry in ("fitted", "two-level"):
         if key not in FITTED:
             raise CollisionError(f"no fitted collision capsules for robot {name!r}; named arms with them: "
                                  f"{', '.join(FITTED)}")
-        return fitted_model(key, robot)
+        return fitted_model(key, robot) if geometry == "fitted" else two_level_model(key, robot)
     if geometry == "meshes":
         return mesh_model(key, robot)
     if key not in ARM_MODELS:

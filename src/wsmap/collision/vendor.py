@@ -10,7 +10,7 @@ measures it and checks it is constant), with the same joint angles.
 
 * `mesh_model(name)` — the vendor URDF's collision meshes (the arm's links only, without a hand),
   moved into the bodies' frames of wsmap's chain; the exact checks take each mesh's convex hull
-  (`wsmap.collision.shapes.mesh`). Needs the package that ships the description (pybullet_data,
+  (`wsmap.collision.shapes.mesh`), grown by `MESH_MARGIN` (1 mm, Bullet's margin around a hull). Needs the package that ships the description (pybullet_data,
   a test dependency): without it a one-line `CollisionError` names it.
 * `fitted_model(name)` — capsules (cylinders where a part is flat: the flange discs) that
   enclose every vertex of each link's mesh hull plus `PADDING`, fitted by `tools/fit_collision_spheres.py` and committed in
@@ -18,6 +18,14 @@ measures it and checks it is constant), with the same joint angles.
   slack per link (fitted volume over hull volume), and with the allowed-collision matrix built on
   the vendor meshes (the shapes of two links a joint apart overlap where the housings do not, so
   the pairs never checked are the meshes'). Needs nothing but numpy.
+* `two_level_model(name)` — the meshes, with the fitted capsules as their coarse model
+  (`CollisionModel.coarse`): a checker asks the capsules first and the meshes only where the
+  capsules say colliding, so it answers as the meshes do (`wsmap.collision.checks`). The default of
+  `wsmap.collision.checker_for` where the vendor description is installed.
+
+`mesh_model` and `two_level_model` carry the allowed-collision matrix committed with the fitted
+capsules: it was built on these meshes (`build_acm`, 10,000 samples, seed 0), so a checker need not
+sample it again.
 
 Both models name their links `link0` ... `link<n>` by body (as the capsule models along the links
 do), ride on the chain of `wsmap.load(name)` and stand on the floor `z = 0`.
@@ -28,7 +36,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import TYPE_CHECKING
 
@@ -42,8 +50,15 @@ from .geometry import CollisionModel, Link, Shape, body_frames, from_urdf_collis
 if TYPE_CHECKING:  # names of the annotations only
     from wsmap.kinematics.chain import Arm
 
-__all__ = ["VENDOR", "PADDING", "VendorDescription", "vendor_urdf", "frame_offsets", "mesh_model", "fitted_model",
-           "fitted_record", "FITTED", "segment_shape", "same_kinematics"]
+__all__ = ["VENDOR", "PADDING", "MESH_MARGIN", "VendorDescription", "vendor_urdf", "vendor_installed", "frame_offsets", "mesh_model",
+           "fitted_model", "two_level_model", "fitted_record", "FITTED", "segment_shape", "same_kinematics"]
+
+#: Metres by which the checks grow every vendor mesh hull (`CollisionModel.margin`): Bullet keeps
+#: a collision margin of about a millimetre around each convex hull, so PyBullet (the judge of
+#: `tests/collision/test_vendor_judge.py`) finds two hulls in contact that coal keeps up to 2 mm
+#: apart (measured: coal's distance minus PyBullet's, 1.96-1.99 mm, on near-contact configurations
+#: of both arms). Two hulls closer than 2 mm, or a hull within 1 mm of an obstacle, collide.
+MESH_MARGIN = 0.001
 
 #: Metres added to every fitted capsule's radius beyond the farthest hull vertex: Bullet keeps a
 #: collision margin of about a millimetre around a convex hull (`tests/collision/test_pybullet.py`),
@@ -92,6 +107,12 @@ def vendor_urdf(name: str) -> str:
         raise CollisionError(f"the vendor meshes of {name!r} come from {rec.package}/{rec.urdf}, which is not "
                              f"installed: pip install {rec.distribution}")
     return os.path.join(list(spec.submodule_search_locations)[0], rec.urdf)
+
+
+def vendor_installed(name: str) -> bool:
+    """Whether the named arm has a vendor description and the package that ships it is installed."""
+    rec = VENDOR.get(name)
+    return rec is not None and importlib.util.find_spec(rec.package) is not None
 
 
 def same_kinematics(a: Arm, b: Arm) -> bool:
@@ -143,8 +164,25 @@ def mesh_model(name: str, robot: Arm | None = None) -> CollisionModel:
         lk = by_name[lname]
         links.append(Link(f"link{k}", k, tuple(s.placed(X[k]) for s in lk.shapes),
                           parent=f"link{k - 1}" if k else None, frame=X[k] @ lk.frame))
-    return CollisionModel(arm, tuple(links), source=f"{rec.package}/{rec.urdf}: collision meshes of "
-                          f"{', '.join(rec.links)} ({rec.origin}; {rec.licence})", floor=True)
+    model = CollisionModel(arm, tuple(links), source=f"{rec.package}/{rec.urdf}: collision meshes of "
+                           f"{', '.join(rec.links)} ({rec.origin}; {rec.licence}), grown by "
+                           f"{MESH_MARGIN * 1e3:g} mm", floor=True, margin=MESH_MARGIN)
+    if name in FITTED:  # the matrix committed with the fitted capsules is these meshes' (module notes)
+        model.acm = acm_from_record(model, {"links": list(model.names), **fitted_record(name)["acm"]})
+    return model
+
+
+def two_level_model(name: str, robot: Arm | None = None) -> CollisionModel:
+    """The named arm's vendor meshes (`mesh_model`) with the capsules fitted around them
+    (`fitted_model`) as their `coarse` model: checked on the capsules first, on the meshes where the
+    capsules collide (module notes). Needs the vendor package, as `mesh_model`; a `CollisionError`
+    for an arm without fitted capsules."""
+    if name not in FITTED:
+        raise CollisionError(f"no fitted collision capsules for robot {name!r}; named arms with them: "
+                             f"{', '.join(FITTED)}")
+    fine = mesh_model(name, robot)
+    coarse = fitted_model(name, fine.chain)
+    return replace(fine, coarse=coarse, source=f"two-level: {coarse.source}; where they collide, {fine.source}")
 
 
 def _data_dir() -> str:
