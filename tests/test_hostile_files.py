@@ -136,3 +136,14 @@ def test_a_model_file_names_a_bad_tag_in_one_short_line(tmp_path, payload, messa
     with pytest.raises(ModelFileError, match=re.escape(message)) as err:
         load(tmp_path / "m.pt")
     assert len(str(err.value)) < 300  # the list's repr made a 700 kB line
+
+
+@pytest.mark.parametrize("text", ["inf", "-inf", "1e308", "nan", "-5", "\xff\xfe", "9" * 10**6])
+def test_a_hostile_compile_estimate_file_gives_the_default(tmp_path, monkeypatch, text):
+    from wsmap.kinematics import lm_compiled
+
+    monkeypatch.setattr(lm_compiled, "cache_dir", lambda: str(tmp_path))
+    (tmp_path / lm_compiled._ESTIMATE_FILE).write_bytes(text.encode("latin-1"))
+    assert lm_compiled.estimate() == lm_compiled.COLD_COMPILE_SECONDS  # inf was an OverflowError
+    (tmp_path / lm_compiled._ESTIMATE_FILE).write_text("12.4\n")
+    assert lm_compiled.estimate() == 12

@@ -1094,12 +1094,15 @@ def needs_compile(joints=(6, 7)) -> bool:
 
 
 def estimate() -> int:
-    """The notice's estimate (s): the last cold compile measured here, else `COLD_COMPILE_SECONDS`."""
+    """The notice's estimate (s): the last cold compile measured here, else `COLD_COMPILE_SECONDS`
+    (also for a file that does not hold a number of seconds from 0 to a day: `inf` in it ended the
+    map in an `OverflowError`)."""
     try:
         with open(os.path.join(cache_dir(), _ESTIMATE_FILE)) as f:
-            return max(1, round(float(f.read())))
-    except (OSError, ValueError):
+            seconds = float(f.read(64))
+    except (OSError, ValueError, UnicodeDecodeError):
         return COLD_COMPILE_SECONDS
+    return max(1, round(seconds)) if 0 <= seconds <= 86400 else COLD_COMPILE_SECONDS
 
 
 def record_compile_seconds(seconds: float) -> None:
