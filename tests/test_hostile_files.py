@@ -1,6 +1,7 @@
 """Hostile inputs of issue 41 that ended in a raw error (numpy, h5py, OverflowError, RecursionError,
 an allocation after the work had started): each is now one line, before any work."""
 
+import os
 import re
 import tracemalloc
 
@@ -147,3 +148,39 @@ def test_a_hostile_compile_estimate_file_gives_the_default(tmp_path, monkeypatch
     assert lm_compiled.estimate() == lm_compiled.COLD_COMPILE_SECONDS  # inf was an OverflowError
     (tmp_path / lm_compiled._ESTIMATE_FILE).write_text("12.4\n")
     assert lm_compiled.estimate() == 12
+
+
+def test_a_full_disk_names_the_output(tmp_path):
+    from wsmap.io import atomic_path
+
+    out = tmp_path / "m.npz"
+    out.write_text("old")
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    with pytest.raises(OSError, match=re.escape(f"No space left on device (writing {out})")) as err:
+        with atomic_path(out):
+            with open("/dev/full", "w") as f:  # every write: ENOSPC, with no file name, as a full disk's
+                f.write("x" * 100000)
+                f.flush()
+    assert err.value.errno == 28 and out.read_text() == "old" and os.listdir(tmp_path) == ["m.npz"]
+
+
+def test_sighup_leaves_no_temporary_file_and_no_new_output(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "m.npz"
+    p = subprocess.Popen([sys.executable, "-m", "wsmap", "map", "--scope", "SO3", "--step", "pi/80",
+                          "--method", "numerical", "--out", str(out)], stderr=subprocess.PIPE, text=True, bufsize=1)
+    seen, t0 = "", time.monotonic()
+    while "numerical map" not in seen and time.monotonic() - t0 < 300:  # the progress bar is up
+        c = p.stderr.read(1)
+        if not c:
+            break
+        seen += c
+    p.send_signal(signal.SIGHUP)  # the terminal closed: its default ended the process on the spot
+    err = seen + p.communicate(timeout=60)[1]
+    assert p.returncode == 130 and "interrupted" in err and "Traceback" not in err, err
+    assert os.listdir(tmp_path) == []

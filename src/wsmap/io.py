@@ -8,6 +8,7 @@ the files that were there before, and the outputs of one run appear together or 
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -133,6 +134,10 @@ def _temp_beside(path: Path, suffix: str | None) -> Path:
     return Path(tmp)
 
 
+#: The errors of a full disk or quota, which name no file when a write (not an open) hits them.
+_FULL = {errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC), errno.EFBIG}
+
+
 @contextmanager
 def atomic_paths(paths: Sequence, suffixes: Sequence[str | None] | None = None):
     """Yield temporary paths beside each of `paths`; on success each replaces its target.
@@ -151,7 +156,13 @@ def atomic_paths(paths: Sequence, suffixes: Sequence[str | None] | None = None):
     try:
         for p, s in zip(paths, suffixes):
             tmps.append(_temp_beside(p, s))
-        yield list(tmps)
+        try:
+            yield list(tmps)
+        except OSError as e:
+            if e.errno in _FULL and (e.filename is None or str(e.filename) in map(str, tmps)):
+                # a full disk's error names no file (or the temporary one): name the outputs
+                raise OSError(e.errno, f"{e.strerror or e} (writing {', '.join(map(str, paths))})") from e
+            raise
         mode = _mode_for_new_files()
         for t in tmps:
             os.chmod(t, mode)

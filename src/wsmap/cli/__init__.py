@@ -68,7 +68,11 @@ def main(argv=None) -> int:
     """Run the command line; returns the exit code (0 success, 2 bad input or failure, 130 interrupted)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     args = _parser().parse_args(_protect_negative_expressions(argv))
-    previous = signal.signal(signal.SIGTERM, _terminate) if threading.current_thread() is threading.main_thread() else None
+    # SIGTERM (dvc, a job scheduler, kill) and SIGHUP (the terminal closed) unwind like Ctrl-C, so
+    # temporary files are removed (SIGHUP's default ended the process with its temporary file left)
+    caught = [signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP") else [])
+    previous = ({sig: signal.signal(sig, _terminate) for sig in caught}
+                if threading.current_thread() is threading.main_thread() else None)
     try:
         return args.run(args)
     except KeyboardInterrupt:
@@ -85,12 +89,11 @@ def main(argv=None) -> int:
         print(f"wsmap: error: {msg}", file=sys.stderr)
         return 2
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for sig, handler in (previous or {}).items():
+            signal.signal(sig, handler)
 
 
 def _terminate(signum, frame):
-    # SIGTERM (dvc, a job scheduler, kill) unwinds like Ctrl-C, so temporary files are removed
     raise KeyboardInterrupt
 
 
