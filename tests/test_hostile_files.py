@@ -184,3 +184,22 @@ def test_sighup_leaves_no_temporary_file_and_no_new_output(tmp_path):
     err = seen + p.communicate(timeout=60)[1]
     assert p.returncode == 130 and "interrupted" in err and "Traceback" not in err, err
     assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("where", ["origin", "limit", "name"])
+def test_a_20_mb_urdf_attribute_is_a_short_line(tmp_path, capsys, where):
+    from wsmap import cli
+
+    big = "0 " * 10_000_000
+    origin, lower, jname = (big, "-1", "j") if where == "origin" else (("0 0 0.1", big, "j") if where == "limit"
+                                                                        else ("0 0 0.1", "-1", big))
+    (tmp_path / "a.urdf").write_text(
+        f'<robot name="r"><link name="a"/><link name="b"/><joint name="{jname}" type="revolute"><parent link="a"/>'
+        f'<child link="b"/><origin xyz="{origin}"/><axis xyz="0 0 1"/>'
+        f'<limit lower="{lower}" upper="1" effort="1" velocity="1"/></joint>'
+        + (f'<joint name="{jname}" type="fixed"><parent link="a"/><child link="b"/></joint>' if where == "name" else "")
+        + '</robot>')
+    assert cli.main(["map", "--urdf", str(tmp_path / "a.urdf"), "--out", str(tmp_path / "o.npz")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("wsmap: error: ") and err.count("\n") == 1 and len(err) < 400, err[:400]
+    assert "(20000000 characters)" in err

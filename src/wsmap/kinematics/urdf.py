@@ -108,6 +108,13 @@ def read_source(source: PathLike | bytes) -> tuple[bytes, str, str | None]:
         return f.read(), f"URDF file {path!r}", path
 
 
+def _q(value) -> str:
+    """A value read from the file, quoted for a message, cut to 60 characters: a 20 MB attribute
+    made a 20 MB error line."""
+    text = repr(value)
+    return text if len(text) <= 80 else f"{text[:60]}... ({len(str(value))} characters)"
+
+
 def _local(tag) -> str:
     return tag.rsplit("}", 1)[-1] if isinstance(tag, str) else ""
 
@@ -132,7 +139,7 @@ def _prescan(data: bytes, label: str, kind: str = "URDF") -> None:
         depth[0] -= 1
 
     def entity(name, *args):
-        raise URDFError(f"{label} declares the XML entity {name!r} (line {parser.CurrentLineNumber}); {a_kind} "
+        raise URDFError(f"{label} declares the XML entity {_q(name)} (line {parser.CurrentLineNumber}); {a_kind} "
                         "declares none (an entity bomb expands a few lines into gigabytes)")
 
     parser.StartElementHandler, parser.EndElementHandler, parser.EntityDeclHandler = start, end, entity
@@ -191,11 +198,11 @@ def _numbers(label: str, what: str, text: str | None, default: str) -> np.ndarra
     try:
         v = np.array([float(x) for x in text.split()], dtype=np.float64)
     except ValueError:
-        raise URDFError(f"{label}: {what} is not three numbers: {text!r}") from None
+        raise URDFError(f"{label}: {what} is not three numbers: {_q(text)}") from None
     if v.shape != (3,):
-        raise URDFError(f"{label}: {what} is not three numbers: {text!r}")
+        raise URDFError(f"{label}: {what} is not three numbers: {_q(text)}")
     if not np.all(np.isfinite(v)):
-        raise URDFError(f"{label}: {what} contains NaN or infinity: {text!r}")
+        raise URDFError(f"{label}: {what} contains NaN or infinity: {_q(text)}")
     return v
 
 
@@ -206,9 +213,9 @@ def _limit_value(label: str, jname: str, limit: ET.Element, key: str) -> float:
     try:
         v = float(text)
     except ValueError:
-        raise URDFError(f"{label}: joint {jname!r} has a non-numeric limit {key}={text!r}") from None
+        raise URDFError(f"{label}: joint {jname!r} has a non-numeric limit {key}={_q(text)}") from None
     if math.isnan(v):
-        raise URDFError(f"{label}: joint {jname!r} has a NaN limit {key}={text!r}")
+        raise URDFError(f"{label}: joint {jname!r} has a NaN limit {key}={_q(text)}")
     return v
 
 
@@ -219,7 +226,7 @@ def _new_name(el: ET.Element, tag: str, seen, label: str) -> str:
     if not name:
         raise URDFError(f"{label}: a <{tag}> has no name")
     if name in seen:
-        raise URDFError(f"{label}: {tag} {name!r} is defined twice")
+        raise URDFError(f"{label}: {tag} {_q(name)} is defined twice")
     return name
 
 
@@ -266,15 +273,15 @@ class URDFTree:
             name = _new_name(el, "joint", self.joints, label)
             jtype = el.get("type")
             if jtype not in JOINT_TYPES:
-                raise URDFError(f"{label}: joint {name!r} has type {jtype!r}; URDF types are {', '.join(JOINT_TYPES)}")
+                raise URDFError(f"{label}: joint {_q(name)} has type {_q(jtype)}; URDF types are {', '.join(JOINT_TYPES)}")
             ends = {}
             for end in ("parent", "child"):
                 e = el.find(end)
                 link = None if e is None else e.get("link")
                 if not link:
-                    raise URDFError(f"{label}: joint {name!r} has no <{end} link=...>")
+                    raise URDFError(f"{label}: joint {_q(name)} has no <{end} link=...>")
                 if link not in known:
-                    raise URDFError(f"{label}: joint {name!r} names an unknown {end} link {link!r}")
+                    raise URDFError(f"{label}: joint {_q(name)} names an unknown {end} link {_q(link)}")
                 ends[end] = link
             o = el.find("origin")
             _numbers(label, f"joint {name!r} <origin xyz>", None if o is None else o.get("xyz"), "0 0 0")
@@ -284,9 +291,9 @@ class URDFTree:
             child = ends["child"]
             if child in self.parent_joint:
                 raise URDFError(f"{label}: link {child!r} has two parent joints, {self.parent_joint[child]!r} and "
-                                f"{name!r}: a loop (a URDF must be a tree)")
+                                f"{_q(name)}: a loop (a URDF must be a tree)")
             if ends["parent"] == child:
-                raise URDFError(f"{label}: joint {name!r} connects link {child!r} to itself: a loop")
+                raise URDFError(f"{label}: joint {_q(name)} connects link {child!r} to itself: a loop")
             self.joints[name] = el
             self.parent_joint[child] = name
             self.children[ends["parent"]].append(name)
@@ -318,7 +325,7 @@ class URDFTree:
     def check_link(self, link: str, role: str):
         """A `URDFError` listing the links if `link` (the `role`, e.g. `"base_link"`) is not one."""
         if link not in self.children:
-            raise URDFError(f"{self.label}: unknown {role} {link!r}; the links are: {', '.join(self.links)}")
+            raise URDFError(f"{self.label}: unknown {role} {_q(link)}; the links are: {', '.join(self.links)}")
 
     def root(self) -> str:
         """The one root link; a `URDFError` when there is none or several (then give a base link)."""
