@@ -321,3 +321,43 @@ def test_cut_plane_ends_the_z_range_at_each_layer(sphere):
     assert fig.layout.scene.aspectmode == "manual"
     assert fig.layout.scene.xaxis.range == pytest.approx((-1.05, 1.05))
     assert slider.currentvalue.prefix == "z (m) ≤ "
+
+
+def _table():
+    """A table-top box (0.6 x 0.8 x 0.04 m at (0.55, 0, 0.3)) as the collision layer draws it."""
+    from wsmap.collision import Obstacle, Scene, Shape
+
+    T = np.eye(4)
+    T[:3, 3] = [0.55, 0.0, 0.3]
+    return Scene(obstacles=(Obstacle("table", Shape("box", (0.6, 0.8, 0.04), T), "world"),)).triangles()
+
+
+def test_obstacles_are_solids_beside_the_map_and_stay_through_the_threshold_slider(sphere):
+    grid, _, values = sphere
+    fig = figure_3d(values, grid, thresholds=[0.0, 0.5], obstacles=_table(), title="panda: constant map")
+    assert [t.type for t in fig.data] == ["scatter3d", "scatter3d", "mesh3d"]
+    mesh = fig.data[2]
+    assert mesh.name == "obstacle: table" and len(mesh.i) == 12
+    assert (min(mesh.x), max(mesh.x), min(mesh.z), max(mesh.z)) == pytest.approx((0.25, 0.85, 0.28, 0.32))
+    # the slider restyles the map's two traces only, so the table never disappears
+    (slider,) = fig.layout.sliders
+    assert [list(s.args[1]) for s in slider.steps] == [[0, 1], [0, 1]]
+    with pytest.raises(ValueError, match="^obstacle 'table': vertices must be"):
+        figure_3d(values, grid, obstacles=[("table", np.zeros((4, 2)), [[0, 1, 2]])])
+
+
+def test_a_collision_aware_maps_html_names_the_scene_and_draws_its_table(tmp_path):
+    pytest.importorskip("coal")
+    pytest.importorskip("plotly")
+    from wsmap import jobs
+
+    scene = tmp_path / "table.yaml"
+    scene.write_text("floor: true\nobstacles:\n  - {name: table, shape: box, size: [0.6, 0.8, 0.04], "
+                     "xyz: [0.55, 0, 0.3]}\n")
+    job = jobs.MapJob(arm=jobs.ArmSource(robot="ur5e"), rpy=(np.pi, 0, 0), step=0.25,
+                      collision=jobs.CollisionSource(scene=str(scene), acm_samples=100),
+                      outputs=jobs.MapOutputs(html=str(tmp_path / "m.html")))
+    job.save(job.run())
+    text = (tmp_path / "m.html").read_text()
+    assert '"text":"ur5e: constant map, collision-free: scene table.yaml"' in text
+    assert '"name":"obstacle: table"' in text and '"type":"mesh3d"' in text

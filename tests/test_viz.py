@@ -241,3 +241,100 @@ def test_png_keeps_the_settings_in_its_metadata(tmp_path):
     assert text["Title"] == "ball — 7 layers"
     assert json.loads(text["Description"]) == {"ik": {"tol": 1e-10}, "robot": "ball", "rpy": [math.pi, 0.0, 0.0]}
     assert text["Software"].startswith("wsmap ")
+
+
+# ---------------------------------------------------------------------------- collision-aware pictures
+def _box_triangles(lo, hi):
+    """A box from corner `lo` to corner `hi` as 12 triangles (the collision layer's own box)."""
+    from wsmap.collision import Shape
+
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    T = np.eye(4)
+    T[:3, 3] = (lo + hi) / 2
+    box = Shape("box", tuple(hi - lo), T)
+    v, f = box.record.triangles(box)
+    return v + T[:3, 3], f
+
+
+def test_plane_sections_of_a_turned_box_and_a_cylinder():
+    from wsmap.collision import Obstacle, Scene, Shape
+
+    T = np.eye(4)
+    c, s = math.cos(math.pi / 6), math.sin(math.pi / 6)
+    T[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+    T[:3, 3] = [0.5, 0.1, 0.3]
+    cyl = np.eye(4)
+    cyl[:3, 3] = [-0.4, 0.3, 0.4]
+    scene = Scene(obstacles=(Obstacle("table", Shape("box", (0.6, 0.8, 0.04), T), "world"),
+                             Obstacle("post", Shape("cylinder", (0.08, 0.8), cyl), "world")))
+    (name, v, f), (_, cv, cf) = scene.triangles()
+    assert name == "table" and v.shape == (8, 3) and f.shape == (12, 3)
+    seg = viz.plane_section(v, f, 0.3)
+    pts = (seg.reshape(-1, 2) - [0.5, 0.1]) @ T[:2, :2]  # back in the box's frame
+    # every point on the 0.6 x 0.8 rectangle's boundary, and its four sides all there
+    assert np.allclose(np.maximum(np.abs(pts[:, 0]) / 0.3, np.abs(pts[:, 1]) / 0.4), 1.0)
+    assert np.allclose(pts.min(axis=0), [-0.3, -0.4]) and np.allclose(pts.max(axis=0), [0.3, 0.4])
+    assert viz.plane_section(v, f, 0.33).shape == (0, 2, 2)  # above the table
+    ring = viz.plane_section(cv, cf, 0.5).reshape(-1, 2) - [-0.4, 0.3]
+    r = np.linalg.norm(ring, axis=1)
+    assert len(ring) >= 64 and np.all(r <= 0.08 + 1e-12) and np.all(r >= 0.08 * math.cos(math.pi / 32) - 1e-12)
+
+
+def test_slices_outline_the_obstacles_in_the_layers_that_cut_them():
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+
+    reach, nodes = _ball_map()
+    table = ("table", *_box_triangles([0.3, -0.4, 0.18], [0.9, 0.4, 0.22]))
+    for fig in (viz.plot_slices(reach, (21, 21, 21), -1.0, 0.1, obstacles=[table]),
+                viz.plot_value_slices(reach.astype(float), (21, 21, 21), -1.0, 0.1, label="index",
+                                      obstacles=[table])):
+        panels = {ax.get_title(): ax for ax in fig.axes if ax.images}
+        lines = {t: [c for c in ax.collections if isinstance(c, LineCollection)] for t, ax in panels.items()}
+        assert [t for t, cs in lines.items() if cs] == ["z = 0.20 m"]  # only that layer cuts the table
+        (outline,) = lines["z = 0.20 m"]
+        pts = np.concatenate(outline.get_segments())
+        assert np.allclose(pts.min(axis=0), [0.3, -0.4]) and np.allclose(pts.max(axis=0), [0.9, 0.4])
+        assert "obstacle" in [t.get_text() for t in fig.legends[0].get_texts()]
+        plt.close(fig)
+    with pytest.raises(ValueError, match=r"^obstacle 'bad': vertices must be \(V, 3\) and faces \(F, 3\) indices"):
+        viz.plot_slices(reach, (21, 21, 21), -1.0, 0.1, obstacles=[("bad", np.zeros((3, 3)), [[0, 1, 3]])])
+
+
+def test_map_title_of_a_collision_aware_map_says_what_it_is_free_of():
+    from wsmap.workspace.kinds import get_kind
+
+    assert viz.map_title("panda", get_kind("constant"), rpy=(math.pi, 0, 0), convention="standard",
+                         summary="1108 of 9261 nodes reachable", collision="scene table.yaml") == (
+        "panda: constant map, rpy (π, 0, 0) rad, standard convention T = transl(p)·R\n"
+        "collision-free: scene table.yaml\n1108 of 9261 nodes reachable")
+
+
+def test_a_collision_aware_maps_png_names_the_scene_and_outlines_its_table(tmp_path):
+    pytest.importorskip("coal")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+    from PIL import Image
+
+    from wsmap import jobs
+
+    scene = tmp_path / "table.yaml"
+    scene.write_text("floor: true\nobstacles:\n  - {name: table, shape: box, size: [0.6, 0.8, 0.04], "
+                     "xyz: [0.55, 0, 0.25]}\n")
+    png = {}
+    for label, collision in (("free", jobs.CollisionSource(scene=str(scene), acm_samples=100)),
+                             ("self", jobs.CollisionSource(collision=True, acm_samples=100)),
+                             ("kinematic", jobs.CollisionSource())):
+        job = jobs.MapJob(arm=jobs.ArmSource(robot="ur5e"), rpy=(np.pi, 0, 0), step=0.25, collision=collision,
+                          outputs=jobs.MapOutputs(png=str(tmp_path / f"{label}.png")))
+        result = job.run()
+        fig = job._figure(result)
+        cut = [ax.get_title() for ax in fig.axes if any(isinstance(c, LineCollection) for c in ax.collections)]
+        assert cut == (["z = 0.25 m"] if label == "free" else [])  # the layer through the table
+        plt.close(fig)
+        job.save(result)
+        png[label] = Image.open(tmp_path / f"{label}.png").text["Title"]
+    assert png["free"].startswith("ur5e: constant map, rpy (π, 0, 0) rad") and \
+        " — collision-free: scene table.yaml — " in png["free"]
+    assert " — collision-free: self-collision and the floor — " in png["self"]
+    assert "collision-free" not in png["kinematic"]

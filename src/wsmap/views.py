@@ -356,7 +356,9 @@ def _point_traces(go, v: np.ndarray, xyz: np.ndarray, hover: str, label: str, th
             hovertemplate=hover + "%{marker.color:.4g}<extra></extra>"))
     if thresholds is None:
         return traces, []
-    steps = [dict(method="restyle", label=f"{t:g}", args=[{"visible": [j == i for j in range(len(ts))]}])
+    # the slider restyles these traces only (by index): a scene's obstacles after them stay shown
+    steps = [dict(method="restyle", label=f"{t:g}", args=[{"visible": [j == i for j in range(len(ts))]},
+                                                          list(range(len(ts)))])
              for i, t in enumerate(ts)]
     return traces, steps
 
@@ -394,11 +396,21 @@ def _cut_plane(shape, lo: np.ndarray, step: np.ndarray, axis_title: str, below_s
     return ranges, slider
 
 
+def _obstacle_traces(go, obstacles) -> list:
+    """`figure_3d`'s obstacles as `Mesh3d` traces (checked as `wsmap.viz.plot_slices` checks them)."""
+    from .viz import OBSTACLE_COLOR, obstacle_meshes
+
+    return [go.Mesh3d(x=v[:, 0], y=v[:, 1], z=v[:, 2], i=f[:, 0], j=f[:, 1], k=f[:, 2], name=f"obstacle: {name}",
+                      color=OBSTACLE_COLOR, opacity=0.4, flatshading=True, showlegend=True, hoverinfo="name")
+            for name, v, f in obstacle_meshes(obstacles)]
+
+
 def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points", title: str | None = None,
               label: str = "reachability index", threshold: float = 0.0,
               levels: float | Sequence[float] = (0.25, 0.5, 0.75), colormap: str = "Viridis",
               vmin: float | None = None, vmax: float | None = None, marker_size: float = 3.0,
-              opacity: float | None = None, thresholds: Sequence[float] | None = None, cut_plane: bool = False) -> Any:
+              opacity: float | None = None, thresholds: Sequence[float] | None = None, cut_plane: bool = False,
+              obstacles: Sequence | None = None) -> Any:
     """An interactive plotly `Figure` of a map (notebooks: display it; files: `save_html`).
 
     Parameters
@@ -424,6 +436,10 @@ def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points
         ends at the chosen layer, and plotly hides what lies beyond it, so that the inside
         of the map shows; the scene then keeps the whole grid's proportions and x/y ranges
         (`aspectmode="manual"`).
+    obstacles
+        a scene's obstacles, `(name, vertices (V, 3), faces (F, 3))` triangle meshes in the
+        grid's frame (m; `wsmap.collision.Scene.triangles`): one translucent `Mesh3d` trace
+        each, named `obstacle: <name>`, in `wsmap.viz.OBSTACLE_COLOR`.
 
     Notes
     -----
@@ -454,7 +470,7 @@ def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points
         traces, steps = _point_traces(go, v, xyz, hover, label, threshold, thresholds, marker_size, opacity)
     else:
         traces, steps = _iso_traces(go, v, shape, xyz, hover, label, levels, opacity), []
-    fig = go.Figure(data=traces)
+    fig = go.Figure(data=traces + _obstacle_traces(go, obstacles))
     titles = [f"{n} ({unit})" for n in names]
     sliders = []
     if steps:

@@ -41,7 +41,7 @@ __all__ = [
     "OUTCOME_COLORS", "plot_mean_band", "plot_training_curves", "plot_sample_errors", "plot_sections",
     "plot_threshold_sweep", "plot_error_histograms", "plot_runtimes", "plot_meshes", "export_mesh", "plot_slices",
     "plot_voxels", "save_figure", "render_mesh", "plot_value_slices", "map_title", "png_metadata", "MAP_COLORS",
-    "COMPARE_COLORS", "CONVENTION_TEXT",
+    "COMPARE_COLORS", "CONVENTION_TEXT", "OBSTACLE_COLOR", "plane_section", "obstacle_meshes",
 ]
 
 #: The colours of `wsmap.metrics.outcomes` codes 0..3 (`wsmap.metrics.OUTCOME_NAMES`).
@@ -386,6 +386,64 @@ def _layers_shown(occupied: np.ndarray, max_panels: int, z: np.ndarray, name: st
     return keep, "; ".join(notes)
 
 
+#: The colour of a scene's obstacles in the map pictures (outlines in the slices, solids in 3-D).
+OBSTACLE_COLOR = "#d62728"
+
+
+def plane_section(vertices: ArrayLike, faces: ArrayLike, z: float) -> np.ndarray:
+    """Where the plane `z` cuts a triangle mesh: segments `(S, 2, 2)`, each two `(x, y)` points (the
+    mesh's units). A triangle with corners on both sides of the plane (a corner on it counts as
+    above) gives one segment, between the crossings of its two edges that change side.
+
+    Examples
+    --------
+    >>> v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 1.0]])
+    >>> plane_section(v, [[0, 1, 2]], 0.5).round(2).tolist()
+    [[[0.5, 0.5], [0.0, 0.5]]]
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    above = v[:, 2] >= z
+    f = f[above[f].any(axis=1) & ~above[f].all(axis=1)]  # the triangles the plane cuts
+    a, b = v[f], v[np.roll(f, -1, axis=1)]  # (T, 3 edges, 3): each edge's ends
+    cross = (a[..., 2] >= z) != (b[..., 2] >= z)  # (T, 3): exactly two per triangle
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(cross, (z - a[..., 2]) / (b[..., 2] - a[..., 2]), 0.0)
+    p = a[..., :2] + t[..., None] * (b[..., :2] - a[..., :2])
+    order = np.argsort(~cross, axis=1, kind="stable")[:, :2]  # the two crossing edges first
+    return np.take_along_axis(p, order[..., None], axis=1)
+
+
+def _outline_obstacles(ax, obstacles, z: float) -> bool:
+    """Draw where the plane `z` cuts each obstacle `(name, vertices, faces)` on the panel `ax`;
+    whether anything was drawn."""
+    from matplotlib.collections import LineCollection
+
+    drawn = False
+    for _, v, f in obstacles:
+        seg = plane_section(v, f, z)
+        if len(seg):
+            ax.add_collection(LineCollection(seg, colors=OBSTACLE_COLOR, linewidths=1.2, zorder=3))
+            drawn = True
+    return drawn
+
+
+def obstacle_meshes(obstacles: Sequence | None) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """The `obstacles=` of the map pictures (`plot_slices`, `wsmap.views.figure_3d`) checked: a
+    list of `(name, vertices (V, 3) float64, faces (F, 3) int64)`; `ValueError` naming the obstacle
+    whose faces do not index its vertices."""
+    out = []
+    for item in obstacles or ():
+        name, v, f = item
+        v, f = np.asarray(v, dtype=np.float64), np.asarray(f)
+        if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3 or (f.size and (f.min() < 0
+                                                                                         or f.max() >= len(v))):
+            raise ValueError(f"obstacle {name!r}: vertices must be (V, 3) and faces (F, 3) indices into them, got "
+                             f"{v.shape} and {f.shape}")
+        out.append((str(name), v, f.astype(np.int64)))
+    return out
+
+
 def _slice_grid(plt, count: int, ncols: int | None, extent, labels, units: str, panel: float = 2.3):
     """`(fig, axes)`: `count` map panels of `panel` inches in rows of `ncols` (default: at
     most 6), sharing metre (or radian) ticks, the axis names on the outer panels only, in a
@@ -426,7 +484,7 @@ def _cell_extent(ax_x, ax_y, step):
 def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike = -1.0, step: float | ArrayLike = 0.1,
                 *, compare: ArrayLike | None = None, title: str | None = None, ncols: int | None = None,
                 labels: Sequence[str] = ("x", "y", "z"), names: Sequence[str] = ("first only", "second only", "both"),
-                max_panels: int = 24, metadata: dict | None = None) -> Figure:
+                max_panels: int = 24, metadata: dict | None = None, obstacles: Sequence | None = None) -> Figure:
     """The z-layers of a BINARY map side by side, in the grid's units. Returns a matplotlib Figure.
 
     Parameters
@@ -454,11 +512,16 @@ def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike
         legend's title says what was left out and names the layers drawn).
     metadata
         text stored in the PNG by `save_figure` (`{"Description": ...}`).
+    obstacles
+        a scene's obstacles, `(name, vertices (V, 3), faces (F, 3))` triangle meshes in the
+        grid's frame (m; `wsmap.collision.Scene.triangles`): each panel outlines where its
+        layer's plane cuts them (`OBSTACLE_COLOR`, legend entry "obstacle").
 
     Raises
     ------
     ValueError
-        A map or `compare` that does not fit `shape`, or `max_panels < 1`.
+        A map or `compare` that does not fit `shape`, `max_panels < 1`, or an obstacle whose
+        faces do not index its `(V, 3)` vertices.
     """
     plt = _plt()
     from matplotlib.colors import ListedColormap
@@ -466,6 +529,7 @@ def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike
 
     if int(max_panels) < 1:
         raise ValueError(f"max_panels must be at least 1, got {max_panels}")
+    obstacles = obstacle_meshes(obstacles)
     vol = map_to_volume(np.asarray(flat_map, dtype=bool), shape)  # (nz, ny, nx)
     ax_x, ax_y, ax_z = _axes_of(shape, lo, step)
     units = _units_of(labels)
@@ -484,9 +548,15 @@ def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike
     extent = _cell_extent(ax_x, ax_y, step)
     fig, axes = _slice_grid(plt, layers.size, ncols, extent, labels, units)
     cmap = ListedColormap(list(colors))
+    outlined = False
     for k, ax in zip(layers, axes):
         ax.imshow(img[k], origin="lower", cmap=cmap, vmin=0, vmax=vmax, extent=extent, interpolation="nearest")
         ax.set_title(f"{labels[2]} = {ax_z[k]:.2f} {units}", fontsize=9)
+        outlined |= _outline_obstacles(ax, obstacles, ax_z[k])
+    if outlined:
+        from matplotlib.lines import Line2D
+
+        handles.append(Line2D([], [], color=OBSTACLE_COLOR, linewidth=1.2, label="obstacle"))
     fig.legend(handles=handles, loc="outside lower center", ncol=len(handles), fontsize=9, frameon=False,
                title=note or None, title_fontsize=8)
     if title:
@@ -498,7 +568,8 @@ def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike
 def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | ArrayLike, step: float | ArrayLike, *,
                       label: str, vmin: float | None = None, vmax: float | None = None, title: str | None = None,
                       ncols: int | None = None, labels: Sequence[str] = ("x", "y", "z"), cmap: str = "viridis",
-                      max_panels: int = 24, unreachable: float | None = 0.0, metadata: dict | None = None) -> Figure:
+                      max_panels: int = 24, unreachable: float | None = 0.0, metadata: dict | None = None,
+                      obstacles: Sequence | None = None) -> Figure:
     """The z-layers of a FLOAT map (e.g. a reachability index in [0, 1], a manipulability map >= 0)
     side by side in the grid's units, coloured by value, with one colour bar shared by every panel.
     Returns the Figure.
@@ -527,12 +598,14 @@ def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | Array
         "unreachable"; `None` colours them by value too.
     title
         short; `metadata`: text stored in the PNG by `save_figure`.
+    obstacles
+        a scene's obstacles, outlined in every panel as in `plot_slices`.
 
     Raises
     ------
     ValueError
-        A map that does not fit `shape`, has NaN or infinite values, `vmax < vmin`
-        or `max_panels < 1`.
+        A map that does not fit `shape`, has NaN or infinite values, `vmax < vmin`,
+        `max_panels < 1`, or an obstacle as `plot_slices` refuses it.
     """
     plt = _plt()
     v = np.asarray(values)
@@ -546,6 +619,7 @@ def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | Array
         raise ValueError(f"values contain {int(bad.sum())} NaN or infinite values (first at node {int(np.argmax(bad))})")
     if int(max_panels) < 1:
         raise ValueError(f"max_panels must be at least 1, got {max_panels}")
+    obstacles = obstacle_meshes(obstacles)
     vol = map_to_volume(v, shape)
     lo_c = float(v.min()) if vmin is None else float(vmin)
     hi_c = float(v.max()) if vmax is None else float(vmax)
@@ -565,15 +639,21 @@ def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | Array
     colours = colours.with_extremes(bad=MAP_COLORS[0])
     shown = np.ma.masked_equal(vol, unreachable) if unreachable is not None else vol
     image = None
+    outlined = False
     for k, ax in zip(layers, axes):
         image = ax.imshow(shown[k], origin="lower", cmap=colours, vmin=lo_c, vmax=hi_c, extent=extent,
                           interpolation="nearest")
         ax.set_title(f"{labels[2]} = {ax_z[k]:.2f} {units}", fontsize=9)
+        outlined |= _outline_obstacles(ax, obstacles, ax_z[k])
     cbar = fig.colorbar(image, ax=axes, shrink=0.9 if len(axes) > 6 else 1.0, aspect=30)
     cbar.set_label(label)
-    if unreachable is not None or note:
+    if unreachable is not None or note or outlined:
+        from matplotlib.lines import Line2D
+
         handles = [Patch(facecolor=MAP_COLORS[0], edgecolor="0.6", label=f"unreachable ({unreachable:g})")] \
             if unreachable is not None else []
+        if outlined:
+            handles.append(Line2D([], [], color=OBSTACLE_COLOR, linewidth=1.2, label="obstacle"))
         fig.legend(handles=handles, loc="outside lower center", fontsize=9, frameon=False, title=note or None,
                    title_fontsize=8)
     if title:
@@ -601,9 +681,12 @@ CONVENTION_TEXT = {"paper": "paper convention T = R·transl(p)", "standard": "st
 
 
 def map_title(arm: str, kind: Any, *, rpy: Sequence[float] | None = None, point: Sequence[float] | None = None,
-              convention: str | None = None, orientations: int | None = None, summary: str | None = None) -> str:
+              convention: str | None = None, orientations: int | None = None, summary: str | None = None,
+              collision: str | None = None) -> str:
     """A map picture's short title: the arm, the kind, its orientation (or point) and its pose convention,
-    and on a second line `summary` (e.g. `"1883 of 9261 nodes reachable (numerical)"`).
+    for a collision-aware map a line `collision-free: <collision>` (what it is free of: `"scene
+    table.yaml"`, `"self-collision only"`), and on the last line `summary` (e.g. `"1883 of 9261
+    nodes reachable (numerical)"`).
 
     Parameters
     ----------
@@ -632,7 +715,7 @@ def map_title(arm: str, kind: Any, *, rpy: Sequence[float] | None = None, point:
     conv = kind.convention or convention
     if conv is not None:
         parts.append(CONVENTION_TEXT.get(conv, f"{conv} convention"))
-    return ", ".join(parts) + (f"\n{summary}" if summary else "")
+    return ", ".join(parts) + (f"\ncollision-free: {collision}" if collision else "") + (f"\n{summary}" if summary else "")
 
 
 def png_metadata(settings: dict, *, title: str | None = None) -> dict[str, str]:

@@ -133,6 +133,20 @@ class Scene:
     def empty(self) -> bool:
         return self.floor is None and not self.obstacles
 
+    def triangles(self, base: np.ndarray | None = None) -> list[tuple[str, np.ndarray, np.ndarray]]:
+        """The obstacles as triangle meshes for drawing (a map's slices and 3-D view): one
+        `(name, vertices (V, 3), faces (F, 3))` per obstacle whose kind can be drawn
+        (`ShapeKind.triangles`), the vertices in the world frame (m), base-frame obstacles placed
+        by `base` (the arm's base transform `(4, 4)`, or None). The floor is not among them."""
+        out = []
+        for ob in self.obstacles:
+            tri = ob.shape.record.triangles(ob.shape)
+            if tri is not None:
+                P = ob.pose(base)
+                out.append((ob.name, np.asarray(tri[0], dtype=np.float64) @ P[:3, :3].T + P[:3, 3],
+                            np.asarray(tri[1], dtype=np.int64)))
+        return out
+
     def describe(self) -> dict:
         """A JSON-able record (map files)."""
         return {"floor": self.floor, "obstacles": [{"name": o.name, "frame": o.frame, **o.shape.describe()}

@@ -29,7 +29,7 @@ if TYPE_CHECKING:
     from .checks import CollisionChecker
     from .geometry import CollisionModel
 
-__all__ = ["CollisionSource", "ArmFiles", "MAX_ACM_SAMPLES", "MAX_LINK_RADIUS"]
+__all__ = ["CollisionSource", "ArmFiles", "MAX_ACM_SAMPLES", "MAX_LINK_RADIUS", "map_picture"]
 
 
 class ArmFiles(Protocol):
@@ -193,3 +193,42 @@ class CollisionSource:
         if self.obstacles:
             d["obstacles"] = [{"name": o.name, "frame": o.frame, **o.shape.describe()} for o in self.obstacles]
         return d
+
+
+def map_picture(checker: CollisionChecker | None, settings: dict | None = None) -> tuple[str | None, list]:
+    """What a collision-aware map's pictures show of its check (`wsmap.jobs.MapJob`'s PNG and HTML).
+
+    Parameters
+    ----------
+    checker : CollisionChecker or None
+        The map's checker (None: a kinematic map).
+    settings : dict, optional
+        The map file's `collision` settings (`CollisionSource.describe` among them): its
+        `scene_file` names the scene.
+
+    Returns
+    -------
+    line : str or None
+        What the map is free of, for the title's `collision-free: ...` line: `"scene table.yaml"`
+        (the scene file's name), else `"self-collision and the floor"` or `"self-collision only"`;
+        obstacles given beside a file add `" + 2 obstacles"`. None for a kinematic map.
+    obstacles : list
+        The scene's obstacles as triangle meshes `(name, vertices (V, 3), faces (F, 3))` in the
+        frame of the map's nodes (`wsmap.collision.Scene.triangles`, base-frame obstacles placed by
+        the arm's base); the floor is not drawn.
+    """
+    if checker is None:
+        return None, []
+    import os
+
+    scene_file = (settings or {}).get("scene_file")
+    extra = len((settings or {}).get("obstacles") or ())
+    if scene_file:
+        line = f"scene {os.path.basename(str(scene_file))}"
+    else:
+        parts = (["self-collision"] if checker.self_collision else []) + (
+            ["the floor"] if checker.scene.floor is not None else [])
+        line = " and ".join(parts) + (" only" if len(parts) == 1 else "")
+    if extra:
+        line += f" + {extra} obstacle{'s' if extra > 1 else ''}"
+    return line, checker.scene.triangles(checker.model.chain.base)

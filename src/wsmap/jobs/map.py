@@ -424,21 +424,25 @@ class MapJob:
 
     def _figure(self, result: MapResult):
         """The z-slices figure: a short title a reader can take in; every setting in its metadata."""
+        from ..collision.sources import map_picture
         from ..viz import map_title, plot_slices, plot_value_slices, png_metadata
 
         plan, kind, grid = result.plan, result.plan.kind, result.plan.grid
         labels = ("x", "y", "z") if kind.scope == "R3" else ("r1", "r2", "r3")
         K = len(plan.orientations) if plan.orientations is not None else None
+        collision, obstacles = map_picture(plan.checker, result.settings.get("collision"))
+        obstacles = obstacles if kind.scope == "R3" else None  # obstacles live in metres, not angles
         title = map_title(plan.robot.name or "arm", kind, rpy=self.rpy, point=self.point,
                           convention=plan.request.convention, orientations=K,
-                          summary=f"{result.summary} ({plan.method})")
+                          summary=f"{result.summary} ({plan.method})", collision=collision)
         meta = png_metadata({**result.settings, "grid": grid}, title=title)
         if kind.value_type is float:
             vmin, vmax = kind.value_range
             return plot_value_slices(result.values, grid["shape"], grid["lo"], grid["step"], label=kind.label,
-                                     title=title, labels=labels, vmin=vmin, vmax=vmax, metadata=meta)
+                                     title=title, labels=labels, vmin=vmin, vmax=vmax, metadata=meta,
+                                     obstacles=obstacles)
         return plot_slices(result.values, grid["shape"], grid["lo"], grid["step"], labels=labels, title=title,
-                           metadata=meta)
+                           metadata=meta, obstacles=obstacles)
 
 
 def _floor_words(floor: float | None) -> str:
@@ -453,10 +457,15 @@ def _write_view(flag: str, tmp: Path, result: MapResult) -> None:
     kind, grid, robot = result.plan.kind, result.plan.grid, result.plan.robot
     values = np.asarray(result.values, dtype=np.float64)
     if flag == "--html":
-        # a float map gets a threshold slider; every map a cut plane through its z-layers
-        save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map",
+        from ..collision.sources import map_picture
+
+        # a float map gets a threshold slider; every map a cut plane through its z-layers; a
+        # collision-aware one says what it is free of and shows the scene's obstacles
+        collision, obstacles = map_picture(result.plan.checker, result.settings.get("collision"))
+        save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map"
+                  + (f", collision-free: {collision}" if collision else ""),
                   thresholds=np.linspace(0.0, 0.9, 10) * values.max() if kind.value_type is float else None,
-                  cut_plane=True)
+                  cut_plane=True, obstacles=obstacles if kind.scope == "R3" else None)
     elif flag == "--ply":
         save_ply(tmp, values, grid, label=kind.label)
     else:

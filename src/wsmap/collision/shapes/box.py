@@ -36,6 +36,12 @@ class Box(ShapeKind):
     def point_distance(self, size, local):
         return np.linalg.norm(np.maximum(np.abs(local) - np.array(size) / 2, 0.0), axis=-1)
 
+    def triangles(self, shape):
+        corners = (np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]) - 0.5) * np.array(shape.size)
+        faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                          [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+        return corners, faces
+
     def from_urdf(self, el, origin, label, what, folder):
         return Shape("box", urdf_numbers(label, f"{what} <box size>", el.get("size"), 3), origin)
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._radius_length import read_scene_radius_length, read_urdf_radius_length
-from .registry import SHAPE_KINDS, Shape, ShapeKind
+from .registry import SHAPE_KINDS, Shape, ShapeKind, revolved
 
 
 class Capsule(ShapeKind):
@@ -40,6 +40,12 @@ class Capsule(ShapeKind):
 
     def swept_sphere(self, shape):
         return shape.size[1] / 2, shape.size[0]
+
+    def triangles(self, shape):
+        r, L = shape.size
+        low, high = np.linspace(-np.pi / 2, 0.0, 9), np.linspace(0.0, np.pi / 2, 9)  # the two half spheres
+        z = np.concatenate([-L / 2 + r * np.sin(low), L / 2 + r * np.sin(high)])
+        return revolved(r * np.cos(np.concatenate([low, high])), z)
 
     def from_urdf(self, el, origin, label, what, folder):
         return Shape("capsule", read_urdf_radius_length(self, el, label, what), origin)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._radius_length import read_scene_radius_length, read_urdf_radius_length
-from .registry import SHAPE_KINDS, Shape, ShapeKind
+from .registry import SHAPE_KINDS, Shape, ShapeKind, revolved
 
 
 class Cylinder(ShapeKind):
@@ -30,6 +30,10 @@ class Cylinder(ShapeKind):
     def point_distance(self, size, local):
         rr = np.maximum(np.hypot(local[..., 0], local[..., 1]) - size[0], 0.0)
         return np.hypot(rr, np.maximum(np.abs(local[..., 2]) - size[1] / 2, 0.0))
+
+    def triangles(self, shape):
+        r, L = shape.size
+        return revolved([0.0, r, r, 0.0], [-L / 2, -L / 2, L / 2, L / 2])
 
     def from_urdf(self, el, origin, label, what, folder):
         return Shape("cylinder", read_urdf_radius_length(self, el, label, what), origin)

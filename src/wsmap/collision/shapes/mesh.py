@@ -357,6 +357,9 @@ class Mesh(ShapeKind):
         pts.extend([np.ascontiguousarray(p, dtype=np.float64) for p in shape.vertices])
         return coal.Convex.convexHull(pts, False, None)
 
+    def triangles(self, shape):
+        return shape.vertices, shape.faces
+
     def from_urdf(self, el, origin, label, what, folder):
         fn = el.get("filename")
         if not fn:

@@ -23,7 +23,7 @@ from ..._plugins import Registry
 from ..errors import CollisionError
 from ..fields import MAX_COORDINATE, shown
 
-__all__ = ["ShapeKind", "SHAPE_KINDS", "Shape", "shape_kind", "urdf_shape_kind", "mjcf_shape_kind"]
+__all__ = ["ShapeKind", "SHAPE_KINDS", "Shape", "shape_kind", "urdf_shape_kind", "mjcf_shape_kind", "revolved"]
 
 
 @dataclass(frozen=True)
@@ -114,6 +114,12 @@ class ShapeKind(ABC):
         origin), the vertices' mean for a mesh (inside its convex hull)."""
         return np.zeros(3) if shape.vertices is None else shape.vertices.mean(axis=0)
 
+    def triangles(self, shape: Shape) -> tuple[np.ndarray, np.ndarray] | None:
+        """A triangle mesh of the shape's surface for drawing (a scene's obstacles in a map's
+        pictures): `(vertices (V, 3) m in the shape's frame, faces (F, 3) int)`, round surfaces
+        as 32-sided polygons; a mesh's own triangles. None for a kind that cannot be drawn."""
+        return None
+
     def swept_sphere(self, shape: Shape) -> tuple[float, float] | None:
         """`(half_length, radius)` (m) when the shape is the points within `radius` of the segment
         from `-half_length` to `half_length` along its `z` axis (a capsule, a sphere): such shapes
@@ -141,6 +147,20 @@ class ShapeKind(ABC):
 
 #: Every kind of collision shape, by `(priority, name)`.
 SHAPE_KINDS: Registry[ShapeKind] = Registry("collision shape")
+
+
+def revolved(radius: np.ndarray, z: np.ndarray, segments: int = 32) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles of a surface of revolution about `z` (`ShapeKind.triangles` of the round kinds):
+    the profile `radius` `(P,)`, `z` `(P,)` (m, from the bottom up; a radius of 0 closes an end),
+    turned through `segments` steps. Returns `(vertices (P * segments, 3), faces (F, 3))`."""
+    radius, z = np.asarray(radius, dtype=np.float64), np.asarray(z, dtype=np.float64)
+    a = np.linspace(0.0, 2 * np.pi, segments, endpoint=False)
+    v = np.stack([np.outer(radius, np.cos(a)), np.outer(radius, np.sin(a)), np.repeat(z[:, None], segments, 1)], -1)
+    i = np.arange(len(radius) - 1)[:, None] * segments
+    j, k = np.arange(segments)[None], (np.arange(segments)[None] + 1) % segments
+    quads = np.stack([i + j, i + k, i + segments + k, i + segments + j], -1).reshape(-1, 4)
+    faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    return v.reshape(-1, 3), faces
 
 
 def shape_kind(name: str) -> ShapeKind:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..fields import scene_positive, urdf_numbers
-from .registry import SHAPE_KINDS, Shape, ShapeKind
+from .registry import SHAPE_KINDS, Shape, ShapeKind, revolved
 
 
 class Sphere(ShapeKind):
@@ -28,6 +28,10 @@ class Sphere(ShapeKind):
 
     def swept_sphere(self, shape):
         return 0.0, shape.size[0]
+
+    def triangles(self, shape):
+        a = np.linspace(-np.pi / 2, np.pi / 2, 17)
+        return revolved(shape.size[0] * np.cos(a), shape.size[0] * np.sin(a))
 
     def from_urdf(self, el, origin, label, what, folder):
         return Shape("sphere", urdf_numbers(label, f"{what} <sphere radius>", el.get("radius"), 1), origin)

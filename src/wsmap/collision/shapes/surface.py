@@ -156,6 +156,9 @@ class Surface(ShapeKind):
         local = np.asarray(local, dtype=np.float64).reshape(-1, 3)
         return np.abs(winding_number(shape.vertices, shape.faces, local)) > 0.5
 
+    def triangles(self, shape):
+        return shape.vertices, shape.faces
+
     def from_urdf(self, el, origin, label, what, folder):  # pragma: no cover - URDF has no surface tag
         raise CollisionError(f"{label}: {what}: URDF has no surface element")
 
