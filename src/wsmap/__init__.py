@@ -62,6 +62,8 @@ from .workspace import (
     save_map,
 )
 from .workspace.kinds import get_kind, kind_names
+from .workspace.maps import grid_status
+from .workspace.status import CERTIFIED, NOT_FOUND, REACHED, STATUS, node_status, status_counts
 
 __all__ = [
     "__version__", "kinematics", "robots", "workspace",
@@ -74,6 +76,8 @@ __all__ = [
     "angle_grid", "cartesian_grid", "grid_spec", "grid_map", "map_to_volume", "reachable",
     "constant_orientation_map", "orientation_map", "reachability_index", "position_map", "dexterous_map",
     "manipulability_map", "get_kind", "kind_names", "load_map", "save_map", "base_placement", "Placement",
+    # the three answers of a map node: reached, certified unreachable, not found
+    "REACHED", "CERTIFIED", "NOT_FOUND", "STATUS", "grid_status", "node_status", "status_counts",
     # jobs: what the command line runs, built in Python (check, run, save)
     "jobs", "MapJob", "MapOutputs", "PlacementJob", "ArmSource", "CollisionSource",
 ]

@@ -103,6 +103,8 @@ def run(args) -> int:
     if not args.quiet:
         print(f"{result.summary}; {result.plan.method} {result.plan.kind.name} map ({result.settings['how']}) in "
               f"{result.seconds:.3f} s -> {', '.join(map(str, paths)) or 'nothing written'}")
+        if result.counts is not None:
+            print("nodes: " + ", ".join(f"{count} {name}" for name, count in result.counts.items()))
     return 0
 
 

@@ -31,7 +31,8 @@ from ..io import atomic_paths, check_outputs
 from ..kinematics import closed_form_for
 from ..robots.sources import ArmSource
 from ..workspace import grid_spec, orientation_samples, resolve_method, save_map, save_reuleaux
-from ..workspace.maps import MAP_PREDICTORS
+from ..workspace.maps import MAP_PREDICTORS, grid_status
+from ..workspace.status import status_counts
 from ..workspace.kinds import MapRequest, default_kind, get_kind, kinds, kinds_taking
 from ..workspace.orientations import MAX_ORIENTATIONS
 from typing import TYPE_CHECKING
@@ -89,7 +90,9 @@ class MapResult:
     """A computed map: `values` (N,) in node order (bool or float64 as the kind says), the `grid`,
     the `settings` recorded in the map file (the arm, its source and limits, the method and how it
     ran, the search settings, the collision geometry, `seconds`), the orientation set (K, 3, 3) of a
-    map over orientations, and for a Reuleaux file the per-orientation bits and rotations."""
+    map over orientations, for a Reuleaux file the per-orientation bits and rotations, and for the
+    paper's maps of bits by the closed form or the search each node's answer `status` (N,) int8
+    (`wsmap.workspace.status`: reached, certified unreachable, not found; stored in the map file)."""
 
     plan: MapPlan
     values: np.ndarray
@@ -98,10 +101,16 @@ class MapResult:
     seconds: float
     bits: np.ndarray | None = None
     rotations: np.ndarray | None = None
+    status: np.ndarray | None = None
 
     @property
     def grid(self) -> dict:
         return self.plan.grid
+
+    @property
+    def counts(self) -> dict[str, int] | None:
+        """`{"reached", "certified unreachable", "not found": count}`, or None without a status."""
+        return None if self.status is None else status_counts(self.status)
 
 
 def _arg3(values, name):
@@ -326,9 +335,14 @@ class MapJob:
         else:
             flat = plan.kind.compute(plan.robot, plan.grid, plan.request)
         seconds = time.perf_counter() - t0
+        status = None
+        if plan.kind.paper_solver and plan.method in ("exact", "numerical") and np.asarray(flat).dtype == bool:
+            # each node's answer: the certificates are kinematic, so they hold with collisions too
+            status = grid_status(plan.robot, plan.grid, flat, rpy=plan.request.rpy, point=plan.request.point,
+                                 method=plan.method, convention=plan.request.convention)
         settings = self._settings(plan, seconds)
         return MapResult(plan=plan, values=flat, settings=settings, summary=plan.kind.summary(flat), seconds=seconds,
-                         bits=bits, rotations=rotations)
+                         bits=bits, rotations=rotations, status=status)
 
     def _how(self, plan: MapPlan) -> str:
         """How the map was computed, in words (the settings' `how`)."""
@@ -414,7 +428,8 @@ class MapJob:
     def _write(flag: str, tmp: Path, result: MapResult, fig) -> None:
         plan = result.plan
         if flag == "--out":
-            save_map(tmp, result.values, plan.grid, result.settings, orientations=plan.orientations)
+            save_map(tmp, result.values, plan.grid, result.settings, orientations=plan.orientations,
+                     status=result.status)
         elif flag == "--h5":
             save_reuleaux(tmp, plan.grid, result.bits, result.rotations)
         elif flag[2:] in VIEWS:

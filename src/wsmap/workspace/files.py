@@ -4,8 +4,10 @@ orientations) and the settings that made it (the arm, its source and limits, the
 Arrays: `map` (N,) in node order — bool or float64 as the map's kind says
 (`wsmap.workspace.kinds.MapKind.value_type`; bool for the paper's maps, reach and dexterous,
 float64 for the reachability index and manipulability); `nodes` (N, 3) (m, or rad for an SO3 grid);
-`orientations` (K, 3, 3) when the map was made over a set of orientations; `grid` and
-`settings` as JSON strings. `settings["kind"]`, where present, names a registered kind
+`orientations` (K, 3, 3) when the map was made over a set of orientations; `status` (N,) int8
+when the map carries each node's answer (`wsmap.workspace.status`: 0 reached, 1 certified
+unreachable, 2 not found; a bool map only; older files without it load with `status` None);
+`grid` and `settings` as JSON strings. `settings["kind"]`, where present, names a registered kind
 (`wsmap.workspace.kinds`): its value type and scope are checked when a map is saved and loaded.
 """
 
@@ -25,7 +27,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import Any, ArrayLike, NDArray, PathLike
 
-__all__ = ["save_map", "load_map", "MapFileError"]
+__all__ = ["save_map", "load_map", "load_status", "MapFileError"]
 
 
 class MapFileError(ValueError):
@@ -46,12 +48,14 @@ def _kind_mismatch(settings: dict, dtype, scope) -> str | None:
     return None
 
 
-def save_map(path: PathLike, flat_map: ArrayLike, grid: dict, settings: dict, orientations: ArrayLike | None = None
-            ) -> Path:
+def save_map(path: PathLike, flat_map: ArrayLike, grid: dict, settings: dict, orientations: ArrayLike | None = None,
+             status: ArrayLike | None = None) -> Path:
     """Write a map as `.npz` atomically (see the module notes); a bool map stays bool, any other is
     stored as float64 (finite values only). `orientations` (K, 3, 3): the set a map over
-    orientations was made with. `settings["kind"]`, if given, must be a registered kind whose value
-    type and scope the map and grid have (`ValueError` before anything is written). Returns `path`."""
+    orientations was made with. `status` (N,) int codes of `wsmap.workspace.status` (a bool map
+    only; `REACHED` exactly where the map is True). `settings["kind"]`, if given, must be a
+    registered kind whose value type and scope the map and grid have (`ValueError` before anything
+    is written). Returns `path`."""
     nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
     flat_map = np.asarray(flat_map)
     if flat_map.dtype != bool:
@@ -64,6 +68,8 @@ def save_map(path: PathLike, flat_map: ArrayLike, grid: dict, settings: dict, or
     if problem:
         raise ValueError(problem)
     extra = {}
+    if status is not None:
+        extra["status"] = _check_status(flat_map, status)
     if orientations is not None:
         extra["orientations"] = np.asarray(orientations, dtype=np.float64).reshape(-1, 3, 3)
     with atomic_path(path, suffix=".npz") as tmp:
@@ -75,7 +81,8 @@ def save_map(path: PathLike, flat_map: ArrayLike, grid: dict, settings: dict, or
 
 def load_map(path: PathLike) -> tuple[NDArray[Any], NDArray[np.float64], dict[str, Any], dict[str, Any]]:
     """Read a map written by `save_map`: `(map, nodes, grid, settings)`; a map over
-    orientations has its set in `settings["orientations"]` ((K, 3, 3) array).
+    orientations has its set in `settings["orientations"]` ((K, 3, 3) array), a map with each
+    node's answer its int8 codes in `settings["status"]` ((N,) array; see `load_status`).
 
     A missing file is `FileNotFoundError`; anything else unreadable is `MapFileError`, as is
     a file whose `settings["kind"]` is not a registered kind (`wsmap.workspace.kinds`) or whose
@@ -103,6 +110,8 @@ def load_map(path: PathLike) -> tuple[NDArray[Any], NDArray[np.float64], dict[st
                                        f"{type(entry).__name__}, not an object")
             if "orientations" in z.files:
                 settings["orientations"] = z["orientations"]
+            if "status" in z.files:
+                settings["status"] = z["status"]
     except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile, EOFError) as e:
         if isinstance(e, MapFileError):
             raise
@@ -119,7 +128,52 @@ def load_map(path: PathLike) -> tuple[NDArray[Any], NDArray[np.float64], dict[st
         raise MapFileError(f"{path} is not a consistent wsmap map file: {problem}")
     if flat.dtype != bool:
         _check_values(path, flat, settings.get("kind"))
+    _check_stored_status(path, flat, settings)
     return flat, nodes, grid, settings
+
+
+def _check_stored_status(path, flat, settings) -> None:
+    """The status read back (in `settings["status"]`, where stored), as int8 codes agreeing with
+    the map; a `MapFileError` naming the disagreement."""
+    if "status" in settings:
+        try:
+            settings["status"] = _check_status(flat, settings["status"])
+        except ValueError as e:
+            raise MapFileError(f"{path} is not a consistent wsmap map file: {e}") from None
+
+
+def load_status(path: PathLike) -> NDArray[np.int8]:
+    """The int8 status `(N,)` of a bool map file (`wsmap.workspace.status`): the stored one, or,
+    for a file written without it, `REACHED` where the map is True and `NOT_FOUND` elsewhere
+    (no certificate was recorded). A float map is a `MapFileError`."""
+    from .status import NOT_FOUND, REACHED
+
+    flat, _, _, settings = load_map(path)
+    if flat.dtype != bool:
+        raise MapFileError(f"{path} holds a {flat.dtype} map; a status belongs to a map of bits")
+    status = settings.get("status")
+    if status is None:
+        return np.where(flat, REACHED, NOT_FOUND).astype(np.int8)
+    return status
+
+
+def _check_status(flat, status) -> np.ndarray:
+    """`status` as int8 `(N,)` codes agreeing with the bool map `flat`: `REACHED` (0) exactly
+    where it is True, 1 or 2 elsewhere (a one-line `ValueError` naming what differs)."""
+    from .status import REACHED
+
+    if flat.dtype != bool:
+        raise ValueError(f"a status belongs to a map of bits, not to a {flat.dtype} map")
+    st = np.asarray(status)
+    if st.shape != flat.shape or not np.issubdtype(st.dtype, np.integer):
+        raise ValueError(f"a status must be {flat.shape[0]} integer codes, got {st.dtype} {st.shape}")
+    if st.size and (st.min() < 0 or st.max() > 2):
+        raise ValueError(f"status codes are 0 (reached), 1 (certified unreachable) or 2 (not found), got {int(st.min())}"
+                         f"..{int(st.max())}")
+    if np.any((st == REACHED) != flat):
+        bad = int(np.argmax((st == REACHED) != flat))
+        raise ValueError(f"status and map disagree at node {bad} (status {int(st[bad])}, map {bool(flat[bad])})")
+    return st.astype(np.int8)
 
 
 def _check_values(path, flat, kind_name) -> None:

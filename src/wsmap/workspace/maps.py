@@ -29,6 +29,7 @@ from ..kinematics.ik.solvers.independent import search_accepted
 from ..kinematics.transforms import as_real_array
 from .._progress import check_progress, progress_bar
 from .grids import cartesian_grid, check_fits, grid_axes, node_neighbours, triple
+from .status import node_status
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
@@ -38,7 +39,7 @@ if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
 __all__ = ["METHODS", "CONVENTIONS", "SCOPES", "SOLVERS", "DEFAULT_STARTS", "MAP_SETTINGS", "SearchSettings",
            "target_poses", "reachable", "resolve_method", "constant_orientation_map", "orientation_map",
            "grid_map", "MAP_PREDICTORS", "register_map_predictor", "check_choice", "check_nodes",
-           "configuration_predicate", "search_settings"]
+           "configuration_predicate", "search_settings", "grid_status"]
 
 #: `"auto"` is `"exact"` for an arm of a closed-form family, else `"numerical"`.
 METHODS = ("auto", "exact", "numerical")
@@ -197,10 +198,11 @@ def resolve_method(robot: Arm, method: str = "auto") -> str:
 
 
 def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress, space, return_method,
-         collision=None, return_q=False):
+         collision=None, return_q=False, return_status=False):
     """Shared driver: positions (N, 3) or (1, 3), rpy (3,) or (N, 3); `space` (N, 3) the nodes whose
     neighbours start the numerical search; returns (arms..., N) bool (then the solutions
-    (arms..., N, n) with `return_q`, and the method used, with `return_method`)."""
+    (arms..., N, n) with `return_q`, the int8 status (arms..., N) with `return_status`, and the
+    method used, with `return_method`)."""
     if not isinstance(arms, (DHRobot, SerialChain)):
         raise TypeError(f"arms must be a DHRobot or a SerialChain, got {type(arms).__name__}")
     valid = configuration_predicate(arms, collision)
@@ -225,6 +227,9 @@ def _map(arms, positions, rpy, convention, method, ik, chunk_elements, progress,
         _map_chunks(flat, batch, B, N, T, nb, solver, settings, per_chunk, out, q_out, valid, update)
     out = out.reshape(batch + (N,))
     result = (out,) if not return_q else (out, q_out.reshape(batch + (N, arms.n)))
+    if return_status:
+        # the certificates are kinematic: collisions only remove solutions, so they hold with them too
+        result += (node_status(arms, T, out, method),)
     if return_method:
         result += (method,)
     return result if len(result) > 1 else out
@@ -264,8 +269,8 @@ def check_nodes(name: str, nodes: ArrayLike) -> np.ndarray:
 def constant_orientation_map(arms: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0, 0.0, 0.0), method: str = "auto",
                              convention: str = "standard", *, ik: dict | None = None, chunk_elements: int = 1 << 21,
                              progress: bool | None = None, return_method: bool = False,
-                             collision: Callable | None = None, return_q: bool = False
-                            ) -> NDArray[np.bool_] | tuple:
+                             collision: Callable | None = None, return_q: bool = False,
+                             return_status: bool = False) -> NDArray[np.bool_] | tuple:
     """Constant-orientation workspace ("R3"): which positions are reachable at orientation `rpy`.
 
     Parameters
@@ -293,34 +298,39 @@ def constant_orientation_map(arms: Arm, nodes: ArrayLike, rpy: ArrayLike = (0.0,
         `accept_retry` more starts: `wsmap.kinematics.ik.search.map_search`)
     return_q : also return each node's solution `(..., N, n)` (NaN where unreachable), so
         anyone can check it (forward kinematics, limits, collisions)
+    return_status : also return each node's answer, int8 `(..., N)`: `REACHED` (0),
+        `CERTIFIED` unreachable (1) or `NOT_FOUND` (2) (`wsmap.workspace.status`; the
+        certificates of `wsmap.kinematics.ik.certificate`: the closed form's for `"exact"`, the
+        sound filters and the branch and bound over the joints for `"numerical"`)
 
     Returns
     -------
-    bool array `(..., N)` in node order (then the solutions, with `return_q`, and the method, with
-    `return_method`). Joint limits are honoured when the arms carry them.
+    bool array `(..., N)` in node order (then the solutions, with `return_q`, the status, with
+    `return_status`, and the method, with `return_method`). Joint limits are honoured when the
+    arms carry them.
     """
     nodes = check_nodes("nodes", nodes)
     rpy = triple("rpy", rpy)
     return _map(arms, nodes, rpy, convention, method, ik, chunk_elements, progress, nodes, return_method,
-                collision, return_q)
+                collision, return_q, return_status)
 
 
 def orientation_map(arms: Arm, angle_nodes: ArrayLike, point: ArrayLike = (0.5, 0.5, 0.5), method: str = "auto",
                     convention: str = "standard", *, ik: dict | None = None, chunk_elements: int = 1 << 21,
                     progress: bool | None = None, return_method: bool = False,
-                    collision: Callable | None = None, return_q: bool = False
-                   ) -> NDArray[np.bool_] | tuple:
+                    collision: Callable | None = None, return_q: bool = False,
+                    return_status: bool = False) -> NDArray[np.bool_] | tuple:
     """Orientation workspace ("SO3"): which orientations are reachable at the point `point` (m).
 
     `angle_nodes` (N, 3) are angles (r1, r2, r3) in radians, e.g. from `angle_grid`.
     Under the paper convention the position tested is `R·point`, so the map is really a test of
     positions on the sphere of radius `|point|`. Other arguments as
-    `constant_orientation_map` (`collision`, `return_q` too); returns bool `(..., N)`.
+    `constant_orientation_map` (`collision`, `return_q`, `return_status` too); returns bool `(..., N)`.
     """
     angle_nodes = check_nodes("angle nodes", angle_nodes)
     point = triple("point", point)
     return _map(arms, point[None, :], angle_nodes, convention, method, ik, chunk_elements, progress, angle_nodes,
-                return_method, collision, return_q)
+                return_method, collision, return_q, return_status)
 
 
 def default_grid(scope: str) -> tuple[float, float, float]:
@@ -346,8 +356,8 @@ def grid_spec(scope: str = "R3", lo: float | ArrayLike | None = None, hi: float 
 def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point: ArrayLike = (0.5, 0.5, 0.5),
              method: str = "auto", convention: str = "standard", model: PathLike | None = None,
              allow_extrapolation: bool = False, ik: Mapping[str, Any] | None = None, progress: bool = False,
-             return_method: bool = False, collision: Callable | None = None
-             ) -> NDArray[np.bool_] | tuple[NDArray[np.bool_], str]:
+             return_method: bool = False, collision: Callable | None = None, return_status: bool = False
+             ) -> NDArray[np.bool_] | tuple:
     """One call from an arm to its map on a whole grid (from `grid_spec`): bool `(N,)` in node order.
 
     `grid["scope"]` is `"R3"` (positions at orientation `rpy`) or `"SO3"` (orientations at
@@ -362,12 +372,16 @@ def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point:
 
     `progress`: `True` shows a bar on stderr of the nodes settled (numerically: as the search
     solves them, wave after wave), or a callable `progress(n)` (`wsmap._progress`).
+    `return_status`: also the int8 status `(N,)` of each node (`constant_orientation_map`), before
+    the method; not with `"model"`.
     """
     check_progress(progress)
     nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
     scope = grid["scope"]
     check_choice("scope", scope, SCOPES)
     if method == "model":
+        if return_status:
+            raise ValueError("method 'model' predicts a map; return_status needs method exact or numerical")
         if collision is not None:
             raise ValueError("method 'model' predicts the chain's map; collision= needs method exact or numerical")
         if model is None:
@@ -385,6 +399,27 @@ def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point:
     ik = ik if isinstance(ik, SearchSettings) else dict(ik or {})
     if scope == "R3":
         return constant_orientation_map(robot, nodes, rpy, method=method, convention=convention, ik=ik,
-                                        progress=progress, return_method=return_method, collision=collision)
+                                        progress=progress, return_method=return_method, collision=collision,
+                                        return_status=return_status)
     return orientation_map(robot, nodes, point, method=method, convention=convention, ik=ik, progress=progress,
-                           return_method=return_method, collision=collision)
+                           return_method=return_method, collision=collision, return_status=return_status)
+
+
+def grid_status(robot: Arm, grid: dict, reached: ArrayLike, *, rpy: ArrayLike = (0.0, 0.0, 0.0),
+                point: ArrayLike = (0.5, 0.5, 0.5), method: str = "auto", convention: str = "standard"
+                ) -> NDArray[np.int8]:
+    """The int8 status `(N,)` of a `grid_map` already computed (`reached` `(N,)` bool, node order),
+    with the same `grid`, `rpy` / `point`, `method` and `convention`: `REACHED`,
+    `CERTIFIED` or `NOT_FOUND` (`wsmap.workspace.status.node_status`); the map itself is not
+    computed again."""
+    nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
+    reached = np.asarray(reached, dtype=bool)
+    if reached.shape != (len(nodes),):
+        raise ValueError(f"reached must have shape ({len(nodes)},) (the grid's nodes), got {reached.shape}")
+    method = resolve_method(robot, method)
+    check_choice("scope", grid["scope"], SCOPES)
+    if grid["scope"] == "R3":
+        T = target_poses(nodes, triple("rpy", rpy), convention)
+    else:
+        T = target_poses(triple("point", point)[None, :], nodes, convention)
+    return node_status(robot, T, reached, method)

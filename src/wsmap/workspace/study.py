@@ -39,6 +39,7 @@ from ..kinematics.ik.solver import get_solver
 from ..kinematics.transforms import check_rigid
 from .maps import resolve_method
 from .scores import SCORES, combined, score_values
+from .status import CERTIFIED, NOT_FOUND, REACHED, STATUS  # the codes of maps and studies alike
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -49,9 +50,6 @@ if TYPE_CHECKING:
 __all__ = ["REACHED", "CERTIFIED", "NOT_FOUND", "STATUS", "CONFIRM_TOL", "tool_variants", "TargetResults",
            "evaluate_targets", "fit_to_limits", "BaseRegion", "BaseRanking", "rank_bases"]
 
-REACHED, CERTIFIED, NOT_FOUND = 0, 1, 2
-#: The names of the three answers, by code.
-STATUS = ("reached", "certified unreachable", "not found")
 #: Forward kinematics must put the end frame within this of its target (m, and rad of rotation).
 CONFIRM_TOL = 1e-6
 #: The sound tests' margin: a pose this close to a reachable one is not certified unreachable.

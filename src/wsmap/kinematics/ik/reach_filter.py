@@ -25,7 +25,7 @@ from .. import lm_compiled
 from ..chain import PRISMATIC, SerialChain
 from .memo import Memo, content_key
 
-__all__ = ["reach_filter", "position_filter", "first_axis_point", "limit_filter", "limit_bounds"]
+__all__ = ["reach_filter", "position_filter", "first_axis_point", "limit_filter", "limit_bounds", "limit_geometry"]
 
 _ORBITS = Memo()
 
@@ -226,7 +226,7 @@ def _nearest_on_line(p0, a, p1, b):
     return p0 + t * a
 
 
-def _limit_geometry(chain: SerialChain):
+def limit_geometry(chain: SerialChain):
     """The points `limit_bounds` measures between, for one arm of revolute joints: `S` (3,),
     the point of joint 0's axis nearest joint 1's axis (world frame, base included; no joint moves
     it); `w_loc` (3,), the point of the last joint's axis nearest joint n-2's axis, in the last
@@ -376,7 +376,7 @@ def limit_bounds(chain: SerialChain):
 
 def _make_limit_bounds(chain: SerialChain):
     n = chain.n
-    S, w_loc, frames = _limit_geometry(chain)
+    S, w_loc, frames = limit_geometry(chain)
     lim = np.array(chain.limits, dtype=np.float64)
     full = ~np.isfinite(lim).all(axis=-1) | (lim[:, 1] - lim[:, 0] >= 2.0 * np.pi)
     # the search confirms a solution up to 1e-9 rad outside a limit (lm_compiled._confirm)

@@ -1,0 +1,443 @@
+"""Certified unreachability: a sound proof, per target pose, that no configuration inside the joint
+limits puts the tool there (within a margin).
+
+Three certificates, tried cheapest first (`certify`):
+
+* the sound pre-filters of `wsmap.kinematics.ik.reach_filter` (`reach_filter`: the wrist point
+  beyond the links' reach or outside the set the joints before it sweep it through;
+  `limit_filter`: one of three invariants of the last joint's axis outside the interval the limits
+  allow);
+* `joint_certificate` (arms of revolute joints, n >= 3): a branch and bound over the box of joints
+  `1 .. n-2` that checks four invariants of the last joint's axis *jointly* — the distance `d`,
+  the projections `g` (on the axis) and `h` (on joint 0's axis) of the point `W` of the last
+  axis from a point `S` of joint 0's axis, and the cosine `k` between the last axis and joint 0's
+  axis. Joint 0 turns `W - S` and the last axis rigidly about its axis and joint n-1 turns about
+  the last axis, so none of the four depends on either: a configuration reaching the pose must have
+  joints `1 .. n-2` where all four equal the pose's. A box of those joints is discarded when a
+  sound bound of one invariant over it (second-order Taylor, `_cell_bounds`) excludes the pose's
+  value by more than the margin; the pose is certified when every box is discarded, and not
+  certified (the answer "not found") when the cell budget runs out;
+* `closed_form_certificate` (arms of a closed-form family): every branch the closed form enumerates
+  fails, and the enumeration is complete there (no branch singular, see the function).
+
+The proof obligations are written out in `docs/maps.md` ("Certified unreachable"). Lengths in
+metres, angles in radians; target poses `(..., 4, 4)` in the arm's world frame (base included).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from ..chain import PRISMATIC, SerialChain, as_chain
+from .memo import Memo, content_key
+from .reach_filter import limit_filter, limit_geometry, reach_filter
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from wsmap.kinematics.chain import Arm
+
+__all__ = ["CERTIFY_MARGIN", "CELL_BUDGET", "CELL_DEPTH", "GIVE_UP_NEAR", "SINGULAR_SIGMA", "certify", "joint_certificate",
+           "filter_certificate",
+           "closed_form_certificate"]
+
+#: The certificates' default margin (m in position, rad in rotation angle): a pose this close to a
+#: reachable one is never certified. It equals the search's forward-kinematics confirmation
+#: tolerance, so a node the search confirms is never certified.
+CERTIFY_MARGIN = 1e-6
+#: Boxes `joint_certificate` bounds per pose before it gives up (the pose is then "not found").
+CELL_BUDGET = 5_000
+#: Splits deep a box of `joint_certificate` may lie (its stack's size) before the pose gives up.
+CELL_DEPTH = 160
+#: `joint_certificate` gives up at a box centre whose invariants all lie this close (m, or the
+#: cosine) to the pose's: the pose is most likely reachable, and no box budget would prove otherwise.
+GIVE_UP_NEAR = 1e-4
+#: The least smallest singular value (m or rad per rad) of a real branch's Jacobian at which
+#: `closed_form_certificate` counts it regular.
+SINGULAR_SIGMA = 1e-3
+
+_GEOMETRY = Memo()
+
+
+def filter_certificate(robot: Arm, T, margin: float = CERTIFY_MARGIN) -> np.ndarray:
+    """`(...,)` True where `reach_filter` or `limit_filter` proves the poses `T` `(..., 4, 4)`
+    out of reach within `margin` (one arm or a batch for `reach_filter`; `limit_filter` on one
+    arm with limits)."""
+    chain = as_chain(robot)
+    T = np.asarray(T, dtype=np.float64)
+    out = ~np.asarray(reach_filter(chain, T, margin), dtype=bool)
+    if chain.qlim is not None and chain.batch_shape == ():
+        out |= ~np.asarray(limit_filter(chain, T, margin), dtype=bool)
+    return out
+
+
+def _geometry(chain: SerialChain):
+    """The branch and bound's numbers for one arm of revolute joints (chain without base and tool),
+    memoised by content; None where it does not apply (fewer than 3 joints, a prismatic joint)."""
+    if chain.n < 3 or any(k == PRISMATIC for k in chain.kinds):
+        return None
+    key = content_key(chain.fixed, chain.axes, chain.kinds, np.asarray(chain.offset), chain.qlim)
+    return _GEOMETRY.get(key, lambda: _make_geometry(chain.replace(base=None, tool=None)))
+
+
+def _make_geometry(chain: SerialChain):
+    n = chain.n
+    S, w_loc, frames = limit_geometry(chain)
+    lim = np.array(chain.limits, dtype=np.float64)
+    full = ~np.isfinite(lim).all(axis=-1) | (lim[:, 1] - lim[:, 0] >= 2.0 * np.pi)
+    # the search confirms a solution up to 1e-9 rad outside a limit (lm_compiled._confirm): the box
+    # is wider by that (a full turn where the range is a turn or more: every angle is some q + 2πk)
+    box = np.where(full[:, None], np.array([-np.pi, np.pi]), lim + np.array([-1e-9, 1e-9]))
+    lengths = np.linalg.norm(chain.fixed[:, :3, 3], axis=-1)
+    radius = np.zeros(n)  # W is at most radius[j] from the origin of joint j's frame
+    for j in range(1, n - 1):
+        radius[j] = float(lengths[j + 1:n].sum() + np.linalg.norm(w_loc)) * (1.0 + 1e-12)
+    a0 = frames[0, :3, :3] @ chain.axes[0]
+    return dict(chain=chain, S=S, a0=a0, w_loc=w_loc, box=box, radius=radius, dims=list(range(1, n - 1)),
+                scale=float(lengths.sum() + np.linalg.norm(w_loc)))
+
+
+def _cell_bounds(geo, centre, hw):
+    """Sound bounds `(lower, upper)` `(4, K)` of `d`, `g`, `h`, `k` over the boxes `centre ± hw`
+    `(K, n)` rad (`hw` 0 off joints `1 .. n-2`).
+
+    `W(c + δ) = W(c) + Jδ + r` with `|r| <= Σ_ij radius[max(i, j)] hw_i hw_j / 2` (each second
+    derivative of `W` is a double cross product of unit axes with `W`'s offset from the later
+    joint's axis, at most `radius` m); `z(c + δ) = z(c) + Kδ + r_z`, `|r_z| <= (Σ hw)² / 2`. Then
+    `d = |u|` (`u = W - S`) lies within `sqrt(|u|² ± 2|u·Jδ| + |Jδ|²) ± |r|`, `h = u·a0` within
+    `Σ|J_j·a0| hw_j + |r|` of its centre value, `k = z·a0` within `Σ|K_j·a0| hw_j + r_z`, and
+    `g = u·z` within the first-order change plus the products of the remainders (as
+    `wsmap.kinematics.ik.reach_filter._invariant_cells`)."""
+    chain, S, a0, w_loc, radius = geo["chain"], geo["S"], geo["a0"], geo["w_loc"], geo["radius"]
+    n = chain.n
+    frames, _ = chain.joint_frames(centre)
+    last = frames[:, n - 1]
+    W = last[:, :3, :3] @ w_loc + last[:, :3, 3]
+    z = last[:, :3, :3] @ chain.axes[n - 1]
+    u = W - S
+    du = np.linalg.norm(u, axis=-1)
+    K = len(centre)
+    A, Bz, uJ, lin_g, lin_h, lin_k = (np.zeros(K) for _ in range(6))
+    for j in geo["dims"]:
+        aj = frames[:, j, :3, :3] @ chain.axes[j]
+        Jj = np.cross(aj, W - frames[:, j, :3, 3])
+        Kj = np.cross(aj, z)
+        h = hw[:, j]
+        A += np.linalg.norm(Jj, axis=-1) * h
+        Bz += np.linalg.norm(Kj, axis=-1) * h
+        uJ += np.abs(np.einsum("ki,ki->k", u, Jj)) * h
+        lin_g += np.abs(np.einsum("ki,ki->k", u, Kj) + np.einsum("ki,ki->k", Jj, z)) * h
+        lin_h += np.abs(Jj @ a0) * h
+        lin_k += np.abs(Kj @ a0) * h
+    s = hw.sum(axis=-1)
+    before = np.cumsum(hw, axis=-1) - hw
+    rW = 0.5 * (radius * hw * (hw + 2.0 * before)).sum(axis=-1)
+    rz = 0.5 * s * s
+    g = np.einsum("ki,ki->k", u, z)
+    rem_g = lin_g + A * Bz + rW * (1.0 + Bz + rz) + (du + A) * rz
+    hh = u @ a0
+    kk = z @ a0
+    upper = np.stack([np.sqrt(du * du + 2.0 * uJ + A * A) + rW, g + rem_g, hh + lin_h + rW, kk + lin_k + rz])
+    lower = np.stack([np.sqrt(np.maximum(du * du - 2.0 * uJ, 0.0)) - rW, g - rem_g, hh - lin_h - rW, kk - lin_k - rz])
+    return lower, upper
+
+
+def _pose_invariants(chain: SerialChain, geo, T, margin):
+    """The four invariants `(N, 4)` of the poses `T` `(N, 4, 4)` and how far `(N, 4)` a pose
+    within `margin` of them moves each (with the rounding of this arithmetic)."""
+    n = chain.n
+    G = chain.fixed[n] if chain.tool is None else chain.fixed[n] @ chain.tool
+    # the last joint's frame is T·G⁻¹: W and the last axis z in the tool frame
+    v = G[:3, :3].T @ (geo["w_loc"] - G[:3, 3])
+    zt = G[:3, :3].T @ chain.axes[n - 1]
+    if chain.base is not None:
+        T = np.linalg.inv(chain.base) @ T
+    R = T[:, :3, :3]
+    u = T[:, :3, 3] + R @ v - geo["S"]
+    z = R @ zt
+    d = np.linalg.norm(u, axis=-1)
+    values = np.stack([d, np.einsum("ni,ni->n", u, z), u @ geo["a0"], z @ geo["a0"]], axis=-1)
+    # a pose within margin of T moves W by at most margin·(1 + |v|) and z by margin (a turn of
+    # margin rad moves a unit vector by at most margin)
+    sW = margin * (1.0 + float(np.linalg.norm(v)))
+    tiny = 1e-9 * (1.0 + geo["scale"] + float(np.linalg.norm(v)))
+    sg = sW + margin * (d + sW) + tiny
+    slack = np.stack([np.full_like(d, sW + tiny), sg, np.full_like(d, sW + tiny), np.full_like(d, margin + 1e-12)],
+                     axis=-1)
+    return values, slack
+
+
+def joint_certificate(robot: Arm, T, margin: float = CERTIFY_MARGIN, *, budget: int = CELL_BUDGET,
+                      depth: int = CELL_DEPTH) -> np.ndarray:
+    """`(N,)` True where a branch and bound over joints `1 .. n-2` proves that no configuration
+    inside the limits puts the tool within `margin` of the pose `T[i]` (`T` `(N, 4, 4)`, one arm).
+
+    Every pose starts with one box, the limits of joints `1 .. n-2` (a full turn where a range is
+    a turn or more; 1e-9 rad wider, the search's own slack). Depth first, each box's four
+    invariants are bounded (`_box_bounds`, the compiled `_cell_bounds`); a box whose bounds exclude
+    the pose's values by more than the margin's effect (`_pose_invariants`) is discarded, any other
+    is split in two across the joint that moves `W` most. A pose is certified when every box is
+    discarded; it gives up (False: "not found") after `budget` boxes, deeper than `depth` splits,
+    or at a box centre whose invariants all lie within `GIVE_UP_NEAR` of the pose's (a pose that
+    is most likely reachable). All False for an arm it does not apply to (prismatic joints, fewer
+    than 3 joints, a batch). Compiled (numba), poses in parallel; each pose's answer is its own.
+    """
+    chain = as_chain(robot)
+    T = np.asarray(T, dtype=np.float64).reshape(-1, 4, 4)
+    N = len(T)
+    out = np.zeros(N, dtype=np.int8)
+    if chain.batch_shape != () or N == 0:
+        return out.astype(bool)
+    geo = _geometry(chain)
+    if geo is None:
+        return out.astype(bool)
+    values, slack = _pose_invariants(chain, geo, T, margin)
+    c = geo["chain"]
+    _certify_boxes(np.ascontiguousarray(c.fixed, dtype=np.float64), np.ascontiguousarray(c.axes, dtype=np.float64),
+                   np.ascontiguousarray(np.broadcast_to(c.offset, (c.n,)), dtype=np.float64), geo["S"], geo["a0"],
+                   geo["w_loc"], geo["radius"], geo["box"], geo["radius"] + 0.1, np.ascontiguousarray(values),
+                   np.ascontiguousarray(slack), GIVE_UP_NEAR, int(budget), int(depth), out)
+    return out.astype(bool)
+
+
+def _with_qlim(robot, qlim):
+    """The same arm with other limits (`None`: none)."""
+    if isinstance(robot, SerialChain):
+        return robot.replace(qlim=qlim)
+    return type(robot)(robot.d, robot.a, robot.alpha, qlim=qlim, tool=robot.tool, name=robot.name)
+
+
+def closed_form_certificate(robot: Arm, T, margin: float = CERTIFY_MARGIN) -> np.ndarray:
+    """`(...,)` True where the registered closed form of one arm proves the poses `T` `(..., 4, 4)`
+    unreachable; all False for an arm without a closed form (or a batch of arms).
+
+    The closed form solves the pose for every branch it enumerates. It is certified here when
+
+    1. no branch succeeds with its reach tolerance widened to `margin` (so a pose within rounding
+       of the reach boundary is never certified) and the limits widened by `margin` rad, and
+    2. every branch that is real without limits (its reach tests pass) is regular: the smallest
+       singular value of its 6 x n Jacobian is at least `SINGULAR_SIGMA` (m or rad per rad).
+
+    Why (2): each closed form enumerates the solutions of a regular pose exactly (two roots of each
+    shoulder and elbow equation, the wrist's two roots: the 8 branches of a 6R arm), but at a
+    singular pose a joint is free (the wrist centre on joint 0's axis, an aligned wrist, a
+    degenerate elbow) and the closed form returns one value of a continuum; with limits another value
+    may lie inside them. A continuum of solutions is singular (its tangent is in the Jacobian's null
+    space), so a pose whose every real branch is regular has only those branches as solutions, each
+    isolated, and a branch outside the widened limits has no solution inside the limits near it
+    (its angle error is about the pose error over the smallest singular value, far below `margin`).
+    """
+    from .registry import closed_form_for  # the registry imports the closed forms lazily
+
+    T = np.asarray(T, dtype=np.float64)
+    cf = closed_form_for(robot)
+    shape = T.shape[:-2]
+    if cf is None or robot.batch_shape != ():
+        return np.zeros(shape, dtype=bool)
+    atol = max(margin, 1e-9)
+    qlim = getattr(robot, "qlim", None)
+    if qlim is not None:
+        wide = _with_qlim(robot, np.asarray(qlim, dtype=np.float64) + np.array([-margin, margin]))
+        limited = np.asarray(cf.solve(wide, T, atol=atol).success).any(axis=-1)
+        free = _with_qlim(robot, None)
+    else:
+        limited = None
+        free = robot
+    sol = cf.solve(free, T, atol=atol)
+    real = np.asarray(sol.success, dtype=bool)  # (..., branches)
+    found = real.any(axis=-1) if limited is None else limited
+    cert = ~found
+    if qlim is None or not cert.any():
+        return np.broadcast_to(cert, shape).copy()
+    # poses where real branches exist but all leave the limits: each real branch must be regular
+    q = np.asarray(sol.q, dtype=np.float64)
+    idx = np.nonzero(cert[..., None] & real)
+    if len(idx[0]):
+        J = robot.jacob0(q[idx])
+        sigma = np.linalg.svd(J, compute_uv=False)[..., -1]
+        bad = sigma < SINGULAR_SIGMA
+        cert = cert.copy()
+        cert[tuple(i[bad] for i in idx[:-1])] = False
+    return np.broadcast_to(cert, shape).copy()
+
+
+
+def certify(robot: Arm, T, margin: float = CERTIFY_MARGIN, *, method: str = "numerical",
+            budget: int = CELL_BUDGET, depth: int = CELL_DEPTH) -> np.ndarray:
+    """`(...,)` True where the poses `T` `(..., 4, 4)` are certified unreachable (within `margin`)
+    for one arm: the sound pre-filters, then (on the poses they leave) the closed form's certificate
+    (`method="exact"`) or `joint_certificate`; both for an exact arm when `method="both"`."""
+    T = np.asarray(T, dtype=np.float64)
+    shape = T.shape[:-2]
+    flat = T.reshape(-1, 4, 4)
+    out = filter_certificate(robot, flat, margin).reshape(-1)
+    if method in ("exact", "both"):
+        left = np.flatnonzero(~out)
+        if left.size:
+            out[left] = closed_form_certificate(robot, flat[left], margin)
+    if method in ("numerical", "both"):
+        left = np.flatnonzero(~out)
+        if left.size:
+            out[left] = joint_certificate(robot, flat[left], margin, budget=budget, depth=depth)
+    return out.reshape(shape)
+
+
+# --------------------------------------------------------------------------- the compiled box loop
+@njit(cache=True)
+def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, n, c, hw, F, Z, lo, hi):
+    """`_cell_bounds` of one box `c ± hw` (n,): the bounds into `lo[:4]`, `hi` (4,), the centre's
+    own invariants into `lo[4:8]`. Scratch: `F` (n, 12), the joint frames' rotations (row-major,
+    9) and origins (3); `Z` (7, 9)."""
+    # the frames of joints 0 .. n-1 at the centre (chain without base: fixed[0] first)
+    R, t, Rn, Q, RQ, W, zz = Z[0], Z[1], Z[2], Z[3], Z[4], Z[5], Z[6]
+    for r in range(3):
+        for k in range(3):
+            R[3 * r + k] = fixed[0, r, k]
+        t[r] = fixed[0, r, 3]
+    for i in range(n):
+        for k in range(9):
+            F[i, k] = R[k]
+        for k in range(3):
+            F[i, 9 + k] = t[k]
+        if i == n - 1:
+            break
+        th = c[i] + offset[i]
+        cs, sn = math.cos(th), math.sin(th)
+        cc = 1.0 - cs
+        x, y, z = axes[i, 0], axes[i, 1], axes[i, 2]
+        # Rodrigues: the joint's turn, then the next fixed transform
+        Q[0] = cs + x * x * cc
+        Q[1] = x * y * cc - z * sn
+        Q[2] = x * z * cc + y * sn
+        Q[3] = y * x * cc + z * sn
+        Q[4] = cs + y * y * cc
+        Q[5] = y * z * cc - x * sn
+        Q[6] = z * x * cc - y * sn
+        Q[7] = z * y * cc + x * sn
+        Q[8] = cs + z * z * cc
+        for r in range(3):
+            for k in range(3):
+                RQ[3 * r + k] = R[3 * r] * Q[k] + R[3 * r + 1] * Q[3 + k] + R[3 * r + 2] * Q[6 + k]
+        M = fixed[i + 1]
+        for r in range(3):
+            for k in range(3):
+                Rn[3 * r + k] = RQ[3 * r] * M[0, k] + RQ[3 * r + 1] * M[1, k] + RQ[3 * r + 2] * M[2, k]
+            t[r] = t[r] + RQ[3 * r] * M[0, 3] + RQ[3 * r + 1] * M[1, 3] + RQ[3 * r + 2] * M[2, 3]
+        for k in range(9):
+            R[k] = Rn[k]
+    # W and z of the last joint's frame
+    L = n - 1
+    for r in range(3):
+        W[r] = F[L, 3 * r] * w_loc[0] + F[L, 3 * r + 1] * w_loc[1] + F[L, 3 * r + 2] * w_loc[2] + F[L, 9 + r]
+        zz[r] = F[L, 3 * r] * axes[L, 0] + F[L, 3 * r + 1] * axes[L, 1] + F[L, 3 * r + 2] * axes[L, 2]
+    u0, u1, u2 = W[0] - S[0], W[1] - S[1], W[2] - S[2]
+    du = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+    A = 0.0
+    Bz = 0.0
+    uJ = 0.0
+    lin_g = 0.0
+    lin_h = 0.0
+    lin_k = 0.0
+    s = 0.0
+    before = 0.0
+    rW = 0.0
+    for j in range(1, n - 1):
+        h = hw[j]
+        if h == 0.0:
+            continue
+        aj0 = F[j, 0] * axes[j, 0] + F[j, 1] * axes[j, 1] + F[j, 2] * axes[j, 2]
+        aj1 = F[j, 3] * axes[j, 0] + F[j, 4] * axes[j, 1] + F[j, 5] * axes[j, 2]
+        aj2 = F[j, 6] * axes[j, 0] + F[j, 7] * axes[j, 1] + F[j, 8] * axes[j, 2]
+        p0, p1, p2 = W[0] - F[j, 9], W[1] - F[j, 10], W[2] - F[j, 11]
+        J0, J1, J2 = aj1 * p2 - aj2 * p1, aj2 * p0 - aj0 * p2, aj0 * p1 - aj1 * p0
+        K0, K1, K2 = aj1 * zz[2] - aj2 * zz[1], aj2 * zz[0] - aj0 * zz[2], aj0 * zz[1] - aj1 * zz[0]
+        A += math.sqrt(J0 * J0 + J1 * J1 + J2 * J2) * h
+        Bz += math.sqrt(K0 * K0 + K1 * K1 + K2 * K2) * h
+        uJ += abs(u0 * J0 + u1 * J1 + u2 * J2) * h
+        lin_g += abs(u0 * K0 + u1 * K1 + u2 * K2 + J0 * zz[0] + J1 * zz[1] + J2 * zz[2]) * h
+        lin_h += abs(J0 * a0[0] + J1 * a0[1] + J2 * a0[2]) * h
+        lin_k += abs(K0 * a0[0] + K1 * a0[1] + K2 * a0[2]) * h
+        rW += radius[j] * h * (h + 2.0 * before)
+        before += h
+        s += h
+    rW *= 0.5
+    rz = 0.5 * s * s
+    g = u0 * zz[0] + u1 * zz[1] + u2 * zz[2]
+    rem_g = lin_g + A * Bz + rW * (1.0 + Bz + rz) + (du + A) * rz
+    hh = u0 * a0[0] + u1 * a0[1] + u2 * a0[2]
+    kk = zz[0] * a0[0] + zz[1] * a0[1] + zz[2] * a0[2]
+    hi[0] = math.sqrt(du * du + 2.0 * uJ + A * A) + rW
+    lo[0] = math.sqrt(max(du * du - 2.0 * uJ, 0.0)) - rW
+    hi[1] = g + rem_g
+    lo[1] = g - rem_g
+    hi[2] = hh + lin_h + rW
+    lo[2] = hh - lin_h - rW
+    hi[3] = kk + lin_k + rz
+    lo[3] = kk - lin_k - rz
+    # the centre's own values, for the give-up test (in the slots 4 .. 7)
+    lo[4] = du
+    lo[5] = g
+    lo[6] = hh
+    lo[7] = kk
+
+
+@njit(cache=True, parallel=True)
+def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, box, weight, values, slack, near, budget, depth, out):
+    """Depth-first branch and bound per pose (`values`, `slack` (N, 4)): `out[i]` 1 where every
+    box was discarded, 0 where it gave up (after `budget` boxes, deeper than `depth` splits, or a
+    box centre whose four invariants all lie within `near` of the pose's: most likely reachable)."""
+    N = values.shape[0]
+    n = axes.shape[0]
+    for i in prange(N):
+        cs = np.empty((depth + 1, n))
+        hs = np.empty((depth + 1, n))
+        F = np.empty((n, 12))
+        Z = np.empty((7, 9))
+        lo = np.empty(8)
+        hi = np.empty(4)
+        for j in range(n):
+            cs[0, j] = 0.5 * (box[j, 0] + box[j, 1])
+            hs[0, j] = 0.5 * (box[j, 1] - box[j, 0]) if 0 < j < n - 1 else 0.0
+        top = 1
+        evals = 0
+        ok = 1
+        while top > 0:
+            top -= 1
+            c = cs[top]
+            h = hs[top]
+            _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, n, c, h, F, Z, lo, hi)
+            evals += 1
+            dead = False
+            close = True
+            for k in range(4):
+                if values[i, k] < lo[k] - slack[i, k] or values[i, k] > hi[k] + slack[i, k]:
+                    dead = True
+                if abs(values[i, k] - lo[4 + k]) > near:
+                    close = False
+            if dead:
+                continue
+            if close or evals >= budget or top + 2 > depth:
+                ok = 0
+                break
+            # split across the joint that moves W most
+            jb = 1
+            best = -1.0
+            for j in range(1, n - 1):
+                v = h[j] * weight[j]
+                if v > best:
+                    best = v
+                    jb = j
+            # the two halves replace the box on the stack (slot top, then top + 1)
+            half = 0.5 * h[jb]
+            mid = c[jb]
+            for j in range(n):
+                cs[top + 1, j] = c[j]
+                hs[top + 1, j] = h[j]
+            hs[top, jb] = half
+            hs[top + 1, jb] = half
+            cs[top, jb] = mid - half
+            cs[top + 1, jb] = mid + half
+            top += 2
+        out[i] = ok

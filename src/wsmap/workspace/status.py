@@ -1,0 +1,68 @@
+"""The three answers of a node or a target: reached, certified unreachable, not found.
+
+A map node (`wsmap.workspace.constant_orientation_map`, `orientation_map`, `grid_map` with
+`return_status=True`, the map file's `status`) and a reach-study target
+(`wsmap.workspace.study`) each get one int8 code:
+
+* `REACHED` (0) — a joint solution inside the limits, confirmed by forward kinematics (and
+  collision-free where a checker is given);
+* `CERTIFIED` (1) — a sound test proves that no configuration inside the joint limits puts the tool
+  within `CERTIFY_MARGIN` of the pose (`wsmap.kinematics.ik.certificate`): out of reach, outside
+  what the limits allow (the branch and bound over the joints), or, for an arm of a closed-form
+  family, no branch of the closed form (complete there) inside the limits. Collisions only remove
+  solutions, so the certificate also holds for collision-aware maps;
+* `NOT_FOUND` (2) — no solution found, and no certificate that none exists.
+
+The proof obligations are in `docs/maps.md` ("Certified unreachable").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..kinematics.ik.certificate import CERTIFY_MARGIN, certify
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from wsmap._typing import ArrayLike, NDArray
+    from wsmap.kinematics.chain import Arm
+
+__all__ = ["REACHED", "CERTIFIED", "NOT_FOUND", "STATUS", "CERTIFY_MARGIN", "node_status", "status_counts"]
+
+REACHED, CERTIFIED, NOT_FOUND = 0, 1, 2
+#: The names of the three answers, by code.
+STATUS = ("reached", "certified unreachable", "not found")
+
+
+def node_status(robot: Arm, T: ArrayLike, reached: ArrayLike, method: str = "numerical",
+                margin: float = CERTIFY_MARGIN) -> NDArray[np.int8]:
+    """The int8 status `(..., N)` of target poses `T` `(N, 4, 4)` (world frame, shared by the arms)
+    given which are `reached` `(..., N)` bool (the arms' batch shape first): `REACHED` where
+    reached, else `CERTIFIED` where `wsmap.kinematics.ik.certificate.certify` proves the pose
+    unreachable (`method` `"exact"`: the sound filters and the closed form's certificate;
+    `"numerical"`: the filters and the branch and bound over the joints), else `NOT_FOUND`.
+    Only the poses not reached are tested, arm by arm of a batch."""
+    T = np.asarray(T, dtype=np.float64)
+    reached = np.asarray(reached, dtype=bool)
+    status = np.where(reached, REACHED, NOT_FOUND).astype(np.int8)
+    batch = robot.batch_shape
+    if batch == ():
+        left = np.flatnonzero(~reached)
+        if left.size:
+            status[left[certify(robot, T[left], margin, method=method)]] = CERTIFIED
+        return status
+    from ..kinematics.chain import flatten_arms
+
+    flat = flatten_arms(robot)
+    rows = status.reshape(-1, T.shape[0])
+    for b in range(rows.shape[0]):
+        left = np.flatnonzero(rows[b] != REACHED)
+        if left.size:
+            rows[b, left[certify(flat[b], T[left], margin, method=method)]] = CERTIFIED
+    return rows.reshape(status.shape)
+
+
+def status_counts(status: ArrayLike) -> dict[str, int]:
+    """`{name: count}` of the three answers (`STATUS` order)."""
+    status = np.asarray(status)
+    return {name: int((status == code).sum()) for code, name in enumerate(STATUS)}

@@ -1,0 +1,198 @@
+"""The three answers of a map node (issue 44): reached, certified unreachable, not found.
+
+Soundness is the point: a certified pose must never be reachable. Two independent checks: the
+forward kinematics of random configurations inside the limits (reachable by construction) is never
+certified, and no certified pose near the workspace's border is reached by a 256-start search.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import wsmap
+from wsmap import robots
+from wsmap import workspace as ws
+from wsmap.kinematics import DHRobot, as_chain
+from wsmap.kinematics.ik.certificate import certify, closed_form_certificate, joint_certificate
+from wsmap.workspace.files import MapFileError, load_status
+from wsmap.workspace.status import CERTIFIED, NOT_FOUND, REACHED
+
+NUMERICAL = ["panda", "iiwa14", "gen3"]
+EXACT = ["puma560", "ur5e"]
+
+
+def _random_dh(seed):
+    """A random 6R DH arm (lengths up to 0.4 m, twists anywhere) with limits of ±(1 .. π) rad."""
+    rng = np.random.default_rng(seed)
+    d, a = rng.uniform(0, 0.4, 6), rng.uniform(0, 0.4, 6)
+    alpha = rng.uniform(-np.pi, np.pi, 6)
+    half = rng.uniform(1.0, np.pi, 6)
+    return DHRobot(d, a, alpha, qlim=np.stack([-half, half], axis=1))
+
+
+def _inside(robot, count, rng):
+    """`count` configurations inside the limits (a full turn where a joint has none)."""
+    lim = np.asarray(as_chain(robot).limits, dtype=np.float64)
+    lim = np.where(np.isfinite(lim), lim, np.array([-np.pi, np.pi]))
+    return rng.uniform(lim[:, 0], lim[:, 1], (count, robot.n))
+
+
+def _border_poses(robot, count, rng):
+    """Poses near the reachable set's border: reachable poses moved by up to a third of the arm's
+    length and turned by up to 0.3 rad, so that many are out of reach and many only just."""
+    shift = np.linalg.norm(as_chain(robot).fixed[:, :3, 3], axis=-1).sum() / 3
+    T = robot.fkine(_inside(robot, count, rng))
+    T[:, :3, 3] += rng.uniform(-shift, shift, (count, 3))
+    axis = rng.normal(size=(count, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    R = wsmap.rpy2r(np.zeros(3))[None].repeat(count, 0)
+    angle = rng.uniform(0, 0.3, count)
+    K = np.zeros((count, 3, 3))
+    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
+    K = K - np.swapaxes(K, 1, 2)
+    s, c = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
+    R = R + s * K + (1 - c) * K @ K
+    T[:, :3, :3] = R @ T[:, :3, :3]
+    return T
+
+
+@pytest.mark.parametrize("name", NUMERICAL + EXACT + ["dh0", "dh1", "dh2"])
+def test_reachable_poses_are_never_certified(name):
+    robot = _random_dh(int(name[2:])) if name.startswith("dh") else robots.load(name)
+    rng = np.random.default_rng(1)
+    T = robot.fkine(_inside(robot, 40, rng))
+    method = "both" if wsmap.closed_form_for(robot) is not None else "numerical"
+    assert not certify(robot, T, method=method).any()
+    # the branch and bound alone, on poses the filters leave anyway
+    assert not joint_certificate(robot, T[:10]).any()
+
+
+@pytest.mark.parametrize("name", NUMERICAL + EXACT + ["dh3", "dh4"])
+def test_no_certified_pose_is_reached_by_a_256_start_search(name):
+    robot = _random_dh(int(name[2:])) if name.startswith("dh") else robots.load(name)
+    rng = np.random.default_rng(2)
+    T = _border_poses(robot, 60, rng)
+    method = "both" if wsmap.closed_form_for(robot) is not None else "numerical"
+    cert = certify(robot, T, method=method)
+    assert cert.any()  # the test tests something
+    assert not wsmap.reachable(robot, T[cert], starts=256, seed=5).any()
+
+
+def test_the_branch_and_bound_certifies_what_the_filters_cannot():
+    # nodes of the Panda's tool-down map that the three separate intervals leave: some are proved
+    panda = robots.load("panda")
+    nodes = ws.cartesian_grid(-1, 1, 0.1)
+    T = ws.target_poses(nodes, (np.pi, 0, 0), "standard")
+    reached = ws.constant_orientation_map(panda, nodes, (np.pi, 0, 0))
+    from wsmap.kinematics.ik.certificate import filter_certificate
+
+    left = np.flatnonzero(~reached & ~filter_certificate(panda, T))
+    assert left.size > 50
+    some = T[left[::20]]
+    bnb = joint_certificate(panda, some, budget=200_000)  # a larger budget than the maps' default
+    assert bnb.any()
+    assert not wsmap.reachable(panda, some[bnb], starts=256, seed=9).any()
+
+
+@pytest.mark.parametrize("name", EXACT)
+def test_exact_status_agrees_with_the_closed_form(name):
+    robot = robots.load(name)
+    nodes = ws.cartesian_grid(-1, 1, 0.2)
+    for rpy in [(np.pi, 0, 0), (0.3, -0.2, 0.5)]:
+        reached, status = ws.constant_orientation_map(robot, nodes, rpy, return_status=True)
+        T = ws.target_poses(nodes, rpy)
+        cf = wsmap.closed_form_for(robot)
+        np.testing.assert_array_equal(status == REACHED, cf.reachable(robot, T))
+        np.testing.assert_array_equal(reached, status == REACHED)
+        # every unreached node is certified by the closed form where it is regular: all but a few
+        assert (status == NOT_FOUND).sum() <= 0.01 * (~reached).sum()
+        cert = closed_form_certificate(robot, T)
+        assert not (cert & reached).any()
+
+
+def test_a_singular_pose_of_a_closed_form_is_not_certified():
+    # d3 = 0 and the wrist centre on joint 1's axis: q1 is free, the closed form returns q1 = 0 and pi
+    # only; with q1 limited to [0.5, 1] both fail, yet the pose is reachable (q1 = 0.7, the wrist
+    # turns the rest), so it must not be certified
+    arm = DHRobot([0.3, 0, 0, 0.4, 0, 0], [0, 0.4, 0, 0, 0, 0], [np.pi / 2, 0, -np.pi / 2, np.pi / 2, -np.pi / 2, 0],
+                  qlim=np.array([[0.5, 1.0]] + [[-np.pi, np.pi]] * 5))
+    cf = wsmap.closed_form_for(arm)
+    assert cf is not None
+    T = ws.target_poses(np.array([[0.0, 0.0, 0.9]]), (0.2, 0.3, 0.4))
+    assert not cf.reachable(arm, T).any()  # the closed form misses it ...
+    assert wsmap.reachable(arm, T, starts=64).all()  # ... the search finds it
+    assert not closed_form_certificate(arm, T).any()
+    assert not certify(arm, T, method="both").any()
+
+
+def test_numerical_map_status(tmp_path):
+    panda = robots.load("panda")
+    nodes = ws.cartesian_grid(-1, 1, 0.2)
+    reached, status, method = ws.constant_orientation_map(panda, nodes, (np.pi, 0, 0), return_status=True,
+                                                          return_method=True)
+    assert method == "numerical" and status.dtype == np.int8
+    np.testing.assert_array_equal(reached, status == REACHED)
+    assert (status == CERTIFIED).sum() > 0.9 * (~reached).sum()
+    # the boolean default is unchanged
+    np.testing.assert_array_equal(ws.constant_orientation_map(panda, nodes, (np.pi, 0, 0)), reached)
+    # grid_map and grid_status give the same answers
+    grid = ws.grid_spec("R3", -1, 1, 0.2)
+    flat, st = ws.grid_map(panda, grid, rpy=(np.pi, 0, 0), return_status=True)
+    np.testing.assert_array_equal(st, status)
+    np.testing.assert_array_equal(wsmap.grid_status(panda, grid, flat, rpy=(np.pi, 0, 0)), status)
+
+
+def test_orientation_map_status():
+    puma = robots.puma560()
+    angles = ws.angle_grid(0, 2 * np.pi, np.pi / 4)
+    reached, status = ws.orientation_map(puma, angles, (0.5, 0.2, 0.1), return_status=True)
+    np.testing.assert_array_equal(reached, status == REACHED)
+    assert set(np.unique(status)) <= {REACHED, CERTIFIED, NOT_FOUND}
+
+
+def test_status_in_the_map_file_round_trips(tmp_path):
+    grid = ws.grid_spec("R3", -1, 1, 0.5)
+    flat, status = ws.grid_map(robots.puma560(), grid, return_status=True)
+    path = ws.save_map(tmp_path / "m.npz", flat, grid, {"robot": "puma560"}, status=status)
+    back, _, _, settings = ws.load_map(path)
+    np.testing.assert_array_equal(back, flat)
+    np.testing.assert_array_equal(settings["status"], status)
+    assert settings["status"].dtype == np.int8
+    np.testing.assert_array_equal(load_status(path), status)
+    # an old file without a status: reached or not found
+    old = ws.save_map(tmp_path / "old.npz", flat, grid, {"robot": "puma560"})
+    assert "status" not in ws.load_map(old)[3]
+    np.testing.assert_array_equal(load_status(old), np.where(flat, REACHED, NOT_FOUND))
+
+
+def test_a_status_that_disagrees_with_its_map_is_refused_before_writing(tmp_path):
+    grid = ws.grid_spec("R3", -1, 1, 0.5)
+    flat = np.zeros(125, dtype=bool)
+    flat[3] = True
+    bad = np.full(125, CERTIFIED, dtype=np.int8)  # node 3 is reached in the map
+    with pytest.raises(ValueError, match="status and map disagree at node 3"):
+        ws.save_map(tmp_path / "m.npz", flat, grid, {}, status=bad)
+    with pytest.raises(ValueError, match="status codes are 0"):
+        ws.save_map(tmp_path / "m.npz", flat, grid, {}, status=np.where(flat, 0, 7))
+    with pytest.raises(ValueError, match="a status belongs to a map of bits"):
+        ws.save_map(tmp_path / "m.npz", flat.astype(float), grid, {}, status=np.where(flat, 0, 1))
+    assert not (tmp_path / "m.npz").exists()
+    # a file whose stored status disagrees is not a consistent map file
+    path = tmp_path / "x.npz"
+    np.savez(path, map=flat, nodes=ws.cartesian_grid(-1, 1, 0.5), grid=__import__("json").dumps(grid),
+             settings="{}", status=bad)
+    with pytest.raises(MapFileError, match="disagree"):
+        ws.load_map(path)
+
+
+def test_the_command_line_prints_the_three_counts(tmp_path, capsys):
+    from wsmap import cli
+
+    out = tmp_path / "puma.npz"
+    assert cli.main(["map", "--robot", "puma560", "--step", "0.2", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    status = load_status(out)
+    counts = [int((status == c).sum()) for c in (REACHED, CERTIFIED, NOT_FOUND)]
+    assert f"nodes: {counts[0]} reached, {counts[1]} certified unreachable, {counts[2]} not found" in printed
+    assert counts[0] > 0 and counts[1] > 0
