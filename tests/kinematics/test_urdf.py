@@ -146,8 +146,9 @@ def test_side_branches_are_ignored_off_the_chain():
     (two_link(type="planar", extra=""), {}, "URDF text: joint 'j2' on the chain from 'a' to 'c' is planar; "
      "only revolute, continuous, prismatic and fixed joints are supported"),
     (two_link(extra=LIMIT + '<mimic joint="j1" multiplier="-1"/>'), {},
-     "URDF text: joint 'j2' on the chain from 'a' to 'c' is a mimic joint (it follows 'j1'); "
-     "a serial chain has independent joints"),
+     "URDF text: joint 'j2' on the chain mimics 'j1', which is on the chain too: coupled joints are not a serial "
+     "chain of independent joints (wsmap's solvers take one variable per joint); end the chain before it "
+     "(ee_link, --ee)"),
     (two_link(type="ball"), {}, "URDF text: joint 'j2' has type 'ball'; URDF types are revolute, continuous, "
      "prismatic, fixed, floating, planar"),
     (two_link(xyz="0 nan 0.1"), {}, "URDF text: joint 'j2' <origin xyz> contains NaN or infinity: '0 nan 0.1'"),
@@ -190,12 +191,23 @@ def test_bad_files_are_named(tmp_path):
     assert issubclass(URDFError, ValueError)
 
 
-def test_a_real_gripper_mimic_joint_is_refused_on_the_chain():
+def test_a_real_gripper_mimic_joint_takes_its_drivers_value():
+    import io
+
+    import yourdfpy
+
     _, _, panda, _ = rtb.Robot.URDF_read("franka_description/robots/panda_arm_hand.urdf.xacro")
     with pytest.raises(URDFError, match="candidate end links are: panda_leftfinger, panda_rightfinger"):
         from_urdf(panda)
-    with pytest.raises(URDFError, match="joint 'panda_finger_joint2' on the chain .* is a mimic joint"):
-        from_urdf(panda, ee_link="panda_rightfinger")
+    # panda_finger_joint2 mimics panda_finger_joint1, off the chain to the right finger
+    chain = from_urdf(panda, ee_link="panda_rightfinger")
+    assert chain.n == 8 and chain.kinds[-1] == "P" and chain.qlim[-1].tolist() == [0.0, 0.04]
+    model = yourdfpy.URDF.load(io.StringIO(panda), build_scene_graph=True, load_meshes=False)
+    names = [f"panda_joint{i}" for i in range(1, 8)] + ["panda_finger_joint1"]
+    for q in chain.random_q(10, np.random.default_rng(1)):
+        model.update_cfg(dict(zip(names, q)))  # yourdfpy moves the mimic joint itself
+        np.testing.assert_allclose(chain.fkine(q), model.get_transform("panda_rightfinger", "panda_link0"),
+                                   atol=1e-14)
 
 
 # ------------------------------------------------------------------------------ real URDFs (rtb-data)

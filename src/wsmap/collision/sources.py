@@ -173,6 +173,13 @@ class CollisionSource:
             return capsules_along_links(robot, r[0] if len(r) == 1 else list(r),
                                         floor=not arm.has_dh and arm.urdf is None)
         if arm.urdf is not None:
+            from ..kinematics.urdf import moving_off_chain
+
+            moving = moving_off_chain(arm.urdf, ee_link=arm.ee, base_link=arm.base)
+            if moving:
+                raise ValueError(f"--collision: link {moving[0]!r} hangs below the driver of a mimic joint of the "
+                                 "chain, so it moves with the chain's variable, but geometry off the chain is placed "
+                                 "at its joint's zero; end the chain elsewhere (--ee) or remove its <collision>")
             model = from_urdf_collision(arm.urdf, ee_link=arm.ee, base_link=arm.base)
         elif arm.mjcf is not None:
             from .mjcf import from_mjcf_collision

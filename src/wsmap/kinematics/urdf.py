@@ -11,7 +11,15 @@
   urdfdom and Pinocchio do), with a `URDFWarning` (without both the joint cannot move);
 * elements in an XML namespace (`<robot xmlns="...">`) are read by their local names, as
   urdfdom reads them;
-* a mimic, floating or planar joint on the path is refused (`URDFError`, naming it), as
+* a mimic joint on the path (`<mimic joint= multiplier= offset=>`: its value is
+  `multiplier · q + offset`, `q` its driver's) whose driver is off the path (a gripper's second
+  finger, the chain ending at it) takes the driver's value `q` as the chain's variable in its
+  place: it moves by `sign · (q + sign · offset)` along or about its axis (`multiplier` ±1), and `q`
+  keeps to the driver's limits narrowed to those that keep the mimic joint inside its own. Refused
+  (`URDFError`, naming the joints): a driver on the path too, or driving two joints of the path
+  (coupled joints: the solvers take one variable per joint), a multiplier other than ±1, a driver
+  of another kind (prismatic driving revolute), limits that leave no common value;
+* a floating or planar joint on the path is refused (`URDFError`, naming it), as
   are: text that is not XML, a link that does not exist, no path from base to end, a loop (a link
   with two parents, or a cycle), a NaN or infinite number in an origin, an axis or a limit,
   limits with `lower > upper`, a `<limit>` on the chain without the `effort` or `velocity`
@@ -48,6 +56,7 @@ if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap._typing import PathLike
 
 __all__ = ["URDFError", "URDFWarning", "URDFTree", "from_urdf", "parse_xml", "read_source", "rpy_matrix",
+           "moving_off_chain",
            "UNBOUNDED_LIMIT", "MAX_XML_DEPTH"]
 
 #: Limits (rad) of a revolute joint beyond which it is read as continuous (module notes).
@@ -431,16 +440,61 @@ def _ends(tree: URDFTree, label: str, ee_link: str | None, base_link: str | None
     return base_link, ee_link
 
 
+def _mimic_number(label: str, jname: str, mimic: ET.Element, key: str, default: float) -> float:
+    text = mimic.get(key)
+    try:
+        v = default if text is None else float(text)
+    except ValueError:
+        raise URDFError(f"{label}: joint {jname!r} has a non-numeric <mimic {key}={_q(text)}>") from None
+    if not math.isfinite(v):
+        raise URDFError(f"{label}: joint {jname!r} has a NaN or infinite <mimic {key}={_q(text)}>")
+    return v
+
+
+def _mimic(tree: URDFTree, label: str, jname: str, mimic: ET.Element, path_joints: list[str], drivers: set):
+    """`(sign, offset, limits)` of the mimic joint `jname` on the chain, whose angle is
+    `multiplier · q + offset` with `q` its driver's value (module notes): the chain's variable is
+    `q`, so the joint turns by `sign · (q + sign · offset)` about its axis, and `q` keeps to the
+    driver's limits and to those that keep the mimic joint inside its own."""
+    driver = mimic.get("joint")
+    where = f"joint {jname!r} on the chain mimics {_q(driver)}"
+    if not driver or driver not in tree.joints:
+        raise URDFError(f"{label}: {where}, which is not a joint of the URDF")
+    if driver in path_joints or driver in drivers:
+        raise URDFError(f"{label}: {where}, which {'is on the chain too' if driver in path_joints else 'another joint of the chain mimics too'}: "
+                        "coupled joints are not a serial chain of independent joints (wsmap's solvers take one "
+                        "variable per joint); end the chain before it (ee_link, --ee)")
+    d_el = tree.joints[driver]
+    if d_el.find("mimic") is not None:
+        raise URDFError(f"{label}: {where}, itself a mimic joint (a URDF's mimic follows an independent joint)")
+    m = _mimic_number(label, jname, mimic, "multiplier", 1.0)
+    offset = _mimic_number(label, jname, mimic, "offset", 0.0)
+    if abs(m) != 1.0:
+        raise URDFError(f"{label}: {where} with multiplier {m:g}: only 1 or -1 is read (the driver's value is the "
+                        "chain's variable, turned or slid at its own rate)")
+    jtype, d_type = tree.joints[jname].get("type"), d_el.get("type")
+    if d_type not in _MOVABLE or _MOVABLE[d_type] != _MOVABLE.get(jtype):
+        raise URDFError(f"{label}: {where}, a {d_type} joint driving a {jtype} one: the chain's variable would change "
+                        "units")
+    drivers.add(driver)
+    d_lo, d_hi = _limits(label, driver, d_type, d_el)
+    lo, hi = _limits(label, jname, jtype, tree.joints[jname])
+    with np.errstate(invalid="ignore"):
+        own = sorted(((lo - offset) * m, (hi - offset) * m))  # q with m·q + offset inside [lo, hi]
+    q_lo, q_hi = max(d_lo, own[0]), min(d_hi, own[1])
+    if q_lo > q_hi:
+        raise URDFError(f"{label}: {where}: no value of {driver!r} inside its limits [{d_lo:g}, {d_hi:g}] keeps "
+                        f"{jname!r} inside its own [{lo:g}, {hi:g}]")
+    return m, m * offset, (q_lo, q_hi)
+
+
 def _chain_joints(tree: URDFTree, label: str, path_joints: list[str], base_link: str, ee_link: str):
-    """`(kinds, axes, limits, links)` of the movable joints on the path, read from the XML."""
-    kinds, axes, limits, links = [], [], [], []
+    """`(kinds, axes, limits, links, offsets)` of the movable joints on the path, read from the XML."""
+    kinds, axes, limits, links, offsets = [], [], [], [], []
+    drivers: set[str] = set()
     for jname in path_joints:
         el = tree.joints[jname]
         jtype = el.get("type")
-        mimic = el.find("mimic")
-        if mimic is not None:
-            raise URDFError(f"{label}: joint {jname!r} on the chain from {base_link!r} to {ee_link!r} is a mimic "
-                            f"joint (it follows {mimic.get('joint')!r}); a serial chain has independent joints")
         if jtype in ("floating", "planar"):
             raise URDFError(f"{label}: joint {jname!r} on the chain from {base_link!r} to {ee_link!r} is {jtype}; "
                             "only revolute, continuous, prismatic and fixed joints are supported")
@@ -450,14 +504,20 @@ def _chain_joints(tree: URDFTree, label: str, path_joints: list[str], base_link:
                         None if el.find("axis") is None else el.find("axis").get("xyz"), "1 0 0")
         if np.linalg.norm(axis) < 1e-12:
             raise URDFError(f"{label}: joint {jname!r} has a zero <axis>")
-        limits.append(_limits(label, jname, jtype, el))
+        sign, offset = 1.0, 0.0
+        if el.find("mimic") is not None:
+            sign, offset, lim = _mimic(tree, label, jname, el.find("mimic"), path_joints, drivers)
+            limits.append(lim)
+        else:
+            limits.append(_limits(label, jname, jtype, el))
         kinds.append(_MOVABLE[jtype])
-        axes.append(axis)
+        axes.append(sign * axis)
+        offsets.append(offset)
         links.append(tree.child(jname))
     if not kinds:
         raise URDFError(f"{label}: no movable joint between {base_link!r} and {ee_link!r}")
     links.append(ee_link)
-    return kinds, axes, limits, links
+    return kinds, axes, limits, links, offsets
 
 
 def _fixed_transforms(model, label: str, path_joints: list[str], axes: list) -> np.ndarray:
@@ -473,7 +533,8 @@ def _fixed_transforms(model, label: str, path_joints: list[str], axes: list) -> 
             T = np.eye(4)
             axis = np.asarray(joint.axis, dtype=np.float64)
             i = len(fixed) - 1
-            if not np.allclose(axis, axes[i]):  # pragma: no cover - yourdfpy and the XML disagree
+            if not (np.allclose(axis, axes[i]) or (joint.mimic is not None and np.allclose(-axis, axes[i]))):
+                # pragma: no cover - yourdfpy and the XML disagree (a mimic's axis is turned by its multiplier's sign)
                 raise URDFError(f"{label}: joint {jname!r}: yourdfpy reads axis {axis}, the XML says {axes[i]}")
     fixed.append(T)
     return np.stack(fixed)
@@ -510,13 +571,34 @@ def from_urdf(source: PathLike, ee_link: str | None = None, base_link: str | Non
     tree = URDFTree(root, label)
     base_link, ee_link = _ends(tree, label, ee_link, base_link)
     path_joints = tree.path(base_link, ee_link)
-    kinds, axes, limits, links = _chain_joints(tree, label, path_joints, base_link, ee_link)
+    kinds, axes, limits, links, offsets = _chain_joints(tree, label, path_joints, base_link, ee_link)
     model = _load_yourdfpy(data, path, label)
     fixed = _fixed_transforms(model, label, path_joints, axes)
     qlim = np.array(limits, dtype=np.float64)
-    return SerialChain(fixed, np.array(axes), kinds, qlim=qlim,
+    return SerialChain(fixed, np.array(axes), kinds, offset=np.array(offsets), qlim=qlim,
                        name=name if name is not None else root.get("name"),
                        source=path if path is not None else "URDF text", links=links)
+
+
+def moving_off_chain(source: PathLike, ee_link: str | None = None, base_link: str | None = None) -> list[str]:
+    """The links with `<collision>` elements that hang below the driver of a mimic joint of the
+    chain `from_urdf` reads (same arguments): they move with a variable of the chain, but a
+    collision model places the links off the chain at their joints' zero, so `--collision` refuses
+    them (`wsmap.collision.sources`)."""
+    data, label, _ = read_source(source)
+    root = parse_xml(data, label)
+    tree = URDFTree(root, label)
+    base_link, ee_link = _ends(tree, label, ee_link, base_link)
+    drivers = [tree.joints[j].find("mimic").get("joint") for j in tree.path(base_link, ee_link)
+               if tree.joints[j].find("mimic") is not None]
+    solid = {el.get("name") for el in root.findall("link") if el.find("collision") is not None}
+    out, stack = [], [tree.child(d) for d in drivers if d in tree.joints]
+    while stack:
+        link = stack.pop()
+        if link in solid:
+            out.append(link)
+        stack.extend(tree.child(j) for j in tree.children[link])
+    return out
 
 
 def rpy_matrix(rpy) -> np.ndarray:
