@@ -5,7 +5,8 @@ says which one `wsmap.collision.checker_for(name)` and the command line's `--col
 
 * `"meshes"` — the vendor's collision meshes themselves, as convex hulls checked by coal behind
   their enclosing spheres (`wsmap.collision.vendor.mesh_model`; needs the package that ships them,
-  pybullet_data): exact. The default of the Panda and the iiwa 14 where pybullet_data is installed;
+  pybullet_data), each hull grown by `vendor.MESH_MARGIN` (1 mm, Bullet's margin): exact for those
+  grown hulls. The default of the Panda and the iiwa 14 where pybullet_data is installed;
 * `"two-level"` — the same meshes with the fitted capsules as their coarse model
   (`wsmap.collision.vendor.two_level_model`): the capsules first, the meshes decide where the
   capsules collide, so the answer is the meshes', configuration for configuration (tested). With
@@ -16,8 +17,9 @@ says which one `wsmap.collision.checker_for(name)` and the command line's `--col
   iiwa 14, `vendor.FITTED`): a body at least as large as the real arm, never free where the meshes
   collide, sometimes colliding where they are free. Their default without pybullet_data (the
   capsules are committed numbers: they need nothing);
-* `"capsules"` — the estimated capsules below, the default for the other arms (puma560, ur5e):
-  not fitted to any vendor geometry, so not guaranteed to contain the real arm.
+* `"capsules"` — the estimated capsules below, the default of the UR5e (and of the Panda and the
+  iiwa 14 on a family arm with other lengths): not fitted to any vendor geometry, so not
+  guaranteed to contain the real arm. The other named arms (ur10e, puma560, gen3) have none.
 
 The estimated capsules:
 
