@@ -324,6 +324,7 @@ def test_a_collision_aware_maps_png_names_the_scene_and_outlines_its_table(tmp_p
     png = {}
     for label, collision in (("free", jobs.CollisionSource(scene=str(scene), acm_samples=100)),
                              ("self", jobs.CollisionSource(collision=True, acm_samples=100)),
+                             ("nofloor", jobs.CollisionSource(collision=True, acm_samples=100, floor=False)),
                              ("kinematic", jobs.CollisionSource())):
         job = jobs.MapJob(arm=jobs.ArmSource(robot="ur5e"), rpy=(np.pi, 0, 0), step=0.25, collision=collision,
                           outputs=jobs.MapOutputs(png=str(tmp_path / f"{label}.png")))
@@ -337,4 +338,5 @@ def test_a_collision_aware_maps_png_names_the_scene_and_outlines_its_table(tmp_p
     assert png["free"].startswith("ur5e: constant map, rpy (π, 0, 0) rad") and \
         " — collision-free: scene table.yaml — " in png["free"]
     assert " — collision-free: self-collision and the floor — " in png["self"]
+    assert " — collision-free: self-collision only — " in png["nofloor"]
     assert "collision-free" not in png["kinematic"]
