@@ -203,3 +203,34 @@ def test_a_20_mb_urdf_attribute_is_a_short_line(tmp_path, capsys, where):
     err = capsys.readouterr().err
     assert err.startswith("wsmap: error: ") and err.count("\n") == 1 and len(err) < 400, err[:400]
     assert "(20000000 characters)" in err
+
+
+def test_a_hostile_map_file_is_one_map_file_error(tmp_path):
+    import json
+
+    from wsmap.workspace import MapFileError, load_map, save_map
+
+    grid = {"scope": "R3", "lo": [-1] * 3, "hi": [1] * 3, "step": [1] * 3, "shape": [3, 3, 3]}
+    save_map(tmp_path / "ok.npz", np.zeros(27, bool), grid, {"kind": "constant", "qlim": [[-np.inf, np.inf]]})
+    assert load_map(tmp_path / "ok.npz")[3]["qlim"] == [[-np.inf, np.inf]]  # json.dumps' Infinity still reads
+
+    def variant(name, **members):
+        z = dict(np.load(tmp_path / "ok.npz", allow_pickle=False))
+        z.update(members)
+        np.savez(tmp_path / name, **z)
+        return tmp_path / name
+
+    cases = [
+        (_npz_with_header(tmp_path / "huge.npz", tmp_path / "ok.npz", "map",
+                          "{'descr': '|b1', 'fortran_order': False, 'shape': (1000000000000,), }"),
+         "member 'map' declares (1000000000000,) bool values"),  # was numpy's "Unable to allocate 931 GiB"
+        (variant("deep.npz", grid="[" * 100000 + "]" * 100000), "nested deeper than 32 levels"),  # RecursionError
+        (variant("deep2.npz", settings='{"a":' * 100000 + "1" + "}" * 100000), "nested deeper than 32 levels"),
+        (variant("sn.npz", nodes=np.array([["a", "b", "c"]] * 27)), "member 'nodes' holds strings"),  # UFuncTypeError
+        (variant("cn.npz", nodes=np.zeros((27, 3), dtype=[("a", "f8")])), "member 'nodes' holds compound records"),
+        (variant("big.npz", grid=json.dumps({**grid, "lo": [10**400, 0, 0]})), "an integer of 401 digits"),
+    ]
+    for path, message in cases:
+        with pytest.raises(MapFileError, match=re.escape(message)) as err:
+            load_map(path)
+        assert "\n" not in str(err.value) and str(path) in str(err.value)

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import atomic_path
+from ..safe_load import check_npz, loads_json
 from .grids import cartesian_grid, grid_counts
 from .kinds import get_kind
 from typing import TYPE_CHECKING
@@ -97,13 +98,14 @@ def load_map(path: PathLike) -> tuple[NDArray[Any], NDArray[np.float64], dict[st
             raise MapFileError(f"{path} is not a file")
         raise FileNotFoundError(f"no map file at {path}")
     try:
+        check_npz(path, text=("grid", "settings"))  # the headers first: numbers only, as many bytes as declared
         z = np.load(path, allow_pickle=False)
         if not isinstance(z, np.lib.npyio.NpzFile):
             raise MapFileError(f"{path} is a single numpy array (.npy), not a wsmap map file (.npz, written by "
                                "save_map)")
         with z:
             flat, nodes = z["map"], z["nodes"]
-            grid, settings = json.loads(str(z["grid"])), json.loads(str(z["settings"]))
+            grid, settings = loads_json(str(z["grid"])), loads_json(str(z["settings"]))  # bounded nesting
             for name, entry in (("grid", grid), ("settings", settings)):
                 if not isinstance(entry, dict):
                     raise MapFileError(f"{path} is not a wsmap map file: its {name} is a JSON "
