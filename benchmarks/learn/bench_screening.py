@@ -31,6 +31,10 @@ def main(argv=None) -> int:
     p.add_argument("--candidates", type=harness.positive_int, nargs="+", default=[20, 50, 100],
                    help="arms mapped classically by screening (default 20 50 100)")
     p.add_argument("--top", type=harness.positive_int, default=10, help="the ranking's length (default 10)")
+    p.add_argument("--slack", type=float, nargs="+", default=[0.0, 0.1, 0.2],
+                   help="screen_arms' slack: arms this near the top predicted coverage first, by cost (default 0 0.1 0.2)")
+    p.add_argument("--exhaustive-from", metavar="JSON", help="reuse the exhaustive coverages of an earlier --json "
+                   "of the same arms and targets instead of mapping every arm again")
     p.add_argument("--area", type=float, nargs=7, default=[0.3, -0.3, 0.0, 0.7, 0.3, 0.3, 0.1],
                    metavar=("X0", "Y0", "Z0", "X1", "Y1", "Z1", "STEP"), help="the targets' grid (m)")
     args = p.parse_args(argv)
@@ -67,21 +71,32 @@ def main(argv=None) -> int:
     print(f"{len(arms)} arms, {len(targets)} tool-down targets", flush=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExtrapolationWarning)
-        exhaustive_s, coverage = harness.timed(lambda: np.array(
-            [ws.constant_orientation_map(arm, targets, mm.TOOL_DOWN).mean() for arm in arms]))
+        if args.exhaustive_from:
+            import json
+
+            earlier = json.loads(Path(args.exhaustive_from).read_text())
+            if earlier.get("names") != names or earlier.get("targets") != int(len(targets)):
+                print(f"{args.exhaustive_from} holds other arms or targets", file=sys.stderr)
+                return 2
+            exhaustive_s, coverage = earlier["exhaustive_s"], np.array(earlier["coverage"])
+        else:
+            exhaustive_s, coverage = harness.timed(lambda: np.array(
+                [ws.constant_orientation_map(arm, targets, mm.TOOL_DOWN).mean() for arm in arms]))
         truth = np.lexsort((np.arange(len(arms)), cost, -coverage))[:args.top]
         print(f"exhaustive: {exhaustive_s:.1f} s; its top {args.top}: "
               + ", ".join(f"{names[i]} {coverage[i]:.2f}" for i in truth), flush=True)
         rows = []
-        for c in args.candidates:
-            seconds, res = harness.timed(lambda c=c: screen_arms(model, arms, targets, top=args.top, candidates=c,
-                                                                 cost=cost, allow_extrapolation=True))
-            recall = len(set(res.ranking) & set(truth)) / args.top
-            rows.append({"candidates": c, "seconds": seconds, "recall": recall, "speedup": exhaustive_s / seconds,
-                         "ranking": [names[i] for i in res.ranking]})
-            print(f"screening, {c} candidates: {seconds:.2f} s ({exhaustive_s / seconds:.0f}x faster), "
-                  f"top-{args.top} recall {recall:.2f}", flush=True)
-    harness.write_json(args, {"arms": len(arms), "targets": int(len(targets)), "exhaustive_s": exhaustive_s,
+        for slack in args.slack:
+            for c in args.candidates:
+                seconds, res = harness.timed(lambda c=c, slack=slack: screen_arms(
+                    model, arms, targets, top=args.top, candidates=c, cost=cost, slack=slack, allow_extrapolation=True))
+                recall = len(set(res.ranking) & set(truth)) / args.top
+                rows.append({"slack": slack, "candidates": c, "seconds": seconds, "recall": recall,
+                             "speedup": exhaustive_s / seconds, "ranking": [names[i] for i in res.ranking]})
+                print(f"screening, slack {slack:g}, {c} candidates: {seconds:.2f} s ({exhaustive_s / seconds:.0f}x "
+                      f"faster), top-{args.top} recall {recall:.2f}", flush=True)
+    harness.write_json(args, {"arms": len(arms), "names": names, "coverage": coverage.tolist(),
+                              "targets": int(len(targets)), "exhaustive_s": exhaustive_s,
                               "exhaustive_top": [names[i] for i in truth],
                               "exhaustive_coverage": [float(coverage[i]) for i in truth], "rows": rows})
     return 0

@@ -123,15 +123,24 @@ def test_screening_every_arm_is_the_exhaustive_ranking(model, catalogue):
 
 def test_screening_maps_only_the_predicted_best(model, catalogue):
     arms, targets, truth = catalogue
-    res = screen_arms(model, arms, targets, top=3, candidates=6)
+    res = screen_arms(model, arms, targets, top=3, candidates=6, slack=0.0)
     assert len(res.candidates) == 6 and set(res.ranking) <= set(res.candidates)
     assert np.array_equal(res.candidates, np.lexsort((np.arange(len(arms)), np.zeros(len(arms)), -res.predicted))[:6])
     assert np.array_equal(res.coverage, truth[res.ranking])  # classical coverages, never predicted ones
     assert (np.diff(res.coverage) <= 0).all()
 
 
+def test_screening_slack_prefers_cheap_arms_near_the_top(model, catalogue):
+    arms, targets, truth = catalogue
+    cost = np.linspace(2.0, 1.0, len(arms))
+    res = screen_arms(model, arms, targets, top=3, candidates=5, cost=cost, slack=1.0)
+    assert np.array_equal(res.candidates, np.argsort(cost)[:5])  # every arm is near: the cheapest five
+    assert np.array_equal(res.coverage, truth[res.ranking])
+
+
 @pytest.mark.parametrize("kw, message", [
     ({"top": 0}, "top must be a positive integer, got 0"),
+    ({"slack": 2}, "slack must be a share of the targets in \\[0, 1\\], got 2"),
     ({"top": 5, "candidates": 2}, "candidates \\(2\\) must be at least top \\(5\\)"),
     ({"cost": [1.0, 2.0]}, "cost must be 13 finite numbers \\(one per arm\\), got shape \\(2,\\)"),
 ])

@@ -5,7 +5,12 @@ A study asks which arm of a catalogue reaches most of its targets. The classical
 arm at every target; `screen_arms` asks the network for every arm at once (one encoder pass per
 arm, one decoder pass per arm and target, batched), keeps the `candidates` arms it predicts best,
 maps only those classically (`wsmap.workspace.constant_orientation_map`: the closed form where
-the arm has one, else the numerical search) and ranks them by their classical coverage. The
+the arm has one, else the numerical search) and ranks them by their classical coverage.
+
+Which arms are candidates: the network's coverage is uncertain by a few per cent, and many arms of a
+catalogue may cover every target, where the tie-break (`cost`) decides the ranking. So every arm
+predicted within `slack` of the `top`-th best predicted coverage is a candidate first, cheapest
+first; the rest follow by predicted coverage. The
 returned ranking's coverages are classical, never predicted; what the network decides is only which
 arms are not looked at, so an arm the network underrates can be missed
 (`benchmarks/learn/bench_screening.py` measures the top-10 recall against the exhaustive ranking).
@@ -49,7 +54,7 @@ class Screening:
     predicted : numpy.ndarray
         `(B,)`: the network's predicted coverage of every arm.
     candidates : numpy.ndarray
-        int `(C,)`: the arms mapped classically, in the order the network ranked them.
+        int `(C,)`: the arms mapped classically, in the order they were chosen (module notes).
     """
 
     ranking: np.ndarray
@@ -81,7 +86,7 @@ def _order(coverage: np.ndarray, cost: np.ndarray, index: np.ndarray) -> np.ndar
 
 
 def screen_arms(model: MorphMapModel, arms: Sequence[Arm], targets: ArrayLike, *, top: int = 10,
-                candidates: int = 50, cost: ArrayLike | None = None, method: str = "auto",
+                candidates: int = 50, cost: ArrayLike | None = None, slack: float = 0.1, method: str = "auto",
                 ik: SearchSettings | Mapping | None = None, collision: Callable | None = None,
                 allow_extrapolation: bool = False) -> Screening:
     """Rank `arms` for `targets` (module notes): the `candidates` arms of the highest predicted
@@ -98,6 +103,10 @@ def screen_arms(model: MorphMapModel, arms: Sequence[Arm], targets: ArrayLike, *
         Arms mapped classically (at least `top`; all of them when there are fewer arms).
     cost : (B,) optional
         The tie-break between equal coverages, lower first (default: none, then the arm's index).
+    slack : float
+        Arms predicted within this share of the targets of the `top`-th best predicted coverage are
+        candidates first, by `cost` (module notes); 0 orders the candidates by predicted coverage
+        alone.
     method, ik, collision : the classical map's (`constant_orientation_map`)
     allow_extrapolation : the network's (`predict_morph_map`)
 
@@ -119,6 +128,8 @@ def screen_arms(model: MorphMapModel, arms: Sequence[Arm], targets: ArrayLike, *
             raise ValueError(f"{name} must be a positive integer, got {v!r}")
     if candidates < top:
         raise ValueError(f"candidates ({candidates}) must be at least top ({top})")
+    if isinstance(slack, bool) or not isinstance(slack, (int, float)) or not 0 <= slack <= 1:
+        raise ValueError(f"slack must be a share of the targets in [0, 1], got {slack!r}")
     B = len(arms)
     cost = np.zeros(B) if cost is None else np.asarray(cost, dtype=np.float64)
     if cost.shape != (B,) or not np.all(np.isfinite(cost)):
@@ -126,7 +137,13 @@ def screen_arms(model: MorphMapModel, arms: Sequence[Arm], targets: ArrayLike, *
     predicted = predicted_coverage(model, arms, targets, allow_extrapolation=allow_extrapolation)
     points = np.asarray(targets, dtype=np.float64)
     index = np.arange(B)
-    chosen = _order(predicted, cost, index)[:min(candidates, B)]
+    by_prediction = _order(predicted, cost, index)
+    cutoff = predicted[by_prediction[min(top, B) - 1]] - slack
+    near = index[predicted >= cutoff - 1e-12]
+    # the arms near the top by cost, then the others by predicted coverage
+    chosen = np.concatenate([near[_order(np.zeros(len(near)), cost[near], near)],
+                             by_prediction[~np.isin(by_prediction, near)]])
+    chosen = chosen[:min(candidates, B)]
     coverage = np.array([constant_orientation_map(arms[i], points, model.rpy, method=method, ik=ik,
                                                   collision=collision).mean() for i in chosen])
     best = _order(coverage, cost[chosen], chosen)[:top]
