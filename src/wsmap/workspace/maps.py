@@ -406,12 +406,12 @@ def grid_map(robot: Arm, grid: dict, *, rpy: ArrayLike = (0.0, 0.0, 0.0), point:
 
 
 def grid_status(robot: Arm, grid: dict, reached: ArrayLike, *, rpy: ArrayLike = (0.0, 0.0, 0.0),
-                point: ArrayLike = (0.5, 0.5, 0.5), method: str = "auto", convention: str = "standard"
-                ) -> NDArray[np.int8]:
+                point: ArrayLike = (0.5, 0.5, 0.5), method: str = "auto", convention: str = "standard",
+                budget: int | None = None) -> NDArray[np.int8]:
     """The int8 status `(N,)` of a `grid_map` already computed (`reached` `(N,)` bool, node order),
     with the same `grid`, `rpy` / `point`, `method` and `convention`: `REACHED`,
-    `CERTIFIED` or `NOT_FOUND` (`wsmap.workspace.status.node_status`); the map itself is not
-    computed again."""
+    `CERTIFIED` or `NOT_FOUND` (`wsmap.workspace.status.node_status`, its `budget` too); the map
+    itself is not computed again."""
     nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
     reached = np.asarray(reached, dtype=bool)
     if reached.shape != (len(nodes),):
@@ -422,4 +422,4 @@ def grid_status(robot: Arm, grid: dict, reached: ArrayLike, *, rpy: ArrayLike = 
         T = target_poses(nodes, triple("rpy", rpy), convention)
     else:
         T = target_poses(triple("point", point)[None, :], nodes, convention)
-    return node_status(robot, T, reached, method)
+    return node_status(robot, T, reached, method, budget=budget)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..kinematics.ik import certificate
 from ..kinematics.ik.certificate import CERTIFY_MARGIN, certify
 from typing import TYPE_CHECKING
 
@@ -35,13 +36,16 @@ STATUS = ("reached", "certified unreachable", "not found")
 
 
 def node_status(robot: Arm, T: ArrayLike, reached: ArrayLike, method: str = "numerical",
-                margin: float = CERTIFY_MARGIN) -> NDArray[np.int8]:
+                margin: float = CERTIFY_MARGIN, budget: int | None = None) -> NDArray[np.int8]:
     """The int8 status `(..., N)` of target poses `T` `(N, 4, 4)` (world frame, shared by the arms)
     given which are `reached` `(..., N)` bool (the arms' batch shape first): `REACHED` where
     reached, else `CERTIFIED` where `wsmap.kinematics.ik.certificate.certify` proves the pose
     unreachable (`method` `"exact"`: the sound filters and the closed form's certificate;
     `"numerical"`: the filters and the branch and bound over the joints), else `NOT_FOUND`.
-    Only the poses not reached are tested, arm by arm of a batch."""
+    Only the poses not reached are tested, arm by arm of a batch. `budget`: boxes per pose of the
+    branch and bound (default `wsmap.kinematics.ik.certificate.CELL_BUDGET`; more certifies more
+    of the nodes near the border, at about a microsecond a box)."""
+    budget = certificate.CELL_BUDGET if budget is None else int(budget)
     T = np.asarray(T, dtype=np.float64)
     reached = np.asarray(reached, dtype=bool)
     status = np.where(reached, REACHED, NOT_FOUND).astype(np.int8)
@@ -49,7 +53,7 @@ def node_status(robot: Arm, T: ArrayLike, reached: ArrayLike, method: str = "num
     if batch == ():
         left = np.flatnonzero(~reached)
         if left.size:
-            status[left[certify(robot, T[left], margin, method=method)]] = CERTIFIED
+            status[left[certify(robot, T[left], margin, method=method, budget=budget)]] = CERTIFIED
         return status
     from ..kinematics.chain import flatten_arms
 
@@ -58,7 +62,7 @@ def node_status(robot: Arm, T: ArrayLike, reached: ArrayLike, method: str = "num
     for b in range(rows.shape[0]):
         left = np.flatnonzero(rows[b] != REACHED)
         if left.size:
-            rows[b, left[certify(flat[b], T[left], margin, method=method)]] = CERTIFIED
+            rows[b, left[certify(flat[b], T[left], margin, method=method, budget=budget)]] = CERTIFIED
     return rows.reshape(status.shape)
 
 

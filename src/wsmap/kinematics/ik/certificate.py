@@ -14,7 +14,7 @@ Three certificates, tried cheapest first (`certify`):
   axis. Joint 0 turns `W - S` and the last axis rigidly about its axis and joint n-1 turns about
   the last axis, so none of the four depends on either: a configuration reaching the pose must have
   joints `1 .. n-2` where all four equal the pose's. A box of those joints is discarded when a
-  sound bound of one invariant over it (second-order Taylor, `_cell_bounds`) excludes the pose's
+  sound bound of one invariant over it (second-order Taylor, `_box_bounds`) excludes the pose's
   value by more than the margin; the pose is certified when every box is discarded, and not
   certified (the answer "not found") when the cell budget runs out;
 * `closed_form_certificate` (arms of a closed-form family): every branch the closed form enumerates
@@ -33,7 +33,7 @@ from numba import njit, prange
 
 from ..chain import PRISMATIC, SerialChain, as_chain
 from .memo import Memo, content_key
-from .reach_filter import limit_filter, limit_geometry, reach_filter
+from .reach_filter import limit_filter, limit_geometry, reach_filter, through_point
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
@@ -95,53 +95,10 @@ def _make_geometry(chain: SerialChain):
     for j in range(1, n - 1):
         radius[j] = float(lengths[j + 1:n].sum() + np.linalg.norm(w_loc)) * (1.0 + 1e-12)
     a0 = frames[0, :3, :3] @ chain.axes[0]
-    return dict(chain=chain, S=S, a0=a0, w_loc=w_loc, box=box, radius=radius, dims=list(range(1, n - 1)),
+    rigid = np.zeros(n, dtype=np.bool_)
+    rigid[[j for j in through_point(chain, frames, S) if j < n - 1]] = True
+    return dict(chain=chain, S=S, a0=a0, w_loc=w_loc, box=box, radius=radius, rigid=rigid,
                 scale=float(lengths.sum() + np.linalg.norm(w_loc)))
-
-
-def _cell_bounds(geo, centre, hw):
-    """Sound bounds `(lower, upper)` `(4, K)` of `d`, `g`, `h`, `k` over the boxes `centre ± hw`
-    `(K, n)` rad (`hw` 0 off joints `1 .. n-2`).
-
-    `W(c + δ) = W(c) + Jδ + r` with `|r| <= Σ_ij radius[max(i, j)] hw_i hw_j / 2` (each second
-    derivative of `W` is a double cross product of unit axes with `W`'s offset from the later
-    joint's axis, at most `radius` m); `z(c + δ) = z(c) + Kδ + r_z`, `|r_z| <= (Σ hw)² / 2`. Then
-    `d = |u|` (`u = W - S`) lies within `sqrt(|u|² ± 2|u·Jδ| + |Jδ|²) ± |r|`, `h = u·a0` within
-    `Σ|J_j·a0| hw_j + |r|` of its centre value, `k = z·a0` within `Σ|K_j·a0| hw_j + r_z`, and
-    `g = u·z` within the first-order change plus the products of the remainders (as
-    `wsmap.kinematics.ik.reach_filter._invariant_cells`)."""
-    chain, S, a0, w_loc, radius = geo["chain"], geo["S"], geo["a0"], geo["w_loc"], geo["radius"]
-    n = chain.n
-    frames, _ = chain.joint_frames(centre)
-    last = frames[:, n - 1]
-    W = last[:, :3, :3] @ w_loc + last[:, :3, 3]
-    z = last[:, :3, :3] @ chain.axes[n - 1]
-    u = W - S
-    du = np.linalg.norm(u, axis=-1)
-    K = len(centre)
-    A, Bz, uJ, lin_g, lin_h, lin_k = (np.zeros(K) for _ in range(6))
-    for j in geo["dims"]:
-        aj = frames[:, j, :3, :3] @ chain.axes[j]
-        Jj = np.cross(aj, W - frames[:, j, :3, 3])
-        Kj = np.cross(aj, z)
-        h = hw[:, j]
-        A += np.linalg.norm(Jj, axis=-1) * h
-        Bz += np.linalg.norm(Kj, axis=-1) * h
-        uJ += np.abs(np.einsum("ki,ki->k", u, Jj)) * h
-        lin_g += np.abs(np.einsum("ki,ki->k", u, Kj) + np.einsum("ki,ki->k", Jj, z)) * h
-        lin_h += np.abs(Jj @ a0) * h
-        lin_k += np.abs(Kj @ a0) * h
-    s = hw.sum(axis=-1)
-    before = np.cumsum(hw, axis=-1) - hw
-    rW = 0.5 * (radius * hw * (hw + 2.0 * before)).sum(axis=-1)
-    rz = 0.5 * s * s
-    g = np.einsum("ki,ki->k", u, z)
-    rem_g = lin_g + A * Bz + rW * (1.0 + Bz + rz) + (du + A) * rz
-    hh = u @ a0
-    kk = z @ a0
-    upper = np.stack([np.sqrt(du * du + 2.0 * uJ + A * A) + rW, g + rem_g, hh + lin_h + rW, kk + lin_k + rz])
-    lower = np.stack([np.sqrt(np.maximum(du * du - 2.0 * uJ, 0.0)) - rW, g - rem_g, hh - lin_h - rW, kk - lin_k - rz])
-    return lower, upper
 
 
 def _pose_invariants(chain: SerialChain, geo, T, margin):
@@ -176,7 +133,7 @@ def joint_certificate(robot: Arm, T, margin: float = CERTIFY_MARGIN, *, budget: 
 
     Every pose starts with one box, the limits of joints `1 .. n-2` (a full turn where a range is
     a turn or more; 1e-9 rad wider, the search's own slack). Depth first, each box's four
-    invariants are bounded (`_box_bounds`, the compiled `_cell_bounds`); a box whose bounds exclude
+    invariants are bounded (`_box_bounds`); a box whose bounds exclude
     the pose's values by more than the margin's effect (`_pose_invariants`) is discarded, any other
     is split in two across the joint that moves `W` most. A pose is certified when every box is
     discarded; it gives up (False: "not found") after `budget` boxes, deeper than `depth` splits,
@@ -195,10 +152,19 @@ def joint_certificate(robot: Arm, T, margin: float = CERTIFY_MARGIN, *, budget: 
         return out.astype(bool)
     values, slack = _pose_invariants(chain, geo, T, margin)
     c = geo["chain"]
-    _certify_boxes(np.ascontiguousarray(c.fixed, dtype=np.float64), np.ascontiguousarray(c.axes, dtype=np.float64),
-                   np.ascontiguousarray(np.broadcast_to(c.offset, (c.n,)), dtype=np.float64), geo["S"], geo["a0"],
-                   geo["w_loc"], geo["radius"], geo["box"], geo["radius"] + 0.1, np.ascontiguousarray(values),
-                   np.ascontiguousarray(slack), GIVE_UP_NEAR, int(budget), int(depth), out)
+    args = (np.ascontiguousarray(c.fixed, dtype=np.float64), np.ascontiguousarray(c.axes, dtype=np.float64),
+            np.ascontiguousarray(np.broadcast_to(c.offset, (c.n,)), dtype=np.float64), geo["S"], geo["a0"],
+            geo["w_loc"], geo["radius"], geo["rigid"], geo["box"])
+    values, slack = np.ascontiguousarray(values), np.ascontiguousarray(slack)
+    todo = np.arange(N)
+    if geo["rigid"].any():
+        # first d and g alone, over the joints that change them (fewer dimensions, far fewer boxes)
+        _certify_boxes(*args, True, values, slack, GIVE_UP_NEAR, int(budget), int(depth), out)
+        todo = np.flatnonzero(out == 0)
+    if todo.size:
+        part = np.zeros(todo.size, dtype=np.int8)
+        _certify_boxes(*args, False, values[todo], slack[todo], GIVE_UP_NEAR, int(budget), int(depth), part)
+        out[todo] = part
     return out.astype(bool)
 
 
@@ -285,13 +251,12 @@ def certify(robot: Arm, T, margin: float = CERTIFY_MARGIN, *, method: str = "num
 
 
 # --------------------------------------------------------------------------- the compiled box loop
-@njit(cache=True)
-def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, n, c, hw, F, Z, lo, hi):
-    """`_cell_bounds` of one box `c ± hw` (n,): the bounds into `lo[:4]`, `hi` (4,), the centre's
-    own invariants into `lo[4:8]`. Scratch: `F` (n, 12), the joint frames' rotations (row-major,
-    9) and origins (3); `Z` (7, 9)."""
+@njit(cache=True, inline="always")
+def _centre_frames(fixed, axes, offset, n, c, F, Z):
+    """The frames of joints `0 .. n-1` at `c` (n,) into `F` (n, 12): rotation row-major (9),
+    origin (3); the chain without its base (`fixed[0]` first); `Z` (7, 9) scratch."""
     # the frames of joints 0 .. n-1 at the centre (chain without base: fixed[0] first)
-    R, t, Rn, Q, RQ, W, zz = Z[0], Z[1], Z[2], Z[3], Z[4], Z[5], Z[6]
+    R, t, Rn, Q, RQ = Z[0], Z[1], Z[2], Z[3], Z[4]
     for r in range(3):
         for k in range(3):
             R[3 * r + k] = fixed[0, r, k]
@@ -327,6 +292,25 @@ def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, n, c, hw, F, Z, lo, h
             t[r] = t[r] + RQ[3 * r] * M[0, 3] + RQ[3 * r + 1] * M[1, 3] + RQ[3 * r + 2] * M[2, 3]
         for k in range(9):
             R[k] = Rn[k]
+
+
+@njit(cache=True)
+def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, hw, F, Z, lo, hi):
+    """Sound bounds of `d`, `g`, `h`, `k` over the box `c ± hw` (n,) rad (`hw` 0 off joints
+    `1 .. n-2`), into `lo[:4]`, `hi` (4,); the centre's own invariants into `lo[4:8]`.
+
+    `W(c + δ) = W(c) + Jδ + r` with `|r| <= Σ_ij radius[max(i, j)] hw_i hw_j / 2` (each second
+    derivative of `W` is a double cross product of unit axes with `W`'s offset from the later
+    joint's axis, at most `radius` m); `z(c + δ) = z(c) + Kδ + r_z`, `|r_z| <= (Σ hw)² / 2`. Then
+    `d = |u|` (`u = W - S`) lies within `sqrt(|u|² ± 2 Σ|u·J_j| hw_j + (Σ|J_j| hw_j)²) ± |r|`,
+    `h = u·a0` within `Σ|J_j·a0| hw_j + |r|` of its centre value, `k = z·a0` within
+    `Σ|K_j·a0| hw_j + r_z`, and `g = u·z` within its first-order change plus the products of the
+    remainders. Joints in `rigid` (an unbroken run from joint 1 whose axes pass through `S`) turn
+    `u` and `z` rigidly about `S` and change neither `d` nor `g`: those two sum over the other
+    joints only. Scratch: `F` (n, 12), the joint frames' rotations (row-major, 9) and origins (3);
+    `Z` (7, 9). No fastmath: each operation rounds once, far inside the margin's slack."""
+    _centre_frames(fixed, axes, offset, n, c, F, Z)
+    W, zz = Z[5], Z[6]
     # W and z of the last joint's frame
     L = n - 1
     for r in range(3):
@@ -334,17 +318,20 @@ def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, n, c, hw, F, Z, lo, h
         zz[r] = F[L, 3 * r] * axes[L, 0] + F[L, 3 * r + 1] * axes[L, 1] + F[L, 3 * r + 2] * axes[L, 2]
     u0, u1, u2 = W[0] - S[0], W[1] - S[1], W[2] - S[2]
     du = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+    # d and g: the joints not in `rigid` (a rigid joint turns W - S and z about S: d and g unchanged);
+    # h and k: every joint
     A = 0.0
     Bz = 0.0
     uJ = 0.0
     lin_g = 0.0
     lin_h = 0.0
     lin_k = 0.0
-    s = 0.0
-    before = 0.0
-    rW = 0.0
+    best = -1.0
+    split = 1
     for j in range(1, n - 1):
         h = hw[j]
+        F[j, 12] = 0.0
+        F[j, 13] = 0.0
         if h == 0.0:
             continue
         aj0 = F[j, 0] * axes[j, 0] + F[j, 1] * axes[j, 1] + F[j, 2] * axes[j, 2]
@@ -353,23 +340,63 @@ def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, n, c, hw, F, Z, lo, h
         p0, p1, p2 = W[0] - F[j, 9], W[1] - F[j, 10], W[2] - F[j, 11]
         J0, J1, J2 = aj1 * p2 - aj2 * p1, aj2 * p0 - aj0 * p2, aj0 * p1 - aj1 * p0
         K0, K1, K2 = aj1 * zz[2] - aj2 * zz[1], aj2 * zz[0] - aj0 * zz[2], aj0 * zz[1] - aj1 * zz[0]
-        A += math.sqrt(J0 * J0 + J1 * J1 + J2 * J2) * h
-        Bz += math.sqrt(K0 * K0 + K1 * K1 + K2 * K2) * h
-        uJ += abs(u0 * J0 + u1 * J1 + u2 * J2) * h
-        lin_g += abs(u0 * K0 + u1 * K1 + u2 * K2 + J0 * zz[0] + J1 * zz[1] + J2 * zz[2]) * h
+        nJ = math.sqrt(J0 * J0 + J1 * J1 + J2 * J2)
+        nK = math.sqrt(K0 * K0 + K1 * K1 + K2 * K2)
+        F[j, 12] = nJ  # W's distance from joint j's axis at the centre
+        F[j, 13] = nK  # the sine of the angle between joint j's axis and z at the centre
         lin_h += abs(J0 * a0[0] + J1 * a0[1] + J2 * a0[2]) * h
         lin_k += abs(K0 * a0[0] + K1 * a0[1] + K2 * a0[2]) * h
-        rW += radius[j] * h * (h + 2.0 * before)
-        before += h
-        s += h
+        # the split: the joint whose box width moves W and z most here (and bounds the remainder)
+        lever = (nJ + nK + radius[j] * h) * h
+        if lever > best:
+            best = lever
+            split = j
+        if rigid[j]:
+            continue
+        A += nJ * h
+        Bz += nK * h
+        uJ += abs(u0 * J0 + u1 * J1 + u2 * J2) * h
+        lin_g += abs(u0 * K0 + u1 * K1 + u2 * K2 + J0 * zz[0] + J1 * zz[1] + J2 * zz[2]) * h
+    # second-order remainders: the (i, j) second derivative of W is bounded by W's distance from
+    # the axis of joint m = max(i, j) somewhere in the box, at most its centre value plus how far
+    # the later joints move W (Σ_{k>m} radius_k hw_k), and never above radius_m; of z likewise by
+    # the sine of the angle between axis m and z, at most its centre value plus Σ_{k>m} hw_k, and 1
+    rW = 0.0
+    rz = 0.0
+    rW_d = 0.0
+    rz_d = 0.0
+    sufW = 0.0
+    sufZ = 0.0
+    for m in range(n - 2, 0, -1):
+        h = hw[m]
+        if h == 0.0:
+            continue
+        rho = min(radius[m], F[m, 12] + sufW)
+        kap = min(1.0, F[m, 13] + sufZ)
+        # Σ_{i,j} B_max(i,j) hw_i hw_j = Σ_m B_m hw_m (hw_m + 2 Σ_{i<m} hw_i)
+        before = 0.0
+        before_d = 0.0
+        for i in range(1, m):
+            before += hw[i]
+            if not rigid[i]:
+                before_d += hw[i]
+        rW += rho * h * (h + 2.0 * before)
+        rz += kap * h * (h + 2.0 * before)
+        if not rigid[m]:
+            rW_d += rho * h * (h + 2.0 * before_d)
+            rz_d += kap * h * (h + 2.0 * before_d)
+        sufW += radius[m] * h
+        sufZ += h
     rW *= 0.5
-    rz = 0.5 * s * s
+    rz *= 0.5
+    rW_d *= 0.5
+    rz_d *= 0.5
     g = u0 * zz[0] + u1 * zz[1] + u2 * zz[2]
-    rem_g = lin_g + A * Bz + rW * (1.0 + Bz + rz) + (du + A) * rz
+    rem_g = lin_g + A * Bz + rW_d * (1.0 + Bz + rz_d) + (du + A) * rz_d
     hh = u0 * a0[0] + u1 * a0[1] + u2 * a0[2]
     kk = zz[0] * a0[0] + zz[1] * a0[1] + zz[2] * a0[2]
-    hi[0] = math.sqrt(du * du + 2.0 * uJ + A * A) + rW
-    lo[0] = math.sqrt(max(du * du - 2.0 * uJ, 0.0)) - rW
+    hi[0] = math.sqrt(du * du + 2.0 * uJ + A * A) + rW_d
+    lo[0] = math.sqrt(max(du * du - 2.0 * uJ, 0.0)) - rW_d
     hi[1] = g + rem_g
     lo[1] = g - rem_g
     hi[2] = hh + lin_h + rW
@@ -381,10 +408,12 @@ def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, n, c, hw, F, Z, lo, h
     lo[5] = g
     lo[6] = hh
     lo[7] = kk
+    lo[8] = split
 
 
 @njit(cache=True, parallel=True)
-def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, box, weight, values, slack, near, budget, depth, out):
+def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_dg, values, slack, near, budget, depth,
+                   out):
     """Depth-first branch and bound per pose (`values`, `slack` (N, 4)): `out[i]` 1 where every
     box was discarded, 0 where it gave up (after `budget` boxes, deeper than `depth` splits, or a
     box centre whose four invariants all lie within `near` of the pose's: most likely reachable)."""
@@ -393,13 +422,13 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, box, weight, value
     for i in prange(N):
         cs = np.empty((depth + 1, n))
         hs = np.empty((depth + 1, n))
-        F = np.empty((n, 12))
+        F = np.empty((n, 14))
         Z = np.empty((7, 9))
-        lo = np.empty(8)
+        lo = np.empty(9)
         hi = np.empty(4)
         for j in range(n):
             cs[0, j] = 0.5 * (box[j, 0] + box[j, 1])
-            hs[0, j] = 0.5 * (box[j, 1] - box[j, 0]) if 0 < j < n - 1 else 0.0
+            hs[0, j] = 0.5 * (box[j, 1] - box[j, 0]) if 0 < j < n - 1 and not (only_dg and rigid[j]) else 0.0
         top = 1
         evals = 0
         ok = 1
@@ -407,11 +436,11 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, box, weight, value
             top -= 1
             c = cs[top]
             h = hs[top]
-            _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, n, c, h, F, Z, lo, hi)
+            _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, h, F, Z, lo, hi)
             evals += 1
             dead = False
             close = True
-            for k in range(4):
+            for k in range(2 if only_dg else 4):
                 if values[i, k] < lo[k] - slack[i, k] or values[i, k] > hi[k] + slack[i, k]:
                     dead = True
                 if abs(values[i, k] - lo[4 + k]) > near:
@@ -421,14 +450,7 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, box, weight, value
             if close or evals >= budget or top + 2 > depth:
                 ok = 0
                 break
-            # split across the joint that moves W most
-            jb = 1
-            best = -1.0
-            for j in range(1, n - 1):
-                v = h[j] * weight[j]
-                if v > best:
-                    best = v
-                    jb = j
+            jb = int(lo[8])  # split across the joint that moves W and z most
             # the two halves replace the box on the stack (slot top, then top + 1)
             half = 0.5 * h[jb]
             mid = c[jb]

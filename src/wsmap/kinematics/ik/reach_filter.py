@@ -25,7 +25,8 @@ from .. import lm_compiled
 from ..chain import PRISMATIC, SerialChain
 from .memo import Memo, content_key
 
-__all__ = ["reach_filter", "position_filter", "first_axis_point", "limit_filter", "limit_bounds", "limit_geometry"]
+__all__ = ["reach_filter", "position_filter", "first_axis_point", "limit_filter", "limit_bounds", "limit_geometry",
+           "through_point"]
 
 _ORBITS = Memo()
 
@@ -332,7 +333,7 @@ def _branch_and_bound(chain, S, a0, w_loc, which, dims, box, radius, sign):
     return sign * max(best + LIMIT_BOUND_EPS, float(ub.max()) if len(ub) else -np.inf)
 
 
-def _through_point(chain, frames, point):
+def through_point(chain, frames, point):
     """Joints `1 ..` whose axes, in an unbroken run from joint 1, pass through `point` at
     `q = 0`: a turn of such a joint keeps the next one through the point, so it turns
     everything after it rigidly about the point."""
@@ -386,7 +387,7 @@ def _make_limit_bounds(chain: SerialChain):
     radius = np.zeros(n)
     for j in range(1, n - 1):
         radius[j] = float(lengths[j + 1:n].sum() + np.linalg.norm(w_loc)) * (1.0 + 1e-12)
-    skip = set(_through_point(chain, frames, S))
+    skip = set(through_point(chain, frames, S))
     dims = [j for j in range(1, n - 1) if j not in skip]
     a0 = frames[0, :3, :3] @ chain.axes[0]
     dims_h = list(range(1, n - 1))

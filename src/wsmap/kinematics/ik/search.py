@@ -62,6 +62,7 @@ from ..transforms import check_rigid
 from .fk_seeds import nearest_starts, sample_count
 from .kernel import arm_arrays, pose_keys, run_compiled, unsolved
 from .memo import Memo, as_chain_memo, chain_key
+from .certificate import joint_certificate
 from .reach_filter import limit_filter, position_filter, reach_filter
 from .settings import DEFAULT_ILIMIT, DEFAULT_RLIMIT, DEFAULT_STARTS, FK_CONFIRM_TOL, MAP_SETTINGS, SearchSettings
 from .solution import MIN_TOL, IKSolution, failure_reasons
@@ -78,6 +79,11 @@ __all__ = ["MAP_SETTINGS", "SearchSettings", "map_search", "check_search", "broa
 _ARM_ARRAYS = Memo()
 # targets per call of the border search (bounds its (C, K, n) array of starts)
 _BORDER_CHUNK = 1 << 16
+#: Boxes per node of the branch and bound (`wsmap.kinematics.ik.certificate.joint_certificate`) that
+#: the border search spends before its starts at a node, to skip nodes it proves unreachable (0: off;
+#: one arm, revolute joints, limits on). Sound, so the answers are the same either way; only the time
+#: differs (`benchmarks/maps/bench_certificates.py`).
+BORDER_CERTIFY_BUDGET = 0
 #: Starts per node of the global seeding: the configurations of its nearest sampled poses
 #: (`wsmap.kinematics.ik.fk_seeds`), measured in `benchmarks/maps/bench_recall.py`.
 FK_STARTS_PER_NODE = 8
@@ -355,6 +361,7 @@ class _MapSearch:
         self.s, self.T, self.nb, self.q0, self.accept, self.progress = s, T, nb, q0, accept, progress
         self.N, self.n, self.B, self.M, self.K, self.batch = N, n, B, B * N, nb.shape[1], batch
         self.flat = chain if not batch else flatten_arms(chain)
+        self.chain = chain
         self.arm_of = np.repeat(np.arange(B), N)
         self.node_of = np.tile(np.arange(N), B)
         self.possible = self._possible(chain)
@@ -581,10 +588,21 @@ class _MapSearch:
             if not cand.size:
                 return
             searched[cand] = True
+            cand = self._skip_certified(cand)
             # chunks bound the (C, K, n) starts
             for c0 in range(0, cand.size, _BORDER_CHUNK):
                 self._border_chunk(cand[c0 : c0 + _BORDER_CHUNK], count, per_start)
             self.waves()
+
+    def _skip_certified(self, cand):
+        """`cand` without the targets the branch and bound proves unreachable (within the
+        confirmation tolerance, so no confirmed solution is lost), which are marked impossible."""
+        budget, s = BORDER_CERTIFY_BUDGET, self.s
+        if not budget or self.batch or s.position_only or self.chain.qlim is None:
+            return cand
+        cert = joint_certificate(self.chain, self.T[self.node_of[cand]], s.confirm_tol, budget=budget)
+        self.possible[cand[cert]] = False
+        return cand[~cert]
 
     def _border_chunk(self, idx, count, per_start):
         ok = self.ok

@@ -1,0 +1,127 @@
+"""How many unreachable map nodes are certified unreachable, per arm, and what the certificate costs.
+
+Per arm (every named arm of ``wsmap.robots``, and the real-arm URDFs of ``bench_recall_arms.py``)
+and orientation (tool frame ``R = I`` and tool down ``R = Rx(pi)``, pose convention ``standard``):
+the map (``constant_orientation_map``: the closed form where the arm has one, else the default
+numerical search), then each node's status (``wsmap.node_status``: reached, certified unreachable,
+not found; `wsmap.kinematics.ik.certificate`). Columns: nodes not reached, the share of them
+certified, the time of the map, of the status, and of the map with the border search skipping the
+nodes the branch and bound certifies (``search.BORDER_CERTIFY_BUDGET = --skip-budget``; the same
+answers, checked). Named arms on the paper's grid (21³, -1..1 m); URDF arms on
+``bench_recall_arms.grid`` (``--nodes`` per axis around the first joint).
+
+    # quick (the named arms and 5 URDF arms, 11³ nodes for the URDF arms; about 2 minutes)
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/maps/bench_certificates.py --quick
+    # full (every arm, 15³ nodes for the URDF arms)
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/maps/bench_certificates.py
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import wsmap
+from wsmap import robots
+from wsmap import workspace as ws
+from wsmap.kinematics.ik import certificate, search
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # benchmarks/maps/: the URDF arms' list
+import bench_recall_arms as bra  # noqa: E402
+import harness  # noqa: E402
+
+ORIENTATIONS = {"R=I": (0.0, 0.0, 0.0), "tool down": (math.pi, 0.0, 0.0)}
+NAMED = ["puma560", "panda", "iiwa14", "ur5e", "ur10e", "gen3"]
+
+
+def _urdf_arms(names, nodes_per_axis):
+    """(name, chain, nodes) of the URDF arms of bench_recall_arms (None where its data packages are
+    missing: the reason instead)."""
+    try:
+        from wsmap.kinematics.urdf import from_urdf
+
+        out = []
+        for name, source, base_link, ee_link in bra.ARMS:
+            if names is not None and name not in names:
+                continue
+            chain = from_urdf(bra.urdf_text(source), ee_link=ee_link, base_link=base_link, name=name)
+            out.append((name, chain, bra.grid(chain, nodes_per_axis)[0]))
+        return out, None
+    except ImportError as e:  # pybullet_data, rtbdata or xacro not installed
+        return [], f"URDF arms skipped: {e}"
+
+
+def measure(name, arm, nodes, skip_budget, repeat, budget):
+    rows = []
+    for oname, rpy in ORIENTATIONS.items():
+        T = ws.target_poses(nodes, rpy, "standard")
+        t_map, (reached, method) = harness.best_of(
+            lambda: ws.constant_orientation_map(arm, nodes, rpy, return_method=True), repeat)  # noqa: B023
+        t_status, status = harness.timed(lambda: wsmap.node_status(arm, T, reached, method, budget=budget))  # noqa: B023
+        t_skip = None
+        if method == "numerical" and skip_budget:
+            search.BORDER_CERTIFY_BUDGET = skip_budget
+            try:
+                t_skip, skipped = harness.best_of(lambda: ws.constant_orientation_map(arm, nodes, rpy), repeat)  # noqa: B023
+            finally:
+                search.BORDER_CERTIFY_BUDGET = 0
+            if not np.array_equal(skipped, reached):
+                raise AssertionError(f"{name}, {oname}: the skip changed the map")
+        unreachable = int((~reached).sum())
+        cert = int((status == wsmap.CERTIFIED).sum())
+        rows.append(dict(arm=name, orientation=oname, method=method, joints=arm.n, nodes=len(nodes),
+                         unreachable=unreachable, certified=cert, not_found=unreachable - cert,
+                         fraction=cert / max(unreachable, 1), seconds_map=t_map, seconds_status=t_status,
+                         seconds_map_skip=t_skip))
+        r = rows[-1]
+        print(f"{name}, {oname}: {unreachable} not reached, {r['fraction']:.2%} certified, map {t_map:.3f} s, "
+              f"status {t_status:.2f} s", file=sys.stderr, flush=True)
+    return rows
+
+
+def table(rows) -> str:
+    head = ("| arm | R | method | nodes | not reached | certified | not found | share | map s | status s | "
+            "map s, skip |\n|---|---|---|---|---|---|---|---|---|---|---|")
+    lines = [head]
+    for r in rows:
+        skip = "" if r["seconds_map_skip"] is None else f"{r['seconds_map_skip']:.3f}"
+        lines.append(f"| {r['arm']} | {r['orientation']} | {r['method']} | {r['nodes']} | {r['unreachable']} | "
+                     f"{r['certified']} | {r['not_found']} | {r['fraction']:.2%} | {r['seconds_map']:.3f} | "
+                     f"{r['seconds_status']:.2f} | {skip} |")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    p = harness.parser(__doc__, repeat=1, quick="the named arms and 5 URDF arms (bench_recall_arms.QUICK), 11 nodes "
+                                                "per axis for them")
+    p.add_argument("--nodes", type=int, help="URDF arms: nodes per axis (default 15, 11 with --quick)")
+    p.add_argument("--budget", type=int, default=certificate.CELL_BUDGET,
+                   help=f"boxes per node of the branch and bound (default {certificate.CELL_BUDGET})")
+    p.add_argument("--skip-budget", type=int, default=1000,
+                   help="boxes per border node for the map with the skip (0: no such map; default 1000)")
+    p.add_argument("--named-only", action="store_true", help="only the named arms")
+    args = p.parse_args(argv)
+
+    nodes_per_axis = args.nodes or (11 if args.quick else 15)
+    grid = ws.cartesian_grid(-1, 1, 0.1)
+    ws.constant_orientation_map(robots.load("panda"), grid[:100], (math.pi, 0, 0))  # compile before timing
+    rows = []
+    for name in NAMED:
+        rows += measure(name, robots.load(name), grid, args.skip_budget, args.repeat, args.budget)
+    note = None
+    if not args.named_only:
+        arms, note = _urdf_arms(set(bra.QUICK) if args.quick else None, nodes_per_axis)
+        for name, chain, nodes in arms:
+            rows += measure(name, chain, nodes, args.skip_budget, args.repeat, args.budget)
+    print(table(rows))
+    if note:
+        print(note)
+    harness.write_json(args, {"rows": rows, "budget": args.budget, "skip_budget": args.skip_budget})
+
+
+if __name__ == "__main__":
+    main()
