@@ -96,6 +96,8 @@ from .spec import check_int
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
+    from collections.abc import Sequence
+
     from wsmap._typing import ArrayLike, NDArray
     from wsmap.collision import CollisionChecker
 
@@ -628,8 +630,8 @@ def se3_cells(T: ArrayLike, level: int = 3) -> NDArray[np.int64]:
     return (r3 + N**3 * so3).reshape(shape)
 
 
-def fk_labels(morph: ArrayLike, T: ArrayLike, samples, seed: int = 0, *, level=3,
-              chunk: int = 200_000) -> NDArray[np.bool_]:
+def fk_labels(morph: ArrayLike, T: ArrayLike, samples: int | Sequence[int], seed: int = 0, *,
+              level: int | Sequence[int] = 3, chunk: int = 200_000) -> NDArray[np.bool_]:
     """RAM's training labels: a pose is reachable when forward-kinematics samples hit its SE(3) cell.
 
     Parameters
