@@ -2,9 +2,10 @@
 
 RAM (T. Walter et al., *RAM: Reachability Across Morphologies*, arXiv 2606.09108; code
 github.com/TimWalter/ram) predicts, for an arm of 5-7 revolute joints it never saw, whether a
-pose `T` in SE(3) is reachable. Its published numbers (paper abstract and its boundary table,
-`paper_archive/RQ2/boundary/table_a3.py`): F1 0.86 on random poses and 0.78 on a boundary set of
-held-out arms; its training labels (FK sampling into SE(3) cells) at F1 0.91 against exact ones.
+pose `T` in SE(3) is reachable. Its published numbers: F1 0.86 on random poses (the paper's
+abstract), 0.78 on a boundary set of held-out arms and F1 0.91 of its training labels (FK sampling
+into SE(3) cells) against exact ones (as issue 42 quotes the paper; its full text was not readable
+here, and `paper_archive/RQ2/boundary/table_a3.py` builds the boundary table from its W&B runs).
 This module rebuilds the protocol so that wsmap's labels and models can be scored the same way
 (`benchmarks/learn/bench_ram_protocol.py`; the numbers in `docs/morphologies.md`).
 
@@ -15,7 +16,9 @@ The stored snapshot of `TimWalter/ram` holds `ram/dataset/workspace.py`, `se3.py
 `paper_archive/`; the modules they import (`ram/dataset/morphology.py`, `kinematics.py`,
 `self_collision.py`, `manipulability.py`, `r3.py`, `so3/__init__.py`) were read from the same
 package path in its predecessor repository `TimWalter/neural-reachability-manifold` (commit
-e2fa9d4), whose `workspace.py` calls them the same way. "file:line" below are lines of those files.
+e2fa9d4), whose `workspace.py` calls them the same way. Citations below are file and function (the
+commits read: TimWalter/ram 983944b, 4d471da, ff430c6, c5ca864, 1e99149, 20279c4, 1522cfa; the
+predecessor e2fa9d4), not line numbers, which differ between those commits.
 
 * **Arm** (`morphology.py`, `_sample_morph`, `sample_morph`): `dof + 1` rows `(alpha, a, d)` of
   a modified-DH (Craig) table, link `i` = `Rx(alpha_i) Tx(a_i) Rz(theta_i) Tz(d_i)`
