@@ -218,7 +218,7 @@ def _model_part(args, morphs) -> dict:
                 pred = mm.predict_morph_map(model, chain.replace(fixed=fixed), p)
         except (ExtrapolationError, ExtrapolationWarning, ValueError) as err:
             why = str(err).split(":")[-1].split(";")[0].strip()  # outside the network's families: why
-            skipped.append(re.sub(r"-?\d+(\.\d+)?", "#", why))
+            skipped.append(re.sub(r"(?<![\w.])-?\d+(\.\d+)?", "#", why))  # the reason, without its numbers
             continue
         preds.append(pred)
         truths.append(ds.ik_labels(m, F0 @ target_poses(p, mm.TOOL_DOWN, "standard"), starts=args.starts))

@@ -123,7 +123,8 @@ RAM_SO3_DIVISIONS = {1: 4, 2: 9, 3: 17, 4: 34}
 RAM_PUBLISHED = {"f1_random": 0.86, "f1_boundary": 0.78, "f1_fk_labels": 0.91}
 
 _MAX_COUNT = 1_000_000
-_MAX_SAMPLES = 100_000_000
+_MAX_SAMPLES = 100_000_000  # FK samples of fk_labels (drawn in chunks)
+_MAX_POSES = 10_000_000  # poses or configurations held at once (1.3 GB of poses)
 _TWISTS = np.array([0.0, np.pi / 2, -np.pi / 2])
 _CAPSULE_EPS = 1e-4  # a capsule shorter than this has no length (self_collision.py, EPS)
 _REJECT_CONFIGS = 1000  # random configurations of the arm rejection (morphology.py, _reject_morph)
@@ -419,8 +420,8 @@ def fk_samples(morph: ArrayLike, count: int, seed: int = 0,
     ----------
     morph : array_like, shape (dof + 1, 3)
     count : int
-        Configurations drawn, uniform over the full turn (module notes); the colliding ones are
-        dropped, so fewer come back.
+        Configurations drawn, 1 .. 10,000,000, uniform over the full turn (module notes); the
+        colliding ones are dropped, so fewer come back.
     seed : int
     collision : CollisionChecker, optional
         `ram_collision(morph)` (built when not given).
@@ -433,7 +434,7 @@ def fk_samples(morph: ArrayLike, count: int, seed: int = 0,
         Their end-effector poses (base frame, m).
     """
     m = _one_morph(morph)
-    count = check_int("count", count, 1, _MAX_SAMPLES)
+    count = check_int("count", count, 1, _MAX_POSES)
     seed = check_int("seed", seed, 0)
     chain = ram_arms(m)
     checker = ram_collision(m) if collision is None else collision
@@ -449,7 +450,7 @@ def random_poses(morph: ArrayLike, count: int, seed: int = 0) -> tuple[NDArray[n
     ----------
     morph : array_like, shape (dof + 1, 3)
     count : int
-        Poses, 1 .. 100,000,000.
+        Poses, 1 .. 10,000,000.
     seed : int
 
     Returns
@@ -461,7 +462,7 @@ def random_poses(morph: ArrayLike, count: int, seed: int = 0) -> tuple[NDArray[n
         True for those FK poses, which RAM labels reachable without IK.
     """
     m = _one_morph(morph)
-    count = check_int("count", count, 1, _MAX_SAMPLES)
+    count = check_int("count", count, 1, _MAX_POSES)
     seed = check_int("seed", seed, 0)
     rng = np.random.default_rng(seed)
     T = _ball_poses(m, count, rng)
