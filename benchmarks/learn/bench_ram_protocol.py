@@ -57,8 +57,12 @@ def _options():
     return p
 
 
-def _row(name, f, per, n):
-    return {"labels": name, "f1": round(f, 4), "f1_min": round(float(per.min()), 4), "arms": n}
+def _row(name, f, per, dofs):
+    """One table row: the mean F1 over arms, the worst arm's, and the mean per joint count."""
+    import numpy as np
+
+    by = {int(d): round(float(per[dofs == d].mean()), 4) for d in np.unique(dofs)}
+    return {"labels": name, "f1": round(f, 4), "f1_min": round(float(per.min()), 4), "arms": len(per), "f1_by_dof": by}
 
 
 def main(argv=None) -> int:
@@ -92,17 +96,19 @@ def main(argv=None) -> int:
     total_seconds = spent.pop("total")
     out = {"args": vars(args), "arms_per_dof": per_dof, "ram_published": ds.RAM_PUBLISHED, "a": {}, "b": {}}
     n = len(morphs)
+    dofs = np.array([m.shape[0] - 1 for m in morphs])
     for name in ("random", "boundary"):
         ref = np.array(lab["ref"][name])
-        rows = [{"labels": "reference (IK + self-collision)", "reachable_share": round(float(ref.mean()), 4)}]
+        rows = [{"labels": "reference (IK + self-collision)", "reachable_share": round(float(ref.mean()), 4),
+                 "share_by_dof": {int(d): round(float(ref[dofs == d].mean()), 4) for d in np.unique(dofs)}}]
         for key, title in (("kinematic", "no self-collision"), ("ram_budget", "10 starts, no extra rounds"),
                            ("reachable", f"wsmap.reachable as it is ({args.starts} starts)")):
             f, per = ds.ram_f1(np.array(lab[key][name]), ref)
-            rows.append(_row(title, f, per, n) | {"reachable_share": round(float(np.mean(lab[key][name])), 4)})
+            rows.append(_row(title, f, per, dofs) | {"reachable_share": round(float(np.mean(lab[key][name])), 4)})
         out["a"][name] = rows
         F = np.array(fk[name])  # (arms, levels, budgets, poses)
         out["b"][name] = [
-            _row(f"FK level {lv}, {b:,} samples", *ds.ram_f1(F[:, li, bi], ref), n)
+            _row(f"FK level {lv}, {b:,} samples", *ds.ram_f1(F[:, li, bi], ref), dofs)
             | {"level": lv, "samples": b, "reachable_share": round(float(F[:, li, bi].mean()), 4)}
             for li, lv in enumerate(args.levels) for bi, b in enumerate(args.budgets)]
     out["a"]["recall_on_reachable_ends"] = round(float(np.mean(reach_ends)), 4)
@@ -114,9 +120,11 @@ def main(argv=None) -> int:
           f"{total_seconds:.0f} s (reference labels {spent['reference_labels']:.0f} s, FK labels {spent['fk_labels']:.0f} s)")
     print(f"(a) recall of the reference on the boundary set's reachable ends: {out['a']['recall_on_reachable_ends']}")
     for name in ("random", "boundary"):
-        print(f"\n{name} poses | F1 against the reference | worst arm | reachable share")
+        print(f"\n{name} poses | F1 against the reference | worst arm | by joint count | reachable share")
         for r in out["a"][name] + out["b"][name]:
-            print(f"{r['labels']} | {r.get('f1', '-')} | {r.get('f1_min', '-')} | {r['reachable_share']}")
+            by = r.get("f1_by_dof", r.get("share_by_dof"))
+            print(f"{r['labels']} | {r.get('f1', '-')} | {r.get('f1_min', '-')} | "
+                  f"{', '.join(f'{d}: {v}' for d, v in by.items())} | {r['reachable_share']}")
     if "c" in out:
         print(f"\n(c) {out['c']}")
     harness.write_json(args, out)
