@@ -183,6 +183,16 @@ def test_a_sampled_configurations_pose_is_reachable_under_both_labels():
     assert datasets.ik_labels(m, T).all()
 
 
+def test_rounds_from_other_first_starts_find_the_collision_free_branch():
+    # a 6-joint arm has a few IK branches; wsmap.reachable's retries after a colliding solution begin
+    # at the same first start and find it again, other random first starts find the free branch
+    m = datasets.sample_morphologies(1, 6, seed=7)[0]
+    q, T = datasets.fk_samples(m, 40, seed=3)
+    assert len(q) == 19
+    assert datasets.ik_labels(m, T, rounds=0).sum() == 15
+    assert datasets.ik_labels(m, T).all()
+
+
 def test_self_collision_only_removes_reachable_poses():
     m = datasets.sample_morphologies(1, 6, seed=9)[0]
     T, _ = datasets.random_poses(m, 300, seed=3)
