@@ -123,3 +123,24 @@ def test_exact_method_needs_the_closed_form_family():
         ws.constant_orientation_map(robots.load("panda"), nodes, method="exact")
     with pytest.raises(TypeError, match="arms must be a DHRobot or a SerialChain"):
         ws.constant_orientation_map("puma560", nodes, method="numerical")
+
+
+def test_refused_solutions_are_searched_again_from_elsewhere():
+    """A predicate that refuses one elbow: the other elbow's solution exists (the closed form says
+    where), and the rounds after a refused solution must find it. They started from q0 again and
+    landed on the refused solution each time (34 of 187 found before)."""
+    from wsmap.kinematics import closed_form_for
+
+    arm = robots.load("ur5e")
+    q = arm.random_q(400, np.random.default_rng(0))
+    T = arm.fkine(q[q[:, 2] > 0.3])
+
+    def elbow_down(qq):
+        return qq[:, 2] < -0.3
+
+    best = closed_form_for(arm).solve(arm, T)
+    exists = (best.success & elbow_down(best.q.reshape(-1, 6)).reshape(best.success.shape)).any(axis=1)
+    found, qf = ws.reachable(arm, T, starts=8, collision=elbow_down, return_q=True)
+    assert elbow_down(qf[found]).all() and arm.within_limits(qf[found]).all()
+    assert np.allclose(arm.fkine(qf[found]), T[found], atol=1e-8)
+    assert (found & exists).sum() >= 0.9 * exists.sum()

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...chain import as_chain
 from ..search import ikine_search
 from ..settings import DEFAULT_ILIMIT, DEFAULT_RLIMIT, DEFAULT_STARTS, FK_CONFIRM_TOL, SearchSettings
 from ..solution import IKReason, IKSolution
@@ -21,12 +22,14 @@ ACCEPT_ROUNDS = 4
 def search_accepted(robot, T, accept, starts, seed, rounds, settings) -> IKSolution:
     """`ikine_search` keeping only solutions `accept` takes (one arm): an `IKSolution` of
     `T.shape[:-2]` broadcast with the arm's; refused poses are searched again with other seeds
-    (`seed + 7919·r`), `rounds` times. `settings`: `ikine_search`'s other keyword arguments
-    (`q0` and `progress` are used by the first round only). `q` is NaN where no accepted
+    (`seed + 7919·r`), `rounds` times, each round's first start a random configuration inside the
+    limits instead of `q0`. `settings`: `ikine_search`'s other keyword arguments (`q0` and
+    `progress` are used by the first round only). `q` is NaN where no accepted
     solution was found; `iterations` add up over the rounds; `residual` is the accepted solution's
     (the first round's elsewhere); `reason` is the first round's where it found no solution,
     `NO_CONVERGENCE` where `accept` refused every one; `start` None."""
     res = ikine_search(robot, T, starts=starts, seed=seed, **settings)
+    chain = as_chain(robot)
     shape = res.success.shape
     ok = res.success.reshape(-1).copy()
     q = res.q.reshape(-1, res.q.shape[-1]).copy()
@@ -42,8 +45,11 @@ def search_accepted(robot, T, accept, starts, seed, rounds, settings) -> IKSolut
         idx = np.flatnonzero(left)
         if not idx.size:
             break
-        again = ikine_search(robot, Tf[idx], starts=starts, seed=None if seed is None else int(seed) + 7919 * r,
-                             **settings)
+        round_seed = None if seed is None else int(seed) + 7919 * r
+        # a round's first start is a random configuration, not q0: from q0 the search lands on the
+        # refused solution again and stops there, so the rounds found nothing new
+        q0 = chain.random_q(len(idx), np.random.default_rng(round_seed))
+        again = ikine_search(robot, Tf[idx], starts=starts, seed=round_seed, q0=q0, **settings)
         its[idx] += again.iterations
         good = again.success.copy()
         if good.any():
