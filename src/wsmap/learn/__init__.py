@@ -30,6 +30,9 @@ module                 contents
                        classical map (`VerifiedMap`)
 `screening`          `screen_arms`: many arms ranked for tool-down targets by predicted coverage,
                        the best candidates mapped classically (`Screening`)
+`pose_model`         RAM's query, f(RAM table, pose) -> logit for any pose of a 5-7-joint RAM
+                       arm, trained on exact IK labels: `build_pose_shards`, `fit_pose_model`,
+                       `predict_poses`, files
 `manipulability`     the spherical-wrist family's manipulability map (m³) learned from
                        `(d3, d4, a2, a3)`: `manipulability_dataset`,
                        `train_manipulability_model`, `predict_manipulability`,
@@ -120,6 +123,20 @@ from .training_range import ExtrapolationError, ExtrapolationWarning, TrainingRa
 from . import morph_model  # noqa: E402 -- registers the morphology model's file format with method="model"
 from .verified import VERIFY_MARGIN, VERIFY_SHELL, VerifiedMap, verified_morph_grid  # noqa: E402
 from .screening import Screening, predicted_coverage, screen_arms  # noqa: E402
+from .pose_model import (  # noqa: E402
+    PoseMapModel,
+    PoseModelConfig,
+    PoseShard,
+    build_pose_shards,
+    fit_pose_model,
+    load_pose_model,
+    pose_inputs,
+    pose_training_set,
+    predict_pose_logits,
+    predict_poses,
+    ram_inputs,
+    save_pose_model,
+)
 
 __all__ = [
     # network
@@ -149,4 +166,7 @@ __all__ = [
     "VerifiedMap", "verified_morph_grid", "VERIFY_MARGIN", "VERIFY_SHELL",
     # a catalogue of arms ranked by the network, its best decided classically
     "Screening", "screen_arms", "predicted_coverage",
+    # RAM's query: one network for every RAM arm and any pose, f(morphology, pose) -> logit
+    "PoseModelConfig", "PoseMapModel", "PoseShard", "ram_inputs", "pose_inputs", "pose_training_set",
+    "build_pose_shards", "fit_pose_model", "predict_pose_logits", "predict_poses", "save_pose_model", "load_pose_model",
 ]
