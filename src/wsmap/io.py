@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "available_memory",
     "OutputPathError",
     "check_output_path",
     "check_outputs",
@@ -359,3 +360,17 @@ def read_text(path, subject: str, hint: str, *, encoding: str = "utf-8") -> str:
     if "\x00" in text:
         raise ValueError(f"{subject} not a text file (it holds NUL bytes); {hint}")
     return text
+
+
+def available_memory() -> int:
+    """Bytes of memory available to this process (Linux `MemAvailable`; physical size elsewhere):
+    what the memory checks before any work compare with (`wsmap.workspace.grids.check_fits`,
+    `wsmap.safe_load.check_npz`)."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")

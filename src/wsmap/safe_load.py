@@ -21,6 +21,8 @@ from pathlib import Path
 
 import yaml
 
+from . import io
+
 __all__ = ["ConfigError", "load_config", "loads_json", "check_npz", "MAX_CONFIG_BYTES", "MAX_DEPTH"]
 
 #: The largest job file read (bytes): a study file is a page of settings.
@@ -167,8 +169,6 @@ def check_npz(path, text=()) -> dict:
     zip file: an empty answer, left to numpy's own error."""
     import zipfile
 
-    from .workspace.grids import available_memory
-
     out = {}
     try:
         zf = zipfile.ZipFile(path)
@@ -192,7 +192,7 @@ def check_npz(path, text=()) -> dict:
             if declared != info.file_size - offset:
                 raise ConfigError(f"member {name[:40]!r} declares {shape} {dtype} values ({declared} bytes) but holds "
                                   f"{info.file_size - offset} bytes")
-            if declared > available_memory() // 2:
+            if declared > io.available_memory() // 2:
                 raise ConfigError(f"member {name[:40]!r} holds {declared / 2**30:.2f} GiB, more than half the memory "
                                   "available")
             out[name] = (shape, dtype)

@@ -12,6 +12,7 @@ import os
 
 import numpy as np
 
+from ..io import available_memory
 from ..kinematics.transforms import as_real_array
 from typing import TYPE_CHECKING
 
@@ -29,18 +30,6 @@ N_BLOCKS = 7
 CROP_3087 = slice(5292, 5292 + 3087)
 #: Grids above this many nodes are refused before any memory is touched (a 1 mm grid over 2 m³).
 MAX_NODES = 10**10
-
-def available_memory() -> int:
-    """Bytes of memory available to this process (Linux `MemAvailable`; physical size elsewhere)."""
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-
 
 def check_fits(nbytes: int, what: str, advice: str = "use a coarser step or a smaller range") -> None:
     """A one-line `MemoryError` when `what` needs `nbytes` bytes, more than half the memory
