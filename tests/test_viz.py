@@ -174,6 +174,27 @@ def test_slices_drop_empty_layers_and_read_in_metres():
     plt.close(fig)
 
 
+def test_slices_show_the_nodes_not_found_apart_from_the_certified_ones():
+    import matplotlib.pyplot as plt
+    from wsmap.workspace.status import CERTIFIED, NOT_FOUND, REACHED
+
+    reach, nodes = _ball_map()
+    status = np.where(reach, REACHED, CERTIFIED).astype(np.int8)
+    shell = ~reach & (np.linalg.norm(nodes - nodes[reach].mean(axis=0), axis=1) < 0.45)
+    status[shell] = NOT_FOUND
+    fig = viz.plot_slices(reach, (21, 21, 21), -1.0, 0.1, status=status)
+    (legend,) = fig.legends
+    assert [t.get_text() for t in legend.get_texts()] == ["reachable", "certified unreachable",
+                                                          f"not found ({int(shell.sum())})"]
+    (mid,) = [ax for ax in fig.axes if ax.images and ax.get_title() == "z = 0.20 m"]
+    cells = mid.images[0].get_array()
+    layer = np.isclose(nodes[:, 2], 0.2)
+    assert (cells == 2).sum() == shell[layer].sum() > 0 and (cells == 1).sum() == reach[layer].sum()
+    plt.close(fig)
+    with pytest.raises(ValueError, match="status= colours one map's nodes; it cannot be drawn with compare="):
+        viz.plot_slices(reach, (21, 21, 21), -1.0, 0.1, status=status, compare=reach)
+
+
 def test_slices_thin_a_long_stack_and_keep_its_ends():
     import matplotlib.pyplot as plt
 

@@ -354,6 +354,9 @@ def _axes_of(shape, lo, step):
 
 #: Colours of a binary map's slices: unreachable (light), reachable (dark).
 MAP_COLORS = ("#f4f4f4", "#1f4e79")
+#: `plot_slices(status=...)`: a node the search gave up on without a certificate ("not found"),
+#: apart from both the reachable and the certified unreachable nodes.
+NOT_FOUND_COLOR = "#ff9f1c"
 #: Colours of two maps compared: in neither, first only, second only, both.
 COMPARE_COLORS = ("#f4f4f4", "#d62728", "#ff9f1c", "#1f4e79")
 
@@ -484,7 +487,8 @@ def _cell_extent(ax_x, ax_y, step):
 def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike = -1.0, step: float | ArrayLike = 0.1,
                 *, compare: ArrayLike | None = None, title: str | None = None, ncols: int | None = None,
                 labels: Sequence[str] = ("x", "y", "z"), names: Sequence[str] = ("first only", "second only", "both"),
-                max_panels: int = 24, metadata: dict | None = None, obstacles: Sequence | None = None) -> Figure:
+                max_panels: int = 24, metadata: dict | None = None, obstacles: Sequence | None = None,
+                status: ArrayLike | None = None) -> Figure:
     """The z-layers of a BINARY map side by side, in the grid's units. Returns a matplotlib Figure.
 
     Parameters
@@ -516,12 +520,16 @@ def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike
         a scene's obstacles, `(name, vertices (V, 3), faces (F, 3))` triangle meshes in the
         grid's frame (m; `wsmap.collision.Scene.triangles`): each panel outlines where its
         layer's plane cuts them (`OBSTACLE_COLOR`, legend entry "obstacle").
+    status
+        the map's int8 node status `(N,)` (`wsmap.workspace.status`: reached, certified
+        unreachable, not found), without `compare`: the nodes not found are drawn in
+        `NOT_FOUND_COLOR` and the legend tells "certified unreachable" from "not found".
 
     Raises
     ------
     ValueError
-        A map or `compare` that does not fit `shape`, `max_panels < 1`, or an obstacle whose
-        faces do not index its `(V, 3)` vertices.
+        A map, `compare` or `status` that does not fit `shape`, `status` with `compare`,
+        `max_panels < 1`, or an obstacle whose faces do not index its `(V, 3)` vertices.
     """
     plt = _plt()
     from matplotlib.colors import ListedColormap
@@ -533,7 +541,18 @@ def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike
     vol = map_to_volume(np.asarray(flat_map, dtype=bool), shape)  # (nz, ny, nx)
     ax_x, ax_y, ax_z = _axes_of(shape, lo, step)
     units = _units_of(labels)
-    if compare is None:
+    if status is not None:
+        if compare is not None:
+            raise ValueError("status= colours one map's nodes; it cannot be drawn with compare=")
+        from .workspace.status import NOT_FOUND
+
+        missing = map_to_volume(np.asarray(status) == NOT_FOUND, shape)
+        img = np.where(missing, 2, vol.astype(int))
+        colors, vmax = MAP_COLORS + (NOT_FOUND_COLOR,), 2
+        handles = [Patch(facecolor=MAP_COLORS[1], label="reachable"),
+                   Patch(facecolor=MAP_COLORS[0], edgecolor="0.6", label="certified unreachable"),
+                   Patch(facecolor=NOT_FOUND_COLOR, label=f"not found ({int(missing.sum())})")]
+    elif compare is None:
         img = vol.astype(int)
         colors, vmax = MAP_COLORS, 1
         handles = [Patch(facecolor=MAP_COLORS[1], label="reachable"),

@@ -457,7 +457,7 @@ class MapJob:
                                      title=title, labels=labels, vmin=vmin, vmax=vmax, metadata=meta,
                                      obstacles=obstacles)
         return plot_slices(result.values, grid["shape"], grid["lo"], grid["step"], labels=labels, title=title,
-                           metadata=meta, obstacles=obstacles)
+                           metadata=meta, obstacles=obstacles, status=result.status)
 
 
 def _floor_words(floor: float | None) -> str:
