@@ -22,7 +22,6 @@ training.
 from __future__ import annotations
 
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
@@ -75,9 +74,9 @@ def main(argv=None) -> int:
     tc = TrainConfig(optimizer="adam", optimizer_kwargs={"lr": 1e-3}, loss="crossentropy", batch_size=16,
                      lr_decay="cosine" if args.time_limit is None else "cosine-time", max_epochs=args.epochs,
                      max_fail=1000, fractions=(0.95, 0.05, 0.0), seed=args.seed, time_limit_s=args.time_limit)
-    c0, w0 = time.process_time(), time.perf_counter()
-    model, result = pm.fit_pose_model(train_shards, train_config=tc, seed=args.seed)
-    train_cpu, train_wall = time.process_time() - c0, time.perf_counter() - w0
+    with harness.Stopwatch() as watch:
+        model, result = pm.fit_pose_model(train_shards, train_config=tc, seed=args.seed)
+    train_cpu, train_wall = watch.cpu_seconds, watch.seconds
     if args.model_out:
         pm.save_pose_model(model, args.model_out, extra={"bench": "bench_pose_model", "args": vars(args)})
 
