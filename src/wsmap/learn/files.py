@@ -277,9 +277,11 @@ def save(model: SubspaceMLP, path: PathLike, *, dataset_spec: dict | None = None
         with atomic_path(p) as tmp:
             torch.save(payload, tmp)
     except OSError as e:
-        if str(path) in str(e):
+        # wsmap.io names the outputs of a full disk's error itself; say it this module's way
+        cause = e.__cause__ if isinstance(e.__cause__, OSError) and e.errno == e.__cause__.errno else e
+        if cause is e and str(path) in str(e):
             raise
-        raise type(e)(e.errno, f"cannot save model to {path}: {e.strerror or e}") from e
+        raise type(e)(e.errno, f"cannot save model to {path}: {cause.strerror or cause}") from e
     except RuntimeError as e:  # torch's stream writer (a full disk, a vanished folder)
         raise OSError(f"cannot save model to {path}: {e}") from e
     return p
