@@ -183,13 +183,13 @@ def test_a_sampled_configurations_pose_is_reachable_under_both_labels():
     assert datasets.ik_labels(m, T).all()
 
 
-def test_rounds_from_other_first_starts_find_the_collision_free_branch():
-    # a 6-joint arm has a few IK branches; wsmap.reachable's retries after a colliding solution begin
-    # at the same first start and find it again, other random first starts find the free branch
+def test_the_collision_free_branch_is_found():
+    # a 6-joint arm has a few IK branches; the retries after a colliding solution must reach the free
+    # one (wsmap.reachable's own retries began at the same first start and found 15 of these 19)
     m = datasets.sample_morphologies(1, 6, seed=7)[0]
     q, T = datasets.fk_samples(m, 40, seed=3)
     assert len(q) == 19
-    assert datasets.ik_labels(m, T, rounds=0).sum() == 15
+    assert datasets.ik_labels(m, T, rounds=0).all()
     assert datasets.ik_labels(m, T).all()
 
 
