@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import functools
 import re
 import sys
 from pathlib import Path
@@ -29,6 +30,7 @@ SRC = ROOT / "src"
 DVC_YAML = ROOT / "dvc.yaml"
 
 
+@functools.cache  # one process reads one tree: every stage asks for the same modules
 def module_file(name: str) -> Path | None:
     """The source file of the dotted module ``name`` under ``src/``, or ``None``."""
     rel = Path(*name.split("."))
@@ -91,6 +93,12 @@ def wsmap_imports(source: str, module: str | None) -> set[str]:
     return {".".join(m.split(".")[:i]) for m in found for i in range(1, len(m.split(".")) + 1)}
 
 
+@functools.cache
+def _module_imports(m: str) -> frozenset[str]:
+    """`wsmap_imports` of the module `m`'s source, parsed once per process."""
+    return frozenset(wsmap_imports(module_file(m).read_text(), m))
+
+
 def import_closure(roots: set[str]) -> set[Path]:
     """The source files of ``roots`` and of every ``wsmap`` module they import, transitively."""
     seen: set[str] = set()
@@ -100,7 +108,7 @@ def import_closure(roots: set[str]) -> set[Path]:
         if m in seen or module_file(m) is None:
             continue
         seen.add(m)
-        todo += wsmap_imports(module_file(m).read_text(), m) - seen
+        todo += _module_imports(m) - seen
     return {module_file(m) for m in seen}
 
 
