@@ -70,6 +70,8 @@ __all__ = [
     "UnverifiedModelWarning",
     "payload_checksum",
     "to_plain",
+    "write_model_payload",
+    "read_model_payload",
     "save",
     "load",
 ]
@@ -460,3 +462,48 @@ def load(path: PathLike, *, map_location: str | torch.device = "cpu",
             "map_spec": model.map_spec, "training_range": payload.get("training_range"),
             "checksum": payload.get("checksum") if version >= 2 else None}
     return model, meta
+
+
+def write_model_payload(path: PathLike, payload: dict) -> Path:
+    """Write a model file's `payload` (plain content, `format` and `version` among it) to `path`
+    atomically with its `payload_checksum` added; returns the path. The writer of the model kinds
+    that have their own format (`wsmap.learn.morph_model`, `wsmap.learn.pose_model`)."""
+    p = Path(path)
+    if p.is_dir():
+        raise ModelFileError(f"cannot save model {path}: it is a directory")
+    payload = {**payload, "checksum": payload_checksum(payload)}
+    p.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(p) as tmp:
+        torch.save(payload, tmp)
+    return p
+
+
+def read_model_payload(path: PathLike, fmt: str, version: int, what: str) -> dict:
+    """The payload of a file of `write_model_payload` whose format tag is `fmt` at `version`.
+
+    A missing file, one that is not a torch archive, a truncated or corrupt one, another format (the
+    message names it and `what` this one is: `"a morphology model"`), another version and a checksum
+    that does not match are each a one-line `ModelFileError` `"cannot load model <path>: <problem>"`."""
+    def fail(problem, cause=None):
+        raise ModelFileError(f"cannot load model {path}: {problem}") from cause
+
+    p = Path(path)
+    if not p.is_file():
+        fail("no such file")
+    data = p.read_bytes()
+    if not data.startswith(b"PK\x03\x04"):
+        fail("not a wsmap model file (not a torch zip archive)")
+    try:
+        payload = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
+    except Exception as e:  # a truncated zip, flipped bits
+        fail("not a readable torch file (truncated or corrupt)", e)
+    if not isinstance(payload, dict) or "format" not in payload:
+        fail("not a wsmap model file (no format tag)")
+    if payload["format"] != fmt:
+        other = " (a family map model)" if payload["format"] == FORMAT else ""
+        fail(f"it is a {payload['format']!r} file{other}, not {what} ({fmt!r})")
+    if payload.get("version") != version:
+        fail(f"format version {payload.get('version')!r} is not supported (this wsmap reads {version})")
+    if payload_checksum(payload) != payload.get("checksum"):
+        fail("checksum mismatch: the file is corrupt (its content differs from what was saved)")
+    return payload

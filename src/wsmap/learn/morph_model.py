@@ -33,7 +33,6 @@ baseline a model must beat: the map of the nearest training arm in
 
 from __future__ import annotations
 
-import io
 import math
 import time
 import warnings
@@ -46,11 +45,10 @@ import torch
 from torch import nn
 
 from .._version import __version__
-from ..io import atomic_path
 from ..kinematics.morphology import N_FEATURES, SNAP, describe, morphology_distance
 from ..robots import FAMILIES
 from ..robots.morph import MorphFamily, morph_params, morphology_of
-from .files import ModelFileError, payload_checksum, to_plain
+from .files import ModelFileError, read_model_payload, to_plain, write_model_payload
 from .predictor import register_model_format
 from .training import TrainConfig, TrainResult, train
 from .training_range import ExtrapolationError, ExtrapolationWarning
@@ -517,9 +515,6 @@ def save_morph_model(model: MorphMapModel, path, *, extra: dict | None = None) -
     """Write `model` to `path` atomically (format `FORMAT`, with a checksum); returns the path."""
     if not isinstance(model, MorphMapModel):
         raise TypeError(f"save_morph_model needs a MorphMapModel; got {type(model).__name__}")
-    p = Path(path)
-    if p.is_dir():
-        raise ModelFileError(f"cannot save model {path}: it is a directory")
     payload = {
         "format": FORMAT, "version": FORMAT_VERSION, "wsmap_version": __version__,
         "config": model.config.to_dict(),
@@ -529,11 +524,7 @@ def save_morph_model(model: MorphMapModel, path, *, extra: dict | None = None) -
         "train_config": to_plain(getattr(model, "train_config", None), "train_config"),
         "extra": to_plain(extra, "extra"),
     }
-    payload["checksum"] = payload_checksum(payload)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(p) as tmp:
-        torch.save(payload, tmp)
-    return p
+    return write_model_payload(path, payload)
 
 
 def load_morph_model(path) -> tuple[MorphMapModel, dict[str, Any]]:
@@ -544,24 +535,7 @@ def load_morph_model(path) -> tuple[MorphMapModel, dict[str, Any]]:
     def fail(problem, cause=None):
         raise ModelFileError(f"cannot load model {path}: {problem}") from cause
 
-    p = Path(path)
-    if not p.is_file():
-        fail("no such file")
-    data = p.read_bytes()
-    if not data.startswith(b"PK\x03\x04"):
-        fail("not a wsmap model file (not a torch zip archive)")
-    try:
-        payload = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
-    except Exception as e:  # a truncated zip, flipped bits
-        fail("not a readable torch file (truncated or corrupt)", e)
-    if not isinstance(payload, dict) or "format" not in payload:
-        fail("not a wsmap model file (no format tag)")
-    if payload["format"] != FORMAT:
-        fail(f"it is a {payload['format']!r} file (a family map model), not a morphology model ({FORMAT!r})")
-    if payload.get("version") != FORMAT_VERSION:
-        fail(f"format version {payload.get('version')!r} is not supported (this wsmap reads {FORMAT_VERSION})")
-    if payload_checksum(payload) != payload.get("checksum"):
-        fail("checksum mismatch: the file is corrupt (its content differs from what was saved)")
+    payload = read_model_payload(path, FORMAT, FORMAT_VERSION, "a morphology model")
     try:
         config = MorphModelConfig(**payload["config"])
         state = payload["state_dict"]

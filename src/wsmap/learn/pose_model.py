@@ -44,7 +44,6 @@ corrupt or tampered files a `ModelFileError` (`save_pose_model`, `load_pose_mode
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 import math
 import time
@@ -59,7 +58,7 @@ from torch import nn
 
 from .._version import __version__
 from ..io import atomic_path
-from .files import ModelFileError, payload_checksum, to_plain
+from .files import ModelFileError, read_model_payload, to_plain, write_model_payload
 from .training import TrainConfig, TrainResult, train
 from .training_range import ExtrapolationError
 
@@ -502,9 +501,6 @@ def save_pose_model(model: PoseMapModel, path: PathLike, *, extra: dict | None =
     content, `wsmap.learn.files.payload_checksum`); returns the path."""
     if not isinstance(model, PoseMapModel):
         raise TypeError(f"save_pose_model needs a PoseMapModel; got {type(model).__name__}")
-    p = Path(path)
-    if p.is_dir():
-        raise ModelFileError(f"cannot save model {path}: it is a directory")
     payload = {
         "format": POSE_FORMAT, "version": POSE_FORMAT_VERSION, "wsmap_version": __version__,
         "config": model.config.to_dict(),
@@ -514,11 +510,7 @@ def save_pose_model(model: PoseMapModel, path: PathLike, *, extra: dict | None =
         "train_config": to_plain(getattr(model, "train_config", None), "train_config"),
         "extra": to_plain(extra, "extra"),
     }
-    payload["checksum"] = payload_checksum(payload)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(p) as tmp:
-        torch.save(payload, tmp)
-    return p
+    return write_model_payload(path, payload)
 
 
 def load_pose_model(path: PathLike) -> tuple[PoseMapModel, dict[str, Any]]:
@@ -529,24 +521,7 @@ def load_pose_model(path: PathLike) -> tuple[PoseMapModel, dict[str, Any]]:
     def fail(problem, cause=None):
         raise ModelFileError(f"cannot load model {path}: {problem}") from cause
 
-    p = Path(path)
-    if not p.is_file():
-        fail("no such file")
-    data = p.read_bytes()
-    if not data.startswith(b"PK\x03\x04"):
-        fail("not a wsmap model file (not a torch zip archive)")
-    try:
-        payload = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
-    except Exception as e:  # a truncated zip, flipped bits
-        fail("not a readable torch file (truncated or corrupt)", e)
-    if not isinstance(payload, dict) or "format" not in payload:
-        fail("not a wsmap model file (no format tag)")
-    if payload["format"] != POSE_FORMAT:
-        fail(f"it is a {payload['format']!r} file, not a pose model ({POSE_FORMAT!r})")
-    if payload.get("version") != POSE_FORMAT_VERSION:
-        fail(f"format version {payload.get('version')!r} is not supported (this wsmap reads {POSE_FORMAT_VERSION})")
-    if payload_checksum(payload) != payload.get("checksum"):
-        fail("checksum mismatch: the file is corrupt (its content differs from what was saved)")
+    payload = read_model_payload(path, POSE_FORMAT, POSE_FORMAT_VERSION, "a pose model")
     try:
         model = PoseMapModel(PoseModelConfig(**payload["config"]), box=payload["box"], dofs=payload["dofs"])
         model.load_state_dict(payload["state_dict"])
