@@ -33,7 +33,7 @@ from numba import njit, prange
 
 from ..chain import PRISMATIC, SerialChain, as_chain
 from .memo import Memo, content_key
-from .reach_filter import limit_filter, limit_geometry, reach_filter, through_point
+from .reach_filter import joint_box_and_radius, limit_filter, limit_geometry, reach_filter, through_point
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
@@ -85,20 +85,12 @@ def _geometry(chain: SerialChain):
 def _make_geometry(chain: SerialChain):
     n = chain.n
     S, w_loc, frames = limit_geometry(chain)
-    lim = np.array(chain.limits, dtype=np.float64)
-    full = ~np.isfinite(lim).all(axis=-1) | (lim[:, 1] - lim[:, 0] >= 2.0 * np.pi)
-    # the search confirms a solution up to 1e-9 rad outside a limit (lm_compiled._confirm): the box
-    # is wider by that (a full turn where the range is a turn or more: every angle is some q + 2πk)
-    box = np.where(full[:, None], np.array([-np.pi, np.pi]), lim + np.array([-1e-9, 1e-9]))
-    lengths = np.linalg.norm(chain.fixed[:, :3, 3], axis=-1)
-    radius = np.zeros(n)  # W is at most radius[j] from the origin of joint j's frame
-    for j in range(1, n - 1):
-        radius[j] = float(lengths[j + 1:n].sum() + np.linalg.norm(w_loc)) * (1.0 + 1e-12)
+    box, radius = joint_box_and_radius(chain, w_loc)
     a0 = frames[0, :3, :3] @ chain.axes[0]
     rigid = np.zeros(n, dtype=np.bool_)
     rigid[[j for j in through_point(chain, frames, S) if j < n - 1]] = True
     return dict(chain=chain, S=S, a0=a0, w_loc=w_loc, box=box, radius=radius, rigid=rigid,
-                scale=float(lengths.sum() + np.linalg.norm(w_loc)))
+                scale=float(np.linalg.norm(chain.fixed[:, :3, 3], axis=-1).sum() + np.linalg.norm(w_loc)))
 
 
 def _pose_invariants(chain: SerialChain, geo, T, margin):

@@ -25,7 +25,7 @@ from .. import lm_compiled
 from ..chain import PRISMATIC, SerialChain
 from .memo import Memo, content_key
 
-__all__ = ["reach_filter", "position_filter", "first_axis_point", "limit_filter", "limit_bounds", "limit_geometry",
+__all__ = ["reach_filter", "position_filter", "first_axis_point", "limit_filter", "limit_bounds", "joint_box_and_radius", "limit_geometry",
            "through_point"]
 
 _ORBITS = Memo()
@@ -375,18 +375,28 @@ def limit_bounds(chain: SerialChain):
     return _LIMIT_BOUNDS.get(key, lambda: _make_limit_bounds(chain.replace(base=None, tool=None)))
 
 
-def _make_limit_bounds(chain: SerialChain):
+def joint_box_and_radius(chain: SerialChain, w_loc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The joints' box `(n, 2)` (rad) a sound bound must cover and how far `W` can be from each
+    joint's frame origin, `radius (n,)` (m; joints 1 .. n-2, else 0), for one arm of revolute
+    joints: the limits widened by 1e-9 rad, because the search confirms a solution up to that far
+    outside a limit (`lm_compiled._confirm`), and a full turn where the range is a turn or more
+    (every angle is some `q + 2πk`) or unlimited; `W` is at most the later fixed translations plus
+    `w_loc` (its offset in the last joint's frame) from joint `j`'s origin."""
     n = chain.n
-    S, w_loc, frames = limit_geometry(chain)
     lim = np.array(chain.limits, dtype=np.float64)
     full = ~np.isfinite(lim).all(axis=-1) | (lim[:, 1] - lim[:, 0] >= 2.0 * np.pi)
-    # the search confirms a solution up to 1e-9 rad outside a limit (lm_compiled._confirm)
     box = np.where(full[:, None], np.array([-np.pi, np.pi]), lim + np.array([-1e-9, 1e-9]))
     lengths = np.linalg.norm(chain.fixed[:, :3, 3], axis=-1)
-    # W is at most radius[j] from the origin of joint j's frame (the later fixed translations and w_loc)
     radius = np.zeros(n)
     for j in range(1, n - 1):
         radius[j] = float(lengths[j + 1:n].sum() + np.linalg.norm(w_loc)) * (1.0 + 1e-12)
+    return box, radius
+
+
+def _make_limit_bounds(chain: SerialChain):
+    n = chain.n
+    S, w_loc, frames = limit_geometry(chain)
+    box, radius = joint_box_and_radius(chain, w_loc)
     skip = set(through_point(chain, frames, S))
     dims = [j for j in range(1, n - 1) if j not in skip]
     a0 = frames[0, :3, :3] @ chain.axes[0]
