@@ -33,7 +33,7 @@ import numpy as np
 
 from ..kinematics import as_chain
 from ..kinematics.chain import REVOLUTE
-from ..kinematics.ik.reach_filter import limit_filter, reach_filter
+from ..kinematics.ik.certificate import CERTIFY_MARGIN, filter_certificate
 from ..kinematics.ik.settings import SearchSettings
 from ..kinematics.ik.solver import get_solver
 from ..kinematics.transforms import check_rigid
@@ -52,8 +52,6 @@ __all__ = ["REACHED", "CERTIFIED", "NOT_FOUND", "STATUS", "CONFIRM_TOL", "tool_v
 
 #: Forward kinematics must put the end frame within this of its target (m, and rad of rotation).
 CONFIRM_TOL = 1e-6
-#: The sound tests' margin: a pose this close to a reachable one is not certified unreachable.
-CERTIFY_MARGIN = 1e-6
 
 
 def _rz(angle: float) -> np.ndarray:
@@ -178,15 +176,6 @@ def _confirm(robot, q, ok, T):
     return q, good
 
 
-def _certified(robot, T):
-    """`(N,)` True where a sound test proves the end-frame pose `T` `(N, 4, 4)` unreachable."""
-    chain = as_chain(robot)
-    out = ~np.asarray(reach_filter(chain, T, CERTIFY_MARGIN), dtype=bool)
-    if chain.qlim is not None:
-        out |= ~np.asarray(limit_filter(chain, T, CERTIFY_MARGIN), dtype=bool)
-    return out
-
-
 def end_poses(targets: np.ndarray, base: np.ndarray, variants: np.ndarray, tcp: np.ndarray) -> np.ndarray:
     """The end-frame poses `(M, K, 4, 4)` in the base frame: `B⁻¹ · T_m · V_k · tcp⁻¹`."""
     return np.linalg.inv(base) @ targets[:, None] @ variants[None] @ np.linalg.inv(tcp)
@@ -245,7 +234,7 @@ def evaluate_targets(robot: Arm, targets, *, base=None, variants=None, tcp=None,
     pick = np.arange(M) * K + best
     status = np.where(reached, REACHED, NOT_FOUND).astype(np.int8)
     if (~reached).any():
-        cert = _certified(robot, E).reshape(M, K).all(axis=1)
+        cert = filter_certificate(robot, E, CERTIFY_MARGIN).reshape(M, K).all(axis=1)
         status[~reached & cert] = CERTIFIED
     qs = np.where(reached[:, None], q[pick], np.nan)
     chosen = {name: np.where(reached, v[pick], np.nan) for name, v in values.items()}
