@@ -153,3 +153,20 @@ def test_refusals():
         pm.PoseModelConfig(encoder=())
     with pytest.raises(TypeError, match="needs a PoseMapModel"):
         pm.save_pose_model(torch.nn.Linear(1, 1), "/tmp/x.pt")
+
+
+def test_training_set_with_poses_returns_what_it_labelled():
+    """`with_poses`: the poses themselves (their inputs are `poses`), the same labels, and the FK
+    poses labelled without IK: a quarter of a 5-joint arm's random poses, none of a 6-joint arm's."""
+    for dof, known_share in ((5, 0.25), (6, 0.0)):
+        m = ds.sample_morphologies(2, dof, seed=5)
+        raw, labels = pm.pose_training_set(m, 12, 2, 3, seed=4)
+        raw2, labels2, T, known = pm.pose_training_set(m, 12, 2, 3, seed=4, with_poses=True)
+        np.testing.assert_array_equal(raw2, raw)
+        np.testing.assert_array_equal(labels2, labels)
+        assert T.shape == (2, 18, 4, 4) and known.shape == (2, 18)
+        np.testing.assert_array_equal(pm.pose_inputs(T), raw)
+        assert labels[known].all() and not known[:, 12:].any()  # the boundary poses are all labelled by IK
+        assert known[:, :12].sum(axis=1).max() <= 12 * known_share
+        if dof == 5:
+            assert known.any()

@@ -62,13 +62,13 @@ def test_a_failing_notebook_is_one_line_and_keeps_the_last_good_copy(tmp_path, c
 
 ORDER = ["classical_workspace", "sec61_subspace", "sec62_puma560", "table1_workspaces", "table2_optimisers",
          "table3_embeddings", "runtime_comparison", "improved_model", "real_arms", "reach_study", "learned_maps", "morphologies",
-         "report"]
+         "ram_protocol", "report"]
 
 
 def test_the_run_order_and_what_each_part_reads_come_from_the_registry():
     assert pipeline.order() == parts.order() == ORDER
     assert parts.reads("learned_maps") == ["improved_model"]
-    assert parts.reads("report") == [n for n in ORDER if n not in ("real_arms", "reach_study", "morphologies", "report")]
+    assert parts.reads("report") == [n for n in ORDER if n not in ("real_arms", "reach_study", "morphologies", "ram_protocol", "report")]
     assert all(parts.reads(n) == [] for n in ORDER[:8])
     # every notebook is a part, and every part a notebook
     assert sorted(p.stem for p in paths.NOTEBOOKS.glob("*.ipynb")) == sorted(ORDER)

@@ -46,6 +46,10 @@ def test_committed_params_differ_from_full_scale_only_in_scale():
     assert morph <= {"step", "shards", "arms_per_shard", "test_arms", "fk.samples", "train.epochs",
                      "timing_repeats", "workers", "family.panda.samples"}, morph
     rows = [r for r in rows if r["stage"] != "morphologies"]
+    # RAM's protocol at RAM's training scale: more arms (in more shards), more held-out arms, samples, epochs
+    ram = {r["parameter"] for r in rows if r["stage"] == "ram_protocol"}
+    assert ram <= {"train_arms", "arms_per_shard", "test_arms", "fk.samples", "train.epochs"}, ram
+    rows = [r for r in rows if r["stage"] != "ram_protocol"]
     # one Table 1 row runs more sessions: written per row, the others keep one
     assert {"stage": "table1_workspaces", "parameter": "sessions.table1_so3_pi10", "committed": 1,
             "paper scale": 5} in rows

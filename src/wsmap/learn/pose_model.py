@@ -250,7 +250,7 @@ class PoseShard:
 
 
 def pose_training_set(morphs: ArrayLike, random: int, geodesics: int, per_geodesic: int, seed: int = 0, *,
-                      starts: int = 32) -> tuple[np.ndarray, np.ndarray]:
+                      starts: int = 32, with_poses: bool = False) -> tuple[np.ndarray, ...]:
     """Poses and exact labels for every arm: RAM's random poses plus its boundary geodesics.
 
     Parameters
@@ -267,6 +267,9 @@ def pose_training_set(morphs: ArrayLike, random: int, geodesics: int, per_geodes
         Arm `i` draws from seeds `seed * 100_003 + i`.
     starts : int
         IK starts of `ik_labels`.
+    with_poses : bool
+        Also return the poses themselves and which were labelled without IK (for scoring other
+        labellers on exactly these poses, `wsmap.paper.parts.ram_protocol`).
 
     Returns
     -------
@@ -274,6 +277,11 @@ def pose_training_set(morphs: ArrayLike, random: int, geodesics: int, per_geodes
         `pose_inputs` of each arm's poses (random first), float64.
     labels : ndarray of bool, same leading shape
         Reachable with a solution free of RAM's capsule self-collision.
+    T : ndarray, shape (n, random + geodesics * per_geodesic, 4, 4)
+        With `with_poses` only: the end-effector poses (base frame, m) that `poses` describes.
+    known : ndarray of bool, shape as `labels`
+        With `with_poses` only: the FK poses of collision-free configurations that RAM labels
+        reachable without IK (a quarter of a 5-joint arm's random poses), OR-ed into `labels`.
     """
     from ..datasets import ram
 
@@ -282,15 +290,19 @@ def pose_training_set(morphs: ArrayLike, random: int, geodesics: int, per_geodes
     P = random + geodesics * per_geodesic
     poses = np.zeros((len(m), P, POSE_INPUTS))
     labels = np.zeros((len(m), P), dtype=bool)
+    Ts = np.zeros((len(m), P, 4, 4)) if with_poses else None
+    knowns = np.zeros((len(m), P), dtype=bool)
     for i, mi in enumerate(m):  # one arm at a time: each a batch of its poses in the compiled search
         s = int(seed) * 100_003 + i
         check = ram.ram_collision(mi)
-        parts, labs = [], []
+        parts, labs, kn = [], [], []
         if random:
             T, known = ram.random_poses(mi, random, seed=s)
             parts.append(T)
             labs.append(ram.ik_labels(mi, T, starts=starts, seed=s, collision=check) | known)
+            kn.append(known)
         if geodesics:
+            known = np.zeros(geodesics * per_geodesic, dtype=bool)
             try:
                 Tb, yb = ram.boundary_poses(mi, geodesics, per_geodesic, seed=s, starts=starts)
             except RuntimeError:  # no unreachable pose in the ball (or no free configuration): random ones
@@ -298,9 +310,14 @@ def pose_training_set(morphs: ArrayLike, random: int, geodesics: int, per_geodes
                 yb = ram.ik_labels(mi, Tb, starts=starts, seed=s, collision=check) | known
             parts.append(Tb)
             labs.append(yb)
-        poses[i] = _raw_pose(np.concatenate(parts))
+            kn.append(known)
+        T = np.concatenate(parts)
+        poses[i] = _raw_pose(T)
         labels[i] = np.concatenate(labs)
-    return poses, labels
+        knowns[i] = np.concatenate(kn)
+        if with_poses:
+            Ts[i] = T
+    return (poses, labels, Ts, knowns) if with_poses else (poses, labels)
 
 
 def _digest(*arrays) -> str:
