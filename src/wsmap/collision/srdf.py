@@ -71,12 +71,18 @@ class Srdf:
         have = set(names)
         return [(a, b) for a, b, _ in self.disabled if a in have and b in have and a != b]
 
-    def ends(self, group: str | None = None) -> tuple[str | None, str | None]:
+    def ends(self, group: str | None = None, *, options: tuple[str, str, str | None] = ("--ee", "--base", None)
+             ) -> tuple[str | None, str | None]:
         """`(base_link, ee_link)` of the arm the SRDF describes (module notes); `group` picks a
-        planning group by name. None where the SRDF says nothing (the URDF's root, its leaf)."""
+        planning group by name. None where the SRDF says nothing (the URDF's root, its leaf).
+        `options`: how messages name the end link, the base link and the group where the SRDF
+        does not decide (`wsmap map`'s `--ee`, `--base`, no group option; a study's `ee`, `base`,
+        `group`)."""
         label = f"SRDF {self.source!r}" if self.source != "SRDF text" else "SRDF text"
         groups = self.groups or {}
         chains = [g for g, c in groups.items() if c is not None]
+        ee_opt, base_opt, group_opt = options
+        pick = "" if group_opt is None else f"the group ({group_opt}) or "
         if group is not None:
             if group not in groups:
                 raise SRDFError(f"{label}: no group {group!r}; the groups are: {', '.join(groups) or 'none'}")
@@ -86,15 +92,15 @@ class Srdf:
         elif chains:
             hung = sorted({pg for _, _, pg in self.end_effectors if pg in chains})
             if len(hung) != 1:
-                raise SRDFError(f"{label} has several chain groups ({', '.join(chains)}): give the end and base links "
-                                "(--ee, --base)")
+                raise SRDFError(f"{label} has several chain groups ({', '.join(chains)}): give {pick}the end and "
+                                f"base links ({ee_opt}, {base_opt})")
             chosen = hung[0]
         else:
             if len(self.end_effectors) == 1:
                 return None, self.end_effectors[0][1]
             if self.end_effectors:
                 raise SRDFError(f"{label} has no chain group and several end effectors "
-                                f"({', '.join(e[0] for e in self.end_effectors)}): give the end link (--ee)")
+                                f"({', '.join(e[0] for e in self.end_effectors)}): give the end link ({ee_opt})")
             return None, None
         base, tip = groups[chosen] if groups[chosen] is not None else (None, None)
         tools = [e[1] for e in self.end_effectors if e[2] == chosen]
@@ -116,7 +122,10 @@ def _check_link(link: str, links, where: str, label: str) -> None:
 
 
 def _urdf_links(urdf) -> set[str]:
-    data, label, _ = read_source(urdf)
+    try:
+        data, label, _ = read_source(urdf)
+    except (FileNotFoundError, TypeError) as e:
+        raise URDFError(str(e)) from None
     return set(URDFTree(parse_xml(data, label), label).links)
 
 

@@ -10,14 +10,20 @@ pictures. The same file and seed give the same bytes.
 
 Example::
 
-    robot: ur5e                       # or {urdf: arm.urdf, ee: tool0}, {mjcf: ..., ee: ...}, {name: panda}
+    robot: ur5e                       # or {urdf: arm.urdf, ee: tool0}, {mjcf: ..., ee: ...}, {name: panda},
+                                      # or {urdf: arm.urdf, srdf: arm.srdf, group: manipulator}
     tcp: [0, 0, 0.1, 0, 0, 0]         # x y z (m) r1 r2 r3 (rad) of the TCP in the arm's end frame
     targets: {poses: picks.csv}       # or {mesh: part.ply, spacing: 0.02, pose: [...], standoff: 0}
                                       # or {points: part.pcd, tool_z: along} (REACH's rule: z = +n)
     orientation: {turns: 8}           # the tool free about its axis, every 45 degrees
     base: {region: {x: [-1, 1], y: [-1, 1], step: 0.1, yaws: 8}, top: 5}
-    collision: {workpiece: part.ply}  # the workpiece an obstacle, tested on its triangles
+    collision: {workpiece: part.ply}  # the workpiece an obstacle, tested on its triangles; floor: 0 or false
     outputs: {study: study.npz}
+
+A URDF arm's entry may name MoveIt's SRDF of the arm (`srdf`, and a planning `group`): its
+`<disable_collisions>` pairs go into the allowed-collision matrix, and its group's chain and end
+effector (`wsmap.collision.srdf.Srdf.ends`) give the end and base links that `ee` and `base` do
+not. The SRDF is read and checked against the URDF's links by `check()`, before any work.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..collision.sources import CollisionSource
+from ..collision.srdf import SRDFError, load_srdf
 from .._progress import progress_bar
 from ..io import check_outputs
 from ..robots.sources import ArmSource
@@ -82,19 +89,59 @@ def _range(value, label: str) -> tuple[float, float]:
     return lo, hi
 
 
-def _arm(spec, label: str, root: Path) -> ArmSource:
-    """An `ArmSource` from a study's `robot` entry: a name, or a mapping."""
+def _arm(spec, label: str, root: Path) -> tuple[ArmSource, str | None, str | None]:
+    """`(arm, srdf, group)` of a study's `robot` entry: a name, or a mapping (the SRDF's path
+    relative to the study file; both None without one)."""
     if isinstance(spec, str):
-        return ArmSource(robot=spec)
-    check_keys(spec, ("name", "urdf", "mjcf", "ee", "base", "dh", "joint_limits", "qlim_deg"), label=label)
+        return ArmSource(robot=spec), None, None
+    check_keys(spec, ("name", "urdf", "mjcf", "srdf", "group", "ee", "base", "dh", "joint_limits", "qlim_deg"),
+               label=label)
     dh = spec.get("dh") or {}
     if dh:
         check_keys(dh, ("d", "a", "alpha", "offset", "modified"), label=f"{label}.dh", required=("d", "a", "alpha"))
-    path = {k: str(root / spec[k]) if spec.get(k) is not None else None for k in ("urdf", "mjcf")}
-    return ArmSource(robot=spec.get("name"), urdf=path["urdf"], mjcf=path["mjcf"], ee=spec.get("ee"),
-                     base=spec.get("base"), d=dh.get("d"), a=dh.get("a"), alpha=dh.get("alpha"),
-                     offset=dh.get("offset"), modified=bool(dh.get("modified", False)),
-                     joint_limits=spec.get("joint_limits"), qlim_deg=spec.get("qlim_deg"))
+    for key, what in (("srdf", "MoveIt's SRDF file of the URDF arm"), ("group", "a planning group of the arm's SRDF")):
+        if key in spec and (not isinstance(spec[key], str) or not spec[key]):
+            raise ConfigError(f"{label}.{key}: {what}, got {spec[key]!r:.60}")
+    path = {k: str(root / spec[k]) if spec.get(k) is not None else None for k in ("urdf", "mjcf", "srdf")}
+    arm = ArmSource(robot=spec.get("name"), urdf=path["urdf"], mjcf=path["mjcf"], ee=spec.get("ee"),
+                    base=spec.get("base"), d=dh.get("d"), a=dh.get("a"), alpha=dh.get("alpha"),
+                    offset=dh.get("offset"), modified=bool(dh.get("modified", False)),
+                    joint_limits=spec.get("joint_limits"), qlim_deg=spec.get("qlim_deg"))
+    return arm, path["srdf"], spec.get("group")
+
+
+def _srdf_arm(arm: ArmSource, srdf: str | None, group: str | None, key: str) -> ArmSource:
+    """`arm` with the end and base links its SRDF picks where `ee`/`base` are not given; every
+    problem a one-line `ConfigError` naming `key` (the arm's entry), before any work."""
+    if srdf is None:
+        if group is not None:
+            raise ConfigError(f"{key}.group: {group[:80]!r} names a planning group of the arm's SRDF: give srdf: FILE")
+        return arm
+    if arm.urdf is None:
+        given = ("an MJCF file" if arm.mjcf is not None else "DH columns" if arm.has_dh else f"the named arm {arm.name!r}")
+        raise ConfigError(f"{key}.srdf: MoveIt's SRDF describes a URDF arm (urdf: FILE); this arm is {given}")
+    if group is not None and arm.ee is not None and arm.base is not None:
+        raise ConfigError(f"{key}.group: the group picks the end and base links that ee and base do not give; "
+                          "both are given")
+    try:
+        arm.check()
+    except ValueError as e:
+        raise ConfigError(f"{key}: {e}") from None
+    try:
+        description = load_srdf(srdf, urdf=arm.urdf)
+    except SRDFError as e:
+        raise ConfigError(f"{key}.srdf: {e}") from None
+    if arm.ee is not None and arm.base is not None:
+        return arm
+    try:
+        base, ee = description.ends(group, options=("ee", "base", "group"))
+    except SRDFError as e:
+        raise ConfigError(f"{key}.{'srdf' if group is None else 'group'}: {e}") from None
+    if group is not None and ee is None and base is None:
+        chains = ", ".join(g for g, c in description.groups.items() if c is not None) or "none"
+        raise ConfigError(f"{key}.group: group {group[:80]!r} of SRDF {srdf!r} has no <chain> and no end effector; "
+                          f"the groups with a chain: {chains}")
+    return replace(arm, ee=arm.ee if arm.ee is not None else ee, base=arm.base if arm.base is not None else base)
 
 
 @dataclass(frozen=True)
@@ -219,10 +266,15 @@ class BaseSpec:
 
 @dataclass(frozen=True)
 class StudyJob:
-    """A reach study; see the module notes. Build it with `from_file` (or the fields directly)."""
+    """A reach study; see the module notes. Build it with `from_file` (or the fields directly).
+
+    `arms` are `ArmSource`s; `srdfs` and `groups` (empty, or one entry per arm, None where an arm
+    has none) MoveIt's SRDF file of a URDF arm and the planning group that picks its chain."""
 
     arms: tuple
     targets: TargetSpec
+    srdfs: tuple = ()
+    groups: tuple = ()
     tcp: tuple = tuple(np.eye(4).reshape(-1))
     orientation: OrientationSpec = field(default_factory=OrientationSpec)
     scores: tuple = ("manipulability", "joint_margin")
@@ -250,7 +302,8 @@ class StudyJob:
         specs = [d["robot"]] if "robot" in d else d["robots"]
         if not isinstance(specs, list) or not specs:
             raise ConfigError(f"{label}.robots: a non-empty list of arms")
-        arms = tuple(_arm(s, f"{label}.robot", root) for s in specs)
+        keys = [f"{label}.robot"] if "robot" in d else [f"{label}.robots[{i}]" for i in range(len(specs))]
+        arms, srdfs, groups = zip(*(_arm(s, k, root) for s, k in zip(specs, keys)))
         scores = d.get("scores", ["manipulability", "joint_margin"])
         if not isinstance(scores, list) or any(s not in SCORES for s in scores):
             raise ConfigError(f"{label}.scores: a list of {', '.join(SCORES)}, got {scores!r:.80}")
@@ -263,7 +316,8 @@ class StudyJob:
         if needs and not d.get("collision"):
             raise ConfigError(f"{label}.scores: {needs[0]} measures the distance to collision: give collision "
                               "(true, or a scene, or a workpiece)")
-        return cls(arms=arms, targets=TargetSpec.from_dict(d["targets"], f"{label}.targets", root),
+        return cls(arms=arms, srdfs=srdfs if any(srdfs) else (), groups=groups if any(groups) else (),
+                   targets=TargetSpec.from_dict(d["targets"], f"{label}.targets", root),
                    tcp=tuple(_pose(d.get("tcp", [0, 0, 0, 0, 0, 0]), f"{label}.tcp").reshape(-1)),
                    orientation=OrientationSpec.from_dict(d.get("orientation", {}), f"{label}.orientation"),
                    scores=tuple(scores), base=BaseSpec.from_dict(d.get("base", {"pose": [0, 0, 0, 0, 0, 0]}),
@@ -281,13 +335,31 @@ class StudyJob:
         if out is not None and out.suffix != ".npz":
             raise ConfigError(f"outputs.study {str(out)!r}: a study file is .npz")
         check_outputs({f"outputs.{k}": v for k, v in self.views.items() if k != "score"} | {"outputs.study": out})
-        robots = [a.build() for a in self.arms]
+        arms = self.arm_sources()
+        robots = [a.build() for a in arms]
         collision = self.collision
         if self.workpiece is not None:
             collision = replace(collision, obstacles=collision.obstacles + (self.workpiece_obstacle(),))
-        checkers = [collision.build(r, a) for r, a in zip(robots, self.arms)]
+        checkers = [replace(collision, srdf=s).build(r, a) for r, a, s in zip(robots, arms, self._per_arm("srdfs"))]
         targets = self.targets.load()
-        return StudyPlan(robots=robots, checkers=checkers, targets=targets, out=out)
+        return StudyPlan(robots=robots, checkers=checkers, targets=targets, out=out, arms=arms)
+
+    def _per_arm(self, name: str) -> tuple:
+        """`srdfs` or `groups`, one entry per arm (None where an arm has none)."""
+        values = getattr(self, name)
+        if len(values) not in (0, len(self.arms)):
+            raise ConfigError(f"{name}: one entry per arm ({len(self.arms)}), got {len(values)}")
+        return tuple(values) or (None,) * len(self.arms)
+
+    def arm_sources(self) -> list[ArmSource]:
+        """The arms, each with the end and base links its SRDF picks where `ee`/`base` are not
+        given (the SRDF read and checked against the URDF); a one-line `ConfigError` naming the
+        arm's entry for an SRDF beside an arm that is not a URDF, a group that the SRDF does not
+        have, an SRDF naming a link the URDF does not have, a group without an SRDF."""
+        label = "study" if self.source is None else f"study file {self.source!r}"
+        keys = [f"{label}.robot"] if len(self.arms) == 1 else [f"{label}.robots[{i}]" for i in range(len(self.arms))]
+        return [_srdf_arm(a, s, g, k) for a, s, g, k in zip(self.arms, self._per_arm("srdfs"), self._per_arm("groups"),
+                                                            keys)]
 
     def workpiece_obstacle(self) -> Obstacle:
         """The workpiece as a world-frame obstacle at the targets' `pose`, tested on its triangles
@@ -326,16 +398,25 @@ class StudyJob:
             if update is not None:
                 update(1)
         return StudyResult(names=[r.name or f"arm {i}" for i, r in enumerate(plan.robots)], targets=plan.targets,
-                           results=per_arm, variants=variants, settings=self.settings())
+                           results=per_arm, variants=variants, settings=self.settings(plan))
 
-    def settings(self) -> dict:
-        """The job as the study file records it (no timings: the same job gives the same bytes)."""
-        return {"arms": [a.describe() | {"dh": a.has_dh} for a in self.arms], "targets": self.targets.__dict__,
+    def settings(self, plan: StudyPlan | None = None) -> dict:
+        """The job as the study file records it (no timings: the same job gives the same bytes).
+        Each arm's record names its SRDF and group; with the `plan`, its end and base links as
+        the SRDF picked them and `floor`: the height (m, world frame) of the floor its collision
+        check used, None for none (or no collision check)."""
+        arms = self.arms if plan is None else plan.arms
+        records = [a.describe() | {"dh": a.has_dh, "srdf": s, "group": g}
+                   for a, s, g in zip(arms, self._per_arm("srdfs"), self._per_arm("groups"))]
+        if plan is not None:
+            for record, checker in zip(records, plan.checkers):
+                record["floor"] = None if checker is None else checker.scene.floor
+        return {"arms": records, "targets": self.targets.__dict__,
                 "tcp": list(self.tcp), "orientation": self.orientation.__dict__, "scores": list(self.scores),
                 "base": {"pose": self.base.pose, "top": self.base.top,
                          "region": None if self.base.region is None else self.base.region.__dict__},
                 "collision": {"wanted": self.collision.wanted or self.workpiece is not None,
-                              **self.collision.describe(), "workpiece": self.workpiece},
+                              **self.collision.describe(), "workpiece": self.workpiece, "floor": self.collision.floor},
                 "method": self.method, "starts": self.starts, "seed": self.seed, "source": self.source}
 
     def save(self, result: StudyResult, plan: StudyPlan) -> list[Path]:
@@ -354,12 +435,14 @@ class StudyJob:
 
 @dataclass
 class StudyPlan:
-    """A checked `StudyJob`: the arms, their collision checkers, the targets, the study file's path."""
+    """A checked `StudyJob`: the arms, their collision checkers, the targets, the study file's path,
+    the arms' sources (their SRDF's chain ends filled in)."""
 
     robots: list
     checkers: list
     targets: TargetSet
     out: Path | None
+    arms: list = field(default_factory=list)
 
 
 def _collision(d, label: str, root: Path) -> CollisionSource:
@@ -367,9 +450,22 @@ def _collision(d, label: str, root: Path) -> CollisionSource:
         return CollisionSource()
     if d is True:
         return CollisionSource(collision=True)
-    check_keys(d, ("scene", "allow", "acm_samples", "link_radius", "workpiece"), label=label)
+    check_keys(d, ("scene", "allow", "acm_samples", "link_radius", "workpiece", "floor"), label=label)
     return CollisionSource(collision=True, scene=_path(d, "scene", root), allow=d.get("allow"),
-                           acm_samples=d.get("acm_samples"), link_radius=d.get("link_radius"))
+                           acm_samples=d.get("acm_samples"), link_radius=d.get("link_radius"),
+                           floor=_floor(d, f"{label}.floor"))
+
+
+def _floor(d, label: str) -> float | bool | None:
+    """The explicit floor of a `collision` mapping: a height (m, world frame), False for none, or
+    None when the key is absent (a named arm's floor at z = 0, a scene file's floor)."""
+    if "floor" not in d or d["floor"] is False:
+        return d.get("floor")
+    z = d["floor"]
+    if isinstance(z, bool) or not isinstance(z, (int, float)) or not np.isfinite(z) or abs(z) > 1000:
+        raise ConfigError(f"{label}: the floor's height (m, world frame; a finite number of magnitude at most 1000) "
+                          f"or false for no floor, got {z!r:.40}")
+    return float(z)
 
 
 def _workpiece(d, label: str, root: Path) -> str | None:

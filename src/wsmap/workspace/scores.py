@@ -35,7 +35,7 @@ if TYPE_CHECKING:
 
     from ..kinematics.chain import Arm
 
-__all__ = ["Score", "SCORES", "manipulability", "joint_margin", "clearance", "combined", "score_names",
+__all__ = ["Score", "SCORES", "manipulability", "joint_margin", "clearance", "world_frame_scene", "combined", "score_names",
            "score_values", "CLEARANCE_THRESHOLD", "CLEARANCE_EXPONENT"]
 
 #: `clearance`'s distance threshold (m): at or beyond it the score is 1 (REACH's demo setting).
@@ -75,13 +75,23 @@ def joint_margin(robot: Arm, q) -> np.ndarray:
     return np.clip(margin.min(axis=1), 0.0, 1.0)
 
 
+def world_frame_scene(scene) -> bool:
+    """Whether a study checks `scene` from the arm's world pose (`CollisionChecker.at_bases`): it
+    has world-frame obstacles, or a floor (a height in the world frame) and no base-frame
+    obstacles (which move with the base, and which `at_bases` refuses)."""
+    if scene is None:
+        return False
+    frames = {ob.frame for ob in scene.obstacles}
+    return "world" in frames or (scene.floor is not None and "base" not in frames)
+
+
 def clearance(robot: Arm, q, *, collision=None, base=None, threshold: float = CLEARANCE_THRESHOLD,
               exponent: float = CLEARANCE_EXPONENT) -> np.ndarray:
     """REACH's distance-to-collision penalty `(M,)` in [0, 1] of solutions `q` `(M, n)` (see the
     module notes): `min(1, (d / threshold)^exponent)`, `d` (m) the clearance of `collision`, a
     `wsmap.collision.CollisionChecker` of this arm. `base` `(4, 4)` is the arm's world pose: where
-    the checker's scene has world-frame obstacles they are measured from it (as the study checks
-    them, `CollisionChecker.at_bases`); without such obstacles `base` changes nothing.
+    the checker's scene has world-frame obstacles or a floor they are measured from it (as the study
+    checks them, `world_frame_scene`, `CollisionChecker.at_bases`); otherwise `base` changes nothing.
 
     `ValueError` without a checker (or one with no `distance`), for a threshold or exponent that is
     not a positive finite number, or for `q` of the wrong shape.
@@ -92,8 +102,7 @@ def clearance(robot: Arm, q, *, collision=None, base=None, threshold: float = CL
     for name, v in (("threshold", threshold), ("exponent", exponent)):
         if isinstance(v, bool) or not isinstance(v, (int, float, np.number)) or not (np.isfinite(v) and v > 0):
             raise ValueError(f"clearance {name} must be a positive finite number, got {v!r}")
-    scene = getattr(collision, "scene", None)
-    world = scene is not None and any(ob.frame == "world" for ob in scene.obstacles)
+    world = world_frame_scene(getattr(collision, "scene", None))
     # the cap: past the threshold every distance scores 1, so coal need not measure it
     d = collision.distance(q, base if world and base is not None else None, cap=float(threshold))
     return np.clip((np.asarray(d, dtype=np.float64) / threshold) ** exponent, 0.0, 1.0)

@@ -38,7 +38,7 @@ from ..kinematics.ik.settings import SearchSettings
 from ..kinematics.ik.solver import get_solver
 from ..kinematics.transforms import check_rigid
 from .maps import resolve_method
-from .scores import SCORES, combined, score_values
+from .scores import SCORES, combined, score_values, world_frame_scene
 from .status import CERTIFIED, NOT_FOUND, REACHED, STATUS  # the codes of maps and studies alike
 from typing import TYPE_CHECKING
 
@@ -144,12 +144,12 @@ class TargetResults:
 
 
 def _accept(collision, base):
-    """The configuration predicate of an arm at `base`: a checker with world-frame obstacles checks
-    them from that base (`at_bases`), any other predicate as it is."""
+    """The configuration predicate of an arm at `base`: a checker whose scene is in the world frame
+    (`world_frame_scene`: world-frame obstacles, or a floor, a height in the world frame as the
+    targets are) checks it from that base (`at_bases`), any other predicate as it is."""
     if collision is None:
         return None
-    scene = getattr(collision, "scene", None)
-    if scene is not None and any(ob.frame == "world" for ob in scene.obstacles):
+    if world_frame_scene(getattr(collision, "scene", None)):
         return lambda q: collision.at_bases(q, base)
     return collision
 
