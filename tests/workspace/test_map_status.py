@@ -201,30 +201,86 @@ def test_the_command_line_prints_the_three_counts(tmp_path, capsys):
 @pytest.mark.parametrize("name", ["panda", "iiwa14", "gen3", "dh5"])
 def test_the_box_bounds_hold_every_configuration_of_the_box(name):
     # the branch and bound's one proof step: each invariant of every configuration in a box lies
-    # within the box's bounds (sampled: 2000 boxes of every size, 20 configurations each)
+    # within the box's bounds, and the five linear forms (d², g, h, k, m) within their remainders
+    # of the centre's (sampled: 2000 boxes of every size, 20 configurations each)
     from wsmap.kinematics.ik import certificate as C
 
     robot = _random_dh(int(name[2:])) if name.startswith("dh") else robots.load(name)
     geo = C._geometry(as_chain(robot))
     ch, n = geo["chain"], robot.n
     rng = np.random.default_rng(3)
-    F, Z, lo, hi = np.empty((n, 14)), np.empty((7, 9)), np.empty(9), np.empty(4)
-    worst = 0.0
+    F, Z, lo, hi = np.empty((n, 14)), np.empty((7, 9)), np.empty(13), np.empty(4)
+    G, R = np.empty((5, n)), np.empty(5)
+    worst = worst_lin = 0.0
     for _ in range(2000):
         c = rng.uniform(-np.pi, np.pi, n)
         hw = np.zeros(n)
         hw[1:n - 1] = rng.uniform(0, 1, n - 2) * 10.0 ** rng.uniform(-3, 0)
         C._box_bounds(ch.fixed, ch.axes, np.broadcast_to(ch.offset, (n,)).astype(float), geo["S"], geo["a0"],
-                      geo["w_loc"], geo["radius"], geo["rigid"], n, c, hw, F, Z, lo, hi)
-        q = c + rng.uniform(-1, 1, (20, n)) * hw
-        frames, _ = ch.joint_frames(q)
+                      geo["w_loc"], geo["radius"], geo["rigid"], n, c, hw, F, Z, lo, hi, G, R)
+        delta = rng.uniform(-1, 1, (20, n)) * hw
+        frames, _ = ch.joint_frames(c + delta)
         last = frames[:, n - 1]
         W = last[:, :3, :3] @ geo["w_loc"] + last[:, :3, 3]
         z = last[:, :3, :3] @ ch.axes[n - 1]
         u = W - geo["S"]
         inv = np.stack([np.linalg.norm(u, axis=1), np.einsum("ki,ki->k", u, z), u @ geo["a0"], z @ geo["a0"]])
         worst = max(worst, float((inv - hi[:, None]).max()), float((lo[:4, None] - inv).max()))
+        five = np.stack([inv[0] ** 2, inv[1], inv[2], inv[3], np.cross(u, z) @ geo["a0"]])
+        centre = np.array([lo[4] ** 2, lo[5], lo[6], lo[7], lo[8]])
+        off = np.abs(five - centre[:, None] - G @ delta.T) - R[:, None]
+        worst_lin = max(worst_lin, float(off.max()))
     assert worst <= 1e-12
+    assert worst_lin <= 1e-12
+
+
+def _narrow_ends(seed, half0=0.8, half_last=0.5):
+    """A random 6R arm (`_random_dh`) with joint 0 limited to ±half0 and the last joint to ±half_last."""
+    arm = _random_dh(seed)
+    lim = np.array(arm.qlim, dtype=np.float64)
+    lim[0], lim[-1] = [-half0, half0], [-half_last, half_last]
+    return DHRobot(arm.d, arm.a, arm.alpha, qlim=lim)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_no_configuration_inside_random_limits_is_certified(seed):
+    # the soundness property with every test of the branch and bound (the limits of joints 0 and
+    # n-1 included): random 6R arms, random limits (narrow at both ends), the poses of random
+    # configurations inside them, with and without a tool and a base
+    rng = np.random.default_rng(100 + seed)
+    arm = _narrow_ends(seed + 10, *rng.uniform(0.2, 2.0, 2))
+    if seed % 2:
+        tool = np.eye(4)
+        tool[:3, 3] = rng.uniform(-0.1, 0.1, 3)
+        arm = DHRobot(arm.d, arm.a, arm.alpha, qlim=arm.qlim, tool=tool)
+    T = arm.fkine(_inside(arm, 60, rng))
+    assert not joint_certificate(arm, T).any()
+    assert not certify(arm, T).any()
+
+
+def test_the_limits_of_joints_0_and_n_minus_1_certify_what_the_invariants_cannot():
+    # configurations with joint 0 (then the last joint) outside narrow limits: the four invariants
+    # do not see either joint, so before the end tests none was certified; now many are, and a
+    # 256-start search reaches none of them
+    from wsmap.kinematics.ik import certificate as C
+
+    arm = _narrow_ends(0)
+    rng = np.random.default_rng(0)
+    lim = np.array(arm.qlim)
+    q = rng.uniform(lim[:, 0], lim[:, 1], (80, 6))
+    q[:40, 0] = rng.uniform(1.0, 2.5, 40) * rng.choice([-1, 1], 40)
+    q[40:, 5] = rng.uniform(0.7, 2.5, 40) * rng.choice([-1, 1], 40)
+    T = arm.fkine(q)
+    old = C.BOX_TESTS
+    try:
+        C.BOX_TESTS = 0
+        before = joint_certificate(arm, T)
+    finally:
+        C.BOX_TESTS = old
+    after = joint_certificate(arm, T)
+    assert not before.any()
+    assert after[:40].sum() >= 20 and after[40:].sum() >= 4
+    assert not wsmap.reachable(arm, T[after], starts=256, seed=5).any()
 
 
 @pytest.mark.parametrize("name", ["panda", "iiwa14"])

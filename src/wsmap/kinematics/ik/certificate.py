@@ -8,15 +8,17 @@ Three certificates, tried cheapest first (`certify`):
   `limit_filter`: one of three invariants of the last joint's axis outside the interval the limits
   allow);
 * `joint_certificate` (arms of revolute joints, n >= 3): a branch and bound over the box of joints
-  `1 .. n-2` that checks four invariants of the last joint's axis *jointly* — the distance `d`,
+  `1 .. n-2` that checks invariants of the last joint's axis *jointly* — the distance `d`,
   the projections `g` (on the axis) and `h` (on joint 0's axis) of the point `W` of the last
-  axis from a point `S` of joint 0's axis, and the cosine `k` between the last axis and joint 0's
-  axis. Joint 0 turns `W - S` and the last axis rigidly about its axis and joint n-1 turns about
-  the last axis, so none of the four depends on either: a configuration reaching the pose must have
-  joints `1 .. n-2` where all four equal the pose's. A box of those joints is discarded when a
-  sound bound of one invariant over it (second-order Taylor, `_box_bounds`) excludes the pose's
-  value by more than the margin; the pose is certified when every box is discarded, and not
-  certified (the answer "not found") when the cell budget runs out;
+  axis from a point `S` of joint 0's axis, the cosine `k` between the last axis and joint 0's
+  axis, and the signed `m = a0·((W - S) × z)`. Joint 0 turns `W - S` and the last axis rigidly
+  about its axis and joint n-1 turns about the last axis, so none of the five depends on either: a
+  configuration reaching the pose must have joints `1 .. n-2` where all five equal the pose's. A box
+  of those joints is discarded when a sound bound of one invariant, or of a combination of their
+  linear forms, over it (second-order Taylor, `_box_bounds`, `_combination_dead`) excludes the
+  pose's value by more than the margin, or when the turn of joint 0 or of joint n-1 that the pose
+  needs from that box lies outside its limits (`_ends_dead`); the pose is certified when every box
+  is discarded, and not certified (the answer "not found") when the cell budget runs out;
 * `closed_form_certificate` (arms of a closed-form family): every branch the closed form enumerates
   fails, and the enumeration is complete there (no branch singular, see the function).
 
@@ -57,6 +59,15 @@ GIVE_UP_NEAR = 1e-4
 #: The least smallest singular value (m or rad per rad) of a real branch's Jacobian at which
 #: `closed_form_certificate` counts it regular.
 SINGULAR_SIGMA = 1e-3
+#: The tests `joint_certificate` applies to a box beside the four invariants' intervals, a bit mask:
+#: 1, the limits of joints 0 and n-1 (`_ends_dead`); 2, the signed invariant `m` and the
+#: combinations of the invariants' linear forms (`_combination_dead`); 4, the split across the joint
+#: that adds most to that combination's bound (`_split_by_effect`; else the joint that moves `W` and
+#: `z` most). 0 is the certificate before them (`benchmarks/maps/bench_certificates.py --compare`
+#: measures both side by side).
+BOX_TESTS = 7
+#: Reweighted directions `_combination_dead` tries after the first.
+COMBINATION_ROUNDS = 2
 
 _GEOMETRY = Memo()
 
@@ -89,33 +100,55 @@ def _make_geometry(chain: SerialChain):
     a0 = frames[0, :3, :3] @ chain.axes[0]
     rigid = np.zeros(n, dtype=np.bool_)
     rigid[[j for j in through_point(chain, frames, S) if j < n - 1]] = True
-    return dict(chain=chain, S=S, a0=a0, w_loc=w_loc, box=box, radius=radius, rigid=rigid,
+    # the limits of joints 0 and n-1: a basis of joint 0's normal plane, a unit vector e_loc across the
+    # last axis (in its frame) and the one a quarter turn on, the half-widths and the last box's centre
+    b1 = _across(a0)
+    zl = chain.axes[n - 1]
+    e_loc = _across(zl)
+    half = 0.5 * (box[:, 1] - box[:, 0])
+    ends = np.concatenate([b1, np.cross(a0, b1), e_loc, np.cross(zl, e_loc),
+                           [half[0], 0.5 * (box[n - 1, 0] + box[n - 1, 1]) + float(np.broadcast_to(chain.offset, (n,))[n - 1]),
+                            half[n - 1]]])
+    return dict(chain=chain, S=S, a0=a0, w_loc=w_loc, box=box, radius=radius, rigid=rigid, ends=ends, e_loc=e_loc,
                 scale=float(np.linalg.norm(chain.fixed[:, :3, 3], axis=-1).sum() + np.linalg.norm(w_loc)))
 
 
+def _across(a):
+    """A unit vector (3,) perpendicular to the unit vector `a`."""
+    ref = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    b = np.cross(a, ref)
+    return b / np.linalg.norm(b)
+
+
 def _pose_invariants(chain: SerialChain, geo, T, margin):
-    """The four invariants `(N, 4)` of the poses `T` `(N, 4, 4)` and how far `(N, 4)` a pose
-    within `margin` of them moves each (with the rounding of this arithmetic)."""
+    """The five invariants `(N, 5)` (`d, g, h, k, m`) of the poses `T` `(N, 4, 4)`, how far
+    `(N, 5)` a pose within `margin` of them moves each (with the rounding of this arithmetic), and
+    the vectors `(N, 11)` of `_ends_dead`: `u = W - S`, `z`, the last joint frame's `e_loc` after
+    its turn, the slacks of `u` (m) and of the unit vectors."""
     n = chain.n
     G = chain.fixed[n] if chain.tool is None else chain.fixed[n] @ chain.tool
     # the last joint's frame is T·G⁻¹: W and the last axis z in the tool frame
     v = G[:3, :3].T @ (geo["w_loc"] - G[:3, 3])
     zt = G[:3, :3].T @ chain.axes[n - 1]
+    et = G[:3, :3].T @ geo["e_loc"]
     if chain.base is not None:
         T = np.linalg.inv(chain.base) @ T
     R = T[:, :3, :3]
     u = T[:, :3, 3] + R @ v - geo["S"]
     z = R @ zt
+    a0 = geo["a0"]
     d = np.linalg.norm(u, axis=-1)
-    values = np.stack([d, np.einsum("ni,ni->n", u, z), u @ geo["a0"], z @ geo["a0"]], axis=-1)
+    m = np.cross(u, z) @ a0
+    values = np.stack([d, np.einsum("ni,ni->n", u, z), u @ a0, z @ a0, m], axis=-1)
     # a pose within margin of T moves W by at most margin·(1 + |v|) and z by margin (a turn of
-    # margin rad moves a unit vector by at most margin)
+    # margin rad moves a unit vector by at most margin); g and m are products of the two
     sW = margin * (1.0 + float(np.linalg.norm(v)))
     tiny = 1e-9 * (1.0 + geo["scale"] + float(np.linalg.norm(v)))
     sg = sW + margin * (d + sW) + tiny
-    slack = np.stack([np.full_like(d, sW + tiny), sg, np.full_like(d, sW + tiny), np.full_like(d, margin + 1e-12)],
+    slack = np.stack([np.full_like(d, sW + tiny), sg, np.full_like(d, sW + tiny), np.full_like(d, margin + 1e-12), sg],
                      axis=-1)
-    return values, slack
+    pv = np.concatenate([u, z, R @ et, np.full((len(d), 1), sW + tiny), np.full((len(d), 1), margin + 1e-12)], axis=-1)
+    return values, slack, pv
 
 
 def joint_certificate(robot: Arm, T, margin: float = CERTIFY_MARGIN, *, budget: int = CELL_BUDGET,
@@ -124,13 +157,14 @@ def joint_certificate(robot: Arm, T, margin: float = CERTIFY_MARGIN, *, budget: 
     inside the limits puts the tool within `margin` of the pose `T[i]` (`T` `(N, 4, 4)`, one arm).
 
     Every pose starts with one box, the limits of joints `1 .. n-2` (a full turn where a range is
-    a turn or more; 1e-9 rad wider, the search's own slack). Depth first, each box's four
-    invariants are bounded (`_box_bounds`); a box whose bounds exclude
-    the pose's values by more than the margin's effect (`_pose_invariants`) is discarded, any other
-    is split in two across the joint that moves `W` most. A pose is certified when every box is
-    discarded; it gives up (False: "not found") after `budget` boxes, deeper than `depth` splits,
-    or at a box centre whose invariants all lie within `GIVE_UP_NEAR` of the pose's (a pose that
-    is most likely reachable). All False for an arm it does not apply to (prismatic joints, fewer
+    a turn or more; 1e-9 rad wider, the search's own slack). Depth first, each box's five
+    invariants are bounded (`_box_bounds`); a box whose bounds, or a combination of them
+    (`_combination_dead`), exclude the pose's values by more than the margin's effect
+    (`_pose_invariants`), or that needs joint 0 or joint n-1 outside its limits (`_ends_dead`), is
+    discarded; any other is split in two (`BOX_TESTS` says across which joint). A pose is certified
+    when every box is discarded; it gives up (False: "not found") after `budget` boxes, deeper than
+    `depth` splits, or at a box centre whose invariants all lie within `GIVE_UP_NEAR` of the pose's
+    and inside the limits of joints 0 and n-1 (a pose that is most likely reachable). All False for an arm it does not apply to (prismatic joints, fewer
     than 3 joints, a batch). Compiled (numba), poses in parallel; each pose's answer is its own.
     """
     chain = as_chain(robot)
@@ -142,20 +176,22 @@ def joint_certificate(robot: Arm, T, margin: float = CERTIFY_MARGIN, *, budget: 
     geo = _geometry(chain)
     if geo is None:
         return out.astype(bool)
-    values, slack = _pose_invariants(chain, geo, T, margin)
+    values, slack, pv = _pose_invariants(chain, geo, T, margin)
     c = geo["chain"]
     args = (np.ascontiguousarray(c.fixed, dtype=np.float64), np.ascontiguousarray(c.axes, dtype=np.float64),
             np.ascontiguousarray(np.broadcast_to(c.offset, (c.n,)), dtype=np.float64), geo["S"], geo["a0"],
             geo["w_loc"], geo["radius"], geo["rigid"], geo["box"])
-    values, slack = np.ascontiguousarray(values), np.ascontiguousarray(slack)
+    values, slack, pv = np.ascontiguousarray(values), np.ascontiguousarray(slack), np.ascontiguousarray(pv)
     todo = np.arange(N)
+    tests = int(BOX_TESTS)
     if geo["rigid"].any():
         # first d and g alone, over the joints that change them (fewer dimensions, far fewer boxes)
-        _certify_boxes(*args, True, values, slack, GIVE_UP_NEAR, int(budget), int(depth), out)
+        _certify_boxes(*args, True, values, slack, pv, geo["ends"], tests, int(COMBINATION_ROUNDS), GIVE_UP_NEAR, int(budget), int(depth), out)
         todo = np.flatnonzero(out == 0)
     if todo.size:
         part = np.zeros(todo.size, dtype=np.int8)
-        _certify_boxes(*args, False, values[todo], slack[todo], GIVE_UP_NEAR, int(budget), int(depth), part)
+        _certify_boxes(*args, False, values[todo], slack[todo], pv[todo], geo["ends"], tests, int(COMBINATION_ROUNDS), GIVE_UP_NEAR,
+                       int(budget), int(depth), part)
         out[todo] = part
     return out.astype(bool)
 
@@ -287,9 +323,16 @@ def _centre_frames(fixed, axes, offset, n, c, F, Z):
 
 
 @njit(cache=True)
-def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, hw, F, Z, lo, hi):
+def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, hw, F, Z, lo, hi, G, R):
     """Sound bounds of `d`, `g`, `h`, `k` over the box `c ± hw` (n,) rad (`hw` 0 off joints
-    `1 .. n-2`), into `lo[:4]`, `hi` (4,); the centre's own invariants into `lo[4:8]`.
+    `1 .. n-2`), into `lo[:4]`, `hi` (4,); the centre's invariants `d, g, h, k, m` into `lo[4:9]`,
+    the joint to split into `lo[9]`, bounds of how far `u = W - S` and `z` move over the box into
+    `lo[10]`, `lo[11]` (m, and a unit vector's chord), `Σ hw` into `lo[12]`.
+
+    The linear form of the five invariants `f = (d², g, h, k, m)` (`m = a0·(u × z)`, the signed
+    part the four others miss: a pose and its mirror image in a plane through joint 0's axis share
+    `d, g, h, k`): `G` (5, n) the derivatives at the centre, `R` (5,) with
+    `|f_i(c + δ) - f_i(c) - G_i·δ| <= R_i` over the box.
 
     `W(c + δ) = W(c) + Jδ + r` with `|r| <= Σ_ij radius[max(i, j)] hw_i hw_j / 2` (each second
     derivative of `W` is a double cross product of unit axes with `W`'s offset from the later
@@ -299,7 +342,7 @@ def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, hw, F, Z
     `Σ|K_j·a0| hw_j + r_z`, and `g = u·z` within its first-order change plus the products of the
     remainders. Joints in `rigid` (an unbroken run from joint 1 whose axes pass through `S`) turn
     `u` and `z` rigidly about `S` and change neither `d` nor `g`: those two sum over the other
-    joints only. Scratch: `F` (n, 12), the joint frames' rotations (row-major, 9) and origins (3);
+    joints only. Scratch: `F` (n, 14), the joint frames' rotations (row-major, 9) and origins (3);
     `Z` (7, 9). No fastmath: each operation rounds once, far inside the margin's slack."""
     _centre_frames(fixed, axes, offset, n, c, F, Z)
     W, zz = Z[5], Z[6]
@@ -310,16 +353,24 @@ def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, hw, F, Z
         zz[r] = F[L, 3 * r] * axes[L, 0] + F[L, 3 * r + 1] * axes[L, 1] + F[L, 3 * r + 2] * axes[L, 2]
     u0, u1, u2 = W[0] - S[0], W[1] - S[1], W[2] - S[2]
     du = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+    # z × a0 and a0 × u: m's derivative a0·(J×z + u×K) = J·(z×a0) + K·(a0×u)
+    za0, za1, za2 = zz[1] * a0[2] - zz[2] * a0[1], zz[2] * a0[0] - zz[0] * a0[2], zz[0] * a0[1] - zz[1] * a0[0]
+    au0, au1, au2 = a0[1] * u2 - a0[2] * u1, a0[2] * u0 - a0[0] * u2, a0[0] * u1 - a0[1] * u0
     # d and g: the joints not in `rigid` (a rigid joint turns W - S and z about S: d and g unchanged);
-    # h and k: every joint
+    # h, k and m: every joint
     A = 0.0
     Bz = 0.0
+    A_all = 0.0
+    Bz_all = 0.0
     uJ = 0.0
     lin_g = 0.0
     lin_h = 0.0
     lin_k = 0.0
     best = -1.0
     split = 1
+    for j in range(n):
+        for i in range(5):
+            G[i, j] = 0.0
     for j in range(1, n - 1):
         h = hw[j]
         F[j, 12] = 0.0
@@ -336,8 +387,15 @@ def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, hw, F, Z
         nK = math.sqrt(K0 * K0 + K1 * K1 + K2 * K2)
         F[j, 12] = nJ  # W's distance from joint j's axis at the centre
         F[j, 13] = nK  # the sine of the angle between joint j's axis and z at the centre
-        lin_h += abs(J0 * a0[0] + J1 * a0[1] + J2 * a0[2]) * h
-        lin_k += abs(K0 * a0[0] + K1 * a0[1] + K2 * a0[2]) * h
+        Gh = J0 * a0[0] + J1 * a0[1] + J2 * a0[2]
+        Gk = K0 * a0[0] + K1 * a0[1] + K2 * a0[2]
+        G[2, j] = Gh
+        G[3, j] = Gk
+        G[4, j] = J0 * za0 + J1 * za1 + J2 * za2 + K0 * au0 + K1 * au1 + K2 * au2
+        lin_h += abs(Gh) * h
+        lin_k += abs(Gk) * h
+        A_all += nJ * h
+        Bz_all += nK * h
         # the split: the joint whose box width moves W and z most here (and bounds the remainder)
         lever = (nJ + nK + radius[j] * h) * h
         if lever > best:
@@ -345,10 +403,14 @@ def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, hw, F, Z
             split = j
         if rigid[j]:
             continue
+        uj = u0 * J0 + u1 * J1 + u2 * J2
+        gj = u0 * K0 + u1 * K1 + u2 * K2 + J0 * zz[0] + J1 * zz[1] + J2 * zz[2]
+        G[0, j] = 2.0 * uj
+        G[1, j] = gj
         A += nJ * h
         Bz += nK * h
-        uJ += abs(u0 * J0 + u1 * J1 + u2 * J2) * h
-        lin_g += abs(u0 * K0 + u1 * K1 + u2 * K2 + J0 * zz[0] + J1 * zz[1] + J2 * zz[2]) * h
+        uJ += abs(uj) * h
+        lin_g += abs(gj) * h
     # second-order remainders: the (i, j) second derivative of W is bounded by W's distance from
     # the axis of joint m = max(i, j) somewhere in the box, at most its centre value plus how far
     # the later joints move W (Σ_{k>m} radius_k hw_k), and never above radius_m; of z likewise by
@@ -395,20 +457,279 @@ def _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, hw, F, Z
     lo[2] = hh - lin_h - rW
     hi[3] = kk + lin_k + rz
     lo[3] = kk - lin_k - rz
-    # the centre's own values, for the give-up test (in the slots 4 .. 7)
+    # the centre's own values (the give-up test, the linear forms), in the slots 4 .. 8
     lo[4] = du
     lo[5] = g
     lo[6] = hh
     lo[7] = kk
-    lo[8] = split
+    lo[8] = a0[0] * (u1 * zz[2] - u2 * zz[1]) + a0[1] * (u2 * zz[0] - u0 * zz[2]) + a0[2] * (u0 * zz[1] - u1 * zz[0])
+    lo[9] = split
+    lo[10] = A_all + rW
+    lo[11] = Bz_all + rz
+    lo[12] = sufZ
+    # the remainders of the linear forms: u' = u + Jδ + r_W, z' = z + Kδ + r_z (z' a unit vector)
+    R[0] = 2.0 * du * rW_d + (A + rW_d) * (A + rW_d)
+    R[1] = (du + A) * rz_d + A * Bz + rW_d
+    R[2] = rW
+    R[3] = rz
+    R[4] = (du + A_all) * rz + A_all * Bz_all + rW
+
+
+@njit(cache=True)
+def _solve_direction(e, G, hw, Rs, k, n, M, lam, wt):
+    """`lam` (k,) solving `(Σ_j wt_j hw_j² G_j G_jᵀ + diag(wt_{n+a} Rs_a²)) λ = e` (Cholesky, in
+    `M`); False where the matrix is not positive (then `lam` is not set)."""
+    for a in range(k):
+        for b in range(a + 1):
+            s = 0.0
+            for j in range(n):
+                s += wt[j] * hw[j] * hw[j] * G[a, j] * G[b, j]
+            M[a, b] = s
+        M[a, a] += wt[n + a] * Rs[a] * Rs[a]
+    for a in range(k):
+        for b in range(a + 1):
+            s = M[a, b]
+            for t in range(b):
+                s -= M[a, t] * M[b, t]
+            if a == b:
+                if not s > 0.0:
+                    return False
+                M[a, a] = math.sqrt(s)
+            else:
+                M[a, b] = s / M[b, b]
+    for a in range(k):
+        s = e[a]
+        for t in range(a):
+            s -= M[a, t] * lam[t]
+        lam[a] = s / M[a, a]
+    for a in range(k - 1, -1, -1):
+        s = lam[a]
+        for t in range(a + 1, k):
+            s -= M[t, a] * lam[t]
+        lam[a] = s / M[a, a]
+    return True
+
+
+@njit(cache=True)
+def _combination_dead(e, G, hw, Rs, k, n, M, lam, wt, rounds):
+    """Whether one combination `λ·f` of the first `k` invariants proves the box empty: for any `λ`,
+    `λ·f(c + δ)` lies within `Σ_j |λ·G_j| hw_j + Σ_i |λ_i| R_i` of `λ·f(c)`, and the pose's within
+    `Σ_i |λ_i| s_i` of `λ·v`; `e = v - f(c)` (k,), `Rs = R + s` (k,). The `λ` tried first solves
+    `(Σ_j hw_j² G_j G_jᵀ + diag(Rs²)) λ = e` (the least-squares direction in which the box's
+    linear image is thinnest relative to the gap; near a border it is the border's normal), then
+    `rounds` reweighted ones (each term weighted by one over its size at the last `λ`, towards the
+    direction of the least sum of absolute values). Any `λ` is sound; the choice only decides how
+    often a box is discarded. `wt` (n + 5,) scratch."""
+    for j in range(n + k):
+        wt[j] = 1.0
+    for it in range(rounds + 1):
+        if not _solve_direction(e, G, hw, Rs, k, n, M, lam, wt):
+            return False
+        gap = 0.0
+        size = 0.0
+        for a in range(k):
+            gap += lam[a] * e[a]
+            size += abs(lam[a] * e[a])
+        bound = 0.0
+        for a in range(k):
+            t = abs(lam[a]) * Rs[a]
+            bound += t
+            wt[n + a] = 1.0 / max(t, 1e-300)
+        for j in range(n):
+            if hw[j] == 0.0:
+                continue
+            s = 0.0
+            for a in range(k):
+                s += lam[a] * G[a, j]
+            t = abs(s) * hw[j]
+            bound += t
+            wt[j] = 1.0 / max(t, 1e-3 * bound / n + 1e-300)
+        # the sums round by a few ulps of their terms; Rs holds each invariant's own rounding slack
+        if abs(gap) > bound + 1e-12 * (size + bound):
+            return True
+        # normalise the weights (the next solve's scale)
+        top = 0.0
+        for j in range(n + k):
+            top = max(top, wt[j])
+        for j in range(n + k):
+            wt[j] /= top
+    return False
+
+
+@njit(cache=True)
+def _split_by_effect(G, hw, lam, k, n, radius, du):
+    """The joint whose half-width adds most to the combination's bound: its linear term
+    `|λ·G_j| hw_j` plus its share of the second-order remainders (about `radius_j hw_j²` on `W`,
+    `hw_j²` on `z`, weighted by how much each invariant's remainder carries them)."""
+    wW = abs(lam[0]) * 2.0 * (du + 1.0) + abs(lam[1]) + (abs(lam[2]) + abs(lam[4]) if k > 2 else 0.0)
+    wz = abs(lam[1]) * du + ((abs(lam[3]) + abs(lam[4]) * du) if k > 2 else 0.0)
+    best = -1.0
+    split = 1
+    for j in range(1, n - 1):
+        h = hw[j]
+        if h == 0.0:
+            continue
+        s = 0.0
+        for a in range(k):
+            s += lam[a] * G[a, j]
+        score = abs(s) * h + (wW * radius[j] + wz) * h * h
+        if score > best:
+            best = score
+            split = j
+    return split
+
+
+@njit(cache=True, inline="always")
+def _wrap(x):
+    """The angle `x` (rad) moved into [-π, π] by whole turns."""
+    return x - 2.0 * math.pi * round(x / (2.0 * math.pi))
+
+
+@njit(cache=True)
+def _turn_about(vc, vT, rho, s, b1, b2, out):
+    """The turn `φ` about joint 0's axis (basis `b1`, `b2` of its normal plane) that takes a vector
+    within `rho` of `vc` to one within `s` of `vT`: `out[0]` its centre estimate (the azimuth of
+    `vT` less that of `vc`, in [-π, π]), `out[1]` a sound half-width (asin of each radius over the
+    projection's length, plus rounding). False where a projection is not longer than its radius."""
+    xc = vc[0] * b1[0] + vc[1] * b1[1] + vc[2] * b1[2]
+    yc = vc[0] * b2[0] + vc[1] * b2[1] + vc[2] * b2[2]
+    xT = vT[0] * b1[0] + vT[1] * b1[1] + vT[2] * b1[2]
+    yT = vT[0] * b2[0] + vT[1] * b2[1] + vT[2] * b2[2]
+    nc = math.sqrt(xc * xc + yc * yc)
+    nT = math.sqrt(xT * xT + yT * yT)
+    if nc <= rho or nT <= s:
+        return False
+    out[0] = _wrap(math.atan2(yT, xT) - math.atan2(yc, xc))
+    out[1] = math.asin(rho / nc) + math.asin(s / nT) + 1e-9
+    return True
+
+
+@njit(cache=True)
+def _ends_dead(pv, W, S, z, RL, e_loc, y_loc, rho_u, rho_z, sum_hw, b1, b2, a0, w0, cL, wL, near, T2):
+    """The limits of joints 0 and n-1 over a box (its centre's `u`, `z` (3,), the last joint's
+    frame rotation `RL` (9,) row-major before its turn; `rho_u`, `rho_z` how far they move over
+    the box, `sum_hw` the box's Σ hw). The pose `pv` (11,): its `u`, `z`, the direction `e_post`
+    of the last joint's frame axis `e_loc` after the turn, and their slacks (m, chord).
+
+    Joint 0 turns `u` and `z` about `a0` by `φ = q_0 - c_0` (`|φ| <= w0`): the turns that take
+    the box's `u` and `z` to the pose's (`_turn_about`) must meet `[-w0, w0]` and each other.
+    Joint n-1 turns `e_loc` by `ψ = q_{n-1} + offset` about the last axis, so
+    `Rot(e, ψ) e_loc = RL(q)ᵀ Rot(a0, -φ) e_post`; with `v` the right side at the centre and the
+    `φ` estimate, `|v - v*| <= Σ hw + |φ - φ_est| + slack = ε` (a product of turns by `δ_j` turns
+    a unit vector by at most `Σ|δ_j|`), so `ψ` is within `asin ε` of `v`'s angle in the last
+    joint's plane, and must lie in `cL ± wL` (offset included). Returns 0: no test failed and the
+    centre is inside both limits (within `near`), 1: the box holds no solution, 2: the centre is
+    outside a limit (the give-up test must not fire). `T2` (5,) scratch."""
+    uT, zT, eT = pv[0:3], pv[3:6], pv[6:9]
+    u = T2[2:5]
+    for r in range(3):
+        u[r] = W[r] - S[r]
+    have_u = _turn_about(u, uT, rho_u, pv[9], b1, b2, T2)
+    phi_u, dphi_u = T2[0], T2[1]
+    have_z = _turn_about(z, zT, rho_z, pv[10], b1, b2, T2)
+    phi_z, dphi_z = T2[0], T2[1]
+    state = 0
+    if have_u:
+        gap = max(0.0, abs(phi_u) - w0)
+        if gap > dphi_u:
+            return 1
+        if gap > near:
+            state = 2
+    if have_z and max(0.0, abs(phi_z) - w0) > dphi_z:
+        return 1
+    if have_u and have_z and abs(_wrap(phi_u - phi_z)) > dphi_u + dphi_z:
+        return 1
+    if wL >= math.pi:
+        return state
+    # the tightest enclosure of φ
+    if have_u and (not have_z or dphi_u <= dphi_z):
+        phi, dphi = phi_u, dphi_u
+    elif have_z:
+        phi, dphi = phi_z, dphi_z
+    elif w0 < math.pi:
+        phi, dphi = 0.0, w0
+    else:
+        return state
+    eps = sum_hw + dphi + pv[10] + 1e-12
+    if eps >= 1.0:
+        return state
+    # v = Rot(a0, -φ) e_post (Rodrigues)
+    cs, sn = math.cos(phi), math.sin(phi)
+    ad = a0[0] * eT[0] + a0[1] * eT[1] + a0[2] * eT[2]
+    c0 = a0[1] * eT[2] - a0[2] * eT[1]
+    c1 = a0[2] * eT[0] - a0[0] * eT[2]
+    c2 = a0[0] * eT[1] - a0[1] * eT[0]
+    v0 = eT[0] * cs - c0 * sn + a0[0] * ad * (1.0 - cs)
+    v1 = eT[1] * cs - c1 * sn + a0[1] * ad * (1.0 - cs)
+    v2 = eT[2] * cs - c2 * sn + a0[2] * ad * (1.0 - cs)
+    # its coordinates along the last joint's e_loc and y_loc at the centre: v · (RL e_loc), v · (RL y_loc)
+    x = 0.0
+    y = 0.0
+    for r in range(3):
+        vr = v0 if r == 0 else (v1 if r == 1 else v2)
+        x += vr * (RL[3 * r] * e_loc[0] + RL[3 * r + 1] * e_loc[1] + RL[3 * r + 2] * e_loc[2])
+        y += vr * (RL[3 * r] * y_loc[0] + RL[3 * r + 1] * y_loc[1] + RL[3 * r + 2] * y_loc[2])
+    gap = max(0.0, abs(_wrap(math.atan2(y, x) - cL)) - wL)
+    if gap > math.asin(eps) + 1e-9:
+        return 1
+    if gap > near:
+        state = 2
+    return state
+
+
+@njit(cache=True)
+def _judge_box(i, only_dg, values, slack, pv, ends, tests, rounds, near, d2, s2, n, h, S, a0, radius, F, Z, lo, hi,
+               G, R, M, lam, wt, e, Rs, T2):
+    """The verdict on one box already bounded (`_box_bounds`'s `lo`, `hi`, `G`, `R`) for pose `i`:
+    1, it holds no solution; 0, it may, and its centre's invariants all lie within `near` of the
+    pose's (inside the limits of joints 0 and n-1 too); 2, it may, its centre farther. Sets the
+    joint to split (`lo[9]`) by the combination's effect when `tests & 4`."""
+    k_used = 2 if only_dg else 5
+    close = True
+    for k in range(2 if only_dg else 4):
+        if values[i, k] < lo[k] - slack[i, k] or values[i, k] > hi[k] + slack[i, k]:
+            return 1
+        if abs(values[i, k] - lo[4 + k]) > near:
+            close = False
+    if tests & 2:
+        e[0] = d2 - lo[4] * lo[4]
+        Rs[0] = R[0] + s2
+        for k in range(1, k_used):
+            e[k] = values[i, k] - lo[4 + k]
+            Rs[k] = R[k] + slack[i, k]
+        if not only_dg:
+            lin = 0.0
+            for j in range(n):
+                lin += abs(G[4, j]) * h[j]
+            if abs(e[4]) > lin + Rs[4]:
+                return 1
+            if abs(e[4]) > near:
+                close = False
+        if _combination_dead(e, G, h, Rs, k_used, n, M, lam, wt, rounds):
+            return 1
+        if tests & 4:
+            lo[9] = _split_by_effect(G, h, lam, k_used, n, radius, lo[4])
+    if tests & 1 and not only_dg:
+        state = _ends_dead(pv[i], Z[5], S, Z[6], F[n - 1, :9], ends[6:9], ends[9:12], lo[10], lo[11], lo[12],
+                           ends[0:3], ends[3:6], a0, ends[12], ends[13], ends[14], near, T2)
+        if state == 1:
+            return 1
+        if state == 2:
+            close = False
+    return 0 if close else 2
 
 
 @njit(cache=True, parallel=True)
-def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_dg, values, slack, near, budget, depth,
-                   out):
-    """Depth-first branch and bound per pose (`values`, `slack` (N, 4)): `out[i]` 1 where every
-    box was discarded, 0 where it gave up (after `budget` boxes, deeper than `depth` splits, or a
-    box centre whose four invariants all lie within `near` of the pose's: most likely reachable)."""
+def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_dg, values, slack, pv, ends, tests,
+                   rounds, near, budget, depth, out):
+    """Depth-first branch and bound per pose (`values`, `slack` (N, 5): `d, g, h, k, m`; `pv`
+    (N, 11), `_ends_dead`'s pose vectors): `out[i]` 1 where every box was discarded, 0 where it gave
+    up (after `budget` boxes, deeper than `depth` splits, or a box centre whose invariants all lie
+    within `near` of the pose's and inside the limits of joints 0 and n-1: most likely reachable).
+    `ends` (15,): joint 0's axis basis `b1`, `b2`, the last joint's `e_loc`, `y_loc`, `w0`, `cL`
+    (its box centre plus offset), `wL`. `tests`: a bit mask of the tests beside the four intervals
+    (1: the limits of joints 0 and n-1, 2: `m` and the combinations of `_combination_dead` with
+    `rounds` reweightings, 4: the split by the combination's effect, `_split_by_effect`)."""
     N = values.shape[0]
     n = axes.shape[0]
     for i in prange(N):
@@ -416,8 +737,20 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_d
         hs = np.empty((depth + 1, n))
         F = np.empty((n, 14))
         Z = np.empty((7, 9))
-        lo = np.empty(9)
+        lo = np.empty(13)
         hi = np.empty(4)
+        G = np.empty((5, n))
+        R = np.empty(5)
+        M = np.empty((5, 5))
+        lam = np.empty(5)
+        e = np.empty(5)
+        Rs = np.empty(5)
+        T2 = np.empty(5)
+        wt = np.empty(n + 5)
+        # d² of the pose: the interval [(d - s)², (d + s)²] as a centre and a half-width
+        dlo = max(values[i, 0] - slack[i, 0], 0.0)
+        dhi = values[i, 0] + slack[i, 0]
+        d2, s2 = 0.5 * (dhi * dhi + dlo * dlo), 0.5 * (dhi * dhi - dlo * dlo) + 1e-15 * (1.0 + dhi * dhi)
         for j in range(n):
             cs[0, j] = 0.5 * (box[j, 0] + box[j, 1])
             hs[0, j] = 0.5 * (box[j, 1] - box[j, 0]) if 0 < j < n - 1 and not (only_dg and rigid[j]) else 0.0
@@ -428,21 +761,16 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_d
             top -= 1
             c = cs[top]
             h = hs[top]
-            _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, h, F, Z, lo, hi)
+            _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, h, F, Z, lo, hi, G, R)
             evals += 1
-            dead = False
-            close = True
-            for k in range(2 if only_dg else 4):
-                if values[i, k] < lo[k] - slack[i, k] or values[i, k] > hi[k] + slack[i, k]:
-                    dead = True
-                if abs(values[i, k] - lo[4 + k]) > near:
-                    close = False
-            if dead:
+            verdict = _judge_box(i, only_dg, values, slack, pv, ends, tests, rounds, near, d2, s2, n, h, S, a0, radius,
+                                 F, Z, lo, hi, G, R, M, lam, wt, e, Rs, T2)
+            if verdict == 1:
                 continue
-            if close or evals >= budget or top + 2 > depth:
+            if verdict == 0 or evals >= budget or top + 2 > depth:
                 ok = 0
                 break
-            jb = int(lo[8])  # split across the joint that moves W and z most
+            jb = int(lo[9])  # the joint to split
             # the two halves replace the box on the stack (slot top, then top + 1)
             half = 0.5 * h[jb]
             mid = c[jb]
