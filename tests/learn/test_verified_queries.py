@@ -11,6 +11,7 @@ from wsmap import learn
 from wsmap import workspace as ws
 from wsmap.learn import morph_model as mm
 from wsmap.learn.training_range import ExtrapolationWarning
+from wsmap.learn import screening
 from wsmap.learn.screening import screen_arms
 from wsmap.learn.verified import VerifiedMap, verified_morph_grid
 
@@ -112,39 +113,72 @@ def catalogue():
     return arms, targets, truth
 
 
-def test_screening_every_arm_is_the_exhaustive_ranking(model, catalogue):
+def _key(coverage, cost, i):
+    """An arm's place in a ranking: greater is better (coverage high, cost low, index low)."""
+    return (coverage, -cost, -i)
+
+
+def test_screening_by_the_sound_bound_is_the_exhaustive_ranking(model, catalogue):
     arms, targets, truth = catalogue
     cost = np.arange(len(arms))[::-1].astype(float)  # ties: the later arm first
-    res = screen_arms(model, arms, targets, top=5, candidates=len(arms), cost=cost)
+    res = screen_arms(model, arms, targets, top=5, cost=cost)
     expected = np.lexsort((np.arange(len(arms)), cost, -truth))[:5]
+    assert res.complete and res.predicted is None  # margin=inf: the network is not consulted
     assert np.array_equal(res.ranking, expected) and np.array_equal(res.coverage, truth[expected])
-    assert res.predicted.shape == (len(arms),) and ((0 <= res.predicted) & (res.predicted <= 1)).all()
+    # the bound is sound: no arm covers more than it
+    assert res.bound.shape == (len(arms),) and (truth <= res.bound + 1e-12).all()
+    assert np.array_equal(res.mapped_coverage, truth[res.mapped])  # classical coverages, never predicted ones
+    # every arm left unmapped is bounded below the fifth of the ranking
+    fifth = _key(truth[expected[-1]], cost[expected[-1]], expected[-1])
+    for i in sorted(set(range(len(arms))) - set(res.mapped)):
+        assert _key(res.bound[i], cost[i], i) <= fifth
 
 
-def test_screening_maps_only_the_predicted_best(model, catalogue):
+def test_screening_maps_by_bound_and_stops_early(model, catalogue):
     arms, targets, truth = catalogue
-    res = screen_arms(model, arms, targets, top=3, candidates=6, slack=0.0)
-    assert len(res.candidates) == 6 and set(res.ranking) <= set(res.candidates)
-    assert np.array_equal(res.candidates, np.lexsort((np.arange(len(arms)), np.zeros(len(arms)), -res.predicted))[:6])
-    assert np.array_equal(res.coverage, truth[res.ranking])  # classical coverages, never predicted ones
-    assert (np.diff(res.coverage) <= 0).all()
+    bound = screening.coverage_bounds(arms, targets, (math.pi, 0, 0))
+    res = screen_arms(model, arms, targets, top=1)
+    order = np.lexsort((np.arange(len(arms)), np.zeros(len(arms)), -bound))
+    assert np.array_equal(res.bound, bound)
+    assert np.array_equal(res.mapped, order[:len(res.mapped)])  # best bound first
+    assert res.ranking[0] == np.lexsort((np.arange(len(arms)), -truth))[0]
+    assert truth.max() == bound.max()  # the UR5e covers every target: no arm of a lower bound is mapped
+    assert len(res.mapped) == int((bound == bound.max()).sum()) < len(arms)
 
 
-def test_screening_slack_prefers_cheap_arms_near_the_top(model, catalogue):
+def test_screening_with_the_network_bound(model, catalogue):
     arms, targets, truth = catalogue
-    cost = np.linspace(2.0, 1.0, len(arms))
-    res = screen_arms(model, arms, targets, top=3, candidates=5, cost=cost, slack=1.0)
-    assert np.array_equal(res.candidates, np.argsort(cost)[:5])  # every arm is near: the cheapest five
+    sound = screen_arms(model, arms, targets, top=3)
+    res = screen_arms(model, arms, targets, top=3, margin=0.0)
+    assert np.array_equal(res.predicted, screening.predicted_coverage(model, arms, targets))
+    # the network's bound at margin 0 is its own predicted coverage, capped by the sound bound
+    assert np.array_equal(res.bound, np.minimum(sound.bound, res.predicted))
     assert np.array_equal(res.coverage, truth[res.ranking])
+    wide = screen_arms(model, arms, targets, top=3, margin=1e6)  # every target counts: the sound bound
+    assert np.array_equal(wide.bound, sound.bound) and np.array_equal(wide.ranking, sound.ranking)
+
+
+def test_screening_candidates_caps_the_classical_maps(model, catalogue):
+    arms, targets, truth = catalogue
+    res = screen_arms(model, arms, targets, top=2, candidates=2)
+    assert len(res.mapped) == 2 and set(res.ranking) == set(res.mapped)
+    full = screen_arms(model, arms, targets, top=2)
+    assert res.complete == (len(full.mapped) <= 2)
 
 
 @pytest.mark.parametrize("kw, message", [
     ({"top": 0}, "top must be a positive integer, got 0"),
-    ({"slack": 2}, "slack must be a share of the targets in \\[0, 1\\], got 2"),
+    ({"margin": -1.0}, "margin must be a non-negative number of logits \\(inf: the sound bound alone\\), got -1.0"),
     ({"top": 5, "candidates": 2}, "candidates \\(2\\) must be at least top \\(5\\)"),
+    ({"candidates": 0}, "candidates must be a positive integer or None, got 0"),
     ({"cost": [1.0, 2.0]}, "cost must be 13 finite numbers \\(one per arm\\), got shape \\(2,\\)"),
 ])
-def test_screening_refuses_bad_settings(model, catalogue, kw, message):
+def test_screening_refuses_bad_settings(model, catalogue, kw, message, monkeypatch):
     arms, targets, _ = catalogue
+
+    def no_work(*a, **k):
+        raise AssertionError("the classical map ran")
+
+    monkeypatch.setattr(ws.maps, "constant_orientation_map", no_work)
     with pytest.raises(ValueError, match=message):
         screen_arms(model, arms, targets, **kw)
