@@ -14,6 +14,9 @@ answers, checked). Named arms on the paper's grid (21³, -1..1 m); URDF arms on
     NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/maps/bench_certificates.py --quick
     # full (every arm, 15³ nodes for the URDF arms)
     NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/maps/bench_certificates.py
+    # the branch and bound's tests before and after (certificate.BOX_TESTS 0 beside the default), one run
+    NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/maps/bench_certificates.py --quick \
+        --named-only --compare --skip-budget 0
 """
 
 from __future__ import annotations
@@ -55,7 +58,18 @@ def _urdf_arms(names, nodes_per_axis):
         return [], f"URDF arms skipped: {e}"
 
 
-def measure(name, arm, nodes, skip_budget, repeat, budget):
+def _status_before(arm, T, reached, method, budget):
+    """The status with the branch and bound's tests of before the end limits and combinations
+    (`certificate.BOX_TESTS = 0`), and its time."""
+    old = certificate.BOX_TESTS
+    certificate.BOX_TESTS = 0
+    try:
+        return harness.timed(lambda: wsmap.node_status(arm, T, reached, method, budget=budget))
+    finally:
+        certificate.BOX_TESTS = old
+
+
+def measure(name, arm, nodes, skip_budget, repeat, budget, compare=False):
     rows = []
     for oname, rpy in ORIENTATIONS.items():
         T = ws.target_poses(nodes, rpy, "standard")
@@ -78,20 +92,30 @@ def measure(name, arm, nodes, skip_budget, repeat, budget):
                          fraction=cert / max(unreachable, 1), seconds_map=t_map, seconds_status=t_status,
                          seconds_map_skip=t_skip))
         r = rows[-1]
+        if compare:
+            t_before, before = _status_before(arm, T, reached, method, budget)
+            if ((before == wsmap.CERTIFIED) & (status != wsmap.CERTIFIED)).any():
+                raise AssertionError(f"{name}, {oname}: a node certified before is not now")
+            r["certified_before"] = int((before == wsmap.CERTIFIED).sum())
+            r["fraction_before"] = r["certified_before"] / max(unreachable, 1)
+            r["seconds_status_before"] = t_before
         print(f"{name}, {oname}: {unreachable} not reached, {r['fraction']:.2%} certified, map {t_map:.3f} s, "
               f"status {t_status:.2f} s", file=sys.stderr, flush=True)
     return rows
 
 
 def table(rows) -> str:
+    compare = any("certified_before" in r for r in rows)
     head = ("| arm | R | method | nodes | not reached | certified | not found | share | map s | status s | "
-            "map s, skip |\n|---|---|---|---|---|---|---|---|---|---|---|")
-    lines = [head]
+            "map s, skip |" + (" share before | status s before |" if compare else ""))
+    lines = [head, "|---" * (head.count(" | ") + 1) + "|"]
     for r in rows:
         skip = "" if r["seconds_map_skip"] is None else f"{r['seconds_map_skip']:.3f}"
+        before = (f" {r['fraction_before']:.2%} | {r['seconds_status_before']:.2f} |" if "certified_before" in r
+                  else (" | |" if compare else ""))
         lines.append(f"| {r['arm']} | {r['orientation']} | {r['method']} | {r['nodes']} | {r['unreachable']} | "
                      f"{r['certified']} | {r['not_found']} | {r['fraction']:.2%} | {r['seconds_map']:.3f} | "
-                     f"{r['seconds_status']:.2f} | {skip} |")
+                     f"{r['seconds_status']:.2f} | {skip} |" + before)
     return "\n".join(lines)
 
 
@@ -104,6 +128,8 @@ def main(argv=None):
     p.add_argument("--skip-budget", type=int, default=1000,
                    help="boxes per border node for the map with the skip (0: no such map; default 1000)")
     p.add_argument("--named-only", action="store_true", help="only the named arms")
+    p.add_argument("--compare", action="store_true",
+                   help="also the status with the branch and bound's tests of before (certificate.BOX_TESTS = 0)")
     args = p.parse_args(argv)
 
     nodes_per_axis = args.nodes or (11 if args.quick else 15)
@@ -111,12 +137,12 @@ def main(argv=None):
     ws.constant_orientation_map(robots.load("panda"), grid[:100], (math.pi, 0, 0))  # compile before timing
     rows = []
     for name in NAMED:
-        rows += measure(name, robots.load(name), grid, args.skip_budget, args.repeat, args.budget)
+        rows += measure(name, robots.load(name), grid, args.skip_budget, args.repeat, args.budget, args.compare)
     note = None
     if not args.named_only:
         arms, note = _urdf_arms(set(bra.QUICK) if args.quick else None, nodes_per_axis)
         for name, chain, nodes in arms:
-            rows += measure(name, chain, nodes, args.skip_budget, args.repeat, args.budget)
+            rows += measure(name, chain, nodes, args.skip_budget, args.repeat, args.budget, args.compare)
     print(table(rows))
     if note:
         print(note)

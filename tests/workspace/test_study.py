@@ -90,6 +90,27 @@ def test_a_certified_target_is_never_reached_by_a_256_start_search():
     assert not ikine_search(arm, E, starts=256, seed=1).success.any()
 
 
+def test_targets_only_the_branch_and_bound_proves_out_of_reach_are_certified():
+    # border nodes of the Panda's tool-down map that the sound filters leave: the study certifies
+    # them with the branch and bound, as a map's status does; reachable targets beside them are
+    # reached, never certified; no certified one is reached by a 256-start search
+    from wsmap.kinematics.ik.certificate import filter_certificate, joint_certificate
+
+    arm = robots.load("panda")
+    nodes = ws.cartesian_grid(-1, 1, 0.1)
+    T = ws.target_poses(nodes, (np.pi, 0, 0))
+    reached = ws.constant_orientation_map(arm, nodes, (np.pi, 0, 0))
+    left = np.flatnonzero(~reached & ~filter_certificate(arm, T))
+    some = left[::6]
+    proved = some[joint_certificate(arm, T[some])]  # proved by the branch and bound alone
+    assert proved.size >= 5
+    targets = np.concatenate([T[proved[:8]], _reachable_targets(arm, 5, seed=4)])
+    res = st.evaluate_targets(arm, targets, variants=st.tool_variants(turns=1))
+    k = min(8, proved.size)
+    assert list(res.status) == [st.CERTIFIED] * k + [st.REACHED] * 5
+    assert not ikine_search(arm, T[proved[:8]], starts=256, seed=2).success.any()
+
+
 def test_solutions_outside_the_limits_by_a_turn_are_moved_inside():
     arm = robots.load("ur5e")
     lim = np.asarray(arm.qlim).copy()

@@ -16,9 +16,12 @@ Each target gets one of three answers (`STATUS`):
   brings it inside), confirmed by forward kinematics to `CONFIRM_TOL`, collision-free when a
   checker is given; among the variants, the one with the best combined score (ties: the lower
   variant index);
-* `CERTIFIED` — no variant can be reached by any configuration: the sound tests of
-  `wsmap.kinematics.ik.reach_filter` (out of reach; outside what the joint limits allow) reject
-  every variant. Collisions only remove solutions, so the certificate holds with them too;
+* `CERTIFIED` — no variant can be reached by any configuration: the certificates of
+  `wsmap.kinematics.ik.certificate.certify` reject every variant — the sound filters (out of reach;
+  outside what the joint limits allow), then the closed form's (an arm of a closed-form family) and
+  the branch and bound over the joints (`joint_certificate`, arms of revolute joints; at most
+  `CELL_BUDGET` boxes a variant), as for a map's nodes. Collisions only remove solutions, so the
+  certificate holds with them too;
 * `NOT_FOUND` — the search found no solution, and no certificate says none exists.
 
 The orientation freedom is sampled: the answer is about the study's `K` variants (turns about the
@@ -33,7 +36,7 @@ import numpy as np
 
 from ..kinematics import as_chain
 from ..kinematics.chain import REVOLUTE
-from ..kinematics.ik.certificate import CERTIFY_MARGIN, filter_certificate
+from ..kinematics.ik.certificate import CERTIFY_MARGIN, certify
 from ..kinematics.ik.settings import SearchSettings
 from ..kinematics.ik.solver import get_solver
 from ..kinematics.transforms import check_rigid
@@ -176,6 +179,21 @@ def _confirm(robot, q, ok, T):
     return q, good
 
 
+def _certified(robot, E, todo, method):
+    """`(M,)` True where target `m` of `todo` `(M,)` has every variant `E[m]` `(M, K, 4, 4)` (end
+    frame, base frame) certified unreachable (`certify`: the filters, then the closed form's
+    certificate and the branch and bound for an exact arm, the branch and bound for another).
+    Variant by variant, each only on the targets whose earlier variants were all certified."""
+    left = np.flatnonzero(todo)
+    for k in range(E.shape[1]):
+        if not left.size:
+            break
+        left = left[certify(robot, E[left, k], CERTIFY_MARGIN, method="both" if method == "exact" else "numerical")]
+    out = np.zeros(len(todo), dtype=bool)
+    out[left] = True
+    return out
+
+
 def end_poses(targets: np.ndarray, base: np.ndarray, variants: np.ndarray, tcp: np.ndarray) -> np.ndarray:
     """The end-frame poses `(M, K, 4, 4)` in the base frame: `B⁻¹ · T_m · V_k · tcp⁻¹`."""
     return np.linalg.inv(base) @ targets[:, None] @ variants[None] @ np.linalg.inv(tcp)
@@ -233,9 +251,7 @@ def evaluate_targets(robot: Arm, targets, *, base=None, variants=None, tcp=None,
     reached = good.reshape(M, K)[np.arange(M), best]
     pick = np.arange(M) * K + best
     status = np.where(reached, REACHED, NOT_FOUND).astype(np.int8)
-    if (~reached).any():
-        cert = filter_certificate(robot, E, CERTIFY_MARGIN).reshape(M, K).all(axis=1)
-        status[~reached & cert] = CERTIFIED
+    status[_certified(robot, E.reshape(M, K, 4, 4), ~reached, method)] = CERTIFIED
     qs = np.where(reached[:, None], q[pick], np.nan)
     chosen = {name: np.where(reached, v[pick], np.nan) for name, v in values.items()}
     score = np.where(reached, combined(chosen, M), np.nan)
