@@ -1,9 +1,10 @@
 """Fit conservative capsules (and cylinders) around the named arms' vendor collision meshes and write
 them to `src/wsmap/collision/data/fitted_<arm>.json`.
 
-For each arm of `wsmap.collision.vendor.VENDOR` the vendor URDF's collision meshes are read
-(`wsmap.collision.vendor.mesh_model`: moved into the bodies' frames of wsmap's chain, after checking
-that both descriptions move alike), each link's convex hull (the hull is what coal and PyBullet
+For each arm of `wsmap.collision.vendor.VENDOR` the vendor's collision meshes are read
+(`wsmap.collision.vendor.mesh_model`: a vendor URDF in an installed package, moved into the bodies'
+frames of wsmap's chain after checking that both descriptions move alike, or the committed convex
+hulls of `tools/vendor_hulls.py`), each link's convex hull (the hull is what coal and PyBullet
 test) is enclosed by 1 to `MAX_PIECES` shapes, and the allowed-collision matrix is built on the
 meshes (`wsmap.collision.build_acm`, 10,000 samples, seed 0) and stored with the shapes:
 
@@ -32,12 +33,10 @@ Run: `.venv/bin/python tools/fit_collision_spheres.py [ARM ...]` (default: every
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import os
 import sys
 from dataclasses import replace
-from importlib.metadata import version
 
 import numpy as np
 
@@ -220,16 +219,19 @@ def padded(shape, pad: float):
 def fit_arm(name: str) -> dict:
     """The record of `data/fitted_<name>.json` (`wsmap.collision.vendor.fitted_record`)."""
     from wsmap.collision import build_acm
-    from wsmap.collision.vendor import PADDING, VENDOR, mesh_model, vendor_urdf
+    from wsmap.collision.vendor import PADDING, VENDOR, mesh_model
 
     rec = VENDOR[name]
-    # the bare hulls (no MESH_MARGIN): the fit and its false collisions are measured against them;
-    # the matrix is the same with the margin (tests/collision/test_vendor_judge.py checks it)
-    model = replace(mesh_model(name), margin=0.0)
-    urdf = vendor_urdf(name)
-    # the pairs never checked are those of the vendor meshes (MoveIt's rules on the real shapes):
-    # the fatter shapes of two links a joint apart overlap where the housings do not
-    model.acm = build_acm(model, samples=ACM_SAMPLES, seed=0)
+    grown = mesh_model(name)
+    meshes = [v.meshes for v in rec.vendor_links(name, grown.chain)]
+    # the pairs never checked are those of the vendor meshes as the checks see them, grown by
+    # MESH_MARGIN (MoveIt's rules on the real shapes; the fatter fitted shapes of two links a joint
+    # apart overlap where the housings do not). Grown, not bare: the UR10e's upper arm passes its
+    # base 0.44 mm apart (never touching bare, within the margin whenever it hangs down)
+    acm = build_acm(grown, samples=ACM_SAMPLES, seed=0)
+    # the bare hulls (no MESH_MARGIN): the fit and its false collisions are measured against them
+    model = replace(grown, margin=0.0)
+    model.acm = acm
     fits, points, hulls = [], [], []
     for lk in model.links:
         pts = np.concatenate([s.vertices @ s.origin[:3, :3].T + s.origin[:3, 3] for s in lk.shapes])
@@ -241,26 +243,22 @@ def fit_arm(name: str) -> dict:
         hulls.append(hull_volume)
     pick, rate = choose(model, fits)
     links = []
-    for lk, vname, pts, hull_volume, cands, c in zip(model.links, rec.links, points, hulls, fits, pick):
+    for lk, vname, files, pts, hull_volume, cands, c in zip(model.links, rec.links, meshes, points, hulls, fits, pick):
         shapes = cands[c]
         worst = outside(pts, shapes).max()
         if worst > -PADDING + 2e-6:
             raise SystemExit(f"{name} {vname}: a vertex lies {worst + PADDING:.3g} m from the shapes' skin")
         reach = max(sh[3] + np.linalg.norm(sh[2] - sh[1]) for sh in shapes)
         fitted_volume = union_volume(shapes, pts.min(axis=0) - reach, pts.max(axis=0) + reach, 200000)
-        files = sorted({os.path.relpath(s.source, os.path.dirname(urdf)) for s in lk.shapes})
-        links.append({"name": vname, "body": lk.body, "meshes": files,
+        links.append({"name": vname, "body": lk.body, "meshes": list(files),
                       "shapes": [{"kind": k, "p0": p0.tolist(), "p1": p1.tolist(), "radius": r}
                                  for k, p0, p1, r in shapes],
                       "hull_volume": round(hull_volume, 9), "fitted_volume": round(fitted_volume, 9),
                       "slack": round(fitted_volume / hull_volume, 3)})
-    with open(urdf, "rb") as fh:
-        sha = hashlib.sha256(fh.read()).hexdigest()
     acm = model.acm.describe()
     return {"arm": name, "padding": PADDING, "false_collisions_at_fit": round(rate, 4),
             "acm": {"samples": acm["samples"], "seed": acm["seed"], "disabled": acm["disabled"]},
-            "source": {"package": rec.package, "version": version(rec.distribution), "urdf": rec.urdf,
-                       "urdf_sha256": sha, "licence": rec.licence, "origin": rec.origin},
+            "source": rec.source_record(name),
             "fitted_by": "tools/fit_collision_spheres.py", "links": links}
 
 

@@ -7,7 +7,7 @@ import pytest
 
 from wsmap import cli, load
 from wsmap import workspace as ws
-from wsmap.collision import CollisionChecker, arm_model, build_acm, load_scene
+from wsmap.collision import CollisionChecker, arm_model, build_acm, default_geometry, load_scene
 
 SCENE = {"floor": True, "obstacles": [{"name": "table", "shape": "box", "size": [0.6, 1.2, 0.05],
                                        "xyz": [0.6, 0, 0.3]}]}
@@ -17,17 +17,17 @@ def test_the_map_file_records_geometry_matrix_and_scene(tmp_path):
     (tmp_path / "table.json").write_text(json.dumps(SCENE))
     out = tmp_path / "m.npz"
     argv = ["map", "--robot", "ur5e", "--rpy", "pi", "0", "0", "--convention", "standard", "--step", "0.25",
-            "--scene", str(tmp_path / "table.json"), "--acm-samples", "500", "--allow", "base", "wrist_3",
+            "--scene", str(tmp_path / "table.json"), "--acm-samples", "500", "--allow", "link0", "link6",
             "--out", str(out), "--quiet"]
     assert cli.main(argv) == 0
     flat, nodes, grid, settings = ws.load_map(out)
     col = settings["collision"]
     assert [o["name"] for o in col["scene"]["obstacles"]] == ["table"] and col["scene"]["floor"] == 0.0
-    assert ["base", "wrist_3", "user"] in col["acm"]["disabled"] and col["acm"]["samples"] == 500
-    assert [lk["name"] for lk in col["geometry"]["links"]][0] == "base"
+    assert ["link0", "link6", "user"] in col["acm"]["disabled"] and col["acm"]["samples"] == 500
+    assert [lk["name"] for lk in col["geometry"]["links"]][0] == "link0"  # the default: the vendor's hulls
     assert "collision-free" in settings["how"]
-    model = arm_model("ur5e")
-    model.acm = build_acm(model, samples=500, disable=[("base", "wrist_3")])
+    model = arm_model("ur5e", geometry=default_geometry("ur5e"))
+    model.acm = build_acm(model, samples=500, disable=[("link0", "link6")])
     expected = ws.constant_orientation_map(load("ur5e"), nodes, (np.pi, 0, 0), convention="standard",
                                            collision=CollisionChecker(model, load_scene(tmp_path / "table.json")))
     np.testing.assert_array_equal(flat, expected)

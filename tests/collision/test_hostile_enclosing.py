@@ -1,6 +1,8 @@
 """Obstacles that enclose the arm or touch it away from its base (issue 41): they were taken for
 something the arm stands on (touching a moving link at the default configuration) and never
-checked, so the arm inside a solid box was free everywhere. coal decides directly here."""
+checked, so the arm inside a solid box was free everywhere. coal decides directly here. The UR5e's
+estimated capsules (`geometry="capsules"`): their shoulder capsule reaches down to the base's foot,
+so it stands on the floor and on a pedestal (the vendor hulls' shoulder, the default, does not)."""
 
 from __future__ import annotations
 
@@ -40,7 +42,7 @@ def _coal_hits(chk, q, k):
                                    Shape("sphere", (2.0,), _pose([0, 0, 0.5])),
                                    Shape("cylinder", (2.0, 3.0), _pose([0, 0, 0.5]))])
 def test_the_arm_inside_a_solid_obstacle_collides_everywhere(shape):
-    chk = checker_for("ur5e", Scene(0.0, (Obstacle("cage", shape),)), samples=200)
+    chk = checker_for("ur5e", Scene(0.0, (Obstacle("cage", shape),)), samples=200, geometry="capsules")
     q = chk.model.chain.random_q(40, np.random.default_rng(1))
     assert _coal_hits(chk, q, 0).all()  # coal: every configuration has a link inside the cage
     assert not chk(q).any() and not chk.exact(q).any()
@@ -50,10 +52,10 @@ def test_the_arm_inside_a_solid_obstacle_collides_everywhere(shape):
 
 def test_an_obstacle_touching_the_arm_away_from_its_base_is_checked():
     # a ball where the flange is at the default configuration: a shelf the arm was folded against
-    probe = checker_for("ur5e", Scene(0.0), samples=200)
+    probe = checker_for("ur5e", Scene(0.0), samples=200, geometry="capsules")
     q0 = np.zeros((1, probe.model.chain.n))
     flange = body_frames(probe.model.chain, q0)[0, -1, :3, 3]
-    chk = checker_for("ur5e", Scene(0.0, (Obstacle("shelf", Shape("sphere", (0.05,), _pose(flange))),)), samples=200)
+    chk = checker_for("ur5e", Scene(0.0, (Obstacle("shelf", Shape("sphere", (0.05,), _pose(flange))),)), samples=200, geometry="capsules")
     assert _coal_hits(chk, q0, 0)[0] and not chk(q0)[0] and not chk.scene_allowed[:, 0].any()
     q = q0 + np.random.default_rng(2).normal(scale=0.15, size=(60, q0.shape[1]))  # about the default
     hit = _coal_hits(chk, q, 0)
@@ -63,8 +65,8 @@ def test_an_obstacle_touching_the_arm_away_from_its_base_is_checked():
 
 def test_a_pedestal_under_the_base_still_carries_the_arm():
     pedestal = Obstacle("pedestal", Shape("cylinder", (0.12, 0.5), _pose([0, 0, -0.25])))
-    chk = checker_for("ur5e", Scene(None, (pedestal,)), samples=200)
+    chk = checker_for("ur5e", Scene(None, (pedestal,)), samples=200, geometry="capsules")
     q0 = np.zeros((1, chk.model.chain.n))
     assert chk.scene_allowed[:, 0].any() and chk(q0)[0]
     sunk = Obstacle("pedestal", Shape("cylinder", (0.12, 0.5), _pose([0, 0, -0.2])))  # 5 cm above the base
-    assert not checker_for("ur5e", Scene(None, (sunk,)), samples=200).scene_allowed[:, 0].any()
+    assert not checker_for("ur5e", Scene(None, (sunk,)), samples=200, geometry="capsules").scene_allowed[:, 0].any()

@@ -1,24 +1,33 @@
 """The named arms' collision models judged on the vendors' own meshes, by PyBullet.
 
-The judge shares no code with the checker: PyBullet loads the vendor URDF (pybullet_data's
-`franka_panda/panda.urdf`, `kuka_iiwa/model.urdf`) with self-collision, sets the joints, and calls
-a configuration colliding when `getClosestPoints` finds a distance below 0 between two arm links
-that are not adjacent in the chain (the hand and fingers are not part of wsmap's arms) and are not
-already in contact at the zero configuration (the Panda's links 5 and 7 overlap there by 7.6 mm:
-a modelling overlap of the description, MoveIt's "default" rule, not a collision).
+The judge shares no code with the checker: PyBullet loads the vendor's URDF with self-collision,
+sets the joints, and calls a configuration colliding when `getClosestPoints` finds a distance below
+0 between two arm links that are not adjacent in the chain (the hand and fingers are not part of
+wsmap's arms) and are not already in contact at the zero configuration (the Panda's links 5 and 7
+overlap there by 7.6 mm: a modelling overlap of the description, MoveIt's "default" rule, not a
+collision). The URDFs:
+
+* Panda, iiwa 14: pybullet_data's `franka_panda/panda.urdf`, `kuka_iiwa/model.urdf`;
+* UR5e, UR10e: Universal Robots' own `urdf/ur.urdf.xacro` expanded by `xacro` with
+  `ur_type:=<arm>` the way ROS loads it (`$(find ur_description)` answered by the copy of the
+  description in `tests/collision/data/ur_description/`, `SOURCE.md` there; `vendor_urdfs.py`), its collision STL
+  files read by PyBullet itself. wsmap's UR chains start at the URDF's link `base` (the
+  controller's base frame), PyBullet's world is the URDF's root: the frames are compared in `base`.
 
 Bullet keeps a margin of about 1 mm around each convex hull, so it calls two hulls colliding that
 coal keeps up to 2 mm apart; the mesh checks grow each hull by `vendor.MESH_MARGIN` (1 mm) for it.
 
 Measured with this file's seeds (`pytest -s` prints them), 2,000 random configurations: the default
-checkers of the Panda and the iiwa 14 (the vendor meshes), the two-level check and the fitted
-capsules alone call none of PyBullet's collisions free; the meshes and the two-level check call
-0 % (Panda) and 0.05 % (iiwa) of the configurations colliding that PyBullet calls free, the
-fitted capsules 2.65 % and 10.9 % (the iiwa's links 5 and 7).
+checkers (the meshes of the Panda and the iiwa 14, the two-level check of the UR5e and the UR10e),
+the meshes, the two-level check and the fitted capsules alone call none of PyBullet's collisions
+free; false collisions (colliding for the checker, free for PyBullet) in the test's printout and in
+docs/collision.md.
 """
 
 import importlib.util
 import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -30,27 +39,50 @@ from wsmap.collision import CollisionError, Scene, arm_model, body_frames, check
 from wsmap.collision import vendor  # noqa: E402
 from wsmap.robots import load  # noqa: E402
 
+from vendor_urdfs import UR, UR_DESCRIPTION, ur_urdf  # noqa: E402  (beside this file)
+
+#: The vendor links of wsmap's bodies 0..n, by arm (the descriptions' names, written here again).
+LINKS = {"panda": [f"panda_link{k}" for k in range(8)], "iiwa14": [f"lbr_iiwa_link_{k}" for k in range(8)],
+         **{arm: ["base_link_inertia", "shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link",
+                  "wrist_2_link", "wrist_3_link"] for arm in UR}}
+
 
 class Judge:
     """PyBullet on the vendor URDF of a named arm (module notes)."""
 
-    def __init__(self, name):
-        rec = vendor.VENDOR[name]
+    def __init__(self, name, folder=None):
+        import tempfile
+
+        self._tmp = None
+        if name in UR:
+            pytest.importorskip("xacro")  # the UR arms' judge expands the vendor's xacro
+            self._tmp = tempfile.TemporaryDirectory()
+            urdf, base = str(ur_urdf(name, Path(self._tmp.name))), "base"
+        else:
+            urdf, base = vendor.vendor_urdf(name), None
         self.arm = load(name)
         self.cid = pybullet.connect(pybullet.DIRECT)
         kw = {"physicsClientId": self.cid}
-        self.robot = pybullet.loadURDF(vendor.vendor_urdf(name), useFixedBase=True,
-                                       flags=pybullet.URDF_USE_SELF_COLLISION, **kw)
+        self.robot = pybullet.loadURDF(urdf, useFixedBase=True, flags=pybullet.URDF_USE_SELF_COLLISION, **kw)
         nj = pybullet.getNumJoints(self.robot, **kw)
         index = {pybullet.getJointInfo(self.robot, j, **kw)[12].decode(): j for j in range(nj)}
         index[pybullet.getBodyInfo(self.robot, **kw)[0].decode()] = -1
-        self.links = [index[lk] for lk in rec.links]
+        self.links = [index[lk] for lk in LINKS[name]]
         self.joints = [j for j in range(nj) if pybullet.getJointInfo(self.robot, j, **kw)[2] == pybullet.JOINT_REVOLUTE]
         self.joints = self.joints[: self.arm.n]
+        self.base = np.eye(4) if base is None else self.pose(index[base])  # wsmap's base frame in PyBullet's world
         q0 = np.clip(np.zeros(self.arm.n), self.arm.limits[:, 0], self.arm.limits[:, 1])
         near = [(a, b) for a in range(len(self.links)) for b in range(a + 2, len(self.links))]
         self.pairs = near
         self.pairs = [p for p in near if p not in self.colliding_pairs(q0)]
+
+    def pose(self, link):
+        """The `(4, 4)` world pose of a PyBullet link's URDF frame at the joints set."""
+        st = pybullet.getLinkState(self.robot, link, computeForwardKinematics=True, physicsClientId=self.cid)
+        T = np.eye(4)
+        T[:3, :3] = np.array(pybullet.getMatrixFromQuaternion(st[5])).reshape(3, 3)
+        T[:3, 3] = st[4]
+        return T
 
     def set(self, q):
         for j, x in zip(self.joints, q):
@@ -72,6 +104,8 @@ class Judge:
 
     def close(self):
         pybullet.disconnect(self.cid)
+        if self._tmp is not None:
+            self._tmp.cleanup()
 
 
 @pytest.fixture(scope="module")
@@ -85,7 +119,8 @@ def panda_judge():
 def test_fitted_capsules_hold_every_vertex_of_the_vendor_meshes(name):
     meshes, fitted = arm_model(name, geometry="meshes"), arm_model(name, geometry="fitted")
     rec = vendor.fitted_record(name)
-    assert rec["source"]["package"] == "pybullet_data" and rec["padding"] == vendor.PADDING
+    # fitted around the meshes wsmap reads today (the same package version or the same committed hulls)
+    assert rec["source"] == vendor.VENDOR[name].source_record(name) and rec["padding"] == vendor.PADDING
     for mesh_link in meshes.links:
         shapes = [s for lk in fitted.links if lk.body == mesh_link.body for s in lk.shapes]
         assert {s.kind for s in shapes} <= {"capsule", "cylinder"}
@@ -109,43 +144,51 @@ def test_fitted_capsules_hold_every_vertex_of_the_vendor_meshes(name):
 
 @pytest.mark.parametrize("name", sorted(vendor.VENDOR))
 def test_the_vendor_frames_are_wsmaps_bodies_as_pybullet_moves_them(name):
+    """Every vendor link frame of the mesh model (wsmap's body frame times the link's `frame`) is
+    where PyBullet puts the URDF's link (position and orientation) on 20 random configurations: the
+    vendor's kinematics (for the UR arms its default_kinematics.yaml) are wsmap's."""
     judge = Judge(name)
     try:
         model = arm_model(name, geometry="meshes")
         q = model.chain.random_q(20, np.random.default_rng(3))
+        to_base = np.linalg.inv(judge.base)
         for c in q:
             judge.set(c)
             B = body_frames(model.chain, c[None])[0]
             for k, lk in enumerate(model.links):
                 if judge.links[k] < 0:
                     continue
-                st = pybullet.getLinkState(judge.robot, judge.links[k], computeForwardKinematics=True,
-                                           physicsClientId=judge.cid)
-                np.testing.assert_allclose((B[lk.body] @ lk.frame)[:3, 3], st[4], atol=1e-6)
+                np.testing.assert_allclose(B[lk.body] @ lk.frame, to_base @ judge.pose(judge.links[k]), atol=1e-6)
     finally:
         judge.close()
 
 
-@pytest.mark.parametrize("name, bound", [("panda", 0.05), ("iiwa14", 0.16)])
-def test_no_checker_calls_a_pybullet_collision_free(name, bound):
-    """The default (the meshes), the two-level check and the fitted capsules alone, judged by PyBullet
-    on 2,000 random configurations: none calls a colliding one free; the fitted capsules call at
-    most `bound` of the free ones colliding, the others (nearly) none."""
+#: The most false collisions (colliding for the checker, free for PyBullet, as a fraction of the
+#: 2,000 configurations) of the fitted capsules alone; the meshes and the two-level check: 0.2 %.
+FITTED_BOUND = {"panda": 0.05, "iiwa14": 0.16, "ur5e": 0.30, "ur10e": 0.35}
+
+
+@pytest.mark.parametrize("name", sorted(vendor.VENDOR))
+def test_no_checker_calls_a_pybullet_collision_free(name):
+    """The default, the meshes, the two-level check and the fitted capsules alone, judged by
+    PyBullet on 2,000 random configurations: none calls a colliding one free; the fitted capsules
+    call at most `FITTED_BOUND` of them colliding where PyBullet calls them free, the others
+    (nearly) none."""
     judge = Judge(name)
     try:
-        assert default_geometry(name) == "meshes"
+        assert default_geometry(name) == vendor.VENDOR[name].default
         q = load(name).random_q(2000, np.random.default_rng(11))
         theirs = judge.colliding(q)
         assert theirs.sum() > 60  # the sample does test something
-        for geometry in (None, "two-level", "fitted"):
+        for geometry in (None, "meshes", "two-level", "fitted"):
             chk = checker_for(name, Scene(), geometry=geometry)  # self-collision only, as the judge (no floor)
             free = chk(q)
             false_free = np.flatnonzero(free & theirs)
             assert false_free.size == 0, (geometry, [judge.colliding_pairs(q[c]) for c in false_free[:5]])
             false_collisions = float(np.mean(~free & ~theirs))
-            print(f"\n{name} {geometry or 'default'}, 2000 random q: PyBullet colliding {theirs.mean():.1%}, "
+            print(f"\n{name} {geometry or 'default'}, 2000 random q: PyBullet colliding {theirs.mean():.2%}, "
                   f"false free 0, false collisions {false_collisions:.2%}")
-            assert false_collisions < (bound if geometry == "fitted" else 0.002)
+            assert false_collisions < (FITTED_BOUND[name] if geometry == "fitted" else 0.002)
     finally:
         judge.close()
 
@@ -230,30 +273,76 @@ def test_the_mesh_mode_agrees_with_pybullet(panda_judge):
     assert np.mean(free == ~theirs) > 0.98
 
 
-@pytest.mark.parametrize("name", ["panda", "iiwa14"])
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n == "ur10e" else n
+                                  for n in sorted(vendor.VENDOR)])  # the UR10e's: 3,684 nodes, ~13 s
 def test_the_readme_tool_down_map_has_no_colliding_solution(name):
+    """Every returned solution of the README's collision-aware tool-down map (0.1 m grid, the floor),
+    with the meshes, the two-level check and the fitted capsules, is free for PyBullet; the two-level
+    map is the meshes' node for node, the fitted capsules' a subset."""
     import wsmap.workspace as ws
 
     arm = load(name)
     grid = ws.cartesian_grid(-1, 1, 0.1)
-    nodes = {}
+    nodes, judged = {}, np.zeros((0, arm.n))
     judge = Judge(name)
     try:
-        for geometry in (None, "two-level", "fitted"):  # None: the default, the meshes
+        for geometry in ("meshes", "two-level", "fitted"):
             chk = checker_for(name, geometry=geometry)
-            free, q = ws.constant_orientation_map(arm, grid, (np.pi, 0, 0), collision=chk, return_q=True)
+            free, q = ws.constant_orientation_map(arm, grid, (np.pi, 0, 0), convention="standard", collision=chk,
+                                                  return_q=True)
             sol = q[free]
             assert len(sol) > 900 and np.all(np.isfinite(sol))
-            hits = np.flatnonzero(judge.colliding(sol))
-            assert hits.size == 0, (geometry, [judge.colliding_pairs(sol[c]) for c in hits[:5]])
             assert chk.model.floor and np.all(checker_for(name, geometry="meshes")(sol))
+            # every solution judged once (the two-level map returns the meshes' solutions)
+            new = sol[~(sol[:, None, :] == judged[None]).all(axis=2).any(axis=1)] if len(judged) else sol
+            hits = np.flatnonzero(judge.colliding(new))
+            assert hits.size == 0, (geometry, [judge.colliding_pairs(new[c]) for c in hits[:5]])
+            judged = np.concatenate([judged, new])
             nodes[geometry] = free
     finally:
         judge.close()
-    print(f"\nREADME {name} tool-down map: {nodes[None].sum()} nodes on the meshes, "
+    print(f"\nREADME {name} tool-down map: {nodes['meshes'].sum()} nodes on the meshes, "
           f"{nodes['fitted'].sum()} with the fitted capsules")
-    assert np.array_equal(nodes["two-level"], nodes[None])
-    assert nodes["fitted"].sum() < nodes[None].sum()
+    assert np.array_equal(nodes["two-level"], nodes["meshes"])
+    assert nodes["fitted"].sum() <= nodes["meshes"].sum()
+
+
+@pytest.mark.parametrize("arm", UR)
+def test_the_committed_hulls_are_the_hulls_of_universal_robots_meshes(arm, tmp_path):
+    """`data/ur_description/<arm>.json` holds, per link, the convex hull of the STL files the vendor's
+    xacro names for its `<collision>` (the same git blob hashes as the test's copy), placed by the
+    collision `<origin>`: every hull vertex is a vertex of those meshes, every mesh vertex lies in the
+    hull, and the licence is the repository's."""
+    import hashlib
+
+    import trimesh
+    from scipy.spatial import ConvexHull
+
+    pytest.importorskip("xacro")
+    rec = vendor._hull_record(f"ur_description/{arm}.json")
+    data = Path(vendor.__file__).resolve().parent / "data" / "ur_description"
+    assert (data / "LICENSE").read_bytes() == (UR_DESCRIPTION / "LICENSE").read_bytes()
+    root = ET.parse(ur_urdf(arm, tmp_path)).getroot()
+    links = {lk.get("name"): lk for lk in root.findall("link")}
+    assert [lk["name"] for lk in rec["links"]] == LINKS[arm]
+    for lk in rec["links"]:
+        pts = []
+        for col in links[lk["name"]].findall("collision"):
+            fn = col.find("geometry/mesh").get("filename").removeprefix("file://")
+            rel = str(Path(fn).resolve().relative_to(UR_DESCRIPTION))
+            raw = Path(fn).read_bytes()
+            assert lk["blobs"][rel] == hashlib.sha1(b"blob %d\0" % len(raw) + raw).hexdigest()
+            o = col.find("origin")
+            T = trimesh.transformations.euler_matrix(*map(float, o.get("rpy").split()), axes="sxyz")
+            T[:3, 3] = [float(x) for x in o.get("xyz").split()]
+            v = np.asarray(trimesh.load(fn, force="mesh", process=False).vertices, dtype=np.float64)
+            pts.append(v @ T[:3, :3].T + T[:3, 3])
+        pts = np.concatenate(pts)
+        hull_v = np.array(lk["vertices"])
+        d = np.min(np.linalg.norm(hull_v[:, None, :] - pts[None, ::1, :], axis=2), axis=1)
+        assert d.max() < 1e-7, (lk["name"], d.max())
+        eq = ConvexHull(hull_v).equations
+        assert (pts @ eq[:, :3].T + eq[:, 3]).max() < 1e-7, lk["name"]
 
 
 def test_a_named_arm_without_the_vendor_package_is_one_line(monkeypatch):
@@ -266,17 +355,24 @@ def test_a_named_arm_without_the_vendor_package_is_one_line(monkeypatch):
     assert checker_for("panda").model.source.startswith("capsules fitted")
     with pytest.raises(CollisionError, match="which is not installed: pip install pybullet$"):
         checker_for("panda", geometry="two-level")
+    # the UR arms' meshes are committed with wsmap: nothing to install
+    assert default_geometry("ur5e") == default_geometry("ur10e") == "two-level"
+    assert checker_for("ur5e").model.source.startswith("two-level: capsules fitted around wsmap/collision/data/ur_description/ur5e.json (commit ")
 
 
 @pytest.mark.parametrize("call, message", [
     (lambda: arm_model("panda", geometry="spheres"), "unknown collision geometry 'spheres'; geometries are meshes, "
                                                      "two-level, fitted, capsules"),
-    (lambda: arm_model("ur5e", geometry="fitted"), "no fitted collision capsules for robot 'ur5e'; named arms with "
-                                                   "them: iiwa14, panda"),
-    (lambda: arm_model("ur5e", geometry="two-level"), "no fitted collision capsules for robot 'ur5e'; named arms "
-                                                      "with them: iiwa14, panda"),
-    (lambda: arm_model("ur5e", geometry="meshes"), "no vendor collision meshes for robot 'ur5e'; arms with them: "
-                                                   "panda, iiwa14"),
+    (lambda: arm_model("gen3", geometry="fitted"), "no fitted collision capsules for robot 'gen3'; named arms with "
+                                                   "them: iiwa14, panda, ur10e, ur5e"),
+    (lambda: arm_model("puma560", geometry="two-level"), "no fitted collision capsules for robot 'puma560'; named "
+                                                         "arms with them: iiwa14, panda, ur10e, ur5e"),
+    (lambda: arm_model("gen3", geometry="meshes"), "no vendor collision meshes for robot 'gen3'; arms with them: "
+                                                   "panda, iiwa14, ur5e, ur10e"),
+    (lambda: arm_model("ur5e", load("ur10e"), geometry="meshes"), "the vendor meshes of 'ur5e' are in the bodies' "
+                                                                  "frames of the named arm; this arm's kinematics differ"),
+    (lambda: vendor.vendor_urdf("ur5e"), "the vendor meshes of 'ur5e' are committed convex hulls "
+                                         "(wsmap/collision/data/ur_description/ur5e.json), not a URDF file in a package"),
     (lambda: checker_for(arm_model("panda"), geometry="meshes"), "geometry= chooses the model of a named arm"),
 ])
 def test_bad_geometry_requests_are_one_line(call, message):

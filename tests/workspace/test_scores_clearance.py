@@ -1,5 +1,6 @@
 """The clearance score (REACH's distance penalty) and `CollisionChecker.distance`, against coal's own
-distance query on geometry built here from the model's shape sizes."""
+distance query on geometry built here from the model's shape sizes (the UR5e's estimated capsules:
+`geometry="capsules"`, primitives coal builds from their sizes)."""
 
 from __future__ import annotations
 
@@ -28,7 +29,7 @@ def _pose(xyz):
 
 def _tip(q):
     """The end capsule of the UR5e at `q`: its far end (world, m), its axis, its radius."""
-    chk = checker_for("ur5e")
+    chk = checker_for("ur5e", geometry="capsules")
     link = chk.model.links[-1]
     (shape,) = link.shapes
     radius, length = shape.size
@@ -39,7 +40,7 @@ def _tip(q):
 
 def _checker_with_ball(centre, frame="world"):
     scene = Scene(floor=0.0, obstacles=(Obstacle("ball", Shape("sphere", (BALL,), _pose(centre)), frame=frame),))
-    return checker_for("ur5e", scene)
+    return checker_for("ur5e", scene, geometry="capsules")
 
 
 def _ball_at_gap(gap, q=Q_UP):
@@ -134,16 +135,16 @@ def test_a_concave_surface_is_measured_on_its_triangles_and_its_inside_is_zero()
     ring.apply_translation([0.0, 0.0, 0.5])
     scene = Scene(floor=0.0, obstacles=(Obstacle("ring", Shape("surface", (), np.eye(4), ring.vertices, ring.faces),
                                                  frame="world"),))
-    chk = checker_for("ur5e", scene)
+    chk = checker_for("ur5e", scene, geometry="capsules")
     q = np.random.default_rng(10).uniform(-np.pi, np.pi, (400, 6))
-    q = q[checker_for("ur5e")(q)][:40]  # free of the floor and of each other: the ring decides
+    q = q[checker_for("ur5e", geometry="capsules")(q)][:40]  # free of the floor and of each other: the ring decides
     d = chk.distance(q)
     np.testing.assert_allclose(d, [_coal_clearance(chk, x) if chk(x[None])[0] else 0.0 for x in q], atol=1e-9)
     assert ((d == 0) == ~chk(q)).all() and 5 <= (d > 0).sum() <= 35
     # a closed 6 m box around the whole arm: no triangle near any link, yet every link is inside it
     box = trimesh.creation.box((6, 6, 6))
     room = Obstacle("room", Shape("surface", (), np.eye(4), box.vertices, box.faces), frame="world")
-    inside = checker_for("ur5e", Scene(obstacles=(room,))).distance(q, np.eye(4))
+    inside = checker_for("ur5e", Scene(obstacles=(room,)), geometry="capsules").distance(q, np.eye(4))
     assert inside.tolist() == [0.0] * len(q)
 
 

@@ -1,25 +1,29 @@
 """Collision models of the named arms (`wsmap.robots.arms`), for self-collision and the floor.
 
 `arm_model(name, geometry=...)` gives one of four geometries (`GEOMETRIES`); `default_geometry`
-says which one `wsmap.collision.checker_for(name)` and the command line's `--collision` use:
+says which one `wsmap.collision.checker_for(name)` and the command line's `--collision` use (the
+vendor record's `default`, `wsmap.collision.vendor.VENDOR`):
 
 * `"meshes"` — the vendor's collision meshes themselves, as convex hulls checked by coal behind
-  their enclosing spheres (`wsmap.collision.vendor.mesh_model`; needs the package that ships them,
-  pybullet_data), each hull grown by `vendor.MESH_MARGIN` (1 mm, Bullet's margin): exact for those
-  grown hulls. The default of the Panda and the iiwa 14 where pybullet_data is installed;
+  their enclosing spheres (`wsmap.collision.vendor.mesh_model`), each hull grown by
+  `vendor.MESH_MARGIN` (1 mm, Bullet's margin): exact for those grown hulls. The Panda's and the
+  iiwa 14's come from pybullet_data (where it is installed: their default there); the UR5e's and
+  the UR10e's are committed with wsmap (the convex hulls of Universal Robots' own collision meshes,
+  `wsmap/collision/data/ur_description/`);
 * `"two-level"` — the same meshes with the fitted capsules as their coarse model
   (`wsmap.collision.vendor.two_level_model`): the capsules first, the meshes decide where the
-  capsules collide, so the answer is the meshes', configuration for configuration (tested). With
-  one convex hull per link, coal is so quick that the capsules cost more than they save
-  (`benchmarks/collision/bench_vendor_judge.py`; docs/collision.md), so it is not the default;
+  capsules collide, so the answer is the meshes', configuration for configuration (tested). The
+  default of the UR5e and the UR10e (where it pays: docs/collision.md); not of the Panda and the
+  iiwa 14, whose one hull per link coal tests about as fast as the capsules
+  (`benchmarks/collision/bench_vendor_judge.py`);
 * `"fitted"` — capsules (and cylinders for flat parts) fitted around the vendor's own collision
-  meshes, every mesh vertex inside (`wsmap.collision.vendor.fitted_model`; the Panda and the
-  iiwa 14, `vendor.FITTED`): a body at least as large as the real arm, never free where the meshes
-  collide, sometimes colliding where they are free. Their default without pybullet_data (the
-  capsules are committed numbers: they need nothing);
-* `"capsules"` — the estimated capsules below, the default of the UR5e (and of the Panda and the
-  iiwa 14 on a family arm with other lengths): not fitted to any vendor geometry, so not
-  guaranteed to contain the real arm. The other named arms (ur10e, puma560, gen3) have none.
+  meshes, every mesh vertex inside (`wsmap.collision.vendor.fitted_model`, `vendor.FITTED`): a body
+  at least as large as the real arm, never free where the meshes collide, sometimes colliding
+  where they are free. The Panda's and the iiwa's default without pybullet_data (the capsules are
+  committed numbers: they need nothing);
+* `"capsules"` — the estimated capsules below (the Panda, the iiwa 14 and the UR5e; the default on
+  an arm of a family with other lengths): not fitted to any vendor geometry, so not guaranteed to
+  contain the real arm. The PUMA 560 and the Gen3 have no collision model.
 
 The estimated capsules:
 
@@ -51,7 +55,7 @@ from typing import TYPE_CHECKING
 from ..robots import ARMS, load
 from ..robots.registry import ArmCapsules
 from .geometry import CollisionError, CollisionModel, capsule_model, capsules_along_links
-from .vendor import FITTED, fitted_model, mesh_model, same_kinematics, two_level_model, vendor_installed
+from .vendor import FITTED, VENDOR, fitted_model, mesh_model, same_kinematics, two_level_model, vendor_installed
 
 if TYPE_CHECKING:  # names of the annotations only
     from wsmap.kinematics.chain import Arm
@@ -94,12 +98,13 @@ ALONG_LINKS: tuple[str, ...] = tuple(arm.name for arm in ARMS if arm.capsules is
 
 def default_geometry(name: str, robot: Arm | None = None) -> str:
     """The geometry `arm_model` gives the named arm `name` on `robot` by default, where capsules were
-    fitted to its vendor meshes and `robot` (if given) has its kinematics: `"meshes"` (exact) when
-    the package that ships the meshes is installed, else `"fitted"`; `"capsules"` for every other arm
-    (an arm of a family with other lengths gets the capsules along its links)."""
+    fitted to its vendor meshes and `robot` (if given) has its kinematics: the vendor record's
+    `default` (`"meshes"` for the Panda and the iiwa 14, `"two-level"` for the UR5e and the UR10e)
+    when the meshes can be read here, else `"fitted"`; `"capsules"` for every other arm (an arm of a
+    family with other lengths gets the capsules along its links)."""
     key = str(name).lower()
-    if key in FITTED and (robot is None or same_kinematics(robot, load(key))):
-        return "meshes" if vendor_installed(key) else "fitted"
+    if key in FITTED and key in VENDOR and (robot is None or same_kinematics(robot, load(key))):
+        return VENDOR[key].default if vendor_installed(key) else "fitted"
     return "capsules"
 
 

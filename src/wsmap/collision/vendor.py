@@ -1,31 +1,42 @@
 """The named arms' collision geometry from the vendors' own descriptions: the exact meshes and the
 capsules fitted around them.
 
-Two arms have a vendor description with collision meshes in a package on this machine
-(`VENDOR`): the Panda (Franka Emika's `franka_description` as `pybullet_data` ships it,
-`franka_panda/panda.urdf`, Apache-2.0) and the LBR iiwa 14 R820 (`pybullet_data`'s
-`kuka_iiwa/model.urdf`, from Krug and Stoyanov's `lbr_iiwa` description, BSD-3-Clause). Their
-link frames are wsmap's body frames up to a constant transform per body (`frame_offsets`
-measures it and checks it is constant), with the same joint angles.
+Each arm with a vendor description has one record in `VENDOR` that says where its meshes are:
 
-* `mesh_model(name)` — the vendor URDF's collision meshes (the arm's links only, without a hand),
-  moved into the bodies' frames of wsmap's chain; the exact checks take each mesh's convex hull
-  (`wsmap.collision.shapes.mesh`), grown by `MESH_MARGIN` (1 mm, Bullet's margin around a hull). Needs the package that ships the description (pybullet_data,
-  a test dependency): without it a one-line `CollisionError` names it.
+* `PackagedURDF` — a vendor URDF in an installed Python package: the Panda (Franka Emika's
+  `franka_description` as `pybullet_data` ships it, `franka_panda/panda.urdf`, Apache-2.0) and the
+  LBR iiwa 14 R820 (`pybullet_data`'s `kuka_iiwa/model.urdf`, from Krug and Stoyanov's `lbr_iiwa`
+  description, BSD-3-Clause). Their link frames are wsmap's body frames up to a constant transform
+  per body (`frame_offsets` measures it on every load and checks it is constant), with the same
+  joint angles;
+* `CommittedHulls` — the convex hulls of a vendor description's collision meshes committed with
+  wsmap as package data, with the licence and a `SOURCE.md` (repository, commit, paths, git blob
+  hashes): the UR5e and the UR10e (Universal Robots' `Universal_Robots_ROS2_Description`,
+  BSD-3-Clause, `urdf/ur.urdf.xacro` expanded with `ur_type:=ur5e`/`ur10e`;
+  `data/ur_description/`, written by `tools/vendor_hulls.py`, which checked the frames when it
+  derived them: the vendor's `default_kinematics.yaml` is wsmap's DH table to 8e-10 m). They need
+  nothing installed.
+
+* `mesh_model(name)` — the vendor's collision meshes (the arm's links only, without a hand), in
+  the bodies' frames of wsmap's chain; the exact checks take each mesh's convex hull
+  (`wsmap.collision.shapes.mesh`), grown by `MESH_MARGIN` (1 mm, Bullet's margin around a hull).
+  Without the package that ships a `PackagedURDF` (pybullet_data, a test dependency) a one-line
+  `CollisionError` names it.
 * `fitted_model(name)` — capsules (cylinders where a part is flat: the flange discs) that
   enclose every vertex of each link's mesh hull plus `PADDING`, fitted by `tools/fit_collision_spheres.py` and committed in
-  `wsmap/collision/data/fitted_<arm>.json` with their source, the package version and the
-  slack per link (fitted volume over hull volume), and with the allowed-collision matrix built on
-  the vendor meshes (the shapes of two links a joint apart overlap where the housings do not, so
-  the pairs never checked are the meshes'). Needs nothing but numpy.
+  `wsmap/collision/data/fitted_<arm>.json` with their source, the package version or the hull
+  file's hash, and the slack per link (fitted volume over hull volume), and with the
+  allowed-collision matrix built on the vendor meshes (the shapes of two links a joint apart
+  overlap where the housings do not, so the pairs never checked are the meshes'). Needs nothing
+  but numpy.
 * `two_level_model(name)` — the meshes, with the fitted capsules as their coarse model
   (`CollisionModel.coarse`): a checker asks the capsules first and the meshes only where the
-  capsules say colliding, so it answers as the meshes do (`wsmap.collision.checks`). The default of
-  `wsmap.collision.checker_for` where the vendor description is installed.
+  capsules say colliding, so it answers as the meshes do (`wsmap.collision.checks`). The default
+  of `wsmap.collision.checker_for` for the UR5e and the UR10e (the record's `default`).
 
 `mesh_model` and `two_level_model` carry the allowed-collision matrix committed with the fitted
-capsules: it was built on these meshes (`build_acm`, 10,000 samples, seed 0), so a checker need not
-sample it again.
+capsules: it was built on these meshes, grown by the margin (`build_acm`, 10,000 samples, seed 0),
+so a checker need not sample it again.
 
 Both models name their links `link0` ... `link<n>` by body (as the capsule models along the links
 do), ride on the chain of `wsmap.load(name)` and stand on the floor `z = 0`.
@@ -33,9 +44,11 @@ do), ride on the chain of `wsmap.load(name)` and stand on the floor `z = 0`.
 
 from __future__ import annotations
 
+import hashlib
 import importlib.util
 import json
 import os
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import TYPE_CHECKING
@@ -50,8 +63,9 @@ from .geometry import CollisionModel, Link, Shape, body_frames, from_urdf_collis
 if TYPE_CHECKING:  # names of the annotations only
     from wsmap.kinematics.chain import Arm
 
-__all__ = ["VENDOR", "PADDING", "MESH_MARGIN", "VendorDescription", "vendor_urdf", "vendor_installed", "frame_offsets", "mesh_model",
-           "fitted_model", "two_level_model", "fitted_record", "FITTED", "segment_shape", "same_kinematics"]
+__all__ = ["VENDOR", "PADDING", "MESH_MARGIN", "VendorDescription", "PackagedURDF", "CommittedHulls", "VendorLink",
+           "vendor_record", "vendor_urdf", "vendor_installed", "frame_offsets", "mesh_model", "fitted_model",
+           "two_level_model", "fitted_record", "FITTED", "segment_shape", "same_kinematics"]
 
 #: Metres by which the checks grow every vendor mesh hull (`CollisionModel.margin`): Bullet keeps
 #: a collision margin of about a millimetre around each convex hull, so PyBullet (the judge of
@@ -66,53 +80,187 @@ MESH_MARGIN = 0.001
 PADDING = 0.002
 
 
-@dataclass(frozen=True)
-class VendorDescription:
-    """Where a named arm's vendor collision meshes are: `package` (an importable module whose
-    folder holds the description), `urdf` (relative to that folder), `links` (the URDF links of
-    bodies 0..n, in order), `licence` and `origin` (who made the description)."""
+@dataclass(frozen=True, eq=False)
+class VendorLink:
+    """One vendor link on wsmap's chain: its vendor `name`, the `body` it rides on, its own `frame`
+    `(4, 4)` in that body's frame, its collision `shapes` (meshes, placed in the body's frame) and the
+    vendor's mesh files it comes from (`meshes`, relative to the description)."""
 
-    package: str
-    distribution: str
-    urdf: str
+    name: str
+    body: int
+    frame: np.ndarray
+    shapes: tuple
+    meshes: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class VendorDescription(ABC):
+    """Where a named arm's vendor collision meshes are (one record per arm in `VENDOR`): `links`
+    (the vendor links of bodies 0..n, in order), `licence` and `origin` (who made the description),
+    `default` (the geometry `wsmap.collision.checker_for` gives the arm where the meshes are:
+    `"meshes"` or `"two-level"`). A subclass says where the meshes are read from."""
+
     links: tuple[str, ...]
     licence: str
     origin: str
+    default: str
+
+    @abstractmethod
+    def installed(self) -> bool:
+        """Whether the meshes can be read here."""
+
+    @abstractmethod
+    def label(self) -> str:
+        """Where the meshes are read from, for a model's `source`."""
+
+    @abstractmethod
+    def vendor_links(self, name: str, arm: Arm) -> list[VendorLink]:
+        """The vendor links of bodies 0..n on `arm` (the named arm `name`'s kinematics), or a
+        one-line `CollisionError` (not installed, other kinematics)."""
+
+    @abstractmethod
+    def source_record(self, name: str) -> dict:
+        """What `tools/fit_collision_spheres.py` records of the source (`fitted_record`'s `source`)."""
 
 
-#: The named arms with a vendor description on this machine, by name.
+@dataclass(frozen=True)
+class PackagedURDF(VendorDescription):
+    """A vendor URDF shipped by an installed Python package: `package` (the importable module whose
+    folder holds it), `distribution` (what pip installs), `urdf` (relative to the package's folder).
+    Its link frames are checked against wsmap's bodies on every load (`frame_offsets`)."""
+
+    package: str = ""
+    distribution: str = ""
+    urdf: str = ""
+
+    def installed(self) -> bool:
+        return importlib.util.find_spec(self.package) is not None
+
+    def label(self) -> str:
+        return f"{self.package}/{self.urdf}"
+
+    def path(self, name: str) -> str:
+        """The URDF's path; a one-line `CollisionError` when the package is not installed."""
+        spec = importlib.util.find_spec(self.package)
+        if spec is None or not spec.submodule_search_locations:
+            raise CollisionError(f"the vendor meshes of {name!r} come from {self.package}/{self.urdf}, which is not "
+                                 f"installed: pip install {self.distribution}")
+        return os.path.join(list(spec.submodule_search_locations)[0], self.urdf)
+
+    def vendor_links(self, name, arm):
+        path = self.path(name)
+        vendor = from_urdf_collision(path, ee_link=self.links[-1], base_link=self.links[0])
+        X = frame_offsets(vendor.chain, arm)
+        by_name = {lk.name: lk for lk in vendor.links}
+        return [VendorLink(lname, k, frame=X[k] @ by_name[lname].frame,
+                           shapes=tuple(s.placed(X[k]) for s in by_name[lname].shapes),
+                           meshes=tuple(sorted({os.path.relpath(s.source, os.path.dirname(path))
+                                                for s in by_name[lname].shapes})))
+                for k, lname in enumerate(self.links)]
+
+    def source_record(self, name):
+        from importlib.metadata import version
+
+        with open(self.path(name), "rb") as fh:
+            sha = hashlib.sha256(fh.read()).hexdigest()
+        v = version(self.distribution)
+        return {"package": self.package, "version": v, "urdf": self.urdf, "urdf_sha256": sha, "licence": self.licence,
+                "origin": self.origin, "label": f"{self.package} {v} {self.urdf}"}
+
+
+@dataclass(frozen=True)
+class CommittedHulls(VendorDescription):
+    """The convex hulls of a vendor description's collision meshes, committed as package data
+    (`data/<hulls>`, written by `tools/vendor_hulls.py` with the licence and a `SOURCE.md`): per
+    link the hull's vertices in the vendor link's frame and that frame in wsmap's body frame, checked
+    when derived (`frame_offsets` on 200 random configurations) and by PyBullet on the vendor's own
+    URDF in `tests/collision/test_vendor_judge.py`. Nothing but numpy is needed to read them."""
+
+    hulls: str = ""
+
+    def installed(self) -> bool:
+        return True
+
+    def label(self) -> str:
+        return f"wsmap/collision/data/{self.hulls}"
+
+    def vendor_links(self, name, arm):
+        if not same_kinematics(arm, load(name)):
+            raise CollisionError(f"the vendor meshes of {name!r} are in the bodies' frames of the named arm; this arm's "
+                                 "kinematics differ (give geometry='capsules' for capsules along its links)")
+        rec = _hull_record(self.hulls)
+        out = []
+        for lk in rec["links"]:
+            frame = np.array(lk["frame"], dtype=np.float64)
+            shape = Shape("mesh", (), frame, np.array(lk["vertices"], dtype=np.float64),
+                          source=f"{self.label()}#{lk['name']}")
+            out.append(VendorLink(lk["name"], int(lk["body"]), frame=frame, shapes=(shape,), meshes=tuple(lk["meshes"])))
+        if [v.name for v in out] != list(self.links):
+            raise CollisionError(f"{self.label()} holds the links {[v.name for v in out]}, expected {list(self.links)}")
+        return out
+
+    def source_record(self, name):
+        src = _hull_record(self.hulls)["source"]
+        with open(os.path.join(_data_dir(), self.hulls), "rb") as fh:
+            sha = hashlib.sha256(fh.read()).hexdigest()
+        return {"package": "wsmap", "hulls": f"wsmap/collision/data/{self.hulls}", "hulls_sha256": sha,
+                "repository": src["repository"], "commit": src["commit"], "licence": self.licence,
+                "origin": self.origin, "label": f"{self.label()} (commit {src['commit'][:12]})"}
+
+
+_UR_LINKS = ("base_link_inertia", "shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link",
+             "wrist_2_link", "wrist_3_link")
+
+
+def _ur(arm: str) -> CommittedHulls:
+    return CommittedHulls(
+        links=_UR_LINKS, default="two-level", hulls=f"ur_description/{arm}.json",
+        licence="BSD-3-Clause (wsmap/collision/data/ur_description/LICENSE)",
+        origin=f"Universal Robots' ROS 2 description (Universal_Robots_ROS2_Description), urdf/ur.urdf.xacro with "
+               f"ur_type:={arm}: collision meshes meshes/{arm}/collision/*.stl as convex hulls "
+               "(data/ur_description/SOURCE.md)")
+
+
+#: The named arms with a vendor description, by name (one record each: where its meshes are).
 VENDOR: dict[str, VendorDescription] = {
-    "panda": VendorDescription(
+    "panda": PackagedURDF(
         package="pybullet_data", distribution="pybullet", urdf="franka_panda/panda.urdf",
-        links=tuple(f"panda_link{k}" for k in range(8)),
+        links=tuple(f"panda_link{k}" for k in range(8)), default="meshes",
         licence="Apache-2.0 (pybullet_data/franka_panda/LICENSE.txt)",
         origin="Franka Emika's franka_description, collision meshes meshes/collision/link0-7.obj"),
-    "iiwa14": VendorDescription(
+    "iiwa14": PackagedURDF(
         package="pybullet_data", distribution="pybullet", urdf="kuka_iiwa/model.urdf",
-        links=tuple(f"lbr_iiwa_link_{k}" for k in range(8)),
+        links=tuple(f"lbr_iiwa_link_{k}" for k in range(8)), default="meshes",
         licence="BSD-3-Clause (the header of pybullet_data/kuka_iiwa/model.urdf)",
         origin="Krug and Stoyanov's lbr_iiwa description of the LBR iiwa 14 R820 (AASS, Orebro University), "
                "collision meshes meshes/link_0-7.stl"),
+    "ur5e": _ur("ur5e"),
+    "ur10e": _ur("ur10e"),
 }
 
 
-def vendor_urdf(name: str) -> str:
-    """The path of the named arm's vendor URDF; a one-line `CollisionError` when the arm has none
-    or the package that ships it is not installed."""
+def vendor_record(name: str) -> VendorDescription:
+    """The `VENDOR` record of the named arm; a one-line `CollisionError` listing the arms if none."""
     rec = VENDOR.get(name)
     if rec is None:
         raise CollisionError(f"no vendor collision meshes for robot {name!r}; arms with them: {', '.join(VENDOR)}")
-    spec = importlib.util.find_spec(rec.package)
-    if spec is None or not spec.submodule_search_locations:
-        raise CollisionError(f"the vendor meshes of {name!r} come from {rec.package}/{rec.urdf}, which is not "
-                             f"installed: pip install {rec.distribution}")
-    return os.path.join(list(spec.submodule_search_locations)[0], rec.urdf)
+    return rec
+
+
+def vendor_urdf(name: str) -> str:
+    """The path of the named arm's vendor URDF in an installed package (`PackagedURDF`); a one-line
+    `CollisionError` when the arm has none or the package that ships it is not installed."""
+    rec = vendor_record(name)
+    if not isinstance(rec, PackagedURDF):
+        raise CollisionError(f"the vendor meshes of {name!r} are committed convex hulls ({rec.label()}), not a URDF "
+                             "file in a package")
+    return rec.path(name)
 
 
 def vendor_installed(name: str) -> bool:
-    """Whether the named arm has a vendor description and the package that ships it is installed."""
+    """Whether the named arm has a vendor description whose meshes can be read here."""
     rec = VENDOR.get(name)
-    return rec is not None and importlib.util.find_spec(rec.package) is not None
+    return rec is not None and rec.installed()
 
 
 def same_kinematics(a: Arm, b: Arm) -> bool:
@@ -153,20 +301,13 @@ def mesh_model(name: str, robot: Arm | None = None) -> CollisionModel:
     """The named arm's vendor collision meshes on `robot` (default `wsmap.load(name)`; its limits
     may differ, its kinematics must be the named arm's): one link per body, `link0` ... `link<n>`,
     each with the meshes of the vendor link on that body (the module notes), on the floor."""
-    rec = VENDOR.get(name)
-    path = vendor_urdf(name)
+    rec = vendor_record(name)
     arm = load(name) if robot is None else robot
-    vendor = from_urdf_collision(path, ee_link=rec.links[-1], base_link=rec.links[0])
-    X = frame_offsets(vendor.chain, arm)
-    by_name = {lk.name: lk for lk in vendor.links}
-    links = []
-    for k, lname in enumerate(rec.links):
-        lk = by_name[lname]
-        links.append(Link(f"link{k}", k, tuple(s.placed(X[k]) for s in lk.shapes),
-                          parent=f"link{k - 1}" if k else None, frame=X[k] @ lk.frame))
-    model = CollisionModel(arm, tuple(links), source=f"{rec.package}/{rec.urdf}: collision meshes of "
-                           f"{', '.join(rec.links)} ({rec.origin}; {rec.licence}), grown by "
-                           f"{MESH_MARGIN * 1e3:g} mm", floor=True, margin=MESH_MARGIN)
+    links = tuple(Link(f"link{v.body}", v.body, v.shapes, parent=f"link{v.body - 1}" if v.body else None, frame=v.frame)
+                  for v in rec.vendor_links(name, arm))
+    model = CollisionModel(arm, links, source=f"{rec.label()}: collision meshes of {', '.join(rec.links)} "
+                           f"({rec.origin}; {rec.licence}), grown by {MESH_MARGIN * 1e3:g} mm", floor=True,
+                           margin=MESH_MARGIN)
     if name in FITTED:  # the matrix committed with the fitted capsules is these meshes' (module notes)
         model.acm = acm_from_record(model, {"links": list(model.names), **fitted_record(name)["acm"]})
     return model
@@ -187,6 +328,13 @@ def two_level_model(name: str, robot: Arm | None = None) -> CollisionModel:
 
 def _data_dir() -> str:
     return os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+
+
+@lru_cache(maxsize=None)
+def _hull_record(path: str) -> dict:
+    """The committed hull file `data/<path>` (`CommittedHulls`, written by `tools/vendor_hulls.py`)."""
+    with open(os.path.join(_data_dir(), path), encoding="utf-8") as fh:
+        return json.load(fh)
 
 
 #: The named arms with fitted capsules committed (`data/fitted_<arm>.json`).
@@ -242,8 +390,7 @@ def fitted_model(name: str, robot: Arm | None = None) -> CollisionModel:
         links.append(Link(f"link{k}", k, shapes, parent=links[-1].name if links else None))
     src = rec["source"]
     model = CollisionModel(arm, tuple(links), floor=True,
-                           source=f"capsules fitted around {src['package']} {src['version']} {src['urdf']} collision "
-                                  f"meshes (every hull vertex inside, +{rec['padding'] * 1e3:g} mm; "
-                                  "tools/fit_collision_spheres.py)")
+                           source=f"capsules fitted around {src['label']} collision meshes (every hull vertex inside, "
+                                  f"+{rec['padding'] * 1e3:g} mm; tools/fit_collision_spheres.py)")
     model.acm = acm_from_record(model, {"links": list(model.names), **rec["acm"]})
     return model
