@@ -45,6 +45,31 @@ def _median(fn, repeat):
     return float(np.median(harness.timings(fn, repeat, warmup=1)[0].values))
 
 
+def _profiled(arm, nodes, rpy):
+    """`(seconds of one classical map, {pass: seconds})`: `_MapSearch`'s passes timed by
+    stopwatches around them (the waves run inside the later passes too, whose times include theirs)."""
+    from wsmap import workspace as ws
+    from wsmap.kinematics.ik import search
+
+    spent, saved = {}, {}
+    for name in ("__init__", "first_pass", "waves", "fk_seed_pass", "retries", "border_search"):
+        saved[name] = original = getattr(search._MapSearch, name)
+
+        def timed(self, *a, _original=original, _name=name, **k):
+            with harness.Stopwatch() as watch:
+                out = _original(self, *a, **k)
+            spent[_name] = spent.get(_name, 0.0) + watch.seconds
+            return out
+
+        setattr(search._MapSearch, name, timed)
+    try:
+        total, _ = harness.timed(lambda: ws.constant_orientation_map(arm, nodes, rpy))
+    finally:
+        for name, original in saved.items():
+            setattr(search._MapSearch, name, original)
+    return total, spent
+
+
 def main(argv=None) -> int:
     p = harness.parser(__doc__, repeat=3, seed=12345, repeat_help="timed calls per map (default 3)",
                        seed_help="stream of the random arms (default 12345)")
@@ -53,6 +78,7 @@ def main(argv=None) -> int:
     p.add_argument("--arms", type=harness.positive_int, default=10, help="random arms per family (default 10)")
     p.add_argument("--step", type=float, default=0.1, help="grid step (m) on [-1.5, 1.5]^3 (default 0.1)")
     p.add_argument("--margins", type=float, nargs="+", default=[2.0, 4.0, 8.0], help="logits (default 2 4 8)")
+    p.add_argument("--profile", action="store_true", help="also time the classical map's passes per numerical arm")
     args = p.parse_args(argv)
     if not Path(args.model).is_file():
         print(f"no model file {args.model}: run `dvc repro -s morphologies` first, or give --model", file=sys.stderr)
@@ -72,7 +98,7 @@ def main(argv=None) -> int:
     model, _ = mm.load_morph_model(args.model)
     rows = []
     print(f"{len(nodes)} nodes, tool down; time of the verified map / the classical map's")
-    print(f"{'arm':<10} {'method':<9} {'reach':>6} {'net err':>7} | " +
+    print(f"{'arm':<10} {'method':<9} {'reach':>6} {'net err':>7} {'filters':>7} | " +
           " | ".join(f"m={m:g}: checked  missed extra  time" for m in args.margins))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExtrapolationWarning)
@@ -83,6 +109,11 @@ def main(argv=None) -> int:
             network = mm.predict_morph_map(model, arm, nodes, allow_extrapolation=True)
             row = {"arm": name, "method": method, "reachable": int(truth.sum()),
                    "network_errors": int((network != truth).sum()), "classical_s": t_classical, "margins": []}
+            if args.profile and method == "numerical":
+                total, spent = _profiled(arm, nodes, mm.TOOL_DOWN)
+                row["profile"] = {"total_s": total, **{k: v for k, v in spent.items()}}
+                print(f"  {name} classical map {1e3 * total:.0f} ms: " + ", ".join(
+                    f"{k.strip('_')} {100 * v / total:.0f} %" for k, v in spent.items()), flush=True)
             cells = []
             for m in args.margins:
                 def verified(m=m):
@@ -91,19 +122,24 @@ def main(argv=None) -> int:
                 t = _median(verified, args.repeat)
                 res = verified()
                 missed, extra = int((truth & ~res.values).sum()), int((res.values & ~truth).sum())
+                row["possible"] = int(res.possible.sum())
                 row["margins"].append({"margin": m, "checked": res.fraction_verified, "missed": missed,
                                        "extra": extra, "rounds": res.rounds, "seconds": t,
                                        "time_share": t / t_classical})
                 cells.append(f"{100 * res.fraction_verified:6.1f} % {missed:7d} {extra:5d} {t / t_classical:5.2f}")
             rows.append(row)
-            print(f"{name:<10} {method:<9} {int(truth.sum()):6d} {row['network_errors']:7d} | " + " | ".join(cells),
-                  flush=True)
+            print(f"{name:<10} {method:<9} {int(truth.sum()):6d} {row['network_errors']:7d} {row['possible']:7d} | "
+                  + " | ".join(cells), flush=True)
     for i, m in enumerate(args.margins):
         same = sum(r["margins"][i]["missed"] + r["margins"][i]["extra"] == 0 for r in rows)
         share = np.median([r["margins"][i]["time_share"] for r in rows])
         print(f"margin {m:g}: {same} of {len(rows)} arms identical to the classical map; median time share "
               f"{share:.2f}")
     harness.write_json(args, {"nodes": int(len(nodes)), "rows": rows})
+    differ = [r["arm"] for r in rows if any(c["missed"] + c["extra"] for c in r["margins"])]
+    if differ:
+        print(f"verified maps differ from the classical map on: {', '.join(differ)}", file=sys.stderr)
+        return 1
     return 0
 
 

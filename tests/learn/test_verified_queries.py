@@ -42,36 +42,66 @@ def model(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def ur5e_truth():
+    """The UR5e's map on GRID by the numerical search (the path a verified query runs with
+    method="numerical") and by its closed form."""
     arm = wsmap.load("ur5e")
-    return arm, ws.constant_orientation_map(arm, ws.cartesian_grid(*GRID), (math.pi, 0, 0), method="exact")
+    nodes = ws.cartesian_grid(*GRID)
+    return (arm, ws.constant_orientation_map(arm, nodes, (math.pi, 0, 0), method="numerical"),
+            ws.constant_orientation_map(arm, nodes, (math.pi, 0, 0), method="exact"))
 
 
 def test_verified_nodes_are_classical_and_the_others_the_networks(model, ur5e_truth):
-    arm, truth = ur5e_truth
+    arm, truth, _ = ur5e_truth
     # the test's small network is far from sure anywhere: a margin that checks about half the nodes
-    res = verified_morph_grid(model, arm, *GRID, margin=_half_margin(model, arm))
-    assert isinstance(res, VerifiedMap) and res.method == "exact" and res.rounds >= 1
+    res = verified_morph_grid(model, arm, *GRID, margin=_half_margin(model, arm), method="numerical")
+    assert isinstance(res, VerifiedMap) and res.method == "numerical" and res.rounds >= 1
     network = mm.predict_morph_map(model, arm, ws.cartesian_grid(*GRID))
-    assert np.array_equal(res.network, network)
+    # the network is asked about the nodes the filters leave, and nowhere else
+    assert np.array_equal(res.network, network & res.possible)
+    assert not res.values[~res.possible].any() and not res.verified[~res.possible].any()
     assert np.array_equal(res.values[res.verified], truth[res.verified])
-    assert np.array_equal(res.values[~res.verified], network[~res.verified])
+    rest = res.possible & ~res.verified
+    assert np.array_equal(res.values[rest], network[rest])
     assert 0 < res.fraction_verified < 1
-    assert res.corrected == int((res.values != network).sum())
+    assert res.corrected == int((res.values != res.network).sum())
     # checking more can only bring the answer nearer the classical map
-    more = verified_morph_grid(model, arm, *GRID, margin=_half_margin(model, arm) + 1, shell=2)
+    more = verified_morph_grid(model, arm, *GRID, margin=_half_margin(model, arm) + 1, shell=2, method="numerical")
     assert (more.verified >= res.verified).all()
     assert (more.values != truth).sum() <= (res.values != truth).sum()
 
 
+def test_the_filters_rule_out_only_unreachable_nodes(model, ur5e_truth):
+    from wsmap.kinematics.ik.certificate import filter_certificate
+
+    arm, truth, exact = ur5e_truth
+    res = verified_morph_grid(model, arm, *GRID, margin=0.0, shell=0, method="numerical")
+    T = ws.target_poses(ws.cartesian_grid(*GRID), (math.pi, 0, 0))
+    # the search's pre-filters, as the certificate module runs them on every pose
+    assert np.array_equal(res.possible, ~filter_certificate(arm, T))
+    assert not (exact & ~res.possible).any() and (~res.possible).sum() > len(T) // 2
+
+
 def test_every_node_checked_is_the_classical_map(model, ur5e_truth):
-    arm, truth = ur5e_truth
-    res = verified_morph_grid(model, arm, *GRID, margin=math.inf)
-    assert res.verified.all() and res.rounds == 1 and np.array_equal(res.values, truth)
+    arm, truth, _ = ur5e_truth
+    res = verified_morph_grid(model, arm, *GRID, margin=math.inf, method="numerical")
+    assert res.verified.sum() == res.possible.sum() and res.rounds == 1 and np.array_equal(res.values, truth)
+
+
+def test_a_closed_form_arm_is_its_closed_form_without_the_network(model, ur5e_truth, monkeypatch):
+    arm, _, exact = ur5e_truth
+
+    def no_network(*a, **k):
+        raise AssertionError("the network ran")
+
+    monkeypatch.setattr(type(model), "logits_at", no_network)
+    res = verified_morph_grid(model, arm, *GRID)
+    assert res.method == "exact" and res.network is None and res.corrected == 0
+    assert res.verified.all() and np.array_equal(res.values, exact)
 
 
 def test_verify_all_reports_no_unverified_node_reachable(model, ur5e_truth):
-    arm, truth = ur5e_truth
-    res = verified_morph_grid(model, arm, *GRID, margin=_half_margin(model, arm), verify="all")
+    arm, truth, _ = ur5e_truth
+    res = verified_morph_grid(model, arm, *GRID, margin=_half_margin(model, arm), verify="all", method="numerical")
     assert (res.verified | ~res.values).all()
     assert not (res.values & ~truth).any()  # no false positive
 
@@ -84,6 +114,7 @@ def test_a_numerical_arm_goes_through_the_search(model):
     assert res.method == "numerical"
     truth = ws.constant_orientation_map(arm, ws.cartesian_grid(*grid), (math.pi, 0, 0))
     assert np.array_equal(res.values[res.verified], truth[res.verified])
+    assert not (truth & ~res.possible).any()
 
 
 @pytest.mark.parametrize("kw, message", [

@@ -2,24 +2,38 @@
 by the classical search.
 
 The network (`wsmap.learn.morph_model`) answers every node of a grid at once, but an answer
-near its decision boundary is a guess. `verified_morph_grid` sends those nodes to the classical map
-(`wsmap.workspace.constant_orientation_map`: the closed form where the arm has one, else the
-numerical search) and keeps the network's answer only where it is sure:
+near its decision boundary is a guess. `verified_morph_grid` decides those nodes classically and
+keeps the network's answer only where it is sure, doing as little classical work as it can:
 
-1. **Unsure by margin**: nodes whose logit lies within `margin` of the threshold's logit.
-2. **The predicted boundary shell**: nodes within `shell` grid steps (26-neighbourhood) of a node
-   the network answers the other way. The network's errors sit on the map's boundary (docs/morphologies.md),
-   so the shell holds most of them even where the network is confident.
-3. **Growing from corrections**: where the classical answer differs from the network's, the
+0. **A closed-form arm** (`method` resolves to `"exact"`) is mapped by its closed form at every
+   node: that costs less than the network's own pass (2-7 ms against 50-130 ms for 29,791 nodes,
+   docs/morphologies.md), so the network is not consulted (`VerifiedMap.network` is None).
+1. **The sound filters first**: nodes the reach and joint-limit filters rule out
+   (`wsmap.kinematics.ik.certificate.filter_certificate`, the pre-filters of the numerical search)
+   are unreachable by proof; neither the network nor the search looks at them
+   (`VerifiedMap.possible`). They are most of a box around the arm (the Panda: 27,600 of 29,791).
+2. **Unsure by margin**: of the other nodes, those whose logit lies within `margin` of the
+   threshold's (one batched network call over them).
+3. **The predicted boundary shell**: nodes within `shell` grid steps (26-neighbourhood) of a node
+   the network answers the other way (a node the filters rule out counts as answered unreachable).
+   The network's errors sit on the map's boundary (docs/morphologies.md), so the shell holds most of
+   them even where the network is confident.
+4. **Growing from corrections**: where the classical answer differs from the network's, the
    error may continue beyond what was checked, so the unchecked 26-neighbours of every corrected
    node are checked in the next round, until a round corrects nothing (or `max_rounds`).
 
-A node the classical search decided has the classical answer (`VerifiedMap.verified`); every other
-node has the network's. The result equals the classical map wherever the network's errors are
-connected to its unsure nodes or its boundary, which is a bet on the network, not a proof: a
-confident error away from any boundary would stay (`verify="all"` checks every predicted-reachable
-node as well, so that no unverified node is reported reachable). The orientation, convention, box
-and extrapolation rules are the model's (`predict_morph_map`).
+The checked nodes of a round are one call of the classical solver on those nodes alone (the
+neighbour search, `wsmap.kinematics.ik.search.map_search`, with their grid neighbours among them),
+each node of a later round started first from a solution of a neighbour an earlier round solved
+(`q_init`), as the whole map's search would start it from its neighbours.
+
+A node the classical search decided has the classical answer (`VerifiedMap.verified`); a node the
+filters rule out is unreachable; every other node has the network's. The result equals the
+classical map wherever the network's errors are connected to its unsure nodes or its boundary,
+which is a bet on the network, not a proof: a confident error away from any boundary would stay
+(`verify="all"` checks every predicted-reachable node as well, so that no unverified node is
+reported reachable). The orientation, convention, box and extrapolation rules are the model's
+(`predict_morph_map`).
 """
 
 from __future__ import annotations
@@ -57,11 +71,15 @@ class VerifiedMap:
     Attributes
     ----------
     values : numpy.ndarray
-        bool `(N,)`: the answer, classical where `verified`, the network's elsewhere.
-    network : numpy.ndarray
-        bool `(N,)`: the network's own answer at every node.
+        bool `(N,)`: the answer, classical where `verified`, False where not `possible`, the
+        network's elsewhere.
+    network : numpy.ndarray or None
+        bool `(N,)`: the network's own answer at the `possible` nodes (False at the others, which
+        it was not asked about); None for a closed-form arm, mapped without it (module notes).
     verified : numpy.ndarray
         bool `(N,)`: the nodes the classical search decided.
+    possible : numpy.ndarray
+        bool `(N,)`: the nodes the sound filters leave (the others are unreachable by proof).
     rounds : int
         Classical calls made (the first set and each round grown from corrections).
     method : str
@@ -69,8 +87,9 @@ class VerifiedMap:
     """
 
     values: np.ndarray
-    network: np.ndarray
+    network: np.ndarray | None
     verified: np.ndarray
+    possible: np.ndarray
     rounds: int
     method: str
 
@@ -81,8 +100,8 @@ class VerifiedMap:
 
     @property
     def corrected(self) -> int:
-        """Nodes where the classical answer overruled the network's."""
-        return int((self.values != self.network).sum())
+        """Nodes where the classical answer overruled the network's (0 without the network)."""
+        return 0 if self.network is None else int((self.values != self.network).sum())
 
 
 def _dilate(volume: np.ndarray, steps: int) -> np.ndarray:
@@ -100,6 +119,69 @@ def _check(margin, shell, max_rounds, verify):
             raise ValueError(f"{name} must be an integer >= {0 if name == 'shell' else 1}, got {v!r}")
     if verify not in _MODES:
         raise ValueError(f"verify must be one of {', '.join(map(repr, _MODES))}, got {verify!r}")
+
+
+def _possible(robot, T: np.ndarray, settings) -> np.ndarray:
+    """bool `(N,)`: the poses `T` `(N, 4, 4)` the numerical search's own sound pre-filters leave
+    (the reach filter, then the limit filter where the search runs it), within the confirmation
+    tolerance: a pose they rule out is unreachable in the classical map too."""
+    from ..kinematics import as_chain
+    from ..kinematics.ik.reach_filter import limit_filter, reach_filter
+    from ..kinematics.ik.settings import FK_CONFIRM_TOL
+
+    chain = as_chain(robot)
+    tol = max(FK_CONFIRM_TOL, float(getattr(settings, "confirm_tol", None) or 0.0))
+    possible = np.asarray(reach_filter(chain, T, tol), dtype=bool).copy()
+    if chain.qlim is not None and getattr(settings, "joint_limits", True) is not False:
+        idx = np.flatnonzero(possible)
+        possible[idx] = limit_filter(chain, T[idx], tol)
+    return possible
+
+
+class _Classical:
+    """The classical solver on node subsets of one grid: each call solves the nodes `idx` alone, with
+    their grid neighbours among them, started first from the solution of a neighbour an earlier call
+    solved."""
+
+    def __init__(self, robot, T, method, ik, collision):
+        from ..kinematics.ik.settings import as_settings
+        from ..kinematics.ik.solvers import solver_for
+        from ..workspace.maps import configuration_predicate
+
+        self.robot, self.T = robot, T
+        self.settings = None if method == "exact" else as_settings(ik)
+        self.solver = solver_for(method, self.settings)
+        self.valid = configuration_predicate(robot, collision)
+        self.solver.check(robot, self.settings, self.valid)
+        self.n = robot.n
+        self.q = np.full((len(T), self.n), np.nan)  # solutions found so far
+        self.nb = None
+        self.neighbours = getattr(self.solver, "neighbours", False)
+
+    def grid_neighbours(self, nodes):
+        if self.nb is None:
+            from ..workspace.grids import node_neighbours
+
+            self.nb = node_neighbours(nodes)  # (N, 18): the whole grid's, index arithmetic
+        return self.nb
+
+    def solve(self, idx: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+        """bool `(len(idx),)`: the classical answer at nodes `idx`."""
+        nb = q_init = None
+        if self.neighbours:
+            full = self.grid_neighbours(nodes)[idx]
+            pos = np.full(len(nodes), -1, dtype=np.int64)
+            pos[idx] = np.arange(idx.size)
+            nb = np.where(full >= 0, pos[np.maximum(full, 0)], -1)
+            # the first neighbour (face neighbours first) that an earlier call solved starts the node
+            seeded = (full >= 0) & np.isfinite(self.q[np.maximum(full, 0), 0])
+            if seeded.any():
+                first = np.argmax(seeded, axis=1)
+                q_init = np.where(seeded.any(axis=1)[:, None], self.q[full[np.arange(idx.size), first]], np.nan)
+        sol = self.solver.solve(self.robot, self.T[idx], self.settings, self.valid, neighbours=nb, q_init=q_init)
+        ok = np.asarray(sol.success, dtype=bool).reshape(-1)
+        self.q[idx[ok]] = np.asarray(sol.q).reshape(-1, self.n)[ok]
+        return ok
 
 
 def verified_morph_grid(model: MorphMapModel, robot: Arm, lo: float | ArrayLike, hi: float | ArrayLike,
@@ -125,8 +207,10 @@ def verified_morph_grid(model: MorphMapModel, robot: Arm, lo: float | ArrayLike,
         Classical calls at most (the first, then the rounds grown from corrections).
     verify : str
         `"unsure"` (the above) or `"all"` (also every node the network calls reachable).
-    method, ik, collision : the classical map's (`constant_orientation_map`)
-    threshold, allow_extrapolation : the network's (`predict_morph_map`)
+    method, ik, collision : the classical map's (`constant_orientation_map`); a closed-form arm
+        (`method` `"auto"` or `"exact"`) is mapped by its closed form alone, without the network
+    threshold, allow_extrapolation : the network's (`predict_morph_map`; not read for a
+        closed-form arm)
 
     Returns
     -------
@@ -135,20 +219,36 @@ def verified_morph_grid(model: MorphMapModel, robot: Arm, lo: float | ArrayLike,
     Raises
     ------
     ValueError
-        For a bad setting, orientation, convention or grid, before any work;
-        `ExtrapolationError` as `predict_morph_map`.
+        For a bad setting or grid, before any work; `ExtrapolationError` as `predict_morph_map`
+        where the network is consulted (not for a closed-form arm).
     """
     from ..workspace.grids import cartesian_grid, grid_counts
-    from ..workspace.maps import constant_orientation_map, resolve_method
+    from ..workspace.maps import constant_orientation_map, resolve_method, target_poses
 
     _check(margin, shell, max_rounds, verify)
     counts = [int(c) for c in grid_counts(lo, hi, step)]
-    x, nodes, logit_threshold = prepare_query(model, robot, cartesian_grid(lo, hi, step), None, None, threshold,
-                                         allow_extrapolation)
+    grid = cartesian_grid(lo, hi, step)
     method = resolve_method(robot, method)
-    with torch.no_grad():
-        X = torch.as_tensor(x[None], dtype=torch.float32)
-        logits = model.logits_at(X, torch.as_tensor(nodes, dtype=torch.float32))[0].numpy().astype(np.float64)
+    rpy = tuple(float(a) for a in model.rpy)
+    if method == "exact":
+        # the closed form at every node: its answer is the classical map's, and it costs less than
+        # the network's pass (the model's range and box do not matter then)
+        values = constant_orientation_map(robot, grid, rpy, method=method, convention=model.convention,
+                                          collision=collision)
+        everywhere = np.ones(len(grid), dtype=bool)
+        return VerifiedMap(values=values, network=None, verified=everywhere, possible=everywhere, rounds=1,
+                           method=method)
+    x, nodes, logit_threshold = prepare_query(model, robot, grid, None, None, threshold, allow_extrapolation)
+    N = len(nodes)
+    T = target_poses(nodes, rpy, model.convention)
+    classical = _Classical(robot, T, method, ik, collision)
+    possible = _possible(robot, T, classical.settings)
+    where = np.flatnonzero(possible)
+    logits = np.full(N, -np.inf)
+    if where.size:
+        with torch.no_grad():
+            X = torch.as_tensor(x[None], dtype=torch.float32)
+            logits[where] = model.logits_at(X, torch.as_tensor(nodes[where], dtype=torch.float32))[0].numpy()
     network = logits > logit_threshold
     shape = (counts[2], counts[1], counts[0])
     vol = network.reshape(shape)
@@ -158,17 +258,17 @@ def verified_morph_grid(model: MorphMapModel, robot: Arm, lo: float | ArrayLike,
         todo |= (_dilate(vol, shell) & _dilate(~vol, shell)).ravel()
     if verify == "all":
         todo |= network
+    todo &= possible
     values = network.copy()
-    verified = np.zeros(len(nodes), dtype=bool)
-    rpy = tuple(float(a) for a in model.rpy)
+    verified = np.zeros(N, dtype=bool)
     rounds = 0
     while todo.any() and rounds < max_rounds:
         idx = np.flatnonzero(todo)
-        values[idx] = constant_orientation_map(robot, nodes[idx], rpy, method=method, ik=ik, collision=collision)
+        values[idx] = classical.solve(idx, nodes)
         verified[idx] = True
         rounds += 1
-        wrong = np.zeros(len(nodes), dtype=bool)
+        wrong = np.zeros(N, dtype=bool)
         wrong[idx] = values[idx] != network[idx]
-        todo = _dilate(wrong.reshape(shape), 1).ravel() & ~verified
-    return VerifiedMap(values=values, network=network, verified=verified, rounds=rounds, method=method)
-
+        todo = _dilate(wrong.reshape(shape), 1).ravel() & ~verified & possible
+    return VerifiedMap(values=values, network=network, verified=verified, possible=possible, rounds=rounds,
+                       method=method)
