@@ -8,7 +8,7 @@ one), the network alone (`predict_morph_map`), and `wsmap.learn.verified_morph_g
 ``--margins`` (shell 1). Per arm and margin: nodes where the verified map differs from the classical
 one (missed reachable, extra reachable), the network's own errors, the share of nodes checked, and
 the time of the verified map against the classical map's (one thread, median of ``--repeat``, the
-two side by side).
+two side by side, each from ``lo, hi, step``: the grid is built in both).
 
     NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/learn/bench_verified_queries.py \\
         --model models/morph.pt [--arms 20] [--step 0.1] [--json bench/verified_queries.json]
@@ -104,8 +104,9 @@ def main(argv=None) -> int:
         warnings.simplefilter("ignore", ExtrapolationWarning)
         for name, arm in _arms(args.arms, args.seed).items():
             truth, method = ws.constant_orientation_map(arm, nodes, mm.TOOL_DOWN, return_method=True)
-            t_classical = _median(lambda: ws.constant_orientation_map(arm, nodes, mm.TOOL_DOWN),  # noqa: B023
-                                  args.repeat)
+            # the same question from the same inputs (lo, hi, step): the grid is built in both timings
+            t_classical = _median(lambda: ws.constant_orientation_map(  # noqa: B023
+                arm, ws.cartesian_grid(lo, hi, args.step), mm.TOOL_DOWN), args.repeat)
             network = mm.predict_morph_map(model, arm, nodes, allow_extrapolation=True)
             row = {"arm": name, "method": method, "reachable": int(truth.sum()),
                    "network_errors": int((network != truth).sum()), "classical_s": t_classical, "margins": []}

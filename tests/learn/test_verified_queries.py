@@ -117,6 +117,27 @@ def test_a_numerical_arm_goes_through_the_search(model):
     assert not (truth & ~res.possible).any()
 
 
+@pytest.mark.parametrize("lo, hi, step", [(-1.5, 1.5, 0.1), ([-1, -0.5, 0], [1, 0.5, 0.8], 0.2)])
+def test_subset_neighbours_and_shell_agree_with_the_whole_grid(lo, hi, step):
+    from wsmap.learn.verified import _dilate, _grid_neighbours_of, _shell
+    from wsmap.workspace.grids import grid_counts, node_neighbours
+
+    nodes = ws.cartesian_grid(lo, hi, step)
+    counts = [int(c) for c in grid_counts(lo, hi, step)]
+    rng = np.random.default_rng(0)
+    idx = rng.choice(len(nodes), min(500, len(nodes)), replace=False)
+    # the rows of the whole grid's neighbour table, in its column order, from index arithmetic alone
+    assert np.array_equal(_grid_neighbours_of(idx, counts), node_neighbours(nodes)[idx])
+    shape = (counts[2], counts[1], counts[0])
+    for steps in (1, 2):
+        for _ in range(10):
+            possible = rng.random(len(nodes)) < 0.05
+            network = (rng.random(len(nodes)) < 0.3) & possible
+            vol = network.reshape(shape)
+            whole = (_dilate(vol, steps) & _dilate(~vol, steps)).ravel() & possible
+            assert np.array_equal(_shell(network, possible, shape, steps), whole)
+
+
 @pytest.mark.parametrize("kw, message", [
     ({"margin": -1}, "margin must be a non-negative number of logits, got -1"),
     ({"shell": 1.5}, "shell must be an integer >= 0, got 1.5"),

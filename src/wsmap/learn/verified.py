@@ -138,39 +138,65 @@ def _possible(robot, T: np.ndarray, settings) -> np.ndarray:
     return possible
 
 
+#: The 6 face and the 12 edge neighbours' offsets (dx, dy, dz); `_grid_neighbours_of` puts them in
+#: the column order of the whole grid's table (`wsmap.workspace.grids.node_neighbours`), which
+#: decides which neighbour's solution starts a node first.
+_OFFSETS = [(dx, dy, dz) for dz in (-1, 0, 1) for dy in (-1, 0, 1) for dx in (-1, 0, 1)
+            if abs(dx) + abs(dy) + abs(dz) in (1, 2)]
+
+
+def _grid_neighbours_of(idx: np.ndarray, counts) -> np.ndarray:
+    """int `(len(idx), 18)`: the grid indices of the face and edge neighbours of nodes `idx` of a
+    grid of `counts` `(nx, ny, nz)` nodes (x fastest), -1 off the grid; index arithmetic on the
+    subset alone."""
+    nx, ny, nz = counts
+    i, j, k = idx % nx, (idx // nx) % ny, idx // (nx * ny)
+    order = sorted(_OFFSETS, key=lambda o: (abs(o[0]) + abs(o[1]) + abs(o[2]), o[0] + nx * o[1] + nx * ny * o[2]))
+    out = np.empty((idx.size, len(order)), dtype=np.int64)
+    for c, (dx, dy, dz) in enumerate(order):
+        inside = (i + dx >= 0) & (i + dx < nx) & (j + dy >= 0) & (j + dy < ny) & (k + dz >= 0) & (k + dz < nz)
+        out[:, c] = np.where(inside, idx + (dx + nx * dy + nx * ny * dz), -1)
+    return out
+
+
 class _Classical:
     """The classical solver on node subsets of one grid: each call solves the nodes `idx` alone, with
     their grid neighbours among them, started first from the solution of a neighbour an earlier call
-    solved."""
+    solved, and with the global seeding of the whole grid's map (the same sampled configurations)."""
 
-    def __init__(self, robot, T, method, ik, collision):
+    def __init__(self, robot, T, counts, method, ik, collision):
         from ..kinematics.ik.settings import as_settings
         from ..kinematics.ik.solvers import solver_for
         from ..workspace.maps import configuration_predicate
 
-        self.robot, self.T = robot, T
+        self.robot, self.T, self.counts = robot, T, counts
         self.settings = None if method == "exact" else as_settings(ik)
         self.solver = solver_for(method, self.settings)
         self.valid = configuration_predicate(robot, collision)
         self.solver.check(robot, self.settings, self.valid)
         self.n = robot.n
         self.q = np.full((len(T), self.n), np.nan)  # solutions found so far
-        self.nb = None
         self.neighbours = getattr(self.solver, "neighbours", False)
 
-    def grid_neighbours(self, nodes):
-        if self.nb is None:
-            from ..workspace.grids import node_neighbours
+    def _settings_for(self, size: int):
+        """The settings for a call on `size` nodes: global seeding samples as many configurations
+        as the whole grid's map does (`fk_seeds.sample_count` of the whole grid), so that a node
+        gets the starts it would get there."""
+        from ..kinematics.ik.fk_seeds import sample_count
 
-            self.nb = node_neighbours(nodes)  # (N, 18): the whole grid's, index arithmetic
-        return self.nb
+        s = self.settings
+        if s is None or not getattr(s, "fk_seeds", 0) or s.solver != "search":
+            return s
+        whole = sample_count(s.fk_seeds, len(self.T))
+        # per_node·size rounds up to the same power of two: in (whole/2, whole]
+        return s.replace(fk_seeds=max(1, whole // max(size, 1)))
 
-    def solve(self, idx: np.ndarray, nodes: np.ndarray) -> np.ndarray:
-        """bool `(len(idx),)`: the classical answer at nodes `idx`."""
+    def solve(self, idx: np.ndarray) -> np.ndarray:
+        """bool `(len(idx),)`: the classical answer at grid nodes `idx`."""
         nb = q_init = None
         if self.neighbours:
-            full = self.grid_neighbours(nodes)[idx]
-            pos = np.full(len(nodes), -1, dtype=np.int64)
+            full = _grid_neighbours_of(idx, self.counts)
+            pos = np.full(len(self.T), -1, dtype=np.int64)
             pos[idx] = np.arange(idx.size)
             nb = np.where(full >= 0, pos[np.maximum(full, 0)], -1)
             # the first neighbour (face neighbours first) that an earlier call solved starts the node
@@ -178,10 +204,27 @@ class _Classical:
             if seeded.any():
                 first = np.argmax(seeded, axis=1)
                 q_init = np.where(seeded.any(axis=1)[:, None], self.q[full[np.arange(idx.size), first]], np.nan)
-        sol = self.solver.solve(self.robot, self.T[idx], self.settings, self.valid, neighbours=nb, q_init=q_init)
+        sol = self.solver.solve(self.robot, self.T[idx], self._settings_for(idx.size), self.valid, neighbours=nb,
+                                q_init=q_init)
         ok = np.asarray(sol.success, dtype=bool).reshape(-1)
         self.q[idx[ok]] = np.asarray(sol.q).reshape(-1, self.n)[ok]
         return ok
+
+
+def _shell(network: np.ndarray, possible: np.ndarray, shape, steps: int) -> np.ndarray:
+    """bool `(N,)`: the `possible` nodes within `steps` grid steps (26-neighbourhood) of a node
+    answered the other way. Computed in the box of the possible nodes grown by `steps` (clipped to
+    the grid), which holds every node within `steps` of them: the same as on the whole grid."""
+    out = np.zeros(network.size, dtype=bool)
+    where = np.argwhere(possible.reshape(shape))
+    if not where.size:
+        return out
+    box = tuple(slice(max(a - steps, 0), min(b + steps + 1, n))
+                for a, b, n in zip(where.min(axis=0), where.max(axis=0), shape))
+    vol = network.reshape(shape)[box]
+    # the dilated sets of both answers overlap where a node is near one answered the other way
+    out.reshape(shape)[box] = _dilate(vol, steps) & _dilate(~vol, steps)
+    return out & possible
 
 
 def verified_morph_grid(model: MorphMapModel, robot: Arm, lo: float | ArrayLike, hi: float | ArrayLike,
@@ -241,7 +284,7 @@ def verified_morph_grid(model: MorphMapModel, robot: Arm, lo: float | ArrayLike,
     x, nodes, logit_threshold = prepare_query(model, robot, grid, None, None, threshold, allow_extrapolation)
     N = len(nodes)
     T = target_poses(nodes, rpy, model.convention)
-    classical = _Classical(robot, T, method, ik, collision)
+    classical = _Classical(robot, T, counts, method, ik, collision)
     possible = _possible(robot, T, classical.settings)
     where = np.flatnonzero(possible)
     logits = np.full(N, -np.inf)
@@ -251,11 +294,10 @@ def verified_morph_grid(model: MorphMapModel, robot: Arm, lo: float | ArrayLike,
             logits[where] = model.logits_at(X, torch.as_tensor(nodes[where], dtype=torch.float32))[0].numpy()
     network = logits > logit_threshold
     shape = (counts[2], counts[1], counts[0])
-    vol = network.reshape(shape)
     todo = np.abs(logits - logit_threshold) < margin
     if shell > 0:
         # a node near one predicted the other way: the dilated sets of both answers overlap there
-        todo |= (_dilate(vol, shell) & _dilate(~vol, shell)).ravel()
+        todo |= _shell(network, possible, shape, shell)
     if verify == "all":
         todo |= network
     todo &= possible
@@ -264,7 +306,7 @@ def verified_morph_grid(model: MorphMapModel, robot: Arm, lo: float | ArrayLike,
     rounds = 0
     while todo.any() and rounds < max_rounds:
         idx = np.flatnonzero(todo)
-        values[idx] = classical.solve(idx, nodes)
+        values[idx] = classical.solve(idx)
         verified[idx] = True
         rounds += 1
         wrong = np.zeros(N, dtype=bool)
