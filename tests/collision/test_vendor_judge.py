@@ -18,8 +18,7 @@ Bullet keeps a margin of about 1 mm around each convex hull, so it calls two hul
 coal keeps up to 2 mm apart; the mesh checks grow each hull by `vendor.MESH_MARGIN` (1 mm) for it.
 
 Measured with this file's seeds (`pytest -s` prints them), 2,000 random configurations: the default
-checkers (the meshes of the Panda and the iiwa 14, the two-level check of the UR5e and the UR10e),
-the meshes, the two-level check and the fitted capsules alone call none of PyBullet's collisions
+checkers (the vendor meshes of every arm), the two-level check and the fitted capsules alone call none of PyBullet's collisions
 free; false collisions (colliding for the checker, free for PyBullet) in the test's printout and in
 docs/collision.md.
 """
@@ -356,8 +355,10 @@ def test_a_named_arm_without_the_vendor_package_is_one_line(monkeypatch):
     with pytest.raises(CollisionError, match="which is not installed: pip install pybullet$"):
         checker_for("panda", geometry="two-level")
     # the UR arms' meshes are committed with wsmap: nothing to install
-    assert default_geometry("ur5e") == default_geometry("ur10e") == "two-level"
-    assert checker_for("ur5e").model.source.startswith("two-level: capsules fitted around wsmap/collision/data/ur_description/ur5e.json (commit ")
+    assert default_geometry("ur5e") == default_geometry("ur10e") == "meshes"
+    assert checker_for("ur5e").model.source.startswith("wsmap/collision/data/ur_description/ur5e.json: collision meshes")
+    assert checker_for("ur5e", geometry="two-level").model.source.startswith(
+        "two-level: capsules fitted around wsmap/collision/data/ur_description/ur5e.json (commit ")
 
 
 @pytest.mark.parametrize("call, message", [

@@ -9,13 +9,13 @@ vendor record's `default`, `wsmap.collision.vendor.VENDOR`):
   `vendor.MESH_MARGIN` (1 mm, Bullet's margin): exact for those grown hulls. The Panda's and the
   iiwa 14's come from pybullet_data (where it is installed: their default there); the UR5e's and
   the UR10e's are committed with wsmap (the convex hulls of Universal Robots' own collision meshes,
-  `wsmap/collision/data/ur_description/`);
+  `wsmap/collision/data/ur_description/`: their default everywhere);
 * `"two-level"` — the same meshes with the fitted capsules as their coarse model
   (`wsmap.collision.vendor.two_level_model`): the capsules first, the meshes decide where the
-  capsules collide, so the answer is the meshes', configuration for configuration (tested). The
-  default of the UR5e and the UR10e (where it pays: docs/collision.md); not of the Panda and the
-  iiwa 14, whose one hull per link coal tests about as fast as the capsules
-  (`benchmarks/collision/bench_vendor_judge.py`);
+  capsules collide, so the answer is the meshes', configuration for configuration (tested). Not
+  a default: it does not pay on any named arm (`benchmarks/collision/bench_vendor_judge.py`,
+  docs/collision.md): the Panda's and the iiwa's one hull per link coal tests about as fast as the
+  capsules, and the UR arms' capsules call most of what a closed-form map asks about colliding;
 * `"fitted"` — capsules (and cylinders for flat parts) fitted around the vendor's own collision
   meshes, every mesh vertex inside (`wsmap.collision.vendor.fitted_model`, `vendor.FITTED`): a body
   at least as large as the real arm, never free where the meshes collide, sometimes colliding
@@ -99,8 +99,7 @@ ALONG_LINKS: tuple[str, ...] = tuple(arm.name for arm in ARMS if arm.capsules is
 def default_geometry(name: str, robot: Arm | None = None) -> str:
     """The geometry `arm_model` gives the named arm `name` on `robot` by default, where capsules were
     fitted to its vendor meshes and `robot` (if given) has its kinematics: the vendor record's
-    `default` (`"meshes"` for the Panda and the iiwa 14, `"two-level"` for the UR5e and the UR10e)
-    when the meshes can be read here, else `"fitted"`; `"capsules"` for every other arm (an arm of a
+    `default` (`"meshes"` for all four) when the meshes can be read here, else `"fitted"`; `"capsules"` for every other arm (an arm of a
     family with other lengths gets the capsules along its links)."""
     key = str(name).lower()
     if key in FITTED and key in VENDOR and (robot is None or same_kinematics(robot, load(key))):

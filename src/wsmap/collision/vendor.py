@@ -31,8 +31,9 @@ Each arm with a vendor description has one record in `VENDOR` that says where it
   but numpy.
 * `two_level_model(name)` — the meshes, with the fitted capsules as their coarse model
   (`CollisionModel.coarse`): a checker asks the capsules first and the meshes only where the
-  capsules say colliding, so it answers as the meshes do (`wsmap.collision.checks`). The default
-  of `wsmap.collision.checker_for` for the UR5e and the UR10e (the record's `default`).
+  capsules say colliding, so it answers as the meshes do (`wsmap.collision.checks`). Not the
+  default of any arm today (the record's `default`): where it was measured it cost more than it
+  saved (docs/collision.md).
 
 `mesh_model` and `two_level_model` carry the allowed-collision matrix committed with the fitted
 capsules: it was built on these meshes, grown by the margin (`build_acm`, 10,000 samples, seed 0),
@@ -98,7 +99,8 @@ class VendorDescription(ABC):
     """Where a named arm's vendor collision meshes are (one record per arm in `VENDOR`): `links`
     (the vendor links of bodies 0..n, in order), `licence` and `origin` (who made the description),
     `default` (the geometry `wsmap.collision.checker_for` gives the arm where the meshes are:
-    `"meshes"` or `"two-level"`). A subclass says where the meshes are read from."""
+    `"meshes"` or `"two-level"`, whichever is faster: both give the same answers). A subclass says
+    where the meshes are read from."""
 
     links: tuple[str, ...]
     licence: str
@@ -214,7 +216,10 @@ _UR_LINKS = ("base_link_inertia", "shoulder_link", "upper_arm_link", "forearm_li
 
 def _ur(arm: str) -> CommittedHulls:
     return CommittedHulls(
-        links=_UR_LINKS, default="two-level", hulls=f"ur_description/{arm}.json",
+        # the meshes, not the two-level check: the fitted capsules call most of what a closed-form
+        # map asks about colliding (coarse level free for 12 % of the UR5e's tool-down queries), so
+        # the coarse level costs more than it saves (docs/collision.md: 1.41 s against 1.16 s)
+        links=_UR_LINKS, default="meshes", hulls=f"ur_description/{arm}.json",
         licence="BSD-3-Clause (wsmap/collision/data/ur_description/LICENSE)",
         origin=f"Universal Robots' ROS 2 description (Universal_Robots_ROS2_Description), urdf/ur.urdf.xacro with "
                f"ur_type:={arm}: collision meshes meshes/{arm}/collision/*.stl as convex hulls "
