@@ -126,3 +126,68 @@ def test_a_map_request_carries_settings():
     assert MapRequest(ik=s).settings is s and MapRequest(ik=s).search is s
     with pytest.raises(ValueError, match="retry must be an integer >= 0"):
         MapRequest(ik={"retry": -2})
+
+
+# --- the kernels' own settings, by name (`SearchSettings.kernel`) ---------------------------------------------------
+
+#: `SearchSettings().digest()` and the independent solver's as the record hashed them before `kernel` existed
+#: (commit f7ae773): an empty `kernel` leaves them as they were.
+DIGESTS = {"search": "e75943f5b6441b97773fd1edd449b702cc8431061a192bf00a167d89bcf5d410",
+           "independent": "b589c05bab5c3553b8f802f5ac33eb6775ae2fa83e4fb6d3f50c5d85f4b6174b",
+           "paper": "09dae3c6188d92f19210f69b8966adf97dd8f21445ba3c106dfa8c5f72da55b7"}
+
+
+@pytest.mark.parametrize("solver", sorted(DIGESTS))
+def test_an_empty_kernel_keeps_every_digest(solver):
+    s = SearchSettings(solver=solver)
+    assert s.digest() == DIGESTS[solver] and "kernel" not in s.to_dict()
+    assert SearchSettings(solver=solver, kernel={}) == s and SearchSettings(solver=solver, kernel=()) == s
+
+
+def test_kernel_names_only_the_kernels_own_settings():
+    from wsmap.kinematics.ik import settings
+    from wsmap.kinematics.lm_compiled import LMSettings
+
+    # every LMSettings field is driven by a field of the record or by the call, or settable by name
+    assert set(settings.KERNEL_FIELDS) | settings._DRIVEN == set(LMSettings._fields)
+    with pytest.raises(ValueError, match=r"^unknown kernel setting\(s\) lam0, tol; the kernels' own settings: "):
+        SearchSettings(kernel={"tol": 1e-9, "lam0": 0.2})
+    with pytest.raises(ValueError, match=r"^solver 'paper' takes no kernel \(it reads "):
+        SearchSettings(solver="paper", kernel={"tol": 1e-9})
+    with pytest.raises(ValueError, match=r"^kernel must map LM setting names to values, got 3"):
+        SearchSettings(kernel=3)
+
+
+@pytest.fixture
+def probe_setting(monkeypatch):
+    """A kernel setting `probe` (float, default 0) as a new `LMSettings` field would be: allowed by
+    `SearchSettings.kernel` and taken out again before the real kernel runs, where each call records it."""
+    from wsmap.kinematics.ik import kernel as kernel_module
+    from wsmap.kinematics.ik import search, settings
+
+    monkeypatch.setattr(settings, "KERNEL_FIELDS", settings.KERNEL_FIELDS + ("probe",))
+    monkeypatch.setitem(settings.SETTING_TYPES, "probe", float)
+    seen = []
+
+    def run_compiled(*args, probe=0.0, **kwargs):
+        seen.append(probe)
+        return kernel_module.run_compiled(*args, **kwargs)
+
+    monkeypatch.setattr(search, "run_compiled", run_compiled)
+    return seen
+
+
+def test_a_kernel_setting_reaches_every_kernel_call(probe_setting):
+    s = SearchSettings(kernel={"probe": 3})
+    assert s.kernel == (("probe", 3.0),) and s.to_dict()["kernel"] == {"probe": 3.0}
+    assert s.digest() != SearchSettings().digest() and SearchSettings.from_dict(s.to_dict()) == s
+    with pytest.raises(ValueError, match=r"^kernel setting probe must be a finite float, got nan"):
+        SearchSettings(kernel={"probe": float("nan")})
+    puma = robots.puma560()
+    nodes = ws.cartesian_grid(-0.8, 0.8, 0.4)
+    T = ws.target_poses(nodes, (0, 0, 0))
+    map_search(puma, T, ws.node_neighbours(nodes), s)
+    assert probe_setting and set(probe_setting) == {3.0}
+    probe_setting.clear()
+    get_solver("independent").solve(puma, T[:8], SearchSettings(solver="independent", starts=2, kernel={"probe": 2}))
+    assert probe_setting and set(probe_setting) == {2.0}

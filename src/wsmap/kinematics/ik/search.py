@@ -55,6 +55,8 @@ the paper's pipeline keeps using it (in the maps: `ik={"solver": "paper"}`).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 from ..chain import PRISMATIC, SerialChain, flatten_arms
@@ -64,7 +66,8 @@ from .kernel import arm_arrays, pose_keys, run_compiled, unsolved
 from .memo import Memo, as_chain_memo, chain_key
 from .certificate import joint_certificate
 from .reach_filter import limit_filter, position_filter, reach_filter
-from .settings import DEFAULT_ILIMIT, DEFAULT_RLIMIT, DEFAULT_STARTS, FK_CONFIRM_TOL, MAP_SETTINGS, SearchSettings
+from .settings import (DEFAULT_ILIMIT, DEFAULT_RLIMIT, DEFAULT_STARTS, FK_CONFIRM_TOL, MAP_SETTINGS, SearchSettings,
+                       check_kernel_settings)
 from .solution import MIN_TOL, IKSolution, failure_reasons
 from typing import TYPE_CHECKING
 
@@ -194,6 +197,7 @@ def ikine_search(
     chunk: int = 16384,
     progress: bool | None = None,
     position_only: bool = False,
+    kernel: Mapping | None = None,
 ) -> IKSolution:
     """Multi-start Levenberg–Marquardt reachability search with joint limits (see the module notes).
 
@@ -222,6 +226,8 @@ def ikine_search(
         Called with the number of targets finished after each chunk.
     position_only : bool
         Reach the position of each `T` at any orientation.
+    kernel : mapping, optional
+        The kernels' own settings by name (`SearchSettings.kernel`, `KERNEL_FIELDS`).
 
     Returns
     -------
@@ -242,6 +248,7 @@ def ikine_search(
     T = check_rigid("target poses", T)
     starts, ilimit, rlimit, seed, q0 = check_search(chain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0)
     chunk = _check_count("chunk", chunk, 1)
+    extra = dict(check_kernel_settings(kernel or {}))
     shape, count, Tf, Q0, arm_of = broadcast_targets(chain, T, q0)
     q_out, ok_out, it_out, res_out, start_out = unsolved(count, chain.n)
     possible = _possible_targets(chain, T, shape, count, arm_of, confirm_tol, position_only)
@@ -253,7 +260,7 @@ def ikine_search(
         q, ok, it, res, st = run_compiled(2 if position_only else 0, aa, arm_of[todo], Tf[todo], keys,
                                           Q0[todo][:, None, :],
                                           np.ones(todo.size, dtype=np.int64), 1, starts, ilimit, rlimit, tol,
-                                          lam, confirm_tol)
+                                          lam, confirm_tol, **extra)
         q_out[todo], ok_out[todo], it_out[todo], res_out[todo], start_out[todo] = q, ok, it, res, st
         if progress is not None:
             progress(min(s0 + chunk, count) - s0)
@@ -370,6 +377,7 @@ class _MapSearch:
         self.seed = seed
         self.aa = _ARM_ARRAYS.get(chain_key(self.flat), lambda: arm_arrays(self.flat))
         self.per_start = (s.ilimit, s.rlimit, s.tol, s.lam, s.confirm_tol, float(s.gtol))
+        self.kernel = dict(s.kernel)
         M = self.M
         self.q = np.full((M, n), np.nan)
         self.ok = np.zeros(M, dtype=bool)
@@ -443,7 +451,8 @@ class _MapSearch:
         mode = 2 if self.s.position_only else 0
         nodes = self.node_of[idx]
         qq, okk, it, rr, st = run_compiled(mode, self.aa, self.arm_of[idx], self.T[nodes], self.keys_node[nodes], qexp,
-                                           nexp, k_first, k_last, *(per_start or self.per_start), free_pass=free)
+                                           nexp, k_first, k_last, *(per_start or self.per_start), free_pass=free,
+                                           **self.kernel)
         if self.accept is not None and okk.any():
             hit = np.flatnonzero(okk)
             yes = np.asarray(self.accept(qq[hit]), dtype=bool)

@@ -22,6 +22,13 @@ run the same search are equal and hash alike. A field the solver does not read s
 (setting it is a `ValueError`), except `seed` and `starts` of the paper's solver, which the maps
 have always accepted and dropped (`starts` must then be 1) and `chunk` of the search, which
 splits no work there.
+
+The kernels' own settings (`wsmap.kinematics.lm_compiled.LMSettings`) that no field of the
+record drives travel by name in `kernel` (`SearchSettings(kernel={"name": value})`): a new LM
+setting is a field of `LMSettings` with its default and its use in the two kernels
+(`lm_compiled.py`, `_lanes/lanes.hpp`), and reaches every map through `kernel` with no edit here
+or in the solvers. An empty `kernel` is left out of `to_dict` and the digest, so the settings
+of every map made before it hash as they did.
 """
 
 from __future__ import annotations
@@ -35,11 +42,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..lm_compiled import SETTING_TYPES, LMSettings
 from .solution import MIN_TOL
 from .solver import SOLVERS
 
-__all__ = ["MAP_SETTINGS", "DEFAULT_STARTS", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "FK_CONFIRM_TOL",
-           "SearchSettings", "as_settings"]
+__all__ = ["MAP_SETTINGS", "DEFAULT_STARTS", "DEFAULT_ILIMIT", "DEFAULT_RLIMIT", "FK_CONFIRM_TOL", "KERNEL_FIELDS",
+           "SearchSettings", "as_settings", "check_kernel_settings"]
 
 #: Starts per target of `ikine_search`, the maps' numerical path and `reachable`. Measured
 #: with `benchmarks/maps/bench_recall.py` (21³ grid; PUMA560 with and without limits against the closed
@@ -78,6 +86,13 @@ MAP_SETTINGS = dict(starts=0, seeds=2, retry=4, hole_retry=16, ilimit=60, rlimit
 _COUNTS = {"starts": 0, "seeds": 0, "retry": 0, "hole_retry": 0, "border_starts": 0, "fk_seeds": 0, "accept_retry": 0,
            "ilimit": 0, "rlimit": 0, "chunk": 1}
 _FLAGS = ("joint_limits", "seed_free_pass", "limit_bound", "position_only")
+
+#: The `LMSettings` fields that a search sets from the record's own fields or per call (the
+#: mode, the range of starts, the per-start limits, the tolerances, the free pass).
+_DRIVEN = frozenset({"mode", "k_first", "k_last", "ilimit", "rlimit", "tol", "lam0", "gtol", "confirm_tol", "free_pass"})
+
+#: The `LMSettings` fields that `SearchSettings.kernel` may set by name: every other field.
+KERNEL_FIELDS = tuple(f for f in LMSettings._fields if f not in _DRIVEN)
 
 
 @dataclass(frozen=True)
@@ -147,6 +162,11 @@ class SearchSettings:
     chunk : int or None
         Targets per call of the `"independent"` and `"paper"` solvers (None: their default;
         the result does not depend on it).
+    kernel : mapping of str to number, or tuple of (str, value) pairs
+        Fields of `wsmap.kinematics.lm_compiled.LMSettings` outside those the record drives
+        (`KERNEL_FIELDS`), by name, each cast to its field's type; stored as sorted pairs (so the
+        record stays hashable). Read by `"search"` and `"independent"`; empty by default (every
+        field at its `LMSettings` default).
     """
 
     solver: str = "search"
@@ -170,6 +190,7 @@ class SearchSettings:
     limit_bound: bool | None = None
     position_only: bool | None = None
     chunk: int | None = None
+    kernel: Mapping | tuple | None = None
 
     def __post_init__(self):
         solver = _numerical_solver(self.solver)
@@ -179,6 +200,8 @@ class SearchSettings:
             name, value = f.name, getattr(self, f.name)
             if name == "solver":
                 continue
+            if name == "kernel" and isinstance(value, (Mapping, tuple, list)) and not value:
+                value = None  # no kernel setting: as not given, for every solver
             if name in dropped:
                 value = None
             elif name not in defaults:
@@ -215,6 +238,10 @@ class SearchSettings:
         out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
         reads = _numerical_solver(self.solver).defaults
         out = {k: v for k, v in out.items() if v is not None or k in reads}
+        if out.get("kernel") is not None:
+            out["kernel"] = dict(out["kernel"])
+        if not out.get("kernel"):  # left out when empty, so older settings keep their digest
+            out.pop("kernel", None)
         if out.get("q0") is not None:
             out["q0"] = list(out["q0"])
         return out
@@ -264,7 +291,43 @@ def _checked(name, value):
         if q.ndim != 1 or not np.all(np.isfinite(q)):
             raise ValueError(f"q0 must be a finite joint vector (n,), got {value!r}")
         return tuple(float(v) for v in q)
+    if name == "kernel":
+        return check_kernel_settings(value)
     return _positive(name, value, allow_zero=name == "gtol")
+
+
+def check_kernel_settings(value) -> tuple:
+    """`value` (a mapping, or pairs as `SearchSettings.kernel` stores them) as sorted `(name,
+    value)` pairs of `KERNEL_FIELDS`, each cast to its `LMSettings` type and checked finite.
+
+    Raises
+    ------
+    ValueError
+        A name outside `KERNEL_FIELDS`, a name given twice, or a value of the wrong kind.
+    """
+    pairs = value.items() if isinstance(value, Mapping) else value
+    try:
+        pairs = [(k, v) for k, v in pairs]
+    except (TypeError, ValueError):
+        raise ValueError(f"kernel must map LM setting names to values, got {value!r}") from None
+    names = [k for k, _ in pairs]
+    unknown = sorted({str(k) for k in names if k not in KERNEL_FIELDS})
+    if unknown:
+        allowed = ", ".join(KERNEL_FIELDS) or "none (every field of LMSettings is set by SearchSettings' own fields)"
+        raise ValueError(f"unknown kernel setting(s) {', '.join(unknown)}; the kernels' own settings: {allowed}")
+    if len(set(names)) != len(names):
+        raise ValueError(f"kernel names a setting twice: {names}")
+    out = []
+    for name, v in sorted(pairs):
+        kind = SETTING_TYPES[name]
+        if kind is bool:
+            if not isinstance(v, (bool, np.bool_)):
+                raise ValueError(f"kernel setting {name} must be True or False, got {v!r}")
+        elif isinstance(v, bool) or not (np.isscalar(v) and np.isreal(v) and math.isfinite(v)) or \
+                (kind is int and int(v) != v):
+            raise ValueError(f"kernel setting {name} must be a finite {kind.__name__}, got {v!r}")
+        out.append((name, kind(v)))
+    return tuple(out)
 
 
 def _count(name, v, minimum):

@@ -75,7 +75,7 @@ class IndependentSearch:
     neighbours = False
     defaults = frozen({"tol": 1e-10, "lam": 0.1, "q0": None, "starts": DEFAULT_STARTS, "seed": 0,
                        "ilimit": DEFAULT_ILIMIT, "rlimit": DEFAULT_RLIMIT, "joint_limits": True,
-                       "confirm_tol": FK_CONFIRM_TOL, "position_only": False, "chunk": None})
+                       "confirm_tol": FK_CONFIRM_TOL, "position_only": False, "chunk": None, "kernel": ()})
     dropped = ()
 
     def check_given(self, given) -> None:
@@ -88,7 +88,7 @@ class IndependentSearch:
     @staticmethod
     def _keywords(s: SearchSettings, progress):
         kw = dict(q0=s.q0_array, tol=s.tol, ilimit=s.ilimit, rlimit=s.rlimit, lam=s.lam, joint_limits=s.joint_limits,
-                  confirm_tol=s.confirm_tol, position_only=s.position_only)
+                  confirm_tol=s.confirm_tol, position_only=s.position_only, kernel=dict(s.kernel))
         if s.chunk is not None or progress is not None:
             kw["chunk"] = s.chunk if s.chunk is not None else 2048
         if progress is not None:

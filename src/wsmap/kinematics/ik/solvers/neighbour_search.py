@@ -23,7 +23,7 @@ class NeighbourSearch:
     neighbours = True
     defaults = frozen({"tol": 1e-10, "lam": 0.1, "q0": None, **MAP_SETTINGS, "seed": 0, "joint_limits": True,
                        "confirm_tol": FK_CONFIRM_TOL, "limit_bound": True, "accept_retry": 16,
-                       "position_only": False})
+                       "position_only": False, "kernel": ()})
     #: the maps' `ik` dicts always carried `chunk`, which splits no work here
     dropped = ("chunk",)
 
