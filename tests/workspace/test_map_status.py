@@ -212,6 +212,7 @@ def test_the_box_bounds_hold_every_configuration_of_the_box(name):
     F, Z, lo, hi = np.empty((n, 14)), np.empty((7, 9)), np.empty(13), np.empty(4)
     G, R = np.empty((5, n)), np.empty(5)
     worst = worst_lin = 0.0
+    missed = -1.0
     for _ in range(2000):
         c = rng.uniform(-np.pi, np.pi, n)
         hw = np.zeros(n)
@@ -230,8 +231,16 @@ def test_the_box_bounds_hold_every_configuration_of_the_box(name):
         centre = np.array([lo[4] ** 2, lo[5], lo[6], lo[7], lo[8]])
         off = np.abs(five - centre[:, None] - G @ delta.T) - R[:, None]
         worst_lin = max(worst_lin, float(off.max()))
+        # the narrowing keeps every configuration whose invariants are the pose's: the first one's
+        e = five[:, 0] - centre
+        Rs = R + 1e-12 * (1 + np.abs(five[:, 0]))
+        L, H = np.empty(n), np.empty(n)
+        lam = rng.normal(size=5)
+        assert C._contract(e, G, Rs, lam, 5, n, hw, L, H, np.empty(n + 5))
+        missed = max(missed, float(np.max(np.maximum(L - delta[0], delta[0] - H)[hw > 0], initial=-1.0)))
     assert worst <= 1e-12
     assert worst_lin <= 1e-12
+    assert missed <= 0.0
 
 
 def _narrow_ends(seed, half0=0.8, half_last=0.5):

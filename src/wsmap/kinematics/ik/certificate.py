@@ -63,9 +63,11 @@ SINGULAR_SIGMA = 1e-3
 #: 1, the limits of joints 0 and n-1 (`_ends_dead`); 2, the signed invariant `m` and the
 #: combinations of the invariants' linear forms (`_combination_dead`); 4, the split across the joint
 #: that adds most to that combination's bound (`_split_by_effect`; else the joint that moves `W` and
-#: `z` most). 0 is the certificate before them (`benchmarks/maps/bench_certificates.py --compare`
-#: measures both side by side).
-BOX_TESTS = 7
+#: `z` most); 8, the box narrowed to the offsets the linear forms allow before it is split
+#: (`_contract`; a box narrowed below 0.7 of a half-width is bounded again first). 0 is the
+#: certificate before them (`benchmarks/maps/bench_certificates.py --compare` measures both side by
+#: side).
+BOX_TESTS = 15
 #: Reweighted directions `_combination_dead` tries after the first.
 COMBINATION_ROUNDS = 2
 
@@ -161,7 +163,8 @@ def joint_certificate(robot: Arm, T, margin: float = CERTIFY_MARGIN, *, budget: 
     invariants are bounded (`_box_bounds`); a box whose bounds, or a combination of them
     (`_combination_dead`), exclude the pose's values by more than the margin's effect
     (`_pose_invariants`), or that needs joint 0 or joint n-1 outside its limits (`_ends_dead`), is
-    discarded; any other is split in two (`BOX_TESTS` says across which joint). A pose is certified
+    discarded; any other is narrowed to the offsets its linear forms allow (`_contract`) and split
+    in two (`BOX_TESTS` says across which joint). A pose is certified
     when every box is discarded; it gives up (False: "not found") after `budget` boxes, deeper than
     `depth` splits, or at a box centre whose invariants all lie within `GIVE_UP_NEAR` of the pose's
     and inside the limits of joints 0 and n-1 (a pose that is most likely reachable). All False for an arm it does not apply to (prismatic joints, fewer
@@ -557,6 +560,72 @@ def _combination_dead(e, G, hw, Rs, k, n, M, lam, wt, rounds):
 
 
 @njit(cache=True)
+def _contract_row(a, r, rad, hw, n, L, H):
+    """Narrow the box's offsets `δ_j ∈ [L_j, H_j]` (rad) to those where `a·δ` can lie within
+    `rad` of `r` (`a` (n,), zero off the box's joints): each `δ_j` is bounded by the row less the
+    extremes of the other terms. False where some range becomes empty (no solution in the box)."""
+    tmin = 0.0
+    tmax = 0.0
+    for j in range(n):
+        if hw[j] == 0.0 or a[j] == 0.0:
+            continue
+        x, y = a[j] * L[j], a[j] * H[j]
+        tmin += min(x, y)
+        tmax += max(x, y)
+    # the sums round by a few ulps of their terms: the slack below covers it
+    pad = 1e-12 * (abs(tmin) + abs(tmax) + abs(r) + rad) + 1e-300
+    lo_t, hi_t = r - rad - pad, r + rad + pad
+    if tmax < lo_t or tmin > hi_t:
+        return False
+    for j in range(n):
+        if hw[j] == 0.0 or a[j] == 0.0:
+            continue
+        x, y = a[j] * L[j], a[j] * H[j]
+        omin, omax = tmin - min(x, y), tmax - max(x, y)
+        lo_j, hi_j = (lo_t - omax - pad) / a[j], (hi_t - omin + pad) / a[j]
+        if a[j] < 0.0:
+            lo_j, hi_j = hi_j, lo_j
+        # a relative widening for the division's rounding
+        w = 1e-12 * (abs(lo_j) + abs(hi_j))
+        L[j] = max(L[j], lo_j - w)
+        H[j] = min(H[j], hi_j + w)
+        if L[j] > H[j]:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _contract(e, G, Rs, lam, k, n, hw, L, H, row):
+    """Narrow the box `c ± hw` to the offsets `[L, H]` (n,) that the linear forms allow: each
+    invariant's (`G_i·δ` within `Rs_i` of `e_i`) and the combination `λ`'s (`(λᵀG)·δ` within
+    `Σ|λ_i| Rs_i` of `λ·e`), twice over. Sound for any `λ`: every solution in the box satisfies
+    each row. False where the box holds no solution. `row` (n,) scratch."""
+    for j in range(n):
+        L[j] = -hw[j]
+        H[j] = hw[j]
+    for sweep in range(2):
+        for a in range(k + 1):
+            if a < k:
+                for j in range(n):
+                    row[j] = G[a, j]
+                r, rad = e[a], Rs[a]
+            else:
+                r = 0.0
+                rad = 0.0
+                for i in range(k):
+                    r += lam[i] * e[i]
+                    rad += abs(lam[i]) * Rs[i]
+                for j in range(n):
+                    t = 0.0
+                    for i in range(k):
+                        t += lam[i] * G[i, j]
+                    row[j] = t
+            if not _contract_row(row, r, rad, hw, n, L, H):
+                return False
+    return True
+
+
+@njit(cache=True)
 def _split_by_effect(G, hw, lam, k, n, radius, du):
     """The joint whose half-width adds most to the combination's bound: its linear term
     `|λ·G_j| hw_j` plus its share of the second-order remainders (about `radius_j hw_j²` on `W`,
@@ -678,12 +747,26 @@ def _ends_dead(pv, W, S, z, RL, e_loc, y_loc, rho_u, rho_z, sum_hw, b1, b2, a0, 
 
 
 @njit(cache=True)
+def _interval_test(e, g, hw, rs, n, near):
+    """One linear form alone (`g` (n,), gap `e`, remainder and slack `rs`): 1 where `|e|` exceeds
+    its first-order change over the box plus `rs`, else 0 (the gap within `near`) or 2."""
+    lin = 0.0
+    for j in range(n):
+        lin += abs(g[j]) * hw[j]
+    if abs(e) > lin + rs:
+        return 1
+    return 2 if abs(e) > near else 0
+
+
+@njit(cache=True)
 def _judge_box(i, only_dg, values, slack, pv, ends, tests, rounds, near, d2, s2, n, h, S, a0, radius, F, Z, lo, hi,
-               G, R, M, lam, wt, e, Rs, T2):
+               G, R, M, lam, wt, e, Rs, T2, CL, CH):
     """The verdict on one box already bounded (`_box_bounds`'s `lo`, `hi`, `G`, `R`) for pose `i`:
     1, it holds no solution; 0, it may, and its centre's invariants all lie within `near` of the
     pose's (inside the limits of joints 0 and n-1 too); 2, it may, its centre farther. Sets the
-    joint to split (`lo[9]`) by the combination's effect when `tests & 4`."""
+    joint to split (`lo[9]`) by the combination's effect when `tests & 4`, and the box's offsets
+    narrowed by the linear forms (`_contract`) into `CL`, `CH` (n,) when `tests & 8` (else they
+    are left as they are)."""
     k_used = 2 if only_dg else 5
     close = True
     for k in range(2 if only_dg else 4):
@@ -698,17 +781,17 @@ def _judge_box(i, only_dg, values, slack, pv, ends, tests, rounds, near, d2, s2,
             e[k] = values[i, k] - lo[4 + k]
             Rs[k] = R[k] + slack[i, k]
         if not only_dg:
-            lin = 0.0
-            for j in range(n):
-                lin += abs(G[4, j]) * h[j]
-            if abs(e[4]) > lin + Rs[4]:
+            state = _interval_test(e[4], G[4], h, Rs[4], n, near)
+            if state == 1:
                 return 1
-            if abs(e[4]) > near:
+            if state == 2:
                 close = False
         if _combination_dead(e, G, h, Rs, k_used, n, M, lam, wt, rounds):
             return 1
         if tests & 4:
             lo[9] = _split_by_effect(G, h, lam, k_used, n, radius, lo[4])
+        if tests & 8 and not _contract(e, G, Rs, lam, k_used, n, h, CL, CH, wt):
+            return 1
     if tests & 1 and not only_dg:
         state = _ends_dead(pv[i], Z[5], S, Z[6], F[n - 1, :9], ends[6:9], ends[9:12], lo[10], lo[11], lo[12],
                            ends[0:3], ends[3:6], a0, ends[12], ends[13], ends[14], near, T2)
@@ -729,7 +812,8 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_d
     `ends` (15,): joint 0's axis basis `b1`, `b2`, the last joint's `e_loc`, `y_loc`, `w0`, `cL`
     (its box centre plus offset), `wL`. `tests`: a bit mask of the tests beside the four intervals
     (1: the limits of joints 0 and n-1, 2: `m` and the combinations of `_combination_dead` with
-    `rounds` reweightings, 4: the split by the combination's effect, `_split_by_effect`)."""
+    `rounds` reweightings, 4: the split by the combination's effect, `_split_by_effect`, 8: the
+    box narrowed by `_contract`)."""
     N = values.shape[0]
     n = axes.shape[0]
     for i in prange(N):
@@ -747,6 +831,8 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_d
         Rs = np.empty(5)
         T2 = np.empty(5)
         wt = np.empty(n + 5)
+        CL = np.empty(n)
+        CH = np.empty(n)
         # d² of the pose: the interval [(d - s)², (d + s)²] as a centre and a half-width
         dlo = max(values[i, 0] - slack[i, 0], 0.0)
         dhi = values[i, 0] + slack[i, 0]
@@ -763,13 +849,28 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_d
             h = hs[top]
             _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, h, F, Z, lo, hi, G, R)
             evals += 1
+            for j in range(n):
+                CL[j] = -h[j]
+                CH[j] = h[j]
             verdict = _judge_box(i, only_dg, values, slack, pv, ends, tests, rounds, near, d2, s2, n, h, S, a0, radius,
-                                 F, Z, lo, hi, G, R, M, lam, wt, e, Rs, T2)
+                                 F, Z, lo, hi, G, R, M, lam, wt, e, Rs, T2, CL, CH)
             if verdict == 1:
                 continue
+            # the box narrowed to what the linear forms allow (no change without tests & 8)
+            shrunk = False
+            for j in range(n):
+                if h[j] > 0.0:
+                    width = 0.5 * (CH[j] - CL[j])
+                    if width < 0.7 * h[j]:
+                        shrunk = True
+                    c[j] += 0.5 * (CL[j] + CH[j])
+                    h[j] = width
             if verdict == 0 or evals >= budget or top + 2 > depth:
                 ok = 0
                 break
+            if shrunk:
+                top += 1  # bound the narrowed box again before splitting it
+                continue
             jb = int(lo[9])  # the joint to split
             # the two halves replace the box on the stack (slot top, then top + 1)
             half = 0.5 * h[jb]
