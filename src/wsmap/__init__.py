@@ -63,7 +63,7 @@ from .workspace import (
 )
 from .workspace.kinds import get_kind, kind_names
 from .workspace.maps import grid_status
-from .workspace.status import CERTIFIED, NOT_FOUND, REACHED, STATUS, node_status, status_counts
+from .workspace.status import CERTIFIED, NOT_FOUND, REACHED, STATUS, node_status, node_status_over, status_counts
 
 __all__ = [
     "__version__", "kinematics", "robots", "workspace",
@@ -77,7 +77,7 @@ __all__ = [
     "constant_orientation_map", "orientation_map", "reachability_index", "position_map", "dexterous_map",
     "manipulability_map", "get_kind", "kind_names", "load_map", "save_map", "base_placement", "Placement",
     # the three answers of a map node: reached, certified unreachable, not found
-    "REACHED", "CERTIFIED", "NOT_FOUND", "STATUS", "grid_status", "node_status", "status_counts",
+    "REACHED", "CERTIFIED", "NOT_FOUND", "STATUS", "grid_status", "node_status", "node_status_over", "status_counts",
     # jobs: what the command line runs, built in Python (check, run, save)
     "jobs", "MapJob", "MapOutputs", "PlacementJob", "ArmSource", "CollisionSource",
 ]

@@ -312,3 +312,31 @@ def test_the_search_skipping_certified_border_nodes_finds_the_same_map(name, mon
     after = ws.constant_orientation_map(arm, nodes, (np.pi, 0, 0))
     np.testing.assert_array_equal(after, before)
     assert sum(seen) > 0  # some border node was skipped
+
+
+def test_a_node_over_its_orientations():
+    status = np.array([[REACHED, CERTIFIED], [CERTIFIED, CERTIFIED], [CERTIFIED, NOT_FOUND], [NOT_FOUND, REACHED]],
+                      dtype=np.int8)
+    np.testing.assert_array_equal(wsmap.node_status_over(status), [REACHED, CERTIFIED, NOT_FOUND, REACHED])
+    assert wsmap.node_status_over(status).dtype == np.int8
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5e"])
+def test_the_reachability_index_status(name):
+    # per node and orientation: reached exactly where the index's bits are, certified poses never
+    # reached by a 256-start search; per node: certified where every orientation is
+    arm = robots.load(name)
+    nodes = ws.cartesian_grid(-1, 1, 0.25)
+    R = ws.orientation_samples(6)
+    index, bits, status, per_node = ws.reachability_index(arm, nodes, R, return_bits=True, return_status=True)
+    assert status.shape == bits.shape and status.dtype == np.int8 and per_node.shape == (len(nodes),)
+    np.testing.assert_array_equal(status == REACHED, bits)
+    np.testing.assert_array_equal(index, bits.mean(axis=1))  # the index itself unchanged
+    np.testing.assert_array_equal(per_node, wsmap.node_status_over(status))
+    assert (status == CERTIFIED).sum() > 0.9 * (~bits).sum()
+    assert ((per_node == CERTIFIED) == (status == CERTIFIED).all(axis=1)).all()
+    T = np.zeros(bits.shape + (4, 4))
+    T[..., :3, :3], T[..., :3, 3], T[..., 3, 3] = R[None], nodes[:, None], 1.0
+    cert = np.flatnonzero((status == CERTIFIED).reshape(-1))
+    some = T.reshape(-1, 4, 4)[cert[:: max(1, cert.size // 60)]]
+    assert not wsmap.reachable(arm, some, starts=256, seed=7).any()

@@ -33,6 +33,7 @@ from .._progress import check_progress, progress_bar
 from .grids import check_fits, node_neighbours
 from .maps import check_choice, check_nodes, configuration_predicate, resolve_method, search_settings, target_poses
 from .orientations import check_rotations, continuation_bytes, continuation_order
+from .status import node_status, node_status_over
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
@@ -116,7 +117,7 @@ def position_map(robot: Arm, nodes: ArrayLike, *, samples: int = 20000, seed: in
 def reachability_index(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, *, method: str = "auto",
                        return_bits: bool = False, ik: dict | None = None, seed: int = 0,
                        progress: bool | Callable[[int], object] = False, collision: Callable | None = None,
-                       return_q: bool = False) -> NDArray[np.float64] | tuple[NDArray, ...]:
+                       return_q: bool = False, return_status: bool = False) -> NDArray[np.float64] | tuple[NDArray, ...]:
     """The reachability index: float `(N,)` in [0, 1], the fraction of `orientations` (K, 3, 3)
     reachable at each node (`T = transl(p)·R_k`); `return_bits` also returns the bool `(N, K)`.
 
@@ -136,6 +137,13 @@ def reachability_index(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, *,
     solution (every closed-form branch tried; the search keeps looking). The position pre-filter
     stays the chain's (a collision-free pose has a position the chain reaches). `return_q`
     also returns the solutions `(N, K, n)` (NaN where a pose is not reached), after the bits.
+
+    `return_status`: also (last) the int8 status `(N, K)` of each node and orientation,
+    `REACHED`, `CERTIFIED` unreachable or `NOT_FOUND` (`wsmap.workspace.status.node_status`: the
+    certificates of a map's nodes, the closed form's for `"exact"`, the branch and bound's for
+    `"numerical"`, on every pose not reached; about a millisecond or more a pose near the border),
+    and each node's `(N,)` (`wsmap.workspace.status.node_status_over`: certified where every
+    orientation is, reached where one is).
     """
     robot = _check_arm(robot)
     nodes = check_nodes("nodes", nodes)
@@ -154,6 +162,12 @@ def reachability_index(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, *,
         bits, qs = _index_bits(robot, nodes, R, method, ik, seed, update, valid, return_q)
     index = bits.mean(axis=1)
     out = (index,) + ((bits,) if return_bits else ()) + ((qs,) if return_q else ())
+    if return_status:
+        # the certificates are kinematic: collisions only remove solutions, so they hold with them too
+        T = np.zeros((N, K, 4, 4))
+        T[..., :3, :3], T[..., :3, 3], T[..., 3, 3] = R[None], nodes[:, None], 1.0
+        status = node_status(robot, T.reshape(-1, 4, 4), bits.reshape(-1), method).reshape(N, K)
+        out += (status, node_status_over(status))
     return out if len(out) > 1 else index
 
 

@@ -1,8 +1,9 @@
 """The three answers of a node or a target: reached, certified unreachable, not found.
 
 A map node (`wsmap.workspace.constant_orientation_map`, `orientation_map`, `grid_map` with
-`return_status=True`, the map file's `status`) and a reach-study target
-(`wsmap.workspace.study`) each get one int8 code:
+`return_status=True`, the map file's `status`), a node and orientation of the reachability index
+(`wsmap.workspace.reachability_index(..., return_status=True)`; a node over its orientations by
+`node_status_over`) and a reach-study target (`wsmap.workspace.study`) each get one int8 code:
 
 * `REACHED` (0) — a joint solution inside the limits, confirmed by forward kinematics (and
   collision-free where a checker is given);
@@ -28,7 +29,8 @@ if TYPE_CHECKING:
     from wsmap._typing import ArrayLike, NDArray
     from wsmap.kinematics.chain import Arm
 
-__all__ = ["REACHED", "CERTIFIED", "NOT_FOUND", "STATUS", "CERTIFY_MARGIN", "node_status", "status_counts"]
+__all__ = ["REACHED", "CERTIFIED", "NOT_FOUND", "STATUS", "CERTIFY_MARGIN", "node_status", "node_status_over",
+           "status_counts"]
 
 REACHED, CERTIFIED, NOT_FOUND = 0, 1, 2
 #: The names of the three answers, by code.
@@ -64,6 +66,17 @@ def node_status(robot: Arm, T: ArrayLike, reached: ArrayLike, method: str = "num
         if left.size:
             rows[b, left[certify(flat[b], T[left], margin, method=method, budget=budget)]] = CERTIFIED
     return rows.reshape(status.shape)
+
+
+def node_status_over(status: ArrayLike) -> NDArray[np.int8]:
+    """The status `(...,)` of a node over its orientations, from the status `(..., K)` of each
+    (`wsmap.workspace.reachability_index(..., return_status=True)`): `REACHED` where one
+    orientation is reached, `CERTIFIED` where every one is certified unreachable, else `NOT_FOUND`."""
+    status = np.asarray(status)
+    out = np.full(status.shape[:-1], NOT_FOUND, dtype=np.int8)
+    out[(status == CERTIFIED).all(axis=-1)] = CERTIFIED
+    out[(status == REACHED).any(axis=-1)] = REACHED
+    return out
 
 
 def status_counts(status: ArrayLike) -> dict[str, int]:
