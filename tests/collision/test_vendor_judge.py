@@ -344,6 +344,20 @@ def test_the_committed_hulls_are_the_hulls_of_universal_robots_meshes(arm, tmp_p
         assert (pts @ eq[:, :3].T + eq[:, 3]).max() < 1e-7, lk["name"]
 
 
+@pytest.mark.parametrize("name", sorted(vendor.VENDOR))
+def test_without_trimesh_the_default_is_the_fitted_capsules_and_the_meshes_one_line(name, monkeypatch):
+    """trimesh reads the meshes and encloses their hulls in spheres: without it (the `views` extra)
+    the default is the fitted capsules (numpy alone), and the meshes are one line naming it."""
+    monkeypatch.setitem(sys.modules, "trimesh", None)  # import trimesh raises ImportError
+    assert default_geometry(name) == "fitted"
+    assert checker_for(name).model.source.startswith("capsules fitted")
+    for geometry in ("meshes", "two-level"):
+        with pytest.raises(CollisionError) as e:
+            checker_for(name, geometry=geometry)
+        assert str(e.value) == (f"the vendor meshes of {name!r} need trimesh, which is not installed: pip install "
+                                "'wsmap[views]' (or geometry='fitted': the capsules fitted around them need nothing)")
+
+
 def test_a_named_arm_without_the_vendor_package_is_one_line(monkeypatch):
     real = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec", lambda n, *a: None if n == "pybullet_data" else real(n, *a))

@@ -81,6 +81,17 @@ MESH_MARGIN = 0.001
 PADDING = 0.002
 
 
+def _trimesh_missing(name: str) -> str | None:
+    """A one-line reason when trimesh (which reads the meshes and encloses their hulls in spheres,
+    `wsmap.collision.shapes.mesh`) cannot be imported, else None."""
+    try:
+        import trimesh  # noqa: F401
+    except ImportError:
+        return (f"the vendor meshes of {name!r} need trimesh, which is not installed: pip install 'wsmap[views]' "
+                "(or geometry='fitted': the capsules fitted around them need nothing)")
+    return None
+
+
 @dataclass(frozen=True, eq=False)
 class VendorLink:
     """One vendor link on wsmap's chain: its vendor `name`, the `body` it rides on, its own `frame`
@@ -109,7 +120,7 @@ class VendorDescription(ABC):
 
     @abstractmethod
     def installed(self) -> bool:
-        """Whether the meshes can be read here."""
+        """Whether the meshes can be read and checked here (their package, if any, and trimesh)."""
 
     @abstractmethod
     def label(self) -> str:
@@ -136,7 +147,7 @@ class PackagedURDF(VendorDescription):
     urdf: str = ""
 
     def installed(self) -> bool:
-        return importlib.util.find_spec(self.package) is not None
+        return importlib.util.find_spec(self.package) is not None and _trimesh_missing("") is None
 
     def label(self) -> str:
         return f"{self.package}/{self.urdf}"
@@ -151,6 +162,8 @@ class PackagedURDF(VendorDescription):
 
     def vendor_links(self, name, arm):
         path = self.path(name)
+        if _trimesh_missing(name):
+            raise CollisionError(_trimesh_missing(name))
         vendor = from_urdf_collision(path, ee_link=self.links[-1], base_link=self.links[0])
         X = frame_offsets(vendor.chain, arm)
         by_name = {lk.name: lk for lk in vendor.links}
@@ -176,12 +189,13 @@ class CommittedHulls(VendorDescription):
     (`data/<hulls>`, written by `tools/vendor_hulls.py` with the licence and a `SOURCE.md`): per
     link the hull's vertices in the vendor link's frame and that frame in wsmap's body frame, checked
     when derived (`frame_offsets` on 200 random configurations) and by PyBullet on the vendor's own
-    URDF in `tests/collision/test_vendor_judge.py`. Nothing but numpy is needed to read them."""
+    URDF in `tests/collision/test_vendor_judge.py`. Read with numpy alone; checked with coal and
+    trimesh (the hulls' enclosing spheres), as every mesh."""
 
     hulls: str = ""
 
     def installed(self) -> bool:
-        return True
+        return _trimesh_missing("") is None
 
     def label(self) -> str:
         return f"wsmap/collision/data/{self.hulls}"
@@ -190,6 +204,8 @@ class CommittedHulls(VendorDescription):
         if not same_kinematics(arm, load(name)):
             raise CollisionError(f"the vendor meshes of {name!r} are in the bodies' frames of the named arm; this arm's "
                                  "kinematics differ (give geometry='capsules' for capsules along its links)")
+        if _trimesh_missing(name):
+            raise CollisionError(_trimesh_missing(name))
         rec = _hull_record(self.hulls)
         out = []
         for lk in rec["links"]:
