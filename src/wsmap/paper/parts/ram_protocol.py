@@ -246,21 +246,21 @@ def _table(metrics: Metrics, fk: dict) -> pd.DataFrame:
     pub = metrics["ram_published"]
     mdl = metrics["model"]
     rows = [
-        {"what": "network on held-out arms: RAM (published)", "source": RAM_SOURCE, "f1_random": pub["f1_random"],
+        {"what": "RAM's network on held-out arms (published)", "source": RAM_SOURCE, "f1_random": pub["f1_random"],
          "f1_boundary": pub["f1_boundary"], "compute": RAM_COMPUTE},
-        {"what": "network on held-out arms: wsmap pose model (exact IK labels)", "source": "here",
+        {"what": "wsmap pose model on held-out arms (exact IK labels)", "source": "here",
          "f1_random": mdl["random"]["f1"], "f1_boundary": mdl["boundary"]["f1"],
          "compute": f"{mdl['training_arms']} arms; labels {c['train_label_cpu_seconds']:.0f} core-s, training "
-                    f"{c['train_cpu_seconds']:.0f} core-s ({c['device']}, {c['threads']} threads)"},
-        {"what": "FK-sampling labels against exact, level 3: RAM (published; one number)", "source": RAM_SOURCE,
+                    f"{c['train_cpu_seconds']:.0f} core-s ({c['device']}, threads: {c['threads']})"},
+        {"what": "RAM's FK labels against exact, level 3 (published, one F1)", "source": RAM_SOURCE,
          "f1_random": pub["f1_fk_labels"], "f1_boundary": np.nan, "compute": "GPU, 30-600 s per arm"},
     ]
     for r in metrics["fk_labels"]:
-        rows.append({"what": f"FK-sampling labels against exact, level {r['level']}, {r['samples']:,} samples per arm",
+        rows.append({"what": f"FK labels against exact, level {r['level']}, {r['samples']:,} samples per arm",
                      "source": "here", "f1_random": r["random"]["f1"], "f1_boundary": r["boundary"]["f1"],
                      "compute": f"{c['fk_label_seconds_per_arm']:.1f} s per arm for all levels and budgets"})
     names = {"kinematic": "wsmap labels without self-collision, against RAM's definition",
-             "ram_budget": f"wsmap labels with RAM's IK budget ({RAM_IK_STARTS} starts, no extra rounds)",
+             "ram_budget": f"wsmap labels, RAM's IK budget ({RAM_IK_STARTS} starts, no extra rounds)",
              "reachable": f"wsmap.reachable as it is ({metrics['poses']['starts']} starts, no extra rounds)"}
     for v in VARIANTS:
         rows.append({"what": names[v], "source": "here", "f1_random": metrics["labels"][v]["random"]["f1"],
@@ -281,22 +281,26 @@ def save(result: Result, out: Outputs) -> None:
 def figures(result: Result, out: Outputs) -> list[Path]:
     """F1 per set of every row of the table (RAM's published numbers hatched)."""
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
 
     t = result.table
-    fig, ax = plt.subplots(figsize=(9, 0.42 * len(t) + 1.2))
+    fig, ax = plt.subplots(figsize=(9, 0.42 * len(t) + 1.6))
     y = np.arange(len(t))[::-1]
-    for k, (s, colour) in enumerate((("random", "tab:blue"), ("boundary", "tab:orange"))):
+    colours = {"random": "tab:blue", "boundary": "tab:orange"}
+    for k, s in enumerate(SETS):
         v = t[f"f1_{s}"].to_numpy(dtype=float)
-        bars = ax.barh(y + (0.2 if k == 0 else -0.2), np.nan_to_num(v), 0.4, color=colour, label=f"{s} poses")
+        bars = ax.barh(y + (0.2 if k == 0 else -0.2), np.nan_to_num(v), 0.4, color=colours[s])
         for b, src in zip(bars, t.source):
             if src != "here":
                 b.set_hatch("//")
-    ax.set_yticks(y, [w if len(w) < 70 else w[:67] + "..." for w in t.what], fontsize=7)
+    ax.set_yticks(y, list(t.what), fontsize=7)
     ax.set_xlim(0, 1)
-    ax.set_xlabel("F1 (RAM's: per arm, mean over arms); hatched: RAM, published")
+    ax.set_xlabel("F1 (RAM's: per arm, mean over arms)")
     arms = sum(result.metrics["arms"]["test"].values())
     ax.set_title(f"RAM's protocol, {arms} held-out RAM arms (5-7 joints)", fontsize=9)
-    ax.legend(fontsize=8, loc="lower right")
+    handles = [Patch(color=colours[s], label=f"{s} poses") for s in SETS]
+    handles.append(Patch(facecolor="white", edgecolor="black", hatch="//", label=f"RAM, published ({RAM_SOURCE})"))
+    ax.legend(handles=handles, fontsize=7, loc="upper center", bbox_to_anchor=(0.4, -0.09), ncol=3, frameon=False)
     ax.grid(True, axis="x", alpha=0.3)
     fig.tight_layout()
     return [save_figure(fig, out.figures / "ram_protocol_f1.png")]
