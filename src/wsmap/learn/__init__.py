@@ -28,8 +28,8 @@ module                 contents
 `verified`           `verified_morph_grid`: the morphology network's map with the nodes it is
                        unsure of (margin, boundary shell, grown from corrections) decided by the
                        classical map (`VerifiedMap`)
-`screening`          `screen_arms`: many arms ranked for tool-down targets by predicted coverage,
-                       the best candidates mapped classically (`Screening`)
+`screening`          `screen_arms`: many arms ranked for tool-down targets, mapped classically
+                       best-first by an upper bound on their coverage (`Screening`)
 `pose_model`         RAM's query, f(RAM table, pose) -> logit for any pose of a 5-7-joint RAM
                        arm, trained on exact IK labels: `build_pose_shards`, `fit_pose_model`,
                        `predict_poses`, files
