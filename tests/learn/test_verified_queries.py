@@ -224,6 +224,7 @@ def test_screening_candidates_caps_the_classical_maps(model, catalogue):
     ({"top": 5, "candidates": 2}, "candidates \\(2\\) must be at least top \\(5\\)"),
     ({"candidates": 0}, "candidates must be a positive integer or None, got 0"),
     ({"cost": [1.0, 2.0]}, "cost must be 13 finite numbers \\(one per arm\\), got shape \\(2,\\)"),
+    ({"ik": {"starts": -1}}, "starts must be an integer >= 0, got -1"),
 ])
 def test_screening_refuses_bad_settings(model, catalogue, kw, message, monkeypatch):
     arms, targets, _ = catalogue

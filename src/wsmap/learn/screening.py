@@ -132,15 +132,12 @@ def coverage_bounds(arms: Sequence[Arm], targets: ArrayLike, rpy: ArrayLike, con
 
 
 def _filter_margin(ik) -> float:
-    """The reach filter's margin for the classical map's settings: the confirmation tolerance, or
-    the default one where the settings leave it unset (never smaller than the default)."""
+    """The reach filter's margin for the classical map's settings `ik` (checked here, before any
+    work: a bad setting is the `ValueError` of `as_settings`): the confirmation tolerance, or the
+    default one where the settings leave it unset (never smaller than the default)."""
     from ..kinematics.ik.settings import FK_CONFIRM_TOL, as_settings
 
-    try:
-        tol = as_settings(ik).confirm_tol
-    except (ValueError, TypeError):  # another solver's settings: the default tolerance, checked by the map
-        tol = None
-    return max(FK_CONFIRM_TOL, float(tol or 0.0))
+    return max(FK_CONFIRM_TOL, float(as_settings(ik).confirm_tol or 0.0))
 
 
 def _check(top, candidates, margin, cost, B):
@@ -192,7 +189,7 @@ def screen_arms(model: MorphMapModel, arms: Sequence[Arm], targets: ArrayLike, *
     Raises
     ------
     ValueError
-        Bad `top`, `candidates`, `margin`, `cost` or targets, before any work;
+        Bad `top`, `candidates`, `margin`, `cost`, `ik` or targets, before any work;
         `ExtrapolationError` for an arm outside the model's range (when the network is consulted).
     """
     from ..workspace.maps import check_nodes, constant_orientation_map
@@ -203,8 +200,9 @@ def screen_arms(model: MorphMapModel, arms: Sequence[Arm], targets: ArrayLike, *
     points = check_nodes("targets", targets)
     if not B:
         raise ValueError("screen at least one arm, got none")
+    filter_margin = _filter_margin(ik)
     predicted = None
-    bound = coverage_bounds(arms, points, model.rpy, model.convention, margin=_filter_margin(ik))
+    bound = coverage_bounds(arms, points, model.rpy, model.convention, margin=filter_margin)
     if math.isfinite(margin):
         logits, logit_threshold = _logits(model, arms, points, allow_extrapolation)
         predicted = (logits > logit_threshold).mean(axis=1)
