@@ -82,3 +82,16 @@ def test_a_bad_section_is_refused_before_any_work(tmp_path, key, value, message)
     with pytest.raises(ValueError, match=f"^params.smoke.yaml section 'ram_protocol': {message}$"):
         part.run(cfg, paths.Outputs(tmp_path))
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(__import__("torch").cuda.is_available(), reason="this machine has a GPU")
+def test_device_cuda_without_a_gpu_fails_before_any_work(tmp_path):
+    """The section's ``device`` is resolved before a shard is labelled or a folder made."""
+    from wsmap.learn import DeviceUnavailableError
+
+    section = dict(paths.load_params("ram_protocol", SMOKE))
+    section["device"] = "cuda"
+    cfg = paths.Params(section, "params.smoke.yaml section 'ram_protocol'")
+    with pytest.raises(DeviceUnavailableError, match="section 'ram_protocol' device"):
+        part.run(cfg, paths.Outputs(tmp_path))
+    assert list(tmp_path.iterdir()) == []
