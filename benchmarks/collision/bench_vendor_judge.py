@@ -3,8 +3,9 @@ collisions and time of the fitted capsules, the two-level check and the meshes, 
 the README's collision-aware Panda map against the kinematic map.
 
 * judge: ``--samples`` random configurations (default 10,000, seed 0) of each arm with a PyBullet
-  description (pybullet_data's Panda and iiwa 14; Universal Robots' UR5e and UR10e xacro expanded
-  as ROS does, ``tests/collision/vendor_urdfs.py``; ``--arms`` picks some); PyBullet calls one colliding when two arm links
+  description (pybullet_data's Panda and iiwa 14; Universal Robots' UR5e and UR10e xacro and
+  Kinova's Gen3 xacro expanded as ROS does, ``tests/collision/vendor_urdfs.py``: the Gen3's from a
+  mirror of ``ros2_kortex``, its path in ``WSMAP_KORTEX_REPO``; ``--arms`` picks some); PyBullet calls one colliding when two arm links
   that are neither adjacent nor in contact at the zero configuration are closer than 0
   (``getClosestPoints``). Each model (``meshes``: the default, ``two-level``, ``fitted``,
   ``capsules``: the estimated ones; self-collision only, no floor) is counted for false free
@@ -40,13 +41,18 @@ def _judge(name):
     arm = load(name)
     if isinstance(VENDOR[name], PackagedURDF):
         urdf = vendor_urdf(name)
-    else:  # the UR arms: Universal Robots' xacro expanded as ROS does (tests/collision/vendor_urdfs.py)
+    else:  # the UR arms and the Gen3: the vendor's xacro expanded as ROS does (tests/collision/vendor_urdfs.py)
         import tempfile
 
         sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests" / "collision"))
-        from vendor_urdfs import ur_urdf
+        from vendor_urdfs import KORTEX_MISSING, gen3_urdf, kortex_present, ur_urdf
 
-        urdf = str(ur_urdf(name, Path(tempfile.mkdtemp())))
+        if name == "gen3":
+            if not kortex_present():
+                raise SystemExit(KORTEX_MISSING)
+            urdf = str(gen3_urdf(Path(tempfile.mkdtemp())))
+        else:
+            urdf = str(ur_urdf(name, Path(tempfile.mkdtemp())))
     cid = pb.connect(pb.DIRECT)
     robot = pb.loadURDF(urdf, useFixedBase=True, flags=pb.URDF_USE_SELF_COLLISION, physicsClientId=cid)
     nj = pb.getNumJoints(robot, physicsClientId=cid)

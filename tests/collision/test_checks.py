@@ -100,8 +100,8 @@ def test_a_checker_needs_a_matrix():
 
 
 def test_a_named_arm_without_a_model_is_refused():
-    with pytest.raises(CollisionError, match="no collision model for robot 'gen3'"):
-        arm_model("gen3")
+    with pytest.raises(CollisionError, match="no collision model for robot 'puma560'"):
+        arm_model("puma560")
 
 
 def test_segment_distance_agrees_with_dense_sampling():

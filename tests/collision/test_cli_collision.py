@@ -52,7 +52,7 @@ def test_a_urdf_arm_takes_its_collision_elements(tmp_path):
     (["--scene", "{d}/s.json"], {"s.json": '{"obstacles": [{"shape": "sphere", "radius": NaN}]}'}, "NaN"),
     (["--scene", "{d}/s.yaml"], {"s.yaml": "obstacles:\n  - {shape: box, size: [1, 1, -1]}\n"}, "positive"),
     (["--collision", "--allow", "link1", "nolink"], {}, "unknown link 'nolink'"),
-    (["--collision", "--robot", "gen3"], {}, "no collision model for robot 'gen3'"),
+    (["--collision", "--robot", "puma560"], {}, "no collision model for robot 'puma560'"),
     (["--collision", "--kind", "reach"], {}, "--collision/--scene are used by --kind"),
     (["--allow", "link1", "link2"], {}, "--allow is used with --collision"),
     (["--collision", "--urdf", "{d}/a.urdf"], {"a.urdf": "MESH"}, "hand.stl' is empty"),

@@ -14,7 +14,13 @@ Each arm with a vendor description has one record in `VENDOR` that says where it
   hashes): the UR5e and the UR10e (Universal Robots' `Universal_Robots_ROS2_Description`,
   BSD-3-Clause, `urdf/ur.urdf.xacro` expanded with `ur_type:=ur5e`/`ur10e`;
   `data/ur_description/`, written by `tools/vendor_hulls.py`, which checked the frames when it
-  derived them: the vendor's `default_kinematics.yaml` is wsmap's DH table to 8e-10 m). They need
+  derived them: the vendor's `default_kinematics.yaml` is wsmap's DH table to 8e-10 m), and the
+  Kinova Gen3 (Kinova's `ros2_kortex`, BSD-3-Clause, `kortex_description/robots/gen3.xacro`
+  expanded with `dof:=7`, its `.dae` collision meshes; `data/kortex_description/`). Kinova's URDF
+  is not wsmap's DH table (lengths to 0.01 mm, a 0.175 mm offset, pi/2 as 1.5708): its link frames
+  leave wsmap's bodies by up to 0.73 mm (the bracelet) as the joints turn, so each Gen3 hull is
+  committed grown by its link's measured bound (0-0.8 mm), and wsmap's hull holds Kinova's wherever
+  both sit (`tools/vendor_hulls.py`, tested in `tests/collision/test_vendor_judge.py`). They need
   nothing installed.
 
 * `mesh_model(name)` — the vendor's collision meshes (the arm's links only, without a hand), in
@@ -257,6 +263,14 @@ VENDOR: dict[str, VendorDescription] = {
                "collision meshes meshes/link_0-7.stl"),
     "ur5e": _ur("ur5e"),
     "ur10e": _ur("ur10e"),
+    "gen3": CommittedHulls(
+        links=("base_link", "shoulder_link", "half_arm_1_link", "half_arm_2_link", "forearm_link",
+               "spherical_wrist_1_link", "spherical_wrist_2_link", "bracelet_link"),
+        default="meshes", hulls="kortex_description/gen3.json",
+        licence="BSD-3-Clause (wsmap/collision/data/kortex_description/LICENSE)",
+        origin="Kinova's ROS 2 description (ros2_kortex), kortex_description/robots/gen3.xacro with dof:=7 (no vision "
+               "module): collision meshes arms/gen3/7dof/meshes/*.dae as convex hulls, each grown by its link's "
+               "frame mismatch against wsmap's DH table (up to 0.8 mm; data/kortex_description/SOURCE.md)"),
 }
 
 
