@@ -8,7 +8,7 @@
   `capsules_along_links` for a DH arm with link radii);
 * `.named` — models of the named arms (`arm_model`: capsules fitted to the vendor's meshes, the
   meshes themselves, or estimated capsules);
-* `.vendor` — the vendor collision meshes of the Panda, the iiwa 14, the UR5e and the UR10e (one
+* `.vendor` — the vendor collision meshes of the Panda, the iiwa 14, the UR5e, the UR10e and the Gen3 (one
   record per arm, `VENDOR`) and the capsules fitted to them;
 * `.acm` — the allowed-collision matrix (`build_acm`, as MoveIt's setup assistant);
 * `.scene` — obstacles: the floor, boxes, cylinders, spheres, meshes (`Scene`,

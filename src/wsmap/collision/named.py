@@ -9,7 +9,9 @@ vendor record's `default`, `wsmap.collision.vendor.VENDOR`):
   `vendor.MESH_MARGIN` (1 mm, Bullet's margin): exact for those grown hulls. The Panda's and the
   iiwa 14's come from pybullet_data (where it is installed: their default there); the UR5e's and
   the UR10e's are committed with wsmap (the convex hulls of Universal Robots' own collision meshes,
-  `wsmap/collision/data/ur_description/`: their default everywhere);
+  `wsmap/collision/data/ur_description/`: their default everywhere), and so are the Gen3's
+  (Kinova's, each hull grown by its link's frame mismatch with wsmap's DH table, 0-0.8 mm:
+  `wsmap/collision/data/kortex_description/`; its default everywhere);
 * `"two-level"` — the same meshes with the fitted capsules as their coarse model
   (`wsmap.collision.vendor.two_level_model`): the capsules first, the meshes decide where the
   capsules collide, so the answer is the meshes', configuration for configuration (tested). Not
@@ -23,7 +25,7 @@ vendor record's `default`, `wsmap.collision.vendor.VENDOR`):
   committed numbers: they need nothing);
 * `"capsules"` — the estimated capsules below (the Panda, the iiwa 14 and the UR5e; the default on
   an arm of a family with other lengths): not fitted to any vendor geometry, so not guaranteed to
-  contain the real arm. The PUMA 560 and the Gen3 have no collision model.
+  contain the real arm. The PUMA 560 has no collision model.
 
 The estimated capsules:
 
