@@ -128,6 +128,28 @@ def test_a_huge_start_angle_takes_libms_sine():
     np.testing.assert_allclose(a.q, b.q, atol=1e-8)
 
 
+def test_a_half_turn_from_the_start_agrees():
+    # targets a half turn about each axis of the start's tool frame: at the start the rotation
+    # error's sine is 0 and its cosine -1, so the error's axis comes from the largest diagonal entry,
+    # lane by lane (the register-blocked iteration of 6 and 7 joints, and the array one of 3)
+    rng = np.random.default_rng(5)
+    for arm, min_success in ((robots.load("puma560"), 3), (robots.load("panda"), 3), (random_chain(rng, 3), 0)):
+        lim = np.asarray(as_chain(arm).limits)
+        q0 = np.where(np.isfinite(lim).all(axis=1), lim.mean(axis=1), 0.3)
+        T0 = np.asarray(arm.fkine(q0))
+        T = np.repeat(T0[None], 6, axis=0)
+        for k, flip in enumerate(([1.0, -1, -1], [-1.0, 1, -1], [-1.0, -1, 1]) * 2):
+            T[k, :3, :3] = T0[:3, :3] @ np.diag(flip)
+        T[3:, :3, 3] += 0.02  # and a small move of the tool
+        a, b = both(lambda: ikine_search(arm, T, starts=3, q0=q0, seed=1))  # noqa: B023 - called at once
+        np.testing.assert_array_equal(a.success, b.success)
+        np.testing.assert_array_equal(a.start, b.start)
+        np.testing.assert_array_equal(a.reason, b.reason)
+        assert a.success.sum() >= min_success
+        ok = a.success
+        np.testing.assert_allclose(a.q[ok], b.q[ok], atol=1e-8)
+
+
 def test_answers_do_not_depend_on_lanes_threads_or_order():
     arm = robots.load("panda")
     T = ws.target_poses(ws.cartesian_grid(-1, 1, 0.2), (PI, 0, 0), "standard")

@@ -100,10 +100,31 @@ constexpr double INF = std::numeric_limits<double>::infinity();
 #define LANES_LOOP _Pragma("omp simd") for (int l = 0; l < L; ++l)
 // an OR over the lanes into the int `anyv` (vectorised as a reduction)
 #define LANES_ANY _Pragma("omp simd reduction(|:anyv)") for (int l = 0; l < L; ++l)
+// a loop over the lanes of the part h .. h + W - 1 of a block (the register-blocked iteration)
+#define PART_LOOP _Pragma("omp simd") for (int l = h; l < h + W; ++l)
+
+// L doubles as one value (GCC's vector extension; one register of AVX-512 for L = 8, two of AVX2),
+// and the mask a comparison of two gives (all bits set where true)
+template <int L>
+struct VecOf {
+    typedef double T __attribute__((vector_size(8 * L)));
+    typedef int64_t M __attribute__((vector_size(8 * L)));
+};
+// a loop over joints or rows unrolled (its trip count a compile-time constant)
+#define UNROLL _Pragma("GCC unroll 16")
+// the doubles one vector register holds in this build: GCC splits a wider vector type badly (into
+// many times the instructions), so a block wider than this runs its iteration part by part
+#if defined(__AVX512F__)
+constexpr int NATIVE_LANES = 8;
+#elif defined(__AVX__)
+constexpr int NATIVE_LANES = 4;
+#else
+constexpr int NATIVE_LANES = 2;
+#endif
 
 // sin and cos as lm_compiled._sincos (fdlibm's kernels after a three-part Cody-Waite reduction),
 // branch-free so that a loop over lanes vectorises; |x| >= 1e5 and NaN are fixed afterwards by libm.
-static inline void sincos_poly(double x, double &sv, double &cv) {
+static inline __attribute__((always_inline)) void sincos_poly(double x, double &sv, double &cv) {
     const double t = x * 6.36619772367581382433e-01 + 6755399441055744.0;  // round to nearest
     const double k = t - 6755399441055744.0;
     int64_t q;
@@ -153,7 +174,7 @@ static inline double project1(double qj, double lo, double hi, bool revolute) {
 // np.spacing(|x|), the gap to the next float above |x|, from the exponent bits (no libm call, so a
 // loop over lanes vectorises); below 2^-970 the smallest subnormal instead (smaller than the true
 // gap there: the stagnation test that uses it only gets stricter)
-static inline double spacing_fast(double x) {
+static inline __attribute__((always_inline)) double spacing_fast(double x) {
     uint64_t bits;
     const double ax = std::fabs(x);
     std::memcpy(&bits, &ax, sizeof(bits));
@@ -168,7 +189,7 @@ static inline double spacing_fast(double x) {
 // lanes vectorises: Cephes' reduction of atan to [-0.42, 0.66] (by pi/4 and pi/2 with their
 // low-order parts) and its rational minimax approximation; within 2 ulp of libm
 // (tests/kinematics/test_lm_lanes.py)
-static inline double atan2_pos(double y, double x) {
+static inline __attribute__((always_inline)) double atan2_pos(double y, double x) {
     const double ax = std::fabs(x);
     const bool swap = y > ax;
     const double num = swap ? ax : y, den = swap ? y : ax;
@@ -271,12 +292,14 @@ struct Block {
     alignas(64) double g2[L], trA[L], stuck[L];
     int8_t kind[NM + 1][L];
     int8_t ukind[NM + 1];  // the kind shared by every lane, or 2 (the full product) where they differ
+    bool kinds_dirty = true;  // ukind to be recomputed: the lanes' targets changed
 
     // per lane, decided lane by lane
     int64_t tgt[L], arm[L], s[L], ntry[L], total[L], it[L], rej[L];
     double lam[L], na[L], best[L];
     int pss[L], passes[L];
-    bool active[L], start[L], touched[L], limited_run[L], limited[L];
+    int64_t active[L], start[L], touched[L];  // 0 or 1 (int64: read as vector masks)
+    bool limited_run[L], limited[L];
 
     Block(const Args &args)
         : a(args), n_rt((int)args.n), rows(args.mode == MODE_POSITION ? 3 : 6),
@@ -308,6 +331,7 @@ struct Block {
     // ------------------------------------------------------------------ lane by lane
     bool take_target(int l) {
         const int n = FIXED ? NM : n_rt;
+        kinds_dirty = true;
         const int64_t i = __atomic_fetch_add(a.counter, 1, __ATOMIC_RELAXED);
         if (i >= a.M) {
             active[l] = false;
@@ -531,11 +555,19 @@ struct Block {
     // every joint within a few turns, so in practice never): its whole chain again, sines and
     // cosines from libm, as lm_compiled._sincos does for such an angle
     void fix_huge_angles() {
+        if (any_huge()) fix_huge_lanes();
+    }
+
+    bool any_huge() const {
         const int n = FIXED ? NM : n_rt;
         int anyv = 0;
         for (int i = 0; i < n; ++i)
             if (!a.pris[i]) LANES_ANY anyv |= !(std::fabs(qt[i][l] + off[i][l]) < 1e5);
-        if (!anyv) return;
+        return anyv;
+    }
+
+    void fix_huge_lanes() {
+        const int n = FIXED ? NM : n_rt;
         for (int l = 0; l < L; ++l) {
             bool huge = false;
             for (int i = 0; i < n; ++i) huge = huge || (!a.pris[i] && !(std::fabs(qt[i][l] + off[i][l]) < 1e5));
@@ -717,6 +749,383 @@ struct Block {
             for (int i = 0; i < j; ++i) LANES_LOOP dq[i][l] = dq[i][l] - H[i][j][l] * dq[j][l];
     }
 
+    // ------------------------------------------------------------------ register-blocked iteration
+    // For a joint count known at compile time (6, 7): one iteration as straight-line code over
+    // vectors of W lanes (GCC's vector extension: V is W doubles, one register), every loop over
+    // joints and rows unrolled, so the pose, the Jacobian's columns and the elimination's matrix
+    // stay in registers between the steps instead of going through the block's arrays. A block of
+    // L > W lanes runs it on its parts of W lanes (lanes h .. h + W - 1)
+    // one after the other. The arithmetic per lane is the same sequence as the lane-array
+    // functions above (the MAX_JOINTS path), except where GCC fuses a multiply-add differently.
+    static constexpr int W = L < NATIVE_LANES ? L : NATIVE_LANES;
+    using V = typename VecOf<W>::T;
+    using VM = typename VecOf<W>::M;
+    static inline __attribute__((always_inline)) V ld(const double *x) {
+        V v;
+        std::memcpy(&v, x, sizeof(V));
+        return v;
+    }
+    static inline __attribute__((always_inline)) void st(double *x, V v) { std::memcpy(x, &v, sizeof(V)); }
+    static inline __attribute__((always_inline)) V bc(double x) { return V{} + x; }
+    static inline __attribute__((always_inline)) VM ldm(const int64_t *x) {
+        VM v;
+        std::memcpy(&v, x, sizeof(VM));
+        return v;
+    }
+    static inline __attribute__((always_inline)) void stm(int64_t *x, VM v) { std::memcpy(x, &v, sizeof(VM)); }
+    static inline __attribute__((always_inline)) VM im(int64_t x) { return VM{} + x; }
+    static inline __attribute__((always_inline)) V vsqrt(V x) {
+        alignas(64) double t[W];
+        st(t, x);
+        _Pragma("omp simd") for (int l = 0; l < W; ++l) t[l] = std::sqrt(t[l]);
+        return ld(t);
+    }
+    static inline __attribute__((always_inline)) V vabs(V x) { return (V)((VM)x & (VM{} + INT64_MAX)); }
+    // spacing_fast on every lane
+    static inline __attribute__((always_inline)) V vspacing(V x) {
+        const VM e = ((VM)x & (VM{} + INT64_MAX)) >> 52;
+        const VM out = (e > 52 ? e - 52 : VM{}) << 52;
+        const V v = (V)out;
+        return v > 0.0 ? v : bc(TINY);
+    }
+    static inline __attribute__((always_inline)) bool any(VM m) {
+        alignas(64) int64_t t[W];
+        std::memcpy(t, &m, sizeof(VM));
+        int anyv = 0;
+        _Pragma("omp simd reduction(|:anyv)") for (int l = 0; l < W; ++l) anyv |= t[l] != 0;
+        return anyv;
+    }
+
+    // fk() into registers: Rr, pp the tool's pose; o, w (the joints' origins and axes) stored for
+    // the Jacobian
+    inline __attribute__((always_inline)) void fk_v(const int h, V (&Rr)[9], V (&pp)[3]) {
+        // every joint's sine and cosine first: independent of each other and of the chain
+        alignas(64) double sn[NM][L], cs[NM][L];
+        UNROLL for (int i = 0; i < NM; ++i) {
+            if (a.pris[i]) continue;
+            PART_LOOP sincos_poly(qt[i][l] + off[i][l], sn[i][l], cs[i][l]);
+        }
+        UNROLL for (int m = 0; m < 9; ++m) Rr[m] = ld(Rf[0][m] + h);
+        UNROLL for (int r = 0; r < 3; ++r) pp[r] = ld(tf[0][r] + h);
+        UNROLL for (int i = 0; i < NM; ++i) {
+            const double a0 = a.axes[3 * i], a1 = a.axes[3 * i + 1], a2 = a.axes[3 * i + 2];
+            const bool zi = a.zax[i];
+            V wv[3];
+            UNROLL for (int r = 0; r < 3; ++r) {
+                st(o[i][r] + h, pp[r]);
+                wv[r] = zi ? Rr[3 * r + 2] * a2 : Rr[3 * r] * a0 + Rr[3 * r + 1] * a1 + Rr[3 * r + 2] * a2;
+                st(w[i][r] + h, wv[r]);
+            }
+            if (a.pris[i]) {
+                const V x = ld(qt[i] + h) + ld(off[i] + h);
+                UNROLL for (int r = 0; r < 3; ++r) pp[r] = pp[r] + wv[r] * x;
+            } else if (zi) {
+                const V si = ld(sn[i] + h) * a2, ci = ld(cs[i] + h);
+                UNROLL for (int r = 0; r < 3; ++r) {
+                    const V r0 = Rr[3 * r] * ci + Rr[3 * r + 1] * si;
+                    const V r1 = Rr[3 * r + 1] * ci - Rr[3 * r] * si;
+                    Rr[3 * r] = r0;
+                    Rr[3 * r + 1] = r1;
+                }
+            } else {
+                const double K[3][3] = {{0.0, -a2, a1}, {a2, 0.0, -a0}, {-a1, a0, 0.0}};
+                double K2[3][3];
+                for (int r = 0; r < 3; ++r)
+                    for (int m = 0; m < 3; ++m) K2[r][m] = K[r][0] * K[0][m] + K[r][1] * K[1][m] + K[r][2] * K[2][m];
+                const V sv = ld(sn[i] + h), omc = 1.0 - ld(cs[i] + h);
+                V T[3][3];
+                UNROLL for (int r = 0; r < 3; ++r)
+                    UNROLL for (int m = 0; m < 3; ++m) T[r][m] = (r == m ? 1.0 : 0.0) + K[r][m] * sv + K2[r][m] * omc;
+                UNROLL for (int r = 0; r < 3; ++r) {
+                    const V v0 = Rr[3 * r] * T[0][0] + Rr[3 * r + 1] * T[1][0] + Rr[3 * r + 2] * T[2][0];
+                    const V v1 = Rr[3 * r] * T[0][1] + Rr[3 * r + 1] * T[1][1] + Rr[3 * r + 2] * T[2][1];
+                    const V v2 = Rr[3 * r] * T[0][2] + Rr[3 * r + 1] * T[1][2] + Rr[3 * r + 2] * T[2][2];
+                    Rr[3 * r] = v0;
+                    Rr[3 * r + 1] = v1;
+                    Rr[3 * r + 2] = v2;
+                }
+            }
+            const V t0 = ld(tf[i + 1][0] + h), t1 = ld(tf[i + 1][1] + h), t2 = ld(tf[i + 1][2] + h);
+            UNROLL for (int r = 0; r < 3; ++r) pp[r] = pp[r] + (Rr[3 * r] * t0 + Rr[3 * r + 1] * t1 + Rr[3 * r + 2] * t2);
+            const int k = ukind[i + 1];
+            if (k == 1) {
+                const V f4 = ld(Rf[i + 1][4] + h), f5 = ld(Rf[i + 1][5] + h), f7 = ld(Rf[i + 1][7] + h), f8 = ld(Rf[i + 1][8] + h);
+                UNROLL for (int r = 0; r < 3; ++r) {
+                    const V v1 = Rr[3 * r + 1] * f4 + Rr[3 * r + 2] * f7;
+                    const V v2 = Rr[3 * r + 1] * f5 + Rr[3 * r + 2] * f8;
+                    Rr[3 * r + 1] = v1;
+                    Rr[3 * r + 2] = v2;
+                }
+            } else if (k == 2) {
+                V f[9];
+                UNROLL for (int m = 0; m < 9; ++m) f[m] = ld(Rf[i + 1][m] + h);
+                UNROLL for (int r = 0; r < 3; ++r) {
+                    const V v0 = Rr[3 * r] * f[0] + Rr[3 * r + 1] * f[3] + Rr[3 * r + 2] * f[6];
+                    const V v1 = Rr[3 * r] * f[1] + Rr[3 * r + 1] * f[4] + Rr[3 * r + 2] * f[7];
+                    const V v2 = Rr[3 * r] * f[2] + Rr[3 * r + 1] * f[5] + Rr[3 * r + 2] * f[8];
+                    Rr[3 * r] = v0;
+                    Rr[3 * r + 1] = v1;
+                    Rr[3 * r + 2] = v2;
+                }
+            }
+        }
+    }
+
+    // pose_error() from the registers: en, nn of the trial
+    inline __attribute__((always_inline)) void pose_error_v(const int h, V (&Rr)[9], V (&pp)[3]) {
+        V env[6];
+        UNROLL for (int r = 0; r < 3; ++r) env[r] = ld(pt[r] + h) - pp[r];
+        if (rows == 3) {
+            UNROLL for (int r = 0; r < 3; ++r) {
+                st(en[r] + h, env[r]);
+                st(en[3 + r] + h, V{});
+            }
+            st(nn + h, vsqrt(env[0] * env[0] + env[1] * env[1] + env[2] * env[2]));
+            return;
+        }
+        V Rtv[9];
+        UNROLL for (int m = 0; m < 9; ++m) Rtv[m] = ld(Rt[m] + h);
+        UNROLL for (int r = 0; r < 3; ++r) {
+            const int x = (r + 1) % 3, y = (r + 2) % 3;
+            V acc = Rr[3 * x] * Rtv[3 * y] - Rr[3 * y] * Rtv[3 * x];
+            acc = acc + (Rr[3 * x + 1] * Rtv[3 * y + 1] - Rr[3 * y + 1] * Rtv[3 * x + 1]);
+            acc = acc + (Rr[3 * x + 2] * Rtv[3 * y + 2] - Rr[3 * y + 2] * Rtv[3 * x + 2]);
+            env[3 + r] = 0.5 * acc;
+        }
+        if (rotvec) {
+            V tr = Rr[0] * Rtv[0];
+            UNROLL for (int m = 1; m < 9; ++m) tr = tr + Rr[m] * Rtv[m];
+            const V snv = vsqrt(env[3] * env[3] + env[4] * env[4] + env[5] * env[5]);
+            const V csv = 0.5 * (tr - 1.0);
+            alignas(64) double sa[L], ca[L], th[L];
+            st(sa + h, snv);
+            st(ca + h, csv);
+            PART_LOOP th[l] = atan2_pos(sa[l], ca[l]);
+            const V thv = ld(th + h);
+            const VM big = snv > 1e-9;
+            const V scale = thv / snv;
+            UNROLL for (int r = 0; r < 3; ++r) env[3 + r] = big ? env[3 + r] * scale : env[3 + r];
+            const VM half = ~big & (csv < 0.0);
+            if (__builtin_expect(any(half), 0)) {
+                // about a half turn from the target: pose_error()'s axis from the largest diagonal
+                // entry, lane by lane
+                UNROLL for (int m = 0; m < 9; ++m) st(R[m] + h, Rr[m]);
+                UNROLL for (int r = 0; r < 6; ++r) st(en[r] + h, env[r]);
+                for (int l = h; l < h + W; ++l)
+                    if (half[l - h]) half_turn(l, th[l]);
+                UNROLL for (int r = 0; r < 6; ++r) env[r] = ld(en[r] + h);
+            }
+        }
+        UNROLL for (int r = 0; r < 6; ++r) st(en[r] + h, env[r]);
+        V sq = env[0] * env[0];
+        UNROLL for (int r = 1; r < 6; ++r) sq = sq + env[r] * env[r];
+        st(nn + h, vsqrt(sq));
+    }
+
+    void half_turn(int l, double theta) {
+        int jmax = 0;
+        double bestd = -INF;
+        for (int j = 0; j < 3; ++j) {
+            const double d = 0.5 * (Rt[3 * j][l] * R[3 * j][l] + Rt[3 * j + 1][l] * R[3 * j + 1][l] + Rt[3 * j + 2][l] * R[3 * j + 2][l] + 1.0);
+            if (d > bestd) { bestd = d; jmax = j; }
+        }
+        const double den = std::sqrt(std::fmax(bestd, 1e-300));
+        for (int r = 0; r < 3; ++r) {
+            const double sij = 0.5 * (Rt[3 * r][l] * R[3 * jmax][l] + Rt[3 * r + 1][l] * R[3 * jmax + 1][l] +
+                                      Rt[3 * r + 2][l] * R[3 * jmax + 2][l] + (r == jmax ? 1.0 : 0.0));
+            en[3 + r][l] = sij / den * theta;
+        }
+    }
+
+    // normal_equations() and products() in one pass over registers: where better, e ← en and
+    // A = JᵀJ (upper triangle), g = Jᵀe of the trial's Jacobian (its columns never stored); then
+    // g2 = |g|², trA = tr A
+    template <int ROWS>
+    inline __attribute__((always_inline)) void normal_equations_v(const int h, const V (&pp)[3]) {
+        const VM bt = ld(better + h) != 0.0;
+        V ev[6];
+        UNROLL for (int r = 0; r < 6; ++r) {
+            ev[r] = bt ? ld(en[r] + h) : ld(e[r] + h);
+            st(e[r] + h, ev[r]);
+        }
+        V Jc[NM][ROWS];
+        UNROLL for (int j = 0; j < NM; ++j) {
+            const V w0 = ld(w[j][0] + h), w1 = ld(w[j][1] + h), w2 = ld(w[j][2] + h);
+            if (a.pris[j]) {
+                Jc[j][0] = w0, Jc[j][1] = w1, Jc[j][2] = w2;
+                if constexpr (ROWS == 6) Jc[j][3] = Jc[j][4] = Jc[j][5] = V{};
+            } else {
+                const V d0 = pp[0] - ld(o[j][0] + h), d1 = pp[1] - ld(o[j][1] + h), d2 = pp[2] - ld(o[j][2] + h);
+                Jc[j][0] = w1 * d2 - w2 * d1;
+                Jc[j][1] = w2 * d0 - w0 * d2;
+                Jc[j][2] = w0 * d1 - w1 * d0;
+                if constexpr (ROWS == 6) Jc[j][3] = w0, Jc[j][4] = w1, Jc[j][5] = w2;
+            }
+        }
+        V g2v{}, trv{};
+        UNROLL for (int j = 0; j < NM; ++j) {
+            UNROLL for (int m = j; m < NM; ++m) {
+                V sacc = Jc[j][0] * Jc[m][0];
+                UNROLL for (int r = 1; r < ROWS; ++r) sacc = sacc + Jc[j][r] * Jc[m][r];
+                sacc = bt ? sacc : ld(A[j][m] + h);
+                st(A[j][m] + h, sacc);
+                if (m == j) trv = j == 0 ? sacc : trv + sacc;
+            }
+            V sacc = Jc[j][0] * ev[0];
+            UNROLL for (int r = 1; r < ROWS; ++r) sacc = sacc + Jc[j][r] * ev[r];
+            sacc = bt ? sacc : ld(g[j] + h);
+            st(g[j] + h, sacc);
+            g2v = j == 0 ? sacc * sacc : g2v + sacc * sacc;
+        }
+        st(g2 + h, g2v);
+        st(trA + h, trv);
+    }
+
+    // stagnation() on vectors
+    inline __attribute__((always_inline)) void stagnation_v(const int h) {
+        const V lamv = ld(lam + h);
+        const V mu = lamv * lamv;
+        const V slack = (ld(trA + h) / mu + 64.0 * NM * EPS) * vsqrt(ld(g2 + h));
+        const V lim = 0.125 * mu;
+        VM ok = VM{} - 1;
+        UNROLL for (int j = 0; j < NM; ++j) ok &= vabs(ld(g[j] + h)) + slack <= vspacing(ld(q[j] + h)) * lim;
+        st(stuck + h, ok ? bc(1.0) : V{});
+    }
+
+    // solve() and the trial step on registers: dq ← (A + λ²I)⁻¹ g with the held joints fixed, then
+    // qt ← q + dq where solving
+    inline __attribute__((always_inline)) void solve_v(const int h, bool any_held, const VM (&hd)[NM], const VM sv) {
+        V H[NM][NM + 1];
+        const V lam2v = ld(lam2 + h);
+        UNROLL for (int i = 0; i < NM; ++i) {
+            UNROLL for (int k = i; k < NM; ++k) H[i][k] = ld(A[i][k] + h);
+            H[i][NM] = ld(g[i] + h);
+            H[i][i] = H[i][i] + lam2v;
+        }
+        if (any_held) {
+            UNROLL for (int i = 0; i < NM; ++i) {
+                UNROLL for (int k = i; k < NM; ++k) H[i][k] = (hd[i] | hd[k]) ? bc(i == k ? 1.0 : 0.0) : H[i][k];
+                H[i][NM] = hd[i] ? V{} : H[i][NM];
+            }
+        }
+        UNROLL for (int j = 0; j < NM; ++j) {
+            V f[NM];
+            UNROLL for (int i = j + 1; i < NM; ++i) f[i] = H[j][i];
+            const V inv = 1.0 / H[j][j];
+            UNROLL for (int k = j + 1; k <= NM; ++k) H[j][k] = H[j][k] * inv;
+            UNROLL for (int i = j + 1; i < NM; ++i)
+                UNROLL for (int k = i; k <= NM; ++k) H[i][k] = H[i][k] - f[i] * H[j][k];
+        }
+        V dqv[NM];
+        UNROLL for (int i = 0; i < NM; ++i) dqv[i] = H[i][NM];
+        UNROLL for (int j = NM - 1; j > 0; --j)
+            UNROLL for (int i = 0; i < j; ++i) dqv[i] = dqv[i] - H[i][j] * dqv[j];
+        UNROLL for (int j = 0; j < NM; ++j) st(qt[j] + h, sv ? ld(q[j] + h) + dqv[j] : ld(qt[j] + h));
+    }
+
+    // the trial's acceptance, λ, the counts and the stopping tests of every lane at once (run()'s
+    // lane-by-lane tests as masks); lanes with a code end their run (lane by lane), the others
+    // solve. Returns the mask of the lanes that solve.
+    inline __attribute__((always_inline)) VM decide_v(const int h, const VM act, const VM stt, const VM bt) {
+        const VM step = act & ~stt;
+        const VM itv = ldm(it + h) - step;  // step is -1 where true
+        V lamv = ld(lam + h);
+        lamv = step ? (bt ? lamv * 0.5 : lamv * 2.0) : lamv;
+        VM rj = ldm(rej + h);
+        rj = step ? (bt ? VM{} : rj + 1) : rj;
+        stm(it + h, itv);
+        st(lam + h, lamv);
+        stm(rej + h, rj);
+        stagnation_v(h);
+        const double tol = a.tol, gt = gtol_run;
+        const int64_t ilimit = a.ilimit, rlimit = a.rlimit;
+        const V nav = ld(na + h);
+        const VM c_start = (nav <= tol) ? im(AT_START) : im(ilimit == 0 ? ILIMIT : 0);
+        const VM stat = gt > 0.0 ? bt & (vsqrt(ld(g2 + h)) <= gt * vsqrt(ld(trA + h)) * nav) : VM{};
+        const VM c_run = (bt & (nav <= tol)) ? im(SUCCESS)
+                         : stat ? im(STATIONARY)
+                         : (rj > rlimit) ? im(REJECTIONS)
+                         : (itv >= ilimit) ? im(ILIMIT)
+                         : ((rj > 0) & (ld(stuck + h) != 0.0)) ? im(STAGNATED) : VM{};
+        const VM code = act ? (stt ? c_start : c_run) : VM{};
+        const VM solv = act & (code == 0);
+        st(solving + h, solv ? bc(1.0) : V{});
+        st(lam2 + h, lamv * lamv);
+        stm(start + h, VM{});
+        if (any(code != 0)) {
+            alignas(64) int64_t c[L];
+            stm(c + h, code);
+            for (int l = h; l < h + W; ++l)
+                if (c[l]) end_run(l, (int)c[l]);  // a new run (start[l]) or target, or the lane goes idle
+        }
+        return solv;
+    }
+
+    // project_trials() with the lanes to project found by vector tests: a lane with a joint
+    // outside its run's bounds (or NaN) is projected whatever its neighbours do
+    inline __attribute__((always_inline)) void project_v(const int h) {
+        VM notin{};
+        UNROLL for (int j = 0; j < NM; ++j) {
+            const V x = ld(qt[j] + h), lo = ld(rlo[j] + h), hi = ld(rhi[j] + h);
+            notin |= ~((x >= lo) & (x <= hi));  // NaN too: project1 changes it
+        }
+        if (!any(notin)) return;
+        const VM visit = notin & (ldm(active + h) != 0);
+        alignas(64) int64_t vl[L];
+        stm(vl + h, visit);
+        for (int l = h; l < h + W; ++l) {
+            if (!vl[l] || !limited_run[l]) continue;
+            for (int j = 0; j < NM; ++j) {
+                const double v = project1(qt[j][l], rlo[j][l], rhi[j][l], !a.pris[j]);
+                if (v != qt[j][l]) touched[l] = true;
+                qt[j][l] = v;
+            }
+        }
+    }
+
+    void iterate_fixed() {
+        for (int h = 0; h < L; h += W) iterate_part(h);
+    }
+
+    // lanes h .. h + W - 1 (one copy of the code for every part: two would not fit the
+    // instruction cache)
+    __attribute__((noinline)) void iterate_part(const int h) {
+        project_v(h);
+        V Rr[9], pp[3];
+        fk_v(h, Rr, pp);
+        VM huge{};
+        UNROLL for (int i = 0; i < NM; ++i)
+            if (!a.pris[i]) huge |= ~(vabs(ld(qt[i] + h) + ld(off[i] + h)) < 1e5);
+        if (__builtin_expect(any(huge), 0)) {
+            UNROLL for (int m = 0; m < 9; ++m) st(R[m] + h, Rr[m]);
+            UNROLL for (int r = 0; r < 3; ++r) st(p[r] + h, pp[r]);
+            for (int l = h; l < h + W; ++l)
+                if (huge[l - h]) redo_lane_libm(l);
+            UNROLL for (int m = 0; m < 9; ++m) Rr[m] = ld(R[m] + h);
+            UNROLL for (int r = 0; r < 3; ++r) pp[r] = ld(p[r] + h);
+        }
+        pose_error_v(h, Rr, pp);
+        const VM act = ldm(active + h) != 0, stt = ldm(start + h) != 0;
+        const V nnv = ld(nn + h), na0 = ld(na + h);
+        const VM bt = act & (stt | (nnv < na0));
+        st(better + h, bt ? bc(1.0) : V{});
+        UNROLL for (int j = 0; j < NM; ++j) st(q[j] + h, bt ? ld(qt[j] + h) : ld(q[j] + h));
+        st(na + h, bt ? nnv : na0);
+        if (rows == 6) normal_equations_v<6>(h, pp);
+        else normal_equations_v<3>(h, pp);
+        const VM solv = decide_v(h, act, stt, bt);
+        // a joint on a bound of its run that the gradient pushes outward is held for the step
+        VM hd[NM], anyh{};
+        UNROLL for (int j = 0; j < NM; ++j) {
+            const V qj = ld(q[j] + h), gj = ld(g[j] + h);
+            hd[j] = solv & (((qj <= ld(rlo[j] + h)) & (gj < 0.0)) | ((qj >= ld(rhi[j] + h)) & (gj > 0.0)));
+            anyh |= hd[j];
+        }
+        const bool any_held = any(anyh);
+        if (any_held) stm(touched + h, ldm(touched + h) | (anyh & 1));
+        solve_v(h, any_held, hd, solv);
+    }
+
     void shared_kinds() {
         const int n = FIXED ? NM : n_rt;
         for (int k = 0; k <= n; ++k) {
@@ -738,7 +1147,14 @@ struct Block {
             bool any = false;
             for (int l = 0; l < L; ++l) any = any || active[l];
             if (!any) break;
-            shared_kinds();
+            if (kinds_dirty) {  // a lane took a target (or none was left) since the last iteration
+                shared_kinds();
+                kinds_dirty = false;
+            }
+            if constexpr (FIXED) {
+                iterate_fixed();
+                continue;
+            }
             project_trials();
             fk();
             fix_huge_angles();
