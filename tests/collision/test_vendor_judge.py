@@ -336,11 +336,12 @@ def test_the_readme_tool_down_map_has_no_colliding_solution(name):
 def test_the_gen3s_grown_hulls_hold_kinovas_meshes_wherever_both_sit():
     """Kinova's URDF is not wsmap's Gen3 DH table (0.01 mm lengths, a 0.175 mm offset, pi/2 as
     1.5708), so each committed hull was grown by its link's frame mismatch (`tools/vendor_hulls.py`).
-    On 20 random configurations and the worst one found for each link when the bound was measured:
+    On 30 random configurations and the worst one found for each link when the bound was measured:
     every vertex of Kinova's collision mesh (the .dae files the xacro names, read by trimesh), placed
     by PyBullet's forward kinematics of Kinova's URDF, lies inside the grown hull placed by wsmap's
-    forward kinematics (the hull's own vertices: the bound is measured there; all vertices at the
-    worst configurations), with the depth the bound leaves; the bounds are the record's (mm)."""
+    forward kinematics, with the depth the bound leaves; the bounds are the record's (mm). Checked
+    on the vertices of each mesh's convex hull (qhull's, here), which hold every vertex of the mesh:
+    a placement is affine and the grown hull convex, so the other vertices follow."""
     import trimesh
     from scipy.spatial import ConvexHull
 
@@ -356,7 +357,7 @@ def test_the_gen3s_grown_hulls_hold_kinovas_meshes_wherever_both_sit():
         model = arm_model("gen3", geometry="meshes")
         urdf = ET.parse(Path(judge._tmp.name) / "gen3.urdf").getroot()
         links = {lk.get("name"): lk for lk in urdf.findall("link")}
-        mesh, bare = [], []
+        bare = []
         for name in LINKS["gen3"]:
             (col,) = links[name].findall("collision")
             o = col.find("origin")
@@ -364,22 +365,20 @@ def test_the_gen3s_grown_hulls_hold_kinovas_meshes_wherever_both_sit():
             T[:3, 3] = [float(x) for x in o.get("xyz").split()]
             v = np.asarray(trimesh.load(col.find("geometry/mesh").get("filename"), force="mesh",
                                         process=False).vertices, dtype=np.float64) @ T[:3, :3].T + T[:3, 3]
-            mesh.append(v)
-            bare.append(v[ConvexHull(v).vertices])
+            h = ConvexHull(v)
+            assert (v @ h.equations[:, :3].T + h.equations[:, 3]).max() < 1e-12  # every mesh vertex in its hull
+            bare.append(v[h.vertices])
         planes = [ConvexHull(np.asarray(sh.vertices)).equations for lk in model.links for sh in lk.shapes]
-        q = load("gen3").random_q(20, np.random.default_rng(41))
-        # every mesh vertex of link k at link k's worst configuration, the hulls' vertices elsewhere
-        runs = [(np.array(lk["worst_q"]), [k]) for k, lk in enumerate(rec["links"])] + [(c, range(8)) for c in q]
+        q = load("gen3").random_q(30, np.random.default_rng(41))
         to_base = np.linalg.inv(judge.base)
         depth = np.full(len(LINKS["gen3"]), np.inf)
-        for i, (c, ks) in enumerate(runs):
+        for c in np.concatenate([[lk["worst_q"] for lk in rec["links"]], q]):
             judge.set(c)
             B = body_frames(model.chain, c[None])[0]
-            for k in ks:
-                lk = model.links[k]
+            for k, lk in enumerate(model.links):
                 # vendor link frame (PyBullet) -> wsmap's link frame (wsmap's FK times the record's frame)
                 M = np.linalg.inv(B[lk.body] @ lk.frame) @ to_base @ judge.pose(judge.links[k])
-                y = (mesh[k] if i < 8 else bare[k]) @ M[:3, :3].T + M[:3, 3]
+                y = bare[k] @ M[:3, :3].T + M[:3, 3]
                 depth[k] = min(depth[k], float(-(y @ planes[k][:, :3].T + planes[k][:, 3]).max()))
     finally:
         judge.close()
