@@ -1,10 +1,13 @@
 // The LM search of wsmap.kinematics.lm_compiled (_task, _lm and their callees) over a block of
 // L targets at once: every per-target number of the iteration is an array of L lanes, so the
-// forward kinematics, the pose error, the Jacobian, the normal equations and the solve are loops
-// over lanes that the compiler turns into SIMD instructions (AVX-512 / AVX2 where the CPU has them,
-// lanesmodule.cpp picks the build at run time). What differs from lane to lane (acceptance, the
-// damping, the stopping tests, the limits, the next start, the next target) is decided lane by
-// lane, and a lane whose target is finished takes the next one, so the lanes stay full.
+// forward kinematics, the pose error, the Jacobian, the normal equations and the solve run on
+// several lanes per SIMD instruction (AVX-512 / AVX2 where the CPU has them, lanesmodule.cpp picks
+// the build at run time). For 6 and 7 joints the iteration is register-blocked (iterate_fixed:
+// unrolled straight-line code on vector values, the pose, the Jacobian's columns and the
+// elimination kept in registers; acceptance, damping and the stopping tests as masks over the
+// lanes); other chains run loops over the lanes' arrays (iterate_arrays). What ends a lane's run
+// (its next start, its next target) is done lane by lane, and a lane whose target is finished takes
+// the next one, so the lanes stay full.
 //
 // Same arithmetic per target as the scalar kernel (the tests compare the two: the same successes
 // and starts, q within the tolerance); the sums are in the same order but the compiler's fused
@@ -652,18 +655,7 @@ struct Block {
                     const double scale = theta / sn[l];
                     for (int r = 0; r < 3; ++r) en[3 + r][l] *= scale;
                 } else if (cs[l] < 0.0) {
-                    int jmax = 0;
-                    double bestd = -INF;
-                    for (int j = 0; j < 3; ++j) {
-                        const double d = 0.5 * (Rt[3 * j][l] * R[3 * j][l] + Rt[3 * j + 1][l] * R[3 * j + 1][l] + Rt[3 * j + 2][l] * R[3 * j + 2][l] + 1.0);
-                        if (d > bestd) { bestd = d; jmax = j; }
-                    }
-                    const double den = std::sqrt(std::fmax(bestd, 1e-300));
-                    for (int r = 0; r < 3; ++r) {
-                        const double sij = 0.5 * (Rt[3 * r][l] * R[3 * jmax][l] + Rt[3 * r + 1][l] * R[3 * jmax + 1][l] +
-                                                  Rt[3 * r + 2][l] * R[3 * jmax + 2][l] + (r == jmax ? 1.0 : 0.0));
-                        en[3 + r][l] = sij / den * theta;
-                    }
+                    half_turn(l, theta);
                 }
             }
         }
@@ -922,6 +914,8 @@ struct Block {
         st(nn + h, vsqrt(sq));
     }
 
+    // about a half turn from the target (the rotation error's sine below 1e-9, its cosine negative):
+    // the error's axis from the largest diagonal entry of R·Rtᵀ + I, lane l alone
     void half_turn(int l, double theta) {
         int jmax = 0;
         double bestd = -INF;
@@ -1141,7 +1135,6 @@ struct Block {
 
     // ------------------------------------------------------------------ the loop
     void run() {
-        const int n = FIXED ? NM : n_rt;
         for (int l = 0; l < L; ++l) take_target(l);
         while (true) {
             bool any = false;
@@ -1151,67 +1144,70 @@ struct Block {
                 shared_kinds();
                 kinds_dirty = false;
             }
-            if constexpr (FIXED) {
-                iterate_fixed();
+            if constexpr (FIXED) iterate_fixed();
+            else iterate_arrays();
+        }
+    }
+
+    // one iteration of every lane on the block's arrays (chains of other lengths than 6 and 7)
+    void iterate_arrays() {
+        const int n = FIXED ? NM : n_rt;
+        project_trials();
+        fk();
+        fix_huge_angles();
+        pose_error();
+        LANES_LOOP better[l] = (active[l] && (start[l] || nn[l] < na[l])) ? 1.0 : 0.0;
+        for (int j = 0; j < n; ++j) LANES_LOOP q[j][l] = better[l] != 0.0 ? qt[j][l] : q[j][l];
+        LANES_LOOP na[l] = better[l] != 0.0 ? nn[l] : na[l];
+        normal_equations();
+        LANES_LOOP { g2[l] = g[0][l] * g[0][l]; trA[l] = A[0][0][l]; }
+        for (int j = 1; j < n; ++j) LANES_LOOP { g2[l] = g2[l] + g[j][l] * g[j][l]; trA[l] = trA[l] + A[j][j][l]; }
+        // an accepted step halves λ, a rejected one doubles it (the start's evaluation is no step)
+        LANES_LOOP {
+            const bool step = active[l] & !start[l];
+            const bool bt = better[l] != 0.0;
+            it[l] += step ? 1 : 0;
+            lam[l] = step ? (bt ? lam[l] * 0.5 : lam[l] * 2.0) : lam[l];
+            rej[l] = step ? (bt ? 0 : rej[l] + 1) : rej[l];
+        }
+        stagnation();
+        for (int l = 0; l < L; ++l) {
+            solving[l] = 0.0;
+            if (!active[l]) continue;
+            int code = 0;
+            const bool bt = better[l] != 0.0;
+            if (start[l]) {
+                start[l] = false;
+                if (na[l] <= a.tol) code = AT_START;
+                else if (a.ilimit == 0) code = ILIMIT;
+            } else {
+                if (bt && na[l] <= a.tol) code = SUCCESS;
+                else if (bt && gtol_run > 0.0 && std::sqrt(g2[l]) <= gtol_run * std::sqrt(trA[l]) * na[l]) code = STATIONARY;
+                else if (rej[l] > a.rlimit) code = REJECTIONS;
+                else if (it[l] >= a.ilimit) code = ILIMIT;
+                else if (rej[l] > 0 && stuck[l] != 0.0) code = STAGNATED;
+            }
+            if (code) {
+                end_run(l, code);  // a new run (start[l]) or target, or the lane goes idle
                 continue;
             }
-            project_trials();
-            fk();
-            fix_huge_angles();
-            pose_error();
-            LANES_LOOP better[l] = (active[l] && (start[l] || nn[l] < na[l])) ? 1.0 : 0.0;
-            for (int j = 0; j < n; ++j) LANES_LOOP q[j][l] = better[l] != 0.0 ? qt[j][l] : q[j][l];
-            LANES_LOOP na[l] = better[l] != 0.0 ? nn[l] : na[l];
-            normal_equations();
-            LANES_LOOP { g2[l] = g[0][l] * g[0][l]; trA[l] = A[0][0][l]; }
-            for (int j = 1; j < n; ++j) LANES_LOOP { g2[l] = g2[l] + g[j][l] * g[j][l]; trA[l] = trA[l] + A[j][j][l]; }
-            // an accepted step halves λ, a rejected one doubles it (the start's evaluation is no step)
-            LANES_LOOP {
-                const bool step = active[l] & !start[l];
-                const bool bt = better[l] != 0.0;
-                it[l] += step ? 1 : 0;
-                lam[l] = step ? (bt ? lam[l] * 0.5 : lam[l] * 2.0) : lam[l];
-                rej[l] = step ? (bt ? 0 : rej[l] + 1) : rej[l];
-            }
-            stagnation();
-            for (int l = 0; l < L; ++l) {
-                solving[l] = 0.0;
-                if (!active[l]) continue;
-                int code = 0;
-                const bool bt = better[l] != 0.0;
-                if (start[l]) {
-                    start[l] = false;
-                    if (na[l] <= a.tol) code = AT_START;
-                    else if (a.ilimit == 0) code = ILIMIT;
-                } else {
-                    if (bt && na[l] <= a.tol) code = SUCCESS;
-                    else if (bt && gtol_run > 0.0 && std::sqrt(g2[l]) <= gtol_run * std::sqrt(trA[l]) * na[l]) code = STATIONARY;
-                    else if (rej[l] > a.rlimit) code = REJECTIONS;
-                    else if (it[l] >= a.ilimit) code = ILIMIT;
-                    else if (rej[l] > 0 && stuck[l] != 0.0) code = STAGNATED;
-                }
-                if (code) {
-                    end_run(l, code);  // a new run (start[l]) or target, or the lane goes idle
-                    continue;
-                }
-                solving[l] = 1.0;
-                lam2[l] = lam[l] * lam[l];
-            }
-            // a joint on a bound of its run that the gradient pushes outward is held for the step
-            bool any_held = false;
-            for (int j = 0; j < n; ++j) {
-                LANES_LOOP held[j][l] = ((solving[l] != 0.0) & (((q[j][l] <= rlo[j][l]) & (g[j][l] < 0.0)) |
-                                                               ((q[j][l] >= rhi[j][l]) & (g[j][l] > 0.0)))) ? 1.0 : 0.0;
-                int anyv = 0;
-                LANES_ANY anyv |= held[j][l] != 0.0;
-                any_held = any_held || anyv;
-            }
-            if (any_held)
-                for (int j = 0; j < n; ++j)
-                    for (int l = 0; l < L; ++l) touched[l] = touched[l] || held[j][l] != 0.0;
-            solve(any_held);
-            for (int j = 0; j < n; ++j) LANES_LOOP qt[j][l] = solving[l] != 0.0 ? q[j][l] + dq[j][l] : qt[j][l];
+            solving[l] = 1.0;
+            lam2[l] = lam[l] * lam[l];
         }
+        // a joint on a bound of its run that the gradient pushes outward is held for the step
+        bool any_held = false;
+        for (int j = 0; j < n; ++j) {
+            LANES_LOOP held[j][l] = ((solving[l] != 0.0) & (((q[j][l] <= rlo[j][l]) & (g[j][l] < 0.0)) |
+                                                           ((q[j][l] >= rhi[j][l]) & (g[j][l] > 0.0)))) ? 1.0 : 0.0;
+            int anyv = 0;
+            LANES_ANY anyv |= held[j][l] != 0.0;
+            any_held = any_held || anyv;
+        }
+        if (any_held)
+            for (int j = 0; j < n; ++j)
+                for (int l = 0; l < L; ++l) touched[l] = touched[l] || held[j][l] != 0.0;
+        solve(any_held);
+        for (int j = 0; j < n; ++j) LANES_LOOP qt[j][l] = solving[l] != 0.0 ? q[j][l] + dq[j][l] : qt[j][l];
     }
 
     // the start and every trial step into the bounds of its run; a lane whose step they change is
