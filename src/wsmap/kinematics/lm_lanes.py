@@ -5,10 +5,12 @@ dependent operations (joint after joint, pivot after pivot), so most of a core's
 most of its cycles sit idle (docs/speed.md, "The limit"). The lane kernel (C++,
 `src/wsmap/kinematics/_lanes/lanes.hpp`, built into the extension `wsmap.kinematics._lanes`)
 keeps a block of `lanes` targets in flight: every number of the iteration is an array over the
-block, so the forward kinematics, pose error, Jacobian, normal equations and solve are loops over
-lanes that the compiler turns into AVX-512 or AVX2 instructions (a build per instruction set, the
-widest the CPU has chosen at import, `isa`). Acceptance, damping, the stopping tests, the
-limits, the confirmation and the next start are decided lane by lane, and a lane whose target is
+block, so the forward kinematics, pose error, Jacobian, normal equations and solve run on several
+lanes per AVX-512 or AVX2 instruction (a build per instruction set, the widest the CPU has chosen
+at import, `isa`). For 6- and 7-joint arms the iteration is register-blocked: unrolled code on
+vector values, the pose, the Jacobian's columns and the elimination in registers, acceptance,
+damping and the stopping tests as masks over the lanes (docs/speed.md, "Register blocking"). The
+end of a run (the confirmation, the next start) is done lane by lane, and a lane whose target is
 done takes the next one from a counter shared by every thread of the call.
 
 Same search, same arithmetic per target as the scalar kernel; the compilers fuse multiply-adds
