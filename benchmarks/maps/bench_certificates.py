@@ -14,9 +14,10 @@ answers, checked). Named arms on the paper's grid (21³, -1..1 m); URDF arms on
     NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/maps/bench_certificates.py --quick
     # full (every arm, 15³ nodes for the URDF arms)
     NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/maps/bench_certificates.py
-    # the branch and bound's tests before and after (certificate.BOX_TESTS 0 beside the default), one run
+    # the branch and bound's tests before and after (certificate.BOX_TESTS 0 beside the default), one
+    # run, with the Panda and the iiwa14 on narrow limits of joints 0 and n-1 as well
     NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 .venv/bin/python benchmarks/maps/bench_certificates.py --quick \
-        --named-only --compare --skip-budget 0
+        --named-only --compare --narrow --skip-budget 0 --repeat 3
 """
 
 from __future__ import annotations
@@ -56,6 +57,14 @@ def _urdf_arms(names, nodes_per_axis):
         return out, None
     except ImportError as e:  # pybullet_data, rtbdata or xacro not installed
         return [], f"URDF arms skipped: {e}"
+
+
+def _narrow_ends(arm):
+    """The arm with joint 0 limited to ±1 rad and its last joint to ±0.5 rad (where the limits of
+    the two end joints, which the invariants do not see, decide most)."""
+    lim = np.array(arm.qlim, dtype=np.float64)
+    lim[0], lim[-1] = [-1.0, 1.0], [-0.5, 0.5]
+    return arm.replace(qlim=lim)
 
 
 def _status_before(arm, T, reached, method, budget):
@@ -128,6 +137,8 @@ def main(argv=None):
     p.add_argument("--skip-budget", type=int, default=1000,
                    help="boxes per border node for the map with the skip (0: no such map; default 1000)")
     p.add_argument("--named-only", action="store_true", help="only the named arms")
+    p.add_argument("--narrow", action="store_true",
+                   help="also the Panda and the iiwa14 with joint 0 limited to +-1 rad and the last joint to +-0.5 rad")
     p.add_argument("--compare", action="store_true",
                    help="also the status with the branch and bound's tests of before (certificate.BOX_TESTS = 0)")
     args = p.parse_args(argv)
@@ -138,6 +149,10 @@ def main(argv=None):
     rows = []
     for name in NAMED:
         rows += measure(name, robots.load(name), grid, args.skip_budget, args.repeat, args.budget, args.compare)
+    if args.narrow:
+        for name in ("panda", "iiwa14"):
+            rows += measure(f"{name}, narrow ends", _narrow_ends(robots.load(name)), grid, args.skip_budget, args.repeat,
+                            args.budget, args.compare)
     note = None
     if not args.named_only:
         arms, note = _urdf_arms(set(bra.QUICK) if args.quick else None, nodes_per_axis)
