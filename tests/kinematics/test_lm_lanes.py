@@ -135,7 +135,9 @@ def test_a_half_turn_from_the_start_agrees():
     rng = np.random.default_rng(5)
     for arm, min_success in ((robots.load("puma560"), 3), (robots.load("panda"), 3), (random_chain(rng, 3), 0)):
         lim = np.asarray(as_chain(arm).limits)
-        q0 = np.where(np.isfinite(lim).all(axis=1), lim.mean(axis=1), 0.3)
+        finite = np.isfinite(lim).all(axis=1)
+        q0 = np.full(arm.n, 0.3)
+        q0[finite] = lim[finite].mean(axis=1)
         T0 = np.asarray(arm.fkine(q0))
         T = np.repeat(T0[None], 6, axis=0)
         for k, flip in enumerate(([1.0, -1, -1], [-1.0, 1, -1], [-1.0, -1, 1]) * 2):
