@@ -262,6 +262,18 @@ def test_no_configuration_inside_random_limits_is_certified(seed):
         tool = np.eye(4)
         tool[:3, 3] = rng.uniform(-0.1, 0.1, 3)
         arm = DHRobot(arm.d, arm.a, arm.alpha, qlim=arm.qlim, tool=tool)
+    if seed % 3 == 2:  # a chain standing on a moved and turned base
+        base = np.eye(4)
+        base[:3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        if np.linalg.det(base[:3, :3]) < 0:
+            base[:3, 0] *= -1
+        base[:3, 3] = rng.uniform(-0.5, 0.5, 3)
+        # the same poses carried by the base get the same answers (some certified)
+        B = _border_poses(arm, 40, rng)
+        here = joint_certificate(arm, B)
+        arm = as_chain(arm).replace(base=base)
+        assert here.any()
+        np.testing.assert_array_equal(joint_certificate(arm, base @ B), here)
     T = arm.fkine(_inside(arm, 60, rng))
     assert not joint_certificate(arm, T).any()
     assert not certify(arm, T).any()
