@@ -91,25 +91,32 @@ def export(repo: str, arm: str, dest: str) -> None:
     subprocess.run(["tar", "-x", "-C", dest], input=tar, check=True)
 
 
-def expand(package_dir: str, arm: str) -> str:
-    """The URDF text of `urdf/ur.urdf.xacro` with `ur_type:=arm`, `$(find ur_description)` = `package_dir`."""
+def run_xacro(package: str, package_dir: str, xacro_file: str, mappings: dict):
+    """The xacro document of `xacro_file` with `mappings`, `$(find package)` answered by
+    `package_dir` (xacro asks ROS 2's `ament_index_python`, absent here: a stand-in module for the
+    call only)."""
+    import xacro
+
     index = types.ModuleType("ament_index_python.packages")
-    index.get_package_share_directory = lambda name: package_dir if name == "ur_description" else None
+    index.get_package_share_directory = lambda name: package_dir if name == package else None
     top = types.ModuleType("ament_index_python")
     top.packages = index
     saved = {k: sys.modules.get(k) for k in ("ament_index_python", "ament_index_python.packages")}
     sys.modules.update({"ament_index_python": top, "ament_index_python.packages": index})
     try:
-        import xacro
-
-        doc = xacro.process_file(os.path.join(package_dir, "urdf", "ur.urdf.xacro"),
-                                 mappings={"ur_type": arm, "name": arm, "force_abs_paths": "true"})
+        return xacro.process_file(xacro_file, mappings=mappings)
     finally:
         for k, v in saved.items():
             if v is None:
                 sys.modules.pop(k, None)
             else:
                 sys.modules[k] = v
+
+
+def expand(package_dir: str, arm: str) -> str:
+    """The URDF text of `urdf/ur.urdf.xacro` with `ur_type:=arm`, `$(find ur_description)` = `package_dir`."""
+    doc = run_xacro("ur_description", package_dir, os.path.join(package_dir, "urdf", "ur.urdf.xacro"),
+                    {"ur_type": arm, "name": arm, "force_abs_paths": "true"})
     return doc.toprettyxml(indent="  ")
 
 
@@ -203,22 +210,8 @@ def export_kortex(repo: str, dest: str) -> list[str]:
 def expand_kortex(package_dir: str) -> str:
     """The URDF text of `robots/gen3.xacro` with `GEN3_XACRO_ARGS`, `$(find kortex_description)` =
     `package_dir`, `package://kortex_description/` mesh names made absolute (ROS resolves them so)."""
-    index = types.ModuleType("ament_index_python.packages")
-    index.get_package_share_directory = lambda name: package_dir if name == "kortex_description" else None
-    top = types.ModuleType("ament_index_python")
-    top.packages = index
-    saved = {k: sys.modules.get(k) for k in ("ament_index_python", "ament_index_python.packages")}
-    sys.modules.update({"ament_index_python": top, "ament_index_python.packages": index})
-    try:
-        import xacro
-
-        doc = xacro.process_file(os.path.join(package_dir, "robots", "gen3.xacro"), mappings=dict(GEN3_XACRO_ARGS))
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                sys.modules.pop(k, None)
-            else:
-                sys.modules[k] = v
+    doc = run_xacro("kortex_description", package_dir, os.path.join(package_dir, "robots", "gen3.xacro"),
+                    dict(GEN3_XACRO_ARGS))
     return doc.toprettyxml(indent="  ").replace("package://kortex_description/", package_dir.rstrip("/") + "/")
 
 

@@ -21,21 +21,20 @@ UR_DESCRIPTION = Path(__file__).resolve().parent / "data" / "ur_description"
 UR = ("ur5e", "ur10e")
 
 
-def ur_urdf(arm: str, folder: Path) -> Path:
-    """Universal Robots' `urdf/ur.urdf.xacro` expanded by xacro with `ur_type:=arm` (`$(find
-    ur_description)` answered by `UR_DESCRIPTION`, mesh paths absolute: `force_abs_paths:=true`),
-    the `<visual>` elements removed (their meshes are not copied), written to `folder/<arm>.urdf`."""
+def _expanded(package: str, package_dir: Path, xacro_file: Path, mappings: dict) -> ET.Element:
+    """The URDF of `xacro_file` expanded by xacro with `mappings`, `$(find package)` answered by
+    `package_dir` (xacro asks ROS 2's `ament_index_python`, absent here: a stand-in module for the
+    call only), without its `<visual>` elements."""
     import xacro
 
     index = types.ModuleType("ament_index_python.packages")
-    index.get_package_share_directory = lambda name: str(UR_DESCRIPTION) if name == "ur_description" else None
+    index.get_package_share_directory = lambda name: str(package_dir) if name == package else None
     top = types.ModuleType("ament_index_python")
     top.packages = index
     saved = {k: sys.modules.get(k) for k in ("ament_index_python", "ament_index_python.packages")}
     sys.modules.update({"ament_index_python": top, "ament_index_python.packages": index})
     try:
-        doc = xacro.process_file(str(UR_DESCRIPTION / "urdf" / "ur.urdf.xacro"),
-                                 mappings={"ur_type": arm, "name": arm, "force_abs_paths": "true"})
+        doc = xacro.process_file(str(xacro_file), mappings=mappings)
     finally:
         for k, v in saved.items():
             if v is None:
@@ -46,6 +45,15 @@ def ur_urdf(arm: str, folder: Path) -> Path:
     for link in root.findall("link"):
         for vis in link.findall("visual"):
             link.remove(vis)
+    return root
+
+
+def ur_urdf(arm: str, folder: Path) -> Path:
+    """Universal Robots' `urdf/ur.urdf.xacro` expanded by xacro with `ur_type:=arm` (`$(find
+    ur_description)` answered by `UR_DESCRIPTION`, mesh paths absolute: `force_abs_paths:=true`),
+    the `<visual>` elements removed (their meshes are not copied), written to `folder/<arm>.urdf`."""
+    root = _expanded("ur_description", UR_DESCRIPTION, UR_DESCRIPTION / "urdf" / "ur.urdf.xacro",
+                     {"ur_type": arm, "name": arm, "force_abs_paths": "true"})
     path = Path(folder) / f"{arm}.urdf"
     path.write_bytes(ET.tostring(root))
     return path
@@ -74,7 +82,6 @@ def gen3_urdf(folder: Path) -> Path:
     `dof:=7` (no vision module, no gripper: its defaults), `$(find kortex_description)` answered by
     the files exported under `folder`, `package://kortex_description/` mesh names made absolute (as
     ROS resolves them), the `<visual>` elements removed: `folder/gen3.urdf`."""
-    import xacro
 
     paths = ["LICENSE", "kortex_description/package.xml", "kortex_description/robots",
              "kortex_description/config", "kortex_description/arms/gen3/7dof/urdf",
@@ -85,24 +92,7 @@ def gen3_urdf(folder: Path) -> Path:
                          capture_output=True).stdout
     subprocess.run(["tar", "-x", "-C", str(folder)], input=tar, check=True)
     pkg = Path(folder).resolve() / "kortex_description"
-    index = types.ModuleType("ament_index_python.packages")
-    index.get_package_share_directory = lambda name: str(pkg) if name == "kortex_description" else None
-    top = types.ModuleType("ament_index_python")
-    top.packages = index
-    saved = {k: sys.modules.get(k) for k in ("ament_index_python", "ament_index_python.packages")}
-    sys.modules.update({"ament_index_python": top, "ament_index_python.packages": index})
-    try:
-        doc = xacro.process_file(str(pkg / "robots" / "gen3.xacro"), mappings={"dof": "7"})
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                sys.modules.pop(k, None)
-            else:
-                sys.modules[k] = v
-    root = ET.fromstring(doc.toxml())
-    for link in root.findall("link"):
-        for vis in link.findall("visual"):
-            link.remove(vis)
+    root = _expanded("kortex_description", pkg, pkg / "robots" / "gen3.xacro", {"dof": "7"})
     for mesh in root.iter("mesh"):
         mesh.set("filename", mesh.get("filename").replace("package://kortex_description/", f"{pkg}/"))
     ET.indent(root)  # one element a line: PyBullet's URDF reader fails on a line of a few thousand characters
