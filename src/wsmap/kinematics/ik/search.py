@@ -67,7 +67,7 @@ from .memo import Memo, as_chain_memo, chain_key
 from .certificate import joint_certificate
 from .reach_filter import limit_filter, position_filter, reach_filter
 from .settings import (DEFAULT_ILIMIT, DEFAULT_RLIMIT, DEFAULT_STARTS, FK_CONFIRM_TOL, MAP_SETTINGS, SearchSettings,
-                       check_kernel_settings)
+                       check_kernel_settings, integer_setting)
 from .solution import MIN_TOL, IKSolution, failure_reasons
 from typing import TYPE_CHECKING
 
@@ -90,16 +90,6 @@ BORDER_CERTIFY_BUDGET = 0
 #: Starts per node of the global seeding: the configurations of its nearest sampled poses
 #: (`wsmap.kinematics.ik.fk_seeds`), measured in `benchmarks/maps/bench_recall.py`.
 FK_STARTS_PER_NODE = 8
-
-
-def _check_count(name, v, minimum):
-    try:
-        ok = not isinstance(v, bool) and np.isscalar(v) and np.isreal(v) and np.isfinite(v) and int(v) == v
-    except (TypeError, ValueError, OverflowError):
-        ok = False
-    if not ok or v < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {v!r}")
-    return int(v)
 
 
 def _check_seed(seed):
@@ -131,9 +121,9 @@ def check_search(chain: SerialChain, starts, ilimit, rlimit, tol, lam, confirm_t
     """The arguments `ikine_search` and its numpy reference check alike: `starts >= 1`,
     `ilimit`, `rlimit >= 0` and `_check_settings`'s; returns `(starts, ilimit, rlimit,
     seed, q0)` checked."""
-    starts = _check_count("starts", starts, 1)
-    ilimit = _check_count("ilimit", ilimit, 0)
-    rlimit = _check_count("rlimit", rlimit, 0)
+    starts = integer_setting("starts", starts, 1)
+    ilimit = integer_setting("ilimit", ilimit, 0)
+    rlimit = integer_setting("rlimit", rlimit, 0)
     return (starts, ilimit, rlimit) + _check_settings(chain, tol, lam, confirm_tol, seed, q0)
 
 
@@ -247,7 +237,7 @@ def ikine_search(
     chain = with_joint_limits(as_chain_memo(robot), joint_limits)
     T = check_rigid("target poses", T)
     starts, ilimit, rlimit, seed, q0 = check_search(chain, starts, ilimit, rlimit, tol, lam, confirm_tol, seed, q0)
-    chunk = _check_count("chunk", chunk, 1)
+    chunk = integer_setting("chunk", chunk, 1)
     extra = dict(check_kernel_settings(kernel or {}))
     shape, count, Tf, Q0, arm_of = broadcast_targets(chain, T, q0)
     q_out, ok_out, it_out, res_out, start_out = unsolved(count, chain.n)

@@ -277,7 +277,7 @@ def _checked(name, value):
     if value is None:
         return None
     if name in _COUNTS:
-        return _count(name, value, _COUNTS[name])
+        return integer_setting(name, value, _COUNTS[name])
     if name in _FLAGS:
         if not isinstance(value, (bool, np.bool_)):
             raise ValueError(f"{name} must be True or False, got {value!r}")
@@ -330,7 +330,9 @@ def check_kernel_settings(value) -> tuple:
     return tuple(out)
 
 
-def _count(name, v, minimum):
+def integer_setting(name: str, v, minimum: int) -> int:
+    """`v` as an int, or a `ValueError` naming `name` unless `v` is a finite integral real `>= minimum`
+    (bools refused: `True` is no count)."""
     try:
         ok = not isinstance(v, bool) and np.isscalar(v) and np.isreal(v) and np.isfinite(v) and int(v) == v
     except (TypeError, ValueError, OverflowError):
