@@ -33,7 +33,7 @@ from .shapes import SHAPE_KINDS, SHAPES, Shape, urdf_shape_kind
 from .shapes.mesh import read_mesh
 
 __all__ = ["MAX_LINK_RADIUS", "SHAPES", "CollisionError", "Shape", "Link", "CollisionModel", "body_frames", "from_urdf_collision",
-           "urdf_link_shapes", "capsule_model", "capsules_along_links", "read_mesh"]
+           "urdf_link_shapes", "capsule_model", "capsules_along_links", "read_mesh", "segment_shape"]
 
 
 #: The largest radius (m) of the capsules along a link (`capsules_along_links`, `--link-radius`): the
@@ -273,20 +273,20 @@ def from_urdf_collision(source, ee_link: str | None = None, base_link: str | Non
 
 
 # ------------------------------------------------------------------------------------------- capsules
-def _segment_capsule(p0, p1, radius) -> Shape:
-    """A capsule of `radius` from `p0` to `p1` (body frame): its frame at the midpoint, `z`
-    along the segment."""
+def segment_shape(kind: str, p0, p1, radius: float) -> Shape:
+    """A capsule or cylinder of `radius` (m) whose axis runs from `p0` to `p1` (the body frame; a
+    capsule's segment, a cylinder's end faces' centres): its frame at the midpoint, `z` along it."""
     p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
     d = p1 - p0
-    L = float(np.linalg.norm(d))
+    length = float(np.linalg.norm(d))
     T = np.eye(4)
     T[:3, 3] = (p0 + p1) / 2
-    if L > 1e-12:
-        z = d / L
+    if length > 1e-12:
+        z = d / length
         x = np.cross(z, [1.0, 0, 0]) if abs(z[0]) < 0.9 else np.cross(z, [0, 1.0, 0])
         x /= np.linalg.norm(x)
         T[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
-    return Shape("capsule", (radius, L), T)
+    return Shape(kind, (float(radius), length), T)
 
 
 def capsule_model(robot, capsules: Sequence, *, names: Sequence[str] | None = None, source: str = "",
@@ -300,7 +300,7 @@ def capsule_model(robot, capsules: Sequence, *, names: Sequence[str] | None = No
         body, p0, p1, r = item
         if not isinstance(body, (int, np.integer)) or not 0 <= body <= chain.n:
             raise CollisionError(f"capsule body must be an integer in 0..{chain.n}, got {body!r}")
-        per.setdefault(int(body), []).append(_segment_capsule(p0, p1, float(r)))
+        per.setdefault(int(body), []).append(segment_shape("capsule", p0, p1, float(r)))
     if names is not None and len(names) != chain.n + 1:
         raise CollisionError(f"names must name the {chain.n + 1} bodies, got {len(names)}")
     label = (lambda k: names[k]) if names is not None else (lambda k: f"link{k}")

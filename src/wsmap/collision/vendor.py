@@ -65,7 +65,7 @@ import numpy as np
 from ..robots import load
 from .acm import acm_from_record
 from .errors import CollisionError
-from .geometry import CollisionModel, Link, Shape, body_frames, from_urdf_collision
+from .geometry import CollisionModel, Link, Shape, body_frames, from_urdf_collision, segment_shape
 
 if TYPE_CHECKING:  # names of the annotations only
     from wsmap.kinematics.chain import Arm
@@ -390,22 +390,6 @@ def fitted_record(name: str) -> dict:
         raise CollisionError(f"no fitted capsules for robot {name!r}; arms with them: {', '.join(FITTED)}")
     with open(os.path.join(_data_dir(), f"fitted_{name}.json"), encoding="utf-8") as fh:
         return json.load(fh)
-
-
-def segment_shape(kind: str, p0, p1, radius: float) -> Shape:
-    """A capsule or cylinder of `radius` (m) whose axis runs from `p0` to `p1` (the body frame; a
-    capsule's segment, a cylinder's end faces' centres): its frame at the midpoint, `z` along it."""
-    p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
-    d = p1 - p0
-    length = float(np.linalg.norm(d))
-    T = np.eye(4)
-    T[:3, 3] = (p0 + p1) / 2
-    if length > 1e-12:
-        z = d / length
-        x = np.cross(z, [1.0, 0, 0]) if abs(z[0]) < 0.9 else np.cross(z, [0, 1.0, 0])
-        x /= np.linalg.norm(x)
-        T[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
-    return Shape(kind, (float(radius), length), T)
 
 
 def fitted_model(name: str, robot: Arm | None = None) -> CollisionModel:

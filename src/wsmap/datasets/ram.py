@@ -314,20 +314,6 @@ def _capsules(m: np.ndarray) -> list[tuple[str, int, np.ndarray, np.ndarray]]:
     return out
 
 
-def _segment_shape(p0: np.ndarray, p1: np.ndarray, radius: float):
-    from ..collision import Shape
-
-    v = p1 - p0
-    L = float(np.linalg.norm(v))
-    T = np.eye(4)
-    T[:3, 3] = (p0 + p1) / 2
-    z = v / L
-    x = np.cross(z, [1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.cross(z, [0.0, 1.0, 0.0])
-    x /= np.linalg.norm(x)
-    T[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
-    return Shape("capsule", (radius, L), T)
-
-
 def ram_collision(morph: ArrayLike, radius: float = RAM_LINK_RADIUS) -> CollisionChecker:
     """RAM's self-collision test of one arm as a `wsmap.collision.CollisionChecker`.
 
@@ -346,6 +332,7 @@ def ram_collision(morph: ArrayLike, radius: float = RAM_LINK_RADIUS) -> Collisio
         (`base_ball`, `eef_ball`); exactly RAM's pairs are checked (module notes), no scene.
     """
     from ..collision import CollisionChecker, CollisionModel, Link, Scene, Shape
+    from ..collision.geometry import segment_shape
 
     m = _one_morph(morph)
     if not (isinstance(radius, (int, float)) and 0 < radius <= 1):
@@ -353,7 +340,7 @@ def ram_collision(morph: ArrayLike, radius: float = RAM_LINK_RADIUS) -> Collisio
     chain = ram_arms(m)
     caps = _capsules(m)
     has = [np.linalg.norm(p1 - p0) > _CAPSULE_EPS for _, _, p0, p1 in caps]
-    links = [Link(name, body, (_segment_shape(p0, p1, float(radius)),))
+    links = [Link(name, body, (segment_shape("capsule", p0, p1, float(radius)),))
              for (name, body, p0, p1), ok in zip(caps, has) if ok]
     index = {lk.name: k for k, lk in enumerate(links)}
     live = [k for k, ok in enumerate(has) if ok]
