@@ -42,12 +42,12 @@ from typing import Any
 
 import numpy as np
 import torch
-from torch import nn
 
 from .._version import __version__
 from ..kinematics.morphology import N_FEATURES, SNAP, describe, morphology_distance
 from ..robots import FAMILIES
 from ..robots.morph import MorphFamily, morph_params, morphology_of
+from .conditioned import ArmConditionedField, fourier_features
 from .files import ModelFileError, read_model_payload, to_plain, write_model_payload
 from .predictor import register_model_format
 from .training import TrainConfig, TrainResult, train
@@ -89,7 +89,7 @@ class MorphModelConfig:
         return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
 
 
-class MorphMapModel(nn.Module):
+class MorphMapModel(ArmConditionedField):
     """`f(features, point) -> logit` (module notes).
 
     `forward(X)` takes raw morphology features `(B, N_FEATURES)` and returns the logits
@@ -100,6 +100,8 @@ class MorphMapModel(nn.Module):
     `rpy`, `convention` the fixed orientation and the pose convention of its labels;
     `families` the names of the arm families it was trained on.
     """
+
+    QUERY_LAYER = "dec_point"  # the name the model files hold
 
     def __init__(self, config: MorphModelConfig | None = None, nodes=None, *, box: float = 1.5,
                  rpy=TOOL_DOWN, convention: str = "standard", families=("morph6", "morph7")):
@@ -112,54 +114,21 @@ class MorphMapModel(nn.Module):
         #: the probability above which a node is reachable (`fit_morph_model` picks it on the
         #: validation arms)
         self.threshold = 0.5
-        layers, width = [], N_FEATURES
-        for h in config.encoder:
-            layers += [nn.Linear(width, h), nn.SiLU()]
-            width = h
-        layers.append(nn.Linear(width, config.latent))
-        self.encoder = nn.Sequential(*layers)
-        n_point = 3 + 6 * config.frequencies
-        first = config.decoder[0]
-        self.dec_latent = nn.Linear(config.latent, first)
-        self.dec_point = nn.Linear(n_point, first, bias=False)
-        rest, width = [], first
-        for h in config.decoder[1:]:
-            rest += [nn.SiLU(), nn.Linear(width, h)]
-            width = h
-        rest += [nn.SiLU(), nn.Linear(width, 1)]
-        self.decoder = nn.Sequential(*rest)
-        self.register_buffer("feature_mean", torch.zeros(N_FEATURES))
-        self.register_buffer("feature_std", torch.ones(N_FEATURES))
+        self._build(N_FEATURES, 3 + 6 * config.frequencies, config)
         nodes = np.zeros((0, 3)) if nodes is None else np.asarray(nodes, dtype=np.float64)
         self.register_buffer("nodes", torch.as_tensor(nodes, dtype=torch.float32))
-
-    def standardise_on(self, X) -> MorphMapModel:
-        """Set the input standardisation from training features `(n, N_FEATURES)` (constant
-        columns keep a unit scale)."""
-        X = torch.as_tensor(np.asarray(X), dtype=torch.float64)
-        std = X.std(dim=0)
-        self.feature_mean.copy_(X.mean(dim=0).to(self.feature_mean.dtype))
-        self.feature_std.copy_(torch.where(std > 1e-8, std, torch.ones_like(std)).to(self.feature_std.dtype))
-        return self
 
     def point_features(self, points: torch.Tensor) -> torch.Tensor:
         """`(P, 3 + 6 F)`: the point over the box, and its sines and cosines at F octaves."""
         u = points / self.box
-        parts = [u]
-        for k in range(self.config.frequencies):
-            w = (2.0 ** k) * math.pi * u
-            parts += [torch.sin(w), torch.cos(w)]
-        return torch.cat(parts, dim=-1)
-
-    def encode(self, X: torch.Tensor) -> torch.Tensor:
-        return self.encoder((X - self.feature_mean) / self.feature_std)
+        return torch.cat([u] + fourier_features(u, self.config.frequencies), dim=-1)
 
     def logits_at(self, X: torch.Tensor, points: torch.Tensor, chunk: int = 1 << 15) -> torch.Tensor:
         """Logits `(B, P)` of arms `X` `(B, N_FEATURES)` at points `(P, 3)` (m)."""
         z = self.dec_latent(self.encode(X))  # (B, H)
         out = []
         for s in range(0, points.shape[0], chunk):
-            hp = self.dec_point(self.point_features(points[s:s + chunk]))  # (P, H)
+            hp = self.query_projection(self.point_features(points[s:s + chunk]))  # (P, H)
             out.append(self.decoder(z[:, None, :] + hp[None, :, :])[..., 0])
         return torch.cat(out, dim=1) if out else z.new_zeros((X.shape[0], 0))
 

@@ -54,10 +54,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
-from torch import nn
 
 from .._version import __version__
 from ..io import atomic_path
+from .conditioned import ArmConditionedField, fourier_features
 from .files import ModelFileError, read_model_payload, to_plain, write_model_payload
 from .training import TrainConfig, TrainResult, train
 from .training_range import ExtrapolationError
@@ -161,7 +161,7 @@ class PoseModelConfig:
         return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
 
 
-class PoseMapModel(nn.Module):
+class PoseMapModel(ArmConditionedField):
     """`f(arm inputs, pose) -> logit` (module notes).
 
     `forward(X)` takes training rows `(B, MORPH_INPUTS + P * POSE_INPUTS)` -- an arm's
@@ -171,6 +171,8 @@ class PoseMapModel(nn.Module):
     trained on, `threshold` the probability above which a pose is reachable.
     """
 
+    QUERY_LAYER = "dec_pose"  # the name the model files hold
+
     def __init__(self, config: PoseModelConfig | None = None, *, box: float = 1.0,
                  dofs: Sequence[int] = (5, 6, 7)) -> None:
         super().__init__()
@@ -178,46 +180,13 @@ class PoseMapModel(nn.Module):
         self.box = float(box)
         self.dofs = tuple(int(d) for d in dofs)
         self.threshold = 0.5
-        layers, width = [], MORPH_INPUTS
-        for h in config.encoder:
-            layers += [nn.Linear(width, h), nn.SiLU()]
-            width = h
-        layers.append(nn.Linear(width, config.latent))
-        self.encoder = nn.Sequential(*layers)
-        first = config.decoder[0]
-        self.dec_latent = nn.Linear(config.latent, first)
-        self.dec_pose = nn.Linear(POSE_INPUTS + 6 * config.frequencies, first, bias=False)
-        rest, width = [], first
-        for h in config.decoder[1:]:
-            rest += [nn.SiLU(), nn.Linear(width, h)]
-            width = h
-        rest += [nn.SiLU(), nn.Linear(width, 1)]
-        self.decoder = nn.Sequential(*rest)
-        self.register_buffer("feature_mean", torch.zeros(MORPH_INPUTS))
-        self.register_buffer("feature_std", torch.ones(MORPH_INPUTS))
-
-    def standardise_on(self, X: ArrayLike) -> PoseMapModel:
-        """Set the arm inputs' standardisation from training rows `(n, MORPH_INPUTS)` (constant
-        columns keep a unit scale)."""
-        X = torch.as_tensor(np.asarray(X)[:, :MORPH_INPUTS], dtype=torch.float64)
-        std = X.std(dim=0) if len(X) > 1 else torch.ones(MORPH_INPUTS, dtype=torch.float64)
-        self.feature_mean.copy_(X.mean(dim=0).to(self.feature_mean.dtype))
-        self.feature_std.copy_(torch.where(std > 1e-8, std, torch.ones_like(std)).to(self.feature_std.dtype))
-        return self
+        self._build(MORPH_INPUTS, POSE_INPUTS + 6 * config.frequencies, config)
 
     def pose_features(self, raw: torch.Tensor) -> torch.Tensor:
         """`(..., 9 + 6 F)`: position over `box`, the 6-D rotation, sines and cosines of the
         position at `F` octaves."""
         u = raw[..., :3] / self.box
-        parts = [u, raw[..., 3:9]]
-        for k in range(self.config.frequencies):
-            w = (2.0 ** k) * math.pi * u
-            parts += [torch.sin(w), torch.cos(w)]
-        return torch.cat(parts, dim=-1)
-
-    def encode(self, A: torch.Tensor) -> torch.Tensor:
-        """Latent vectors `(B, latent)` of arm inputs `(B, MORPH_INPUTS)`."""
-        return self.encoder((A - self.feature_mean) / self.feature_std)
+        return torch.cat([u, raw[..., 3:9]] + fourier_features(u, self.config.frequencies), dim=-1)
 
     def logits_at(self, A: torch.Tensor, raw: torch.Tensor, chunk: int = 1 << 14) -> torch.Tensor:
         """Logits `(B, P)` of arms `A` `(B, MORPH_INPUTS)` at raw poses `raw`: `(P, 9)` shared by
@@ -225,7 +194,7 @@ class PoseMapModel(nn.Module):
         z = self.dec_latent(self.encode(A))[:, None, :]  # (B, 1, H): one encoder pass per arm
         out = []
         for s in range(0, raw.shape[-2], chunk):
-            hp = self.dec_pose(self.pose_features(raw[..., s:s + chunk, :]))  # (P, H) or (B, P, H)
+            hp = self.query_projection(self.pose_features(raw[..., s:s + chunk, :]))  # (P, H) or (B, P, H)
             out.append(self.decoder(z + hp)[..., 0])
         return torch.cat(out, dim=-1) if out else z.new_zeros((A.shape[0], 0))
 
