@@ -12,9 +12,10 @@ import errno
 import json
 import math
 import os
+import re
 import tempfile
 from collections.abc import Iterable, Mapping, Sequence
-from contextlib import ExitStack, contextmanager
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +36,7 @@ __all__ = [
     "markdown_table",
     "write_table",
     "read_text",
+    "numeric_rows",
 ]
 
 
@@ -360,6 +362,40 @@ def read_text(path, subject: str, hint: str, *, encoding: str = "utf-8") -> str:
     if "\x00" in text:
         raise ValueError(f"{subject} not a text file (it holds NUL bytes); {hint}")
     return text
+
+
+def numeric_rows(text: str, label: str, *, limit: int | None = None, too_many: str = "") -> list[list[float]]:
+    """The rows of numbers of a CSV-like text (cells split on commas, semicolons, tabs or spaces;
+    blank lines and `#` lines are comments).
+
+    Only the first row may be a header, and only when none of its cells is a number; any other
+    cell that is not a number is a `ValueError` naming its line and cell
+    (`"<label>: line 3, cell 2 is not a number: 'O.3'"`): a row with a typo is never dropped.
+    With `limit`, more than `limit` rows is the `ValueError` `"<label>: <too_many>"`, raised as
+    soon as the row past the limit is read. Rows may differ in length (the caller checks widths).
+    """
+    rows, header_allowed = [], True
+    for k, line in enumerate(text.splitlines(), 1):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        cells = [c for c in re.split(r"[,;\t ]+", line) if c]
+        values, bad = [], []
+        for c in cells:
+            try:
+                values.append(float(c))
+            except ValueError:
+                bad.append(c)
+        if bad and header_allowed and len(bad) == len(cells):
+            header_allowed = False  # a header line: no number in it
+            continue
+        header_allowed = False
+        if bad:
+            raise ValueError(f"{label}: line {k}, cell {cells.index(bad[0]) + 1} is not a number: {bad[0]!r}")
+        rows.append(values)
+        if limit is not None and len(rows) > limit:
+            raise ValueError(f"{label}: {too_many}")
+    return rows
 
 
 def available_memory() -> int:

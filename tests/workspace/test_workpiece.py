@@ -474,7 +474,7 @@ def test_bad_clouds(tmp_path):
     assert _message(targets_from_points, ply, max_targets=3) == f"points {ply}: 4 points, more than 3; thin the cloud"
     csv = tmp_path / "bad.csv"
     csv.write_text("x,y,z,nx,ny,nz\n0,0,0,0,0,1\n0,0,oops,0,0,1\n")
-    assert _message(targets_from_points, csv) == f"points {csv}: line 3 is not numbers: '0,0,oops,0,0,1'"
+    assert _message(targets_from_points, csv) == f"points {csv}: line 3, cell 3 is not a number: 'oops'"
     csv.write_text("0,0,0,0,0,1\n0,0,0,0,1\n")
     assert _message(targets_from_points, csv) == (
         f"points {csv}: every row needs 6 values x y z nx ny nz; found rows of [5, 6] values")

@@ -6,12 +6,11 @@ A file holds one pose per row, in the world frame: 6 columns `x y z r1 r2 r3` (m
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
 
-from ..io import read_text
+from ..io import numeric_rows, read_text
 from .maps import target_poses
 from .placement import MAX_TARGETS
 from typing import TYPE_CHECKING
@@ -25,34 +24,6 @@ __all__ = ["read_target_csv", "TARGET_CSV_HELP"]
 TARGET_CSV_HELP = ("Targets file (CSV, world frame, one pose per row, cells separated by commas, semicolons, tabs or "
                    "spaces, a header line allowed): 6 columns x y z r1 r2 r3 (metres; radians, R = Rx(r1) Ry(r2) "
                    "Rz(r3), T = transl(x, y, z) R) or 16 columns (the 4x4 matrix, row by row).")
-
-
-def _rows(text: str, label: str) -> list[list[float]]:
-    """The numeric rows of a target CSV's text; a header is allowed only as the first row and only
-    when none of its cells is a number."""
-    rows, header_allowed = [], True
-    for k, line in enumerate(text.splitlines(), 1):
-        line = line.strip()
-        if not line or line.startswith("#"):
-            continue
-        cells = [c for c in re.split(r"[,;\t ]+", line) if c]
-        values, bad = [], []
-        for c in cells:
-            try:
-                values.append(float(c))
-            except ValueError:
-                bad.append(c)
-        if bad and header_allowed and len(bad) == len(cells):
-            header_allowed = False  # a header line: no number in it
-            continue
-        header_allowed = False
-        if bad:
-            raise ValueError(f"{label}: line {k}, cell {cells.index(bad[0]) + 1} is not a number: {bad[0]!r}")
-        rows.append(values)
-        if len(rows) > MAX_TARGETS:
-            raise ValueError(f"{label}: more than {MAX_TARGETS} poses (each target is one map over every "
-                             "candidate base, 1 to 10 s on one core); split the file")
-    return rows
 
 
 def read_target_csv(path: PathLike, option: str = "--targets") -> np.ndarray:
@@ -78,7 +49,8 @@ def read_target_csv(path: PathLike, option: str = "--targets") -> np.ndarray:
         raise ValueError(f"{option} {str(path)!r}: no such file")
     label = f"{option} {path}"
     text = read_text(p, f"{label}:", "give a CSV of numbers", encoding="utf-8-sig")
-    rows = _rows(text, label)
+    rows = numeric_rows(text, label, limit=MAX_TARGETS, too_many=f"more than {MAX_TARGETS} poses (each target is one map over "
+                        "every candidate base, 1 to 10 s on one core); split the file")
     if not rows:
         raise ValueError(f"{label}: no poses in the file")
     widths = {len(r) for r in rows}

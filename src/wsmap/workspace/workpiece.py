@@ -29,7 +29,6 @@ the file's size.
 from __future__ import annotations
 
 import math
-import re
 import struct
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from .._optional import require
-from ..io import read_text
+from ..io import numeric_rows, read_text
 from ..kinematics.transforms import check_rigid
 
 __all__ = ["MAX_STUDY_TARGETS", "MOVED_LIMIT", "TargetSet", "orthonormalise", "targets_from_mesh",
@@ -527,20 +526,7 @@ def _read_csv(p: Path, label: str, max_targets: int) -> tuple[np.ndarray, np.nda
     if p.stat().st_size > 400 * max_targets:  # no row of 6 numbers needs 400 bytes
         raise ValueError(f"{label}: {p.stat().st_size} bytes, more than {max_targets} rows can take; thin the cloud")
     text = read_text(p, f"{label}:", "give a CSV of x y z nx ny nz", encoding="utf-8-sig")
-    rows, header = [], True
-    for k, line in enumerate(text.splitlines(), 1):
-        line = line.strip()
-        if not line or line.startswith("#"):
-            continue
-        cells = [c for c in re.split(r"[,;\t ]+", line) if c]
-        try:
-            rows.append([float(c) for c in cells])
-        except ValueError:
-            if header and not any(_is_number(c) for c in cells):
-                header = False  # a header line: no number in it
-                continue
-            raise ValueError(f"{label}: line {k} is not numbers: {line!r:.80}") from None
-        header = False
+    rows = numeric_rows(text, label)
     if not rows:
         raise ValueError(f"{label}: no points in the file")
     widths = sorted({len(r) for r in rows})
@@ -553,14 +539,6 @@ def _read_csv(p: Path, label: str, max_targets: int) -> tuple[np.ndarray, np.nda
         raise ValueError(f"{label}: {len(rows)} points, more than {max_targets}; thin the cloud")
     a = np.array(rows, dtype=np.float64)
     return a[:, :3], a[:, 3:]
-
-
-def _is_number(c: str) -> bool:
-    try:
-        float(c)
-    except ValueError:
-        return False
-    return True
 
 
 def _read_cloud(p: Path, label: str, max_targets: int) -> tuple[np.ndarray, np.ndarray]:
