@@ -145,10 +145,9 @@ def test_side_branches_are_ignored_off_the_chain():
      "only revolute, continuous, prismatic and fixed joints are supported"),
     (two_link(type="planar", extra=""), {}, "URDF text: joint 'j2' on the chain from 'a' to 'c' is planar; "
      "only revolute, continuous, prismatic and fixed joints are supported"),
-    (two_link(extra=LIMIT + '<mimic joint="j1" multiplier="-1"/>'), {},
-     "URDF text: joint 'j2' on the chain mimics 'j1', which is on the chain too: coupled joints are not a serial "
-     "chain of independent joints (wsmap's solvers take one variable per joint); end the chain before it "
-     "(ee_link, --ee)"),
+    (two_link(type="prismatic", extra=LIMIT + '<mimic joint="j1" multiplier="-1"/>'), {},
+     "URDF text: joint 'j2' on the chain mimics 'j1', a revolute joint driving a prismatic one: the chain's "
+     "variable would change units"),
     (two_link(type="ball"), {}, "URDF text: joint 'j2' has type 'ball'; URDF types are revolute, continuous, "
      "prismatic, fixed, floating, planar"),
     (two_link(xyz="0 nan 0.1"), {}, "URDF text: joint 'j2' <origin xyz> contains NaN or infinity: '0 nan 0.1'"),

@@ -1,5 +1,6 @@
 """Mimic joints on a URDF chain whose driver is off it: the driver's value is the chain's variable.
-Checked against yourdfpy, which moves a mimic joint with its driver (`update_cfg`)."""
+Checked against yourdfpy, which moves a mimic joint with its driver (`update_cfg`). Drivers on the
+chain (coupled joints) and other multipliers: `test_urdf_coupled.py`."""
 
 import io
 import re
@@ -85,19 +86,14 @@ def test_a_map_of_it_runs_and_its_solutions_reach_in_yourdfpy(tmp_path):
 
 
 @pytest.mark.parametrize("change, message", [
-    (('joint="side" multiplier="-1"', 'joint="side" multiplier="0.5"'),
-     "joint 'j2' on the chain mimics 'side' with multiplier 0.5: only 1 or -1 is read"),
-    (('joint="side" multiplier="-1"', 'joint="j1" multiplier="-1"'),
-     "joint 'j2' on the chain mimics 'j1', which is on the chain too: coupled joints are not a serial chain"),
-    (('<mimic joint="side2" offset="-0.5"/>', '<mimic joint="side"/>'),
-     "joint 'j4' on the chain mimics 'side', which another joint of the chain mimics too"),
     (('joint="side" multiplier="-1"', 'joint="nope" multiplier="-1"'),
      "joint 'j2' on the chain mimics 'nope', which is not a joint of the URDF"),
     (('<mimic joint="side2" offset="-0.5"/>', '<mimic joint="j3"/>'),
-     "joint 'j4' on the chain mimics 'j3', which is on the chain too"),
+     "joint 'j4' on the chain mimics 'j3', a prismatic joint driving a continuous one"),
     (('<axis xyz="0 0 1"/>\n  <limit lower="-1" upper="1"', '<axis xyz="0 0 1"/>\n  <limit lower="-5" upper="-4"'),
-     "joint 'j2' on the chain mimics 'side': no value of 'side' inside its limits [-5, -4] keeps 'j2' inside its "
-     "own [-1.2, 0.9]"),
+     "no value of 'side' inside its limits [-5, -4] keeps 'j2' (-1 x 'side' + 0.3) inside its own [-1.2, 0.9]"),
+    (('joint="side" multiplier="-1"', 'joint="side" multiplier="0"'),
+     "joint 'j2' on the chain mimics 'side' with multiplier 0: a joint that never moves"),
     (('offset="0.3"', 'offset="nan"'), "joint 'j2' has a NaN or infinite <mimic offset='nan'>"),
 ])
 def test_what_is_not_read_is_one_line_naming_the_joints(change, message):

@@ -451,47 +451,36 @@ def _mimic_number(label: str, jname: str, mimic: ET.Element, key: str, default: 
     return v
 
 
-def _mimic(tree: URDFTree, label: str, jname: str, mimic: ET.Element, path_joints: list[str], drivers: set):
-    """`(sign, offset, limits)` of the mimic joint `jname` on the chain, whose angle is
-    `multiplier · q + offset` with `q` its driver's value (module notes): the chain's variable is
-    `q`, so the joint turns by `sign · (q + sign · offset)` about its axis, and `q` keeps to the
-    driver's limits and to those that keep the mimic joint inside its own."""
+def _mimic(tree: URDFTree, label: str, jname: str, mimic: ET.Element, path_joints: list[str]):
+    """`(driver, multiplier, offset)` of the mimic joint `jname` on the chain, whose value is
+    `multiplier · q + offset` with `q` its driver's (module notes), checked: the driver a joint of
+    the URDF of the same kind (revolute and continuous, or prismatic) and not itself a mimic joint, the
+    multiplier finite and non-zero, the offset finite."""
     driver = mimic.get("joint")
     where = f"joint {jname!r} on the chain mimics {_q(driver)}"
     if not driver or driver not in tree.joints:
         raise URDFError(f"{label}: {where}, which is not a joint of the URDF")
-    if driver in path_joints or driver in drivers:
-        raise URDFError(f"{label}: {where}, which {'is on the chain too' if driver in path_joints else 'another joint of the chain mimics too'}: "
-                        "coupled joints are not a serial chain of independent joints (wsmap's solvers take one "
-                        "variable per joint); end the chain before it (ee_link, --ee)")
+    if driver == jname:
+        raise URDFError(f"{label}: {where}, itself")
     d_el = tree.joints[driver]
     if d_el.find("mimic") is not None:
         raise URDFError(f"{label}: {where}, itself a mimic joint (a URDF's mimic follows an independent joint)")
     m = _mimic_number(label, jname, mimic, "multiplier", 1.0)
     offset = _mimic_number(label, jname, mimic, "offset", 0.0)
-    if abs(m) != 1.0:
-        raise URDFError(f"{label}: {where} with multiplier {m:g}: only 1 or -1 is read (the driver's value is the "
-                        "chain's variable, turned or slid at its own rate)")
+    if m == 0.0:
+        raise URDFError(f"{label}: {where} with multiplier 0: a joint that never moves (make it a fixed joint)")
     jtype, d_type = tree.joints[jname].get("type"), d_el.get("type")
     if d_type not in _MOVABLE or _MOVABLE[d_type] != _MOVABLE.get(jtype):
         raise URDFError(f"{label}: {where}, a {d_type} joint driving a {jtype} one: the chain's variable would change "
                         "units")
-    drivers.add(driver)
-    d_lo, d_hi = _limits(label, driver, d_type, d_el)
-    lo, hi = _limits(label, jname, jtype, tree.joints[jname])
-    with np.errstate(invalid="ignore"):
-        own = sorted(((lo - offset) * m, (hi - offset) * m))  # q with m·q + offset inside [lo, hi]
-    q_lo, q_hi = max(d_lo, own[0]), min(d_hi, own[1])
-    if q_lo > q_hi:
-        raise URDFError(f"{label}: {where}: no value of {driver!r} inside its limits [{d_lo:g}, {d_hi:g}] keeps "
-                        f"{jname!r} inside its own [{lo:g}, {hi:g}]")
-    return m, m * offset, (q_lo, q_hi)
+    return driver, m, offset
 
 
 def _chain_joints(tree: URDFTree, label: str, path_joints: list[str], base_link: str, ee_link: str):
-    """`(kinds, axes, limits, links, offsets)` of the movable joints on the path, read from the XML."""
-    kinds, axes, limits, links, offsets = [], [], [], [], []
-    drivers: set[str] = set()
+    """The movable joints on the path, read from the XML: `(kinds, axes, limits, links, names,
+    drivers)`, `limits` each joint's own, `drivers` `(driver, multiplier, offset)` per joint (the
+    joint itself, 1, 0 for an independent one)."""
+    kinds, axes, limits, links, names, drivers = [], [], [], [], [], []
     for jname in path_joints:
         el = tree.joints[jname]
         jtype = el.get("type")
@@ -504,20 +493,39 @@ def _chain_joints(tree: URDFTree, label: str, path_joints: list[str], base_link:
                         None if el.find("axis") is None else el.find("axis").get("xyz"), "1 0 0")
         if np.linalg.norm(axis) < 1e-12:
             raise URDFError(f"{label}: joint {jname!r} has a zero <axis>")
-        sign, offset = 1.0, 0.0
-        if el.find("mimic") is not None:
-            sign, offset, lim = _mimic(tree, label, jname, el.find("mimic"), path_joints, drivers)
-            limits.append(lim)
-        else:
-            limits.append(_limits(label, jname, jtype, el))
+        mimic = el.find("mimic")
+        drivers.append((jname, 1.0, 0.0) if mimic is None else _mimic(tree, label, jname, mimic, path_joints))
+        limits.append(_limits(label, jname, jtype, el))
         kinds.append(_MOVABLE[jtype])
-        axes.append(sign * axis)
-        offsets.append(offset)
+        axes.append(axis)
+        names.append(jname)
         links.append(tree.child(jname))
     if not kinds:
         raise URDFError(f"{label}: no movable joint between {base_link!r} and {ee_link!r}")
     links.append(ee_link)
-    return kinds, axes, limits, links, offsets
+    return kinds, axes, limits, links, names, drivers
+
+
+def _coupled(tree: URDFTree, label: str, chain: SerialChain, names: list[str], drivers: list) -> SerialChain:
+    """`chain` (the path's joints, each free in its own limits) with its mimic joints following their
+    drivers (module notes): the variables are the drivers, in the order of the first joint each
+    drives; a driver off the chain brings its own limits. Where every variable drives one joint at
+    a multiplier of ±1 (a mimic joint whose driver is off the chain and drives nothing else on it),
+    the chain stays uncoupled: the mimic joint's axis is turned by the multiplier's sign and its
+    offset added, as wsmap has always read it."""
+    order = list(dict.fromkeys(d for d, _, _ in drivers))
+    var = np.array([order.index(d) for d, _, _ in drivers], dtype=np.int64)
+    mult = np.array([m for _, m, _ in drivers])
+    const = np.array([c for _, _, c in drivers])
+    var_limits = np.array([(-np.inf, np.inf) if d in names else
+                           _limits(label, d, tree.joints[d].get("type"), tree.joints[d]) for d in order])
+    try:
+        coupled = chain.couple(var, mult, const, var_limits=var_limits, names=names, var_names=order)
+    except ValueError as exc:
+        raise URDFError(f"{label}: {exc}") from None
+    if len(order) < len(names) or np.any(np.abs(mult) != 1.0):
+        return coupled
+    return chain.replace(axes=chain.axes * mult[:, None], offset=mult * const, qlim=coupled.qlim)
 
 
 def _fixed_transforms(model, label: str, path_joints: list[str], axes: list) -> np.ndarray:
@@ -533,8 +541,7 @@ def _fixed_transforms(model, label: str, path_joints: list[str], axes: list) -> 
             T = np.eye(4)
             axis = np.asarray(joint.axis, dtype=np.float64)
             i = len(fixed) - 1
-            if not (np.allclose(axis, axes[i]) or (joint.mimic is not None and np.allclose(-axis, axes[i]))):
-                # pragma: no cover - yourdfpy and the XML disagree (a mimic's axis is turned by its multiplier's sign)
+            if not np.allclose(axis, axes[i]):  # pragma: no cover - yourdfpy and the XML disagree
                 raise URDFError(f"{label}: joint {jname!r}: yourdfpy reads axis {axis}, the XML says {axes[i]}")
     fixed.append(T)
     return np.stack(fixed)
@@ -571,13 +578,14 @@ def from_urdf(source: PathLike, ee_link: str | None = None, base_link: str | Non
     tree = URDFTree(root, label)
     base_link, ee_link = _ends(tree, label, ee_link, base_link)
     path_joints = tree.path(base_link, ee_link)
-    kinds, axes, limits, links, offsets = _chain_joints(tree, label, path_joints, base_link, ee_link)
+    kinds, axes, limits, links, names, drivers = _chain_joints(tree, label, path_joints, base_link, ee_link)
     model = _load_yourdfpy(data, path, label)
     fixed = _fixed_transforms(model, label, path_joints, axes)
-    qlim = np.array(limits, dtype=np.float64)
-    return SerialChain(fixed, np.array(axes), kinds, offset=np.array(offsets), qlim=qlim,
-                       name=name if name is not None else root.get("name"),
-                       source=path if path is not None else "URDF text", links=links)
+    chain = SerialChain(fixed, np.array(axes), kinds, qlim=np.array(limits, dtype=np.float64),
+                        name=name if name is not None else root.get("name"),
+                        source=path if path is not None else "URDF text", links=links)
+    return chain if all(d == j for (d, _, _), j in zip(drivers, names)) else _coupled(tree, label, chain, names,
+                                                                                        drivers)
 
 
 def moving_off_chain(source: PathLike, ee_link: str | None = None, base_link: str | None = None) -> list[str]:
@@ -589,8 +597,9 @@ def moving_off_chain(source: PathLike, ee_link: str | None = None, base_link: st
     root = parse_xml(data, label)
     tree = URDFTree(root, label)
     base_link, ee_link = _ends(tree, label, ee_link, base_link)
-    drivers = [tree.joints[j].find("mimic").get("joint") for j in tree.path(base_link, ee_link)
-               if tree.joints[j].find("mimic") is not None]
+    path = tree.path(base_link, ee_link)
+    drivers = [tree.joints[j].find("mimic").get("joint") for j in path if tree.joints[j].find("mimic") is not None]
+    drivers = [d for d in drivers if d not in path]  # a driver on the chain moves the chain's own links
     solid = {el.get("name") for el in root.findall("link") if el.find("collision") is not None}
     out, stack = [], [tree.child(d) for d in drivers if d in tree.joints]
     while stack:

@@ -267,7 +267,10 @@ def certify(robot: Arm, T, margin: float = CERTIFY_MARGIN, *, method: str = "num
             budget: int = CELL_BUDGET, depth: int = CELL_DEPTH) -> np.ndarray:
     """`(...,)` True where the poses `T` `(..., 4, 4)` are certified unreachable (within `margin`)
     for one arm: the sound pre-filters, then (on the poses they leave) the closed form's certificate
-    (`method="exact"`) or `joint_certificate`; both for an exact arm when `method="both"`."""
+    (`method="exact"`) or `joint_certificate`; both for an exact arm when `method="both"`.
+    A chain with coupled joints is certified through its relaxation (`SerialChain.uncoupled`, the
+    joints free in their own limits), whose reachable set contains the coupled chain's."""
+    robot = robot.uncoupled() if isinstance(robot, SerialChain) else robot
     T = np.asarray(T, dtype=np.float64)
     shape = T.shape[:-2]
     flat = T.reshape(-1, 4, 4)

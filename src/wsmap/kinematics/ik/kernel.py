@@ -11,13 +11,15 @@ Used by the paper's LM (`.lm`) and the search (`.search`); the numpy reference
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
-from .. import lm_compiled, lm_lanes
+from .. import lm_compiled, lm_coupled, lm_lanes
 from ..chain import PRISMATIC, SerialChain
 from ..lm_compiled import Answers, ArmBatch, KernelCall, Targets, lm_settings
 
-__all__ = ["arm_arrays", "run_compiled", "pose_keys", "start_box", "mix"]
+__all__ = ["arm_arrays", "CoupledArms", "run_compiled", "pose_keys", "start_box", "mix"]
 
 _TWO_PI = 2.0 * np.pi
 
@@ -48,7 +50,16 @@ def pose_keys(seed: int, T) -> np.ndarray:
     return lm_compiled.pose_keys(mix(np.array([seed], dtype=np.uint64))[0], words)
 
 
-def arm_arrays(chain: SerialChain) -> ArmBatch:
+class CoupledArms(NamedTuple):
+    """The kernel's arrays of a coupled chain (`arm_arrays`): `arms` the `ArmBatch` (per joint:
+    fixed transforms, offsets with the coupling's constants added, axes, kinds; per variable: the
+    limits, bounds and start box) and `coupled` the `wsmap.kinematics.lm_coupled.Coupled`."""
+
+    arms: ArmBatch
+    coupled: lm_coupled.Coupled
+
+
+def arm_arrays(chain: SerialChain) -> ArmBatch | CoupledArms:
     """The numbers of a chain (or a batch, flattened to `B` arms) as the compiled kernels read them:
     a `wsmap.kinematics.lm_compiled.ArmBatch` (its fields by name).
 
@@ -59,7 +70,14 @@ def arm_arrays(chain: SerialChain) -> ArmBatch:
     brought into their range by a multiple of 2·pi at the end); `limited` (B,): any joint clipped;
     `unlimited` (B, n): revolute without limits; `blo`, `bhi` (B, n): the box random starts are
     drawn in; shared `axes` (n, 3), `pris` and `zax` (n,) bool.
+
+    A coupled chain (`chain.coupling`) gives a `CoupledArms`: the fixed transforms, offsets
+    (plus the coupling's constants), axes, `pris` and `zax` per joint, the rest per variable, the
+    variables that must not wrap by whole turns clipped like prismatic joints
+    (`wsmap.kinematics.lm_coupled`).
     """
+    if chain.coupling is not None:
+        return _coupled_arrays(chain)
     n = chain.n
     batch = chain.batch_shape
     B = int(np.prod(batch, dtype=np.int64))
@@ -89,6 +107,31 @@ def arm_arrays(chain: SerialChain) -> ArmBatch:
         limited=clipped.any(axis=1), unlimited=~pris & np.isinf(lo) & np.isinf(hi),
         blo=np.ascontiguousarray(blo), bhi=np.ascontiguousarray(bhi),
     )
+
+
+def _coupled_arrays(chain: SerialChain) -> CoupledArms:
+    """`arm_arrays` of a coupled chain: the joints' arrays from its relaxation (`uncoupled`), the
+    variables' limits, bounds and start box over them."""
+    cp = chain.coupling
+    n, nj, batch = chain.n, chain.n_joints, chain.batch_shape
+    B = int(np.prod(batch, dtype=np.int64))
+    joints = arm_arrays(chain.uncoupled().replace(offset=np.asarray(chain.offset) + cp.const))
+    if joints.Rf.shape[0] != B:  # the relaxation's own batch is the fixed transforms' and offsets'
+        joints = joints._replace(Rf=np.ascontiguousarray(np.broadcast_to(joints.Rf, (B,) + joints.Rf.shape[1:])),
+                                 tf=np.ascontiguousarray(np.broadcast_to(joints.tf, (B,) + joints.tf.shape[1:])),
+                                 rkind=np.ascontiguousarray(np.broadcast_to(joints.rkind, (B, nj + 1))),
+                                 off=np.ascontiguousarray(np.broadcast_to(joints.off, (B, nj))))
+    lim = np.broadcast_to(chain.limits, batch + (n, 2)).reshape(B, n, 2)
+    lo, hi = np.ascontiguousarray(lim[..., 0]), np.ascontiguousarray(lim[..., 1])
+    slide = ~cp.periodic(chain.kinds)
+    with np.errstate(invalid="ignore", over="ignore"):
+        clipped = np.where(~slide, (hi - lo) < _TWO_PI, True) & (np.isfinite(lo) | np.isfinite(hi))
+    blo, bhi = start_box(lim)
+    arms = joints._replace(lo=lo, hi=hi, clo=np.where(clipped, lo, -np.inf), chi=np.where(clipped, hi, np.inf),
+                           clipped=clipped, limited=clipped.any(axis=1), unlimited=~slide & np.isinf(lo) & np.isinf(hi),
+                           blo=np.ascontiguousarray(blo), bhi=np.ascontiguousarray(bhi))
+    return CoupledArms(arms, lm_coupled.Coupled(np.ascontiguousarray(cp.var, dtype=np.int64),
+                                                np.ascontiguousarray(cp.mult, dtype=np.float64), slide))
 
 
 def unsolved(count: int, n: int):
@@ -142,14 +185,18 @@ def run_compiled(mode, aa: ArmBatch, arm, T, keys, qexp, nexp, k_first, k_last, 
     """
     settings = lm_settings(mode=mode, k_first=k_first, k_last=k_last, ilimit=ilimit, rlimit=rlimit, tol=tol, lam0=lam,
                            gtol=gtol, confirm_tol=confirm_tol, free_pass=free_pass, **more)
-    M, n = len(T), aa.axes.shape[0]
+    coupled = isinstance(aa, CoupledArms)
+    M, n = len(T), (aa.coupled.slide.shape[0] if coupled else aa.axes.shape[0])
     out = Answers(*unsolved(M, n))
     if M:
         targets = Targets(
             arm=np.ascontiguousarray(arm, dtype=np.int64), Rt=np.ascontiguousarray(T[:, :3, :3], dtype=np.float64),
             pt=np.ascontiguousarray(T[:, :3, 3], dtype=np.float64), keys=np.ascontiguousarray(keys, dtype=np.uint64),
             qexp=np.ascontiguousarray(qexp, dtype=np.float64), nexp=np.ascontiguousarray(nexp, dtype=np.int64))
-        impl = lm_lanes if lm_lanes.runs_on_lanes(n) else lm_compiled
         with lm_compiled.threads_for(M, 64):
-            impl.run_targets(KernelCall(targets, aa, settings, out))
+            if coupled:  # the lane kernel and lm_compiled take one variable per joint: coupled arms run here
+                lm_coupled.run_targets(KernelCall(targets, aa.arms, settings, out), aa.coupled)
+            else:
+                impl = lm_lanes if lm_lanes.runs_on_lanes(n) else lm_compiled
+                impl.run_targets(KernelCall(targets, aa, settings, out))
     return tuple(out)

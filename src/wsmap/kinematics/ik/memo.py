@@ -41,9 +41,10 @@ _CHAINS = Memo()
 
 
 def chain_key(chain: SerialChain):
-    """`content_key` of everything that defines a chain's kinematics and limits."""
-    return content_key(chain.fixed, chain.axes, chain.kinds, np.asarray(chain.offset), chain.qlim, chain.base,
-                       chain.tool)
+    """`content_key` of everything that defines a chain's kinematics and limits (its coupling too)."""
+    key = content_key(chain.fixed, chain.axes, chain.kinds, np.asarray(chain.offset), chain.qlim, chain.base,
+                      chain.tool)
+    return key if chain.coupling is None else key + chain.coupling.key()
 
 
 def as_chain_memo(robot) -> SerialChain:

@@ -113,8 +113,9 @@ def closed_forms() -> tuple[ClosedForm, ...]:
 def closed_form_for(robot: Arm) -> ClosedForm | None:
     """The registered closed form that recognises every arm of `robot` (the first by priority,
     should two), or None; None for anything that is not an arm (a `DHRobot` or a
-    `SerialChain`)."""
-    if not isinstance(robot, ArmBatch):
+    `SerialChain`), and for a chain with coupled joints (`SerialChain.coupling`: the closed forms
+    solve one variable per joint, so such a chain maps by the numerical search)."""
+    if not isinstance(robot, ArmBatch) or getattr(robot, "coupling", None) is not None:
         return None
     records = CLOSED_FORMS.records()
     key = _arm_key(robot)

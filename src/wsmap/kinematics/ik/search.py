@@ -151,6 +151,8 @@ def with_joint_limits(chain: SerialChain, joint_limits: bool) -> SerialChain:
     """The chain, or without its revolute limits (prismatic joints keep their strokes)."""
     if joint_limits or chain.qlim is None:
         return chain
+    if chain.coupling is not None:
+        return chain.without_revolute_limits()
     pris = np.array([k == PRISMATIC for k in chain.kinds])
     if not pris.any():
         return chain.replace(qlim=None)
@@ -161,7 +163,8 @@ def with_joint_limits(chain: SerialChain, joint_limits: bool) -> SerialChain:
 
 def _possible_targets(chain, T, shape, count, arm_of, confirm_tol, position_only):
     """The flat targets (count,) of `ikine_search` that the sound pre-filters leave (`arm_of`
-    each target's arm)."""
+    each target's arm); a coupled chain's are its relaxation's (`SerialChain.uncoupled`)."""
+    chain = chain.uncoupled()
     if not position_only:
         return reach_filter(chain, np.broadcast_to(T, shape + (4, 4)), confirm_tol).reshape(-1)
     pb = position_filter(chain, np.broadcast_to(T, shape + (4, 4))[..., :3, 3].reshape(-1, 3), confirm_tol)
@@ -381,8 +384,10 @@ class _MapSearch:
         self.reported = 0
 
     def _possible(self, chain):
-        """Targets the sound pre-filters leave (M,) bool."""
-        s, T, batch, flat = self.s, self.T, self.batch, self.flat
+        """Targets the sound pre-filters leave (M,) bool (a coupled chain's: its relaxation's,
+        `SerialChain.uncoupled`, whose reach holds the coupled chain's)."""
+        s, T, batch = self.s, self.T, self.batch
+        chain, flat = chain.uncoupled(), self.flat.uncoupled()
         if s.position_only:
             # (N,) for one arm, (B, N) for a batch: target b·N + i
             return position_filter(flat if batch else chain, T[:, :3, 3], s.confirm_tol).reshape(-1)
@@ -599,7 +604,7 @@ class _MapSearch:
         budget, s = BORDER_CERTIFY_BUDGET, self.s
         if not budget or self.batch or s.position_only or self.chain.qlim is None:
             return cand
-        cert = joint_certificate(self.chain, self.T[self.node_of[cand]], s.confirm_tol, budget=budget)
+        cert = joint_certificate(self.chain.uncoupled(), self.T[self.node_of[cand]], s.confirm_tol, budget=budget)
         self.possible[cand[cert]] = False
         return cand[~cert]
 
