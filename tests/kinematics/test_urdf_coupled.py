@@ -271,3 +271,21 @@ def test_without_joint_limits_the_relaxation_drops_them_too():
     limited = ws.position_map(chain, nodes)
     unlimited = ws.position_map(chain, nodes, ik={"joint_limits": False})
     assert np.all(unlimited[limited]) and unlimited.sum() > limited.sum()
+
+
+def test_collision_bodies_follow_every_joint(tmp_path):
+    from wsmap.collision import body_frames
+
+    chain = from_urdf(WRIST, ee_link="w2")
+    q = chain.random_q(10, np.random.default_rng(4))
+    B = body_frames(chain, q)
+    assert B.shape == (10, 9, 4, 4)  # the base and one body per joint: a coupled joint moves its link too
+    np.testing.assert_array_equal(B, body_frames(chain.uncoupled(), chain.full_q(q)))
+    box = '<collision><geometry><box size="0.05 0.05 0.05"/></geometry></collision>'
+    (tmp_path / "w.urdf").write_text(WRIST.replace('<link name="l3"/>', f'<link name="l3">{box}</link>'))
+    argv = ["map", "--urdf", str(tmp_path / "w.urdf"), "--ee", "w2", "--kind", "constant", "--step", "0.4",
+            "--rpy", "pi", "0", "0", "--convention", "standard", "-q"]
+    assert cli.main(argv + ["--out", str(tmp_path / "free.npz")]) == 0
+    assert cli.main(argv + ["--collision", "--acm-samples", "50", "--out", str(tmp_path / "c.npz")]) == 0
+    free, hit = ws.load_map(tmp_path / "free.npz")[0], ws.load_map(tmp_path / "c.npz")[0]
+    assert free.sum() >= 5 and not np.any(hit & ~free)

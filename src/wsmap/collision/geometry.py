@@ -92,9 +92,9 @@ class CollisionModel:
             raise CollisionError(f"collision links must have distinct names; {', '.join(map(repr, twice))} "
                                  f"{'is' if len(twice) == 1 else 'are'} given more than once")
         for link in self.links:
-            if not 0 <= link.body <= self.chain.n:
+            if not 0 <= link.body <= self.chain.n_joints:
                 raise CollisionError(f"link {link.name!r} rides on body {link.body}; "
-                                     f"the chain has bodies 0..{self.chain.n}")
+                                     f"the chain has bodies 0..{self.chain.n_joints}")
             if not link.shapes:
                 raise CollisionError(f"link {link.name!r} has no shapes")
         self.links = tuple(self.links)
@@ -137,15 +137,16 @@ class CollisionModel:
 
 
 def body_frames(chain: SerialChain, q) -> np.ndarray:
-    """World frames of the chain's bodies, `(..., n + 1, 4, 4)`: `B_0 = base` (the chain's base
-    transform or the identity), `B_k = B_{k-1} · F_{k-1} · M_k(q_k + offset_k)`."""
-    q = chain._check_q(q)
+    """World frames of the chain's bodies, `(..., n_joints + 1, 4, 4)`: `B_0 = base` (the chain's base
+    transform or the identity), `B_k = B_{k-1} · F_{k-1} · M_k(q_k + offset_k)`, `q` the joint
+    coordinates of the variables `(..., n)` (`SerialChain.full_q`: themselves without coupled joints)."""
+    q = chain.full_q(q)
     x = q + chain.offset
     shape = np.broadcast_shapes(x.shape[:-1], chain.batch_shape)
-    out = np.empty(shape + (chain.n + 1, 4, 4))
+    out = np.empty(shape + (chain.n_joints + 1, 4, 4))
     T = np.broadcast_to(np.eye(4) if chain.base is None else chain.base, shape + (4, 4))
     out[..., 0, :, :] = T
-    for i in range(chain.n):  # a loop over joints, not over configurations
+    for i in range(chain.n_joints):  # a loop over joints, not over configurations
         T = T @ chain.fixed[..., i, :, :] @ joint_motion(chain.kinds[i], chain.axes[i], x[..., i])
         out[..., i + 1, :, :] = T
     return out
@@ -298,11 +299,11 @@ def capsule_model(robot, capsules: Sequence, *, names: Sequence[str] | None = No
     per: dict[int, list[Shape]] = {}
     for item in capsules:
         body, p0, p1, r = item
-        if not isinstance(body, (int, np.integer)) or not 0 <= body <= chain.n:
-            raise CollisionError(f"capsule body must be an integer in 0..{chain.n}, got {body!r}")
+        if not isinstance(body, (int, np.integer)) or not 0 <= body <= chain.n_joints:
+            raise CollisionError(f"capsule body must be an integer in 0..{chain.n_joints}, got {body!r}")
         per.setdefault(int(body), []).append(segment_shape("capsule", p0, p1, float(r)))
-    if names is not None and len(names) != chain.n + 1:
-        raise CollisionError(f"names must name the {chain.n + 1} bodies, got {len(names)}")
+    if names is not None and len(names) != chain.n_joints + 1:
+        raise CollisionError(f"names must name the {chain.n_joints + 1} bodies, got {len(names)}")
     label = (lambda k: names[k]) if names is not None else (lambda k: f"link{k}")
     links, above = [], None
     for k in sorted(per):
@@ -317,13 +318,13 @@ def capsules_along_links(robot, link_radius, *, floor: bool = False, source: str
     offset, then to `F_k`'s origin (the next joint): the DH `d` then `a` of the link; a body
     whose link has no length gets a sphere (a capsule of length 0) at its origin."""
     chain = as_chain(robot)
-    r = np.broadcast_to(np.asarray(link_radius, dtype=np.float64), (chain.n + 1,))
+    r = np.broadcast_to(np.asarray(link_radius, dtype=np.float64), (chain.n_joints + 1,))
     bad = np.flatnonzero(~(np.isfinite(r) & (r > 0) & (r <= MAX_LINK_RADIUS)))
     if len(bad):
         raise CollisionError(f"link_radius must be a positive number of metres, at most {MAX_LINK_RADIUS:g}; body "
                              f"{bad[0]} has {r[bad[0]]:g}")
     caps = []
-    for k in range(chain.n + 1):
+    for k in range(chain.n_joints + 1):
         e = chain.fixed[k, :3, 3]
         c = np.array([0.0, 0.0, e[2]])
         pts = [np.zeros(3)] + [p for p in (c, e) if np.linalg.norm(p) > 1e-9]

@@ -167,8 +167,9 @@ class CollisionSource:
 
         if self.link_radius is not None:
             r = self.link_radius
-            if len(r) not in (1, robot.n + 1):
-                raise ValueError(f"--link-radius takes one radius or one per body (0..{robot.n}: {robot.n + 1}), "
+            bodies = getattr(robot, "n_joints", robot.n)  # a chain's coupled joints each move a body
+            if len(r) not in (1, bodies + 1):
+                raise ValueError(f"--link-radius takes one radius or one per body (0..{bodies}: {bodies + 1}), "
                                  f"got {len(r)}")
             return capsules_along_links(robot, r[0] if len(r) == 1 else list(r),
                                         floor=not arm.has_dh and arm.urdf is None)
