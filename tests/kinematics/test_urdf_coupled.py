@@ -289,3 +289,21 @@ def test_collision_bodies_follow_every_joint(tmp_path):
     assert cli.main(argv + ["--collision", "--acm-samples", "50", "--out", str(tmp_path / "c.npz")]) == 0
     free, hit = ws.load_map(tmp_path / "free.npz")[0], ws.load_map(tmp_path / "c.npz")[0]
     assert free.sum() >= 5 and not np.any(hit & ~free)
+
+
+def test_whole_turns_only_where_they_leave_the_pose_alone():
+    from wsmap.workspace.study import evaluate_targets, fit_to_limits
+
+    chain = from_urdf(WRIST, ee_link="w2")
+    # j1 also drives j5 at half its rate: a turn of j1 is half a turn of j5, another pose
+    assert chain.periodic.tolist() == [False, True, True, True, True, True]
+    q = chain.random_q(1, np.random.default_rng(5))[0]
+    moved = q + 2 * np.pi * np.array([1, 1, 0, 0, 0, 0])
+    assert not np.allclose(chain.fkine(moved), chain.fkine(q), atol=1e-9)
+    fitted = fit_to_limits(chain, moved)
+    np.testing.assert_allclose(fitted[1:], q[1:], atol=1e-12)
+    assert fitted[0] == moved[0]
+    T = chain.fkine(chain.random_q(4, np.random.default_rng(6)))
+    res = evaluate_targets(chain, T)
+    assert np.all(res.reached) and np.all(chain.within_limits(res.q))
+    np.testing.assert_allclose(chain.fkine(res.q), T, atol=1e-8)

@@ -317,6 +317,16 @@ class SerialChain(ArmBatch):
         joints each drives (one kind per variable, `Coupling`)."""
         return self.kinds if self.coupling is None else self._variable_kinds()
 
+    @property
+    def periodic(self) -> np.ndarray:
+        """`(n,)` bool: the variables a whole turn (2·pi) moves without changing the pose, those
+        that may be shifted by whole turns into their limits: the revolute joints, and with a
+        coupling the variables that drive revolute joints only, each at an integer multiplier
+        (`Coupling.periodic`)."""
+        if self.coupling is None:
+            return np.array([k == REVOLUTE for k in self.kinds])
+        return self.coupling.periodic(self.kinds)
+
     def full_q(self, q: ArrayLike) -> np.ndarray:
         """The joint coordinates `(..., n_joints)` of the variables `q` `(..., n)` (`q` itself, checked,
         without a coupling)."""

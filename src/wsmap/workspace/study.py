@@ -35,7 +35,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..kinematics import as_chain
-from ..kinematics.chain import REVOLUTE
 from ..kinematics.ik.certificate import CERTIFY_MARGIN, certify
 from ..kinematics.ik.settings import SearchSettings
 from ..kinematics.ik.solver import get_solver
@@ -97,7 +96,7 @@ def fit_to_limits(robot: Arm, q: np.ndarray) -> np.ndarray:
     if qlim is None:
         return q
     lim = np.asarray(qlim, dtype=np.float64).reshape(robot.n, 2)
-    revolute = np.array([k == REVOLUTE for k in as_chain(robot).kinds])
+    revolute = as_chain(robot).periodic  # the revolute joints (a coupled chain: variables a whole turn leaves alone)
     lo, hi = lim[:, 0], lim[:, 1]
     finite = revolute & np.isfinite(lo) & np.isfinite(hi)
     shifted = q.copy()

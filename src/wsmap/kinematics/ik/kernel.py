@@ -123,7 +123,7 @@ def _coupled_arrays(chain: SerialChain) -> CoupledArms:
                                  off=np.ascontiguousarray(np.broadcast_to(joints.off, (B, nj))))
     lim = np.broadcast_to(chain.limits, batch + (n, 2)).reshape(B, n, 2)
     lo, hi = np.ascontiguousarray(lim[..., 0]), np.ascontiguousarray(lim[..., 1])
-    slide = ~cp.periodic(chain.kinds)
+    slide = ~chain.periodic
     with np.errstate(invalid="ignore", over="ignore"):
         clipped = np.where(~slide, (hi - lo) < _TWO_PI, True) & (np.isfinite(lo) | np.isfinite(hi))
     blo, bhi = start_box(lim)
