@@ -6,6 +6,16 @@
 are revolute, slide joints prismatic; a joint's coordinate is MuJoCo's `qpos` (measured from the
 joint's `ref`, `qpos0`); limits from `range` where `limited`. The collision geoms:
 `wsmap.collision.mjcf.from_mjcf_collision`.
+
+Coupled joints: an active `<equality><joint joint1="A" joint2="B" polycoef="a0 a1 0 0 0"/>` whose
+`joint1` is on the chain makes `A` follow `B`, `qpos_A = qpos0_A + a0 + a1 · (qpos_B − qpos0_B)`
+(MuJoCo's joint equality, a polynomial of degree one): the chain's variable is `B` (on the chain,
+or off it with its own `range`), `A` a joint driven by it (`wsmap.kinematics.chain.Coupling`; the
+variables' limits keep `A` inside its own). Refused with one line (`MJCFError`, naming the
+joints): a polynomial of a higher degree, `a1 = 0` or no `joint2` (the joint held fixed), a driver
+of another kind, a driver that follows a joint itself, a joint that two equalities drive, limits
+that leave no common value. Equalities of joints off the chain, and inactive ones, change nothing
+here.
 """
 
 from __future__ import annotations
@@ -129,7 +139,7 @@ def chain_and_bodies(m, path: str, site_or_body: str) -> tuple[SerialChain, dict
         bodies.append(b)
         b = int(m.body_parentid[b])
     bodies.reverse()
-    fixed, axes, kinds, offset, qlim, T = [], [], [], [], [], np.eye(4)
+    fixed, axes, kinds, offset, qlim, T, jids = [], [], [], [], [], np.eye(4), []
     place = {0: (0, np.eye(4))}
     for b in bodies:
         T = T @ pose_matrix(m.body_pos[b], m.body_quat[b])
@@ -147,6 +157,7 @@ def chain_and_bodies(m, path: str, site_or_body: str) -> tuple[SerialChain, dict
             offset.append(-float(m.qpos0[m.jnt_qposadr[j]]))
             lim = m.jnt_range[j] if m.jnt_limited[j] else (-np.inf, np.inf)
             qlim.append((float(lim[0]), float(lim[1])))
+            jids.append(j)
         place[b] = (len(kinds), T.copy())
     if not kinds:
         raise MJCFError(f"MJCF file {path!r}: no hinge or slide joint between the world and {site_or_body!r}")
@@ -154,6 +165,7 @@ def chain_and_bodies(m, path: str, site_or_body: str) -> tuple[SerialChain, dict
     name = os.path.splitext(os.path.basename(path))[0]
     chain = SerialChain(np.stack(fixed), np.stack(axes), kinds, offset=np.array(offset), qlim=np.array(qlim),
                         name=name, source=path)
+    chain = _coupled(m, path, chain, jids)
     # bodies off the path: with their parent, joints at qpos0 (a fixed pose)
     for b in range(1, m.nbody):
         if b in place:
@@ -165,6 +177,62 @@ def chain_and_bodies(m, path: str, site_or_body: str) -> tuple[SerialChain, dict
             k, Tp = place[int(m.body_parentid[c])]
             place[c] = (k, Tp @ pose_matrix(m.body_pos[c], m.body_quat[c]))
     return chain, place
+
+
+def _joint_equalities(m, path: str, jids: list[int]) -> dict[int, tuple[int, float, float]]:
+    """Chain joint position -> `(driver joint id, multiplier, constant)` of the active joint
+    equalities whose `joint1` is on the chain (module notes), checked."""
+    import mujoco
+
+    def name(j):
+        return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)
+
+    on = {j: i for i, j in enumerate(jids)}
+    driven: dict[int, tuple[int, float, float]] = {}
+    for e in range(m.neq):
+        j1, j2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        if int(m.eq_type[e]) != int(mujoco.mjtEq.mjEQ_JOINT) or not m.eq_active0[e] or j1 not in on:
+            continue
+        a = np.array(m.eq_data[e, :5], dtype=np.float64)
+        where = f"MJCF file {path!r}: the joint equality on {name(j1)!r}"
+        if j2 < 0 or a[1] == 0.0:
+            raise MJCFError(f"{where} holds it at a constant (no joint2, or polycoef's a1 = 0): make it a fixed part "
+                            "of its body instead")
+        if np.any(a[2:] != 0.0):
+            raise MJCFError(f"{where} is a polynomial of degree {int(np.flatnonzero(a)[-1])} in {name(j2)!r}; only "
+                            "a linear coupling (polycoef a0 a1 0 0 0) is read")
+        if int(m.jnt_type[j1]) != int(m.jnt_type[j2]):
+            raise MJCFError(f"{where} couples it to {name(j2)!r}, a joint of another kind (hinge and slide)")
+        if on[j1] in driven:
+            raise MJCFError(f"{where}: two joint equalities drive {name(j1)!r}")
+        q1, q2 = float(m.qpos0[m.jnt_qposadr[j1]]), float(m.qpos0[m.jnt_qposadr[j2]])
+        driven[on[j1]] = (j2, float(a[1]), q1 + float(a[0]) - float(a[1]) * q2)
+    for i, (j2, _, _) in driven.items():
+        if j2 in on and on[j2] in driven:
+            raise MJCFError(f"MJCF file {path!r}: joint {name(jids[i])!r} follows {name(j2)!r}, which follows "
+                            f"{name(driven[on[j2]][0])!r} itself; couple both to one driver")
+    return driven
+
+
+def _coupled(m, path: str, chain: SerialChain, jids: list[int]) -> SerialChain:
+    """`chain` with the joints that active joint equalities drive following their drivers (module
+    notes); the chain itself where there are none."""
+    import mujoco
+
+    driven = _joint_equalities(m, path, jids)
+    if not driven:
+        return chain
+    drivers = [driven[i] if i in driven else (j, 1.0, 0.0) for i, j in enumerate(jids)]
+    order = list(dict.fromkeys(d for d, _, _ in drivers))
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in jids]
+    limits = [(-np.inf, np.inf) if d in jids or not m.jnt_limited[d] else tuple(map(float, m.jnt_range[d]))
+              for d in order]
+    try:
+        return chain.couple(np.array([order.index(d) for d, _, _ in drivers]), [mm for _, mm, _ in drivers],
+                            [c for _, _, c in drivers], var_limits=np.array(limits), names=names,
+                            var_names=[mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, d) for d in order])
+    except ValueError as exc:
+        raise MJCFError(f"MJCF file {path!r}: {exc}") from None
 
 
 def from_mjcf(path: PathLike, site_or_body: str) -> SerialChain:
