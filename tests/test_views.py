@@ -359,5 +359,5 @@ def test_a_collision_aware_maps_html_names_the_scene_and_draws_its_table(tmp_pat
                       outputs=jobs.MapOutputs(html=str(tmp_path / "m.html")))
     job.save(job.run())
     text = (tmp_path / "m.html").read_text()
-    assert '"text":"ur5e: constant map, collision-free: scene table.yaml"' in text
+    assert '"text":"ur5e: constant map, collision-free: scene table.yaml\\u003cbr\\u003enodes: ' in text  # then the counts
     assert '"name":"obstacle: table"' in text and '"type":"mesh3d"' in text

@@ -405,12 +405,35 @@ def _obstacle_traces(go, obstacles) -> list:
             for name, v, f in obstacle_meshes(obstacles)]
 
 
+def _status_traces(go, status, flat_shape, xyz: np.ndarray, hover: str) -> list:
+    """`figure_3d`'s status traces: the nodes not found (shown) and the certified unreachable ones
+    (legend only), each named with its count; none without a `status`."""
+    if status is None:
+        return []
+    from .viz import NOT_FOUND_COLOR
+    from .workspace.status import CERTIFIED, NOT_FOUND
+
+    st = np.asarray(status)
+    if st.shape != tuple(flat_shape):
+        raise ValueError(f"status must have the map's shape {tuple(flat_shape)}, got {st.shape}")
+    where = hover.rsplit("<br>", 1)[0]  # the coordinates, without the value
+    out = []
+    for code, name, marker, visible in (
+            (NOT_FOUND, "not found", dict(size=4.0, color=NOT_FOUND_COLOR, symbol="diamond-open"), True),
+            (CERTIFIED, "certified unreachable", dict(size=1.5, color="#9a9a9a"), "legendonly")):
+        keep = np.flatnonzero(st == code)
+        out.append(go.Scatter3d(x=xyz[keep, 0], y=xyz[keep, 1], z=xyz[keep, 2], mode="markers",
+                                name=f"{name} ({keep.size})", marker=marker, visible=visible, showlegend=True,
+                                hovertemplate=where + f"<br>{name}<extra></extra>"))
+    return out
+
+
 def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points", title: str | None = None,
               label: str = "reachability index", threshold: float = 0.0,
               levels: float | Sequence[float] = (0.25, 0.5, 0.75), colormap: str = "Viridis",
               vmin: float | None = None, vmax: float | None = None, marker_size: float = 3.0,
               opacity: float | None = None, thresholds: Sequence[float] | None = None, cut_plane: bool = False,
-              obstacles: Sequence | None = None) -> Any:
+              obstacles: Sequence | None = None, status: ArrayLike | None = None) -> Any:
     """An interactive plotly `Figure` of a map (notebooks: display it; files: `save_html`).
 
     Parameters
@@ -440,6 +463,11 @@ def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points
         a scene's obstacles, `(name, vertices (V, 3), faces (F, 3))` triangle meshes in the
         grid's frame (m; `wsmap.collision.Scene.triangles`): one translucent `Mesh3d` trace
         each, named `obstacle: <name>`, in `wsmap.viz.OBSTACLE_COLOR`.
+    status
+        the map's int8 node status `(N,)` (`wsmap.workspace.status`): two more traces after
+        the map's, each a point per node: `not found (K)`, open diamonds in
+        `wsmap.viz.NOT_FOUND_COLOR` (shown), and `certified unreachable (M)`, small grey dots
+        (hidden until its legend entry is clicked: they are most of a box).
 
     Notes
     -----
@@ -451,7 +479,7 @@ def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points
     ------
     ValueError
         A bad map or grid, an unknown `kind`, no node above `threshold` (points)
-        or above any level (iso), no levels.
+        or above any level (iso), no levels, a `status` of another shape than the map's.
     """
     go = require("plotly.graph_objects", extra="views", why="a 3-D view")
 
@@ -470,7 +498,7 @@ def figure_3d(values: ArrayLike, grid: Mapping[str, Any], *, kind: str = "points
         traces, steps = _point_traces(go, v, xyz, hover, label, threshold, thresholds, marker_size, opacity)
     else:
         traces, steps = _iso_traces(go, v, shape, xyz, hover, label, levels, opacity), []
-    fig = go.Figure(data=traces + _obstacle_traces(go, obstacles))
+    fig = go.Figure(data=traces + _status_traces(go, status, v.shape, xyz, hover) + _obstacle_traces(go, obstacles))
     titles = [f"{n} ({unit})" for n in names]
     sliders = []
     if steps:

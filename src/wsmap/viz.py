@@ -584,11 +584,26 @@ def plot_slices(flat_map: ArrayLike, shape: Sequence[int], lo: float | ArrayLike
     return fig
 
 
+def _not_found_volume(status, flat_shape, shape, unreachable) -> np.ndarray | None:
+    """`plot_value_slices`' nodes not found as a `(nz, ny, nx)` bool volume, or None without a
+    `status` (checked: the map's shape, and an `unreachable` value to set them apart from)."""
+    if status is None:
+        return None
+    st = np.asarray(status)
+    if st.shape != tuple(flat_shape):
+        raise ValueError(f"status must have the map's shape {tuple(flat_shape)}, got {st.shape}")
+    if unreachable is None:
+        raise ValueError("status= draws the unreachable nodes in two colours; it needs unreachable= (a value)")
+    from .workspace.status import NOT_FOUND
+
+    return map_to_volume(st == NOT_FOUND, shape)
+
+
 def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | ArrayLike, step: float | ArrayLike, *,
                       label: str, vmin: float | None = None, vmax: float | None = None, title: str | None = None,
                       ncols: int | None = None, labels: Sequence[str] = ("x", "y", "z"), cmap: str = "viridis",
                       max_panels: int = 24, unreachable: float | None = 0.0, metadata: dict | None = None,
-                      obstacles: Sequence | None = None) -> Figure:
+                      obstacles: Sequence | None = None, status: ArrayLike | None = None) -> Figure:
     """The z-layers of a FLOAT map (e.g. a reachability index in [0, 1], a manipulability map >= 0)
     side by side in the grid's units, coloured by value, with one colour bar shared by every panel.
     Returns the Figure.
@@ -619,12 +634,19 @@ def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | Array
         short; `metadata`: text stored in the PNG by `save_figure`.
     obstacles
         a scene's obstacles, outlined in every panel as in `plot_slices`.
+    status
+        the map's int8 node status `(N,)` (`wsmap.workspace.status`: reached, certified
+        unreachable, not found; needs `unreachable`): the nodes not found are drawn in
+        `NOT_FOUND_COLOR` apart from the certified unreachable ones (light grey), the legend
+        naming both with their counts ("certified unreachable (0) (M)", "not found (K)"), and
+        layers holding only nodes not found are drawn too.
 
     Raises
     ------
     ValueError
         A map that does not fit `shape`, has NaN or infinite values, `vmax < vmin`,
-        `max_panels < 1`, or an obstacle as `plot_slices` refuses it.
+        `max_panels < 1`, an obstacle as `plot_slices` refuses it, or a `status` of another
+        shape or without `unreachable`.
     """
     plt = _plt()
     v = np.asarray(values)
@@ -646,11 +668,14 @@ def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | Array
         raise ValueError(f"the colour range must be finite with vmin <= vmax, got vmin={lo_c}, vmax={hi_c}")
     ax_x, ax_y, ax_z = _axes_of(shape, lo, step)
     units = _units_of(labels)
-    layers, note = _layers_shown((vol > lo_c).reshape(vol.shape[0], -1).any(axis=1), int(max_panels), ax_z,
+    missing = _not_found_volume(status, v.shape, shape, unreachable)
+    occupied = vol > lo_c if missing is None else (vol > lo_c) | missing
+    layers, note = _layers_shown(occupied.reshape(vol.shape[0], -1).any(axis=1), int(max_panels), ax_z,
                                  labels[2], units)
     extent = _cell_extent(ax_x, ax_y, step)
     fig, axes = _slice_grid(plt, layers.size, ncols, extent, labels, units)
     import matplotlib
+    from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
 
     colours = matplotlib.colormaps[cmap] if isinstance(cmap, str) else cmap
@@ -662,6 +687,9 @@ def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | Array
     for k, ax in zip(layers, axes):
         image = ax.imshow(shown[k], origin="lower", cmap=colours, vmin=lo_c, vmax=hi_c, extent=extent,
                           interpolation="nearest")
+        if missing is not None and missing[k].any():  # over the grey: the nodes not found, in their colour
+            ax.imshow(np.ma.masked_where(~missing[k], missing[k].astype(float)), origin="lower",
+                      cmap=ListedColormap([NOT_FOUND_COLOR]), vmin=0, vmax=1, extent=extent, interpolation="nearest")
         ax.set_title(f"{labels[2]} = {ax_z[k]:.2f} {units}", fontsize=9)
         outlined |= _outline_obstacles(ax, obstacles, ax_z[k])
     cbar = fig.colorbar(image, ax=axes, shrink=0.9 if len(axes) > 6 else 1.0, aspect=30)
@@ -671,10 +699,17 @@ def plot_value_slices(values: ArrayLike, shape: Sequence[int], lo: float | Array
 
         handles = [Patch(facecolor=MAP_COLORS[0], edgecolor="0.6", label=f"unreachable ({unreachable:g})")] \
             if unreachable is not None else []
+        if missing is not None:
+            from .workspace.status import CERTIFIED
+
+            certified = int((np.asarray(status) == CERTIFIED).sum())
+            handles = [Patch(facecolor=MAP_COLORS[0], edgecolor="0.6",
+                             label=f"certified unreachable ({unreachable:g}): {certified}"),
+                       Patch(facecolor=NOT_FOUND_COLOR, label=f"not found ({unreachable:g}): {int(missing.sum())}")]
         if outlined:
             handles.append(Line2D([], [], color=OBSTACLE_COLOR, linewidth=1.2, label="obstacle"))
         fig.legend(handles=handles, loc="outside lower center", fontsize=9, frameon=False, title=note or None,
-                   title_fontsize=8)
+                   title_fontsize=8, **({} if missing is None else {"ncol": len(handles)}))
     if title:
         fig.suptitle(title, fontsize=11)
     fig.wsmap_metadata = dict(metadata or {})

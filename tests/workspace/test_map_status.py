@@ -175,8 +175,8 @@ def test_a_status_that_disagrees_with_its_map_is_refused_before_writing(tmp_path
         ws.save_map(tmp_path / "m.npz", flat, grid, {}, status=bad)
     with pytest.raises(ValueError, match="status codes are 0"):
         ws.save_map(tmp_path / "m.npz", flat, grid, {}, status=np.where(flat, 0, 7))
-    with pytest.raises(ValueError, match="a status belongs to a map of bits"):
-        ws.save_map(tmp_path / "m.npz", flat.astype(float), grid, {}, status=np.where(flat, 0, 1))
+    with pytest.raises(ValueError, match=r"status and map disagree at node 3 \(status 1, map 1\)"):
+        ws.save_map(tmp_path / "m.npz", flat.astype(float), grid, {}, status=bad)  # a float map: reached above 0
     assert not (tmp_path / "m.npz").exists()
     # a file whose stored status disagrees is not a consistent map file
     path = tmp_path / "x.npz"

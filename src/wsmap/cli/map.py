@@ -69,6 +69,11 @@ def add_parser(sub):
     g.add_argument("--ilimit", type=positive_int, help="numerical IK iteration limit per start (default: the solver's)")
     g.add_argument("--rlimit", type=positive_int,
                    help="numerical IK limit on consecutive rejected steps per start (default: the solver's)")
+    g.add_argument("--status-budget", type=non_negative_int, metavar="BOXES",
+                   help="each node's answer (reached, certified unreachable, not found): boxes per pose of the "
+                        "certificate's branch and bound (0: the sound filters and the closed form's certificate "
+                        "only; default: 5000 for maps at one orientation, 0 for maps over --orientations, whose "
+                        "N x K poses would take minutes)")
     collision_arguments(m)
     g = m.add_argument_group("output (at least one)")
     g.add_argument("--out", metavar="FILE.npz", help="the map as .npz (map, nodes, grid, settings; wsmap.load_map)")
@@ -97,14 +102,27 @@ def run(args) -> int:
                  tol=args.tol, ilimit=args.ilimit, rlimit=args.rlimit, model=args.model,
                  allow_extrapolation=args.allow_extrapolation, collision=collision_source(args),
                  outputs=MapOutputs(out=args.out, png=args.png, html=args.html, ply=args.ply, glb=args.glb,
-                                    h5=args.h5), progress=not args.quiet)
+                                    h5=args.h5), progress=not args.quiet, status_budget=args.status_budget)
     result = job.run(job.check(), notify=notice)  # a first run says why it is silent, only if it compiles
     paths = job.save(result, warn=lambda line: notice(f"warning: {line}"))  # shown even with --quiet
     if not args.quiet:
         print(f"{result.summary}; {result.plan.method} {result.plan.kind.name} map ({result.settings['how']}) in "
               f"{result.seconds:.3f} s -> {', '.join(map(str, paths)) or 'nothing written'}")
-        if result.counts is not None:
-            print("nodes: " + ", ".join(f"{count} {name}" for name, count in result.counts.items()))
+        print(status_lines(result))
     return 0
+
+
+def status_lines(result) -> str:
+    """The three answers of a computed `wsmap.jobs.MapResult` as `wsmap map` prints them: the
+    nodes' counts (`nodes: N reached, M certified unreachable, K not found`), for a map over a set
+    of orientations the same over every node and orientation (`poses: ...`), or why there are none."""
+    if result.counts is None:
+        return "nodes: no status (a network's prediction: no search and no certificate)"
+    lines = ["nodes: " + ", ".join(f"{count} {name}" for name, count in result.counts.items())
+             + f" (certificates in {result.status_seconds:.3f} s)"]
+    if result.pose_counts is not None:
+        lines.append("poses (node x orientation): " + ", ".join(f"{count} {name}"
+                                                               for name, count in result.pose_counts.items()))
+    return "\n".join(lines)
 
 

@@ -8,7 +8,9 @@ command line does, in three steps a Python user can call alone:
 * `check()` — every input checked (before any work and before any file is written), the arm and
   the collision checker built: a `MapPlan`;
 * `run()` — the map computed: a `MapResult` (values in node order, the grid, the settings and
-  provenance recorded in the map file, the Reuleaux poses where asked);
+  provenance recorded in the map file, the Reuleaux poses where asked, and each node's answer —
+  reached, certified unreachable, not found — with its counts, for every kind computed by the
+  closed form or the search);
 * `save(result)` — the outputs written, each through a temporary file, all put in place together
   once every one was written (an error leaves every file as it was); the 3-D views of a map with
   no reachable node are skipped with a warning, the map itself written.
@@ -31,7 +33,7 @@ from ..io import atomic_paths, check_outputs
 from ..kinematics import closed_form_for
 from ..robots.sources import ArmSource
 from ..workspace import grid_spec, orientation_samples, resolve_method, save_map, save_reuleaux
-from ..workspace.maps import MAP_PREDICTORS, grid_status
+from ..workspace.maps import MAP_PREDICTORS
 from ..workspace.status import status_counts
 from ..workspace.kinds import MapRequest, default_kind, get_kind, kinds, kinds_taking
 from ..workspace.orientations import MAX_ORIENTATIONS
@@ -90,9 +92,12 @@ class MapResult:
     """A computed map: `values` (N,) in node order (bool or float64 as the kind says), the `grid`,
     the `settings` recorded in the map file (the arm, its source and limits, the method and how it
     ran, the search settings, the collision geometry, `seconds`), the orientation set (K, 3, 3) of a
-    map over orientations, for a Reuleaux file the per-orientation bits and rotations, and for the
-    paper's maps of bits by the closed form or the search each node's answer `status` (N,) int8
-    (`wsmap.workspace.status`: reached, certified unreachable, not found; stored in the map file)."""
+    map over orientations, for a Reuleaux file the per-orientation bits and rotations, and for
+    every map computed by the closed form or the search (not a network's prediction) each node's
+    answer `status` (N,) int8 (`wsmap.workspace.status`: reached, certified unreachable, not found;
+    the kind's `MapKind.status`), for a kind over a set of orientations the answer at each node
+    and orientation `pose_status` (N, K) int8, both stored in the map file, and the seconds the
+    certificates took, `status_seconds` (not in `seconds`, the map's own time)."""
 
     plan: MapPlan
     values: np.ndarray
@@ -102,6 +107,8 @@ class MapResult:
     bits: np.ndarray | None = None
     rotations: np.ndarray | None = None
     status: np.ndarray | None = None
+    pose_status: np.ndarray | None = None
+    status_seconds: float | None = None
 
     @property
     def grid(self) -> dict:
@@ -109,8 +116,15 @@ class MapResult:
 
     @property
     def counts(self) -> dict[str, int] | None:
-        """`{"reached", "certified unreachable", "not found": count}`, or None without a status."""
+        """The nodes' answers, `{"reached", "certified unreachable", "not found": count}`
+        (`wsmap.workspace.STATUS` order), or None without a status."""
         return None if self.status is None else status_counts(self.status)
+
+    @property
+    def pose_counts(self) -> dict[str, int] | None:
+        """The same counts over every node and orientation of a map over a set of orientations,
+        or None."""
+        return None if self.pose_status is None else status_counts(self.pose_status)
 
 
 def _arg3(values, name):
@@ -152,6 +166,10 @@ class MapJob:
         The numerical search's settings (`wsmap.workspace.MAP_SETTINGS` where None).
     model, allow_extrapolation
         A trained model file for `method="model"`.
+    status_budget : int, optional
+        Boxes per pose of the certificate's branch and bound for each node's answer (0: the sound
+        filters and the closed form's certificate only; default: the kind's
+        `MapKind.status_budget`). Recorded in the map file's settings when given.
     collision : CollisionSource
         Self-collision and obstacles (none by default).
     outputs : MapOutputs
@@ -183,6 +201,7 @@ class MapJob:
     collision: CollisionSource = field(default_factory=CollisionSource)
     outputs: MapOutputs = field(default_factory=MapOutputs)
     progress: bool = False
+    status_budget: int | None = None
 
     def __post_init__(self) -> None:
         for name in ("lo", "hi", "step", "rpy", "point"):
@@ -267,6 +286,13 @@ class MapJob:
             raise ValueError(f"--model is only used with --method model (method is {self.method!r})")
         if self.allow_extrapolation and self.method != "model":
             raise ValueError("--allow-extrapolation is only used with --method model")
+        budget = self.status_budget
+        if budget is not None:
+            if isinstance(budget, bool) or not isinstance(budget, (int, np.integer)) or budget < 0:
+                raise ValueError(f"--status-budget must be a non-negative integer (boxes per pose), got {budget!r}")
+            if self.method == "model":
+                raise ValueError("--status-budget certifies the nodes of a map by the closed form or the search; "
+                                 "--method model predicts a map and gives no status")
         if self.paper_lm and not kind.paper_solver:
             takers = " or ".join(k.name for k in kinds() if k.paper_solver)
             raise ValueError(f"--paper-lm is the paper's solver of its own maps (--kind {takers}), not {kind.name!r}")
@@ -328,21 +354,29 @@ class MapJob:
             from ..kinematics.ik.warmup import ensure_compiled
 
             ensure_compiled(notify=notify, joints=plan.robot.n)
+        kind = plan.kind
+        want_status = kind.status is not None and plan.method in ("exact", "numerical")
+        # a kind over orientations certifies each node and orientation: its bits come with the map
+        want_bits = want_status and kind.over is not None
         t0 = time.perf_counter()
         bits = rotations = None
-        if "--h5" in plan.paths:
-            flat, bits, rotations = plan.kind.poses(plan.robot, plan.grid, plan.request)  # map and poses at once
+        if "--h5" in plan.paths or want_bits:
+            flat, bits, rotations = kind.poses(plan.robot, plan.grid, plan.request)  # map and poses at once
         else:
-            flat = plan.kind.compute(plan.robot, plan.grid, plan.request)
+            flat = kind.compute(plan.robot, plan.grid, plan.request)
         seconds = time.perf_counter() - t0
-        status = None
-        if plan.kind.paper_solver and plan.method in ("exact", "numerical") and np.asarray(flat).dtype == bool:
-            # each node's answer: the certificates are kinematic, so they hold with collisions too
-            status = grid_status(plan.robot, plan.grid, flat, rpy=plan.request.rpy, point=plan.request.point,
-                                 method=plan.method, convention=plan.request.convention)
+        status = pose_status = status_seconds = None
+        if want_status:
+            t1 = time.perf_counter()
+            budget = kind.status_budget if self.status_budget is None else self.status_budget
+            status, pose_status = kind.status(plan.robot, plan.grid, plan.request, flat, bits, budget)
+            status_seconds = time.perf_counter() - t1
+        if "--h5" not in plan.paths:
+            bits = rotations = None
         settings = self._settings(plan, seconds)
-        return MapResult(plan=plan, values=flat, settings=settings, summary=plan.kind.summary(flat), seconds=seconds,
-                         bits=bits, rotations=rotations, status=status)
+        return MapResult(plan=plan, values=flat, settings=settings, summary=kind.summary(flat), seconds=seconds,
+                         bits=bits, rotations=rotations, status=status, pose_status=pose_status,
+                         status_seconds=status_seconds)
 
     def _how(self, plan: MapPlan) -> str:
         """How the map was computed, in words (the settings' `how`)."""
@@ -375,6 +409,8 @@ class MapJob:
             "rpy": list(request.rpy), "point": list(request.point), "model": self.model, "ik": request.ik,
             "seconds": seconds,
         }
+        if self.status_budget is not None:  # only when given: a file made without it keeps its bytes
+            settings["status_budget"] = self.status_budget
         checker = plan.checker
         if checker is not None:
             settings["collision"] = {**checker.describe(), **self.collision.describe(), "floor": checker.scene.floor,
@@ -429,7 +465,7 @@ class MapJob:
         plan = result.plan
         if flag == "--out":
             save_map(tmp, result.values, plan.grid, result.settings, orientations=plan.orientations,
-                     status=result.status)
+                     status=result.status, pose_status=result.pose_status)
         elif flag == "--h5":
             save_reuleaux(tmp, plan.grid, result.bits, result.rotations)
         elif flag[2:] in VIEWS:
@@ -449,15 +485,23 @@ class MapJob:
         obstacles = obstacles if kind.scope == "R3" else None  # obstacles live in metres, not angles
         title = map_title(plan.robot.name or "arm", kind, rpy=self.rpy, point=self.point,
                           convention=plan.request.convention, orientations=K,
-                          summary=f"{result.summary} ({plan.method})", collision=collision)
+                          summary=f"{result.summary} ({plan.method})" + _counts_line(result), collision=collision)
         meta = png_metadata({**result.settings, "grid": grid}, title=title)
         if kind.value_type is float:
             vmin, vmax = kind.value_range
             return plot_value_slices(result.values, grid["shape"], grid["lo"], grid["step"], label=kind.label,
                                      title=title, labels=labels, vmin=vmin, vmax=vmax, metadata=meta,
-                                     obstacles=obstacles)
+                                     obstacles=obstacles, status=result.status)
         return plot_slices(result.values, grid["shape"], grid["lo"], grid["step"], labels=labels, title=title,
                            metadata=meta, obstacles=obstacles, status=result.status)
+
+
+def _counts_line(result: MapResult) -> str:
+    """The pictures' line of the nodes' three answers (a new line first), or "" without a status."""
+    counts = result.counts
+    if counts is None:
+        return ""
+    return "\nnodes: " + ", ".join(f"{count} {name}" for name, count in counts.items())
 
 
 def _floor_words(floor: float | None) -> str:
@@ -478,9 +522,10 @@ def _write_view(flag: str, tmp: Path, result: MapResult) -> None:
         # collision-aware one says what it is free of and shows the scene's obstacles
         collision, obstacles = map_picture(result.plan.checker, result.settings.get("collision"))
         save_html(tmp, values, grid, label=kind.label, title=f"{robot.name or 'arm'}: {kind.name} map"
-                  + (f", collision-free: {collision}" if collision else ""),
+                  + (f", collision-free: {collision}" if collision else "")
+                  + _counts_line(result).replace("\n", "<br>"),
                   thresholds=np.linspace(0.0, 0.9, 10) * values.max() if kind.value_type is float else None,
-                  cut_plane=True, obstacles=obstacles if kind.scope == "R3" else None)
+                  cut_plane=True, obstacles=obstacles if kind.scope == "R3" else None, status=result.status)
     elif flag == "--ply":
         save_ply(tmp, values, grid, label=kind.label)
     else:

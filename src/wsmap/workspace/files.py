@@ -6,9 +6,15 @@ Arrays: `map` (N,) in node order — bool or float64 as the map's kind says
 float64 for the reachability index and manipulability); `nodes` (N, 3) (m, or rad for an SO3 grid);
 `orientations` (K, 3, 3) when the map was made over a set of orientations; `status` (N,) int8
 when the map carries each node's answer (`wsmap.workspace.status`: 0 reached, 1 certified
-unreachable, 2 not found; a bool map only; older files without it load with `status` None);
-`grid` and `settings` as JSON strings. `settings["kind"]`, where present, names a registered kind
-(`wsmap.workspace.kinds`): its value type and scope are checked when a map is saved and loaded.
+unreachable, 2 not found; reached exactly where the map is True or above 0); `pose_status`
+(N, K) int8, a map over a set of orientations' answer at each node and orientation (with
+`status` and `orientations`; the node's answer is its kind's `MapKind.over` of them and the
+map its kind's `MapKind.from_bits` of the reached ones); `grid` and `settings` as JSON
+strings. `settings["kind"]`, where present, names a registered kind (`wsmap.workspace.kinds`):
+its value type and scope are checked when a map is saved and loaded. The members are optional
+and none is versioned: a file without `status` (written before it existed, or by a network's
+prediction) reads as reached where the map is and not found elsewhere (`load_status`), and a
+file without an optional member is written byte for byte as before it existed.
 """
 
 from __future__ import annotations
@@ -50,13 +56,16 @@ def _kind_mismatch(settings: dict, dtype, scope) -> str | None:
 
 
 def save_map(path: PathLike, flat_map: ArrayLike, grid: dict, settings: dict, orientations: ArrayLike | None = None,
-             status: ArrayLike | None = None) -> Path:
+             status: ArrayLike | None = None, pose_status: ArrayLike | None = None) -> Path:
     """Write a map as `.npz` atomically (see the module notes); a bool map stays bool, any other is
     stored as float64 (finite values only). `orientations` (K, 3, 3): the set a map over
-    orientations was made with. `status` (N,) int codes of `wsmap.workspace.status` (a bool map
-    only; `REACHED` exactly where the map is True). `settings["kind"]`, if given, must be a
-    registered kind whose value type and scope the map and grid have (`ValueError` before anything
-    is written). Returns `path`."""
+    orientations was made with. `status` (N,) int codes of `wsmap.workspace.status` (`REACHED`
+    exactly where the map is True, or above 0). `pose_status` (N, K) int codes at each node and
+    orientation of a map over `orientations` (with `status`, and `settings["kind"]` a kind over
+    a set of orientations: `status` must be its `MapKind.over` of them, the map its
+    `MapKind.from_bits` of the reached ones). `settings["kind"]`, if given, must be a
+    registered kind whose value type and scope the map and grid have. Every disagreement is a
+    one-line `ValueError` before anything is written. Returns `path`."""
     nodes = cartesian_grid(grid["lo"], grid["hi"], grid["step"])
     flat_map = np.asarray(flat_map)
     if flat_map.dtype != bool:
@@ -73,6 +82,9 @@ def save_map(path: PathLike, flat_map: ArrayLike, grid: dict, settings: dict, or
         extra["status"] = _check_status(flat_map, status)
     if orientations is not None:
         extra["orientations"] = np.asarray(orientations, dtype=np.float64).reshape(-1, 3, 3)
+    if pose_status is not None:  # last: a file without it keeps its bytes
+        extra["pose_status"] = _check_pose_status(flat_map, extra.get("status"), pose_status,
+                                                  extra.get("orientations"), settings.get("kind"))
     with atomic_path(path, suffix=".npz") as tmp:
         with open(tmp, "wb") as f:
             np.savez_compressed(f, map=flat_map, nodes=nodes, grid=json.dumps(grid), settings=json.dumps(settings),
@@ -83,14 +95,17 @@ def save_map(path: PathLike, flat_map: ArrayLike, grid: dict, settings: dict, or
 def load_map(path: PathLike) -> tuple[NDArray[Any], NDArray[np.float64], dict[str, Any], dict[str, Any]]:
     """Read a map written by `save_map`: `(map, nodes, grid, settings)`; a map over
     orientations has its set in `settings["orientations"]` ((K, 3, 3) array), a map with each
-    node's answer its int8 codes in `settings["status"]` ((N,) array; see `load_status`).
+    node's answer its int8 codes in `settings["status"]` ((N,) array; see `load_status`), and
+    one with the answer at each node and orientation in `settings["pose_status"]` ((N, K)).
 
     A missing file is `FileNotFoundError`; anything else unreadable is `MapFileError`, as is
     a file whose `settings["kind"]` is not a registered kind (`wsmap.workspace.kinds`) or whose
     map's value type or grid's scope is not its kind's, and one that disagrees with itself: a grid
     that is not a valid grid or does not have the map's number of nodes, nodes that are not the
     grid's, a float map with NaN or infinite values or values outside its kind's range (an index
-    outside [0, 1], a negative manipulability).
+    outside [0, 1], a negative manipulability), or a status that is not the map's (a code outside
+    0-2, a shape other than the map's, reached where the map is not or not where it is, a node's
+    answer other than its orientations', or orientations' answers that do not give the map).
     """
     path = Path(path)
     if not path.is_file():
@@ -114,6 +129,8 @@ def load_map(path: PathLike) -> tuple[NDArray[Any], NDArray[np.float64], dict[st
                 settings["orientations"] = z["orientations"]
             if "status" in z.files:
                 settings["status"] = z["status"]
+            if "pose_status" in z.files:
+                settings["pose_status"] = z["pose_status"]
     except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile, EOFError) as e:
         if isinstance(e, MapFileError):
             raise
@@ -135,47 +152,92 @@ def load_map(path: PathLike) -> tuple[NDArray[Any], NDArray[np.float64], dict[st
 
 
 def _check_stored_status(path, flat, settings) -> None:
-    """The status read back (in `settings["status"]`, where stored), as int8 codes agreeing with
-    the map; a `MapFileError` naming the disagreement."""
-    if "status" in settings:
-        try:
+    """The statuses read back (in `settings["status"]` and `settings["pose_status"]`, where
+    stored), as int8 codes agreeing with the map; a `MapFileError` naming the disagreement."""
+    try:
+        if "status" in settings:
             settings["status"] = _check_status(flat, settings["status"])
-        except ValueError as e:
-            raise MapFileError(f"{path} is not a consistent wsmap map file: {e}") from None
+        if "pose_status" in settings:
+            settings["pose_status"] = _check_pose_status(flat, settings.get("status"), settings["pose_status"],
+                                                         settings.get("orientations"), settings.get("kind"))
+    except ValueError as e:
+        raise MapFileError(f"{path} is not a consistent wsmap map file: {e}") from None
 
 
-def load_status(path: PathLike) -> NDArray[np.int8]:
-    """The int8 status `(N,)` of a bool map file (`wsmap.workspace.status`): the stored one, or,
-    for a file written without it, `REACHED` where the map is True and `NOT_FOUND` elsewhere
-    (no certificate was recorded). A float map is a `MapFileError`."""
+def load_status(path: PathLike, *, per_pose: bool = False) -> NDArray[np.int8]:
+    """The int8 status `(N,)` of a map file (`wsmap.workspace.status`): the stored one, or, for a
+    file written without it, `REACHED` where the map is True (a float map: above 0) and
+    `NOT_FOUND` elsewhere (no certificate was recorded). `per_pose`: the status `(N, K)` at each
+    node and orientation of a map over a set of orientations instead; a file that does not store
+    it (the orientations' answers cannot be told from the map) is a `MapFileError`."""
     from .status import NOT_FOUND, REACHED
 
     flat, _, _, settings = load_map(path)
-    if flat.dtype != bool:
-        raise MapFileError(f"{path} holds a {flat.dtype} map; a status belongs to a map of bits")
+    if per_pose:
+        if settings.get("pose_status") is None:
+            raise MapFileError(f"{path} stores no status per node and orientation (pose_status): it was written "
+                               "without one, or is not a map over a set of orientations")
+        return settings["pose_status"]
     status = settings.get("status")
     if status is None:
-        return np.where(flat, REACHED, NOT_FOUND).astype(np.int8)
+        return np.where(_reached(flat), REACHED, NOT_FOUND).astype(np.int8)
     return status
 
 
+def _reached(flat) -> np.ndarray:
+    """Where a map `flat` says its node is reached: True, or a value above 0."""
+    return flat if flat.dtype == bool else flat > 0
+
+
+def _check_codes(st, shape, what: str) -> np.ndarray:
+    """`st` as int8 codes of `shape` (0, 1 or 2), or a one-line `ValueError` naming `what`."""
+    st = np.asarray(st)
+    if st.shape != tuple(shape) or not np.issubdtype(st.dtype, np.integer):
+        raise ValueError(f"{what} must be integer codes of shape {tuple(shape)}, got {st.dtype} {st.shape}")
+    if st.size and (st.min() < 0 or st.max() > 2):
+        raise ValueError(f"{what} codes are 0 (reached), 1 (certified unreachable) or 2 (not found), got "
+                         f"{int(st.min())}..{int(st.max())}")
+    return st.astype(np.int8)
+
+
 def _check_status(flat, status) -> np.ndarray:
-    """`status` as int8 `(N,)` codes agreeing with the bool map `flat`: `REACHED` (0) exactly
-    where it is True, 1 or 2 elsewhere (a one-line `ValueError` naming what differs)."""
+    """`status` as int8 `(N,)` codes agreeing with the map `flat`: `REACHED` (0) exactly where it
+    is True (a float map: above 0), 1 or 2 elsewhere (a one-line `ValueError` naming what differs)."""
     from .status import REACHED
 
-    if flat.dtype != bool:
-        raise ValueError(f"a status belongs to a map of bits, not to a {flat.dtype} map")
-    st = np.asarray(status)
-    if st.shape != flat.shape or not np.issubdtype(st.dtype, np.integer):
-        raise ValueError(f"a status must be {flat.shape[0]} integer codes, got {st.dtype} {st.shape}")
-    if st.size and (st.min() < 0 or st.max() > 2):
-        raise ValueError(f"status codes are 0 (reached), 1 (certified unreachable) or 2 (not found), got {int(st.min())}"
-                         f"..{int(st.max())}")
-    if np.any((st == REACHED) != flat):
-        bad = int(np.argmax((st == REACHED) != flat))
-        raise ValueError(f"status and map disagree at node {bad} (status {int(st[bad])}, map {bool(flat[bad])})")
-    return st.astype(np.int8)
+    st = _check_codes(status, flat.shape, "a status")
+    reached = _reached(flat)
+    if np.any((st == REACHED) != reached):
+        bad = int(np.argmax((st == REACHED) != reached))
+        value = bool(flat[bad]) if flat.dtype == bool else f"{flat[bad]:g}"
+        raise ValueError(f"status and map disagree at node {bad} (status {int(st[bad])}, map {value})")
+    return st
+
+
+def _check_pose_status(flat, status, pose_status, orientations, kind_name) -> np.ndarray:
+    """`pose_status` as int8 `(N, K)` codes of a map over `orientations` (K, 3, 3) of the kind
+    `kind_name` with node status `status` (N,) (already checked): the kind's `over` of them is
+    `status`, its `from_bits` of the reached ones the map (a one-line `ValueError` otherwise)."""
+    from .status import REACHED
+
+    if status is None or orientations is None:
+        raise ValueError("a status per node and orientation (pose_status) comes with the nodes' status and the "
+                         "orientations")
+    kind = get_kind(kind_name) if kind_name is not None else None
+    if kind is None or kind.over is None:
+        raise ValueError(f"a status per node and orientation belongs to a kind over a set of orientations, not to "
+                         f"{'a map without a kind' if kind is None else repr(kind.name)}")
+    st = _check_codes(pose_status, (flat.shape[0], len(orientations)), "a status per node and orientation")
+    node = np.asarray(kind.over(st))
+    if np.any(node != status):
+        bad = int(np.argmax(node != status))
+        raise ValueError(f"the status of node {bad} ({int(status[bad])}) is not its orientations' ({int(node[bad])})")
+    values = np.asarray(kind.from_bits(st == REACHED), dtype=flat.dtype)
+    if np.any(values != flat):
+        bad = int(np.argmax(values != flat))
+        raise ValueError(f"the map at node {bad} ({flat[bad]}) is not what its orientations' status gives "
+                         f"({values[bad]})")
+    return st
 
 
 def _check_values(path, flat, kind_name) -> None:

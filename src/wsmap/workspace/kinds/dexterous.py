@@ -8,7 +8,8 @@ index's search defaults (`wsmap.workspace.reach.INDEX_SETTINGS`).
 from __future__ import annotations
 
 from ..reach import dexterous_map
+from ..status import node_status_every
 from .registry import orientation_set_kind, register
 
 KIND = register(orientation_set_kind("dexterous", bool, dexterous_map, "reachable at every one of --orientations",
-                                     priority=50, from_bits=lambda bits: bits.all(axis=1), noun="dexterous"))
+                                     priority=50, from_bits=lambda bits: bits.all(axis=1), over=node_status_every, noun="dexterous"))
