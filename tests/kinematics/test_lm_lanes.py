@@ -6,6 +6,8 @@ failure reasons, ``q`` within 1e-8 where both succeed. A target's answer does no
 lane, its neighbours, the lane count or the thread count (bit for bit).
 """
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import pytest
 
@@ -161,13 +163,16 @@ def test_answers_do_not_depend_on_lanes_threads_or_order():
     qexp = np.zeros((M, 1, n))
     nexp = np.ones(M, dtype=np.int64)
 
+    settings = lm_compiled.LMSettings(lm_compiled.MODE_SEARCH, 0, 3, 100, 20, 1e-10, 0.1, 1e-9, 1e-6, True)
+
+    def targets_of(order):
+        return lm_compiled.Targets(np.zeros(M, dtype=np.int64), np.ascontiguousarray(T[order, :3, :3]),
+                                   np.ascontiguousarray(T[order, :3, 3]), keys[order], qexp, nexp)
+
     def run(order, lanes, threads, isa="auto"):
         out = lm_compiled.Answers(*ik_kernel.unsolved(M, n))
-        targets = lm_compiled.Targets(np.zeros(M, dtype=np.int64), np.ascontiguousarray(T[order, :3, :3]),
-                                      np.ascontiguousarray(T[order, :3, 3]), keys[order], qexp, nexp)
-        settings = lm_compiled.LMSettings(lm_compiled.MODE_SEARCH, 0, 3, 100, 20, 1e-10, 0.1, 1e-9, 1e-6, True)
         lm_compiled.set_threads(threads)
-        lm_lanes.run_targets(lm_compiled.KernelCall(targets, aa, settings, out), lanes=lanes, isa=isa)
+        lm_lanes.run_targets(lm_compiled.KernelCall(targets_of(order), aa, settings, out), lanes=lanes, isa=isa)
         back = np.argsort(order)
         return tuple(x[back] for x in out)
 
@@ -178,6 +183,21 @@ def test_answers_do_not_depend_on_lanes_threads_or_order():
     for got in (run(perm, 8, 1), run(ident, 4, 1), run(perm, 16, 2), run(ident, 8, 2)):
         for x, y in zip(got, ref):
             np.testing.assert_array_equal(x, y)
+    # the extension's own threads (three on this machine's two cores too), and two Python threads
+    # calling it at once with one counter, two threads each: every target taken once, the same answers
+    for lanes, threads in ((8, 3), (4, 2)):
+        out = lm_compiled.Answers(*ik_kernel.unsolved(M, n))
+        call = lm_compiled.KernelCall(targets_of(ident), aa, settings, out)
+        lm_lanes._lanes.run_targets(call, np.zeros(1, dtype=np.int64), lanes, "auto", threads)
+        for x, y in zip(out, ref):
+            np.testing.assert_array_equal(x, y)
+    out = lm_compiled.Answers(*ik_kernel.unsolved(M, n))
+    call, counter = lm_compiled.KernelCall(targets_of(ident), aa, settings, out), np.zeros(1, dtype=np.int64)
+    with ThreadPoolExecutor(2) as pool:
+        for f in [pool.submit(lm_lanes._lanes.run_targets, call, counter, 8, "auto", 2) for _ in range(2)]:
+            f.result()
+    for x, y in zip(out, ref):
+        np.testing.assert_array_equal(x, y)
     # the narrower builds: the same search to rounding
     for isa in ("avx2", "base"):
         if isa == "avx2" and lm_lanes.isa() == "base":
@@ -198,6 +218,8 @@ def test_bad_input():
         _call_with(isa="sse9")
     with pytest.raises(ValueError, match="lanes must be 4, 8 or 16"):
         _call_with(lanes=5)
+    with pytest.raises(ValueError, match="^threads must be 1 to 1024, not 0$"):
+        _call_with(threads=0)
     with pytest.raises(ValueError, match="targets.Rt has 9 elements, not 18"):
         _call_with(targets={"Rt": np.zeros((1, 3, 3))})
     with pytest.raises(ValueError, match="arm index out of range"):
@@ -211,7 +233,7 @@ def test_bad_input():
         _call_with(settings={"tol": 1})
 
 
-def _call_with(lanes=8, isa="auto", **over):
+def _call_with(lanes=8, isa="auto", threads=1, **over):
     """One call of the extension on two targets of the PUMA560, with the fields of each group of
     ``over`` (``targets={"Rt": ...}``) replacing those of the call."""
     M, n = 2, 6
@@ -224,7 +246,7 @@ def _call_with(lanes=8, isa="auto", **over):
                                         gtol=0.0, confirm_tol=1e-6, free_pass=True),
         out=lm_compiled.Answers(*ik_kernel.unsolved(M, n)))
     call = call._replace(**{group: getattr(call, group)._replace(**fields) for group, fields in over.items()})
-    lm_lanes._lanes.run_targets(call, np.zeros(1, dtype=np.int64), lanes, isa)
+    lm_lanes._lanes.run_targets(call, np.zeros(1, dtype=np.int64), lanes, isa, threads)
 
 
 def test_the_lane_table_names_every_field_of_a_kernel_call():

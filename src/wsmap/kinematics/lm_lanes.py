@@ -47,7 +47,8 @@ else:
         _IMPORT_ERROR = f"built from other sources: its fields and lm_compiled.KernelCall's differ by {sorted(_differ)}"
         _lanes = None
 
-__all__ = ["KERNELS", "LANES", "MAX_JOINTS", "available", "isa", "kernel", "set_kernel", "use_kernel", "run_targets"]
+__all__ = ["KERNELS", "LANES", "MAX_JOINTS", "MIN_BLOCKS", "available", "isa", "kernel", "set_kernel", "use_kernel",
+           "run_targets", "threads_for"]
 
 #: The kernels `set_kernel` takes.
 KERNELS = ("lanes", "scalar")
@@ -55,6 +56,9 @@ KERNELS = ("lanes", "scalar")
 LANES = 8
 #: The most joints the lane kernel takes; longer chains run on the scalar kernel.
 MAX_JOINTS = 16
+#: Blocks of lanes per thread at least: a call of fewer targets than `MIN_BLOCKS * lanes` per
+#: thread runs on fewer threads (`threads_for`).
+MIN_BLOCKS = 2
 _kernel = None
 
 
@@ -109,8 +113,8 @@ def runs_on_lanes(n: int) -> bool:
 
 def run_targets(call: lm_compiled.KernelCall, lanes: int = LANES, isa: str = "auto") -> None:
     """`wsmap.kinematics.lm_compiled.run_targets` on the lane kernel (the same `KernelCall`, the
-    same results to rounding), on `threads` threads: this one and pool threads, each a block of
-    `lanes` targets taken one at a time from a shared counter.
+    same results to rounding), on `threads_for` threads: this one and threads the extension starts
+    for the call, each running a block of `lanes` targets taken one at a time from a shared counter.
 
     Parameters
     ----------
@@ -124,6 +128,17 @@ def run_targets(call: lm_compiled.KernelCall, lanes: int = LANES, isa: str = "au
     if _lanes is None:
         raise RuntimeError(f"the lane kernel is not built ({_IMPORT_ERROR}); reinstall wsmap, or use 'scalar'")
     counter = np.zeros(1, dtype=np.int64)
-    # a thread per block of lanes at least, so a second thread has whole blocks to work on
-    want = max(1, min(numba.get_num_threads(), len(call.targets.arm) // (2 * int(lanes))))
-    lm_compiled.on_threads(want, lambda: _lanes.run_targets(call, counter, int(lanes), isa))
+    want = threads_for(len(call.targets.arm), lanes)
+    if getattr(_lanes, "THREADS", False):
+        # the extension runs the blocks on threads of its own: the GIL released once, no Python
+        # between them (docs/speed.md, "Thread scaling")
+        _lanes.run_targets(call, counter, int(lanes), isa, want)
+    else:  # a build from before that (bench_lanes.py --other): one Python thread per block
+        lm_compiled.on_threads(want, lambda: _lanes.run_targets(call, counter, int(lanes), isa))
+
+
+def threads_for(targets: int, lanes: int = LANES) -> int:
+    """The threads a call of `targets` targets runs on: `lm_compiled.threads()`, but at most one
+    per `MIN_BLOCKS` blocks of `lanes` targets, so that a second thread has whole blocks to work
+    on (at least one thread)."""
+    return max(1, min(numba.get_num_threads(), int(targets) // (MIN_BLOCKS * int(lanes))))

@@ -1,15 +1,20 @@
 // wsmap.kinematics._lanes: the lane kernel (lanes.hpp) for Python, through nanobind. The build for
-// the widest instruction set this CPU has is chosen at import; every call releases the GIL, so
-// several threads run it at once, taking targets from one shared counter. A call takes one object,
-// an lm_compiled.KernelCall, whose fields it reads by the names of lanes.hpp's tables.
+// the widest instruction set this CPU has is chosen at import. A call takes one object, an
+// lm_compiled.KernelCall, whose fields it reads by the names of lanes.hpp's tables, releases the
+// GIL once and runs `threads` blocks of lanes, on this thread and threads - 1 std::threads of its
+// own, every block taking targets from one shared counter: no Python between the threads.
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/string.h>
 
 #include <cstring>
+#include <exception>
+#include <mutex>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <type_traits>
+#include <vector>
 
 #include "lanes.hpp"
 
@@ -151,15 +156,37 @@ static wl::Args read_call(nb::handle call, Arrays &h) {
     return a;
 }
 
-static void run_targets(nb::handle call, Out<int64_t> counter, int lanes, const std::string &isa) {
+// fn(a, lanes) on this thread and threads - 1 new ones (they share a's counter); the first
+// exception any of them throws is rethrown here, after every thread has ended
+static void run_on_threads(RunFn fn, const wl::Args &a, int lanes, int threads) {
+    std::exception_ptr error;
+    std::mutex lock;
+    auto work = [&]() {
+        try {
+            fn(a, lanes);
+        } catch (...) {
+            std::lock_guard<std::mutex> g(lock);
+            if (!error) error = std::current_exception();
+        }
+    };
+    std::vector<std::thread> pool;
+    pool.reserve(threads - 1);
+    for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+    work();
+    for (auto &t : pool) t.join();
+    if (error) std::rethrow_exception(error);
+}
+
+static void run_targets(nb::handle call, Out<int64_t> counter, int lanes, const std::string &isa, int threads) {
     Arrays h;
     wl::Args a = read_call(call, h);
     need(counter, 1, "counter");
     RunFn fn = build(isa).run;
     if (lanes != 4 && lanes != 8 && lanes != 16) throw std::invalid_argument("lanes must be 4, 8 or 16");
+    if (threads < 1 || threads > 1024) throw std::invalid_argument("threads must be 1 to 1024, not " + std::to_string(threads));
     a.counter = counter.data();
     nb::gil_scoped_release release;
-    fn(a, lanes);
+    run_on_threads(fn, a, lanes, threads);
 }
 
 // "group.name" of every field lanes.hpp's tables hold (lm_lanes checks them against lm_compiled.KernelCall)
@@ -176,11 +203,15 @@ static nb::tuple fields() {
 
 NB_MODULE(_lanes, m) {
     m.doc() = "The lane (SIMD) build of the LM search of wsmap.kinematics.lm_compiled; see wsmap.kinematics.lm_lanes.";
-    m.def("run_targets", &run_targets,
+    m.def("run_targets", &run_targets, nb::arg("call"), nb::arg("counter"), nb::arg("lanes"), nb::arg("isa"),
+          nb::arg("threads") = 1,
           "lm_compiled.run_targets on the lanes: call (an lm_compiled.KernelCall), counter (1,) int64 (the next "
-          "target, shared by the threads of one call), lanes (4, 8 or 16) and isa ('auto', 'avx512', 'avx2', 'base').");
+          "target, shared by every block of the call), lanes (4, 8 or 16), isa ('auto', 'avx512', 'avx2', 'base') "
+          "and threads (blocks run at once: this thread and threads - 1 of the call's own, the GIL released).");
     m.def("atan2", &atan2_lanes, "out <- atan2(y, x) for y >= 0 as the lanes compute it (tests): y, x, out, isa.");
     m.def("best_isa", &best_isa, "The widest instruction set this CPU has that a build exists for.");
     m.attr("MAX_JOINTS") = wl::MAX_JOINTS;
+    // run_targets takes threads= (builds before it ran one block per call: lm_lanes's Python threads)
+    m.attr("THREADS") = true;
     m.attr("FIELDS") = fields();
 }

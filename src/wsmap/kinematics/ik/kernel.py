@@ -193,10 +193,14 @@ def run_compiled(mode, aa: ArmBatch, arm, T, keys, qexp, nexp, k_first, k_last, 
             arm=np.ascontiguousarray(arm, dtype=np.int64), Rt=np.ascontiguousarray(T[:, :3, :3], dtype=np.float64),
             pt=np.ascontiguousarray(T[:, :3, 3], dtype=np.float64), keys=np.ascontiguousarray(keys, dtype=np.uint64),
             qexp=np.ascontiguousarray(qexp, dtype=np.float64), nexp=np.ascontiguousarray(nexp, dtype=np.int64))
+        if not coupled and lm_lanes.runs_on_lanes(n):
+            # the lane kernel picks its threads itself (a thread per two blocks of lanes at least,
+            # lm_lanes.threads_for) and starts them in C++: numba's count is left alone
+            lm_lanes.run_targets(KernelCall(targets, aa, settings, out))
+            return tuple(out)
         with lm_compiled.threads_for(M, 64):
             if coupled:  # the lane kernel and lm_compiled take one variable per joint: coupled arms run here
                 lm_coupled.run_targets(KernelCall(targets, aa.arms, settings, out), aa.coupled)
             else:
-                impl = lm_lanes if lm_lanes.runs_on_lanes(n) else lm_compiled
-                impl.run_targets(KernelCall(targets, aa, settings, out))
+                lm_compiled.run_targets(KernelCall(targets, aa, settings, out))
     return tuple(out)
