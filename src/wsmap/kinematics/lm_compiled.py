@@ -1124,4 +1124,14 @@ def builds_for(joints) -> set:
     return {_build(int(n)) for n in joints}
 
 
+# --------------------------------------------------------------------------- shared with lm_coupled
+# The pieces of the iteration that do not read the joints, by public name, for the kernel of chains with
+# coupled joints (`wsmap.kinematics.lm_coupled`), which repeats `_lm` and `_task` on the reduced
+# variables; the same compiled functions, so neither kernel changes the other.
+sincos, pose_error, solve_damped, project_joint = _sincos, _pose_error, _solve, _project1
+spacing, g2_trace, stationary, random_start, spread = _spacing, _g2_trace, _stationary, _random_start, _spread
+SUCCESS, REJECTIONS, ILIMIT, STAGNATED, AT_START, STATIONARY = _SUCCESS, _REJECTIONS, _ILIMIT, _STAGNATED, _AT_START, \
+    _STATIONARY
+EPS, TWO_PI = _EPS, _TWO_PI
+
 numba.config.CACHE_DIR = _NUMBA_CACHE_DIR_BEFORE

@@ -13,9 +13,9 @@ same LM as on any arm: the normal equations are `n x n`.
 
 Why a module of its own rather than more fields of `lm_compiled`'s call: the arms' arrays cross the
 kernel boundary by name (`lm_compiled.KernelCall`, whose fields the lane kernel's table must match,
-`wsmap.kinematics.lm_lanes`), and the uncoupled kernel stays what it is, bit for bit and in speed,
-with its cache untouched. The per-iteration pieces that do not read the joints (`_pose_error`,
-`_solve`, `_project1`, the stagnation bound, `_random_start`) are `lm_compiled`'s own, inlined.
+`wsmap.kinematics.lm_lanes`), and the uncoupled kernel stays what it is, bit for bit and in speed.
+The per-iteration pieces that do not read the joints (`pose_error`, `solve_damped`,
+`project_joint`, the stagnation bound, `random_start`) are `lm_compiled`'s own, inlined.
 
 Which variables wrap by whole turns: `Coupled.slide` is True for a variable that must not (a
 prismatic one, or a revolute one driving a joint at a non-integer rate, which a whole turn of the
@@ -35,9 +35,9 @@ import numpy as np
 from numba import njit
 
 from . import lm_compiled
-from .lm_compiled import (_AT_START, _ILIMIT, _REJECTIONS, _STAGNATED, _STATIONARY, _SUCCESS, _EPS, _TWO_PI,
-                          MODE_PAPER, MODE_POSITION, TARGETS_PER_TASK, KernelCall, _g2_trace, _pose_error, _project1,
-                          _random_start, _sincos, _solve, _spacing, _spread, _stationary)
+from .lm_compiled import (AT_START, EPS, ILIMIT, MODE_PAPER, MODE_POSITION, REJECTIONS, STAGNATED, STATIONARY, SUCCESS,
+                          TARGETS_PER_TASK, TWO_PI, KernelCall, g2_trace, pose_error, project_joint, random_start,
+                          sincos, solve_damped, spacing, spread, stationary)
 
 __all__ = ["Coupled", "run_targets"]
 
@@ -76,7 +76,7 @@ def _fk_c(q, b, Rf, tf, rkind, off, axes, pris, zax, var, mult, R, p, w, o, T33,
             for r in range(3):
                 p[r] = p[r] + w[i, r] * x
         elif zax[i]:
-            si, ci = _sincos(x)
+            si, ci = sincos(x)
             si = si * a2
             for r in range(3):
                 r0 = R[r, 0] * ci + R[r, 1] * si
@@ -84,7 +84,7 @@ def _fk_c(q, b, Rf, tf, rkind, off, axes, pris, zax, var, mult, R, p, w, o, T33,
                 R[r, 0] = r0
                 R[r, 1] = r1
         else:
-            s, c = _sincos(x)
+            s, c = sincos(x)
             K = ((0.0, -a2, a1), (a2, 0.0, -a0), (-a1, a0, 0.0))
             for r in range(3):
                 for m in range(3):
@@ -183,17 +183,17 @@ def _lm_c(q, b, Rt, pt, limited, rows, st, gtol, arms, cp, sc, n, nj):  # noqa: 
                     any_held = any_held or hj
                 if any_held:
                     touched = True
-            _solve(A, g, lam * lam, held, any_held, H, dq, n)
+            solve_damped(A, g, lam * lam, held, any_held, H, dq, n)
             for j in range(n):
                 qt[j] = q[j] + dq[j]
         if limited:
             for j in range(n):
-                v = _project1(qt[j], clo[b, j], chi[b, j], not slide[j])
+                v = project_joint(qt[j], clo[b, j], chi[b, j], not slide[j])
                 if v != qt[j]:
                     touched = True
                 qt[j] = v
         _fk_c(qt, b, Rf, tf, rkind, off, axes, pris, zax, var, mult, Rn, pn, wn, on, T33, nj)
-        nn = _pose_error(Rn, pn, Rt, pt, en, True, rows)
+        nn = pose_error(Rn, pn, Rt, pt, en, True, rows)
         better = start or nn < na
         if better:
             for j in range(n):
@@ -205,10 +205,10 @@ def _lm_c(q, b, Rt, pt, limited, rows, st, gtol, arms, cp, sc, n, nj):  # noqa: 
         if start:
             start = False
             if na <= tol:
-                code = _AT_START
+                code = AT_START
                 break
             if ilimit == 0:
-                code = _ILIMIT
+                code = ILIMIT
                 break
             continue
         it += 1
@@ -219,25 +219,25 @@ def _lm_c(q, b, Rt, pt, limited, rows, st, gtol, arms, cp, sc, n, nj):  # noqa: 
             lam = lam * 2.0
             rej += 1
         if better and na <= tol:
-            code = _SUCCESS
-        elif better and gtol > 0.0 and _stationary(A, g, na, gtol, n):
-            code = _STATIONARY
+            code = SUCCESS
+        elif better and gtol > 0.0 and stationary(A, g, na, gtol, n):
+            code = STATIONARY
         elif rej > rlimit:
-            code = _REJECTIONS
+            code = REJECTIONS
         elif it >= ilimit:
-            code = _ILIMIT
+            code = ILIMIT
         elif rej > 0:
             # lm_compiled._lm's exact stagnation bound, on the variables
             mu = lam * lam
-            g2, trace = _g2_trace(A, g, n)
-            slack = (trace / mu + 64.0 * n * _EPS) * math.sqrt(g2)
+            g2, trace = g2_trace(A, g, n)
+            slack = (trace / mu + 64.0 * n * EPS) * math.sqrt(g2)
             stuck = True
             for j in range(n):
-                if not ((abs(g[j]) + slack) / mu <= 0.125 * _spacing(q[j])):
+                if not ((abs(g[j]) + slack) / mu <= 0.125 * spacing(q[j])):
                     stuck = False
                     break
             if stuck:
-                code = _STAGNATED
+                code = STAGNATED
         if code:
             break
     out[0] = it
@@ -357,7 +357,7 @@ def _task_c(task, call, cp, n, nj):  # noqa: C901 - one compiled loop, kept whol
                 for j in range(n):
                     qs[j] = qexp[i, s, j]
             else:
-                _random_start(keys[i], k_first + s - nexp[i], b, blo, bhi, qs)
+                random_start(keys[i], k_first + s - nexp[i], b, blo, bhi, qs)
             passes = 2 if limited and free_pass else 1
             for pss in range(passes):
                 for j in range(n):
@@ -365,11 +365,11 @@ def _task_c(task, call, cp, n, nj):  # noqa: C901 - one compiled loop, kept whol
                 code, touched = _lm_c(q, b, Rt[i], pt[i], limited and pss == 0, rows, st, gtol, arms, cp, sc, n, nj)
                 total += int(out[0])
                 for j in range(n):
-                    v = _project1(q[j], lo[b, j], hi[b, j], not slide[j])
+                    v = project_joint(q[j], lo[b, j], hi[b, j], not slide[j])
                     if unlimited[b, j]:
-                        v = np.mod(v + np.pi, _TWO_PI) - np.pi
+                        v = np.mod(v + np.pi, TWO_PI) - np.pi
                     q[j] = v
-                conv = code == _SUCCESS or code == _AT_START
+                conv = code == SUCCESS or code == AT_START
                 if pss == 0 and out[2] < best:
                     best = out[2]
                     for j in range(n):
@@ -408,7 +408,7 @@ def run_targets(call: KernelCall, coupled: Coupled) -> None:
     `call.out.q` hold variables `(.., n)`. A `MODE_PAPER` call is a `ValueError`."""
     if call.settings.mode == MODE_PAPER:
         raise ValueError("the paper's LM (MODE_PAPER) takes DH arms, not a chain with coupled joints")
-    _spread((len(call.targets.arm) + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK,
+    spread((len(call.targets.arm) + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK,
             lambda a, b: _run_targets_c(a, b, call, coupled))
 
 

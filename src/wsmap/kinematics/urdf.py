@@ -12,13 +12,19 @@
 * elements in an XML namespace (`<robot xmlns="...">`) are read by their local names, as
   urdfdom reads them;
 * a mimic joint on the path (`<mimic joint= multiplier= offset=>`: its value is
-  `multiplier · q + offset`, `q` its driver's) whose driver is off the path (a gripper's second
-  finger, the chain ending at it) takes the driver's value `q` as the chain's variable in its
-  place: it moves by `sign · (q + sign · offset)` along or about its axis (`multiplier` ±1), and `q`
-  keeps to the driver's limits narrowed to those that keep the mimic joint inside its own. Refused
-  (`URDFError`, naming the joints): a driver on the path too, or driving two joints of the path
-  (coupled joints: the solvers take one variable per joint), a multiplier other than ±1, a driver
-  of another kind (prismatic driving revolute), limits that leave no common value;
+  `multiplier · q + offset`, `q` its driver's) follows its driver, the chain's variable. A
+  driver off the path (a gripper's second finger, the chain ending at it) that drives one joint of
+  the path at a multiplier of ±1 takes the mimic joint's place: the joint moves by
+  `sign · (q + sign · offset)` along or about its axis, and `q` keeps to the driver's limits
+  narrowed to those that keep the mimic joint inside its own (an uncoupled chain, as before
+  coupled joints were read). Any other mimic (a driver on the path, a parallelogram's passive
+  joint; a driver of two joints; any finite non-zero multiplier) makes a chain with coupled
+  joints (`SerialChain.couple`, `wsmap.kinematics.chain.Coupling`): the variables are the
+  drivers, in the order of the first joint each drives, limited to the values that keep every
+  joint they drive inside its own limits (and a driver off the path to its own). Refused
+  (`URDFError`, naming the joints): a driver that is not a joint, is the joint itself or is a
+  mimic joint itself, a multiplier of 0, a driver of another kind (prismatic driving revolute),
+  limits that leave no common value;
 * a floating or planar joint on the path is refused (`URDFError`, naming it), as
   are: text that is not XML, a link that does not exist, no path from base to end, a loop (a link
   with two parents, or a cycle), a NaN or infinite number in an origin, an axis or a limit,
@@ -569,7 +575,9 @@ def from_urdf(source: PathLike, ee_link: str | None = None, base_link: str | Non
         `fixed` from the joint origins (fixed joints folded in), `axes` from `<axis>` (any
         direction), `qlim` from `<limit>` (`±inf` for continuous joints), `links` the link
         names after each fixed transform (the child link of each movable joint, then `ee_link`),
-        `source` the file path or `"URDF text"`.
+        `source` the file path or `"URDF text"`. With mimic joints that couple joints (module
+        notes), `coupling` says how the joints follow the variables and `qlim` holds the
+        variables' limits.
     """
     data, label, path = read_source(source)
     root = parse_xml(data, label)
