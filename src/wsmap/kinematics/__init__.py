@@ -6,7 +6,8 @@ Forward kinematics (no module here imports the IK layer):
 * `.arms` — what every arm class shares (batches, indexing, joint checks);
 * `.dh` — `DHRobot`, standard-DH revolute arms batched over geometry (the paper's);
 * `.chain` — `SerialChain`, any serial arm of revolute/prismatic joints (DH, modified
-  DH, URDF), `as_chain`;
+  DH, URDF), `as_chain`; coupled joints (URDF mimic, MJCF joint equality) through its
+  `Coupling`;
 * `.urdf` — chains from URDF files.
 
 Inverse kinematics, `.ik` (every solver returns an `IKSolution`):
@@ -18,7 +19,8 @@ Inverse kinematics, `.ik` (every solver returns an `IKSolution`):
 * `.lm_lanes` — the lane (SIMD, C++) kernel that runs both numerical paths by default,
   several targets per instruction; `.lm_compiled` — the scalar (numba) kernel, its tested
   reference (`lm_lanes.set_kernel`), and the thread count of every compiled kernel
-  (`lm_compiled.set_threads`).
+  (`lm_compiled.set_threads`); `.lm_coupled` — the same search on chains with coupled joints,
+  which neither the lane kernel nor the closed forms take.
 """
 
 from . import lm_compiled, lm_lanes
