@@ -210,8 +210,10 @@ def test_the_box_bounds_hold_every_configuration_of_the_box(name):
     ch, n = geo["chain"], robot.n
     rng = np.random.default_rng(3)
     F, Z, lo, hi = np.empty((n, 14)), np.empty((7, 9)), np.empty(13), np.empty(4)
-    G, R = np.empty((5, n)), np.empty(5)
-    worst = worst_lin = 0.0
+    G, R = np.empty((7, n)), np.empty(5)  # rows 5, 6: the tilt forms
+    e7, Rs7 = np.zeros(7), np.zeros(7)
+    b = geo["ends"][:6].reshape(2, 3)
+    worst = worst_lin = worst_tilt = 0.0
     missed = -1.0
     for _ in range(2000):
         c = rng.uniform(-np.pi, np.pi, n)
@@ -229,8 +231,12 @@ def test_the_box_bounds_hold_every_configuration_of_the_box(name):
         worst = max(worst, float((inv - hi[:, None]).max()), float((lo[:4, None] - inv).max()))
         five = np.stack([inv[0] ** 2, inv[1], inv[2], inv[3], np.cross(u, z) @ geo["a0"]])
         centre = np.array([lo[4] ** 2, lo[5], lo[6], lo[7], lo[8]])
-        off = np.abs(five - centre[:, None] - G @ delta.T) - R[:, None]
+        off = np.abs(five - centre[:, None] - G[:5] @ delta.T) - R[:, None]
         worst_lin = max(worst_lin, float(off.max()))
+        # the tilt forms: b·z within R[3] of the centre's plus their linear part
+        C._tilt_rows(F, ch.axes, Z[6], geo["ends"], n, hw, G, e7, Rs7, R[3], 0.0)
+        tilt_off = np.abs(z @ b.T + e7[5:] - delta @ G[5:].T) - R[3]
+        worst_tilt = max(worst_tilt, float(tilt_off.max()))
         # the narrowing keeps every configuration whose invariants are the pose's: the first one's
         e = five[:, 0] - centre
         Rs = R + 1e-12 * (1 + np.abs(five[:, 0]))
@@ -240,6 +246,7 @@ def test_the_box_bounds_hold_every_configuration_of_the_box(name):
         missed = max(missed, float(np.max(np.maximum(L - delta[0], delta[0] - H)[hw > 0], initial=-1.0)))
     assert worst <= 1e-12
     assert worst_lin <= 1e-12
+    assert worst_tilt <= 1e-12
     assert missed <= 0.0
 
 
@@ -352,3 +359,43 @@ def test_the_reachability_index_status(name):
     cert = np.flatnonzero((status == CERTIFIED).reshape(-1))
     some = T.reshape(-1, 4, 4)[cert[:: max(1, cert.size // 60)]]
     assert not wsmap.reachable(arm, some, starts=256, seed=7).any()
+
+
+@pytest.mark.parametrize("name", NUMERICAL)
+def test_no_reached_pose_with_an_aligned_last_axis_is_certified(name):
+    # the tilt forms act where the last axis is (nearly) along joint 0's: the tool-down poses of the
+    # map's own solutions are reachable by construction and must never be certified
+    from wsmap.kinematics.ik import certificate as C
+
+    arm = robots.load(name)
+    nodes = ws.cartesian_grid(-1, 1, 0.1)
+    reached, q = ws.constant_orientation_map(arm, nodes, (np.pi, 0, 0), return_q=True)
+    T = arm.fkine(q[reached][::25])
+    geo = C._geometry(as_chain(arm))
+    tilt = C._pose_invariants(as_chain(arm), geo, T, C.CERTIFY_MARGIN)[0][:, 5]
+    assert len(T) >= 20 and (tilt < C.TILT_MAX).all()
+    assert not joint_certificate(arm, T).any()
+
+
+def test_the_tilt_forms_and_the_shoulder_first_certify_more_of_the_pandas_tool_down_nodes():
+    # the Panda's tool-down nodes that the filters leave: at the default budget the tilt forms and
+    # the shoulder-first split (BOX_TESTS 63) certify more than the tests of before (15), and a
+    # 256-start search reaches none of those
+    from wsmap.kinematics.ik import certificate as C
+    from wsmap.kinematics.ik.certificate import filter_certificate
+
+    panda = robots.load("panda")
+    nodes = ws.cartesian_grid(-1, 1, 0.1)
+    T = ws.target_poses(nodes, (np.pi, 0, 0), "standard")
+    reached = ws.constant_orientation_map(panda, nodes, (np.pi, 0, 0))
+    left = np.flatnonzero(~reached & ~filter_certificate(panda, T))
+    some = T[left[::4]]
+    old = C.BOX_TESTS
+    try:
+        C.BOX_TESTS = 15
+        before = joint_certificate(panda, some)
+    finally:
+        C.BOX_TESTS = old
+    after = joint_certificate(panda, some)
+    assert after.sum() >= before.sum() + 10
+    assert not wsmap.reachable(panda, some[after & ~before], starts=256, seed=11).any()

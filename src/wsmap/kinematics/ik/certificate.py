@@ -41,7 +41,8 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap.kinematics.chain import Arm
 
-__all__ = ["CERTIFY_MARGIN", "CELL_BUDGET", "CELL_DEPTH", "GIVE_UP_NEAR", "SINGULAR_SIGMA", "certify", "joint_certificate",
+__all__ = ["CERTIFY_MARGIN", "CELL_BUDGET", "CELL_DEPTH", "GIVE_UP_NEAR", "SINGULAR_SIGMA", "TILT_MAX",
+           "SHOULDER_FIRST_WIDTH", "certify", "joint_certificate",
            "filter_certificate",
            "closed_form_certificate"]
 
@@ -66,8 +67,20 @@ SINGULAR_SIGMA = 1e-3
 #: `z` most); 8, the box narrowed to the offsets the linear forms allow before it is split
 #: (`_contract`; a box narrowed below 0.7 of a half-width is bounded again first). 0 is the
 #: certificate before them (`benchmarks/maps/bench_certificates.py --compare` measures both side by
-#: side).
-BOX_TESTS = 15
+#: side); 16, the tilt of the last axis across joint 0's (`_tilt_rows`: two more linear forms, used
+#: where the pose's tilt is below `TILT_MAX`); 32, the shoulder first (`SHOULDER_FIRST_WIDTH`).
+#: 15 is the certificate of before the tilt and the shoulder-first split.
+BOX_TESTS = 63
+#: The pose's tilt `|z⊥|` (the sine of the angle between the last axis and joint 0's) below which
+#: `joint_certificate` adds the two tilt forms: near an aligned last axis (tool down, `R = I` on
+#: the named arms) `k = z·a0` is at its extreme ±1 and its linear form is flat there, while the
+#: two components of `z⊥` are not.
+TILT_MAX = 0.3
+#: With a spherical shoulder (joints 1 and 2 both turn `W - S` and `z` rigidly about `S`, as on the
+#: Panda and the iiwa), `joint_certificate` splits the joints after the shoulder first, until each
+#: half-width is below this (rad); `d` and `g` depend on those joints only and discard most boxes
+#: once they are narrow (measured in `docs/maps.md`). 0: off.
+SHOULDER_FIRST_WIDTH = 0.15
 #: Reweighted directions `_combination_dead` tries after the first. 0: with the narrowing on, two
 #: rounds certified no more of the named arms' tool-down nodes and fewer of the Gen3's at 20000
 #: boxes (7698 against 7718 of 7775), at 1.1-1.6 times the time.
@@ -125,8 +138,9 @@ def _across(a):
 
 
 def _pose_invariants(chain: SerialChain, geo, T, margin):
-    """The five invariants `(N, 5)` (`d, g, h, k, m`) of the poses `T` `(N, 4, 4)`, how far
-    `(N, 5)` a pose within `margin` of them moves each (with the rounding of this arithmetic), and
+    """The five invariants `(N, 6)` (`d, g, h, k, m`, then the tilt `|z⊥|`, the length of the last
+    axis across joint 0's) of the poses `T` `(N, 4, 4)`, how far `(N, 5)` a pose within `margin` of
+    them moves each of the five (with the rounding of this arithmetic; the tilt moves as `k`), and
     the vectors `(N, 11)` of `_ends_dead`: `u = W - S`, `z`, the last joint frame's `e_loc` after
     its turn, the slacks of `u` (m) and of the unit vectors."""
     n = chain.n
@@ -143,7 +157,9 @@ def _pose_invariants(chain: SerialChain, geo, T, margin):
     a0 = geo["a0"]
     d = np.linalg.norm(u, axis=-1)
     m = np.cross(u, z) @ a0
-    values = np.stack([d, np.einsum("ni,ni->n", u, z), u @ a0, z @ a0, m], axis=-1)
+    # the tilt |z⊥|: joint 0 turns z⊥ about a0, so its length is the pose's
+    tilt = np.linalg.norm(z - np.outer(z @ a0, a0), axis=-1)
+    values = np.stack([d, np.einsum("ni,ni->n", u, z), u @ a0, z @ a0, m, tilt], axis=-1)
     # a pose within margin of T moves W by at most margin·(1 + |v|) and z by margin (a turn of
     # margin rad moves a unit vector by at most margin); g and m are products of the two
     sW = margin * (1.0 + float(np.linalg.norm(v)))
@@ -189,14 +205,17 @@ def joint_certificate(robot: Arm, T, margin: float = CERTIFY_MARGIN, *, budget: 
     values, slack, pv = np.ascontiguousarray(values), np.ascontiguousarray(slack), np.ascontiguousarray(pv)
     todo = np.arange(N)
     tests = int(BOX_TESTS)
+    # the shoulder first where joints 1 and 2 are both rigid (a spherical shoulder with joint 0)
+    shoulder = float(SHOULDER_FIRST_WIDTH) if tests & 32 and geo["rigid"][1:3].sum() == 2 else 0.0
     if geo["rigid"].any():
         # first d and g alone, over the joints that change them (fewer dimensions, far fewer boxes)
-        _certify_boxes(*args, True, values, slack, pv, geo["ends"], tests, int(COMBINATION_ROUNDS), GIVE_UP_NEAR, int(budget), int(depth), out)
+        _certify_boxes(*args, True, values, slack, pv, geo["ends"], tests, int(COMBINATION_ROUNDS), GIVE_UP_NEAR,
+                       float(TILT_MAX), shoulder, int(budget), int(depth), out)
         todo = np.flatnonzero(out == 0)
     if todo.size:
         part = np.zeros(todo.size, dtype=np.int8)
-        _certify_boxes(*args, False, values[todo], slack[todo], pv[todo], geo["ends"], tests, int(COMBINATION_ROUNDS), GIVE_UP_NEAR,
-                       int(budget), int(depth), part)
+        _certify_boxes(*args, False, values[todo], slack[todo], pv[todo], geo["ends"], tests, int(COMBINATION_ROUNDS),
+                       GIVE_UP_NEAR, float(TILT_MAX), shoulder, int(budget), int(depth), part)
         out[todo] = part
     return out.astype(bool)
 
@@ -637,6 +656,8 @@ def _split_by_effect(G, hw, lam, k, n, radius, du):
     `hw_j²` on `z`, weighted by how much each invariant's remainder carries them)."""
     wW = abs(lam[0]) * 2.0 * (du + 1.0) + abs(lam[1]) + (abs(lam[2]) + abs(lam[4]) if k > 2 else 0.0)
     wz = abs(lam[1]) * du + ((abs(lam[3]) + abs(lam[4]) * du) if k > 2 else 0.0)
+    if k > 5:
+        wz += abs(lam[5]) + abs(lam[6])
     best = -1.0
     split = 1
     for j in range(1, n - 1):
@@ -764,15 +785,56 @@ def _interval_test(e, g, hw, rs, n, near):
 
 
 @njit(cache=True)
-def _judge_box(i, only_dg, values, slack, pv, ends, tests, rounds, near, d2, s2, n, h, S, a0, radius, F, Z, lo, hi,
-               G, R, M, lam, wt, e, Rs, T2, CL, CH):
+def _tilt_rows(F, axes, z, ends, n, hw, G, e, Rs, rz, rho):
+    """The linear forms 5 and 6 (`G`, `e`, `Rs` rows 5, 6): the components `b·z` of the last axis
+    along `b1`, `b2` (`ends[0:6]`, a basis of joint 0's normal plane), which a solution keeps within
+    `rho` (the pose's tilt plus its slack) of 0: joint 0 turns `z⊥` about `a0`, so `|z⊥|` is the
+    pose's. Derivatives `b·(a_j × z)` at the centre (`F`, `z` of `_box_bounds`), remainder `rz`
+    (`|b·r_z| <= |r_z|`)."""
+    for a in range(2):
+        e[5 + a] = -(ends[3 * a] * z[0] + ends[3 * a + 1] * z[1] + ends[3 * a + 2] * z[2])
+        Rs[5 + a] = rz + rho
+        for j in range(n):
+            G[5 + a, j] = 0.0
+    for j in range(1, n - 1):
+        if hw[j] == 0.0:
+            continue
+        aj0 = F[j, 0] * axes[j, 0] + F[j, 1] * axes[j, 1] + F[j, 2] * axes[j, 2]
+        aj1 = F[j, 3] * axes[j, 0] + F[j, 4] * axes[j, 1] + F[j, 5] * axes[j, 2]
+        aj2 = F[j, 6] * axes[j, 0] + F[j, 7] * axes[j, 1] + F[j, 8] * axes[j, 2]
+        K0, K1, K2 = aj1 * z[2] - aj2 * z[1], aj2 * z[0] - aj0 * z[2], aj0 * z[1] - aj1 * z[0]
+        for a in range(2):
+            G[5 + a, j] = ends[3 * a] * K0 + ends[3 * a + 1] * K1 + ends[3 * a + 2] * K2
+
+
+@njit(cache=True)
+def _fill_forms(i, axes, only_dg, values, slack, ends, tests, tilt_max, d2, s2, n, h, F, Z, lo, G, R, e, Rs):
+    """The gaps `e` and radii `Rs` of the linear forms for pose `i` (`_judge_box`): `d², g` (the
+    first pass), with `h, k, m`, and with the tilt forms where `tests & 16` and the pose's tilt is
+    below `tilt_max` (`_tilt_rows`, which fills `G`'s rows 5 and 6). Returns how many (2, 5 or 7)."""
+    k_used = 2 if only_dg else 5
+    e[0] = d2 - lo[4] * lo[4]
+    Rs[0] = R[0] + s2
+    for k in range(1, k_used):
+        e[k] = values[i, k] - lo[4 + k]
+        Rs[k] = R[k] + slack[i, k]
+    if tests & 16 and not only_dg and values[i, 5] < tilt_max:
+        # the tilt's slack is k's (the margin turns z by at most the margin)
+        _tilt_rows(F, axes, Z[6], ends, n, h, G, e, Rs, R[3], values[i, 5] + slack[i, 3])
+        k_used = 7
+    return k_used
+
+
+@njit(cache=True)
+def _judge_box(i, axes, only_dg, values, slack, pv, ends, tests, rounds, near, tilt_max, d2, s2, n, h, S, a0, radius,
+               F, Z, lo, hi, G, R, M, lam, wt, e, Rs, T2, CL, CH):
     """The verdict on one box already bounded (`_box_bounds`'s `lo`, `hi`, `G`, `R`) for pose `i`:
     1, it holds no solution; 0, it may, and its centre's invariants all lie within `near` of the
     pose's (inside the limits of joints 0 and n-1 too); 2, it may, its centre farther. Sets the
     joint to split (`lo[9]`) by the combination's effect when `tests & 4`, and the box's offsets
     narrowed by the linear forms (`_contract`) into `CL`, `CH` (n,) when `tests & 8` (else they
-    are left as they are)."""
-    k_used = 2 if only_dg else 5
+    are left as they are). With `tests & 16` and the pose's tilt below `tilt_max`, the two tilt
+    forms (`_tilt_rows`) join the five."""
     close = True
     for k in range(2 if only_dg else 4):
         if values[i, k] < lo[k] - slack[i, k] or values[i, k] > hi[k] + slack[i, k]:
@@ -780,13 +842,10 @@ def _judge_box(i, only_dg, values, slack, pv, ends, tests, rounds, near, d2, s2,
         if abs(values[i, k] - lo[4 + k]) > near:
             close = False
     if tests & 2:
-        e[0] = d2 - lo[4] * lo[4]
-        Rs[0] = R[0] + s2
-        for k in range(1, k_used):
-            e[k] = values[i, k] - lo[4 + k]
-            Rs[k] = R[k] + slack[i, k]
-        if not only_dg:
-            state = _interval_test(e[4], G[4], h, Rs[4], n, near)
+        k_used = _fill_forms(i, axes, only_dg, values, slack, ends, tests, tilt_max, d2, s2, n, h, F, Z, lo, G, R, e, Rs)
+        # m, then the tilt forms (whose gaps do not enter the give-up test: near = inf)
+        for k in range(4, k_used):
+            state = _interval_test(e[k], G[k], h, Rs[k], n, near if k == 4 else math.inf)
             if state == 1:
                 return 1
             if state == 2:
@@ -809,7 +868,7 @@ def _judge_box(i, only_dg, values, slack, pv, ends, tests, rounds, near, d2, s2,
 
 @njit(cache=True, parallel=True)
 def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_dg, values, slack, pv, ends, tests,
-                   rounds, near, budget, depth, out):
+                   rounds, near, tilt_max, shoulder, budget, depth, out):
     """Depth-first branch and bound per pose (`values`, `slack` (N, 5): `d, g, h, k, m`; `pv`
     (N, 11), `_ends_dead`'s pose vectors): `out[i]` 1 where every box was discarded, 0 where it gave
     up (after `budget` boxes, deeper than `depth` splits, or a box centre whose invariants all lie
@@ -818,7 +877,8 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_d
     (its box centre plus offset), `wL`. `tests`: a bit mask of the tests beside the four intervals
     (1: the limits of joints 0 and n-1, 2: `m` and the combinations of `_combination_dead` with
     `rounds` reweightings, 4: the split by the combination's effect, `_split_by_effect`, 8: the
-    box narrowed by `_contract`)."""
+    box narrowed by `_contract`, 16: the tilt forms where the pose's tilt is below `tilt_max`).
+    `shoulder` > 0 (rad): the joints not in `rigid` are split first while one is wider than it."""
     N = values.shape[0]
     n = axes.shape[0]
     for i in prange(N):
@@ -828,14 +888,14 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_d
         Z = np.empty((7, 9))
         lo = np.empty(13)
         hi = np.empty(4)
-        G = np.empty((5, n))
+        G = np.empty((7, n))
         R = np.empty(5)
-        M = np.empty((5, 5))
-        lam = np.empty(5)
-        e = np.empty(5)
-        Rs = np.empty(5)
+        M = np.empty((7, 7))
+        lam = np.empty(7)
+        e = np.empty(7)
+        Rs = np.empty(7)
         T2 = np.empty(5)
-        wt = np.empty(n + 5)
+        wt = np.empty(n + 7)
         CL = np.empty(n)
         CH = np.empty(n)
         # d² of the pose: the interval [(d - s)², (d + s)²] as a centre and a half-width
@@ -857,8 +917,8 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_d
             for j in range(n):
                 CL[j] = -h[j]
                 CH[j] = h[j]
-            verdict = _judge_box(i, only_dg, values, slack, pv, ends, tests, rounds, near, d2, s2, n, h, S, a0, radius,
-                                 F, Z, lo, hi, G, R, M, lam, wt, e, Rs, T2, CL, CH)
+            verdict = _judge_box(i, axes, only_dg, values, slack, pv, ends, tests, rounds, near, tilt_max, d2, s2, n, h, S,
+                                 a0, radius, F, Z, lo, hi, G, R, M, lam, wt, e, Rs, T2, CL, CH)
             if verdict == 1:
                 continue
             # the box narrowed to what the linear forms allow (no change without tests & 8)
@@ -877,6 +937,13 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_d
                 top += 1  # bound the narrowed box again before splitting it
                 continue
             jb = int(lo[9])  # the joint to split
+            if shoulder > 0.0 and rigid[jb]:
+                # a spherical shoulder: the widest joint after it first, while one is wider than `shoulder`
+                widest = shoulder
+                for j in range(n):
+                    if not rigid[j] and h[j] > widest:
+                        widest = h[j]
+                        jb = j
             # the two halves replace the box on the stack (slot top, then top + 1)
             half = 0.5 * h[jb]
             mid = c[jb]
