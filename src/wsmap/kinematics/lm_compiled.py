@@ -952,10 +952,12 @@ _CALLEES = ("_sincos", "_mix", "_spacing", "_project1", "_stationary", "_random_
 _bound: set = set()
 
 
-def _bind_callees(batch=None) -> None:
+def _bind_callees(batch=None, more=()) -> None:
     """Load the cached builds of `_CALLEES`, callees first, before `batch` (a compiled batch:
     `_run_targets`, `_run_targets6`) is loaded (see "Cache" in the module notes);
-    signatures from each cache index, for this CPU only. Reads the index through numba's private
+    signatures from each cache index, for this CPU only. `more`: the dispatchers of another
+    module's batch that calls these (`wsmap.kinematics.lm_coupled`), loaded after them, callees
+    first. Reads the index through numba's private
     cache classes (`_cache`, `_load_index`, `_index_key`: numba 0.68); where numba renames them
     this fails loudly, in the cache test too."""
     batch = _run_targets if batch is None else batch
@@ -966,8 +968,7 @@ def _bind_callees(batch=None) -> None:
     if batch.overloads:
         return  # compiled (or loaded) already in this process: its calls are bound
     codegen = batch.targetctx.codegen()
-    for callee in _CALLEES:
-        dispatcher = globals()[callee]
+    for dispatcher in [globals()[callee] for callee in _CALLEES] + list(more):
         cache = dispatcher._cache
         index = cache._cache_file._load_index()  # {} where the cache is empty or stale
         for key in index:
@@ -1133,5 +1134,6 @@ spacing, g2_trace, stationary, random_start, spread = _spacing, _g2_trace, _stat
 SUCCESS, REJECTIONS, ILIMIT, STAGNATED, AT_START, STATIONARY = _SUCCESS, _REJECTIONS, _ILIMIT, _STAGNATED, _AT_START, \
     _STATIONARY
 EPS, TWO_PI = _EPS, _TWO_PI
+bind_callees = _bind_callees
 
 numba.config.CACHE_DIR = _NUMBA_CACHE_DIR_BEFORE

@@ -36,8 +36,8 @@ from numba import njit
 
 from . import lm_compiled
 from .lm_compiled import (AT_START, EPS, ILIMIT, MODE_PAPER, MODE_POSITION, REJECTIONS, STAGNATED, STATIONARY, SUCCESS,
-                          TARGETS_PER_TASK, TWO_PI, KernelCall, g2_trace, pose_error, project_joint, random_start,
-                          sincos, solve_damped, spacing, spread, stationary)
+                          TARGETS_PER_TASK, TWO_PI, KernelCall, bind_callees, g2_trace, pose_error, project_joint,
+                          random_start, sincos, solve_damped, spacing, spread, stationary)
 
 __all__ = ["Coupled", "run_targets"]
 
@@ -408,8 +408,11 @@ def run_targets(call: KernelCall, coupled: Coupled) -> None:
     `call.out.q` hold variables `(.., n)`. A `MODE_PAPER` call is a `ValueError`."""
     if call.settings.mode == MODE_PAPER:
         raise ValueError("the paper's LM (MODE_PAPER) takes DH arms, not a chain with coupled joints")
+    # a process loading this batch from numba's cache binds its calls as a fresh compile does
+    # (lm_compiled's notes, "Cache"): lm_compiled's callees, then this module's, callees first
+    bind_callees(_run_targets_c, (_confirm_c, _lm_c, _task_c))
     spread((len(call.targets.arm) + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK,
-            lambda a, b: _run_targets_c(a, b, call, coupled))
+           lambda a, b: _run_targets_c(a, b, call, coupled))
 
 
 numba.config.CACHE_DIR = _NUMBA_CACHE_DIR_BEFORE
