@@ -26,6 +26,7 @@ Arms of more than `MAX_JOINTS` joints run on the scalar kernel.
 from __future__ import annotations
 
 import os
+import threading
 from contextlib import contextmanager
 
 import numba
@@ -60,6 +61,9 @@ MAX_JOINTS = 16
 #: thread runs on fewer threads (`threads_for`).
 MIN_BLOCKS = 2
 _kernel = None
+# the lane threads running now, over every Python thread that calls `run_targets`
+_busy = 0
+_busy_lock = threading.Lock()
 
 
 def available() -> bool:
@@ -115,6 +119,7 @@ def run_targets(call: lm_compiled.KernelCall, lanes: int = LANES, isa: str = "au
     """`wsmap.kinematics.lm_compiled.run_targets` on the lane kernel (the same `KernelCall`, the
     same results to rounding), on `threads_for` threads: this one and threads the extension starts
     for the call, each running a block of `lanes` targets taken one at a time from a shared counter.
+    Python threads that call it at once share `lm_compiled.threads()` (each at least one thread).
 
     Parameters
     ----------
@@ -127,14 +132,21 @@ def run_targets(call: lm_compiled.KernelCall, lanes: int = LANES, isa: str = "au
     """
     if _lanes is None:
         raise RuntimeError(f"the lane kernel is not built ({_IMPORT_ERROR}); reinstall wsmap, or use 'scalar'")
+    global _busy
     counter = np.zeros(1, dtype=np.int64)
-    want = threads_for(len(call.targets.arm), lanes)
-    if getattr(_lanes, "THREADS", False):
-        # the extension runs the blocks on threads of its own: the GIL released once, no Python
-        # between them (docs/speed.md, "Thread scaling")
-        _lanes.run_targets(call, counter, int(lanes), isa, want)
-    else:  # a build from before that (bench_lanes.py --other): one Python thread per block
-        lm_compiled.on_threads(want, lambda: _lanes.run_targets(call, counter, int(lanes), isa))
+    with _busy_lock:  # callers at once (the index's two orientations) share the thread count
+        want = max(1, min(threads_for(len(call.targets.arm), lanes), numba.get_num_threads() - _busy))
+        _busy += want
+    try:
+        if getattr(_lanes, "THREADS", False):
+            # the extension runs the blocks on threads of its own: the GIL released once, no Python
+            # between them (docs/speed.md, "Thread scaling")
+            _lanes.run_targets(call, counter, int(lanes), isa, want)
+        else:  # a build from before that (bench_lanes.py --other): one Python thread per block
+            lm_compiled.on_threads(want, lambda: _lanes.run_targets(call, counter, int(lanes), isa))
+    finally:
+        with _busy_lock:
+            _busy -= want
 
 
 def threads_for(targets: int, lanes: int = LANES) -> int:

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kinematics import DHRobot, SerialChain, as_chain, require_closed_form, require_spherical_wrist
+from ..kinematics import DHRobot, SerialChain, as_chain, lm_compiled, lm_lanes, require_closed_form, require_spherical_wrist
 from ..kinematics.ik.closed_forms.spherical_wrist import spherical_wrist_manipulability
 from ..kinematics.ik.settings import MAP_SETTINGS
 from ..kinematics.ik.solvers import get_solver
@@ -220,15 +220,54 @@ def _index_search(robot, nodes, R, ik, seed, update, valid, bits, qs):
         nb = _subset_neighbours(node_neighbours(nodes), reach)
         sol = np.full((K, idx.size, chain.n), np.nan)
         order, parent = continuation_order(R)
-        for k, par in zip(order, parent):
+
+        def solve(k, par):
             T = np.zeros((idx.size, 4, 4))
             T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = R[k], nodes[idx], 1.0
-            res = search.solve(chain, T, settings, valid, neighbours=nb, q_init=None if par < 0 else sol[par])
+            return search.solve(chain, T, settings, valid, neighbours=nb, q_init=None if par < 0 else sol[par])
+
+        def done(k, res):
             bits[idx, k] = res.success
             sol[k][res.success] = res.q[res.success]
             update(idx.size)
+
+        if valid is None and lm_lanes.runs_on_lanes(chain.n) and lm_compiled.threads() > 1:
+            _overlapped(order, parent, solve, done)
+        else:  # a predicate need not be thread-safe; the scalar kernel runs on numba's threads
+            for k, par in zip(order, parent):
+                done(k, solve(k, par))
         if qs is not None:
             qs[idx] = np.swapaxes(sol, 0, 1)
+
+
+def _overlapped(order, parent, solve, done, workers=2):
+    """`done(k, solve(k, parent_k))` for every orientation `k` of `order`, on `workers` threads:
+    an orientation starts once its parent is done (`done` runs here, on the calling thread, so its
+    solutions are in place), the earliest ready in `order` first. Each search is the same as in
+    order (its starts are its parent's solutions and its own), so are the answers; the Python of
+    one search runs while the kernel of another holds the cores (the kernel's calls share
+    `lm_compiled.threads()` between them, `wsmap.kinematics.lm_lanes.run_targets`)."""
+    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+
+    parent_of = dict(zip(order.tolist(), parent.tolist()))
+    pending, running, finished = list(order.tolist()), {}, set()
+    threads = lm_compiled.threads()
+
+    def task(k):
+        lm_compiled.set_threads(threads)  # numba's count is per thread; a new thread has the default
+        return solve(k, parent_of[k])
+
+    with ThreadPoolExecutor(workers, thread_name_prefix="wsmap-index") as pool:
+        while pending or running:
+            ready = [k for k in pending if parent_of[k] < 0 or parent_of[k] in finished][: workers - len(running)]
+            for k in ready:
+                pending.remove(k)
+                running[pool.submit(task, k)] = k
+            fresh, _ = wait(running, return_when=FIRST_COMPLETED)
+            for f in fresh:
+                k = running.pop(f)
+                done(k, f.result())
+                finished.add(k)
 
 
 def dexterous_map(robot: Arm, nodes: ArrayLike, orientations: ArrayLike, **kw) -> np.ndarray:

@@ -4,6 +4,8 @@ times with the same arm, and these derivations are a large part of a small call'
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from ..chain import SerialChain, as_chain
@@ -17,23 +19,33 @@ def content_key(*parts):
     return tuple((p.shape, p.dtype.str, p.tobytes()) if isinstance(p, np.ndarray) else p for p in parts)
 
 
+_MISSING = object()
+
+
 class Memo:
     """A least-recently-used memo of pure functions of an arm's numbers, keyed by content (so an
-    array changed in place is a new key). Callers must not change what it returns."""
+    array changed in place is a new key). Callers must not change what it returns. Safe to share
+    between threads (the index solves two orientations at once): two threads that miss one key
+    at once both make it, and one value stays."""
 
     def __init__(self, size: int = 16):
         self.size = size
         self.items: dict = {}
+        self._lock = threading.Lock()
 
     def get(self, key, make):
         """The value stored under `key`, else `make()`, stored (the oldest entry leaves when full)."""
-        if key in self.items:
-            value = self.items.pop(key)
-        else:
-            value = make()
+        with self._lock:
+            value = self.items.pop(key, _MISSING)
+            if value is not _MISSING:
+                self.items[key] = value
+                return value
+        value = make()  # outside the lock: a make may take a while, or use another memo
+        with self._lock:
+            self.items.pop(key, None)
             if len(self.items) >= self.size:
                 self.items.pop(next(iter(self.items)))
-        self.items[key] = value
+            self.items[key] = value
         return value
 
 
