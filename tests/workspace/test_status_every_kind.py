@@ -15,6 +15,7 @@ import pytest
 import wsmap
 from wsmap import cli, jobs, robots
 from wsmap import workspace as ws
+from wsmap.kinematics import as_chain
 from wsmap.workspace.files import MapFileError, load_status
 from wsmap.workspace.kinds import MapKind, get_kind
 from wsmap.workspace.status import (CERTIFIED, NOT_FOUND, REACHED, node_status, node_status_every, node_status_over,
@@ -302,3 +303,17 @@ def test_the_command_lines_pictures_name_the_three_counts(tmp_path):
     text = html.read_text()
     assert f'"name":"not found ({counts[2]})"' in text and f'"name":"certified unreachable ({counts[1]})"' in text
     assert re.search(_line("nodes", counts), text)
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5e", "iiwa14"])
+def test_no_position_an_arm_reaches_is_certified_by_the_reach_maps_status(name):
+    # soundness: the tool origins of random configurations inside the limits are never certified,
+    # and the certificate is not empty (nodes far outside the arm's reach are)
+    arm = robots.load(name)
+    lim = np.asarray(as_chain(arm).limits, dtype=np.float64)
+    lim = np.where(np.isfinite(lim), lim, np.array([-np.pi, np.pi]))
+    q = np.random.default_rng(4).uniform(lim[:, 0], lim[:, 1], (2000, arm.n))
+    tips = arm.fkine(q)[:, :3, 3]
+    assert not (position_status(arm, tips, np.zeros(len(tips), dtype=bool)) == CERTIFIED).any()
+    far = tips * 3.0 + 2.0
+    assert (position_status(arm, far, np.zeros(len(far), dtype=bool)) == CERTIFIED).mean() > 0.9
