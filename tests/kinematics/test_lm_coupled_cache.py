@@ -45,3 +45,27 @@ def test_cached_coupled_kernel_gives_the_bits_of_a_fresh_compile(tmp_path):
     assert fresh["ok"].any() and not fresh["ok"].all()
     for field in ("q", "it", "ok", "res"):
         assert fresh[field].tobytes() == cached[field].tobytes(), f"{field}: the cached kernel differs from the fresh one"
+
+
+NOTICE = r"""
+import sys
+import numpy as np
+from wsmap.kinematics.ik.warmup import ensure_compiled, needs_compile
+notices = []
+before = needs_compile(coupled=True)
+seconds = ensure_compiled(notify=notices.append, coupled=True)
+again = []
+np.savez(sys.argv[1], before=before, after=needs_compile(coupled=True), seconds=seconds,
+         second=ensure_compiled(notify=again.append, coupled=True), notices=np.array(notices + again, dtype=str))
+"""
+
+
+@pytest.mark.slow
+def test_the_coupled_kernel_s_first_compile_is_announced_once(tmp_path):
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), NUMBA_NUM_THREADS="1",
+               PYTHONPATH=str(SRC) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    subprocess.run([sys.executable, "-c", NOTICE, str(tmp_path / "n.npz")], env=env, check=True, timeout=900)
+    out = np.load(tmp_path / "n.npz")
+    assert out["before"] and not out["after"] and out["seconds"] > 0 and out["second"] == 0.0
+    assert len(out["notices"]) == 1 and out["notices"][0].startswith("compiling the IK kernel of coupled joints once")
+    assert out["notices"][0].endswith(f"s; cached in {tmp_path / 'cache'}")

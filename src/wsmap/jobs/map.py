@@ -353,7 +353,7 @@ class MapJob:
         if plan.method == "numerical" and notify is not None:
             from ..kinematics.ik.warmup import ensure_compiled
 
-            ensure_compiled(notify=notify, joints=plan.robot.n)
+            ensure_compiled(notify=notify, joints=plan.robot.n, coupled=getattr(plan.robot, "coupling", None) is not None)
         kind = plan.kind
         want_status = kind.status is not None and plan.method in ("exact", "numerical")
         # a kind over orientations certifies each node and orientation: its bits come with the map

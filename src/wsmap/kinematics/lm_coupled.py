@@ -39,7 +39,7 @@ from .lm_compiled import (AT_START, EPS, ILIMIT, MODE_PAPER, MODE_POSITION, REJE
                           TARGETS_PER_TASK, TWO_PI, KernelCall, bind_callees, g2_trace, pose_error, project_joint,
                           random_start, sincos, solve_damped, spacing, spread, stationary)
 
-__all__ = ["Coupled", "run_targets"]
+__all__ = ["Coupled", "run_targets", "needs_compile"]
 
 _NUMBA_CACHE_DIR_BEFORE = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = lm_compiled.cache_dir()
@@ -413,6 +413,15 @@ def run_targets(call: KernelCall, coupled: Coupled) -> None:
     bind_callees(_run_targets_c, (_confirm_c, _lm_c, _task_c))
     spread((len(call.targets.arm) + TARGETS_PER_TASK - 1) // TARGETS_PER_TASK,
            lambda a, b: _run_targets_c(a, b, call, coupled))
+
+
+def needs_compile() -> bool:
+    """Whether the first search on a coupled chain in this process will compile this kernel (about
+    as long as one of `lm_compiled`'s builds: it, or a callee, is not cached for this CPU and this
+    source; `lm_compiled.loadable`). `wsmap.kinematics.ik.warmup.ensure_compiled(coupled=True)`
+    announces and does it."""
+    return not all(lm_compiled.loadable(d) for d in (sincos, spacing, project_joint, stationary, random_start, _confirm_c,
+                                                     _lm_c, _task_c, _run_targets_c))
 
 
 numba.config.CACHE_DIR = _NUMBA_CACHE_DIR_BEFORE
