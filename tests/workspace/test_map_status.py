@@ -377,14 +377,16 @@ def test_no_reached_pose_with_an_aligned_last_axis_is_certified(name):
     assert not joint_certificate(arm, T).any()
 
 
-def test_the_tilt_forms_and_the_shoulder_first_certify_more_of_the_pandas_tool_down_nodes():
-    # the Panda's tool-down nodes that the filters leave: at the default budget the tilt forms and
-    # the shoulder-first split (BOX_TESTS 63) certify more than the tests of before (15), and a
-    # 256-start search reaches none of those
+@pytest.mark.parametrize("name, before_tests", [("panda", 15), ("gen3", 63)])
+def test_the_new_box_tests_certify_more_of_the_tool_down_nodes(name, before_tests):
+    # the tool-down nodes that the filters leave: at the default budget the tilt forms and the
+    # shoulder-first split (the Panda: BOX_TESTS 63 against 15 before them), and the near joint of
+    # the first pass (the Gen3: 127 against 63) certify more, and a 256-start search reaches none of
+    # those
     from wsmap.kinematics.ik import certificate as C
     from wsmap.kinematics.ik.certificate import filter_certificate
 
-    panda = robots.load("panda")
+    panda = robots.load(name)
     nodes = ws.cartesian_grid(-1, 1, 0.1)
     T = ws.target_poses(nodes, (np.pi, 0, 0), "standard")
     reached = ws.constant_orientation_map(panda, nodes, (np.pi, 0, 0))
@@ -392,10 +394,44 @@ def test_the_tilt_forms_and_the_shoulder_first_certify_more_of_the_pandas_tool_d
     some = T[left[::4]]
     old = C.BOX_TESTS
     try:
-        C.BOX_TESTS = 15
+        C.BOX_TESTS = before_tests
         before = joint_certificate(panda, some)
     finally:
         C.BOX_TESTS = old
     after = joint_certificate(panda, some)
     assert after.sum() >= before.sum() + 10
-    assert not wsmap.reachable(panda, some[after & ~before], starts=256, seed=11).any()
+    assert not wsmap.reachable(panda, some[after & ~before][:15], starts=256, seed=11).any()
+
+
+def test_the_first_pass_bounds_a_near_joint_by_a_turn_and_a_shift():
+    # the Gen3's joint 2 misses the shoulder point S by 11.8 mm: in the first pass (d and g alone) the
+    # box's bounds leave it out, and d and g of every configuration of the box lie within them plus
+    # the shift eps·min(hw, 2) (sampled: 1000 boxes of every size, 20 configurations each)
+    from wsmap.kinematics.ik import certificate as C
+
+    robot = robots.load("gen3")
+    geo = C._geometry(as_chain(robot))
+    ch, n, eps = geo["chain"], robot.n, geo["near"]
+    assert np.flatnonzero(eps).tolist() == [2] and 0.011 < eps[2] < 0.0125
+    rigid_b = geo["rigid"] | (eps > 0)
+    rng = np.random.default_rng(4)
+    F, Z, lo, hi = np.empty((n, 14)), np.empty((7, 9)), np.empty(13), np.empty(4)
+    G, R = np.empty((7, n)), np.empty(5)
+    worst = plain = -1.0
+    for _ in range(1000):
+        c = rng.uniform(-np.pi, np.pi, n)
+        hw = np.zeros(n)
+        hw[2:n - 1] = rng.uniform(0, 1, n - 3) * 10.0 ** rng.uniform(-3, 0.5)  # joint 1 rigid: 0 in this pass
+        C._box_bounds(ch.fixed, ch.axes, np.broadcast_to(ch.offset, (n,)).astype(float), geo["S"], geo["a0"],
+                      geo["w_loc"], geo["radius"], rigid_b, n, c, hw, F, Z, lo, hi, G, R)
+        shift = C._near_shift(eps, hw, n)
+        frames, _ = ch.joint_frames(c + rng.uniform(-1, 1, (20, n)) * hw)
+        last = frames[:, n - 1]
+        u = last[:, :3, :3] @ geo["w_loc"] + last[:, :3, 3] - geo["S"]
+        z = last[:, :3, :3] @ ch.axes[n - 1]
+        dg = np.stack([np.linalg.norm(u, axis=1), np.einsum("ki,ki->k", u, z)])
+        out = max(float((dg - hi[:2, None]).max()), float((lo[:2, None] - dg).max()))
+        worst = max(worst, out - shift)
+        plain = max(plain, out)
+    assert worst <= 1e-12
+    assert plain > 1e-3  # the bounds alone miss configurations by millimetres: the shift is needed

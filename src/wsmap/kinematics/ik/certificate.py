@@ -42,7 +42,7 @@ if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)
     from wsmap.kinematics.chain import Arm
 
 __all__ = ["CERTIFY_MARGIN", "CELL_BUDGET", "CELL_DEPTH", "GIVE_UP_NEAR", "SINGULAR_SIGMA", "TILT_MAX",
-           "SHOULDER_FIRST_WIDTH", "certify", "joint_certificate",
+           "SHOULDER_FIRST_WIDTH", "NEAR_RIGID_MAX", "certify", "joint_certificate",
            "filter_certificate",
            "closed_form_certificate"]
 
@@ -68,9 +68,9 @@ SINGULAR_SIGMA = 1e-3
 #: (`_contract`; a box narrowed below 0.7 of a half-width is bounded again first). 0 is the
 #: certificate before them (`benchmarks/maps/bench_certificates.py --compare` measures both side by
 #: side); 16, the tilt of the last axis across joint 0's (`_tilt_rows`: two more linear forms, used
-#: where the pose's tilt is below `TILT_MAX`); 32, the shoulder first (`SHOULDER_FIRST_WIDTH`).
-#: 15 is the certificate of before the tilt and the shoulder-first split.
-BOX_TESTS = 63
+#: where the pose's tilt is below `TILT_MAX`); 32, the shoulder first (`SHOULDER_FIRST_WIDTH`);
+#: 64, the near joint of the first pass (`NEAR_RIGID_MAX`). 15 is the certificate of before these three.
+BOX_TESTS = 127
 #: The pose's tilt `|z⊥|` (the sine of the angle between the last axis and joint 0's) below which
 #: `joint_certificate` adds the two tilt forms: near an aligned last axis (tool down, `R = I` on
 #: the named arms) `k = z·a0` is at its extreme ±1 and its linear form is flat there, while the
@@ -81,6 +81,10 @@ TILT_MAX = 0.3
 #: half-width is below this (rad); `d` and `g` depend on those joints only and discard most boxes
 #: once they are narrow (measured in `docs/maps.md`). 0: off.
 SHOULDER_FIRST_WIDTH = 0.15
+#: The largest distance (m) of `S` from the axis of the joint after the rigid run at which the first
+#: pass (`d` and `g` alone) bounds that joint's effect as a turn about `S` plus a shift (the Gen3's
+#: joint 2, 11.8 mm) rather than by its Taylor form.
+NEAR_RIGID_MAX = 0.05
 #: Reweighted directions `_combination_dead` tries after the first. 0: with the narrowing on, two
 #: rounds certified no more of the named arms' tool-down nodes and fewer of the Gen3's at 20000
 #: boxes (7698 against 7718 of 7775), at 1.1-1.6 times the time.
@@ -117,6 +121,17 @@ def _make_geometry(chain: SerialChain):
     a0 = frames[0, :3, :3] @ chain.axes[0]
     rigid = np.zeros(n, dtype=np.bool_)
     rigid[[j for j in through_point(chain, frames, S) if j < n - 1]] = True
+    # the joint after the rigid run, where its axis passes within NEAR_RIGID_MAX of S: its turn moves
+    # W - S by a turn about a line through S plus at most 2 sin(δ/2)·ε (ε its axis's distance from S,
+    # the same at every turn of the joints before it, which all turn about lines through S)
+    near = np.zeros(n)
+    j = int(rigid.sum()) + 1
+    if rigid.any() and j < n - 1:
+        aj = frames[j, :3, :3] @ chain.axes[j]
+        r = S - frames[j, :3, 3]
+        eps = float(np.linalg.norm(r - (r @ aj) * aj))
+        if eps <= NEAR_RIGID_MAX:
+            near[j] = eps * (1.0 + 1e-9) + 1e-15
     # the limits of joints 0 and n-1: a basis of joint 0's normal plane, a unit vector e_loc across the
     # last axis (in its frame) and the one a quarter turn on, the half-widths and the last box's centre
     b1 = _across(a0)
@@ -126,7 +141,8 @@ def _make_geometry(chain: SerialChain):
     ends = np.concatenate([b1, np.cross(a0, b1), e_loc, np.cross(zl, e_loc),
                            [half[0], 0.5 * (box[n - 1, 0] + box[n - 1, 1]) + float(np.broadcast_to(chain.offset, (n,))[n - 1]),
                             half[n - 1]]])
-    return dict(chain=chain, S=S, a0=a0, w_loc=w_loc, box=box, radius=radius, rigid=rigid, ends=ends, e_loc=e_loc,
+    return dict(chain=chain, S=S, a0=a0, w_loc=w_loc, box=box, radius=radius, rigid=rigid, near=near, ends=ends,
+                e_loc=e_loc,
                 scale=float(np.linalg.norm(chain.fixed[:, :3, 3], axis=-1).sum() + np.linalg.norm(w_loc)))
 
 
@@ -209,13 +225,14 @@ def joint_certificate(robot: Arm, T, margin: float = CERTIFY_MARGIN, *, budget: 
     shoulder = float(SHOULDER_FIRST_WIDTH) if tests & 32 and geo["rigid"][1:3].sum() == 2 else 0.0
     if geo["rigid"].any():
         # first d and g alone, over the joints that change them (fewer dimensions, far fewer boxes)
+        near = geo["near"] if tests & 64 else np.zeros(c.n)
         _certify_boxes(*args, True, values, slack, pv, geo["ends"], tests, int(COMBINATION_ROUNDS), GIVE_UP_NEAR,
-                       float(TILT_MAX), shoulder, int(budget), int(depth), out)
+                       float(TILT_MAX), shoulder, near, int(budget), int(depth), out)
         todo = np.flatnonzero(out == 0)
     if todo.size:
         part = np.zeros(todo.size, dtype=np.int8)
         _certify_boxes(*args, False, values[todo], slack[todo], pv[todo], geo["ends"], tests, int(COMBINATION_ROUNDS),
-                       GIVE_UP_NEAR, float(TILT_MAX), shoulder, int(budget), int(depth), part)
+                       GIVE_UP_NEAR, float(TILT_MAX), shoulder, np.zeros(c.n), int(budget), int(depth), part)
         out[todo] = part
     return out.astype(bool)
 
@@ -650,7 +667,7 @@ def _contract(e, G, Rs, lam, k, n, hw, L, H, row):
 
 
 @njit(cache=True)
-def _split_by_effect(G, hw, lam, k, n, radius, du):
+def _split_by_effect(G, hw, lam, k, n, radius, du, eps):
     """The joint whose half-width adds most to the combination's bound: its linear term
     `|λ·G_j| hw_j` plus its share of the second-order remainders (about `radius_j hw_j²` on `W`,
     `hw_j²` on `z`, weighted by how much each invariant's remainder carries them)."""
@@ -668,6 +685,8 @@ def _split_by_effect(G, hw, lam, k, n, radius, du):
         for a in range(k):
             s += lam[a] * G[a, j]
         score = abs(s) * h + (wW * radius[j] + wz) * h * h
+        if eps[j] > 0.0:  # a near joint of the first pass: its shift of d and g
+            score = (2.0 * abs(lam[0]) * du + abs(lam[1])) * eps[j] * h
         if score > best:
             best = score
             split = j
@@ -808,16 +827,20 @@ def _tilt_rows(F, axes, z, ends, n, hw, G, e, Rs, rz, rho):
 
 
 @njit(cache=True)
-def _fill_forms(i, axes, only_dg, values, slack, ends, tests, tilt_max, d2, s2, n, h, F, Z, lo, G, R, e, Rs):
+def _fill_forms(i, axes, only_dg, values, slack, ends, tests, tilt_max, shift, n, h, F, Z, lo, G, R, e, Rs):
     """The gaps `e` and radii `Rs` of the linear forms for pose `i` (`_judge_box`): `d², g` (the
     first pass), with `h, k, m`, and with the tilt forms where `tests & 16` and the pose's tilt is
     below `tilt_max` (`_tilt_rows`, which fills `G`'s rows 5 and 6). Returns how many (2, 5 or 7)."""
     k_used = 2 if only_dg else 5
-    e[0] = d2 - lo[4] * lo[4]
-    Rs[0] = R[0] + s2
+    # d² of the pose: the interval [(d - s)², (d + s)²] as a centre and a half-width (s: the slack
+    # and the near joints' shift)
+    dlo = max(values[i, 0] - slack[i, 0] - shift, 0.0)
+    dhi = values[i, 0] + slack[i, 0] + shift
+    e[0] = 0.5 * (dhi * dhi + dlo * dlo) - lo[4] * lo[4]
+    Rs[0] = R[0] + 0.5 * (dhi * dhi - dlo * dlo) + 1e-15 * (1.0 + dhi * dhi)
     for k in range(1, k_used):
         e[k] = values[i, k] - lo[4 + k]
-        Rs[k] = R[k] + slack[i, k]
+        Rs[k] = R[k] + slack[i, k] + (shift if k == 1 else 0.0)
     if tests & 16 and not only_dg and values[i, 5] < tilt_max:
         # the tilt's slack is k's (the margin turns z by at most the margin)
         _tilt_rows(F, axes, Z[6], ends, n, h, G, e, Rs, R[3], values[i, 5] + slack[i, 3])
@@ -826,8 +849,8 @@ def _fill_forms(i, axes, only_dg, values, slack, ends, tests, tilt_max, d2, s2, 
 
 
 @njit(cache=True)
-def _judge_box(i, axes, only_dg, values, slack, pv, ends, tests, rounds, near, tilt_max, d2, s2, n, h, S, a0, radius,
-               F, Z, lo, hi, G, R, M, lam, wt, e, Rs, T2, CL, CH):
+def _judge_box(i, axes, only_dg, values, slack, pv, ends, tests, rounds, near, tilt_max, shift, n, h, S, a0, radius,
+               eps, F, Z, lo, hi, G, R, M, lam, wt, e, Rs, T2, CL, CH):
     """The verdict on one box already bounded (`_box_bounds`'s `lo`, `hi`, `G`, `R`) for pose `i`:
     1, it holds no solution; 0, it may, and its centre's invariants all lie within `near` of the
     pose's (inside the limits of joints 0 and n-1 too); 2, it may, its centre farther. Sets the
@@ -837,12 +860,13 @@ def _judge_box(i, axes, only_dg, values, slack, pv, ends, tests, rounds, near, t
     forms (`_tilt_rows`) join the five."""
     close = True
     for k in range(2 if only_dg else 4):
-        if values[i, k] < lo[k] - slack[i, k] or values[i, k] > hi[k] + slack[i, k]:
+        sl = slack[i, k] + (shift if k < 2 else 0.0)
+        if values[i, k] < lo[k] - sl or values[i, k] > hi[k] + sl:
             return 1
         if abs(values[i, k] - lo[4 + k]) > near:
             close = False
     if tests & 2:
-        k_used = _fill_forms(i, axes, only_dg, values, slack, ends, tests, tilt_max, d2, s2, n, h, F, Z, lo, G, R, e, Rs)
+        k_used = _fill_forms(i, axes, only_dg, values, slack, ends, tests, tilt_max, shift, n, h, F, Z, lo, G, R, e, Rs)
         # m, then the tilt forms (whose gaps do not enter the give-up test: near = inf)
         for k in range(4, k_used):
             state = _interval_test(e[k], G[k], h, Rs[k], n, near if k == 4 else math.inf)
@@ -853,7 +877,7 @@ def _judge_box(i, axes, only_dg, values, slack, pv, ends, tests, rounds, near, t
         if _combination_dead(e, G, h, Rs, k_used, n, M, lam, wt, rounds):
             return 1
         if tests & 4:
-            lo[9] = _split_by_effect(G, h, lam, k_used, n, radius, lo[4])
+            lo[9] = _split_by_effect(G, h, lam, k_used, n, radius, lo[4], eps)
         if tests & 8 and not _contract(e, G, Rs, lam, k_used, n, h, CL, CH, wt):
             return 1
     if tests & 1 and not only_dg:
@@ -866,9 +890,19 @@ def _judge_box(i, axes, only_dg, values, slack, pv, ends, tests, rounds, near, t
     return 0 if close else 2
 
 
+@njit(cache=True)
+def _near_shift(eps, hw, n):
+    """The most the near joints (`eps` (n,) m, 0 elsewhere) shift `d` and `g` over the box:
+    `Σ 2 sin(hw_j/2) eps_j <= Σ min(hw_j, 2) eps_j` (m)."""
+    t = 0.0
+    for j in range(n):
+        t += eps[j] * min(hw[j], 2.0)
+    return t
+
+
 @njit(cache=True, parallel=True)
 def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_dg, values, slack, pv, ends, tests,
-                   rounds, near, tilt_max, shoulder, budget, depth, out):
+                   rounds, near, tilt_max, shoulder, eps, budget, depth, out):
     """Depth-first branch and bound per pose (`values`, `slack` (N, 5): `d, g, h, k, m`; `pv`
     (N, 11), `_ends_dead`'s pose vectors): `out[i]` 1 where every box was discarded, 0 where it gave
     up (after `budget` boxes, deeper than `depth` splits, or a box centre whose invariants all lie
@@ -878,9 +912,13 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_d
     (1: the limits of joints 0 and n-1, 2: `m` and the combinations of `_combination_dead` with
     `rounds` reweightings, 4: the split by the combination's effect, `_split_by_effect`, 8: the
     box narrowed by `_contract`, 16: the tilt forms where the pose's tilt is below `tilt_max`).
-    `shoulder` > 0 (rad): the joints not in `rigid` are split first while one is wider than it."""
+    `shoulder` > 0 (rad): the joints not in `rigid` are split first while one is wider than it.
+    `eps` (n,): the first pass (`only_dg`) bounds a joint `j` with `eps_j > 0` as a turn about `S`
+    (no change of `d`, `g`) plus a shift of at most `eps_j min(hw_j, 2)` (m)."""
     N = values.shape[0]
     n = axes.shape[0]
+    # the joints _box_bounds keeps out of d and g: the rigid ones, and the near ones (eps > 0)
+    rigid_b = rigid | (eps > 0.0)
     for i in prange(N):
         cs = np.empty((depth + 1, n))
         hs = np.empty((depth + 1, n))
@@ -898,10 +936,6 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_d
         wt = np.empty(n + 7)
         CL = np.empty(n)
         CH = np.empty(n)
-        # d² of the pose: the interval [(d - s)², (d + s)²] as a centre and a half-width
-        dlo = max(values[i, 0] - slack[i, 0], 0.0)
-        dhi = values[i, 0] + slack[i, 0]
-        d2, s2 = 0.5 * (dhi * dhi + dlo * dlo), 0.5 * (dhi * dhi - dlo * dlo) + 1e-15 * (1.0 + dhi * dhi)
         for j in range(n):
             cs[0, j] = 0.5 * (box[j, 0] + box[j, 1])
             hs[0, j] = 0.5 * (box[j, 1] - box[j, 0]) if 0 < j < n - 1 and not (only_dg and rigid[j]) else 0.0
@@ -912,13 +946,14 @@ def _certify_boxes(fixed, axes, offset, S, a0, w_loc, radius, rigid, box, only_d
             top -= 1
             c = cs[top]
             h = hs[top]
-            _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid, n, c, h, F, Z, lo, hi, G, R)
+            _box_bounds(fixed, axes, offset, S, a0, w_loc, radius, rigid_b, n, c, h, F, Z, lo, hi, G, R)
+            shift = _near_shift(eps, h, n)
             evals += 1
             for j in range(n):
                 CL[j] = -h[j]
                 CH[j] = h[j]
-            verdict = _judge_box(i, axes, only_dg, values, slack, pv, ends, tests, rounds, near, tilt_max, d2, s2, n, h, S,
-                                 a0, radius, F, Z, lo, hi, G, R, M, lam, wt, e, Rs, T2, CL, CH)
+            verdict = _judge_box(i, axes, only_dg, values, slack, pv, ends, tests, rounds, near, tilt_max, shift, n, h, S,
+                                 a0, radius, eps, F, Z, lo, hi, G, R, M, lam, wt, e, Rs, T2, CL, CH)
             if verdict == 1:
                 continue
             # the box narrowed to what the linear forms allow (no change without tests & 8)
