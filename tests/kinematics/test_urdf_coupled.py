@@ -307,3 +307,15 @@ def test_whole_turns_only_where_they_leave_the_pose_alone():
     res = evaluate_targets(chain, T)
     assert np.all(res.reached) and np.all(chain.within_limits(res.q))
     np.testing.assert_allclose(chain.fkine(res.q), T, atol=1e-8)
+
+
+def test_the_numpy_reference_and_the_paper_s_lm_refuse_a_coupled_chain():
+    from wsmap.kinematics.ik.lm_reference import ikine_search_reference
+
+    chain = from_urdf(WRIST, ee_link="w2")
+    T = chain.fkine(np.zeros(6))
+    with pytest.raises(ValueError, match="^the numpy reference search takes chains without coupled joints"):
+        ikine_search_reference(chain, T)
+    nodes = ws.cartesian_grid(-0.5, 0.5, 0.5)
+    with pytest.raises(ValueError, match=r"^the paper's solver \(ikine_LM\) is for DHRobot arms; use solver 'search'$"):
+        ws.constant_orientation_map(chain, nodes, method="numerical", ik={"solver": "paper"})

@@ -73,6 +73,9 @@ class _Arm:
     """
 
     def __init__(self, chain: SerialChain, arm_index=None):
+        if chain.coupling is not None:  # the reference of lm_compiled: one variable per joint
+            raise ValueError("the numpy reference search takes chains without coupled joints; "
+                             "a coupled chain's search is wsmap.kinematics.ikine_search")
         n = chain.n
         F = np.array(chain.fixed, dtype=np.float64)
         if chain.base is not None:
