@@ -18,7 +18,10 @@ Three certificates, tried cheapest first (`certify`):
   linear forms, over it (second-order Taylor, `_box_bounds`, `_combination_dead`) excludes the
   pose's value by more than the margin, or when the turn of joint 0 or of joint n-1 that the pose
   needs from that box lies outside its limits (`_ends_dead`); the pose is certified when every box
-  is discarded, and not certified (the answer "not found") when the cell budget runs out;
+  is discarded, and not certified (the answer "not found") when the cell budget runs out. Near an
+  aligned last axis the tilt of `z` across `a0` adds two linear forms (`_tilt_rows`); a spherical
+  shoulder's joints are split last (`SHOULDER_FIRST_WIDTH`); a joint whose axis nearly passes
+  through `S` counts as a turn about `S` plus a shift in the first pass (`NEAR_RIGID_MAX`);
 * `closed_form_certificate` (arms of a closed-form family): every branch the closed form enumerates
   fails, and the enumeration is complete there (no branch singular, see the function).
 
