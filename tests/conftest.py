@@ -58,25 +58,29 @@ def pytest_configure(config):
         lm_compiled.set_threads(1)
 
 
-#: Tests that take many seconds, by node-id prefix, with their seconds on one core: from ``--durations``
-#: of a two-worker ``make test`` on a quiet machine (2026-12-06), and for the vendor judges (not in
-#: its top 20) half their seconds in a serial run on a loaded machine, where the real_arms and
-#: reach_study smoke runs took twice their quiet time. A worker moves them to the front, longest
-#: first; a test that is renamed only loses its place. The smoke pipeline is one group and goes first
-#: anyway.
+#: Tests that take many seconds whichever worker runs them (a wheel, fresh compiles in empty numba
+#: caches, notebooks run in their own folders, vendor meshes), by node-id prefix, with their seconds
+#: in one two-worker run of the whole suite on a loaded machine (2026-12-06, load ~6, numba's cache
+#: empty as in CI: about three times a quiet machine's; the wheel's after its build reused the
+#: install's objects). Only the order matters: a worker moves them to the front, longest first,
+#: and a test that is renamed only loses its place. Tests that are slow only where they happen to
+#: compile numba's shared cache first are not listed. The smoke pipeline is one group and goes
+#: first anyway.
 HEAVY = {
-    "tests/test_wheel.py::test_the_wheel_installs_a_working_tool": 67,
-    "tests/kinematics/test_lm_compiled_cache.py::test_cached_kernel_gives_the_bits_of_a_fresh_compile[scalar]": 40,
-    "tests/kinematics/test_ur_compile_notice.py::test_the_first_ur_build_is_announced_once": 32,
-    "tests/collision/test_vendor_judge.py::test_the_readme_tool_down_map_has_no_colliding_solution[ur10e]": 25,
-    "tests/paper/notebooks/test_nb_real_arms.py::test_real_arms_smoke": 16,
-    "tests/collision/test_vendor_judge.py::test_the_gen3s_grown_hulls_hold_kinovas_meshes": 13,
-    "tests/collision/test_vendor_judge.py::test_the_readme_tool_down_map_has_no_colliding_solution[ur5e]": 10,
-    "tests/paper/notebooks/test_nb_reach_study.py::test_reach_study_smoke": 9,
-    "tests/collision/test_vendor_judge.py::test_the_committed_hulls_are_the_hulls_of_universal_robots": 8,
-    "tests/test_io.py::test_sigterm_leaves_no_temporary_file": 8,
-    "tests/test_hostile_files.py::test_sighup_leaves_no_temporary_file": 8,
-    "tests/collision/test_vendor_judge.py::test_the_readme_tool_down_map_has_no_colliding_solution": 6,
+    "tests/test_wheel.py::test_the_wheel_installs_a_working_tool": 117,
+    "tests/kinematics/test_lm_compiled_cache.py::test_cached_kernel_gives_the_bits_of_a_fresh_compile[scalar]": 100,
+    "tests/kinematics/test_ur_compile_notice.py::test_the_first_ur_build_is_announced_once": 75,
+    "tests/kinematics/test_lm_coupled_cache.py::test_the_coupled_kernel_s_first_compile_is_announced_once": 66,
+    "tests/paper/notebooks/test_nb_reach_study.py::test_reach_study_smoke": 65,
+    "tests/kinematics/test_lm_coupled_cache.py::test_cached_coupled_kernel_gives_the_bits_of_a_fresh_compile": 60,
+    "tests/paper/notebooks/test_nb_real_arms.py::test_real_arms_smoke": 26,
+    "tests/test_hostile_files.py::test_sighup_leaves_no_temporary_file": 19,
+    "tests/collision/test_vendor_judge.py::test_the_gen3s_grown_hulls_hold_kinovas_meshes": 19,
+    "tests/test_io.py::test_sigterm_leaves_no_temporary_file": 14,
+    "tests/datasets/test_ram.py::test_capsule_checker_agrees_with_rams_rules_by_brute_force": 12,
+    "tests/paper/notebooks/test_nb_runtime_comparison.py::test_runtime_comparison_smoke": 12,
+    "tests/paper/notebooks/test_notebooks.py::test_classical_workspace_smoke": 10,
+    "tests/collision/test_vendor_judge.py::test_the_readme_tool_down_map_has_no_colliding_solution": 9,
 }
 
 
