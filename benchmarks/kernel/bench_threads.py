@@ -112,7 +112,6 @@ def worker(job) -> int:
     """One variant's measures in this process: `job` {"so", "src", "measures", "repeat", "poses"};
     prints one JSON line {"times": {"MEASURE@THREADS": {"seconds", "cpu_seconds", "items"}}, ...}."""
     import importlib.util
-    import time
 
     if job["src"]:  # the other tree before the installed one (the editable install's finder goes first)
         sys.meta_path[:] = [f for f in sys.meta_path if "ScikitBuild" not in type(f).__name__]
@@ -179,9 +178,9 @@ def worker(job) -> int:
             fn(th)  # warm-up: compile or load the kernels, build the memos
             best = None
             for _ in range(1 if m == "index" else job["repeat"]):
-                c0, t0 = time.process_time(), time.perf_counter()
-                fn(th)
-                t, c = time.perf_counter() - t0, time.process_time() - c0
+                with harness.Stopwatch() as watch:
+                    fn(th)
+                t, c = watch.seconds, watch.cpu_seconds
                 if best is None or t < best[0]:
                     best = (t, c)
             times[m + tag] = {"seconds": best[0], "cpu_seconds": best[1], "items": items}

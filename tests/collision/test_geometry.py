@@ -111,7 +111,6 @@ def test_capsules_along_dh_links_cover_the_links():
 def test_bounding_spheres_contain_the_shape(shape):
     from wsmap.collision import Shape
 
-    rng = np.random.default_rng(3)
     if shape == "mesh":
         mesh = trimesh.creation.icosphere(2, 0.1)
         mesh.vertices *= [3.0, 1.0, 0.5]

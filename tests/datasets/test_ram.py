@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from wsmap import datasets
-from wsmap.datasets import ram
 
 #: A hand-made 5-joint arm: 0.3 m up, then three 0.3 m links in one plane (joints 2-4 parallel),
 #: then a short wrist. Capsules: d0 (up), a1, a2, a3, a4, d5 (the tool).

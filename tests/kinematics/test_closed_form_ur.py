@@ -237,7 +237,7 @@ def test_agrees_with_eaik_on_random_arms_and_orientations():
             rng.uniform(-1.1, 1.1, (1500, 3)), 1.0
         reach_eaik, count_eaik = _eaik_labels(chain, T, lengths)
         sol = ikine_ur(chain, T)
-        Q, valid = sol.q, sol.success
+        valid = sol.success
         assert 0.1 < reach_eaik.mean() < 0.6
         np.testing.assert_array_equal(valid.any(axis=-1), reach_eaik)
         np.testing.assert_array_equal(valid.sum(axis=-1), count_eaik)

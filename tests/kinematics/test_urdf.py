@@ -13,7 +13,7 @@ import re
 import numpy as np
 import pytest
 
-from frames import hom, inv, max_err_up_to_tool
+from frames import hom, max_err_up_to_tool
 from wsmap import robots
 from wsmap.kinematics import rotx, roty, rotz
 from wsmap.kinematics.urdf import URDFError, URDFWarning, from_urdf

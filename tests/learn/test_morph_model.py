@@ -9,7 +9,7 @@ import pytest
 import torch
 
 import wsmap
-from wsmap import cli, datasets, learn
+from wsmap import cli, learn
 from wsmap import workspace as ws
 from wsmap.kinematics import from_dh
 from wsmap.kinematics.morphology import MorphologyError, describe, morphology_distance

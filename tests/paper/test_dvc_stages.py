@@ -9,7 +9,6 @@ loads, and that the classical stages do not depend on the learning code (a chang
 
 from __future__ import annotations
 
-import ast
 import importlib.util
 import json
 import subprocess

@@ -8,10 +8,10 @@ import pandas as pd
 import pytest
 import torch
 
-from wsmap import datasets, io
+from wsmap import io
 from wsmap.learn.training import TrainConfig
 from wsmap.metrics import precision_recall_f
-from wsmap.paper import fitting, published, report, specs, tables
+from wsmap.paper import fitting, published, specs, tables
 
 
 @pytest.fixture(scope="module")

@@ -113,7 +113,6 @@ def test_bad_fields_are_one_line_errors_and_nothing_is_written(cell, capsys, cha
 
 
 def test_progress_is_told_of_every_arm(cell):
-    import yaml
 
     d = {**_yaml(cell), "robots": ["ur5e", "puma560"], "collision": None}
     d.pop("robot")

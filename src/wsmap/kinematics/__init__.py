@@ -23,7 +23,7 @@ Inverse kinematics, `.ik` (every solver returns an `IKSolution`):
   which neither the lane kernel nor the closed forms take.
 """
 
-from . import lm_compiled, lm_lanes
+from . import lm_compiled, lm_lanes  # noqa: F401  (the kernels' modules, reached as wsmap.kinematics.lm_*)
 from .chain import PRISMATIC, REVOLUTE, SerialChain, as_chain, from_dh
 from .dh import DHRobot, arm_batch
 from .ik import (

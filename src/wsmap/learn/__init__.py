@@ -120,7 +120,7 @@ from .manipulability import (
     train_manipulability_model,
 )
 from .training_range import ExtrapolationError, ExtrapolationWarning, TrainingRange
-from . import morph_model  # noqa: E402 -- registers the morphology model's file format with method="model"
+from . import morph_model  # noqa: E402, F401 -- registers the morphology model's file format with method="model"
 from .verified import VERIFY_MARGIN, VERIFY_SHELL, VerifiedMap, verified_morph_grid  # noqa: E402
 from .screening import Screening, predicted_coverage, screen_arms  # noqa: E402
 from .pose_model import (  # noqa: E402

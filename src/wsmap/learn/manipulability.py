@@ -59,7 +59,6 @@ from ..robots import SPHERICAL_WRIST
 from .files import ModelFileError, load, save
 from .network import MLPConfig, SubspaceMLP
 from .training import TrainConfig, TrainResult, split_indices, train
-from .training_range import TrainingRange
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # names of the annotations only (wsmap._typing)

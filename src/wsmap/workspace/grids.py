@@ -8,7 +8,6 @@ reshapes to a volume of shape `(nz, ny, nx)` (see `map_to_volume`).
 from __future__ import annotations
 
 import functools
-import os
 
 import numpy as np
 

@@ -26,7 +26,7 @@ Every solver returns one answer type, `IKSolution` (`q`, `success`,
 * `.lm_reference` — the LM iteration in numpy, the reference the tests compare the kernel with.
 """
 
-from . import closed_forms  # noqa: F401  (imports and so registers every closed form)
+from . import closed_forms as _closed_form_modules  # noqa: F401  (imports and so registers every closed form)
 from .closed_forms.spherical_wrist import (
     SPHERICAL_WRIST_ALPHA,
     ikine_spherical_wrist,
