@@ -139,3 +139,14 @@ def test_every_public_function_is_annotated_with_types_that_exist():
             unresolved.append(f"{dotted}: {type(e).__name__}: {e}")
     assert not unannotated, unannotated
     assert not unresolved, unresolved
+
+
+def test_the_three_answers_and_coupled_joints_are_at_the_top():
+    """A map file's node answers (`load_status`) and a chain's coupled joints (`Coupling`) are
+    reachable from ``wsmap`` as docs/maps.md and docs/library.md use them."""
+    from wsmap.kinematics.chain import Coupling
+    from wsmap.workspace.files import load_status
+
+    assert wsmap.load_status is load_status and wsmap.workspace.load_status is load_status
+    assert wsmap.Coupling is Coupling and wsmap.kinematics.Coupling is Coupling
+    assert {"load_status", "Coupling"} <= set(wsmap.__all__)

@@ -30,6 +30,7 @@ P. Liao, "Deep Neural Network Based Subspace Learning of Robotic Manipulator Wor
 from . import jobs, kinematics, robots, workspace
 from ._version import __version__
 from .kinematics import (
+    Coupling,
     DHRobot,
     IKSolution,
     SerialChain,
@@ -53,6 +54,7 @@ from .workspace import (
     grid_map,
     grid_spec,
     load_map,
+    load_status,
     manipulability_map,
     map_to_volume,
     orientation_map,
@@ -68,7 +70,7 @@ from .workspace.status import CERTIFIED, NOT_FOUND, REACHED, STATUS, node_status
 __all__ = [
     "__version__", "kinematics", "robots", "workspace",
     # arms: by name, from a URDF file, from a (modified) DH table
-    "load", "from_urdf", "from_dh", "DHRobot", "SerialChain",
+    "load", "from_urdf", "from_dh", "DHRobot", "SerialChain", "Coupling",
     # kinematics
     "IKSolution", "closed_form_for", "ikine_LM", "ikine_search", "ikine_spherical_wrist", "ikine_ur", "rpy2r",
     "transl",
@@ -77,7 +79,7 @@ __all__ = [
     "constant_orientation_map", "orientation_map", "reachability_index", "position_map", "dexterous_map",
     "manipulability_map", "get_kind", "kind_names", "load_map", "save_map", "base_placement", "Placement",
     # the three answers of a map node: reached, certified unreachable, not found
-    "REACHED", "CERTIFIED", "NOT_FOUND", "STATUS", "grid_status", "node_status", "node_status_over", "status_counts",
+    "REACHED", "CERTIFIED", "NOT_FOUND", "STATUS", "grid_status", "load_status", "node_status", "node_status_over", "status_counts",
     # jobs: what the command line runs, built in Python (check, run, save)
     "jobs", "MapJob", "MapOutputs", "PlacementJob", "ArmSource", "CollisionSource",
 ]

@@ -24,7 +24,7 @@ Inverse kinematics, `.ik` (every solver returns an `IKSolution`):
 """
 
 from . import lm_compiled, lm_lanes  # noqa: F401  (the kernels' modules, reached as wsmap.kinematics.lm_*)
-from .chain import PRISMATIC, REVOLUTE, SerialChain, as_chain, from_dh
+from .chain import PRISMATIC, REVOLUTE, Coupling, SerialChain, as_chain, from_dh
 from .dh import DHRobot, arm_batch
 from .ik import (
     SPHERICAL_WRIST_ALPHA,
@@ -55,6 +55,7 @@ __all__ = [
     "PRISMATIC",
     "REVOLUTE",
     "SerialChain",
+    "Coupling",
     "from_dh",
     "arm_batch",
     "as_chain",

@@ -14,7 +14,7 @@
 """
 
 from . import kinds
-from .files import MapFileError, load_map, save_map
+from .files import MapFileError, load_map, load_status, save_map
 from .grids import (
     BLOCK_NODES,
     CROP_3087,
@@ -67,7 +67,7 @@ __all__ = [
     "BLOCK_NODES", "CONVENTIONS", "CROP_3087", "DEFAULT_STARTS", "MAX_NODES", "METHODS", "MapFileError", "N_BLOCKS",
     "MAP_SETTINGS", "SCOPES", "SOLVERS", "node_neighbours", "reachable", "resolve_method",
     "angle_grid", "available_memory", "block_slice", "cartesian_grid", "constant_orientation_map", "default_grid",
-    "grid_axes", "grid_counts", "grid_map", "grid_spec", "load_map", "map_to_volume", "orientation_map", "save_map",
+    "grid_axes", "grid_counts", "grid_map", "grid_spec", "load_map", "load_status", "map_to_volume", "orientation_map", "save_map",
     "target_poses", "volume_to_map", "kinds", "ReuleauxMap", "load_reuleaux", "save_reuleaux",
     "fk_sampled_maps", "orientation_share",
 ]
