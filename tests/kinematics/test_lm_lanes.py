@@ -11,7 +11,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from tests.frames import random_chain
+from frames import random_chain
 from wsmap import robots
 from wsmap import workspace as ws
 from wsmap.kinematics import as_chain, ikine_LM, ikine_search, lm_compiled, lm_lanes, map_search
