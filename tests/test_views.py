@@ -115,6 +115,45 @@ def test_ply_has_the_nodes_above_the_threshold_coloured_by_value(sphere, tmp_pat
     assert len({tuple(c) for c in colours}) > 10
 
 
+def test_ply_and_glb_show_the_nodes_not_found(sphere, tmp_path):
+    grid, nodes, values = sphere
+    status = np.where(values > 0, 0, 1).astype(np.int8)
+    r = np.linalg.norm(nodes, axis=1)
+    shell = (values == 0) & (r < 0.9)
+    status[shell] = 2
+    ply = save_ply(tmp_path / "index.ply", values, grid, status=status)
+    cloud = trimesh.load(ply)
+    raw = cloud.metadata["_ply_raw"]["vertex"]["data"]
+    reached = values > 0
+    assert len(cloud.vertices) == reached.sum() + shell.sum()
+    assert np.allclose(cloud.vertices[reached.sum():], nodes[shell], atol=1e-6)  # the not-found nodes last
+    assert list(raw["status"]) == [0] * reached.sum() + [2] * shell.sum()
+    orange = np.asarray(cloud.colors)[reached.sum():]
+    assert np.all(orange == [0xff, 0x9f, 0x1c, 255])
+    assert b"comment status: 0 reached, 2 not found" in ply.read_bytes()[:1000]
+
+    glb = save_glb(tmp_path / "index.glb", values, grid, status=status)
+    scene = trimesh.load(glb)
+    points = scene.geometry["not found"]
+    assert isinstance(points, trimesh.PointCloud) and len(points.vertices) == shell.sum()
+    node = next(n for n in scene.graph.nodes_geometry if scene.graph[n][1] == "not found")
+    assert np.allclose(scene.graph[node][0], GLTF_FROM_GRID)
+    assert np.allclose(np.sort(np.linalg.norm(points.vertices, axis=1)), np.sort(r[shell]), atol=1e-6)
+    # every node decided: no point cloud, and the PLY has no orange vertex
+    decided = np.where(values > 0, 0, 1).astype(np.int8)
+    assert "not found" not in trimesh.load(save_glb(tmp_path / "d.glb", values, grid, status=decided)).geometry
+    assert len(trimesh.load(save_ply(tmp_path / "d.ply", values, grid, status=decided)).vertices) == reached.sum()
+
+
+@pytest.mark.parametrize("bad", [np.zeros(5, np.int8), np.full(21**3, 3, np.int8)])
+def test_a_status_of_another_map_is_refused_before_writing(sphere, tmp_path, bad):
+    grid, _, values = sphere
+    for save, name in ((save_ply, "a.ply"), (save_glb, "a.glb")):
+        with pytest.raises(ValueError, match="status must be the map's 9261 node codes"):
+            save(tmp_path / name, values, grid, status=bad)
+        assert not (tmp_path / name).exists()
+
+
 # --------------------------------------------------------------------------------------------
 # plotly
 # --------------------------------------------------------------------------------------------

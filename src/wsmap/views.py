@@ -164,6 +164,17 @@ def axis_titles(grid: Mapping[str, Any]) -> tuple[str, str, str]:
     return tuple(f"{n} ({unit})" for n in names)
 
 
+def _node_status(status, shape) -> np.ndarray | None:
+    """A map's node status checked against the map's node count (None stays None)."""
+    if status is None:
+        return None
+    st = np.asarray(status)
+    if st.shape != (int(np.prod(shape)),) or not np.isin(st, (0, 1, 2)).all():
+        raise ValueError(f"status must be the map's {int(np.prod(shape))} node codes (0 reached, 1 certified "
+                         f"unreachable, 2 not found), got shape {st.shape}")
+    return st.astype(np.uint8)
+
+
 def _node_coords(shape, lo, step) -> np.ndarray:
     """`(N, 3)` node coordinates in node order (x fastest)."""
     axes = [lo[i] + step[i] * np.arange(shape[i]) for i in range(3)]
@@ -230,7 +241,7 @@ def iso_mesh(values: ArrayLike, grid: Mapping[str, Any], level: float) -> Any:
 
 def save_glb(path: PathLike, values: ArrayLike, grid: Mapping[str, Any],
              levels: float | Sequence[float] = (0.25, 0.5, 0.75), colormap: str = "viridis", *, opacity: float = 0.45,
-             vmin: float | None = None, vmax: float | None = None) -> Path:
+             vmin: float | None = None, vmax: float | None = None, status: ArrayLike | None = None) -> Path:
     """Write a glTF binary scene (`.glb`) of the map's iso-surfaces, one per level.
 
     Each non-empty `iso_mesh` becomes one geometry (and node) named `"level <value>"`, with a
@@ -239,6 +250,10 @@ def save_glb(path: PathLike, values: ArrayLike, grid: Mapping[str, Any],
     above are skipped. Vertices are in the grid's frame and units (metres for R3, which is glTF's unit);
     each node carries `GLTF_FROM_GRID` so viewers (y up) show the grid's z axis up.
     `trimesh.load(path)` gives a `Scene` whose `geometry` are the surfaces in the grid's frame.
+
+    With the map's node `status` (`(N,)` int8, `wsmap.workspace.status`), the nodes *not found*
+    (neither reached nor certified unreachable) are one more geometry, a point cloud named
+    `"not found"` coloured `wsmap.viz.NOT_FOUND_COLOR` (none where every node is decided).
 
     `ValueError` before anything is written: a bad map or grid, no levels, a non-finite level,
     no level that any node is above (nothing to draw), an unknown colormap, a bad path.
@@ -258,6 +273,7 @@ def save_glb(path: PathLike, values: ArrayLike, grid: Mapping[str, Any],
     if not 0.0 < opacity <= 1.0:
         raise ValueError(f"opacity must be in (0, 1], got {opacity}")
     cmap = _cmap(colormap)
+    st = _node_status(status, v.shape)
     cl, ch = _norm_range(v, vmin, vmax)
     scene = trimesh.Scene()
     for level in lv:
@@ -273,14 +289,23 @@ def save_glb(path: PathLike, values: ArrayLike, grid: Mapping[str, Any],
     if not scene.geometry:
         raise ValueError(f"no node is above any of the levels {lv} (the map lies in [{v.min():g}, {v.max():g}]): "
                          "no surface to write")
+    if st is not None:
+        from .viz import NOT_FOUND_COLOR
+        from .workspace.status import NOT_FOUND
+
+        missing = np.flatnonzero(st == NOT_FOUND)
+        if missing.size:
+            orange = [int(NOT_FOUND_COLOR[i:i + 2], 16) for i in (1, 3, 5)] + [255]
+            cloud = trimesh.PointCloud(_node_coords(shape, lo, step)[missing], colors=np.tile(orange, (missing.size, 1)))
+            scene.add_geometry(cloud, node_name="not found", geom_name="not found", transform=GLTF_FROM_GRID)
     with atomic_path(path, suffix=".glb") as tmp:
         Path(tmp).write_bytes(scene.export(file_type="glb"))
     return path
 
 
 def save_ply(path: PathLike, values: ArrayLike, grid: Mapping[str, Any], threshold: float = 0.0,
-             colormap: str = "viridis", *, vmin: float | None = None, vmax: float | None = None, label: str = "value"
-            ) -> Path:
+             colormap: str = "viridis", *, vmin: float | None = None, vmax: float | None = None, label: str = "value",
+             status: ArrayLike | None = None) -> Path:
     """Write the nodes whose value is above `threshold` as a coloured point cloud (binary `.ply`).
 
     One vertex per such node, in node order: `x, y, z` (float32, the grid's frame and units,
@@ -288,6 +313,11 @@ def save_ply(path: PathLike, values: ArrayLike, grid: Mapping[str, Any], thresho
     `[vmin, vmax]`, default the map's range; alpha 255) and `value` (float32, the map's value,
     a scalar field for tools such as CloudCompare). The header's comments say the units and
     `label`. `trimesh.load(path)` gives a `PointCloud` with `colors`.
+
+    With the map's node `status` (`(N,)` int8, `wsmap.workspace.status`), the nodes *not found*
+    (neither reached nor certified unreachable) follow as vertices of their own, coloured
+    `wsmap.viz.NOT_FOUND_COLOR` (orange), and every vertex carries a `status` property (uchar:
+    0 reached, 2 not found); the certified unreachable nodes, the empty space, are not written.
 
     `ValueError` before anything is written: a bad map or grid, a non-finite threshold, no node
     above the threshold (nothing to write), an unknown colormap, a bad path. Written atomically.
@@ -300,24 +330,39 @@ def save_ply(path: PathLike, values: ArrayLike, grid: Mapping[str, Any], thresho
     cmap = _cmap(colormap)
     if "\n" in str(label) or "\r" in str(label):
         raise ValueError("label must be one line")
+    st = _node_status(status, v.shape)
     cl, ch = _norm_range(v, vmin, vmax)
     keep = np.flatnonzero(v > threshold)
     if keep.size == 0:
         raise ValueError(f"no node is above the threshold {threshold:g} (the map lies in [{v.min():g}, {v.max():g}]): "
                          "no point to write")
-    xyz = _node_coords(shape, lo, step)[keep]
     rgba = _rgba(v[keep], cl, ch, cmap)
+    fields = [("xyz", "<f4", (3,)), ("rgba", "u1", (4,)), ("value", "<f4")]
+    comments = []
+    if st is not None:
+        from .viz import NOT_FOUND_COLOR
+        from .workspace.status import NOT_FOUND
+
+        missing = np.flatnonzero(st == NOT_FOUND)
+        orange = np.array([int(NOT_FOUND_COLOR[i:i + 2], 16) for i in (1, 3, 5)] + [255], dtype=np.uint8)
+        rgba = np.concatenate([rgba, np.broadcast_to(orange, (missing.size, 4))])
+        keep = np.concatenate([keep, missing])
+        fields.append(("status", "u1"))
+        comments = [f"comment status: 0 reached, 2 not found ({missing.size} nodes, coloured {NOT_FOUND_COLOR}); "
+                    "the certified unreachable nodes are not written"]
     names, unit = _AXES[scope]
-    data = np.zeros(keep.size, dtype=[("xyz", "<f4", (3,)), ("rgba", "u1", (4,)), ("value", "<f4")])
-    data["xyz"], data["rgba"], data["value"] = xyz, rgba, v[keep]
+    data = np.zeros(keep.size, dtype=fields)
+    data["xyz"], data["rgba"], data["value"] = _node_coords(shape, lo, step)[keep], rgba, v[keep]
+    if st is not None:
+        data["status"] = st[keep]
     header = "\n".join([
         "ply", "format binary_little_endian 1.0",
         f"comment wsmap: nodes with value > {threshold:g}; x y z = {' '.join(names)} in {unit} (grid frame)",
-        f"comment value: {label}; colour: {getattr(cmap, 'name', 'colormap')} over [{cl:g}, {ch:g}]",
+        f"comment value: {label}; colour: {getattr(cmap, 'name', 'colormap')} over [{cl:g}, {ch:g}]", *comments,
         f"element vertex {keep.size}",
         "property float x", "property float y", "property float z",
         "property uchar red", "property uchar green", "property uchar blue", "property uchar alpha",
-        "property float value", "end_header", ""])
+        "property float value", *(["property uchar status"] if st is not None else []), "end_header", ""])
     with atomic_path(path, suffix=".ply") as tmp:
         with open(tmp, "wb") as f:
             f.write(header.encode("ascii", "replace"))

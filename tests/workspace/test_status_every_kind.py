@@ -291,11 +291,20 @@ def test_the_3d_view_has_a_trace_of_the_nodes_not_found_and_one_of_the_certified
 
 def test_the_command_lines_pictures_name_the_three_counts(tmp_path):
     pytest.importorskip("plotly")
-    png, html = tmp_path / "i.png", tmp_path / "i.html"
+    pytest.importorskip("trimesh")
+    pytest.importorskip("skimage")
+    import trimesh
+
+    png, html, ply, glb = (tmp_path / f"i.{e}" for e in ("png", "html", "ply", "glb"))
     assert cli.main(["map", "--robot", "ur5e", "--kind", "index", "--orientations", "6", "--step", "0.25",
-                     "--quiet", "--out", str(tmp_path / "i.npz"), "--png", str(png), "--html", str(html)]) == 0
+                     "--quiet", "--out", str(tmp_path / "i.npz"), "--png", str(png), "--html", str(html),
+                     "--ply", str(ply), "--glb", str(glb)]) == 0
     status = load_status(tmp_path / "i.npz")
     counts = _counts(status)
+    raw = trimesh.load(ply).metadata["_ply_raw"]["vertex"]["data"]
+    assert (raw["status"] == 2).sum() == counts[2] and (raw["status"] == 0).sum() == counts[0]
+    scene = trimesh.load(glb)
+    assert len(scene.geometry["not found"].vertices) == counts[2] if counts[2] else "not found" not in scene.geometry
     from PIL import Image
 
     title = Image.open(png).text["Title"]

@@ -527,6 +527,6 @@ def _write_view(flag: str, tmp: Path, result: MapResult) -> None:
                   thresholds=np.linspace(0.0, 0.9, 10) * values.max() if kind.value_type is float else None,
                   cut_plane=True, obstacles=obstacles if kind.scope == "R3" else None, status=result.status)
     elif flag == "--ply":
-        save_ply(tmp, values, grid, label=kind.label)
+        save_ply(tmp, values, grid, label=kind.label, status=result.status)
     else:
-        save_glb(tmp, values, grid, levels=kind.levels(values))
+        save_glb(tmp, values, grid, levels=kind.levels(values), status=result.status)
