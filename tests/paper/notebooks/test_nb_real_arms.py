@@ -33,3 +33,13 @@ def test_real_arms_smoke(tmp_path):
         assert (tmp_path / "figures" / f"real_arms_{name}.png").stat().st_size > 5_000
     html = (tmp_path / "results" / "real_arms_html" / f"{cfg['show_3d']}_index.html").read_text()
     assert "<script" in html and "<script src=\"http" not in html  # plotly.js inline: opens offline
+    # each index node's answer: the closed-form arms decide every node; the counts match the views
+    assert (vol.loc[vol["method"] == "exact", "nodes_not_found"] == 0).all()
+    assert (vol["nodes_certified_unreachable"] > 0).all() and (vol["status_seconds"] >= 0).all()
+    assert '"name":"not found (' in html and '"name":"certified unreachable (' in html
+    import trimesh
+
+    for r in metrics["arms"]:
+        ply = tmp_path / "results" / "real_arms" / f"{r['arm']}_index.ply"
+        raw = trimesh.load(ply).metadata["_ply_raw"]["vertex"]["data"]
+        assert (raw["status"] == 2).sum() == r["nodes_not_found"]

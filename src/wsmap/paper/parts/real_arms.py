@@ -29,6 +29,7 @@ from ...io import write_json, write_table
 from ...paths import Outputs
 from ...views import figure_3d, iso_mesh, save_glb, save_html, save_ply
 from ...workspace.kinds import get_kind
+from ...workspace.status import CERTIFIED, NOT_FOUND, node_status_over, orientation_status
 from . import Part, check_metrics, register, save_figure
 
 
@@ -48,7 +49,7 @@ class CollisionPlacement(TypedDict):
 class Metrics(TypedDict):
     """`results/real_arms.json`."""
 
-    arms: list[dict]  #: per arm: method, nodes, volumes (m³), mean index where reached, seconds
+    arms: list[dict]  #: per arm: method, nodes, volumes (m³), mean index where reached, seconds; index nodes certified unreachable / not found and the certificates' seconds
     placement: list[dict]  #: per arm and rank: base x, y (m), yaw (deg), targets reached, score, seconds
     orientations: int
     step: float  #: grid step (m)
@@ -94,6 +95,9 @@ class Result:
     collision_maps: dict | None = None  #: arm -> {"grid", "tooldown": {way: bool (N,)}, "index": {way: (N,)}}
     collision_placement: pd.DataFrame | None = None  #: the top bases of both rankings
     placement_scores: dict | None = None  #: "chain"/"free" -> score (ny, nx) best over headings; "x", "y"
+    #: arm -> int8 (N,) each index node's answer over the orientations (`wsmap.node_status_over`:
+    #: reached, certified unreachable, not found), from the sound filters and the closed forms
+    index_status: dict | None = None
 
     def targets(self) -> pd.DataFrame:
         return pd.DataFrame([{"target": i, "x_m": p[0], "y_m": p[1], "z_m": p[2]}
@@ -106,7 +110,7 @@ def run(cfg: Mapping, out: Outputs | None = None, *, log=print) -> Result:
     orientations = workspace.orientation_samples(k, seed=cfg["seed"])
     arms = {name: robots.load(name) for name in cfg["arms"]}
     log(f"{len(arms)} arms, {k} orientations (super-Fibonacci), grid step {step} m")
-    rows, index_maps = [], {}
+    rows, index_maps, index_status = [], {}, {}
     for name, arm in arms.items():
         h = cfg["half_width"][name]
         grid = workspace.grid_spec("R3", -h, h, step)
@@ -118,8 +122,14 @@ def run(cfg: Mapping, out: Outputs | None = None, *, log=print) -> Result:
         workspace.reachability_index(arm, few, orientations[:2])
         workspace.position_map(arm, few)
         t0 = time.perf_counter()
-        index = workspace.reachability_index(arm, nodes, orientations)
+        index, bits = workspace.reachability_index(arm, nodes, orientations, return_bits=True)
         t_index = time.perf_counter() - t0
+        # each node's answer: the certificates the map file of an index gets by default (budget 0:
+        # the sound filters and the closed form's), over the N x K poses in blocks
+        t0 = time.perf_counter()
+        status = node_status_over(orientation_status(arm, nodes, orientations, bits, method, budget=0))
+        t_status = time.perf_counter() - t0
+        index_status[name] = status
         t0 = time.perf_counter()
         reach = workspace.position_map(arm, nodes)
         t_reach = time.perf_counter() - t0
@@ -130,7 +140,9 @@ def run(cfg: Mapping, out: Outputs | None = None, *, log=print) -> Result:
                      "reachable_at_some_orientation_of_the_set_m3": (index > 0).sum() * cell,
                      "dexterous_volume_m3": (index == 1).sum() * cell,
                      "mean_index_where_reached": float(index[index > 0].mean()) if (index > 0).any() else 0.0,
-                     "index_seconds": t_index, "reach_seconds": t_reach})
+                     "index_seconds": t_index, "reach_seconds": t_reach,
+                     "nodes_certified_unreachable": int((status == CERTIFIED).sum()),
+                     "nodes_not_found": int((status == NOT_FOUND).sum()), "status_seconds": t_status})
         log(f"{name}: {method}, index in {t_index:.1f} s, reach map in {t_reach:.1f} s")
 
     # the largest Yoshikawa manipulability over the closed form's 8 branches, 0 where unreachable
@@ -166,7 +178,8 @@ def run(cfg: Mapping, out: Outputs | None = None, *, log=print) -> Result:
                         "puma560_manipulability_max": float(manip.max()), "collision": coll_rows,
                         "collision_placement": cp["metrics"]}
     return Result(check_metrics(metrics, Metrics, PART.name), pd.DataFrame(rows), pd.DataFrame(place_rows),
-                  index_maps, manip, mgrid, cfg, pd.DataFrame(coll_rows), coll_maps, cp["table"], cp["scores"])
+                  index_maps, manip, mgrid, cfg, pd.DataFrame(coll_rows), coll_maps, cp["table"], cp["scores"],
+                  index_status)
 
 
 def table_obstacle(spec: Mapping, frame: str):
@@ -314,10 +327,11 @@ def save(result: Result, out: Outputs) -> None:
     cfg = result.cfg
     views = out.results / "real_arms"
     views.mkdir(parents=True, exist_ok=True)
+    status = result.index_status or {}
     for name, (index, grid) in result.index_maps.items():
         if (index > 0).any():
-            save_ply(views / f"{name}_index.ply", index, grid, label="reachability index")
-            save_glb(views / f"{name}_index.glb", index, grid, levels=cfg["iso_levels"])
+            save_ply(views / f"{name}_index.ply", index, grid, label="reachability index", status=status.get(name))
+            save_glb(views / f"{name}_index.glb", index, grid, levels=cfg["iso_levels"], status=status.get(name))
     save_glb(views / "puma560_manipulability.glb", result.manipulability, result.manipulability_grid,
              levels=_levels(result.manipulability))
     show = cfg["show_3d"]
@@ -326,7 +340,7 @@ def save(result: Result, out: Outputs) -> None:
     html_dir.mkdir(parents=True, exist_ok=True)
     save_html(html_dir / f"{show}_index.html", index, grid, kind="points", label="reachability index",
               title=f"{show}: reachability index over {cfg['orientations']} orientations", thresholds=VIEW_THRESHOLDS,
-              cut_plane=True)
+              cut_plane=True, status=status.get(show))
     write_table(result.volumes, out.tables / "real_arms_volumes")
     write_table(result.placement, out.tables / "real_arms_placement")
     write_table(result.collision, out.tables / "real_arms_collision")
@@ -339,29 +353,33 @@ def figure_3d_of_shown(result: Result, stride: int = 1):
     `stride`-th node along each axis (the grid's step times `stride`, the same first node)."""
     show = result.cfg["show_3d"]
     index, grid = result.index_maps[show]
+    status = (getattr(result, "index_status", None) or {}).get(show)
     if isinstance(stride, bool) or not isinstance(stride, int) or stride < 1:
         raise ValueError(f"stride must be a positive integer, got {stride!r}")
     if stride > 1:
         nx, ny, nz = grid["shape"]  # node order: x fastest
         index = np.asarray(index).reshape(nz, ny, nx)[::stride, ::stride, ::stride].ravel()
+        if status is not None:
+            status = np.asarray(status).reshape(nz, ny, nx)[::stride, ::stride, ::stride].ravel()
         shape = [len(range(0, n, stride)) for n in (nx, ny, nz)]
         step = [s * stride for s in grid["step"]]
         hi = [lo + (n - 1) * st for lo, n, st in zip(grid["lo"], shape, step)]
         grid = {**grid, "step": step, "shape": shape, "hi": hi}
     return figure_3d(index, grid, kind="points", label="reachability index",
                      title=f"{show}: reachability index over {result.cfg['orientations']} orientations",
-                     thresholds=VIEW_THRESHOLDS, cut_plane=True)
+                     thresholds=VIEW_THRESHOLDS, cut_plane=True, status=status)
 
 
 def figures(result: Result, out: Outputs) -> list[Path]:
     """Index slices per arm, an iso-surface of `show_3d`'s index, the PUMA560's manipulability."""
     cfg, k = result.cfg, result.metrics["orientations"]
     paths = []
+    status = result.index_status or {}
     for name, (index, grid) in result.index_maps.items():
         method = result.volumes.set_index("arm").loc[name, "method"]
         title = viz.map_title(name, get_kind("index"), orientations=k, summary=f"{method}, grid step {cfg['step']} m")
         fig = viz.plot_value_slices(index, grid["shape"], grid["lo"], grid["step"], label="reachability index",
-                                    vmin=0, vmax=1, title=title, metadata=viz.png_metadata(
+                                    vmin=0, vmax=1, title=title, status=status.get(name), metadata=viz.png_metadata(
                                         {"arm": name, "kind": "index", "method": method, "orientations": k,
                                          "orientation_seed": cfg["seed"], "grid": grid}, title=title))
         paths.append(save_figure(fig, out.figures / f"real_arms_index_{name}.png"))
