@@ -175,6 +175,15 @@ def _node_status(status, shape) -> np.ndarray | None:
     return st.astype(np.uint8)
 
 
+def _not_found_rgba() -> np.ndarray:
+    """uint8 `(4,)` of `wsmap.viz.NOT_FOUND_COLOR`, opaque (the PLY's and GLB's not-found nodes)."""
+    from matplotlib.colors import to_rgba
+
+    from .viz import NOT_FOUND_COLOR
+
+    return np.round(255 * np.asarray(to_rgba(NOT_FOUND_COLOR))).astype(np.uint8)
+
+
 def _node_coords(shape, lo, step) -> np.ndarray:
     """`(N, 3)` node coordinates in node order (x fastest)."""
     axes = [lo[i] + step[i] * np.arange(shape[i]) for i in range(3)]
@@ -290,13 +299,12 @@ def save_glb(path: PathLike, values: ArrayLike, grid: Mapping[str, Any],
         raise ValueError(f"no node is above any of the levels {lv} (the map lies in [{v.min():g}, {v.max():g}]): "
                          "no surface to write")
     if st is not None:
-        from .viz import NOT_FOUND_COLOR
         from .workspace.status import NOT_FOUND
 
         missing = np.flatnonzero(st == NOT_FOUND)
         if missing.size:
-            orange = [int(NOT_FOUND_COLOR[i:i + 2], 16) for i in (1, 3, 5)] + [255]
-            cloud = trimesh.PointCloud(_node_coords(shape, lo, step)[missing], colors=np.tile(orange, (missing.size, 1)))
+            cloud = trimesh.PointCloud(_node_coords(shape, lo, step)[missing],
+                                       colors=np.tile(_not_found_rgba(), (missing.size, 1)))
             scene.add_geometry(cloud, node_name="not found", geom_name="not found", transform=GLTF_FROM_GRID)
     with atomic_path(path, suffix=".glb") as tmp:
         Path(tmp).write_bytes(scene.export(file_type="glb"))
@@ -344,8 +352,7 @@ def save_ply(path: PathLike, values: ArrayLike, grid: Mapping[str, Any], thresho
         from .workspace.status import NOT_FOUND
 
         missing = np.flatnonzero(st == NOT_FOUND)
-        orange = np.array([int(NOT_FOUND_COLOR[i:i + 2], 16) for i in (1, 3, 5)] + [255], dtype=np.uint8)
-        rgba = np.concatenate([rgba, np.broadcast_to(orange, (missing.size, 4))])
+        rgba = np.concatenate([rgba, np.broadcast_to(_not_found_rgba(), (missing.size, 4))])
         keep = np.concatenate([keep, missing])
         fields.append(("status", "u1"))
         comments = [f"comment status: 0 reached, 2 not found ({missing.size} nodes, coloured {NOT_FOUND_COLOR}); "
