@@ -116,7 +116,9 @@ class Coupling:
         the variables' limits were narrowed by, and the limits of the relaxation
         (`SerialChain.uncoupled`).
 
-    Build one with `SerialChain.couple`, which checks it and derives the variables' limits.
+    Notes
+    -----
+    `SerialChain.couple` builds one, checks it and derives the variables' limits.
     """
 
     var: np.ndarray
