@@ -28,28 +28,9 @@ from wsmap.kinematics.urdf import from_urdf
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the harness
 import harness  # noqa: E402
 
-LIM = 'effort="1" velocity="1"'
-#: j3 follows j2 at -1 (the parallelogram), j5 turns at half j1's rate; a two-joint wrist after the tool link
-PALLETISER = f"""<robot name="palletiser">
- <link name="base"/><link name="l1"/><link name="l2"/><link name="l3"/><link name="l4"/><link name="l5"/>
- <link name="tool"/><link name="w1"/><link name="w2"/>
- <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><origin xyz="0 0 0.4"/>
-  <axis xyz="0 0 1"/><limit lower="-3" upper="3" {LIM}/></joint>
- <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.1 0 0.2"/>
-  <axis xyz="0 1 0"/><limit lower="-1" upper="1.2" {LIM}/></joint>
- <joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/><origin xyz="0 0 0.5" rpy="0 0.1 0"/>
-  <axis xyz="0 1 0"/><limit lower="-1.5" upper="0.9" {LIM}/><mimic joint="j2" multiplier="-1" offset="0.2"/></joint>
- <joint name="j4" type="revolute"><parent link="l3"/><child link="l4"/><origin xyz="0.45 0 0"/>
-  <axis xyz="0 1 0"/><limit lower="-2" upper="2" {LIM}/></joint>
- <joint name="j5" type="revolute"><parent link="l4"/><child link="l5"/><origin xyz="0.1 0 -0.05"/>
-  <axis xyz="0 0 1"/><limit lower="-1" upper="1" {LIM}/><mimic joint="j1" multiplier="0.5"/></joint>
- <joint name="j6" type="revolute"><parent link="l5"/><child link="tool"/><origin xyz="0.1 0 0" rpy="0.2 0 0"/>
-  <axis xyz="1 0 0"/><limit lower="-2.5" upper="2.5" {LIM}/></joint>
- <joint name="w1" type="revolute"><parent link="tool"/><child link="w1"/><origin xyz="0.05 0 0"/>
-  <axis xyz="0 1 0"/><limit lower="-2" upper="2" {LIM}/></joint>
- <joint name="w2" type="continuous"><parent link="w1"/><child link="w2"/><origin xyz="0.05 0 0"/><axis xyz="0 0 1"/>
- </joint>
-</robot>"""
+#: j3 follows j2 at -1 (the parallelogram), j5 turns at half j1's rate; a two-joint wrist after the tool link (the
+#: arm tests/kinematics/test_urdf_coupled.py checks against Pinocchio and yourdfpy)
+PALLETISER = (Path(__file__).resolve().parents[2] / "tests" / "data" / "palletiser_wrist.urdf").read_text()
 
 
 def tool_down(chain, nodes):

@@ -23,24 +23,11 @@ yourdfpy = pytest.importorskip("yourdfpy")
 ROOT = Path(__file__).resolve().parents[2]
 LIM = 'effort="1" velocity="1"'
 
-#: j3 follows j2 (multiplier -1, offset 0.2: the parallelogram keeps the forearm level), j5 turns at half
-#: j1's rate; the variables are j1, j2, j4, j6.
-URDF = f"""<robot name="palletiser">
- <link name="base"/><link name="l1"/><link name="l2"/><link name="l3"/><link name="l4"/><link name="l5"/>
- <link name="tool"/>
- <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><origin xyz="0 0 0.4"/>
-  <axis xyz="0 0 1"/><limit lower="-3" upper="3" {LIM}/></joint>
- <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.1 0 0.2"/>
-  <axis xyz="0 1 0"/><limit lower="-1" upper="1.2" {LIM}/></joint>
- <joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/><origin xyz="0 0 0.5" rpy="0 0.1 0"/>
-  <axis xyz="0 1 0"/><limit lower="-1.5" upper="0.9" {LIM}/><mimic joint="j2" multiplier="-1" offset="0.2"/></joint>
- <joint name="j4" type="revolute"><parent link="l3"/><child link="l4"/><origin xyz="0.45 0 0"/>
-  <axis xyz="0 1 0"/><limit lower="-2" upper="2" {LIM}/></joint>
- <joint name="j5" type="revolute"><parent link="l4"/><child link="l5"/><origin xyz="0.1 0 -0.05"/>
-  <axis xyz="0 0 1"/><limit lower="-1" upper="1" {LIM}/><mimic joint="j1" multiplier="0.5"/></joint>
- <joint name="j6" type="revolute"><parent link="l5"/><child link="tool"/><origin xyz="0.1 0 0" rpy="0.2 0 0"/>
-  <axis xyz="1 0 0"/><limit lower="-2.5" upper="2.5" {LIM}/></joint>
-</robot>"""
+#: the palletiser (tests/data/palletiser.urdf): j3 follows j2 (multiplier -1, offset 0.2: the parallelogram keeps
+#: the forearm level), j5 turns at half j1's rate; the variables are j1, j2, j4, j6. benchmarks/maps/bench_coupled.py
+#: times the same arm with its wrist.
+DATA = ROOT / "tests" / "data"
+URDF = (DATA / "palletiser.urdf").read_text()
 VARIABLES = ["j1", "j2", "j4", "j6"]
 #: j1 in [-3, 3] and 0.5·j1 in [-1, 1]; j2 in [-1, 1.2] and 0.2 - j2 in [-1.5, 0.9]
 QLIM = [[-2, 2], [-0.7, 1.2], [-2, 2], [-2.5, 2.5]]
@@ -149,12 +136,7 @@ def test_a_map_of_the_coupled_arm_reaches_where_yourdfpy_says(tmp_path):
 
 
 #: the palletiser with a two-joint wrist after its tool link: six variables, so a tool orientation is held
-WRIST = URDF.replace('<link name="tool"/>', '<link name="tool"/><link name="w1"/><link name="w2"/>').replace(
-    "</robot>", f"""<joint name="w1" type="revolute"><parent link="tool"/><child link="w1"/><origin xyz="0.05 0 0"/>
-  <axis xyz="0 1 0"/><limit lower="-2" upper="2" {LIM}/></joint>
- <joint name="w2" type="continuous"><parent link="w1"/><child link="w2"/><origin xyz="0.05 0 0"/><axis xyz="0 0 1"/>
- </joint>
-</robot>""")
+WRIST = (DATA / "palletiser_wrist.urdf").read_text()
 
 
 def test_a_constant_orientation_map_with_its_status():
