@@ -28,3 +28,6 @@ def test_reach_study_smoke(tmp_path):
     assert "mesh3d" in html or "scatter3d" in html
     study = load_study(tmp_path / "results" / "reach_study" / "catalogue.npz")
     assert study.arms == ["ur5e", "panda", "iiwa14"]
+    # the committed study files name the cell's files relative to the checkout: the same bytes on every clone
+    assert study.meta["source"] == "data/cells/reach_demo/part.pcd"
+    assert str(paths.ROOT) not in json.dumps(study.meta)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TypedDict
 
@@ -131,10 +131,27 @@ def run(cfg: Mapping, out: Outputs | None = None, *, log=print) -> Result:
     return Result(metrics, pd.DataFrame(rows), studies, cfg["heat_map"])
 
 
+def in_checkout(value, root: Path | None = None):
+    """`value` (a study's settings: nested dicts, lists, strings) with every absolute path under the
+    checkout `root` (default `paths.ROOT`) written relative to it, POSIX-style; other values as they
+    are. The committed study files then hold the same bytes on every clone (a study run from the
+    command line keeps its paths as given)."""
+    root = Path(paths.ROOT if root is None else root).resolve()
+    if isinstance(value, Mapping):
+        return {k: in_checkout(v, root) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(in_checkout(v, root) for v in value)
+    if isinstance(value, str) and Path(value).is_absolute() and Path(value).is_relative_to(root):
+        return Path(value).relative_to(root).as_posix()
+    return value
+
+
 def save(result: Result, out: Outputs) -> None:
     folder = out.results / "reach_study"
     folder.mkdir(parents=True, exist_ok=True)
     for cell, study in result.studies.items():
+        study = replace(study, settings=in_checkout(study.settings),
+                        targets=replace(study.targets, source=in_checkout(study.targets.source)))
         save_study(folder / f"{cell}.npz", study)
     write_json(result.metrics, out.results / "reach_study.json")
     write_table(result.table, out.tables / "reach_study", whole=("targets", "variants", "reached",
