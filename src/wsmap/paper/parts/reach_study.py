@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TypedDict
 
@@ -150,8 +150,8 @@ def save(result: Result, out: Outputs) -> None:
     folder = out.results / "reach_study"
     folder.mkdir(parents=True, exist_ok=True)
     for cell, study in result.studies.items():
-        study = replace(study, settings=in_checkout(study.settings),
-                        targets=replace(study.targets, source=in_checkout(study.targets.source)))
+        study = dataclasses.replace(study, settings=in_checkout(study.settings),
+                                    targets=dataclasses.replace(study.targets, source=in_checkout(study.targets.source)))
         save_study(folder / f"{cell}.npz", study)
     write_json(result.metrics, out.results / "reach_study.json")
     write_table(result.table, out.tables / "reach_study", whole=("targets", "variants", "reached",
